@@ -1,0 +1,20 @@
+"""kinem: planar-mechanism kinematics in Cartesian coordinates (Nikravesh, Ch. 4).
+
+    import kinem
+    case = kinem.load("cases/slider_crank.toml")   # or kinem.load_dict({...})
+    model = kinem.compile(case)
+    result = kinem.solve(model)                    # SolveResult
+    result.trajectory["slider.x"]                  # numpy array over result.trajectory.t
+"""
+from .analysis import Data, acceleration, factorize, position, solve, velocity
+from .case import load, load_dict, loads
+from .errors import AnalysisError, ConvergenceError, InputError, KinemError, SingularError
+from .model import Model, compile
+from .result import OUTPUTS, SolveResult, Status, Trajectory
+from .spec import Body, Case, Constraint, Point
+
+__all__ = [
+    "load", "loads", "load_dict", "compile", "solve", "position", "velocity", "acceleration",
+    "factorize", "Data", "Model", "Case", "Body", "Point", "Constraint", "SolveResult", "Trajectory",
+    "Status", "OUTPUTS", "KinemError", "InputError", "AnalysisError", "ConvergenceError", "SingularError",
+]

@@ -1,0 +1,153 @@
+"""Position, velocity and acceleration analysis (Sec. 4.3), as free functions
+on a Model and a separate mutable Data; ``solve`` runs them over the output
+instants.
+
+Position: Newton-Raphson on Phi(q, t) = 0 (Eqs. 4.41, 4.42), converged when
+every scaled residual |Phi_k| / scale_k <= tolerance (docs/solver.md).
+Velocity: Phi_q qd = nu. Acceleration: Phi_q qdd = gamma. The Jacobian at the
+converged q is factorised once and serves both solves.
+"""
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import AnalysisError, ConvergenceError, SingularError
+from .linalg import Factor
+from .result import OUTPUTS, SolveResult, Status, trajectory
+
+
+@dataclass
+class Data:
+    """Mutable solver state at one instant."""
+    q: np.ndarray
+    t: float = 0.0
+    qd: np.ndarray | None = None
+    qdd: np.ndarray | None = None
+    factor: Factor | None = None      # LU of Phi_q at (q, t)
+    iterations: int = 0               # Newton iterations of the last position solve
+    residual: float = np.inf          # its final max scaled residual
+    worst_row: int = 0
+    jacobian_evaluations: int = 0
+    factorizations: int = 0
+
+
+def _factor(model, data, q, t) -> Factor:
+    data.jacobian_evaluations += 1
+    data.factorizations += 1
+    return Factor(model, model.jac_values(q, t))
+
+
+def position(model, data: Data, t: float, tolerance=None, max_iterations=None) -> None:
+    """Newton-Raphson from data.q to Phi(q, t) = 0; leaves data.factor unset
+    (it belongs to an iterate, not to the solution)."""
+    tol = model.case.tolerance if tolerance is None else tolerance
+    max_it = model.case.max_iterations if max_iterations is None else max_iterations
+    q = data.q.copy()
+    data.t = t
+    data.factor = None
+    for it in range(max_it + 1):
+        phi = model.phi(q, t)
+        r = model.scaled_residual(phi)
+        worst = int(np.argmax(r)) if r.size else 0
+        data.residual, data.worst_row, data.iterations = float(r[worst]) if r.size else 0.0, worst, it
+        if not np.isfinite(data.residual):
+            break
+        if data.residual <= tol:
+            data.q = q
+            return
+        if it == max_it:
+            break
+        dq = _factor(model, data, q, t).solve(-phi)
+        q += dq
+    data.q = q
+    raise ConvergenceError(f"no convergence after {data.iterations} iterations: scaled residual "
+                           f"{data.residual:.2e} (tolerance {tol:.1e}), largest in constraint "
+                           f"'{model.row_owner[data.worst_row]}' ({model.row_labels[data.worst_row]})")
+
+
+def factorize(model, data: Data) -> None:
+    """Factorise Phi_q at the converged data.q for the velocity and acceleration solves."""
+    data.factor = _factor(model, data, data.q, data.t)
+
+
+def velocity(model, data: Data) -> None:
+    """qd from Phi_q qd = nu (Eq. 3.13)."""
+    if data.factor is None:
+        factorize(model, data)
+    data.qd = data.factor.solve(model.nu(data.t))
+
+
+def acceleration(model, data: Data) -> None:
+    """qdd from Phi_q qdd = gamma (Eq. 3.15); needs data.qd."""
+    if data.factor is None:
+        factorize(model, data)
+    data.qdd = data.factor.solve(model.gamma(data.q, data.qd, data.t))
+
+
+def _predict(k, h, Q, data, need_v, need_a):
+    """Newton start at instant k: q + h qd + h^2/2 qdd when velocities are
+    computed, else extrapolation through the last three positions."""
+    if need_v:
+        q = Q[k - 1] + h * data.qd
+        if need_a:
+            q += 0.5 * h * h * data.qdd
+        return q
+    if k >= 3:
+        return 3 * Q[k - 1] - 3 * Q[k - 2] + Q[k - 3]
+    if k == 2:
+        return 2 * Q[1] - Q[0]
+    return Q[0].copy()
+
+
+def solve(model, outputs=OUTPUTS, times=None) -> SolveResult:
+    """Position (and, when asked, velocity and acceleration) analysis at every
+    output instant. Never raises for an analysis failure: the result says
+    when and why (success False) and holds the instants solved before it."""
+    outputs = tuple(o for o in OUTPUTS if o in outputs)
+    if not outputs or "positions" not in outputs:
+        outputs = ("positions",) + outputs
+    need_a = "accelerations" in outputs
+    need_v = need_a or "velocities" in outputs
+    times = model.times if times is None else np.asarray(times, dtype=float)
+    nt = len(times)
+    Q = np.empty((nt, model.n))
+    QD = np.empty((nt, model.n)) if need_v else None
+    QDD = np.empty((nt, model.n)) if need_a else None
+    iters = np.zeros(nt, dtype=int)
+    resid = np.zeros(nt)
+    data = Data(q=model.q0.copy())
+    status, message, k = Status.SUCCESS, "", nt
+    start = time.perf_counter()
+    try:
+        for k in range(nt):
+            t = times[k]
+            if k > 0:
+                data.q = _predict(k, t - times[k - 1], Q, data, need_v, need_a)
+            position(model, data, t)
+            iters[k], resid[k], Q[k] = data.iterations, data.residual, data.q
+            if need_v:
+                factorize(model, data)
+                velocity(model, data)
+                QD[k] = data.qd
+                if need_a:
+                    acceleration(model, data)
+                    QDD[k] = data.qdd
+        k = nt
+    except AnalysisError as e:
+        status = Status.SINGULAR if isinstance(e, SingularError) else Status.NOT_CONVERGED
+        what = "assembly at" if k == 0 else "step"
+        message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {e}"
+    wall = time.perf_counter() - start
+    n_ok = k
+    ok = status == Status.SUCCESS
+    traj = trajectory(model, times[:n_ok], Q[:n_ok], None if QD is None else QD[:n_ok],
+                      None if QDD is None else QDD[:n_ok])
+    return SolveResult(
+        success=ok, status=status, message=message or "all instants solved",
+        trajectory=traj, q=Q[:n_ok], qd=None if QD is None else QD[:n_ok],
+        qdd=None if QDD is None else QDD[:n_ok], iterations=iters[:n_ok], residual=resid[:n_ok],
+        jacobian_evaluations=data.jacobian_evaluations, factorizations=data.factorizations,
+        wall_time=wall, t_fail=None if ok else float(times[n_ok]),
+        failed_constraint=None if ok or status == Status.SINGULAR else model.row_owner[data.worst_row],
+    )

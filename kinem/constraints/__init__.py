@@ -1,0 +1,11 @@
+"""The registry: case-file constraint type -> its declaration and family."""
+from . import distance, line, pending, revolute, simple
+
+REGISTRY = {}
+for _module in (simple, revolute, line, distance, pending):
+    for _decl in _module.TYPES:
+        REGISTRY[_decl.name] = _decl
+
+
+def implemented_types() -> list:
+    return [name for name, decl in REGISTRY.items() if decl.family is not None]

@@ -1,0 +1,110 @@
+"""``kinem info``: counts, degrees of freedom and redundant equations of a model.
+
+Assembly for info uses Gauss-Newton with minimum-norm least-squares steps,
+so that it also settles redundant (consistent) or non-square systems. Ranks
+are taken on the dimensionless Jacobian (rows divided by their residual
+scale, length columns multiplied by the characteristic length L), where a
+singular value below RANK_TOL of the largest counts as zero.
+"""
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+RANK_TOL = 1e-9
+DENSE_RANK_LIMIT = 3000  # coordinates; above, the structural rank is reported
+
+
+@dataclass(frozen=True)
+class Info:
+    case: str
+    coordinates: int
+    artificial_coordinates: int
+    equations: int
+    driving_equations: int
+    jacobian_nonzeros: int
+    dof: int
+    residual: float
+    assembled: bool
+    rank_method: str
+    redundant_equations: tuple
+
+    def as_dict(self) -> dict:
+        d = asdict(self)
+        d["redundant_equations"] = list(self.redundant_equations)
+        return d
+
+
+def dimensionless_jacobian(model, q, t=0.0) -> np.ndarray:
+    J = model.jacobian(q, t, sparse=False)
+    col = np.ones(model.n)
+    nb = len(model.body_names)
+    col[: 3 * nb] = np.tile([model.length, model.length, 1.0], nb)
+    return J / model.scale[:, None] * col[None, :]
+
+
+def assemble(model, t=0.0, max_iterations=None):
+    """Gauss-Newton from the estimate; returns (q, max scaled residual, converged)."""
+    q = model.q0.copy()
+    tol = model.case.tolerance
+    for _ in range((max_iterations or model.case.max_iterations) + 1):
+        phi = model.phi(q, t)
+        r = float(model.scaled_residual(phi).max()) if model.m else 0.0
+        if r <= tol or not np.isfinite(r):
+            break
+        dq = np.linalg.lstsq(model.jacobian(q, t, sparse=False), -phi, rcond=None)[0]
+        q = q + dq
+    return q, r, bool(r <= tol)
+
+
+def info(model) -> Info:
+    nd = ~model.driving
+    labels = np.array(model.row_labels, dtype=object)
+    if model.n <= DENSE_RANK_LIMIT:
+        q, residual, ok = assemble(model)
+        Jn = dimensionless_jacobian(model, q)[nd]
+        if Jn.size:
+            from scipy.linalg import qr
+
+            s = np.linalg.svd(Jn, compute_uv=False)
+            rank = int((s > RANK_TOL * s[0]).sum()) if s.size and s[0] > 0 else 0
+            _, _, perm = qr(Jn.T, pivoting=True, mode="economic")
+            redundant = tuple(sorted(labels[nd][perm[rank:]], key=list(model.row_labels).index))
+        else:
+            rank, redundant = 0, ()
+        method = "numerical"
+    else:
+        from scipy.sparse.csgraph import structural_rank
+
+        from .analysis import Data, position
+
+        data = Data(q=model.q0.copy())
+        try:
+            position(model, data, 0.0)
+        except Exception:
+            pass
+        q, residual, ok = data.q, data.residual, data.residual <= model.case.tolerance
+        rank = int(structural_rank(model.jacobian(q, 0.0, sparse=True)[nd].tocsr()))
+        redundant, method = (), "structural"
+    return Info(
+        case=model.case.name, coordinates=model.n, artificial_coordinates=len(model.artificial),
+        equations=model.m, driving_equations=int(model.driving.sum()), jacobian_nonzeros=model.nnz,
+        dof=model.n - rank, residual=float(residual), assembled=ok, rank_method=method,
+        redundant_equations=redundant,
+    )
+
+
+def describe(i: Info) -> str:
+    lines = [
+        f"case {i.case}",
+        f"  coordinates        {i.coordinates} ({i.artificial_coordinates} artificial)",
+        f"  equations          {i.equations} ({i.driving_equations} driving)",
+        f"  Jacobian non-zeros {i.jacobian_nonzeros} of {i.equations * i.coordinates}"
+        f" ({100 * i.jacobian_nonzeros / max(1, i.equations * i.coordinates):.1f}%)",
+        f"  degrees of freedom {i.dof} (coordinates minus the {i.rank_method} rank of the non-driving Jacobian)",
+        f"  assembly residual  {i.residual:.2e} (scaled){'' if i.assembled else '  NOT ASSEMBLED'}",
+    ]
+    if i.redundant_equations:
+        lines.append("  warning: redundant equations: " + ", ".join(i.redundant_equations))
+    if i.equations != i.coordinates:
+        lines.append(f"  warning: {i.equations} equations for {i.coordinates} coordinates")
+    return "\n".join(lines)

@@ -1,0 +1,186 @@
+"""compile(): a Case into an immutable Model.
+
+The Model holds the coordinate index map (three coordinates per body, then
+artificial coordinates), the constraint families with their rows, and the
+Jacobian sparsity pattern, all computed once. Its methods evaluate Phi, the
+Jacobian values, nu and gamma by one vectorised pass per family present.
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .constraints import REGISTRY
+from .constraints.base import local_points
+from .spec import Case
+
+DENSE_LIMIT = 200  # coordinates; above this 'auto' uses the sparse LU
+
+
+class _Context:
+    """What families see while compiling."""
+
+    def __init__(self, case: Case, length: float):
+        self.body_col = {b.name: 3 * k for k, b in enumerate(case.bodies)}
+        self.bodies = {b.name: b for b in case.bodies}
+        self.length = length
+        self.n = 3 * len(case.bodies)
+        self.artificial = []  # (label, estimate)
+
+    def cols(self, names) -> np.ndarray:
+        return np.array([self.body_col[n] for n in names], dtype=np.intp)
+
+    def add_coordinates(self, labels, estimates) -> np.ndarray:
+        """Appends artificial coordinates (Sec. 4.2.5); returns their columns."""
+        start = self.n + len(self.artificial)
+        self.artificial += list(zip(labels, estimates))
+        return np.arange(start, start + len(labels), dtype=np.intp)
+
+
+def characteristic_length(case: Case) -> float:
+    """The mechanism's size L: the largest of the local point distances |s'|,
+    the positive lengths of constraints (link lengths, radii), the named
+    points' distances, and the distances between body origins in the initial
+    estimate. Used to scale residuals and to normalise errors."""
+    values = [0.0]
+    for c in case.constraints:
+        for key in REGISTRY[c.type].keys:
+            v = c.get(key.name)
+            if v is None:
+                continue
+            if key.kind == "local":
+                values.append(float(np.hypot(*v)))
+            elif key.kind == "positive":
+                values.append(float(v))
+    values += [float(np.hypot(*p.at)) for p in case.points]
+    origins = np.array([b.q[:2] for b in case.bodies])
+    if len(origins) > 1:
+        span = origins.max(axis=0) - origins.min(axis=0)
+        values.append(float(np.hypot(*span)))
+    L = max(values)
+    return L if L > 0 else 1.0
+
+
+@dataclass(frozen=True, eq=False)
+class Model:
+    case: Case
+    families: tuple
+    n: int                    # coordinates
+    m: int                    # equations
+    coordinate_names: tuple   # "<body>.x", ..., "<constraint>.theta"
+    q0: np.ndarray            # initial estimate
+    row_labels: tuple
+    row_owner: tuple          # constraint name of each row
+    driving: np.ndarray       # bool per row
+    scale: np.ndarray         # residual scale per row (docs/solver.md)
+    offsets: tuple            # first row of each family
+    jac_rows: np.ndarray
+    jac_cols: np.ndarray
+    length: float             # characteristic length L
+    sparse: bool
+    point_names: tuple
+    point_cols: np.ndarray
+    point_local: np.ndarray   # complex
+    artificial: tuple         # labels of artificial coordinates
+    time_dependent: tuple     # indices of families with nu != 0
+    _csc: tuple = field(repr=False, default=None)
+
+    # -- structure ---------------------------------------------------------
+    @property
+    def body_names(self) -> tuple:
+        return tuple(b.name for b in self.case.bodies)
+
+    @property
+    def nnz(self) -> int:
+        return len(self.jac_rows)
+
+    @property
+    def times(self) -> np.ndarray:
+        return self.case.times
+
+    # -- evaluation ----------------------------------------------------------
+    def _gather(self, values):
+        return np.concatenate(values) if len(values) > 1 else values[0]
+
+    def phi(self, q, t) -> np.ndarray:
+        return self._gather([f.phi(q, t) for f in self.families])
+
+    def jac_values(self, q, t) -> np.ndarray:
+        """Jacobian entries in the order of (jac_rows, jac_cols)."""
+        return self._gather([f.jac(q, t) for f in self.families])
+
+    def nu(self, t) -> np.ndarray:
+        out = np.zeros(self.m)
+        for k in self.time_dependent:
+            f = self.families[k]
+            out[self.offsets[k]: self.offsets[k] + f.n_rows] = f.nu(t)
+        return out
+
+    def gamma(self, q, qd, t) -> np.ndarray:
+        return self._gather([f.gamma(q, qd, t) for f in self.families])
+
+    def jacobian(self, q, t, sparse=None):
+        """Phi_q as a dense array, or a scipy CSC matrix when sparse."""
+        return self.assemble(self.jac_values(q, t), self.sparse if sparse is None else sparse)
+
+    def assemble(self, values, sparse: bool):
+        if sparse:
+            from scipy.sparse import csc_matrix
+
+            order, indices, indptr = self._csc
+            return csc_matrix((values[order], indices, indptr), shape=(self.m, self.n))
+        J = np.zeros((self.m, self.n))
+        J[self.jac_rows, self.jac_cols] = values
+        return J
+
+    def scaled_residual(self, phi) -> np.ndarray:
+        return np.abs(phi) / self.scale
+
+
+def compile(case: Case) -> Model:
+    """Build the immutable Model of a validated Case."""
+    ctx = _Context(case, characteristic_length(case))
+    groups = {}
+    for c in case.constraints:
+        groups.setdefault(REGISTRY[c.type].family, []).append(c)
+    families = tuple(cls(cons, ctx) for cls, cons in groups.items())
+
+    offsets, rows, cols, r = [], [], [], 0
+    for f in families:
+        offsets.append(r)
+        rows.append(f.rows + r)
+        cols.append(f.cols)
+        r += f.n_rows
+    jac_rows = np.concatenate(rows).astype(np.intp)
+    jac_cols = np.concatenate(cols).astype(np.intp)
+    n = ctx.n + len(ctx.artificial)
+
+    names = [f"{b.name}.{k}" for b in case.bodies for k in ("x", "y", "phi")]
+    names += [label for label, _ in ctx.artificial]
+    q0 = np.array([v for b in case.bodies for v in b.q] + [e for _, e in ctx.artificial], dtype=float)
+
+    if case.linear_solver == "auto":
+        sparse = n > DENSE_LIMIT
+    else:
+        sparse = case.linear_solver == "sparse"
+    order = np.lexsort((jac_rows, jac_cols))
+    indptr = np.searchsorted(jac_cols[order], np.arange(n + 1))
+    csc = (order, jac_rows[order], indptr)
+
+    model = Model(
+        case=case, families=families, n=n, m=r, coordinate_names=tuple(names), q0=q0,
+        row_labels=tuple(x for f in families for x in f.labels),
+        row_owner=tuple(x for f in families for x in f.owner),
+        driving=np.concatenate([np.asarray(f.driving, bool) for f in families]),
+        scale=np.concatenate([np.asarray(f.scale, float) for f in families]),
+        offsets=tuple(offsets), jac_rows=jac_rows, jac_cols=jac_cols, length=ctx.length, sparse=sparse,
+        point_names=tuple(p.name for p in case.points),
+        point_cols=ctx.cols(p.body for p in case.points),
+        point_local=local_points([p.at for p in case.points]),
+        artificial=tuple(label for label, _ in ctx.artificial),
+        time_dependent=tuple(k for k, f in enumerate(families) if f.time_dependent),
+        _csc=csc,
+    )
+    for a in (model.q0, model.driving, model.scale, model.jac_rows, model.jac_cols,
+              model.point_cols, model.point_local):
+        a.flags.writeable = False
+    return model

@@ -1,0 +1,74 @@
+"""The frozen specification of a case: what a case file says, validated and
+with its defaults filled in. ``kinem.case`` makes one from TOML or a dict;
+``kinem.model.compile`` turns one into a Model."""
+from dataclasses import dataclass, field, replace
+from types import MappingProxyType
+from typing import Any, Mapping
+
+import numpy as np
+
+
+def frozen_map(d=None) -> Mapping:
+    return MappingProxyType(dict(d or {}))
+
+
+@dataclass(frozen=True)
+class Body:
+    name: str
+    q: tuple  # initial estimate (x, y, phi)
+    mass: float | None = None
+    inertia: float | None = None
+
+
+@dataclass(frozen=True)
+class Point:
+    name: str
+    body: str
+    at: tuple  # local coordinates (xi, eta)
+
+
+@dataclass(frozen=True)
+class Constraint:
+    type: str
+    name: str
+    index: int  # 1-based position in the file's [[constraints]]
+    fields: Mapping[str, Any] = field(default_factory=frozen_map)
+
+    def __getitem__(self, key):
+        return self.fields[key]
+
+    def get(self, key, default=None):
+        return self.fields.get(key, default)
+
+    @property
+    def where(self) -> str:
+        return f"constraint {self.index} ('{self.name}', {self.type})"
+
+
+@dataclass(frozen=True)
+class Case:
+    name: str
+    bodies: tuple
+    points: tuple
+    constraints: tuple
+    end: float
+    steps: int
+    tolerance: float = 1e-10
+    max_iterations: int = 25
+    linear_solver: str = "auto"
+    description: str = ""
+    units: Mapping = field(default_factory=frozen_map)
+    source: str = "<memory>"
+
+    @property
+    def times(self) -> np.ndarray:
+        """Output instants t = 0, h, ..., end with h = end/steps."""
+        return np.arange(self.steps + 1) * (self.end / self.steps)
+
+    @property
+    def length_unit(self) -> str:
+        return self.units.get("length", "")
+
+    def with_time(self, end: float | None = None, steps: int | None = None) -> "Case":
+        return replace(self, end=self.end if end is None else float(end),
+                       steps=self.steps if steps is None else int(steps))
