@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import AnalysisError, ConvergenceError, SingularError
+from .errors import AnalysisError, ConvergenceError, InputError, SingularError
 from .linalg import Factor
 from .result import OUTPUTS, SolveResult, Status, trajectory
 
@@ -100,10 +100,20 @@ def _predict(k, h, Q, data, need_v, need_a):
     return Q[0].copy()
 
 
+def check_square(model) -> None:
+    """Kinematic analysis needs as many equations as coordinates (Sec. 4.3)."""
+    if model.m != model.n:
+        gap = model.n - model.m
+        what = f"{gap} equation{'s' * (gap != 1)} missing (add drivers or constraints)" if gap > 0 else \
+            f"{-gap} equation{'s' * (gap != -1)} too many"
+        raise InputError(f"{model.case.source}: {model.m} equations for {model.n} coordinates: {what}")
+
+
 def solve(model, outputs=OUTPUTS, times=None) -> SolveResult:
     """Position (and, when asked, velocity and acceleration) analysis at every
     output instant. Never raises for an analysis failure: the result says
     when and why (success False) and holds the instants solved before it."""
+    check_square(model)
     outputs = tuple(o for o in OUTPUTS if o in outputs)
     if not outputs or "positions" not in outputs:
         outputs = ("positions",) + outputs

@@ -13,6 +13,7 @@ from pathlib import Path
 from . import functions as fn
 from .constraints import REGISTRY, implemented_types
 from .errors import InputError
+from .outline import OPEN_BC, Outline
 from .spec import Body, Case, Constraint, Point, frozen_map
 
 MAX_FILE_BYTES = 16 * 2**20
@@ -21,7 +22,8 @@ MAX_ITEMS = 100_000
 NAME_RE = re.compile(r"^[a-z0-9_-]+$")
 IDENT_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*$")
 
-TOP_KEYS = ("name", "description", "units", "time", "solver", "bodies", "points", "constraints")
+TOP_KEYS = ("name", "description", "units", "time", "solver", "bodies", "points", "constraints", "engines")
+ENGINES = ("pymunk", "mujoco", "exudyn")  # settings are checked against each adapter when it runs
 SOLVER_KEYS = ("tolerance", "max_iterations", "linear_solver")
 LINEAR_SOLVERS = ("auto", "dense", "sparse")
 COORDS = ("x", "y", "phi")
@@ -146,11 +148,12 @@ class _Loader:
         bodies = self.bodies(data.get("bodies", {}))
         points = self.points(data.get("points", {}), bodies)
         constraints = self.constraints(data.get("constraints", []), bodies, points, end)
+        engines = self.engines(data.get("engines", {}))
         if self.problems:
             raise InputError(self.problems)
         return Case(name=name, bodies=tuple(bodies.values()), points=tuple(points.values()),
                     constraints=tuple(constraints), end=end, steps=steps, description=description,
-                    units=frozen_map(units), source=self.source, **solver)
+                    units=frozen_map(units), engines=frozen_map(engines), source=self.source, **solver)
 
     def units(self, u):
         if not isinstance(u, dict):
@@ -160,6 +163,35 @@ class _Loader:
         if "length" in u:
             self.string("units", "length", u["length"])
         return {k: v for k, v in u.items() if k == "length" and isinstance(v, str)}
+
+    def engines(self, e):
+        """[engines.<name>] tables of settings: scalars or short lists of numbers."""
+        if not isinstance(e, dict):
+            self.bad("[engines]", None, f"got {_show(e)}", "a table of [engines.<name>] tables")
+            return {}
+        out = {}
+        for name, table in e.items():
+            where = f"[engines.{name}]"
+            if name not in ENGINES:
+                self.bad(where, None, f"unknown engine '{name}'", "one of " + ", ".join(ENGINES))
+                continue
+            if not isinstance(table, dict):
+                self.bad(where, None, f"got {_show(table)}", "a table of settings")
+                continue
+            ok = {}
+            for k, v in table.items():
+                if isinstance(v, (int, float)) and not isinstance(v, bool):
+                    v = self.number(where, k, v)
+                elif isinstance(v, list):
+                    v = self.numbers(where, k, v)
+                    v = None if v is None or len(v) > 16 else v
+                elif not isinstance(v, (str, bool)):
+                    self.bad(where, k, f"got {_show(v)}", "a number, string, boolean or list of numbers")
+                    v = None
+                if v is not None:
+                    ok[k] = v
+            out[name] = frozen_map(ok)
+        return out
 
     def time(self, t):
         where = "[time]"
@@ -369,6 +401,8 @@ class _Loader:
             return v
         if kind == "function":
             return self.function(where, key.name, v, end)
+        if kind == "outline":
+            return self.outline(where, key.name, v)
         raise AssertionError(f"unknown key kind {kind}")
 
     def function(self, where, key, v, end):
@@ -416,6 +450,74 @@ class _Loader:
             return fn.Table(t, val)
         self.bad(where, key, f"unknown function kind {_show(kind)}", expected)
         return None
+
+
+    def outline(self, where, key, v):
+        """{ spline = {...} or circle = {...}, center = [xi, eta] } into an Outline (Sec. 4.2.4)."""
+        expected = "{ spline = { theta = [...], s = [...] } or circle = { radius = R }, center = [xi, eta] (optional) }"
+        if not isinstance(v, dict) or len([k for k in ("spline", "circle") if k in v]) != 1:
+            self.bad(where, key, f"got {_show(v)}", expected)
+            return None
+        if not self.keys(f"{where}: key '{key}'", v, ("spline", "circle", "center")):
+            return None
+        center = self.vector(where, f"{key}.center", v["center"], 2, "[xi, eta]") if "center" in v else (0.0, 0.0)
+        if center is None:
+            return None
+        if "circle" in v:
+            body = v["circle"]
+            if not isinstance(body, dict) or not self.keys(f"{where}: key '{key}.circle'", body, ("radius",), ("radius",)):
+                if not isinstance(body, dict):
+                    self.bad(where, f"{key}.circle", f"got {_show(body)}", "{ radius = R }")
+                return None
+            r = self.number(where, f"{key}.circle.radius", body["radius"], positive=True)
+            return None if r is None else Outline.circle(r, center)
+        body = v["spline"]
+        w = f"{key}.spline"
+        if not isinstance(body, dict) or not self.keys(f"{where}: key '{w}'", body,
+                                                         ("theta", "s", "degrees", "periodic", "bc"), ("theta", "s")):
+            if not isinstance(body, dict):
+                self.bad(where, w, f"got {_show(body)}", "{ theta = [...], s = [...], degrees, periodic, bc }")
+            return None
+        flags = {}
+        for flag in ("degrees", "periodic"):
+            flags[flag] = body.get(flag, False)
+            if not isinstance(flags[flag], bool):
+                self.bad(where, f"{w}.{flag}", f"got {_show(flags[flag])}", "true or false")
+                return None
+        theta = self.numbers(where, f"{w}.theta", body["theta"], 4)
+        s = self.numbers(where, f"{w}.s", body["s"], 4)
+        if theta is None or s is None:
+            return None
+        if len(theta) != len(s):
+            self.bad(where, w, f"{len(theta)} angles and {len(s)} radii", "lists theta and s of equal length")
+            return None
+        if flags["degrees"]:
+            theta = tuple(math.radians(x) for x in theta)
+        if any(b <= a for a, b in zip(theta, theta[1:])):
+            self.bad(where, f"{w}.theta", "not strictly increasing", "strictly increasing angles")
+            return None
+        if min(s) <= 0:
+            self.bad(where, f"{w}.s", f"radius {min(s):g}", "positive polar radii s")
+            return None
+        bc = body.get("bc", "not-a-knot")
+        if flags["periodic"]:
+            if "bc" in body:
+                self.bad(where, f"{w}.bc", "a periodic outline has no end conditions", "no bc with periodic = true")
+                return None
+            if s[0] != s[-1]:
+                self.bad(where, f"{w}.s", f"first {s[0]:g} and last {s[-1]:g} differ",
+                         "the last radius of a periodic table equal to the first")
+                return None
+            turn = 2 * math.pi
+            if abs(theta[-1] - theta[0] - turn) > 1e-9 * turn:  # 2 pi typed to 9 digits passes
+                self.bad(where, f"{w}.theta", f"spans {math.degrees(theta[-1] - theta[0]):.9g} degrees",
+                         "a periodic table that spans one full turn (360 degrees, 2 pi)")
+                return None
+            theta = theta[:-1] + (theta[0] + turn,)
+        elif bc not in OPEN_BC:
+            self.bad(where, f"{w}.bc", f"got {_show(bc)}", "one of " + ", ".join(OPEN_BC))
+            return None
+        return Outline.spline(theta, s, flags["periodic"], bc, center)
 
 
 def check_time(case: Case) -> Case:

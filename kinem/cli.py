@@ -67,6 +67,47 @@ def cmd_info(a):
     return 0
 
 
+def _settings(items, dt):
+    """--set engine.key=value (repeatable) and --dt into engine -> overrides."""
+    from adapters import ENGINES
+
+    out = {e: {} for e in ENGINES}
+    for item in items or ():
+        key, sep, raw = item.partition("=")
+        engine, dot, name = key.partition(".")
+        if not sep or not dot or engine not in ENGINES or not name:
+            raise InputError(f"--set: got {item!r}; expected ENGINE.KEY=VALUE with ENGINE one of {', '.join(ENGINES)}")
+        try:
+            value = json.loads(raw)
+        except ValueError:
+            value = raw
+        out[engine][name] = value
+    if dt is not None:
+        if not dt > 0:
+            raise InputError(f"--dt: got {dt}; expected a positive time step")
+        for e in ENGINES:
+            out[e].setdefault("dt", dt)
+    return out
+
+
+def cmd_compare(a):
+    from adapters import ENGINES
+    from adapters.compare import run_case, table
+
+    engines = [e.strip() for e in a.engines.split(",") if e.strip()]
+    bad = [e for e in engines if e not in ("native",) + ENGINES]
+    if bad or not engines:
+        raise InputError(f"--engines: got {a.engines!r}; expected a comma-separated list of native, {', '.join(ENGINES)}")
+    model = _load(a.case)
+    native, rows = run_case(model, engines, _settings(a.set, a.dt))
+    if a.json:
+        print(json.dumps({"case": model.case.name, "length": model.length, "unit": model.case.length_unit,
+                          "engines": {r.engine: r.as_dict() for r in rows}}, indent=2, default=float))
+    else:
+        print(table(model.case.name, model.length, model.case.length_unit, rows))
+    return 0 if all(r.within_tolerance is not False for r in rows) else 1
+
+
 def cmd_report(a):
     from .analysis import solve
 
@@ -110,6 +151,14 @@ def parser():
     i.add_argument("case")
     i.add_argument("--json", action="store_true")
     i.set_defaults(run=cmd_info)
+
+    c = sub.add_parser("compare", help="run the case on the native solver and the engines; compare")
+    c.add_argument("case")
+    c.add_argument("--engines", default="native,pymunk,mujoco,exudyn")
+    c.add_argument("--dt", type=float, help="engine time step (overrides every engine's dt)")
+    c.add_argument("--set", action="append", metavar="ENGINE.KEY=VALUE", help="an engine setting (repeatable)")
+    c.add_argument("--json", action="store_true")
+    c.set_defaults(run=cmd_compare)
 
     r = sub.add_parser("report", help="solve every case (default: cases/*.toml) and summarise")
     r.add_argument("cases", nargs="*")

@@ -58,6 +58,7 @@ class Case:
     linear_solver: str = "auto"
     description: str = ""
     units: Mapping = field(default_factory=frozen_map)
+    engines: Mapping = field(default_factory=frozen_map)  # engine name -> settings overrides
     source: str = "<memory>"
 
     @property

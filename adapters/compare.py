@@ -1,0 +1,155 @@
+"""One comparison of an engine run against the native solution, used by
+``kinem compare``, the tests and the report.
+
+Figures (docs/engines.md):
+- position_error: max over instants, bodies and named points of the distance
+  between engine and native positions (case units); position_error_rel: the
+  same divided by the characteristic length L;
+- angle_error: max wrapped difference of body angles (rad);
+- velocity_error: max over bodies and points of |v_engine - v_native| (case
+  units per second); angular_velocity_error: max |omega difference| (rad/s);
+- constraint_residual: max scaled residual |Phi_k(q_engine, t)| / scale_k of
+  the native kinematic (non-driving) constraints on the engine's trajectory,
+  i.e. loop-closure drift relative to the mechanism size (docs/solver.md).
+"""
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Comparison:
+    engine: str
+    status: str
+    position_error: float = float("nan")
+    position_error_rel: float = float("nan")
+    angle_error: float = float("nan")
+    velocity_error: float = float("nan")
+    angular_velocity_error: float = float("nan")
+    constraint_residual: float = float("nan")
+    wall_time: float = float("nan")
+    steps: int = 0
+    time_per_step: float = float("nan")
+    within_tolerance: bool | None = None  # None: not applicable (unsupported)
+    tolerance: dict = field(default_factory=dict)
+    settings: dict = field(default_factory=dict)
+    version: str = ""
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def _xy(traj, names):
+    return np.stack([traj[f"{n}.x"] + 1j * traj[f"{n}.y"] for n in names], axis=1)
+
+
+def _vxy(traj, names):
+    return np.stack([traj[f"{n}.vx"] + 1j * traj[f"{n}.vy"] for n in names], axis=1)
+
+
+def errors(model, native, q, traj) -> dict:
+    """Error figures of a trajectory (q raw coordinates, traj named columns)
+    against the native SolveResult, over the instants both have."""
+    nt = min(len(traj), len(native.trajectory))
+    ref = native.trajectory
+    items = list(model.body_names) + list(model.point_names)
+    pos = np.abs(_xy(traj, items)[:nt] - _xy(ref, items)[:nt]).max()
+    bodies = model.body_names
+    dphi = np.stack([traj[f"{b}.phi"][:nt] - ref[f"{b}.phi"][:nt] for b in bodies])
+    angle = np.abs((dphi + np.pi) % (2 * np.pi) - np.pi).max()
+    out = {"position_error": float(pos), "position_error_rel": float(pos / model.length), "angle_error": float(angle)}
+    if f"{bodies[0]}.vx" in traj and f"{bodies[0]}.vx" in ref:
+        out["velocity_error"] = float(np.abs(_vxy(traj, items)[:nt] - _vxy(ref, items)[:nt]).max())
+        dw = np.stack([traj[f"{b}.omega"][:nt] - ref[f"{b}.omega"][:nt] for b in bodies])
+        out["angular_velocity_error"] = float(np.abs(dw).max())
+    nd = ~model.driving
+    res = 0.0
+    for k in range(nt):
+        res = max(res, float(model.scaled_residual(model.phi(q[k], ref.t[k]))[nd].max(initial=0.0)))
+    out["constraint_residual"] = res
+    return out
+
+
+def compare(model, native, run, tolerance=None) -> Comparison:
+    """An EngineRun against the native SolveResult. tolerance: dict of limits
+    on position_error_rel, angle_error, ... (None: no verdict)."""
+    base = dict(engine=run.engine, status=run.status, wall_time=run.wall_time, steps=run.steps,
+                settings=dict(run.settings), version=run.version, tolerance=dict(tolerance or {}))
+    if run.status.startswith("unsupported"):
+        return Comparison(**base)
+    if not run.ok:
+        return Comparison(**base, within_tolerance=False)
+    e = errors(model, native, run.q, run.trajectory)
+    if not all(np.isfinite(v) for v in e.values()):
+        return Comparison(**dict(base, status="failed: non-finite trajectory"), within_tolerance=False)
+    within = all(e.get(k, 0.0) <= v for k, v in (tolerance or {}).items())
+    return Comparison(**base, **e, time_per_step=run.wall_time / max(run.steps, 1), within_tolerance=within)
+
+
+def native_row(model, native) -> Comparison:
+    """The native solver's own row: its residual, wall time and instants."""
+    nd = ~model.driving
+    res = max((float(model.scaled_residual(model.phi(q, t))[nd].max(initial=0.0))
+               for q, t in zip(native.q, native.trajectory.t)), default=0.0)
+    steps = len(native.iterations)
+    status = "ok" if native.success else f"failed: {native.message}"
+    return Comparison(engine="native", status=status, position_error=0.0, position_error_rel=0.0,
+                      angle_error=0.0, velocity_error=0.0, angular_velocity_error=0.0,
+                      constraint_residual=res, wall_time=native.wall_time, steps=steps,
+                      time_per_step=native.wall_time / max(steps, 1), within_tolerance=native.success,
+                      settings={"tolerance": model.case.tolerance, "max_iterations": model.case.max_iterations,
+                                "linear_solver": "sparse" if model.sparse else "dense"})
+
+
+def tolerance_of(adapter) -> dict:
+    """The adapter module's documented TOLERANCE (limits on the figures above)."""
+    import sys
+
+    return dict(getattr(sys.modules[type(adapter).__module__], "TOLERANCE", {}))
+
+
+def run_engine(model, native, name, overrides=None) -> Comparison:
+    """Builds, runs and compares one engine. Settings: the adapter's defaults,
+    then the case's [engines.<name>] table, then ``overrides``."""
+    from . import get
+
+    adapter = get(name)
+    reason = adapter.unsupported(model)
+    if reason:
+        return Comparison(engine=name, status=reason, version=adapter.version())
+    settings = adapter.settings({**dict(model.case.engines.get(name, {})), **(overrides or {})})
+    run = adapter.run(model, native.q[0], native.qd[0], settings)
+    return compare(model, native, run, tolerance_of(adapter))
+
+
+def run_case(model, engines, overrides=None):
+    """Native solution and one Comparison per engine ('native' included when
+    asked). overrides: engine name -> settings."""
+    from kinem.analysis import solve
+
+    native = solve(model)
+    rows = []
+    for name in engines:
+        if name == "native":
+            rows.append(native_row(model, native))
+        elif not native.success:
+            rows.append(Comparison(engine=name, status="failed: no native reference (" + native.message + ")"))
+        else:
+            rows.append(run_engine(model, native, name, (overrides or {}).get(name)))
+    return native, rows
+
+
+def table(case_name, length, unit, rows) -> str:
+    head = (f"case {case_name} (L = {length:.4g} {unit})".rstrip() + "\n"
+            f"{'engine':8s} {'status':10s} {'pos err':>9s} {'pos/L':>9s} {'angle':>9s} {'vel':>9s} "
+            f"{'omega':>9s} {'resid':>9s} {'steps':>7s} {'us/step':>8s}  verdict")
+    lines = [head]
+    for r in rows:
+        if r.status.startswith("unsupported") or r.status.startswith("failed"):
+            lines.append(f"{r.engine:8s} {r.status}")
+            continue
+        verdict = {True: "within tolerance", False: "OUT OF TOLERANCE", None: ""}[r.within_tolerance]
+        lines.append(f"{r.engine:8s} {r.status:10s} {r.position_error:9.2e} {r.position_error_rel:9.2e} "
+                     f"{r.angle_error:9.2e} {r.velocity_error:9.2e} {r.angular_velocity_error:9.2e} "
+                     f"{r.constraint_residual:9.2e} {r.steps:7d} {1e6 * r.time_per_step:8.2f}  {verdict}")
+    return "\n".join(lines)

@@ -1,0 +1,47 @@
+"""A point that moves on an outline of a body (Secs. 4.2.4-4.2.6): the
+outline body c, its outlines and the artificial coordinates theta that
+locate the point on them (one per constraint, labelled "<name>.theta").
+
+With a = A_c p(theta), g = A_c p'(theta) (the tangent g_c of Eq. 4.24 in
+global components), h = A_c p'' and k = A_c p''':
+    da/dphi_c = i a,   da/dtheta = g,   dg/dphi_c = i g,   dg/dtheta = h,
+and along a motion, without the terms in the accelerations (those go into
+Phi_q qdd),
+    a'  = i w a + g th',   a''  = -w^2 a + 2 i w th' g + th'^2 h,
+    g'  = i w g + h th',   g''  = -w^2 g + 2 i w th' h + th'^2 k.
+"""
+import numpy as np
+
+from .base import frames, rates
+from ..outline import OutlineSet
+
+
+class Curve:
+    def __init__(self, cons, bodies, ctx):
+        """bodies: the name of the outline body of each constraint."""
+        self.cc = ctx.cols(bodies)
+        self.ct = ctx.add_coordinates([f"{c.name}.theta" for c in cons], [c["theta"] for c in cons])
+        self.outlines = OutlineSet(c["outline"] for c in cons)
+
+    def at(self, q):
+        """r_c, e^{i phi_c} and a, g, h, k."""
+        z, e = frames(q, self.cc)
+        return z, e, tuple(e * p for p in self.outlines.curve(q[self.ct]))
+
+    def motion(self, q, qd):
+        """a, g, h, the velocity v_c of the body origin, a', a'', g', g''."""
+        _, _, (a, g, h, k) = self.at(q)
+        v, w = rates(qd, self.cc)
+        th = qd[self.ct]
+        return (a, g, h, v, 1j * w * a + g * th, -w * w * a + 2j * w * th * g + th * th * h,
+                1j * w * g + h * th, -w * w * g + 2j * w * th * h + th * th * k)
+
+
+def check_theta(f, bodies):
+    """The estimate of theta must lie on an open outline's table."""
+    o = f["outline"]
+    lo, hi = o.span
+    if not o.periodic and not lo <= f["theta"] <= hi:
+        return [("theta", f"got {f['theta']:g} rad, outside the outline's table",
+                 f"an angle from {lo:.9g} to {hi:.9g} rad")]
+    return []

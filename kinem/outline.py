@@ -1,0 +1,115 @@
+"""Outlines of bodies (Sec. 4.2.4): a curve fixed in a body, in polar
+coordinates s(theta) about a centre point Q of the body (Eq. 4.25),
+
+    p(theta) = [xi, eta] = Q + s(theta) [cos theta, sin theta].
+
+s is a cubic spline through a table (scipy ``CubicSpline``: periodic, or an
+open table with not-a-knot or natural ends) or a constant (a circle of
+radius R about Q, exact). Both are piecewise cubics, so ``OutlineSet``
+evaluates any mix of outlines, each at its own theta, with one vectorised
+pass: the pieces of all outlines are concatenated, and a periodic outline
+wraps an accumulated theta into its period first. An open outline is
+extended beyond its table by its end cubics (there is no stop at the ends).
+
+Planar vectors are complex xi + i eta, as in the constraint families.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+TWO_PI = 2.0 * np.pi
+OPEN_BC = ("not-a-knot", "natural")
+
+
+@dataclass(frozen=True)
+class Outline:
+    """kind "spline" (table theta [rad], s) or "circle" (radius); centre Q local."""
+    kind: str
+    theta: tuple = ()
+    s: tuple = ()
+    periodic: bool = False
+    bc: str = "not-a-knot"
+    radius: float = 0.0
+    center: tuple = (0.0, 0.0)
+
+    @classmethod
+    def circle(cls, radius, center=(0.0, 0.0)):
+        return cls("circle", radius=float(radius), periodic=True, center=tuple(center))
+
+    @classmethod
+    def spline(cls, theta, s, periodic=False, bc="not-a-knot", center=(0.0, 0.0)):
+        return cls("spline", tuple(map(float, theta)), tuple(map(float, s)), bool(periodic),
+                   "periodic" if periodic else bc, center=tuple(center))
+
+    @property
+    def span(self) -> tuple:
+        """(first, last) theta of the table; a full turn for a circle."""
+        return (0.0, TWO_PI) if self.kind == "circle" else (self.theta[0], self.theta[-1])
+
+    def pieces(self):
+        """Breakpoints x (n+1,) and coefficients c (4, n) of s: on piece k,
+        s = sum_m c[m, k] (theta - x[k])^(3-m) (scipy's PPoly layout)."""
+        if self.kind == "circle":
+            return np.array([0.0, TWO_PI]), np.array([[0.0], [0.0], [0.0], [self.radius]])
+        from scipy.interpolate import CubicSpline
+
+        sp = CubicSpline(np.array(self.theta), np.array(self.s), bc_type=self.bc)
+        return sp.x, sp.c
+
+    def radius_at(self, theta):
+        """s, ds/dtheta, d2s/dtheta2 at the given angles (Example 4.3)."""
+        return OutlineSet([self]).radius(np.asarray(theta, float))[:3]
+
+    def point_at(self, theta):
+        """xi + i eta (Eq. 4.25), g' = mu + i nu (Eqs. 4.22, 4.24) and dg'/dtheta (Eq. 4.23)."""
+        return OutlineSet([self]).curve(np.asarray(theta, float))[:3]
+
+
+class OutlineSet:
+    """Several outlines, evaluated together: outline k at theta[k]. With a
+    single outline, theta may be any array of angles."""
+
+    def __init__(self, outlines):
+        outlines = list(outlines)
+        keys, starts, coefs, first, last = [], [], [], [], []
+        t0, span, offset = [], [], []
+        key, count = 0.0, 0
+        for o in outlines:
+            x, c = o.pieces()
+            local = x - x[0]
+            keys.append(local[:-1] + key)
+            starts.append(local[:-1])
+            coefs.append(c)
+            first.append(count)
+            count += len(x) - 1
+            last.append(count - 1)
+            t0.append(x[0])
+            span.append(local[-1])
+            offset.append(key)
+            key += local[-1] + 1.0  # a gap keeps the outlines' keys apart
+        self.keys = np.concatenate(keys)
+        self.starts = np.concatenate(starts)
+        self.c = np.concatenate(coefs, axis=1)
+        self.first, self.last = np.array(first), np.array(last)
+        self.t0, self.span, self.offset = np.array(t0), np.array(span), np.array(offset)
+        self.periodic = np.array([o.periodic for o in outlines])
+        self.center = np.array([complex(*o.center) for o in outlines])
+
+    def radius(self, theta):
+        """s and its first three derivatives with respect to theta."""
+        x = theta - self.t0
+        x = np.where(self.periodic, np.mod(x, self.span), x)
+        key = self.offset + np.clip(x, 0.0, self.span)
+        k = np.clip(np.searchsorted(self.keys, key, side="right") - 1, self.first, self.last)
+        h = x - self.starts[k]
+        c0, c1, c2, c3 = self.c[:, k]
+        return (((c0 * h + c1) * h + c2) * h + c3, (3 * c0 * h + 2 * c1) * h + c2,
+                6 * c0 * h + 2 * c1, 6 * c0)
+
+    def curve(self, theta):
+        """p and dp/dtheta, d2p/dtheta2, d3p/dtheta3 in local components
+        (Eqs. 4.21-4.25 with p = Q + s e^{i theta}; g' = dp/dtheta)."""
+        s, s1, s2, s3 = self.radius(theta)
+        e = np.exp(1j * theta)
+        return (self.center + s * e, (s1 + 1j * s) * e, (s2 - s + 2j * s1) * e,
+                (s3 - 3 * s1 + 1j * (3 * s2 - s)) * e)
