@@ -17,6 +17,12 @@ from .linalg import Factor
 from .result import OUTPUTS, SolveResult, Status, trajectory
 
 
+# Newton steps are limited to this length in dimensionless coordinates
+# (lengths over L, angles in radians): a rough estimate never sends the
+# assembly many turns away, and tracking steps are far shorter anyway.
+MAX_STEP = 0.5
+
+
 @dataclass
 class Data:
     """Mutable solver state at one instant."""
@@ -24,9 +30,10 @@ class Data:
     t: float = 0.0
     qd: np.ndarray | None = None
     qdd: np.ndarray | None = None
-    factor: Factor | None = None      # LU of Phi_q at (q, t)
-    iterations: int = 0               # Newton iterations of the last position solve
-    residual: float = np.inf          # its final max scaled residual
+    factor: Factor | None = None        # LU of Phi_q at the converged (q, t)
+    newton_factor: Factor | None = None  # LU at the last Newton iterate
+    iterations: int = 0                 # Newton iterations of the last position solve
+    residual: float = np.inf            # its final max scaled residual
     worst_row: int = 0
     jacobian_evaluations: int = 0
     factorizations: int = 0
@@ -39,8 +46,7 @@ def _factor(model, data, q, t) -> Factor:
 
 
 def position(model, data: Data, t: float, tolerance=None, max_iterations=None) -> None:
-    """Newton-Raphson from data.q to Phi(q, t) = 0; leaves data.factor unset
-    (it belongs to an iterate, not to the solution)."""
+    """Newton-Raphson from data.q to Phi(q, t) = 0, steps limited to MAX_STEP."""
     tol = model.case.tolerance if tolerance is None else tolerance
     max_it = model.case.max_iterations if max_iterations is None else max_iterations
     q = data.q.copy()
@@ -58,7 +64,11 @@ def position(model, data: Data, t: float, tolerance=None, max_iterations=None) -
             return
         if it == max_it:
             break
-        dq = _factor(model, data, q, t).solve(-phi)
+        data.newton_factor = _factor(model, data, q, t)
+        dq = data.newton_factor.solve(-phi)
+        size = np.max(np.abs(dq) / model.col_scale)
+        if size > MAX_STEP:
+            dq *= MAX_STEP / size
         q += dq
     data.q = q
     raise ConvergenceError(f"no convergence after {data.iterations} iterations: scaled residual "
@@ -85,21 +95,6 @@ def acceleration(model, data: Data) -> None:
     data.qdd = data.factor.solve(model.gamma(data.q, data.qd, data.t))
 
 
-def _predict(k, h, Q, data, need_v, need_a):
-    """Newton start at instant k: q + h qd + h^2/2 qdd when velocities are
-    computed, else extrapolation through the last three positions."""
-    if need_v:
-        q = Q[k - 1] + h * data.qd
-        if need_a:
-            q += 0.5 * h * h * data.qdd
-        return q
-    if k >= 3:
-        return 3 * Q[k - 1] - 3 * Q[k - 2] + Q[k - 3]
-    if k == 2:
-        return 2 * Q[1] - Q[0]
-    return Q[0].copy()
-
-
 def check_square(model) -> None:
     """Kinematic analysis needs as many equations as coordinates (Sec. 4.3)."""
     if model.m != model.n:
@@ -111,11 +106,14 @@ def check_square(model) -> None:
 
 def solve(model, outputs=OUTPUTS, times=None) -> SolveResult:
     """Position (and, when asked, velocity and acceleration) analysis at every
-    output instant. Never raises for an analysis failure: the result says
-    when and why (success False) and holds the instants solved before it."""
+    output instant, on the branch the assembly found (kinem.tracking). Never
+    raises for an analysis failure: the result says when and why (success
+    False) and holds the instants solved before it."""
+    from .tracking import Tracker
+
     check_square(model)
     outputs = tuple(o for o in OUTPUTS if o in outputs)
-    if not outputs or "positions" not in outputs:
+    if "positions" not in outputs:
         outputs = ("positions",) + outputs
     need_a = "accelerations" in outputs
     need_v = need_a or "velocities" in outputs
@@ -124,29 +122,23 @@ def solve(model, outputs=OUTPUTS, times=None) -> SolveResult:
     Q = np.empty((nt, model.n))
     QD = np.empty((nt, model.n)) if need_v else None
     QDD = np.empty((nt, model.n)) if need_a else None
-    iters = np.zeros(nt, dtype=int)
-    resid = np.zeros(nt)
+    iters, resid, cond = np.zeros(nt, dtype=int), np.zeros(nt), np.zeros(nt)
     data = Data(q=model.q0.copy())
+    tracker = Tracker(model, data, need_v, need_a)
     status, message, k = Status.SUCCESS, "", nt
     start = time.perf_counter()
     try:
         for k in range(nt):
-            t = times[k]
-            if k > 0:
-                data.q = _predict(k, t - times[k - 1], Q, data, need_v, need_a)
-            position(model, data, t)
-            iters[k], resid[k], Q[k] = data.iterations, data.residual, data.q
+            s = tracker.start(times[0]) if k == 0 else tracker.advance(times[k])
+            iters[k], resid[k], cond[k], Q[k] = s.iterations, s.residual, s.pivot, s.q
             if need_v:
-                factorize(model, data)
-                velocity(model, data)
-                QD[k] = data.qd
+                QD[k] = s.qd
                 if need_a:
-                    acceleration(model, data)
-                    QDD[k] = data.qdd
+                    QDD[k] = s.qdd
         k = nt
     except AnalysisError as e:
         status = Status.SINGULAR if isinstance(e, SingularError) else Status.NOT_CONVERGED
-        what = "assembly at" if k == 0 else "step"
+        what = "assembly at" if k == 0 else "step to"
         message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {e}"
     wall = time.perf_counter() - start
     n_ok = k
@@ -157,6 +149,7 @@ def solve(model, outputs=OUTPUTS, times=None) -> SolveResult:
         success=ok, status=status, message=message or "all instants solved",
         trajectory=traj, q=Q[:n_ok], qd=None if QD is None else QD[:n_ok],
         qdd=None if QDD is None else QDD[:n_ok], iterations=iters[:n_ok], residual=resid[:n_ok],
+        conditioning=cond[:n_ok], substeps=tracker.substeps, events=tuple(tracker.events),
         jacobian_evaluations=data.jacobian_evaluations, factorizations=data.factorizations,
         wall_time=wall, t_fail=None if ok else float(times[n_ok]),
         failed_constraint=None if ok or status == Status.SINGULAR else model.row_owner[data.worst_row],

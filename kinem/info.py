@@ -35,11 +35,7 @@ class Info:
 
 
 def dimensionless_jacobian(model, q, t=0.0) -> np.ndarray:
-    J = model.jacobian(q, t, sparse=False)
-    col = np.ones(model.n)
-    nb = len(model.body_names)
-    col[: 3 * nb] = np.tile([model.length, model.length, 1.0], nb)
-    return J / model.scale[:, None] * col[None, :]
+    return model.assemble(model.jac_values(q, t) * model.entry_scale, sparse=False)
 
 
 def assemble(model, t=0.0, max_iterations=None):

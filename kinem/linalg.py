@@ -1,6 +1,15 @@
 """Factorisation of the constraint Jacobian: dense LU (LAPACK getrf) for
 small models, sparse LU (SuperLU) for large ones. One factorisation at an
-output instant serves both the velocity and the acceleration solve."""
+output instant serves both the velocity and the acceleration solve.
+
+The factorised matrix is the dimensionless Jacobian
+    J_s = diag(1/scale) Phi_q diag(col_scale)
+(rows divided by their residual scale, length columns multiplied by the
+characteristic length L), so that its pivots mean the same whatever the
+units: ``pivot_ratio`` (smallest over largest |U_kk|) is the cheap
+conditioning figure recorded at every instant, and ``det_sign`` the sign of
+det(J_s), which flips when the configuration passes through a singular one.
+"""
 import warnings
 
 import numpy as np
@@ -13,12 +22,32 @@ from .errors import SingularError
 PIVOT_RATIO = 1e-13
 
 
+def _parity(perm) -> int:
+    """+1 for an even permutation, -1 for an odd one (cycle count)."""
+    perm = np.asarray(perm)
+    seen = np.zeros(len(perm), bool)
+    sign = 1
+    for start in range(len(perm)):
+        if seen[start]:
+            continue
+        k, length = start, 0
+        while not seen[k]:
+            seen[k] = True
+            k = perm[k]
+            length += 1
+        if length % 2 == 0:
+            sign = -sign
+    return sign
+
+
 class Factor:
-    """LU factors of Phi_q with a solve(b) method."""
+    """LU factors of the dimensionless Phi_q with a solve(b) for Phi_q x = b."""
 
     def __init__(self, model, values):
         self.sparse = model.sparse
-        J = model.assemble(values, self.sparse)
+        self.row = 1.0 / model.scale
+        self.col = model.col_scale
+        J = model.assemble(values * model.entry_scale, self.sparse)
         if self.sparse:
             from scipy.sparse.linalg import splu
 
@@ -26,27 +55,43 @@ class Factor:
                 self.lu = splu(J, permc_spec="COLAMD")
             except RuntimeError as e:
                 raise SingularError(f"singular Jacobian ({e})") from None
-            pivots = np.abs(self.lu.U.diagonal())
+            diag = self.lu.U.diagonal()
             cols = self.lu.perm_c
+            self._perms = (self.lu.perm_r, self.lu.perm_c)
         else:
             from scipy.linalg import lu_factor
 
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 self.lu = lu_factor(J, check_finite=False)
-            pivots = np.abs(np.diag(self.lu[0]))
+            diag = np.diag(self.lu[0])
             cols = np.arange(model.n)
+            self._perms = None
+        pivots = np.abs(diag)
         big = pivots.max() if pivots.size else 0.0
         small = int(np.argmin(pivots)) if pivots.size else 0
-        self.pivot_ratio = pivots[small] / big if big > 0 and np.isfinite(big) else 0.0
+        self.pivot_ratio = float(pivots[small] / big) if big > 0 and np.isfinite(big) else 0.0
+        self._diag = diag
         if not np.isfinite(pivots).all() or self.pivot_ratio < PIVOT_RATIO:
             name = model.coordinate_names[cols[small]] if model.n else "?"
             raise SingularError(f"singular Jacobian: pivot ratio {self.pivot_ratio:.1e} "
                                 f"at coordinate '{name}'")
 
-    def solve(self, b):
-        if self.sparse:
-            return self.lu.solve(b)
-        from scipy.linalg import lu_solve
+    @property
+    def det_sign(self) -> int:
+        s = int(np.prod(np.sign(self._diag)))
+        if self._perms is None:
+            piv = self.lu[1]
+            swaps = int(np.count_nonzero(piv != np.arange(len(piv))))
+            return s * (-1) ** swaps
+        return s * _parity(self._perms[0]) * _parity(self._perms[1])
 
-        return lu_solve(self.lu, b, check_finite=False)
+    def solve(self, b):
+        b = b * self.row
+        if self.sparse:
+            x = self.lu.solve(b)
+        else:
+            from scipy.linalg import lu_solve
+
+            x = lu_solve(self.lu, b, check_finite=False)
+        return x * self.col

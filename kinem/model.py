@@ -82,6 +82,8 @@ class Model:
     point_local: np.ndarray   # complex
     artificial: tuple         # labels of artificial coordinates
     time_dependent: tuple     # indices of families with nu != 0
+    col_scale: np.ndarray     # L for x, y columns, 1 for angles: q = col_scale * (dimensionless q)
+    entry_scale: np.ndarray   # per Jacobian entry: col_scale[col] / scale[row]
     _csc: tuple = field(repr=False, default=None)
 
     # -- structure ---------------------------------------------------------
@@ -166,12 +168,16 @@ def compile(case: Case) -> Model:
     indptr = np.searchsorted(jac_cols[order], np.arange(n + 1))
     csc = (order, jac_rows[order], indptr)
 
+    col_scale = np.ones(n)
+    col_scale[: ctx.n] = np.tile([ctx.length, ctx.length, 1.0], len(case.bodies))
+    scale = np.concatenate([np.asarray(f.scale, float) for f in families])
+
     model = Model(
         case=case, families=families, n=n, m=r, coordinate_names=tuple(names), q0=q0,
         row_labels=tuple(x for f in families for x in f.labels),
         row_owner=tuple(x for f in families for x in f.owner),
         driving=np.concatenate([np.asarray(f.driving, bool) for f in families]),
-        scale=np.concatenate([np.asarray(f.scale, float) for f in families]),
+        scale=scale, col_scale=col_scale, entry_scale=col_scale[jac_cols] / scale[jac_rows],
         offsets=tuple(offsets), jac_rows=jac_rows, jac_cols=jac_cols, length=ctx.length, sparse=sparse,
         point_names=tuple(p.name for p in case.points),
         point_cols=ctx.cols(p.body for p in case.points),
@@ -181,6 +187,6 @@ def compile(case: Case) -> Model:
         _csc=csc,
     )
     for a in (model.q0, model.driving, model.scale, model.jac_rows, model.jac_cols,
-              model.point_cols, model.point_local):
+              model.point_cols, model.point_local, model.col_scale, model.entry_scale):
         a.flags.writeable = False
     return model

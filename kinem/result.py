@@ -60,6 +60,9 @@ class SolveResult:
     qdd: np.ndarray | None           # accelerations, when computed
     iterations: np.ndarray           # Newton iterations per instant
     residual: np.ndarray             # final scaled residual per instant
+    conditioning: np.ndarray         # pivot ratio of the dimensionless Jacobian per instant (docs/solver.md)
+    substeps: int                    # steps taken beyond one per output interval
+    events: tuple                    # (t, text): singular configurations passed on the way
     jacobian_evaluations: int
     factorizations: int
     wall_time: float                 # seconds in the analysis loop

@@ -1,0 +1,231 @@
+"""Carrying the solution from one output instant to the next without ever
+changing assembly branch silently (docs/solver.md, "Branches and
+singular configurations").
+
+Each output interval is crossed in one step when that is safe, else in
+adaptive sub-steps. A step is rejected, and halved, when Newton fails, when
+its correction from the predictor exceeds KAPPA times the predicted motion
+(a jump towards another solution), when det(J_s) changes sign (the path
+crossed a singular configuration, or another branch was reached), or when
+the configuration is near-singular. A step that must be smaller than
+MIN_STEP of the output interval means the path is stuck at a singular
+configuration: ``kinem.diagnose`` then tells a limit position (the analysis
+stops with the diagnosis) from a bifurcation the drivers' motion fits, which
+is stepped over on the smooth continuation and recorded as an event.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from .diagnose import diagnose
+from .errors import AnalysisError, ConvergenceError, SingularError
+from .linalg import Factor
+
+KAPPA = 0.5            # a correction above half the predicted motion is a jump, not a refinement
+MIN_STEP = 1e-5        # of the output interval: below it the path is stuck at a singular point
+
+
+
+def singular_pivot(tolerance: float) -> float:
+    """Pivot ratio of J_s below which a state is too near a singular
+    configuration to trust: Newton stops within sqrt(tolerance) of a singular
+    root, where the ratio is about sqrt(tolerance); normal configurations
+    have 1e-2 to 1."""
+    return min(1e-3, 10 * tolerance**0.5)
+OVER_STEPS = (2, 8, 32, 128, 512, 2048)  # step-over sizes across a bifurcation, in units of the stuck step
+
+
+@dataclass
+class State:
+    t: float
+    q: np.ndarray
+    qd: np.ndarray | None
+    qdd: np.ndarray | None
+    pivot: float
+    det: int
+    iterations: int
+    residual: float
+
+
+class Rejected(Exception):
+    pass
+
+
+class Tracker:
+    def __init__(self, model, data, need_v, need_a):
+        from . import analysis
+
+        self.a = analysis
+        self.model, self.data = model, data
+        self.need_v, self.need_a = need_v, need_a
+        self.history = []       # accepted states, last three kept
+        self.events = []        # (t, text): singular configurations passed
+        self.substeps = 0       # steps taken beyond one per output interval
+        self.pivot_floor = singular_pivot(model.case.tolerance)
+
+    # -- one configuration -------------------------------------------------
+    def settle(self, t, q_start) -> State:
+        """Newton from q_start at t, then the monitor factorisation (and the
+        velocity and acceleration when asked)."""
+        m, d = self.model, self.data
+        d.q = q_start
+        self.a.position(m, d, t)
+        qd = qdd = None
+        try:
+            if self.need_v:
+                self.a.factorize(m, d)
+                f = d.factor
+                self.a.velocity(m, d)
+                qd = d.qd
+                if self.need_a:
+                    self.a.acceleration(m, d)
+                    qdd = d.qdd
+            else:
+                f = d.newton_factor if d.iterations > 0 else self.a._factor(m, d, d.q, t)
+            pivot, det = f.pivot_ratio, f.det_sign
+        except SingularError:
+            pivot, det = 0.0, 0
+        return State(t, d.q.copy(), qd, qdd, pivot, det, d.iterations, d.residual)
+
+    def predict(self, t):
+        """(start, order): Taylor from the last state when velocities are
+        known, else Lagrange extrapolation through the last three states that
+        lie within four steps (order 0, no jump test, when none but the last)."""
+        last = self.history[-1]
+        h = t - last.t
+        if self.need_v:
+            q = last.q + h * last.qd
+            if self.need_a:
+                q = q + 0.5 * h * h * last.qdd
+            return q, 2
+        # only points within a few steps: far ones make the slope too poor to judge a jump by
+        pts = [p for p in self.history[-3:] if t - p.t <= 4 * h]
+        q = np.zeros_like(last.q)
+        for i, a in enumerate(pts):
+            w = 1.0
+            for j, b in enumerate(pts):
+                if i != j:
+                    w *= (t - b.t) / (a.t - b.t)
+            q += w * a.q
+        return q, len(pts) - 1
+
+    def attempt(self, t, allow_flip=False) -> State:
+        q_pred, order = self.predict(t)
+        s = self.settle(t, q_pred)
+        last = self.history[-1]
+        if s.pivot < self.pivot_floor:
+            raise Rejected(f"near-singular configuration (pivot ratio {s.pivot:.1e})")
+        if not allow_flip and s.det != last.det:
+            raise Rejected("det(J) changed sign")
+        if order >= 1:
+            cs = self.model.col_scale
+            corr = np.abs(s.q - q_pred) / cs
+            move = np.abs(q_pred - last.q) / cs
+            if corr.max() > KAPPA * move.max() + 10 * self.model.case.tolerance:
+                raise Rejected(f"jump of {corr.max():.2e} from the predictor (predicted motion {move.max():.2e})")
+        return s
+
+    # -- the march ---------------------------------------------------------------
+    def start(self, t) -> State:
+        s = self.settle(t, self.model.q0.copy())
+        if s.det == 0:
+            d = diagnose(self.model, s.q, t)
+            raise SingularError("assembled in a " + d.message())
+        self.history = [s]
+        return s
+
+    def accept(self, s):
+        self.history = (self.history + [s])[-3:]
+
+    def advance(self, target) -> State:
+        """The state at the output instant ``target``."""
+        h_out = target - self.history[-1].t
+        h = h_out
+        while self.history[-1].t < target:
+            last = self.history[-1]
+            t1 = last.t + h
+            if t1 >= target - 1e-9 * h_out:
+                t1 = target
+            try:
+                s = self.attempt(t1)
+            except (AnalysisError, Rejected) as why:
+                h = (t1 - last.t) / 2
+                if h < MIN_STEP * h_out:
+                    out = self.stuck(last, target, t1 - last.t, why)
+                    if out is not None:
+                        return out
+                    h = max(h_out * MIN_STEP, 1e-300)
+                continue
+            if t1 != target:
+                self.substeps += 1
+            self.accept(s)
+            h = min(2 * h, h_out)
+        return self.history[-1]
+
+    def stuck(self, last, target, step, why):
+        """No step from ``last`` is accepted: diagnose, then stop or step over."""
+        d = diagnose(self.model, last.q, last.t)
+        if not d.singular:
+            raise ConvergenceError(f"cannot continue beyond t = {last.t:.6g} without a jump: {why}")
+        if not d.consistent:
+            raise SingularError(d.message())
+        # a bifurcation the drivers' motion fits: continue on the smooth branch
+        for k in OVER_STEPS:
+            t1 = last.t + k * step
+            if t1 >= target:
+                return self.land_on_singular(last, target, d)
+            try:
+                s = self.attempt(t1, allow_flip=True)
+            except (AnalysisError, Rejected):
+                continue
+            self.events.append((last.t, "stepped over a singular configuration on the smooth branch: " + d.message()))
+            self.substeps += 1
+            self.accept(s)
+            return None
+        raise SingularError(d.message())
+
+    def land_on_singular(self, before, target, d):
+        """The output instant sits on the bifurcation: take the state just
+        after it and interpolate between the two neighbours (cubic Hermite
+        where rates are known: errors of order (distance)^4 in positions,
+        (distance)^2 in accelerations)."""
+        step = target - before.t
+        for k in OVER_STEPS:
+            try:
+                after = self.attempt(target + k * step, allow_flip=True)
+                break
+            except (AnalysisError, Rejected):
+                continue
+        else:
+            raise SingularError(d.message())
+        h = after.t - before.t
+        w = (target - before.t) / h
+        lerp = lambda a, b: None if a is None else (1 - w) * a + w * b
+        if before.qd is not None:
+            h00, h10, h01, h11 = 2 * w**3 - 3 * w**2 + 1, w**3 - 2 * w**2 + w, -2 * w**3 + 3 * w**2, w**3 - w**2
+            q = h00 * before.q + h10 * h * before.qd + h01 * after.q + h11 * h * after.qd
+            qd = lerp(before.qd, after.qd)
+            if before.qdd is not None:
+                d00, d10, d01, d11 = (6 * w**2 - 6 * w) / h, 3 * w**2 - 4 * w + 1, (-6 * w**2 + 6 * w) / h, 3 * w**2 - 2 * w
+                qd = d00 * before.q + d10 * before.qd + d01 * after.q + d11 * after.qd
+        else:
+            q, qd = lerp(before.q, after.q), None
+        s = State(target, self.polish(q, target), qd, lerp(before.qdd, after.qdd), 0.0, after.det,
+                  self.data.iterations, self.data.residual)
+        self.events.append((target, "output instant on a singular configuration, interpolated between "
+                                    f"t = {before.t:.9g} and {after.t:.9g}: " + d.message()))
+        self.accept(after)
+        return s
+
+    def polish(self, q, t):
+        """Minimum-norm Gauss-Newton steps: Newton without a regular Jacobian."""
+        m = self.model
+        for _ in range(m.case.max_iterations):
+            phi = m.phi(q, t)
+            r = m.scaled_residual(phi).max()
+            self.data.residual = float(r)
+            if r <= m.case.tolerance:
+                return q
+            J = m.assemble(m.jac_values(q, t) * m.entry_scale, sparse=False)
+            q = q + m.col_scale * np.linalg.lstsq(J, -phi / m.scale, rcond=None)[0]
+        raise ConvergenceError(f"no convergence at the singular configuration t = {t:.6g}")
