@@ -96,12 +96,13 @@ def acceleration(model, data: Data) -> None:
 
 
 def check_square(model) -> None:
-    """Kinematic analysis needs as many equations as coordinates (Sec. 4.3)."""
-    if model.m != model.n:
+    """Kinematic analysis needs at least as many equations as coordinates
+    (Sec. 4.3); more are accepted when they are consistent (redundant
+    constraints, solved in the least-squares sense)."""
+    if model.m < model.n:
         gap = model.n - model.m
-        what = f"{gap} equation{'s' * (gap != 1)} missing (add drivers or constraints)" if gap > 0 else \
-            f"{-gap} equation{'s' * (gap != -1)} too many"
-        raise InputError(f"{model.case.source}: {model.m} equations for {model.n} coordinates: {what}")
+        raise InputError(f"{model.case.source}: {model.m} equations for {model.n} coordinates: "
+                         f"{gap} equation{'s' * (gap != 1)} missing (add drivers or constraints)")
 
 
 def solve(model, outputs=OUTPUTS, times=None) -> SolveResult:

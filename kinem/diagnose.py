@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+RANK_TOL = 1e-9       # singular values below this fraction of the largest count as zero
 NEAR_SINGULAR = 1e-2   # conditioning below this counts as (near) singular
 CONSISTENT = 1e-2      # |u . nu_s| / |nu_s| below this: the drivers' motion fits the singularity
 INVOLVED = 0.2         # a row (column) takes part when |u_k| >= INVOLVED max |u|
@@ -68,3 +69,22 @@ def _diagnose_sparse(model, q, t) -> Diagnosis:
     except SingularError:
         cond = 0.0
     return Diagnosis(float(t), cond, False, ("(not resolved above 3000 coordinates)",), ())
+
+
+def rank_analysis(model, q, t=0.0, rows=None):
+    """(rank, dependent equation labels) of the dimensionless Jacobian's rows
+    (all, or a boolean mask): SVD for the rank, QR with column pivoting of
+    the transpose to name the rows that depend on the others."""
+    from scipy.linalg import qr
+
+    J = model.assemble(model.jac_values(q, t) * model.entry_scale, sparse=False)
+    labels = np.array(model.row_labels, dtype=object)
+    if rows is not None:
+        J, labels = J[rows], labels[rows]
+    if not J.size:
+        return 0, ()
+    s = np.linalg.svd(J, compute_uv=False)
+    rank = int((s > RANK_TOL * s[0]).sum()) if s.size and s[0] > 0 else 0
+    _, _, perm = qr(J.T, pivoting=True, mode="economic")
+    order = list(model.row_labels)
+    return rank, tuple(sorted(labels[perm[rank:]], key=order.index))

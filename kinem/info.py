@@ -4,13 +4,12 @@ Assembly for info uses Gauss-Newton with minimum-norm least-squares steps,
 so that it also settles redundant (consistent) or non-square systems. Ranks
 are taken on the dimensionless Jacobian (rows divided by their residual
 scale, length columns multiplied by the characteristic length L), where a
-singular value below RANK_TOL of the largest counts as zero.
+singular value below kinem.diagnose.RANK_TOL of the largest counts as zero.
 """
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
-RANK_TOL = 1e-9
 DENSE_RANK_LIMIT = 3000  # coordinates; above, the structural rank is reported
 
 
@@ -47,26 +46,18 @@ def assemble(model, t=0.0, max_iterations=None):
         r = float(model.scaled_residual(phi).max()) if model.m else 0.0
         if r <= tol or not np.isfinite(r):
             break
-        dq = np.linalg.lstsq(model.jacobian(q, t, sparse=False), -phi, rcond=None)[0]
-        q = q + dq
+        J = model.assemble(model.jac_values(q, t) * model.entry_scale, sparse=False)
+        q = q + model.col_scale * np.linalg.lstsq(J, -phi / model.scale, rcond=None)[0]
     return q, r, bool(r <= tol)
 
 
 def info(model) -> Info:
+    from .diagnose import rank_analysis
+
     nd = ~model.driving
-    labels = np.array(model.row_labels, dtype=object)
     if model.n <= DENSE_RANK_LIMIT:
         q, residual, ok = assemble(model)
-        Jn = dimensionless_jacobian(model, q)[nd]
-        if Jn.size:
-            from scipy.linalg import qr
-
-            s = np.linalg.svd(Jn, compute_uv=False)
-            rank = int((s > RANK_TOL * s[0]).sum()) if s.size and s[0] > 0 else 0
-            _, _, perm = qr(Jn.T, pivoting=True, mode="economic")
-            redundant = tuple(sorted(labels[nd][perm[rank:]], key=list(model.row_labels).index))
-        else:
-            rank, redundant = 0, ()
+        rank, redundant = rank_analysis(model, q, 0.0, nd)
         method = "numerical"
     else:
         from scipy.sparse.csgraph import structural_rank

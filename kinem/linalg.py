@@ -9,6 +9,13 @@ characteristic length L), so that its pivots mean the same whatever the
 units: ``pivot_ratio`` (smallest over largest |U_kk|) is the cheap
 conditioning figure recorded at every instant, and ``det_sign`` the sign of
 det(J_s), which flips when the configuration passes through a singular one.
+
+A model with more equations than coordinates (redundant but consistent
+constraints) is solved in the least-squares sense: dense QR of J_s, or the
+normal equations J_s^T J_s with sparse LU. Its pivots are those of R (their
+square roots for the normal equations) and it has no determinant sign
+(reported as +1 throughout: branch changes are then caught by the jump test
+alone).
 """
 import warnings
 
@@ -48,7 +55,12 @@ class Factor:
         self.row = 1.0 / model.scale
         self.col = model.col_scale
         J = model.assemble(values * model.entry_scale, self.sparse)
-        if self.sparse:
+        self.least_squares = model.m > model.n
+        if self.least_squares:
+            diag = self._qr(J)
+            cols = np.arange(model.n)
+            self._perms = None
+        elif self.sparse:
             from scipy.sparse.linalg import splu
 
             try:
@@ -77,8 +89,25 @@ class Factor:
             raise SingularError(f"singular Jacobian: pivot ratio {self.pivot_ratio:.1e} "
                                 f"at coordinate '{name}'")
 
+    def _qr(self, J):
+        if self.sparse:
+            from scipy.sparse.linalg import splu
+
+            self.J = J.tocsr()
+            try:
+                self.lu = splu((J.T @ J).tocsc(), permc_spec="COLAMD")
+            except RuntimeError as e:
+                raise SingularError(f"singular Jacobian ({e})") from None
+            return np.sqrt(np.abs(self.lu.U.diagonal()))
+        from scipy.linalg import qr
+
+        self.lu = qr(J, mode="economic", check_finite=False)
+        return np.diag(self.lu[1])
+
     @property
     def det_sign(self) -> int:
+        if self.least_squares:
+            return 1
         s = int(np.prod(np.sign(self._diag)))
         if self._perms is None:
             piv = self.lu[1]
@@ -88,7 +117,15 @@ class Factor:
 
     def solve(self, b):
         b = b * self.row
-        if self.sparse:
+        if self.least_squares:
+            if self.sparse:
+                x = self.lu.solve(self.J.T @ b)
+            else:
+                from scipy.linalg import solve_triangular
+
+                Q, R = self.lu
+                x = solve_triangular(R, Q.T @ b, check_finite=False)
+        elif self.sparse:
             x = self.lu.solve(b)
         else:
             from scipy.linalg import lu_solve

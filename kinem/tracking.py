@@ -127,12 +127,34 @@ class Tracker:
 
     # -- the march ---------------------------------------------------------------
     def start(self, t) -> State:
-        s = self.settle(t, self.model.q0.copy())
+        try:
+            s = self.settle(t, self.model.q0.copy())
+        except AnalysisError as e:
+            raise type(e)(f"{e}{self.count_problem(self.data.q, t)}") from None
         if s.det == 0:
             d = diagnose(self.model, s.q, t)
             raise SingularError("assembled in a " + d.message())
         self.history = [s]
         return s
+
+    def count_problem(self, q, t) -> str:
+        """Why an assembly fails, when the count of independent equations is wrong."""
+        from .diagnose import DENSE_LIMIT, rank_analysis
+
+        m = self.model
+        if m.n > DENSE_LIMIT or not np.isfinite(q).all():
+            return ""
+        rank, dependent = rank_analysis(m, q, t)
+        text = ""
+        if rank < m.n:
+            text += (f"; the Jacobian has rank {rank} for {m.n} coordinates: {m.n - rank} degree(s) of freedom "
+                     f"left after the drivers (add {m.n - rank} driving equation(s)), or the estimate is a "
+                     "singular configuration")
+        if dependent:
+            text += f"; dependent equations: {', '.join(dependent)}"
+        if m.m > m.n and rank == m.n:
+            text += f"; {m.m} equations for {m.n} coordinates: {m.m - m.n} redundant, and not consistent here"
+        return text
 
     def accept(self, s):
         self.history = (self.history + [s])[-3:]
@@ -201,21 +223,23 @@ class Tracker:
         h = after.t - before.t
         w = (target - before.t) / h
         lerp = lambda a, b: None if a is None else (1 - w) * a + w * b
-        if before.qd is not None:
-            h00, h10, h01, h11 = 2 * w**3 - 3 * w**2 + 1, w**3 - 2 * w**2 + w, -2 * w**3 + 3 * w**2, w**3 - w**2
-            q = h00 * before.q + h10 * h * before.qd + h01 * after.q + h11 * h * after.qd
-            qd = lerp(before.qd, after.qd)
-            if before.qdd is not None:
-                d00, d10, d01, d11 = (6 * w**2 - 6 * w) / h, 3 * w**2 - 4 * w + 1, (-6 * w**2 + 6 * w) / h, 3 * w**2 - 2 * w
-                qd = d00 * before.q + d10 * before.qd + d01 * after.q + d11 * after.qd
-        else:
-            q, qd = lerp(before.q, after.q), None
+        v0, v1 = (before.qd, after.qd) if self.need_v else (self.rate(before), self.rate(after))
+        h00, h10, h01, h11 = 2 * w**3 - 3 * w**2 + 1, w**3 - 2 * w**2 + w, -2 * w**3 + 3 * w**2, w**3 - w**2
+        q = h00 * before.q + h10 * h * v0 + h01 * after.q + h11 * h * v1
+        qd = None
+        if self.need_v:
+            d00, d10, d01, d11 = (6 * w**2 - 6 * w) / h, 3 * w**2 - 4 * w + 1, (-6 * w**2 + 6 * w) / h, 3 * w**2 - 2 * w
+            qd = d00 * before.q + d10 * v0 + d01 * after.q + d11 * v1
         s = State(target, self.polish(q, target), qd, lerp(before.qdd, after.qdd), 0.0, after.det,
                   self.data.iterations, self.data.residual)
         self.events.append((target, "output instant on a singular configuration, interpolated between "
                                     f"t = {before.t:.9g} and {after.t:.9g}: " + d.message()))
         self.accept(after)
         return s
+
+    def rate(self, state):
+        """Velocity of a (regular) state, for interpolation when none was asked for."""
+        return self.a._factor(self.model, self.data, state.q, state.t).solve(self.model.nu(state.t))
 
     def polish(self, q, t):
         """Minimum-norm Gauss-Newton steps: Newton without a regular Jacobian."""

@@ -40,6 +40,11 @@ def four_bar(th2, w2, a2, a, b, c, d, sign=1.0):
     th3 = np.angle(B - A)
     th4 = np.angle(B - d)
     s34 = np.sin(th3 - th4)
+    with np.errstate(invalid="ignore", divide="ignore"):  # NaN on a change point itself
+        return _rates(th2, w2, a2, a, b, c, B, th3, th4, s34)
+
+
+def _rates(th2, w2, a2, a, b, c, B, th3, th4, s34):
     w3 = a * w2 * np.sin(th4 - th2) / (b * s34)
     w4 = a * w2 * np.sin(th2 - th3) / (c * -s34)
     e2, e3, e4 = np.exp(1j * th2), np.exp(1j * th3), np.exp(1j * th4)
