@@ -19,6 +19,7 @@ from .spec import Body, Case, Constraint, Point, frozen_map
 MAX_FILE_BYTES = 16 * 2**20
 MAX_ARRAY = 100_000
 MAX_ITEMS = 100_000
+MAX_MAGNITUDE = 1e12  # any length, angle or time beyond this is a mistake, and its squares stay finite
 NAME_RE = re.compile(r"^[a-z0-9_-]+$")
 IDENT_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*$")
 
@@ -97,6 +98,9 @@ class _Loader:
         v = float(v)
         if not math.isfinite(v):
             self.bad(where, key, f"got {v}", "a finite number")
+            return None
+        if abs(v) > MAX_MAGNITUDE:
+            self.bad(where, key, f"got {v:g}", f"a number of magnitude at most {MAX_MAGNITUDE:g}")
             return None
         if positive and v <= 0:
             self.bad(where, key, f"got {v:g}", "a positive number")
@@ -322,7 +326,7 @@ class _Loader:
         if ctype is None:
             self.bad(where, "type", "missing", "one of " + ", ".join(REGISTRY))
             return None
-        if ctype not in REGISTRY:
+        if not isinstance(ctype, str) or ctype not in REGISTRY:
             self.bad(where, "type", f"unknown type {_show(ctype)}", "one of " + ", ".join(REGISTRY))
             return None
         decl = REGISTRY[ctype]
@@ -336,8 +340,8 @@ class _Loader:
                      "one of " + ", ".join(implemented_types()))
             return None
         allowed = ("type", "name") + tuple(k.name for k in decl.keys)
-        self.keys(where, c, allowed, tuple(k.name for k in decl.keys if k.required))
         n_before = len(self.problems)
+        self.keys(where, c, allowed, tuple(k.name for k in decl.keys if k.required))
         fields = {}
         for key in decl.keys:
             if key.name in c:
@@ -465,7 +469,8 @@ class _Loader:
             return None
         if "circle" in v:
             body = v["circle"]
-            if not isinstance(body, dict) or not self.keys(f"{where}: key '{key}.circle'", body, ("radius",), ("radius",)):
+            if not isinstance(body, dict) or not self.keys(f"{where}: key '{key}.circle'", body, ("radius",),
+                                                             ("radius",)):
                 if not isinstance(body, dict):
                     self.bad(where, f"{key}.circle", f"got {_show(body)}", "{ radius = R }")
                 return None

@@ -45,6 +45,8 @@ def diagnose(model, q, t) -> Diagnosis:
     if model.n > DENSE_LIMIT:
         return _diagnose_sparse(model, q, t)
     J = model.assemble(model.jac_values(q, t) * model.entry_scale, sparse=False)
+    if not np.isfinite(J).all():
+        return Diagnosis(float(t), 0.0, False, ("(non-finite Jacobian)",), ())
     U, s, Vt = np.linalg.svd(J)
     cond = float(s[-1] / s[0]) if s.size and s[0] > 0 else 0.0
     k = len(s) - 1
@@ -78,6 +80,10 @@ def rank_analysis(model, q, t=0.0, rows=None):
     from scipy.linalg import qr
 
     J = model.assemble(model.jac_values(q, t) * model.entry_scale, sparse=False)
+    if not np.isfinite(J).all():
+        from .errors import AnalysisError
+
+        raise AnalysisError(f"non-finite Jacobian at t = {t:g}: the configuration overflowed")
     labels = np.array(model.row_labels, dtype=object)
     if rows is not None:
         J, labels = J[rows], labels[rows]

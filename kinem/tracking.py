@@ -142,7 +142,7 @@ class Tracker:
         from .diagnose import DENSE_LIMIT, rank_analysis
 
         m = self.model
-        if m.n > DENSE_LIMIT or not np.isfinite(q).all():
+        if m.n > DENSE_LIMIT or not np.isfinite(q).all() or not np.isfinite(m.jac_values(q, t)).all():
             return ""
         rank, dependent = rank_analysis(m, q, t)
         text = ""
