@@ -37,6 +37,7 @@ class Data:
     worst_row: int = 0
     jacobian_evaluations: int = 0
     factorizations: int = 0
+    trace: list | None = None           # when a list: (t, what, iteration, scaled residual, detail) records
 
 
 def _factor(model, data, q, t) -> Factor:
@@ -57,6 +58,8 @@ def position(model, data: Data, t: float, tolerance=None, max_iterations=None) -
         r = model.scaled_residual(phi)
         worst = int(np.argmax(r)) if r.size else 0
         data.residual, data.worst_row, data.iterations = float(r[worst]) if r.size else 0.0, worst, it
+        if data.trace is not None:
+            data.trace.append((t, "newton", it, data.residual, model.row_labels[worst] if r.size else ""))
         if not np.isfinite(data.residual):
             break
         if data.residual <= tol:
@@ -105,7 +108,7 @@ def check_square(model) -> None:
                          f"{gap} equation{'s' * (gap != 1)} missing (add drivers or constraints)")
 
 
-def solve(model, outputs=OUTPUTS, times=None) -> SolveResult:
+def solve(model, outputs=OUTPUTS, times=None, trace=False) -> SolveResult:
     """Position (and, when asked, velocity and acceleration) analysis at every
     output instant, on the branch the assembly found (kinem.tracking). Never
     raises for an analysis failure: the result says when and why (success
@@ -124,7 +127,7 @@ def solve(model, outputs=OUTPUTS, times=None) -> SolveResult:
     QD = np.empty((nt, model.n)) if need_v else None
     QDD = np.empty((nt, model.n)) if need_a else None
     iters, resid, cond = np.zeros(nt, dtype=int), np.zeros(nt), np.zeros(nt)
-    data = Data(q=model.q0.copy())
+    data = Data(q=model.q0.copy(), trace=[] if trace else None)
     tracker = Tracker(model, data, need_v, need_a)
     status, message, k = Status.SUCCESS, "", nt
     start = time.perf_counter()
@@ -132,6 +135,8 @@ def solve(model, outputs=OUTPUTS, times=None) -> SolveResult:
         for k in range(nt):
             s = tracker.start(times[0]) if k == 0 else tracker.advance(times[k])
             iters[k], resid[k], cond[k], Q[k] = s.iterations, s.residual, s.pivot, s.q
+            if trace:
+                data.trace.append((times[k], "instant", s.iterations, s.residual, f"pivot ratio {s.pivot:.3e}"))
             if need_v:
                 QD[k] = s.qd
                 if need_a:
@@ -151,6 +156,7 @@ def solve(model, outputs=OUTPUTS, times=None) -> SolveResult:
         trajectory=traj, q=Q[:n_ok], qd=None if QD is None else QD[:n_ok],
         qdd=None if QDD is None else QDD[:n_ok], iterations=iters[:n_ok], residual=resid[:n_ok],
         conditioning=cond[:n_ok], substeps=tracker.substeps, events=tuple(tracker.events),
+        trace=tuple(data.trace or ()),
         jacobian_evaluations=data.jacobian_evaluations, factorizations=data.factorizations,
         wall_time=wall, t_fail=None if ok else float(times[n_ok]),
         failed_constraint=None if ok or status == Status.SINGULAR else model.row_owner[data.worst_row],

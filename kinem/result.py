@@ -63,6 +63,7 @@ class SolveResult:
     conditioning: np.ndarray         # pivot ratio of the dimensionless Jacobian per instant (docs/solver.md)
     substeps: int                    # steps taken beyond one per output interval
     events: tuple                    # (t, text): singular configurations passed on the way
+    trace: tuple                     # solve(trace=True): (t, what, iteration, residual, detail) records
     jacobian_evaluations: int
     factorizations: int
     wall_time: float                 # seconds in the analysis loop

@@ -171,6 +171,8 @@ class Tracker:
             try:
                 s = self.attempt(t1)
             except (AnalysisError, Rejected) as why:
+                if self.data.trace is not None:
+                    self.data.trace.append((t1, "rejected", self.data.iterations, self.data.residual, str(why)))
                 h = (t1 - last.t) / 2
                 if h < MIN_STEP * h_out:
                     out = self.stuck(last, target, t1 - last.t, why)
