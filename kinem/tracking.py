@@ -32,7 +32,15 @@ def singular_pivot(tolerance: float) -> float:
     root, where the ratio is about sqrt(tolerance); normal configurations
     have 1e-2 to 1."""
     return min(1e-3, 10 * tolerance**0.5)
-OVER_STEPS = (2, 8, 32, 128, 512, 2048)  # step-over sizes across a bifurcation, in units of the stuck step
+
+
+def over_steps(step, limit):
+    """Step-over sizes across a bifurcation: doubling from twice the stuck
+    step until past the near-singular zone, at most ``limit``."""
+    size = 2 * step
+    while size <= limit:
+        yield size
+        size *= 2
 
 
 @dataclass
@@ -161,7 +169,7 @@ class Tracker:
 
     def advance(self, target) -> State:
         """The state at the output instant ``target``."""
-        h_out = target - self.history[-1].t
+        h_out = self.h_out = target - self.history[-1].t
         h = h_out
         while self.history[-1].t < target:
             last = self.history[-1]
@@ -194,8 +202,8 @@ class Tracker:
         if not d.consistent:
             raise SingularError(d.message())
         # a bifurcation the drivers' motion fits: continue on the smooth branch
-        for k in OVER_STEPS:
-            t1 = last.t + k * step
+        for size in over_steps(step, 2 * (target - last.t) + step):
+            t1 = last.t + size
             if t1 >= target:
                 return self.land_on_singular(last, target, d)
             try:
@@ -214,9 +222,9 @@ class Tracker:
         where rates are known: errors of order (distance)^4 in positions,
         (distance)^2 in accelerations)."""
         step = target - before.t
-        for k in OVER_STEPS:
+        for size in over_steps(step / 2, self.h_out):
             try:
-                after = self.attempt(target + k * step, allow_flip=True)
+                after = self.attempt(target + size, allow_flip=True)
                 break
             except (AnalysisError, Rejected):
                 continue
