@@ -1,0 +1,470 @@
+"""pymunk (Chipmunk2D, Munk2D fork) adapter.
+
+Bodies. No shapes (nothing collides); mass and moment come from
+``mass_properties`` with the centre of gravity at the body origin, so pymunk's
+body position and velocity are those of the case's body frame. Grounded
+bodies are STATIC. A body with an absolute angle driver that is pinned by a
+revolute joint to a static (or already prescribed) body -- a crank -- is
+KINEMATIC with its whole pose prescribed. Every other body is DYNAMIC. Joints
+between two non-dynamic bodies are left out: the prescribed poses satisfy them.
+
+Time stepping. ``Space.step`` first moves every body with its stored
+velocity, then solves the velocity constraints at the new positions with the
+bias -(1 - error_bias**dt) C / dt. With error_bias 0 the bias removes the
+whole position error over the next step, so a stored velocity is the one
+that carries the body over the NEXT step (a forward secant, half a step
+ahead of the positions) and positions are second-order accurate. Hence:
+  * a kinematic body is set before the step from t_j so that the step lands
+    it exactly on its pose at t_{j+1} with the velocity
+    (pose(t_{j+2}) - pose(t_{j+1})) / dt: the constraint solve at t_{j+1} then
+    hands the others the velocities of the step they are about to take;
+  * a driven joint's target (GearJoint phase, PinJoint distance) set before
+    the step from t_j is d(t_{j+2}), the value the solved velocity reaches one
+    step later; these joints always use error_bias 0;
+  * ``centered_velocity``: the reported velocity at an output instant is the
+    mean of the stored velocities just before and just after it (second
+    order); otherwise the stored forward one (first order).
+
+GrooveJoint solves a 2x2 point-to-point impulse and projects it onto the
+groove normal. The projection is the exact 1-D solve only when the axis is
+an eigenvector of the effective-mass tensor: each body non-dynamic, or with
+its centre of gravity on the line (groove body) or at the anchor (anchor
+body). Otherwise the anchor drifts off the line by O(dt) x sliding speed
+(1e-5 L on quick_return_2 at dt = 1e-4), so helper bodies make every groove
+exact: a point helper (infinite moment) pinned at an off-centre anchor, or a
+line helper welded (PivotJoint + GearJoint) to the groove body, centred on
+the line.
+"""
+import math
+import time
+
+import numpy as np
+import pymunk
+
+from kinem.errors import InputError
+from kinem.functions import FunctionSet, Harmonic, Poly, Table
+from kinem.result import trajectory
+
+from .base import Adapter, EngineRun, drives, grounded, mass_properties
+
+# Agreement with native at the default settings, in the figures of
+# adapters.compare (max over instants, bodies and named points). The scheme is
+# second order: errors ~ c (Omega dt)^2 with c < 1 measured (Omega: the fastest
+# body rate), <= 2e-8 on the book's cases at dt = 1e-4. The bounds allow rates
+# up to ~10 rad/s at that step and stay 10x below the issue's 1e-5 target.
+TOLERANCE = {
+    "position_error_rel": 1e-6,     # |r_engine - r_native| / L
+    "angle_error": 1e-6,            # rad
+    "constraint_residual": 1e-6,    # native scaled residual of the engine's positions
+    "velocity_error_rel": 1e-5,     # |v_engine - v_native| / (L max|omega_native|), omega / max|omega|
+}
+
+GROOVE = 1e4   # groove half-length in units of L: far beyond any sliding in a
+               # mechanism of size L; leaving it is checked at every output instant
+DRIFT = 1e-3   # loop-closure drift (native scaled residual ~ error / L) at which the
+               # solver has lost the mechanism: 1e3 x TOLERANCE, reached only when
+               # Gauss-Seidel diverges (too few iterations)
+TINY = 1e-12   # offset (in L) below which a point is on a line / at a centre
+
+STATIC, KINEMATIC = pymunk.Body.STATIC, pymunk.Body.KINEMATIC
+
+
+def _values(f, t):
+    """d(t) of a kinem function at an array of instants: FunctionSet's
+    formulas and spline, vectorised (FunctionSet takes one instant)."""
+    t = np.asarray(t, dtype=float)
+    if isinstance(f, Poly):
+        return np.polynomial.polynomial.polyval(t, f.coeffs)
+    if isinstance(f, Harmonic):
+        return f.offset + f.amplitude * np.sin(f.omega * t + f.phase)
+    if isinstance(f, Table):
+        from scipy.interpolate import CubicSpline
+
+        return CubicSpline(np.asarray(f.t, float), np.asarray(f.value, float))(t)
+    fs = FunctionSet([f])
+    return np.array([fs(x)[0] for x in t])
+
+
+def _prescribed(model, tt):
+    """Bodies whose pose is a function of time: an absolute angle driver and a
+    revolute joint to a grounded or already prescribed body. Returns
+    {body: (x, y, phi) over tt} and the names of the drivers they consume."""
+    poses = {}
+    for c in model.case.constraints:
+        if c.type == "ground":
+            poses[c["body"]] = tuple(np.full(len(tt), float(v)) for v in c["value"])
+    fixed = set(poses)
+    driven = {d.body: d for d in drives(model) if d.coord == "phi" and d.relative_to is None}
+    pins = [c for c in model.case.constraints if c.type == "revolute"]
+    used, changed = set(), True
+    while changed:
+        changed = False
+        for name, d in driven.items():
+            if name in poses:
+                continue
+            for c in pins:
+                ends = {c["i"]: c["si"], c["j"]: c["sj"]}
+                other = c["j"] if c["i"] == name else c["i"] if c["j"] == name else None
+                if other in poses:
+                    ox, oy, ophi = poses[other]
+                    phi = _values(d.f, tt)
+                    pin = ox + 1j * oy + complex(*ends[other]) * np.exp(1j * ophi)
+                    r = pin - complex(*ends[name]) * np.exp(1j * phi)
+                    poses[name] = (r.real, r.imag, phi)
+                    used.add(d.name)
+                    changed = True
+                    break
+    return {b: p for b, p in poses.items() if b not in fixed}, used
+
+
+class _Mechanism:
+    """The case's mechanism in one pymunk Space."""
+
+    def __init__(self, model, q0, qd0, s, tt):
+        self.model, self.L, self.tt = model, model.length, tt
+        self.error_bias = float(s["error_bias"])
+        self.space = pymunk.Space()
+        self.space.iterations = int(s["iterations"])
+        self.space.gravity = (0.0, 0.0)
+        self.space.damping = 1.0                 # none
+        self.kinematic = []                      # (body, x, y, phi over tt)
+        self.targets = []                        # (joint, attribute, value over tt)
+        self.grooves = []                        # (name, body a, point, axis, body b, anchor)
+        self.ground = self.place(pymunk.Body(body_type=STATIC), (0, 0, 0), (0, 0, 0))
+
+        poses, used = _prescribed(model, tt)
+        fixed = grounded(model)
+        # A body sliding on a static body cannot turn: infinite moment
+        # replaces its rotation lock (decided first, so that no GearJoint
+        # ever joins two bodies of infinite moment).
+        no_turn = {c[k] for c in model.case.constraints if c.type == "translational"
+                   for k, other in (("i", "j"), ("j", "i")) if c[other] in fixed and c[k] not in fixed | set(poses)}
+        mass, inertia = mass_properties(model)
+        self.body = {}
+        for k, name in enumerate(model.body_names):
+            q, qd = q0[3 * k: 3 * k + 3], qd0[3 * k: 3 * k + 3]
+            if name in fixed:
+                b, qd = pymunk.Body(body_type=STATIC), (0.0, 0.0, 0.0)
+            elif name in poses:
+                b = pymunk.Body(body_type=KINEMATIC)
+                self.kinematic.append((b, *poses[name]))
+            else:
+                b = pymunk.Body(float(mass[k]), math.inf if name in no_turn else float(inertia[k]))
+            self.body[name] = self.place(b, q, qd)
+
+        by_name = {d.name: d for d in drives(model)}
+        for c in model.case.constraints:
+            if c.type == "ground" or c.name in used:
+                continue
+            names = [c[k] for k in ("i", "j", "body", "relative_to") if c.get(k) is not None]
+            if not any(self.dynamic(self.body[n]) for n in names):
+                continue                         # holds by construction of the poses
+            if c.type == "driver":
+                self.driver(by_name[c.name])
+            else:
+                getattr(self, c.type.replace("-", "_"))(c)
+
+    # -- bodies ------------------------------------------------------------------
+    def place(self, body, q, qd):
+        body.angle = float(q[2])                 # first: it turns the body about its centre
+        body.position = (float(q[0]), float(q[1]))
+        body.velocity = (float(qd[0]), float(qd[1]))
+        body.angular_velocity = float(qd[2])
+        self.space.add(body)
+        return body
+
+    @staticmethod
+    def dynamic(b):
+        return b.body_type == pymunk.Body.DYNAMIC
+
+    def helper(self, at, s, moment):
+        """Dynamic helper centred on point s of body ``at``, moving with it;
+        its mass is at's (1:1 mass ratios keep Gauss-Seidel converging)."""
+        p, v = at.local_to_world(s), at.velocity_at_local_point(s)
+        w = at.angular_velocity if math.isfinite(moment) else 0.0
+        return self.place(pymunk.Body(at.mass, moment), (p.x, p.y, at.angle), (v.x, v.y, w))
+
+    def moving_helper(self, x, y, phi):
+        """KINEMATIC helper whose pose follows (x, y, phi) over tt."""
+        b = pymunk.Body(body_type=KINEMATIC)
+        self.kinematic.append((b, x, y, phi))
+        return self.place(b, (x[0], y[0], phi[0]), (0.0, 0.0, 0.0))
+
+    # -- joints ------------------------------------------------------------------
+    def add(self, joint, error_bias=None):
+        joint.error_bias = self.error_bias if error_bias is None else error_bias
+        joint.collide_bodies = False
+        self.space.add(joint)
+        return joint
+
+    def lock(self, a, b, phase, ratio=1.0, error_bias=None):
+        """GearJoint ratio phi_b - phi_a = phase, unless neither body can turn."""
+        if any(self.dynamic(x) and math.isfinite(x.moment) for x in (a, b)):
+            return self.add(pymunk.GearJoint(a, b, phase, ratio), error_bias)
+        return None
+
+    def point_on_line(self, name, a, pa, ua, b, sb):
+        """Point sb of body b on the line through pa along ua of body a (local
+        coordinates): a GrooveJoint made exact by helpers (module docstring)."""
+        ua = complex(*ua) / abs(complex(*ua))
+        if self.dynamic(b) and math.hypot(*sb) > TINY * self.L:
+            h = self.helper(b, sb, math.inf)
+            self.add(pymunk.PivotJoint(b, h, sb, (0.0, 0.0)))
+            b, sb = h, (0.0, 0.0)
+        if self.dynamic(a) and abs((complex(*pa).conjugate() * ua).imag) > TINY * self.L:
+            h = self.helper(a, pa, a.moment)
+            self.add(pymunk.PivotJoint(a, h, pa, (0.0, 0.0)))
+            self.lock(a, h, 0.0)
+            a, pa = h, (0.0, 0.0)
+        ends = [complex(*pa) + sign * GROOVE * self.L * ua for sign in (-1, 1)]
+        self.add(pymunk.GrooveJoint(a, b, *[(e.real, e.imag) for e in ends], sb))
+        self.grooves.append((name, a, pa, (ua.real, ua.imag), b, sb))
+
+    def revolute(self, c):
+        self.add(pymunk.PivotJoint(self.body[c["i"]], self.body[c["j"]], tuple(c["si"]), tuple(c["sj"])))
+
+    def revolute_revolute(self, c):
+        j = self.add(pymunk.PinJoint(self.body[c["i"]], self.body[c["j"]], tuple(c["si"]), tuple(c["sj"])))
+        j.distance = float(c["length"])          # not the distance of the pose at creation
+
+    def distance_driver(self, c):
+        j = self.add(pymunk.PinJoint(self.body[c["i"]], self.body[c["j"]], tuple(c["si"]), tuple(c["sj"])),
+                     error_bias=0.0)
+        d = _values(c["d"], self.tt)
+        j.distance = float(d[0])
+        self.targets.append((j, "distance", d[2:]))
+
+    def translational(self, c):
+        bi, bj = self.body[c["i"]], self.body[c["j"]]
+        phi0 = float(c["phi0"])                  # phi_i - phi_j
+        self.lock(bi, bj, -phi0)                 # skipped when both have infinite moments (no_turn)
+        # With no relative rotation every point of one body slides parallel
+        # to u on the other: the groove runs through the other body's origin
+        # and is anchored there (on the non-dynamic body when there is one).
+        si, sj = complex(*c["si"]), complex(*c["sj"])
+        u = complex(*c["qi"]) - si               # in i's frame
+        turn = complex(math.cos(phi0), math.sin(phi0))   # i's frame -> j's frame
+        if self.dynamic(bj):
+            a, b, p = bi, bj, si - sj / turn
+        else:
+            a, b, p, u = bj, bi, sj - si * turn, u * turn
+        self.point_on_line(c.name, a, (p.real, p.imag), (u.real, u.imag), b, (0.0, 0.0))
+
+    def revolute_translational(self, c):
+        self.point_on_line(c.name, self.body[c["j"]], tuple(c["sj"]), tuple(np.subtract(c["qj"], c["sj"])),
+                           self.body[c["i"]], tuple(c["si"]))
+
+    def absolute(self, c):
+        b = self.body[c["body"]]
+        if c["coord"] == "phi":
+            self.lock(self.ground, b, float(c["value"]))
+        else:
+            x = c["coord"] == "x"
+            line = (float(c["value"]), 0.0) if x else (0.0, float(c["value"]))
+            self.point_on_line(c.name, self.ground, line, (0.0, 1.0) if x else (1.0, 0.0), b,
+                               tuple(c.get("point") or (0.0, 0.0)))
+
+    def driver(self, d):
+        b = self.body[d.body]
+        v = _values(d.f, self.tt)
+        zero = np.zeros_like(v)
+        if d.relative_to is not None:            # phi_b - phi_k = d(t)
+            j = self.lock(self.body[d.relative_to], b, float(v[0]), error_bias=0.0)
+            if j is not None:
+                self.targets.append((j, "phase", v[2:]))
+        elif d.coord == "phi":
+            self.lock(self.moving_helper(zero, zero, v), b, 0.0)
+        else:                                    # a groove across the axis, moving along it
+            x = d.coord == "x"
+            h = self.moving_helper(v if x else zero, zero if x else v, zero)
+            self.point_on_line(d.name, h, (0.0, 0.0), (0.0, 1.0) if x else (1.0, 0.0), b,
+                               tuple(d.point or (0.0, 0.0)))
+
+    def gear(self, c):
+        # kinem: ri (phi_i - phi_k) + sigma rj (phi_j - phi_k - phi0) = 0, sigma = -1
+        # for an internal gear, phi_k a grounded carrier's angle (0 without
+        # one): phi_i = ratio phi_j + const with ratio = -sigma rj / ri.
+        ratio = (1.0 if c.get("internal") else -1.0) * float(c["rj"]) / float(c["ri"])
+        phik = self.body[c["carrier"]].angle if c.get("carrier") else 0.0
+        self.lock(self.body[c["i"]], self.body[c["j"]], (ratio - 1.0) * phik + ratio * float(c["phi0"]), ratio)
+
+    def off_groove(self):
+        """Name of a groove whose anchor has left it, or None."""
+        for name, a, pa, ua, b, sb in self.grooves:
+            d = a.world_to_local(b.local_to_world(sb))
+            if abs((d.x - pa[0]) * ua[0] + (d.y - pa[1]) * ua[1]) >= GROOVE * self.L:
+                return name
+        return None
+
+
+class PymunkAdapter(Adapter):
+    name = "pymunk"
+    supports = {
+        "ground": "STATIC body",
+        "absolute": "phi: GearJoint to a static body; x, y (point forms): GrooveJoint on a static line",
+        "revolute": "PivotJoint",
+        "translational": "GrooveJoint through the other body's origin plus a rotation lock "
+                         "(infinite moment when sliding on a static body, else GearJoint ratio 1)",
+        "revolute-revolute": "PinJoint (distance set to the link length)",
+        "revolute-translational": "GrooveJoint (half-length 1e4 L, checked); a helper body pinned at "
+                                  "an off-centre pin keeps it exact",
+        "driver": "angle of a body pinned to a static or prescribed body: KINEMATIC body, pose set every "
+                  "step; other angles: GearJoint to a KINEMATIC helper; x, y (point forms): GrooveJoint "
+                  "on a moving KINEMATIC helper; relative_to: GearJoint whose phase is set every step",
+        "distance-driver": "PinJoint whose distance is set every step",
+        "gear": "GearJoint on absolute angles (no carrier, or a grounded carrier)",
+    }
+    reasons = {
+        "rack-pinion": "pymunk has no joint coupling a rotation to a translation",
+        "cam-point": "no exact curve constraint in pymunk (collision shapes only give contact)",
+        "cam-roller": "no exact curve constraint in pymunk (collision shapes only give contact)",
+        "cam-flat": "no exact curve constraint in pymunk (collision shapes only give contact)",
+        "point-follower": "no exact pin-in-curved-slot constraint in pymunk (GrooveJoint is straight)",
+    }
+
+    def version(self) -> str:
+        return pymunk.version
+
+    def defaults(self) -> dict:
+        return {
+            # Step. Errors are O(dt^2) with error_bias 0: <= 2e-8 L at 1e-4
+            # on the book's cases (2e-6 at 1e-3, 2e-10 at 1e-5) for 5-10 us/step.
+            "dt": 1e-4,
+            # Steps per output interval; None: the fewest with h / substeps
+            # <= dt. When given it wins, and dt = h / substeps.
+            "substeps": None,
+            # Gauss-Seidel sweeps per step. With error_bias 0 an unconverged
+            # solve feeds its residual back through the bias and can diverge:
+            # quick_return_1 needs 25 (when the block passes the rocker's
+            # centre). 100: 4x that; results are unchanged from 25 to 400.
+            # A divergence is reported as 'failed' (DRIFT), never as ok.
+            "iterations": 100,
+            # Fraction of a joint's error left after one second: 0 removes it
+            # over the next step (O(dt^2) errors); pymunk's 0.9**60 leaves O(dt).
+            "error_bias": 0.0,
+            # Mean of the staggered velocities around each output instant
+            # (second order) rather than the forward one (first order).
+            "centered_velocity": True,
+        }
+
+    def unsupported(self, model) -> str | None:
+        why = super().unsupported(model)
+        if why:
+            return why
+        fixed = grounded(model)
+        for c in model.case.constraints:
+            if c.type == "gear" and c.get("carrier") is not None and c["carrier"] not in fixed:
+                return (f"unsupported: gear ('{c.name}') on the moving carrier '{c['carrier']}': "
+                        "GearJoint relates absolute angles, so only fixed axes can be represented")
+        return None
+
+    @staticmethod
+    def _resolve(s, h):
+        """Checked settings with substeps and the actual dt filled in."""
+        def bad(key, expected):
+            raise InputError(f"pymunk setting '{key}' = {s[key]!r}: expected {expected}")
+
+        def count(key):
+            return isinstance(s[key], int) and not isinstance(s[key], bool) and s[key] >= 1
+
+        if s["substeps"] is None:
+            if not (isinstance(s["dt"], (int, float)) and 0 < s["dt"] < math.inf):
+                bad("dt", "a positive number")
+            s["substeps"] = max(1, math.ceil(h / s["dt"] * (1 - 1e-12)))
+        if not count("substeps"):
+            bad("substeps", "a positive integer or None")
+        if not count("iterations"):
+            bad("iterations", "a positive integer")
+        if not (isinstance(s["error_bias"], (int, float)) and s["error_bias"] >= 0):
+            bad("error_bias", "a number >= 0")
+        s["dt"] = h / s["substeps"]
+        return s
+
+    def run(self, model, q0, qd0, settings=None) -> EngineRun:
+        s = self.settings(settings)
+        times = model.times
+        why = self.unsupported(model)
+        if why:
+            return EngineRun(self.name, why, None, None, None, 0.0, 0, 1, s, self.version())
+        s = self._resolve(s, float(times[1] - times[0]) if len(times) > 1 else 1.0)
+        n_sub, dt = s["substeps"], s["dt"]
+        tt = np.arange(n_sub * (len(times) - 1) + 2) * dt       # step instants t_0 .. t_{N+1}
+        try:
+            mech = _Mechanism(model, np.asarray(q0, float), np.asarray(qd0, float), s, tt)
+        except (ValueError, ArithmeticError) as e:
+            return EngineRun(self.name, f"failed: building the mechanism: {e}", None, None, None,
+                             0.0, 0, n_sub, s, self.version())
+        return self._step(model, mech, s, times, tt)
+
+    def _step(self, model, mech, s, times, tt):
+        n_sub, dt = s["substeps"], s["dt"]
+        bodies = [mech.body[b] for b in model.body_names]
+        Q = np.zeros((len(times), 3 * len(bodies)))
+        QD = np.zeros_like(Q)
+        before = np.zeros(Q.shape[1])
+
+        def read_q(X):
+            for k, b in enumerate(bodies):
+                p = b.position
+                X[3 * k: 3 * k + 3] = p.x, p.y, b.angle
+
+        def read_v(X):
+            for k, b in enumerate(bodies):
+                v = b.velocity
+                X[3 * k: 3 * k + 3] = v.x, v.y, b.angular_velocity
+
+        # Before step j: the pose that the step carries onto pose(t_{j+1}) with
+        # the velocity (pose(t_{j+2}) - pose(t_{j+1})) / dt.
+        kin = []
+        for b, *pose in mech.kinematic:
+            vel = [np.diff(a)[1:] / dt for a in pose]
+            start = [a[1:-1] - dt * v for a, v in zip(pose, vel)]
+            kin.append((b, list(zip(start[0], start[1])), start[2].tolist(),
+                        list(zip(vel[0], vel[1])), vel[2].tolist()))
+        targets = [(j, attr, v.tolist()) for j, attr, v in mech.targets]
+        closure = ~model.driving if model.n == Q.shape[1] else None   # no artificial coordinates
+        space, centered = mech.space, s["centered_velocity"]
+
+        def failed(why, steps, wall):
+            return EngineRun(self.name, f"failed: {why}", None, None, None, wall, steps, n_sub, s, self.version())
+
+        read_q(Q[0])
+        read_v(QD[0])
+        wall, step = 0.0, 0
+        for k in range(1, len(times)):
+            for sub in range(n_sub):
+                if centered and sub == n_sub - 1:
+                    read_v(before)               # the velocity over [t_k - dt, t_k]
+                start = time.perf_counter()
+                for b, p, a, v, w in kin:
+                    b.angle = a[step]
+                    b.position = p[step]
+                    b.velocity = v[step]
+                    b.angular_velocity = w[step]
+                for j, attr, v in targets:
+                    setattr(j, attr, v[step])
+                space.step(dt)
+                wall += time.perf_counter() - start
+                step += 1
+            read_q(Q[k])
+            read_v(QD[k])                        # the velocity over [t_k, t_k + dt]
+            if centered:
+                QD[k] = 0.5 * (QD[k] + before)
+            t = times[k]
+            if not (np.isfinite(Q[k]).all() and np.isfinite(QD[k]).all()
+                    and np.abs(Q[k] - Q[0]).max() < 1e6 * model.length):
+                return failed(f"the solution diverged at t = {t:.6g} (non-finite or beyond 1e6 L)", step, wall)
+            off = mech.off_groove()
+            if off:
+                return failed(f"at t = {t:.6g} '{off}' slid off its groove (half-length {GROOVE:g} L)", step, wall)
+            if closure is not None:
+                drift = model.scaled_residual(model.phi(Q[k], t))[closure].max(initial=0.0)
+                if drift > DRIFT:
+                    return failed(f"at t = {t:.6g} the joints drifted apart by {drift:.1e} L (limit {DRIFT:g}): "
+                                  f"the iterative solver lost the mechanism (more 'iterations' may help; "
+                                  f"now {s['iterations']})", step, wall)
+        return EngineRun(self.name, "ok", trajectory(model, times, Q, QD), Q, QD, wall, step, n_sub, s,
+                         self.version())
+
+
+ADAPTER = PymunkAdapter()
