@@ -7,7 +7,9 @@ Figures (docs/engines.md):
   same divided by the characteristic length L;
 - angle_error: max wrapped difference of body angles (rad);
 - velocity_error: max over bodies and points of |v_engine - v_native| (case
-  units per second); angular_velocity_error: max |omega difference| (rad/s);
+  units per second); velocity_error_rel: the same divided by the mechanism's
+  characteristic speed (the larger of L max|omega| and max|v| of native);
+  angular_velocity_error: max |omega difference| (rad/s);
 - constraint_residual: max scaled residual |Phi_k(q_engine, t)| / scale_k of
   the native kinematic (non-driving) constraints on the engine's trajectory,
   i.e. loop-closure drift relative to the mechanism size (docs/solver.md).
@@ -25,6 +27,7 @@ class Comparison:
     position_error_rel: float = float("nan")
     angle_error: float = float("nan")
     velocity_error: float = float("nan")
+    velocity_error_rel: float = float("nan")
     angular_velocity_error: float = float("nan")
     constraint_residual: float = float("nan")
     wall_time: float = float("nan")
@@ -37,6 +40,10 @@ class Comparison:
 
     def as_dict(self) -> dict:
         return asdict(self)
+
+
+FIGURES = ("position_error", "position_error_rel", "angle_error", "velocity_error", "velocity_error_rel",
+           "angular_velocity_error", "constraint_residual")
 
 
 def _xy(traj, names):
@@ -59,8 +66,12 @@ def errors(model, native, q, traj) -> dict:
     angle = np.abs((dphi + np.pi) % (2 * np.pi) - np.pi).max()
     out = {"position_error": float(pos), "position_error_rel": float(pos / model.length), "angle_error": float(angle)}
     if f"{bodies[0]}.vx" in traj and f"{bodies[0]}.vx" in ref:
-        out["velocity_error"] = float(np.abs(_vxy(traj, items)[:nt] - _vxy(ref, items)[:nt]).max())
-        dw = np.stack([traj[f"{b}.omega"][:nt] - ref[f"{b}.omega"][:nt] for b in bodies])
+        v_ref = _vxy(ref, items)[:nt]
+        out["velocity_error"] = float(np.abs(_vxy(traj, items)[:nt] - v_ref).max())
+        w_ref = np.stack([ref[f"{b}.omega"][:nt] for b in bodies])
+        speed = max(model.length * float(np.abs(w_ref).max()), float(np.abs(v_ref).max()), 1e-300)
+        out["velocity_error_rel"] = out["velocity_error"] / speed
+        dw = np.stack([traj[f"{b}.omega"][:nt] for b in bodies]) - w_ref
         out["angular_velocity_error"] = float(np.abs(dw).max())
     nd = ~model.driving
     res = 0.0
@@ -72,7 +83,10 @@ def errors(model, native, q, traj) -> dict:
 
 def compare(model, native, run, tolerance=None) -> Comparison:
     """An EngineRun against the native SolveResult. tolerance: dict of limits
-    on position_error_rel, angle_error, ... (None: no verdict)."""
+    on the figures (keys: FIGURES; None: no verdict)."""
+    unknown = set(tolerance or {}) - set(FIGURES)
+    if unknown:
+        raise ValueError(f"{run.engine}: tolerance on unknown figures {sorted(unknown)}; figures: {FIGURES}")
     base = dict(engine=run.engine, status=run.status, wall_time=run.wall_time, steps=run.steps,
                 settings=dict(run.settings), version=run.version, tolerance=dict(tolerance or {}))
     if run.status.startswith("unsupported"):
@@ -94,7 +108,7 @@ def native_row(model, native) -> Comparison:
     steps = len(native.iterations)
     status = "ok" if native.success else f"failed: {native.message}"
     return Comparison(engine="native", status=status, position_error=0.0, position_error_rel=0.0,
-                      angle_error=0.0, velocity_error=0.0, angular_velocity_error=0.0,
+                      angle_error=0.0, velocity_error=0.0, velocity_error_rel=0.0, angular_velocity_error=0.0,
                       constraint_residual=res, wall_time=native.wall_time, steps=steps,
                       time_per_step=native.wall_time / max(steps, 1), within_tolerance=native.success,
                       settings={"tolerance": model.case.tolerance, "max_iterations": model.case.max_iterations,

@@ -97,3 +97,113 @@ def n_four_bar(n: int, omega: float = 1.0, turns: float = 0.5, steps_per_turn: i
             "description": f"IFToMM N-four-bar, N = {n}: a chain of parallelograms driven through the horizontal position",
             "time": {"end": end, "steps": max(1, int(round(turns * steps_per_turn)))},
             "bodies": bodies, "constraints": cons}
+
+
+# -- mechanisms as case dicts (the tests, the stress suite and the benchmarks build them) -------
+
+def slider_crank_case(r, l, e=0.0, fn=None, phi0=0.5, end=2.0, steps=100, crank_origin=0.0, rod_origin=0.0,
+                      name="slider-crank", unit="m"):
+    """Offset slider-crank: crank r about the origin, rod l, slider on y = e
+    left of the crank pin. Body origins along the links at the fractions
+    crank_origin, rod_origin (from mid-link); fn: the crank's d(t) (default
+    constant speed 2 rad/s from phi0). Estimates are slightly off on purpose."""
+    fn = fn if fn is not None else {"poly": [phi0, 2.0]}
+    ref = slider_crank(np.array([phi0]), np.zeros(1), np.zeros(1), r, l, e)
+    psi, xA = ref["phi"][0], ref["x"][0]
+    cr, ro = crank_origin, rod_origin
+    c0 = cr * r * np.exp(1j * phi0)
+    r0 = xA + 1j * e + (0.5 + ro) * l * np.exp(1j * psi)
+    return {
+        "name": name, "units": {"length": unit}, "time": {"end": end, "steps": steps},
+        "bodies": {
+            "ground": {"q": [0.0, 0.0, 0.0]},
+            "crank": {"q": [c0.real, c0.imag + 0.01 * r, phi0]},
+            "rod": {"q": [r0.real + 0.02 * r, r0.imag, psi + 0.01]},
+            "slider": {"q": [xA - 0.01 * r, e, 0.0]},
+        },
+        "points": {"B": {"body": "crank", "at": [(1 - cr) * r, 0.0]}},
+        "constraints": [
+            {"type": "ground", "body": "ground"},
+            {"type": "revolute", "name": "O", "i": "ground", "si": [0.0, 0.0], "j": "crank", "sj": [-cr * r, 0.0]},
+            {"type": "revolute", "name": "B", "i": "crank", "si": [(1 - cr) * r, 0.0], "j": "rod", "sj": [(0.5 - ro) * l, 0.0]},
+            {"type": "revolute", "name": "A", "i": "rod", "si": [-(0.5 + ro) * l, 0.0], "j": "slider", "sj": [0.0, 0.0]},
+            {"type": "translational", "name": "T", "i": "ground", "si": [0.0, e], "qi": [r, e], "j": "slider", "sj": [0.0, 0.0]},
+            {"type": "driver", "name": "crank-drive", "body": "crank", "coord": "phi", "d": fn},
+        ],
+    }
+
+
+def four_bar_case(a, b, c, g, fn=None, phi0=0.5, sign=1.0, end=2.0, steps=100, name="four-bar", unit="m"):
+    """Four-bar: crank a about (0, 0), coupler b, rocker c about (g, 0); body
+    origins at link midpoints; assembly ``sign`` as in four_bar()."""
+    fn = fn if fn is not None else {"poly": [phi0, 2.0]}
+    ref = four_bar(np.array([phi0]), np.zeros(1), np.zeros(1), a, b, c, g, sign)
+    th3, th4 = ref["th3"][0], ref["th4"][0]
+    A = a * np.exp(1j * phi0)
+    cm = A + b / 2 * np.exp(1j * th3)
+    rm = g + c / 2 * np.exp(1j * th4)
+    return {
+        "name": name, "units": {"length": unit}, "time": {"end": end, "steps": steps},
+        "bodies": {
+            "ground": {"q": [0.0, 0.0, 0.0]},
+            "crank": {"q": [A.real / 2, A.imag / 2, phi0]},
+            "coupler": {"q": [cm.real, cm.imag, th3 + 0.02]},
+            "rocker": {"q": [rm.real, rm.imag, th4 - 0.02]},
+        },
+        "points": {"A": {"body": "crank", "at": [a / 2, 0.0]}, "B": {"body": "rocker", "at": [c / 2, 0.0]}},
+        "constraints": [
+            {"type": "ground", "body": "ground"},
+            {"type": "revolute", "name": "O2", "i": "ground", "si": [0.0, 0.0], "j": "crank", "sj": [-a / 2, 0.0]},
+            {"type": "revolute", "name": "A", "i": "crank", "si": [a / 2, 0.0], "j": "coupler", "sj": [-b / 2, 0.0]},
+            {"type": "revolute", "name": "B", "i": "coupler", "si": [b / 2, 0.0], "j": "rocker", "sj": [c / 2, 0.0]},
+            {"type": "revolute", "name": "O4", "i": "rocker", "si": [-c / 2, 0.0], "j": "ground", "sj": [g, 0.0]},
+            {"type": "driver", "name": "crank-drive", "body": "crank", "coord": "phi", "d": fn},
+        ],
+    }
+
+
+def quick_return(theta, oc, rc, rocker, link, height):
+    """Positions of the crank-shaper of Sec. 4.4.2 (model 3 geometry): crank
+    pivot O = (0, 0), rocker pivot C = (0, -oc), crank rc, rocker length
+    ``rocker`` through the crank pin A, link BD of length ``link`` to the tool
+    D on y = height, D right of B. Returns A, B, D (complex) and the angles."""
+    A = rc * np.exp(1j * theta)
+    C = -1j * oc
+    phr = np.angle(A - C)
+    B = C + rocker * np.exp(1j * phr)
+    D = B.real + np.sqrt(link**2 - (height - B.imag) ** 2) + 1j * height
+    return {"A": A, "B": B, "D": D, "rocker": phr, "link": np.angle(D - B)}
+
+
+def quick_return_case(oc, rc, rocker, link, height, fn=None, phi0=0.52, end=2.0, steps=100, name="quick-return",
+                      unit="mm"):
+    """Model 3 of Sec. 4.4.2 (ground, rocker, crank, tool; two revolutes, a
+    translational, a revolute-revolute BD, a revolute-translational A) for any
+    assemblable geometry; ground frame at O."""
+    fn = fn if fn is not None else {"poly": [phi0, 3.0]}
+    p = quick_return(np.array([phi0]), oc, rc, rocker, link, height)
+    phr = p["rocker"][0]
+    rmid = -1j * oc + rocker / 2 * np.exp(1j * phr)
+    D = p["D"][0]
+    return {
+        "name": name, "units": {"length": unit}, "time": {"end": end, "steps": steps},
+        "bodies": {
+            "ground": {"q": [0.0, 0.0, 0.0]},
+            "rocker": {"q": [rmid.real, rmid.imag, phr]},
+            "crank": {"q": [rc / 2 * np.cos(phi0), rc / 2 * np.sin(phi0), phi0]},
+            "tool": {"q": [D.real, height, 0.0]},
+        },
+        "points": {"A": {"body": "crank", "at": [rc / 2, 0.0]}, "B": {"body": "rocker", "at": [rocker / 2, 0.0]},
+                   "D": {"body": "tool", "at": [0.0, 0.0]}},
+        "constraints": [
+            {"type": "ground", "body": "ground"},
+            {"type": "revolute", "name": "O", "i": "ground", "si": [0.0, 0.0], "j": "crank", "sj": [-rc / 2, 0.0]},
+            {"type": "revolute", "name": "C", "i": "ground", "si": [0.0, -oc], "j": "rocker", "sj": [-rocker / 2, 0.0]},
+            {"type": "translational", "name": "T", "i": "ground", "si": [0.0, height], "qi": [rc, height],
+             "j": "tool", "sj": "D"},
+            {"type": "revolute-revolute", "name": "BD", "i": "rocker", "si": "B", "j": "tool", "sj": "D", "length": link},
+            {"type": "revolute-translational", "name": "A", "i": "crank", "si": "A", "j": "rocker",
+             "sj": [0.0, 0.0], "qj": [rocker / 4, 0.0]},
+            {"type": "driver", "name": "crank-drive", "body": "crank", "coord": "phi", "d": fn},
+        ],
+    }

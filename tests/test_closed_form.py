@@ -13,6 +13,7 @@ from hypothesis import assume, given, settings, strategies as st
 
 import kinem
 from closed_form import four_bar, rel_error, slider_crank
+from kinem.reference import four_bar_case, slider_crank_case
 
 CASES = Path(__file__).resolve().parents[1] / "cases"
 TOL = 1e-9
@@ -105,30 +106,10 @@ def test_random_offset_slider_cranks(data):
     r = d(st.floats(0.5, 2.0)) * scale
     e = d(st.floats(-0.4, 0.4)) * r
     l = r + abs(e) + d(st.floats(0.5, 3.0)) * r      # margin: the rod never becomes perpendicular to the line
-    cr, ro = d(st.floats(-0.5, 0.5)), d(st.floats(-0.5, 0.5))  # body origins along the links (fractions)
     phi0 = d(st.floats(-math.pi, math.pi))
     fn, (f0, f1, f2) = driver_function(d, d(drive_kind), phi0)
-    ref0 = slider_crank(np.array([phi0]), np.zeros(1), np.zeros(1), r, l, e)
-    psi, xA = ref0["phi"][0], ref0["x"][0]
-    crank_origin = cr * r * np.exp(1j * phi0)
-    rod_origin = xA + 1j * e + (0.5 + ro) * l * np.exp(1j * psi)
-    case = kinem.load_dict({
-        "name": "random-slider-crank", "time": {"end": 2.0, "steps": 100},
-        "bodies": {
-            "ground": {"q": [0.0, 0.0, 0.0]},
-            "crank": {"q": [crank_origin.real, crank_origin.imag + 0.01 * r, phi0]},
-            "rod": {"q": [rod_origin.real + 0.02 * r, rod_origin.imag, psi + 0.01]},
-            "slider": {"q": [xA - 0.01 * r, e, 0.0]},
-        },
-        "constraints": [
-            {"type": "ground", "body": "ground"},
-            {"type": "revolute", "i": "ground", "si": [0.0, 0.0], "j": "crank", "sj": [-cr * r, 0.0]},
-            {"type": "revolute", "i": "crank", "si": [(1 - cr) * r, 0.0], "j": "rod", "sj": [(0.5 - ro) * l, 0.0]},
-            {"type": "revolute", "i": "rod", "si": [-(0.5 + ro) * l, 0.0], "j": "slider", "sj": [0.0, 0.0]},
-            {"type": "translational", "i": "ground", "si": [0.0, e], "qi": [r, e], "j": "slider", "sj": [0.0, 0.0]},
-            {"type": "driver", "body": "crank", "coord": "phi", "d": fn},
-        ],
-    })
+    case = kinem.load_dict(slider_crank_case(r, l, e, fn, phi0, crank_origin=d(st.floats(-0.5, 0.5)),
+                                             rod_origin=d(st.floats(-0.5, 0.5))))
     res = kinem.solve(kinem.compile(case))
     assert res.success, res.message
     t = res.trajectory.t
@@ -149,27 +130,7 @@ def test_random_grashof_crank_rockers(data):
     sign = d(st.sampled_from([1.0, -1.0]))
     phi0 = d(st.floats(-math.pi, math.pi))
     fn, (f0, f1, f2) = driver_function(d, d(drive_kind), phi0)
-    ref = four_bar(np.array([phi0]), np.zeros(1), np.zeros(1), a, b, c, g, sign)
-    th3, th4 = ref["th3"][0], ref["th4"][0]
-    A = a * np.exp(1j * phi0)
-    case = kinem.load_dict({
-        "name": "random-four-bar", "time": {"end": 2.0, "steps": 100},
-        "bodies": {
-            "ground": {"q": [0.0, 0.0, 0.0]},
-            "crank": {"q": [A.real / 2, A.imag / 2, phi0]},
-            "coupler": {"q": [(A + b / 2 * np.exp(1j * th3)).real, (A + b / 2 * np.exp(1j * th3)).imag, th3 + 0.02]},
-            "rocker": {"q": [g + (c / 2 * np.exp(1j * th4)).real, (c / 2 * np.exp(1j * th4)).imag, th4 - 0.02]},
-        },
-        "constraints": [
-            {"type": "ground", "body": "ground"},
-            {"type": "revolute", "i": "ground", "si": [0.0, 0.0], "j": "crank", "sj": [-a / 2, 0.0]},
-            {"type": "revolute", "i": "crank", "si": [a / 2, 0.0], "j": "coupler", "sj": [-b / 2, 0.0]},
-            {"type": "revolute", "i": "coupler", "si": [b / 2, 0.0], "j": "rocker", "sj": [c / 2, 0.0]},
-            {"type": "revolute", "i": "rocker", "si": [-c / 2, 0.0], "j": "ground", "sj": [g, 0.0]},
-            {"type": "driver", "body": "crank", "coord": "phi", "d": fn},
-        ],
-    })
-    res = kinem.solve(kinem.compile(case))
+    res = kinem.solve(kinem.compile(kinem.load_dict(four_bar_case(a, b, c, g, fn, phi0, sign))))
     assert res.success, res.message
     t = res.trajectory.t
     check_four_bar(res.trajectory, f0(t), f1(t), f2(t), a, b, c, g, sign)
