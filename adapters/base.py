@@ -83,9 +83,13 @@ class Drive:
     point: tuple | None
     relative_to: str | None
     f: object                      # kinem.functions spec
+    _set: FunctionSet = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "_set", FunctionSet([self.f]))  # built once: splines are not cheap
 
     def __call__(self, t: float, order: int = 0) -> float:
-        return float(FunctionSet([self.f])(t, order)[0])
+        return float(self._set(t, order)[0])
 
 
 def drives(model) -> list:
