@@ -1,0 +1,605 @@
+"""Exudyn adapter: planar rigid bodies with exact algebraic constraints,
+integrated by Exudyn's implicit generalized-alpha solver (index 3).
+
+Every moving body is a NodeRigidBody2D + ObjectRigidBody2D whose reference
+coordinates are zero, so that node coordinates (which Exudyn counts from the
+reference) are the absolute x, y, phi of the case's body frame; bodies fixed
+by 'ground' are ObjectGround frames at their pose. Each chapter constraint
+becomes one Exudyn constraint (see ``supports``). Positions come out of the
+index-3 Newton solve, so they satisfy the constraints at every step whatever
+the step size; velocities follow from the Newmark-type update and carry an
+O(dt^2) error.
+
+Why generalized-alpha and not a SolveStatic kinematic sweep (engines.md): the
+sweep gives positions only (no velocities to compare), and index-3
+generalized-alpha already gives positions at round-off (1e-15 of the
+mechanism size). 'trapezoidal-index2' (velocity-level constraints) is offered
+for comparison: its velocities satisfy the constraints, its positions drift
+(~1e-9 of L on the cases at dt = 1e-4).
+"""
+import bisect
+import math
+import time
+
+import numpy as np
+
+import exudyn as exu
+from exudyn import itemInterface as ei
+from exudyn.advancedUtilities import CreateSymbolicUserFunction
+from scipy.interpolate import CubicSpline
+
+from kinem.functions import Harmonic, Poly, Table
+from kinem.result import trajectory
+
+from .base import Adapter, EngineRun, drives, grounded, mass_properties
+
+# Limits on the figures of adapters/compare.py at the default settings.
+# Positions: the index-3 Newton solve holds every constraint at each step, so
+# the engine is at round-off (<= 1.3e-14 of L against a native converged to
+# 1e-14); against native at its default tolerance (scaled residual 1e-10) the
+# figures are native's own error, measured up to 4.1e-11 of L and 1.3e-10 rad
+# (quick_return_1): the limits are 10x the native tolerance.
+# Velocities: the O(dt^2) generalized-alpha error at dt = 1e-4, measured up to
+# 1.2e-8 of the speed scale and 6.2e-8 rad/s (quick_return_1, 3 rad/s) over
+# the tests' cases: the limits are about 8x that.
+TOLERANCE = {
+    "position_error_rel": 1e-9,      # |r_engine - r_native| / L
+    "angle_error": 1e-9,             # rad
+    "constraint_residual": 1e-9,     # native scaled residual of the engine's positions (t = 0 is native's q0)
+    "velocity_error_rel": 1e-7,      # |v_engine - v_native| / speed scale
+    "angular_velocity_error": 5e-7,  # rad/s
+}
+
+INTEGRATORS = {"generalized-alpha": "GeneralizedAlpha", "trapezoidal-index2": "TrapezoidalIndex2"}
+NEWTON_TESTS = {"residual": 0, "increment": 1}  # Exudyn's newton.residualMode
+SOLVERS = ("auto", "EXUdense", "EigenDense")
+
+# Sketch of the representation of each case-file type.
+SUPPORTS = {
+    "ground": "ObjectGround at the body's pose (the body has no node)",
+    "absolute": "CoordinateConstraint to a ground coordinate; for a point: "
+                "ObjectJointPrismatic2D(constrainRotation=False) on a fixed line x = c or y = c",
+    "revolute": "ObjectJointRevolute2D between two MarkerBodyPosition",
+    "translational": "ObjectJointPrismatic2D(constrainRotation=True), the line's body as marker 1",
+    "revolute-revolute": "ObjectConnectorDistance",
+    "revolute-translational": "ObjectJointPrismatic2D(constrainRotation=False), the slotted body as marker 1",
+    "driver": "CoordinateConstraint with (symbolic) offsetUserFunction d(t) and offsetUserFunction_t d'(t) "
+              "on x, y or phi (relative_to: between the two phi coordinates); point form: a helper body whose "
+              "x (y) follows d(t), with the point held on its line x = d(t) (y = d(t)) by ObjectJointPrismatic2D",
+    "distance-driver": "ObjectConnectorCoordinateVector with constraint and Jacobian user functions "
+                       "|P_j - P_i|^2 - d(t)^2",
+    "gear": "CoordinateConstraint between the two phi coordinates with factor1 (fixed axes); with a moving "
+            "carrier, a linear ObjectConnectorCoordinateVector (scaling matrix, no user function) on the "
+            "three angles",
+    "rack-pinion": "ObjectConnectorCoordinateVector with constraint and Jacobian user functions "
+                   "u.(C - P) + rho (phi_i - phi_j) - const",
+}
+REASONS = {
+    t: "needs the artificial outline coordinate theta as an extra node and a user constraint along the "
+       "spline outline; not implemented in this adapter (Exudyn has no built-in cam joint)"
+    for t in ("cam-point", "cam-roller", "cam-flat", "point-follower")
+}
+
+
+class _Function:
+    """d(t), d'(t), d''(t) of a kinem function for Exudyn's user functions:
+    Python numbers (``value``) or, built from the same expressions, Exudyn
+    symbolic user functions that run in C++ (``symbolic``). Same values as
+    kinem.functions: the table is the same not-a-knot CubicSpline."""
+
+    def __init__(self, f):
+        self.f = f
+        if isinstance(f, Poly):
+            c = [float(v) for v in f.coeffs]
+            self.c = [c]
+            for _ in range(2):
+                c = [k * v for k, v in enumerate(c)][1:] or [0.0]
+                self.c.append(c)
+        elif isinstance(f, Table):
+            s = CubicSpline(np.asarray(f.t, float), np.asarray(f.value, float))
+            self.x, self.c = s.x.tolist(), s.c.T.tolist()  # per interval: c3 .. c0 of (t - x_k)^3 .. ^0
+        elif not isinstance(f, Harmonic):
+            raise TypeError(f"unknown function kind {f!r}")
+
+    def expr(self, t, order, symbolic=False):
+        f = self.f
+        if isinstance(f, Poly):
+            v = 0.0
+            for a in reversed(self.c[order]):
+                v = v * t + a
+            return v
+        if isinstance(f, Harmonic):
+            sin, cos = (exu.symbolic.sin, exu.symbolic.cos) if symbolic else (math.sin, math.cos)
+            arg = f.omega * t + f.phase
+            if order == 0:
+                return f.offset + f.amplitude * sin(arg)
+            if order == 1:
+                return f.amplitude * f.omega * cos(arg)
+            return -f.amplitude * f.omega ** 2 * sin(arg)
+        n = len(self.x)
+        if not symbolic:
+            return self._piece(min(max(bisect.bisect_right(self.x, t) - 1, 0), n - 2), t, order)
+        v = self._piece(n - 2, t, order)
+        for k in range(n - 3, -1, -1):
+            v = exu.symbolic.IfThenElse(t < self.x[k + 1], self._piece(k, t, order), v)
+        return v
+
+    def _piece(self, k, t, order):
+        a, b, c, d = self.c[k]
+        h = t - self.x[k]
+        if order == 0:
+            return ((a * h + b) * h + c) * h + d
+        if order == 1:
+            return (3 * a * h + 2 * b) * h + c
+        return 6 * a * h + 2 * b
+
+    def value(self, t, order=0):
+        return self.expr(t, order)
+
+    def symbolic(self, mbs, offset=0.0):
+        """(offset + d(t), d'(t)) as symbolic offset user functions of a
+        CoordinateConstraint (their argument names are Exudyn's)."""
+        def d(mbs, t, itemNumber, lOffset):
+            return offset + self.expr(t, 0, True)
+
+        def d_t(mbs, t, itemNumber, lOffset):
+            return self.expr(t, 1, True)
+        return tuple(CreateSymbolicUserFunction(mbs, g, name, itemTypeName="ObjectConnectorCoordinate")
+                     for g, name in ((d, "offsetUserFunction"), (d_t, "offsetUserFunction_t")))
+
+
+def _rot(phi):
+    c, s = math.cos(phi), math.sin(phi)
+    return [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+
+
+def _unit(v):
+    v = np.asarray(v, float)
+    return v / np.hypot(*v)
+
+
+def _perp(u):
+    return [-float(u[1]), float(u[0]), 0.0]
+
+
+class _Build:
+    """One mechanism in one Exudyn MainSystem."""
+
+    def __init__(self, model, q0, qd0, symbolic):
+        self.model, self.q0, self.qd0 = model, np.asarray(q0, float), np.asarray(qd0, float)
+        self.symbolic = symbolic
+        self.keep = []  # symbolic user functions must outlive the solve
+        self.sc = exu.SystemContainer()
+        self.mbs = self.sc.AddSystem()
+        self.col = {b: 3 * k for k, b in enumerate(model.body_names)}
+        self.fixed = grounded(model)
+        self.node, self.body = {}, {}
+        mass, inertia = mass_properties(model)
+        mbs = self.mbs
+        for k, b in enumerate(model.body_names):
+            x, y, phi = self.q0[3 * k: 3 * k + 3]
+            if b in self.fixed:
+                self.body[b] = mbs.AddObject(ei.ObjectGround(referencePosition=[x, y, 0.0],
+                                                             referenceRotation=_rot(phi)))
+            else:
+                self.node[b] = mbs.AddNode(ei.NodeRigidBody2D(
+                    referenceCoordinates=[0.0, 0.0, 0.0], initialCoordinates=[x, y, phi],
+                    initialVelocities=self.qd0[3 * k: 3 * k + 3].tolist()))
+                self.body[b] = mbs.AddObject(ei.ObjectRigidBody2D(mass=mass[k], inertia=inertia[k],
+                                                                  nodeNumber=self.node[b]))
+        self.mass = dict(zip(model.body_names, zip(mass, inertia)))
+        self.ground_node = mbs.AddNode(ei.NodePointGround())
+        self.zero = mbs.AddMarker(ei.MarkerNodeCoordinate(nodeNumber=self.ground_node, coordinate=0))
+        self.world = None
+
+    # -- markers ------------------------------------------------------------
+    def position(self, b, s):
+        return self.mbs.AddMarker(ei.MarkerBodyPosition(bodyNumber=self.body[b], localPosition=[s[0], s[1], 0.0]))
+
+    def rigid(self, b, s):
+        return self.mbs.AddMarker(ei.MarkerBodyRigid(bodyNumber=self.body[b], localPosition=[s[0], s[1], 0.0]))
+
+    def coordinate(self, b, k):
+        """Marker on coordinate k (0 x, 1 y, 2 phi) of body b and its value
+        at t = 0 as the marker reads it (a fixed body reads the ground's 0)."""
+        if b in self.fixed:
+            return self.zero, 0.0
+        marker = self.mbs.AddMarker(ei.MarkerNodeCoordinate(nodeNumber=self.node[b], coordinate=k))
+        return marker, self.q0[self.col[b] + k]
+
+    def world_rigid(self, s):
+        if self.world is None:
+            self.world = self.mbs.AddObject(ei.ObjectGround())
+        return self.mbs.AddMarker(ei.MarkerBodyRigid(bodyNumber=self.world, localPosition=[s[0], s[1], 0.0]))
+
+    # -- constraints --------------------------------------------------------
+    def coupling(self, a, b, factor=1.0, offset=0.0, f=None):
+        """factor * q_b - q_a = offset (+ d(t)): Exudyn's CoordinateConstraint
+        (it acts on the coordinates without reference values: here absolute)."""
+        if f is None:
+            return self.mbs.AddObject(ei.CoordinateConstraint(markerNumbers=[a, b], factor1=factor, offset=offset))
+        if self.symbolic:
+            d, d_t = f.symbolic(self.mbs, offset)
+            self.keep += [d, d_t]
+        else:
+            def d(mbs, t, item, l):
+                return offset + f.value(t)
+
+            def d_t(mbs, t, item, l):
+                return f.value(t, 1)
+        return self.mbs.AddObject(ei.CoordinateConstraint(markerNumbers=[a, b], factor1=factor,
+                                                          offsetUserFunction=d, offsetUserFunction_t=d_t))
+
+    def prismatic(self, m0, m1, axis0, normal1, rotation):
+        self.mbs.AddObject(ei.ObjectJointPrismatic2D(markerNumbers=[m0, m1], axisMarker0=list(axis0),
+                                                     normalMarker1=list(normal1), constrainRotation=rotation))
+
+    def _span(self, bodies):
+        """Markers [dummy ground, all node coordinates of the moving bodies]
+        (a massless ObjectGenericODE2 spans their nodes), the places of those
+        coordinates in z = (x, y, phi of each body in order), and z at t = 0."""
+        moving = [b for b in bodies if b not in self.fixed]
+        z0 = [float(v) for b in bodies for v in self.q0[self.col[b]: self.col[b] + 3]]
+        slots = [3 * k + j for k, b in enumerate(bodies) if b not in self.fixed for j in range(3)]
+        span = self.mbs.AddObject(ei.ObjectGenericODE2(nodeNumbers=[self.node[b] for b in moving],
+                                                       massMatrix=exu.MatrixContainer(np.zeros((len(slots),) * 2))))
+        markers = [self.mbs.AddMarker(ei.MarkerNodeCoordinates(nodeNumber=self.ground_node)),
+                   self.mbs.AddMarker(ei.MarkerObjectODE2Coordinates(objectNumber=span))]
+        return markers, slots, z0
+
+    def linear(self, bodies, row):
+        """row . z = its value at t = 0: a built-in linear ObjectConnectorCoordinateVector
+        (X q = offset); fixed bodies' terms go into the offset."""
+        markers, slots, z0 = self._span(bodies)
+        fixed = sum(r * v for k, (r, v) in enumerate(zip(row, z0)) if k not in slots)
+        self.mbs.AddObject(ei.ObjectConnectorCoordinateVector(
+            markerNumbers=markers, scalingMarker0=np.zeros((1, 0)), scalingMarker1=[[row[k] for k in slots]],
+            offset=[sum(r * v for r, v in zip(row, z0)) - fixed]))
+
+    def user(self, bodies, phi, grad, phi_t=None):
+        """A scalar user constraint phi(z, t) = 0 with gradient grad(z, t)
+        (a list over z); fixed bodies enter z with their constant pose. The
+        user functions run at every Newton iteration: plain Python floats."""
+        markers, slots, z0 = self._span(bodies)
+        whole = len(slots) == len(z0)
+
+        def full(q):
+            q = q.tolist() if hasattr(q, "tolist") else list(q)
+            if whole:
+                return q
+            z = list(z0)
+            for k, v in zip(slots, q):
+                z[k] = v
+            return z
+
+        def constraint(mbs, t, item, q, q_t, velocity_level):
+            z = full(q)
+            if velocity_level:  # index 2: dphi/dt = grad . q_t + phi_t
+                g = grad(z, t)
+                v = sum(g[k] * w for k, w in zip(slots, full(q_t) if whole else list(q_t)))
+                return [v + (phi_t(t) if phi_t is not None else 0.0)]
+            return [phi(z, t)]
+
+        def jacobian(mbs, t, item, q, q_t, velocity_level):
+            g = grad(full(q), t)
+            return [[g[k] for k in slots]]
+
+        self.mbs.AddObject(ei.ObjectConnectorCoordinateVector(
+            markerNumbers=markers, scalingMarker0=np.zeros((1, len(slots))),
+            constraintUserFunction=constraint, jacobianUserFunction=jacobian))
+
+
+def _frame(z, k):
+    """Origin (complex) and e^{i phi} of the k-th body in a coordinate vector."""
+    return complex(z[3 * k], z[3 * k + 1]), complex(math.cos(z[3 * k + 2]), math.sin(z[3 * k + 2]))
+
+
+def _dot(a, b):
+    return a.real * b.real + a.imag * b.imag
+
+
+class ExudynAdapter(Adapter):
+    name = "exudyn"
+    supports = SUPPORTS
+    reasons = REASONS
+
+    def version(self) -> str:
+        return exu.config.Version()
+
+    def defaults(self) -> dict:
+        return {
+            # Largest step (s). Positions do not depend on it (index 3); the
+            # velocity error is O(dt^2): <= 1.2e-8 of the speed scale at 1e-4
+            # on the five cases, ~1e-6 at 1e-3 (plus a start-up transient
+            # there); a step costs ~10-40 us.
+            "dt": 1e-4,
+            # Steps per output interval; None: the fewest keeping step <= dt.
+            "substeps": None,
+            # Index-3 generalized-alpha: constraints held at position level.
+            "integrator": "generalized-alpha",
+            # Exudyn's default and the best of 0 .. 1 tried: 1.0 (no damping)
+            # never damps the start-up error of Exudyn's initial accelerations
+            # (they ignore d''(0)): velocity error x13 on quick_return_1;
+            # 0.95 x3-8 on four_bar; 0.5 x1.3; 0 x4. Index 3 needs < 1.
+            "spectral_radius": 0.9,
+            # Newton's convergence test on the increment of the coordinates
+            # (Exudyn's residualMode 1, which its docs suggest for kinematic
+            # problems), not on the residual: the residual norm mixes inertia
+            # and constraint forces and stalls at their round-off (~1e-10 in
+            # the mm cases at dt = 1e-4), so quick_return_1 failed at t = 0.855
+            # with Exudyn's default test and tolerances. Newton converges
+            # quadratically: once an increment is below 1e-10 (length units;
+            # a relative 1e-10 of the first increment also counts, Exudyn
+            # wants both equal in this mode) the coordinates are at round-off.
+            # Checked on the cases scaled to L = 0.55 .. 6.6e4 length units.
+            "newton_test": "increment",
+            "newton_relative_tolerance": 1e-10,
+            "newton_absolute_tolerance": 1e-10,
+            "newton_max_iterations": 25,
+            # Full Newton (a fresh Jacobian each iteration): quadratic, so the
+            # increment test leaves round-off. Modified Newton converges
+            # linearly and stops up to ~1e-10 units short: four_bar 1e-11 of L
+            # and velocities x300 worse, for ~30% less time (noisy timings).
+            "modified_newton": False,
+            # Driver functions as Exudyn symbolic user functions, evaluated in
+            # C++. A Python offset function is called ~8 times per step: the
+            # slider-crank took 34 us/step with it, 10 with a constant offset;
+            # symbolic ones cost about half the Python ones. Same expressions
+            # either way; False: Python user functions.
+            "symbolic_drivers": True,
+            # Dense LU (tens of coordinates). "EigenDense" runs with
+            # ignoreSingularJacobian: it also solves consistent redundant
+            # constraints (cases/stress/double_slider, parallelogram_redundant)
+            # and passes the change point of cases/stress/change_point, where
+            # "EXUdense" stops with a singular Jacobian, but costs ~1.5x per
+            # step. "auto": EigenDense when the model has more equations than
+            # coordinates (redundant constraints), else EXUdense.
+            "linear_solver": "auto",
+            # Fixed steps, so that every output instant is a step end and a
+            # step failure is reported rather than hidden by step reduction.
+            "adaptive_step": False,
+        }
+
+    def unsupported(self, model) -> str | None:
+        why = super().unsupported(model)
+        if why:
+            return why
+        fixed = grounded(model)
+        for d in drives(model):
+            if d.body in fixed:
+                return f"unsupported: driver ('{d.name}') on body '{d.body}', which a 'ground' constraint fixes"
+        for c in model.case.constraints:
+            if c.type == "absolute" and c["body"] in fixed:
+                return f"unsupported: absolute ('{c.name}') on body '{c['body']}', which a 'ground' constraint fixes"
+        return None
+
+    def settings(self, overrides=None) -> dict:
+        s = super().settings(overrides)
+        choices = (("integrator", INTEGRATORS), ("newton_test", NEWTON_TESTS), ("linear_solver", SOLVERS))
+        for key, allowed in choices:
+            if s[key] not in allowed:
+                from kinem.errors import InputError
+
+                raise InputError(f"exudyn setting '{key}': '{s[key]}'; expected one of {', '.join(allowed)}")
+        return s
+
+    # -- run -------------------------------------------------------------------
+    def run(self, model, q0, qd0, settings=None) -> EngineRun:
+        s = self.settings(settings)
+        times = np.asarray(model.times, float)
+        interval = times[1] - times[0] if len(times) > 1 else model.case.end
+        sub = int(s["substeps"]) if s["substeps"] else max(1, math.ceil(interval / s["dt"] * (1 - 1e-12)))
+        base = dict(engine=self.name, wall_time=0.0, steps=0, substeps=sub, settings=s, version=self.version())
+        why = self.unsupported(model)
+        if why:
+            return EngineRun(status=why, trajectory=None, q=None, qd=None, **base)
+        saved = exu.config.printToConsole
+        exu.config.printToConsole = False   # the solver prints its failure reports
+        try:
+            b = _Build(model, q0, qd0, bool(s["symbolic_drivers"]))
+            self._constraints(b, model)
+            sensors = {name: [b.mbs.AddSensor(ei.SensorNode(nodeNumber=n, storeInternal=True, writeToFile=False,
+                                                            outputVariableType=v))
+                              for v in (exu.OutputVariableType.Coordinates, exu.OutputVariableType.Coordinates_t)]
+                       for name, n in b.node.items()}
+            b.mbs.Assemble()
+            ss = self._simulation(s, times, sub, interval, model.m > model.n)
+            start = time.perf_counter()
+            try:
+                ok = b.mbs.SolveDynamic(ss, solverType=getattr(exu.DynamicSolverType, INTEGRATORS[s["integrator"]]))
+                error = ""
+            except Exception as e:  # the solver raises on failure
+                ok, error = False, f"{type(e).__name__}: {e}"
+            wall = time.perf_counter() - start
+            solver = b.mbs.sys.get("dynamicSolver")
+            steps = max(int(solver.it.currentStepIndex) - 1, 0) if solver is not None else 0
+            if not ok:
+                detail = solver.GetErrorString().strip() if solver is not None else ""
+                msg = f"failed: Exudyn solver stopped at t = {solver.it.currentTime:.6g}" if solver else "failed"
+                return EngineRun(status=f"{msg}: {detail or error or 'no convergence'}", trajectory=None, q=None,
+                                 qd=None, **dict(base, wall_time=wall, steps=steps))
+            return self._collect(model, b, sensors, times, base, wall, steps)
+        except Exception as e:
+            return EngineRun(status=f"failed: {type(e).__name__}: {e}", trajectory=None, q=None, qd=None, **base)
+        finally:
+            exu.config.printToConsole = saved
+
+    def _simulation(self, s, times, sub, interval, redundant):
+        solver = s["linear_solver"] if s["linear_solver"] != "auto" else ("EigenDense" if redundant else "EXUdense")
+        ss = exu.SimulationSettings()
+        ti = ss.timeIntegration
+        ti.startTime = 0.0
+        ti.endTime = float(times[-1])
+        ti.numberOfSteps = sub * (len(times) - 1)
+        ti.verboseMode = 0
+        ti.adaptiveStep = bool(s["adaptive_step"])
+        ti.generalizedAlpha.spectralRadius = float(s["spectral_radius"])
+        ti.newton.relativeTolerance = float(s["newton_relative_tolerance"])
+        ti.newton.absoluteTolerance = float(s["newton_absolute_tolerance"])
+        ti.newton.maxIterations = int(s["newton_max_iterations"])
+        ti.newton.useModifiedNewton = bool(s["modified_newton"])
+        ti.newton.residualMode = NEWTON_TESTS[s["newton_test"]]
+        ss.solution.file.write = False
+        ss.solution.sensors.writePeriod = float(interval)
+        ss.linearSolver.solverType = getattr(exu.LinearSolverType, solver)
+        ss.linearSolver.ignoreSingularJacobian = solver == "EigenDense"
+        return ss
+
+    def _collect(self, model, b, sensors, times, base, wall, steps):
+        nt = len(times)
+        Q = np.zeros((nt, model.n))
+        QD = np.zeros((nt, model.n))
+        Q[:, : len(b.q0)] = b.q0  # fixed bodies stay at their pose, at rest
+        for name, (sq, sv) in sensors.items():
+            k = b.col[name]
+            pos, vel = b.mbs.GetSensorStoredData(sq), b.mbs.GetSensorStoredData(sv)
+            if pos.shape[0] != nt or np.abs(pos[:, 0] - times).max() > 1e-9 * max(times[-1], 1.0):
+                why = f"failed: sensors sampled {pos.shape[0]} instants, not the {nt} output instants"
+                return EngineRun(status=why, trajectory=None, q=None, qd=None,
+                                 **dict(base, wall_time=wall, steps=steps))
+            Q[:, k: k + 3] = pos[:, 1:4]
+            QD[:, k: k + 3] = vel[:, 1:4]
+        if not (np.isfinite(Q).all() and np.isfinite(QD).all()):
+            return EngineRun(status="failed: non-finite coordinates", trajectory=None, q=None, qd=None,
+                             **dict(base, wall_time=wall, steps=steps))
+        return EngineRun(status="ok", trajectory=trajectory(model, times, Q, QD), q=Q, qd=QD,
+                         **dict(base, wall_time=wall, steps=steps))
+
+    # -- constraints -------------------------------------------------------------
+    def _constraints(self, b, model):
+        for c in model.case.constraints:
+            getattr(self, "_" + c.type.replace("-", "_"))(b, c)
+
+    def _ground(self, b, c):
+        pass  # the body is an ObjectGround (see _Build)
+
+    def _absolute(self, b, c):
+        k = {"x": 0, "y": 1, "phi": 2}[c["coord"]]
+        if c.get("point") is None:
+            m, _ = b.coordinate(c["body"], k)
+            b.coupling(b.zero, m, offset=c["value"])
+            return
+        # the point stays on the fixed line x = value (or y = value)
+        at = [c["value"], 0.0] if k == 0 else [0.0, c["value"]]
+        normal = [1.0, 0.0, 0.0] if k == 0 else [0.0, 1.0, 0.0]
+        b.prismatic(b.rigid(c["body"], c["point"]), b.world_rigid(at), _perp(normal), normal, False)
+
+    def _revolute(self, b, c):
+        b.mbs.AddObject(ei.ObjectJointRevolute2D(markerNumbers=[b.position(c["i"], c["si"]),
+                                                                b.position(c["j"], c["sj"])]))
+
+    def _revolute_revolute(self, b, c):
+        b.mbs.AddObject(ei.ObjectConnectorDistance(markerNumbers=[b.position(c["i"], c["si"]),
+                                                                  b.position(c["j"], c["sj"])],
+                                                   distance=float(c["length"])))
+
+    def _translational(self, b, c):
+        # Line P_i Q_i on body i (marker 1: Exudyn's normal lives there); the
+        # axis seen from body j is the line direction turned by phi0 = phi_i - phi_j.
+        u = _unit(np.subtract(c["qi"], c["si"]))
+        a = c["phi0"]
+        uj = [math.cos(a) * u[0] - math.sin(a) * u[1], math.sin(a) * u[0] + math.cos(a) * u[1], 0.0]
+        b.prismatic(b.rigid(c["j"], c["sj"]), b.rigid(c["i"], c["si"]), uj, _perp(u), True)
+
+    def _revolute_translational(self, b, c):
+        u = _unit(np.subtract(c["qj"], c["sj"]))
+        b.prismatic(b.rigid(c["i"], c["si"]), b.rigid(c["j"], c["sj"]), [u[0], u[1], 0.0], _perp(u), False)
+
+    def _driver(self, b, c):
+        f = _Function(c["d"])
+        k = {"x": 0, "y": 1, "phi": 2}[c["coord"]]
+        body, rel = c["body"], c.get("relative_to")
+        if rel is not None:  # phi_body - phi_rel = d(t); a fixed rel's marker reads 0, not its angle
+            mr, vr = b.coordinate(rel, 2)
+            m, _ = b.coordinate(body, 2)
+            b.coupling(mr, m, offset=b.q0[b.col[rel] + 2] - vr, f=f)
+            return
+        if c.get("point") is None:
+            m, _ = b.coordinate(body, k)
+            b.coupling(b.zero, m, f=f)
+            return
+        # Point form: a helper body H whose x (y) follows d(t), y (x) and phi
+        # held at 0; the point stays on H's line x = x_H (y = y_H).
+        init = [0.0, 0.0, 0.0]
+        vel = [0.0, 0.0, 0.0]
+        init[k], vel[k] = f.value(0.0), f.value(0.0, 1)
+        mass, inertia = b.mass[body]
+        n = b.mbs.AddNode(ei.NodeRigidBody2D(referenceCoordinates=[0.0, 0.0, 0.0], initialCoordinates=init,
+                                             initialVelocities=vel))
+        h = b.mbs.AddObject(ei.ObjectRigidBody2D(mass=mass, inertia=inertia, nodeNumber=n))
+        for j in range(3):
+            mj = b.mbs.AddMarker(ei.MarkerNodeCoordinate(nodeNumber=n, coordinate=j))
+            b.coupling(b.zero, mj, f=f if j == k else None)
+        normal = [1.0, 0.0, 0.0] if k == 0 else [0.0, 1.0, 0.0]
+        mh = b.mbs.AddMarker(ei.MarkerBodyRigid(bodyNumber=h, localPosition=[0.0, 0.0, 0.0]))
+        b.prismatic(b.rigid(body, c["point"]), mh, _perp(normal), normal, False)
+
+    def _distance_driver(self, b, c):
+        f = _Function(c["d"])
+        si, sj = complex(*c["si"]), complex(*c["sj"])
+
+        def parts(z):
+            ri, ei_ = _frame(z, 0)
+            rj, ej = _frame(z, 1)
+            a, bb = si * ei_, sj * ej
+            return rj + bb - ri - a, a, bb
+
+        def phi(z, t):
+            d, _, _ = parts(z)
+            return _dot(d, d) - f.value(t) ** 2
+
+        def grad(z, t):
+            d, a, bb = parts(z)
+            # d(d.d)/dz = 2 d . dd/dz; dd/dphi_i = -i a, dd/dphi_j = i bb
+            return [-2 * d.real, -2 * d.imag, -2 * _dot(d, 1j * a), 2 * d.real, 2 * d.imag, 2 * _dot(d, 1j * bb)]
+
+        b.user([c["i"], c["j"]], phi, grad, phi_t=lambda t: -2 * f.value(t) * f.value(t, 1))
+
+    def _gear(self, b, c):
+        # rho_i (phi_i - phi_k) + sigma rho_j (phi_j - phi_k) = const (Eqs.
+        # 4.17, 4.18), sigma = -1 for an internal gear; const from the start.
+        ri, rj = float(c["ri"]), float(c["rj"]) * (-1.0 if c.get("internal") else 1.0)
+        k = c.get("carrier")
+        if k is None or k in b.fixed:
+            mi, vi = b.coordinate(c["i"], 2)
+            mj, vj = b.coordinate(c["j"], 2)
+            if c["i"] in b.fixed:  # phi_j alone then: rho_j phi_j = const
+                b.coupling(mi, mj, offset=vj - vi)
+                return
+            factor = -rj / ri   # phi_i = factor phi_j - offset
+            b.coupling(mi, mj, factor=factor, offset=factor * vj - vi)
+            return
+        b.linear([c["i"], c["j"], k], [0.0, 0.0, ri, 0.0, 0.0, rj, 0.0, 0.0, -(ri + rj)])
+
+    def _rack_pinion(self, b, c):
+        # In the rack's frame the pinion centre's coordinate along the pitch
+        # line changes by -rho per radian of relative rotation (the pinion on
+        # the side of u turned +90 degrees, as kinem's Eqs. 4.19, 4.20):
+        # u.(C - P) + rho (phi_i - phi_j) = const, const from the start.
+        cc = complex(*c.get("center", (0.0, 0.0)))
+        sp = complex(*c["sj"])
+        u0 = complex(*_unit(c.get("u", (1.0, 0.0))))
+        rho = float(c["radius"])
+
+        def parts(z):
+            ri, ei_ = _frame(z, 0)
+            rj, ej = _frame(z, 1)
+            a, bb = cc * ei_, sp * ej
+            return u0 * ej, ri + a - rj - bb, a, bb
+
+        def value(z):
+            u, d, _, _ = parts(z)
+            return _dot(u, d) + rho * (z[2] - z[5])
+
+        bodies = [c["pinion"], c["rack"]]
+        const = value([float(v) for x in bodies for v in b.q0[b.col[x]: b.col[x] + 3]])
+
+        def grad(z, t):
+            u, d, a, bb = parts(z)
+            # du/dphi_j = i u; dd/dphi_i = i a; dd/dphi_j = -i bb
+            return [u.real, u.imag, _dot(u, 1j * a) + rho, -u.real, -u.imag, _dot(1j * u, d) - _dot(u, 1j * bb) - rho]
+
+        b.user(bodies, lambda z, t: value(z) - const, grad)
+
+
+ADAPTER = ExudynAdapter()
