@@ -94,6 +94,7 @@ class OutlineSet:
         self.t0, self.span, self.offset = np.array(t0), np.array(span), np.array(offset)
         self.periodic = np.array([o.periodic for o in outlines])
         self.center = np.array([complex(*o.center) for o in outlines])
+        self.size = np.array([np.max(np.abs(c[3])) for c in coefs])  # the largest tabulated s
 
     def radius(self, theta):
         """s and its first three derivatives with respect to theta."""

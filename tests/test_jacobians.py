@@ -35,6 +35,53 @@ def distinct_points(draw):
     return a, b
 
 
+direction = point.filter(lambda p: np.hypot(*p) > 0.1)
+
+
+@st.composite
+def outline(draw):
+    """A circle, a periodic spline (radians or degrees) or an open spline.
+    Intervals of at least 0.33 rad (2 pi / 19) keep theta_on's margin (5 % of an interval)
+    well beyond the finite-difference stencil (2 H |theta'| <= 6e-3), and
+    radii in [1, 1.5] keep the cubics' coefficients, and so the fifth path
+    derivative in the stencil's truncation error (fd.py), moderate."""
+    center = draw(point)
+    kind = draw(st.sampled_from(["circle", "periodic", "open"]))
+    if kind == "circle":
+        return {"circle": {"radius": draw(positive)}, "center": center}
+    n = draw(st.integers(4, 8))
+    w = np.cumsum([0.0] + draw(st.lists(st.floats(1.0, 3.0), min_size=n - 1, max_size=n - 1)))
+    s = draw(st.lists(st.floats(1.0, 1.5), min_size=n, max_size=n))
+    start = draw(num)
+    if kind == "open":
+        bc = draw(st.sampled_from(["not-a-knot", "natural"]))
+        return {"spline": {"theta": list(start + w), "s": s, "bc": bc}, "center": center}
+    s[-1] = s[0]
+    theta = start + 2 * np.pi * w / w[-1]
+    if draw(st.booleans()):
+        return {"spline": {"theta": list(np.degrees(theta)), "s": s, "periodic": True, "degrees": True},
+                "center": center}
+    return {"spline": {"theta": list(theta), "s": s, "periodic": True}, "center": center}
+
+
+def on_outline(d, point_key, table):
+    """A constraint table with a random outline, its estimate of theta and a point."""
+    o = d(outline())
+    spline = o.get("spline", {"theta": [0.0]})
+    first = np.radians(spline["theta"][0]) if spline.get("degrees") else spline["theta"][0]
+    return dict(table, outline=o, theta=float(first) + 0.1, **{point_key: d(point)})
+
+
+def theta_on(o):
+    """An angle on outline o inside one of its table intervals, 5 % of the
+    interval away from the knots (s''' jumps there); on a periodic outline
+    accumulated over up to 3 turns either way."""
+    x = o.pieces()[0]
+    turns = st.integers(-3, 3) if o.periodic else st.just(0)
+    return st.tuples(st.integers(0, len(x) - 2), st.floats(0.05, 0.95), turns).map(
+        lambda a: x[a[0]] + a[1] * (x[a[0] + 1] - x[a[0]]) + 2 * np.pi * a[2])
+
+
 # type -> strategy of its constraint table between bodies b0, b1, b2
 BUILDERS = {
     "ground": lambda d: {"body": "b0", "value": [d(num), d(num), d(num)]},
@@ -56,6 +103,14 @@ BUILDERS = {
     "revolute-translational": lambda d: dict(zip(("sj", "qj"), distinct_points(d)), i="b0", si=d(point), j="b1"),
     "revolute-revolute": lambda d: {"i": "b0", "si": d(point), "j": "b1", "sj": d(point), "length": d(positive)},
     "distance-driver": lambda d: {"i": "b0", "si": d(point), "j": "b1", "sj": d(point), "d": d(function())},
+    "gear": lambda d: dict({"carrier": "b2"} if d(st.booleans()) else {}, i="b0", ri=d(positive), j="b1",
+                           rj=d(positive), internal=d(st.booleans()), phi0=d(num)),
+    "rack-pinion": lambda d: {"pinion": "b0", "radius": d(positive), "center": d(point), "rack": "b1",
+                              "sj": d(point), "u": d(direction), "phi0": d(num)},
+    "cam-point": lambda d: on_outline(d, "sj", {"cam": "b0", "follower": "b1"}),
+    "cam-roller": lambda d: on_outline(d, "sj", {"cam": "b0", "follower": "b1", "radius": d(positive)}),
+    "cam-flat": lambda d: on_outline(d, "sj", {"cam": "b0", "follower": "b1", "normal": d(direction)}),
+    "point-follower": lambda d: on_outline(d, "si", {"i": "b0", "j": "b1"}),
 }
 
 
@@ -81,6 +136,9 @@ def test_derivatives_match_finite_differences(ctype, data):
     model = random_model(data.draw, ctype)
     angle = st.floats(-20.0, 20.0)  # accumulated angles, beyond 2 pi
     q = np.array([data.draw(angle if k % 3 == 2 else num) for k in range(model.n)])
+    for col, label in enumerate(model.artificial, model.n - len(model.artificial)):  # theta on its outline
+        c = next(c for c in model.case.constraints if f"{c.name}.theta" == label)
+        q[col] = data.draw(theta_on(c["outline"]))
     qd = np.array([data.draw(st.floats(-3.0, 3.0)) for _ in range(model.n)])
     t = data.draw(st.floats(0.2, END - 0.2))
     assert_derivatives(model, q, qd, t)

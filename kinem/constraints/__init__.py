@@ -1,8 +1,8 @@
 """The registry: case-file constraint type -> its declaration and family."""
-from . import distance, line, pending, revolute, simple
+from . import cam, distance, follower, gear, line, revolute, simple
 
 REGISTRY = {}
-for _module in (simple, revolute, line, distance, pending):
+for _module in (simple, revolute, line, distance, gear, follower, cam):
     for _decl in _module.TYPES:
         REGISTRY[_decl.name] = _decl
 

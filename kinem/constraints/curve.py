@@ -24,16 +24,15 @@ class Curve:
         self.outlines = OutlineSet(c["outline"] for c in cons)
 
     def at(self, q):
-        """r_c, e^{i phi_c} and a, g, h, k."""
+        """r_c and (a, g, h, k)."""
         z, e = frames(q, self.cc)
-        return z, e, tuple(e * p for p in self.outlines.curve(q[self.ct]))
+        return z, tuple(e * p for p in self.outlines.curve(q[self.ct]))
 
-    def motion(self, q, qd):
-        """a, g, h, the velocity v_c of the body origin, a', a'', g', g''."""
-        _, _, (a, g, h, k) = self.at(q)
+    def rates(self, qd, a, g, h, k):
+        """The body origin's velocity v_c, and a', a'', g', g''."""
         v, w = rates(qd, self.cc)
         th = qd[self.ct]
-        return (a, g, h, v, 1j * w * a + g * th, -w * w * a + 2j * w * th * g + th * th * h,
+        return (v, 1j * w * a + g * th, -w * w * a + 2j * w * th * g + th * th * h,
                 1j * w * g + h * th, -w * w * g + 2j * w * th * h + th * th * k)
 
 

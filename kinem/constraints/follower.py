@@ -27,20 +27,21 @@ class PointOnCurve(Family):
         self.rows, self.cols = pattern(cols, [0] * 5 + [1] * 5, 2)
 
     def phi(self, q, t):
-        zc, _, (a, _, _, _) = self.curve.at(q)
+        zc, (a, _, _, _) = self.curve.at(q)
         zb, eb = frames(q, self.cb)
         d = self.sign * (zc + a - zb - self.sb * eb)
         return interleave(d.real, d.imag)
 
     def jac(self, q, t):
-        _, _, (a, g, _, _) = self.curve.at(q)
+        _, (a, g, _, _) = self.curve.at(q)
         b = self.sb * np.exp(1j * q[self.cb + 2])
         one = np.ones_like(self.sign)
         v = np.stack([one, -a.imag, g.real, -one, b.imag, one, a.real, g.imag, -one, -b.real], axis=1)
         return (v * self.sign[:, None]).ravel()
 
     def gamma(self, q, qd, t):
-        a2 = self.curve.motion(q, qd)[5]
+        _, (a, g, h, k) = self.curve.at(q)
+        _, _, a2, _, _ = self.curve.rates(qd, a, g, h, k)
         b = self.sb * np.exp(1j * q[self.cb + 2])
         g = -self.sign * (a2 + b * qd[self.cb + 2] ** 2)
         return interleave(g.real, g.imag)

@@ -32,7 +32,7 @@ class Gear(Family):
         self.phi0 = np.array([c["phi0"] for c in cons])
         self.n_rows = n
         self.labels, self.owner, self.driving = row_info(cons, ("roll",))
-        self.scale = np.full(n, ctx.length)
+        self.scale = self.ri + np.abs(self.rj)  # the residual of a 1 rad slip of either gear, roughly
         self.keep = np.flatnonzero(np.stack([np.ones(n, bool), np.ones(n, bool), carrier], axis=1).ravel())
         self.rows = np.repeat(np.arange(n), 3)[self.keep]
         self.cols = np.stack([self.ai, self.aj, self.ak], axis=1).ravel()[self.keep]
