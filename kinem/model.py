@@ -38,7 +38,8 @@ class _Context:
 
 def characteristic_length(case: Case) -> float:
     """The mechanism's size L: the largest of the local point distances |s'|,
-    the positive lengths of constraints (link lengths, radii), the named
+    the positive lengths of constraints (link lengths, radii), the outlines'
+    reach (|centre| + largest s), the named
     points' distances, and the distances between body origins in the initial
     estimate. Used to scale residuals and to normalise errors."""
     values = [0.0]
@@ -51,6 +52,8 @@ def characteristic_length(case: Case) -> float:
                 values.append(float(np.hypot(*v)))
             elif key.kind == "positive":
                 values.append(float(v))
+            elif key.kind == "outline":
+                values.append(float(np.hypot(*v.center)) + max([abs(x) for x in v.s] + [v.radius]))
     values += [float(np.hypot(*p.at)) for p in case.points]
     origins = np.array([b.q[:2] for b in case.bodies])
     if len(origins) > 1:

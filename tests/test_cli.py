@@ -103,7 +103,6 @@ BAD = {
     "wrong-length": (SLIDER.replace('si = [300.0, 0.0]', 'si = [300.0, 0.0, 1.0]'), "key 'si'"),
     "non-finite": (SLIDER.replace('si = [300.0, 0.0]', 'si = [300.0, nan]'), "finite"),
     "zero-length-line": (SLIDER.replace('qi = [100.0, 0.0]', 'qi = [0.0, 0.0]'), "zero length"),
-    "not-implemented": (SLIDER + '\n[[constraints]]\ntype = "gear"\ni = "crank"\nri = 1.0\nj = "rod"\nrj = 2.0\n', "gear"),
     "unknown-top-key": ("solverr = {}\n" + SLIDER, "key 'solverr': unknown key"),
     "bad-time": (SLIDER.replace("steps = 500", "steps = 0"), "key 'steps'"),
 }
@@ -112,11 +111,6 @@ BAD = {
 @pytest.mark.parametrize("kind", sorted(BAD))
 def test_bad_input_one_line_exit_2(tmp_path, kind):
     text, needle = BAD[kind]
-    if kind == "not-implemented":
-        from kinem.constraints import REGISTRY
-
-        if REGISTRY["gear"].family is not None:
-            pytest.skip("gear is implemented")
     path = tmp_path / "bad.toml"
     path.write_text(text)
     out = tmp_path / "out.csv"
@@ -161,3 +155,10 @@ def test_analysis_failure_exit_1_and_no_partial_file(tmp_path):
     assert code == 1, err
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert out.read_text() == "previous"
+
+
+def test_engine_docs_are_generated_and_current():
+    from adapters import matrix
+
+    text = (ROOT / "docs" / "engines.md").read_text()
+    assert matrix.BEGIN + "\n" + matrix.markdown() + matrix.END in text, "run: kinem engines --update-docs"
