@@ -46,13 +46,23 @@ def _factor(model, data, q, t) -> Factor:
     return Factor(model, model.jac_values(q, t))
 
 
-def position(model, data: Data, t: float, tolerance=None, max_iterations=None) -> None:
-    """Newton-Raphson from data.q to Phi(q, t) = 0, steps limited to MAX_STEP."""
+# Jacobian reuse (modified Newton): a factorisation from a nearby
+# configuration is kept while it shrinks the residual by at least this
+# factor per iteration, for at most REUSE_ITERATIONS iterations.
+REUSE_RATE = 0.5
+REUSE_ITERATIONS = 4
+
+
+def position(model, data: Data, t: float, tolerance=None, max_iterations=None, factor=None) -> None:
+    """Newton-Raphson from data.q to Phi(q, t) = 0, steps limited to MAX_STEP.
+    ``factor``: a factorisation of Phi_q at a nearby configuration to start
+    with (modified Newton); a fresh one is made as soon as it converges slowly."""
     tol = model.case.tolerance if tolerance is None else tolerance
     max_it = model.case.max_iterations if max_iterations is None else max_iterations
     q = data.q.copy()
     data.t = t
     data.factor = None
+    previous = np.inf
     for it in range(max_it + 1):
         phi = model.phi(q, t)
         r = model.scaled_residual(phi)
@@ -67,8 +77,13 @@ def position(model, data: Data, t: float, tolerance=None, max_iterations=None) -
             return
         if it == max_it:
             break
-        data.newton_factor = _factor(model, data, q, t)
-        dq = data.newton_factor.solve(-phi)
+        if factor is None or it >= REUSE_ITERATIONS or data.residual > REUSE_RATE * previous:
+            factor = None  # full Newton from here on: a fresh Jacobian every iteration
+            f = data.newton_factor = _factor(model, data, q, t)
+        else:
+            f = factor
+        previous = data.residual
+        dq = f.solve(-phi)
         size = np.max(np.abs(dq) / model.col_scale)
         if size > MAX_STEP:
             dq *= MAX_STEP / size

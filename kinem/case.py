@@ -25,7 +25,7 @@ IDENT_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*$")
 
 TOP_KEYS = ("name", "description", "units", "time", "solver", "bodies", "points", "constraints", "engines")
 ENGINES = ("pymunk", "mujoco", "exudyn")  # settings are checked against each adapter when it runs
-SOLVER_KEYS = ("tolerance", "max_iterations", "linear_solver")
+SOLVER_KEYS = ("tolerance", "max_iterations", "linear_solver", "jacobian_reuse")
 LINEAR_SOLVERS = ("auto", "dense", "sparse")
 COORDS = ("x", "y", "phi")
 
@@ -237,6 +237,11 @@ class _Loader:
             it = self.integer(where, "max_iterations", s["max_iterations"], 1, 1000)
             if it is not None:
                 out["max_iterations"] = it
+        if "jacobian_reuse" in s:
+            if not isinstance(s["jacobian_reuse"], bool):
+                self.bad(where, "jacobian_reuse", f"got {_show(s['jacobian_reuse'])}", "true or false")
+            else:
+                out["jacobian_reuse"] = s["jacobian_reuse"]
         if "linear_solver" in s:
             ls = s["linear_solver"]
             if ls not in LINEAR_SOLVERS:

@@ -49,7 +49,9 @@ def cmd_solve(a):
     if fmt == "npz" and not a.out:
         raise InputError("--format npz needs --out FILE")
     model = _load(a.case, a.end, a.steps)
-    r = solve(model, _outputs(a.outputs))
+    r = solve(model, _outputs(a.outputs), trace=a.diagnostics is not None)
+    if a.diagnostics is not None:
+        _write_trace(r, a.diagnostics)
     if not r.success:
         raise AnalysisError(f"{a.case}: {r.message}")
     if a.out:
@@ -57,6 +59,22 @@ def cmd_solve(a):
     else:
         sys.stdout.write(csv_text(r.trajectory))
     return 0
+
+
+def _write_trace(r, target):
+    """The full trace as CSV: every Newton iteration, rejected sub-step and
+    instant, then the events (singular configurations passed)."""
+    from .output import write_atomic
+
+    lines = ["t,what,iteration,scaled_residual,detail"]
+    lines += [f"{t:.17g},{what},{it},{res:.6e},\"{str(detail).replace(chr(34), chr(39))}\""
+              for t, what, it, res, detail in r.trace]
+    lines += [f"{t:.17g},event,,,\"{text.replace(chr(34), chr(39))}\"" for t, text in r.events]
+    text = "\n".join(lines) + "\n"
+    if target == "-":
+        sys.stderr.write(text)
+    else:
+        write_atomic(target, lambda f: f.write(text.encode()))
 
 
 def cmd_info(a):
@@ -90,6 +108,38 @@ def _settings(items, dt):
     return out
 
 
+def cmd_stress(a):
+    from adapters import ENGINES
+
+    from . import stress
+
+    engines = [e.strip() for e in a.engines.split(",") if e.strip()]
+    bad = [e for e in engines if e not in ("native",) + ENGINES]
+    if bad or not engines:
+        raise InputError(f"--engines: got {a.engines!r}; expected a comma-separated list of native, {', '.join(ENGINES)}")
+    rows = stress.run(engines, a.quick, a.jobs)
+    if a.json:
+        print(json.dumps(rows, indent=2, default=float))
+    else:
+        print(stress.table(rows, engines))
+    want = stress.expected(a.quick)
+    misses = [r for r in rows if r["engine"] == "native" and r["outcome"] != want[r["scenario"]]]
+    for r in misses:
+        print(f"native: {r['scenario']}: {r['outcome']}, expected {want[r['scenario']]}", file=sys.stderr)
+    return 1 if misses else 0
+
+
+def cmd_engines(a):
+    from adapters import matrix
+
+    if a.update_docs:
+        changed = matrix.update(Path(__file__).resolve().parents[1] / "docs" / "engines.md")
+        print("docs/engines.md " + ("updated" if changed else "already current"))
+    else:
+        print(matrix.markdown(), end="")
+    return 0
+
+
 def cmd_compare(a):
     from adapters import ENGINES
     from adapters.compare import run_case, table
@@ -109,29 +159,23 @@ def cmd_compare(a):
 
 
 def cmd_report(a):
-    from .analysis import solve
+    from adapters import ENGINES
 
+    from .report import Options, run
+
+    engines = [e.strip() for e in a.engines.split(",") if e.strip()]
+    bad = [e for e in engines if e not in ("native",) + ENGINES]
+    if bad:
+        raise InputError(f"--engines: got {a.engines!r}; expected a comma-separated list of {', '.join(ENGINES)}")
+    if a.jobs is not None and a.jobs < 0:
+        raise InputError(f"--jobs: got {a.jobs}; expected 0 (no worker processes) or more")
     paths = a.cases or sorted(str(p) for p in Path("cases").glob("*.toml"))
-    if not paths:
-        raise InputError("no case files given and none in cases/")
-    worst = 0
-    for path in paths:
-        try:
-            model = _load(path)
-            r = solve(model)
-        except InputError as e:
-            print(f"{path}: input error: {e}")
-            worst = max(worst, 2)
-            continue
-        its = r.iterations[1:] if len(r.iterations) > 1 else r.iterations
-        status = "ok" if r.success else "FAILED"
-        print(f"{model.case.name:24s} {status:6s} {len(r.trajectory):6d} instants {model.n:5d} coords "
-              f"Newton/step mean {its.mean():.2f} max {its.max()}  residual max {r.residual.max():.1e}  "
-              f"{1e3 * r.wall_time / max(1, len(r.iterations)):.3f} ms/instant"
-              + ("" if r.success else f"  {r.message}"))
-        if not r.success:
-            worst = max(worst, 1)
-    return worst
+    engines = tuple(dict.fromkeys(e for e in engines if e != "native"))
+    outcome = run(Options(cases=tuple(paths), engines=engines, out=a.out,
+                          baseline=a.baseline, update_baseline=a.update_baseline, quick=a.quick, junit=a.junit,
+                          fail_on_slowdown=a.fail_on_slowdown, workers=a.jobs))
+    print(outcome.line)
+    return outcome.exit_code
 
 
 def parser():
@@ -145,12 +189,26 @@ def parser():
     s.add_argument("--outputs", default=",".join(OUTPUTS), help="any of positions,velocities,accelerations")
     s.add_argument("--end", type=float, help="end time (overrides the case)")
     s.add_argument("--steps", type=int, help="number of output intervals (overrides the case)")
+    s.add_argument("--diagnostics", nargs="?", const="-", metavar="FILE",
+                   help="write the full trace (Newton iterations, rejected sub-steps, conditioning) as CSV "
+                        "to FILE, or to standard error")
     s.set_defaults(run=cmd_solve)
 
     i = sub.add_parser("info", help="coordinates, equations, Jacobian non-zeros, degrees of freedom")
     i.add_argument("case")
     i.add_argument("--json", action="store_true")
     i.set_defaults(run=cmd_info)
+
+    st = sub.add_parser("stress", help="the stress suite on native and the engines, each outcome classified")
+    st.add_argument("--engines", default="native,pymunk,mujoco,exudyn")
+    st.add_argument("--quick", action="store_true", help="fewer sweep points and a 100-turn long run")
+    st.add_argument("--jobs", type=int, help="worker processes (default: the core count; 0 or 1: none)")
+    st.add_argument("--json", action="store_true")
+    st.set_defaults(run=cmd_stress)
+
+    e = sub.add_parser("engines", help="the engines' support matrix, default settings and tolerances")
+    e.add_argument("--update-docs", action="store_true", help="rewrite the generated section of docs/engines.md")
+    e.set_defaults(run=cmd_engines)
 
     c = sub.add_parser("compare", help="run the case on the native solver and the engines; compare")
     c.add_argument("case")
@@ -160,8 +218,19 @@ def parser():
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_compare)
 
-    r = sub.add_parser("report", help="solve every case (default: cases/*.toml) and summarise")
-    r.add_argument("cases", nargs="*")
+    r = sub.add_parser("report", help="every case on native and the engines: index.html, summary.md, "
+                                      "results.json, baseline gate (docs/report.md)")
+    r.add_argument("cases", nargs="*", help="case files (default: cases/*.toml)")
+    r.add_argument("--engines", default="native,pymunk,mujoco,exudyn",
+                   help="engines to run (native always runs: it is the reference)")
+    r.add_argument("--out", default="reports", help="output directory (default: reports)")
+    r.add_argument("--baseline", metavar="FILE", help="a stored results.json to gate against (exit 1 on regression)")
+    r.add_argument("--update-baseline", action="store_true",
+                   help="write this run's results.json to --baseline (default: OUT/baseline.json)")
+    r.add_argument("--quick", action="store_true", help="shorter work-precision sweeps, one native timing")
+    r.add_argument("--junit", action="store_true", help="also write OUT/junit.xml")
+    r.add_argument("--fail-on-slowdown", action="store_true", help="a flagged wall-time slowdown fails the run")
+    r.add_argument("--jobs", type=int, help="worker processes (default: CPU count; 0: none)")
     r.set_defaults(run=cmd_report)
     return p
 

@@ -56,6 +56,7 @@ class Case:
     tolerance: float = 1e-10
     max_iterations: int = 25
     linear_solver: str = "auto"
+    jacobian_reuse: bool = False
     description: str = ""
     units: Mapping = field(default_factory=frozen_map)
     engines: Mapping = field(default_factory=frozen_map)  # engine name -> settings overrides

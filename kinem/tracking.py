@@ -79,8 +79,11 @@ class Tracker:
         """Newton from q_start at t, then the monitor factorisation (and the
         velocity and acceleration when asked)."""
         m, d = self.model, self.data
+        # modified Newton from the last converged Jacobian, when the case asks for it
+        reuse = d.factor if m.case.jacobian_reuse and self.need_v and self.history else None
         d.q = q_start
-        self.a.position(m, d, t)
+        d.newton_factor = None
+        self.a.position(m, d, t, factor=reuse)
         qd = qdd = None
         try:
             if self.need_v:

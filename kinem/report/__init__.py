@@ -1,0 +1,154 @@
+"""``kinem report``: every case on the native solver and every engine, the
+work-precision sweeps, and the baseline gate (docs/report.md).
+
+    execute.py  which runs, in a process pool      runs.py   one run (in a worker)
+    results.py  results.json and its schema         gate.py   the baseline gate
+    html.py, plots.py, text.py: index.html, summary.md, junit.xml
+"""
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..errors import InputError
+
+
+@dataclass(frozen=True)
+class Options:
+    cases: tuple                 # case file paths
+    engines: tuple               # engines besides native (always run: it is the reference)
+    out: str = "reports"
+    baseline: str | None = None
+    update_baseline: bool = False
+    quick: bool = False
+    junit: bool = False
+    fail_on_slowdown: bool = False
+    workers: int | None = None   # None: os.cpu_count(); 0: in this process
+    progress: bool | None = None  # None: when standard error is a terminal
+
+
+@dataclass(frozen=True)
+class Outcome:
+    doc: dict                    # results.json
+    written: tuple               # paths written
+    exit_code: int               # 0, or 1 (see _exit_code)
+    line: str                    # the one line the command prints
+
+
+def run(o: Options) -> Outcome:
+    from . import gate, html, results, text
+    from .execute import FULL, QUICK, execute
+    from .progress import Progress
+    from .runs import REFERENCE_TOLERANCE
+
+    start = time.perf_counter()
+    cases = _load_cases(o.cases)
+    old = results.load(o.baseline) if o.baseline and (Path(o.baseline).exists() or not o.update_baseline) else None
+    out = Path(o.out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out}: not a directory")
+    target = Path(o.baseline or out / "baseline.json")
+    if o.update_baseline and not (target.parent.is_dir() or target.parent == out):
+        raise InputError(f"--baseline {target}: directory {target.parent} does not exist")
+    sweep = QUICK if o.quick else FULL
+    bar = Progress(0, enabled=o.progress)
+    try:
+        runs = execute([(p, c) for p, c, _ in cases], o.engines, sweep, o.workers, bar)
+    finally:
+        bar.close()
+    options = {"quick": o.quick, "engines": list(o.engines), "workers": _workers(o.workers),
+               "reference_tolerance": REFERENCE_TOLERANCE, "native_tolerances": list(sweep.tolerances),
+               "dt_factors": list(sweep.dt_factors), "native_repeats": sweep.native_repeats}
+    doc, series = results.build(cases, runs, options, time.perf_counter() - start)
+    if old is not None:
+        doc["gate"] = gate.gate(doc, old, o.baseline, o.fail_on_slowdown)
+    bad = results.problems(doc, results.SCHEMA)
+    if bad:  # a bug here, not the user's input
+        raise RuntimeError(f"results.json does not match its schema: {bad[0]}")
+    sections = _sections(doc, series, o.workers)
+    doc["duration"] = time.perf_counter() - start   # runs and plots
+    files = {"results.json": results.dumps(doc), "summary.md": text.summary_md(doc),
+             "index.html": html.index_html(doc, sections)}
+    if o.junit:
+        files["junit.xml"] = text.junit_xml(doc)
+    out.mkdir(parents=True, exist_ok=True)
+    written = [_write(out / name, body) for name, body in files.items()]
+    if o.update_baseline:
+        written.append(_write(target, files["results.json"]))
+    code = _exit_code(doc, o)
+    return Outcome(doc, tuple(written), code, _line(doc, out, code, o))
+
+
+def _sections(doc, series, workers):
+    """The per-case HTML sections (plots take most of the time: in parallel too)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from .html import render_section
+
+    jobs = [(c, series.get(c["name"], {})) for c in doc["cases"]]
+    if _workers(workers) <= 0:
+        return [render_section(j) for j in jobs]
+    with ProcessPoolExecutor(max_workers=_workers(workers)) as pool:
+        return list(pool.map(render_section, jobs))
+
+
+def _load_cases(paths):
+    from ..case import load
+    from ..model import compile
+
+    if not paths:
+        raise InputError("no case files given and none in cases/")
+    out, names = [], {}
+    for p in paths:
+        case = load(p)
+        if case.name in names:
+            raise InputError(f"{p}: case name '{case.name}' is also the name of {names[case.name]}; "
+                             "expected unique case names")
+        names[case.name] = p
+        out.append((str(p), case, compile(case)))
+    return out
+
+
+def _workers(w):
+    return (os.cpu_count() or 1) if w is None else w
+
+
+def _write(path, body) -> str:
+    from ..output import write_atomic
+
+    data = body.encode("utf-8")
+    write_atomic(path, lambda f: f.write(data))
+    os.chmod(path, 0o644)  # mkstemp makes 0600; reports are for reading
+    return str(path)
+
+
+def _exit_code(doc, o) -> int:
+    """1 when an engine did not import, the native solver failed, the gate
+    failed, or a run failed that the baseline does not already record as
+    failed (without a baseline: any failed run)."""
+    from .gate import failed
+
+    if any(e["status"] != "ok" for e in doc["engines"].values()):
+        return 1
+    g = doc["gate"]
+    for c in doc["cases"]:
+        for r in c["runs"]:
+            if not r["status"].startswith("failed"):
+                continue
+            known = g and r["engine"] != "native" and g["verdicts"].get(f"{c['name']}/{r['engine']}") != "new"
+            if not known:
+                return 1
+    if not o.update_baseline and failed(g):
+        return 1
+    return 0
+
+
+def _line(doc, out, code, o) -> str:
+    runs = [r for c in doc["cases"] for r in c["runs"]]
+    failed = sum(r["status"].startswith("failed") for r in runs)
+    g = doc["gate"]
+    gate = "no baseline" if not g else f"{g['regressions']} regressions, {g['slowdowns']} slowdowns vs {g['baseline']}"
+    if o.update_baseline:
+        gate += f"; baseline {o.baseline or out / 'baseline.json'} updated"
+    return (f"kinem report: {len(doc['cases'])} cases, {len(runs)} runs, {failed} failed; {gate}; "
+            f"{doc['duration']:.0f} s; {'FAILED' if code else 'ok'}; see {out / 'index.html'}")

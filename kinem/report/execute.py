@@ -1,0 +1,89 @@
+"""Which runs the report makes and where they run.
+
+Every case gets a main run on the native solver and on each engine (default
+settings). Work-precision cases also get a sweep: the native solver over
+NATIVE_TOLERANCES, each engine over its default time step times DT_FACTORS
+(the factor 1 point is the main run). Runs are independent, so they go to a
+process pool; an engine's sweep is submitted only once its main run came
+back "ok", smallest time steps (the longest runs) first.
+"""
+import os
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from dataclasses import dataclass
+
+from .runs import Task, run_task
+
+# Cases with a work-precision diagram (besides any case that asks for one).
+WORK_PRECISION_CASES = ("slider_crank", "four_bar", "quick_return_1")
+NATIVE_TOLERANCES = (1e-4, 1e-6, 1e-8, 1e-10, 1e-12)
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """How much work the report does. Native wall times are medians of
+    ``native_repeats`` runs (they take milliseconds, so one run is noisy);
+    engine runs are timed once."""
+    dt_factors: tuple
+    tolerances: tuple = NATIVE_TOLERANCES
+    native_repeats: int = 3
+
+
+FULL = Sweep(dt_factors=(10.0, 5.0, 2.0, 1.0, 0.5, 0.2, 0.1), native_repeats=3)  # two decades, 1-2-5 steps
+QUICK = Sweep(dt_factors=(10.0, 5.0, 2.0, 1.0), native_repeats=1)  # the coarse decade only
+
+
+def wants_sweep(case) -> bool:
+    return case.name in WORK_PRECISION_CASES
+
+
+def execute(cases, engines, sweep: Sweep, workers=None, progress=None):
+    """cases: (path, Case) pairs. Returns {path: [run dicts]}: the main runs
+    (native first, then engines in order) and the sweep points."""
+    workers = (os.cpu_count() or 1) if workers is None else workers
+    main = [Task(p, "native", repeats=sweep.native_repeats) for p, _ in cases]
+    main += [Task(p, e) for p, _ in cases for e in engines]
+    swept = {p for p, c in cases if wants_sweep(c)}
+    extra = [Task(p, "native", "tolerance", tol, sweep.native_repeats) for p in sorted(swept)
+             for tol in sweep.tolerances]
+    planned = {(p, e): len([f for f in sweep.dt_factors if f != 1.0]) for p in swept for e in engines}
+    if progress:
+        progress.total = len(main) + len(extra) + sum(planned.values())
+    out = {p: [] for p, _ in cases}
+
+    def follow(task, r):
+        """Sweep tasks of an engine's finished main run."""
+        if task.engine == "native" or task.knob is not None or (task.path, task.engine) not in planned:
+            return []
+        n = planned[(task.path, task.engine)]
+        dt = (r.get("requested") or {}).get("dt")
+        if r["status"] != "ok" or not isinstance(dt, (int, float)):
+            if progress:
+                progress.drop(n)
+            return []
+        return [Task(task.path, task.engine, "dt", dt * f) for f in sorted(sweep.dt_factors) if f != 1.0]
+
+    def record(task, r):
+        out[task.path].append(r)
+        if progress:
+            progress.step(f"{os.path.basename(task.path)} {task.engine}"
+                          + (f" {task.knob}={task.value:.3g}" if task.knob else ""))
+
+    if workers <= 0:  # in this process (tests, debugging)
+        queue = main + extra
+        while queue:
+            task = queue.pop(0)
+            r = run_task(task)
+            record(task, r)
+            queue += follow(task, r)
+        return out
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        running = {pool.submit(run_task, t): t for t in main + extra}
+        while running:
+            done, _ = wait(running, return_when=FIRST_COMPLETED)
+            for f in done:
+                task = running.pop(f)
+                r = f.result()
+                record(task, r)
+                for t in follow(task, r):
+                    running[pool.submit(run_task, t)] = t
+    return out

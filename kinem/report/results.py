@@ -1,0 +1,158 @@
+"""results.json: every figure of a report, the engines' versions and
+settings, the machine and the git revision. Its layout is
+kinem/report/schema.json (documented in docs/report.md); SCHEMA_VERSION
+changes whenever a field changes meaning or goes away."""
+import json
+import math
+import os
+import platform
+import subprocess
+from datetime import datetime, timezone
+from pathlib import Path
+
+from ..errors import InputError
+from .schema import SCHEMA, problems
+
+SCHEMA_VERSION = 1
+PACKAGES = ("kinem", "numpy", "scipy", "matplotlib", "pymunk", "mujoco", "exudyn")
+WP_ERROR = "position_error_rel"      # the work-precision diagram's error
+WP_COST = "wall_per_sim_second"      # and its cost
+PLOT_ONLY = ("series", "path", "elapsed")
+
+
+def build(cases, runs, options, duration):
+    """cases: (path, Case, Model) triples; runs: execute()'s {path: [run]}.
+    Returns (results document, {case name: {engine: series}})."""
+    out, series, engines = [], {}, {}
+    for path, case, model in cases:
+        rs = runs[path]
+        main = [r for r in rs if r["knob"] is None]
+        order = ["native"] + list(options["engines"])
+        main.sort(key=lambda r: order.index(r["engine"]))
+        series[case.name] = {r["engine"]: r["series"] for r in main if r.get("series")}
+        ref_tol = next((r.get("reference_tolerance") for r in main if r["engine"] == "native"), None)
+        for r in main:
+            if r["engine"] != "native":
+                e = engines.setdefault(r["engine"], {"version": r["version"], "status": "ok"})
+                if r.get("import_failed"):
+                    e["status"] = r["status"]
+        out.append({
+            "name": case.name, "path": str(path), "description": case.description,
+            "length": model.length, "unit": case.length_unit, "end": case.end, "steps": case.steps,
+            "coordinates": model.n, "reference_tolerance": ref_tol,
+            "runs": [_strip(r) for r in main],
+            "work_precision": _work_precision(rs, options["engines"]),
+        })
+    doc = {
+        "schema_version": SCHEMA_VERSION, "tool": "kinem report",
+        "created": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"), "duration": duration,
+        "git": git_revision(), "machine": machine(), "options": options, "engines": engines,
+        "cases": out, "gate": None,
+    }
+    return clean(doc), series
+
+
+def _strip(r):
+    return {k: v for k, v in r.items() if k not in PLOT_ONLY and k not in ("import_failed", "reference_tolerance")}
+
+
+def _point(r):
+    return {"value": r["value"], "status": r["status"], "error": r[WP_ERROR], "cost": r[WP_COST],
+            "velocity_error_rel": r["velocity_error_rel"], "wall_time": r["wall_time"], "counts": r["counts"]}
+
+
+def _work_precision(rs, engines):
+    """One curve per engine that has sweep points: (knob value, error, cost)."""
+    curves = []
+    for e in ("native",) + tuple(engines):
+        pts = [r for r in rs if r["engine"] == e and r["knob"] is not None]
+        if not pts:
+            continue
+        knob = pts[0]["knob"]
+        if e != "native":  # the main run is the sweep's factor-1 point
+            pts += [dict(r, value=r["requested"]["dt"]) for r in rs
+                    if r["engine"] == e and r["knob"] is None and r["status"] == "ok"]
+        pts.sort(key=lambda r: r["value"])
+        curves.append({"engine": e, "knob": knob, "points": [_point(r) for r in pts]})
+    if not curves:
+        return None
+    return {"error": WP_ERROR, "cost": WP_COST, "curves": curves}
+
+
+def clean(x):
+    """JSON values only: non-finite floats become null, tuples lists."""
+    if isinstance(x, dict):
+        return {str(k): clean(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [clean(v) for v in x]
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def dumps(doc) -> str:
+    return json.dumps(doc, indent=1, allow_nan=False) + "\n"
+
+
+def load(path, what="baseline"):
+    """A stored results.json, checked against the schema; InputError otherwise."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(f"{what} {path}: no such file (create one with --update-baseline)") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise InputError(f"{what} {path}: cannot read: {e}") from None
+    try:
+        doc = json.loads(text)
+    except ValueError as e:
+        raise InputError(f"{what} {path}: not JSON ({e}); expected a results.json of kinem report") from None
+    version = doc.get("schema_version") if isinstance(doc, dict) else None
+    if version != SCHEMA_VERSION:
+        raise InputError(f"{what} {path}: schema_version {version!r}; expected {SCHEMA_VERSION} "
+                         "(rewrite it with --update-baseline)")
+    bad = problems(doc, SCHEMA)
+    if bad:
+        raise InputError([f"{what} {path}: {p}" for p in bad[:5]])
+    return doc
+
+
+def machine() -> dict:
+    from importlib.metadata import PackageNotFoundError, version
+
+    packages = {}
+    for name in PACKAGES:
+        try:
+            packages[name] = version(name)
+        except PackageNotFoundError:
+            packages[name] = None
+    return {"cpu": cpu_model(), "cores": os.cpu_count() or 1, "platform": platform.platform(),
+            "python": f"{platform.python_implementation()} {platform.python_version()}",
+            "packages": packages}
+
+
+def cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine() or "unknown"
+
+
+def git_revision() -> dict:
+    """HEAD of the checkout holding this package, and whether tracked files
+    differ from it; nulls outside a git checkout."""
+    root = Path(__file__).resolve().parents[2]
+
+    def git(*args):
+        p = subprocess.run(["git", "-C", str(root), *args], capture_output=True, text=True, timeout=20)
+        return p.stdout.strip() if p.returncode == 0 else None
+
+    try:
+        rev = git("rev-parse", "HEAD")
+        dirty = git("status", "--porcelain", "--untracked-files=no") if rev else None
+    except (OSError, subprocess.SubprocessError):
+        rev = dirty = None
+    return {"revision": rev, "dirty": None if dirty is None else bool(dirty)}
+

@@ -1,0 +1,200 @@
+"""One run of the report: a case on the native solver or on one engine, at
+its default settings (the "main" run) or at one point of the work-precision
+sweep. ``run_task`` executes in a worker process and returns a plain dict
+(picklable, JSON-ready apart from the plot series); engines are imported only
+there.
+
+Every figure is measured against the reference solution: the native solver
+at REFERENCE_TOLERANCE (cached per process and case file).
+"""
+import dataclasses
+import statistics
+import time
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+REFERENCE_TOLERANCE = 1e-13  # scaled residual; about 500 machine epsilons of L
+SNAPSHOTS = 4                # instants drawn in the mechanism figure
+ERROR_KEYS = ("position_error", "position_error_rel", "angle_error", "velocity_error", "velocity_error_rel",
+              "angular_velocity_error", "constraint_residual")   # adapters.compare.FIGURES
+
+
+@dataclass(frozen=True)
+class Task:
+    path: str
+    engine: str                 # "native" or an engine of adapters.ENGINES
+    knob: str | None = None     # None: main run; "tolerance" (native) or "dt" (engines): a sweep point
+    value: float | None = None
+    repeats: int = 1            # native runs timed; the median wall time is kept
+
+
+def _model(path, tolerance=None):
+    from kinem.case import load
+    from kinem.model import compile
+
+    case = load(path)
+    if tolerance is not None:
+        case = dataclasses.replace(case, tolerance=tolerance)
+    return compile(case)
+
+
+@lru_cache(maxsize=8)
+def reference(path):
+    """(model at the case's tolerance, reference SolveResult, its tolerance).
+    Falls back to the case's own tolerance when 1e-13 cannot be reached."""
+    from kinem.analysis import solve
+
+    model = _model(path)
+    ref = solve(_model(path, REFERENCE_TOLERANCE))
+    if ref.success:
+        return model, ref, REFERENCE_TOLERANCE
+    return model, solve(model), model.case.tolerance
+
+
+def _blank(task, status, **extra):
+    out = {"engine": task.engine, "knob": task.knob, "value": task.value, "status": status,
+           "requested": {}, "settings": {}, "version": "", "within_tolerance": None, "tolerance": {},
+           "wall_time": None, "time_per_step": None, "wall_per_sim_second": None, "counts": {}}
+    out.update({k: None for k in ERROR_KEYS})
+    out.update(extra)
+    return out
+
+
+def _finite(x):
+    return float(x) if x is not None and np.isfinite(x) else None
+
+
+def key_columns(model):
+    """Up to four trajectory columns worth plotting: x and y of the first two
+    moving named points, else of the first two moving bodies."""
+    from adapters.base import grounded
+
+    fixed = grounded(model)
+    items = [p.name for p in model.case.points if p.body not in fixed][:2]
+    if not items:
+        items = [b for b in model.body_names if b not in fixed][:2]
+    return [f"{n}.{c}" for n in items for c in ("x", "y")]
+
+
+def error_series(model, ref, traj):
+    """Position error per instant: max over bodies and named points of the
+    distance to the reference, divided by L."""
+    nt = min(len(traj), len(ref.trajectory))
+    items = list(model.body_names) + list(model.point_names)
+    xy = [np.abs((traj[f"{n}.x"][:nt] - ref.trajectory[f"{n}.x"][:nt])
+                 + 1j * (traj[f"{n}.y"][:nt] - ref.trajectory[f"{n}.y"][:nt])) for n in items]
+    return (np.max(xy, axis=0) / model.length).tolist()
+
+
+def _series(model, ref, traj, with_reference=False):
+    cols = key_columns(model)
+    out = {"t": traj.t.tolist(), "error": error_series(model, ref, traj),
+           "columns": {c: traj[c].tolist() for c in cols}}
+    if with_reference:
+        idx = np.unique(np.round(np.linspace(0, len(ref.q) - 1, SNAPSHOTS)).astype(int))
+        out["reference"] = {c: ref.trajectory[c].tolist() for c in cols}
+        out["snapshots"] = {"t": ref.trajectory.t[idx].tolist(), "q": ref.q[idx].tolist()}
+    return out
+
+
+def run_native(task):
+    from adapters.compare import errors
+    from kinem.analysis import solve
+
+    model, ref, ref_tol = reference(task.path)
+    if task.knob is not None:
+        model = _model(task.path, task.value)
+    walls, r = [], None
+    for _ in range(max(1, task.repeats)):
+        r = solve(model)
+        walls.append(r.wall_time)
+    wall = statistics.median(walls)
+    steps = len(r.iterations)
+    settings = {"tolerance": model.case.tolerance, "max_iterations": model.case.max_iterations,
+                "linear_solver": "sparse" if model.sparse else "dense"}
+    counts = {"instants": steps, "newton_iterations": int(r.iterations.sum()),
+              "jacobian_evaluations": int(r.jacobian_evaluations), "factorizations": int(r.factorizations)}
+    base = dict(requested=settings, settings=settings, version=_version("kinem"), counts=counts, wall_time=wall,
+                repeats=len(walls), time_per_step=wall / max(steps, 1), wall_per_sim_second=wall / model.case.end)
+    if not r.success:
+        return _blank(task, f"failed: {r.message}", **base)
+    e = errors(model, ref, r.q, r.trajectory)
+    out = _blank(task, "ok", **base, **{k: _finite(e.get(k)) for k in ERROR_KEYS})
+    out["within_tolerance"] = True
+    if task.knob is None:
+        out["series"] = _series(model, ref, r.trajectory, with_reference=True)
+        out["reference_tolerance"] = ref_tol
+    return out
+
+
+def run_engine(task):
+    from adapters import get
+    from adapters.compare import compare, tolerance_of
+
+    try:
+        adapter = get(task.engine)
+        version = adapter.version()
+    except Exception as e:  # noqa: BLE001 - a missing or broken adapter is a report row, not a crash
+        return _blank(task, f"failed: import error: {type(e).__name__}: {e}", import_failed=True)
+    model, ref, _ = reference(task.path)
+    if not ref.success:
+        return _blank(task, "failed: no native reference (" + ref.message + ")", version=version)
+    reason = adapter.unsupported(model)
+    if reason:
+        return _blank(task, reason, version=version)
+    overrides = dict(model.case.engines.get(task.engine, {}))
+    if task.knob is not None:
+        overrides[task.knob] = task.value
+    settings = adapter.settings(overrides)
+    try:
+        run = adapter.run(model, ref.q[0], ref.qd[0], settings)
+    except Exception as e:  # noqa: BLE001 - adapters should not raise; record it if one does
+        return _blank(task, f"failed: {type(e).__name__}: {e}", version=version, requested=_plain(settings))
+    c = compare(model, ref, run, tolerance_of(adapter))
+    out = _blank(task, c.status, version=run.version or version, requested=_plain(settings),
+                 settings=_plain(run.settings or settings),
+                 within_tolerance=c.within_tolerance, tolerance=_plain(c.tolerance),
+                 wall_time=_finite(run.wall_time), counts={"steps": int(run.steps), "substeps": int(run.substeps)})
+    out["time_per_step"] = _finite(run.wall_time / run.steps) if run.steps else None
+    out["wall_per_sim_second"] = _finite(run.wall_time / model.case.end)
+    if c.status == "ok":
+        out.update({k: _finite(getattr(c, k)) for k in ERROR_KEYS})
+        if task.knob is None:
+            out["series"] = _series(model, ref, run.trajectory)
+    return out
+
+
+def run_task(task: Task) -> dict:
+    """Runs one task; never raises (an unexpected error is a failed row)."""
+    start = time.perf_counter()
+    try:
+        out = run_native(task) if task.engine == "native" else run_engine(task)
+    except Exception as e:  # noqa: BLE001
+        out = _blank(task, f"failed: internal error: {type(e).__name__}: {e}")
+    out["path"] = task.path
+    out["elapsed"] = time.perf_counter() - start
+    return out
+
+
+def _plain(d):
+    """Settings as JSON values (tuples to lists, numpy scalars to floats)."""
+    def conv(v):
+        if isinstance(v, dict):
+            return {str(k): conv(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple, np.ndarray)):
+            return [conv(x) for x in v]
+        if isinstance(v, np.generic):
+            return v.item()
+        return v if isinstance(v, (str, int, float, bool)) or v is None else str(v)
+    return conv(dict(d or {}))
+
+
+def _version(name):
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version(name)
+    except PackageNotFoundError:
+        return ""
