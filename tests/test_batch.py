@@ -1,0 +1,28 @@
+"""Variants solved together equal the same variants solved one by one."""
+import numpy as np
+
+import kinem
+from kinem.batch import merge, split
+from kinem.reference import four_bar_case, slider_crank_case
+
+
+def test_merged_variants_equal_single_solves():
+    cases = [kinem.load_dict(slider_crank_case(0.1 * (1 + 0.1 * k), 0.3, 0.01 * k, end=1.0, steps=40)) for k in range(4)]
+    cases.append(kinem.load_dict(four_bar_case(0.1, 0.3, 0.22, 0.2, end=1.0, steps=40)))  # any topology merges
+    batch = kinem.solve(kinem.compile(merge(cases)))
+    assert batch.success
+    for k, c in enumerate(cases):
+        single = kinem.solve(kinem.compile(c)).trajectory
+        part = split(batch.trajectory, k)
+        assert part.columns == single.columns
+        # both are converged to the same tolerance: 1e-9 of the size (0.4) apart at most
+        assert np.abs(part.data - single.data).max() <= 1e-9 * max(1.0, np.abs(single.data).max())
+
+
+def test_variants_need_the_same_instants():
+    import pytest
+
+    a = kinem.load_dict(slider_crank_case(0.1, 0.3, end=1.0, steps=40))
+    b = kinem.load_dict(slider_crank_case(0.1, 0.3, end=1.0, steps=41))
+    with pytest.raises(kinem.InputError):
+        merge([a, b])
