@@ -184,7 +184,9 @@ class _Loader:
                 continue
             ok = {}
             for k, v in table.items():
-                if isinstance(v, (int, float)) and not isinstance(v, bool):
+                if isinstance(v, int) and not isinstance(v, bool):
+                    v = int(v) if self.number(where, k, v) is not None else None  # counts stay whole
+                elif isinstance(v, float):
                     v = self.number(where, k, v)
                 elif isinstance(v, list):
                     v = self.numbers(where, k, v)
