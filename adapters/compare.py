@@ -136,12 +136,20 @@ def run_engine(model, native, name, overrides=None) -> Comparison:
     return compare(model, native, run, tolerance_of(adapter))
 
 
-def run_case(model, engines, overrides=None):
+def _run_engine(task):
+    return run_engine(*task)
+
+
+def run_case(model, engines, overrides=None, scheduler=None):
     """Native solution and one Comparison per engine ('native' included when
-    asked). overrides: engine name -> settings."""
+    asked). overrides: engine name -> settings. The engines run in this
+    process, or on the workers of a Dask scheduler (an address)."""
+    from kinem import parallel
     from kinem.analysis import solve
 
     native = solve(model)
+    todo = [(model, native, n, (overrides or {}).get(n)) for n in engines if n != "native" and native.success]
+    done = iter(parallel.map(_run_engine, todo, jobs=0, scheduler=scheduler))
     rows = []
     for name in engines:
         if name == "native":
@@ -149,7 +157,7 @@ def run_case(model, engines, overrides=None):
         elif not native.success:
             rows.append(Comparison(engine=name, status="failed: no native reference (" + native.message + ")"))
         else:
-            rows.append(run_engine(model, native, name, (overrides or {}).get(name)))
+            rows.append(next(done))
     return native, rows
 
 

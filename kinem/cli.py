@@ -117,7 +117,7 @@ def cmd_stress(a):
     bad = [e for e in engines if e not in ("native",) + ENGINES]
     if bad or not engines:
         raise InputError(f"--engines: got {a.engines!r}; expected a comma-separated list of native, {', '.join(ENGINES)}")
-    rows = stress.run(engines, a.quick, a.jobs)
+    rows = stress.run(engines, a.quick, a.jobs, a.scheduler)
     if a.json:
         print(json.dumps(rows, indent=2, default=float))
     else:
@@ -149,7 +149,7 @@ def cmd_compare(a):
     if bad or not engines:
         raise InputError(f"--engines: got {a.engines!r}; expected a comma-separated list of native, {', '.join(ENGINES)}")
     model = _load(a.case)
-    native, rows = run_case(model, engines, _settings(a.set, a.dt))
+    native, rows = run_case(model, engines, _settings(a.set, a.dt), a.scheduler)
     if a.json:
         print(json.dumps({"case": model.case.name, "length": model.length, "unit": model.case.length_unit,
                           "engines": {r.engine: r.as_dict() for r in rows}}, indent=2, default=float))
@@ -173,7 +173,8 @@ def cmd_report(a):
     engines = tuple(dict.fromkeys(e for e in engines if e != "native"))
     outcome = run(Options(cases=tuple(paths), engines=engines, out=a.out,
                           baseline=a.baseline, update_baseline=a.update_baseline, quick=a.quick, junit=a.junit,
-                          fail_on_slowdown=a.fail_on_slowdown, workers=a.jobs))
+                          fail_on_slowdown=a.fail_on_slowdown, workers=a.jobs,
+                          scheduler=a.scheduler))
     print(outcome.line)
     return outcome.exit_code
 
@@ -203,6 +204,7 @@ def parser():
     st.add_argument("--engines", default="native,pymunk,mujoco,exudyn")
     st.add_argument("--quick", action="store_true", help="fewer sweep points and a 100-turn long run")
     st.add_argument("--jobs", type=int, help="worker processes (default: the core count; 0 or 1: none)")
+    _scheduler_option(st)
     st.add_argument("--json", action="store_true")
     st.set_defaults(run=cmd_stress)
 
@@ -215,6 +217,7 @@ def parser():
     c.add_argument("--engines", default="native,pymunk,mujoco,exudyn")
     c.add_argument("--dt", type=float, help="engine time step (overrides every engine's dt)")
     c.add_argument("--set", action="append", metavar="ENGINE.KEY=VALUE", help="an engine setting (repeatable)")
+    _scheduler_option(c)
     c.add_argument("--json", action="store_true")
     c.set_defaults(run=cmd_compare)
 
@@ -230,9 +233,16 @@ def parser():
     r.add_argument("--quick", action="store_true", help="shorter work-precision sweeps, one native timing")
     r.add_argument("--junit", action="store_true", help="also write OUT/junit.xml")
     r.add_argument("--fail-on-slowdown", action="store_true", help="a flagged wall-time slowdown fails the run")
-    r.add_argument("--jobs", type=int, help="worker processes (default: CPU count; 0: none)")
+    r.add_argument("--jobs", type=int, help="worker processes (default: CPU count; 0 or 1: none)")
+    _scheduler_option(r)
     r.set_defaults(run=cmd_report)
     return p
+
+
+def _scheduler_option(p):
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run on the workers of this Dask distributed scheduler (e.g. tcp://host:8786) "
+                        "instead of local processes")
 
 
 def main(argv=None) -> int:

@@ -17,9 +17,7 @@ native solution. Native has an expected class per scenario (the run exits 1
 when it differs); engines are measured, not judged.
 """
 import math
-import os
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -214,14 +212,14 @@ def run_one(task):
                           f"{run.steps} steps"))
 
 
-def run(engines=("native", "pymunk", "mujoco", "exudyn"), quick=False, jobs=None) -> list:
-    """Every scenario on every engine asked for; a list of Outcome dicts in scenario order."""
+def run(engines=("native", "pymunk", "mujoco", "exudyn"), quick=False, jobs=None, scheduler=None) -> list:
+    """Every scenario on every engine asked for; a list of Outcome dicts in
+    scenario order. jobs: local processes (None: one per core; 0 or 1: this
+    process); scheduler: a Dask scheduler address to run on instead."""
+    from . import parallel
+
     tasks = [(s, e) for s in scenarios(quick) for e in engines if e == "native" or s.engines]
-    jobs = os.cpu_count() if jobs is None else jobs
-    if jobs and jobs > 1:
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
-            return list(pool.map(run_one, tasks))
-    return [run_one(t) for t in tasks]
+    return parallel.map(run_one, tasks, jobs, scheduler)
 
 
 def expected(quick=False) -> dict:

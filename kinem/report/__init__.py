@@ -1,7 +1,7 @@
 """``kinem report``: every case on the native solver and every engine, the
 work-precision sweeps, and the baseline gate (docs/report.md).
 
-    execute.py  which runs, in a process pool      runs.py   one run (in a worker)
+    execute.py  which runs, where (kinem.parallel)  runs.py   one run (in a worker)
     results.py  results.json and its schema         gate.py   the baseline gate
     html.py, plots.py, text.py: index.html, summary.md, junit.xml
 """
@@ -23,7 +23,8 @@ class Options:
     quick: bool = False
     junit: bool = False
     fail_on_slowdown: bool = False
-    workers: int | None = None   # None: os.cpu_count(); 0: in this process
+    workers: int | None = None   # None: os.cpu_count(); 0 or 1: in this process
+    scheduler: str | None = None  # a Dask scheduler address: the runs go to its workers
     progress: bool | None = None  # None: when standard error is a terminal
 
 
@@ -53,7 +54,7 @@ def run(o: Options) -> Outcome:
     sweep = QUICK if o.quick else FULL
     bar = Progress(0, enabled=o.progress)
     try:
-        runs = execute([(p, c) for p, c, _ in cases], o.engines, sweep, o.workers, bar)
+        runs = execute([(p, c) for p, c, _ in cases], o.engines, sweep, o.workers, bar, o.scheduler)
     finally:
         bar.close()
     options = {"quick": o.quick, "engines": list(o.engines), "workers": _workers(o.workers),
@@ -80,16 +81,12 @@ def run(o: Options) -> Outcome:
 
 
 def _sections(doc, series, workers):
-    """The per-case HTML sections (plots take most of the time: in parallel too)."""
-    from concurrent.futures import ProcessPoolExecutor
-
+    """The per-case HTML sections (plots take most of the time: in parallel
+    too, in local processes even with a scheduler: they carry the series)."""
+    from .. import parallel
     from .html import render_section
 
-    jobs = [(c, series.get(c["name"], {})) for c in doc["cases"]]
-    if _workers(workers) <= 0:
-        return [render_section(j) for j in jobs]
-    with ProcessPoolExecutor(max_workers=_workers(workers)) as pool:
-        return list(pool.map(render_section, jobs))
+    return parallel.map(render_section, [(c, series.get(c["name"], {})) for c in doc["cases"]], workers)
 
 
 def _load_cases(paths):

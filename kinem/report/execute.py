@@ -4,13 +4,16 @@ Every case gets a main run on the native solver and on each engine (default
 settings). Work-precision cases also get a sweep: the native solver over
 NATIVE_TOLERANCES, each engine over its default time step times DT_FACTORS
 (the factor 1 point is the main run). Runs are independent, so they go to a
-process pool; an engine's sweep is submitted only once its main run came
-back "ok", smallest time steps (the longest runs) first.
+process pool or a Dask cluster (kinem.parallel); an engine's sweep is
+submitted only once its main run came back "ok", smallest time steps (the
+longest runs) first.
 """
+import dataclasses
 import os
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import dataclass
 
+from .. import parallel
 from .runs import Task, run_task
 
 # Cases with a work-precision diagram (besides any case that asks for one).
@@ -36,10 +39,11 @@ def wants_sweep(case) -> bool:
     return case.name in WORK_PRECISION_CASES
 
 
-def execute(cases, engines, sweep: Sweep, workers=None, progress=None):
+def execute(cases, engines, sweep: Sweep, workers=None, progress=None, scheduler=None):
     """cases: (path, Case) pairs. Returns {path: [run dicts]}: the main runs
-    (native first, then engines in order) and the sweep points."""
-    workers = (os.cpu_count() or 1) if workers is None else workers
+    (native first, then engines in order) and the sweep points. workers:
+    local processes (None: one per core; 0 or 1: this process); scheduler: a
+    Dask scheduler address to run on instead."""
     main = [Task(p, "native", repeats=sweep.native_repeats) for p, _ in cases]
     main += [Task(p, e) for p, _ in cases for e in engines]
     swept = {p for p, c in cases if wants_sweep(c)}
@@ -68,22 +72,30 @@ def execute(cases, engines, sweep: Sweep, workers=None, progress=None):
             progress.step(f"{os.path.basename(task.path)} {task.engine}"
                           + (f" {task.knob}={task.value:.3g}" if task.knob else ""))
 
-    if workers <= 0:  # in this process (tests, debugging)
-        queue = main + extra
-        while queue:
-            task = queue.pop(0)
-            r = run_task(task)
-            record(task, r)
-            queue += follow(task, r)
-        return out
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        running = {pool.submit(run_task, t): t for t in main + extra}
+    with parallel.executor(workers, scheduler) as pool:
+        if pool is None:  # in this process (tests, debugging)
+            queue = main + extra
+            while queue:
+                task = queue.pop(0)
+                r = run_task(task)
+                record(task, r)
+                queue += follow(task, r)
+            return out
+
+        def submit(t):
+            # a cluster's workers may run elsewhere: give them absolute case paths
+            sent = dataclasses.replace(t, path=os.path.abspath(t.path)) if scheduler is not None else t
+            running[pool.submit(run_task, sent)] = t
+
+        running = {}
+        for t in main + extra:
+            submit(t)
         while running:
             done, _ = wait(running, return_when=FIRST_COMPLETED)
             for f in done:
                 task = running.pop(f)
-                r = f.result()
+                r = dict(f.result(), path=task.path)
                 record(task, r)
                 for t in follow(task, r):
-                    running[pool.submit(run_task, t)] = t
+                    submit(t)
     return out
