@@ -174,7 +174,7 @@ def cmd_report(a):
     outcome = run(Options(cases=tuple(paths), engines=engines, out=a.out,
                           baseline=a.baseline, update_baseline=a.update_baseline, quick=a.quick, junit=a.junit,
                           fail_on_slowdown=a.fail_on_slowdown, workers=a.jobs,
-                          scheduler=a.scheduler))
+                          scheduler=a.scheduler, stress=not a.no_stress))
     print(outcome.line)
     return outcome.exit_code
 
@@ -234,6 +234,7 @@ def parser():
     r.add_argument("--junit", action="store_true", help="also write OUT/junit.xml")
     r.add_argument("--fail-on-slowdown", action="store_true", help="a flagged wall-time slowdown fails the run")
     r.add_argument("--jobs", type=int, help="worker processes (default: CPU count; 0 or 1: none)")
+    r.add_argument("--no-stress", action="store_true", help="leave out the stress-suite section")
     _scheduler_option(r)
     r.set_defaults(run=cmd_report)
     return p

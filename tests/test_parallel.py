@@ -70,7 +70,7 @@ def test_report_on_cluster_equals_local(scheduler, tmp_path, monkeypatch, capsys
     runs and the sweeps submitted as the main runs come back."""
     monkeypatch.chdir(tmp_path)
     case = short_four_bar(tmp_path)
-    common = [case, "--engines", "pymunk", "--quick"]
+    common = [case, "--engines", "pymunk", "--quick", "--no-stress"]
     assert main(["report", *common, "--jobs", "0", "--out", "local"]) == 0
     assert main(["report", *common, "--scheduler", scheduler, "--out", "remote"]) == 0
     capsys.readouterr()

@@ -75,7 +75,7 @@ def report(tmp_path_factory):
     try:
         cases = (short_case(tmp, "slider_crank", 0.2), short_case(tmp, "four_bar", 0.2))
         out = run(Options(cases=cases, engines=("pymunk",), out=str(tmp / "out"), quick=True, junit=True,
-                          workers=0, progress=False))
+                          workers=0, progress=False, stress=False))
     finally:
         mp.undo()
     return out, tmp / "out"
@@ -209,7 +209,7 @@ def test_missing_or_corrupt_baseline_is_an_input_error(tmp_path, report):
 def test_import_failure_makes_the_run_fail(tmp_path, fake_engines):
     case = short_case(tmp_path, "four_bar", 0.1, steps=5)
     out = run(Options(cases=(case,), engines=("pymunk", "exudyn"), out=str(tmp_path / "o"), quick=True,
-                      workers=0, progress=False))
+                      workers=0, progress=False, stress=False))
     runs = {r["engine"]: r for r in out.doc["cases"][0]["runs"]}
     assert runs["exudyn"]["status"].startswith("failed: import error")
     assert out.doc["engines"]["exudyn"]["status"].startswith("failed: import error")
@@ -232,7 +232,7 @@ def test_known_engine_failure_passes_a_new_one_fails(report):
 
 
 def cli(*args):
-    p = subprocess.run([sys.executable, "-m", "kinem", "report", *map(str, args)], capture_output=True,
+    p = subprocess.run([sys.executable, "-m", "kinem", "report", "--no-stress", *map(str, args)], capture_output=True,
                        text=True, cwd=ROOT)
     return p.returncode, p.stdout, p.stderr
 
@@ -282,3 +282,17 @@ def test_numbers_in_results_are_finite(report):
     text = (report[1] / "results.json").read_text()
     assert "NaN" not in text and "Infinity" not in text
     assert np.isfinite(report[0].doc["duration"])
+
+
+def test_stress_section(tmp_path):
+    """The quick stress suite on native: in results.json (valid against the
+    schema), as a table in index.html and a line in summary.md."""
+    case = short_case(tmp_path, "four_bar", 0.1, steps=5)
+    out = run(Options(cases=(case,), engines=(), out=str(tmp_path / "o"), quick=True, workers=0, progress=False))
+    doc = json.loads((tmp_path / "o" / "results.json").read_text())
+    assert problems(doc, SCHEMA) == [] and out.exit_code == 0
+    assert doc["stress"]["native_misses"] == []
+    outcomes = {r["scenario"]: r["outcome"] for r in doc["stress"]["rows"]}
+    assert outcomes["slider_dead_centre"] == "singular-detected" and outcomes["change_point"] == "accurate"
+    assert "<h2>Stress suite</h2>" in (tmp_path / "o" / "index.html").read_text()
+    assert "native met every expectation" in (tmp_path / "o" / "summary.md").read_text()

@@ -26,6 +26,7 @@ class Options:
     workers: int | None = None   # None: os.cpu_count(); 0 or 1: in this process
     scheduler: str | None = None  # a Dask scheduler address: the runs go to its workers
     progress: bool | None = None  # None: when standard error is a terminal
+    stress: bool = True          # the quick stress suite as a section
 
 
 @dataclass(frozen=True)
@@ -61,6 +62,10 @@ def run(o: Options) -> Outcome:
                "reference_tolerance": REFERENCE_TOLERANCE, "native_tolerances": list(sweep.tolerances),
                "dt_factors": list(sweep.dt_factors), "native_repeats": sweep.native_repeats}
     doc, series = results.build(cases, runs, options, time.perf_counter() - start)
+    if o.stress:
+        from . import stress_section
+
+        doc["stress"] = stress_section.run(o.engines, o.workers, o.scheduler)
     if old is not None:
         doc["gate"] = gate.gate(doc, old, o.baseline, o.fail_on_slowdown)
     bad = results.problems(doc, results.SCHEMA)
@@ -126,6 +131,8 @@ def _exit_code(doc, o) -> int:
     from .gate import failed
 
     if any(e["status"] != "ok" for e in doc["engines"].values()):
+        return 1
+    if doc.get("stress") and doc["stress"]["native_misses"]:
         return 1
     g = doc["gate"]
     for c in doc["cases"]:

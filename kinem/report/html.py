@@ -130,6 +130,9 @@ def index_html(doc, sections) -> str:
                  "trajectory; µs/step: wall time per engine step (native: per output instant). "
                  "Work-precision: max position error / L against wall time per simulated second.</p>")
     parts += sections
+    from .stress_section import html as stress_html
+
+    parts.append(stress_html(doc))
     meta = {k: doc[k] for k in ("git", "machine", "options", "engines", "created")}
     parts.append("<section><h2>Run</h2><pre>" + escape(json.dumps(meta, indent=1)) + "</pre></section>")
     parts.append("</body></html>")

@@ -66,6 +66,10 @@ def summary_md(doc) -> str:
     if slow:
         out += ["### Slower (not failing)", ""]
         out += [f"- {f['case']} / {f['engine']}: {f['message']}" for f in slow] + [""]
+    from .stress_section import line as stress_line
+
+    if doc.get("stress"):
+        out += [stress_line(doc), ""]
     out += ["| case | engine | status | pos. error / L | angle error (rad) | residual | µs/step | verdict |",
             "|---|---|---|---:|---:|---:|---:|---|"]
     unsupported = {}

@@ -1,0 +1,58 @@
+"""The stress suite as a section of the report (kinem.stress, quick sweep):
+its outcomes go into results.json under "stress", a table into index.html
+and one line into summary.md. Native missing its expected class fails the run."""
+from html import escape
+
+
+def run(engines, workers, scheduler) -> dict:
+    from .. import stress
+
+    rows = stress.run(("native",) + tuple(engines), quick=True, jobs=workers, scheduler=scheduler)
+    want = stress.expected(quick=True)
+    misses = [f"{r['scenario']}: {r['outcome']}, expected {want[r['scenario']]}"
+              for r in rows if r["engine"] == "native" and r["outcome"] != want[r["scenario"]]]
+    clean = [{k: (None if isinstance(v, float) and v != v else v) for k, v in r.items()} for r in rows]
+    return {"quick": True, "rows": clean, "native_misses": misses}
+
+
+def html(doc) -> str:
+    s = doc.get("stress")
+    if not s:
+        return ""
+    engines = list(dict.fromkeys(r["engine"] for r in s["rows"]))
+    names = list(dict.fromkeys((r["group"], r["scenario"]) for r in s["rows"]))
+    by = {(r["scenario"], r["engine"]): r for r in s["rows"]}
+    head = "<tr><th>group</th><th>scenario</th>" + "".join(f"<th>{escape(e)}</th>" for e in engines) + "</tr>"
+    body = []
+    for g, n in names:
+        cells = []
+        for e in engines:
+            r = by.get((n, e))
+            if r is None:
+                cells.append("<td>-</td>")
+                continue
+            out = "unsupported" if r["outcome"].startswith("unsupported") else r["outcome"]
+            err = f" {r['error']:.0e}" if r["error"] is not None and out not in ("unsupported",) else ""
+            cls = "" if out in ("accurate", "singular-detected", "unsupported") else ' class="bad"'
+            cells.append(f'<td{cls} title="{escape(r.get("detail") or "")}">{escape(out + err)}</td>')
+        body.append(f"<tr><td>{escape(g)}</td><td>{escape(n)}</td>{''.join(cells)}</tr>")
+    misses = "".join(f"<li>{escape(m)}</li>" for m in s["native_misses"])
+    return ("<section><h2>Stress suite</h2><p>Each outcome classified (kinem stress --quick; classes in "
+            "kinem/stress.py): native has an expected class per scenario; engines are measured. Numbers: "
+            "position error / L (angles in rad) against the closed form or native.</p>"
+            + (f"<p class=bad>Native missed its expectation:</p><ul>{misses}</ul>" if misses else "")
+            + f"<table>{head}{''.join(body)}</table></section>")
+
+
+def line(doc) -> str:
+    s = doc.get("stress")
+    if not s:
+        return ""
+    counts = {}
+    for r in s["rows"]:
+        if r["engine"] != "native":
+            k = "unsupported" if r["outcome"].startswith("unsupported") else r["outcome"]
+            counts[k] = counts.get(k, 0) + 1
+    native = "native met every expectation" if not s["native_misses"] else \
+        f"**native missed {len(s['native_misses'])} expectation(s)**: " + "; ".join(s["native_misses"])
+    return f"Stress suite (quick): {native}; engines: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))

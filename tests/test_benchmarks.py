@@ -1,0 +1,32 @@
+"""The benchmark harness (benchmarks/run.py, docs/benchmarks.md) runs end to
+end in its tiny configuration and writes every section. Smoke test only:
+nothing here asserts on speed (timings on a shared machine are not a test)."""
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_harness_runs_tiny(tmp_path):
+    out = tmp_path / "bench.json"
+    p = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "run.py"), "--tiny", "--json", str(out)],
+                       cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-3000:]
+    res = json.loads(out.read_text())
+    for section in ("machine", "engines", "precision", "scaling", "batch", "skips", "anatomy", "coldstart", "targets"):
+        assert section in res, section
+    assert res["machine"]["python"] and res["machine"]["cores"] >= 1
+    # the figures exist and are positive (their size is not tested)
+    native = [r for r in res["engines"] if r.get("status") == "ok"]
+    assert native and all(r["native_us_per_output_step"] > 0 and r["engine_us_per_step"] > 0 for r in native)
+    assert all(r["us_per_step_sparse"] > 0 for r in res["scaling"]["rows"])
+    assert [r["B"] for r in res["batch"]] == [1, 10]
+    assert res["skips"]["families"]["constructed"] < res["skips"]["families"]["registered"]
+    assert res["skips"]["factorization_reuse"]["factorizations_per_instant_twice"] > \
+        res["skips"]["factorization_reuse"]["factorizations_per_instant_once"]
+    for t in res["targets"]:
+        assert isinstance(t["met"], bool) and t["figure"]
+    for word in ("targets", "cold start", "work-precision", "scaling", "batch"):
+        assert word in p.stdout
