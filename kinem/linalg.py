@@ -17,8 +17,6 @@ square roots for the normal equations) and it has no determinant sign
 (reported as +1 throughout: branch changes are then caught by the jump test
 alone).
 """
-import warnings
-
 import numpy as np
 
 from .errors import SingularError
@@ -30,21 +28,15 @@ PIVOT_RATIO = 1e-13
 
 
 def _parity(perm) -> int:
-    """+1 for an even permutation, -1 for an odd one (cycle count)."""
-    perm = np.asarray(perm)
-    seen = np.zeros(len(perm), bool)
-    sign = 1
-    for start in range(len(perm)):
-        if seen[start]:
-            continue
-        k, length = start, 0
-        while not seen[k]:
-            seen[k] = True
-            k = perm[k]
-            length += 1
-        if length % 2 == 0:
-            sign = -sign
-    return sign
+    """+1 for an even permutation, -1 for an odd one: (-1)^(n - cycles), the
+    cycles counted as connected components of the graph k -> perm[k]."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n = len(perm)
+    graph = coo_matrix((np.ones(n), (np.arange(n), np.asarray(perm))), shape=(n, n))
+    cycles = connected_components(graph, directed=True, connection="weak", return_labels=False)
+    return -1 if (n - cycles) % 2 else 1
 
 
 class Factor:
@@ -71,12 +63,11 @@ class Factor:
             cols = self.lu.perm_c
             self._perms = (self.lu.perm_r, self.lu.perm_c)
         else:
-            from scipy.linalg import lu_factor
+            from scipy.linalg.lapack import dgetrf  # LAPACK directly: scipy's wrapper checks cost more here
 
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                self.lu = lu_factor(J, check_finite=False)
-            diag = np.diag(self.lu[0])
+            lu, piv, _ = dgetrf(J, overwrite_a=True)
+            self.lu = (lu, piv)
+            diag = np.diag(lu)
             cols = np.arange(model.n)
             self._perms = None
         pivots = np.abs(diag)
@@ -128,7 +119,7 @@ class Factor:
         elif self.sparse:
             x = self.lu.solve(b)
         else:
-            from scipy.linalg import lu_solve
+            from scipy.linalg.lapack import dgetrs
 
-            x = lu_solve(self.lu, b, check_finite=False)
+            x, _ = dgetrs(*self.lu, b)
         return x * self.col

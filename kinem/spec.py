@@ -53,7 +53,7 @@ class Case:
     constraints: tuple
     end: float
     steps: int
-    tolerance: float = 1e-10
+    tolerance: float = 1e-12
     max_iterations: int = 25
     linear_solver: str = "auto"
     jacobian_reuse: bool = False

@@ -19,7 +19,7 @@ def test_sparse_and_dense_lu_agree():
     assert sparse_model.sparse
     sparse = kinem.solve(sparse_model)
     assert dense.success and sparse.success
-    # the same Newton iterates up to rounding: agreement far below the 1e-10 tolerance
+    # the same Newton iterates up to rounding: agreement far below the 1e-12 tolerance
     assert np.max(np.abs(sparse.trajectory.data - dense.trajectory.data) / (1 + np.abs(dense.trajectory.data))) < 1e-9
 
 
@@ -94,7 +94,7 @@ def test_relative_driver_two_link_arm():
     vtip = 1j * w1 * np.exp(1j * p1) + 0.8j * w2 * np.exp(1j * p2)
     atip = -w1**2 * np.exp(1j * p1) + 0.8 * (1j * a2 - w2**2) * np.exp(1j * p2)
     tr = r.trajectory
-    # Newton stops at scaled residual <= 1e-10, i.e. 1e-10 of the size L (~1.5 here):
+    # Newton stops at scaled residual <= 1e-12, i.e. 1e-12 of the size L (~1.5 here):
     # 1e-9 relative to the quantity's peak leaves margin for the linear solves
     for got, ref in ((tr["tip.x"] + 1j * tr["tip.y"], tip), (tr["tip.vx"] + 1j * tr["tip.vy"], vtip),
                      (tr["tip.ax"] + 1j * tr["tip.ay"], atip)):

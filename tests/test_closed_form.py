@@ -1,7 +1,7 @@
 """The native solver against closed-form kinematics: the repository's
 slider-crank and four-bar, then random mechanisms that are not in it.
 
-Tolerance 1e-9 (the issue's bound): the Newton tolerance is 1e-10 of the
+Tolerance 1e-9 (the issue's bound): the Newton tolerance is 1e-12 of the
 mechanism size and converges quadratically, so positions carry ~1e-12
 relative error, and velocities/accelerations come from linear solves with
 that Jacobian (condition numbers ~1e2 here)."""

@@ -73,7 +73,7 @@ def test_engine_agrees_with_native_and_native_with_closed_form(engine, kind, dat
     model = kinem.compile(kinem.load_dict(case_dict))
     native = kinem.solve(model)
     assert native.success, native.message
-    # native against the closed form: 1e-9 of the mechanism size (the Newton tolerance is 1e-10)
+    # native against the closed form: 1e-9 of the mechanism size (the Newton tolerance is 1e-12)
     for column, ref in exact(native.trajectory.t).items():
         err = np.abs(native.trajectory[column] - ref)
         if column.endswith(".phi"):

@@ -56,7 +56,7 @@ def test_case_matches_native(name):
 
 
 def test_positions_at_round_off_against_a_tightly_converged_native():
-    # The native default tolerance (scaled residual 1e-10) bounds the figures
+    # The native default tolerance (scaled residual 1e-12) bounds the figures
     # of test_case_matches_native; with native converged to 1e-14 both are at
     # round-off: measured <= 1.3e-14 of L on the five cases, 1e-12 is 100x that.
     case = kinem.load(CASES / "quick_return_1.toml").with_time(end=0.6, steps=60)

@@ -4,7 +4,7 @@ cases of the general rack and pinion, and bad outlines.
 
 Tolerances: a case with an exact closed form must match it to 1e-9 of the
 run's peak magnitude of each quantity. The solver stops at a scaled residual
-of 1e-10, which leaves position errors near 1e-10 of the mechanism's size;
+of 1e-12, which leaves position errors near 1e-12 of the mechanism's size;
 velocities and accelerations (linear solves at that position, well
 conditioned here) inherit errors of that order. A wrong sign or term gives
 errors of order 1. The

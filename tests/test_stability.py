@@ -57,7 +57,7 @@ def test_change_point_stays_on_smooth_branch(steps, outputs):
     # the smooth branch: B left of A->O4 before the change point (t = 1.5), right of it after
     th4 = np.where(t <= 1.5, before["th4"], after["th4"])
     th3 = np.where(t <= 1.5, before["th3"], after["th3"])
-    # 1e-8: away from the change point the solution is as accurate as anywhere (1e-10 of the
+    # 1e-8: away from the change point the solution is as accurate as anywhere (1e-12 of the
     # size); the instant on it is interpolated, error ~ (distance to its neighbours)^4
     assert np.abs(wrap(r.trajectory["rocker.phi"] - th4)).max() < 1e-8
     assert np.abs(wrap(r.trajectory["coupler.phi"] - th3)).max() < 1e-8
