@@ -226,22 +226,26 @@ def expected(quick=False) -> dict:
     return {s.name: s.expect for s in scenarios(quick)}
 
 
-def table(rows, engines) -> str:
+def grid(rows):
+    """The outcome rows as a grid: ([(group, scenario)], {(scenario, engine): row})."""
     names = list(dict.fromkeys((r["group"], r["scenario"]) for r in rows))
-    by = {(r["scenario"], r["engine"]): r for r in rows}
+    return names, {(r["scenario"], r["engine"]): r for r in rows}
+
+
+def cell(r) -> str:
+    """One outcome as text: its class and error, 'unsupported', or '-' (not run)."""
+    if r is None:
+        return "-"
+    if r["outcome"].startswith("unsupported"):
+        return "unsupported"
+    e = r["error"]
+    return f"{r['outcome']} {e:.0e}" if e is not None and np.isfinite(e) else r["outcome"]
+
+
+def table(rows, engines) -> str:
+    names, by = grid(rows)
     width = max(len(n) for _, n in names) + 2
     lines = [f"{'group':26s}{'scenario':{width}s}" + "".join(f"{e:22s}" for e in engines)]
     for g, n in names:
-        cells = []
-        for e in engines:
-            r = by.get((n, e))
-            if r is None:
-                cells.append("-")
-            elif r["outcome"].startswith("unsupported"):
-                cells.append("unsupported")
-            elif np.isfinite(r["error"]):
-                cells.append(f"{r['outcome']} {r['error']:.0e}")
-            else:
-                cells.append(r["outcome"])
-        lines.append(f"{g:26s}{n:{width}s}" + "".join(f"{c:22s}" for c in cells))
+        lines.append(f"{g:26s}{n:{width}s}" + "".join(f"{cell(by.get((n, e))):22s}" for e in engines))
     return "\n".join(lines)

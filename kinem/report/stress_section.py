@@ -19,22 +19,20 @@ def html(doc) -> str:
     s = doc.get("stress")
     if not s:
         return ""
+    from ..stress import cell, grid
+
     engines = list(dict.fromkeys(r["engine"] for r in s["rows"]))
-    names = list(dict.fromkeys((r["group"], r["scenario"]) for r in s["rows"]))
-    by = {(r["scenario"], r["engine"]): r for r in s["rows"]}
+    names, by = grid(s["rows"])
     head = "<tr><th>group</th><th>scenario</th>" + "".join(f"<th>{escape(e)}</th>" for e in engines) + "</tr>"
     body = []
     for g, n in names:
         cells = []
         for e in engines:
             r = by.get((n, e))
-            if r is None:
-                cells.append("<td>-</td>")
-                continue
-            out = "unsupported" if r["outcome"].startswith("unsupported") else r["outcome"]
-            err = f" {r['error']:.0e}" if r["error"] is not None and out not in ("unsupported",) else ""
-            cls = "" if out in ("accurate", "singular-detected", "unsupported") else ' class="bad"'
-            cells.append(f'<td{cls} title="{escape(r.get("detail") or "")}">{escape(out + err)}</td>')
+            text = cell(r)
+            good = text.split(" ")[0] in ("accurate", "singular-detected", "unsupported", "-")
+            title = escape((r or {}).get("detail") or "")
+            cells.append(f'<td{"" if good else " class=bad"} title="{title}">{escape(text)}</td>')
         body.append(f"<tr><td>{escape(g)}</td><td>{escape(n)}</td>{''.join(cells)}</tr>")
     misses = "".join(f"<li>{escape(m)}</li>" for m in s["native_misses"])
     return ("<section><h2>Stress suite</h2><p>Each outcome classified (kinem stress --quick; classes in "
