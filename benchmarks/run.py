@@ -11,7 +11,7 @@ the machine's load hits every contender alike):
                default settings, on slider_crank, four_bar, quick_return_1
   2 precision  work-precision: wall time per simulated second for each
                engine to first reach 1e-6 and 1e-10 of L (dt swept from
-               coarse to fine) vs native at its 1e-10 tolerance
+               coarse to fine) vs native at its case tolerance (default 1e-12)
   3 scaling    N-four-bar chains of 10 .. 10,000 bodies: cost per step
   4 batch      B slider-crank variants merged (kinem.batch): cost per
                variant-step vs one model solved alone
@@ -270,7 +270,7 @@ def section_engines(cfg, state):
     from adapters.compare import compare
 
     say("== 1. native cost per output step vs engine cost per step (default settings) ==")
-    say("   native: full analysis (positions, velocities, accelerations) to 1e-10; engine: EngineRun.wall_time/steps")
+    say("   native: full analysis (positions, velocities, accelerations) to the case tolerance (default 1e-12); engine: EngineRun.wall_time/steps")
     say(f"   {'case':15s} {'native us/out':>13s} {'engine':7s} {'us/step':>8s} {'steps/out':>9s} {'us/out':>9s} "
         f"{'nat/eng-step':>12s} {'nat/eng-out':>11s} {'pos err/L':>9s}")
     rows = []
@@ -345,7 +345,7 @@ def section_precision(cfg, state):
     for name in CASES:
         s = state[name]
         case, model, ref = s["case"], s["model"], s["ref"]
-        # native: its own error at the case tolerance (1e-10), and the sweep of tolerances for the record
+        # native: its own error at the case tolerance (default 1e-12), and the sweep of tolerances for the record
         nat = {}
         for tol in (1e-6, 1e-8, 1e-10, 1e-12):
             m = model if tol == case.tolerance else kinem.compile(dataclasses.replace(case, tolerance=tol))
