@@ -25,7 +25,7 @@ class EngineRun:
     qd: np.ndarray | None
     wall_time: float                 # seconds spent stepping the engine
     steps: int                       # engine steps taken
-    substeps: int                    # substeps per step (1 if none)
+    substeps: int                    # engine steps per output interval
     settings: dict = field(default_factory=dict)
     version: str = ""
 

@@ -60,7 +60,7 @@ def characteristic_length(case: Case) -> float:
         span = origins.max(axis=0) - origins.min(axis=0)
         values.append(float(np.hypot(*span)))
     L = max(values)
-    return L if L > 0 else 1.0
+    return L if L > 1e-12 else 1.0  # nothing to measure by (or a size that would underflow its squares)
 
 
 @dataclass(frozen=True, eq=False)

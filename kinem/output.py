@@ -21,6 +21,9 @@ def write_atomic(path, write) -> None:
     """Calls write(binary file object) on a temporary file, then renames it to path."""
     path = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent or ".")
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600: give the file the mode a plain open() would
     try:
         with os.fdopen(fd, "wb") as f:
             write(f)

@@ -120,7 +120,6 @@ def _write(path, body) -> str:
 
     data = body.encode("utf-8")
     write_atomic(path, lambda f: f.write(data))
-    os.chmod(path, 0o644)  # mkstemp makes 0600; reports are for reading
     return str(path)
 
 
