@@ -36,9 +36,10 @@ from .base import Adapter, EngineRun, drives, grounded, mass_properties
 # Limits on the figures of adapters/compare.py at the default settings.
 # Positions: the index-3 Newton solve holds every constraint at each step, so
 # the engine is at round-off (<= 1.3e-14 of L against a native converged to
-# 1e-14); against native at its default tolerance (scaled residual 1e-10) the
-# figures are native's own error, measured up to 4.1e-11 of L and 1.3e-10 rad
-# (quick_return_1): the limits are 10x the native tolerance.
+# 1e-14); against native at a tolerance of 1e-10 (the default when these were
+# measured; it is now 1e-12) the figures are native's own error, measured up to
+# 4.1e-11 of L and 1.3e-10 rad (quick_return_1): the limits are 10x that
+# tolerance (at 1e-12: 3e-12 of L, kinem compare on the quick-returns).
 # Velocities: the O(dt^2) generalized-alpha error at dt = 1e-4, measured up to
 # 1.2e-8 of the speed scale and 6.2e-8 rad/s (quick_return_1, 3 rad/s) over
 # the tests' cases: the limits are about 8x that.

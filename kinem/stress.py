@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-NATIVE_TOLERANCE = 1e-8   # of the size: the Newton tolerance 1e-10 with a margin for rates and branches
+NATIVE_TOLERANCE = 1e-8   # of the size: far above the Newton tolerance (1e-12), far below a branch flip
 BRANCH_RESIDUAL = 1e-6    # a configuration this close to satisfying the constraints is a valid one
 BRANCH_ERROR = 1e-2       # ... and this far from the reference is another branch, not an inaccuracy
 STRESS = Path(__file__).resolve().parents[1] / "cases" / "stress"
