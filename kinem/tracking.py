@@ -19,11 +19,9 @@ import numpy as np
 
 from .diagnose import diagnose
 from .errors import AnalysisError, ConvergenceError, SingularError
-from .linalg import Factor
 
 KAPPA = 0.5            # a correction above half the predicted motion is a jump, not a refinement
 MIN_STEP = 1e-5        # of the output interval: below it the path is stuck at a singular point
-
 
 
 def singular_pivot(tolerance: float) -> float:

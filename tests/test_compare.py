@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 import kinem
-from adapters.compare import compare, run_case, tolerance_of
+from adapters.compare import run_case
 
 ROOT = Path(__file__).resolve().parents[1]
 

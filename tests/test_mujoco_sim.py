@@ -5,7 +5,6 @@ harness does (positions of bodies and named points over model.length, wrapped
 angles, velocities) and held to the adapter's TOLERANCE, which is derived
 there from the soft-constraint error at the default step.
 """
-import copy
 import tomllib
 from pathlib import Path
 

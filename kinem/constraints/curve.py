@@ -10,7 +10,6 @@ Phi_q qdd),
     a'  = i w a + g th',   a''  = -w^2 a + 2 i w th' g + th'^2 h,
     g'  = i w g + h th',   g''  = -w^2 g + 2 i w th' h + th'^2 k.
 """
-import numpy as np
 
 from .base import frames, rates
 from ..outline import OutlineSet
