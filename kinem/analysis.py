@@ -94,6 +94,21 @@ def position(model, data: Data, t: float, tolerance=None, max_iterations=None, f
                            f"'{model.row_owner[data.worst_row]}' ({model.row_labels[data.worst_row]})")
 
 
+def gauss_newton(model, q, t, max_iterations=None):
+    """Minimum-norm least-squares Newton steps on the dimensionless system:
+    converges where Phi_q is rank-deficient or not square (redundant
+    constraints, a singular configuration). Returns (q, max scaled residual)."""
+    tol = model.case.tolerance
+    for _ in range((max_iterations or model.case.max_iterations) + 1):
+        phi = model.phi(q, t)
+        r = float(model.scaled_residual(phi).max()) if model.m else 0.0
+        if r <= tol or not np.isfinite(r):
+            break
+        J = model.assemble(model.jac_values(q, t) * model.entry_scale, sparse=False)
+        q = q + model.col_scale * np.linalg.lstsq(J, -phi / model.scale, rcond=None)[0]
+    return q, r
+
+
 def factorize(model, data: Data) -> None:
     """Factorise Phi_q at the converged data.q for the velocity and acceleration solves."""
     data.factor = _factor(model, data, data.q, data.t)

@@ -108,15 +108,20 @@ def _settings(items, dt):
     return out
 
 
-def cmd_stress(a):
+def _engines(text, allow_empty=False) -> list:
+    """--engines: a comma-separated list of native and the engines."""
     from adapters import ENGINES
 
+    engines = [e.strip() for e in text.split(",") if e.strip()]
+    if any(e not in ("native",) + ENGINES for e in engines) or not (engines or allow_empty):
+        raise InputError(f"--engines: got {text!r}; expected a comma-separated list of native, {', '.join(ENGINES)}")
+    return engines
+
+
+def cmd_stress(a):
     from . import stress
 
-    engines = [e.strip() for e in a.engines.split(",") if e.strip()]
-    bad = [e for e in engines if e not in ("native",) + ENGINES]
-    if bad or not engines:
-        raise InputError(f"--engines: got {a.engines!r}; expected a comma-separated list of native, {', '.join(ENGINES)}")
+    engines = _engines(a.engines)
     rows = stress.run(engines, a.quick, a.jobs, a.scheduler)
     if a.json:
         print(json.dumps(rows, indent=2, default=float))
@@ -141,13 +146,9 @@ def cmd_engines(a):
 
 
 def cmd_compare(a):
-    from adapters import ENGINES
     from adapters.compare import run_case, table
 
-    engines = [e.strip() for e in a.engines.split(",") if e.strip()]
-    bad = [e for e in engines if e not in ("native",) + ENGINES]
-    if bad or not engines:
-        raise InputError(f"--engines: got {a.engines!r}; expected a comma-separated list of native, {', '.join(ENGINES)}")
+    engines = _engines(a.engines)
     model = _load(a.case)
     native, rows = run_case(model, engines, _settings(a.set, a.dt), a.scheduler)
     if a.json:
@@ -159,14 +160,9 @@ def cmd_compare(a):
 
 
 def cmd_report(a):
-    from adapters import ENGINES
-
     from .report import Options, run
 
-    engines = [e.strip() for e in a.engines.split(",") if e.strip()]
-    bad = [e for e in engines if e not in ("native",) + ENGINES]
-    if bad:
-        raise InputError(f"--engines: got {a.engines!r}; expected a comma-separated list of {', '.join(ENGINES)}")
+    engines = _engines(a.engines, allow_empty=True)  # native always runs in the report
     if a.jobs is not None and a.jobs < 0:
         raise InputError(f"--jobs: got {a.jobs}; expected 0 (no worker processes) or more")
     paths = a.cases or sorted(str(p) for p in Path("cases").glob("*.toml"))

@@ -39,16 +39,10 @@ def dimensionless_jacobian(model, q, t=0.0) -> np.ndarray:
 
 def assemble(model, t=0.0, max_iterations=None):
     """Gauss-Newton from the estimate; returns (q, max scaled residual, converged)."""
-    q = model.q0.copy()
-    tol = model.case.tolerance
-    for _ in range((max_iterations or model.case.max_iterations) + 1):
-        phi = model.phi(q, t)
-        r = float(model.scaled_residual(phi).max()) if model.m else 0.0
-        if r <= tol or not np.isfinite(r):
-            break
-        J = model.assemble(model.jac_values(q, t) * model.entry_scale, sparse=False)
-        q = q + model.col_scale * np.linalg.lstsq(J, -phi / model.scale, rcond=None)[0]
-    return q, r, bool(r <= tol)
+    from .analysis import gauss_newton
+
+    q, r = gauss_newton(model, model.q0.copy(), t, max_iterations)
+    return q, r, bool(r <= model.case.tolerance)
 
 
 def info(model) -> Info:

@@ -140,6 +140,13 @@ class Model:
     def scaled_residual(self, phi) -> np.ndarray:
         return np.abs(phi) / self.scale
 
+    def kinematic_residual(self, Q, times) -> float:
+        """Max scaled residual of the kinematic (non-driving) constraints over
+        the configurations Q[k] at times[k]: loop closure of a trajectory."""
+        nd = ~self.driving
+        return max((float(self.scaled_residual(self.phi(q, t))[nd].max(initial=0.0)) for q, t in zip(Q, times)),
+                   default=0.0)
+
 
 def compile(case: Case) -> Model:
     """Build the immutable Model of a validated Case."""

@@ -156,12 +156,6 @@ def classify(error, residual, tolerance, finite=True) -> str:
     return "inaccurate"
 
 
-def _residual(model, q, t):
-    nd = ~model.driving
-    return float(max((model.scaled_residual(model.phi(qk, tk))[nd].max(initial=0.0) for qk, tk in zip(q, t)),
-                     default=0.0))
-
-
 def run_one(task):
     """One scenario on one engine (or native): an Outcome as a dict."""
     from .analysis import solve
@@ -185,7 +179,7 @@ def run_one(task):
         finite = bool(np.isfinite(native.trajectory.data).all())
         # without a closed form native is its own reference: no error figure, only its residual
         err = _deviation(model, native.trajectory, exact_at(t), None) if exact_at(t) is not None else float("nan")
-        res = _residual(model, native.q, t)
+        res = model.kinematic_residual(native.q, t)
         outcome = classify(0.0 if err != err else err, res, NATIVE_TOLERANCE, finite)
         return asdict(Outcome(s.group, s.name, engine, outcome, err, res, wall,
                               f"{len(native.events)} event(s), {native.substeps} sub-step(s)"))
@@ -208,7 +202,7 @@ def run_one(task):
     t = run.trajectory.t
     finite = bool(np.isfinite(run.trajectory.data).all())
     err = _deviation(model, run.trajectory, exact_at(t), native) if finite else float("nan")
-    res = _residual(model, run.q, t) if finite else float("nan")
+    res = model.kinematic_residual(run.q, t) if finite else float("nan")
     tol = tolerance_of(adapter).get("position_error_rel", 1e-6)
     return asdict(Outcome(s.group, s.name, engine, classify(err, res, tol, finite), err, res, run.wall_time,
                           f"{run.steps} steps"))

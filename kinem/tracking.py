@@ -257,13 +257,7 @@ class Tracker:
 
     def polish(self, q, t):
         """Minimum-norm Gauss-Newton steps: Newton without a regular Jacobian."""
-        m = self.model
-        for _ in range(m.case.max_iterations):
-            phi = m.phi(q, t)
-            r = m.scaled_residual(phi).max()
-            self.data.residual = float(r)
-            if r <= m.case.tolerance:
-                return q
-            J = m.assemble(m.jac_values(q, t) * m.entry_scale, sparse=False)
-            q = q + m.col_scale * np.linalg.lstsq(J, -phi / m.scale, rcond=None)[0]
-        raise ConvergenceError(f"no convergence at the singular configuration t = {t:.6g}")
+        q, self.data.residual = self.a.gauss_newton(self.model, q, t)
+        if not self.data.residual <= self.model.case.tolerance:
+            raise ConvergenceError(f"no convergence at the singular configuration t = {t:.6g}")
+        return q
