@@ -143,6 +143,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False) -> SolveResult:
     output instant, on the branch the assembly found (kinem.tracking). Never
     raises for an analysis failure: the result says when and why (success
     False) and holds the instants solved before it."""
+    from .march import Block, usable
     from .tracking import Tracker
 
     check_square(model)
@@ -162,8 +163,23 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False) -> SolveResult:
     status, message, k = Status.SUCCESS, "", nt
     preload(model)  # a one-time import, not part of the analysis's wall time
     start = time.perf_counter()
+    block = Block(model, tracker) if usable(model, trace) else None
+    k = 0
     try:
-        for k in range(nt):
+        while k < nt:
+            if block is not None and k > 0:
+                got = block.advance(times[k: k + block.size])
+                n = len(got)
+                block.next_size(got)
+                if n:
+                    iters[k:k + n], resid[k:k + n], cond[k:k + n], Q[k:k + n] = (
+                        got.iterations, got.residual, got.pivot, got.q)
+                    if need_v:
+                        QD[k:k + n] = got.qd
+                        if need_a:
+                            QDD[k:k + n] = got.qdd
+                    k += n
+                    continue
             s = tracker.start(times[0]) if k == 0 else tracker.advance(times[k])
             iters[k], resid[k], cond[k], Q[k] = s.iterations, s.residual, s.pivot, s.q
             if trace:
@@ -172,7 +188,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False) -> SolveResult:
                 QD[k] = s.qd
                 if need_a:
                     QDD[k] = s.qdd
-        k = nt
+            k += 1
     except AnalysisError as e:
         status = Status.SINGULAR if isinstance(e, SingularError) else Status.NOT_CONVERGED
         what = "assembly at" if k == 0 else "step to"

@@ -25,7 +25,7 @@ IDENT_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*$")
 
 TOP_KEYS = ("name", "description", "units", "time", "solver", "bodies", "points", "constraints", "engines")
 ENGINES = ("pymunk", "mujoco", "exudyn")  # settings are checked against each adapter when it runs
-SOLVER_KEYS = ("tolerance", "max_iterations", "linear_solver", "jacobian_reuse")
+SOLVER_KEYS = ("tolerance", "max_iterations", "linear_solver", "jacobian_reuse", "block")
 LINEAR_SOLVERS = ("auto", "dense", "sparse")
 COORDS = ("x", "y", "phi")
 
@@ -244,6 +244,10 @@ class _Loader:
                 self.bad(where, "jacobian_reuse", f"got {_show(s['jacobian_reuse'])}", "true or false")
             else:
                 out["jacobian_reuse"] = s["jacobian_reuse"]
+        if "block" in s:
+            b = self.integer(where, "block", s["block"], 1, 4096)
+            if b is not None:
+                out["block"] = b
         if "linear_solver" in s:
             ls = s["linear_solver"]
             if ls not in LINEAR_SOLVERS:

@@ -77,20 +77,22 @@ class FunctionSet:
                 s = CubicSpline(np.asarray(f.t, float), np.asarray(f.value, float))
                 self.tables.append((k, (s, s.derivative(1), s.derivative(2))))
 
-    def __call__(self, t: float, order: int = 0) -> np.ndarray:
-        """d^(order)(t) for every function, order 0, 1 or 2."""
-        out = np.empty(self.n)
+    def __call__(self, t, order: int = 0) -> np.ndarray:
+        """d^(order)(t) for every function, order 0, 1 or 2: (n,) at a scalar
+        t, S + (n,) at an array of instants of shape S."""
+        t = np.asarray(t, dtype=float)
+        out = np.empty(t.shape + (self.n,))
         if self.poly_idx.size:
-            out[self.poly_idx] = self.poly_coeffs[order] @ (t ** self.powers)
+            out[..., self.poly_idx] = (t[..., None] ** self.powers) @ self.poly_coeffs[order].T
         if self.harm_idx.size:
             a, w, p, c = self.harm.T
-            arg = w * t + p
+            arg = w * t[..., None] + p
             if order == 0:
-                out[self.harm_idx] = c + a * np.sin(arg)
+                out[..., self.harm_idx] = c + a * np.sin(arg)
             elif order == 1:
-                out[self.harm_idx] = a * w * np.cos(arg)
+                out[..., self.harm_idx] = a * w * np.cos(arg)
             else:
-                out[self.harm_idx] = -a * w * w * np.sin(arg)
+                out[..., self.harm_idx] = -a * w * w * np.sin(arg)
         for k, splines in self.tables:
-            out[k] = splines[order](t)
+            out[..., k] = splines[order](t)
         return out

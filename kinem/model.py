@@ -3,7 +3,10 @@
 The Model holds the coordinate index map (three coordinates per body, then
 artificial coordinates), the constraint families with their rows, and the
 Jacobian sparsity pattern, all computed once. Its methods evaluate Phi, the
-Jacobian values, nu and gamma by one vectorised pass per family present.
+Jacobian values, nu and gamma by one vectorised pass per family present, at
+one instant (q of shape (n,), t a number) or at a batch of them (q, qd of
+shape (..., n), t a number or an array of the leading shape (...)): the
+rows, or Jacobian values, are on the last axis.
 """
 from dataclasses import dataclass, field
 
@@ -104,7 +107,7 @@ class Model:
 
     # -- evaluation ----------------------------------------------------------
     def _gather(self, values):
-        return np.concatenate(values) if len(values) > 1 else values[0]
+        return np.concatenate(values, axis=-1) if len(values) > 1 else values[0]
 
     def phi(self, q, t) -> np.ndarray:
         return self._gather([f.phi(q, t) for f in self.families])
@@ -114,6 +117,11 @@ class Model:
         return self._gather([f.jac(q, t) for f in self.families])
 
     def nu(self, t) -> np.ndarray:
+        if getattr(t, "ndim", 0):
+            out = np.zeros(t.shape + (self.m,))
+            for k in self.time_dependent:
+                out[..., self.offsets[k]: self.offsets[k] + self.families[k].n_rows] = self.families[k].nu(t)
+            return out
         out = np.zeros(self.m)
         for k in self.time_dependent:
             f = self.families[k]
@@ -128,6 +136,14 @@ class Model:
         return self.assemble(self.jac_values(q, t), self.sparse if sparse is None else sparse)
 
     def assemble(self, values, sparse: bool):
+        """The Jacobian from its values (nnz,): dense (m, n) or scipy CSC.
+        A batch of values (..., nnz) assembles dense only, to (..., m, n)."""
+        if values.ndim > 1:
+            if sparse:
+                raise ValueError("a batch of Jacobians assembles dense only")
+            J = np.zeros(values.shape[:-1] + (self.m, self.n))
+            J[..., self.jac_rows, self.jac_cols] = values
+            return J
         if sparse:
             from scipy.sparse import csc_matrix
 
@@ -138,6 +154,7 @@ class Model:
         return J
 
     def scaled_residual(self, phi) -> np.ndarray:
+        """|Phi| / scale, row by row (phi (m,) or a batch (..., m))."""
         return np.abs(phi) / self.scale
 
     def kinematic_residual(self, Q, times) -> float:

@@ -35,6 +35,43 @@ def singular_pivot(tolerance: float) -> float:
     return min(1e-3, 1.5 * tolerance**0.5)
 
 
+def extrapolate(t, T, Q, QD=None, QDD=None):
+    """Predicted configurations at the times t (K,), each from the states
+    before it: T (K, p) their times, oldest first (NaN: no state), Q (K, p, n)
+    their q, QD and QDD (K, n) the rates of the last one, when known.
+    Taylor from the last state when its velocity is known (order 2); else
+    Lagrange extrapolation through those of the last p states that lie within
+    four steps (order: their number - 1; order 0 means there is no slope to
+    judge a jump by). Returns (q (K, n), order (K,))."""
+    h = t - T[:, -1]
+    if QD is not None:
+        q = Q[:, -1] + h[:, None] * QD
+        if QDD is not None:
+            q = q + (0.5 * h * h)[:, None] * QDD
+        return q, np.full(len(t), 2)
+    # only points within a few steps: far ones make the slope too poor to judge a jump by
+    near = (t[:, None] - T) <= 4 * h[:, None]
+    q = np.zeros(Q.shape[:1] + Q.shape[2:])
+    p = T.shape[1]
+    for i in range(p):
+        w = np.ones(len(t))
+        for j in range(p):
+            if j != i:
+                w = np.where(near[:, j], w * (t - T[:, j]) / (T[:, i] - T[:, j]), w)
+        q += np.where(near[:, i], w, 0.0)[:, None] * np.where(near[:, i, None], Q[:, i], 0.0)
+    return q, near.sum(axis=1) - 1
+
+
+def jumps(model, q, q_pred, q_last):
+    """A correction from the predictor above KAPPA times the predicted motion
+    (dimensionless, plus ten times the tolerance for round-off): (jump,
+    correction, motion), each per configuration for q of shape (K, n)."""
+    cs = model.col_scale
+    corr = np.max(np.abs(q - q_pred) / cs, axis=-1)
+    move = np.max(np.abs(q_pred - q_last) / cs, axis=-1)
+    return corr > KAPPA * move + 10 * model.case.tolerance, corr, move
+
+
 def over_steps(step, limit):
     """Step-over sizes across a bifurcation: doubling from twice the stuck
     step until past the near-singular zone, at most ``limit``."""
@@ -100,26 +137,12 @@ class Tracker:
         return State(t, d.q.copy(), qd, qdd, pivot, det, d.iterations, d.residual)
 
     def predict(self, t):
-        """(start, order): Taylor from the last state when velocities are
-        known, else Lagrange extrapolation through the last three states that
-        lie within four steps (order 0, no jump test, when none but the last)."""
-        last = self.history[-1]
-        h = t - last.t
-        if self.need_v:
-            q = last.q + h * last.qd
-            if self.need_a:
-                q = q + 0.5 * h * h * last.qdd
-            return q, 2
-        # only points within a few steps: far ones make the slope too poor to judge a jump by
-        pts = [p for p in self.history[-3:] if t - p.t <= 4 * h]
-        q = np.zeros_like(last.q)
-        for i, a in enumerate(pts):
-            w = 1.0
-            for j, b in enumerate(pts):
-                if i != j:
-                    w *= (t - b.t) / (a.t - b.t)
-            q += w * a.q
-        return q, len(pts) - 1
+        """(start, order) at t from the accepted states (``extrapolate``)."""
+        h = self.history[-3:]
+        last = h[-1]
+        q, order = extrapolate(np.array([t]), np.array([[p.t for p in h]]), np.array([[p.q for p in h]]),
+                               None if last.qd is None else last.qd[None], None if last.qdd is None else last.qdd[None])
+        return q[0], int(order[0])
 
     def attempt(self, t, allow_flip=False) -> State:
         q_pred, order = self.predict(t)
@@ -130,11 +153,9 @@ class Tracker:
         if not allow_flip and s.det != last.det:
             raise Rejected("det(J) changed sign")
         if order >= 1:
-            cs = self.model.col_scale
-            corr = np.abs(s.q - q_pred) / cs
-            move = np.abs(q_pred - last.q) / cs
-            if corr.max() > KAPPA * move.max() + 10 * self.model.case.tolerance:
-                raise Rejected(f"jump of {corr.max():.2e} from the predictor (predicted motion {move.max():.2e})")
+            jump, corr, move = jumps(self.model, s.q, q_pred, last.q)
+            if jump:
+                raise Rejected(f"jump of {corr:.2e} from the predictor (predicted motion {move:.2e})")
         return s
 
     # -- the march ---------------------------------------------------------------

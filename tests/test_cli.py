@@ -112,6 +112,7 @@ BAD = {
     "zero-length-line": (SLIDER.replace('qi = [100.0, 0.0]', 'qi = [0.0, 0.0]'), "zero length"),
     "unknown-top-key": ("solverr = {}\n" + SLIDER, "key 'solverr': unknown key"),
     "bad-time": (SLIDER.replace("steps = 500", "steps = 0"), "key 'steps'"),
+    "bad-block": (SLIDER + "\n[solver]\nblock = 0\n", "key 'block': got 0; expected a whole number from 1 to 4096"),
 }
 
 

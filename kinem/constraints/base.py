@@ -6,6 +6,12 @@ A_i s' (Eq. 4.4) is s' e^{i phi}, B_i s' (Eq. 4.44) is i A_i s', a dot b is
 Re(conj(a) b) and the scalar cross product a x b is Im(conj(a) b). This halves
 the number of array operations per evaluation; every row is still the
 chapter's equation.
+
+Every evaluation also takes a batch: q, qd of shape (..., n) and t a scalar
+or an array of the leading shape (...) give rows (..., n_rows) and Jacobian
+values (..., nnz), one numpy pass for all the instants. Columns are taken
+with ``col(q, c)`` (q[..., c], as cheap as q[c] for a single q) and
+constraint-major outputs built with ``entries``.
 """
 from dataclasses import dataclass, field
 from typing import Callable
@@ -46,6 +52,10 @@ class TypeDecl:
 class Family:
     """All constraints of one family, evaluated with one numpy pass per quantity.
 
+    q and qd are (n,) or a batch (..., n), t a scalar or an array of the
+    batch's leading shape; every method returns its rows (or Jacobian values)
+    on the last axis, after the batch's leading axes.
+
     A subclass sets, in ``__init__(constraints, ctx)``:
       n_rows, labels (one per row), owner (constraint name per row),
       driving (bool per row), scale (per row: the residual that counts as one
@@ -64,7 +74,7 @@ class Family:
 
     def nu(self, t):
         """Right side of the velocity equation, -Phi_t (zero unless time-dependent)."""
-        return np.zeros(self.n_rows)
+        return np.zeros(getattr(t, "shape", ()) + (self.n_rows,))
 
     def gamma(self, q, qd, t):
         raise NotImplementedError
@@ -96,15 +106,22 @@ def local_points(values) -> np.ndarray:
     return a[:, 0] + 1j * a[:, 1]
 
 
-def frames(q, col):
+def col(q, c):
+    """q[..., c]: columns c of one configuration (n,) or of a batch (..., n).
+    (q[..., c] costs several times q[c] for a single q; take is the fastest
+    gather for a batch.)"""
+    return q[c] if q.ndim == 1 else q.take(c, -1)
+
+
+def frames(q, c):
     """Origins r_i (complex) and rotations e^{i phi_i} of the bodies whose x
-    coordinate sits at column ``col``."""
-    return q[col] + 1j * q[col + 1], np.exp(1j * q[col + 2])
+    coordinate sits at column ``c``."""
+    return col(q, c) + 1j * col(q, c + 1), np.exp(1j * col(q, c + 2))
 
 
-def rates(qd, col):
+def rates(qd, c):
     """Origin velocities (complex) and angular velocities of the bodies."""
-    return qd[col] + 1j * qd[col + 1], qd[col + 2]
+    return col(qd, c) + 1j * col(qd, c + 1), col(qd, c + 2)
 
 
 def dot(a, b):
@@ -115,6 +132,21 @@ def cross(a, b):
     return (a.conjugate() * b).imag
 
 
+def entries(*columns):
+    """Per-constraint values, each (n_cons,) (a constant) or (..., n_cons),
+    side by side: (..., n_cons * k) in constraint-major order
+    [c0[0], c1[0], ..., c0[1], c1[1], ...], as ``pattern`` lays out a
+    Jacobian's entries. The leading shape is that of the batched columns."""
+    shape = columns[0].shape
+    for c in columns:
+        if c.ndim > len(shape):
+            shape = c.shape
+    out = np.empty(shape + (len(columns),))
+    for k, c in enumerate(columns):
+        out[..., k] = c
+    return out.reshape(shape[:-1] + (-1,))
+
+
 def interleave(a, b):
     """Rows [a0, b0, a1, b1, ...]: two rows per constraint."""
-    return np.stack((a, b), axis=1).ravel()
+    return entries(a, b)

@@ -4,7 +4,7 @@ contact point P_i on the cam's outline (kinem/constraints/curve.py):
 a = A_i p(theta) and g = A_i g'(theta), the tangent there."""
 import numpy as np
 
-from .base import Family, Key, TypeDecl, dot, frames, interleave, local_points, pattern, rates, row_info
+from .base import Family, Key, TypeDecl, col, dot, entries, frames, interleave, local_points, pattern, rates, row_info
 from .curve import Curve, check_theta
 
 
@@ -49,10 +49,10 @@ class CamRoller(Family):
 
     def jac(self, q, t):
         d, a, g, h, _, b = self.parts(q)
-        return np.stack([
+        return entries(
             -g.real, -g.imag, dot(1j * g, d) - dot(g, 1j * a), dot(h, d) - dot(g, g), g.real, g.imag, dot(g, 1j * b),
             -2 * d.real, -2 * d.imag, -2 * dot(d, 1j * a), -2 * dot(d, g), 2 * d.real, 2 * d.imag, 2 * dot(d, 1j * b),
-        ], axis=1).ravel()
+        )
 
     def gamma(self, q, qd, t):
         """-(d/dt)^2 Phi without the acceleration terms: (g.d)'' = g''.d + 2 g'.d' + g.d''."""
@@ -85,7 +85,7 @@ class CamFlat(Family):
     def parts(self, q):
         zi, (a, g, h, k) = self.curve.at(q)
         zj, b = self.foll.at(q)
-        n = self.n * np.exp(1j * q[self.foll.cb + 2])
+        n = self.n * np.exp(1j * col(q, self.foll.cb + 2))
         return zi + a - zj - b, a, g, h, k, b, n
 
     def phi(self, q, t):
@@ -94,10 +94,10 @@ class CamFlat(Family):
 
     def jac(self, q, t):
         d, a, g, h, _, b, n = self.parts(q)
-        return np.stack([
+        return entries(
             dot(1j * g, n), dot(h, n), dot(g, 1j * n),
             n.real, n.imag, dot(1j * a, n), dot(g, n), -n.real, -n.imag, dot(d, 1j * n) - dot(1j * b, n),
-        ], axis=1).ravel()
+        )
 
     def gamma(self, q, qd, t):
         d, a, g, h, k, b, n = self.parts(q)

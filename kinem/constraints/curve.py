@@ -11,7 +11,7 @@ Phi_q qdd),
     g'  = i w g + h th',   g''  = -w^2 g + 2 i w th' h + th'^2 k.
 """
 
-from .base import frames, rates
+from .base import col, frames, rates
 from ..outline import OutlineSet
 
 
@@ -25,12 +25,12 @@ class Curve:
     def at(self, q):
         """r_c and (a, g, h, k)."""
         z, e = frames(q, self.cc)
-        return z, tuple(e * p for p in self.outlines.curve(q[self.ct]))
+        return z, tuple(e * p for p in self.outlines.curve(col(q, self.ct)))
 
     def rates(self, qd, a, g, h, k):
         """The body origin's velocity v_c, and a', a'', g', g''."""
         v, w = rates(qd, self.cc)
-        th = qd[self.ct]
+        th = col(qd, self.ct)
         return (v, 1j * w * a + g * th, -w * w * a + 2j * w * th * g + th * th * h,
                 1j * w * g + h * th, -w * w * g + 2j * w * th * h + th * th * k)
 

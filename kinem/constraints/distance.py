@@ -3,7 +3,7 @@ distance driver, its extension with a length l(t) that follows a function
 (a linear actuator between two points)."""
 import numpy as np
 
-from .base import Family, Key, TypeDecl, dot, frames, local_points, pattern, rates, row_info
+from .base import Family, Key, TypeDecl, dot, entries, frames, local_points, pattern, rates, row_info
 from ..functions import FunctionSet, constant
 
 
@@ -36,7 +36,7 @@ class Distance(Family):
 
     def jac(self, q, t):
         d, a, b = self.parts(q)
-        return 2 * np.stack([-d.real, -d.imag, -dot(d, 1j * a), d.real, d.imag, dot(d, 1j * b)], axis=1).ravel()
+        return 2 * entries(-d.real, -d.imag, -dot(d, 1j * a), d.real, d.imag, dot(d, 1j * b))
 
     def nu(self, t):
         return 2 * self.length(t) * self.length(t, 1)

@@ -4,7 +4,7 @@ follower (Eqs. 4.26, 4.27) and the point-follower, a pin in a slot
 on the outline (kinem/constraints/curve.py)."""
 import numpy as np
 
-from .base import Family, Key, TypeDecl, frames, interleave, local_points, pattern, row_info
+from .base import Family, Key, TypeDecl, col, entries, frames, interleave, local_points, pattern, row_info
 from .curve import Curve, check_theta
 
 
@@ -25,6 +25,7 @@ class PointOnCurve(Family):
         cc, ct, cb = self.curve.cc, self.curve.ct, self.cb
         cols = np.stack([cc, cc + 2, ct, cb, cb + 2, cc + 1, cc + 2, ct, cb + 1, cb + 2], axis=1)
         self.rows, self.cols = pattern(cols, [0] * 5 + [1] * 5, 2)
+        self.entry_sign = np.repeat(self.sign, cols.shape[1])
 
     def phi(self, q, t):
         zc, (a, _, _, _) = self.curve.at(q)
@@ -34,16 +35,15 @@ class PointOnCurve(Family):
 
     def jac(self, q, t):
         _, (a, g, _, _) = self.curve.at(q)
-        b = self.sb * np.exp(1j * q[self.cb + 2])
+        b = self.sb * np.exp(1j * col(q, self.cb + 2))
         one = np.ones_like(self.sign)
-        v = np.stack([one, -a.imag, g.real, -one, b.imag, one, a.real, g.imag, -one, -b.real], axis=1)
-        return (v * self.sign[:, None]).ravel()
+        return entries(one, -a.imag, g.real, -one, b.imag, one, a.real, g.imag, -one, -b.real) * self.entry_sign
 
     def gamma(self, q, qd, t):
         _, (a, g, h, k) = self.curve.at(q)
         _, _, a2, _, _ = self.curve.rates(qd, a, g, h, k)
-        b = self.sb * np.exp(1j * q[self.cb + 2])
-        g = -self.sign * (a2 + b * qd[self.cb + 2] ** 2)
+        b = self.sb * np.exp(1j * col(q, self.cb + 2))
+        g = -self.sign * (a2 + b * col(qd, self.cb + 2) ** 2)
         return interleave(g.real, g.imag)
 
 

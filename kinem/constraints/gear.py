@@ -10,7 +10,7 @@ equation: the estimates are the reference configuration (phi_i^0, ...).
 """
 import numpy as np
 
-from .base import Family, Key, TypeDecl, dot, frames, local_points, pattern, rates, row_info
+from .base import Family, Key, TypeDecl, col, dot, entries, frames, local_points, pattern, rates, row_info
 
 
 class Gear(Family):
@@ -39,14 +39,15 @@ class Gear(Family):
         self.values = np.stack([self.ri, self.rj, -(self.ri + self.rj)], axis=1).ravel()[self.keep]
 
     def phi(self, q, t):
-        k = self.w * q[self.ak]
-        return self.ri * (q[self.ai] - k) + self.rj * (q[self.aj] - k - self.phi0)
+        k = self.w * col(q, self.ak)
+        return self.ri * (col(q, self.ai) - k) + self.rj * (col(q, self.aj) - k - self.phi0)
 
     def jac(self, q, t):
-        return self.values
+        """Constant: the same (read-only) values for every configuration of a batch."""
+        return self.values if q.ndim == 1 else np.broadcast_to(self.values, q.shape[:-1] + self.values.shape)
 
     def gamma(self, q, qd, t):
-        return np.zeros(self.n_rows)
+        return np.zeros(qd.shape[:-1] + (self.n_rows,))
 
 
 class RackPinion(Family):
@@ -82,12 +83,12 @@ class RackPinion(Family):
 
     def phi(self, q, t):
         u, d, _, _ = self.parts(q)
-        return dot(u, d) + self.rho * (q[self.ci + 2] - q[self.cj + 2] - self.phi0)
+        return dot(u, d) + self.rho * (col(q, self.ci + 2) - col(q, self.cj + 2) - self.phi0)
 
     def jac(self, q, t):
         u, d, a, b = self.parts(q)
-        return np.stack([u.real, u.imag, dot(u, 1j * a) + self.rho,
-                         -u.real, -u.imag, dot(1j * u, d) - dot(u, 1j * b) - self.rho], axis=1).ravel()
+        return entries(u.real, u.imag, dot(u, 1j * a) + self.rho,
+                       -u.real, -u.imag, dot(1j * u, d) - dot(u, 1j * b) - self.rho)
 
     def gamma(self, q, qd, t):
         u, d, a, b = self.parts(q)

@@ -8,7 +8,8 @@ d = P_j - P_i, and Eq. 4.16 with a = j, u = Q_j - P_j, d = P_i - P_j.
 """
 import numpy as np
 
-from .base import Family, Key, TypeDecl, cross, dot, frames, local_points, pattern, rates, row_info
+from .base import (Family, Key, TypeDecl, col, cross, dot, entries, frames, interleave, local_points, pattern, rates,
+                   row_info)
 
 
 class _PointOnLine:
@@ -30,9 +31,9 @@ class _PointOnLine:
         return cross(u, d)
 
     def jac(self, q):
-        """[x_a, y_a, phi_a, x_b, y_b, phi_b] per constraint."""
+        """The columns [x_a, y_a, phi_a, x_b, y_b, phi_b], each (..., n_cons)."""
         u, d, sa, sb = self.parts(q)
-        return np.stack([u.imag, -u.real, -dot(u, d + sa), -u.imag, u.real, dot(u, sb)], axis=1)
+        return u.imag, -u.real, -dot(u, d + sa), -u.imag, u.real, dot(u, sb)
 
     def gamma(self, q, qd):
         u, d, sa, sb = self.parts(q)
@@ -58,17 +59,17 @@ class Translational(Family):
         self.scale = np.stack([self.line.scale, np.ones(len(cons))], axis=1).ravel()
         cols = np.concatenate([self.line.cols, np.stack([self.ai, self.aj], axis=1)], axis=1)
         self.rows, self.cols = pattern(cols, [0] * 6 + [1, 1], 2)
-        self.pm = np.tile([1.0, -1.0], (len(cons), 1))
+        self.plus, self.minus, self.zero = np.ones(len(cons)), -np.ones(len(cons)), np.zeros(len(cons))
 
     def phi(self, q, t):
-        return np.stack([self.line.phi(q), q[self.ai] - q[self.aj] - self.phi0], axis=1).ravel()
+        return interleave(self.line.phi(q), col(q, self.ai) - col(q, self.aj) - self.phi0)
 
     def jac(self, q, t):
-        return np.concatenate([self.line.jac(q), self.pm], axis=1).ravel()
+        return entries(*self.line.jac(q), self.plus, self.minus)
 
     def gamma(self, q, qd, t):
         g = self.line.gamma(q, qd)
-        return np.stack([g, np.zeros_like(g)], axis=1).ravel()
+        return interleave(g, self.zero)
 
 
 class RevoluteTranslational(Family):
@@ -89,7 +90,7 @@ class RevoluteTranslational(Family):
         return self.line.phi(q)
 
     def jac(self, q, t):
-        return self.line.jac(q).ravel()
+        return entries(*self.line.jac(q))
 
     def gamma(self, q, qd, t):
         return self.line.gamma(q, qd)

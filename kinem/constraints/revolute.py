@@ -1,7 +1,7 @@
 """Revolute joint, Eqs. 4.7-4.9; Jacobian Eq. 4.46 (Table 4.2); gamma Eq. 4.47."""
 import numpy as np
 
-from .base import Family, Key, TypeDecl, frames, interleave, local_points, pattern, row_info
+from .base import Family, Key, TypeDecl, col, entries, frames, interleave, local_points, pattern, row_info
 
 
 class Revolute(Family):
@@ -28,15 +28,15 @@ class Revolute(Family):
         return interleave(d.real, d.imag)
 
     def jac(self, q, t):
-        a = self.si * np.exp(1j * q[self.ci + 2])
-        b = self.sj * np.exp(1j * q[self.cj + 2])
+        a = self.si * np.exp(1j * col(q, self.ci + 2))
+        b = self.sj * np.exp(1j * col(q, self.cj + 2))
         one = self.ones
-        return np.stack([one, -a.imag, -one, b.imag, one, a.real, -one, -b.real], axis=1).ravel()
+        return entries(one, -a.imag, -one, b.imag, one, a.real, -one, -b.real)
 
     def gamma(self, q, qd, t):
-        a = self.si * np.exp(1j * q[self.ci + 2])
-        b = self.sj * np.exp(1j * q[self.cj + 2])
-        g = a * qd[self.ci + 2] ** 2 - b * qd[self.cj + 2] ** 2
+        a = self.si * np.exp(1j * col(q, self.ci + 2))
+        b = self.sj * np.exp(1j * col(q, self.cj + 2))
+        g = a * col(qd, self.ci + 2) ** 2 - b * col(qd, self.cj + 2) ** 2
         return interleave(g.real, g.imag)
 
 

@@ -9,7 +9,7 @@ constant f; ``absolute`` one constant row; ``driver`` one row with f = d(t).
 """
 import numpy as np
 
-from .base import Family, Key, TypeDecl, local_points
+from .base import Family, Key, TypeDecl, col, entries, local_points
 from ..functions import FunctionSet, constant
 
 COORD = {"x": 0, "y": 1, "phi": 2}
@@ -53,20 +53,23 @@ class Simple(Family):
         self.ones = np.ones(n)
 
     def point_term(self, q):
-        s = self.local * np.exp(1j * q[self.angle])
+        s = self.local * np.exp(1j * col(q, self.angle))
         return s
 
     def phi(self, q, t):
-        val = q[self.a] - self.w * q[self.k] - self.f(t)
+        val = col(q, self.a) - self.w * col(q, self.k) - self.f(t)
         if self.any_point:
             s = self.point_term(q)
             val += self.mx * s.real + self.my * s.imag
         return val
 
     def jac(self, q, t):
-        s = self.point_term(q) if self.any_point else np.zeros(self.n_rows, complex)
-        dphi = -self.mx * s.imag + self.my * s.real
-        return np.stack([self.ones, dphi, -self.w], axis=1).ravel()[self.keep]
+        if self.any_point:
+            s = self.point_term(q)
+            dphi = -self.mx * s.imag + self.my * s.real
+        else:
+            dphi = np.zeros(q.shape[:-1] + (self.n_rows,))
+        return col(entries(self.ones, dphi, -self.w), self.keep)
 
     def nu(self, t):
         return self.f(t, 1)
@@ -75,7 +78,9 @@ class Simple(Family):
         g = self.f(t, 2) if self.time_dependent else np.zeros(self.n_rows)
         if self.any_point:
             s = self.point_term(q)
-            g = g + (self.mx * s.real + self.my * s.imag) * qd[self.angle] ** 2
+            g = g + (self.mx * s.real + self.my * s.imag) * col(qd, self.angle) ** 2
+        if g.ndim < qd.ndim:  # rows that do not depend on q, for a batch of q: repeated
+            g = np.broadcast_to(g, qd.shape[:-1] + g.shape[-1:])
         return g
 
 

@@ -1,0 +1,230 @@
+"""The block march: several output instants solved together
+(docs/solver.md, "Block march").
+
+For a small model the cost of an instant is the Python and numpy overhead of
+some forty calls on arrays of a dozen numbers, not arithmetic. So a dense,
+square model takes its output instants in blocks of up to ``[solver] block``:
+Newton-Raphson runs on every instant of a block at once, each from the
+extrapolation of the last accepted state (kinem.tracking.extrapolate), with
+one numpy pass per constraint family and one batched LAPACK solve per
+iteration. Velocities and accelerations follow in the same way.
+
+Every instant then passes the tracker's own tests as if it had been reached
+in one step from the instant before it: converged, pivot ratio above the
+floor, the same sign of det(J_s), and no jump from the predictor of the
+previous instant. The instants before the first that fails are accepted.
+The tracker then takes that output step on its own (sub-steps, singular
+configurations), and blocks resume, growing again from one instant.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from .analysis import MAX_STEP
+from .linalg import PIVOT_RATIO
+from .tracking import State, extrapolate, jumps
+
+
+GROW_ITERATIONS = 3
+SHRINK_ITERATIONS = 4
+
+
+def usable(model, trace: bool) -> bool:
+    """Blocks need a dense square Jacobian; a trace or modified Newton asks
+    for the step-by-step march."""
+    c = model.case
+    return c.block > 1 and not trace and not c.jacobian_reuse and not model.sparse and model.m == model.n > 0
+
+
+@dataclass
+class Instants:
+    """Accepted instants of a block, time-major."""
+    q: np.ndarray
+    qd: np.ndarray | None
+    qdd: np.ndarray | None
+    iterations: np.ndarray
+    residual: np.ndarray
+    pivot: np.ndarray
+
+    def __len__(self):
+        return len(self.q)
+
+
+def factorize(Js):
+    """LU factors of each dimensionless Jacobian with its pivot ratio and
+    sign of det, as kinem.linalg.Factor computes them (LAPACK getrf, one
+    matrix at a time: for small matrices that costs less than a vectorised
+    elimination). Returns (factors, pivot ratio (K,), det sign (K,))."""
+    from scipy.linalg.lapack import dgetrf
+
+    K, n, _ = Js.shape
+    LU = np.empty((K, n, n))
+    P = np.empty((K, n), dtype=np.int32)
+    for k in range(K):
+        LU[k], P[k], _ = dgetrf(Js[k])
+    diag = LU[:, np.arange(n), np.arange(n)]
+    swaps = np.count_nonzero(P != np.arange(n), axis=1)
+    pivots = np.abs(diag)
+    big = pivots.max(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = np.where((big > 0) & np.isfinite(pivots).all(axis=1), pivots.min(axis=1) / big, 0.0)
+    det = np.prod(np.sign(diag), axis=1).astype(int) * (1 - 2 * (swaps % 2))
+    return (LU, P), np.where(ratio < PIVOT_RATIO, 0.0, ratio), det
+
+
+def solve_each(model, factors, B):
+    """x[k] from Phi_q x[k] = B[k], with the factors of J_s."""
+    from scipy.linalg.lapack import dgetrs
+
+    LU, P = factors
+    X = B / model.scale
+    for k in range(len(X)):
+        X[k] = dgetrs(LU[k], P[k], X[k])[0]
+    return X * model.col_scale
+
+
+class Block:
+    def __init__(self, model, tracker):
+        self.model, self.tracker, self.data = model, tracker, tracker.data
+        self.need_v, self.need_a = tracker.need_v, tracker.need_a
+        self.size = min(8, model.case.block)
+
+    def dimensionless(self, Q, t):
+        m, d = self.model, self.data
+        d.jacobian_evaluations += len(t)
+        return m.assemble(m.jac_values(Q, t) * m.entry_scale, sparse=False)
+
+    def newton(self, Q, t):
+        """Newton-Raphson on all instants at once (kinem.analysis.position);
+        an instant stops iterating when it has converged. Returns (Q,
+        iterations, residual, converged, the J_s of each instant's last
+        iteration or None)."""
+        m, d = self.model, self.data
+        tol, max_it = m.case.tolerance, m.case.max_iterations
+        K = len(t)
+        iterations = np.zeros(K, dtype=int)
+        residual = np.full(K, np.inf)
+        done = np.zeros(K, dtype=bool)
+        last_J = np.zeros((K, m.n, m.n)) if not self.need_v else None
+        for it in range(max_it + 1):
+            phi = m.phi(Q, t)
+            r = np.max(np.abs(phi) / m.scale, axis=1)
+            new = ~done & (r <= tol)
+            done |= new
+            iterations[new], residual[new] = it, r[new]
+            active = np.flatnonzero(~done & np.isfinite(r))
+            if it == max_it or not len(active):
+                break
+            Js = self.dimensionless(Q[active], t[active])
+            d.factorizations += len(active)
+            dq = np.linalg.solve(Js, (-phi[active] / m.scale)[..., None])[..., 0] * m.col_scale
+            size = np.max(np.abs(dq) / m.col_scale, axis=1)
+            dq *= np.minimum(1.0, MAX_STEP / size)[:, None]
+            Q[active] += dq
+            if last_J is not None:
+                last_J[active] = Js
+        return Q, iterations, residual, done, last_J
+
+    def advance(self, times) -> Instants:
+        """As many of the output instants ``times`` as pass the tests, from
+        the tracker's last accepted state; the tracker's history moves on."""
+        m, tr = self.model, self.tracker
+        K = len(times)
+        hist = tr.history[-3:]
+        last = hist[-1]
+        start = self.start(times, hist)
+        try:
+            Q, iterations, residual, done, last_J = self.newton(start, times)
+            n = int(np.argmin(done)) if not done.all() else K
+            if n == 0:
+                return self.empty()
+            Q, t = Q[:n], times[:n]
+            fresh = np.ones(n, bool) if last_J is None else iterations[:n] == 0
+            Js = np.empty((n, m.n, m.n))
+            if fresh.any():
+                Js[fresh] = self.dimensionless(Q[fresh], t[fresh])
+            if last_J is not None:
+                Js[~fresh] = last_J[:n][~fresh]
+            factors, pivot, det = factorize(Js)
+            self.data.factorizations += n
+            dets = np.concatenate([[last.det], det])
+            bad = (pivot < tr.pivot_floor) | (dets[1:] != dets[:-1])
+            n = int(np.argmax(bad)) if bad.any() else n
+            if n == 0:
+                return self.empty()
+            Q, t, factors = Q[:n], t[:n], (factors[0][:n], factors[1][:n])
+            QD = QDD = None
+            if self.need_v:
+                QD = solve_each(m, factors, m.nu(t))
+                if self.need_a:
+                    QDD = solve_each(m, factors, m.gamma(Q, QD, t))
+        except np.linalg.LinAlgError:  # an exactly singular J_s: the tracker will say where
+            return self.empty()
+        jump = self.first_jump(hist, t, Q, QD, QDD)
+        n = n if jump is None else jump
+        if n == 0:
+            return self.empty()
+        out = Instants(Q[:n], None if QD is None else QD[:n], None if QDD is None else QDD[:n],
+                       iterations[:n], residual[:n], pivot[:n])
+        for k in range(max(0, n - 3), n):
+            tr.accept(State(float(t[k]), Q[k].copy(), None if QD is None else QD[k].copy(),
+                            None if QDD is None else QDD[k].copy(), float(pivot[k]), int(det[k]),
+                            int(iterations[k]), float(residual[k])))
+        return out
+
+    def start(self, times, hist):
+        """Newton starts for the block: the tracker's predictor from the last
+        state, plus the cubic Taylor term (the third derivative taken as the
+        change of qdd over the last step) when accelerations are known, so
+        that far instants start closer."""
+        K, n, last = len(times), self.model.n, hist[-1]
+        T = np.broadcast_to([p.t for p in hist], (K, len(hist)))
+        H = np.broadcast_to([p.q for p in hist], (K, len(hist), n))
+        rates = (None, None) if last.qd is None else (np.broadcast_to(last.qd, (K, n)),
+                                                      None if last.qdd is None else np.broadcast_to(last.qdd, (K, n)))
+        q, _ = extrapolate(times, T, H, *rates)
+        if last.qdd is not None and len(hist) > 1:
+            h = times - last.t
+            q += (h**3 / 6)[:, None] * ((last.qdd - hist[-2].qdd) / (last.t - hist[-2].t))
+        return q
+
+    def first_jump(self, hist, t, Q, QD, QDD):
+        """Index of the first instant whose correction from its own predictor
+        (from the instant before it) is a jump; None if there is none."""
+        m = self.model
+        n = len(t)
+        if QD is not None:
+            prev_q = np.concatenate([[hist[-1].q], Q[:-1]])
+            prev_qd = np.concatenate([[hist[-1].qd], QD[:-1]])
+            prev_qdd = None if QDD is None else np.concatenate([[hist[-1].qdd], QDD[:-1]])
+            T = np.concatenate([[hist[-1].t], t[:-1]])[:, None]
+            pred, order = extrapolate(t, T, prev_q[:, None], prev_qd, prev_qdd)
+        else:
+            pad = 3 - len(hist)
+            allT = np.concatenate([np.full(pad, np.nan), [p.t for p in hist], t])
+            allQ = np.concatenate([np.zeros((pad, m.n)), [p.q for p in hist], Q])
+            idx = np.arange(n)[:, None] + np.arange(3)
+            pred, order = extrapolate(t, allT[idx], allQ[idx])
+            prev_q = allQ[idx[:, -1]]
+        jump, _, _ = jumps(m, Q, pred, prev_q)
+        jump &= order >= 1
+        return int(np.argmax(jump)) if jump.any() else None
+
+    def empty(self) -> Instants:
+        return Instants(np.empty((0, self.model.n)), None, None, np.empty(0, int), np.empty(0), np.empty(0))
+
+    def next_size(self, got: Instants) -> int:
+        """The next block's size: after a full block, double it while its last
+        instant converged in at most GROW_ITERATIONS iterations, halve it when
+        that took more than SHRINK_ITERATIONS (far instants start too far
+        away to be worth solving together); after a partial one, what was
+        accepted."""
+        n, size = len(got), self.size
+        if n < size:
+            size = max(1, n)
+        elif got.iterations[-1] <= GROW_ITERATIONS:
+            size = min(2 * size, self.model.case.block)
+        elif got.iterations[-1] > SHRINK_ITERATIONS:
+            size = max(1, size // 2)
+        self.size = size
+        return size
