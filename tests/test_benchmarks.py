@@ -26,7 +26,15 @@ def test_harness_runs_tiny(tmp_path):
     assert res["skips"]["families"]["constructed"] < res["skips"]["families"]["registered"]
     assert res["skips"]["factorization_reuse"]["factorizations_per_instant_twice"] > \
         res["skips"]["factorization_reuse"]["factorizations_per_instant_once"]
+    # the block march beside the step-by-step march (block = 1)
+    assert all(r["native_step_by_step_us_per_output_step"] > 0 for r in native)
+    assert all(r["single_us_per_step"] > 0 and r["single_step_by_step_us_per_step"] > 0 for r in res["batch"])
+    assert {r["case"] for r in res["skips"]["block_march"]} == {"slider_crank", "four_bar", "quick_return_1"}
+    assert all(v["native_tolerance"] > 0 for v in res["precision"].values())
+    groups = res["anatomy"]["block_march"]["groups"]
+    assert abs(sum(g["share"] for g in groups.values()) - 1) < 1e-6
     for t in res["targets"]:
         assert isinstance(t["met"], bool) and t["figure"]
+        assert t["met"] or t["gap"]
     for word in ("targets", "cold start", "work-precision", "scaling", "batch"):
         assert word in p.stdout

@@ -81,7 +81,7 @@ def test_block_is_used_and_cheaper_in_calls():
 
 
 def test_not_used_where_it_cannot_be():
-    """Redundant (least squares), sparse, traced and modified-Newton runs go step by step."""
+    """Redundant (least squares), sparse, large, traced and modified-Newton runs go step by step."""
     par = kinem.compile(kinem.load(ROOT / "cases" / "stress" / "parallelogram_redundant.toml"))
     assert par.m > par.n and not march.usable(par, False)
     fb = kinem.load(ROOT / "cases" / "four_bar.toml")
@@ -90,6 +90,10 @@ def test_not_used_where_it_cannot_be():
     assert not march.usable(kinem.compile(replace(fb, linear_solver="sparse")), False)
     assert not march.usable(kinem.compile(replace(fb, jacobian_reuse=True)), False)
     assert not march.usable(kinem.compile(replace(fb, block=1)), False)
+    from kinem.reference import n_four_bar
+
+    big = kinem.compile(kinem.load_dict(n_four_bar(12)))  # 26 bodies, 78 coordinates: step by step
+    assert big.n > march.LIMIT and not march.usable(big, False)
 
 
 class _Flip:

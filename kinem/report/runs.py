@@ -112,8 +112,11 @@ def run_native(task):
         walls.append(r.wall_time)
     wall = statistics.median(walls)
     steps = len(r.iterations)
+    from ..march import usable
+
     settings = {"tolerance": model.case.tolerance, "max_iterations": model.case.max_iterations,
-                "linear_solver": "sparse" if model.sparse else "dense"}
+                "linear_solver": "sparse" if model.sparse else "dense",
+                "block": model.case.block if usable(model, False) else 1}
     counts = {"instants": steps, "newton_iterations": int(r.iterations.sum()),
               "jacobian_evaluations": int(r.jacobian_evaluations), "factorizations": int(r.factorizations)}
     base = dict(requested=settings, settings=settings, version=_version("kinem"), counts=counts, wall_time=wall,
