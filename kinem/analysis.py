@@ -160,7 +160,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False) -> SolveResult:
     iters, resid, cond = np.zeros(nt, dtype=int), np.zeros(nt), np.zeros(nt)
     data = Data(q=model.q0.copy(), trace=[] if trace else None)
     tracker = Tracker(model, data, need_v, need_a)
-    status, message, k = Status.SUCCESS, "", nt
+    status, message = Status.SUCCESS, ""
     preload(model)  # a one-time import, not part of the analysis's wall time
     start = time.perf_counter()
     block = Block(model, tracker) if usable(model, trace) else None
