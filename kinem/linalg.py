@@ -39,6 +39,22 @@ def _parity(perm) -> int:
     return -1 if (n - cycles) % 2 else 1
 
 
+def pivot_ratio(diag) -> np.ndarray:
+    """Smallest over largest |pivot| along the last axis (one LU or a batch);
+    0 when the pivots are all zero or not all finite."""
+    pivots = np.abs(diag)
+    big = pivots.max(axis=-1, initial=0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where((big > 0) & np.isfinite(pivots).all(axis=-1), pivots.min(axis=-1, initial=np.inf) / big, 0.0)
+
+
+def lu_det_sign(diag, piv) -> np.ndarray:
+    """Sign of det from LAPACK getrf's U diagonal and row interchanges (along
+    the last axis: one LU or a batch)."""
+    swaps = np.count_nonzero(piv != np.arange(piv.shape[-1]), axis=-1)
+    return np.prod(np.sign(diag), axis=-1).astype(int) * (1 - 2 * (swaps % 2))
+
+
 def preload(model) -> None:
     """Imports the factorisation the model will use (scipy is imported
     lazily for a fast start), so that timed analyses do not pay for it."""
@@ -78,12 +94,10 @@ class Factor:
             diag = np.diag(lu)
             cols = np.arange(model.n)
             self._perms = None
-        pivots = np.abs(diag)
-        big = pivots.max() if pivots.size else 0.0
-        small = int(np.argmin(pivots)) if pivots.size else 0
-        self.pivot_ratio = float(pivots[small] / big) if big > 0 and np.isfinite(big) else 0.0
+        self.pivot_ratio = float(pivot_ratio(diag))
         self._diag = diag
-        if not np.isfinite(pivots).all() or self.pivot_ratio < PIVOT_RATIO:
+        if self.pivot_ratio < PIVOT_RATIO:
+            small = int(np.argmin(np.abs(diag))) if diag.size else 0
             name = model.coordinate_names[cols[small]] if model.n else "?"
             raise SingularError(f"singular Jacobian: pivot ratio {self.pivot_ratio:.1e} "
                                 f"at coordinate '{name}'")
@@ -107,12 +121,9 @@ class Factor:
     def det_sign(self) -> int:
         if self.least_squares:
             return 1
-        s = int(np.prod(np.sign(self._diag)))
         if self._perms is None:
-            piv = self.lu[1]
-            swaps = int(np.count_nonzero(piv != np.arange(len(piv))))
-            return s * (-1) ** swaps
-        return s * _parity(self._perms[0]) * _parity(self._perms[1])
+            return int(lu_det_sign(self._diag, self.lu[1]))
+        return int(np.prod(np.sign(self._diag))) * _parity(self._perms[0]) * _parity(self._perms[1])
 
     def solve(self, b):
         b = b * self.row

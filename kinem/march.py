@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .analysis import MAX_STEP
-from .linalg import PIVOT_RATIO
+from .linalg import PIVOT_RATIO, lu_det_sign, pivot_ratio
 from .tracking import State, extrapolate, jumps
 
 
@@ -68,13 +68,8 @@ def factorize(Js):
     for k in range(K):
         LU[k], P[k], _ = dgetrf(Js[k])
     diag = LU[:, np.arange(n), np.arange(n)]
-    swaps = np.count_nonzero(P != np.arange(n), axis=1)
-    pivots = np.abs(diag)
-    big = pivots.max(axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        ratio = np.where((big > 0) & np.isfinite(pivots).all(axis=1), pivots.min(axis=1) / big, 0.0)
-    det = np.prod(np.sign(diag), axis=1).astype(int) * (1 - 2 * (swaps % 2))
-    return (LU, P), np.where(ratio < PIVOT_RATIO, 0.0, ratio), det
+    ratio = pivot_ratio(diag)
+    return (LU, P), np.where(ratio < PIVOT_RATIO, 0.0, ratio), lu_det_sign(diag, P)
 
 
 def solve_each(model, factors, B):
