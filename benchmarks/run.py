@@ -636,7 +636,7 @@ def section_skips(cfg, state):
     out["outputs"] = rows
 
     # block march vs step by step
-    say("   b) block march (default, [solver] block = 128) vs step by step (block = 1): per output instant")
+    say("   b) block march (default, [solver] block = 256) vs step by step (block = 1): per output instant")
     rows = []
     for name in CASES:
         model = state[name]["model"]

@@ -55,12 +55,17 @@ def lu_det_sign(diag, piv) -> np.ndarray:
     return np.prod(np.sign(diag), axis=-1).astype(int) * (1 - 2 * (swaps % 2))
 
 
-def preload(model) -> None:
-    """Imports the factorisation the model will use (scipy is imported
-    lazily for a fast start), so that timed analyses do not pay for it."""
+def preload(model, block: bool = False) -> None:
+    """Imports (and for the block march, ``block``, compiles) the factorisation the model
+    will use (scipy and numba are imported lazily for a fast start), so that
+    timed analyses do not pay for it."""
     if model.sparse or model.m > model.n:
         import scipy.sparse.linalg  # noqa: F401
     import scipy.linalg.lapack  # noqa: F401
+    if block:
+        from . import dense
+
+        dense.warm()  # numba: compiled on first use, then loaded from its cache
 
 
 class Factor:

@@ -25,8 +25,13 @@ from .linalg import PIVOT_RATIO, lu_det_sign, pivot_ratio
 from .tracking import State, extrapolate, jumps
 
 
+START = 64
+# Fewer output instants go step by step: that costs under 20 ms, less than
+# loading the compiled kernels (kinem.dense) in a new process, about 0.35 s.
+MIN_INSTANTS = 64
 GROW_ITERATIONS = 3
 SHRINK_ITERATIONS = 4
+ITERATIONS = 8
 # Coordinates above which arithmetic, not call overhead, dominates: measured on
 # merged slider-cranks, blocks are 3.5x faster at 48 coordinates, 1.5x at 96,
 # even at 120 and 3.5x slower at 192 (batched solves of large matrices).
@@ -56,38 +61,30 @@ class Instants:
 
 
 def factorize(Js):
-    """LU factors of each dimensionless Jacobian with its pivot ratio and
-    sign of det, as kinem.linalg.Factor computes them (LAPACK getrf, one
-    matrix at a time: for small matrices that costs less than a vectorised
-    elimination). Returns (factors, pivot ratio (K,), det sign (K,))."""
-    from scipy.linalg.lapack import dgetrf
+    """LU factors of each dimensionless Jacobian (K, n, n) with its pivot
+    ratio and sign of det, as kinem.linalg.Factor computes them, in one
+    compiled pass (kinem.dense); Js is overwritten. Returns ((LU, pivots),
+    pivot ratio (K,), det sign (K,))."""
+    from . import dense
 
-    K, n, _ = Js.shape
-    LU = np.empty((K, n, n))
-    P = np.empty((K, n), dtype=np.int32)
-    for k in range(K):
-        LU[k], P[k], _ = dgetrf(Js[k])
-    diag = LU[:, np.arange(n), np.arange(n)]
+    P = dense.factor(Js)
+    diag = np.diagonal(Js, axis1=1, axis2=2)
     ratio = pivot_ratio(diag)
-    return (LU, P), np.where(ratio < PIVOT_RATIO, 0.0, ratio), lu_det_sign(diag, P)
+    return (Js, P), np.where(ratio < PIVOT_RATIO, 0.0, ratio), lu_det_sign(diag, P)
 
 
 def solve_each(model, factors, B):
     """x[k] from Phi_q x[k] = B[k], with the factors of J_s."""
-    from scipy.linalg.lapack import dgetrs
+    from . import dense
 
-    LU, P = factors
-    X = B / model.scale
-    for k in range(len(X)):
-        X[k] = dgetrs(LU[k], P[k], X[k])[0]
-    return X * model.col_scale
+    return dense.solve(*factors, B / model.scale) * model.col_scale
 
 
 class Block:
     def __init__(self, model, tracker):
         self.model, self.tracker, self.data = model, tracker, tracker.data
         self.need_v, self.need_a = tracker.need_v, tracker.need_a
-        self.size = min(8, model.case.block)
+        self.size = min(START, model.case.block)
 
     def dimensionless(self, Q, t):
         m, d = self.model, self.data
@@ -97,69 +94,70 @@ class Block:
     def newton(self, Q, t):
         """Newton-Raphson on all instants at once (kinem.analysis.position);
         an instant stops iterating when it has converged. Returns (Q,
-        iterations, residual, converged, the J_s of each instant's last
-        iteration or None)."""
+        iterations, residual, Phi at convergence, converged, the J_s of each
+        instant's last iteration or None)."""
+        from . import dense
+
         m, d = self.model, self.data
-        tol, max_it = m.case.tolerance, m.case.max_iterations
+        tol, max_it = m.case.tolerance, min(m.case.max_iterations, ITERATIONS)
         K = len(t)
         iterations = np.zeros(K, dtype=int)
         residual = np.full(K, np.inf)
         done = np.zeros(K, dtype=bool)
+        final = np.zeros((K, m.m))
         last_J = np.zeros((K, m.n, m.n)) if not self.need_v else None
         for it in range(max_it + 1):
             phi = m.phi(Q, t)
             r = np.max(np.abs(phi) / m.scale, axis=1)
             new = ~done & (r <= tol)
             done |= new
-            iterations[new], residual[new] = it, r[new]
+            iterations[new], residual[new], final[new] = it, r[new], phi[new]
             active = np.flatnonzero(~done & np.isfinite(r))
             if it == max_it or not len(active):
                 break
             Js = self.dimensionless(Q[active], t[active])
             d.factorizations += len(active)
-            dq = np.linalg.solve(Js, (-phi[active] / m.scale)[..., None])[..., 0] * m.col_scale
-            size = np.max(np.abs(dq) / m.col_scale, axis=1)
-            dq *= np.minimum(1.0, MAX_STEP / size)[:, None]
-            Q[active] += dq
             if last_J is not None:
                 last_J[active] = Js
-        return Q, iterations, residual, done, last_J
+            pivots = dense.factor(Js)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                dq = solve_each(m, (Js, pivots), -phi[active])
+                size = np.max(np.abs(dq) / m.col_scale, axis=1)
+                dq *= np.minimum(1.0, MAX_STEP / size)[:, None]
+            Q[active] += dq  # a zero pivot gives a non-finite dq: the instant stays unconverged
+        return Q, iterations, residual, final, done, last_J
 
     def advance(self, times) -> Instants:
         """As many of the output instants ``times`` as pass the tests, from
         the tracker's last accepted state; the tracker's history moves on."""
         m, tr = self.model, self.tracker
-        K = len(times)
         hist = tr.history[-3:]
         last = hist[-1]
-        start = self.start(times, hist)
-        try:
-            Q, iterations, residual, done, last_J = self.newton(start, times)
-            n = int(np.argmin(done)) if not done.all() else K
-            if n == 0:
-                return self.empty()
-            Q, t = Q[:n], times[:n]
-            fresh = np.ones(n, bool) if last_J is None else iterations[:n] == 0
-            Js = np.empty((n, m.n, m.n))
-            if fresh.any():
-                Js[fresh] = self.dimensionless(Q[fresh], t[fresh])
-            if last_J is not None:
-                Js[~fresh] = last_J[:n][~fresh]
-            factors, pivot, det = factorize(Js)
-            self.data.factorizations += n
-            dets = np.concatenate([[last.det], det])
-            bad = (pivot < tr.pivot_floor) | (dets[1:] != dets[:-1])
-            n = int(np.argmax(bad)) if bad.any() else n
-            if n == 0:
-                return self.empty()
-            Q, t, factors = Q[:n], t[:n], (factors[0][:n], factors[1][:n])
-            QD = QDD = None
-            if self.need_v:
-                QD = solve_each(m, factors, m.nu(t))
-                if self.need_a:
-                    QDD = solve_each(m, factors, m.gamma(Q, QD, t))
-        except np.linalg.LinAlgError:  # an exactly singular J_s: the tracker will say where
+        Q, iterations, residual, final, done, last_J = self.newton(self.start(times, hist), times)
+        n = int(np.argmin(done)) if not done.all() else len(done)
+        if n == 0:
             return self.empty()
+        Q, t = Q[:n], times[:n]
+        fresh = np.ones(n, bool) if last_J is None else iterations[:n] == 0
+        Js = np.empty((n, m.n, m.n))
+        if fresh.any():
+            Js[fresh] = self.dimensionless(Q[fresh], t[fresh])
+        if last_J is not None:
+            Js[~fresh] = last_J[:n][~fresh]
+        factors, pivot, det = factorize(Js)
+        self.data.factorizations += n
+        dets = np.concatenate([[last.det], det])
+        bad = (pivot < tr.pivot_floor) | (dets[1:] != dets[:-1])
+        n = int(np.argmax(bad)) if bad.any() else n
+        if n == 0:
+            return self.empty()
+        Q, t, factors = Q[:n], t[:n], (factors[0][:n], factors[1][:n])
+        Q += solve_each(m, factors, -final[:n])  # analysis.refine: one more Newton correction
+        QD = QDD = None
+        if self.need_v:
+            QD = solve_each(m, factors, m.nu(t))
+            if self.need_a:
+                QDD = solve_each(m, factors, m.gamma(Q, QD, t))
         jump = self.first_jump(hist, t, Q, QD, QDD)
         n = n if jump is None else jump
         if n == 0:

@@ -124,13 +124,15 @@ class Tracker:
             if self.need_v:
                 self.a.factorize(m, d)
                 f = d.factor
+            else:
+                f = d.newton_factor if d.iterations > 0 else self.a._factor(m, d, d.q, t)
+            self.a.refine(d, f)
+            if self.need_v:
                 self.a.velocity(m, d)
                 qd = d.qd
                 if self.need_a:
                     self.a.acceleration(m, d)
                     qdd = d.qdd
-            else:
-                f = d.newton_factor if d.iterations > 0 else self.a._factor(m, d, d.q, t)
             pivot, det = f.pivot_ratio, f.det_sign
         except SingularError:
             pivot, det = 0.0, 0

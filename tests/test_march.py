@@ -104,11 +104,11 @@ class _Flip:
         self.block, self.at, self.original = block, at, block.newton
 
     def __call__(self, Q, t):
-        Q, it, res, done, J = self.original(Q, t)
+        Q, it, res, final, done, J = self.original(Q, t)
         if len(t) > self.at:
             Q = Q.copy()
             Q[self.at:] += 0.3  # far from every instant's predictor: a jump
-        return Q, it, res, done, J
+        return Q, it, res, final, done, J
 
 
 def test_a_jump_inside_a_block_is_cut_off_there():
