@@ -872,8 +872,7 @@ def anatomy_step_by_step(cfg, state):
 
 ANATOMY_GROUPS = {
     "families": "family evaluations (kinem/constraints, functions.py, model.py)",
-    "batched": "batched Newton solves (numpy.linalg.solve)",
-    "lapack": "per-matrix LAPACK (march.factorize: getrf; march.solve_each: getrs)",
+    "dense": "compiled batched LU and solves (kinem/dense.py, numba)",
     "rest": "rest (march and tracker logic with their numpy arithmetic, result assembly)",
 }
 
@@ -889,11 +888,9 @@ def own_group(key):
         rel = path[len(pkg):]
         if rel.startswith("constraints/") or rel in ("functions.py", "model.py"):
             return "families"
-        if rel == "march.py" and func in ("factorize", "solve_each"):
-            return "lapack"
+        if rel == "dense.py":
+            return "dense"
         return "rest"
-    if "/numpy/linalg/" in path:
-        return "batched"
     return None
 
 
@@ -930,39 +927,34 @@ def profile_groups(stats) -> dict:
 
 
 def counted_calls(model):
-    """One unprofiled solve with counting wrappers: numpy.linalg.solve calls
-    and the matrices they solve, raw dgetrf/dgetrs calls, and the model's
-    family passes (phi, jac_values, nu, gamma)."""
-    import scipy.linalg.lapack as lp
-
+    """One unprofiled solve with counting wrappers: the compiled LU and solve
+    calls and the matrices they handle, and the model's family passes (phi,
+    jac_values, nu, gamma)."""
+    from kinem import dense
     from kinem.model import Model
 
-    counts = {"numpy.linalg.solve": 0, "matrices in numpy.linalg.solve": 0, "dgetrf": 0, "dgetrs": 0}
-    solve, getrf, getrs = np.linalg.solve, lp.dgetrf, lp.dgetrs
+    counts = {"dense.factor": 0, "dense.solve": 0, "matrices factorised": 0, "matrices solved": 0}
 
-    def count_solve(a, b):
-        counts["numpy.linalg.solve"] += 1
-        counts["matrices in numpy.linalg.solve"] += a.shape[0] if np.ndim(a) == 3 else 1
-        return solve(a, b)
-
-    def counter(name, fn):
+    def counter(name, fn, matrices=None):
         def wrapped(*a, **k):
             counts[name] += 1
+            if matrices:
+                counts[matrices] += len(a[0])
             return fn(*a, **k)
         return wrapped
     passes = ("phi", "jac_values", "nu", "gamma")
     counts.update({f"model.{p}": 0 for p in passes})
-    with patched((np.linalg, "solve", count_solve), (lp, "dgetrf", counter("dgetrf", getrf)),
-                 (lp, "dgetrs", counter("dgetrs", getrs)),
+    with patched((dense, "factor", counter("dense.factor", dense.factor, "matrices factorised")),
+                 (dense, "solve", counter("dense.solve", dense.solve, "matrices solved")),
                  *((Model, p, counter(f"model.{p}", getattr(Model, p))) for p in passes)):
         r = kinem.solve(model)
     return counts, len(r.iterations)
 
 
 def anatomy_block(cfg, state):
-    """The block march's time by cProfile groups, and its small-matrix LAPACK
-    calls per instant with their cost per call."""
-    from scipy.linalg import lapack
+    """The block march's time by cProfile groups, its compiled LU and solve
+    calls per instant with their cost per matrix, and its family passes."""
+    from kinem import dense
 
     model = state["slider_crank"]["model"]
     med, _, r = rounds({"n": native(model)}, cfg.native_repeats)["n"]
@@ -979,22 +971,19 @@ def anatomy_block(cfg, state):
     total = sum(groups.values())
     counts, n_counted = counted_calls(model)
     per = {k: v / n_counted for k, v in counts.items()}
-    # the cost of one call of each small-matrix LAPACK path, on this model's 12x12 J_s
+    # the cost per matrix of the compiled kernels, on stacks of this model's J_s as large as the average call
+    stack = max(1, round(per["matrices factorised"] / max(per["dense.factor"], 1e-12)))
     k = n // 2
     J = model.assemble(model.jac_values(r.q[k], float(r.trajectory.t[k])) * model.entry_scale, False)
-    lu, piv, _ = lapack.dgetrf(J)
-    b = np.ones(model.n)
-    stack = max(1, round(per["matrices in numpy.linalg.solve"] / max(per["numpy.linalg.solve"], 1e-12)))
-    S, B = np.broadcast_to(J, (stack, model.n, model.n)).copy(), np.ones((stack, model.n, 1))
-    t_solve = per_call(lambda: np.linalg.solve(S, B))
-    t_getrf = per_call(lambda: lapack.dgetrf(J))
-    t_getrs = per_call(lambda: lapack.dgetrs(lu, piv, b))
+    S = np.broadcast_to(J, (stack, model.n, model.n)).copy()
+    piv = dense.factor(S.copy())
+    B = np.ones((stack, model.n))
+    t_factor = per_call(lambda: dense.factor(S.copy())) / stack
+    t_solve = per_call(lambda: dense.solve(S, piv, B.copy())) / stack
     Q, T = r.q[:stack].copy(), r.trajectory.t[:stack].copy()
     t_phi = per_call(lambda: model.phi(Q, T))
     t_jac = per_call(lambda: model.jac_values(Q, T))
-    lapack_us = (t_solve / stack * per["matrices in numpy.linalg.solve"] + t_getrf * per["dgetrf"]
-                 + t_getrs * per["dgetrs"])
-    matrices = per["matrices in numpy.linalg.solve"] + per["dgetrf"] + per["dgetrs"]
+    dense_us = t_factor * per["matrices factorised"] + t_solve * per["matrices solved"]
     say(f"   b) block march (the default): {1e6 * per_instant:.1f} us per instant ({r.iterations.sum() / n:.2f} Newton"
         f" iterations, {r.jacobian_evaluations / n:.2f} Jacobians per instant); cProfile of {runs} solves, own time"
         f" grouped ({1e3 * total:.0f} ms profiled vs {1e3 * runs * med:.0f} ms unprofiled analysis loops)")
@@ -1005,21 +994,18 @@ def anatomy_block(cfg, state):
         rows[g] = {"label": label, "share": share, "us_per_instant_estimate": 1e6 * share * per_instant}
         say(f"      {label:78s} {100 * share:5.1f}% {1e6 * share * per_instant:11.1f}")
     say("      (~us/instant: share x the unprofiled cost; the profiler inflates Python-heavy groups somewhat)")
-    say(f"      per instant: {per['matrices in numpy.linalg.solve']:.2f} matrices in {per['numpy.linalg.solve']:.3f}"
-        f" batched numpy solves (~{stack} matrices each, {1e6 * t_solve / stack:.2f} us per matrix), "
-        f"{per['dgetrf']:.2f} dgetrf ({1e6 * t_getrf:.2f} us each), {per['dgetrs']:.2f} dgetrs "
-        f"({1e6 * t_getrs:.2f} us each)")
-    say(f"      small-matrix LAPACK: {matrices:.1f} calls per instant, ~{1e6 * lapack_us:.1f} us of the instant's "
-        f"{1e6 * per_instant:.1f} us ({100 * lapack_us / per_instant:.0f}%)")
+    say(f"      per instant: {per['matrices factorised']:.2f} LUs in {per['dense.factor']:.3f} calls (~{stack} "
+        f"matrices each, {1e6 * t_factor:.2f} us per matrix), {per['matrices solved']:.2f} solves in "
+        f"{per['dense.solve']:.3f} calls ({1e6 * t_solve:.2f} us per matrix): ~{1e6 * dense_us:.1f} us of the "
+        f"instant's {1e6 * per_instant:.1f} us ({100 * dense_us / per_instant:.0f}%)")
     fam = sum(per[f"model.{p}"] for p in ("phi", "jac_values", "nu", "gamma"))
     say(f"      family passes: {fam:.3f} model.phi/jac_values/nu/gamma calls per instant; one phi pass over "
         f"{stack} instants {1e6 * t_phi:.1f} us ({1e6 * t_phi / stack:.2f} per instant), one jac_values pass "
         f"{1e6 * t_jac:.1f} us ({1e6 * t_jac / stack:.2f} per instant)")
     return {"march": march_of(model), "us_per_instant": 1e6 * per_instant, "profiled_runs": runs,
             "profiled_s": total, "unprofiled_s": runs * med, "groups": rows, "calls_per_instant": per,
-            "stack": stack, "us_numpy_solve_per_matrix": 1e6 * t_solve / stack, "us_dgetrf": 1e6 * t_getrf,
-            "us_dgetrs": 1e6 * t_getrs, "small_matrix_lapack_calls_per_instant": matrices,
-            "small_matrix_lapack_us_per_instant": 1e6 * lapack_us, "small_matrix_lapack_share": lapack_us / per_instant,
+            "stack": stack, "us_lu_per_matrix": 1e6 * t_factor, "us_solve_per_matrix": 1e6 * t_solve,
+            "dense_us_per_instant": 1e6 * dense_us, "dense_share": dense_us / per_instant,
             "family_passes_per_instant": fam, "us_phi_pass": 1e6 * t_phi, "us_jac_values_pass": 1e6 * t_jac}
 
 
