@@ -152,7 +152,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False) -> SolveResult:
     output instant, on the branch the assembly found (kinem.tracking). Never
     raises for an analysis failure: the result says when and why (success
     False) and holds the instants solved before it."""
-    from .march import MIN_INSTANTS, Block, usable
+    from .march import Block, usable
     from .tracking import Tracker
 
     check_square(model)
@@ -170,7 +170,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False) -> SolveResult:
     data = Data(q=model.q0.copy(), trace=[] if trace else None)
     tracker = Tracker(model, data, need_v, need_a)
     status, message = Status.SUCCESS, ""
-    blocks = usable(model, trace) and nt >= MIN_INSTANTS
+    blocks = usable(model, trace, nt)
     preload(model, blocks)  # one-time imports, not part of the analysis's wall time
     start = time.perf_counter()
     block = Block(model, tracker) if blocks else None

@@ -6,8 +6,8 @@ some forty calls on arrays of a dozen numbers, not arithmetic. So a dense,
 square model takes its output instants in blocks of up to ``[solver] block``:
 Newton-Raphson runs on every instant of a block at once, each from the
 extrapolation of the last accepted state (kinem.tracking.extrapolate), with
-one numpy pass per constraint family and one batched LAPACK solve per
-iteration. Velocities and accelerations follow in the same way.
+one numpy pass per constraint family and one compiled batched LU solve
+(kinem.dense) per iteration. Velocities and accelerations follow in the same way.
 
 Every instant then passes the tracker's own tests as if it had been reached
 in one step from the instant before it: converged, pivot ratio above the
@@ -38,12 +38,13 @@ ITERATIONS = 8
 LIMIT = 64
 
 
-def usable(model, trace: bool) -> bool:
-    """Blocks are for small models with a dense square Jacobian; a trace or
-    modified Newton asks for the step-by-step march."""
+def usable(model, trace: bool, instants: int) -> bool:
+    """Blocks are for runs of at least MIN_INSTANTS output instants of small
+    models with a dense square Jacobian; a trace or modified Newton asks for
+    the step-by-step march."""
     c = model.case
     return (c.block > 1 and not trace and not c.jacobian_reuse and not model.sparse
-            and 0 < model.n <= LIMIT and model.m == model.n)
+            and 0 < model.n <= LIMIT and model.m == model.n and instants >= MIN_INSTANTS)
 
 
 @dataclass

@@ -1,5 +1,5 @@
 """The compiled batched LU (kinem/dense.py) against LAPACK (scipy), and the
-block march's polish step against closed-form kinematics."""
+block march's final Newton correction against closed-form kinematics."""
 from dataclasses import replace
 from pathlib import Path
 
@@ -50,14 +50,14 @@ def test_a_zero_pivot_gives_pivot_ratio_zero_without_error():
     assert not np.isfinite(x).all()
 
 
-def test_polish_makes_a_loose_tolerance_accurate():
+def test_final_correction_makes_a_loose_tolerance_accurate():
     """One Newton correction after convergence squares the error: at
     tolerance 1e-6 the positions of the book's slider-crank come out within
     1e-9 of the closed form (about tol^2 times the Jacobian's conditioning,
     ~1e2 here, with margin), where without it they would be ~1e-6 off."""
     case = replace(kinem.load(CASES / "slider_crank.toml"), tolerance=1e-6)
     model = kinem.compile(case)
-    assert march.usable(model, False)
+    assert march.usable(model, False, len(model.times))
     r = kinem.solve(model)
     assert r.success and r.residual.max() > 1e-9  # Newton really stopped early somewhere
     t = r.trajectory.t

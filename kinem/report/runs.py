@@ -116,7 +116,7 @@ def run_native(task):
 
     settings = {"tolerance": model.case.tolerance, "max_iterations": model.case.max_iterations,
                 "linear_solver": "sparse" if model.sparse else "dense",
-                "block": model.case.block if usable(model, False) else 1}
+                "block": model.case.block if usable(model, False, len(model.times)) else 1}
     counts = {"instants": steps, "newton_iterations": int(r.iterations.sum()),
               "jacobian_evaluations": int(r.jacobian_evaluations), "factorizations": int(r.factorizations)}
     base = dict(requested=settings, settings=settings, version=_version("kinem"), counts=counts, wall_time=wall,
