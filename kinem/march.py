@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import dense
 from .analysis import MAX_STEP
 from .linalg import PIVOT_RATIO, lu_det_sign, pivot_ratio
 from .tracking import State, extrapolate, jumps
@@ -66,8 +67,6 @@ def factorize(Js):
     ratio and sign of det, as kinem.linalg.Factor computes them, in one
     compiled pass (kinem.dense); Js is overwritten. Returns ((LU, pivots),
     pivot ratio (K,), det sign (K,))."""
-    from . import dense
-
     P = dense.factor(Js)
     diag = np.diagonal(Js, axis1=1, axis2=2)
     ratio = pivot_ratio(diag)
@@ -76,8 +75,6 @@ def factorize(Js):
 
 def solve_each(model, factors, B):
     """x[k] from Phi_q x[k] = B[k], with the factors of J_s."""
-    from . import dense
-
     return dense.solve(*factors, B / model.scale) * model.col_scale
 
 
@@ -86,19 +83,20 @@ class Block:
         self.model, self.tracker, self.data = model, tracker, tracker.data
         self.need_v, self.need_a = tracker.need_v, tracker.need_a
         self.size = min(START, model.case.block)
+        # Jacobians of a block, reused: a fresh array of this size costs more in page faults than its arithmetic
+        self.work = np.empty((model.case.block, model.m, model.n))
 
     def dimensionless(self, Q, t):
+        """J_s at the instants (Q, t), in the block's work array."""
         m, d = self.model, self.data
         d.jacobian_evaluations += len(t)
-        return m.assemble(m.jac_values(Q, t) * m.entry_scale, sparse=False)
+        return dense.assemble(m.jac_values(Q, t), m.jac_rows, m.jac_cols, m.entry_scale, self.work[:len(t)])
 
     def newton(self, Q, t):
         """Newton-Raphson on all instants at once (kinem.analysis.position);
         an instant stops iterating when it has converged. Returns (Q,
         iterations, residual, Phi at convergence, converged, the J_s of each
         instant's last iteration or None)."""
-        from . import dense
-
         m, d = self.model, self.data
         tol, max_it = m.case.tolerance, min(m.case.max_iterations, ITERATIONS)
         K = len(t)
@@ -109,11 +107,7 @@ class Block:
         last_J = np.zeros((K, m.n, m.n)) if not self.need_v else None
         for it in range(max_it + 1):
             phi = m.phi(Q, t)
-            r = np.max(np.abs(phi) / m.scale, axis=1)
-            new = ~done & (r <= tol)
-            done |= new
-            iterations[new], residual[new], final[new] = it, r[new], phi[new]
-            active = np.flatnonzero(~done & np.isfinite(r))
+            active = dense.converged(phi, m.scale, tol, it, done, iterations, residual, final)
             if it == max_it or not len(active):
                 break
             Js = self.dimensionless(Q[active], t[active])
@@ -121,11 +115,7 @@ class Block:
             if last_J is not None:
                 last_J[active] = Js
             pivots = dense.factor(Js)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                dq = solve_each(m, (Js, pivots), -phi[active])
-                size = np.max(np.abs(dq) / m.col_scale, axis=1)
-                dq *= np.minimum(1.0, MAX_STEP / size)[:, None]
-            Q[active] += dq  # a zero pivot gives a non-finite dq: the instant stays unconverged
+            dense.newton_step(Js, pivots, phi, active, m.scale, m.col_scale, MAX_STEP, Q)
         return Q, iterations, residual, final, done, last_J
 
     def advance(self, times) -> Instants:
@@ -139,12 +129,13 @@ class Block:
         if n == 0:
             return self.empty()
         Q, t = Q[:n], times[:n]
-        fresh = np.ones(n, bool) if last_J is None else iterations[:n] == 0
-        Js = np.empty((n, m.n, m.n))
-        if fresh.any():
-            Js[fresh] = self.dimensionless(Q[fresh], t[fresh])
-        if last_J is not None:
-            Js[~fresh] = last_J[:n][~fresh]
+        if last_J is None:
+            Js = self.dimensionless(Q, t)
+        else:  # positions only: the last iteration's J_s where there was one
+            fresh = iterations[:n] == 0
+            Js = last_J[:n]
+            if fresh.any():
+                Js[fresh] = self.dimensionless(Q[fresh], t[fresh])
         factors, pivot, det = factorize(Js)
         self.data.factorizations += n
         dets = np.concatenate([[last.det], det])

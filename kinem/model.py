@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import dense
 from .constraints import REGISTRY
 from .constraints.base import local_points
 from .spec import Case
@@ -91,6 +92,7 @@ class Model:
     col_scale: np.ndarray     # L for x, y columns, 1 for angles: q = col_scale * (dimensionless q)
     entry_scale: np.ndarray   # per Jacobian entry: col_scale[col] / scale[row]
     _csc: tuple = field(repr=False, default=None)
+    _unit: np.ndarray = field(repr=False, default=None)  # ones (nnz,)
 
     # -- structure ---------------------------------------------------------
     @property
@@ -138,20 +140,16 @@ class Model:
     def assemble(self, values, sparse: bool):
         """The Jacobian from its values (nnz,): dense (m, n) or scipy CSC.
         A batch of values (..., nnz) assembles dense only, to (..., m, n)."""
-        if values.ndim > 1:
-            if sparse:
-                raise ValueError("a batch of Jacobians assembles dense only")
-            J = np.zeros(values.shape[:-1] + (self.m, self.n))
-            J[..., self.jac_rows, self.jac_cols] = values
-            return J
         if sparse:
+            if values.ndim > 1:
+                raise ValueError("a batch of Jacobians assembles dense only")
             from scipy.sparse import csc_matrix
 
             order, indices, indptr = self._csc
             return csc_matrix((values[order], indices, indptr), shape=(self.m, self.n))
-        J = np.zeros((self.m, self.n))
-        J[self.jac_rows, self.jac_cols] = values
-        return J
+        V = np.ascontiguousarray(values, dtype=float).reshape(-1, self.nnz)
+        J = dense.assemble(V, self.jac_rows, self.jac_cols, self._unit, np.empty((len(V), self.m, self.n)))
+        return J.reshape(values.shape[:-1] + (self.m, self.n))
 
     def scaled_residual(self, phi) -> np.ndarray:
         """|Phi| / scale, row by row (phi (m,) or a batch (..., m))."""
@@ -211,7 +209,7 @@ def compile(case: Case) -> Model:
         point_local=local_points([p.at for p in case.points]),
         artificial=tuple(label for label, _ in ctx.artificial),
         time_dependent=tuple(k for k, f in enumerate(families) if f.time_dependent),
-        _csc=csc,
+        _csc=csc, _unit=np.ones(len(jac_rows)),
     )
     for a in (model.q0, model.driving, model.scale, model.jac_rows, model.jac_cols,
               model.point_cols, model.point_local, model.col_scale, model.entry_scale):

@@ -1,22 +1,27 @@
 """What every constraint family shares: the key schema a case-file type
-declares, the Family interface, and the planar point kinematics of Sec. 4.1.
+declares, the Family interface, and the compiled-kernel conventions.
 
-Planar vectors are held as complex numbers x + iy inside the families:
-A_i s' (Eq. 4.4) is s' e^{i phi}, B_i s' (Eq. 4.44) is i A_i s', a dot b is
-Re(conj(a) b) and the scalar cross product a x b is Im(conj(a) b). This halves
-the number of array operations per evaluation; every row is still the
-chapter's equation.
+Each family evaluates Phi, its Jacobian values and gamma with kernels
+compiled by numba (``kernel``), one loop over the instants of a batch and
+the constraints of the family; one call evaluates all constraints of a type
+at all instants. The Python methods only reshape: q and qd of shape (n,) or
+(..., n) and t a scalar or an array of the leading shape (...) give rows
+(..., n_rows) and Jacobian values (..., nnz). Time functions (drivers) are
+evaluated by numpy before the call (kinem.functions) and passed per instant.
 
-Every evaluation also takes a batch: q, qd of shape (..., n) and t a scalar
-or an array of the leading shape (...) give rows (..., n_rows) and Jacobian
-values (..., nnz), one numpy pass for all the instants. Columns are taken
-with ``col(q, c)`` (q[..., c], as cheap as q[c] for a single q) and
-constraint-major outputs built with ``entries``.
+Planar vectors are complex numbers x + iy inside the kernels: A_i s' (Eq.
+4.4) is s' e^{i phi}, B_i s' (Eq. 4.44) is i A_i s', a dot b is
+Re(conj(a) b) and the scalar cross product a x b is Im(conj(a) b). Every row
+is still the chapter's equation.
+
+Kernels call compiled helpers of their own module only (kinem.jit).
 """
 from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+
+from ..jit import kernel  # noqa: F401  (the families' decorator)
 
 
 @dataclass(frozen=True)
@@ -50,7 +55,7 @@ class TypeDecl:
 
 
 class Family:
-    """All constraints of one family, evaluated with one numpy pass per quantity.
+    """All constraints of one family, evaluated by one kernel call per quantity.
 
     q and qd are (n,) or a batch (..., n), t a scalar or an array of the
     batch's leading shape; every method returns its rows (or Jacobian values)
@@ -106,47 +111,35 @@ def local_points(values) -> np.ndarray:
     return a[:, 0] + 1j * a[:, 1]
 
 
-def col(q, c):
-    """q[..., c]: columns c of one configuration (n,) or of a batch (..., n).
-    (q[..., c] costs several times q[c] for a single q; take is the fastest
-    gather for a batch.)"""
-    return q[c] if q.ndim == 1 else q.take(c, -1)
+def batch(q):
+    """q (n,) or (..., n) as a writeable C-contiguous float (K, n) array (the
+    one array type the kernels are compiled for), and the leading shape."""
+    q = np.asarray(q, dtype=float)
+    Q = np.ascontiguousarray(q.reshape(-1, q.shape[-1]))
+    if not Q.flags.writeable:
+        Q = Q.copy()
+    return Q, q.shape[:-1]
 
 
-def frames(q, c):
-    """Origins r_i (complex) and rotations e^{i phi_i} of the bodies whose x
-    coordinate sits at column ``c``."""
-    return col(q, c) + 1j * col(q, c + 1), np.exp(1j * col(q, c + 2))
+def per_instant(values):
+    """Values of time functions, (rows,) at one t or (..., rows) at a batch of
+    t, as (1, rows) or (K, rows): kernels read row ``0 if len == 1 else k``."""
+    v = np.asarray(values, dtype=float)
+    return np.ascontiguousarray(v.reshape(-1, v.shape[-1]))
 
 
-def rates(qd, c):
-    """Origin velocities (complex) and angular velocities of the bodies."""
-    return col(qd, c) + 1j * col(qd, c + 1), col(qd, c + 2)
+def call(fn, width, q, *args, qd=None):
+    """fn(Q[, QD], *args, out) on the batch of q (and qd), out (K, width);
+    returns out with q's leading shape."""
+    if qd is None:
+        Q, lead = batch(q)
+        out = np.empty((Q.shape[0], width))
+        fn(Q, *args, out)
+    else:
+        if np.shape(q) != np.shape(qd):
+            q, qd = np.broadcast_arrays(q, qd)
+        Q, lead = batch(q)
+        out = np.empty((Q.shape[0], width))
+        fn(Q, batch(qd)[0], *args, out)
+    return out.reshape(lead + (width,))
 
-
-def dot(a, b):
-    return (a.conjugate() * b).real
-
-
-def cross(a, b):
-    return (a.conjugate() * b).imag
-
-
-def entries(*columns):
-    """Per-constraint values, each (n_cons,) (a constant) or (..., n_cons),
-    side by side: (..., n_cons * k) in constraint-major order
-    [c0[0], c1[0], ..., c0[1], c1[1], ...], as ``pattern`` lays out a
-    Jacobian's entries. The leading shape is that of the batched columns."""
-    shape = columns[0].shape
-    for c in columns:
-        if c.ndim > len(shape):
-            shape = c.shape
-    out = np.empty(shape + (len(columns),))
-    for k, c in enumerate(columns):
-        out[..., k] = c
-    return out.reshape(shape[:-1] + (-1,))
-
-
-def interleave(a, b):
-    """Rows [a0, b0, a1, b1, ...]: two rows per constraint."""
-    return entries(a, b)

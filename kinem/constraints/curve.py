@@ -9,9 +9,12 @@ and along a motion, without the terms in the accelerations (those go into
 Phi_q qdd),
     a'  = i w a + g th',   a''  = -w^2 a + 2 i w th' g + th'^2 h,
     g'  = i w g + h th',   g''  = -w^2 g + 2 i w th' h + th'^2 k.
-"""
 
-from .base import col, frames, rates
+These are numpy expressions on a batch (K, n) (kinem.outline evaluates the
+splines); the families' kernels take their results as (K, constraints) arrays.
+"""
+import numpy as np
+
 from ..outline import OutlineSet
 
 
@@ -22,17 +25,17 @@ class Curve:
         self.ct = ctx.add_coordinates([f"{c.name}.theta" for c in cons], [c["theta"] for c in cons])
         self.outlines = OutlineSet(c["outline"] for c in cons)
 
-    def at(self, q):
-        """r_c and (a, g, h, k)."""
-        z, e = frames(q, self.cc)
-        return z, tuple(e * p for p in self.outlines.curve(col(q, self.ct)))
+    def at(self, Q):
+        """(a, g, h, k) at the configurations Q (K, n), each (K, constraints)."""
+        e = np.exp(1j * Q[:, self.cc + 2])
+        return tuple(np.ascontiguousarray(e * p) for p in self.outlines.curve(Q[:, self.ct]))
 
-    def rates(self, qd, a, g, h, k):
-        """The body origin's velocity v_c, and a', a'', g', g''."""
-        v, w = rates(qd, self.cc)
-        th = col(qd, self.ct)
-        return (v, 1j * w * a + g * th, -w * w * a + 2j * w * th * g + th * th * h,
-                1j * w * g + h * th, -w * w * g + 2j * w * th * h + th * th * k)
+    def rates(self, QD, a, g, h, k):
+        """a', a'', g', g'' (without acceleration terms)."""
+        w, th = QD[:, self.cc + 2], QD[:, self.ct]
+        return tuple(np.ascontiguousarray(x) for x in (
+            1j * w * a + g * th, -w * w * a + 2j * w * th * g + th * th * h,
+            1j * w * g + h * th, -w * w * g + 2j * w * th * h + th * th * k))
 
 
 def check_theta(f, bodies):

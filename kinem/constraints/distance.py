@@ -3,8 +3,52 @@ distance driver, its extension with a length l(t) that follows a function
 (a linear actuator between two points)."""
 import numpy as np
 
-from .base import Family, Key, TypeDecl, dot, entries, frames, local_points, pattern, rates, row_info
+from .base import Family, Key, TypeDecl, call, kernel, local_points, pattern, per_instant, row_info
 from ..functions import FunctionSet, constant
+
+
+@kernel
+def _parts(qk, a, b, si, sj):
+    """d = r_j + A_j s'_j - r_i - A_i s'_i, A_i s'_i, A_j s'_j."""
+    sa, sb = si * np.exp(1j * qk[a + 2]), sj * np.exp(1j * qk[b + 2])
+    return complex(qk[b], qk[b + 1]) + sb - complex(qk[a], qk[a + 1]) - sa, sa, sb
+
+
+@kernel
+def _phi(q, ci, cj, si, sj, length, out):
+    """Eq. 4.13: d . d - l(t)^2."""
+    for k in range(q.shape[0]):
+        lk = length[0] if length.shape[0] == 1 else length[k]
+        for c in range(ci.shape[0]):
+            d, _, _ = _parts(q[k], ci[c], cj[c], si[c], sj[c])
+            out[k, c] = d.real * d.real + d.imag * d.imag - lk[c] ** 2
+
+
+@kernel
+def _jac(q, ci, cj, si, sj, out):
+    """2 [-d^T, -d^T B_i s'_i, d^T, d^T B_j s'_j] (Table 4.2)."""
+    for k in range(q.shape[0]):
+        for c in range(ci.shape[0]):
+            d, a, b = _parts(q[k], ci[c], cj[c], si[c], sj[c])
+            o = out[k, 6 * c: 6 * c + 6]
+            o[0], o[1], o[2] = -2 * d.real, -2 * d.imag, -2 * (d.imag * a.real - d.real * a.imag)
+            o[3], o[4], o[5] = 2 * d.real, 2 * d.imag, 2 * (d.imag * b.real - d.real * b.imag)
+
+
+@kernel
+def _gamma(q, qd, ci, cj, si, sj, l2, out):
+    """-2 d'.d' - 2 d.(A_i s'_i w_i^2 - A_j s'_j w_j^2) (Table 4.3), plus
+    (l^2)'' = 2 (l'^2 + l l'') for a distance driver (``l2``)."""
+    for k in range(q.shape[0]):
+        lk = l2[0] if l2.shape[0] == 1 else l2[k]
+        for c in range(ci.shape[0]):
+            a_, b_ = ci[c], cj[c]
+            d, a, b = _parts(q[k], a_, b_, si[c], sj[c])
+            wi, wj = qd[k, a_ + 2], qd[k, b_ + 2]
+            dd = complex(qd[k, b_], qd[k, b_ + 1]) + 1j * b * wj - complex(qd[k, a_], qd[k, a_ + 1]) - 1j * a * wi
+            e = a * wi * wi - b * wj * wj
+            out[k, c] = (-2 * (dd.real * dd.real + dd.imag * dd.imag) - 2 * (d.real * e.real + d.imag * e.imag)
+                         + lk[c])
 
 
 class Distance(Family):
@@ -23,34 +67,24 @@ class Distance(Family):
         self.scale = np.full(self.n_rows, ctx.length**2)
         ci, cj = self.ci, self.cj
         self.rows, self.cols = pattern(np.stack([ci, ci + 1, ci + 2, cj, cj + 1, cj + 2], axis=1), [0] * 6, 1)
-
-    def parts(self, q):
-        zi, ei = frames(q, self.ci)
-        zj, ej = frames(q, self.cj)
-        a, b = self.si * ei, self.sj * ej
-        return zj + b - zi - a, a, b
+        self.args = (self.ci, self.cj, self.si, self.sj)
+        self.zero = np.zeros((1, self.n_rows))
 
     def phi(self, q, t):
-        d, _, _ = self.parts(q)
-        return (d * d.conjugate()).real - self.length(t) ** 2
+        return call(_phi, self.n_rows, q, *self.args, per_instant(self.length(t)))
 
     def jac(self, q, t):
-        d, a, b = self.parts(q)
-        return 2 * entries(-d.real, -d.imag, -dot(d, 1j * a), d.real, d.imag, dot(d, 1j * b))
+        return call(_jac, len(self.rows), q, *self.args)
 
     def nu(self, t):
         return 2 * self.length(t) * self.length(t, 1)
 
     def gamma(self, q, qd, t):
-        d, a, b = self.parts(q)
-        vi, wi = rates(qd, self.ci)
-        vj, wj = rates(qd, self.cj)
-        dd = vj + 1j * b * wj - vi - 1j * a * wi
-        g = -2 * (dd * dd.conjugate()).real - 2 * dot(d, a * wi * wi - b * wj * wj)
+        l2 = self.zero
         if self.time_dependent:
             l, l1, l2 = (self.length(t, k) for k in range(3))
-            g = g + 2 * (l1 * l1 + l * l2)
-        return g
+            l2 = per_instant(2 * (l1 * l1 + l * l2))
+        return call(_gamma, self.n_rows, q, *self.args, l2, qd=qd)
 
 
 TYPES = [

@@ -4,8 +4,43 @@ follower (Eqs. 4.26, 4.27) and the point-follower, a pin in a slot
 on the outline (kinem/constraints/curve.py)."""
 import numpy as np
 
-from .base import Family, Key, TypeDecl, col, entries, frames, interleave, local_points, pattern, row_info
+from .base import Family, Key, TypeDecl, batch, call, kernel, local_points, pattern, row_info
 from .curve import Curve, check_theta
+
+
+@kernel
+def _phi(q, cc, cb, sb, sign, a, out):
+    """sigma (r_c + a - r_b - A_b s'_b), rows x and y."""
+    for k in range(q.shape[0]):
+        for c in range(cc.shape[0]):
+            x, y = cc[c], cb[c]
+            d = sign[c] * (complex(q[k, x], q[k, x + 1]) + a[k, c] - complex(q[k, y], q[k, y + 1])
+                           - sb[c] * np.exp(1j * q[k, y + 2]))
+            out[k, 2 * c] = d.real
+            out[k, 2 * c + 1] = d.imag
+
+
+@kernel
+def _jac(q, cb, sb, sign, a, g, out):
+    """sigma [I, i a, g, -I, -B_b s'_b] in columns [r_c, phi_c, theta, r_b, phi_b]."""
+    for k in range(q.shape[0]):
+        for c in range(cb.shape[0]):
+            b = sb[c] * np.exp(1j * q[k, cb[c] + 2])
+            s, ak, gk = sign[c], a[k, c], g[k, c]
+            o = out[k, 10 * c: 10 * c + 10]
+            o[0], o[1], o[2], o[3], o[4] = s, -s * ak.imag, s * gk.real, -s, s * b.imag
+            o[5], o[6], o[7], o[8], o[9] = s, s * ak.real, s * gk.imag, -s, -s * b.real
+
+
+@kernel
+def _gamma(q, qd, cb, sb, sign, a2, out):
+    """-sigma (a'' + A_b s'_b w_b^2)."""
+    for k in range(q.shape[0]):
+        for c in range(cb.shape[0]):
+            y = cb[c]
+            g = -sign[c] * (a2[k, c] + sb[c] * np.exp(1j * q[k, y + 2]) * qd[k, y + 2] ** 2)
+            out[k, 2 * c] = g.real
+            out[k, 2 * c + 1] = g.imag
 
 
 class PointOnCurve(Family):
@@ -25,26 +60,22 @@ class PointOnCurve(Family):
         cc, ct, cb = self.curve.cc, self.curve.ct, self.cb
         cols = np.stack([cc, cc + 2, ct, cb, cb + 2, cc + 1, cc + 2, ct, cb + 1, cb + 2], axis=1)
         self.rows, self.cols = pattern(cols, [0] * 5 + [1] * 5, 2)
-        self.entry_sign = np.repeat(self.sign, cols.shape[1])
 
     def phi(self, q, t):
-        zc, (a, _, _, _) = self.curve.at(q)
-        zb, eb = frames(q, self.cb)
-        d = self.sign * (zc + a - zb - self.sb * eb)
-        return interleave(d.real, d.imag)
+        Q, lead = batch(q)
+        a, _, _, _ = self.curve.at(Q)
+        return call(_phi, self.n_rows, Q, self.curve.cc, self.cb, self.sb, self.sign, a).reshape(lead + (-1,))
 
     def jac(self, q, t):
-        _, (a, g, _, _) = self.curve.at(q)
-        b = self.sb * np.exp(1j * col(q, self.cb + 2))
-        one = np.ones_like(self.sign)
-        return entries(one, -a.imag, g.real, -one, b.imag, one, a.real, g.imag, -one, -b.real) * self.entry_sign
+        Q, lead = batch(q)
+        a, g, _, _ = self.curve.at(Q)
+        return call(_jac, len(self.rows), Q, self.cb, self.sb, self.sign, a, g).reshape(lead + (-1,))
 
     def gamma(self, q, qd, t):
-        _, (a, g, h, k) = self.curve.at(q)
-        _, _, a2, _, _ = self.curve.rates(qd, a, g, h, k)
-        b = self.sb * np.exp(1j * col(q, self.cb + 2))
-        g = -self.sign * (a2 + b * col(qd, self.cb + 2) ** 2)
-        return interleave(g.real, g.imag)
+        q, qd = np.broadcast_arrays(q, qd)
+        (Q, lead), QD = batch(q), batch(qd)[0]
+        _, a2, _, _ = self.curve.rates(QD, *self.curve.at(Q))
+        return call(_gamma, self.n_rows, Q, self.cb, self.sb, self.sign, a2, qd=QD).reshape(lead + (-1,))
 
 
 TYPES = [

@@ -10,7 +10,16 @@ equation: the estimates are the reference configuration (phi_i^0, ...).
 """
 import numpy as np
 
-from .base import Family, Key, TypeDecl, col, dot, entries, frames, local_points, pattern, rates, row_info
+from .base import Family, Key, TypeDecl, call, kernel, local_points, pattern, row_info
+
+
+@kernel
+def _gear_phi(q, ai, aj, ak, w, ri, rj, phi0, out):
+    """Eq. 4.18 (Eq. 4.17 with w = 0)."""
+    for k in range(q.shape[0]):
+        for c in range(ai.shape[0]):
+            pk = w[c] * q[k, ak[c]]
+            out[k, c] = ri[c] * (q[k, ai[c]] - pk) + rj[c] * (q[k, aj[c]] - pk - phi0[c])
 
 
 class Gear(Family):
@@ -27,27 +36,73 @@ class Gear(Family):
         carrier = np.array(["carrier" in c.fields for c in cons])
         self.ak = np.where(carrier, ctx.cols(c.get("carrier", c["i"]) for c in cons) + 2, 0)
         self.w = carrier.astype(float)
-        self.ri = np.array([c["ri"] for c in cons])
-        self.rj = np.array([c["rj"] for c in cons]) * np.array([-1.0 if c.get("internal") else 1.0 for c in cons])
-        self.phi0 = np.array([c["phi0"] for c in cons])
+        self.ri = np.array([c["ri"] for c in cons], dtype=float)
+        self.rj = np.array([c["rj"] for c in cons], dtype=float) * np.array(
+            [-1.0 if c.get("internal") else 1.0 for c in cons])
+        self.phi0 = np.array([c["phi0"] for c in cons], dtype=float)
         self.n_rows = n
         self.labels, self.owner, self.driving = row_info(cons, ("roll",))
         self.scale = self.ri + np.abs(self.rj)  # the residual of a 1 rad slip of either gear, roughly
-        self.keep = np.flatnonzero(np.stack([np.ones(n, bool), np.ones(n, bool), carrier], axis=1).ravel())
-        self.rows = np.repeat(np.arange(n), 3)[self.keep]
-        self.cols = np.stack([self.ai, self.aj, self.ak], axis=1).ravel()[self.keep]
-        self.values = np.stack([self.ri, self.rj, -(self.ri + self.rj)], axis=1).ravel()[self.keep]
+        keep = np.flatnonzero(np.stack([np.ones(n, bool), np.ones(n, bool), carrier], axis=1).ravel())
+        self.rows = np.repeat(np.arange(n), 3)[keep]
+        self.cols = np.stack([self.ai, self.aj, self.ak], axis=1).ravel()[keep]
+        self.values = np.stack([self.ri, self.rj, -(self.ri + self.rj)], axis=1).ravel()[keep]
+        self.args = (self.ai, self.aj, self.ak, self.w, self.ri, self.rj, self.phi0)
 
     def phi(self, q, t):
-        k = self.w * col(q, self.ak)
-        return self.ri * (col(q, self.ai) - k) + self.rj * (col(q, self.aj) - k - self.phi0)
+        return call(_gear_phi, self.n_rows, q, *self.args)
 
     def jac(self, q, t):
-        """Constant: the same (read-only) values for every configuration of a batch."""
-        return self.values if q.ndim == 1 else np.broadcast_to(self.values, q.shape[:-1] + self.values.shape)
+        """Constant: the same values for every configuration."""
+        return np.broadcast_to(self.values, np.shape(q)[:-1] + self.values.shape).copy()
 
     def gamma(self, q, qd, t):
-        return np.zeros(qd.shape[:-1] + (self.n_rows,))
+        return np.zeros(np.broadcast_shapes(np.shape(q), np.shape(qd))[:-1] + (self.n_rows,))
+
+
+@kernel
+def _rack_parts(qk, a, b, cc, s, u):
+    """u = A_j u', d = C - P = r_i + A_i c' - r_j - A_j s'_j, A_i c', A_j s'_j."""
+    ei, ej = np.exp(1j * qk[a + 2]), np.exp(1j * qk[b + 2])
+    ca, sb = cc * ei, s * ej
+    return u * ej, complex(qk[a], qk[a + 1]) + ca - complex(qk[b], qk[b + 1]) - sb, ca, sb
+
+
+@kernel
+def _rack_phi(q, ci, cj, cc, s, u, rho, phi0, out):
+    """u . d + rho (phi_i - phi_j - phi0) (Eqs. 4.19, 4.20, Problem 4.15)."""
+    for k in range(q.shape[0]):
+        for c in range(ci.shape[0]):
+            uu, d, _, _ = _rack_parts(q[k], ci[c], cj[c], cc[c], s[c], u[c])
+            out[k, c] = (uu.real * d.real + uu.imag * d.imag
+                         + rho[c] * (q[k, ci[c] + 2] - q[k, cj[c] + 2] - phi0[c]))
+
+
+@kernel
+def _rack_jac(q, ci, cj, cc, s, u, rho, phi0, out):
+    """[u^T, u . (i A_i c') + rho, -u^T, (i u) . d - u . (i A_j s'_j) - rho]."""
+    for k in range(q.shape[0]):
+        for c in range(ci.shape[0]):
+            uu, d, a, b = _rack_parts(q[k], ci[c], cj[c], cc[c], s[c], u[c])
+            o = out[k, 6 * c: 6 * c + 6]
+            o[0], o[1] = uu.real, uu.imag
+            o[2] = uu.imag * a.real - uu.real * a.imag + rho[c]
+            o[3], o[4] = -uu.real, -uu.imag
+            o[5] = (uu.real * d.imag - uu.imag * d.real) - (uu.imag * b.real - uu.real * b.imag) - rho[c]
+
+
+@kernel
+def _rack_gamma(q, qd, ci, cj, cc, s, u, rho, phi0, out):
+    """-(u . d)'' without the acceleration terms."""
+    for k in range(q.shape[0]):
+        for c in range(ci.shape[0]):
+            a_, b_ = ci[c], cj[c]
+            uu, d, a, b = _rack_parts(q[k], a_, b_, cc[c], s[c], u[c])
+            wi, wj = qd[k, a_ + 2], qd[k, b_ + 2]
+            dd = complex(qd[k, a_], qd[k, a_ + 1]) + 1j * wi * a - complex(qd[k, b_], qd[k, b_ + 1]) - 1j * wj * b
+            iu = 1j * uu
+            out[k, c] = (wj * wj * (uu.real * d.real + uu.imag * d.imag) - 2 * wj * (iu.real * dd.real + iu.imag * dd.imag)
+                         + wi * wi * (uu.real * a.real + uu.imag * a.imag) - wj * wj * (uu.real * b.real + uu.imag * b.imag))
 
 
 class RackPinion(Family):
@@ -67,35 +122,23 @@ class RackPinion(Family):
         self.s = local_points([c["sj"] for c in cons])
         u = local_points([c["u"] for c in cons])
         self.u = u / np.abs(u)
-        self.rho = np.array([c["radius"] for c in cons])
-        self.phi0 = np.array([c["phi0"] for c in cons])
+        self.rho = np.array([c["radius"] for c in cons], dtype=float)
+        self.phi0 = np.array([c["phi0"] for c in cons], dtype=float)
         self.n_rows = len(cons)
         self.labels, self.owner, self.driving = row_info(cons, ("roll",))
         self.scale = np.full(self.n_rows, ctx.length)
         ci, cj = self.ci, self.cj
         self.rows, self.cols = pattern(np.stack([ci, ci + 1, ci + 2, cj, cj + 1, cj + 2], axis=1), [0] * 6, 1)
-
-    def parts(self, q):
-        zi, ei = frames(q, self.ci)
-        zj, ej = frames(q, self.cj)
-        a, b = self.c * ei, self.s * ej
-        return self.u * ej, zi + a - zj - b, a, b
+        self.args = (self.ci, self.cj, self.c, self.s, self.u, self.rho, self.phi0)
 
     def phi(self, q, t):
-        u, d, _, _ = self.parts(q)
-        return dot(u, d) + self.rho * (col(q, self.ci + 2) - col(q, self.cj + 2) - self.phi0)
+        return call(_rack_phi, self.n_rows, q, *self.args)
 
     def jac(self, q, t):
-        u, d, a, b = self.parts(q)
-        return entries(u.real, u.imag, dot(u, 1j * a) + self.rho,
-                       -u.real, -u.imag, dot(1j * u, d) - dot(u, 1j * b) - self.rho)
+        return call(_rack_jac, len(self.rows), q, *self.args)
 
     def gamma(self, q, qd, t):
-        u, d, a, b = self.parts(q)
-        vi, wi = rates(qd, self.ci)
-        vj, wj = rates(qd, self.cj)
-        dd = vi + 1j * wi * a - vj - 1j * wj * b
-        return wj * wj * dot(u, d) - 2 * wj * dot(1j * u, dd) + wi * wi * dot(u, a) - wj * wj * dot(u, b)
+        return call(_rack_gamma, self.n_rows, q, *self.args, qd=qd)
 
 
 def _angle(bodies, name):
@@ -118,7 +161,7 @@ def _check_rack(f, bodies):
         ei, ej = np.exp(1j * pi), np.exp(1j * pj)
         u = complex(*f["u"]) / np.hypot(*f["u"]) * ej
         d = complex(xi, yi) + complex(*f["center"]) * ei - complex(xj, yj) - complex(*f["sj"]) * ej
-        f["phi0"] = float(pi - pj + dot(u, d) / f["radius"])
+        f["phi0"] = float(pi - pj + (u.conjugate() * d).real / f["radius"])
     return []
 
 

@@ -8,42 +8,91 @@ d = P_j - P_i, and Eq. 4.16 with a = j, u = Q_j - P_j, d = P_i - P_j.
 """
 import numpy as np
 
-from .base import (Family, Key, TypeDecl, col, cross, dot, entries, frames, interleave, local_points, pattern, rates,
-                   row_info)
+from .base import Family, Key, TypeDecl, call, kernel, local_points, pattern, row_info
 
 
-class _PointOnLine:
-    """Arrays and kernels of the row u x d = 0 for several constraints."""
-
-    def __init__(self, ca, pa, ua, cb, ob, length):
-        self.ca, self.pa, self.ua, self.cb, self.ob = ca, pa, ua, cb, ob
-        self.scale = np.abs(ua) * length
-        self.cols = np.stack([ca, ca + 1, ca + 2, cb, cb + 1, cb + 2], axis=1)
-
-    def parts(self, q):
-        za, ea = frames(q, self.ca)
-        zb, eb = frames(q, self.cb)
-        sa, sb = self.pa * ea, self.ob * eb
-        return self.ua * ea, zb + sb - za - sa, sa, sb
-
-    def phi(self, q):
-        u, d, _, _ = self.parts(q)
-        return cross(u, d)
-
-    def jac(self, q):
-        """The columns [x_a, y_a, phi_a, x_b, y_b, phi_b], each (..., n_cons)."""
-        u, d, sa, sb = self.parts(q)
-        return u.imag, -u.real, -dot(u, d + sa), -u.imag, u.real, dot(u, sb)
-
-    def gamma(self, q, qd):
-        u, d, sa, sb = self.parts(q)
-        va, wa = rates(qd, self.ca)
-        vb, wb = rates(qd, self.cb)
-        dd = vb + 1j * sb * wb - va - 1j * sa * wa
-        return wa * wa * cross(u, d) + 2 * wa * dot(u, dd) + cross(u, sb * wb * wb - sa * wa * wa)
+@kernel
+def _dot(a, b):
+    return a.real * b.real + a.imag * b.imag
 
 
-class Translational(Family):
+@kernel
+def _cross(a, b):
+    return a.real * b.imag - a.imag * b.real
+
+
+@kernel
+def _parts(qk, ca, pa, ua, cb, ob):
+    """u = A_a u'_a, d = r_b + A_b s'_b - r_a - A_a s'_a, A_a s'_a, A_b s'_b."""
+    ea, eb = np.exp(1j * qk[ca + 2]), np.exp(1j * qk[cb + 2])
+    sa, sb = pa * ea, ob * eb
+    return ua * ea, complex(qk[cb], qk[cb + 1]) + sb - complex(qk[ca], qk[ca + 1]) - sa, sa, sb
+
+
+@kernel
+def _phi(q, ca, pa, ua, cb, ob, ai, aj, phi0, out):
+    """u x d (Eqs. 4.12, 4.16), then phi_i - phi_j - phi0 for translational joints."""
+    rows = 2 if ai.shape[0] else 1
+    for k in range(q.shape[0]):
+        for c in range(ca.shape[0]):
+            u, d, _, _ = _parts(q[k], ca[c], pa[c], ua[c], cb[c], ob[c])
+            out[k, rows * c] = _cross(u, d)
+            if rows == 2:
+                out[k, 2 * c + 1] = q[k, ai[c]] - q[k, aj[c]] - phi0[c]
+
+
+@kernel
+def _jac(q, ca, pa, ua, cb, ob, ai, aj, phi0, out):
+    """Columns [x_a, y_a, phi_a, x_b, y_b, phi_b] of u x d (Table 4.2), then
+    [phi_i, phi_j] = [1, -1] for translational joints."""
+    width = 8 if ai.shape[0] else 6
+    for k in range(q.shape[0]):
+        for c in range(ca.shape[0]):
+            u, d, sa, sb = _parts(q[k], ca[c], pa[c], ua[c], cb[c], ob[c])
+            o = out[k, width * c: width * c + width]
+            o[0], o[1], o[2] = u.imag, -u.real, -_dot(u, d + sa)
+            o[3], o[4], o[5] = -u.imag, u.real, _dot(u, sb)
+            if width == 8:
+                o[6], o[7] = 1.0, -1.0
+
+
+@kernel
+def _gamma(q, qd, ca, pa, ua, cb, ob, ai, aj, phi0, out):
+    """-(u x d)'' without the acceleration terms (Table 4.3), then 0."""
+    rows = 2 if ai.shape[0] else 1
+    for k in range(q.shape[0]):
+        for c in range(ca.shape[0]):
+            u, d, sa, sb = _parts(q[k], ca[c], pa[c], ua[c], cb[c], ob[c])
+            a, b = ca[c], cb[c]
+            wa, wb = qd[k, a + 2], qd[k, b + 2]
+            dd = (complex(qd[k, b], qd[k, b + 1]) + 1j * sb * wb
+                  - complex(qd[k, a], qd[k, a + 1]) - 1j * sa * wa)
+            out[k, rows * c] = wa * wa * _cross(u, d) + 2 * wa * _dot(u, dd) + _cross(u, sb * wb * wb - sa * wa * wa)
+            if rows == 2:
+                out[k, 2 * c + 1] = 0.0
+
+
+class _PointOnLine(Family):
+    """The row u x d = 0 for several constraints (a = the line's body, b the
+    other), with the angle rows of translational joints when ``ai`` is given."""
+
+    def setup(self, ca, pa, ua, cb, ob, length, ai=(), aj=(), phi0=()):
+        self.scale_line = np.abs(ua) * length
+        self.line_cols = np.stack([ca, ca + 1, ca + 2, cb, cb + 1, cb + 2], axis=1)
+        ai, aj = np.asarray(ai, np.intp), np.asarray(aj, np.intp)
+        self.args = (ca, pa, ua, cb, ob, ai, aj, np.asarray(phi0, float))
+
+    def phi(self, q, t):
+        return call(_phi, self.n_rows, q, *self.args)
+
+    def jac(self, q, t):
+        return call(_jac, len(self.rows), q, *self.args)
+
+    def gamma(self, q, qd, t):
+        return call(_gamma, self.n_rows, q, *self.args, qd=qd)
+
+
+class Translational(_PointOnLine):
     """Eq. 4.12: [(P_i - Q_i) x (P_j - P_i), phi_i - phi_j - (phi_i^0 - phi_j^0)]."""
 
     def __init__(self, cons, ctx):
@@ -51,28 +100,16 @@ class Translational(Family):
         cj = ctx.cols(c["j"] for c in cons)
         si = local_points([c["si"] for c in cons])
         qi = local_points([c["qi"] for c in cons])
-        self.line = _PointOnLine(ci, si, si - qi, cj, local_points([c["sj"] for c in cons]), ctx.length)
-        self.ai, self.aj = ci + 2, cj + 2
-        self.phi0 = np.array([c["phi0"] for c in cons], dtype=float)
+        phi0 = np.array([c["phi0"] for c in cons], dtype=float)
+        self.setup(ci, si, si - qi, cj, local_points([c["sj"] for c in cons]), ctx.length, ci + 2, cj + 2, phi0)
         self.n_rows = 2 * len(cons)
         self.labels, self.owner, self.driving = row_info(cons, ("perpendicular", "angle"))
-        self.scale = np.stack([self.line.scale, np.ones(len(cons))], axis=1).ravel()
-        cols = np.concatenate([self.line.cols, np.stack([self.ai, self.aj], axis=1)], axis=1)
+        self.scale = np.stack([self.scale_line, np.ones(len(cons))], axis=1).ravel()
+        cols = np.concatenate([self.line_cols, np.stack([ci + 2, cj + 2], axis=1)], axis=1)
         self.rows, self.cols = pattern(cols, [0] * 6 + [1, 1], 2)
-        self.plus, self.minus, self.zero = np.ones(len(cons)), -np.ones(len(cons)), np.zeros(len(cons))
-
-    def phi(self, q, t):
-        return interleave(self.line.phi(q), col(q, self.ai) - col(q, self.aj) - self.phi0)
-
-    def jac(self, q, t):
-        return entries(*self.line.jac(q), self.plus, self.minus)
-
-    def gamma(self, q, qd, t):
-        g = self.line.gamma(q, qd)
-        return interleave(g, self.zero)
 
 
-class RevoluteTranslational(Family):
+class RevoluteTranslational(_PointOnLine):
     """Eq. 4.16: (Q_j - P_i) x (Q_j - P_j) = 0: pin P_i on the line P_j Q_j of body j."""
 
     def __init__(self, cons, ctx):
@@ -80,20 +117,11 @@ class RevoluteTranslational(Family):
         cj = ctx.cols(c["j"] for c in cons)
         sj = local_points([c["sj"] for c in cons])
         qj = local_points([c["qj"] for c in cons])
-        self.line = _PointOnLine(cj, sj, qj - sj, ci, local_points([c["si"] for c in cons]), ctx.length)
+        self.setup(cj, sj, qj - sj, ci, local_points([c["si"] for c in cons]), ctx.length)
         self.n_rows = len(cons)
         self.labels, self.owner, self.driving = row_info(cons, ("perpendicular",))
-        self.scale = self.line.scale
-        self.rows, self.cols = pattern(self.line.cols, [0] * 6, 1)
-
-    def phi(self, q, t):
-        return self.line.phi(q)
-
-    def jac(self, q, t):
-        return entries(*self.line.jac(q))
-
-    def gamma(self, q, qd, t):
-        return self.line.gamma(q, qd)
+        self.scale = self.scale_line
+        self.rows, self.cols = pattern(self.line_cols, [0] * 6, 1)
 
 
 def _check_translational(f, bodies):

@@ -1,43 +1,69 @@
 """Revolute joint, Eqs. 4.7-4.9; Jacobian Eq. 4.46 (Table 4.2); gamma Eq. 4.47."""
 import numpy as np
 
-from .base import Family, Key, TypeDecl, col, entries, frames, interleave, local_points, pattern, row_info
+from .base import Family, Key, TypeDecl, call, kernel, local_points, pattern, row_info
+
+
+@kernel
+def _phi(q, ci, cj, si, sj, out):
+    """Eq. 4.7: r_i + A_i s'_i - r_j - A_j s'_j, rows x and y."""
+    for k in range(q.shape[0]):
+        for c in range(ci.shape[0]):
+            a, b = ci[c], cj[c]
+            d = (complex(q[k, a], q[k, a + 1]) + si[c] * np.exp(1j * q[k, a + 2])
+                 - complex(q[k, b], q[k, b + 1]) - sj[c] * np.exp(1j * q[k, b + 2]))
+            out[k, 2 * c] = d.real
+            out[k, 2 * c + 1] = d.imag
+
+
+@kernel
+def _jac(q, ci, cj, si, sj, out):
+    """Eq. 4.46: [I, B_i s'_i, -I, -B_j s'_j]; B s' = i A s'."""
+    for k in range(q.shape[0]):
+        for c in range(ci.shape[0]):
+            a = si[c] * np.exp(1j * q[k, ci[c] + 2])
+            b = sj[c] * np.exp(1j * q[k, cj[c] + 2])
+            o = out[k, 8 * c: 8 * c + 8]
+            o[0], o[1], o[2], o[3] = 1.0, -a.imag, -1.0, b.imag
+            o[4], o[5], o[6], o[7] = 1.0, a.real, -1.0, -b.real
+
+
+@kernel
+def _gamma(q, qd, ci, cj, si, sj, out):
+    """Eq. 4.47: A_i s'_i w_i^2 - A_j s'_j w_j^2."""
+    for k in range(q.shape[0]):
+        for c in range(ci.shape[0]):
+            wi, wj = qd[k, ci[c] + 2], qd[k, cj[c] + 2]
+            g = (si[c] * np.exp(1j * q[k, ci[c] + 2]) * wi ** 2
+                 - sj[c] * np.exp(1j * q[k, cj[c] + 2]) * wj ** 2)
+            out[k, 2 * c] = g.real
+            out[k, 2 * c + 1] = g.imag
 
 
 class Revolute(Family):
     """Phi = r_i + A_i s'_i^P - r_j - A_j s'_j^P (Eq. 4.7): two rows, x and y."""
 
     def __init__(self, cons, ctx):
-        n = len(cons)
         self.ci = ctx.cols(c["i"] for c in cons)
         self.cj = ctx.cols(c["j"] for c in cons)
         self.si = local_points([c["si"] for c in cons])
         self.sj = local_points([c["sj"] for c in cons])
-        self.n_rows = 2 * n
+        self.n_rows = 2 * len(cons)
         self.labels, self.owner, self.driving = row_info(cons, ("x", "y"))
         self.scale = np.full(self.n_rows, ctx.length)
         ci, cj = self.ci, self.cj
         cols = np.stack([ci, ci + 2, cj, cj + 2, ci + 1, ci + 2, cj + 1, cj + 2], axis=1)
         self.rows, self.cols = pattern(cols, [0, 0, 0, 0, 1, 1, 1, 1], 2)
-        self.ones = np.ones(n)
+        self.args = (self.ci, self.cj, self.si, self.sj)
 
     def phi(self, q, t):
-        zi, ei = frames(q, self.ci)
-        zj, ej = frames(q, self.cj)
-        d = zi + self.si * ei - zj - self.sj * ej
-        return interleave(d.real, d.imag)
+        return call(_phi, self.n_rows, q, *self.args)
 
     def jac(self, q, t):
-        a = self.si * np.exp(1j * col(q, self.ci + 2))
-        b = self.sj * np.exp(1j * col(q, self.cj + 2))
-        one = self.ones
-        return entries(one, -a.imag, -one, b.imag, one, a.real, -one, -b.real)
+        return call(_jac, len(self.rows), q, *self.args)
 
     def gamma(self, q, qd, t):
-        a = self.si * np.exp(1j * col(q, self.ci + 2))
-        b = self.sj * np.exp(1j * col(q, self.cj + 2))
-        g = a * col(qd, self.ci + 2) ** 2 - b * col(qd, self.cj + 2) ** 2
-        return interleave(g.real, g.imag)
+        return call(_gamma, self.n_rows, q, *self.args, qd=qd)
 
 
 TYPES = [

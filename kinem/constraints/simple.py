@@ -6,13 +6,57 @@ where q_c(i) is x_i, y_i or phi_i, the bracketed point term is present for
 the point forms (Eqs. 4.34, 4.39, 4.40) and the relative term for a motor
 between two moving bodies (``relative_to``). ``ground`` gives three rows with
 constant f; ``absolute`` one constant row; ``driver`` one row with f = d(t).
+The point term of row r is mx_r Re(s) + my_r Im(s), s = A_i s'_i^P.
 """
 import numpy as np
 
-from .base import Family, Key, TypeDecl, col, entries, local_points
+from .base import Family, Key, TypeDecl, call, kernel, local_points, per_instant
 from ..functions import FunctionSet, constant
 
 COORD = {"x": 0, "y": 1, "phi": 2}
+
+
+@kernel
+def _phi(q, a, k, w, angle, local, mx, my, f, out):
+    """Eqs. 4.31-4.40: q_a - w q_k + point term - f(t)."""
+    for i in range(q.shape[0]):
+        fi = f[0] if f.shape[0] == 1 else f[i]
+        for r in range(a.shape[0]):
+            v = q[i, a[r]] - w[r] * q[i, k[r]] - fi[r]
+            if mx[r] != 0.0 or my[r] != 0.0:
+                s = local[r] * np.exp(1j * q[i, angle[r]])
+                v += mx[r] * s.real + my[r] * s.imag
+            out[i, r] = v
+
+
+@kernel
+def _jac(q, angle, local, mx, my, point, w, relative, out):
+    """1 in column a; d(point term)/dphi_i = (B_i s')_c if a point; -1 in phi_k if relative."""
+    for i in range(q.shape[0]):
+        e = 0
+        for r in range(angle.shape[0]):
+            out[i, e] = 1.0
+            e += 1
+            if point[r]:
+                s = local[r] * np.exp(1j * q[i, angle[r]])
+                out[i, e] = -mx[r] * s.imag + my[r] * s.real
+                e += 1
+            if relative[r]:
+                out[i, e] = -w[r]
+                e += 1
+
+
+@kernel
+def _gamma(q, qd, angle, local, mx, my, f2, out):
+    """Eq. 4.38 and the point forms: d''(t) + (A_i s')_c w_i^2."""
+    for i in range(q.shape[0]):
+        fi = f2[0] if f2.shape[0] == 1 else f2[i]
+        for r in range(angle.shape[0]):
+            v = fi[r]
+            if mx[r] != 0.0 or my[r] != 0.0:
+                s = local[r] * np.exp(1j * q[i, angle[r]])
+                v += (mx[r] * s.real + my[r] * s.imag) * qd[i, angle[r]] ** 2
+            out[i, r] = v
 
 
 class Simple(Family):
@@ -42,46 +86,29 @@ class Simple(Family):
         self.local = local_points([r[5] or (0.0, 0.0) for r in rows])
         self.mx = (has_point & (coord == 0)).astype(float)
         self.my = (has_point & (coord == 1)).astype(float)
-        self.any_point = bool(has_point.any())
         self.f = FunctionSet(r[7] for r in rows)
         self.time_dependent = not self.f.constant
         self.scale = np.where(coord == 2, 1.0, ctx.length)
-        keep = np.stack([np.ones(n, bool), has_point, relative], axis=1).ravel()
-        self.keep = np.flatnonzero(keep)
-        self.rows = np.repeat(np.arange(n), 3)[self.keep]
-        self.cols = np.stack([self.a, self.angle, self.k], axis=1).ravel()[self.keep]
-        self.ones = np.ones(n)
-
-    def point_term(self, q):
-        s = self.local * np.exp(1j * col(q, self.angle))
-        return s
+        keep = np.flatnonzero(np.stack([np.ones(n, bool), has_point, relative], axis=1).ravel())
+        self.rows = np.repeat(np.arange(n), 3)[keep]
+        self.cols = np.stack([self.a, self.angle, self.k], axis=1).ravel()[keep]
+        self.point, self.relative = has_point, relative
+        self.zero = np.zeros((1, n))
 
     def phi(self, q, t):
-        val = col(q, self.a) - self.w * col(q, self.k) - self.f(t)
-        if self.any_point:
-            s = self.point_term(q)
-            val += self.mx * s.real + self.my * s.imag
-        return val
+        return call(_phi, self.n_rows, q, self.a, self.k, self.w, self.angle, self.local, self.mx, self.my,
+                    per_instant(self.f(t)))
 
     def jac(self, q, t):
-        if self.any_point:
-            s = self.point_term(q)
-            dphi = -self.mx * s.imag + self.my * s.real
-        else:
-            dphi = np.zeros(q.shape[:-1] + (self.n_rows,))
-        return col(entries(self.ones, dphi, -self.w), self.keep)
+        return call(_jac, len(self.rows), q, self.angle, self.local, self.mx, self.my, self.point, self.w,
+                    self.relative)
 
     def nu(self, t):
         return self.f(t, 1)
 
     def gamma(self, q, qd, t):
-        g = self.f(t, 2) if self.time_dependent else np.zeros(self.n_rows)
-        if self.any_point:
-            s = self.point_term(q)
-            g = g + (self.mx * s.real + self.my * s.imag) * col(qd, self.angle) ** 2
-        if g.ndim < qd.ndim:  # rows that do not depend on q, for a batch of q: repeated
-            g = np.broadcast_to(g, qd.shape[:-1] + g.shape[-1:])
-        return g
+        f2 = per_instant(self.f(t, 2)) if self.time_dependent else self.zero
+        return call(_gamma, self.n_rows, q, self.angle, self.local, self.mx, self.my, f2, qd=qd)
 
 
 def _estimate_point(body, point):
