@@ -19,13 +19,20 @@ from .jit import kernel
 
 
 @kernel
-def assemble(values, rows, cols, scale, J):
-    """Dense Jacobians J (K, m, n), overwritten, from their values (K, nnz)
-    in the pattern (rows, cols), each entry multiplied by scale[e]."""
+def assemble(values, block, rows, cols, scale, pad, J):
+    """Dense Jacobians J (K * C, m, n), overwritten, from their values
+    (K, nnz): entry e of instant k, times scale[e], at J[k * C + block[e],
+    rows[e], cols[e]] (C = 1: the whole Jacobian; C diagonal blocks:
+    kinem.model.Blocks), and 1 on the diagonal at the padding positions
+    p (block p // n, index p % n)."""
+    K = values.shape[0]
+    C, n = J.shape[0] // max(K, 1), J.shape[2]
     J[:] = 0.0
-    for k in range(values.shape[0]):
+    for k in range(K):
         for e in range(rows.shape[0]):
-            J[k, rows[e], cols[e]] = values[k, e] * scale[e]
+            J[k * C + block[e], rows[e], cols[e]] = values[k, e] * scale[e]
+        for p in pad:
+            J[k * C + p // n, p % n, p % n] = 1.0
     return J
 
 
@@ -112,28 +119,40 @@ def converged(phi, scale, tol, it, done, iterations, residual, final):
 
 
 @kernel
-def newton_step(LU, piv, phi, active, scale, col_scale, max_step, Q):
-    """Q[active[a]] += -Phi_q^-1 phi (Phi_q's dimensionless LU factors in
-    LU[a], piv[a]), the step limited to max_step in dimensionless
-    coordinates. A zero pivot gives a non-finite step: that instant's next
-    residual is not finite and it stops iterating."""
-    n = Q.shape[1]
-    b = np.empty(n)
+def newton_step(LU, piv, phi, active, scale, col_scale, row_pos, col_pos, max_step, Q):
+    """Q[active[a]] += -Phi_q^-1 phi, from the LU factors of the C
+    dimensionless diagonal blocks of instant a's Phi_q (LU[a * C + c],
+    piv[...]; row i and coordinate j at positions row_pos[i], col_pos[j] of
+    the blocks side by side, kinem.model.Blocks), the step limited to
+    max_step in dimensionless coordinates. A zero pivot gives a non-finite
+    step: that instant's next residual is not finite and it stops iterating."""
+    s = LU.shape[1]
+    C = LU.shape[0] // max(active.shape[0], 1)
+    b = np.zeros(C * s)
     for a in range(active.shape[0]):
         k = active[a]
-        for i in range(n):
-            b[i] = -phi[k, i] / scale[i]
-        _solve1(LU[a], piv[a], b)
+        b[:] = 0.0
+        for i in range(row_pos.shape[0]):
+            b[row_pos[i]] = -phi[k, i] / scale[i]
+        for c in range(C):
+            _solve1(LU[a * C + c], piv[a * C + c], b[c * s: (c + 1) * s])
         size = 0.0
-        for i in range(n):
-            size = max(size, abs(b[i]))
+        for j in range(col_pos.shape[0]):
+            size = max(size, abs(b[col_pos[j]]))
         f = min(1.0, max_step / size)
-        for i in range(n):
-            Q[k, i] += f * b[i] * col_scale[i]
+        for j in range(col_pos.shape[0]):
+            Q[k, j] += f * b[col_pos[j]] * col_scale[j]
 
 
-def warm() -> None:
-    """Compiles (or loads from the cache) the kernels, so that a timed
-    analysis does not pay for it."""
-    A = assemble(np.ones((1, 2)), np.arange(2), np.arange(2), np.ones(2), np.empty((1, 2, 2)))
-    solve(A, factor(A), np.ones((1, 2)))
+def warm(model) -> None:
+    """Compiles (or loads from the cache) the kernels for the model's arrays,
+    so that a timed analysis does not pay for it."""
+    b = model.blocks
+    J = assemble(np.zeros((1, model.nnz)), b.row_pos[model.jac_rows] // b.size, b.row_pos[model.jac_rows] % b.size,
+                 b.col_pos[model.jac_cols] % b.size, model.entry_scale, b.pad, np.empty((b.count, b.size, b.size)))
+    J[:] = np.eye(b.size)
+    piv = factor(J)
+    solve(J, piv, np.ones((b.count, b.size)))
+    phi = np.ones((1, model.m))
+    active = converged(phi, model.scale, 0.0, 0, np.zeros(1, bool), np.zeros(1, int), np.zeros(1), np.zeros((1, model.m)))
+    newton_step(J, piv, phi, active, model.scale, model.col_scale, b.row_pos, b.col_pos, 0.5, np.zeros((1, model.n)))

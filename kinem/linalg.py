@@ -56,16 +56,22 @@ def lu_det_sign(diag, piv) -> np.ndarray:
 
 
 def preload(model, block: bool = False) -> None:
-    """Imports (and for the block march, ``block``, compiles) the factorisation the model
-    will use (scipy and numba are imported lazily for a fast start), so that
-    timed analyses do not pay for it."""
+    """Loads what the analysis of the model will use, so that timed analyses
+    do not pay for it: scipy's factorisations (imported lazily for a fast
+    start), the model's compiled kernels (numba: compiled on first use, then
+    loaded from its cache) and, for the block march (``block``), kinem.dense's."""
     if model.sparse or model.m > model.n:
         import scipy.sparse.linalg  # noqa: F401
     import scipy.linalg.lapack  # noqa: F401
+    q, t = model.q0, float(model.times[0])
+    model.jacobian(q, t)
+    model.gamma(q, q, t)
+    model.phi(q, t)
+    model.nu(t)
     if block:
         from . import dense
 
-        dense.warm()  # numba: compiled on first use, then loaded from its cache
+        dense.warm(model)
 
 
 class Factor:

@@ -40,12 +40,16 @@ LIMIT = 64
 
 
 def usable(model, trace: bool, instants: int) -> bool:
-    """Blocks are for runs of at least MIN_INSTANTS output instants of small
-    models with a dense square Jacobian; a trace or modified Newton asks for
-    the step-by-step march."""
+    """Blocks are for runs of at least MIN_INSTANTS output instants of models
+    whose Jacobian is square and made of independent diagonal blocks of at
+    most LIMIT coordinates (kinem.model.Blocks: one block for a small model,
+    one per variant for merged variants). A trace, modified Newton or an
+    explicit sparse LU ask for the step-by-step march."""
     c = model.case
-    return (c.block > 1 and not trace and not c.jacobian_reuse and not model.sparse
-            and 0 < model.n <= LIMIT and model.m == model.n and instants >= MIN_INSTANTS)
+    if (c.block <= 1 or trace or c.jacobian_reuse or c.linear_solver == "sparse" or model.m != model.n
+            or instants < MIN_INSTANTS):
+        return False
+    return model.blocks.size <= LIMIT and model.blocks.square
 
 
 @dataclass
@@ -62,35 +66,53 @@ class Instants:
         return len(self.q)
 
 
-def factorize(Js):
-    """LU factors of each dimensionless Jacobian (K, n, n) with its pivot
-    ratio and sign of det, as kinem.linalg.Factor computes them, in one
-    compiled pass (kinem.dense); Js is overwritten. Returns ((LU, pivots),
-    pivot ratio (K,), det sign (K,))."""
+def factorize(Js, blocks):
+    """LU factors of the dimensionless Jacobians of K instants, each as its
+    C diagonal blocks (Js: (K * C, s, s), kinem.model.Blocks; C = 1 for a
+    small model), with each instant's pivot ratio (over all its blocks) and
+    sign of det, as kinem.linalg.Factor computes them, in one compiled pass
+    (kinem.dense); Js is overwritten. Returns ((LU, pivots), pivot ratio
+    (K,), det sign (K,))."""
     P = dense.factor(Js)
     diag = np.diagonal(Js, axis1=1, axis2=2)
-    ratio = pivot_ratio(diag)
-    return (Js, P), np.where(ratio < PIVOT_RATIO, 0.0, ratio), lu_det_sign(diag, P)
+    per_instant = diag.reshape(-1, blocks.count * blocks.size)
+    ratio = pivot_ratio(np.delete(per_instant, blocks.pad, axis=1) if blocks.pad.size else per_instant)
+    det = lu_det_sign(diag, P).reshape(-1, blocks.count).prod(axis=1) * blocks.sign
+    return (Js, P), np.where(ratio < PIVOT_RATIO, 0.0, ratio), det
 
 
 def solve_each(model, factors, B):
-    """x[k] from Phi_q x[k] = B[k], with the factors of J_s."""
-    return dense.solve(*factors, B / model.scale) * model.col_scale
+    """x[k] from Phi_q x[k] = B[k] (K, m), with the factors of the blocks of J_s."""
+    b = model.blocks
+    X = np.zeros((len(B), b.count * b.size))
+    X[:, b.row_pos] = B / model.scale
+    dense.solve(*factors, X.reshape(-1, b.size))
+    return X[:, b.col_pos] * model.col_scale
+
+
+# Entries of a block's Jacobians (K * C * s * s) at most: bounds the instants per block of merged variants.
+MAX_ENTRIES = 2**20
 
 
 class Block:
     def __init__(self, model, tracker):
         self.model, self.tracker, self.data = model, tracker, tracker.data
         self.need_v, self.need_a = tracker.need_v, tracker.need_a
-        self.size = min(START, model.case.block)
+        b = self.blocks = model.blocks
+        self.limit = max(1, min(model.case.block, MAX_ENTRIES // (b.count * b.size**2)))
+        self.size = min(START, self.limit)
+        rows, cols = b.row_pos[model.jac_rows], b.col_pos[model.jac_cols]
+        self.entries = (rows // b.size, rows % b.size, cols % b.size)
         # Jacobians of a block, reused: a fresh array of this size costs more in page faults than its arithmetic
-        self.work = np.empty((model.case.block, model.m, model.n))
+        self.work = np.empty((self.limit * b.count, b.size, b.size))
 
     def dimensionless(self, Q, t):
-        """J_s at the instants (Q, t), in the block's work array."""
-        m, d = self.model, self.data
+        """J_s at the instants (Q, t) as their diagonal blocks (K * C, s, s),
+        in the block's work array."""
+        m, d, C = self.model, self.data, self.blocks.count
         d.jacobian_evaluations += len(t)
-        return dense.assemble(m.jac_values(Q, t), m.jac_rows, m.jac_cols, m.entry_scale, self.work[:len(t)])
+        return dense.assemble(m.jac_values(Q, t), *self.entries, m.entry_scale, self.blocks.pad,
+                              self.work[:len(t) * C])
 
     def newton(self, Q, t):
         """Newton-Raphson on all instants at once (kinem.analysis.position);
@@ -104,7 +126,8 @@ class Block:
         residual = np.full(K, np.inf)
         done = np.zeros(K, dtype=bool)
         final = np.zeros((K, m.m))
-        last_J = np.zeros((K, m.n, m.n)) if not self.need_v else None
+        b = self.blocks
+        last_J = np.zeros((K, b.count, b.size, b.size)) if not self.need_v else None
         for it in range(max_it + 1):
             phi = m.phi(Q, t)
             active = dense.converged(phi, m.scale, tol, it, done, iterations, residual, final)
@@ -113,9 +136,9 @@ class Block:
             Js = self.dimensionless(Q[active], t[active])
             d.factorizations += len(active)
             if last_J is not None:
-                last_J[active] = Js
+                last_J[active] = Js.reshape(len(active), b.count, b.size, b.size)
             pivots = dense.factor(Js)
-            dense.newton_step(Js, pivots, phi, active, m.scale, m.col_scale, MAX_STEP, Q)
+            dense.newton_step(Js, pivots, phi, active, m.scale, m.col_scale, b.row_pos, b.col_pos, MAX_STEP, Q)
         return Q, iterations, residual, final, done, last_J
 
     def advance(self, times) -> Instants:
@@ -129,21 +152,22 @@ class Block:
         if n == 0:
             return self.empty()
         Q, t = Q[:n], times[:n]
+        b = self.blocks
         if last_J is None:
             Js = self.dimensionless(Q, t)
         else:  # positions only: the last iteration's J_s where there was one
             fresh = iterations[:n] == 0
-            Js = last_J[:n]
             if fresh.any():
-                Js[fresh] = self.dimensionless(Q[fresh], t[fresh])
-        factors, pivot, det = factorize(Js)
+                last_J[:n][fresh] = self.dimensionless(Q[fresh], t[fresh]).reshape(-1, b.count, b.size, b.size)
+            Js = last_J[:n].reshape(-1, b.size, b.size)
+        factors, pivot, det = factorize(Js, b)
         self.data.factorizations += n
         dets = np.concatenate([[last.det], det])
         bad = (pivot < tr.pivot_floor) | (dets[1:] != dets[:-1])
         n = int(np.argmax(bad)) if bad.any() else n
         if n == 0:
             return self.empty()
-        Q, t, factors = Q[:n], t[:n], (factors[0][:n], factors[1][:n])
+        Q, t, factors = Q[:n], t[:n], (factors[0][:n * b.count], factors[1][:n * b.count])
         Q += solve_each(m, factors, -final[:n])  # analysis.refine: one more Newton correction
         QD = QDD = None
         if self.need_v:
@@ -213,7 +237,7 @@ class Block:
         if n < size:
             size = max(1, n)
         elif got.iterations[-1] <= GROW_ITERATIONS:
-            size = min(2 * size, self.model.case.block)
+            size = min(2 * size, self.limit)
         elif got.iterations[-1] > SHRINK_ITERATIONS:
             size = max(1, size // 2)
         self.size = size

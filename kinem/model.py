@@ -9,6 +9,7 @@ shape (..., n), t a number or an array of the leading shape (...)): the
 rows, or Jacobian values, are on the last axis.
 """
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -67,6 +68,22 @@ def characteristic_length(case: Case) -> float:
     return L if L > 1e-12 else 1.0  # nothing to measure by (or a size that would underflow its squares)
 
 
+@dataclass(frozen=True)
+class Blocks:
+    """The Jacobian's independent diagonal blocks (connected components of
+    its pattern), laid side by side: block c's k-th row (coordinate) at
+    position c * size + k of a stacked vector of count * size entries.
+    Smaller blocks are padded to ``size`` (pad: their unused positions).
+    Variants merged into one case (kinem.batch) are one block each."""
+    count: int
+    size: int
+    row_pos: np.ndarray   # (m,)
+    col_pos: np.ndarray   # (n,)
+    pad: np.ndarray       # positions with no row and no coordinate
+    square: bool          # every block has as many rows as coordinates
+    sign: int             # det(Phi_q) = sign * product of the blocks' dets (the rows' and columns' reordering)
+
+
 @dataclass(frozen=True, eq=False)
 class Model:
     case: Case
@@ -93,6 +110,7 @@ class Model:
     entry_scale: np.ndarray   # per Jacobian entry: col_scale[col] / scale[row]
     _csc: tuple = field(repr=False, default=None)
     _unit: np.ndarray = field(repr=False, default=None)  # ones (nnz,)
+    _zero: np.ndarray = field(repr=False, default=None)  # zeros (nnz,), intp
 
     # -- structure ---------------------------------------------------------
     @property
@@ -106,6 +124,40 @@ class Model:
     @property
     def times(self) -> np.ndarray:
         return self.case.times
+
+    @cached_property
+    def blocks(self) -> Blocks:
+        """The diagonal blocks; one block when the model is small enough
+        for the block march whole (kinem.march.LIMIT), without computing them."""
+        from .march import LIMIT
+
+        if self.n <= LIMIT:
+            return Blocks(1, max(self.m, self.n), np.arange(self.m), np.arange(self.n), np.empty(0, np.intp),
+                          self.m == self.n, 1)
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+
+        pattern = coo_matrix((np.ones(self.nnz), (self.jac_rows, self.jac_cols)), shape=(self.m, self.n)).tocsr()
+        count, col_block = connected_components(pattern.T @ pattern, directed=False)
+        row_block = col_block[self.jac_cols[np.unique(self.jac_rows, return_index=True)[1]]]
+        cols_in = np.bincount(col_block, minlength=count)
+        rows_in = np.bincount(row_block, minlength=count)
+        size = int(max(cols_in.max(), rows_in.max()))
+
+        def positions(block):  # c * size + rank of the index within its block
+            order = np.argsort(block, kind="stable")
+            start = np.concatenate([[0], np.cumsum(np.bincount(block, minlength=count))[:-1]])
+            pos = np.empty(len(block), np.intp)
+            pos[order] = block[order] * size + np.arange(len(block)) - start[block[order]]
+            return pos
+
+        from .linalg import _parity
+
+        used = np.zeros(count * size, bool)
+        row_pos, col_pos = positions(row_block), positions(col_block)
+        used[col_pos] = True
+        return Blocks(count, size, row_pos, col_pos, np.flatnonzero(~used), bool((cols_in == rows_in).all()),
+                      _parity(np.argsort(row_pos)) * _parity(np.argsort(col_pos)))
 
     # -- evaluation ----------------------------------------------------------
     def _gather(self, values):
@@ -148,7 +200,8 @@ class Model:
             order, indices, indptr = self._csc
             return csc_matrix((values[order], indices, indptr), shape=(self.m, self.n))
         V = np.ascontiguousarray(values, dtype=float).reshape(-1, self.nnz)
-        J = dense.assemble(V, self.jac_rows, self.jac_cols, self._unit, np.empty((len(V), self.m, self.n)))
+        J = dense.assemble(V, self._zero, self.jac_rows, self.jac_cols, self._unit, self._zero[:0],
+                           np.empty((len(V), self.m, self.n)))
         return J.reshape(values.shape[:-1] + (self.m, self.n))
 
     def scaled_residual(self, phi) -> np.ndarray:
@@ -209,7 +262,7 @@ def compile(case: Case) -> Model:
         point_local=local_points([p.at for p in case.points]),
         artificial=tuple(label for label, _ in ctx.artificial),
         time_dependent=tuple(k for k, f in enumerate(families) if f.time_dependent),
-        _csc=csc, _unit=np.ones(len(jac_rows)),
+        _csc=csc, _unit=np.ones(len(jac_rows)), _zero=np.zeros(len(jac_rows), np.intp),
     )
     for a in (model.q0, model.driving, model.scale, model.jac_rows, model.jac_cols,
               model.point_cols, model.point_local, model.col_scale, model.entry_scale):

@@ -26,3 +26,40 @@ def test_variants_need_the_same_instants():
     b = kinem.load_dict(slider_crank_case(0.1, 0.3, end=1.0, steps=41))
     with pytest.raises(kinem.InputError):
         merge([a, b])
+
+
+def test_merged_variants_march_in_blocks_one_per_variant():
+    """Merged models over march.LIMIT coordinates take the block march with
+    one diagonal block per variant (padded to the largest): the blocks take
+    the instants, and the results equal the variants solved one by one.
+    An odd reordering sign or a wrong padding would make every block's det
+    sign or solution differ from the step-by-step march's, and blocks would
+    take no instant."""
+    from kinem import march
+    from kinem.reference import n_four_bar
+
+    cases = [kinem.load_dict(slider_crank_case(0.1 * (1 + 0.1 * k), 0.3, 0.01 * k, end=1.0, steps=80)) for k in range(4)]
+    cases.append(kinem.load_dict(n_four_bar(2)).with_time(1.0, 80))  # 18 coordinates: the others are padded
+    model = kinem.compile(merge(cases))
+    b = model.blocks
+    assert model.n > march.LIMIT and (b.count, b.size, b.pad.size) == (5, 18, 4 * 6)
+    assert march.usable(model, False, len(model.times))
+    taken, original = [], march.Block.advance
+
+    def advance(self, times):
+        got = original(self, times)
+        taken.append(len(got))
+        return got
+
+    march.Block.advance = advance
+    try:
+        batch = kinem.solve(model)
+    finally:
+        march.Block.advance = original
+    assert batch.success and sum(taken) >= len(model.times) // 2
+    for k, c in enumerate(cases):
+        single = kinem.solve(kinem.compile(c)).trajectory
+        part = split(batch.trajectory, k)
+        assert part.columns == single.columns
+        # both converged to the same tolerance: 1e-9 of the size apart at most
+        assert np.abs(part.data - single.data).max() <= 1e-9 * max(1.0, np.abs(single.data).max())

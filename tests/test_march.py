@@ -141,8 +141,8 @@ def test_a_det_flip_inside_a_block_is_cut_off_there():
     block = march.Block(model, tracker)
     original = march.factorize
 
-    def flipped(Js):
-        f, pivot, det = original(Js)
+    def flipped(Js, blocks):
+        f, pivot, det = original(Js, blocks)
         det = det.copy()
         det[3:] *= -1
         return f, pivot, det
@@ -163,7 +163,7 @@ def test_factorize_matches_linalg_factor():
     r = kinem.solve(model)
     Q, t = r.q[::20], model.times[::20]
     Js = model.assemble(model.jac_values(Q, t) * model.entry_scale, sparse=False)
-    (LU, P), pivot, det = march.factorize(Js)
+    (LU, P), pivot, det = march.factorize(Js, model.blocks)
     for k in range(len(t)):
         f = Factor(model, model.jac_values(Q[k], t[k]))
         assert pivot[k] == pytest.approx(f.pivot_ratio, rel=1e-12) and det[k] == f.det_sign
