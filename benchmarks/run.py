@@ -52,7 +52,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import kinem  # noqa: E402
-from kinem import analysis, march  # noqa: E402
+from kinem import analysis  # noqa: E402
 from kinem.batch import merge  # noqa: E402
 from kinem.reference import four_bar, n_four_bar, rel_error, slider_crank, slider_crank_case  # noqa: E402
 
@@ -550,8 +550,8 @@ def variants(b, steps, seed=7):
 
 def section_batch(cfg):
     say("\n== 4. batch: B slider-crank variants (different r, l, offset) merged into one case (kinem.batch) ==")
-    say(f"   1 s, {cfg.batch_steps} output steps; a merged model has 12 B coordinates: block march up to"
-        f" {march.LIMIT}, step by step above (dense up to 200, sparse above)")
+    say(f"   1 s, {cfg.batch_steps} output steps; a merged model has 12 B coordinates in B diagonal blocks"
+        " (kinem.model.Blocks): the block march solves one 12 x 12 LU per variant and instant")
     say("   single: one variant alone at its default (block march); sbs: the same solved step by step (block = 1,"
         " the march of merged models above that size)")
     say(f"   {'B':>5s} {'coords':>7s} {'path':>6s} {'march':>5s} {'us/variant-step':>15s} {'single us':>9s} "

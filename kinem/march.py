@@ -33,10 +33,11 @@ MIN_INSTANTS = 64
 GROW_ITERATIONS = 3
 SHRINK_ITERATIONS = 4
 ITERATIONS = 8
-# Coordinates above which arithmetic, not call overhead, dominates: measured on
-# merged slider-cranks, blocks are 3.5x faster at 48 coordinates, 1.5x at 96,
-# even at 120 and 3.5x slower at 192 (batched solves of large matrices).
-LIMIT = 64
+# Coordinates of a diagonal block above which the compiled unblocked LU loses
+# to LAPACK and SuperLU step by step: measured on N-four-bar chains (one
+# block), blocks are 2.9x faster at 78 coordinates, 2.2x at 186, 1.1x at 276
+# and 1.7x slower at 402.
+LIMIT = 200
 
 
 def usable(model, trace: bool, instants: int) -> bool:

@@ -19,6 +19,9 @@ from .constraints.base import local_points
 from .spec import Case
 
 DENSE_LIMIT = 200  # coordinates; above this 'auto' uses the sparse LU
+# Coordinates up to which a model is one diagonal block (Model.blocks): finding
+# the blocks imports scipy.sparse.csgraph, 0.27 s, more than such a run costs.
+ONE_BLOCK = 64
 
 
 class _Context:
@@ -127,11 +130,9 @@ class Model:
 
     @cached_property
     def blocks(self) -> Blocks:
-        """The diagonal blocks; one block when the model is small enough
-        for the block march whole (kinem.march.LIMIT), without computing them."""
-        from .march import LIMIT
-
-        if self.n <= LIMIT:
+        """The diagonal blocks; a model of up to ONE_BLOCK coordinates is
+        taken whole, without looking for them."""
+        if self.n <= ONE_BLOCK:
             return Blocks(1, max(self.m, self.n), np.arange(self.m), np.arange(self.n), np.empty(0, np.intp),
                           self.m == self.n, 1)
         from scipy.sparse import coo_matrix

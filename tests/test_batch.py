@@ -29,20 +29,21 @@ def test_variants_need_the_same_instants():
 
 
 def test_merged_variants_march_in_blocks_one_per_variant():
-    """Merged models over march.LIMIT coordinates take the block march with
+    """Merged models over model.ONE_BLOCK coordinates take the block march with
     one diagonal block per variant (padded to the largest): the blocks take
     the instants, and the results equal the variants solved one by one.
     An odd reordering sign or a wrong padding would make every block's det
     sign or solution differ from the step-by-step march's, and blocks would
     take no instant."""
     from kinem import march
+    from kinem.model import ONE_BLOCK
     from kinem.reference import n_four_bar
 
     cases = [kinem.load_dict(slider_crank_case(0.1 * (1 + 0.1 * k), 0.3, 0.01 * k, end=1.0, steps=80)) for k in range(4)]
     cases.append(kinem.load_dict(n_four_bar(2)).with_time(1.0, 80))  # 18 coordinates: the others are padded
     model = kinem.compile(merge(cases))
     b = model.blocks
-    assert model.n > march.LIMIT and (b.count, b.size, b.pad.size) == (5, 18, 4 * 6)
+    assert model.n > ONE_BLOCK and (b.count, b.size, b.pad.size) == (5, 18, 4 * 6)
     assert march.usable(model, False, len(model.times))
     taken, original = [], march.Block.advance
 

@@ -96,8 +96,10 @@ def test_not_used_where_it_cannot_be():
     assert not blocks(kinem.compile(replace(fb, block=1)), False)
     from kinem.reference import n_four_bar
 
-    big = kinem.compile(kinem.load_dict(n_four_bar(12)))  # 26 bodies, 78 coordinates: step by step
-    assert big.n > march.LIMIT and not blocks(big, False)
+    big = kinem.compile(kinem.load_dict(n_four_bar(34)))  # 70 bodies, one block of 210 coordinates: step by step
+    assert big.blocks.size > march.LIMIT and not blocks(big, False)
+    chain = kinem.compile(kinem.load_dict(n_four_bar(12)))  # 78 coordinates: blocks
+    assert chain.blocks.count == 1 and blocks(chain, False)
 
 
 class _Flip:
