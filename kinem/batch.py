@@ -2,10 +2,10 @@
 
 ``merge`` turns B cases on one time grid into one case whose bodies, points
 and constraints are those of every variant, renamed ``v<k>-<name>``: its
-Jacobian is block-diagonal, so the same solver path (one vectorised pass per
-constraint family, one sparse LU) serves all B variants at once and the cost
-per numpy call is shared. ``split`` recovers variant k's trajectory with its
-own column names.
+Jacobian is block-diagonal, so one kernel call per constraint family serves
+all B variants at once, and the block march solves each variant's diagonal
+block with its own small LU (kinem.model.Blocks). ``split`` recovers variant
+k's trajectory with its own column names.
 
 The merged case converges when every variant does, sub-steps when any one
 needs it, and measures residuals against the largest variant's size: give

@@ -1,12 +1,13 @@
 """The block march: several output instants solved together
 (docs/solver.md, "Block march").
 
-For a small model the cost of an instant is the Python and numpy overhead of
-some forty calls on arrays of a dozen numbers, not arithmetic. So a dense,
-square model takes its output instants in blocks of up to ``[solver] block``:
-Newton-Raphson runs on every instant of a block at once, each from the
-extrapolation of the last accepted state (kinem.tracking.extrapolate), with
-one numpy pass per constraint family and one compiled batched LU solve
+For a small model the cost of an instant is the Python overhead of some
+forty calls on arrays of a dozen numbers, not arithmetic. So a square model
+whose Jacobian's diagonal blocks are small (kinem.model.Blocks) takes its
+output instants in blocks of up to ``[solver] block``: Newton-Raphson runs
+on every instant of a block at once, each from the extrapolation of the last
+accepted state (kinem.tracking.extrapolate), with one kernel call per
+constraint family and compiled batched LUs of the diagonal blocks
 (kinem.dense) per iteration. Velocities and accelerations follow in the same way.
 
 Every instant then passes the tracker's own tests as if it had been reached
