@@ -85,6 +85,21 @@ class Family:
         raise NotImplementedError
 
 
+class Compiled(Family):
+    """A family whose phi, jac and gamma are its ``kernels`` (phi, jac, gamma),
+    each called as kernel(Q[, QD], *self.args, out)."""
+    kernels: tuple = ()
+
+    def phi(self, q, t):
+        return call(self.kernels[0], self.n_rows, q, *self.args)
+
+    def jac(self, q, t):
+        return call(self.kernels[1], len(self.rows), q, *self.args)
+
+    def gamma(self, q, qd, t):
+        return call(self.kernels[2], self.n_rows, q, *self.args, qd=qd)
+
+
 def pattern(cols: np.ndarray, entry_rows, rows_per_constraint: int) -> tuple:
     """Global-in-family rows and columns of a Jacobian pattern.
 

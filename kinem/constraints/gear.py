@@ -10,7 +10,7 @@ equation: the estimates are the reference configuration (phi_i^0, ...).
 """
 import numpy as np
 
-from .base import Family, Key, TypeDecl, call, kernel, local_points, pattern, row_info
+from .base import Compiled, Family, Key, TypeDecl, call, kernel, local_points, pattern, row_info
 
 
 @kernel
@@ -105,7 +105,7 @@ def _rack_gamma(q, qd, ci, cj, cc, s, u, rho, phi0, out):
                          + wi * wi * (uu.real * a.real + uu.imag * a.imag) - wj * wj * (uu.real * b.real + uu.imag * b.imag))
 
 
-class RackPinion(Family):
+class RackPinion(Compiled):
     """Phi = u . (C - P) + rho (phi_i - phi_j - phi0): pinion i with pitch
     radius rho and centre C = r_i + A_i c'; rack j with pitch line through
     P = r_j + A_j s'_j along the unit vector u = A_j u'. The pinion lies on
@@ -114,6 +114,7 @@ class RackPinion(Family):
     relative rotation (rolling without slip). phi0 is phi_i - phi_j when C is
     on the normal through P. Rack fixed along x: Eq. 4.20; pinion centre
     fixed too: Eq. 4.19."""
+    kernels = (_rack_phi, _rack_jac, _rack_gamma)
 
     def __init__(self, cons, ctx):
         self.ci = ctx.cols(c["pinion"] for c in cons)
@@ -130,15 +131,6 @@ class RackPinion(Family):
         ci, cj = self.ci, self.cj
         self.rows, self.cols = pattern(np.stack([ci, ci + 1, ci + 2, cj, cj + 1, cj + 2], axis=1), [0] * 6, 1)
         self.args = (self.ci, self.cj, self.c, self.s, self.u, self.rho, self.phi0)
-
-    def phi(self, q, t):
-        return call(_rack_phi, self.n_rows, q, *self.args)
-
-    def jac(self, q, t):
-        return call(_rack_jac, len(self.rows), q, *self.args)
-
-    def gamma(self, q, qd, t):
-        return call(_rack_gamma, self.n_rows, q, *self.args, qd=qd)
 
 
 def _angle(bodies, name):

@@ -8,7 +8,7 @@ d = P_j - P_i, and Eq. 4.16 with a = j, u = Q_j - P_j, d = P_i - P_j.
 """
 import numpy as np
 
-from .base import Family, Key, TypeDecl, call, kernel, local_points, pattern, row_info
+from .base import Compiled, Key, TypeDecl, kernel, local_points, pattern, row_info
 
 
 @kernel
@@ -72,24 +72,16 @@ def _gamma(q, qd, ca, pa, ua, cb, ob, ai, aj, phi0, out):
                 out[k, 2 * c + 1] = 0.0
 
 
-class _PointOnLine(Family):
+class _PointOnLine(Compiled):
     """The row u x d = 0 for several constraints (a = the line's body, b the
     other), with the angle rows of translational joints when ``ai`` is given."""
+    kernels = (_phi, _jac, _gamma)
 
     def setup(self, ca, pa, ua, cb, ob, length, ai=(), aj=(), phi0=()):
         self.scale_line = np.abs(ua) * length
         self.line_cols = np.stack([ca, ca + 1, ca + 2, cb, cb + 1, cb + 2], axis=1)
         ai, aj = np.asarray(ai, np.intp), np.asarray(aj, np.intp)
         self.args = (ca, pa, ua, cb, ob, ai, aj, np.asarray(phi0, float))
-
-    def phi(self, q, t):
-        return call(_phi, self.n_rows, q, *self.args)
-
-    def jac(self, q, t):
-        return call(_jac, len(self.rows), q, *self.args)
-
-    def gamma(self, q, qd, t):
-        return call(_gamma, self.n_rows, q, *self.args, qd=qd)
 
 
 class Translational(_PointOnLine):

@@ -1,7 +1,7 @@
 """Revolute joint, Eqs. 4.7-4.9; Jacobian Eq. 4.46 (Table 4.2); gamma Eq. 4.47."""
 import numpy as np
 
-from .base import Family, Key, TypeDecl, call, kernel, local_points, pattern, row_info
+from .base import Compiled, Key, TypeDecl, kernel, local_points, pattern, row_info
 
 
 @kernel
@@ -40,8 +40,9 @@ def _gamma(q, qd, ci, cj, si, sj, out):
             out[k, 2 * c + 1] = g.imag
 
 
-class Revolute(Family):
+class Revolute(Compiled):
     """Phi = r_i + A_i s'_i^P - r_j - A_j s'_j^P (Eq. 4.7): two rows, x and y."""
+    kernels = (_phi, _jac, _gamma)
 
     def __init__(self, cons, ctx):
         self.ci = ctx.cols(c["i"] for c in cons)
@@ -55,15 +56,6 @@ class Revolute(Family):
         cols = np.stack([ci, ci + 2, cj, cj + 2, ci + 1, ci + 2, cj + 1, cj + 2], axis=1)
         self.rows, self.cols = pattern(cols, [0, 0, 0, 0, 1, 1, 1, 1], 2)
         self.args = (self.ci, self.cj, self.si, self.sj)
-
-    def phi(self, q, t):
-        return call(_phi, self.n_rows, q, *self.args)
-
-    def jac(self, q, t):
-        return call(_jac, len(self.rows), q, *self.args)
-
-    def gamma(self, q, qd, t):
-        return call(_gamma, self.n_rows, q, *self.args, qd=qd)
 
 
 TYPES = [
