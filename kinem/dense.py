@@ -148,8 +148,7 @@ def warm(model) -> None:
     """Compiles (or loads from the cache) the kernels for the model's arrays,
     so that a timed analysis does not pay for it."""
     b = model.blocks
-    J = assemble(np.zeros((1, model.nnz)), b.row_pos[model.jac_rows] // b.size, b.row_pos[model.jac_rows] % b.size,
-                 b.col_pos[model.jac_cols] % b.size, model.entry_scale, b.pad, np.empty((b.count, b.size, b.size)))
+    J = assemble(np.zeros((1, model.nnz)), *b.entries, model.entry_scale, b.pad, np.empty((b.count, b.size, b.size)))
     J[:] = np.eye(b.size)
     piv = factor(J)
     solve(J, piv, np.ones((b.count, b.size)))

@@ -103,8 +103,6 @@ class Block:
         b = self.blocks = model.blocks
         self.limit = max(1, min(model.case.block, MAX_ENTRIES // (b.count * b.size**2)))
         self.size = min(START, self.limit)
-        rows, cols = b.row_pos[model.jac_rows], b.col_pos[model.jac_cols]
-        self.entries = (rows // b.size, rows % b.size, cols % b.size)
         # Jacobians of a block, reused: a fresh array of this size costs more in page faults than its arithmetic
         self.work = np.empty((self.limit * b.count, b.size, b.size))
 
@@ -113,7 +111,7 @@ class Block:
         in the block's work array."""
         m, d, C = self.model, self.data, self.blocks.count
         d.jacobian_evaluations += len(t)
-        return dense.assemble(m.jac_values(Q, t), *self.entries, m.entry_scale, self.blocks.pad,
+        return dense.assemble(m.jac_values(Q, t), *self.blocks.entries, m.entry_scale, self.blocks.pad,
                               self.work[:len(t) * C])
 
     def newton(self, Q, t):

@@ -85,6 +85,7 @@ class Blocks:
     pad: np.ndarray       # positions with no row and no coordinate
     square: bool          # every block has as many rows as coordinates
     sign: int             # det(Phi_q) = sign * product of the blocks' dets (the rows' and columns' reordering)
+    entries: tuple        # (block, row in it, column in it) of each Jacobian entry, as kinem.dense.assemble takes them
 
 
 @dataclass(frozen=True, eq=False)
@@ -134,7 +135,7 @@ class Model:
         taken whole, without looking for them."""
         if self.n <= ONE_BLOCK:
             return Blocks(1, max(self.m, self.n), np.arange(self.m), np.arange(self.n), np.empty(0, np.intp),
-                          self.m == self.n, 1)
+                          self.m == self.n, 1, (self._zero, self.jac_rows, self.jac_cols))
         from scipy.sparse import coo_matrix
         from scipy.sparse.csgraph import connected_components
 
@@ -157,8 +158,10 @@ class Model:
         used = np.zeros(count * size, bool)
         row_pos, col_pos = positions(row_block), positions(col_block)
         used[col_pos] = True
+        rows, cols = row_pos[self.jac_rows], col_pos[self.jac_cols]
         return Blocks(count, size, row_pos, col_pos, np.flatnonzero(~used), bool((cols_in == rows_in).all()),
-                      _parity(np.argsort(row_pos)) * _parity(np.argsort(col_pos)))
+                      _parity(np.argsort(row_pos)) * _parity(np.argsort(col_pos)),
+                      (rows // size, rows % size, cols % size))
 
     # -- evaluation ----------------------------------------------------------
     def _gather(self, values):
