@@ -1033,7 +1033,8 @@ def section_coldstart(cfg, envs):
     case = str(ROOT / "cases" / "slider_crank.toml")
     cmds = {"cli": [sys.executable, "-m", "kinem", "solve", case, "--steps", "1", "--outputs", "positions"],
             "pass": [sys.executable, "-c", "pass"],
-            "probe": [sys.executable, str(ROOT / "benchmarks" / "coldstart.py"), case]}
+            "probe": [sys.executable, str(ROOT / "benchmarks" / "coldstart.py"), case],
+            "full": [sys.executable, "-m", "kinem", "solve", case, "--out", os.devnull, "--format", "csv"]}
     n = cfg.subprocess_repeats
     dont = os.environ.get("PYTHONDONTWRITEBYTECODE")
     say(f"   PYTHONDONTWRITEBYTECODE={dont!r} here; 'bytecode cached': .pyc files in a temporary "
@@ -1060,7 +1061,8 @@ def section_coldstart(cfg, envs):
         rest = total - sum(split.values())
         table[e] = (total, split, rest)
         out[e] = {"total_s": total, "probe_s": statistics.median(walls[(e, "probe")]), "split_s": split,
-                  "rest_s": rest, "largest": max(split, key=split.get)}
+                  "rest_s": rest, "largest": max(split, key=split.get),
+                  "full_run_s": statistics.median(walls[(e, "full")])}
     say(f"   {'(medians of ' + str(n) + ' runs)':48s} " + " ".join(f"{e:>18s}" for e in envs))
     say(f"   {'total: kinem solve ... wall time':48s} " + " ".join(f"{1e3 * table[e][0]:15.0f} ms" for e in envs))
     for k in names:
@@ -1070,6 +1072,10 @@ def section_coldstart(cfg, envs):
         + " ".join(f"{1e3 * table[e][2]:8.1f} ms {100 * table[e][2] / table[e][0]:5.1f}%" for e in envs))
     for e in envs:
         say(f"   largest ({e}): {out[e]['largest']}")
+    say(f"   {'full default run (block march: loads numba)':48s} "
+        + " ".join(f"{1e3 * out[e]['full_run_s']:15.0f} ms" for e in envs))
+    say(f"   {'  its ratio to the --steps 1 run':48s} "
+        + " ".join(f"{out[e]['full_run_s'] / out[e]['total_s']:17.2f}x" for e in envs))
     return out
 
 

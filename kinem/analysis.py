@@ -8,10 +8,12 @@ Velocity: Phi_q qd = nu. Acceleration: Phi_q qdd = gamma. The Jacobian at the
 converged q is factorised once and serves both solves.
 """
 import time
+from contextlib import nullcontext
 from dataclasses import dataclass
 
 import numpy as np
 
+from . import jit
 from .errors import AnalysisError, ConvergenceError, InputError, SingularError
 from .linalg import Factor, preload
 from .result import OUTPUTS, SolveResult, Status, trajectory
@@ -21,6 +23,12 @@ from .result import OUTPUTS, SolveResult, Status, trajectory
 # (lengths over L, angles in radians): a rough estimate never sends the
 # assembly many turns away, and tracking steps are far shorter anyway.
 MAX_STEP = 0.5
+# Step-by-step runs with instants x (100 + coordinates) up to this run their
+# kernels interpreted in a process without numba (``interpret``). Measured on
+# N-four-bar chains in new processes: an interpreted instant costs about
+# (100 + n) x 15 us more than a compiled one, and loading numba costs about
+# 0.37 s, i.e. 25,000 x 15 us.
+INTERPRET_WORK = 25_000
 
 
 @dataclass
@@ -147,6 +155,13 @@ def check_square(model) -> None:
                          f"{gap} equation{'s' * (gap != 1)} missing (add drivers or constraints)")
 
 
+def interpret(model, blocks: bool, instants: int) -> bool:
+    """Whether a run's kernels should run interpreted (kinem.jit): a short
+    step-by-step run in a process that has not loaded numba costs less that
+    way than numba's start-up (INTERPRET_WORK)."""
+    return not blocks and not jit.loaded() and instants * (100 + model.n) <= INTERPRET_WORK
+
+
 def solve(model, outputs=OUTPUTS, times=None, trace=False) -> SolveResult:
     """Position (and, when asked, velocity and acceleration) analysis at every
     output instant, on the branch the assembly found (kinem.tracking). Never
@@ -171,38 +186,39 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False) -> SolveResult:
     tracker = Tracker(model, data, need_v, need_a)
     status, message = Status.SUCCESS, ""
     blocks = usable(model, trace, nt)
-    preload(model, blocks)  # one-time imports, not part of the analysis's wall time
-    start = time.perf_counter()
-    block = Block(model, tracker) if blocks else None
-    k = 0
-    try:
-        while k < nt:
-            if block is not None and k > 0:
-                got = block.advance(times[k: k + block.size])
-                n = len(got)
-                block.next_size(got)
-                if n:
-                    iters[k:k + n], resid[k:k + n], cond[k:k + n], Q[k:k + n] = (
-                        got.iterations, got.residual, got.pivot, got.q)
-                    if need_v:
-                        QD[k:k + n] = got.qd
-                        if need_a:
-                            QDD[k:k + n] = got.qdd
-                    k += n
-                    continue
-            s = tracker.start(times[0]) if k == 0 else tracker.advance(times[k])
-            iters[k], resid[k], cond[k], Q[k] = s.iterations, s.residual, s.pivot, s.q
-            if trace:
-                data.trace.append((times[k], "instant", s.iterations, s.residual, f"pivot ratio {s.pivot:.3e}"))
-            if need_v:
-                QD[k] = s.qd
-                if need_a:
-                    QDD[k] = s.qdd
-            k += 1
-    except AnalysisError as e:
-        status = Status.SINGULAR if isinstance(e, SingularError) else Status.NOT_CONVERGED
-        what = "assembly at" if k == 0 else "step to"
-        message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {e}"
+    with jit.interpreted() if interpret(model, blocks, nt) else nullcontext():
+        preload(model, blocks)  # one-time imports, not part of the analysis's wall time
+        start = time.perf_counter()
+        block = Block(model, tracker) if blocks else None
+        k = 0
+        try:
+            while k < nt:
+                if block is not None and k > 0:
+                    got = block.advance(times[k: k + block.size])
+                    n = len(got)
+                    block.next_size(got)
+                    if n:
+                        iters[k:k + n], resid[k:k + n], cond[k:k + n], Q[k:k + n] = (
+                            got.iterations, got.residual, got.pivot, got.q)
+                        if need_v:
+                            QD[k:k + n] = got.qd
+                            if need_a:
+                                QDD[k:k + n] = got.qdd
+                        k += n
+                        continue
+                s = tracker.start(times[0]) if k == 0 else tracker.advance(times[k])
+                iters[k], resid[k], cond[k], Q[k] = s.iterations, s.residual, s.pivot, s.q
+                if trace:
+                    data.trace.append((times[k], "instant", s.iterations, s.residual, f"pivot ratio {s.pivot:.3e}"))
+                if need_v:
+                    QD[k] = s.qd
+                    if need_a:
+                        QDD[k] = s.qdd
+                k += 1
+        except AnalysisError as e:
+            status = Status.SINGULAR if isinstance(e, SingularError) else Status.NOT_CONVERGED
+            what = "assembly at" if k == 0 else "step to"
+            message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {e}"
     wall = time.perf_counter() - start
     n_ok = k
     ok = status == Status.SUCCESS

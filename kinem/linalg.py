@@ -58,8 +58,8 @@ def lu_det_sign(diag, piv) -> np.ndarray:
 def preload(model, block: bool = False) -> None:
     """Loads what the analysis of the model will use, so that timed analyses
     do not pay for it: scipy's factorisations (imported lazily for a fast
-    start), the model's compiled kernels (numba: compiled on first use, then
-    loaded from its cache) and, for the block march (``block``), kinem.dense's."""
+    start), the model's kernels (compiled: on first use, then loaded from
+    numba's cache; kinem.jit) and, for the block march (``block``), kinem.dense's."""
     if model.sparse or model.m > model.n:
         import scipy.sparse.linalg  # noqa: F401
     import scipy.linalg.lapack  # noqa: F401

@@ -29,7 +29,8 @@ from .tracking import State, extrapolate, jumps
 
 START = 64
 # Fewer output instants go step by step: that costs under 20 ms, less than
-# loading the compiled kernels (kinem.dense) in a new process, about 0.35 s.
+# loading numba in a new process, about 0.4 s (there such runs interpret the
+# kernels: kinem.analysis.interpret).
 MIN_INSTANTS = 64
 GROW_ITERATIONS = 3
 SHRINK_ITERATIONS = 4
