@@ -118,8 +118,7 @@ class Block:
     def newton(self, Q, t):
         """Newton-Raphson on all instants at once (kinem.analysis.position);
         an instant stops iterating when it has converged. Returns (Q,
-        iterations, residual, Phi at convergence, converged, the J_s of each
-        instant's last iteration or None)."""
+        iterations, residual, Phi at convergence, converged)."""
         m, d = self.model, self.data
         tol, max_it = m.case.tolerance, min(m.case.max_iterations, ITERATIONS)
         K = len(t)
@@ -128,7 +127,6 @@ class Block:
         done = np.zeros(K, dtype=bool)
         final = np.zeros((K, m.m))
         b = self.blocks
-        last_J = np.zeros((K, b.count, b.size, b.size)) if not self.need_v else None
         for it in range(max_it + 1):
             phi = m.phi(Q, t)
             active = dense.converged(phi, m.scale, tol, it, done, iterations, residual, final)
@@ -136,11 +134,9 @@ class Block:
                 break
             Js = self.dimensionless(Q[active], t[active])
             d.factorizations += len(active)
-            if last_J is not None:
-                last_J[active] = Js.reshape(len(active), b.count, b.size, b.size)
             pivots = dense.factor(Js)
             dense.newton_step(Js, pivots, phi, active, m.scale, m.col_scale, b.row_pos, b.col_pos, MAX_STEP, Q)
-        return Q, iterations, residual, final, done, last_J
+        return Q, iterations, residual, final, done
 
     def advance(self, times) -> Instants:
         """As many of the output instants ``times`` as pass the tests, from
@@ -148,20 +144,13 @@ class Block:
         m, tr = self.model, self.tracker
         hist = tr.history[-3:]
         last = hist[-1]
-        Q, iterations, residual, final, done, last_J = self.newton(self.start(times, hist), times)
+        Q, iterations, residual, final, done = self.newton(self.start(times, hist), times)
         n = int(np.argmin(done)) if not done.all() else len(done)
         if n == 0:
             return self.empty()
         Q, t = Q[:n], times[:n]
         b = self.blocks
-        if last_J is None:
-            Js = self.dimensionless(Q, t)
-        else:  # positions only: the last iteration's J_s where there was one
-            fresh = iterations[:n] == 0
-            if fresh.any():
-                last_J[:n][fresh] = self.dimensionless(Q[fresh], t[fresh]).reshape(-1, b.count, b.size, b.size)
-            Js = last_J[:n].reshape(-1, b.size, b.size)
-        factors, pivot, det = factorize(Js, b)
+        factors, pivot, det = factorize(self.dimensionless(Q, t), b)
         self.data.factorizations += n
         dets = np.concatenate([[last.det], det])
         bad = (pivot < tr.pivot_floor) | (dets[1:] != dets[:-1])
@@ -190,18 +179,33 @@ class Block:
     def start(self, times, hist):
         """Newton starts for the block: the tracker's predictor from the last
         state, plus the cubic Taylor term (the third derivative taken as the
-        change of qdd over the last step) when accelerations are known, so
-        that far instants start closer."""
+        change of qdd over the last step), so that far instants start closer.
+        A run that does not output accelerations gets them for this (``rates``)."""
         K, n, last = len(times), self.model.n, hist[-1]
         T = np.broadcast_to([p.t for p in hist], (K, len(hist)))
         H = np.broadcast_to([p.q for p in hist], (K, len(hist), n))
-        rates = (None, None) if last.qd is None else (np.broadcast_to(last.qd, (K, n)),
-                                                      None if last.qdd is None else np.broadcast_to(last.qdd, (K, n)))
-        q, _ = extrapolate(times, T, H, *rates)
-        if last.qdd is not None and len(hist) > 1:
+        if last.qdd is not None:
+            QD, QDD = [last.qd], [p.qdd for p in hist[-2:]]
+        else:
+            QD, QDD = self.rates(hist[-2:])
+        q, _ = extrapolate(times, T, H, np.broadcast_to(QD[-1], (K, n)), np.broadcast_to(QDD[-1], (K, n)))
+        if len(hist) > 1:
             h = times - last.t
-            q += (h**3 / 6)[:, None] * ((last.qdd - hist[-2].qdd) / (last.t - hist[-2].t))
+            q += (h**3 / 6)[:, None] * ((QDD[-1] - QDD[-2]) / (last.t - hist[-2].t))
         return q
+
+    def rates(self, states):
+        """Velocities and accelerations at accepted states of a run that does
+        not output them, for the block's starts: without them a block's far
+        instants start from a poorer extrapolation and take more iterations
+        than these few solves cost."""
+        m = self.model
+        Q, t = np.array([s.q for s in states]), np.array([s.t for s in states])
+        Js = self.dimensionless(Q, t)
+        factors = (Js, dense.factor(Js))
+        self.data.factorizations += len(t)
+        QD = solve_each(m, factors, m.nu(t))
+        return QD, solve_each(m, factors, m.gamma(Q, QD, t))
 
     def first_jump(self, hist, t, Q, QD, QDD):
         """Index of the first instant whose correction from its own predictor
