@@ -1,0 +1,216 @@
+"""Shared pieces of the benchmark harness (benchmarks/run.py): the cases and
+engines, ``say``, timing helpers, what-if patches, the machine description,
+case loading and engine runners, and ``_plain`` for the JSON output.
+
+Importing this module puts the repository root on sys.path (import it before
+kinem and adapters)."""
+import dataclasses
+import gc
+import os
+import platform
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import kinem  # noqa: E402
+
+CASES = ("slider_crank", "four_bar", "quick_return_1")
+ENGINES = ("pymunk", "mujoco", "exudyn")
+REFERENCE_TOLERANCE = 1e-13   # as kinem.report.runs: errors are measured against this solution
+LOOSE, TIGHT = 1e-6, 1e-10    # position errors / L of the work-precision targets
+
+
+def say(text=""):
+    print(text, flush=True)
+
+
+# -- timing -------------------------------------------------------------------------
+
+def rounds(fns: dict, repeats: int) -> dict:
+    """Runs each callable ``repeats`` times round-robin (A B C A B C ...);
+    each returns (seconds, payload). Returns name -> (median seconds, all
+    seconds, payload of the last run)."""
+    times = {k: [] for k in fns}
+    last = {}
+    for _ in range(max(1, repeats)):
+        for k, fn in fns.items():
+            gc.collect()
+            seconds, last[k] = fn()
+            times[k].append(seconds)
+    return {k: (statistics.median(v), v, last[k]) for k, v in times.items()}
+
+
+def per_call(fn, min_time=0.1, repeats=7) -> float:
+    """Median seconds per call of a fast function (batches of calls)."""
+    n, t = 1, 0.0
+    while True:
+        start = time.perf_counter()
+        for _ in range(n):
+            fn()
+        t = time.perf_counter() - start
+        if t >= min_time / repeats or n > 10**6:
+            break
+        n *= 4
+    samples = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        for _ in range(n):
+            fn()
+        samples.append((time.perf_counter() - start) / n)
+    return statistics.median(samples)
+
+
+def native(model, outputs=kinem.OUTPUTS):
+    """A timed native solve: (wall_time of the analysis loop, SolveResult)."""
+    def run():
+        r = kinem.solve(model, outputs)
+        if not r.success:
+            raise RuntimeError(f"{model.case.name}: {r.message}")
+        return r.wall_time, r
+    return run
+
+
+def step_by_step(model_or_case):
+    """The same model marched one output instant at a time ([solver] block =
+    1: the march before kinem.march, and the one sparse models, modified
+    Newton and traces always use)."""
+    case = getattr(model_or_case, "case", model_or_case)
+    return kinem.compile(dataclasses.replace(case, block=1))
+
+
+def march_of(model) -> str:
+    from kinem.march import usable
+
+    return "block" if usable(model, False, len(model.times)) else "step"
+
+
+def per_step(result) -> float:
+    """Seconds per output instant of a SolveResult (as adapters.compare.native_row)."""
+    return result.wall_time / max(len(result.iterations), 1)
+
+
+# -- what-if patches (benchmark process only; kinem's files are untouched) ----------------
+
+def parity_c(perm) -> int:
+    """Permutation parity with the cycle count from scipy's C connected
+    components instead of kinem.linalg._parity's Python loop."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    p = np.asarray(perm, dtype=np.intp)
+    n = len(p)
+    if n < 64:
+        return _PARITY[0](p)
+    g = csr_matrix((np.ones(n, np.int8), p, np.arange(n + 1)), shape=(n, n))
+    cycles = connected_components(g, directed=False, return_labels=False)
+    return -1 if (n - cycles) % 2 else 1
+
+
+_PARITY = []
+
+
+class patched:
+    """Context manager: set module attributes, restore them on exit."""
+
+    def __init__(self, *triples):
+        self.triples = triples
+
+    def __enter__(self):
+        self.saved = [(m, k, getattr(m, k)) for m, k, _ in self.triples]
+        for m, k, v in self.triples:
+            setattr(m, k, v)
+
+    def __exit__(self, *exc):
+        for m, k, v in self.saved:
+            setattr(m, k, v)
+
+
+def fast_parity():
+    from kinem import linalg
+
+    if not _PARITY:
+        _PARITY.append(linalg._parity)
+    return patched((linalg, "_parity", parity_c))
+
+
+def timed_with(patch_factory, run):
+    def fn():
+        with patch_factory():
+            return run()
+    return fn
+
+
+# -- machine --------------------------------------------------------------------------
+
+def machine() -> dict:
+    from importlib.metadata import PackageNotFoundError, version
+
+    cpu = platform.processor() or ""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    versions = {}
+    for pkg in ("kinem", "numpy", "scipy", "pymunk", "mujoco", "exudyn"):
+        try:
+            versions[pkg] = version(pkg)
+        except PackageNotFoundError:
+            versions[pkg] = "not installed"
+    usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return {"cpu": cpu, "cores": os.cpu_count(), "usable_cores": usable, "python": platform.python_version(),
+            "implementation": platform.python_implementation(), "platform": platform.platform(),
+            "packages": versions, "load_average": list(os.getloadavg()) if hasattr(os, "getloadavg") else None}
+
+
+# -- cases ------------------------------------------------------------------------------
+
+def load_case(name, cfg):
+    case = kinem.load(ROOT / "cases" / f"{name}.toml")
+    if cfg.case_end is not None and cfg.case_end < case.end:
+        h = case.end / case.steps
+        case = case.with_time(cfg.case_end, max(1, round(cfg.case_end / h)))
+    return case
+
+
+def reference_solution(case):
+    r = kinem.solve(kinem.compile(dataclasses.replace(case, tolerance=REFERENCE_TOLERANCE)))
+    return r if r.success else kinem.solve(kinem.compile(case))
+
+
+def adapter_of(name):
+    from adapters import get
+
+    try:
+        return get(name), ""
+    except Exception as e:  # noqa: BLE001 - an engine that does not import is reported, not fatal
+        return None, f"{type(e).__name__}: {e}"
+
+
+def engine_runner(adapter, model, ref, overrides=None):
+    settings = adapter.settings({**dict(model.case.engines.get(adapter.name, {})), **(overrides or {})})
+
+    def run():
+        r = adapter.run(model, ref.q[0], ref.qd[0], settings)
+        return r.wall_time, r
+    return run
+
+
+def _plain(v):
+    if isinstance(v, dict):
+        return {str(k): _plain(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_plain(x) for x in v]
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, float) and not np.isfinite(v):
+        return None
+    return v if isinstance(v, (str, int, float, bool)) or v is None else str(v)

@@ -1,0 +1,206 @@
+"""Sections 1 (engines at default settings) and 2 (work-precision) of
+benchmarks/run.py."""
+import dataclasses
+import gc
+import statistics
+
+import numpy as np
+
+from common import (CASES, ENGINES, LOOSE, REFERENCE_TOLERANCE, TIGHT, _plain, adapter_of, engine_runner,
+                    load_case, march_of, native, reference_solution, rounds, say, step_by_step)
+import kinem
+
+
+# -- 1 engines at default settings ------------------------------------------------------
+
+def section_engines(cfg, state):
+    from adapters.compare import compare
+
+    say("== 1. native cost per output step vs engine cost per step (default settings) ==")
+    say("   native: full analysis (positions, velocities, accelerations) to the case tolerance (default 1e-12) by the"
+        " default block march; engine: EngineRun.wall_time/steps")
+    say(f"   {'case':15s} {'native us/out':>13s} {'engine':7s} {'us/step':>8s} {'steps/out':>9s} {'us/out':>9s} "
+        f"{'nat/eng-step':>12s} {'nat/eng-out':>11s} {'pos err/L':>9s}")
+    rows = []
+    for name in CASES:
+        case = load_case(name, cfg)
+        model = kinem.compile(case)
+        ref = reference_solution(case)
+        sbs = step_by_step(model)
+        state[name] = {"case": case, "model": model, "ref": ref, "model_sbs": sbs}
+        native(model)()  # warm-up (lazy imports, caches)
+        native(sbs)()
+        fns = {"native": native(model), "step": native(sbs)}
+        adapters = {}
+        for e in ENGINES:
+            adapter, why = adapter_of(e)
+            if adapter is None:
+                rows.append({"case": name, "engine": e, "status": f"failed: import: {why}"})
+                continue
+            reason = adapter.unsupported(model)
+            if reason:
+                rows.append({"case": name, "engine": e, "status": reason})
+                continue
+            adapters[e] = adapter
+            fns[e] = engine_runner(adapter, model, ref)
+        # natives are cheap: more repeats for them, interleaved with the engines' runs
+        nat_times, sbs_times, eng_times, last = [], [], {e: [] for e in adapters}, {}
+        for k in range(max(cfg.native_repeats, cfg.engine_repeats)):
+            gc.collect()
+            t, last["native"] = fns["native"]()
+            nat_times.append(t)
+            gc.collect()
+            t, last["step"] = fns["step"]()
+            sbs_times.append(t)
+            if k < cfg.engine_repeats:
+                for e in adapters:
+                    gc.collect()
+                    t, last[e] = fns[e]()
+                    eng_times[e].append(t)
+        nat = last["native"]
+        nat_step = statistics.median(nat_times) / len(nat.iterations)
+        sbs_step = statistics.median(sbs_times) / len(last["step"].iterations)
+        state[name]["native_step"] = nat_step
+        state[name]["native_wall"] = statistics.median(nat_times)
+        state[name]["native_step_sbs"] = sbs_step
+        march = {"native_march": march_of(model), "native_step_by_step_us_per_output_step": 1e6 * sbs_step,
+                 "native_block_over_step_by_step": nat_step / sbs_step}
+        first = True
+        for e, adapter in adapters.items():
+            run = last[e]
+            if not run.ok:
+                rows.append({"case": name, "engine": e, "status": run.status})
+                say(f"   {name:15s} {1e6 * nat_step:13.1f} {e:7s} {run.status}")
+                continue
+            c = compare(model, ref, run)
+            eng_step = statistics.median(eng_times[e]) / run.steps
+            out_steps = run.steps / max(len(model.times) - 1, 1)
+            row = {"case": name, "engine": e, "status": "ok", "native_us_per_output_step": 1e6 * nat_step,
+                   "native_repeats": len(nat_times), "engine_repeats": len(eng_times[e]),
+                   "engine_us_per_step": 1e6 * eng_step, "engine_steps_per_output": out_steps,
+                   "engine_us_per_output_interval": 1e6 * eng_step * out_steps,
+                   "native_over_engine_step": nat_step / eng_step,
+                   "native_over_engine_output": nat_step / (eng_step * out_steps),
+                   "engine_position_error_rel": c.position_error_rel, "settings": _plain(run.settings), **march}
+            rows.append(row)
+            nat_col = f"{1e6 * nat_step:13.1f}" if first else " " * 13
+            say(f"   {name if first else '':15s} {nat_col} {e:7s} "
+                f"{1e6 * eng_step:8.2f} {out_steps:9.0f} {1e6 * eng_step * out_steps:9.1f} "
+                f"{nat_step / eng_step:12.1f} {row['native_over_engine_output']:11.2f} {c.position_error_rel:9.1e}")
+            first = False
+        say(f"   {name:15s} native step by step (block = 1): {1e6 * sbs_step:.1f} us/out; "
+            f"default ({'block march' if march['native_march'] == 'block' else 'step by step: block march not usable'})"
+            f" / step by step: x{nat_step / sbs_step:.3f} ({sbs_step / nat_step:.1f} times faster)")
+        rows.append({"case": name, "engine": "native step by step", "status": "native", **march,
+                     "native_us_per_output_step": 1e6 * nat_step})
+    say("   nat/eng-step: native cost per output step over one engine step; nat/eng-out: over the engine's steps"
+        " for one output interval")
+    return rows
+
+
+# -- 2 work-precision ---------------------------------------------------------------------
+
+def section_precision(cfg, state):
+    from adapters.compare import compare, errors
+
+    say("\n== 2. work-precision: wall time per simulated second to reach a position error (/L) ==")
+    say(f"   errors: max position error / L against the native solution at tolerance {REFERENCE_TOLERANCE:.0e} "
+        "(as kinem report); native by its default march (block march), its tolerances timed round-robin")
+    say(f"   native's cost: the loosest tolerance of its sweep whose error is <= {TIGHT:.0e}; engines: the first dt"
+        f" of the sweep (coarse to fine) that reaches {LOOSE:.0e}, and the first that reaches {TIGHT:.0e}")
+    out = {}
+    for name in CASES:
+        s = state[name]
+        case, model, ref = s["case"], s["model"], s["ref"]
+        # native: the tolerance sweep; the loosest tolerance reaching TIGHT gives native's cost
+        sweep = sorted({1e-6, 1e-8, 1e-10, 1e-12, case.tolerance}, reverse=True)
+        models = {tol: model if tol == case.tolerance else kinem.compile(dataclasses.replace(case, tolerance=tol))
+                  for tol in sweep}
+        for m in models.values():
+            native(m)()  # warm-up
+        timed = rounds({tol: native(m) for tol, m in models.items()}, cfg.native_repeats)
+        nat = {}
+        for tol, (med, walls, r) in timed.items():
+            nat[tol] = {"tolerance": tol, "wall_per_sim_second": med / case.end, "runs": len(walls),
+                        "position_error_rel": errors(models[tol], ref, r.q, r.trajectory)["position_error_rel"]}
+        reached = next((tol for tol in sweep if nat[tol]["position_error_rel"] <= TIGHT), None)
+        used = reached if reached is not None else case.tolerance
+        native_err = nat[used]["position_error_rel"]
+        native_cost = nat[used]["wall_per_sim_second"]
+        default = nat[case.tolerance]
+        target = max(TIGHT, native_err)
+        if reached is not None:
+            say(f"   {name}: native reaches {TIGHT:.0e} at tolerance {reached:.0e}: error {native_err:.1e}, "
+                f"{1e3 * native_cost:.2f} ms per simulated s; at the case tolerance {case.tolerance:.0e}: error "
+                f"{default['position_error_rel']:.1e}, {1e3 * default['wall_per_sim_second']:.2f} ms/s")
+        else:
+            say(f"   {name}: native does not reach {TIGHT:.0e} in its sweep; at the case tolerance "
+                f"{case.tolerance:.0e}: error {native_err:.1e}, {1e3 * native_cost:.2f} ms/s "
+                f"(target for the engines: {target:.0e})")
+        say("     native tolerance sweep: " + ", ".join(
+            f"{t:.0e}: err {v['position_error_rel']:.1e} at {1e3 * v['wall_per_sim_second']:.2f} ms/s"
+            for t, v in nat.items()))
+        engines = {}
+        for e in ENGINES:
+            adapter, why = adapter_of(e)
+            if adapter is None or adapter.unsupported(model):
+                continue
+            dt0 = adapter.defaults()["dt"]
+            points, seen, per_step_cost = [], set(), None
+            for f in cfg.dt_factors:
+                h = case.end / case.steps
+                expected_steps = case.steps * max(1, int(np.ceil(h / (dt0 * f) - 1e-9)))
+                if expected_steps in seen:
+                    continue
+                if per_step_cost is not None and expected_steps * per_step_cost > cfg.sweep_budget:
+                    points.append({"factor": f, "skipped": f"over the {cfg.sweep_budget:g} s budget "
+                                   f"(~{expected_steps * per_step_cost:.1f} s)"})
+                    break
+                run = engine_runner(adapter, model, ref, {"dt": dt0 * f})()[1]
+                seen.add(run.steps)
+                c = compare(model, ref, run)
+                p = {"factor": f, "dt": run.settings.get("dt"), "steps": run.steps, "status": c.status,
+                     "position_error_rel": c.position_error_rel if c.status == "ok" else None,
+                     "wall_per_sim_second": run.wall_time / case.end, "walls": [run.wall_time]}
+                points.append(p)
+                if run.steps:
+                    per_step_cost = run.wall_time / run.steps
+                if c.status == "ok" and c.position_error_rel <= target:
+                    break
+            ok = [p for p in points if p.get("status") == "ok"]
+            loose = next((p for p in ok if p["position_error_rel"] <= LOOSE), None)
+            tight = next((p for p in ok if p["position_error_rel"] <= target), None)
+            best = min(ok, key=lambda p: p["position_error_rel"]) if ok else None
+            for p in {id(x): x for x in (loose, tight, best) if x is not None}.values():
+                runner = engine_runner(adapter, model, ref, {"dt": dt0 * p["factor"]})
+                for _ in range(cfg.retime - 1):
+                    p["walls"].append(runner()[0])
+                p["wall_per_sim_second"] = statistics.median(p["walls"]) / case.end
+            engines[e] = {"points": points, "loose": loose, "tight": tight, "best": best}
+            def fmt(p, what):
+                if p is None:
+                    return f"{what}: not reached"
+                return (f"{what}: dt {p['dt']:.2g} (err {p['position_error_rel']:.1e}) "
+                        f"{1e3 * p['wall_per_sim_second']:.2f} ms/s")
+            line = f"     {e:7s} {fmt(loose, '<=1e-6')}; " + (fmt(tight, f'<={target:.0e}') if tight else
+                                                              'not reached ' + fmt(best, 'best'))
+            reach = tight or best
+            if reach:
+                line += f"; native/engine at that point {native_cost / reach['wall_per_sim_second']:.2f}"
+            say(line)
+        loose_costs = [v["loose"]["wall_per_sim_second"] for v in engines.values() if v["loose"]]
+        fastest_loose = min(loose_costs) if loose_costs else None
+        out[name] = {"native": {str(k): v for k, v in nat.items()}, "native_tolerance": used,
+                     "native_reaches_tight": reached is not None, "native_error": native_err,
+                     "native_wall_per_sim_second": native_cost, "native_default_tolerance": case.tolerance,
+                     "native_default_error": default["position_error_rel"],
+                     "native_default_wall_per_sim_second": default["wall_per_sim_second"],
+                     "target_error": target, "engines": engines, "fastest_engine_to_1e-6": fastest_loose,
+                     "native_over_fastest_1e-6": native_cost / fastest_loose if fastest_loose else None,
+                     "native_default_over_fastest_1e-6":
+                         default["wall_per_sim_second"] / fastest_loose if fastest_loose else None}
+        if fastest_loose:
+            say(f"     native to {TIGHT:.0e} (tolerance {used:.0e}) / fastest engine to {LOOSE:.0e}: "
+                f"{native_cost / fastest_loose:.2f}; at the case tolerance {case.tolerance:.0e}: "
+                f"{default['wall_per_sim_second'] / fastest_loose:.2f}")
+    return out
