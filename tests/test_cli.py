@@ -73,17 +73,43 @@ def test_solve_positions_only_stdout():
     assert len(lines) == 7
 
 
-def test_positions_only_does_no_velocity_work():
+def test_positions_only_does_no_velocity_work(monkeypatch):
+    """Positions only: no velocities or accelerations at the output instants.
+    The block march computes them only at the two accepted states each
+    block starts from (march.Block.rates), for its predictor."""
+    from kinem import march
+    from kinem.model import Model
+
     model = kinem.compile(kinem.load(CASES / "slider_crank.toml"))
+    rates_at = {"nu": 0, "gamma": 0, "blocks": 0}
+
+    def spy(name, f):
+        def g(self, *args):
+            rates_at[name] += np.size(args[-1])  # instants (t is the last argument)
+            return f(self, *args)
+        return g
+
+    advance = march.Block.advance
+
+    def counted(self, times):
+        rates_at["blocks"] += 1
+        return advance(self, times)
+
+    monkeypatch.setattr(Model, "nu", spy("nu", Model.nu))
+    monkeypatch.setattr(Model, "gamma", spy("gamma", Model.gamma))
+    monkeypatch.setattr(march.Block, "advance", counted)
     p = kinem.solve(model, ("positions",))
-    full = kinem.solve(model)
     assert p.qd is None and p.qdd is None
-    # positions only: one Jacobian per Newton iteration (one at an instant that needs none,
-    # for the conditioning monitor), nothing else
-    assert p.jacobian_evaluations == np.maximum(p.iterations, 1).sum()
-    # full: one more per instant, at the converged configuration, shared by velocity,
-    # acceleration and the conditioning monitor
-    assert full.jacobian_evaluations == full.iterations.sum() + len(full.iterations)
+    blocks, n = rates_at["blocks"], len(p.iterations)
+    assert 0 < blocks < n / 10
+    assert rates_at["nu"] <= 2 * blocks and rates_at["gamma"] <= 2 * blocks
+    full = kinem.solve(model)
+    # the full run: both at every instant
+    assert rates_at["nu"] >= 2 * blocks + n and rates_at["gamma"] >= 2 * blocks + n
+    # one Jacobian per Newton iteration and one at the converged configuration,
+    # shared by velocity, acceleration and the conditioning monitor
+    assert full.jacobian_evaluations == full.iterations.sum() + n
+    assert p.jacobian_evaluations <= full.jacobian_evaluations + 2 * blocks
     # with jacobian_reuse, the next instant's Newton iterations start from that one
     from dataclasses import replace
 
