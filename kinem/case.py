@@ -10,7 +10,7 @@ from pathlib import Path
 
 from . import functions as fn
 from .casefile import sections
-from .casefile.checks import IDENT_RE, MAX_ARRAY, MAX_MAGNITUDE, NAME_RE, Checker, show  # noqa: F401
+from .casefile.checks import IDENT_RE, MAX_ARRAY, MAX_MAGNITUDE, MAX_NAME, MAX_TEXT, NAME_RE, Checker  # noqa: F401
 from .casefile.constraints import constraints
 from .casefile.keys import COORDS  # noqa: F401
 from .casefile.sections import ENGINES, LINEAR_SOLVERS, MAX_ITEMS, SOLVER_KEYS  # noqa: F401
@@ -25,12 +25,12 @@ def load(path) -> Case:
     """Read and validate a case file."""
     path = Path(path)
     try:
-        size = path.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise InputError(f"{path}: file is {size} bytes; expected at most {MAX_FILE_BYTES}")
-        raw = path.read_bytes()
+        with open(path, "rb") as f:  # at most one byte past the cap: /dev/zero and pipes end too
+            raw = f.read(MAX_FILE_BYTES + 1)
     except OSError as e:
         raise InputError(f"{path}: cannot read: {e.strerror or e}") from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise InputError(f"{path}: more than {MAX_FILE_BYTES} bytes; expected a case file of at most 16 MiB")
     return loads(raw, source=str(path))
 
 
@@ -49,6 +49,9 @@ def loads(text, source: str = "<string>") -> Case:
         raise InputError(f"{source}: TOML syntax error: {e}") from None
     except RecursionError:
         raise InputError(f"{source}: TOML nested too deeply; expected a case file") from None
+    except ValueError as e:  # an integer of more digits than Python converts (sys.get_int_max_str_digits)
+        raise InputError(f"{source}: {str(e).split(':')[0]}; expected numbers of magnitude at most "
+                         f"{MAX_MAGNITUDE:g}") from None
     return load_dict(data, source=source)
 
 
@@ -59,20 +62,19 @@ def load_dict(data, source: str = "<dict>") -> Case:
         raise InputError(f"{source}: expected a table at the top level")
     ck.keys("top level", data, TOP_KEYS, ("name", "time", "bodies", "constraints"))
     name = ck.string("top level", "name", data.get("name", "case"), NAME_RE,
-                     "an identifier of a-z, 0-9, '_' and '-'")
-    description = data.get("description", "")
-    if not isinstance(description, str):
-        ck.bad("top level", "description", f"got {show(description)}", "a string")
+                     f"an identifier of 1 to {MAX_NAME} characters a-z, 0-9, '_' and '-'")
+    description = ck.string("top level", "description", data.get("description", ""),
+                            expected=f"a string of at most {MAX_TEXT} characters")
     units = sections.units(ck, data.get("units", {}))
-    end, steps = sections.time(ck, data.get("time", {}))
+    end, steps = sections.time(ck, data.get("time"))
     solver = sections.solver(ck, data.get("solver", {}))
-    bodies = sections.bodies(ck, data.get("bodies", {}))
+    bodies = sections.bodies(ck, data.get("bodies"))
     points = sections.points(ck, data.get("points", {}), bodies)
-    cons = constraints(ck, data.get("constraints", []), bodies, points, end)
+    cons = constraints(ck, data.get("constraints"), bodies, points, end)
     engines = sections.engines(ck, data.get("engines", {}))
     ck.raise_if_any()
     return Case(name=name, bodies=tuple(bodies.values()), points=tuple(points.values()),
-                constraints=tuple(cons), end=end, steps=steps, description=description,
+                constraints=tuple(cons), end=end or 1.0, steps=steps, description=description,
                 units=frozen_map(units), engines=frozen_map(engines), source=source, **solver)
 
 
@@ -88,3 +90,28 @@ def check_time(case: Case) -> Case:
     if problems:
         raise InputError(problems)
     return case
+
+
+def time_options(end=None, steps=None, source="command line"):
+    """--end and --steps (text or numbers) checked by the rules of [time]
+    end and steps; returns (end, steps), None where not given."""
+    ck = Checker(source)
+    if end is not None:
+        end = sections.end_time(ck, "--end", None, _number(end))
+    if steps is not None:
+        steps = sections.steps(ck, "--steps", None, _number(steps))
+    ck.raise_if_any()
+    return end, steps
+
+
+def _number(text):
+    """A command-line number as TOML would read it: an int, a float, or the text itself (then rejected)."""
+    if not isinstance(text, str):
+        return text
+    for convert in (int, float):
+        try:
+            v = convert(text.replace("_", ""))
+        except (ValueError, OverflowError):
+            continue
+        return int(v) if isinstance(v, float) and v.is_integer() and abs(v) <= 2**53 else v
+    return text

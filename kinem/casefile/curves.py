@@ -56,10 +56,9 @@ def _table(ck, where, key, body, end):
     if len(t) != len(val):
         ck.bad(where, f"{key}.table", f"{len(t)} times and {len(val)} values", "lists of equal length")
         return None
-    if any(b <= a for a, b in zip(t, t[1:])):
-        ck.bad(where, f"{key}.table.t", "not strictly increasing", "strictly increasing times")
+    if not ck.increasing(where, f"{key}.table.t", t, "times"):
         return None
-    if t[0] > 0 or t[-1] < end:
+    if end is not None and (t[0] > 0 or t[-1] < end):
         ck.bad(where, f"{key}.table.t", f"covers [{t[0]:g}, {t[-1]:g}]", f"a table that covers [0, {end:g}]")
         return None
     return fn.Table(t, val)
@@ -107,8 +106,7 @@ def _spline(ck, where, w, body, center):
         return None
     if flags["degrees"]:
         theta = tuple(math.radians(x) for x in theta)
-    if any(b <= a for a, b in zip(theta, theta[1:])):
-        ck.bad(where, f"{w}.theta", "not strictly increasing", "strictly increasing angles")
+    if not ck.increasing(where, f"{w}.theta", theta, "angles"):
         return None
     if min(s) <= 0:
         ck.bad(where, f"{w}.s", f"radius {min(s):g}", "positive polar radii s")

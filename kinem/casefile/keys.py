@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .checks import names, show
+from .checks import show
 from .curves import function, outline
 
 COORDS = ("x", "y", "phi")
@@ -49,24 +49,19 @@ class BodyKey(Key):
     accepts = "the name of a body"
 
     def parse(self, ck, where, v, scope):
-        if not isinstance(v, str) or v not in scope.bodies:
-            ck.bad(where, self.name, f"unknown body {show(v)}", "one of " + names(scope.bodies))
-            return None
-        return v
+        return ck.choice(where, self.name, v, scope.bodies, "body")
 
 
 @dataclass(frozen=True)
 class LocalKey(Key):
     """A point of the body named by key ``of``."""
     of: str = ""
-    accepts = "[xi, eta] in the body's frame, or the name of a point on that body"
+    accepts = "[xi, eta] or a point's name"
 
     def parse(self, ck, where, v, scope):
         body = scope.table.get(self.of)
         if isinstance(v, str):
-            if v not in scope.points:
-                ck.bad(where, self.name, f"unknown point {show(v)}",
-                       "[xi, eta] or one of the points " + (names(scope.points) or "(none defined)"))
+            if ck.choice(where, self.name, v, scope.points, "point") is None:
                 return None
             if scope.points[v].body != body:
                 ck.bad(where, self.name, f"point '{v}' is on body '{scope.points[v].body}', not on '{body}'",

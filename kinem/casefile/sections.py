@@ -1,7 +1,7 @@
 """The case file's sections other than [[constraints]]: units, [time],
 [solver], [engines.*], [bodies] and [points]."""
 from ..spec import Body, Point, frozen_map
-from .checks import IDENT_RE, names, show
+from .checks import END_RANGE, MAX_STEPS, MAX_UNIT, show
 
 MAX_ITEMS = 100_000
 ENGINES = ("pymunk", "mujoco", "exudyn")  # settings are checked against each adapter when it runs
@@ -14,9 +14,12 @@ def units(ck, u):
         ck.bad("units", None, f"got {show(u)}", "a table such as { length = \"mm\" }")
         return {}
     ck.keys("units", u, ("length",))
-    if "length" in u:
-        ck.string("units", "length", u["length"])
-    return {k: v for k, v in u.items() if k == "length" and isinstance(v, str)}
+    if "length" in u and ck.string("units", "length", u["length"], max_len=MAX_UNIT,
+                                   expected=f"1 to {MAX_UNIT} printable characters such as \"mm\"") is not None:
+        if u["length"] and u["length"].isprintable():
+            return {"length": u["length"]}
+        ck.bad("units", "length", f"got {show(u['length'])}", f"1 to {MAX_UNIT} printable characters such as \"mm\"")
+    return {}
 
 
 def engines(ck, e):
@@ -40,8 +43,7 @@ def engines(ck, e):
             elif isinstance(v, float):
                 v = ck.number(where, k, v)
             elif isinstance(v, list):
-                v = ck.numbers(where, k, v)
-                v = None if v is None or len(v) > 16 else v
+                v = ck.numbers(where, k, v, max_len=16)
             elif not isinstance(v, (str, bool)):
                 ck.bad(where, k, f"got {show(v)}", "a number, string, boolean or list of numbers")
                 v = None
@@ -51,29 +53,43 @@ def engines(ck, e):
     return out
 
 
+def end_time(ck, where, key, v):
+    """An end time within END_RANGE (the case file's [time] end and --end)."""
+    end = ck.number(where, key, v)
+    if end is not None and not END_RANGE[0] <= end <= END_RANGE[1]:
+        ck.bad(where, key, f"got {end:g}", f"a time from {END_RANGE[0]:g} to {END_RANGE[1]:g} s")
+        return None
+    return end
+
+
+def steps(ck, where, key, v):
+    """A number of output intervals, 1 to MAX_STEPS (the case file's [time] steps and --steps)."""
+    return ck.integer(where, key, v, 1, MAX_STEPS)
+
+
 def time(ck, t):
-    """(end, steps) of [time]."""
+    """(end, steps) of [time]; end None if not valid."""
     where = "[time]"
+    if t is None:  # missing: reported with the top level's keys
+        return None, 1
     if not isinstance(t, dict):
         ck.bad(where, None, f"got {show(t)}", "a table with end and steps (or dt)")
-        return 1.0, 1
+        return None, 1
     ck.keys(where, t, ("end", "steps", "dt"), ("end",))
-    end = ck.number(where, "end", t["end"], positive=True) if "end" in t else None
+    end = end_time(ck, where, "end", t["end"]) if "end" in t else None
     if ("steps" in t) == ("dt" in t):
         ck.bad(where, "steps", "give exactly one of 'steps' and 'dt'")
-        return end or 1.0, 1
+        return end, 1
     if "steps" in t:
-        steps = ck.integer(where, "steps", t["steps"])
-    else:
-        dt = ck.number(where, "dt", t["dt"], positive=True)
-        steps = None
-        if dt is not None and end is not None:
-            n = round(end / dt)
-            if n < 1 or n > 10**7 or abs(n * dt - end) > 1e-9 * end:
-                ck.bad(where, "dt", f"end/dt = {end / dt:g}", "a step that divides end into 1 to 1e7 intervals")
-            else:
-                steps = n
-    return end or 1.0, steps or 1
+        return end, steps(ck, where, "steps", t["steps"]) or 1
+    dt = ck.number(where, "dt", t["dt"], positive=True)
+    if dt is None or end is None:
+        return end, 1
+    ratio = end / dt  # inf for a tiny dt: rejected before round()
+    if not ratio <= MAX_STEPS + 0.5 or round(ratio) < 1 or abs(round(ratio) * dt - end) > 1e-9 * end:
+        ck.bad(where, "dt", f"end/dt = {ratio:g}", f"a step that divides end into 1 to {MAX_STEPS} intervals")
+        return end, 1
+    return end, round(ratio)
 
 
 def solver(ck, s):
@@ -114,57 +130,53 @@ def solver(ck, s):
 
 def bodies(ck, b):
     """name -> Body of [bodies]."""
-    if not isinstance(b, dict) or not b:
-        ck.bad("[bodies]", None, f"got {show(b)}", "a table with at least one body")
-        return {}
-    if len(b) > MAX_ITEMS:
-        ck.bad("[bodies]", None, f"{len(b)} bodies", f"at most {MAX_ITEMS}")
+    if b is None or not isinstance(b, dict) or not b or len(b) > MAX_ITEMS:
+        ck.unknowable.add("body")  # references to bodies are not checked again
+        if b is not None:  # missing: reported with the top level's keys
+            ck.bad("[bodies]", None, f"got {show(b)}" if not isinstance(b, dict) or not b else f"{len(b)} bodies",
+                   "a table with at least one body" if not isinstance(b, dict) or not b else f"at most {MAX_ITEMS}")
         return {}
     out = {}
     for name, v in b.items():
-        where = f"body '{name}'"
-        if not IDENT_RE.match(name):
-            ck.bad(where, None, "bad name", "a name of letters, digits, '_' and '-' that starts with a letter or '_'")
-            continue
-        if not isinstance(v, dict):
+        where = f"body {show(name)}"
+        n_before = ck.failures
+        if ck.name(where, name) is None:
+            pass
+        elif not isinstance(v, dict):
             ck.bad(where, None, f"got {show(v)}", "a table such as { q = [x, y, phi] }")
-            continue
-        ck.keys(where, v, ("q", "mass", "inertia"), ("q",))
-        q = ck.vector(where, "q", v["q"], 3, "[x, y, phi]") if "q" in v else None
-        mass = ck.number(where, "mass", v["mass"], positive=True) if "mass" in v else None
-        inertia = ck.number(where, "inertia", v["inertia"], positive=True) if "inertia" in v else None
-        if q is not None:
-            out[name] = Body(name, q, mass, inertia)
+        else:
+            ck.keys(where, v, ("q", "mass", "inertia"), ("q",))
+            q = ck.vector(where, "q", v["q"], 3, "[x, y, phi]") if "q" in v else None
+            mass = ck.number(where, "mass", v["mass"], positive=True) if "mass" in v else None
+            inertia = ck.number(where, "inertia", v["inertia"], positive=True) if "inertia" in v else None
+            if ck.failures == n_before:
+                out[name] = Body(name, q, mass, inertia)
+        if name not in out:
+            ck.rejected.add(name)
     return out
 
 
 def points(ck, p, bodies):
     """name -> Point of [points]."""
-    if not isinstance(p, dict):
-        ck.bad("[points]", None, f"got {show(p)}", "a table of points")
-        return {}
-    if len(p) > MAX_ITEMS:
-        ck.bad("[points]", None, f"{len(p)} points", f"at most {MAX_ITEMS}")
+    if not isinstance(p, dict) or len(p) > MAX_ITEMS:
+        ck.unknowable.add("point")
+        ck.bad("[points]", None, f"got {show(p)}" if not isinstance(p, dict) else f"{len(p)} points",
+               "a table of points" if not isinstance(p, dict) else f"at most {MAX_ITEMS}")
         return {}
     out = {}
     for name, v in p.items():
-        where = f"point '{name}'"
-        if not IDENT_RE.match(name):
-            ck.bad(where, None, "bad name", "a name of letters, digits, '_' and '-'")
-            continue
-        if name in bodies:
+        where = f"point {show(name)}"
+        if ck.name(where, name) is None:
+            pass
+        elif name in bodies or name in ck.rejected:
             ck.bad(where, None, "has the name of a body", "point names distinct from body names")
-            continue
-        if not isinstance(v, dict):
+        elif not isinstance(v, dict):
             ck.bad(where, None, f"got {show(v)}", "a table such as { body = \"crank\", at = [xi, eta] }")
-            continue
-        if not ck.keys(where, v, ("body", "at"), ("body", "at")):
-            continue
-        body = v["body"]
-        if not isinstance(body, str) or body not in bodies:
-            ck.bad(where, "body", f"unknown body {show(body)}", "one of " + names(bodies))
-            continue
-        at = ck.vector(where, "at", v["at"], 2, "[xi, eta]")
-        if at is not None:
-            out[name] = Point(name, body, at)
+        elif ck.keys(where, v, ("body", "at"), ("body", "at")):
+            body = ck.choice(where, "body", v["body"], bodies, "body")
+            at = ck.vector(where, "at", v["at"], 2, "[xi, eta]")
+            if body is not None and at is not None:
+                out[name] = Point(name, body, at)
+        if name not in out:
+            ck.rejected.add(name)
     return out

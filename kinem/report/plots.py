@@ -110,7 +110,7 @@ def trajectories(t_ref, ref_cols, runs, unit="") -> str:
             if col in s["columns"]:
                 ax.plot(s["t"], s["columns"][col], "-" if e == "native" else "--",
                         color=COLORS.get(e), lw=1.2, label=e)
-        ax.set_title(f"{col} ({unit})" if unit else col, fontsize=9)
+        ax.set_title(f"{col} ({unit})" if unit else col, fontsize=9, parse_math=False)  # units are text, never mathtext
         ax.set_xlabel("t (s)", fontsize=8)
         ax.tick_params(labelsize=7)
     if axes[0][0].get_legend_handles_labels()[0]:
