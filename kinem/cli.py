@@ -79,6 +79,8 @@ def cmd_info(a):
 
     i = info(_load(a.case))
     print(json.dumps(i.as_dict(), indent=2) if a.json else describe(i))
+    if not i.assembled:  # the figures above are of the closest configuration found
+        raise AnalysisError(f"{a.case}: does not assemble at t = 0: {i.diagnosis}")
     return 0
 
 
