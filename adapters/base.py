@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from kinem.casefile.keys import LocalKey
 from kinem.constraints import REGISTRY
 from kinem.functions import FunctionSet
 from kinem.result import Trajectory
@@ -107,7 +108,7 @@ def body_points(model) -> dict:
     pts = {b: [] for b in model.body_names}
     for c in model.case.constraints:
         for key in REGISTRY[c.type].keys:
-            if key.kind == "local" and key.name in c.fields:
+            if isinstance(key, LocalKey) and key.name in c.fields:
                 pts[c[key.of]].append(tuple(c[key.name]))
     for p in model.case.points:
         pts[p.body].append(tuple(p.at))

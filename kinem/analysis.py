@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import jit
+from .diagnose import explain_assembly
 from .errors import AnalysisError, ConvergenceError, InputError, SingularError
 from .linalg import Factor, preload
 from .result import OUTPUTS, SolveResult, Status, trajectory
@@ -151,8 +152,10 @@ def check_square(model) -> None:
     constraints, solved in the least-squares sense)."""
     if model.m < model.n:
         gap = model.n - model.m
+        why = explain_assembly(model, float(model.times[0]))  # names the driving equations and the DOF
         raise InputError(f"{model.case.source}: {model.m} equations for {model.n} coordinates: "
-                         f"{gap} equation{'s' * (gap != 1)} missing (add drivers or constraints)")
+                         f"{gap} equation{'s' * (gap != 1)} missing" + (f"; {why}" if why else
+                                                                        " (add drivers or constraints)"))
 
 
 def interpret(model, blocks: bool, instants: int) -> bool:
@@ -218,7 +221,8 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False) -> SolveResult:
         except AnalysisError as e:
             status = Status.SINGULAR if isinstance(e, SingularError) else Status.NOT_CONVERGED
             what = "assembly at" if k == 0 else "step to"
-            message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {e}"
+            why = explain_assembly(model, times[0]) if k == 0 else ""  # the root cause, in the user's terms
+            message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {why + '; ' if why else ''}{e}"
     wall = time.perf_counter() - start
     n_ok = k
     ok = status == Status.SUCCESS

@@ -15,6 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from .casefile.keys import BodyKey
 from .constraints import REGISTRY
 from .errors import InputError
 from .result import Trajectory
@@ -38,7 +39,7 @@ def merge(cases, name="batch") -> Case:
         bodies += [replace(b, name=p + b.name) for b in c.bodies]
         points += [replace(pt, name=p + pt.name, body=p + pt.body) for pt in c.points]
         for con in c.constraints:
-            keys = {key.name for key in REGISTRY[con.type].keys if key.kind == "body"}
+            keys = {key.name for key in REGISTRY[con.type].keys if isinstance(key, BodyKey)}
             fields = {f: (p + v if f in keys else v) for f, v in con.fields.items()}
             constraints.append(replace(con, name=p + con.name, index=len(constraints) + 1, fields=frozen_map(fields)))
     return Case(name=name, bodies=tuple(bodies), points=tuple(points), constraints=tuple(constraints), end=end,

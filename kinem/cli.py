@@ -20,9 +20,10 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _load(path, end=None, steps=None):
-    from .case import check_time, load
+    from .case import check_time, load, time_options
     from .model import compile
 
+    end, steps = time_options(end, steps)  # the rules of the case file's [time]
     case = load(path)
     if end is not None or steps is not None:
         case = check_time(case.with_time(end, steps))
@@ -41,10 +42,6 @@ def cmd_solve(a):
     from .analysis import solve
     from .output import csv_text, write_trajectory
 
-    if a.end is not None and not a.end > 0:
-        raise InputError(f"--end: got {a.end}; expected a positive time")
-    if a.steps is not None and a.steps < 1:
-        raise InputError(f"--steps: got {a.steps}; expected a whole number >= 1")
     fmt = a.format or ("npz" if a.out and a.out.endswith(".npz") else "csv")
     if fmt == "npz" and not a.out:
         raise InputError("--format npz needs --out FILE")
@@ -82,6 +79,8 @@ def cmd_info(a):
 
     i = info(_load(a.case))
     print(json.dumps(i.as_dict(), indent=2) if a.json else describe(i))
+    if not i.assembled:  # the figures above are of the closest configuration found
+        raise AnalysisError(f"{a.case}: does not assemble at t = 0: {i.diagnosis}")
     return 0
 
 
@@ -184,16 +183,18 @@ def parser():
     s.add_argument("--out", help="output file (default: CSV to standard output)")
     s.add_argument("--format", choices=("csv", "npz"))
     s.add_argument("--outputs", default=",".join(OUTPUTS), help="any of positions,velocities,accelerations")
-    s.add_argument("--end", type=float, help="end time (overrides the case)")
-    s.add_argument("--steps", type=int, help="number of output intervals (overrides the case)")
+    s.add_argument("--end", help="end time (overrides the case; the case file's range)")
+    s.add_argument("--steps", help="number of output intervals (overrides the case; the case file's range)")
     s.add_argument("--diagnostics", nargs="?", const="-", metavar="FILE",
                    help="write the full trace (Newton iterations, rejected sub-steps, conditioning) as CSV "
                         "to FILE, or to standard error")
+    _errors_option(s)
     s.set_defaults(run=cmd_solve)
 
     i = sub.add_parser("info", help="coordinates, equations, Jacobian non-zeros, degrees of freedom")
     i.add_argument("case")
     i.add_argument("--json", action="store_true")
+    _errors_option(i)
     i.set_defaults(run=cmd_info)
 
     st = sub.add_parser("stress", help="the stress suite on native and the engines, each outcome classified")
@@ -215,6 +216,7 @@ def parser():
     c.add_argument("--set", action="append", metavar="ENGINE.KEY=VALUE", help="an engine setting (repeatable)")
     _scheduler_option(c)
     c.add_argument("--json", action="store_true")
+    _errors_option(c)
     c.set_defaults(run=cmd_compare)
 
     r = sub.add_parser("report", help="every case on native and the engines: index.html, summary.md, "
@@ -236,6 +238,11 @@ def parser():
     return p
 
 
+def _errors_option(p):
+    p.add_argument("--errors", choices=("first", "all"), default="first",
+                   help="bad input: the first few problems on one line (default) or every problem, one a line")
+
+
 def _scheduler_option(p):
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run on the workers of this Dask distributed scheduler (e.g. tcp://host:8786) "
@@ -243,11 +250,16 @@ def _scheduler_option(p):
 
 
 def main(argv=None) -> int:
+    a = None
     try:
         a = parser().parse_args(argv)
         return a.run(a)
     except InputError as e:
-        print(f"kinem: error: {e}", file=sys.stderr)
+        if getattr(a, "errors", None) == "all":
+            for problem in e.problems:
+                print(f"kinem: error: {problem}", file=sys.stderr)
+        else:
+            print(f"kinem: error: {e.summary('--errors all lists them')}", file=sys.stderr)
         return 2
     except AnalysisError as e:
         print(f"kinem: analysis failed: {e}", file=sys.stderr)

@@ -94,3 +94,118 @@ def rank_analysis(model, q, t=0.0, rows=None):
     _, _, perm = qr(J.T, pivoting=True, mode="economic")
     order = list(model.row_labels)
     return rank, tuple(sorted(labels[perm[rank:]], key=order.index))
+
+
+LOOP_SHARE = 1e-3   # a row is on the failing loop when its least-squares residual is this share of the largest
+EXPLAIN_ITERATIONS = 50
+EXPLAIN_LIMIT = 400  # coordinates: above, dense least squares would cost more than the failed run
+
+
+HOLD = 1e4  # weight of the constraints kept closed while the open one's miss is made least
+
+
+def _open(model, q, t, weights):
+    """The configuration nearest q that makes the weighted sum of squared
+    dimensionless residuals least (scipy's trust-region least squares: plain
+    Gauss-Newton diverges on a residual that cannot vanish)."""
+    from scipy.optimize import least_squares
+
+    def fun(x):
+        return weights * model.phi(model.col_scale * x, t) / model.scale
+
+    def jac(x):
+        return weights[:, None] * model.assemble(model.jac_values(model.col_scale * x, t) * model.entry_scale,
+                                                 sparse=False)
+
+    fit = least_squares(fun, q / model.col_scale, jac=jac, method="trf", xtol=1e-14, ftol=1e-14, gtol=1e-14,
+                        max_nfev=200)
+    return model.col_scale * fit.x
+
+
+def cycle(model, name) -> list:
+    """The other constraints of the shortest loop through constraint ``name``
+    in the graph of bodies joined by the kinematic (non-driving) constraints;
+    a constraint on one body joins it to the fixed frame. [] if none."""
+    from collections import deque
+
+    from .casefile.keys import BodyKey
+    from .constraints import REGISTRY
+
+    driving = set(np.asarray(model.row_owner, dtype=object)[model.driving])
+    edges, ends = {}, None
+    for c in model.case.constraints:
+        bodies = [c[k.name] for k in REGISTRY[c.type].keys if isinstance(k, BodyKey) and k.name in c.fields]
+        a, b = (bodies + ["(fixed frame)"])[:2]
+        if c.name == name:
+            ends = (a, b)
+        elif c.name not in driving:
+            edges.setdefault(a, []).append((b, c.name))
+            edges.setdefault(b, []).append((a, c.name))
+    if ends is None:
+        return []
+    previous, todo = {ends[0]: None}, deque([ends[0]])
+    while todo:
+        node = todo.popleft()
+        for nxt, via in edges.get(node, ()):
+            if nxt not in previous:
+                previous[nxt] = (node, via)
+                todo.append(nxt)
+    if ends[1] not in previous:
+        return []
+    path, node = [], ends[1]
+    while previous[node] is not None:
+        node, via = previous[node]
+        path.append(via)
+    return path
+
+
+def explain_assembly(model, t=0.0, q=None) -> str:
+    """Why an assembly at t fails, in the user's terms ('' when no cause is
+    found): a number of driving equations other than the degrees of freedom
+    (named, with the count), or the loop of constraints that cannot close
+    and its gap.
+
+    The least-squares configuration (Gauss-Newton, minimum norm) gives the
+    rank of the kinematic equations (degrees of freedom = coordinates minus
+    that rank) and, when the counts agree, its residual spreads over the
+    constraints of the loop that cannot close. The constraint with the
+    largest residual is then left open and the rest solved: how far its
+    equations miss is the gap."""
+    from .analysis import gauss_newton
+
+    if model.n > EXPLAIN_LIMIT or model.m == 0:
+        return ""
+    q_ls, _ = gauss_newton(model, (model.q0 if q is None else q).copy(), t, EXPLAIN_ITERATIONS)
+    J = model.assemble(model.jac_values(q_ls, t) * model.entry_scale, sparse=False)
+    if not (np.isfinite(q_ls).all() and np.isfinite(J).all()):
+        return ""
+    nd = ~model.driving
+    s = np.linalg.svd(J[nd], compute_uv=False) if nd.any() else np.zeros(0)
+    rank = int((s > RANK_TOL * s[0]).sum()) if s.size and s[0] > 0 else 0
+    dof, drivers = model.n - rank, list(dict.fromkeys(np.asarray(model.row_owner, dtype=object)[model.driving]))
+    n_driving = int(model.driving.sum())
+    if n_driving != dof:
+        named = f" ({', '.join(drivers)})" if drivers else ""
+        return (f"too {'many' if n_driving > dof else 'few'} driving equations: {n_driving}{named} for "
+                f"{dof} degree{'s' * (dof != 1)} of freedom ({model.n} coordinates, {rank} independent "
+                f"kinematic equations)")
+    r = np.abs(model.phi(q_ls, t)) / model.scale
+    if not r.size or r.max() <= model.case.tolerance:
+        return ""
+    owners = np.asarray(model.row_owner, dtype=object)
+    kinematic = np.where(nd, r, 0.0)
+    worst = owners[int(np.argmax(kinematic if kinematic.max() > 0 else r))]
+    loop = [worst] + cycle(model, worst)
+    if len(loop) == 1:  # no kinematic loop through it: the constraints left with a residual
+        loop = list(dict.fromkeys(owners[r >= LOOP_SHARE * r.max()]))
+    mine = owners == worst
+    q_open = _open(model, q_ls, t, np.where(mine, 1.0, HOLD))
+    text = f"the loop of constraints {', '.join(loop)} cannot close"
+    rest = np.abs(model.phi(q_open, t)[~mine]) / model.scale[~mine]
+    if rest.max(initial=0.0) > 1e-6:  # the rest does not close (to 1e-6 of its scale): no single gap to give
+        return text
+    miss = float(np.linalg.norm(model.phi(q_open, t)[mine]))
+    if np.all(model.scale[mine] == model.length):
+        unit = model.case.length_unit
+        return text + f": with '{worst}' left open, its ends are {miss:.4g}{' ' + unit if unit else ''} apart"
+    return text + f": with '{worst}' left open, its equations miss by {miss:.4g}"

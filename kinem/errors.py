@@ -13,16 +13,34 @@ class KinemError(Exception):
 class InputError(KinemError):
     """Bad input. ``problems`` lists every problem found, each a one-line text
     that names the file, the place (constraint, body, section) and the key, and
-    says what was expected."""
+    says what was expected; one root cause is one problem. The message is the
+    first SHOWN of them and " (and N more)": one line, of bounded length."""
+
+    SHOWN = 3
 
     def __init__(self, problems):
         if isinstance(problems, str):
             problems = [problems]
-        self.problems = tuple(problems)
-        text = self.problems[0]
-        if len(self.problems) > 1:
-            text += f" (and {len(self.problems) - 1} more: " + "; ".join(self.problems[1:]) + ")"
-        super().__init__(text)
+        self.problems = tuple(one_line(p) for p in problems)
+        super().__init__(self.summary())
+
+    def summary(self, hint: str = "") -> str:
+        """The first SHOWN problems and " (and N more)", with ``hint`` after N."""
+        more = len(self.problems) - self.SHOWN
+        tail = f" (and {more} more{'; ' + hint if hint else ''})" if more > 0 else ""
+        return "; ".join(self.problems[:self.SHOWN]) + tail
+
+
+MAX_LINE = 500  # characters of one problem; longer ones end in "..."
+
+
+def one_line(text) -> str:
+    """Text as one line of printable characters (control characters escaped),
+    at most MAX_LINE long."""
+    text = str(text)
+    if not text.isprintable():
+        text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+    return text if len(text) <= MAX_LINE else text[:MAX_LINE - 3] + "..."
 
 
 class AnalysisError(KinemError):

@@ -26,6 +26,7 @@ class Info:
     assembled: bool
     rank_method: str
     redundant_equations: tuple
+    diagnosis: str = ""  # why it does not assemble (kinem.diagnose.explain_assembly), when it does not
 
     def as_dict(self) -> dict:
         d = asdict(self)
@@ -66,7 +67,10 @@ def info(model) -> Info:
         q, residual, ok = data.q, data.residual, data.residual <= model.case.tolerance
         rank = int(structural_rank(model.jacobian(q, 0.0, sparse=True)[nd].tocsr()))
         redundant, method = (), "structural"
+    from .diagnose import explain_assembly
+
     return Info(
+        diagnosis="" if ok else (explain_assembly(model, 0.0) or "no convergence"),
         case=model.case.name, coordinates=model.n, artificial_coordinates=len(model.artificial),
         equations=model.m, driving_equations=int(model.driving.sum()), jacobian_nonzeros=model.nnz,
         dof=model.n - rank, residual=float(residual), assembled=ok, rank_method=method,
@@ -86,6 +90,8 @@ def describe(i: Info) -> str:
     ]
     if i.redundant_equations:
         lines.append("  warning: redundant equations: " + ", ".join(i.redundant_equations))
+    if i.diagnosis:
+        lines.append(f"  not assembled: {i.diagnosis}")
     if i.equations != i.coordinates:
         lines.append(f"  warning: {i.equations} equations for {i.coordinates} coordinates")
     return "\n".join(lines)

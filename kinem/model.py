@@ -56,12 +56,9 @@ def characteristic_length(case: Case) -> float:
             v = c.get(key.name)
             if v is None:
                 continue
-            if key.kind == "local":
-                values.append(float(np.hypot(*v)))
-            elif key.kind == "positive":
-                values.append(float(v))
-            elif key.kind == "outline":
-                values.append(float(np.hypot(*v.center)) + max([abs(x) for x in v.s] + [v.radius]))
+            size = key.size(v)
+            if size is not None:
+                values.append(size)
     values += [float(np.hypot(*p.at)) for p in case.points]
     origins = np.array([b.q[:2] for b in case.bodies])
     if len(origins) > 1:

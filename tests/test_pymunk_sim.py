@@ -11,6 +11,7 @@ import pytest
 import kinem
 from adapters import compare, pymunk_sim
 from adapters.base import drives
+from kinem.casefile.keys import LocalKey
 from kinem.constraints import REGISTRY
 from kinem.errors import InputError
 
@@ -168,7 +169,7 @@ def shift_frame(d, body, offset):
             p["at"] = [p["at"][0] + offset[0], p["at"][1] + offset[1]]
     for c in d["constraints"]:
         for key in REGISTRY[c["type"]].keys:
-            if key.kind == "local" and key.name in c and c[key.of] == body and not isinstance(c[key.name], str):
+            if isinstance(key, LocalKey) and key.name in c and c[key.of] == body and not isinstance(c[key.name], str):
                 c[key.name] = [c[key.name][0] + offset[0], c[key.name][1] + offset[1]]
     return d
 

@@ -1,5 +1,5 @@
-"""What every constraint family shares: the key schema a case-file type
-declares, the Family interface, and the compiled-kernel conventions.
+"""What every constraint family shares: the keys a case-file type declares
+(kinds in kinem.casefile.keys), the Family interface, and the compiled-kernel conventions.
 
 Each family evaluates Phi, its Jacobian values and gamma with kernels
 compiled by numba (``kernel``), one loop over the instants of a batch and
@@ -21,21 +21,9 @@ from typing import Callable
 
 import numpy as np
 
+from ..casefile.keys import (BodyKey, BoolKey, CoordKey, DirectionKey, FunctionKey, Key, LocalKey,  # noqa: F401
+                             NumberKey, OutlineKey, PositiveKey, Vector3Key)  # the key kinds types declare
 from ..jit import kernel  # noqa: F401  (the families' decorator)
-
-
-@dataclass(frozen=True)
-class Key:
-    """One key of a case-file constraint type.
-
-    kind: body | local | number | positive | direction | vector3 | coord |
-    function | bool | outline. ``of`` names the body key a ``local`` point lies on.
-    """
-    name: str
-    kind: str
-    required: bool = True
-    of: str | None = None
-    doc: str = ""
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,8 @@ contact point P_i on the cam's outline (kinem/constraints/curve.py):
 a = A_i p(theta) and g = A_i g'(theta), the tangent there."""
 import numpy as np
 
-from .base import Family, Key, TypeDecl, batch, call, kernel, local_points, pattern, row_info
+from .base import (BodyKey, DirectionKey, Family, LocalKey, NumberKey, OutlineKey, PositiveKey, TypeDecl,
+                   batch, call, kernel, local_points, pattern, row_info)
 from .curve import Curve, check_theta
 
 
@@ -184,21 +185,21 @@ class CamFlat(_CamFollower):
 
 TYPES = [
     TypeDecl("cam-roller", "4.28", (
-        Key("cam", "body", doc="the cam i"),
-        Key("outline", "outline", doc="the cam's outline"),
-        Key("follower", "body", doc="the follower j"),
-        Key("sj", "local", of="follower", doc="Q_j: the roller's centre"),
-        Key("radius", "positive", doc="rho: the roller's radius"),
-        Key("theta", "number", doc="estimate of the contact angle theta on the outline (rad)"),
+        BodyKey("cam", doc="the cam i"),
+        OutlineKey("outline", doc="the cam's outline"),
+        BodyKey("follower", doc="the follower j"),
+        LocalKey("sj", of="follower", doc="Q_j: the roller's centre"),
+        PositiveKey("radius", doc="rho: the roller's radius"),
+        NumberKey("theta", doc="estimate of the contact angle theta on the outline (rad)"),
     ), CamRoller, check=check_theta, rows=2,
         doc="Disk cam and roller follower: the roller (a circle about Q_j) touches the outline."),
     TypeDecl("cam-flat", "4.29", (
-        Key("cam", "body", doc="the cam i"),
-        Key("outline", "outline", doc="the cam's outline"),
-        Key("follower", "body", doc="the follower j"),
-        Key("sj", "local", of="follower", doc="Q_j: a point of the flat face"),
-        Key("normal", "direction", doc="n'_j: the face's normal (local; normalised)"),
-        Key("theta", "number", doc="estimate of the contact angle theta on the outline (rad)"),
+        BodyKey("cam", doc="the cam i"),
+        OutlineKey("outline", doc="the cam's outline"),
+        BodyKey("follower", doc="the follower j"),
+        LocalKey("sj", of="follower", doc="Q_j: a point of the flat face"),
+        DirectionKey("normal", doc="n'_j: the face's normal (local; normalised)"),
+        NumberKey("theta", doc="estimate of the contact angle theta on the outline (rad)"),
     ), CamFlat, check=check_theta, rows=2,
         doc="Disk cam and flat-faced follower: the follower's face is tangent to the outline."),
 ]

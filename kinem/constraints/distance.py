@@ -3,7 +3,8 @@ distance driver, its extension with a length l(t) that follows a function
 (a linear actuator between two points)."""
 import numpy as np
 
-from .base import Family, Key, TypeDecl, call, kernel, local_points, pattern, per_instant, row_info
+from .base import (BodyKey, Family, FunctionKey, LocalKey, PositiveKey, TypeDecl, call, kernel, local_points,
+                   pattern, per_instant, row_info)
 from ..functions import FunctionSet, constant
 
 
@@ -89,17 +90,17 @@ class Distance(Family):
 
 TYPES = [
     TypeDecl("revolute-revolute", "4.13", (
-        Key("i", "body"),
-        Key("si", "local", of="i", doc="P_i: the link's joint on body i"),
-        Key("j", "body"),
-        Key("sj", "local", of="j", doc="P_j: the link's joint on body j"),
-        Key("length", "positive", doc="l: the link length"),
+        BodyKey("i"),
+        LocalKey("si", of="i", doc="P_i: the link's joint on body i"),
+        BodyKey("j"),
+        LocalKey("sj", of="j", doc="P_j: the link's joint on body j"),
+        PositiveKey("length", doc="l: the link length"),
     ), Distance, doc="Revolute-revolute composite joint: a massless link of length l between P_i and P_j."),
     TypeDecl("distance-driver", "4.13 (extended)", (
-        Key("i", "body"),
-        Key("si", "local", of="i"),
-        Key("j", "body"),
-        Key("sj", "local", of="j"),
-        Key("d", "function", doc="the distance |P_j - P_i| as a function of time"),
+        BodyKey("i"),
+        LocalKey("si", of="i"),
+        BodyKey("j"),
+        LocalKey("sj", of="j"),
+        FunctionKey("d", doc="the distance |P_j - P_i| as a function of time"),
     ), Distance, driving=True, doc="Linear actuator: the distance between P_i and P_j follows d(t)."),
 ]

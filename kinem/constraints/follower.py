@@ -4,7 +4,8 @@ follower (Eqs. 4.26, 4.27) and the point-follower, a pin in a slot
 on the outline (kinem/constraints/curve.py)."""
 import numpy as np
 
-from .base import Family, Key, TypeDecl, batch, call, kernel, local_points, pattern, row_info
+from .base import (BodyKey, Family, LocalKey, NumberKey, OutlineKey, TypeDecl, batch, call, kernel,
+                   local_points, pattern, row_info)
 from .curve import Curve, check_theta
 
 
@@ -80,19 +81,19 @@ class PointOnCurve(Family):
 
 TYPES = [
     TypeDecl("cam-point", "4.26, 4.27", (
-        Key("cam", "body", doc="the cam i"),
-        Key("outline", "outline", doc="the cam's outline"),
-        Key("follower", "body", doc="the follower j"),
-        Key("sj", "local", of="follower", doc="its contact point P_j"),
-        Key("theta", "number", doc="estimate of the contact angle theta on the outline (rad)"),
+        BodyKey("cam", doc="the cam i"),
+        OutlineKey("outline", doc="the cam's outline"),
+        BodyKey("follower", doc="the follower j"),
+        LocalKey("sj", of="follower", doc="its contact point P_j"),
+        NumberKey("theta", doc="estimate of the contact angle theta on the outline (rad)"),
     ), PointOnCurve, check=check_theta, rows=2,
         doc="Disk cam and point follower: point P_j of the follower lies on the cam's outline."),
     TypeDecl("point-follower", "4.30", (
-        Key("i", "body", doc="body i, carrying the pin"),
-        Key("si", "local", of="i", doc="the pin P"),
-        Key("j", "body", doc="the slotted body j"),
-        Key("outline", "outline", doc="the slot's centre line on body j"),
-        Key("theta", "number", doc="estimate of the pin's angle theta on the outline (rad)"),
+        BodyKey("i", doc="body i, carrying the pin"),
+        LocalKey("si", of="i", doc="the pin P"),
+        BodyKey("j", doc="the slotted body j"),
+        OutlineKey("outline", doc="the slot's centre line on body j"),
+        NumberKey("theta", doc="estimate of the pin's angle theta on the outline (rad)"),
     ), PointOnCurve, check=check_theta, rows=2,
         doc="Point-follower: pin P of body i slides in a slot (an outline) of body j."),
 ]

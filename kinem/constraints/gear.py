@@ -10,7 +10,8 @@ equation: the estimates are the reference configuration (phi_i^0, ...).
 """
 import numpy as np
 
-from .base import Compiled, Family, Key, TypeDecl, call, kernel, local_points, pattern, row_info
+from .base import (BodyKey, BoolKey, Compiled, DirectionKey, Family, LocalKey, NumberKey, PositiveKey,
+                   TypeDecl, call, kernel, local_points, pattern, row_info)
 
 
 @kernel
@@ -159,23 +160,23 @@ def _check_rack(f, bodies):
 
 TYPES = [
     TypeDecl("gear", "4.17, 4.18", (
-        Key("i", "body", doc="gear i"),
-        Key("ri", "positive", doc="rho_i: pitch radius of gear i"),
-        Key("j", "body", doc="gear j"),
-        Key("rj", "positive", doc="rho_j: pitch radius of gear j"),
-        Key("carrier", "body", required=False, doc="body k that carries both gear centres (Eq. 4.18)"),
-        Key("internal", "bool", required=False, doc="one gear is an internal (ring) gear: both turn the same way"),
-        Key("phi0", "number", required=False, doc="phi_j - phi_k when phi_i - phi_k = 0; default from the estimates"),
+        BodyKey("i", doc="gear i"),
+        PositiveKey("ri", doc="rho_i: pitch radius of gear i"),
+        BodyKey("j", doc="gear j"),
+        PositiveKey("rj", doc="rho_j: pitch radius of gear j"),
+        BodyKey("carrier", required=False, doc="body k that carries both gear centres (Eq. 4.18)"),
+        BoolKey("internal", required=False, doc="one gear is an internal (ring) gear: both turn the same way"),
+        NumberKey("phi0", required=False, doc="phi_j - phi_k when phi_i - phi_k = 0; default from the estimates"),
     ), Gear, check=_check_gear,
         doc="Spur gears: the pitch circles of gears i and j roll on each other without slip."),
     TypeDecl("rack-pinion", "4.19, 4.20, Problem 4.15", (
-        Key("pinion", "body", doc="the pinion i"),
-        Key("radius", "positive", doc="rho_i: its pitch radius"),
-        Key("center", "local", required=False, of="pinion", doc="its centre, default [0, 0]"),
-        Key("rack", "body", doc="the rack j"),
-        Key("sj", "local", of="rack", doc="a point of the rack's pitch line"),
-        Key("u", "direction", required=False, doc="the pitch line's local direction, default [1, 0]"),
-        Key("phi0", "number", required=False,
+        BodyKey("pinion", doc="the pinion i"),
+        PositiveKey("radius", doc="rho_i: its pitch radius"),
+        LocalKey("center", required=False, of="pinion", doc="its centre, default [0, 0]"),
+        BodyKey("rack", doc="the rack j"),
+        LocalKey("sj", of="rack", doc="a point of the rack's pitch line"),
+        DirectionKey("u", required=False, doc="the pitch line's local direction, default [1, 0]"),
+        NumberKey("phi0", required=False,
             doc="phi_i - phi_j when the centre is on the normal to the line through sj; default from the estimates"),
     ), RackPinion, check=_check_rack,
         doc="Rack and pinion: the pitch circle rolls on the pitch line without slip, on the side of u turned +90 deg."),

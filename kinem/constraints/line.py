@@ -8,7 +8,7 @@ d = P_j - P_i, and Eq. 4.16 with a = j, u = Q_j - P_j, d = P_i - P_j.
 """
 import numpy as np
 
-from .base import Compiled, Key, TypeDecl, kernel, local_points, pattern, row_info
+from .base import BodyKey, Compiled, LocalKey, NumberKey, TypeDecl, kernel, local_points, pattern, row_info
 
 
 @kernel
@@ -132,20 +132,20 @@ def _check_rt(f, bodies):
 
 TYPES = [
     TypeDecl("translational", "4.10-4.12", (
-        Key("i", "body"),
-        Key("si", "local", of="i", doc="P_i, on the line, on body i"),
-        Key("qi", "local", of="i", doc="Q_i, a second point of the line on body i"),
-        Key("j", "body"),
-        Key("sj", "local", of="j", doc="P_j, on the line, on body j"),
-        Key("phi0", "number", required=False, doc="phi_i^0 - phi_j^0; default from the estimates"),
+        BodyKey("i"),
+        LocalKey("si", of="i", doc="P_i, on the line, on body i"),
+        LocalKey("qi", of="i", doc="Q_i, a second point of the line on body i"),
+        BodyKey("j"),
+        LocalKey("sj", of="j", doc="P_j, on the line, on body j"),
+        NumberKey("phi0", required=False, doc="phi_i^0 - phi_j^0; default from the estimates"),
     ), Translational, check=_check_translational, rows=2,
         doc="Translational joint: bodies i and j slide along a common line without relative rotation."),
     TypeDecl("revolute-translational", "4.16", (
-        Key("i", "body"),
-        Key("si", "local", of="i", doc="the pin P_i"),
-        Key("j", "body"),
-        Key("sj", "local", of="j", doc="P_j, on the line, on body j"),
-        Key("qj", "local", of="j", doc="Q_j, a second point of the line on body j"),
+        BodyKey("i"),
+        LocalKey("si", of="i", doc="the pin P_i"),
+        BodyKey("j"),
+        LocalKey("sj", of="j", doc="P_j, on the line, on body j"),
+        LocalKey("qj", of="j", doc="Q_j, a second point of the line on body j"),
     ), RevoluteTranslational, check=_check_rt,
         doc="Revolute-translational composite joint: pin P_i of body i moves along line P_j Q_j of body j."),
 ]

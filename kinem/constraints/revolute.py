@@ -1,7 +1,7 @@
 """Revolute joint, Eqs. 4.7-4.9; Jacobian Eq. 4.46 (Table 4.2); gamma Eq. 4.47."""
 import numpy as np
 
-from .base import Compiled, Key, TypeDecl, kernel, local_points, pattern, row_info
+from .base import BodyKey, Compiled, LocalKey, TypeDecl, kernel, local_points, pattern, row_info
 
 
 @kernel
@@ -60,9 +60,9 @@ class Revolute(Compiled):
 
 TYPES = [
     TypeDecl("revolute", "4.7", (
-        Key("i", "body", doc="body i"),
-        Key("si", "local", of="i", doc="s'_i^P: the joint centre on body i"),
-        Key("j", "body", doc="body j"),
-        Key("sj", "local", of="j", doc="s'_j^P: the joint centre on body j"),
+        BodyKey("i", doc="body i"),
+        LocalKey("si", of="i", doc="s'_i^P: the joint centre on body i"),
+        BodyKey("j", doc="body j"),
+        LocalKey("sj", of="j", doc="s'_j^P: the joint centre on body j"),
     ), Revolute, rows=2, doc="Revolute joint: point P of body i coincides with point P of body j."),
 ]

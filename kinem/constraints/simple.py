@@ -10,7 +10,8 @@ The point term of row r is mx_r Re(s) + my_r Im(s), s = A_i s'_i^P.
 """
 import numpy as np
 
-from .base import Family, Key, TypeDecl, call, kernel, local_points, per_instant
+from .base import (BodyKey, CoordKey, Family, FunctionKey, LocalKey, NumberKey, TypeDecl, Vector3Key, call,
+                   kernel, local_points, per_instant)
 from ..functions import FunctionSet, constant
 
 COORD = {"x": 0, "y": 1, "phi": 2}
@@ -137,21 +138,21 @@ def _check_coord(f, bodies, driver=False):
 
 TYPES = [
     TypeDecl("ground", "4.31-4.33", (
-        Key("body", "body"),
-        Key("value", "vector3", required=False, doc="[x, y, phi] held; default: the body's estimate q"),
+        BodyKey("body"),
+        Vector3Key("value", required=False, doc="[x, y, phi] held; default: the body's estimate q"),
     ), Simple, check=_check_ground, rows=3, doc="Holds x, y and phi of a body (Eqs. 4.31-4.33 at once)."),
     TypeDecl("absolute", "4.31-4.34", (
-        Key("body", "body"),
-        Key("coord", "coord", doc="x, y or phi"),
-        Key("point", "local", required=False, of="body", doc="for x/y: a point of the body (Eq. 4.34)"),
-        Key("value", "number", required=False, doc="the constant; default from the estimates"),
+        BodyKey("body"),
+        CoordKey("coord", doc="x, y or phi"),
+        LocalKey("point", required=False, of="body", doc="for x/y: a point of the body (Eq. 4.34)"),
+        NumberKey("value", required=False, doc="the constant; default from the estimates"),
     ), Simple, check=_check_coord, doc="Holds one coordinate of a body, or of a point of it, constant."),
     TypeDecl("driver", "4.36-4.40", (
-        Key("body", "body"),
-        Key("coord", "coord", doc="x, y or phi"),
-        Key("point", "local", required=False, of="body", doc="for x/y: a point of the body (Eqs. 4.39-4.40)"),
-        Key("relative_to", "body", required=False, doc="body k: drives phi_i - phi_k (a motor between moving bodies)"),
-        Key("d", "function", doc="d(t)"),
+        BodyKey("body"),
+        CoordKey("coord", doc="x, y or phi"),
+        LocalKey("point", required=False, of="body", doc="for x/y: a point of the body (Eqs. 4.39-4.40)"),
+        BodyKey("relative_to", required=False, doc="body k: drives phi_i - phi_k (a motor between moving bodies)"),
+        FunctionKey("d", doc="d(t)"),
     ), Simple, check=lambda f, b: _check_coord(f, b, driver=True), driving=True,
         doc="Driving constraint: a coordinate, a point coordinate or a relative angle follows d(t)."),
 ]

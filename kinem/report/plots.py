@@ -30,6 +30,7 @@ def shapes(model):
     circles (gears' pitch circles, rollers) the constraints put on bodies:
     each on the body named last before it among the type's keys, a circle
     about the local point given last on that body (else its origin)."""
+    from kinem.casefile.keys import BodyKey, LocalKey, OutlineKey, PositiveKey
     from kinem.constraints import REGISTRY
 
     out, ring = [], np.exp(1j * np.linspace(0, 2 * np.pi, 73))
@@ -39,13 +40,13 @@ def shapes(model):
             v = c.get(key.name)
             if v is None:
                 continue
-            if key.kind == "body":
+            if isinstance(key, BodyKey):
                 body, centre = v, 0j
-            elif key.kind == "local" and key.of and c.get(key.of) == body and not isinstance(v, str):
+            elif isinstance(key, LocalKey) and key.of and c.get(key.of) == body and not isinstance(v, str):
                 centre = complex(*v)
-            elif key.kind == "positive" and key.name != "length" and body:
+            elif isinstance(key, PositiveKey) and key.name != "length" and body:
                 out.append((body, centre + float(v) * ring))
-            elif key.kind == "outline" and body and hasattr(v, "point_at"):
+            elif isinstance(key, OutlineKey) and body and hasattr(v, "point_at"):
                 a, b = v.span
                 out.append((body, np.asarray(v.point_at(np.linspace(a, b, 121))[0])))
     return out
@@ -55,6 +56,7 @@ def mechanism(model, times, qs) -> str:
     """Each body as the polygon of its points (sorted by angle about their
     centre), ground points as triangles, joints marked, at a few instants."""
     from adapters.base import body_points, grounded
+    from kinem.casefile.keys import LocalKey
     from kinem.constraints import REGISTRY
 
     plt = _plt()
@@ -79,7 +81,7 @@ def mechanism(model, times, qs) -> str:
             w = (q[3 * k] + 1j * q[3 * k + 1]) + local * np.exp(1j * q[3 * k + 2])
             ax.plot(w.real, w.imag, "-", color="0.4" if b in fixed else f"C{k % 10}", lw=1)
         for c in model.case.constraints:  # each joint at its first local point
-            key = next((k for k in REGISTRY[c.type].keys if k.kind == "local" and c.get(k.name) is not None), None)
+            key = next((k for k in REGISTRY[c.type].keys if isinstance(k, LocalKey) and c.get(k.name) is not None), None)
             if key is None or c.type == "driver":
                 continue
             k = model.body_names.index(c[key.of])
@@ -108,7 +110,7 @@ def trajectories(t_ref, ref_cols, runs, unit="") -> str:
             if col in s["columns"]:
                 ax.plot(s["t"], s["columns"][col], "-" if e == "native" else "--",
                         color=COLORS.get(e), lw=1.2, label=e)
-        ax.set_title(f"{col} ({unit})" if unit else col, fontsize=9)
+        ax.set_title(f"{col} ({unit})" if unit else col, fontsize=9, parse_math=False)  # units are text, never mathtext
         ax.set_xlabel("t (s)", fontsize=8)
         ax.tick_params(labelsize=7)
     if axes[0][0].get_legend_handles_labels()[0]:

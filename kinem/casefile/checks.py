@@ -1,0 +1,200 @@
+"""The loader's problem list and the rules every scalar obeys.
+
+Every problem names the file, the place and the key and says what was
+expected; the loader collects them all, then raises one InputError. One
+mistake is one problem: a value that refers to a body or point whose own
+definition was rejected is not reported again (``rejected``), and an
+unknown key that is a near miss of a missing one is reported once, as a
+"did you mean".
+"""
+import difflib
+import math
+import re
+
+from ..errors import InputError
+
+MAX_ARRAY = 100_000
+MAX_MAGNITUDE = 1e12  # any length, angle or time beyond this is a mistake, and its squares stay finite
+MAX_NAME = 64
+MAX_TEXT = 10_000     # characters of a description
+MAX_UNIT = 32         # characters of units.length
+MAX_STEPS = 10**7
+END_RANGE = (1e-6, 1e9)   # s: [time] end, and --end
+MIN_SPACING = 1e-9        # of a table's span: the closest two table abscissae (t, theta) may be
+NAME_RE = re.compile(r"[a-z0-9_-]{1,%d}" % MAX_NAME)                    # the case's name (fullmatch)
+IDENT_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_-]{0,%d}" % (MAX_NAME - 1))  # bodies, points, constraints
+IDENT_TEXT = f"a name of at most {MAX_NAME} letters, digits, '_' and '-' that starts with a letter or '_'"
+
+# The documented ranges (docs/case-format.md, "Limits", is generated from this).
+LIMITS = (
+    ("file", "at most 16 MiB of UTF-8 TOML (read with a hard cap: a device or pipe is not read past it)"),
+    ("case name", f"1 to {MAX_NAME} characters of a-z, 0-9, `_` and `-`"),
+    ("body, point and constraint names", f"1 to {MAX_NAME} characters of letters, digits, `_` and `-`, "
+                                         "starting with a letter or `_` (the whole name: no trailing newline)"),
+    ("numbers", f"finite, magnitude at most {MAX_MAGNITUDE:g} (whole numbers too); booleans are not numbers"),
+    ("`[time]` end (and `--end`)", f"{END_RANGE[0]:g} to {END_RANGE[1]:g} s"),
+    ("`[time]` steps (and `--steps`)", f"a whole number from 1 to {MAX_STEPS}; `dt` must divide end into "
+                                       "as many intervals"),
+    ("table abscissae (`t`, `theta`)", f"strictly increasing, consecutive values at least {MIN_SPACING:g} "
+                                       "of the table's span apart"),
+    ("lists", f"at most {MAX_ARRAY:,} numbers; `poly` at most 32 coefficients; `[engines.*]` lists at most 16"),
+    ("bodies, points, constraints", "at most 100,000 each"),
+    ("`description`", f"text of at most {MAX_TEXT:,} characters"),
+    ("`units.length`", f"1 to {MAX_UNIT} printable characters, shown as text (never parsed as markup)"),
+    ("`[solver]`", "tolerance between 0 and 1; max_iterations 1 to 1000; block 1 to 4096"),
+)
+
+
+class Checker:
+    """Collects the problems of one source; checks scalars, lists and names.
+
+    Each check returns the value (converted) or None after recording why not.
+    ``failures`` counts problems including the ones not reported because
+    their root cause already was."""
+
+    def __init__(self, source):
+        self.source = source
+        self.problems = []
+        self.failures = 0
+        self.rejected = set()  # names of bodies and points whose definition was rejected
+        self.unknowable = set()  # what (body, point) cannot be checked: its whole section was rejected
+
+    def raise_if_any(self):
+        if self.problems:
+            raise InputError(self.problems)
+
+    def bad(self, where, key, problem, expected=None):
+        text = f"{self.source}: {where}" + (f": key '{key}'" if key else "") + f": {problem}"
+        if expected:
+            text += f"; expected {expected}"
+        self.problems.append(text)
+        self.failures += 1
+
+    def knock_on(self):
+        """A failure whose root cause (a rejected definition) is already reported."""
+        self.failures += 1
+
+    def keys(self, where, table, allowed, required=()):
+        """Unknown and missing keys; a near miss of a missing key is one problem."""
+        ok = True
+        missing = [k for k in required if k not in table]
+        for k in table:
+            if k in allowed:
+                continue
+            ok = False
+            guess = suggest(k, missing) or suggest(k, [a for a in allowed if a not in table])
+            if guess is not None:
+                self.bad(where, k, f"unknown key; did you mean '{guess}'?")
+                if guess in missing:
+                    missing.remove(guess)
+            else:
+                self.bad(where, k, "unknown key", "one of " + ", ".join(allowed))
+        for k in missing:
+            self.bad(where, k, "missing")
+            ok = False
+        return ok
+
+    def choice(self, where, key, v, options, what):
+        """v, one of ``options`` (names); else a problem with a "did you mean"."""
+        if isinstance(v, str) and v in options:
+            return v
+        if (isinstance(v, str) and v in self.rejected) or what in self.unknowable:
+            self.knock_on()
+            return None
+        guess = suggest(v, options) if isinstance(v, str) else None
+        if guess is not None:
+            self.bad(where, key, f"unknown {what} {show(v)}; did you mean '{guess}'?")
+        else:
+            self.bad(where, key, f"unknown {what} {show(v)}", "one of " + (names(options) or "(none defined)"))
+        return None
+
+    def number(self, where, key, v, positive=False, nonneg=False):
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            self.bad(where, key, f"got {show(v)}", "a number")
+            return None
+        if isinstance(v, int) and abs(v) > MAX_MAGNITUDE:  # before float(): 10**400 has none
+            self.bad(where, key, f"got a whole number of {len(str(abs(v)))} digits",
+                     f"a number of magnitude at most {MAX_MAGNITUDE:g}")
+            return None
+        v = float(v)
+        if not math.isfinite(v):
+            self.bad(where, key, f"got {v}", "a finite number")
+            return None
+        if abs(v) > MAX_MAGNITUDE:
+            self.bad(where, key, f"got {v:g}", f"a number of magnitude at most {MAX_MAGNITUDE:g}")
+            return None
+        if positive and v <= 0:
+            self.bad(where, key, f"got {v:g}", "a positive number")
+            return None
+        if nonneg and v < 0:
+            self.bad(where, key, f"got {v:g}", "a number >= 0")
+            return None
+        return v
+
+    def integer(self, where, key, v, lo=1, hi=MAX_STEPS):
+        if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+            self.bad(where, key, f"got {show(v)}", f"a whole number from {lo} to {hi}")
+            return None
+        return v
+
+    def vector(self, where, key, v, n, what=None):
+        if not isinstance(v, list) or len(v) != n:
+            self.bad(where, key, f"got {show(v)}", what or f"a list of {n} numbers")
+            return None
+        out = [self.number(where, key, x) for x in v]
+        return None if None in out else tuple(out)
+
+    def numbers(self, where, key, v, min_len=1, max_len=MAX_ARRAY):
+        if not isinstance(v, list) or not min_len <= len(v) <= max_len:
+            self.bad(where, key, f"got {show(v)}", f"a list of {min_len} to {max_len} numbers")
+            return None
+        out = [self.number(where, key, x) for x in v]
+        return None if None in out else tuple(out)
+
+    def increasing(self, where, key, x, what):
+        """x strictly increasing with gaps of at least MIN_SPACING of its span."""
+        gap = min(b - a for a, b in zip(x, x[1:]))
+        if gap <= 0:
+            self.bad(where, key, "not strictly increasing", f"strictly increasing {what}")
+            return False
+        if gap < MIN_SPACING * (x[-1] - x[0]):
+            self.bad(where, key, f"two values only {gap:.3g} apart",
+                     f"strictly increasing {what}, consecutive values at least {MIN_SPACING:g} of the span apart")
+            return False
+        return True
+
+    def string(self, where, key, v, pattern=None, expected="a string", max_len=MAX_TEXT):
+        if (not isinstance(v, str) or len(v) > max_len
+                or (pattern is not None and not pattern.fullmatch(v))):
+            self.bad(where, key, f"got {show(v)}", expected)
+            return None
+        return v
+
+    def name(self, where, v, pattern=IDENT_RE, expected=IDENT_TEXT):
+        """A name (of a body, point, constraint): the whole string matches."""
+        if not isinstance(v, str) or not pattern.fullmatch(v):
+            self.bad(where, None, f"bad name {show(v)}", expected)
+            return None
+        return v
+
+
+def suggest(word, options):
+    """The option closest to a mistyped word, if any is close (difflib's ratio >= 0.6)."""
+    if not isinstance(word, str) or len(word) > 200:
+        return None
+    lower = {}
+    for o in options:
+        if isinstance(o, str):
+            lower.setdefault(o.lower(), o)
+    close = difflib.get_close_matches(word.lower(), list(lower), n=1)  # case-blind: 'b' suggests 'B'
+    return lower[close[0]] if close else None
+
+
+def names(d) -> str:
+    names = list(d)
+    return ", ".join(names[:20]) + (f" and {len(names) - 20} more" if len(names) > 20 else "")
+
+
+def show(v) -> str:
+    r = repr(v)
+    return r if len(r) <= 60 else r[:57] + "..."

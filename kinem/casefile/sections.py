@@ -1,0 +1,182 @@
+"""The case file's sections other than [[constraints]]: units, [time],
+[solver], [engines.*], [bodies] and [points]."""
+from ..spec import Body, Point, frozen_map
+from .checks import END_RANGE, MAX_STEPS, MAX_UNIT, show
+
+MAX_ITEMS = 100_000
+ENGINES = ("pymunk", "mujoco", "exudyn")  # settings are checked against each adapter when it runs
+SOLVER_KEYS = ("tolerance", "max_iterations", "linear_solver", "jacobian_reuse", "block")
+LINEAR_SOLVERS = ("auto", "dense", "sparse")
+
+
+def units(ck, u):
+    if not isinstance(u, dict):
+        ck.bad("units", None, f"got {show(u)}", "a table such as { length = \"mm\" }")
+        return {}
+    ck.keys("units", u, ("length",))
+    if "length" in u and ck.string("units", "length", u["length"], max_len=MAX_UNIT,
+                                   expected=f"1 to {MAX_UNIT} printable characters such as \"mm\"") is not None:
+        if u["length"] and u["length"].isprintable():
+            return {"length": u["length"]}
+        ck.bad("units", "length", f"got {show(u['length'])}", f"1 to {MAX_UNIT} printable characters such as \"mm\"")
+    return {}
+
+
+def engines(ck, e):
+    """[engines.<name>] tables of settings: scalars or short lists of numbers."""
+    if not isinstance(e, dict):
+        ck.bad("[engines]", None, f"got {show(e)}", "a table of [engines.<name>] tables")
+        return {}
+    out = {}
+    for name, table in e.items():
+        where = f"[engines.{name}]"
+        if name not in ENGINES:
+            ck.bad(where, None, f"unknown engine '{name}'", "one of " + ", ".join(ENGINES))
+            continue
+        if not isinstance(table, dict):
+            ck.bad(where, None, f"got {show(table)}", "a table of settings")
+            continue
+        ok = {}
+        for k, v in table.items():
+            if isinstance(v, int) and not isinstance(v, bool):
+                v = int(v) if ck.number(where, k, v) is not None else None  # counts stay whole
+            elif isinstance(v, float):
+                v = ck.number(where, k, v)
+            elif isinstance(v, list):
+                v = ck.numbers(where, k, v, max_len=16)
+            elif not isinstance(v, (str, bool)):
+                ck.bad(where, k, f"got {show(v)}", "a number, string, boolean or list of numbers")
+                v = None
+            if v is not None:
+                ok[k] = v
+        out[name] = frozen_map(ok)
+    return out
+
+
+def end_time(ck, where, key, v):
+    """An end time within END_RANGE (the case file's [time] end and --end)."""
+    end = ck.number(where, key, v)
+    if end is not None and not END_RANGE[0] <= end <= END_RANGE[1]:
+        ck.bad(where, key, f"got {end:g}", f"a time from {END_RANGE[0]:g} to {END_RANGE[1]:g} s")
+        return None
+    return end
+
+
+def steps(ck, where, key, v):
+    """A number of output intervals, 1 to MAX_STEPS (the case file's [time] steps and --steps)."""
+    return ck.integer(where, key, v, 1, MAX_STEPS)
+
+
+def time(ck, t):
+    """(end, steps) of [time]; end None if not valid."""
+    where = "[time]"
+    if t is None:  # missing: reported with the top level's keys
+        return None, 1
+    if not isinstance(t, dict):
+        ck.bad(where, None, f"got {show(t)}", "a table with end and steps (or dt)")
+        return None, 1
+    ck.keys(where, t, ("end", "steps", "dt"), ("end",))
+    end = end_time(ck, where, "end", t["end"]) if "end" in t else None
+    if ("steps" in t) == ("dt" in t):
+        ck.bad(where, "steps", "give exactly one of 'steps' and 'dt'")
+        return end, 1
+    if "steps" in t:
+        return end, steps(ck, where, "steps", t["steps"]) or 1
+    dt = ck.number(where, "dt", t["dt"], positive=True)
+    if dt is None or end is None:
+        return end, 1
+    ratio = end / dt  # inf for a tiny dt: rejected before round()
+    if not ratio <= MAX_STEPS + 0.5 or round(ratio) < 1 or abs(round(ratio) * dt - end) > 1e-9 * end:
+        ck.bad(where, "dt", f"end/dt = {ratio:g}", f"a step that divides end into 1 to {MAX_STEPS} intervals")
+        return end, 1
+    return end, round(ratio)
+
+
+def solver(ck, s):
+    """The [solver] settings given (the Case's defaults fill the rest)."""
+    where = "[solver]"
+    if not isinstance(s, dict):
+        ck.bad(where, None, f"got {show(s)}", "a table")
+        return {}
+    ck.keys(where, s, SOLVER_KEYS)
+    out = {}
+    if "tolerance" in s:
+        tol = ck.number(where, "tolerance", s["tolerance"], positive=True)
+        if tol is not None and tol >= 1:
+            ck.bad(where, "tolerance", f"got {tol:g}", "a number between 0 and 1")
+        elif tol is not None:
+            out["tolerance"] = tol
+    if "max_iterations" in s:
+        it = ck.integer(where, "max_iterations", s["max_iterations"], 1, 1000)
+        if it is not None:
+            out["max_iterations"] = it
+    if "jacobian_reuse" in s:
+        if not isinstance(s["jacobian_reuse"], bool):
+            ck.bad(where, "jacobian_reuse", f"got {show(s['jacobian_reuse'])}", "true or false")
+        else:
+            out["jacobian_reuse"] = s["jacobian_reuse"]
+    if "block" in s:
+        b = ck.integer(where, "block", s["block"], 1, 4096)
+        if b is not None:
+            out["block"] = b
+    if "linear_solver" in s:
+        ls = s["linear_solver"]
+        if ls not in LINEAR_SOLVERS:
+            ck.bad(where, "linear_solver", f"got {show(ls)}", "one of " + ", ".join(LINEAR_SOLVERS))
+        else:
+            out["linear_solver"] = ls
+    return out
+
+
+def bodies(ck, b):
+    """name -> Body of [bodies]."""
+    if b is None or not isinstance(b, dict) or not b or len(b) > MAX_ITEMS:
+        ck.unknowable.add("body")  # references to bodies are not checked again
+        if b is not None:  # missing: reported with the top level's keys
+            ck.bad("[bodies]", None, f"got {show(b)}" if not isinstance(b, dict) or not b else f"{len(b)} bodies",
+                   "a table with at least one body" if not isinstance(b, dict) or not b else f"at most {MAX_ITEMS}")
+        return {}
+    out = {}
+    for name, v in b.items():
+        where = f"body {show(name)}"
+        n_before = ck.failures
+        if ck.name(where, name) is None:
+            pass
+        elif not isinstance(v, dict):
+            ck.bad(where, None, f"got {show(v)}", "a table such as { q = [x, y, phi] }")
+        else:
+            ck.keys(where, v, ("q", "mass", "inertia"), ("q",))
+            q = ck.vector(where, "q", v["q"], 3, "[x, y, phi]") if "q" in v else None
+            mass = ck.number(where, "mass", v["mass"], positive=True) if "mass" in v else None
+            inertia = ck.number(where, "inertia", v["inertia"], positive=True) if "inertia" in v else None
+            if ck.failures == n_before:
+                out[name] = Body(name, q, mass, inertia)
+        if name not in out:
+            ck.rejected.add(name)
+    return out
+
+
+def points(ck, p, bodies):
+    """name -> Point of [points]."""
+    if not isinstance(p, dict) or len(p) > MAX_ITEMS:
+        ck.unknowable.add("point")
+        ck.bad("[points]", None, f"got {show(p)}" if not isinstance(p, dict) else f"{len(p)} points",
+               "a table of points" if not isinstance(p, dict) else f"at most {MAX_ITEMS}")
+        return {}
+    out = {}
+    for name, v in p.items():
+        where = f"point {show(name)}"
+        if ck.name(where, name) is None:
+            pass
+        elif name in bodies or name in ck.rejected:
+            ck.bad(where, None, "has the name of a body", "point names distinct from body names")
+        elif not isinstance(v, dict):
+            ck.bad(where, None, f"got {show(v)}", "a table such as { body = \"crank\", at = [xi, eta] }")
+        elif ck.keys(where, v, ("body", "at"), ("body", "at")):
+            body = ck.choice(where, "body", v["body"], bodies, "body")
+            at = ck.vector(where, "at", v["at"], 2, "[xi, eta]")
+            if body is not None and at is not None:
+                out[name] = Point(name, body, at)
+        if name not in out:
+            ck.rejected.add(name)
+    return out

@@ -1,0 +1,75 @@
+"""Issue 17, diagnoses users can act on: a surplus or missing driver named
+with the count of degrees of freedom, a loop that cannot close named with its
+gap, and `kinem info` exiting 1 when the case does not assemble."""
+import contextlib
+import io
+import math
+import tomllib
+from pathlib import Path
+
+import pytest
+
+import kinem
+from kinem.cli import main
+
+SLIDER = (Path(__file__).resolve().parents[1] / "cases" / "slider_crank.toml").read_text()
+# crank OB = 200 at 330 degrees puts B 100 above the slider's line; a rod of 70 cannot reach it
+SHORT_ROD = SLIDER.replace('si = [300.0, 0.0]', 'si = [50.0, 0.0]').replace('sj = [-200.0, 0.0]', 'sj = [-20.0, 0.0]')
+
+
+def cli(*args):
+    err = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        code = main([str(a) for a in args])
+    return code, err.getvalue()
+
+
+def with_extra_driver():
+    d = tomllib.loads(SLIDER)
+    d["constraints"].append({"type": "driver", "name": "extra", "body": "rod", "coord": "phi", "d": 0.2})
+    return d
+
+
+def test_surplus_driver_is_named_with_the_degrees_of_freedom():
+    r = kinem.solve(kinem.compile(kinem.load_dict(with_extra_driver())))
+    assert not r.success
+    assert ("too many driving equations: 2 (crank-drive, extra) for 1 degree of freedom "
+            "(12 coordinates, 11 independent kinematic equations)") in r.message, r.message
+
+
+def test_missing_driver_is_named_with_the_degrees_of_freedom():
+    d = tomllib.loads(SLIDER)
+    d["constraints"] = [c for c in d["constraints"] if c["type"] != "driver"]
+    with pytest.raises(kinem.InputError) as e:
+        kinem.solve(kinem.compile(kinem.load_dict(d)))
+    assert "too few driving equations: 0 for 1 degree of freedom" in str(e.value), str(e.value)
+
+
+def test_loop_that_cannot_close_is_named_with_its_gap():
+    r = kinem.solve(kinem.compile(kinem.loads(SHORT_ROD)))
+    assert not r.success and "the loop of constraints B, O, T, A cannot close" in r.message, r.message
+    gap = float(r.message.split("its ends are ")[1].split(" mm apart")[0])
+    height = -200.0 * math.sin(5.76)   # B's height above the slider's line (the crank at 5.76 rad)
+    assert abs(gap - (height - 70.0)) < 0.006, (gap, height - 70.0)  # printed to 4 digits: 29.93, half a unit 0.005
+
+
+def test_solve_command_names_the_loop_on_one_line(tmp_path):
+    path = tmp_path / "short.toml"
+    path.write_text(SHORT_ROD)
+    code, err = cli("solve", path, "--out", tmp_path / "o.csv")
+    assert code == 1 and len(err.splitlines()) == 1 and "cannot close" in err
+
+
+def test_info_exits_1_when_the_case_does_not_assemble(tmp_path):
+    path = tmp_path / "short.toml"
+    path.write_text(SHORT_ROD)
+    code, err = cli("info", path)
+    assert code == 1 and len(err.splitlines()) == 1, err
+    assert "does not assemble" in err and "cannot close" in err
+    code, err = cli("info", path, "--json")
+    assert code == 1
+
+
+def test_info_of_a_good_case_still_exits_0():
+    code, err = cli("info", Path(__file__).resolve().parents[1] / "cases" / "four_bar.toml")
+    assert code == 0, err
