@@ -40,10 +40,11 @@ def _outputs(text):
 
 
 # Work (output instants x coordinates) above which ``solve`` refuses to start
-# unless --max-work raises it: about ten minutes of solving on one core for
-# the slider-crank (measured: docs/benchmarks.md), e.g. 1e7 output steps of
-# its 12 coordinates (1.2e8) run, a 100-body chain over 1e6 steps does not.
-MAX_WORK = 2e8
+# unless --max-work raises it: a few minutes of solving and writing on one
+# core (the slider-crank's 12 coordinates: about 4e6 output steps; measured
+# in docs/benchmarks.md, "Long runs"). Memory does not limit it: output is
+# streamed (kinem.stream).
+MAX_WORK = 5e7
 
 
 def _flush():

@@ -82,7 +82,9 @@ def _links_unnamed(directory) -> bool:
         ok = False
         try:
             fd = os.open(directory, os.O_TMPFILE | os.O_WRONLY | os.O_CLOEXEC, 0o600)
-        except OSError:
+        except OSError as e:
+            if e.errno in (errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOSPC):
+                return False  # about this directory, not the file system: not remembered
             fd = None
         if fd is not None:
             probe = os.path.join(directory, f".kinem-probe.{secrets.token_hex(6)}")

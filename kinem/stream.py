@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# Values (instants x columns) held per chunk: 2e6 doubles is 16 MB per array
-# (trajectory, coordinates, rates), a few of which are alive at once.
-CHUNK_VALUES = 2_000_000
+# Values (instants x columns) held per chunk: 1e6 doubles is 8 MB per array
+# (trajectory, coordinates, rates, CSV text), a few of which are alive at once.
+CHUNK_VALUES = 1_000_000
 # Progress is shown (on a terminal) for runs of more than this many instants,
 # in at least PROGRESS_UPDATES chunks.
 PROGRESS_INSTANTS = 20_000
