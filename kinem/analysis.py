@@ -48,6 +48,16 @@ class Data:
     factorizations: int = 0
     trace: list | None = None           # when a list: (t, what, iteration, scaled residual, detail) records
 
+    def __post_init__(self):
+        if not isinstance(self.q, np.ndarray) and hasattr(self.q, "q0"):
+            raise TypeError("Data(q, ...) takes coordinates; for a model's initial state use "
+                            "kinem.Data.from_model(model)")
+
+    @classmethod
+    def from_model(cls, model, trace=False) -> "Data":
+        """The state at the model's initial estimate (the case's q of every body), t = 0."""
+        return cls(q=model.q0.copy(), trace=[] if trace else None)
+
 
 def _factor(model, data, q, t) -> Factor:
     data.jacobian_evaluations += 1
