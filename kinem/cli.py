@@ -350,6 +350,20 @@ def _scheduler_option(p):
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run on the workers of this Dask distributed scheduler (e.g. tcp://host:8786) "
                         "instead of local processes")
+    p.add_argument("--timeout", type=float, metavar="SECONDS", action=_Timeout,
+                   help="with --scheduler: stop the run after this long (default 6 h; kinem/parallel.py)")
+
+
+class _Timeout(argparse.Action):
+    """--timeout sets kinem.parallel.RUN_TIMEOUT for this command."""
+
+    def __call__(self, parser, namespace, value, option_string=None):
+        from . import parallel
+
+        if not value > 0:
+            raise InputError(f"--timeout: got {value}; expected a positive number of seconds")
+        parallel.RUN_TIMEOUT = value
+        setattr(namespace, self.dest, value)
 
 
 def main(argv=None) -> int:
