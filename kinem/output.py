@@ -233,10 +233,10 @@ def write_atomic(path, write) -> None:
 
 def csv_rows(t, data) -> bytes:
     """CSV rows of t and data, each number in its shortest round-trip form.
-    orjson formats a whole numpy array in compiled code (about 1 us per row of
-    48 columns, against 18 us for numpy.savetxt's %.17g: benchmarks/run.py
-    section 'output'); it writes NaN and infinity as null, so those arrays go
-    through Python's repr."""
+    orjson formats a whole numpy array in compiled code (one fifth of
+    numpy.savetxt's %.17g cost per row of 48 columns: benchmarks/output_bench.py);
+    the rows are cut out of its nested list by the positions of ']'. It writes
+    NaN and infinity as null, so arrays with those go through Python's repr."""
     block = np.column_stack([t, data]) if len(data) else np.asarray(t, dtype=float)[:, None]
     if not len(block):
         return b""
@@ -244,7 +244,9 @@ def csv_rows(t, data) -> bytes:
         import orjson
 
         text = orjson.dumps(np.ascontiguousarray(block), option=orjson.OPT_SERIALIZE_NUMPY)
-        return text[2:-2].replace(b"],[", b"\n") + b"\n"
+        ends = np.flatnonzero(np.frombuffer(text, np.uint8) == ord("]"))[:-1]   # each row's ']'
+        starts = np.r_[2, ends[:-1] + 3]                                         # after '[[' or '],['
+        return b"\n".join([text[i:j] for i, j in zip(starts.tolist(), ends.tolist())]) + b"\n"
     return "".join(",".join(map(repr, row)) + "\n" for row in block.tolist()).encode()
 
 
