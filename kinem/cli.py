@@ -95,13 +95,17 @@ def cmd_solve(a):
         bar = Progress(nt)
     size = stream.chunk_size(model, outputs, nt, progress=bar is not None)
     with Output(a.out or "-") as out, _Trace(a.diagnostics) as trace:
-        writer = None
+        writer, held = None, None
 
         def on_chunk(traj):
-            nonlocal writer
-            if writer is None:
-                writer = TrajectoryWriter(out, traj.columns, fmt)
-            writer.add(traj.t, traj.data)
+            # one chunk is held back: a run that fails in its first chunk writes nothing
+            # without --partial, even where writing cannot be taken back (standard output)
+            nonlocal writer, held
+            if held is not None:
+                if writer is None:
+                    writer = TrajectoryWriter(out, held.columns, fmt)
+                writer.add(held.t, held.data)
+            held = traj
 
         def progress(done, t):
             bar.done = done
@@ -115,14 +119,13 @@ def cmd_solve(a):
                 bar.close()
         if trace:
             trace.finish(o.events)
-        if o.success:
-            writer.finish()
-            out.commit()
-            return 0
         kept = ""
-        if writer is not None and (a.partial or out.in_place):
-            writer.finish(o.message)  # marked as partial
+        if o.success or (held is not None and (a.partial or writer is not None and out.in_place)):
+            on_chunk(None)
+            writer.finish(None if o.success else o.message)   # a failed run's instants: marked partial
             out.commit()
+            if o.success:
+                return 0
             kept = f"; the {o.instants} instants solved are in {a.out or 'standard output'}, marked partial"
     raise AnalysisError(f"{a.case}: {o.message}{kept}")
 

@@ -239,6 +239,10 @@ def test_partial_writes_the_instants_solved_marked(tmp_path):
     out = tmp_path / "r.csv"
     code, _, err = run("solve", ROCKER, "--out", out)
     assert code == 1 and "singular" in one_line(err) and leftovers(tmp_path) == []
+    code, text, err = run("solve", ROCKER)                  # standard output: nothing either
+    assert code == 1 and text == ""
+    code, text, _ = run("solve", ROCKER, "--partial")
+    assert code == 1 and text.splitlines()[-1].startswith("# partial: ") and len(text.splitlines()) == 52
     code, _, err = run("solve", ROCKER, "--out", out, "--partial")
     assert code == 1 and "marked partial" in one_line(err)
     lines = out.read_text().splitlines()
