@@ -42,7 +42,7 @@ def _outputs(text):
 # Work (output instants x coordinates) above which ``solve`` refuses to start
 # unless --max-work raises it: a few minutes of solving and writing on one
 # core (the slider-crank's 12 coordinates: about 4e6 output steps; measured
-# in docs/benchmarks.md, "Long runs"). Memory does not limit it: output is
+# in docs/benchmarks.md, "Long runs and output"). Memory does not limit it: output is
 # streamed (kinem.stream).
 MAX_WORK = 5e7
 
