@@ -5,7 +5,8 @@
 - a regular file, or a path that does not exist yet: written to an unnamed
   temporary file in the target's directory (Linux ``O_TMPFILE``: it has no
   name, so even SIGKILL leaves nothing behind) and linked into place on
-  ``commit``; elsewhere a named temporary file beside the target, renamed into
+  ``commit`` (a new path: one link; an existing file: a link under a
+  temporary name renamed over it, the only moment a name exists); elsewhere a named temporary file beside the target, renamed into
   place, and removed on any error or signal Python can catch (the command line
   turns SIGTERM and SIGHUP into an exit for that). Either way the target holds
   the old content or the new, never a part.
