@@ -3,6 +3,7 @@
 
     python3 dev.py report [ARGS...]   the main job (``kinem report``)
     python3 dev.py test   [ARGS...]   the test suite (pytest)
+    python3 dev.py kinem  [ARGS...]   any kinem command (``kinem solve CASE``, ``kinem --help``)
 
 Each first makes ``.venv`` and installs the project into it (again only when
 ``pyproject.toml`` changed), so a fresh clone needs no other step.
@@ -35,13 +36,15 @@ def ensure_env() -> None:
 
 
 def main(argv: list[str]) -> int:
-    if not argv or argv[0] not in ("report", "test"):
+    if not argv or argv[0] not in ("report", "test", "kinem"):
         print(__doc__.strip(), file=sys.stderr)
         return 2
     ensure_env()
     cmd, rest = argv[0], argv[1:]
     if cmd == "report":
         args = [str(PYTHON), "-m", "kinem", "report", *rest]
+    elif cmd == "kinem":   # run where the user is: case and output paths are theirs
+        return subprocess.run([str(PYTHON), "-m", "kinem", *rest]).returncode
     else:
         args = [str(PYTHON), "-m", "pytest", *rest]
     return subprocess.run(args, cwd=ROOT).returncode

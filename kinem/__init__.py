@@ -5,7 +5,11 @@
     model = kinem.compile(case)
     result = kinem.solve(model)                    # SolveResult
     result.trajectory["slider.x"]                  # numpy array over result.trajectory.t
+
+Versions: ``kinem.__version__``, ``kinem --version``.
 """
+__version__ = "0.1.0"   # the one place it is set (pyproject.toml reads it)
+
 from .analysis import Data, acceleration, factorize, position, solve, velocity
 from .case import load, load_dict, loads
 from .errors import AnalysisError, ConvergenceError, InputError, KinemError, SingularError
@@ -14,7 +18,7 @@ from .result import OUTPUTS, SolveResult, Status, Trajectory
 from .spec import Body, Case, Constraint, Point
 
 __all__ = [
-    "load", "loads", "load_dict", "compile", "solve", "position", "velocity", "acceleration",
+    "__version__", "load", "loads", "load_dict", "compile", "solve", "position", "velocity", "acceleration",
     "factorize", "Data", "Model", "Case", "Body", "Point", "Constraint", "SolveResult", "Trajectory",
     "Status", "OUTPUTS", "KinemError", "InputError", "AnalysisError", "ConvergenceError", "SingularError",
 ]

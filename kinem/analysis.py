@@ -49,6 +49,16 @@ class Data:
     factorizations: int = 0
     trace: list | None = None           # when a list: (t, what, iteration, scaled residual, detail) records
 
+    def __post_init__(self):
+        if not isinstance(self.q, np.ndarray) and hasattr(self.q, "q0"):
+            raise TypeError("Data(q, ...) takes coordinates; for a model's initial state use "
+                            "kinem.Data.from_model(model)")
+
+    @classmethod
+    def from_model(cls, model, trace=False) -> "Data":
+        """The state at the model's initial estimate (the case's q of every body), t = 0."""
+        return cls(q=model.q0.copy(), trace=[] if trace else None)
+
 
 def _factor(model, data, q, t) -> Factor:
     data.jacobian_evaluations += 1
@@ -165,11 +175,16 @@ def interpret(model, blocks: bool, instants: int) -> bool:
     return not blocks and not jit.loaded() and instants * (100 + model.n) <= INTERPRET_WORK
 
 
-def solve(model, outputs=OUTPUTS, times=None, trace=False) -> SolveResult:
+def solve(model, outputs=OUTPUTS, times=None, trace=False, q0=None) -> SolveResult:
     """Position (and, when asked, velocity and acceleration) analysis at every
     output instant, on the branch the assembly found (kinem.tracking). Never
     raises for an analysis failure: the result says when and why (success
-    False) and holds the instants solved before it."""
+    False) and holds the instants solved before it.
+
+    ``times``: the output instants (default ``model.times``, the case's).
+    ``q0``: the estimate to assemble from at ``times[0]`` (default the case's
+    ``model.q0``); a run continued from a solved state passes that state, so a
+    long run can be solved in pieces (``kinem solve`` does: kinem.stream)."""
     from .march import Block, usable
     from .tracking import Tracker
 
@@ -209,7 +224,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False) -> SolveResult:
                                 QDD[k:k + n] = got.qdd
                         k += n
                         continue
-                s = tracker.start(times[0]) if k == 0 else tracker.advance(times[k])
+                s = tracker.start(times[0], q0) if k == 0 else tracker.advance(times[k])
                 iters[k], resid[k], cond[k], Q[k] = s.iterations, s.residual, s.pivot, s.q
                 if trace:
                     data.trace.append((times[k], "instant", s.iterations, s.residual, f"pivot ratio {s.pivot:.3e}"))

@@ -5,6 +5,7 @@ Jacobian), 2 bad input (case file, arguments), 3 internal error. Errors are
 one line on standard error, never a traceback (set KINEM_DEBUG=1 for one).
 """
 import argparse
+import errno
 import json
 import os
 import sys
@@ -16,7 +17,8 @@ from .result import OUTPUTS
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):
-        raise InputError(f"{self.prog}: {message}")
+        command = self.prog.removeprefix("kinem").strip()   # "solve", or "" for kinem itself
+        raise InputError(f"{command}: {message}" if command else message)
 
 
 def _load(path, end=None, steps=None):
@@ -38,40 +40,142 @@ def _outputs(text):
     return tuple(items)
 
 
+# Work (output instants x coordinates) above which ``solve`` refuses to start
+# unless --max-work raises it: a few minutes of solving and writing on one
+# core (the slider-crank's 12 coordinates: about 4e6 output steps; measured
+# in docs/benchmarks.md, "Long runs and output"). Memory does not limit it: output is
+# streamed (kinem.stream).
+MAX_WORK = 5e7
+
+
+def _flush():
+    """Standard output flushed here, where its errors (a closed pipe, a full
+    device) are reported in one line, not at interpreter exit."""
+    try:
+        sys.stdout.flush()
+    except OSError:
+        _quiet_stdout()
+        raise
+
+
+def _quiet_stdout():
+    """After a failed write to standard output, the interpreter's own flush
+    at exit would print a traceback: point the descriptor at /dev/null (dup2
+    onto descriptor 1; the device is opened, never replaced)."""
+    try:
+        fd = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(fd, sys.stdout.fileno())
+        os.close(fd)
+    except (OSError, ValueError):
+        pass
+
+
 def cmd_solve(a):
-    from .analysis import solve
-    from .output import csv_text, write_trajectory
+    from . import stream
+    from .output import Output, TrajectoryWriter
 
-    fmt = a.format or ("npz" if a.out and a.out.endswith(".npz") else "csv")
-    if fmt == "npz" and not a.out:
-        raise InputError("--format npz needs --out FILE")
+    fmt = _format(a.out, a.format)
+    outputs = _outputs(a.outputs)
     model = _load(a.case, a.end, a.steps)
-    r = solve(model, _outputs(a.outputs), trace=a.diagnostics is not None)
-    if a.diagnostics is not None:
-        _write_trace(r, a.diagnostics)
-    if not r.success:
-        raise AnalysisError(f"{a.case}: {r.message}")
-    if a.out:
-        write_trajectory(r.trajectory, a.out, fmt)
-    else:
-        sys.stdout.write(csv_text(r.trajectory))
-    return 0
+    limit = MAX_WORK if a.max_work is None else a.max_work
+    nt = model.case.steps + 1
+    if stream.work(model) > limit:
+        raise InputError(f"{a.case}: {nt:,} output instants x {model.n} coordinates = {stream.work(model):.3g} "
+                         f"exceeds the work limit {limit:.3g}; raise it with --max-work, or fewer --steps")
+    from .analysis import check_square
+
+    check_square(model)
+    bar = None
+    if sys.stderr.isatty() and nt > stream.PROGRESS_INSTANTS:
+        from .report.progress import Progress
+
+        bar = Progress(nt)
+    size = stream.chunk_size(model, outputs, nt, progress=bar is not None)
+    with Output(a.out or "-") as out, _Trace(a.diagnostics) as trace:
+        writer, held = None, None
+
+        def on_chunk(traj):
+            # one chunk is held back: a run that fails in its first chunk writes nothing
+            # without --partial, even where writing cannot be taken back (standard output)
+            nonlocal writer, held
+            if held is not None:
+                if writer is None:
+                    writer = TrajectoryWriter(out, held.columns, fmt)
+                writer.add(held.t, held.data)
+            held = traj
+
+        def progress(done, t):
+            bar.done = done
+            bar.show(f"t = {t:.6g} of {model.case.end:.6g}")
+
+        try:
+            o = stream.run(model, outputs, on_chunk, trace.add if trace else None,
+                           progress if bar else None, size)
+        finally:
+            if bar:
+                bar.close()
+        if trace:
+            trace.finish(o.events)
+        kept = ""
+        if o.success or (held is not None and (a.partial or writer is not None and out.in_place)):
+            on_chunk(None)
+            writer.finish(None if o.success else o.message)   # a failed run's instants: marked partial
+            out.commit()
+            if o.success:
+                return 0
+            kept = f"; the {o.instants} instants solved are in {a.out or 'standard output'}, marked partial"
+    raise AnalysisError(f"{a.case}: {o.message}{kept}")
 
 
-def _write_trace(r, target):
-    """The full trace as CSV: every Newton iteration, rejected sub-step and
-    instant, then the events (singular configurations passed)."""
-    from .output import write_atomic
+def _format(out, fmt):
+    """--format, or the one --out's suffix names (csv by default); they must agree."""
+    suffix = Path(out).suffix.lower().lstrip(".") if out and out != "-" else ""
+    if fmt and suffix in ("csv", "npz") and suffix != fmt:
+        raise InputError(f"--format {fmt} does not match --out {out}: expected a .{fmt} file name, "
+                         f"or --format {suffix}")
+    fmt = fmt or (suffix if suffix in ("csv", "npz") else "csv")
+    if fmt == "npz" and (not out or out == "-"):
+        raise InputError("--format npz needs --out FILE")
+    return fmt
 
-    lines = ["t,what,iteration,scaled_residual,detail"]
-    lines += [f"{t:.17g},{what},{it},{res:.6e},\"{str(detail).replace(chr(34), chr(39))}\""
-              for t, what, it, res, detail in r.trace]
-    lines += [f"{t:.17g},event,,,\"{text.replace(chr(34), chr(39))}\"" for t, text in r.events]
-    text = "\n".join(lines) + "\n"
-    if target == "-":
-        sys.stderr.write(text)
-    else:
-        write_atomic(target, lambda f: f.write(text.encode()))
+
+class _Trace:
+    """--diagnostics: the full trace as CSV, every Newton iteration, rejected
+    sub-step and instant, then the events (singular configurations passed);
+    to FILE or, with '-', standard error. Written chunk by chunk."""
+
+    def __init__(self, target):
+        self.target, self.out = target, None
+
+    def __enter__(self):
+        from .output import Output
+
+        if self.target is None:
+            return None
+        if self.target != "-":
+            self.out = Output(self.target)
+        self._write("t,what,iteration,scaled_residual,detail\n")
+        return self
+
+    def _write(self, text):
+        if self.out is None:
+            sys.stderr.write(text)
+        else:
+            self.out.write(text.encode())
+
+    def add(self, records):
+        self._write("".join(f"{t:.17g},{what},{it},{res:.6e},\"{str(detail).replace(chr(34), chr(39))}\"\n"
+                            for t, what, it, res, detail in records))
+
+    def finish(self, events):
+        self._write("".join(f"{t:.17g},event,,,\"{text.replace(chr(34), chr(39))}\"\n" for t, text in events))
+        if self.out is not None:
+            self.out.commit()
+
+    def __exit__(self, *exc):
+        if self.out is not None:
+            self.out.close()
+        return False
 
 
 def cmd_info(a):
@@ -175,8 +279,12 @@ def cmd_report(a):
 
 
 def parser():
-    p = _Parser(prog="kinem", description="Planar kinematics in Cartesian coordinates (Nikravesh, Ch. 4).")
-    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    from . import __version__
+
+    p = _Parser(prog="kinem", description="Planar kinematics in Cartesian coordinates (Nikravesh, Ch. 4).",
+                epilog="kinem COMMAND --help for a command's options; README.md and docs/ for more.")
+    p.add_argument("--version", action="version", version=f"kinem {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
 
     s = sub.add_parser("solve", help="solve a case; write its trajectory")
     s.add_argument("case")
@@ -189,6 +297,11 @@ def parser():
                    help="write the full trace (Newton iterations, rejected sub-steps, conditioning) as CSV "
                         "to FILE, or to standard error")
     _errors_option(s)
+    s.add_argument("--partial", action="store_true",
+                   help="when the analysis fails, still write the instants solved, marked partial "
+                        "(CSV: a last line '# partial: REASON'; NPZ: arrays partial and message)")
+    s.add_argument("--max-work", type=float, metavar="N",
+                   help=f"refuse runs above N output instants x coordinates (default {MAX_WORK:g})")
     s.set_defaults(run=cmd_solve)
 
     i = sub.add_parser("info", help="coordinates, equations, Jacobian non-zeros, degrees of freedom")
@@ -247,13 +360,52 @@ def _scheduler_option(p):
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run on the workers of this Dask distributed scheduler (e.g. tcp://host:8786) "
                         "instead of local processes")
+    p.add_argument("--timeout", type=float, metavar="SECONDS", action=_Timeout,
+                   help="with --scheduler: stop the run after this long (default 6 h; kinem/parallel.py)")
+
+
+class _Timeout(argparse.Action):
+    """--timeout sets kinem.parallel.RUN_TIMEOUT for this command."""
+
+    def __call__(self, parser, namespace, value, option_string=None):
+        from . import parallel
+
+        if not value > 0:
+            raise InputError(f"--timeout: got {value}; expected a positive number of seconds")
+        parallel.RUN_TIMEOUT = value
+        setattr(namespace, self.dest, value)
 
 
 def main(argv=None) -> int:
+    import signal
+
+    def terminate(signum, frame):  # clean up (temporary files) as for Ctrl-C, then exit 128 + signal
+        raise SystemExit(128 + signum)
+
+    handled = [s for s in (getattr(signal, "SIGTERM", None), getattr(signal, "SIGHUP", None)) if s is not None]
+    try:
+        previous = {s: signal.signal(s, terminate) for s in handled}
+    except ValueError:   # not the main thread: leave the signals alone
+        previous = {}
+    try:
+        return _main(argv)
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, h)
+
+
+def _main(argv) -> int:
     a = None
     try:
-        a = parser().parse_args(argv)
-        return a.run(a)
+        p = parser()
+        a = p.parse_args(argv)
+        if a.command is None:   # bare kinem: the usage
+            p.print_help()
+            _flush()
+            return 0
+        code = a.run(a)
+        _flush()
+        return code
     except InputError as e:
         if getattr(a, "errors", None) == "all":
             for problem in e.problems:
@@ -264,13 +416,27 @@ def main(argv=None) -> int:
     except AnalysisError as e:
         print(f"kinem: analysis failed: {e}", file=sys.stderr)
         return 1
-    except KinemError as e:
+    except KinemError as e:   # OutputError among them: a write that failed
         print(f"kinem: error: {e}", file=sys.stderr)
+        try:
+            sys.stdout.flush()
+        except OSError:
+            _quiet_stdout()
         return 1
     except KeyboardInterrupt:
         return 130
+    except OSError as e:
+        if e.errno in (errno.EPIPE, errno.ENOSPC, errno.EIO, errno.EDQUOT, errno.EFBIG):  # print() to stdout
+            print(f"kinem: error: standard output: write failed: {e.strerror}", file=sys.stderr)
+            _quiet_stdout()
+            return 1
+        return _internal(e)
     except Exception as e:  # noqa: BLE001 - one line, never a traceback
-        if os.environ.get("KINEM_DEBUG"):
-            raise
-        print(f"kinem: internal error: {type(e).__name__}: {e}", file=sys.stderr)
-        return 3
+        return _internal(e)
+
+
+def _internal(e) -> int:
+    if os.environ.get("KINEM_DEBUG"):
+        raise e
+    print(f"kinem: internal error: {type(e).__name__}: {e}", file=sys.stderr)
+    return 3

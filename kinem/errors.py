@@ -47,6 +47,11 @@ class AnalysisError(KinemError):
     """An analysis that could not finish."""
 
 
+class OutputError(KinemError):
+    """An output that could not be written (disk full, broken pipe): exit code 1.
+    A bad output path (a missing directory, no permission) is an InputError."""
+
+
 class ConvergenceError(AnalysisError):
     """Newton-Raphson did not reach the tolerance."""
 

@@ -63,7 +63,7 @@ def preload(model, block: bool = False) -> None:
     if model.sparse or model.m > model.n:
         import scipy.sparse.linalg  # noqa: F401
     import scipy.linalg.lapack  # noqa: F401
-    q, t = model.q0, float(model.times[0])
+    q, t = model.q0, 0.0  # the first output instant (not model.times: a long run's times are many)
     model.jacobian(q, t)
     model.gamma(q, q, t)
     model.phi(q, t)

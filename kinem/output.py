@@ -1,41 +1,330 @@
-"""Writing trajectories: CSV (header of column names, one row per instant,
-17 significant digits) or NPZ (arrays t, data, columns). Files are written to
-a temporary file beside the target and renamed into place, so a failed or
-interrupted run never leaves a partial file."""
+"""Writing outputs without ever harming what is at the target path.
+
+``Output(path)`` is where one output goes:
+
+- a regular file, or a path that does not exist yet: written to an unnamed
+  temporary file in the target's directory (Linux ``O_TMPFILE``: it has no
+  name, so even SIGKILL leaves nothing behind) and linked into place on
+  ``commit`` (a new path: one link; an existing file: a link under a
+  temporary name renamed over it, the only moment a name exists); elsewhere a named temporary file beside the target, renamed into
+  place, and removed on any error or signal Python can catch (the command line
+  turns SIGTERM and SIGHUP into an exit for that). Either way the target holds
+  the old content or the new, never a part.
+- a device (``/dev/null``, ``/dev/full``), a FIFO or a socket, and ``-``
+  (standard output): written in place, never replaced.
+- a symbolic link: followed; its target is written as above and the link stays.
+
+Errors name the target path: ``InputError`` (exit code 2) for a bad path
+(missing directory, a directory, no permission), ``OutputError`` (exit code 1)
+for a write that failed (disk full, broken pipe).
+
+Trajectories: CSV (a header of column names, one row per instant, each number
+in the shortest form that reads back to the same double) or NPZ (arrays t,
+data, columns; ``partial`` and ``message`` when a failed run's instants were
+kept). Both are written chunk by chunk (``TrajectoryWriter``).
+"""
+import errno
 import io
 import os
-import tempfile
-from pathlib import Path
+import secrets
+import stat
+import sys
+import zipfile
 
 import numpy as np
 
+from .errors import InputError, OutputError
 
-def csv_text(traj) -> str:
-    buf = io.StringIO()
-    buf.write(",".join(("t",) + traj.columns) + "\n")
-    np.savetxt(buf, np.column_stack([traj.t, traj.data]), fmt="%.17g", delimiter=",")
-    return buf.getvalue()
+# errno values that mean the path is wrong (exit 2), not that a write failed
+_BAD_PATH = {errno.ENOENT, errno.ENOTDIR, errno.EISDIR, errno.EACCES, errno.EPERM, errno.EROFS,
+             errno.ENAMETOOLONG, errno.ELOOP, errno.ETXTBSY}
+
+
+def _reason(e: OSError) -> str:
+    return e.strerror or type(e).__name__
+
+
+def bad_path(path, e: OSError) -> Exception:
+    """The error for an OSError about path: InputError for a bad path, else OutputError."""
+    cls = InputError if e.errno in _BAD_PATH else OutputError
+    return cls(f"{path}: {'cannot write' if cls is InputError else 'write failed'}: {_reason(e)}")
+
+
+def _temporary_name(path):
+    return os.path.join(os.path.dirname(path), f".{os.path.basename(path)}.{secrets.token_hex(4)}.tmp")
+
+
+def _link_fd(fd, path):
+    """Gives the unnamed file open as fd the name path: linkat(2) with
+    AT_EMPTY_PATH, else through /proc/self/fd (as open(2) describes)."""
+    import ctypes
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    if libc.linkat(fd, b"", _AT_FDCWD, os.fsencode(path), _AT_EMPTY_PATH) == 0:
+        return
+    code = ctypes.get_errno()
+    if code == errno.EEXIST:
+        raise FileExistsError(code, os.strerror(code), path)
+    os.link(f"/proc/self/fd/{fd}", path, follow_symlinks=True)
+
+
+_AT_FDCWD, _AT_EMPTY_PATH = -100, 0x1000
+_UNNAMED = {}   # st_dev of a directory -> whether unnamed files can be linked there
+
+
+def _links_unnamed(directory) -> bool:
+    """Whether an O_TMPFILE file made in directory can be linked into it:
+    Linux, a file system that supports it, and a linkat that works (tried
+    once per file system, with a probe file that is unlinked at once)."""
+    if not hasattr(os, "O_TMPFILE") or sys.platform != "linux":
+        return False
+    dev = os.stat(directory).st_dev
+    if dev not in _UNNAMED:
+        ok = False
+        try:
+            fd = os.open(directory, os.O_TMPFILE | os.O_WRONLY | os.O_CLOEXEC, 0o600)
+        except OSError as e:
+            if e.errno in (errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOSPC):
+                return False  # about this directory, not the file system: not remembered
+            fd = None
+        if fd is not None:
+            probe = os.path.join(directory, f".kinem-probe.{secrets.token_hex(6)}")
+            try:
+                _link_fd(fd, probe)
+                os.unlink(probe)
+                ok = True
+            except (OSError, AttributeError):
+                pass
+            finally:
+                os.close(fd)
+        _UNNAMED[dev] = ok
+    return _UNNAMED[dev]
+
+
+class Output:
+    """One output target; ``file`` is a binary file object. Use as a context
+    manager and call ``commit()`` when the content is complete: leaving the
+    block without it discards the new content (the target keeps the old)."""
+
+    def __init__(self, path):
+        self.path = str(path)
+        self.file, self._tmp, self._tmp_name, self._real = None, False, None, None
+        if self.path == "-":
+            self.file = sys.stdout.buffer
+            return
+        try:
+            real = os.path.realpath(self.path)
+            try:
+                st = os.stat(real)
+            except FileNotFoundError:
+                st = None
+            if st is not None and stat.S_ISDIR(st.st_mode):
+                raise InputError(f"{self.path}: cannot write: is a directory")
+            if st is not None and not stat.S_ISREG(st.st_mode):
+                self.file = open(real, "wb", buffering=0)  # a device, FIFO or socket: in place
+                return
+            directory = os.path.dirname(real)
+            if not os.path.isdir(directory):
+                raise InputError(f"{self.path}: cannot write: directory {os.path.dirname(self.path) or '.'} "
+                                 "does not exist")
+            self._real = real
+            self.file = self._temporary(directory)
+        except OSError as e:
+            raise bad_path(self.path, e) from None
+
+    def _temporary(self, directory):
+        if _links_unnamed(directory):
+            fd = os.open(directory, os.O_TMPFILE | os.O_WRONLY | os.O_CLOEXEC, 0o666)  # the umask applies
+            self._tmp = True
+            return os.fdopen(fd, "wb")
+        # portable: a named temporary file, removed on error (see close)
+        name = _temporary_name(self._real)
+        fd = os.open(name, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o666)
+        self._tmp, self._tmp_name = True, name
+        return os.fdopen(fd, "wb")
+
+    @property
+    def in_place(self) -> bool:
+        """Written in place (standard output, a device, a FIFO): what is
+        written cannot be taken back."""
+        return not self._tmp
+
+    def write(self, data: bytes) -> None:
+        try:
+            self.file.write(data)
+        except OSError as e:
+            raise self.error(e) from None
+
+    def error(self, e: OSError):
+        where = "standard output" if self.path == "-" else self.path
+        return OutputError(f"{where}: write failed: {_reason(e)}")
+
+    def commit(self) -> None:
+        """Make the content written so far the target's content."""
+        try:
+            self.file.flush()
+            if not self._tmp:
+                return
+            if self._tmp_name is None:
+                self._link(self.file.fileno())
+            else:
+                os.replace(self._tmp_name, self._real)
+                self._tmp_name = None
+        except OSError as e:
+            raise self.error(e) from None
+        finally:
+            self.close()
+
+    def _link(self, fd):
+        try:  # a new path: one atomic link, nothing else to clean up
+            _link_fd(fd, self._real)
+            return
+        except FileExistsError:
+            pass
+        # an existing regular file: link under a temporary name, rename over it
+        name = _temporary_name(self._real)
+        _link_fd(fd, name)
+        try:
+            os.replace(name, self._real)
+        except BaseException:
+            os.unlink(name)
+            raise
+
+    def close(self):
+        if self.file is not None and self.path != "-":
+            try:
+                self.file.close()
+            except OSError:
+                pass
+        if self._tmp_name is not None:
+            try:
+                os.unlink(self._tmp_name)
+            except OSError:
+                pass
+            self._tmp_name = None
+        self.file = None
+
+    discard = close
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        if self.path == "-" and self.file is not None:
+            try:
+                self.file.flush()
+            except OSError as e:
+                if exc[0] is None:
+                    raise self.error(e) from None
+        self.close()
+        return False
 
 
 def write_atomic(path, write) -> None:
-    """Calls write(binary file object) on a temporary file, then renames it to path."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent or ".")
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600: give the file the mode a plain open() would
-    try:
-        with os.fdopen(fd, "wb") as f:
-            write(f)
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
+    """Calls write(binary file object) and commits it (see Output)."""
+    with Output(path) as out:
+        try:
+            write(out.file)
+        except OSError as e:
+            raise out.error(e) from None
+        out.commit()
+
+
+# -- trajectories ---------------------------------------------------------------------------------
+
+def csv_rows(t, data) -> bytes:
+    """CSV rows of t and data, each number in its shortest round-trip form.
+    orjson formats a whole numpy array in compiled code (one fifth of
+    numpy.savetxt's %.17g cost per row of 48 columns: benchmarks/output_bench.py);
+    the rows are cut out of its nested list by the positions of ']'. It writes
+    NaN and infinity as null, so arrays with those go through Python's repr."""
+    block = np.column_stack([t, data]) if len(data) else np.asarray(t, dtype=float)[:, None]
+    if not len(block):
+        return b""
+    if np.isfinite(block).all():
+        import orjson
+
+        text = orjson.dumps(np.ascontiguousarray(block), option=orjson.OPT_SERIALIZE_NUMPY)
+        ends = np.flatnonzero(np.frombuffer(text, np.uint8) == ord("]"))[:-1]   # each row's ']'
+        starts = np.r_[2, ends[:-1] + 3]                                         # after '[[' or '],['
+        return b"\n".join([text[i:j] for i, j in zip(starts.tolist(), ends.tolist())]) + b"\n"
+    return "".join(",".join(map(repr, row)) + "\n" for row in block.tolist()).encode()
+
+
+def csv_header(columns) -> bytes:
+    return (",".join(("t",) + tuple(columns)) + "\n").encode()
+
+
+def csv_text(traj) -> str:
+    return (csv_header(traj.columns) + csv_rows(traj.t, traj.data)).decode()
+
+
+class TrajectoryWriter:
+    """Writes a trajectory chunk by chunk to an Output: ``add(t, data)`` per
+    chunk, then ``finish(partial_message=None)``. CSV rows go straight out;
+    NPZ rows go to an unnamed temporary file first (the .npy header needs the
+    row count) and are copied into the archive at the end."""
+
+    def __init__(self, out: Output, columns, fmt="csv"):
+        self.out, self.columns, self.fmt, self.rows = out, tuple(columns), fmt, 0
+        if fmt == "csv":
+            out.write(csv_header(self.columns))
+        else:
+            import tempfile
+
+            directory = os.path.dirname(out._real) if out._real else None
+            self._t, self._data = [], tempfile.TemporaryFile(dir=directory)
+
+    def add(self, t, data) -> None:
+        self.rows += len(t)
+        if self.fmt == "csv":
+            self.out.write(csv_rows(t, data))
+        else:
+            self._t.append(np.array(t, dtype=float))
+            try:
+                self._data.write(np.ascontiguousarray(data, dtype=float).tobytes())
+            except OSError as e:
+                raise self.out.error(e) from None
+
+    def finish(self, partial_message=None) -> None:
+        """Completes the content; with partial_message the output is marked as
+        holding only the instants solved (CSV: a last line '# partial: ...')."""
+        if self.fmt == "csv":
+            if partial_message is not None:
+                self.out.write(f"# partial: {' '.join(partial_message.split())}\n".encode())
+            return
+        try:
+            self._write_npz(partial_message)
+        except OSError as e:
+            raise self.out.error(e) from None
+        finally:
+            self._data.close()
+
+    def _write_npz(self, partial_message):
+        fmt = np.lib.format
+        arrays = {"t": np.concatenate(self._t) if self._t else np.empty(0),
+                  "columns": np.array(self.columns)}
+        if partial_message is not None:
+            arrays.update(partial=np.array(True), message=np.array(partial_message))
+        sink = self.out.file if self.out.path != "-" else io.BytesIO()
+        with zipfile.ZipFile(sink, "w", allowZip64=True) as z:
+            for name, a in arrays.items():
+                with z.open(name + ".npy", "w", force_zip64=True) as f:
+                    fmt.write_array(f, a)
+            with z.open("data.npy", "w", force_zip64=True) as f:
+                header = {"descr": fmt.dtype_to_descr(np.dtype(float)), "fortran_order": False,
+                          "shape": (self.rows, len(self.columns))}
+                fmt.write_array_header_2_0(f, header)
+                self._data.seek(0)
+                while chunk := self._data.read(1 << 22):
+                    f.write(chunk)
+        if sink is not self.out.file:
+            self.out.write(sink.getvalue())
 
 
 def write_trajectory(traj, path, fmt="csv") -> None:
-    if fmt == "csv":
-        text = csv_text(traj).encode()
-        write_atomic(path, lambda f: f.write(text))
-    else:
-        write_atomic(path, lambda f: np.savez(f, t=traj.t, data=traj.data, columns=np.array(traj.columns)))
+    with Output(path) as out:
+        w = TrajectoryWriter(out, traj.columns, fmt)
+        w.add(traj.t, traj.data)
+        w.finish()
+        out.commit()

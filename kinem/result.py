@@ -48,6 +48,11 @@ class Trajectory:
     def __len__(self) -> int:
         return len(self.t)
 
+    def __repr__(self) -> str:
+        span = f", t {self.t[0]:.6g} to {self.t[-1]:.6g}" if len(self.t) else ""
+        names = ", ".join(self.columns[:4]) + (", ..." if len(self.columns) > 4 else "")
+        return f"Trajectory({len(self.t)} instants{span}, {len(self.columns)} columns: {names})"
+
 
 @dataclass(frozen=True, eq=False)
 class SolveResult:
@@ -69,6 +74,10 @@ class SolveResult:
     wall_time: float                 # seconds in the analysis loop
     t_fail: float | None = None
     failed_constraint: str | None = None
+
+    def __repr__(self) -> str:
+        return (f"SolveResult(success={self.success}, status={self.status.name}, message={self.message!r}, "
+                f"trajectory={self.trajectory!r}, wall_time={self.wall_time:.3g} s)")
 
 
 def trajectory(model, t, Q, QD=None, QDD=None) -> Trajectory:

@@ -161,9 +161,9 @@ class Tracker:
         return s
 
     # -- the march ---------------------------------------------------------------
-    def start(self, t) -> State:
+    def start(self, t, q0=None) -> State:
         try:
-            s = self.settle(t, self.model.q0.copy())
+            s = self.settle(t, (self.model.q0 if q0 is None else q0).copy())
         except AnalysisError as e:
             raise type(e)(f"{e}{self.count_problem(self.data.q, t)}") from None
         if s.det == 0:

@@ -296,3 +296,34 @@ def test_stress_section(tmp_path):
     assert outcomes["slider_dead_centre"] == "singular-detected" and outcomes["change_point"] == "accurate"
     assert "<h2>Stress suite</h2>" in (tmp_path / "o" / "index.html").read_text()
     assert "native met every expectation" in (tmp_path / "o" / "summary.md").read_text()
+
+
+def test_report_directory_is_consistent_through_its_manifest(report, tmp_path, monkeypatch):
+    """manifest.json is written last and lists every file with its hash: a
+    report directory is whole only when it matches (docs/report.md). A run
+    interrupted part-way (here: the third file's write fails) leaves no
+    manifest, so old and new files mixed are not taken for a report."""
+    from kinem import report as rep
+    from kinem.errors import OutputError
+
+    outcome, out = report
+    listed = json.loads((out / "manifest.json").read_text())["files"]
+    assert set(listed) == {"results.json", "summary.md", "index.html", "junit.xml"}
+    assert rep.complete(out)
+    target = tmp_path / "r"
+    rep.write_outputs(target, {"results.json": "old", "summary.md": "old", "index.html": "old"})
+    assert rep.complete(target)
+    real = rep._write
+
+    def failing(path, body):
+        if path.name == "index.html":
+            raise OutputError(f"{path}: write failed: No space left on device")
+        return real(path, body)
+
+    monkeypatch.setattr(rep, "_write", failing)
+    with pytest.raises(OutputError):
+        rep.write_outputs(target, {"results.json": "new", "summary.md": "new", "index.html": "new"})
+    assert (target / "results.json").read_text() == "new" and (target / "index.html").read_text() == "old"
+    assert not rep.complete(target)               # the mix is detectable
+    (target / "manifest.json").write_text(json.dumps({"files": {"index.html": {"sha256": "0" * 64}}}))
+    assert not rep.complete(target)               # a file that does not match its manifest

@@ -77,8 +77,7 @@ def run(o: Options) -> Outcome:
              "index.html": html.index_html(doc, sections)}
     if o.junit:
         files["junit.xml"] = text.junit_xml(doc)
-    out.mkdir(parents=True, exist_ok=True)
-    written = [_write(out / name, body) for name, body in files.items()]
+    written = write_outputs(out, files)
     if o.update_baseline:
         written.append(_write(target, files["results.json"]))
     code = _exit_code(doc, o)
@@ -113,6 +112,45 @@ def _load_cases(paths):
 
 def _workers(w):
     return (os.cpu_count() or 1) if w is None else w
+
+
+MANIFEST = "manifest.json"
+
+
+def write_outputs(out: Path, files: dict) -> list:
+    """Writes the report's files into out so that the set is consistent as a
+    whole: the old manifest.json is removed first, every file is written
+    atomically, and manifest.json (each file's name, size and SHA-256) is
+    written last. A reader checks it (``complete``): no manifest, or a file
+    that does not match it, means an interrupted or failed run."""
+    import hashlib
+    import json
+
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        (out / MANIFEST).unlink(missing_ok=True)
+    except OSError as e:
+        raise InputError(f"--out {out}: cannot write: {e.strerror}") from None
+    data = {name: body.encode("utf-8") for name, body in files.items()}
+    written = [_write(out / name, body) for name, body in files.items()]
+    manifest = {"files": {name: {"bytes": len(b), "sha256": hashlib.sha256(b).hexdigest()}
+                          for name, b in data.items()}}
+    _write(out / MANIFEST, json.dumps(manifest, indent=1) + "\n")
+    return written
+
+
+def complete(out) -> bool:
+    """Whether out holds one whole report: its manifest.json and every file it
+    lists, each with the size and SHA-256 recorded."""
+    import hashlib
+    import json
+
+    try:
+        listed = json.loads((Path(out) / MANIFEST).read_text())["files"]
+        return all(hashlib.sha256((Path(out) / name).read_bytes()).hexdigest() == f["sha256"]
+                   for name, f in listed.items())
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
 
 
 def _write(path, body) -> str:

@@ -1,0 +1,87 @@
+"""A long run in pieces, so that memory is bounded whatever the number of
+output instants (``kinem solve``).
+
+The output instants are cut into chunks of about CHUNK_VALUES numbers; each
+chunk is one ``kinem.solve`` over its instants, started from the state the
+previous chunk ended at (its last instant is the next chunk's first, solved
+again from the converged state in no Newton iteration and not repeated in the
+output). Each chunk's trajectory goes to ``on_chunk`` and is dropped.
+A run of one chunk is exactly ``solve(model, outputs)``.
+"""
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+# Values (instants x columns) held per chunk: 1e6 doubles is 8 MB per array
+# (trajectory, coordinates, rates, CSV text), a few of which are alive at once.
+CHUNK_VALUES = 1_000_000
+# Progress is shown (on a terminal) for runs of more than this many instants,
+# in at least PROGRESS_UPDATES chunks.
+PROGRESS_INSTANTS = 20_000
+PROGRESS_UPDATES = 50
+
+
+@dataclass(frozen=True)
+class Outcome:
+    success: bool
+    message: str
+    instants: int          # instants solved
+    events: tuple          # (t, text) singular configurations passed
+
+
+def work(model, instants=None) -> int:
+    """The estimated work of a run: output instants x coordinates."""
+    return (model.case.steps + 1 if instants is None else instants) * model.n
+
+
+def chunk_size(model, outputs, instants, progress=False) -> int:
+    columns = 1 + (model.n + 2 * len(model.point_names)) * max(len(outputs), 1)
+    size = max(1000, CHUNK_VALUES // columns)
+    if progress:
+        size = min(size, max(1000, -(-instants // PROGRESS_UPDATES)))
+    return size
+
+
+def run(model, outputs, on_chunk, trace=None, progress=None, size=None) -> Outcome:
+    """Solves the case's output instants chunk by chunk: on_chunk(result) for
+    each chunk's SolveResult (overlapping instant removed), trace(records) for
+    each chunk's trace when given, progress(instants done, t) after each."""
+    from .analysis import solve
+
+    case = model.case
+    nt, h = case.steps + 1, case.end / case.steps
+    size = size or chunk_size(model, outputs, nt)
+    k, q0, events = 0, None, []
+    while k < nt:
+        first = max(k - 1, 0)                       # the overlap: the last instant solved
+        times = np.arange(first, min(k + size, nt)) * h   # the same values as case.times
+        r = solve(model, outputs, times=times, trace=trace is not None, q0=q0)
+        skip = k - first
+        t0 = times[0] if skip else -np.inf
+        if trace is not None:
+            trace([rec for rec in r.trace if rec[0] > t0])
+        events += [e for e in r.events if e[0] > t0]
+        done = len(r.trajectory) - skip
+        if done > 0:
+            on_chunk(_tail(r, skip))
+        if not r.success:
+            message = re.sub(r"\(instant (\d+) of \d+\)",
+                             lambda m: f"(instant {int(m.group(1)) + first} of {nt - 1})", r.message, count=1)
+            return Outcome(False, message, k + max(done, 0), tuple(events))
+        k += done
+        q0 = r.q[-1]
+        if progress is not None:
+            progress(k, float(times[-1]))
+    return Outcome(True, "all instants solved", nt, tuple(events))
+
+
+def _tail(r, skip):
+    """The result's trajectory without its first ``skip`` instants."""
+    if not skip:
+        return r.trajectory
+    from .result import Trajectory
+
+    tr = r.trajectory
+    return Trajectory(tr.t[skip:], tr.columns, tr.data[skip:])
+
