@@ -288,11 +288,115 @@ def test_stress_section(tmp_path):
     """The quick stress suite on native: in results.json (valid against the
     schema), as a table in index.html and a line in summary.md."""
     case = short_case(tmp_path, "four_bar", 0.1, steps=5)
-    out = run(Options(cases=(case,), engines=(), out=str(tmp_path / "o"), quick=True, workers=0, progress=False))
+    out = run(Options(cases=(case,), engines=(), out=str(tmp_path / "o"), quick=True, workers=0, progress=False,
+                      stress=True))
     doc = json.loads((tmp_path / "o" / "results.json").read_text())
     assert problems(doc, SCHEMA) == [] and out.exit_code == 0
+    assert doc["options"]["stress"] == "--stress"
     assert doc["stress"]["native_misses"] == []
     outcomes = {r["scenario"]: r["outcome"] for r in doc["stress"]["rows"]}
     assert outcomes["slider_dead_centre"] == "singular-detected" and outcomes["change_point"] == "accurate"
     assert "<h2>Stress suite</h2>" in (tmp_path / "o" / "index.html").read_text()
     assert "native met every expectation" in (tmp_path / "o" / "summary.md").read_text()
+
+
+def test_stress_runs_only_when_asked_or_for_the_whole_set(report):
+    """A report on the user's own case files leaves the stress suite out."""
+    doc = report[0].doc
+    assert "stress" not in doc and doc["options"]["stress"] is None and doc["options"]["whole_set"] is False
+    assert "Stress suite" not in (report[1] / "index.html").read_text()
+
+
+def _narrowed(doc, whole_set=False, quick=False, engines=("pymunk",)):
+    return dict(doc, options=dict(doc["options"], whole_set=whole_set, quick=quick, engines=list(engines)))
+
+
+def test_gate_fails_on_runs_the_baseline_has_and_the_run_lacks(report):
+    """No blind spots: a baseline case, engine or sweep point missing from the
+    run fails the gate unless the run was narrowed on purpose, and is listed
+    in not_compared either way."""
+    base = report[0].doc
+    name = base["cases"][0]["name"]
+    fewer_cases = dict(base, cases=base["cases"][1:])
+    found, g = _regressions(_narrowed(fewer_cases, whole_set=True), base)   # the whole set, a case gone
+    assert [(f[0], f[3]) for f in found] == [(name, "missing")] and g["regressions"] == 1
+    found, g = _regressions(_narrowed(fewer_cases), base)                   # case files given: narrowed
+    assert found == [] and name in g["not_compared"][0]
+    no_engine = copy.deepcopy(base)
+    for c in no_engine["cases"]:
+        c["runs"] = c["runs"][:1]
+        c["work_precision"]["curves"] = c["work_precision"]["curves"][:1]
+    found, g = _regressions(_narrowed(no_engine, engines=("pymunk",)), base)   # pymunk was asked for
+    assert {(f[1], f[3]) for f in found} == {("pymunk", "missing")}
+    assert g["verdicts"][f"{name}/pymunk"].startswith("REGRESSED")
+    found, g = _regressions(_narrowed(no_engine, engines=()), base)            # --engines without it
+    assert found == [] and any(line.startswith("engine pymunk (--engines)") for line in g["not_compared"])
+    fewer_points = copy.deepcopy(base)
+    curve = fewer_points["cases"][0]["work_precision"]["curves"][0]
+    curve["points"] = curve["points"][1:]
+    found, g = _regressions(_narrowed(fewer_points), base)
+    assert [f[3] for f in found] == ["missing"]
+    found, g = _regressions(_narrowed(fewer_points, quick=True), base)         # --quick: fewer points
+    assert found == [] and "work-precision point" in g["not_compared"][0]
+
+
+def test_non_finite_or_null_baseline_figures_are_rejected(tmp_path, report):
+    """A NaN (not JSON, but Python writes it) or a null error of an ok run
+    would switch its check off: both are input errors on read."""
+    text = results.dumps(report[0].doc)
+    p = tmp_path / "b.json"
+    p.write_text(text.replace('"position_error_rel": ' + json.dumps(report[0].doc["cases"][0]["runs"][1]
+                                                                    ["position_error_rel"]),
+                              '"position_error_rel": NaN', 1))
+    assert "NaN" in p.read_text()
+    with pytest.raises(InputError, match="non-finite number NaN"):
+        results.load(p)
+    doc = copy.deepcopy(report[0].doc)
+    doc["cases"][1]["runs"][0]["angle_error"] = None
+    doc["cases"][0]["work_precision"]["curves"][0]["points"][0]["error"] = None
+    p.write_text(results.dumps(doc))
+    with pytest.raises(InputError, match="angle_error is null in an ok run"):
+        results.load(p)
+    assert len(results.missing_figures(doc)) == 2
+
+
+def test_update_baseline_refuses_null_figures(tmp_path, monkeypatch):
+    """An ok run whose figure came out non-finite (stored as null) is not
+    written as a baseline: exit 1, the reason in the line, the report kept."""
+    import kinem.report.runs as runs
+
+    monkeypatch.setattr(runs, "_finite", lambda x: None)
+    case = short_case(tmp_path, "four_bar", 0.1, steps=5)
+    base = tmp_path / "base.json"
+    out = run(Options(cases=(case,), engines=(), out=str(tmp_path / "o"), quick=True, workers=0, progress=False,
+                      baseline=str(base), update_baseline=True))
+    assert out.exit_code == 1 and "baseline NOT written" in out.line and not base.exists()
+    assert (tmp_path / "o" / "index.html").exists()
+
+
+def test_cli_uses_the_baseline_in_out_by_default(tmp_path):
+    """Without --baseline the report gates against OUT/baseline.json when it
+    exists, and says so; --baseline none skips it."""
+    case = short_case(tmp_path, "slider_crank", 0.1, steps=5)
+    out = tmp_path / "out"
+    common = (case, "--engines", "native", "--quick", "--jobs", "1", "--out", out)
+    code, stdout, err = cli(*common)
+    assert code == 0 and "no baseline (none at" in stdout, err
+    code, stdout, err = cli(*common, "--update-baseline")
+    assert code == 0 and (out / "baseline.json").exists(), err
+    code, stdout, err = cli(*common)
+    assert code == 0 and "0 regressions" in stdout and "(default; --baseline none to skip)" in stdout, err
+    assert json.loads((out / "results.json").read_text())["gate"]["default"] is True
+    code, stdout, err = cli(*common, "--baseline", "none")
+    assert code == 0 and "no baseline;" in stdout, err
+
+
+def test_progress_says_what_it_waits_for():
+    import io
+
+    from kinem.report.progress import Progress, run_all
+
+    s = io.StringIO()
+    p = Progress(2, stream=s, enabled=True)
+    assert run_all(abs, [-1, -2], ["first", "second"], workers=0, bar=p) == [1, 2]
+    assert "waiting for first" in s.getvalue() and "2/2" in s.getvalue()

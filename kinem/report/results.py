@@ -13,7 +13,7 @@ from pathlib import Path
 from ..errors import InputError
 from .schema import SCHEMA, problems
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 PACKAGES = ("kinem", "numpy", "scipy", "matplotlib", "pymunk", "mujoco", "exudyn")
 WP_ERROR = "position_error_rel"      # the work-precision diagram's error
 WP_COST = "wall_per_sim_second"      # and its cost
@@ -103,17 +103,41 @@ def load(path, what="baseline"):
     except (OSError, UnicodeDecodeError) as e:
         raise InputError(f"{what} {path}: cannot read: {e}") from None
     try:
-        doc = json.loads(text)
+        doc = json.loads(text, parse_constant=_no_constant)
     except ValueError as e:
         raise InputError(f"{what} {path}: not JSON ({e}); expected a results.json of kinem report") from None
     version = doc.get("schema_version") if isinstance(doc, dict) else None
     if version != SCHEMA_VERSION:
         raise InputError(f"{what} {path}: schema_version {version!r}; expected {SCHEMA_VERSION} "
                          "(rewrite it with --update-baseline)")
-    bad = problems(doc, SCHEMA)
+    bad = problems(doc, SCHEMA) or missing_figures(doc)
     if bad:
         raise InputError([f"{what} {path}: {p}" for p in bad[:5]])
     return doc
+
+
+def _no_constant(name):
+    raise ValueError(f"non-finite number {name}; expected finite figures")
+
+
+def missing_figures(doc) -> list:
+    """Gated figures that are null where the run is ok (a NaN written as null
+    would switch its check off): 'where: problem' lines; empty when none."""
+    from .gate import GATED
+
+    out = []
+    for c in doc["cases"]:
+        for r in c["runs"]:
+            if r["status"] == "ok":
+                out += [f"cases.{c['name']}.runs.{r['engine']}: {k} is null in an ok run; expected a finite number"
+                        for k in GATED if r.get(k) is None]
+        for curve in (c.get("work_precision") or {}).get("curves", ()):
+            for p in curve["points"]:
+                if p["status"] == "ok":
+                    out += [f"cases.{c['name']}.work_precision.{curve['engine']}.{p['value']:g}: {k} is null in an "
+                            "ok point; expected a finite number" for k in ("error", "velocity_error_rel")
+                            if p.get(k) is None]
+    return out
 
 
 def machine() -> dict:

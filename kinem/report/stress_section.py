@@ -4,10 +4,14 @@ and one line into summary.md. Native missing its expected class fails the run.""
 from html import escape
 
 
-def run(engines, workers, scheduler) -> dict:
+def run(engines, workers, scheduler, bar=None) -> dict:
+    """The quick suite on native and engines (as kinem.stress.run), stepping bar."""
     from .. import stress
+    from .progress import run_all
 
-    rows = stress.run(("native",) + tuple(engines), quick=True, jobs=workers, scheduler=scheduler)
+    tasks = [(s, e) for s in stress.scenarios(quick=True) for e in ("native",) + tuple(engines)
+             if e == "native" or s.engines]
+    rows = run_all(stress.run_one, tasks, [f"stress {s.name} {e}" for s, e in tasks], workers, scheduler, bar)
     want = stress.expected(quick=True)
     misses = [f"{r['scenario']}: {r['outcome']}, expected {want[r['scenario']]}"
               for r in rows if r["engine"] == "native" and r["outcome"] != want[r["scenario"]]]
