@@ -14,7 +14,7 @@ from . import functions as fn
 from .constraints import REGISTRY, implemented_types
 from .errors import InputError
 from .outline import OPEN_BC, Outline
-from .spec import Body, Case, Constraint, Point, frozen_map
+from .spec import Body, Case, Constraint, Equivalence, Point, frozen_map
 
 MAX_FILE_BYTES = 16 * 2**20
 MAX_ARRAY = 100_000
@@ -23,7 +23,8 @@ MAX_MAGNITUDE = 1e12  # any length, angle or time beyond this is a mistake, and 
 NAME_RE = re.compile(r"^[a-z0-9_-]+$")
 IDENT_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*$")
 
-TOP_KEYS = ("name", "description", "units", "time", "solver", "bodies", "points", "constraints", "engines")
+TOP_KEYS = ("name", "description", "units", "time", "solver", "bodies", "points", "constraints", "engines",
+            "equivalent")
 ENGINES = ("pymunk", "mujoco", "exudyn")  # settings are checked against each adapter when it runs
 SOLVER_KEYS = ("tolerance", "max_iterations", "linear_solver", "jacobian_reuse", "block")
 LINEAR_SOLVERS = ("auto", "dense", "sparse")
@@ -153,11 +154,32 @@ class _Loader:
         points = self.points(data.get("points", {}), bodies)
         constraints = self.constraints(data.get("constraints", []), bodies, points, end)
         engines = self.engines(data.get("engines", {}))
+        equivalent = self.equivalent(data["equivalent"], points) if "equivalent" in data else None
         if self.problems:
             raise InputError(self.problems)
         return Case(name=name, bodies=tuple(bodies.values()), points=tuple(points.values()),
                     constraints=tuple(constraints), end=end, steps=steps, description=description,
-                    units=frozen_map(units), engines=frozen_map(engines), source=self.source, **solver)
+                    units=frozen_map(units), engines=frozen_map(engines), source=self.source,
+                    equivalent=equivalent, **solver)
+
+    def equivalent(self, e, points):
+        """[equivalent] group = "...", points = [named points that must coincide]."""
+        where = "[equivalent]"
+        if not isinstance(e, dict):
+            self.bad(where, None, f"got {_show(e)}", 'a table such as { group = "crank-shaper", points = ["A", "B"] }')
+            return None
+        if not self.keys(where, e, ("group", "points"), ("group", "points")):
+            return None
+        group = self.string(where, "group", e["group"], NAME_RE, "a group name of a-z, 0-9, '_' and '-'")
+        names = e["points"]
+        if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
+            self.bad(where, "points", f"got {_show(names)}", "a list of one or more named points")
+            return None
+        unknown = [n for n in names if n not in points]
+        if unknown:
+            self.bad(where, "points", f"unknown point(s) {', '.join(unknown)}", "points of [points]: " + _names(points))
+            return None
+        return Equivalence(group, tuple(dict.fromkeys(names))) if group else None
 
     def units(self, u):
         if not isinstance(u, dict):

@@ -116,7 +116,10 @@ def test_html_is_self_contained_and_lists_every_case(report):
         assert f'id="case-{case["name"]}"' in html
     assert html.count("data:image/png;base64,") >= 2 * 4  # mechanism, trajectories, errors, work-precision
     md = (out / "summary.md").read_text()
-    assert md.count("| slider_crank |") == 2 and md.count("| four_bar |") == 2
+    # the summary matrix: one row per case, one column per engine
+    assert md.count("| slider_crank |") == 1 and md.count("| four_bar |") == 1
+    assert "| case | native | pymunk |" in md and md.startswith("## kinem report\n\n**PASS: ")
+    assert html.count("<tr><th class=l><a href=\"#case-") == 2
     suite = ET.parse(out / "junit.xml").getroot().find("testsuite")
     assert len(suite.findall("testcase")) == 4 and suite.get("failures") == "0"
 
@@ -400,3 +403,81 @@ def test_progress_says_what_it_waits_for():
     p = Progress(2, stream=s, enabled=True)
     assert run_all(abs, [-1, -2], ["first", "second"], workers=0, bar=p) == [1, 2]
     assert "waiting for first" in s.getvalue() and "2/2" in s.getvalue()
+
+
+def test_native_rows_use_independent_references(report):
+    """Native's position error is against kinem.reference's closed form where
+    the case has one, and each row says what its figures are against."""
+    for case in report[0].doc["cases"]:
+        native, engine = case["runs"]
+        assert native["reference"].startswith(f"closed form kinem.reference.{case['name']}")
+        assert engine["reference"] == "native at the reference tolerance"
+        # the solver converges far below the case tolerance; 1e-12 L leaves room for rounding in the closed form
+        assert native["position_error_rel"] < 1e-12
+    html = (report[1] / "index.html").read_text()
+    assert "closed form kinem.reference.slider_crank" in html
+
+
+def test_closed_form_takes_the_case_dimensions_and_needs_its_mechanism(tmp_path):
+    """The closed form measures the case's own links (a longer rod still
+    matches it); a case named like a repository case that is another
+    mechanism gets none (it would compare against the wrong one)."""
+    import kinem
+    from kinem.report import references
+
+    def check(path):
+        model = kinem.compile(kinem.load(path))
+        ref = kinem.solve(model)
+        cf = references.closed_form(model, ref)
+        return None if cf is None else references.error(model, ref.trajectory, cf[1]) / model.length
+
+    path = short_case(tmp_path, "slider_crank", 0.2)
+    Path(path).write_text(Path(path).read_text().replace("si = [300.0, 0.0]", "si = [320.0, 0.0]"))  # longer rod
+    assert check(path) < 1e-12          # the case converges to 1e-12 (scaled); rounding of the closed form below
+    other = short_case(tmp_path, "four_bar", 0.2)
+    Path(path).write_text(Path(other).read_text().replace('name = "four_bar"', 'name = "slider_crank"'))
+    assert check(path) is None
+
+
+def test_equivalent_models_agree_and_are_gated(tmp_path):
+    """The quick-return models declare one [equivalent] group: the report
+    shows their agreement over time, in results.json and the gate; a member
+    without a closed form gets its native row against the group."""
+    paths = [short_case(tmp_path, f"quick_return_{k}", 0.3) for k in (1, 2)]
+    other = Path(paths[1]).read_text().replace('name = "quick_return_2"', 'name = "shaper_b"')
+    Path(paths[1]).write_text(other)                       # no closed form under this name
+    out = run(Options(cases=tuple(paths), engines=(), out=str(tmp_path / "o"), quick=True, workers=0,
+                      progress=False))
+    doc = out.doc
+    (group,) = doc["equivalence"]
+    assert group["group"] == "crank-shaper" and group["cases"] == ["quick_return_1", "shaper_b"]
+    assert group["points"] == ["A", "B", "D"] and group["status"] == "ok"
+    # two formulations, each converged to 1e-13 (scaled residual): their points agree to rounding
+    assert group["max_deviation_rel"] < 1e-10
+    runs = {c["name"]: c["runs"][0] for c in doc["cases"]}
+    assert runs["quick_return_1"]["reference"].startswith("closed form kinem.reference.quick_return")
+    assert runs["shaper_b"]["reference"] == "equivalence group crank-shaper (points A, B, D of quick_return_1)"
+    assert runs["shaper_b"]["position_error_rel"] < 1e-10
+    html = (tmp_path / "o" / "index.html").read_text()
+    assert '<section id="equivalence">' in html and 'alt="agreement of group crank-shaper"' in html
+    assert "Equivalent models **crank-shaper**" in (tmp_path / "o" / "summary.md").read_text()
+    base = copy.deepcopy(doc)
+    base["equivalence"][0]["max_deviation_rel"] = group["max_deviation_rel"] / 10 if group["max_deviation_rel"] \
+        else 0.0
+    doc = copy.deepcopy(doc)
+    doc["equivalence"][0]["max_deviation_rel"] = 1e-6                # the models drifted apart
+    found, g = _regressions(doc, base)
+    assert [(f[0], f[2], f[3]) for f in found] == [("crank-shaper", "equivalence", "error")]
+    assert g["verdicts"]["equivalence/crank-shaper"].startswith("REGRESSED")
+
+
+def test_equivalent_key_is_checked():
+    from kinem.case import load_dict
+
+    base = {"name": "x", "time": {"end": 1, "steps": 1}, "bodies": {"g": {"q": [0, 0, 0]}},
+            "points": {"P": {"body": "g", "at": [0, 0]}}, "constraints": [{"type": "ground", "body": "g"}]}
+    assert load_dict(dict(base, equivalent={"group": "g1", "points": ["P"]})).equivalent.points == ("P",)
+    with pytest.raises(InputError, match=r"\[equivalent\]: key 'points': unknown point\(s\) Q"):
+        load_dict(dict(base, equivalent={"group": "g1", "points": ["Q"]}))
+    with pytest.raises(InputError, match=r"\[equivalent\]: key 'group': missing"):
+        load_dict(dict(base, equivalent={"points": ["P"]}))

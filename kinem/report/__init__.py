@@ -80,7 +80,7 @@ def run(o: Options) -> Outcome:
         bar.close()
     doc["duration"] = time.perf_counter() - start   # runs and plots
     files = {"results.json": results.dumps(doc), "summary.md": text.summary_md(doc),
-             "index.html": html.index_html(doc, sections)}
+             "index.html": html.index_html(doc, sections, series.get("(equivalence)"))}
     if o.junit:
         files["junit.xml"] = text.junit_xml(doc)
     out.mkdir(parents=True, exist_ok=True)

@@ -125,6 +125,9 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
                 findings.append(Finding(name, e, "main", "slower", "time_per_step", a, b, bool(fail_on_slowdown),
                                         f"time per step x{b / a:.1f} ({1e6 * a:.3g} -> {1e6 * b:.3g} us)"))
             verdicts[f"{name}/{e}"] = verdict(findings[before:])
+    from . import equivalence
+
+    equivalence.gate(current, baseline, findings, verdicts, not_compared, Finding)
     for f in findings:   # a run the baseline has and this one lacks (fatal) marks its case/engine
         if f.kind == "missing" and f.fatal and f.where == "main":
             verdicts[f"{f.case}/{f.engine}"] = "REGRESSED: " + f.message

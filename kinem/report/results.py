@@ -22,7 +22,8 @@ PLOT_ONLY = ("series", "path", "elapsed")
 
 def build(cases, runs, options, duration):
     """cases: (path, Case, Model) triples; runs: execute()'s {path: [run]}.
-    Returns (results document, {case name: {engine: series}})."""
+    Returns (results document, {case name: {engine: series}}, plus
+    "(equivalence)": {group: {case: (t, deviation)}})."""
     out, series, engines = [], {}, {}
     for path, case, model in cases:
         rs = runs[path]
@@ -40,14 +41,20 @@ def build(cases, runs, options, duration):
             "name": case.name, "path": str(path), "description": case.description,
             "length": model.length, "unit": case.length_unit, "end": case.end, "steps": case.steps,
             "coordinates": model.n, "reference_tolerance": ref_tol,
+            "equivalent": None if case.equivalent is None else {"group": case.equivalent.group,
+                                                                "points": list(case.equivalent.points)},
             "runs": [_strip(r) for r in main],
             "work_precision": _work_precision(rs, options["engines"]),
         })
+    from . import equivalence
+
+    groups, curves = equivalence.build(out, series)
+    series["(equivalence)"] = curves   # not a case name: those have no parentheses
     doc = {
         "schema_version": SCHEMA_VERSION, "tool": "kinem report",
         "created": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"), "duration": duration,
         "git": git_revision(), "machine": machine(), "options": options, "engines": engines,
-        "cases": out, "gate": None,
+        "cases": out, "equivalence": groups, "gate": None,
     }
     return clean(doc), series
 

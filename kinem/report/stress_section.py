@@ -39,11 +39,15 @@ def html(doc) -> str:
             cells.append(f'<td{"" if good else " class=bad"} title="{title}">{escape(text)}</td>')
         body.append(f"<tr><td>{escape(g)}</td><td>{escape(n)}</td>{''.join(cells)}</tr>")
     misses = "".join(f"<li>{escape(m)}</li>" for m in s["native_misses"])
-    return ("<section><h2>Stress suite</h2><p>Each outcome classified (kinem stress --quick; classes in "
-            "kinem/stress.py): native has an expected class per scenario; engines are measured. Numbers: "
-            "position error / L (angles in rad) against the closed form or native.</p>"
+    why = doc["options"].get("stress") or "--stress"
+    return ('<section id="stress"><h2>Stress suite</h2><p>The repository\'s own stress cases (cases/stress and '
+            f"generated scenarios), not the cases above; it ran because of {escape(why)} (it runs with --stress or "
+            "when the report covers the whole case set). Each outcome classified (kinem stress --quick; classes in "
+            "kinem/stress.py): native has an expected class per scenario, and native missing it fails the run "
+            "(exit 1); engines are measured only, their red cells (diverged, nan, inaccurate) do not affect the "
+            "exit code. Numbers: position error / L (angles in rad) against the closed form or native.</p>"
             + (f"<p class=bad>Native missed its expectation:</p><ul>{misses}</ul>" if misses else "")
-            + f"<table>{head}{''.join(body)}</table></section>")
+            + f"<div class=wrap><table>{head}{''.join(body)}</table></div></section>")
 
 
 def line(doc) -> str:
