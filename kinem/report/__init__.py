@@ -59,7 +59,7 @@ def run(o: Options) -> Outcome:
     bar = Progress(0, enabled=o.progress)
     try:
         runs = execute([(p, c) for p, c, _ in cases], o.engines, sweep, o.workers, bar, o.scheduler,
-                       stress_tasks(o.engines) if stress else 0)
+                       (stress_tasks(o.engines) if stress else 0) + len(cases))   # then the stress suite, figures
         options = {"quick": o.quick, "engines": list(o.engines), "workers": _workers(o.workers),
                    "reference_tolerance": REFERENCE_TOLERANCE, "native_tolerances": list(sweep.tolerances),
                    "dt_factors": list(sweep.dt_factors), "native_repeats": sweep.native_repeats,
@@ -105,13 +105,11 @@ def stress_tasks(engines) -> int:
 def _sections(doc, series, workers, bar=None):
     """The per-case HTML sections (plots take most of the time: in parallel
     too, in local processes even with a scheduler: they carry the series)."""
-    from .. import parallel
     from .html import render_section
+    from .progress import run_all
 
     jobs = [(c, series.get(c["name"], {})) for c in doc["cases"]]
-    if bar:
-        bar.phase(f"drawing the figures of {len(jobs)} case(s)")
-    return parallel.map(render_section, jobs, workers)
+    return run_all(render_section, jobs, [f"figures of {c['name']}" for c in doc["cases"]], workers, None, bar)
 
 
 def _load_cases(paths):

@@ -140,9 +140,14 @@ def plot(entry, curve) -> str:
     first = entry["cases"][0]
     for k, (name, (t, d)) in enumerate(curve.items()):
         ax.semilogy(t, np.maximum(d, TINY), color=f"C{k}", lw=1.4, label=f"{name} vs {first}")
+    # a fixed floor and at least up to 1e-10, so agreement to rounding looks like it: a flat band at the bottom
+    top = max([max(d) for _, d in curve.values()] + [1e-10])
+    ax.set_ylim(TINY / 10, 10 * top)
+    ax.axhspan(TINY / 10, 1e-13, color="0.9", zorder=0, label="rounding (< 1e-13 L)")
     ax.set_xlabel("t (s)", fontsize=9)
     ax.set_ylabel("deviation / L", fontsize=9)
-    ax.set_title(f"group {entry['group']}: points {', '.join(entry['points'])}", fontsize=10)
+    ax.set_title(f"group {entry['group']}: points {', '.join(entry['points'])}; "
+                 f"max {entry['max_deviation_rel']:.1e} L", fontsize=10)
     ax.grid(True, which="major", alpha=0.3)
     ax.legend(fontsize=8)
     ax.tick_params(labelsize=8)

@@ -26,10 +26,6 @@ class Progress:
         self.done += 1
         self.show(label)
 
-    def phase(self, text):
-        """A stage without countable runs (e.g. drawing the figures)."""
-        self.show(text)
-
     def waiting(self, labels):
         """Redraw with the runs still going."""
         labels = list(labels)
