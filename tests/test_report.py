@@ -481,3 +481,17 @@ def test_equivalent_key_is_checked():
         load_dict(dict(base, equivalent={"group": "g1", "points": ["Q"]}))
     with pytest.raises(InputError, match=r"\[equivalent\]: key 'group': missing"):
         load_dict(dict(base, equivalent={"points": ["P"]}))
+
+
+def test_update_baseline_replaces_a_stale_one(tmp_path):
+    """A baseline of another schema version is an input error, except with
+    --update-baseline, which rewrites it (the message says to)."""
+    case = short_case(tmp_path, "four_bar", 0.1, steps=5)
+    base = tmp_path / "base.json"
+    base.write_text(json.dumps({"schema_version": 1}))
+    opts = dict(cases=(case,), engines=(), out=str(tmp_path / "o"), quick=True, workers=0, progress=False,
+                baseline=str(base))
+    with pytest.raises(InputError, match="schema_version 1"):
+        run(Options(**opts))
+    out = run(Options(**opts, update_baseline=True))
+    assert out.exit_code == 0 and results.load(base)["schema_version"] == results.SCHEMA_VERSION

@@ -47,7 +47,14 @@ def run(o: Options) -> Outcome:
 
     start = time.perf_counter()
     cases = _load_cases(o.cases)
-    old = results.load(o.baseline) if o.baseline and (Path(o.baseline).exists() or not o.update_baseline) else None
+    old = None
+    if o.baseline and (Path(o.baseline).exists() or not o.update_baseline):
+        try:
+            old = results.load(o.baseline)
+        except InputError:
+            if not o.update_baseline:
+                raise
+            # --update-baseline replaces a stale (other schema version) or broken baseline: no gate this time
     out = Path(o.out)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {out}: not a directory")

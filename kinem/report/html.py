@@ -6,7 +6,7 @@ import json
 from html import escape
 
 from . import plots
-from .text import fmt, headline, matrix, provenance, reason, short, us
+from .text import fmt, headline, matrix, provenance, reason, short, unsupported_lines, us
 
 CSS = """body{font:14px/1.4 system-ui,sans-serif;margin:1.5em auto;max-width:1250px;padding:0 1em;color:#222}
 table{border-collapse:collapse;margin:.5em 0 1em}td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}
@@ -50,9 +50,7 @@ def summary_matrix(doc):
                    + "".join(_matrix_cell(cells.get(e)) for e in engines) + "</tr>")
     out.append("</table>")
     if unsupported:
-        items = "".join(f"<li><b>{escape(e)}</b>: " + "; ".join(f"{escape(why)} ({escape(', '.join(names))})"
-                                                               for why, names in reasons.items()) + "</li>"
-                        for e, reasons in unsupported.items())
+        items = "".join(f"<li><b>{escape(e)}</b>: {escape(text)}</li>" for e, text in unsupported_lines(unsupported).items())
         out.append(f"<p>Not supported (grey cells):</p><ul>{items}</ul>")
     return "\n".join(out)
 
@@ -62,7 +60,7 @@ def _matrix_cell(cell):
         return "<td class=c-bad>not run</td>"
     r, v, g = cell
     if g == "skip":
-        return f'<td class=c-skip title="{escape(reason(r["status"]))}">–</td>'
+        return f'<td class=c-skip title="{escape(": ".join(reason(r["status"])))}">–</td>'
     tip = escape(f"{r['status']}; angle error {fmt(r['angle_error'])} rad; residual {fmt(r['constraint_residual'])}; "
                  f"verdict: {v}; position error against {r['reference']}")
     if r["status"].startswith("failed"):

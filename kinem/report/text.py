@@ -50,8 +50,9 @@ def grade(run, verdict) -> str:
 
 def matrix(doc):
     """The summary matrix: (engines, [(case, {engine: (run, verdict, grade)})],
-    {engine: {reason: [cases]}} of the unsupported runs). Cases with a failed
-    or regressed run come first, then those with a warning, then the rest."""
+    {engine: {reason: ([joint types], [cases])}} of the unsupported runs).
+    Cases with a failed or regressed run come first, then those with a
+    warning, then the rest."""
     engines, rows, unsupported = engines_of(doc), [], {}
     for c in doc["cases"]:
         cells = {}
@@ -59,17 +60,30 @@ def matrix(doc):
             v = verdict_of(doc, c["name"], r["engine"])
             cells[r["engine"]] = (r, v, grade(r, v))
             if r["status"].startswith("unsupported") and not v.startswith("REGRESSED"):
-                unsupported.setdefault(r["engine"], {}).setdefault(reason(r["status"]), []).append(c["name"])
+                what, why = reason(r["status"])
+                types, names = unsupported.setdefault(r["engine"], {}).setdefault(why, ([], []))
+                types += [what] if what not in types else []
+                names.append(c["name"])
         rows.append((c, cells))
     order = {"bad": 0, "warn": 1}
     rows.sort(key=lambda row: min((order.get(g, 2) for _, _, g in row[1].values()), default=2))
     return engines, rows, unsupported
 
 
-def reason(status) -> str:
-    """An unsupported status without the constraint's own name, so that cases
-    share it: "unsupported: cam-flat ('contact'): ..." -> "cam-flat: ..."."""
-    return re.sub(r" \('[^']*'\)", "", status.split(":", 1)[-1].strip())
+def reason(status) -> tuple:
+    """An unsupported status as (what, why) without the constraint's own name,
+    so that cases share it: "unsupported: cam-flat ('contact'): no ..." ->
+    ("cam-flat", "no ...")."""
+    text = re.sub(r" \('[^']*'\)", "", status.split(":", 1)[-1].strip())
+    what, _, why = text.partition(": ")
+    return (what, why) if why else ("", what)
+
+
+def unsupported_lines(unsupported):
+    """{engine: "why (types: cases); ..."} for the lines under the matrix."""
+    return {e: "; ".join(f"{', '.join(t for t in types if t)}: {why} ({', '.join(names)})"
+                         for why, (types, names) in reasons.items())
+            for e, reasons in unsupported.items()}
 
 
 def counts(doc):
@@ -149,8 +163,7 @@ def summary_md(doc) -> str:
         out.append(f"| {c['name']} | " + " | ".join(_md_cell(cells.get(e)) for e in engines) + " |")
     if unsupported:
         out += ["", "Not supported (–):"]
-        out += [f"- **{e}**: " + "; ".join(f"{why} ({', '.join(names)})" for why, names in reasons.items())
-                for e, reasons in unsupported.items()]
+        out += [f"- **{e}**: {text}" for e, text in unsupported_lines(unsupported).items()]
     out += ["", "Cells: position error / L (native: against the closed form or equivalence group where the case "
             "has one, else native at tolerance 1e-13; engines: against native at 1e-13) and µs per step; "
             "✅ pass or ok, ⚠️ new, slower or outside the engine's tolerance, ❌ failed or regressed. "
