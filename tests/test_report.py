@@ -495,3 +495,29 @@ def test_update_baseline_replaces_a_stale_one(tmp_path):
         run(Options(**opts))
     out = run(Options(**opts, update_baseline=True))
     assert out.exit_code == 0 and results.load(base)["schema_version"] == results.SCHEMA_VERSION
+
+
+def test_cli_scope_stress_and_default_baseline(monkeypatch, tmp_path):
+    """kinem report with no case files is the whole case set (stress suite
+    on, gate against reports/baseline.json); case files narrow it (no
+    stress); --stress, --no-stress and --baseline none say otherwise."""
+    import kinem.report
+    from kinem import cli as kcli
+
+    seen = []
+
+    class Done:
+        line, exit_code = "", 0
+
+    monkeypatch.setattr(kinem.report, "run", lambda o: seen.append(o) or Done())
+    monkeypatch.chdir(ROOT)
+    kcli.main(["report"])
+    kcli.main(["report", "cases/four_bar.toml", "--stress", "--baseline", "none"])
+    kcli.main(["report", *sorted(str(p) for p in (ROOT / "cases").glob("*.toml")), "--no-stress",
+               "--out", str(tmp_path)])
+    whole, mine, listed = seen
+    assert whole.whole_set and whole.stress is None and whole.baseline_default
+    assert Path(whole.baseline) == Path("reports/baseline.json")
+    assert not mine.whole_set and mine.stress is True and mine.baseline is None and not mine.baseline_default
+    assert listed.whole_set and listed.stress is False and listed.baseline is None   # none in tmp_path
+    assert kcli.main(["report", "--stress", "--no-stress"]) == 2

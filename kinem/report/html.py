@@ -10,6 +10,7 @@ from .text import fmt, headline, matrix, provenance, reason, short, unsupported_
 
 CSS = """body{font:14px/1.4 system-ui,sans-serif;margin:1.5em auto;max-width:1250px;padding:0 1em;color:#222}
 table{border-collapse:collapse;margin:.5em 0 1em}td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}
+td:not(.l){white-space:nowrap}
 td.l,th.l{text-align:left}th{background:#f3f3f3}.ok{color:#176b1a}.bad{color:#b00020;font-weight:bold}
 .skip{color:#777}img{max-width:100%;display:block;margin:.3em 0}section{border-top:2px solid #ddd;margin-top:2em}
 code,pre{font-size:12px}pre{background:#f7f7f7;padding:.5em;overflow-x:auto;white-space:pre-wrap}
