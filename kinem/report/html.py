@@ -92,6 +92,10 @@ def case_table(case):
             "omega (rad/s)", "residual", "wall (s)", "µs/step", "cost (native per instant)", "within tol."]
     out = ["<div class=wrap><table><tr>" + "".join(f"<th class=l>{h}</th>" for h in head) + "</tr>"]
     for r in case["runs"]:
+        if r["status"].startswith("unsupported"):   # one cell: the reason, no row of dashes
+            out.append("<tr>" + _td(r["engine"], left=True)
+                       + f'<td class="l skip" colspan={len(head) - 1}>{escape(r["status"])}</td></tr>')
+            continue
         wt = {True: "yes", False: "NO", None: "–"}[r["within_tolerance"]]
         out.append("<tr>" + _td(r["engine"], left=True) + _td(short(r["status"], 60), _cls(r["status"]), True)
                    + "".join(_td(fmt(r[k])) for k in ("position_error", "position_error_rel"))

@@ -27,7 +27,7 @@ def html(doc) -> str:
 
     engines = list(dict.fromkeys(r["engine"] for r in s["rows"]))
     names, by = grid(s["rows"])
-    head = "<tr><th>group</th><th>scenario</th>" + "".join(f"<th>{escape(e)}</th>" for e in engines) + "</tr>"
+    head = "<tr><th class=l>group</th><th class=l>scenario</th>" + "".join(f"<th>{escape(e)}</th>" for e in engines) + "</tr>"
     body = []
     for g, n in names:
         cells = []
@@ -37,7 +37,7 @@ def html(doc) -> str:
             good = text.split(" ")[0] in ("accurate", "singular-detected", "unsupported", "-")
             title = escape((r or {}).get("detail") or "")
             cells.append(f'<td{"" if good else " class=bad"} title="{title}">{escape(text)}</td>')
-        body.append(f"<tr><td>{escape(g)}</td><td>{escape(n)}</td>{''.join(cells)}</tr>")
+        body.append(f"<tr><td class=l>{escape(g)}</td><td class=l>{escape(n)}</td>{''.join(cells)}</tr>")
     misses = "".join(f"<li>{escape(m)}</li>" for m in s["native_misses"])
     why = doc["options"].get("stress") or "--stress"
     return ('<section id="stress"><h2>Stress suite</h2><p>The repository\'s own stress cases (cases/stress and '
