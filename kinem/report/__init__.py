@@ -182,7 +182,7 @@ def _line(doc, out, code, o) -> str:
         gate = (f"{g['regressions']} regressions, {g['slowdowns']} slowdowns vs {g['baseline']}"
                 + (" (default; --baseline none to skip)" if o.baseline_default else ""))
         if g["not_compared"]:
-            gate += f"; not compared: {'; '.join(g['not_compared'])[:200]}"
+            gate += f"; {len(g['not_compared'])} thing(s) not compared (listed in summary.md and index.html)"
     if o.update_baseline:
         gate += f"; baseline {o.baseline or out / 'baseline.json'} updated"
     return (f"kinem report: {len(doc['cases'])} cases, {len(runs)} runs, {failed} failed; {gate}; "
