@@ -18,7 +18,8 @@ from .errors import InputError
 from .spec import Case, frozen_map
 
 MAX_FILE_BYTES = 16 * 2**20
-TOP_KEYS = ("name", "description", "units", "time", "solver", "bodies", "points", "constraints", "engines")
+TOP_KEYS = ("name", "description", "units", "time", "solver", "bodies", "points", "constraints", "engines",
+            "equivalent")
 
 
 def load(path) -> Case:
@@ -72,10 +73,12 @@ def load_dict(data, source: str = "<dict>") -> Case:
     points = sections.points(ck, data.get("points", {}), bodies)
     cons = constraints(ck, data.get("constraints"), bodies, points, end)
     engines = sections.engines(ck, data.get("engines", {}))
+    equivalent = sections.equivalent(ck, data["equivalent"], points) if "equivalent" in data else None
     ck.raise_if_any()
     return Case(name=name, bodies=tuple(bodies.values()), points=tuple(points.values()),
                 constraints=tuple(cons), end=end or 1.0, steps=steps, description=description,
-                units=frozen_map(units), engines=frozen_map(engines), source=source, **solver)
+                units=frozen_map(units), engines=frozen_map(engines), source=source,
+                equivalent=equivalent, **solver)
 
 
 def check_time(case: Case) -> Case:

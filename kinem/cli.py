@@ -268,12 +268,23 @@ def cmd_report(a):
     engines = _engines(a.engines, allow_empty=True)  # native always runs in the report
     if a.jobs is not None and a.jobs < 0:
         raise InputError(f"--jobs: got {a.jobs}; expected 0 (no worker processes) or more")
-    paths = a.cases or sorted(str(p) for p in Path("cases").glob("*.toml"))
+    whole = sorted(str(p) for p in Path("cases").glob("*.toml"))
+    paths = a.cases or whole
     engines = tuple(dict.fromkeys(e for e in engines if e != "native"))
+    if a.stress and a.no_stress:
+        raise InputError("--stress and --no-stress: give at most one")
+    baseline = a.baseline
+    if baseline is None:   # OUT/baseline.json when it exists
+        found = Path(a.out) / "baseline.json"
+        baseline = str(found) if found.is_file() else None
+    elif baseline == "none":
+        baseline = None
+    whole_set = bool(whole) and {Path(p).resolve() for p in paths} == {Path(p).resolve() for p in whole}
     outcome = run(Options(cases=tuple(paths), engines=engines, out=a.out,
-                          baseline=a.baseline, update_baseline=a.update_baseline, quick=a.quick, junit=a.junit,
-                          fail_on_slowdown=a.fail_on_slowdown, workers=a.jobs,
-                          scheduler=a.scheduler, stress=not a.no_stress))
+                          baseline=baseline, update_baseline=a.update_baseline, quick=a.quick, junit=a.junit,
+                          fail_on_slowdown=a.fail_on_slowdown, workers=a.jobs, scheduler=a.scheduler,
+                          stress=True if a.stress else False if a.no_stress else None, whole_set=whole_set,
+                          baseline_default=a.baseline is None))
     print(outcome.line)
     return outcome.exit_code
 
@@ -338,14 +349,18 @@ def parser():
     r.add_argument("--engines", default="native,pymunk,mujoco,exudyn",
                    help="engines to run (native always runs: it is the reference)")
     r.add_argument("--out", default="reports", help="output directory (default: reports)")
-    r.add_argument("--baseline", metavar="FILE", help="a stored results.json to gate against (exit 1 on regression)")
+    r.add_argument("--baseline", metavar="FILE",
+                   help="a stored results.json to gate against (exit 1 on regression); default OUT/baseline.json "
+                        "when it exists; 'none': no gate")
     r.add_argument("--update-baseline", action="store_true",
                    help="write this run's results.json to --baseline (default: OUT/baseline.json)")
     r.add_argument("--quick", action="store_true", help="shorter work-precision sweeps, one native timing")
     r.add_argument("--junit", action="store_true", help="also write OUT/junit.xml")
     r.add_argument("--fail-on-slowdown", action="store_true", help="a flagged wall-time slowdown fails the run")
     r.add_argument("--jobs", type=int, help="worker processes (default: CPU count; 0 or 1: none)")
-    r.add_argument("--no-stress", action="store_true", help="leave out the stress-suite section")
+    r.add_argument("--stress", action="store_true",
+                   help="run the stress suite as a section (default: only when the cases are all of cases/*.toml)")
+    r.add_argument("--no-stress", action="store_true", help="leave out the stress suite even for the whole case set")
     _scheduler_option(r)
     r.set_defaults(run=cmd_report)
     return p

@@ -46,6 +46,14 @@ class Constraint:
 
 
 @dataclass(frozen=True)
+class Equivalence:
+    """The case models the same mechanism as the other cases of ``group``:
+    its named ``points`` must coincide with theirs (same names) at every instant."""
+    group: str
+    points: tuple
+
+
+@dataclass(frozen=True)
 class Case:
     name: str
     bodies: tuple
@@ -62,6 +70,7 @@ class Case:
     units: Mapping = field(default_factory=frozen_map)
     engines: Mapping = field(default_factory=frozen_map)  # engine name -> settings overrides
     source: str = "<memory>"
+    equivalent: Equivalence | None = None  # [equivalent]: the group of equivalent models it belongs to
 
     @property
     def times(self) -> np.ndarray:

@@ -116,7 +116,10 @@ def test_html_is_self_contained_and_lists_every_case(report):
         assert f'id="case-{case["name"]}"' in html
     assert html.count("data:image/png;base64,") >= 2 * 4  # mechanism, trajectories, errors, work-precision
     md = (out / "summary.md").read_text()
-    assert md.count("| slider_crank |") == 2 and md.count("| four_bar |") == 2
+    # the summary matrix: one row per case, one column per engine
+    assert md.count("| slider_crank |") == 1 and md.count("| four_bar |") == 1
+    assert "| case | native | pymunk |" in md and md.startswith("## kinem report\n\n**PASS: ")
+    assert html.count("<tr><th class=l><a href=\"#case-") == 2
     suite = ET.parse(out / "junit.xml").getroot().find("testsuite")
     assert len(suite.findall("testcase")) == 4 and suite.get("failures") == "0"
 
@@ -288,9 +291,11 @@ def test_stress_section(tmp_path):
     """The quick stress suite on native: in results.json (valid against the
     schema), as a table in index.html and a line in summary.md."""
     case = short_case(tmp_path, "four_bar", 0.1, steps=5)
-    out = run(Options(cases=(case,), engines=(), out=str(tmp_path / "o"), quick=True, workers=0, progress=False))
+    out = run(Options(cases=(case,), engines=(), out=str(tmp_path / "o"), quick=True, workers=0, progress=False,
+                      stress=True))
     doc = json.loads((tmp_path / "o" / "results.json").read_text())
     assert problems(doc, SCHEMA) == [] and out.exit_code == 0
+    assert doc["options"]["stress"] == "--stress"
     assert doc["stress"]["native_misses"] == []
     outcomes = {r["scenario"]: r["outcome"] for r in doc["stress"]["rows"]}
     assert outcomes["slider_dead_centre"] == "singular-detected" and outcomes["change_point"] == "accurate"
@@ -327,3 +332,223 @@ def test_report_directory_is_consistent_through_its_manifest(report, tmp_path, m
     assert not rep.complete(target)               # the mix is detectable
     (target / "manifest.json").write_text(json.dumps({"files": {"index.html": {"sha256": "0" * 64}}}))
     assert not rep.complete(target)               # a file that does not match its manifest
+
+
+def test_stress_runs_only_when_asked_or_for_the_whole_set(report):
+    """A report on the user's own case files leaves the stress suite out."""
+    doc = report[0].doc
+    assert "stress" not in doc and doc["options"]["stress"] is None and doc["options"]["whole_set"] is False
+    assert "Stress suite" not in (report[1] / "index.html").read_text()
+
+
+def _narrowed(doc, whole_set=False, quick=False, engines=("pymunk",)):
+    return dict(doc, options=dict(doc["options"], whole_set=whole_set, quick=quick, engines=list(engines)))
+
+
+def test_gate_fails_on_runs_the_baseline_has_and_the_run_lacks(report):
+    """No blind spots: a baseline case, engine or sweep point missing from the
+    run fails the gate unless the run was narrowed on purpose, and is listed
+    in not_compared either way."""
+    base = report[0].doc
+    name = base["cases"][0]["name"]
+    fewer_cases = dict(base, cases=base["cases"][1:])
+    found, g = _regressions(_narrowed(fewer_cases, whole_set=True), base)   # the whole set, a case gone
+    assert [(f[0], f[3]) for f in found] == [(name, "missing")] and g["regressions"] == 1
+    found, g = _regressions(_narrowed(fewer_cases), base)                   # case files given: narrowed
+    assert found == [] and name in g["not_compared"][0]
+    no_engine = copy.deepcopy(base)
+    for c in no_engine["cases"]:
+        c["runs"] = c["runs"][:1]
+        c["work_precision"]["curves"] = c["work_precision"]["curves"][:1]
+    found, g = _regressions(_narrowed(no_engine, engines=("pymunk",)), base)   # pymunk was asked for
+    assert {(f[1], f[3]) for f in found} == {("pymunk", "missing")}
+    assert g["verdicts"][f"{name}/pymunk"].startswith("REGRESSED")
+    found, g = _regressions(_narrowed(no_engine, engines=()), base)            # --engines without it
+    assert found == [] and any(line.startswith("engine pymunk (--engines)") for line in g["not_compared"])
+    fewer_points = copy.deepcopy(base)
+    curve = fewer_points["cases"][0]["work_precision"]["curves"][0]
+    curve["points"] = curve["points"][1:]
+    found, g = _regressions(_narrowed(fewer_points), base)
+    assert [f[3] for f in found] == ["missing"]
+    found, g = _regressions(_narrowed(fewer_points, quick=True), base)         # --quick: fewer points
+    assert found == [] and "work-precision point" in g["not_compared"][0]
+
+
+def test_non_finite_or_null_baseline_figures_are_rejected(tmp_path, report):
+    """A NaN (not JSON, but Python writes it) or a null error of an ok run
+    would switch its check off: both are input errors on read."""
+    text = results.dumps(report[0].doc)
+    p = tmp_path / "b.json"
+    p.write_text(text.replace('"position_error_rel": ' + json.dumps(report[0].doc["cases"][0]["runs"][1]
+                                                                    ["position_error_rel"]),
+                              '"position_error_rel": NaN', 1))
+    assert "NaN" in p.read_text()
+    with pytest.raises(InputError, match="non-finite number NaN"):
+        results.load(p)
+    doc = copy.deepcopy(report[0].doc)
+    doc["cases"][1]["runs"][0]["angle_error"] = None
+    doc["cases"][0]["work_precision"]["curves"][0]["points"][0]["error"] = None
+    p.write_text(results.dumps(doc))
+    with pytest.raises(InputError, match="angle_error is null in an ok run"):
+        results.load(p)
+    assert len(results.missing_figures(doc)) == 2
+
+
+def test_update_baseline_refuses_null_figures(tmp_path, monkeypatch):
+    """An ok run whose figure came out non-finite (stored as null) is not
+    written as a baseline: exit 1, the reason in the line, the report kept."""
+    import kinem.report.runs as runs
+
+    monkeypatch.setattr(runs, "_finite", lambda x: None)
+    case = short_case(tmp_path, "four_bar", 0.1, steps=5)
+    base = tmp_path / "base.json"
+    out = run(Options(cases=(case,), engines=(), out=str(tmp_path / "o"), quick=True, workers=0, progress=False,
+                      baseline=str(base), update_baseline=True))
+    assert out.exit_code == 1 and "baseline NOT written" in out.line and not base.exists()
+    assert (tmp_path / "o" / "index.html").exists()
+
+
+def test_cli_uses_the_baseline_in_out_by_default(tmp_path):
+    """Without --baseline the report gates against OUT/baseline.json when it
+    exists, and says so; --baseline none skips it."""
+    case = short_case(tmp_path, "slider_crank", 0.1, steps=5)
+    out = tmp_path / "out"
+    common = (case, "--engines", "native", "--quick", "--jobs", "1", "--out", out)
+    code, stdout, err = cli(*common)
+    assert code == 0 and "no baseline (none at" in stdout, err
+    code, stdout, err = cli(*common, "--update-baseline")
+    assert code == 0 and (out / "baseline.json").exists(), err
+    code, stdout, err = cli(*common)
+    assert code == 0 and "0 regressions" in stdout and "(default; --baseline none to skip)" in stdout, err
+    assert json.loads((out / "results.json").read_text())["gate"]["default"] is True
+    code, stdout, err = cli(*common, "--baseline", "none")
+    assert code == 0 and "no baseline;" in stdout, err
+
+
+def test_progress_says_what_it_waits_for():
+    import io
+
+    from kinem.report.progress import Progress, run_all
+
+    s = io.StringIO()
+    p = Progress(2, stream=s, enabled=True)
+    assert run_all(abs, [-1, -2], ["first", "second"], workers=0, bar=p) == [1, 2]
+    assert "waiting for first" in s.getvalue() and "2/2" in s.getvalue()
+
+
+def test_native_rows_use_independent_references(report):
+    """Native's position error is against kinem.reference's closed form where
+    the case has one, and each row says what its figures are against."""
+    for case in report[0].doc["cases"]:
+        native, engine = case["runs"]
+        assert native["reference"].startswith(f"closed form kinem.reference.{case['name']}")
+        assert engine["reference"] == "native at the reference tolerance"
+        # the solver converges far below the case tolerance; 1e-12 L leaves room for rounding in the closed form
+        assert native["position_error_rel"] < 1e-12
+    html = (report[1] / "index.html").read_text()
+    assert "closed form kinem.reference.slider_crank" in html
+
+
+def test_closed_form_takes_the_case_dimensions_and_needs_its_mechanism(tmp_path):
+    """The closed form measures the case's own links (a longer rod still
+    matches it); a case named like a repository case that is another
+    mechanism gets none (it would compare against the wrong one)."""
+    import kinem
+    from kinem.report import references
+
+    def check(path):
+        model = kinem.compile(kinem.load(path))
+        ref = kinem.solve(model)
+        cf = references.closed_form(model, ref)
+        return None if cf is None else references.error(model, ref.trajectory, cf[1]) / model.length
+
+    path = short_case(tmp_path, "slider_crank", 0.2)
+    Path(path).write_text(Path(path).read_text().replace("si = [300.0, 0.0]", "si = [320.0, 0.0]"))  # longer rod
+    assert check(path) < 1e-12          # the case converges to 1e-12 (scaled); rounding of the closed form below
+    other = short_case(tmp_path, "four_bar", 0.2)
+    Path(path).write_text(Path(other).read_text().replace('name = "four_bar"', 'name = "slider_crank"'))
+    assert check(path) is None
+
+
+def test_equivalent_models_agree_and_are_gated(tmp_path):
+    """The quick-return models declare one [equivalent] group: the report
+    shows their agreement over time, in results.json and the gate; a member
+    without a closed form gets its native row against the group."""
+    paths = [short_case(tmp_path, f"quick_return_{k}", 0.3) for k in (1, 2)]
+    other = Path(paths[1]).read_text().replace('name = "quick_return_2"', 'name = "shaper_b"')
+    Path(paths[1]).write_text(other)                       # no closed form under this name
+    out = run(Options(cases=tuple(paths), engines=(), out=str(tmp_path / "o"), quick=True, workers=0,
+                      progress=False))
+    doc = out.doc
+    (group,) = doc["equivalence"]
+    assert group["group"] == "crank-shaper" and group["cases"] == ["quick_return_1", "shaper_b"]
+    assert group["points"] == ["A", "B", "D"] and group["status"] == "ok"
+    # two formulations, each converged to 1e-13 (scaled residual): their points agree to rounding
+    assert group["max_deviation_rel"] < 1e-10
+    runs = {c["name"]: c["runs"][0] for c in doc["cases"]}
+    assert runs["quick_return_1"]["reference"].startswith("closed form kinem.reference.quick_return")
+    assert runs["shaper_b"]["reference"] == "equivalence group crank-shaper (points A, B, D of quick_return_1)"
+    assert runs["shaper_b"]["position_error_rel"] < 1e-10
+    html = (tmp_path / "o" / "index.html").read_text()
+    assert '<section id="equivalence">' in html and 'alt="agreement of group crank-shaper"' in html
+    assert "Equivalent models **crank-shaper**" in (tmp_path / "o" / "summary.md").read_text()
+    base = copy.deepcopy(doc)
+    base["equivalence"][0]["max_deviation_rel"] = group["max_deviation_rel"] / 10 if group["max_deviation_rel"] \
+        else 0.0
+    doc = copy.deepcopy(doc)
+    doc["equivalence"][0]["max_deviation_rel"] = 1e-6                # the models drifted apart
+    found, g = _regressions(doc, base)
+    assert [(f[0], f[2], f[3]) for f in found] == [("crank-shaper", "equivalence", "error")]
+    assert g["verdicts"]["equivalence/crank-shaper"].startswith("REGRESSED")
+
+
+def test_equivalent_key_is_checked():
+    from kinem.case import load_dict
+
+    base = {"name": "x", "time": {"end": 1, "steps": 1}, "bodies": {"g": {"q": [0, 0, 0]}},
+            "points": {"P": {"body": "g", "at": [0, 0]}}, "constraints": [{"type": "ground", "body": "g"}]}
+    assert load_dict(dict(base, equivalent={"group": "g1", "points": ["P"]})).equivalent.points == ("P",)
+    with pytest.raises(InputError, match=r"\[equivalent\]: key 'points': unknown point\(s\) Q"):
+        load_dict(dict(base, equivalent={"group": "g1", "points": ["Q"]}))
+    with pytest.raises(InputError, match=r"\[equivalent\]: key 'group': missing"):
+        load_dict(dict(base, equivalent={"points": ["P"]}))
+
+
+def test_update_baseline_replaces_a_stale_one(tmp_path):
+    """A baseline of another schema version is an input error, except with
+    --update-baseline, which rewrites it (the message says to)."""
+    case = short_case(tmp_path, "four_bar", 0.1, steps=5)
+    base = tmp_path / "base.json"
+    base.write_text(json.dumps({"schema_version": 1}))
+    opts = dict(cases=(case,), engines=(), out=str(tmp_path / "o"), quick=True, workers=0, progress=False,
+                baseline=str(base))
+    with pytest.raises(InputError, match="schema_version 1"):
+        run(Options(**opts))
+    out = run(Options(**opts, update_baseline=True))
+    assert out.exit_code == 0 and results.load(base)["schema_version"] == results.SCHEMA_VERSION
+
+
+def test_cli_scope_stress_and_default_baseline(monkeypatch, tmp_path):
+    """kinem report with no case files is the whole case set (stress suite
+    on, gate against reports/baseline.json); case files narrow it (no
+    stress); --stress, --no-stress and --baseline none say otherwise."""
+    import kinem.report
+    from kinem import cli as kcli
+
+    seen = []
+
+    class Done:
+        line, exit_code = "", 0
+
+    monkeypatch.setattr(kinem.report, "run", lambda o: seen.append(o) or Done())
+    monkeypatch.chdir(ROOT)
+    kcli.main(["report"])
+    kcli.main(["report", "cases/four_bar.toml", "--stress", "--baseline", "none"])
+    kcli.main(["report", *sorted(str(p) for p in (ROOT / "cases").glob("*.toml")), "--no-stress",
+               "--out", str(tmp_path)])
+    whole, mine, listed = seen
+    assert whole.whole_set and whole.stress is None and whole.baseline_default
+    assert Path(whole.baseline) == Path("reports/baseline.json")
+    assert not mine.whole_set and mine.stress is True and mine.baseline is None and not mine.baseline_default
+    assert listed.whole_set and listed.stress is False and listed.baseline is None   # none in tmp_path
+    assert kcli.main(["report", "--stress", "--no-stress"]) == 2

@@ -1,7 +1,7 @@
 """The case file's sections other than [[constraints]]: units, [time],
 [solver], [engines.*], [bodies] and [points]."""
-from ..spec import Body, Point, frozen_map
-from .checks import END_RANGE, MAX_STEPS, MAX_UNIT, show
+from ..spec import Body, Equivalence, Point, frozen_map
+from .checks import END_RANGE, MAX_STEPS, MAX_UNIT, NAME_RE, names, show
 
 MAX_ITEMS = 100_000
 ENGINES = ("pymunk", "mujoco", "exudyn")  # settings are checked against each adapter when it runs
@@ -180,3 +180,26 @@ def points(ck, p, bodies):
         if name not in out:
             ck.rejected.add(name)
     return out
+
+
+def equivalent(ck, e, points):
+    """[equivalent] group = "...", points = [named points that must coincide
+    with those of the group's other cases]."""
+    where = "[equivalent]"
+    if not isinstance(e, dict):
+        ck.bad(where, None, f"got {show(e)}", 'a table such as { group = "crank-shaper", points = ["A", "B"] }')
+        return None
+    if not ck.keys(where, e, ("group", "points"), ("group", "points")):
+        return None
+    group = ck.string(where, "group", e["group"], NAME_RE, "a group name of a-z, 0-9, '_' and '-'")
+    listed = e["points"]
+    if not isinstance(listed, list) or not listed or len(listed) > MAX_ITEMS \
+            or not all(isinstance(n, str) for n in listed):
+        ck.bad(where, "points", f"got {show(listed)}", "a list of one or more named points")
+        return None
+    unknown = [n for n in listed if n not in points]
+    if unknown:
+        ck.bad(where, "points", f"unknown point(s) {', '.join(show(n)[1:-1] for n in unknown[:20])}",
+               "points of [points]: " + (names(points) or "(none defined)"))
+        return None
+    return Equivalence(group, tuple(dict.fromkeys(listed))) if group else None

@@ -26,7 +26,9 @@ class Options:
     workers: int | None = None   # None: os.cpu_count(); 0 or 1: in this process
     scheduler: str | None = None  # a Dask scheduler address: the runs go to its workers
     progress: bool | None = None  # None: when standard error is a terminal
-    stress: bool = True          # the quick stress suite as a section
+    stress: bool | None = None   # the quick stress suite as a section; None: when whole_set
+    whole_set: bool = False      # the cases are the repository's whole case set (not narrowed)
+    baseline_default: bool = False  # no --baseline given: OUT/baseline.json is used when it exists
 
 
 @dataclass(frozen=True)
@@ -45,7 +47,14 @@ def run(o: Options) -> Outcome:
 
     start = time.perf_counter()
     cases = _load_cases(o.cases)
-    old = results.load(o.baseline) if o.baseline and (Path(o.baseline).exists() or not o.update_baseline) else None
+    old = None
+    if o.baseline and (Path(o.baseline).exists() or not o.update_baseline):
+        try:
+            old = results.load(o.baseline)
+        except InputError:
+            if not o.update_baseline:
+                raise
+            # --update-baseline replaces a stale (other schema version) or broken baseline: no gate this time
     out = Path(o.out)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {out}: not a directory")
@@ -53,44 +62,60 @@ def run(o: Options) -> Outcome:
     if o.update_baseline and not (target.parent.is_dir() or target.parent == out):
         raise InputError(f"--baseline {target}: directory {target.parent} does not exist")
     sweep = QUICK if o.quick else FULL
+    stress = o.whole_set if o.stress is None else o.stress
     bar = Progress(0, enabled=o.progress)
     try:
-        runs = execute([(p, c) for p, c, _ in cases], o.engines, sweep, o.workers, bar, o.scheduler)
+        runs = execute([(p, c) for p, c, _ in cases], o.engines, sweep, o.workers, bar, o.scheduler,
+                       (stress_tasks(o.engines) if stress else 0) + len(cases))   # then the stress suite, figures
+        options = {"quick": o.quick, "engines": list(o.engines), "workers": _workers(o.workers),
+                   "reference_tolerance": REFERENCE_TOLERANCE, "native_tolerances": list(sweep.tolerances),
+                   "dt_factors": list(sweep.dt_factors), "native_repeats": sweep.native_repeats,
+                   "whole_set": o.whole_set,
+                   "stress": ("--stress" if o.stress else "the whole case set") if stress else None}
+        doc, series = results.build(cases, runs, options, time.perf_counter() - start)
+        if stress:
+            from . import stress_section
+
+            doc["stress"] = stress_section.run(o.engines, o.workers, o.scheduler, bar)
+        if old is not None:
+            doc["gate"] = gate.gate(doc, old, o.baseline, o.fail_on_slowdown, default=o.baseline_default)
+        bad = results.problems(doc, results.SCHEMA)
+        if bad:  # a bug here, not the user's input
+            raise RuntimeError(f"results.json does not match its schema: {bad[0]}")
+        sections = _sections(doc, series, o.workers, bar)
     finally:
         bar.close()
-    options = {"quick": o.quick, "engines": list(o.engines), "workers": _workers(o.workers),
-               "reference_tolerance": REFERENCE_TOLERANCE, "native_tolerances": list(sweep.tolerances),
-               "dt_factors": list(sweep.dt_factors), "native_repeats": sweep.native_repeats}
-    doc, series = results.build(cases, runs, options, time.perf_counter() - start)
-    if o.stress:
-        from . import stress_section
-
-        doc["stress"] = stress_section.run(o.engines, o.workers, o.scheduler)
-    if old is not None:
-        doc["gate"] = gate.gate(doc, old, o.baseline, o.fail_on_slowdown)
-    bad = results.problems(doc, results.SCHEMA)
-    if bad:  # a bug here, not the user's input
-        raise RuntimeError(f"results.json does not match its schema: {bad[0]}")
-    sections = _sections(doc, series, o.workers)
     doc["duration"] = time.perf_counter() - start   # runs and plots
     files = {"results.json": results.dumps(doc), "summary.md": text.summary_md(doc),
-             "index.html": html.index_html(doc, sections)}
+             "index.html": html.index_html(doc, sections, series.get("(equivalence)"))}
     if o.junit:
         files["junit.xml"] = text.junit_xml(doc)
     written = write_outputs(out, files)
-    if o.update_baseline:
+    refused = results.missing_figures(doc) if o.update_baseline else []
+    if o.update_baseline and not refused:
         written.append(_write(target, files["results.json"]))
-    code = _exit_code(doc, o)
-    return Outcome(doc, tuple(written), code, _line(doc, out, code, o))
+    code = 1 if refused else _exit_code(doc, o)
+    line = _line(doc, out, code, o)
+    if refused:
+        line += f"; baseline NOT written: {refused[0]}"
+    return Outcome(doc, tuple(written), code, line)
 
 
-def _sections(doc, series, workers):
+def stress_tasks(engines) -> int:
+    """How many runs the quick stress suite makes (for the progress bar)."""
+    from ..stress import scenarios
+
+    return sum(1 + (len(engines) if s.engines else 0) for s in scenarios(quick=True))
+
+
+def _sections(doc, series, workers, bar=None):
     """The per-case HTML sections (plots take most of the time: in parallel
     too, in local processes even with a scheduler: they carry the series)."""
-    from .. import parallel
     from .html import render_section
+    from .progress import run_all
 
-    return parallel.map(render_section, [(c, series.get(c["name"], {})) for c in doc["cases"]], workers)
+    jobs = [(c, series.get(c["name"], {})) for c in doc["cases"]]
+    return run_all(render_section, jobs, [f"figures of {c['name']}" for c in doc["cases"]], workers, None, bar)
 
 
 def _load_cases(paths):
@@ -188,7 +213,14 @@ def _line(doc, out, code, o) -> str:
     runs = [r for c in doc["cases"] for r in c["runs"]]
     failed = sum(r["status"].startswith("failed") for r in runs)
     g = doc["gate"]
-    gate = "no baseline" if not g else f"{g['regressions']} regressions, {g['slowdowns']} slowdowns vs {g['baseline']}"
+    if not g:
+        gate = "no baseline" + (f" (none at {out / 'baseline.json'}; --update-baseline writes one)"
+                                if o.baseline_default and not o.baseline else "")
+    else:
+        gate = (f"{g['regressions']} regressions, {g['slowdowns']} slowdowns vs {g['baseline']}"
+                + (" (default; --baseline none to skip)" if o.baseline_default else ""))
+        if g["not_compared"]:
+            gate += f"; {len(g['not_compared'])} thing(s) not compared (listed in summary.md and index.html)"
     if o.update_baseline:
         gate += f"; baseline {o.baseline or out / 'baseline.json'} updated"
     return (f"kinem report: {len(doc['cases'])} cases, {len(runs)} runs, {failed} failed; {gate}; "

@@ -14,6 +14,7 @@ from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import dataclass
 
 from .. import parallel
+from .progress import TICK
 from .runs import Task, run_task
 
 # Cases with a work-precision diagram (besides any case that asks for one).
@@ -39,11 +40,12 @@ def wants_sweep(case) -> bool:
     return case.name in WORK_PRECISION_CASES
 
 
-def execute(cases, engines, sweep: Sweep, workers=None, progress=None, scheduler=None):
+def execute(cases, engines, sweep: Sweep, workers=None, progress=None, scheduler=None, later=0):
     """cases: (path, Case) pairs. Returns {path: [run dicts]}: the main runs
     (native first, then engines in order) and the sweep points. workers:
     local processes (None: one per core; 0 or 1: this process); scheduler: a
-    Dask scheduler address to run on instead."""
+    Dask scheduler address to run on instead; later: runs the progress bar
+    counts after these (the stress suite)."""
     main = [Task(p, "native", repeats=sweep.native_repeats) for p, _ in cases]
     main += [Task(p, e) for p, _ in cases for e in engines]
     swept = {p for p, c in cases if wants_sweep(c)}
@@ -51,7 +53,7 @@ def execute(cases, engines, sweep: Sweep, workers=None, progress=None, scheduler
              for tol in sweep.tolerances]
     planned = {(p, e): len([f for f in sweep.dt_factors if f != 1.0]) for p in swept for e in engines}
     if progress:
-        progress.total = len(main) + len(extra) + sum(planned.values())
+        progress.total = len(main) + len(extra) + sum(planned.values()) + later
     out = {p: [] for p, _ in cases}
 
     def follow(task, r):
@@ -69,14 +71,15 @@ def execute(cases, engines, sweep: Sweep, workers=None, progress=None, scheduler
     def record(task, r):
         out[task.path].append(r)
         if progress:
-            progress.step(f"{os.path.basename(task.path)} {task.engine}"
-                          + (f" {task.knob}={task.value:.3g}" if task.knob else ""))
+            progress.step(_label(task))
 
     with parallel.executor(workers, scheduler) as pool:
         if pool is None:  # in this process (tests, debugging)
             queue = main + extra
             while queue:
                 task = queue.pop(0)
+                if progress:
+                    progress.waiting([_label(task)])
                 r = run_task(task)
                 record(task, r)
                 queue += follow(task, r)
@@ -91,7 +94,9 @@ def execute(cases, engines, sweep: Sweep, workers=None, progress=None, scheduler
         for t in main + extra:
             submit(t)
         while running:
-            done, _ = wait(running, return_when=FIRST_COMPLETED)
+            done, _ = wait(running, timeout=TICK, return_when=FIRST_COMPLETED)
+            if progress and not done:
+                progress.waiting(_label(t) for t in list(running.values())[:parallel.workers(workers)])
             for f in done:
                 task = running.pop(f)
                 r = dict(f.result(), path=task.path)
@@ -99,3 +104,7 @@ def execute(cases, engines, sweep: Sweep, workers=None, progress=None, scheduler
                 for t in follow(task, r):
                     submit(t)
     return out
+
+
+def _label(task):
+    return f"{os.path.basename(task.path)} {task.engine}" + (f" {task.knob}={task.value:.3g}" if task.knob else "")

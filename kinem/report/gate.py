@@ -9,8 +9,13 @@ A regression (exit code 1) is, for a case and engine present in both:
 The same rules apply to every work-precision point both runs have (its
 position and velocity errors and its counts). Wall time is only flagged: time per step more than
 SLOWDOWN_FACTOR times the baseline's is a slowdown, fatal only with
---fail-on-slowdown. Cases, engines or points missing from either side are
-not compared (a --quick run has fewer sweep points than the full baseline).
+--fail-on-slowdown.
+
+No blind spots: a case, engine run or sweep point the baseline has and this
+run lacks is a "missing" finding, fatal unless the run was narrowed on
+purpose (scope: case files given that are not the whole case set, --engines
+without that engine, --quick for sweep points); either way it is listed in
+``not_compared``. Cases and engines new in this run are "new".
 """
 from dataclasses import asdict, dataclass
 
@@ -36,7 +41,7 @@ class Finding:
     case: str
     engine: str
     where: str          # "main" or the sweep point, e.g. "dt=0.0005"
-    kind: str           # status | error | count | slower
+    kind: str           # status | error | count | slower | missing
     metric: str
     old: object
     new: object
@@ -74,10 +79,29 @@ def _compare(case, engine, where, old, new, out):
             add("count", k, a, b, f"{k} {a} -> {b}")
 
 
-def gate(current, baseline, path, fail_on_slowdown=False) -> dict:
-    """The 'gate' section of results.json: findings and a verdict per case and engine."""
+@dataclass(frozen=True)
+class Scope:
+    """How this run was narrowed on purpose: what it may lack without failing."""
+    cases: bool = False      # the case files are not the whole case set
+    engines: bool = False    # --engines left some engines out
+    sweeps: bool = False     # --quick: fewer work-precision points
+
+
+def scope_of(doc) -> Scope:
+    from adapters import ENGINES
+
+    o = doc["options"]
+    return Scope(cases=not o["whole_set"], engines=bool(set(ENGINES) - set(o["engines"])), sweeps=o["quick"])
+
+
+def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = None, default=False) -> dict:
+    """The 'gate' section of results.json: findings and a verdict per case and engine.
+    scope: what the run may lack (default: from current's options); default:
+    the baseline was found without --baseline."""
+    scope = scope or scope_of(current)
     findings, verdicts = [], {}
     old_cases = {c["name"]: c for c in baseline["cases"]}
+    not_compared = _missing(current, baseline, scope, findings)
     for case in current["cases"]:
         name = case["name"]
         oc = old_cases.get(name)
@@ -93,19 +117,60 @@ def gate(current, baseline, path, fail_on_slowdown=False) -> dict:
                      {"status": o["status"], "figures": _figures(o), "counts": o["counts"]},
                      {"status": run["status"], "figures": _figures(run), "counts": run["counts"]},
                      findings)
-            _sweep(name, e, oc, case, findings)
+            skipped = _sweep(name, e, oc, case, findings, scope)
+            if skipped:
+                not_compared.append(f"{name}/{e}: {skipped} work-precision point(s) of the baseline (--quick)")
             a, b = o.get("time_per_step"), run.get("time_per_step")
             if a and b and (o.get("wall_time") or 0) >= WALL_FLOOR and b > SLOWDOWN_FACTOR * a:
                 findings.append(Finding(name, e, "main", "slower", "time_per_step", a, b, bool(fail_on_slowdown),
                                         f"time per step x{b / a:.1f} ({1e6 * a:.3g} -> {1e6 * b:.3g} us)"))
             verdicts[f"{name}/{e}"] = verdict(findings[before:])
+    from . import equivalence
+
+    equivalence.gate(current, baseline, findings, verdicts, not_compared, Finding)
+    for f in findings:   # a run the baseline has and this one lacks (fatal) marks its case/engine
+        if f.kind == "missing" and f.fatal and f.where == "main":
+            verdicts[f"{f.case}/{f.engine}"] = "REGRESSED: " + f.message
     regressions = sum(f.fatal and f.kind != "slower" for f in findings)
     return {"baseline": str(path), "regressions": regressions,
             "slowdowns": sum(f.kind == "slower" for f in findings), "fail_on_slowdown": bool(fail_on_slowdown),
-            "findings": [asdict(f) for f in findings], "verdicts": verdicts}
+            "findings": [asdict(f) for f in findings], "verdicts": verdicts, "not_compared": not_compared,
+            "default": bool(default)}
 
 
-def _sweep(name, engine, oc, case, findings):
+def _missing(current, baseline, scope, findings) -> list:
+    """Baseline cases and engine runs this run lacks: a 'missing' finding
+    each (fatal unless scope allows it); returns the not-compared lines."""
+    now = {c["name"]: {r["engine"] for r in c["runs"]} for c in current["cases"]}
+    engines_run = {"native", *current["options"]["engines"]}
+    out, lost_cases, lost_engines = [], [], {}
+    for oc in baseline["cases"]:
+        name = oc["name"]
+        if name not in now:
+            lost_cases.append(name)
+            findings.append(Finding(name, "all", "main", "missing", "case", "run", None, not scope.cases,
+                                    "in the baseline, not in this run"))
+            continue
+        for r in oc["runs"]:
+            e = r["engine"]
+            if e in now[name]:
+                continue
+            narrowed = scope.engines and e not in engines_run
+            lost_engines.setdefault(e, []).append(name)
+            findings.append(Finding(name, e, "main", "missing", "run", r["status"], None, not narrowed,
+                                    "in the baseline, not run" + (" (--engines)" if narrowed else "")))
+    if lost_cases:
+        why = "case files given" if scope.cases else "NOT RUN: a case of the whole set is gone"
+        out.append(f"{len(lost_cases)} baseline case(s) ({why}): {', '.join(lost_cases)}")
+    for e, names in lost_engines.items():
+        why = "--engines" if scope.engines and e not in engines_run else "NOT RUN"
+        out.append(f"engine {e} ({why}): {len(names)} case(s)" + (f": {', '.join(names)}" if len(names) < 5 else ""))
+    return out
+
+
+def _sweep(name, engine, oc, case, findings, scope) -> int:
+    """Compares the work-precision points both have; a baseline point this run
+    lacks is a missing finding (fatal unless --quick). Returns how many it lacks."""
     def points(c):
         wp = c.get("work_precision") or {}
         for curve in wp.get("curves", ()):
@@ -114,12 +179,17 @@ def _sweep(name, engine, oc, case, findings):
         return {}
 
     old, new = points(oc), points(case)
+    lacking = sorted(set(old) - set(new))
+    for key in lacking:
+        findings.append(Finding(name, engine, f"{key[0]}={key[1]:g}", "missing", "point", old[key]["status"], None,
+                                not scope.sweeps, "work-precision point in the baseline, not in this run"))
     for key in sorted(set(old) & set(new)):
         a, b = old[key], new[key]
         _compare(name, engine, f"{key[0]}={key[1]:g}",
                  {"status": a["status"], "figures": _point_figures(a), "counts": a["counts"]},
                  {"status": b["status"], "figures": _point_figures(b), "counts": b["counts"]},
                  findings)
+    return len(lacking)
 
 
 def _point_figures(p):

@@ -1,16 +1,25 @@
 """index.html: one self-contained page (inline CSS, plots as data: URIs, no
-script, no external URL): the summary table, then one section per case."""
+script, no external URL): the headline and summary matrix, what was not
+compared, the equivalent models, one section per case, the stress suite
+(when it ran) and the run's provenance."""
 import json
 from html import escape
 
 from . import plots
-from .text import fmt, headline, rows, short, us
+from .text import fmt, headline, matrix, provenance, reason, short, unsupported_lines, us
 
 CSS = """body{font:14px/1.4 system-ui,sans-serif;margin:1.5em auto;max-width:1250px;padding:0 1em;color:#222}
 table{border-collapse:collapse;margin:.5em 0 1em}td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}
+td:not(.l){white-space:nowrap}
 td.l,th.l{text-align:left}th{background:#f3f3f3}.ok{color:#176b1a}.bad{color:#b00020;font-weight:bold}
 .skip{color:#777}img{max-width:100%;display:block;margin:.3em 0}section{border-top:2px solid #ddd;margin-top:2em}
-code,pre{font-size:12px}pre{background:#f7f7f7;padding:.5em;overflow-x:auto}"""
+code,pre{font-size:12px}pre{background:#f7f7f7;padding:.5em;overflow-x:auto;white-space:pre-wrap}
+p.head{font-size:17px;padding:.4em .6em;border-left:6px solid #176b1a;background:#eef7ee}
+p.head.bad{border-color:#b00020;background:#fbeaea;color:#222;font-weight:normal}
+table.matrix td{text-align:left;min-width:9em;vertical-align:top}table.matrix td.c-ok{background:#e3f4e3}
+table.matrix td.c-warn{background:#fff3cd}table.matrix td.c-bad{background:#f8d7da;font-weight:bold}
+table.matrix td.c-skip{background:#f4f4f4;color:#999;text-align:center}td small{color:#555}
+details{margin:.3em 0 1em}summary{cursor:pointer;color:#335}.wrap{overflow-x:auto;max-width:100%}"""
 
 
 def _cls(text):
@@ -30,16 +39,39 @@ def _img(b64, alt):
     return f'<img alt="{escape(alt)}" src="data:image/png;base64,{b64}">'
 
 
-def summary_table(doc):
-    out = ["<table><tr><th class=l>case</th><th class=l>engine</th><th class=l>status</th><th>pos. error / L</th>"
-           "<th>angle error (rad)</th><th>residual</th><th>µs/step</th><th class=l>verdict</th></tr>"]
-    for c, r, v in rows(doc):
-        out.append(f'<tr><td class=l><a href="#case-{escape(c["name"])}">{escape(c["name"])}</a></td>'
-                   + _td(r["engine"], left=True) + _td(short(r["status"]), _cls(r["status"]), True)
-                   + _td(fmt(r["position_error_rel"])) + _td(fmt(r["angle_error"]))
-                   + _td(fmt(r["constraint_residual"])) + _td(us(r["time_per_step"])) + _td(v, _cls(v), True)
-                   + "</tr>")
-    return "\n".join(out) + "</table>"
+def summary_matrix(doc):
+    """One row per case (failed or regressed first), one column per engine:
+    each cell coloured by its verdict, with position error / L and µs/step;
+    unsupported engines collapsed below into one line per engine."""
+    engines, table, unsupported = matrix(doc)
+    out = ["<table class=matrix><tr><th class=l>case</th>" + "".join(f"<th class=l>{escape(e)}</th>" for e in engines)
+           + "</tr>"]
+    for c, cells in table:
+        out.append(f'<tr><th class=l><a href="#case-{escape(c["name"])}">{escape(c["name"])}</a></th>'
+                   + "".join(_matrix_cell(cells.get(e)) for e in engines) + "</tr>")
+    out.append("</table>")
+    if unsupported:
+        items = "".join(f"<li><b>{escape(e)}</b>: {escape(text)}</li>" for e, text in unsupported_lines(unsupported).items())
+        out.append(f"<p>Not supported (grey cells):</p><ul>{items}</ul>")
+    return "\n".join(out)
+
+
+def _matrix_cell(cell):
+    if cell is None:
+        return "<td class=c-bad>not run</td>"
+    r, v, g = cell
+    if g == "skip":
+        return f'<td class=c-skip title="{escape(": ".join(reason(r["status"])))}">–</td>'
+    tip = escape(f"{r['status']}; angle error {fmt(r['angle_error'])} rad; residual {fmt(r['constraint_residual'])}; "
+                 f"verdict: {v}; position error against {r['reference']}")
+    if r["status"].startswith("failed"):
+        return f'<td class=c-bad title="{tip}">{escape(short(r["status"], 60))}</td>'
+    note = "" if v in ("pass", "no baseline") else f"<br><small>{escape(short(v, 70))}</small>"
+    if r["within_tolerance"] is False:
+        note += "<br><small>outside the engine's tolerance</small>"
+    mark = "ᶜ" if r["reference"].startswith("closed form") else "ᵍ" if r["reference"].startswith("equivalence") else ""
+    return (f'<td class=c-{g} title="{tip}">{fmt(r["position_error_rel"])}{mark} · {us(r["time_per_step"])} µs'
+            f"{note}</td>")
 
 
 def _counts(r):
@@ -56,19 +88,28 @@ def _per_step(r):
 
 
 def case_table(case):
-    head = ["engine", "status", "pos. error", "pos. / L", "angle", "velocity (rel.)", "omega", "residual",
-            "wall (s)", "µs/step", "cost (deterministic; native per instant)", "within tol.", "version", "settings"]
-    out = ["<table><tr>" + "".join(f"<th class=l>{h}</th>" for h in head) + "</tr>"]
+    head = ["engine", "status", "pos. error", "pos. / L", "pos. error against", "angle (rad)", "velocity (rel.)",
+            "omega (rad/s)", "residual", "wall (s)", "µs/step", "cost (native per instant)", "within tol."]
+    out = ["<div class=wrap><table><tr>" + "".join(f"<th class=l>{h}</th>" for h in head) + "</tr>"]
     for r in case["runs"]:
+        if r["status"].startswith("unsupported"):   # one cell: the reason, no row of dashes
+            out.append("<tr>" + _td(r["engine"], left=True)
+                       + f'<td class="l skip" colspan={len(head) - 1}>{escape(r["status"])}</td></tr>')
+            continue
         wt = {True: "yes", False: "NO", None: "–"}[r["within_tolerance"]]
-        out.append("<tr>" + _td(r["engine"], left=True) + _td(short(r["status"], 90), _cls(r["status"]), True)
-                   + "".join(_td(fmt(r[k])) for k in ("position_error", "position_error_rel", "angle_error",
-                                                        "velocity_error_rel", "angular_velocity_error",
+        out.append("<tr>" + _td(r["engine"], left=True) + _td(short(r["status"], 60), _cls(r["status"]), True)
+                   + "".join(_td(fmt(r[k])) for k in ("position_error", "position_error_rel"))
+                   + _td(r["reference"], left=True)
+                   + "".join(_td(fmt(r[k])) for k in ("angle_error", "velocity_error_rel", "angular_velocity_error",
                                                         "constraint_residual"))
                    + _td(fmt(r["wall_time"], ".3g")) + _td(us(r["time_per_step"])) + _td(_per_step(r), left=True)
-                   + _td(wt) + _td(r["version"], left=True)
-                   + f"<td class=l><code>{escape(json.dumps(r['settings'], separators=(',', ':')))}</code></td></tr>")
-    return "\n".join(out) + "</table>"
+                   + _td(wt) + "</tr>")
+    out.append("</table></div>")
+    settings = "".join(f"<li><b>{escape(r['engine'])}</b> {escape(r['version'])}: "
+                       f"<code>{escape(json.dumps(r['settings'], separators=(', ', ': ')))}</code></li>"
+                       for r in case["runs"])
+    out.append(f"<details><summary>versions and settings</summary><ul>{settings}</ul></details>")
+    return "\n".join(out)
 
 
 def wp_table(wp):
@@ -87,8 +128,9 @@ def case_section(case, model, series):
     out = [f'<section id="case-{escape(name)}"><h2>{escape(name)}</h2>',
            f"<p>{escape(case['description'])}<br>{escape(case['path'])}: L = {case['length']:.4g} "
            f"{escape(case['unit'])}, t = 0 … {case['end']:g} s in {case['steps']} steps, "
-           f"{case['coordinates']} coordinates; reference: native at tolerance "
-           f"{fmt(case['reference_tolerance'], '.0e')}.</p>"]
+           f"{case['coordinates']} coordinates. References: engines' errors and the plots against native at "
+           f"tolerance {fmt(case['reference_tolerance'], '.0e')}; native's position error against "
+           f"{escape(_native_reference(case))}.</p>"]
     native = series.get("native")
     if native and "snapshots" in native:
         snap = native["snapshots"]
@@ -102,8 +144,13 @@ def case_section(case, model, series):
         out.append("<h3>Work-precision</h3><p>Each point is one run, labelled with its native Newton tolerance "
                    "or engine time step; errors are maxima over the run against the reference, those below "
                    "1e-16 drawn at 1e-16.</p>" + _img(plots.work_precision(wp), f"{name} work-precision")
-                   + "<details><summary>points</summary>" + wp_table(wp) + "</details>")
+                   + "<details><summary>points</summary><div class=wrap>" + wp_table(wp) + "</div></details>")
     return "\n".join(out) + "</section>"
+
+
+def _native_reference(case):
+    native = next((r for r in case["runs"] if r["engine"] == "native"), None)
+    return native["reference"] if native else "–"
 
 
 def render_section(job) -> str:
@@ -115,25 +162,39 @@ def render_section(job) -> str:
     return case_section(case, compile(load(case["path"])), series)
 
 
-def index_html(doc, sections) -> str:
+def index_html(doc, sections, curves=None) -> str:
+    """The page: sections are the per-case HTML (render_section); curves the
+    equivalence groups' deviation over time (results.build's series)."""
+    from .equivalence import html as equivalence_html
+    from .stress_section import html as stress_html
+
     g = doc.get("gate")
     fatal = [f for f in (g or {}).get("findings", ()) if f["fatal"]]
+    head = headline(doc)
     parts = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8"><title>kinem report</title>',
-             f"<style>{CSS}</style></head><body>", "<h1>kinem report</h1>", f"<p>{escape(headline(doc))}</p>"]
+             f"<style>{CSS}</style></head><body>", "<h1>kinem report</h1>",
+             f'<p class="head{" bad" if head.startswith("FAILED") else ""}">{escape(head)}</p>',
+             f"<p><small>{escape(provenance(doc))}</small></p>"]
     if fatal:
         items = "".join(f"<li><b>{escape(f['case'])} / {escape(f['engine'])}</b> ({escape(f['where'])}): "
                         f"{escape(f['message'])}</li>" for f in fatal)
         parts.append(f"<h2 class=bad>Regressions ({len(fatal)})</h2><ul>{items}</ul>")
-    parts.append(summary_table(doc))
-    parts.append("<p>Errors: against the native solution at tolerance 1e-13, max over instants, bodies and "
-                 "named points; residual: max scaled residual of the kinematic constraints on the run's "
-                 "trajectory; µs/step: wall time per engine step (native: per output instant). "
-                 "Work-precision: max position error / L against wall time per simulated second.</p>")
+    if g and g["not_compared"]:
+        items = "".join(f"<li>{escape(x)}</li>" for x in g["not_compared"])
+        parts.append(f"<h3>Not compared (in the baseline {escape(g['baseline'])}, not in this run)</h3><ul>{items}</ul>")
+    parts.append("<h2>Summary</h2>" + summary_matrix(doc))
+    parts.append("<p><small>Each cell: position error / L (max over instants, bodies and named points) · wall time "
+                 "per engine step (native: per output instant); hover for the angle error, residual and verdict. "
+                 "References: engines against the native solution at tolerance 1e-13; native against the case's "
+                 "closed form (ᶜ, kinem.reference) or its equivalence group (ᵍ) where it has one, else against "
+                 "itself at 1e-13. Green: ok and no regression; yellow: new, slower or outside the engine's "
+                 "documented tolerance; red: failed or regressed. Work-precision: max position error / L against "
+                 "wall time per simulated second.</small></p>")
+    parts.append(equivalence_html(doc, (curves or {})))
     parts += sections
-    from .stress_section import html as stress_html
-
     parts.append(stress_html(doc))
     meta = {k: doc[k] for k in ("git", "machine", "options", "engines", "created")}
-    parts.append("<section><h2>Run</h2><pre>" + escape(json.dumps(meta, indent=1)) + "</pre></section>")
+    parts.append("<section><h2>Run</h2><details><summary>versions, machine and options</summary><pre>"
+                 + escape(json.dumps(meta, indent=1)) + "</pre></details></section>")
     parts.append("</body></html>")
     return "\n".join(parts) + "\n"

@@ -13,7 +13,7 @@ from pathlib import Path
 from ..errors import InputError
 from .schema import SCHEMA, problems
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 PACKAGES = ("kinem", "numpy", "scipy", "matplotlib", "pymunk", "mujoco", "exudyn")
 WP_ERROR = "position_error_rel"      # the work-precision diagram's error
 WP_COST = "wall_per_sim_second"      # and its cost
@@ -22,7 +22,8 @@ PLOT_ONLY = ("series", "path", "elapsed")
 
 def build(cases, runs, options, duration):
     """cases: (path, Case, Model) triples; runs: execute()'s {path: [run]}.
-    Returns (results document, {case name: {engine: series}})."""
+    Returns (results document, {case name: {engine: series}}, plus
+    "(equivalence)": {group: {case: (t, deviation)}})."""
     out, series, engines = [], {}, {}
     for path, case, model in cases:
         rs = runs[path]
@@ -40,14 +41,20 @@ def build(cases, runs, options, duration):
             "name": case.name, "path": str(path), "description": case.description,
             "length": model.length, "unit": case.length_unit, "end": case.end, "steps": case.steps,
             "coordinates": model.n, "reference_tolerance": ref_tol,
+            "equivalent": None if case.equivalent is None else {"group": case.equivalent.group,
+                                                                "points": list(case.equivalent.points)},
             "runs": [_strip(r) for r in main],
             "work_precision": _work_precision(rs, options["engines"]),
         })
+    from . import equivalence
+
+    groups, curves = equivalence.build(out, series)
+    series["(equivalence)"] = curves   # not a case name: those have no parentheses
     doc = {
         "schema_version": SCHEMA_VERSION, "tool": "kinem report",
         "created": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"), "duration": duration,
         "git": git_revision(), "machine": machine(), "options": options, "engines": engines,
-        "cases": out, "gate": None,
+        "cases": out, "equivalence": groups, "gate": None,
     }
     return clean(doc), series
 
@@ -103,17 +110,41 @@ def load(path, what="baseline"):
     except (OSError, UnicodeDecodeError) as e:
         raise InputError(f"{what} {path}: cannot read: {e}") from None
     try:
-        doc = json.loads(text)
+        doc = json.loads(text, parse_constant=_no_constant)
     except ValueError as e:
         raise InputError(f"{what} {path}: not JSON ({e}); expected a results.json of kinem report") from None
     version = doc.get("schema_version") if isinstance(doc, dict) else None
     if version != SCHEMA_VERSION:
         raise InputError(f"{what} {path}: schema_version {version!r}; expected {SCHEMA_VERSION} "
                          "(rewrite it with --update-baseline)")
-    bad = problems(doc, SCHEMA)
+    bad = problems(doc, SCHEMA) or missing_figures(doc)
     if bad:
         raise InputError([f"{what} {path}: {p}" for p in bad[:5]])
     return doc
+
+
+def _no_constant(name):
+    raise ValueError(f"non-finite number {name}; expected finite figures")
+
+
+def missing_figures(doc) -> list:
+    """Gated figures that are null where the run is ok (a NaN written as null
+    would switch its check off): 'where: problem' lines; empty when none."""
+    from .gate import GATED
+
+    out = []
+    for c in doc["cases"]:
+        for r in c["runs"]:
+            if r["status"] == "ok":
+                out += [f"cases.{c['name']}.runs.{r['engine']}: {k} is null in an ok run; expected a finite number"
+                        for k in GATED if r.get(k) is None]
+        for curve in (c.get("work_precision") or {}).get("curves", ()):
+            for p in curve["points"]:
+                if p["status"] == "ok":
+                    out += [f"cases.{c['name']}.work_precision.{curve['engine']}.{p['value']:g}: {k} is null in an "
+                            "ok point; expected a finite number" for k in ("error", "velocity_error_rel")
+                            if p.get(k) is None]
+    return out
 
 
 def machine() -> dict:

@@ -16,6 +16,7 @@ from functools import lru_cache
 import numpy as np
 
 REFERENCE_TOLERANCE = 1e-13  # scaled residual; about 500 machine epsilons of L
+REFERENCE_LABEL = "native at the reference tolerance"  # what a run's figures are against, unless it says otherwise
 SNAPSHOTS = 4                # instants drawn in the mechanism figure
 ERROR_KEYS = ("position_error", "position_error_rel", "angle_error", "velocity_error", "velocity_error_rel",
               "angular_velocity_error", "constraint_residual")   # adapters.compare.FIGURES
@@ -56,7 +57,8 @@ def reference(path):
 def _blank(task, status, **extra):
     out = {"engine": task.engine, "knob": task.knob, "value": task.value, "status": status,
            "requested": {}, "settings": {}, "version": "", "within_tolerance": None, "tolerance": {},
-           "wall_time": None, "time_per_step": None, "wall_per_sim_second": None, "counts": {}}
+           "wall_time": None, "time_per_step": None, "wall_per_sim_second": None, "counts": {},
+           "reference": REFERENCE_LABEL}
     out.update({k: None for k in ERROR_KEYS})
     out.update(extra)
     return out
@@ -129,7 +131,26 @@ def run_native(task):
     if task.knob is None:
         out["series"] = _series(model, ref, r.trajectory, with_reference=True)
         out["reference_tolerance"] = ref_tol
+        _independent(model, ref, r.trajectory, out)
     return out
+
+
+def _independent(model, ref, traj, out):
+    """The main native run's position figures against the case's closed form
+    (kinem.report.references) where it has one; the named points of its
+    equivalence group into the series (kinem.report.equivalence)."""
+    from .references import closed_form, error
+
+    cf = closed_form(model, ref)
+    if cf is not None:
+        label, points = cf
+        d = error(model, traj, points)
+        out.update(position_error=_finite(d), position_error_rel=_finite(d / model.length), reference=label)
+    eq = model.case.equivalent
+    if eq is not None:
+        pick = lambda tr: {n: [tr[f"{n}.x"].tolist(), tr[f"{n}.y"].tolist()] for n in eq.points}  # noqa: E731
+        out["series"]["points"] = {"t": ref.trajectory.t.tolist(), "reference": pick(ref.trajectory),
+                                   "run": pick(traj)}
 
 
 def run_engine(task):

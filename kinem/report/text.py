@@ -1,5 +1,7 @@
 """summary.md (GitHub-flavoured Markdown for a CI job summary) and junit.xml
-(one test case per case x engine)."""
+(one test case per case x engine); the summary matrix and headline both
+summary.md and index.html show."""
+import re
 from xml.sax.saxutils import quoteattr
 
 
@@ -29,25 +31,106 @@ def rows(doc):
             yield c, r, verdict_of(doc, c["name"], r["engine"])
 
 
-def headline(doc) -> str:
+def engines_of(doc):
+    return ["native"] + list(doc["options"]["engines"])
+
+
+def grade(run, verdict) -> str:
+    """A cell's class: bad (failed, regressed), skip (unsupported), warn
+    (new, slower, outside the adapter's tolerance), ok."""
+    st = run["status"]
+    if st.startswith("failed") or verdict.startswith("REGRESSED"):
+        return "bad"
+    if st.startswith("unsupported"):
+        return "skip"
+    if verdict.startswith(("new", "pass, slower")) or run["within_tolerance"] is False:
+        return "warn"
+    return "ok"
+
+
+def matrix(doc):
+    """The summary matrix: (engines, [(case, {engine: (run, verdict, grade)})],
+    {engine: {reason: ([joint types], [cases])}} of the unsupported runs).
+    Cases with a failed or regressed run come first, then those with a
+    warning, then the rest."""
+    engines, rows, unsupported = engines_of(doc), [], {}
+    for c in doc["cases"]:
+        cells = {}
+        for r in c["runs"]:
+            v = verdict_of(doc, c["name"], r["engine"])
+            cells[r["engine"]] = (r, v, grade(r, v))
+            if r["status"].startswith("unsupported") and not v.startswith("REGRESSED"):
+                what, why = reason(r["status"])
+                types, names = unsupported.setdefault(r["engine"], {}).setdefault(why, ([], []))
+                types += [what] if what not in types else []
+                names.append(c["name"])
+        rows.append((c, cells))
+    order = {"bad": 0, "warn": 1}
+    rows.sort(key=lambda row: min((order.get(g, 2) for _, _, g in row[1].values()), default=2))
+    return engines, rows, unsupported
+
+
+def reason(status) -> tuple:
+    """An unsupported status as (what, why) without the constraint's own name,
+    so that cases share it: "unsupported: cam-flat ('contact'): no ..." ->
+    ("cam-flat", "no ...")."""
+    text = re.sub(r" \('[^']*'\)", "", status.split(":", 1)[-1].strip())
+    what, _, why = text.partition(": ")
+    return (what, why) if why else ("", what)
+
+
+def unsupported_lines(unsupported):
+    """{engine: "why (types: cases); ..."} for the lines under the matrix."""
+    return {e: "; ".join(f"{', '.join(t for t in types if t)}: {why} ({', '.join(names)})"
+                         for why, (types, names) in reasons.items())
+            for e, reasons in unsupported.items()}
+
+
+def counts(doc):
     runs = [r for _, r, _ in rows(doc)]
     ok = sum(r["status"] == "ok" for r in runs)
     failed = sum(r["status"].startswith("failed") for r in runs)
+    return len(runs), ok, failed, len(runs) - ok - failed
+
+
+def headline(doc) -> str:
+    """One sentence: the verdict, then what it covers."""
+    n, ok, failed, unsupported = counts(doc)
     g = doc.get("gate")
+    regressions = g["regressions"] if g else 0
+    misses = len((doc.get("stress") or {}).get("native_misses", ()))
+    bad = failed or regressions or misses or any(e["status"] != "ok" for e in doc["engines"].values())
+    verdict = "FAILED" if bad else "PASS"
+    what = (f"{len(doc['cases'])} case(s) on {', '.join(engines_of(doc))}: {ok} of {n} runs ok, {failed} failed, "
+            f"{unsupported} unsupported")
+    if g:
+        base = (f"{regressions} regression(s), {g['slowdowns']} slowdown(s) against {g['baseline']}"
+                + (" (found by default; --baseline none skips it)" if g.get("default") else ""))
+        if g.get("not_compared"):
+            base += f"; {len(g['not_compared'])} thing(s) not compared (listed below)"
+    else:
+        base = "no baseline, so no regression check"
+    stress = ""
+    if doc.get("stress"):
+        stress = "; stress suite: " + ("native met every expectation" if not misses
+                                       else f"native missed {misses} expectation(s)")
+    return f"{verdict}: {what}; {base}{stress}."
+
+
+def provenance(doc) -> str:
     git = doc["git"]["revision"]
     rev = "no git revision" if not git else git[:10] + (" (dirty)" if doc["git"]["dirty"] else "")
-    gate = (f"baseline `{g['baseline']}`: {g['regressions']} regression(s), {g['slowdowns']} slowdown(s)"
-            if g else "no baseline")
     m = doc["machine"]
-    return (f"{len(doc['cases'])} cases, {len(runs)} runs: {ok} ok, {failed} failed, "
-            f"{len(runs) - ok - failed} unsupported; {gate}. {rev}; {m['cpu']}, {m['cores']} cores; "
-            f"{doc['duration']:.0f} s" + (" (--quick)" if doc["options"]["quick"] else ""))
+    return (f"{rev}; {m['cpu']}, {m['cores']} cores; {doc['duration']:.0f} s"
+            + (" (--quick)" if doc["options"]["quick"] else ""))
 
 
 def summary_md(doc) -> str:
-    out = ["## kinem report", "", headline(doc), ""]
+    out = ["## kinem report", "", f"**{headline(doc)}**", "", provenance(doc), ""]
     g = doc.get("gate")
     fatal = [f for f in (g or {}).get("findings", ()) if f["fatal"]]
+    if g and g["not_compared"]:
+        out += ["### Not compared (in the baseline, not in this run)", ""] + [f"- {x}" for x in g["not_compared"]] + [""]
     if fatal:
         out += [f"### Regressions ({len(fatal)})", ""]
         out += [f"- **{f['case']} / {f['engine']}** ({f['where']}): {f['message']}" for f in fatal[:30]]
@@ -70,23 +153,41 @@ def summary_md(doc) -> str:
 
     if doc.get("stress"):
         out += [stress_line(doc), ""]
-    out += ["| case | engine | status | pos. error / L | angle error (rad) | residual | µs/step | verdict |",
-            "|---|---|---|---:|---:|---:|---:|---|"]
-    unsupported = {}
-    for c, r, v in rows(doc):
-        if r["status"].startswith("unsupported") and not v.startswith("REGRESSED"):
-            unsupported.setdefault(r["engine"], []).append(c["name"])  # listed below the table
-            continue
-        cells = [c["name"], r["engine"], short(r["status"], 48), fmt(r["position_error_rel"]),
-                 fmt(r["angle_error"]), fmt(r["constraint_residual"]), us(r["time_per_step"]), v]
-        out.append("| " + " | ".join(s.replace("|", "\\|") for s in cells) + " |")
+    from .equivalence import line as groups_line
+
+    if doc.get("equivalence"):
+        out += [groups_line(doc), ""]
+    engines, table, unsupported = matrix(doc)
+    out += ["| case | " + " | ".join(engines) + " |", "|---|" + "---:|" * len(engines)]
+    for c, cells in table:
+        out.append(f"| {c['name']} | " + " | ".join(_md_cell(cells.get(e)) for e in engines) + " |")
     if unsupported:
-        out += ["", "Not supported (the case uses a joint the engine cannot represent; reasons in index.html): "
-                + "; ".join(f"{e}: {', '.join(names)}" for e, names in unsupported.items()) + "."]
-    out += ["", "Errors against the native solution at tolerance 1e-13; residual: max scaled residual of the "
-            "kinematic constraints; µs/step: wall time per engine step (native: per output instant). "
+        out += ["", "Not supported (–):"]
+        out += [f"- **{e}**: {text}" for e, text in unsupported_lines(unsupported).items()]
+    out += ["", "Cells: position error / L (native: against the closed form or equivalence group where the case "
+            "has one, else native at tolerance 1e-13; engines: against native at 1e-13) and µs per step; "
+            "✅ pass or ok, ⚠️ new, slower or outside the engine's tolerance, ❌ failed or regressed. "
             "Details, plots and work-precision diagrams: index.html."]
     return "\n".join(out) + "\n"
+
+
+MARK = {"ok": "✅", "warn": "⚠️", "bad": "❌", "skip": "–"}
+
+
+def _md_cell(cell) -> str:
+    if cell is None:
+        return "not run"
+    r, v, g = cell
+    if g == "skip":
+        return "–"
+    if r["status"].startswith("failed"):
+        return f"❌ {short(r['status'], 40)}".replace("|", "\\|")
+    text = f"{MARK[g]} {fmt(r['position_error_rel'])}, {us(r['time_per_step'])} µs"
+    if v.startswith("REGRESSED"):
+        text += f" ({short(v, 50)})"
+    elif v.startswith(("new", "pass, slower")):
+        text += f" ({v})"
+    return text.replace("|", "\\|")
 
 
 def junit_xml(doc) -> str:
