@@ -47,12 +47,13 @@ class Data:
     jacobian_evaluations: int = 0
     factorizations: int = 0
     trace: list | None = None           # when a list: (t, what, iteration, scaled residual, detail) records
+    rows: np.ndarray | None = None      # least squares: rows whose square subsystem's det sign is monitored
 
 
 def _factor(model, data, q, t) -> Factor:
     data.jacobian_evaluations += 1
     data.factorizations += 1
-    return Factor(model, model.jac_values(q, t))
+    return Factor(model, model.jac_values(q, t), data.rows)
 
 
 # Jacobian reuse (modified Newton): a factorisation from a nearby

@@ -13,9 +13,11 @@ det(J_s), which flips when the configuration passes through a singular one.
 A model with more equations than coordinates (redundant but consistent
 constraints) is solved in the least-squares sense: dense QR of J_s, or the
 normal equations J_s^T J_s with sparse LU. Its pivots are those of R (their
-square roots for the normal equations) and it has no determinant sign
-(reported as +1 throughout: branch changes are then caught by the jump test
-alone).
+square roots for the normal equations). Its determinant sign is that of the square subsystem of
+n independent rows chosen at the assembled configuration (``monitor_rows``),
+the system of its square twin, so that a least-squares model's branch is
+guarded as its twin's is (dense models; a sparse one reports +1 and is
+guarded by the jump test alone).
 """
 import numpy as np
 
@@ -74,15 +76,37 @@ def preload(model, block: bool = False) -> None:
         dense.warm(model)
 
 
-class Factor:
-    """LU factors of the dimensionless Phi_q with a solve(b) for Phi_q x = b."""
+def monitor_rows(J) -> np.ndarray:
+    """Rows of a dimensionless Jacobian J (m x n, m > n, full column rank)
+    forming its best-conditioned square subsystem as QR with column pivoting
+    of J^T orders them: the first n, in their original order."""
+    from scipy.linalg import qr
 
-    def __init__(self, model, values):
+    J = J.toarray() if hasattr(J, "toarray") else J
+    _, perm = qr(J.T, pivoting=True, mode="r")
+    return np.sort(perm[:J.shape[1]])
+
+
+def det_sign(J) -> int:
+    """Sign of det of a square (dense or sparse) matrix from its LU."""
+    from scipy.linalg.lapack import dgetrf
+
+    lu, piv, _ = dgetrf(J.toarray() if hasattr(J, "toarray") else J)
+    return int(lu_det_sign(np.diag(lu), piv))
+
+
+class Factor:
+    """LU factors of the dimensionless Phi_q with a solve(b) for Phi_q x = b.
+    ``rows``: for a least-squares factorisation, the rows whose square
+    subsystem gives det_sign (``monitor_rows``); without them it is +1."""
+
+    def __init__(self, model, values, rows=None):
         self.sparse = model.sparse
         self.row = 1.0 / model.scale
         self.col = model.col_scale
         J = model.assemble(values * model.entry_scale, self.sparse)
         self.least_squares = model.m > model.n
+        self._rows, self._J = rows, J
         if self.least_squares:
             diag = self._qr(J)
             cols = np.arange(model.n)
@@ -131,7 +155,7 @@ class Factor:
     @property
     def det_sign(self) -> int:
         if self.least_squares:
-            return 1
+            return 1 if self._rows is None else det_sign(self._J[self._rows])
         if self._perms is None:
             return int(lu_det_sign(self._diag, self.lu[1]))
         return int(np.prod(np.sign(self._diag))) * _parity(self._perms[0]) * _parity(self._perms[1])
