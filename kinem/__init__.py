@@ -6,15 +6,17 @@
     result = kinem.solve(model)                    # SolveResult
     result.trajectory["slider.x"]                  # numpy array over result.trajectory.t
 """
-from .analysis import Data, acceleration, factorize, position, solve, velocity
+from .analysis import Data, acceleration, factorize, position, velocity
 from .case import load, load_dict, loads
 from .errors import AnalysisError, ConvergenceError, InputError, KinemError, SingularError
 from .model import Model, compile
+from .options import Options
 from .result import OUTPUTS, SolveResult, Status, Trajectory
+from .solver import solve
 from .spec import Body, Case, Constraint, Point
 
 __all__ = [
     "load", "loads", "load_dict", "compile", "solve", "position", "velocity", "acceleration",
-    "factorize", "Data", "Model", "Case", "Body", "Point", "Constraint", "SolveResult", "Trajectory",
+    "factorize", "Data", "Options", "Model", "Case", "Body", "Point", "Constraint", "SolveResult", "Trajectory",
     "Status", "OUTPUTS", "KinemError", "InputError", "AnalysisError", "ConvergenceError", "SingularError",
 ]

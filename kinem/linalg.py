@@ -19,6 +19,8 @@ the system of its square twin, so that a least-squares model's branch is
 guarded as its twin's is (dense models; a sparse one reports +1 and is
 guarded by the jump test alone).
 """
+from dataclasses import dataclass
+
 import numpy as np
 
 from .errors import SingularError
@@ -57,12 +59,13 @@ def lu_det_sign(diag, piv) -> np.ndarray:
     return np.prod(np.sign(diag), axis=-1).astype(int) * (1 - 2 * (swaps % 2))
 
 
-def preload(model, block: bool = False) -> None:
+def preload(model, block: bool = False, solver: "Solver | None" = None) -> None:
     """Loads what the analysis of the model will use, so that timed analyses
     do not pay for it: scipy's factorisations (imported lazily for a fast
     start), the model's kernels (compiled: on first use, then loaded from
     numba's cache; kinem.jit) and, for the block march (``block``), kinem.dense's."""
-    if model.sparse or model.m > model.n:
+    solver = choose(model) if solver is None else solver
+    if solver.sparse or solver.least_squares:
         import scipy.sparse.linalg  # noqa: F401
     import scipy.linalg.lapack  # noqa: F401
     q, t = model.q0, float(model.times[0])
@@ -95,18 +98,39 @@ def det_sign(J) -> int:
     return int(lu_det_sign(np.diag(lu), piv))
 
 
-class Factor:
-    """LU factors of the dimensionless Phi_q with a solve(b) for Phi_q x = b.
-    ``rows``: for a least-squares factorisation, the rows whose square
-    subsystem gives det_sign (``monitor_rows``); without them it is +1."""
+@dataclass(frozen=True)
+class Solver:
+    """The linear solver of an analysis, chosen once (``choose``): dense LU,
+    sparse LU, or least squares (dense QR, or sparse normal equations) for
+    a model with redundant equations, whose det sign is that of its
+    ``rows`` (``monitor_rows``; None: +1)."""
+    sparse: bool
+    least_squares: bool
+    rows: np.ndarray | None = None
 
-    def __init__(self, model, values, rows=None):
-        self.sparse = model.sparse
+
+def choose(model, options=None) -> Solver:
+    """The linear solver for a model under ``options`` (kinem.options.Options;
+    default: its case's [solver] section)."""
+    from .model import DENSE_LIMIT
+
+    kind = model.case.linear_solver if options is None else options.linear_solver
+    sparse = model.n > DENSE_LIMIT if kind == "auto" else kind == "sparse"
+    return Solver(sparse, model.m > model.n)
+
+
+class Factor:
+    """LU factors of the dimensionless Phi_q with a solve(b) for Phi_q x = b,
+    by the ``solver`` chosen for the analysis (``choose``)."""
+
+    def __init__(self, model, values, solver: Solver | None = None):
+        solver = choose(model) if solver is None else solver
+        self.sparse = solver.sparse
         self.row = 1.0 / model.scale
         self.col = model.col_scale
         J = model.assemble(values * model.entry_scale, self.sparse)
-        self.least_squares = model.m > model.n
-        self._rows, self._J = rows, J
+        self.least_squares = solver.least_squares
+        self._rows, self._J = solver.rows, J
         if self.least_squares:
             diag = self._qr(J)
             cols = np.arange(model.n)

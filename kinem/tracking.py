@@ -17,9 +17,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dataclasses import replace
+
+from . import analysis
 from .diagnose import diagnose
 from .errors import AnalysisError, ConvergenceError, SingularError
 from .linalg import det_sign, monitor_rows
+from .options import Options
 
 KAPPA = 0.5            # a correction above half the predicted motion is a jump, not a refinement
 MIN_STEP = 1e-5        # of the output interval: below it the path is stuck at a singular point
@@ -73,14 +77,29 @@ def extrapolate(t, T, Q, QD=None, QDD=None):
     return q, near.sum(axis=1) - 1
 
 
-def jumps(model, q, q_pred, q_last):
+def jumps(model, q, q_pred, q_last, tolerance):
     """A correction from the predictor above KAPPA times the predicted motion
     (dimensionless, plus ten times the tolerance for round-off): (jump,
     correction, motion), each per configuration for q of shape (K, n)."""
     cs = model.col_scale
     corr = np.max(np.abs(q - q_pred) / cs, axis=-1)
     move = np.max(np.abs(q_pred - q_last) / cs, axis=-1)
-    return corr > KAPPA * move + 10 * model.case.tolerance, corr, move
+    return corr > KAPPA * move + 10 * tolerance, corr, move
+
+
+# Why ``rejected`` turns a state down (0: accepted).
+NEAR_SINGULAR, DET_FLIP, JUMP = 1, 2, 3
+
+
+def rejected(pivot, det, previous_det, jump, floor, allow_flip=False):
+    """The acceptance test of a tracked state, reached in one step from the
+    one before it (one state or a batch; arguments broadcast): NEAR_SINGULAR
+    when its pivot ratio is below the floor (singular_pivot), DET_FLIP when
+    det(J_s) changed sign (unless ``allow_flip``: a step over a bifurcation),
+    JUMP when its correction from the predictor is a jump (``jumps``), else 0.
+    The tracker and the block march both decide with it."""
+    flip = (np.asarray(det) != previous_det) & (not allow_flip)
+    return np.where(np.asarray(pivot) < floor, NEAR_SINGULAR, np.where(flip, DET_FLIP, np.where(jump, JUMP, 0)))
 
 
 def over_steps(step, limit):
@@ -109,16 +128,16 @@ class Rejected(Exception):
 
 
 class Tracker:
-    def __init__(self, model, data, need_v, need_a):
-        from . import analysis
-
+    def __init__(self, model, data, need_v, need_a, options: Options | None = None):
         self.a = analysis
         self.model, self.data = model, data
         self.need_v, self.need_a = need_v, need_a
+        self.options = o = Options.of(model.case) if options is None else options
+        self.tol = o.tolerance
         self.history = []       # accepted states, last three kept
         self.events = []        # (t, text): singular configurations passed
         self.substeps = 0       # steps taken beyond one per output interval
-        self.pivot_floor = singular_pivot(model.case.tolerance)
+        self.pivot_floor = singular_pivot(o.tolerance)
 
     # -- one configuration -------------------------------------------------
     def settle(self, t, q_start) -> State:
@@ -126,10 +145,10 @@ class Tracker:
         velocity and acceleration when asked)."""
         m, d = self.model, self.data
         # modified Newton from the last converged Jacobian, when the case asks for it
-        reuse = d.factor if m.case.jacobian_reuse and self.need_v and self.history else None
+        reuse = d.factor if self.options.jacobian_reuse and self.need_v and self.history else None
         d.q = q_start
         d.newton_factor = None
-        self.a.position(m, d, t, factor=reuse)
+        self.a.position(m, d, t, self.tol, self.options.max_iterations, factor=reuse)
         qd = qdd = None
         try:
             if self.need_v:
@@ -161,14 +180,14 @@ class Tracker:
         q_pred, order = self.predict(t)
         s = self.settle(t, q_pred)
         last = self.history[-1]
-        if s.pivot < self.pivot_floor:
+        jump, corr, move = jumps(self.model, s.q, q_pred, last.q, self.tol)
+        why = rejected(s.pivot, s.det, last.det, jump and order >= 1, self.pivot_floor, allow_flip)
+        if why == NEAR_SINGULAR:
             raise Rejected(f"near-singular configuration (pivot ratio {s.pivot:.1e})")
-        if not allow_flip and s.det != last.det:
+        if why == DET_FLIP:
             raise Rejected("det(J) changed sign")
-        if order >= 1:
-            jump, corr, move = jumps(self.model, s.q, q_pred, last.q)
-            if jump:
-                raise Rejected(f"jump of {corr:.2e} from the predictor (predicted motion {move:.2e})")
+        if why == JUMP:
+            raise Rejected(f"jump of {corr:.2e} from the predictor (predicted motion {move:.2e})")
         return s
 
     # -- the march ---------------------------------------------------------------
@@ -181,10 +200,12 @@ class Tracker:
             d = diagnose(self.model, s.q, t)
             raise SingularError("assembled in a " + d.message())
         m = self.model
-        if m.m > m.n and not m.sparse:  # redundant: monitor the det sign of a square subsystem
+        solver = self.data.solver
+        if solver is not None and solver.least_squares and not solver.sparse:
+            # redundant equations: monitor the det sign of a square subsystem of independent rows
             J = m.assemble(m.jac_values(s.q, t) * m.entry_scale, False)
-            self.data.rows = monitor_rows(J)
-            s.det = det_sign(J[self.data.rows])
+            self.data.solver = replace(solver, rows=monitor_rows(J))
+            s.det = det_sign(J[self.data.solver.rows])
         self.history = [s]
         return s
 
@@ -318,8 +339,8 @@ class Tracker:
             corr = np.max(np.abs(f.solve(-m.phi(s.q, t))) / m.col_scale)
         except AnalysisError:
             return None
-        jump, _, _ = jumps(m, s.q, q_pred, before.q)
-        regular = corr <= REGULAR * m.case.tolerance**0.5 and s.pivot >= REGULAR * self.pivot_floor
+        jump, _, _ = jumps(m, s.q, q_pred, before.q, self.tol)
+        regular = corr <= REGULAR * self.tol**0.5 and s.pivot >= REGULAR * self.pivot_floor
         return s if regular and not jump else None
 
     def rates(self, state):
@@ -335,7 +356,7 @@ class Tracker:
 
     def polish(self, q, t):
         """Minimum-norm Gauss-Newton steps: Newton without a regular Jacobian."""
-        q, self.data.residual = self.a.gauss_newton(self.model, q, t)
-        if not self.data.residual <= self.model.case.tolerance:
+        q, self.data.residual = self.a.gauss_newton(self.model, q, t, self.options.max_iterations, self.tol)
+        if not self.data.residual <= self.tol:
             raise ConvergenceError(f"no convergence at the singular configuration t = {t:.6g}")
         return q
