@@ -19,6 +19,7 @@ the system of its square twin, so that a least-squares model's branch is
 guarded as its twin's is (dense models; a sparse one reports +1 and is
 guarded by the jump test alone).
 """
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -59,12 +60,24 @@ def lu_det_sign(diag, piv) -> np.ndarray:
     return np.prod(np.sign(diag), axis=-1).astype(int) * (1 - 2 * (swaps % 2))
 
 
+_PRELOADED = weakref.WeakKeyDictionary()   # model -> kinds of analysis preloaded
+
+
 def preload(model, block: bool = False, solver: "Solver | None" = None) -> None:
     """Loads what the analysis of the model will use, so that timed analyses
     do not pay for it: scipy's factorisations (imported lazily for a fast
     start), the model's kernels (compiled: on first use, then loaded from
-    numba's cache; kinem.jit) and, for the block march (``block``), kinem.dense's."""
+    numba's cache; kinem.jit) and, for the block march (``block``), kinem.dense's.
+    Once per model and kind of analysis: again it would only cost time (about
+    100 us on the slider-crank, a tenth of a short block-march run)."""
+    from . import jit
+
     solver = choose(model) if solver is None else solver
+    key = (block, solver.sparse or solver.least_squares, bool(jit._interpreted))
+    done = _PRELOADED.setdefault(model, set())
+    if key in done:
+        return
+    done.add(key)
     if solver.sparse or solver.least_squares:
         import scipy.sparse.linalg  # noqa: F401
     import scipy.linalg.lapack  # noqa: F401

@@ -163,6 +163,9 @@ class Block:
         Q += solve_each(m, factors, -final[:n])  # analysis.refine: one more Newton correction
         QD = QDD = None
         if self.need_v:
+            # rates from the Jacobian at the corrected positions: to rounding, not to the tolerance
+            factors = factorize(self.dimensionless(Q, t), b)[0]
+            self.data.factorizations += n
             QD = solve_each(m, factors, m.nu(t))
             if self.need_a:
                 QDD = solve_each(m, factors, m.gamma(Q, QD, t))

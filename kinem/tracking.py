@@ -158,6 +158,10 @@ class Tracker:
                 f = d.newton_factor if d.iterations > 0 else self.a._factor(m, d, d.q, t)
             self.a.refine(d, f)
             if self.need_v:
+                if not self.options.jacobian_reuse:
+                    # rates from the Jacobian at the corrected position: to rounding, not to the
+                    # tolerance (modified Newton trades that for one factorisation per instant)
+                    self.a.factorize(m, d)
                 self.a.velocity(m, d)
                 qd = d.qd
                 if self.need_a:
