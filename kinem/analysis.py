@@ -53,10 +53,26 @@ REUSE_RATE = 0.5
 REUSE_ITERATIONS = 4
 
 
-def position(model, data: Data, t: float, tolerance=None, max_iterations=None, factor=None) -> None:
+class MinimumNorm:
+    """Minimum-norm least-squares solves with Phi_q at one configuration
+    (dimensionless, as kinem.linalg.Factor): defined where Phi_q is
+    rank-deficient or not square."""
+
+    def __init__(self, model, q, t):
+        self.model = model
+        self.J = model.assemble(model.jac_values(q, t) * model.entry_scale, sparse=False)
+
+    def solve(self, b):
+        m = self.model
+        return m.col_scale * np.linalg.lstsq(self.J, b / m.scale, rcond=None)[0]
+
+
+def position(model, data: Data, t: float, tolerance=None, max_iterations=None, factor=None,
+             minimum_norm=False) -> None:
     """Newton-Raphson from data.q to Phi(q, t) = 0, steps limited to MAX_STEP.
     ``factor``: a factorisation of Phi_q at a nearby configuration to start
-    with (modified Newton); a fresh one is made as soon as it converges slowly."""
+    with (modified Newton); a fresh one is made as soon as it converges slowly.
+    ``minimum_norm``: Gauss-Newton (``MinimumNorm`` steps, not limited)."""
     tol = model.case.tolerance if tolerance is None else tolerance
     max_it = model.case.max_iterations if max_iterations is None else max_iterations
     q = data.q.copy()
@@ -77,7 +93,9 @@ def position(model, data: Data, t: float, tolerance=None, max_iterations=None, f
             return
         if it == max_it:
             break
-        if factor is None or it >= REUSE_ITERATIONS or data.residual > REUSE_RATE * previous:
+        if minimum_norm:
+            f = MinimumNorm(model, q, t)
+        elif factor is None or it >= REUSE_ITERATIONS or data.residual > REUSE_RATE * previous:
             factor = None  # full Newton from here on: a fresh Jacobian every iteration
             f = data.newton_factor = _factor(model, data, q, t)
         else:
@@ -85,7 +103,7 @@ def position(model, data: Data, t: float, tolerance=None, max_iterations=None, f
         previous = data.residual
         dq = f.solve(-phi)
         size = np.max(np.abs(dq) / model.col_scale)
-        if size > MAX_STEP:
+        if size > MAX_STEP and not minimum_norm:
             dq *= MAX_STEP / size
         q += dq
     data.q = q
@@ -98,15 +116,12 @@ def gauss_newton(model, q, t, max_iterations=None, tolerance=None):
     """Minimum-norm least-squares Newton steps on the dimensionless system:
     converges where Phi_q is rank-deficient or not square (redundant
     constraints, a singular configuration). Returns (q, max scaled residual)."""
-    tol = model.case.tolerance if tolerance is None else tolerance
-    for _ in range((max_iterations or model.case.max_iterations) + 1):
-        phi = model.phi(q, t)
-        r = float(model.scaled_residual(phi).max()) if model.m else 0.0
-        if r <= tol or not np.isfinite(r):
-            break
-        J = model.assemble(model.jac_values(q, t) * model.entry_scale, sparse=False)
-        q = q + model.col_scale * np.linalg.lstsq(J, -phi / model.scale, rcond=None)[0]
-    return q, r
+    data = Data(q=np.array(q, dtype=float))
+    try:
+        position(model, data, t, tolerance, max_iterations or None, minimum_norm=True)
+    except ConvergenceError:
+        pass
+    return data.q, data.residual
 
 
 def factorize(model, data: Data) -> None:
