@@ -19,7 +19,7 @@ def main(path):
     marks = {}
     t = T0
     import kinem.cli  # noqa: F401  (what `python -m kinem` imports: the package, numpy, the registry)
-    from kinem.analysis import solve
+    from kinem.solver import solve
     from kinem.case import check_time, load
     from kinem.model import compile
     from kinem.output import csv_text

@@ -10,15 +10,17 @@ Versions: ``kinem.__version__``, ``kinem --version``.
 """
 __version__ = "0.1.0"   # the one place it is set (pyproject.toml reads it)
 
-from .analysis import Data, acceleration, factorize, position, solve, velocity
+from .analysis import Data, acceleration, factorize, position, velocity
 from .case import load, load_dict, loads
 from .errors import AnalysisError, ConvergenceError, InputError, KinemError, SingularError
 from .model import Model, compile
+from .options import Options
 from .result import OUTPUTS, SolveResult, Status, Trajectory
+from .solver import solve
 from .spec import Body, Case, Constraint, Point
 
 __all__ = [
     "__version__", "load", "loads", "load_dict", "compile", "solve", "position", "velocity", "acceleration",
-    "factorize", "Data", "Model", "Case", "Body", "Point", "Constraint", "SolveResult", "Trajectory",
+    "factorize", "Data", "Options", "Model", "Case", "Body", "Point", "Constraint", "SolveResult", "Trajectory",
     "Status", "OUTPUTS", "KinemError", "InputError", "AnalysisError", "ConvergenceError", "SingularError",
 ]

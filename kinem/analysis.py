@@ -1,35 +1,25 @@
 """Position, velocity and acceleration analysis (Sec. 4.3), as free functions
-on a Model and a separate mutable Data; ``solve`` runs them over the output
-instants.
+on a Model and a separate mutable Data; ``kinem.solver.solve`` runs them over
+the output instants.
 
 Position: Newton-Raphson on Phi(q, t) = 0 (Eqs. 4.41, 4.42), converged when
 every scaled residual |Phi_k| / scale_k <= tolerance (docs/solver.md).
 Velocity: Phi_q qd = nu. Acceleration: Phi_q qdd = gamma. The Jacobian at the
 converged q is factorised once and serves both solves.
 """
-import time
-from contextlib import nullcontext
 from dataclasses import dataclass
 
 import numpy as np
 
-from . import jit
 from .diagnose import explain_assembly
-from .errors import AnalysisError, ConvergenceError, InputError, SingularError
-from .linalg import Factor, preload
-from .result import OUTPUTS, SolveResult, Status, trajectory
+from .errors import ConvergenceError, InputError
+from .linalg import Factor, Solver
 
 
 # Newton steps are limited to this length in dimensionless coordinates
 # (lengths over L, angles in radians): a rough estimate never sends the
 # assembly many turns away, and tracking steps are far shorter anyway.
 MAX_STEP = 0.5
-# Step-by-step runs with instants x (100 + coordinates) up to this run their
-# kernels interpreted in a process without numba (``interpret``). Measured on
-# N-four-bar chains in new processes: an interpreted instant costs about
-# (100 + n) x 15 us more than a compiled one, and loading numba costs about
-# 0.37 s, i.e. 25,000 x 15 us.
-INTERPRET_WORK = 25_000
 
 
 @dataclass
@@ -48,6 +38,7 @@ class Data:
     jacobian_evaluations: int = 0
     factorizations: int = 0
     trace: list | None = None           # when a list: (t, what, iteration, scaled residual, detail) records
+    solver: Solver | None = None        # the linear solver (kinem.linalg.choose; None: the case's)
 
     def __post_init__(self):
         if not isinstance(self.q, np.ndarray) and hasattr(self.q, "q0"):
@@ -63,7 +54,7 @@ class Data:
 def _factor(model, data, q, t) -> Factor:
     data.jacobian_evaluations += 1
     data.factorizations += 1
-    return Factor(model, model.jac_values(q, t))
+    return Factor(model, model.jac_values(q, t), data.solver)
 
 
 # Jacobian reuse (modified Newton): a factorisation from a nearby
@@ -73,10 +64,26 @@ REUSE_RATE = 0.5
 REUSE_ITERATIONS = 4
 
 
-def position(model, data: Data, t: float, tolerance=None, max_iterations=None, factor=None) -> None:
+class MinimumNorm:
+    """Minimum-norm least-squares solves with Phi_q at one configuration
+    (dimensionless, as kinem.linalg.Factor): defined where Phi_q is
+    rank-deficient or not square."""
+
+    def __init__(self, model, q, t):
+        self.model = model
+        self.J = model.assemble(model.jac_values(q, t) * model.entry_scale, sparse=False)
+
+    def solve(self, b):
+        m = self.model
+        return m.col_scale * np.linalg.lstsq(self.J, b / m.scale, rcond=None)[0]
+
+
+def position(model, data: Data, t: float, tolerance=None, max_iterations=None, factor=None,
+             minimum_norm=False) -> None:
     """Newton-Raphson from data.q to Phi(q, t) = 0, steps limited to MAX_STEP.
     ``factor``: a factorisation of Phi_q at a nearby configuration to start
-    with (modified Newton); a fresh one is made as soon as it converges slowly."""
+    with (modified Newton); a fresh one is made as soon as it converges slowly.
+    ``minimum_norm``: Gauss-Newton (``MinimumNorm`` steps, not limited)."""
     tol = model.case.tolerance if tolerance is None else tolerance
     max_it = model.case.max_iterations if max_iterations is None else max_iterations
     q = data.q.copy()
@@ -97,7 +104,9 @@ def position(model, data: Data, t: float, tolerance=None, max_iterations=None, f
             return
         if it == max_it:
             break
-        if factor is None or it >= REUSE_ITERATIONS or data.residual > REUSE_RATE * previous:
+        if minimum_norm:
+            f = MinimumNorm(model, q, t)
+        elif factor is None or it >= REUSE_ITERATIONS or data.residual > REUSE_RATE * previous:
             factor = None  # full Newton from here on: a fresh Jacobian every iteration
             f = data.newton_factor = _factor(model, data, q, t)
         else:
@@ -105,7 +114,7 @@ def position(model, data: Data, t: float, tolerance=None, max_iterations=None, f
         previous = data.residual
         dq = f.solve(-phi)
         size = np.max(np.abs(dq) / model.col_scale)
-        if size > MAX_STEP:
+        if size > MAX_STEP and not minimum_norm:
             dq *= MAX_STEP / size
         q += dq
     data.q = q
@@ -114,19 +123,16 @@ def position(model, data: Data, t: float, tolerance=None, max_iterations=None, f
                            f"'{model.row_owner[data.worst_row]}' ({model.row_labels[data.worst_row]})")
 
 
-def gauss_newton(model, q, t, max_iterations=None):
+def gauss_newton(model, q, t, max_iterations=None, tolerance=None):
     """Minimum-norm least-squares Newton steps on the dimensionless system:
     converges where Phi_q is rank-deficient or not square (redundant
     constraints, a singular configuration). Returns (q, max scaled residual)."""
-    tol = model.case.tolerance
-    for _ in range((max_iterations or model.case.max_iterations) + 1):
-        phi = model.phi(q, t)
-        r = float(model.scaled_residual(phi).max()) if model.m else 0.0
-        if r <= tol or not np.isfinite(r):
-            break
-        J = model.assemble(model.jac_values(q, t) * model.entry_scale, sparse=False)
-        q = q + model.col_scale * np.linalg.lstsq(J, -phi / model.scale, rcond=None)[0]
-    return q, r
+    data = Data(q=np.array(q, dtype=float))
+    try:
+        position(model, data, t, tolerance, max_iterations or None, minimum_norm=True)
+    except ConvergenceError:
+        pass
+    return data.q, data.residual
 
 
 def factorize(model, data: Data) -> None:
@@ -168,88 +174,11 @@ def check_square(model) -> None:
                                                                         " (add drivers or constraints)"))
 
 
-def interpret(model, blocks: bool, instants: int) -> bool:
-    """Whether a run's kernels should run interpreted (kinem.jit): a short
-    step-by-step run in a process that has not loaded numba costs less that
-    way than numba's start-up (INTERPRET_WORK)."""
-    return not blocks and not jit.loaded() and instants * (100 + model.n) <= INTERPRET_WORK
+def __getattr__(name):
+    """``solve`` lives in kinem.solver, on top of the stages; the old import
+    path ``from kinem.analysis import solve`` still finds it."""
+    if name == "solve":
+        from .solver import solve
 
-
-def solve(model, outputs=OUTPUTS, times=None, trace=False, q0=None) -> SolveResult:
-    """Position (and, when asked, velocity and acceleration) analysis at every
-    output instant, on the branch the assembly found (kinem.tracking). Never
-    raises for an analysis failure: the result says when and why (success
-    False) and holds the instants solved before it.
-
-    ``times``: the output instants (default ``model.times``, the case's).
-    ``q0``: the estimate to assemble from at ``times[0]`` (default the case's
-    ``model.q0``); a run continued from a solved state passes that state, so a
-    long run can be solved in pieces (``kinem solve`` does: kinem.stream)."""
-    from .march import Block, usable
-    from .tracking import Tracker
-
-    check_square(model)
-    outputs = tuple(o for o in OUTPUTS if o in outputs)
-    if "positions" not in outputs:
-        outputs = ("positions",) + outputs
-    need_a = "accelerations" in outputs
-    need_v = need_a or "velocities" in outputs
-    times = model.times if times is None else np.asarray(times, dtype=float)
-    nt = len(times)
-    Q = np.empty((nt, model.n))
-    QD = np.empty((nt, model.n)) if need_v else None
-    QDD = np.empty((nt, model.n)) if need_a else None
-    iters, resid, cond = np.zeros(nt, dtype=int), np.zeros(nt), np.zeros(nt)
-    data = Data(q=model.q0.copy(), trace=[] if trace else None)
-    tracker = Tracker(model, data, need_v, need_a)
-    status, message = Status.SUCCESS, ""
-    blocks = usable(model, trace, nt)
-    with jit.interpreted() if interpret(model, blocks, nt) else nullcontext():
-        preload(model, blocks)  # one-time imports, not part of the analysis's wall time
-        start = time.perf_counter()
-        block = Block(model, tracker) if blocks else None
-        k = 0
-        try:
-            while k < nt:
-                if block is not None and k > 0:
-                    got = block.advance(times[k: k + block.size])
-                    n = len(got)
-                    block.next_size(got)
-                    if n:
-                        iters[k:k + n], resid[k:k + n], cond[k:k + n], Q[k:k + n] = (
-                            got.iterations, got.residual, got.pivot, got.q)
-                        if need_v:
-                            QD[k:k + n] = got.qd
-                            if need_a:
-                                QDD[k:k + n] = got.qdd
-                        k += n
-                        continue
-                s = tracker.start(times[0], q0) if k == 0 else tracker.advance(times[k])
-                iters[k], resid[k], cond[k], Q[k] = s.iterations, s.residual, s.pivot, s.q
-                if trace:
-                    data.trace.append((times[k], "instant", s.iterations, s.residual, f"pivot ratio {s.pivot:.3e}"))
-                if need_v:
-                    QD[k] = s.qd
-                    if need_a:
-                        QDD[k] = s.qdd
-                k += 1
-        except AnalysisError as e:
-            status = Status.SINGULAR if isinstance(e, SingularError) else Status.NOT_CONVERGED
-            what = "assembly at" if k == 0 else "step to"
-            why = explain_assembly(model, times[0]) if k == 0 else ""  # the root cause, in the user's terms
-            message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {why + '; ' if why else ''}{e}"
-    wall = time.perf_counter() - start
-    n_ok = k
-    ok = status == Status.SUCCESS
-    traj = trajectory(model, times[:n_ok], Q[:n_ok], None if QD is None else QD[:n_ok],
-                      None if QDD is None else QDD[:n_ok])
-    return SolveResult(
-        success=ok, status=status, message=message or "all instants solved",
-        trajectory=traj, q=Q[:n_ok], qd=None if QD is None else QD[:n_ok],
-        qdd=None if QDD is None else QDD[:n_ok], iterations=iters[:n_ok], residual=resid[:n_ok],
-        conditioning=cond[:n_ok], substeps=tracker.substeps, events=tuple(tracker.events),
-        trace=tuple(data.trace or ()),
-        jacobian_evaluations=data.jacobian_evaluations, factorizations=data.factorizations,
-        wall_time=wall, t_fail=None if ok else float(times[n_ok]),
-        failed_constraint=None if ok or status == Status.SINGULAR else model.row_owner[data.worst_row],
-    )
+        return solve
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -7,7 +7,7 @@ its module (``__pycache__``), so a new process loads it instead of compiling.
 Loading costs a new process about 0.45 s (importing numba, then its typing
 and lowering registries), more than a short run of a small model takes
 with the same source run by the interpreter. So ``interpreted()`` runs every
-kernel's Python source as it is (kinem.analysis.solve uses it for such
+kernel's Python source as it is (kinem.solver.solve uses it for such
 runs), and numba is imported only at the first compiled call. Both run the
 one implementation; tests/test_jit.py checks that they agree.
 

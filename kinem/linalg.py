@@ -13,10 +13,15 @@ det(J_s), which flips when the configuration passes through a singular one.
 A model with more equations than coordinates (redundant but consistent
 constraints) is solved in the least-squares sense: dense QR of J_s, or the
 normal equations J_s^T J_s with sparse LU. Its pivots are those of R (their
-square roots for the normal equations) and it has no determinant sign
-(reported as +1 throughout: branch changes are then caught by the jump test
-alone).
+square roots for the normal equations). Its determinant sign is that of the square subsystem of
+n independent rows chosen at the assembled configuration (``monitor_rows``),
+the system of its square twin, so that a least-squares model's branch is
+guarded as its twin's is (dense models; a sparse one reports +1 and is
+guarded by the jump test alone).
 """
+import weakref
+from dataclasses import dataclass
+
 import numpy as np
 
 from .errors import SingularError
@@ -55,12 +60,25 @@ def lu_det_sign(diag, piv) -> np.ndarray:
     return np.prod(np.sign(diag), axis=-1).astype(int) * (1 - 2 * (swaps % 2))
 
 
-def preload(model, block: bool = False) -> None:
+_PRELOADED = weakref.WeakKeyDictionary()   # model -> kinds of analysis preloaded
+
+
+def preload(model, block: bool = False, solver: "Solver | None" = None) -> None:
     """Loads what the analysis of the model will use, so that timed analyses
     do not pay for it: scipy's factorisations (imported lazily for a fast
     start), the model's kernels (compiled: on first use, then loaded from
-    numba's cache; kinem.jit) and, for the block march (``block``), kinem.dense's."""
-    if model.sparse or model.m > model.n:
+    numba's cache; kinem.jit) and, for the block march (``block``), kinem.dense's.
+    Once per model and kind of analysis: again it would only cost time (about
+    100 us on the slider-crank, a tenth of a short block-march run)."""
+    from . import jit
+
+    solver = choose(model) if solver is None else solver
+    key = (block, solver.sparse or solver.least_squares, bool(jit._interpreted))
+    done = _PRELOADED.setdefault(model, set())
+    if key in done:
+        return
+    done.add(key)
+    if solver.sparse or solver.least_squares:
         import scipy.sparse.linalg  # noqa: F401
     import scipy.linalg.lapack  # noqa: F401
     q, t = model.q0, 0.0  # the first output instant (not model.times: a long run's times are many)
@@ -74,15 +92,58 @@ def preload(model, block: bool = False) -> None:
         dense.warm(model)
 
 
-class Factor:
-    """LU factors of the dimensionless Phi_q with a solve(b) for Phi_q x = b."""
+def monitor_rows(J) -> np.ndarray:
+    """Rows of a dimensionless Jacobian J (m x n, m > n, full column rank)
+    forming its best-conditioned square subsystem as QR with column pivoting
+    of J^T orders them: the first n, in their original order."""
+    from scipy.linalg import qr
 
-    def __init__(self, model, values):
-        self.sparse = model.sparse
+    J = J.toarray() if hasattr(J, "toarray") else J
+    _, perm = qr(J.T, pivoting=True, mode="r")
+    return np.sort(perm[:J.shape[1]])
+
+
+def det_sign(J) -> int:
+    """Sign of det of a square (dense or sparse) matrix from its LU."""
+    from scipy.linalg.lapack import dgetrf
+
+    lu, piv, _ = dgetrf(J.toarray() if hasattr(J, "toarray") else J)
+    return int(lu_det_sign(np.diag(lu), piv))
+
+
+@dataclass(frozen=True)
+class Solver:
+    """The linear solver of an analysis, chosen once (``choose``): dense LU,
+    sparse LU, or least squares (dense QR, or sparse normal equations) for
+    a model with redundant equations, whose det sign is that of its
+    ``rows`` (``monitor_rows``; None: +1)."""
+    sparse: bool
+    least_squares: bool
+    rows: np.ndarray | None = None
+
+
+def choose(model, options=None) -> Solver:
+    """The linear solver for a model under ``options`` (kinem.options.Options;
+    default: its case's [solver] section)."""
+    from .model import DENSE_LIMIT
+
+    kind = model.case.linear_solver if options is None else options.linear_solver
+    sparse = model.n > DENSE_LIMIT if kind == "auto" else kind == "sparse"
+    return Solver(sparse, model.m > model.n)
+
+
+class Factor:
+    """LU factors of the dimensionless Phi_q with a solve(b) for Phi_q x = b,
+    by the ``solver`` chosen for the analysis (``choose``)."""
+
+    def __init__(self, model, values, solver: Solver | None = None):
+        solver = choose(model) if solver is None else solver
+        self.sparse = solver.sparse
         self.row = 1.0 / model.scale
         self.col = model.col_scale
         J = model.assemble(values * model.entry_scale, self.sparse)
-        self.least_squares = model.m > model.n
+        self.least_squares = solver.least_squares
+        self._rows, self._J = solver.rows, J
         if self.least_squares:
             diag = self._qr(J)
             cols = np.arange(model.n)
@@ -131,7 +192,7 @@ class Factor:
     @property
     def det_sign(self) -> int:
         if self.least_squares:
-            return 1
+            return 1 if self._rows is None else det_sign(self._J[self._rows])
         if self._perms is None:
             return int(lu_det_sign(self._diag, self.lu[1]))
         return int(np.prod(np.sign(self._diag))) * _parity(self._perms[0]) * _parity(self._perms[1])

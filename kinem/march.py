@@ -24,13 +24,14 @@ import numpy as np
 from . import dense
 from .analysis import MAX_STEP
 from .linalg import PIVOT_RATIO, lu_det_sign, pivot_ratio
-from .tracking import State, extrapolate, jumps
+from .options import Options
+from .tracking import State, extrapolate, jumps, rejected
 
 
 START = 64
 # Fewer output instants go step by step: that costs under 20 ms, less than
 # loading numba in a new process, about 0.4 s (there such runs interpret the
-# kernels: kinem.analysis.interpret).
+# kernels: kinem.solver.interpret).
 MIN_INSTANTS = 64
 GROW_ITERATIONS = 3
 SHRINK_ITERATIONS = 4
@@ -42,13 +43,13 @@ ITERATIONS = 8
 LIMIT = 200
 
 
-def usable(model, trace: bool, instants: int) -> bool:
+def usable(model, trace: bool, instants: int, options: Options | None = None) -> bool:
     """Blocks are for runs of at least MIN_INSTANTS output instants of models
     whose Jacobian is square and made of independent diagonal blocks of at
     most LIMIT coordinates (kinem.model.Blocks: one block for a small model,
     one per variant for merged variants). A trace, modified Newton or an
     explicit sparse LU ask for the step-by-step march."""
-    c = model.case
+    c = Options.of(model.case) if options is None else options
     if (c.block <= 1 or trace or c.jacobian_reuse or c.linear_solver == "sparse" or model.m != model.n
             or instants < MIN_INSTANTS):
         return False
@@ -102,7 +103,8 @@ class Block:
         self.model, self.tracker, self.data = model, tracker, tracker.data
         self.need_v, self.need_a = tracker.need_v, tracker.need_a
         b = self.blocks = model.blocks
-        self.limit = max(1, min(model.case.block, MAX_ENTRIES // (b.count * b.size**2)))
+        self.options = tracker.options
+        self.limit = max(1, min(self.options.block, MAX_ENTRIES // (b.count * b.size**2)))
         self.size = min(START, self.limit)
         # Jacobians of a block, reused: a fresh array of this size costs more in page faults than its arithmetic
         self.work = np.empty((self.limit * b.count, b.size, b.size))
@@ -120,7 +122,7 @@ class Block:
         an instant stops iterating when it has converged. Returns (Q,
         iterations, residual, Phi at convergence, converged)."""
         m, d = self.model, self.data
-        tol, max_it = m.case.tolerance, min(m.case.max_iterations, ITERATIONS)
+        tol, max_it = self.options.tolerance, min(self.options.max_iterations, ITERATIONS)
         K = len(t)
         iterations = np.zeros(K, dtype=int)
         residual = np.full(K, np.inf)
@@ -152,20 +154,22 @@ class Block:
         b = self.blocks
         factors, pivot, det = factorize(self.dimensionless(Q, t), b)
         self.data.factorizations += n
-        dets = np.concatenate([[last.det], det])
-        bad = (pivot < tr.pivot_floor) | (dets[1:] != dets[:-1])
-        n = int(np.argmax(bad)) if bad.any() else n
+        previous = np.concatenate([[last.det], det[:-1]])
+        # the tracker's test (tracking.rejected) without the jump, known only with the rates
+        n = self.accepted(rejected(pivot, det, previous, False, tr.pivot_floor))
         if n == 0:
             return self.empty()
         Q, t, factors = Q[:n], t[:n], (factors[0][:n * b.count], factors[1][:n * b.count])
         Q += solve_each(m, factors, -final[:n])  # analysis.refine: one more Newton correction
         QD = QDD = None
         if self.need_v:
+            # rates from the Jacobian at the corrected positions: to rounding, not to the tolerance
+            factors = factorize(self.dimensionless(Q, t), b)[0]
+            self.data.factorizations += n
             QD = solve_each(m, factors, m.nu(t))
             if self.need_a:
                 QDD = solve_each(m, factors, m.gamma(Q, QD, t))
-        jump = self.first_jump(hist, t, Q, QD, QDD)
-        n = n if jump is None else jump
+        n = self.accepted(rejected(pivot[:n], det[:n], previous[:n], self.jumps(hist, t, Q, QD, QDD), tr.pivot_floor))
         if n == 0:
             return self.empty()
         out = Instants(Q[:n], None if QD is None else QD[:n], None if QDD is None else QDD[:n],
@@ -207,9 +211,14 @@ class Block:
         QD = solve_each(m, factors, m.nu(t))
         return QD, solve_each(m, factors, m.gamma(Q, QD, t))
 
-    def first_jump(self, hist, t, Q, QD, QDD):
-        """Index of the first instant whose correction from its own predictor
-        (from the instant before it) is a jump; None if there is none."""
+    @staticmethod
+    def accepted(why) -> int:
+        """How many instants pass the test, up to the first that fails."""
+        return int(np.argmax(why != 0)) if why.any() else len(why)
+
+    def jumps(self, hist, t, Q, QD, QDD):
+        """Whether each instant's correction from its own predictor (from the
+        instant before it) is a jump (tracking.jumps)."""
         m = self.model
         n = len(t)
         if QD is not None:
@@ -225,9 +234,8 @@ class Block:
             idx = np.arange(n)[:, None] + np.arange(3)
             pred, order = extrapolate(t, allT[idx], allQ[idx])
             prev_q = allQ[idx[:, -1]]
-        jump, _, _ = jumps(m, Q, pred, prev_q)
-        jump &= order >= 1
-        return int(np.argmax(jump)) if jump.any() else None
+        jump, _, _ = jumps(m, Q, pred, prev_q, self.options.tolerance)
+        return jump & (order >= 1)
 
     def empty(self) -> Instants:
         return Instants(np.empty((0, self.model.n)), None, None, np.empty(0, int), np.empty(0), np.empty(0))

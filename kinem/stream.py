@@ -47,7 +47,7 @@ def run(model, outputs, on_chunk, trace=None, progress=None, size=None) -> Outco
     """Solves the case's output instants chunk by chunk: on_chunk(result) for
     each chunk's SolveResult (overlapping instant removed), trace(records) for
     each chunk's trace when given, progress(instants done, t) after each."""
-    from .analysis import solve
+    from .solver import solve
 
     case = model.case
     nt, h = case.steps + 1, case.end / case.steps

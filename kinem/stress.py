@@ -158,7 +158,7 @@ def classify(error, residual, tolerance, finite=True) -> str:
 
 def run_one(task):
     """One scenario on one engine (or native): an Outcome as a dict."""
-    from .analysis import solve
+    from .solver import solve
     from .case import load_dict
     from .model import compile
     from .result import Status

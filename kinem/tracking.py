@@ -17,11 +17,26 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dataclasses import replace
+
+from . import analysis
 from .diagnose import diagnose
 from .errors import AnalysisError, ConvergenceError, SingularError
+from .linalg import det_sign, monitor_rows
+from .options import Options
 
 KAPPA = 0.5            # a correction above half the predicted motion is a jump, not a refinement
 MIN_STEP = 1e-5        # of the output interval: below it the path is stuck at a singular point
+# An output instant near a singular configuration is solved directly (not interpolated)
+# when one more Newton correction after convergence is below REGULAR x sqrt(tolerance)
+# (dimensionless) and its pivot ratio above REGULAR x singular_pivot(tolerance). At a singular
+# root Newton converges linearly: it stops about sqrt(tolerance) from it and each further
+# correction halves that distance (measured 4.5e-7 at the change point, tolerance 1e-12); when
+# it starts so close that the correction passes, the pivot ratio is of the order of that
+# distance (1e-11 there). At a regular root the correction is rounding over the conditioning
+# and the pivot ratio that of the configuration: 1e-10 and 3.8e-7 for a four-bar 1e-6 (in
+# crank angle) from its change point.
+REGULAR = 1e-2
 
 
 def singular_pivot(tolerance: float) -> float:
@@ -62,14 +77,29 @@ def extrapolate(t, T, Q, QD=None, QDD=None):
     return q, near.sum(axis=1) - 1
 
 
-def jumps(model, q, q_pred, q_last):
+def jumps(model, q, q_pred, q_last, tolerance):
     """A correction from the predictor above KAPPA times the predicted motion
     (dimensionless, plus ten times the tolerance for round-off): (jump,
     correction, motion), each per configuration for q of shape (K, n)."""
     cs = model.col_scale
     corr = np.max(np.abs(q - q_pred) / cs, axis=-1)
     move = np.max(np.abs(q_pred - q_last) / cs, axis=-1)
-    return corr > KAPPA * move + 10 * model.case.tolerance, corr, move
+    return corr > KAPPA * move + 10 * tolerance, corr, move
+
+
+# Why ``rejected`` turns a state down (0: accepted).
+NEAR_SINGULAR, DET_FLIP, JUMP = 1, 2, 3
+
+
+def rejected(pivot, det, previous_det, jump, floor, allow_flip=False):
+    """The acceptance test of a tracked state, reached in one step from the
+    one before it (one state or a batch; arguments broadcast): NEAR_SINGULAR
+    when its pivot ratio is below the floor (singular_pivot), DET_FLIP when
+    det(J_s) changed sign (unless ``allow_flip``: a step over a bifurcation),
+    JUMP when its correction from the predictor is a jump (``jumps``), else 0.
+    The tracker and the block march both decide with it."""
+    flip = (np.asarray(det) != previous_det) & (not allow_flip)
+    return np.where(np.asarray(pivot) < floor, NEAR_SINGULAR, np.where(flip, DET_FLIP, np.where(jump, JUMP, 0)))
 
 
 def over_steps(step, limit):
@@ -98,16 +128,16 @@ class Rejected(Exception):
 
 
 class Tracker:
-    def __init__(self, model, data, need_v, need_a):
-        from . import analysis
-
+    def __init__(self, model, data, need_v, need_a, options: Options | None = None):
         self.a = analysis
         self.model, self.data = model, data
         self.need_v, self.need_a = need_v, need_a
+        self.options = o = Options.of(model.case) if options is None else options
+        self.tol = o.tolerance
         self.history = []       # accepted states, last three kept
         self.events = []        # (t, text): singular configurations passed
         self.substeps = 0       # steps taken beyond one per output interval
-        self.pivot_floor = singular_pivot(model.case.tolerance)
+        self.pivot_floor = singular_pivot(o.tolerance)
 
     # -- one configuration -------------------------------------------------
     def settle(self, t, q_start) -> State:
@@ -115,10 +145,10 @@ class Tracker:
         velocity and acceleration when asked)."""
         m, d = self.model, self.data
         # modified Newton from the last converged Jacobian, when the case asks for it
-        reuse = d.factor if m.case.jacobian_reuse and self.need_v and self.history else None
+        reuse = d.factor if self.options.jacobian_reuse and self.need_v and self.history else None
         d.q = q_start
         d.newton_factor = None
-        self.a.position(m, d, t, factor=reuse)
+        self.a.position(m, d, t, self.tol, self.options.max_iterations, factor=reuse)
         qd = qdd = None
         try:
             if self.need_v:
@@ -128,6 +158,10 @@ class Tracker:
                 f = d.newton_factor if d.iterations > 0 else self.a._factor(m, d, d.q, t)
             self.a.refine(d, f)
             if self.need_v:
+                if not self.options.jacobian_reuse:
+                    # rates from the Jacobian at the corrected position: to rounding, not to the
+                    # tolerance (modified Newton trades that for one factorisation per instant)
+                    self.a.factorize(m, d)
                 self.a.velocity(m, d)
                 qd = d.qd
                 if self.need_a:
@@ -150,14 +184,14 @@ class Tracker:
         q_pred, order = self.predict(t)
         s = self.settle(t, q_pred)
         last = self.history[-1]
-        if s.pivot < self.pivot_floor:
+        jump, corr, move = jumps(self.model, s.q, q_pred, last.q, self.tol)
+        why = rejected(s.pivot, s.det, last.det, jump and order >= 1, self.pivot_floor, allow_flip)
+        if why == NEAR_SINGULAR:
             raise Rejected(f"near-singular configuration (pivot ratio {s.pivot:.1e})")
-        if not allow_flip and s.det != last.det:
+        if why == DET_FLIP:
             raise Rejected("det(J) changed sign")
-        if order >= 1:
-            jump, corr, move = jumps(self.model, s.q, q_pred, last.q)
-            if jump:
-                raise Rejected(f"jump of {corr:.2e} from the predictor (predicted motion {move:.2e})")
+        if why == JUMP:
+            raise Rejected(f"jump of {corr:.2e} from the predictor (predicted motion {move:.2e})")
         return s
 
     # -- the march ---------------------------------------------------------------
@@ -169,6 +203,13 @@ class Tracker:
         if s.det == 0:
             d = diagnose(self.model, s.q, t)
             raise SingularError("assembled in a " + d.message())
+        m = self.model
+        solver = self.data.solver
+        if solver is not None and solver.least_squares and not solver.sparse:
+            # redundant equations: monitor the det sign of a square subsystem of independent rows
+            J = m.assemble(m.jac_values(s.q, t) * m.entry_scale, False)
+            self.data.solver = replace(solver, rows=monitor_rows(J))
+            s.det = det_sign(J[self.data.solver.rows])
         self.history = [s]
         return s
 
@@ -228,7 +269,15 @@ class Tracker:
             raise ConvergenceError(f"cannot continue beyond t = {last.t:.6g} without a jump: {why}")
         if not d.consistent:
             raise SingularError(d.message())
-        # a bifurcation the drivers' motion fits: continue on the smooth branch
+        # near a bifurcation the drivers' motion fits: the output instant itself may be
+        # regular, on this side of it (the drivers reverse just short of it)
+        s = self.direct(last, target)
+        if s is not None:
+            self.events.append((target, "output instant near a singular configuration, solved directly "
+                                        f"(pivot ratio {s.pivot:.1e}): " + d.message()))
+            self.accept(s)
+            return s
+        # else continue on the smooth branch
         for size in over_steps(step, 2 * (target - last.t) + step):
             t1 = last.t + size
             if t1 >= target:
@@ -274,13 +323,44 @@ class Tracker:
         self.accept(after)
         return s
 
+    def direct(self, before, t):
+        """The state at t solved by Newton from the Taylor predictor at
+        ``before``, the last accepted state, when its root is regular (REGULAR: Newton
+        converges there quadratically and the pivot ratio is that of a
+        configuration, not of a singular one), on the same side of the
+        singular configuration as ``before`` (the same sign of det) and no
+        jump from the predictor. None otherwise: the instant is then
+        interpolated."""
+        m, d = self.model, self.data
+        try:
+            qd, qdd = (before.qd, before.qdd) if self.need_a else self.rates(before)
+            h = t - before.t
+            q_pred = before.q + h * qd + 0.5 * h * h * qdd
+            s = self.settle(t, q_pred)
+            if s.det != before.det:
+                return None
+            f = self.a._factor(m, d, s.q, t)
+            corr = np.max(np.abs(f.solve(-m.phi(s.q, t))) / m.col_scale)
+        except AnalysisError:
+            return None
+        jump, _, _ = jumps(m, s.q, q_pred, before.q, self.tol)
+        regular = corr <= REGULAR * self.tol**0.5 and s.pivot >= REGULAR * self.pivot_floor
+        return s if regular and not jump else None
+
+    def rates(self, state):
+        """Velocity and acceleration of a (regular) state."""
+        m = self.model
+        f = self.a._factor(m, self.data, state.q, state.t)
+        qd = f.solve(m.nu(state.t))
+        return qd, f.solve(m.gamma(state.q, qd, state.t))
+
     def rate(self, state):
         """Velocity of a (regular) state, for interpolation when none was asked for."""
         return self.a._factor(self.model, self.data, state.q, state.t).solve(self.model.nu(state.t))
 
     def polish(self, q, t):
         """Minimum-norm Gauss-Newton steps: Newton without a regular Jacobian."""
-        q, self.data.residual = self.a.gauss_newton(self.model, q, t)
-        if not self.data.residual <= self.model.case.tolerance:
+        q, self.data.residual = self.a.gauss_newton(self.model, q, t, self.options.max_iterations, self.tol)
+        if not self.data.residual <= self.tol:
             raise ConvergenceError(f"no convergence at the singular configuration t = {t:.6g}")
         return q

@@ -134,3 +134,25 @@ def test_random_grashof_crank_rockers(data):
     assert res.success, res.message
     t = res.trajectory.t
     check_four_bar(res.trajectory, f0(t), f1(t), f2(t), a, b, c, g, sign)
+
+
+# Rates at machine precision (issue 14): the rates come from the Jacobian at the corrected
+# position (one Newton correction past the tolerance), so their error is rounding times the
+# conditioning, not the Newton tolerance times it. 1e-13 of their peak: about 500 machine
+# epsilons, for conditioning ~1e2 of these mechanisms (measured 3e-16 .. 4e-15).
+RATES = 1e-13
+
+
+def test_book_cases_rates_to_machine_precision():
+    for march in (kinem.Options(), kinem.Options(block=1)):
+        r = kinem.solve(kinem.compile(kinem.load(CASES / "slider_crank.toml")), options=march)
+        t, tr = r.trajectory.t, r.trajectory
+        ref = slider_crank(5.76 - 1.2 * t + np.pi, np.full_like(t, -1.2), np.zeros_like(t), 200.0, 500.0)
+        for q, k in (("slider.vx", "vx"), ("slider.ax", "ax"), ("rod.omega", "omega"), ("rod.alpha", "alpha")):
+            assert rel_error(tr[q], ref[k]) <= RATES, (q, rel_error(tr[q], ref[k]))
+        res = kinem.solve(kinem.compile(kinem.load(CASES / "four_bar.toml")), options=march)
+        t, tr = res.trajectory.t, res.trajectory
+        ref = four_bar(math.pi / 4 + 1.5 * t - 0.6 * t**2, 1.5 - 1.2 * t, np.full_like(t, -1.2), 0.1, 0.3, 0.22, 0.2)
+        for q, k in (("omega", "w"), ("alpha", "a")):
+            for body, i in (("coupler", 3), ("rocker", 4)):
+                assert rel_error(tr[f"{body}.{q}"], ref[f"{k}{i}"]) <= RATES, (body, q)

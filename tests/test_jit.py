@@ -1,7 +1,7 @@
 """Interpreted kernels give what compiled ones give (kinem.jit).
 
 A short run in a new process runs the kernels' Python source instead of
-loading numba (kinem.analysis.interpret). Both do the same floating-point
+loading numba (kinem.solver.interpret). Both do the same floating-point
 operations in the same order; they may differ only where numba's and
 numpy's elementary functions (sin, cos, complex exp) round differently, by
 about an ulp, carried through a few operations. So values agree to TOL
@@ -18,7 +18,7 @@ from hypothesis.extra.numpy import arrays
 import kinem
 from conftest import ROOT
 from kinem import dense, jit
-from kinem.analysis import interpret
+from kinem.solver import interpret
 from test_batch_eval import CASES, TOL, assert_same, draw_batch, model_of
 
 
@@ -107,7 +107,7 @@ def test_interpret_rule():
     interpret; block-march runs never do."""
     code = """
 import kinem
-from kinem.analysis import interpret, INTERPRET_WORK
+from kinem.solver import interpret, INTERPRET_WORK
 m = kinem.compile(kinem.load({path!r}))
 limit = INTERPRET_WORK // (100 + m.n)
 print(interpret(m, False, limit), interpret(m, False, limit + 1), interpret(m, True, 2))

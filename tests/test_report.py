@@ -45,7 +45,7 @@ class FakeEngine(Adapter):
         return None
 
     def run(self, model, q0, qd0, settings=None):
-        from kinem.analysis import solve
+        from kinem.solver import solve
         from kinem.result import trajectory
 
         r = solve(model)

@@ -156,3 +156,54 @@ def test_inconsistent_redundant_constraints_fail_clearly():
     r = kinem.solve(kinem.compile(kinem.loads(text, source="x.toml")))
     assert not r.success and r.status == kinem.Status.NOT_CONVERGED
     assert "16 equations for 15 coordinates: 1 redundant, and not consistent here" in r.message
+
+
+def crank_pin_twice():
+    """The book's slider-crank with its crank pin B written twice: 14 consistent equations for 12 coordinates."""
+    case = kinem.load(STRESS.parent / "slider_crank.toml")
+    b = next(c for c in case.constraints if c.type == "revolute" and c.name == "B")
+    return replace(case, constraints=case.constraints + (replace(b, name="B2"),))
+
+
+@pytest.mark.parametrize("outputs", BOTH)
+@pytest.mark.parametrize("steps", [5, 6, 7, 9])
+@pytest.mark.parametrize("name", ["double_slider", "crank_pin_twice"])
+def test_redundant_model_at_coarse_steps_stays_on_branch(name, steps, outputs):
+    """A consistent redundant model keeps the branch its square twin keeps, at output steps of
+    up to a quarter turn (least squares has no det of its own: the det sign of a square subsystem
+    of independent rows is monitored)."""
+    case = crank_pin_twice() if name == "crank_pin_twice" else kinem.load(STRESS / f"{name}.toml")
+    case = case.with_time(end=5 * math.pi / 1.2, steps=steps)  # 2.5 crank turns at 1.2 rad/s
+    twin = replace(case, constraints=tuple(c for c in case.constraints if c.name not in ("T2", "B2")))
+    r, square = (kinem.solve(kinem.compile(c), outputs) for c in (case, twin))
+    assert square.success and r.success, r.message
+    t = r.trajectory.t
+    ref = slider_crank(5.76 - 1.2 * t + np.pi, -1.2 + 0 * t, 0 * t, 200.0, 500.0)  # as test_coarse_crank_stays_on_branch
+    # 1e-9 of the size: both are solved to the tolerance, a branch flip is hundreds of mm off
+    assert np.abs(r.trajectory["slider.x"] - ref["x"]).max() < 1e-9 * 665
+    assert np.abs(r.trajectory.data - square.trajectory.data).max() < 1e-9 * 665
+
+
+def reversal_short_of_change_point(sign):
+    """The change-point four-bar (crank 1, coupler 3, rocker 2, ground 2) with its crank driven to
+    phi = -1e-6 - 0.5 (t - 1.5)^2: it turns back 1e-6 short of the change point (phi = 0) at the
+    output instant t = 1.5."""
+    from kinem.reference import four_bar_case
+
+    fn = {"poly": [-1e-6 - 1.125, 1.5, -0.5]}
+    return kinem.load_dict(four_bar_case(1.0, 3.0, 2.0, 2.0, fn, phi0=-1e-6 - 1.125, sign=sign, end=3.0, steps=100))
+
+
+@pytest.mark.parametrize("outputs", BOTH)
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_reversal_just_short_of_change_point_is_solved_not_interpolated(sign, outputs):
+    r = kinem.solve(kinem.compile(reversal_short_of_change_point(sign)), outputs)
+    assert r.success, r.message
+    assert not any("interpolated" in text for _, text in r.events)
+    assert r.conditioning[50] > 0  # solved: its pivot ratio is recorded (an interpolated instant has none)
+    L = np.longdouble  # the closed form in extended precision: in double it loses 1e-10 this near the change point
+    t = r.trajectory.t.astype(L)
+    ref = four_bar(L(-1e-6) - L(0.5) * (t - L(1.5)) ** 2, 1.5 - t, -np.ones_like(t), L(1), L(3), L(2), L(2), sign)
+    # 1e-9 of the size (3): rounding (1e-16) over the conditioning there (3e-7) is 3e-10
+    for axis, got in (("real", r.trajectory["B.x"]), ("imag", r.trajectory["B.y"])):
+        assert np.abs(got - getattr(ref["B"], axis).astype(float)).max() < 1e-9 * 3

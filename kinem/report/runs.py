@@ -45,7 +45,7 @@ def _model(path, tolerance=None):
 def reference(path):
     """(model at the case's tolerance, reference SolveResult, its tolerance).
     Falls back to the case's own tolerance when 1e-13 cannot be reached."""
-    from kinem.analysis import solve
+    from kinem.solver import solve
 
     model = _model(path)
     ref = solve(_model(path, REFERENCE_TOLERANCE))
@@ -103,7 +103,7 @@ def _series(model, ref, traj, with_reference=False):
 
 def run_native(task):
     from adapters.compare import errors
-    from kinem.analysis import solve
+    from kinem.solver import solve
 
     model, ref, ref_tol = reference(task.path)
     if task.knob is not None:

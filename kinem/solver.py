@@ -1,0 +1,112 @@
+"""``solve``: the analysis of a compiled Model over its output instants
+(docs/solver.md), on top of the stages (kinem.analysis), the tracker
+(kinem.tracking) and the block march (kinem.march); nothing below imports
+it. Its options (kinem.options.Options) are passed to it, not compiled into
+the Model: changing a tolerance never recompiles."""
+import time
+from contextlib import nullcontext
+
+import numpy as np
+
+from . import jit
+from .analysis import Data, check_square
+from .diagnose import explain_assembly
+from .errors import AnalysisError, SingularError
+from .linalg import choose, preload
+from .march import Block, usable
+from .options import Options
+from .result import OUTPUTS, SolveResult, Status, trajectory
+from .tracking import Tracker
+
+# Step-by-step runs with instants x (100 + coordinates) up to this run their
+# kernels interpreted in a process without numba (``interpret``). Measured on
+# N-four-bar chains in new processes: an interpreted instant costs about
+# (100 + n) x 15 us more than a compiled one, and loading numba costs about
+# 0.37 s, i.e. 25,000 x 15 us.
+INTERPRET_WORK = 25_000
+
+
+def interpret(model, blocks: bool, instants: int) -> bool:
+    """Whether a run's kernels should run interpreted (kinem.jit): a short
+    step-by-step run in a process that has not loaded numba costs less that
+    way than numba's start-up (INTERPRET_WORK)."""
+    return not blocks and not jit.loaded() and instants * (100 + model.n) <= INTERPRET_WORK
+
+
+def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | None = None,
+          q0=None) -> SolveResult:
+    """Position (and, when asked, velocity and acceleration) analysis at every
+    output instant (``times``, default the case's), on the branch the
+    assembly found (kinem.tracking), with ``options`` (default: the case's
+    [solver] section). Never raises for an analysis failure: the result says
+    when and why (success False) and holds the instants solved before it.
+
+    ``q0``: the estimate to assemble from at ``times[0]`` (default the case's
+    ``model.q0``); a run continued from a solved state passes that state, so a
+    long run can be solved in pieces (``kinem solve`` does: kinem.stream)."""
+    options = Options.of(model.case) if options is None else options
+    check_square(model)
+    outputs = tuple(o for o in OUTPUTS if o in outputs)
+    if "positions" not in outputs:
+        outputs = ("positions",) + outputs
+    need_a = "accelerations" in outputs
+    need_v = need_a or "velocities" in outputs
+    times = model.times if times is None else np.asarray(times, dtype=float)
+    nt = len(times)
+    Q = np.empty((nt, model.n))
+    QD = np.empty((nt, model.n)) if need_v else None
+    QDD = np.empty((nt, model.n)) if need_a else None
+    iters, resid, cond = np.zeros(nt, dtype=int), np.zeros(nt), np.zeros(nt)
+    data = Data(q=model.q0.copy(), trace=[] if trace else None, solver=choose(model, options))
+    tracker = Tracker(model, data, need_v, need_a, options)
+    status, message = Status.SUCCESS, ""
+    blocks = usable(model, trace, nt, options)
+    with jit.interpreted() if interpret(model, blocks, nt) else nullcontext():
+        preload(model, blocks, data.solver)  # one-time imports, not part of the analysis's wall time
+        start = time.perf_counter()
+        block = Block(model, tracker) if blocks else None
+        k = 0
+        try:
+            while k < nt:
+                if block is not None and k > 0:
+                    got = block.advance(times[k: k + block.size])
+                    n = len(got)
+                    block.next_size(got)
+                    if n:
+                        iters[k:k + n], resid[k:k + n], cond[k:k + n], Q[k:k + n] = (
+                            got.iterations, got.residual, got.pivot, got.q)
+                        if need_v:
+                            QD[k:k + n] = got.qd
+                            if need_a:
+                                QDD[k:k + n] = got.qdd
+                        k += n
+                        continue
+                s = tracker.start(times[0], q0) if k == 0 else tracker.advance(times[k])
+                iters[k], resid[k], cond[k], Q[k] = s.iterations, s.residual, s.pivot, s.q
+                if trace:
+                    data.trace.append((times[k], "instant", s.iterations, s.residual, f"pivot ratio {s.pivot:.3e}"))
+                if need_v:
+                    QD[k] = s.qd
+                    if need_a:
+                        QDD[k] = s.qdd
+                k += 1
+        except AnalysisError as e:
+            status = Status.SINGULAR if isinstance(e, SingularError) else Status.NOT_CONVERGED
+            what = "assembly at" if k == 0 else "step to"
+            why = explain_assembly(model, times[0]) if k == 0 else ""  # the root cause, in the user's terms
+            message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {why + '; ' if why else ''}{e}"
+    wall = time.perf_counter() - start
+    n_ok = k
+    ok = status == Status.SUCCESS
+    traj = trajectory(model, times[:n_ok], Q[:n_ok], None if QD is None else QD[:n_ok],
+                      None if QDD is None else QDD[:n_ok])
+    return SolveResult(
+        success=ok, status=status, message=message or "all instants solved",
+        trajectory=traj, q=Q[:n_ok], qd=None if QD is None else QD[:n_ok],
+        qdd=None if QDD is None else QDD[:n_ok], iterations=iters[:n_ok], residual=resid[:n_ok],
+        conditioning=cond[:n_ok], substeps=tracker.substeps, events=tuple(tracker.events),
+        trace=tuple(data.trace or ()),
+        jacobian_evaluations=data.jacobian_evaluations, factorizations=data.factorizations,
+        wall_time=wall, t_fail=None if ok else float(times[n_ok]),
+        failed_constraint=None if ok or status == Status.SINGULAR else model.row_owner[data.worst_row],
+    )
