@@ -392,6 +392,10 @@ def test_non_finite_or_null_baseline_figures_are_rejected(tmp_path, report):
     with pytest.raises(InputError, match="angle_error is null in an ok run"):
         results.load(p)
     assert len(results.missing_figures(doc)) == 2
+    base = copy.deepcopy(report[0].doc)
+    base["cases"][0]["runs"][1]["position_error_rel"] = float("nan")   # built in memory: the gate flags it
+    found, _ = _regressions(report[0].doc, base)
+    assert [(f[1], f[4]) for f in found] == [("pymunk", "position_error_rel")]
 
 
 def test_update_baseline_refuses_null_figures(tmp_path, monkeypatch):

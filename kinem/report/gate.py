@@ -17,6 +17,7 @@ purpose (scope: case files given that are not the whole case set, --engines
 without that engine, --quick for sweep points); either way it is listed in
 ``not_compared``. Cases and engines new in this run are "new".
 """
+import math
 from dataclasses import asdict, dataclass
 
 # Errors and residuals are relative to L (or radians, rad/s, scaled residual
@@ -70,6 +71,9 @@ def _compare(case, engine, where, old, new, out):
     for k, a in old["figures"].items():
         b = new["figures"].get(k)
         if a is None:
+            continue
+        if not math.isfinite(a):   # results.load rejects these; a baseline built in memory must not hide a check
+            add("error", k, None, b, f"{k}: baseline figure {a} is not finite")
             continue
         if b is None or b > ERROR_FACTOR * max(a, ERROR_FLOOR):
             add("error", k, a, b, f"{k} {a:.2e} -> " + ("none" if b is None else f"{b:.2e}"))
