@@ -10,7 +10,7 @@ import os
 import sys
 from pathlib import Path
 
-from .errors import AnalysisError, InputError, KinemError
+from .errors import AnalysisError, InputError, KinemError, one_line
 from .result import OUTPUTS
 
 
@@ -262,15 +262,15 @@ def main(argv=None) -> int:
             print(f"kinem: error: {e.summary('--errors all lists them')}", file=sys.stderr)
         return 2
     except AnalysisError as e:
-        print(f"kinem: analysis failed: {e}", file=sys.stderr)
+        print(f"kinem: analysis failed: {one_line(e)}", file=sys.stderr)
         return 1
     except KinemError as e:
-        print(f"kinem: error: {e}", file=sys.stderr)
+        print(f"kinem: error: {one_line(e)}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         return 130
     except Exception as e:  # noqa: BLE001 - one line, never a traceback
         if os.environ.get("KINEM_DEBUG"):
             raise
-        print(f"kinem: internal error: {type(e).__name__}: {e}", file=sys.stderr)
+        print(f"kinem: internal error: {type(e).__name__}: {one_line(e)}", file=sys.stderr)
         return 3
