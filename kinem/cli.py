@@ -11,7 +11,7 @@ import os
 import sys
 from pathlib import Path
 
-from .errors import AnalysisError, InputError, KinemError
+from .errors import AnalysisError, InputError, KinemError, one_line
 from .result import OUTPUTS
 
 
@@ -429,10 +429,10 @@ def _main(argv) -> int:
             print(f"kinem: error: {e.summary('--errors all lists them')}", file=sys.stderr)
         return 2
     except AnalysisError as e:
-        print(f"kinem: analysis failed: {e}", file=sys.stderr)
+        print(f"kinem: analysis failed: {one_line(e)}", file=sys.stderr)
         return 1
     except KinemError as e:   # OutputError among them: a write that failed
-        print(f"kinem: error: {e}", file=sys.stderr)
+        print(f"kinem: error: {one_line(e)}", file=sys.stderr)
         try:
             sys.stdout.flush()
         except OSError:
@@ -453,5 +453,5 @@ def _main(argv) -> int:
 def _internal(e) -> int:
     if os.environ.get("KINEM_DEBUG"):
         raise e
-    print(f"kinem: internal error: {type(e).__name__}: {e}", file=sys.stderr)
+    print(f"kinem: internal error: {type(e).__name__}: {one_line(e)}", file=sys.stderr)
     return 3

@@ -1,15 +1,22 @@
-"""Bad input never crashes: mutated case files always give a one-line
-error (exit 2 when the mutation makes the file invalid), never a traceback
-or an internal error (exit 3)."""
+"""Bad input never crashes: mutated case files and command lines always give
+exit code 0, 1 or 2, exactly one line on standard error for 1 and 2 (exit 2
+when the mutation makes the file invalid), never a traceback or an internal
+error (exit 3), and leave no temporary file behind.
+
+CI runs a fixed, derandomised budget (tests/conftest.py); KINEM_FUZZ_EXAMPLES
+raises it for a longer run (issue 17: 5,000 cases, once)."""
 import contextlib
 import io
 import json
 import math
+import os
+import subprocess
+import sys
 import tomllib
 from pathlib import Path
 
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import assume, given, settings, strategies as st
 
 from kinem.cli import main
 
@@ -62,7 +69,15 @@ INVALID = {  # replacements that no key of the format accepts where a number is 
 ODD = {  # replacements that may or may not be valid where they land
     "string": "zzz", "bool": True, "empty-table": {}, "empty-list": [], "zero": 0, "negative": -1.5,
     "big": 1e308, "nested": {"a": [1, {"b": 2}]}, "list3": [1.0, 2.0, 3.0],
+    "int40": 10**40, "int400": 10**400, "tiny": 5e-324, "newline": "rod\n", "dollar": "$\\frac{$",
+    "list17": [1.0] * 17, "close-times": [0.0, 1e-300, 2e-300, 10.0], "long-name": "x" * 65,
+    "control": "a\x07b", "huge-int-text": 9 * 10**4000,
 }
+EXAMPLES = int(os.environ.get("KINEM_FUZZ_EXAMPLES", "0"))  # 0: the budgets below (CI)
+
+
+def budget(n):
+    return settings(max_examples=EXAMPLES or n)
 
 
 @st.composite
@@ -80,7 +95,9 @@ def mutated(draw):
             del parent[key]
     elif kind == "rename" and isinstance(parent, dict):
         parent[str(key) + "_typo"] = parent.pop(key)
-        invalid = True  # an unknown key is always an error (or the name of a body/point that then is unknown)
+        # an unknown key is always an error, and so is a renamed body (every body is referred to);
+        # a renamed point is valid when no constraint names it (found by the 5,000-case run)
+        invalid = parent is not d.get("points")
     elif kind == "invalid" and isinstance(get(d, path), (int, float)) and not isinstance(get(d, path), bool):
         parent[key] = INVALID[draw(st.sampled_from(sorted(INVALID)))]
         invalid = True
@@ -94,37 +111,71 @@ def mutated(draw):
     return document(d), invalid
 
 
-def check(tmp_path, text, must_be_invalid, command="info"):
+def check(tmp_path, text, must_be_invalid, command="info", options=("--steps", "3")):
     path = tmp_path / "case.toml"
     path.write_bytes(text if isinstance(text, bytes) else text.encode())
-    args = [command, str(path)] + (["--steps", "3", "--out", str(tmp_path / "o.csv")] if command == "solve" else [])
+    args = [command, str(path)] + ([*options, "--out", str(tmp_path / "o.csv")] if command == "solve" else [])
+    code, err = run_main(args)
+    if must_be_invalid:
+        assert code == 2 and str(path) in err, err
+    if code != 0:
+        assert not (tmp_path / "o.csv").exists()
+    left = sorted(p.name for p in tmp_path.iterdir() if p.name not in ("case.toml", "o.csv"))
+    assert not left, left  # no temporary file left behind
+
+
+def run_main(args):
+    """kinem.cli.main in-process; asserts the contract every run keeps."""
     buf = io.StringIO()
     with contextlib.redirect_stderr(buf), contextlib.redirect_stdout(io.StringIO()):
         code = main(args)
     err = buf.getvalue()
     assert code in (0, 1, 2), err
-    assert "Traceback" not in err and len(err.strip().splitlines()) <= 1, err
-    if must_be_invalid:
-        assert code == 2 and str(path) in err, err
-    if code != 0:
-        assert err.startswith("kinem: ")
-        assert not (tmp_path / "o.csv").exists()
+    assert "Traceback" not in err and "internal error" not in err, err
+    if code in (1, 2):
+        assert len(err.splitlines()) == 1 and err.startswith("kinem: "), err
+    else:
+        assert err == "", err
+    return code, err
 
 
-@settings(max_examples=150)
+OPTION_VALUES = ["3", "1", "0", "-1", "2.5", "1e8", "1e7", "inf", "-inf", "nan", "1e300", "1e-300", "x", "",
+                 "9" * 40, "0x10", "1_0", " 5", "5\n"]
+
+
+def slow(steps) -> bool:
+    """A valid step count above 12: a long run, not for a cheap test (larger ones are refused at once)."""
+    try:
+        v = float(steps.replace("_", ""))
+    except ValueError:
+        return False
+    return 12 < v <= 1e7
+
+
+@budget(40)
+@given(end=st.one_of(st.none(), st.sampled_from(OPTION_VALUES), st.floats(allow_nan=True).map(repr)),
+       steps=st.one_of(st.sampled_from(OPTION_VALUES), st.integers(-5, 12).map(str)))
+def test_command_line_times(tmp_path_factory, end, steps):
+    """--end and --steps by the case file's rules, whatever their text."""
+    assume(not slow(steps))
+    options = (["--end", end] if end is not None else []) + ["--steps", steps]
+    check(tmp_path_factory.mktemp("opts"), (CASES / "four_bar.toml").read_text(), False, "solve", options)
+
+
+@budget(150)
 @given(m=mutated(), command=st.sampled_from(["info", "solve"]))
 def test_mutated_case_files(tmp_path_factory, m, command):
     text, invalid = m
     check(tmp_path_factory.mktemp("fuzz"), text, invalid, command)
 
 
-@settings(max_examples=60)
+@budget(60)
 @given(data=st.binary(max_size=400))
 def test_random_bytes(tmp_path_factory, data):
     check(tmp_path_factory.mktemp("bytes"), data, False)
 
 
-@settings(max_examples=60)
+@budget(60)
 @given(cut=st.integers(1, 1500), base=st.sampled_from(BASES))
 def test_truncated_files(tmp_path_factory, cut, base):
     text = (CASES / f"{base}.toml").read_text()
@@ -139,6 +190,18 @@ def test_truncated_files(tmp_path_factory, cut, base):
 ])
 def test_degenerate_files(tmp_path, text):
     check(tmp_path, text, True)
+
+
+@pytest.mark.parametrize("args", [
+    ["solve", "/dev/zero"],
+    ["info", str(CASES / "slider_crank.toml"), "--errors", "everything"],
+    ["solve", str(CASES / "slider_crank.toml"), "--steps", "1e8"],
+])
+def test_subprocess_one_line(args):
+    """The same contract through the real entry point (a few runs: each costs an interpreter start)."""
+    p = subprocess.run([sys.executable, "-m", "kinem", *args], capture_output=True, text=True, timeout=120,
+                       cwd=CASES.parent)
+    assert p.returncode == 2 and len(p.stderr.splitlines()) == 1 and "Traceback" not in p.stderr, p.stderr
 
 
 def test_emitter_round_trips():

@@ -94,6 +94,13 @@ class Checker:
             ok = False
         return ok
 
+    def table(self, where, key, v, allowed, required, form):
+        """Whether v is a table with only ``allowed`` keys and every ``required`` one; else the problems."""
+        if not isinstance(v, dict):
+            self.bad(where, key, f"got {show(v)}", form)
+            return False
+        return self.keys(f"{where}: key '{key}'", v, allowed, required)
+
     def choice(self, where, key, v, options, what):
         """v, one of ``options`` (names); else a problem with a "did you mean"."""
         if isinstance(v, str) and v in options:

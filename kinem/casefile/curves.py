@@ -34,34 +34,37 @@ def function(ck, where, key, v, end):
 
 
 def _harmonic(ck, where, key, body):
-    if not isinstance(body, dict):
-        ck.bad(where, key, f"got {show(body)}", "{ amplitude = A, omega = w, phase = p, offset = c }")
-        return None
-    if not ck.keys(f"{where}: key '{key}' harmonic", body, ("amplitude", "omega", "phase", "offset"),
-                   ("amplitude", "omega")):
+    if not ck.table(where, f"{key}.harmonic", body, ("amplitude", "omega", "phase", "offset"), ("amplitude", "omega"),
+                    "{ amplitude = A, omega = w, phase = p, offset = c }"):
         return None
     vals = {k: ck.number(where, f"{key}.harmonic.{k}", x) for k, x in body.items()}
     return None if None in vals.values() else fn.Harmonic(**vals)
 
 
 def _table(ck, where, key, body, end):
-    if not isinstance(body, dict) or not ck.keys(f"{where}: key '{key}' table", body, ("t", "value"), ("t", "value")):
-        if not isinstance(body, dict):
-            ck.bad(where, key, f"got {show(body)}", "{ t = [...], value = [...] }")
+    if not ck.table(where, f"{key}.table", body, ("t", "value"), ("t", "value"), "{ t = [...], value = [...] }"):
         return None
-    t = ck.numbers(where, f"{key}.table.t", body["t"], 2)
-    val = ck.numbers(where, f"{key}.table.value", body["value"], 2)
-    if t is None or val is None:
+    pair = _pair(ck, where, f"{key}.table", body, ("t", "value"), 2)
+    if pair is None:
         return None
-    if len(t) != len(val):
-        ck.bad(where, f"{key}.table", f"{len(t)} times and {len(val)} values", "lists of equal length")
-        return None
+    t, val = pair
     if not ck.increasing(where, f"{key}.table.t", t, "times"):
         return None
     if end is not None and (t[0] > 0 or t[-1] < end):
         ck.bad(where, f"{key}.table.t", f"covers [{t[0]:g}, {t[-1]:g}]", f"a table that covers [0, {end:g}]")
         return None
     return fn.Table(t, val)
+
+
+def _pair(ck, where, key, body, names, min_len):
+    """Two lists of numbers of equal length (a table's abscissae and values), or None."""
+    x, y = (ck.numbers(where, f"{key}.{n}", body[n], min_len) for n in names)
+    if x is None or y is None:
+        return None
+    if len(x) != len(y):
+        ck.bad(where, key, f"{len(x)} {names[0]} and {len(y)} {names[1]}", f"lists {' and '.join(names)} of equal length")
+        return None
+    return x, y
 
 
 def outline(ck, where, key, v):
@@ -76,9 +79,7 @@ def outline(ck, where, key, v):
         return None
     if "circle" in v:
         body = v["circle"]
-        if not isinstance(body, dict) or not ck.keys(f"{where}: key '{key}.circle'", body, ("radius",), ("radius",)):
-            if not isinstance(body, dict):
-                ck.bad(where, f"{key}.circle", f"got {show(body)}", "{ radius = R }")
+        if not ck.table(where, f"{key}.circle", body, ("radius",), ("radius",), "{ radius = R }"):
             return None
         r = ck.number(where, f"{key}.circle.radius", body["radius"], positive=True)
         return None if r is None else Outline.circle(r, center)
@@ -86,10 +87,8 @@ def outline(ck, where, key, v):
 
 
 def _spline(ck, where, w, body, center):
-    if not isinstance(body, dict) or not ck.keys(f"{where}: key '{w}'", body,
-                                                 ("theta", "s", "degrees", "periodic", "bc"), ("theta", "s")):
-        if not isinstance(body, dict):
-            ck.bad(where, w, f"got {show(body)}", "{ theta = [...], s = [...], degrees, periodic, bc }")
+    if not ck.table(where, w, body, ("theta", "s", "degrees", "periodic", "bc"), ("theta", "s"),
+                    "{ theta = [...], s = [...], degrees, periodic, bc }"):
         return None
     flags = {}
     for flag in ("degrees", "periodic"):
@@ -97,13 +96,10 @@ def _spline(ck, where, w, body, center):
         if not isinstance(flags[flag], bool):
             ck.bad(where, f"{w}.{flag}", f"got {show(flags[flag])}", "true or false")
             return None
-    theta = ck.numbers(where, f"{w}.theta", body["theta"], 4)
-    s = ck.numbers(where, f"{w}.s", body["s"], 4)
-    if theta is None or s is None:
+    pair = _pair(ck, where, w, body, ("theta", "s"), 4)
+    if pair is None:
         return None
-    if len(theta) != len(s):
-        ck.bad(where, w, f"{len(theta)} angles and {len(s)} radii", "lists theta and s of equal length")
-        return None
+    theta, s = pair
     if flags["degrees"]:
         theta = tuple(math.radians(x) for x in theta)
     if not ck.increasing(where, f"{w}.theta", theta, "angles"):
