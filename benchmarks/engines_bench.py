@@ -39,7 +39,7 @@ def section_engines(cfg, state):
                 continue
             reason = adapter.unsupported(model)
             if reason:
-                rows.append({"case": name, "engine": e, "status": reason})
+                rows.append({"case": name, "engine": e, "status": f"unsupported: {reason}"})
                 continue
             adapters[e] = adapter
             fns[e] = engine_runner(adapter, model, ref)
@@ -69,8 +69,8 @@ def section_engines(cfg, state):
         for e, adapter in adapters.items():
             run = last[e]
             if not run.ok:
-                rows.append({"case": name, "engine": e, "status": run.status})
-                say(f"   {name:15s} {1e6 * nat_step:13.1f} {e:7s} {run.status}")
+                rows.append({"case": name, "engine": e, "status": run.label})
+                say(f"   {name:15s} {1e6 * nat_step:13.1f} {e:7s} {run.label}")
                 continue
             c = compare(model, ref, run)
             eng_step = statistics.median(eng_times[e]) / run.steps
@@ -159,13 +159,13 @@ def section_precision(cfg, state):
                 run = engine_runner(adapter, model, ref, {"dt": dt0 * f})()[1]
                 seen.add(run.steps)
                 c = compare(model, ref, run)
-                p = {"factor": f, "dt": run.settings.get("dt"), "steps": run.steps, "status": c.status,
-                     "position_error_rel": c.position_error_rel if c.status == "ok" else None,
+                p = {"factor": f, "dt": run.settings.get("dt"), "steps": run.steps, "status": c.label,
+                     "position_error_rel": c.position_error_rel if c.ok else None,
                      "wall_per_sim_second": run.wall_time / case.end, "walls": [run.wall_time]}
                 points.append(p)
                 if run.steps:
                     per_step_cost = run.wall_time / run.steps
-                if c.status == "ok" and c.position_error_rel <= target:
+                if c.ok and c.position_error_rel <= target:
                     break
             ok = [p for p in points if p.get("status") == "ok"]
             loose = next((p for p in ok if p["position_error_rel"] <= LOOSE), None)

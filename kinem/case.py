@@ -24,7 +24,6 @@ NAME_RE = re.compile(r"^[a-z0-9_-]+$")
 IDENT_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*$")
 
 TOP_KEYS = ("name", "description", "units", "time", "solver", "bodies", "points", "constraints", "engines")
-ENGINES = ("pymunk", "mujoco", "exudyn")  # settings are checked against each adapter when it runs
 SOLVER_KEYS = ("tolerance", "max_iterations", "linear_solver", "jacobian_reuse", "block")
 LINEAR_SOLVERS = ("auto", "dense", "sparse")
 COORDS = ("x", "y", "phi")
@@ -169,16 +168,14 @@ class _Loader:
         return {k: v for k, v in u.items() if k == "length" and isinstance(v, str)}
 
     def engines(self, e):
-        """[engines.<name>] tables of settings: scalars or short lists of numbers."""
+        """[engines.<name>] tables of settings: scalars or short lists of numbers,
+        kept raw; the engine registry (adapters) checks names and keys when they are used."""
         if not isinstance(e, dict):
             self.bad("[engines]", None, f"got {_show(e)}", "a table of [engines.<name>] tables")
             return {}
         out = {}
         for name, table in e.items():
             where = f"[engines.{name}]"
-            if name not in ENGINES:
-                self.bad(where, None, f"unknown engine '{name}'", "one of " + ", ".join(ENGINES))
-                continue
             if not isinstance(table, dict):
                 self.bad(where, None, f"got {_show(table)}", "a table of settings")
                 continue

@@ -85,10 +85,12 @@ def cmd_info(a):
     return 0
 
 
-def _settings(items, dt):
-    """--set engine.key=value (repeatable) and --dt into engine -> overrides."""
-    from adapters import ENGINES
+def _settings(items, dt, engines=None):
+    """--set engine.key=value (repeatable) and --dt into engine -> overrides,
+    checked by each engine named (or in ``engines``) with a one-line error."""
+    from adapters import names, settings
 
+    ENGINES = names()
     out = {e: {} for e in ENGINES}
     for item in items or ():
         key, sep, raw = item.partition("=")
@@ -105,13 +107,19 @@ def _settings(items, dt):
             raise InputError(f"--dt: got {dt}; expected a positive time step")
         for e in ENGINES:
             out[e].setdefault("dt", dt)
+    for e in ENGINES:
+        if e in (engines or ()) or any(x.partition(".")[0] == e for x in items or ()):
+            settings(e, out[e], "--set" if items else "--dt")
     return out
 
 
 def _engines(text, allow_empty=False) -> list:
-    """--engines: a comma-separated list of native and the engines."""
-    from adapters import ENGINES
+    """--engines: a comma-separated list of native and the engines (None: all)."""
+    from adapters import names
 
+    ENGINES = names()
+    if text is None:
+        return ["native", *ENGINES]
     engines = [e.strip() for e in text.split(",") if e.strip()]
     if any(e not in ("native",) + ENGINES for e in engines) or not (engines or allow_empty):
         raise InputError(f"--engines: got {text!r}; expected a comma-separated list of native, {', '.join(ENGINES)}")
@@ -150,7 +158,7 @@ def cmd_compare(a):
 
     engines = _engines(a.engines)
     model = _load(a.case)
-    native, rows = run_case(model, engines, _settings(a.set, a.dt), a.scheduler)
+    native, rows = run_case(model, engines, _settings(a.set, a.dt, engines), a.scheduler)
     if a.json:
         print(json.dumps({"case": model.case.name, "length": model.length, "unit": model.case.length_unit,
                           "engines": {r.engine: r.as_dict() for r in rows}}, indent=2, default=float))
@@ -197,7 +205,7 @@ def parser():
     i.set_defaults(run=cmd_info)
 
     st = sub.add_parser("stress", help="the stress suite on native and the engines, each outcome classified")
-    st.add_argument("--engines", default="native,pymunk,mujoco,exudyn")
+    st.add_argument("--engines", help="comma-separated: native and engines (default: all)")
     st.add_argument("--quick", action="store_true", help="fewer sweep points and a 100-turn long run")
     st.add_argument("--jobs", type=int, help="worker processes (default: the core count; 0 or 1: none)")
     _scheduler_option(st)
@@ -210,7 +218,7 @@ def parser():
 
     c = sub.add_parser("compare", help="run the case on the native solver and the engines; compare")
     c.add_argument("case")
-    c.add_argument("--engines", default="native,pymunk,mujoco,exudyn")
+    c.add_argument("--engines", help="comma-separated: native and engines (default: all)")
     c.add_argument("--dt", type=float, help="engine time step (overrides every engine's dt)")
     c.add_argument("--set", action="append", metavar="ENGINE.KEY=VALUE", help="an engine setting (repeatable)")
     _scheduler_option(c)
@@ -220,8 +228,7 @@ def parser():
     r = sub.add_parser("report", help="every case on native and the engines: index.html, summary.md, "
                                       "results.json, baseline gate (docs/report.md)")
     r.add_argument("cases", nargs="*", help="case files (default: cases/*.toml)")
-    r.add_argument("--engines", default="native,pymunk,mujoco,exudyn",
-                   help="engines to run (native always runs: it is the reference)")
+    r.add_argument("--engines", help="engines to run (default: all; native always runs: it is the reference)")
     r.add_argument("--out", default="reports", help="output directory (default: reports)")
     r.add_argument("--baseline", metavar="FILE", help="a stored results.json to gate against (exit 1 on regression)")
     r.add_argument("--update-baseline", action="store_true",
