@@ -148,6 +148,7 @@ class Adapter:
     reasons: dict = {}
     tolerance: dict = {}
     checks: dict = {}
+    knobs: dict = {}       # the engine's own accuracy knobs and the values adapters.tune sweeps
 
     def version(self) -> str:
         raise NotImplementedError

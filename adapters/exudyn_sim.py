@@ -302,6 +302,7 @@ def _dot(a, b):
 class ExudynAdapter(Adapter):
     name = "exudyn"
     tolerance = TOLERANCE
+    knobs = {"integrator": tuple(INTEGRATORS), "substeps": (1, 2, 5, 10, 20, 50, 100)}
     checks = {"dt": positive, "substeps": count_or_none, "integrator": choice(*INTEGRATORS),
               "spectral_radius": fraction, "newton_test": choice(*NEWTON_TESTS),
               "newton_relative_tolerance": nonnegative, "newton_absolute_tolerance": nonnegative,
@@ -315,11 +316,15 @@ class ExudynAdapter(Adapter):
 
     def defaults(self) -> dict:
         return {
-            # Largest step (s). Positions do not depend on it (index 3); the
-            # velocity error is O(dt^2): <= 1.2e-8 of the speed scale at 1e-4
-            # on the five cases, ~1e-6 at 1e-3 (plus a start-up transient
-            # there); a step costs ~10-40 us.
-            "dt": 1e-4,
+            # Largest step (s). Positions do not depend on it (index 3): round-off
+            # at one step per output interval. The velocity error is O(dt^2) and
+            # decides: the sweep of `kinem engines --tune` (docs/engines.md) finds
+            # 50 steps per 0.01 s interval (2e-4) the fewest within TOLERANCE on
+            # the five lower-pair cases (worst 5.1e-8 of the speed scale; 20
+            # steps: 9e-7); a four-bar of tests/test_engines_property.py reaches
+            # 1.4e-7 at 2e-4, so 1.5e-4 (67 steps, 1.34x the cost). A step costs
+            # ~10-40 us.
+            "dt": 1.5e-4,
             # Steps per output interval; None: the fewest keeping step <= dt.
             "substeps": None,
             # Index-3 generalized-alpha: constraints held at position level.

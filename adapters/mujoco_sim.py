@@ -465,8 +465,11 @@ class MujocoAdapter(Adapter):
             # RK4: ~100x smaller errors than implicitfast or Euler at the same step (docs/engines/mujoco.md),
             # ~3x their cost per step
             "integrator": "RK4",
-            # largest engine step (s); the step used divides the output interval. Loop errors scale as dt^2:
-            # 7e-9 of the size at 2.5e-4, 1e-7 at 1e-3, 3e-6 at 1e-2
+            # largest engine step (s); the step used divides the output interval. Loop errors scale as dt^2.
+            # The sweep of `kinem engines --tune` (docs/engines.md): RK4 at 16 steps per 0.01 s interval is
+            # the cheapest within TOLERANCE on the five lower-pair cases (worst 4.6e-8 of L; 8 steps: 1.8e-7),
+            # but a faster quick-return of tests/test_engines_property.py leaves 1.0e-7 rad at 4e-4 and
+            # 1.4e-7 at 3.3e-4: 2.5e-4 (40 steps, 7e-9 of L on the book cases) holds on every test mechanism
             "dt": 2.5e-4,
             # engine steps per output interval; None: the fewest with a step <= dt
             "substeps": None,
@@ -496,6 +499,7 @@ class MujocoAdapter(Adapter):
             "iterations": 100,
         }
 
+    knobs = {"integrator": ("RK4", "implicitfast", "Euler"), "substeps": (1, 2, 4, 8, 16, 40)}
     checks = {"integrator": choice("RK4", "Euler", "implicit", "implicitfast"), "dt": positive,
               "substeps": count_or_none, "solref": numbers(2, finite, optional=True), "solimp": numbers(5),
               "refsafe": boolean, "diagexact": boolean, "armature": positive,

@@ -287,6 +287,7 @@ class _Mechanism:
 class PymunkAdapter(Adapter):
     name = "pymunk"
     tolerance = TOLERANCE
+    knobs = {"substeps": (1, 2, 5, 10, 20, 50, 100), "iterations": (3, 5, 10, 25, 100)}
     checks = {"dt": positive, "substeps": count_or_none, "iterations": count, "error_bias": fraction,
               "centered_velocity": boolean}
     supports = {
@@ -318,15 +319,21 @@ class PymunkAdapter(Adapter):
     def defaults(self) -> dict:
         return {
             # Step. Errors are O(dt^2) with error_bias 0: <= 2e-8 L at 1e-4
-            # on the book's cases (2e-6 at 1e-3, 2e-10 at 1e-5) for 5-10 us/step.
-            "dt": 1e-4,
+            # on the book's cases (2e-6 at 1e-3, 2e-10 at 1e-5) for 1-10 us/step.
+            # The sweep of `kinem engines --tune` (docs/engines.md): 50 steps per
+            # 0.01 s interval (2e-4) is the fewest within TOLERANCE on the five
+            # lower-pair cases (worst 7.4e-8 of L; 20 steps miss on the
+            # quick-returns' angles).
+            "dt": 2e-4,
             # Steps per output interval; None: the fewest with h / substeps
             # <= dt. When given it wins, and dt = h / substeps.
             "substeps": None,
             # Gauss-Seidel sweeps per step. With error_bias 0 an unconverged
             # solve feeds its residual back through the bias and can diverge:
             # quick_return_1 needs 25 (when the block passes the rocker's
-            # centre). 100: 4x that; results are unchanged from 25 to 400.
+            # centre) and the sweep's cheapest setting has 25, but a four-bar of
+            # tests/test_engines_property.py diverges at 25 and 50 with dt = 2e-4:
+            # 100 (2.3x the cost of 25). Results are unchanged from 25 to 400.
             # A divergence is reported as 'failed' (DRIFT), never as ok.
             "iterations": 100,
             # Fraction of a joint's error left after one second: 0 removes it

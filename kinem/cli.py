@@ -145,11 +145,51 @@ def cmd_stress(a):
 def cmd_engines(a):
     from adapters import matrix
 
+    if a.tune is not None:
+        return _tune(a)
     if a.update_docs:
         changed = matrix.update(Path(__file__).resolve().parents[1] / "docs" / "engines.md")
         print("docs/engines.md " + ("updated" if changed else "already current"))
     else:
         print(matrix.markdown(), end="")
+    return 0
+
+
+def _tune(a):
+    """kinem engines --tune [ENGINES]: the sweep behind the default settings (adapters/tune.py)."""
+    from adapters import names, tune
+
+    engines = [e.strip() for e in a.tune.split(",") if e.strip()] if a.tune else list(names())
+    unknown = [e for e in engines if e not in names()]
+    if unknown:
+        raise InputError(f"--tune: got {a.tune!r}; expected a comma-separated list of {', '.join(names())}")
+    models = tune._models(tune.QUICK_CASES if a.quick else tune.CASES, a.quick)
+    results = [tune.sweep(e, quick=a.quick, repeats=1 if a.quick else 3, models=models) for e in engines]
+    if a.json:
+        print(json.dumps(results, indent=2, default=float))
+    else:
+        print("\n\n".join(tune.text(r) for r in results))
+    return 0
+
+
+def cmd_export(a):
+    """kinem export CASE --engine NAME --out FILE: the engine model as the harness runs it."""
+    from adapters.export import export
+    from .analysis import solve
+
+    model = _load(a.case)
+    native = solve(model)
+    if not native.success:
+        raise AnalysisError(f"{a.case}: no native solution at t = 0 to start the engine from: {native.message}")
+    text = export(model, a.engine, native.q[0], native.qd[0])
+    out = Path(a.out)
+    if out.is_symlink() or (out.exists() and not out.is_file()):   # a device, FIFO or link: written through
+        with open(out, "w") as f:
+            f.write(text)
+    else:
+        from .output import write_atomic
+
+        write_atomic(out, lambda f: f.write(text.encode()))
     return 0
 
 
@@ -214,7 +254,19 @@ def parser():
 
     e = sub.add_parser("engines", help="the engines' support matrix, default settings and tolerances")
     e.add_argument("--update-docs", action="store_true", help="rewrite the generated section of docs/engines.md")
+    e.add_argument("--tune", nargs="?", const="", metavar="ENGINES",
+                   help="sweep the engines' own accuracy knobs on the book cases; print each setting's worst error "
+                        "and cost per output interval, the Pareto front and the cheapest setting within tolerance")
+    e.add_argument("--quick", action="store_true", help="with --tune: two short cases (a smoke run)")
+    e.add_argument("--json", action="store_true", help="with --tune: the sweep as JSON")
     e.set_defaults(run=cmd_engines)
+
+    x = sub.add_parser("export", help="the engine model exactly as the harness runs it, as a file "
+                                      "(MuJoCo: MJCF XML; Exudyn, pymunk: a runnable Python script)")
+    x.add_argument("case")
+    x.add_argument("--engine", required=True, help="mujoco, exudyn or pymunk")
+    x.add_argument("--out", required=True, help="output file")
+    x.set_defaults(run=cmd_export)
 
     c = sub.add_parser("compare", help="run the case on the native solver and the engines; compare")
     c.add_argument("case")
