@@ -1,6 +1,12 @@
 """The engine model exactly as the harness runs it, as a file users can take
 away (``kinem export CASE --engine NAME --out FILE``).
 
+pymunk: a Python script (pymunk and numpy only) that builds the adapter's
+Space body by body and joint by joint from the built Space itself, and steps
+it as the adapter does; the prescribed poses and driven joint targets at every
+step are embedded as a compressed table. Exudyn: not yet (its drivers are
+symbolic user functions built in memory; writing them out is left to do).
+
 MuJoCo: MJCF XML (adapters.mujoco_sim.mjcf, the same text the adapter
 compiles) plus a keyframe "start" with the harness's initial joint positions
 and velocities (native's state at t = 0). A driver whose function is linear in
@@ -11,6 +17,8 @@ driver cannot be expressed in MJCF: a comment names its joint and function,
 and the loop that drives it (set qpos, qvel from d(t), d'(t) and qfrc_applied
 from armature d''(t) before every mj_step), as the harness does.
 """
+import math
+
 import numpy as np
 
 from kinem.functions import Poly
@@ -90,3 +98,157 @@ def export(model, engine, q0, qd0, settings=None) -> str:
 
         raise InputError(f"--engine: got {engine!r}; export writes one of {', '.join(WRITERS)}")
     return WRITERS[engine][0](model, q0, qd0, settings)
+
+
+def _pymunk_script(model, q0, qd0, settings=None):
+    """A Python script (pymunk and numpy only) that builds the harness's
+    Space body by body and joint by joint, steps it exactly as the adapter
+    does (prescribed bodies and driven joint targets set before each step from
+    tables computed here, embedded compressed) and prints the case bodies'
+    final x, y, phi as JSON (``--all``: at every output instant)."""
+    import base64
+    import io
+    import zlib
+
+    import pymunk
+
+    from . import get
+    from .pymunk_sim import _Mechanism
+
+    adapter = get("pymunk")
+    why = adapter.unsupported(model)
+    if why:
+        from kinem.errors import InputError
+
+        raise InputError(f"{model.case.source}: pymunk cannot represent this case: {why}")
+    s = adapter.settings(settings)
+    times = np.asarray(model.times, float)
+    adapter.steps_per_interval(s, float(times[1] - times[0]) if len(times) > 1 else float(model.case.end))
+    n_sub, dt = s["substeps"], s["dt"]
+    tt = np.arange(n_sub * (len(times) - 1) + 2) * dt
+    mech = _Mechanism(model, np.asarray(q0, float), np.asarray(qd0, float), s, tt)
+    bodies = list(mech.space.bodies)
+    index = {id(b): k for k, b in enumerate(bodies)}
+    kinds = {pymunk.Body.STATIC: "pymunk.Body.STATIC", pymunk.Body.KINEMATIC: "pymunk.Body.KINEMATIC"}
+
+    def num(x):
+        return repr(float(x)) if math.isfinite(x) else "math.inf"
+
+    lines = []
+    for k, b in enumerate(bodies):
+        if b.body_type in kinds:
+            lines.append(f"B.append(pymunk.Body(body_type={kinds[b.body_type]}))")
+        else:
+            lines.append(f"B.append(pymunk.Body({num(b.mass)}, {num(b.moment)}))")
+        lines.append(f"place(B[{k}], {num(b.position.x)}, {num(b.position.y)}, {num(b.angle)}, "
+                     f"{num(b.velocity.x)}, {num(b.velocity.y)}, {num(b.angular_velocity)})")
+    joints = list(mech.space.constraints)
+    jindex = {id(j): k for k, j in enumerate(joints)}
+    for j in joints:
+        a, b = f"B[{index[id(j.a)]}]", f"B[{index[id(j.b)]}]"
+        if isinstance(j, pymunk.PivotJoint):
+            args = f"{a}, {b}, {tuple(j.anchor_a)}, {tuple(j.anchor_b)}"
+        elif isinstance(j, pymunk.GrooveJoint):
+            args = f"{a}, {b}, {tuple(j.groove_a)}, {tuple(j.groove_b)}, {tuple(j.anchor_b)}"
+        elif isinstance(j, pymunk.PinJoint):
+            args = f"{a}, {b}, {tuple(j.anchor_a)}, {tuple(j.anchor_b)}"
+        elif isinstance(j, pymunk.GearJoint):
+            args = f"{a}, {b}, {num(j.phase)}, {num(j.ratio)}"
+        else:
+            raise NotImplementedError(f"export of {type(j).__name__}")
+        lines.append(f"J.append(add(pymunk.{type(j).__name__}({args}), {num(j.error_bias)}))")
+        if isinstance(j, pymunk.PinJoint):
+            lines.append(f"J[-1].distance = {num(j.distance)}")
+    tables = {}
+    for n, (b, x, y, phi) in enumerate(mech.kinematic):
+        tables[f"kin{n}"] = np.stack([x, y, phi])
+    for n, (j, attr, v) in enumerate(mech.targets):
+        tables[f"target{n}"] = np.asarray(v, float)
+    buf = io.BytesIO()
+    np.savez(buf, **tables)
+    blob = base64.b64encode(zlib.compress(buf.getvalue(), 9)).decode()
+    kin = [f"(B[{index[id(b)]}], T['kin{n}'])" for n, (b, *_) in enumerate(mech.kinematic)]
+    tgt = [f"(J[{jindex[id(j)]}], {attr!r}, T['target{n}'])" for n, (j, attr, _) in enumerate(mech.targets)]
+    case_bodies = [index[id(mech.body[name])] for name in model.body_names]
+    return SCRIPT.format(name=model.case.name, source=model.case.source, version=pymunk.version,
+                         iterations=int(s["iterations"]), build="\n".join(lines), blob=blob, dt=repr(dt),
+                         n_sub=n_sub, intervals=len(times) - 1, kin=", ".join(kin), tgt=", ".join(tgt),
+                         centered=bool(s["centered_velocity"]), bodies=case_bodies, names=list(model.body_names))
+
+
+SCRIPT = '''"""kinem export of case '{name}' ({source}) for pymunk {version}: the harness's
+Space and stepping, runnable with pymunk and numpy only. Prints the case bodies'
+final x, y, phi as JSON (--all: every output instant; --velocities: x', y', phi' too)."""
+import base64, io, json, math, sys, zlib
+
+import math
+
+import numpy as np
+import pymunk
+
+space = pymunk.Space()
+space.iterations = {iterations}
+space.gravity = (0.0, 0.0)
+space.damping = 1.0
+B, J = [], []
+
+
+def place(b, x, y, phi, vx, vy, w):
+    b.angle = phi
+    b.position = (x, y)
+    b.velocity = (vx, vy)
+    b.angular_velocity = w
+    space.add(b)
+
+
+def add(joint, error_bias):
+    joint.error_bias = error_bias
+    joint.collide_bodies = False
+    space.add(joint)
+    return joint
+
+
+{build}
+
+# prescribed poses (x, y, phi) and driven joint targets at the step instants t_0 .. t_N+1
+T = np.load(io.BytesIO(zlib.decompress(base64.b64decode("{blob}"))))
+dt, n_sub, intervals = {dt}, {n_sub}, {intervals}
+kin = [{kin}]
+kin = [(b, p[:, 1:-1] - dt * np.diff(p, axis=1)[:, 1:] / dt, np.diff(p, axis=1)[:, 1:] / dt) for b, p in kin]
+targets = [{tgt}]
+bodies, centered = [B[k] for k in {bodies}], {centered}
+
+
+def state(velocity=False):
+    if velocity:
+        return [v for b in bodies for v in (b.velocity.x, b.velocity.y, b.angular_velocity)]
+    return [v for b in bodies for v in (b.position.x, b.position.y, b.angle)]
+
+
+def step(i):
+    for b, start, vel in kin:
+        b.angle, b.position = start[2, i], (start[0, i], start[1, i])
+        b.velocity, b.angular_velocity = (vel[0, i], vel[1, i]), vel[2, i]
+    for j, attr, v in targets:
+        setattr(j, attr, v[i])
+    space.step(dt)
+
+
+out, vout, i = [state()], [state(True)], 0
+for k in range(intervals):
+    for _ in range(n_sub - 1 if centered else n_sub):
+        step(i)
+        i += 1
+    before = state(True)
+    if centered:
+        step(i)
+        i += 1
+    out.append(state())
+    v = state(True)
+    vout.append([(a + b) / 2 for a, b in zip(v, before)] if centered else v)
+rows = out if "--all" in sys.argv else out[-1:]
+print(json.dumps({{"bodies": {names}, "q": rows, "qd": (vout if "--all" in sys.argv else vout[-1:])
+                  if "--velocities" in sys.argv else None}}))
+'''
+
+WRITERS["pymunk"] = (_pymunk_script, ".py")
