@@ -32,6 +32,16 @@ print(json.dumps(out))
 """
 
 
+def exported(name, engine, tmp_path, suffix):
+    """(model, the harness's EngineRun at the defaults, the path kinem export wrote)."""
+    case = ROOT / "cases" / f"{name}.toml"
+    out = tmp_path / f"{name}{suffix}"
+    assert main(["export", str(case), "--engine", engine, "--out", str(out)]) == 0
+    model = kinem.compile(kinem.load(case))
+    native = kinem.solve(model)
+    return model, get(engine).run(model, native.q[0], native.qd[0]), out
+
+
 def isolated(script, *args):
     """Runs a script with only the engine and numpy importable beside the
     standard library (no kinem, no adapters: -I ignores PYTHONPATH and the cwd)."""
@@ -43,12 +53,7 @@ def isolated(script, *args):
 
 @pytest.mark.parametrize("name", ["slider_crank", "four_bar", "quick_return_1", "quick_return_2", "quick_return_3"])
 def test_mujoco_export_runs_alone_and_matches_the_harness(name, tmp_path):
-    case = ROOT / "cases" / f"{name}.toml"
-    out = tmp_path / f"{name}.xml"
-    assert main(["export", str(case), "--engine", "mujoco", "--out", str(out)]) == 0
-    model = kinem.compile(kinem.load(case))
-    native = kinem.solve(model)
-    run = get("mujoco").run(model, native.q[0], native.qd[0])
+    model, run, out = exported(name, "mujoco", tmp_path, ".xml")
     xy = isolated(MUJOCO_RUN, out, ",".join(model.body_names))
     harness = run.q.reshape(len(run.q), -1, 3)[:, :, :2].reshape(len(run.q), -1)
     # The harness overwrites the driven joint before every step, the exported model holds it
@@ -64,12 +69,7 @@ def test_export_of_an_unsupported_case_is_an_input_error(tmp_path, capsys):
 
 @pytest.mark.parametrize("name", ["slider_crank", "four_bar", "quick_return_1", "gear_pair"])
 def test_pymunk_script_runs_alone_and_matches_the_harness(name, tmp_path):
-    case = ROOT / "cases" / f"{name}.toml"
-    out = tmp_path / f"{name}.py"
-    assert main(["export", str(case), "--engine", "pymunk", "--out", str(out)]) == 0
-    model = kinem.compile(kinem.load(case))
-    native = kinem.solve(model)
-    run = get("pymunk").run(model, native.q[0], native.qd[0])
+    model, run, out = exported(name, "pymunk", tmp_path, ".py")
     p = subprocess.run([sys.executable, "-I", str(out), "--all"], capture_output=True, text=True, cwd="/")
     assert p.returncode == 0, p.stderr
     q = np.array(json.loads(p.stdout)["q"])
