@@ -13,16 +13,23 @@ Figures (docs/engines.md):
 - constraint_residual: max scaled residual |Phi_k(q_engine, t)| / scale_k of
   the native kinematic (non-driving) constraints on the engine's trajectory,
   i.e. loop-closure drift relative to the mechanism size (docs/solver.md).
+
+Costs are per output interval (``time_per_interval``: the engine's stepping
+calls; ``overhead_per_interval``: the adapter's own Python around them) and
+per simulated second, whatever the engine's steps per interval.
 """
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from .base import Status
+
 
 @dataclass(frozen=True)
 class Comparison:
     engine: str
-    status: str
+    status: Status
+    detail: str = ""
     position_error: float = float("nan")
     position_error_rel: float = float("nan")
     angle_error: float = float("nan")
@@ -33,13 +40,28 @@ class Comparison:
     wall_time: float = float("nan")
     steps: int = 0
     time_per_step: float = float("nan")
+    substeps: int = 0                      # engine steps per output interval
+    time_per_interval: float = float("nan")
+    overhead_per_interval: float = float("nan")
+    time_per_sim_second: float = float("nan")
     within_tolerance: bool | None = None  # None: not applicable (unsupported)
     tolerance: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
     version: str = ""
 
+    @property
+    def label(self) -> str:
+        return self.status.label(self.detail)
+
+    @property
+    def ok(self) -> bool:
+        return self.status is Status.OK
+
     def as_dict(self) -> dict:
-        return asdict(self)
+        """JSON-ready: ``status`` the one-string label, ``outcome`` its kind."""
+        d = asdict(self)
+        del d["detail"]
+        return dict(d, status=self.label, outcome=self.status.value)
 
 
 FIGURES = ("position_error", "position_error_rel", "angle_error", "velocity_error", "velocity_error_rel",
@@ -77,56 +99,67 @@ def errors(model, native, q, traj) -> dict:
     return out
 
 
+def costs(run, end) -> dict:
+    """An EngineRun's cost figures: per engine step, per output interval, per simulated second."""
+    n = max(run.intervals, 1)
+    return dict(wall_time=run.wall_time, steps=run.steps, substeps=run.substeps,
+                time_per_step=run.wall_time / max(run.steps, 1), time_per_interval=run.wall_time / n,
+                overhead_per_interval=run.overhead / n,
+                time_per_sim_second=run.wall_time / end if end else float("nan"))
+
+
 def compare(model, native, run, tolerance=None) -> Comparison:
     """An EngineRun against the native SolveResult. tolerance: dict of limits
     on the figures (keys: FIGURES; None: no verdict)."""
     unknown = set(tolerance or {}) - set(FIGURES)
     if unknown:
         raise ValueError(f"{run.engine}: tolerance on unknown figures {sorted(unknown)}; figures: {FIGURES}")
-    base = dict(engine=run.engine, status=run.status, wall_time=run.wall_time, steps=run.steps,
-                settings=dict(run.settings), version=run.version, tolerance=dict(tolerance or {}))
-    if run.status.startswith("unsupported"):
+    base = dict(engine=run.engine, status=run.status, detail=run.detail, settings=dict(run.settings),
+                version=run.version, tolerance=dict(tolerance or {}), **costs(run, model.case.end))
+    if run.status is Status.UNSUPPORTED:
         return Comparison(**base)
     if not run.ok:
         return Comparison(**base, within_tolerance=False)
     e = errors(model, native, run.q, run.trajectory)
     if not all(np.isfinite(v) for v in e.values()):
-        return Comparison(**dict(base, status="failed: non-finite trajectory"), within_tolerance=False)
+        return Comparison(**dict(base, status=Status.NONFINITE, detail="non-finite trajectory"),
+                          within_tolerance=False)
     within = all(e.get(k, 0.0) <= v for k, v in (tolerance or {}).items())
-    return Comparison(**base, **e, time_per_step=run.wall_time / max(run.steps, 1), within_tolerance=within)
+    return Comparison(**base, **e, within_tolerance=within)
 
 
 def native_row(model, native) -> Comparison:
-    """The native solver's own row: its residual, wall time and instants."""
+    """The native solver's own row: its residual, wall time and instants
+    (an output interval is one native step)."""
     res = model.kinematic_residual(native.q, native.trajectory.t)
     steps = len(native.iterations)
-    status = "ok" if native.success else f"failed: {native.message}"
-    return Comparison(engine="native", status=status, position_error=0.0, position_error_rel=0.0,
+    n = max(steps - 1, 1)
+    return Comparison(engine="native", status=Status.OK if native.success else Status.FAILED,
+                      detail="" if native.success else native.message, position_error=0.0, position_error_rel=0.0,
                       angle_error=0.0, velocity_error=0.0, velocity_error_rel=0.0, angular_velocity_error=0.0,
-                      constraint_residual=res, wall_time=native.wall_time, steps=steps,
-                      time_per_step=native.wall_time / max(steps, 1), within_tolerance=native.success,
+                      constraint_residual=res, wall_time=native.wall_time, steps=steps, substeps=1,
+                      time_per_step=native.wall_time / max(steps, 1), time_per_interval=native.wall_time / n,
+                      overhead_per_interval=0.0, time_per_sim_second=native.wall_time / model.case.end,
+                      within_tolerance=native.success,
                       settings={"tolerance": model.case.tolerance, "max_iterations": model.case.max_iterations,
                                 "linear_solver": "sparse" if model.sparse else "dense"})
 
 
 def tolerance_of(adapter) -> dict:
-    """The adapter module's documented TOLERANCE (limits on the figures above)."""
-    import sys
-
-    return dict(getattr(sys.modules[type(adapter).__module__], "TOLERANCE", {}))
+    """The adapter's documented tolerance (limits on the figures above)."""
+    return dict(adapter.tolerance)
 
 
 def run_engine(model, native, name, overrides=None) -> Comparison:
     """Builds, runs and compares one engine. Settings: the adapter's defaults,
     then the case's [engines.<name>] table, then ``overrides``."""
-    from . import get
+    from . import case_settings, get
 
     adapter = get(name)
     reason = adapter.unsupported(model)
     if reason:
-        return Comparison(engine=name, status=reason, version=adapter.version())
-    settings = adapter.settings({**dict(model.case.engines.get(name, {})), **(overrides or {})})
-    run = adapter.run(model, native.q[0], native.qd[0], settings)
+        return Comparison(engine=name, status=Status.UNSUPPORTED, detail=reason, version=adapter.version())
+    run = adapter.run(model, native.q[0], native.qd[0], case_settings(model, name, overrides))
     return compare(model, native, run, tolerance_of(adapter))
 
 
@@ -141,6 +174,9 @@ def run_case(model, engines, overrides=None, scheduler=None):
     from kinem import parallel
     from kinem.analysis import solve
 
+    from . import check_case
+
+    check_case(model.case)
     native = solve(model)
     todo = [(model, native, n, (overrides or {}).get(n)) for n in engines if n != "native" and native.success]
     done = iter(parallel.map(_run_engine, todo, jobs=0, scheduler=scheduler))
@@ -149,7 +185,7 @@ def run_case(model, engines, overrides=None, scheduler=None):
         if name == "native":
             rows.append(native_row(model, native))
         elif not native.success:
-            rows.append(Comparison(engine=name, status="failed: no native reference (" + native.message + ")"))
+            rows.append(Comparison(engine=name, status=Status.FAILED, detail=f"no native reference ({native.message})"))
         else:
             rows.append(next(done))
     return native, rows
@@ -158,14 +194,17 @@ def run_case(model, engines, overrides=None, scheduler=None):
 def table(case_name, length, unit, rows) -> str:
     head = (f"case {case_name} (L = {length:.4g} {unit})".rstrip() + "\n"
             f"{'engine':8s} {'status':10s} {'pos err':>9s} {'pos/L':>9s} {'angle':>9s} {'vel':>9s} "
-            f"{'omega':>9s} {'resid':>9s} {'steps':>7s} {'us/step':>8s}  verdict")
+            f"{'omega':>9s} {'resid':>9s} {'steps/out':>9s} {'us/out':>8s} {'+adapter':>8s}  verdict")
     lines = [head]
     for r in rows:
-        if r.status.startswith("unsupported") or r.status.startswith("failed"):
-            lines.append(f"{r.engine:8s} {r.status}")
+        if r.status is not Status.OK:
+            lines.append(f"{r.engine:8s} {r.label}")
             continue
         verdict = {True: "within tolerance", False: "OUT OF TOLERANCE", None: ""}[r.within_tolerance]
-        lines.append(f"{r.engine:8s} {r.status:10s} {r.position_error:9.2e} {r.position_error_rel:9.2e} "
+        lines.append(f"{r.engine:8s} {r.label:10s} {r.position_error:9.2e} {r.position_error_rel:9.2e} "
                      f"{r.angle_error:9.2e} {r.velocity_error:9.2e} {r.angular_velocity_error:9.2e} "
-                     f"{r.constraint_residual:9.2e} {r.steps:7d} {1e6 * r.time_per_step:8.2f}  {verdict}")
+                     f"{r.constraint_residual:9.2e} {r.substeps:9d} {1e6 * r.time_per_interval:8.1f} "
+                     f"{1e6 * r.overhead_per_interval:8.1f}  {verdict}")
+    lines.append("us/out: seconds of stepping per output interval (native: per output instant); "
+                 "+adapter: the adapter's own Python per interval (build, driving, sampling)")
     return "\n".join(lines)

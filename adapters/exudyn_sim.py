@@ -29,9 +29,9 @@ from exudyn.advancedUtilities import CreateSymbolicUserFunction
 from scipy.interpolate import CubicSpline
 
 from kinem.functions import Harmonic, Poly, Table
-from kinem.result import trajectory
 
-from .base import Adapter, EngineRun, drives, grounded, mass_properties
+from .base import (Adapter, Failure, Status, boolean, choice, count, count_or_none, drives, fraction, grounded,
+                   mass_properties, nonnegative, positive)
 
 # Limits on the figures of adapters/compare.py at the default settings.
 # Positions: the index-3 Newton solve holds every constraint at each step, so
@@ -301,6 +301,13 @@ def _dot(a, b):
 
 class ExudynAdapter(Adapter):
     name = "exudyn"
+    tolerance = TOLERANCE
+    knobs = {"integrator": tuple(INTEGRATORS), "substeps": (1, 2, 5, 10, 20, 50, 100)}
+    checks = {"dt": positive, "substeps": count_or_none, "integrator": choice(*INTEGRATORS),
+              "spectral_radius": fraction, "newton_test": choice(*NEWTON_TESTS),
+              "newton_relative_tolerance": nonnegative, "newton_absolute_tolerance": nonnegative,
+              "newton_max_iterations": count, "modified_newton": boolean, "symbolic_drivers": boolean,
+              "linear_solver": choice(*SOLVERS), "adaptive_step": boolean}
     supports = SUPPORTS
     reasons = REASONS
 
@@ -309,11 +316,15 @@ class ExudynAdapter(Adapter):
 
     def defaults(self) -> dict:
         return {
-            # Largest step (s). Positions do not depend on it (index 3); the
-            # velocity error is O(dt^2): <= 1.2e-8 of the speed scale at 1e-4
-            # on the five cases, ~1e-6 at 1e-3 (plus a start-up transient
-            # there); a step costs ~10-40 us.
-            "dt": 1e-4,
+            # Largest step (s). Positions do not depend on it (index 3): round-off
+            # at one step per output interval. The velocity error is O(dt^2) and
+            # decides: the sweep of `kinem engines --tune` (docs/engines.md) finds
+            # 50 steps per 0.01 s interval (2e-4) the fewest within TOLERANCE on
+            # the five lower-pair cases (worst 5.1e-8 of the speed scale; 20
+            # steps: 9e-7); a four-bar of tests/test_engines_property.py reaches
+            # 1.4e-7 at 2e-4, so 1.5e-4 (67 steps, 1.34x the cost). A step costs
+            # ~10-40 us.
+            "dt": 1.5e-4,
             # Steps per output interval; None: the fewest keeping step <= dt.
             "substeps": None,
             # Index-3 generalized-alpha: constraints held at position level.
@@ -368,32 +379,16 @@ class ExudynAdapter(Adapter):
         fixed = grounded(model)
         for d in drives(model):
             if d.body in fixed:
-                return f"unsupported: driver ('{d.name}') on body '{d.body}', which a 'ground' constraint fixes"
+                return f"driver ('{d.name}') on body '{d.body}', which a 'ground' constraint fixes"
         for c in model.case.constraints:
             if c.type == "absolute" and c["body"] in fixed:
-                return f"unsupported: absolute ('{c.name}') on body '{c['body']}', which a 'ground' constraint fixes"
+                return f"absolute ('{c.name}') on body '{c['body']}', which a 'ground' constraint fixes"
         return None
 
-    def settings(self, overrides=None) -> dict:
-        s = super().settings(overrides)
-        choices = (("integrator", INTEGRATORS), ("newton_test", NEWTON_TESTS), ("linear_solver", SOLVERS))
-        for key, allowed in choices:
-            if s[key] not in allowed:
-                from kinem.errors import InputError
-
-                raise InputError(f"exudyn setting '{key}': '{s[key]}'; expected one of {', '.join(allowed)}")
-        return s
-
     # -- run -------------------------------------------------------------------
-    def run(self, model, q0, qd0, settings=None) -> EngineRun:
-        s = self.settings(settings)
-        times = np.asarray(model.times, float)
-        interval = times[1] - times[0] if len(times) > 1 else model.case.end
-        sub = int(s["substeps"]) if s["substeps"] else max(1, math.ceil(interval / s["dt"] * (1 - 1e-12)))
-        base = dict(engine=self.name, wall_time=0.0, steps=0, substeps=sub, settings=s, version=self.version())
-        why = self.unsupported(model)
-        if why:
-            return EngineRun(status=why, trajectory=None, q=None, qd=None, **base)
+    def simulate(self, model, q0, qd0, s, times):
+        sub = s["substeps"]
+        interval = float(times[1] - times[0]) if len(times) > 1 else float(times[-1])
         saved = exu.config.printToConsole
         exu.config.printToConsole = False   # the solver prints its failure reports
         try:
@@ -405,25 +400,28 @@ class ExudynAdapter(Adapter):
                        for name, n in b.node.items()}
             b.mbs.Assemble()
             ss = self._simulation(s, times, sub, interval, model.m > model.n)
-            start = time.perf_counter()
+        except Exception as e:  # noqa: BLE001 - Exudyn raises plain exceptions on a bad model
+            raise Failure(Status.FAILED, f"{type(e).__name__}: {e}") from None
+        finally:
+            exu.config.printToConsole = saved
+        exu.config.printToConsole = False
+        try:
+            start = time.perf_counter()     # one solver call for the whole run
             try:
                 ok = b.mbs.SolveDynamic(ss, solverType=getattr(exu.DynamicSolverType, INTEGRATORS[s["integrator"]]))
                 error = ""
-            except Exception as e:  # the solver raises on failure
+            except Exception as e:  # noqa: BLE001 - the solver raises on failure
                 ok, error = False, f"{type(e).__name__}: {e}"
             wall = time.perf_counter() - start
-            solver = b.mbs.sys.get("dynamicSolver")
-            steps = max(int(solver.it.currentStepIndex) - 1, 0) if solver is not None else 0
-            if not ok:
-                detail = solver.GetErrorString().strip() if solver is not None else ""
-                msg = f"failed: Exudyn solver stopped at t = {solver.it.currentTime:.6g}" if solver else "failed"
-                return EngineRun(status=f"{msg}: {detail or error or 'no convergence'}", trajectory=None, q=None,
-                                 qd=None, **dict(base, wall_time=wall, steps=steps))
-            return self._collect(model, b, sensors, times, base, wall, steps)
-        except Exception as e:
-            return EngineRun(status=f"failed: {type(e).__name__}: {e}", trajectory=None, q=None, qd=None, **base)
         finally:
             exu.config.printToConsole = saved
+        solver = b.mbs.sys.get("dynamicSolver")
+        steps = max(int(solver.it.currentStepIndex) - 1, 0) if solver is not None else 0
+        if not ok:
+            detail = solver.GetErrorString().strip() if solver is not None else ""
+            at = f"Exudyn solver stopped at t = {solver.it.currentTime:.6g}: " if solver is not None else ""
+            raise Failure(Status.FAILED, at + (detail or error or "no convergence"), steps)
+        return self._collect(model, b, sensors, times, wall, steps)
 
     def _simulation(self, s, times, sub, interval, redundant):
         solver = s["linear_solver"] if s["linear_solver"] != "auto" else ("EigenDense" if redundant else "EXUdense")
@@ -446,7 +444,7 @@ class ExudynAdapter(Adapter):
         ss.linearSolver.ignoreSingularJacobian = solver == "EigenDense"
         return ss
 
-    def _collect(self, model, b, sensors, times, base, wall, steps):
+    def _collect(self, model, b, sensors, times, wall, steps):
         nt = len(times)
         Q = np.zeros((nt, model.n))
         QD = np.zeros((nt, model.n))
@@ -455,16 +453,11 @@ class ExudynAdapter(Adapter):
             k = b.col[name]
             pos, vel = b.mbs.GetSensorStoredData(sq), b.mbs.GetSensorStoredData(sv)
             if pos.shape[0] != nt or np.abs(pos[:, 0] - times).max() > 1e-9 * max(times[-1], 1.0):
-                why = f"failed: sensors sampled {pos.shape[0]} instants, not the {nt} output instants"
-                return EngineRun(status=why, trajectory=None, q=None, qd=None,
-                                 **dict(base, wall_time=wall, steps=steps))
+                raise Failure(Status.FAILED, f"sensors sampled {pos.shape[0]} instants, not the {nt} output "
+                              "instants", steps)
             Q[:, k: k + 3] = pos[:, 1:4]
             QD[:, k: k + 3] = vel[:, 1:4]
-        if not (np.isfinite(Q).all() and np.isfinite(QD).all()):
-            return EngineRun(status="failed: non-finite coordinates", trajectory=None, q=None, qd=None,
-                             **dict(base, wall_time=wall, steps=steps))
-        return EngineRun(status="ok", trajectory=trajectory(model, times, Q, QD), q=Q, qd=QD,
-                         **dict(base, wall_time=wall, steps=steps))
+        return Q, QD, wall, steps
 
     # -- constraints -------------------------------------------------------------
     def _constraints(self, b, model):

@@ -38,10 +38,9 @@ import time
 
 import numpy as np
 
-from kinem.functions import FunctionSet, Harmonic, Poly, Table
-from kinem.result import trajectory
 
-from .base import Adapter, Drive, EngineRun, drives, grounded, mass_properties
+from .base import (Adapter, Drive, Failure, Status, boolean, choice, count, count_or_none, drive_table, drives,
+                   finite, grounded, mass_properties, nonnegative, numbers, positive)
 
 WORLD = "@world"      # '@' and ':' never occur in a case's names
 TREE_TYPES = ("translational", "revolute", "revolute-translational", "absolute")  # preference order
@@ -72,24 +71,6 @@ def _num(x):
 
 def _vec(v):
     return f"{_num(v[0])} {_num(v[1])} 0"
-
-
-def _series(f, t, order):
-    """d(t), d'(t) or d''(t) of one driving function at the times t (an array):
-    kinem.functions' definitions, vectorised (one call per step costs more than the step)."""
-    if isinstance(f, Poly):
-        c = np.polynomial.polynomial.polyder(np.asarray(f.coeffs, float), order)
-        return np.polynomial.polynomial.polyval(t, c) if len(c) else np.zeros_like(t)
-    if isinstance(f, Harmonic):
-        arg = f.omega * t + f.phase
-        a = f.amplitude * f.omega ** order
-        return (f.offset + a * np.sin(arg), a * np.cos(arg), -a * np.sin(arg))[order]
-    if isinstance(f, Table):
-        from scipy.interpolate import CubicSpline  # not-a-knot, as kinem.functions
-
-        return CubicSpline(np.asarray(f.t, float), np.asarray(f.value, float))(t, order)
-    fs = FunctionSet([f])
-    return np.array([fs(x, order)[0] for x in t])
 
 
 class Plan:
@@ -441,6 +422,7 @@ def mjcf(plan, s) -> str:
 
 class MujocoAdapter(Adapter):
     name = "mujoco"
+    tolerance = TOLERANCE
     supports = {
         "ground": "static body, child of the world, no joints",
         "absolute": "in the tree: a slide across the held coordinate and a hinge at the point (phi: slides x and "
@@ -483,8 +465,11 @@ class MujocoAdapter(Adapter):
             # RK4: ~100x smaller errors than implicitfast or Euler at the same step (docs/engines/mujoco.md),
             # ~3x their cost per step
             "integrator": "RK4",
-            # largest engine step (s); the step used divides the output interval. Loop errors scale as dt^2:
-            # 7e-9 of the size at 2.5e-4, 1e-7 at 1e-3, 3e-6 at 1e-2
+            # largest engine step (s); the step used divides the output interval. Loop errors scale as dt^2.
+            # The sweep of `kinem engines --tune` (docs/engines.md): RK4 at 16 steps per 0.01 s interval is
+            # the cheapest within TOLERANCE on the five lower-pair cases (worst 4.6e-8 of L; 8 steps: 1.8e-7),
+            # but a faster quick-return of tests/test_engines_property.py leaves 1.0e-7 rad at 4e-4 and
+            # 1.4e-7 at 3.3e-4: 2.5e-4 (40 steps, 7e-9 of L on the book cases) holds on every test mechanism
             "dt": 2.5e-4,
             # engine steps per output interval; None: the fewest with a step <= dt
             "substeps": None,
@@ -502,8 +487,9 @@ class MujocoAdapter(Adapter):
             # 1e9 is ample even in mm units (1e12 without overwriting gives the same errors)
             "armature": 1e9,
             # "overwrite": qpos, qvel of driven joints set from d(t), d'(t) before every step, plus a force
-            # armature * d''(t); "force": that force alone after the initial state (drifts unless the
-            # armature dwarfs the reactions)
+            # armature * d''(t); "interval": set only at output instants, the interval stepped in C by
+            # mj_step(m, d, substeps) with the force held (exact for drivers linear in t); "force": that
+            # force alone after the initial state (drifts unless the armature dwarfs the reactions)
             "drive": "overwrite",
             # "spanning": a spanning tree of joints, loops closed by equalities; "free": every body free in
             # the plane and every constraint an equality (3-25x larger errors, for comparison)
@@ -513,85 +499,68 @@ class MujocoAdapter(Adapter):
             "iterations": 100,
         }
 
+    knobs = {"integrator": ("RK4", "implicitfast", "Euler"), "substeps": (1, 2, 4, 8, 16, 40)}
+    checks = {"integrator": choice("RK4", "Euler", "implicit", "implicitfast"), "dt": positive,
+              "substeps": count_or_none, "solref": numbers(2, finite, optional=True), "solimp": numbers(5),
+              "refsafe": boolean, "diagexact": boolean, "armature": positive,
+              "drive": choice("overwrite", "interval", "force"), "tree": choice("spanning", "free"),
+              "tolerance": nonnegative, "iterations": count}
+
     def unsupported(self, model, q0=None, tree="spanning") -> str | None:
         why = super().unsupported(model)
         if why is None:
             plan = Plan(model, model.q0 if q0 is None else q0, tree)
-            if plan.problem:
-                why = f"unsupported: {plan.problem}"
+            why = plan.problem
         return why
 
-    def run(self, model, q0, qd0, settings=None) -> EngineRun:
-        s = self.settings(settings)
-        version = self.version()
+    def unsupported_with(self, model, q0, s):
+        return self.unsupported(model, q0, s["tree"])
 
-        def result(status, Q=None, QD=None, wall=0.0, steps=0, sub=1):
-            traj = None if Q is None else trajectory(model, model.times[:len(Q)], Q, QD)
-            return EngineRun(self.name, status, traj, Q, QD, wall, steps, sub, s, version)
+    def build(self, model, q0, s):
+        """(Plan, MJCF text) of the model in the pose q0 with the settings s
+        (substeps and dt resolved; solref filled in here)."""
+        if s["solref"] is None:
+            s["solref"] = (3 * s["dt"], 1.0)
+        s["solref"] = tuple(float(x) for x in s["solref"])
+        plan = Plan(model, q0, s["tree"])
+        return plan, mjcf(plan, s)
 
-        for key, allowed in (("drive", ("overwrite", "force")), ("tree", ("spanning", "free"))):
-            if s[key] not in allowed:
-                return result(f"failed: setting {key} = {s[key]!r}: expected one of {', '.join(allowed)}")
-        q0, qd0 = np.asarray(q0, float), np.asarray(qd0, float)
-        why = self.unsupported(model, q0, s["tree"])
-        if why:
-            return result(why)
+    def simulate(self, model, q0, qd0, s, times):
         import mujoco
 
         messages = []
         previous = mujoco.get_mju_user_warning()
         mujoco.set_mju_user_warning(messages.append)  # into the status, not onto stderr
         try:
-            run = self._run(model, q0, qd0, s, result)
+            return self._simulate(model, q0, qd0, s, times)
         except ValueError as e:  # MuJoCo's compiler errors (bad settings, degenerate model)
-            run = result("failed: " + " ".join(str(e).split()))
+            raise Failure(Status.FAILED, str(e)) from None
+        except Failure as e:
+            if messages:
+                e.detail = f"{e.detail}: {messages[0].strip()}"
+            raise
         finally:
             mujoco.set_mju_user_warning(previous)
-        if messages and not run.ok and not run.status.startswith("failed: XML"):
-            run = result(f"{run.status}: {messages[0].strip()}", run.q, run.qd, run.wall_time, run.steps, run.substeps)
-        return run
 
-    def _run(self, model, q0, qd0, s, result):
+    def _simulate(self, model, q0, qd0, s, times):
         import mujoco
 
-        times = model.times
-        h = times[1] - times[0]
-        sub = int(s["substeps"]) if s["substeps"] else max(1, int(np.ceil(h / s["dt"] - 1e-9)))
-        s.update(substeps=sub, dt=float(h / sub))
-        if s["solref"] is None:
-            s["solref"] = (3 * s["dt"], 1.0)
-        s["solref"] = tuple(float(x) for x in s["solref"])
-        plan = Plan(model, q0, s["tree"])
-        m = mujoco.MjModel.from_xml_string(mjcf(plan, s))
+        sub = s["substeps"]
+        plan, xml = self.build(model, q0, s)
+        m = mujoco.MjModel.from_xml_string(xml)
         d = mujoco.MjData(m)
         bid = [m.body(b).id for b in plan.names]
-
-        # joint velocities: the case bodies' velocities qd0, and zero rate of
-        # every equality's residual (this fixes the helpers' and links' joints)
-        mujoco.mj_forward(m, d)
-        rows, target = [d.efc_J.reshape(d.nefc, m.nv)], [np.zeros(d.nefc)]
-        jp, jr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
-        for k, i in enumerate(bid):
-            mujoco.mj_jacBody(m, d, jp, jr, i)
-            rows.append(np.array([jp[0], jp[1], jr[2]]))
-            target.append(qd0[3 * k:3 * k + 3])
-        if m.nv:
-            d.qvel[:] = np.linalg.lstsq(np.vstack(rows), np.concatenate(target), rcond=None)[0]
+        initial_state(m, d, plan, qd0)
 
         # driven joints: coordinate a (d(t) - v0), rate a d'(t), force armature a d''(t),
         # evaluated before the loop at every step's start
         jid = [m.joint(f"{b}:{j}").id for _, b, j, _, _ in plan.driven]
         qadr, vadr = m.jnt_qposadr[jid].astype(int), m.jnt_dofadr[jid].astype(int)
         tk = np.arange((len(times) - 1) * sub + 1) * s["dt"]
-
-        def table(order):
-            cols = [a * (_series(dr.f, tk, order) - (v0 if order == 0 else 0.0)) for dr, _, _, a, v0 in plan.driven]
-            return np.array(cols).T.reshape(len(tk), len(jid))
-
-        P, V, F = table(0), table(1), s["armature"] * table(2)
-        # the lstsq velocities put the driven joints at d'(0) up to rounding
+        P, V, F = drive_tables(plan, tk, s["armature"])
         d.qpos[qadr], d.qvel[vadr] = P[0], V[0]
-        overwrite = s["drive"] == "overwrite"
+        every_step = s["drive"] == "overwrite" and len(jid) > 0
+        at_output = s["drive"] in ("overwrite", "interval")
 
         Q = np.empty((len(times), 3 * len(bid)))
         QD = np.empty_like(Q)
@@ -600,7 +569,7 @@ class MujocoAdapter(Adapter):
                     mujoco.mjtWarning.mjWARN_BADQPOS)
 
         def sample(k, n):
-            if overwrite:
+            if at_output:
                 d.qpos[qadr], d.qvel[vadr] = P[n], V[n]
             mujoco.mj_forward(m, d)
             for j, i in enumerate(bid):
@@ -614,20 +583,51 @@ class MujocoAdapter(Adapter):
         sample(0, 0)
         wall, n = 0.0, 0
         for k in range(1, len(times)):
-            start = time.perf_counter()
-            for _ in range(sub):
-                if overwrite:
+            if every_step:                  # driving between steps: the cheapest per-step Python
+                start = time.perf_counter()
+                for _ in range(sub):
                     d.qpos[qadr], d.qvel[vadr] = P[n], V[n]
+                    d.qfrc_applied[vadr] = F[n]
+                    mujoco.mj_step(m, d)
+                    n += 1
+                wall += time.perf_counter() - start
+            else:                           # the interval stepped in C (driving force held over it)
                 d.qfrc_applied[vadr] = F[n]
-                mujoco.mj_step(m, d)
-                n += 1
-            wall += time.perf_counter() - start
+                start = time.perf_counter()
+                mujoco.mj_step(m, d, sub)
+                wall += time.perf_counter() - start
+                n += sub
             bad = [w.name for w in warnings if d.warning[w].number > 0]
             if bad or not (np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all()):
-                return result(f"failed: MuJoCo diverged before t = {times[k]:.6g} ({', '.join(bad) or 'non-finite'})",
-                              Q[:k], QD[:k], wall, n, sub)
+                raise Failure(Status.DIVERGED, f"MuJoCo diverged before t = {times[k]:.6g} "
+                              f"({', '.join(bad) or 'non-finite'})", n)
             sample(k, n)
-        return result("ok", Q, QD, wall, n, sub)
+        return Q, QD, wall, n
+
+
+def initial_state(m, d, plan, qd0):
+    """Joint velocities: the case bodies' velocities qd0, and zero rate of
+    every equality's residual (this fixes the helpers' and links' joints)."""
+    import mujoco
+
+    mujoco.mj_forward(m, d)
+    rows, target = [d.efc_J.reshape(d.nefc, m.nv)], [np.zeros(d.nefc)]
+    jp, jr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+    for k, b in enumerate(plan.names):
+        mujoco.mj_jacBody(m, d, jp, jr, m.body(b).id)
+        rows.append(np.array([jp[0], jp[1], jr[2]]))
+        target.append(qd0[3 * k:3 * k + 3])
+    if m.nv:
+        d.qvel[:] = np.linalg.lstsq(np.vstack(rows), np.concatenate(target), rcond=None)[0]
+
+
+def drive_tables(plan, tk, armature):
+    """Driven joints' coordinates, rates and forces at the instants tk:
+    a (d(t) - v0), a d'(t), armature a d''(t), each (len(tk), joints)."""
+    f = [dr.f for dr, _, _, _, _ in plan.driven]
+    a = np.array([x[3] for x in plan.driven])
+    v0 = np.array([x[4] for x in plan.driven])
+    return (a * (drive_table(f, tk, 0) - v0), a * drive_table(f, tk, 1), armature * a * drive_table(f, tk, 2))
 
 
 ADAPTER = MujocoAdapter()

@@ -41,11 +41,9 @@ import time
 import numpy as np
 import pymunk
 
-from kinem.errors import InputError
-from kinem.functions import FunctionSet, Harmonic, Poly, Table
-from kinem.result import trajectory
 
-from .base import Adapter, EngineRun, drives, grounded, mass_properties
+from .base import (Adapter, Failure, Status, boolean, count, count_or_none, drive_table, drives, fraction, grounded,
+                   mass_properties, nonnegative, positive)
 
 # Agreement with native at the default settings, in the figures of
 # adapters.compare (max over instants, bodies and named points). The scheme is
@@ -70,19 +68,8 @@ STATIC, KINEMATIC = pymunk.Body.STATIC, pymunk.Body.KINEMATIC
 
 
 def _values(f, t):
-    """d(t) of a kinem function at an array of instants: FunctionSet's
-    formulas and spline, vectorised (FunctionSet takes one instant)."""
-    t = np.asarray(t, dtype=float)
-    if isinstance(f, Poly):
-        return np.polynomial.polynomial.polyval(t, f.coeffs)
-    if isinstance(f, Harmonic):
-        return f.offset + f.amplitude * np.sin(f.omega * t + f.phase)
-    if isinstance(f, Table):
-        from scipy.interpolate import CubicSpline
-
-        return CubicSpline(np.asarray(f.t, float), np.asarray(f.value, float))(t)
-    fs = FunctionSet([f])
-    return np.array([fs(x)[0] for x in t])
+    """d(t) of a kinem function at an array of instants."""
+    return drive_table([f], t, 0)[:, 0]
 
 
 def _prescribed(model, tt):
@@ -299,6 +286,10 @@ class _Mechanism:
 
 class PymunkAdapter(Adapter):
     name = "pymunk"
+    tolerance = TOLERANCE
+    knobs = {"substeps": (1, 2, 5, 10, 20, 50, 100), "iterations": (3, 5, 10, 25, 100)}
+    checks = {"dt": positive, "substeps": count_or_none, "iterations": count, "error_bias": fraction,
+              "centered_velocity": boolean}
     supports = {
         "ground": "STATIC body",
         "absolute": "phi: GearJoint to a static body; x, y (point forms): GrooveJoint on a static line",
@@ -328,15 +319,21 @@ class PymunkAdapter(Adapter):
     def defaults(self) -> dict:
         return {
             # Step. Errors are O(dt^2) with error_bias 0: <= 2e-8 L at 1e-4
-            # on the book's cases (2e-6 at 1e-3, 2e-10 at 1e-5) for 5-10 us/step.
-            "dt": 1e-4,
+            # on the book's cases (2e-6 at 1e-3, 2e-10 at 1e-5) for 1-10 us/step.
+            # The sweep of `kinem engines --tune` (docs/engines.md): 50 steps per
+            # 0.01 s interval (2e-4) is the fewest within TOLERANCE on the five
+            # lower-pair cases (worst 7.4e-8 of L; 20 steps miss on the
+            # quick-returns' angles).
+            "dt": 2e-4,
             # Steps per output interval; None: the fewest with h / substeps
             # <= dt. When given it wins, and dt = h / substeps.
             "substeps": None,
             # Gauss-Seidel sweeps per step. With error_bias 0 an unconverged
             # solve feeds its residual back through the bias and can diverge:
             # quick_return_1 needs 25 (when the block passes the rocker's
-            # centre). 100: 4x that; results are unchanged from 25 to 400.
+            # centre) and the sweep's cheapest setting has 25, but a four-bar of
+            # tests/test_engines_property.py diverges at 25 and 50 with dt = 2e-4:
+            # 100 (2.3x the cost of 25). Results are unchanged from 25 to 400.
             # A divergence is reported as 'failed' (DRIFT), never as ok.
             "iterations": 100,
             # Fraction of a joint's error left after one second: 0 removes it
@@ -354,46 +351,17 @@ class PymunkAdapter(Adapter):
         fixed = grounded(model)
         for c in model.case.constraints:
             if c.type == "gear" and c.get("carrier") is not None and c["carrier"] not in fixed:
-                return (f"unsupported: gear ('{c.name}') on the moving carrier '{c['carrier']}': "
+                return (f"gear ('{c.name}') on the moving carrier '{c['carrier']}': "
                         "GearJoint relates absolute angles, so only fixed axes can be represented")
         return None
 
-    @staticmethod
-    def _resolve(s, h):
-        """Checked settings with substeps and the actual dt filled in."""
-        def bad(key, expected):
-            raise InputError(f"pymunk setting '{key}' = {s[key]!r}: expected {expected}")
-
-        def count(key):
-            return isinstance(s[key], int) and not isinstance(s[key], bool) and s[key] >= 1
-
-        if s["substeps"] is None:
-            if not (isinstance(s["dt"], (int, float)) and 0 < s["dt"] < math.inf):
-                bad("dt", "a positive number")
-            s["substeps"] = max(1, math.ceil(h / s["dt"] * (1 - 1e-12)))
-        if not count("substeps"):
-            bad("substeps", "a positive integer or None")
-        if not count("iterations"):
-            bad("iterations", "a positive integer")
-        if not (isinstance(s["error_bias"], (int, float)) and s["error_bias"] >= 0):
-            bad("error_bias", "a number >= 0")
-        s["dt"] = h / s["substeps"]
-        return s
-
-    def run(self, model, q0, qd0, settings=None) -> EngineRun:
-        s = self.settings(settings)
-        times = model.times
-        why = self.unsupported(model)
-        if why:
-            return EngineRun(self.name, why, None, None, None, 0.0, 0, 1, s, self.version())
-        s = self._resolve(s, float(times[1] - times[0]) if len(times) > 1 else 1.0)
+    def simulate(self, model, q0, qd0, s, times):
         n_sub, dt = s["substeps"], s["dt"]
         tt = np.arange(n_sub * (len(times) - 1) + 2) * dt       # step instants t_0 .. t_{N+1}
         try:
-            mech = _Mechanism(model, np.asarray(q0, float), np.asarray(qd0, float), s, tt)
+            mech = _Mechanism(model, q0, qd0, s, tt)
         except (ValueError, ArithmeticError) as e:
-            return EngineRun(self.name, f"failed: building the mechanism: {e}", None, None, None,
-                             0.0, 0, n_sub, s, self.version())
+            raise Failure(Status.FAILED, f"building the mechanism: {e}") from None
         return self._step(model, mech, s, times, tt)
 
     def _step(self, model, mech, s, times, tt):
@@ -424,27 +392,36 @@ class PymunkAdapter(Adapter):
         targets = [(j, attr, v.tolist()) for j, attr, v in mech.targets]
         closure = ~model.driving if model.n == Q.shape[1] else None   # no artificial coordinates
         space, centered = mech.space, s["centered_velocity"]
+        perf, stepper = time.perf_counter, space.step
 
-        def failed(why, steps, wall):
-            return EngineRun(self.name, f"failed: {why}", None, None, None, wall, steps, n_sub, s, self.version())
+        def steps(n, j):
+            """n engine steps from step number j, prescribed bodies and targets set before each."""
+            for i in range(j, j + n):
+                for b, p, a, v, w in kin:
+                    b.angle, b.position, b.velocity, b.angular_velocity = a[i], p[i], v[i], w[i]
+                for jt, attr, v in targets:
+                    setattr(jt, attr, v[i])
+                stepper(dt)
+
+        if not kin and not targets:        # nothing to set between steps: the tightest loop
+            def steps(n, j):  # noqa: F811
+                for _ in range(n):
+                    stepper(dt)
 
         read_q(Q[0])
         read_v(QD[0])
         wall, step = 0.0, 0
         for k in range(1, len(times)):
-            for sub in range(n_sub):
-                if centered and sub == n_sub - 1:
-                    read_v(before)               # the velocity over [t_k - dt, t_k]
-                start = time.perf_counter()
-                for b, p, a, v, w in kin:
-                    b.angle = a[step]
-                    b.position = p[step]
-                    b.velocity = v[step]
-                    b.angular_velocity = w[step]
-                for j, attr, v in targets:
-                    setattr(j, attr, v[step])
-                space.step(dt)
-                wall += time.perf_counter() - start
+            first = n_sub - 1 if centered else n_sub
+            start = perf()
+            steps(first, step)
+            wall += perf() - start
+            step += first
+            if centered:
+                read_v(before)                   # the velocity over [t_k - dt, t_k]
+                start = perf()
+                steps(1, step)
+                wall += perf() - start
                 step += 1
             read_q(Q[k])
             read_v(QD[k])                        # the velocity over [t_k, t_k + dt]
@@ -453,18 +430,19 @@ class PymunkAdapter(Adapter):
             t = times[k]
             if not (np.isfinite(Q[k]).all() and np.isfinite(QD[k]).all()
                     and np.abs(Q[k] - Q[0]).max() < 1e6 * model.length):
-                return failed(f"the solution diverged at t = {t:.6g} (non-finite or beyond 1e6 L)", step, wall)
+                raise Failure(Status.DIVERGED, f"the solution diverged at t = {t:.6g} (non-finite or beyond 1e6 L)",
+                              step)
             off = mech.off_groove()
             if off:
-                return failed(f"at t = {t:.6g} '{off}' slid off its groove (half-length {GROOVE:g} L)", step, wall)
+                raise Failure(Status.DIVERGED, f"at t = {t:.6g} '{off}' slid off its groove "
+                              f"(half-length {GROOVE:g} L)", step)
             if closure is not None:
                 drift = model.scaled_residual(model.phi(Q[k], t))[closure].max(initial=0.0)
                 if drift > DRIFT:
-                    return failed(f"at t = {t:.6g} the joints drifted apart by {drift:.1e} L (limit {DRIFT:g}): "
-                                  f"the iterative solver lost the mechanism (more 'iterations' may help; "
-                                  f"now {s['iterations']})", step, wall)
-        return EngineRun(self.name, "ok", trajectory(model, times, Q, QD), Q, QD, wall, step, n_sub, s,
-                         self.version())
+                    raise Failure(Status.DIVERGED, f"at t = {t:.6g} the joints drifted apart by {drift:.1e} L "
+                                  f"(limit {DRIFT:g}): the iterative solver lost the mechanism (more 'iterations' "
+                                  f"may help; now {s['iterations']})", step)
+        return Q, QD, wall, step
 
 
 ADAPTER = PymunkAdapter()

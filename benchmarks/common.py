@@ -21,7 +21,7 @@ sys.path.insert(0, str(ROOT))
 import kinem  # noqa: E402
 
 CASES = ("slider_crank", "four_bar", "quick_return_1")
-ENGINES = ("pymunk", "mujoco", "exudyn")
+from adapters import ENGINES  # noqa: E402 - the registry's engines
 REFERENCE_TOLERANCE = 1e-13   # as kinem.report.runs: errors are measured against this solution
 LOOSE, TIGHT = 1e-6, 1e-10    # position errors / L of the work-precision targets
 

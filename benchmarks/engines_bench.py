@@ -39,7 +39,7 @@ def section_engines(cfg, state):
                 continue
             reason = adapter.unsupported(model)
             if reason:
-                rows.append({"case": name, "engine": e, "status": reason})
+                rows.append({"case": name, "engine": e, "status": f"unsupported: {reason}"})
                 continue
             adapters[e] = adapter
             fns[e] = engine_runner(adapter, model, ref)
@@ -69,8 +69,8 @@ def section_engines(cfg, state):
         for e, adapter in adapters.items():
             run = last[e]
             if not run.ok:
-                rows.append({"case": name, "engine": e, "status": run.status})
-                say(f"   {name:15s} {1e6 * nat_step:13.1f} {e:7s} {run.status}")
+                rows.append({"case": name, "engine": e, "status": run.label})
+                say(f"   {name:15s} {1e6 * nat_step:13.1f} {e:7s} {run.label}")
                 continue
             c = compare(model, ref, run)
             eng_step = statistics.median(eng_times[e]) / run.steps
@@ -159,13 +159,13 @@ def section_precision(cfg, state):
                 run = engine_runner(adapter, model, ref, {"dt": dt0 * f})()[1]
                 seen.add(run.steps)
                 c = compare(model, ref, run)
-                p = {"factor": f, "dt": run.settings.get("dt"), "steps": run.steps, "status": c.status,
-                     "position_error_rel": c.position_error_rel if c.status == "ok" else None,
+                p = {"factor": f, "dt": run.settings.get("dt"), "steps": run.steps, "status": c.label,
+                     "position_error_rel": c.position_error_rel if c.ok else None,
                      "wall_per_sim_second": run.wall_time / case.end, "walls": [run.wall_time]}
                 points.append(p)
                 if run.steps:
                     per_step_cost = run.wall_time / run.steps
-                if c.status == "ok" and c.position_error_rel <= target:
+                if c.ok and c.position_error_rel <= target:
                     break
             ok = [p for p in points if p.get("status") == "ok"]
             loose = next((p for p in ok if p["position_error_rel"] <= LOOSE), None)
@@ -203,4 +203,89 @@ def section_precision(cfg, state):
             say(f"     native to {TIGHT:.0e} (tolerance {used:.0e}) / fastest engine to {LOOSE:.0e}: "
                 f"{native_cost / fastest_loose:.2f}; at the case tolerance {case.tolerance:.0e}: "
                 f"{default['wall_per_sim_second'] / fastest_loose:.2f}")
+    return out
+
+
+# -- 2b equal error: native against each expert-tuned engine --------------------------------
+
+EQUAL_ERRORS = (1e-6, 1e-8, 1e-10)   # position error / L
+
+
+def section_equal_error(cfg, state):
+    """Native against each engine run as its expert would: for each target
+    error, the cheapest of native's tolerance sweep and the cheapest of the
+    engine's own knobs (adapters.tune: integrator, steps per output interval,
+    iterations) that reach it; costs per output interval (stepping only for
+    the engines: EngineRun.per_interval), medians of ``cfg.retime`` runs; 2 s
+    and full-length runs of each case."""
+    from adapters import tune
+    from adapters.compare import compare, errors
+
+    say("\n== 2b. equal error: cost per output interval of native and of each engine at its cheapest setting "
+        "(its own knobs) reaching 1e-6, 1e-8, 1e-10 of L ==")
+    say("   native: full analysis (positions, velocities, accelerations) at the loosest tolerance of its sweep "
+        "that reaches the error; engines: stepping calls only (EngineRun.wall_time / output intervals)")
+    out = {}
+    for name in CASES:
+        full = load_case(name, cfg)
+        lengths = {"full": full.end}
+        if cfg.case_end is None and full.end > 2.0 + 1e-9:
+            lengths = {"2 s": 2.0, "full": full.end}
+        for label, end in lengths.items():
+            case = full if end == full.end else full.with_time(end, max(1, round(full.steps * end / full.end)))
+            model = kinem.compile(case)
+            ref = reference_solution(case)
+            n = max(case.steps, 1)
+            models = {tol: kinem.compile(dataclasses.replace(case, tolerance=tol)) for tol in (1e-4, 1e-6, 1e-8,
+                                                                                                1e-10, 1e-12)}
+            for m in models.values():
+                native(m)()   # warm-up
+            timed = rounds({tol: native(m) for tol, m in models.items()}, cfg.native_repeats)
+            nat = {tol: (med / n, errors(models[tol], ref, r.q, r.trajectory)["position_error_rel"])
+                   for tol, (med, walls, r) in timed.items()}
+            engines = {}
+            for e in ENGINES:
+                adapter, why = adapter_of(e)
+                if adapter is None or adapter.unsupported(model):
+                    continue
+                pts = []
+                for over in tune.grid(adapter):
+                    run = adapter.run(model, ref.q[0], ref.qd[0], adapter.settings(over))
+                    c = compare(model, ref, run)
+                    if c.ok:
+                        pts.append({"settings": over, "time_per_interval": run.per_interval,
+                                    "position_error_rel": c.position_error_rel})
+                engines[e] = (adapter, pts)
+            rows = []
+            for target in EQUAL_ERRORS:
+                row = {"target": target}
+                reach = [(cost, tol, err) for tol, (cost, err) in nat.items() if err <= target]
+                row["native"] = ({"tolerance": min(reach)[1], "time_per_interval": min(reach)[0],
+                                  "position_error_rel": min(reach)[2]} if reach else None)
+                for e, (adapter, pts) in engines.items():
+                    ok = [p for p in pts if p["position_error_rel"] <= target]
+                    if not ok:
+                        row[e] = None
+                        continue
+                    best = dict(min(ok, key=lambda p: p["time_per_interval"]))
+                    walls = [best["time_per_interval"]] + [
+                        adapter.run(model, ref.q[0], ref.qd[0], adapter.settings(best["settings"])).per_interval
+                        for _ in range(cfg.retime - 1)]
+                    best["time_per_interval"] = statistics.median(walls)
+                    if row["native"]:
+                        best["native_over_engine"] = row["native"]["time_per_interval"] / best["time_per_interval"]
+                    row[e] = best
+                rows.append(row)
+
+                def cell(v, e):
+                    if v is None:
+                        return f"{e} not reached"
+                    x = f" (native/{e} x{v['native_over_engine']:.2f})" if "native_over_engine" in v else ""
+                    knobs = ", ".join(f"{k}={s}" for k, s in v.get("settings", {}).items())
+                    return f"{e} {1e6 * v['time_per_interval']:.1f} us [{knobs}]{x}"
+                nat_cell = (f"native {1e6 * row['native']['time_per_interval']:.1f} us "
+                            f"[tol {row['native']['tolerance']:.0e}]" if row["native"] else "native not reached")
+                say(f"   {name:15s} {label:5s} <= {target:.0e}: {nat_cell}; "
+                    + "; ".join(cell(row[e], e) for e in engines))
+            out[f"{name} {label}"] = {"case": name, "end": end, "rows": rows}
     return out

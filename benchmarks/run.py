@@ -44,7 +44,7 @@ from pathlib import Path
 from common import CASES, TIGHT, _plain, load_case, machine, native, reference_solution, say, step_by_step
 from anatomy_bench import section_anatomy
 from coldstart_bench import environments, section_coldstart
-from engines_bench import section_engines, section_precision
+from engines_bench import section_engines, section_equal_error, section_precision
 from scaling_bench import section_batch, section_scaling
 from skips_bench import section_skips
 
@@ -120,6 +120,21 @@ def targets(res):
         add("native to 1e-10 faster than any engine to 1e-6 (wall per simulated s)", met,
             "native/fastest: " + ", ".join(figs), "ratio < 1 on each case",
             f"native up to {worst:.1f} times too slow")
+    eq = res.get("equal_error", {})
+    if eq:
+        figs, behind = [], []
+        for key, v in eq.items():
+            for row in v["rows"]:
+                for e, p in row.items():
+                    if isinstance(p, dict) and "native_over_engine" in p and e != "native":
+                        figs.append(p["native_over_engine"])
+                        if p["native_over_engine"] > 1.0:
+                            behind.append(f"{key} {row['target']:.0e} {e} x{p['native_over_engine']:.2f}")
+        if figs:
+            add("native at most as costly as each expert-tuned engine at equal error, per output interval",
+                not behind, f"native/engine from x{min(figs):.2f} to x{max(figs):.2f} over {len(figs)} pairings; "
+                f"native behind in {len(behind)}: " + ("; ".join(behind[:6]) + (" ..." if len(behind) > 6 else "")),
+                "ratio <= 1 everywhere", f"native behind in {len(behind)} of {len(figs)} pairings")
     say("\n== targets (issue 7; goals, not test assertions) ==")
     for t in out:
         say(f"   [{'MET' if t['met'] else 'NOT MET':7s}] {t['target']}: {t['figure']} (goal {t['goal']})"
@@ -172,6 +187,7 @@ def main(argv=None):
                 native(model)()
     if "precision" in only:
         timed("precision", lambda: section_precision(cfg, state))
+        timed("equal_error", lambda: section_equal_error(cfg, state))
     if "scaling" in only:
         timed("scaling", lambda: section_scaling(cfg))
     if "batch" in only:

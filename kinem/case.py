@@ -13,7 +13,7 @@ from .casefile import sections
 from .casefile.checks import IDENT_RE, MAX_ARRAY, MAX_MAGNITUDE, MAX_NAME, MAX_TEXT, NAME_RE, Checker  # noqa: F401
 from .casefile.constraints import constraints
 from .casefile.keys import COORDS  # noqa: F401
-from .casefile.sections import ENGINES, LINEAR_SOLVERS, MAX_ITEMS, SOLVER_KEYS  # noqa: F401
+from .casefile.sections import LINEAR_SOLVERS, MAX_ITEMS, SOLVER_KEYS  # noqa: F401
 from .errors import InputError
 from .spec import Case, frozen_map
 

@@ -188,10 +188,12 @@ def cmd_info(a):
     return 0
 
 
-def _settings(items, dt):
-    """--set engine.key=value (repeatable) and --dt into engine -> overrides."""
-    from adapters import ENGINES
+def _settings(items, dt, engines=None):
+    """--set engine.key=value (repeatable) and --dt into engine -> overrides,
+    checked by each engine named (or in ``engines``) with a one-line error."""
+    from adapters import names, settings
 
+    ENGINES = names()
     out = {e: {} for e in ENGINES}
     for item in items or ():
         key, sep, raw = item.partition("=")
@@ -208,13 +210,19 @@ def _settings(items, dt):
             raise InputError(f"--dt: got {dt}; expected a positive time step")
         for e in ENGINES:
             out[e].setdefault("dt", dt)
+    for e in ENGINES:
+        if e in (engines or ()) or any(x.partition(".")[0] == e for x in items or ()):
+            settings(e, out[e], "--set" if items else "--dt")
     return out
 
 
 def _engines(text, allow_empty=False) -> list:
-    """--engines: a comma-separated list of native and the engines."""
-    from adapters import ENGINES
+    """--engines: a comma-separated list of native and the engines (None: all)."""
+    from adapters import names
 
+    ENGINES = names()
+    if text is None:
+        return ["native", *ENGINES]
     engines = [e.strip() for e in text.split(",") if e.strip()]
     if any(e not in ("native",) + ENGINES for e in engines) or not (engines or allow_empty):
         raise InputError(f"--engines: got {text!r}; expected a comma-separated list of native, {', '.join(ENGINES)}")
@@ -240,6 +248,8 @@ def cmd_stress(a):
 def cmd_engines(a):
     from adapters import matrix
 
+    if a.tune is not None:
+        return _tune(a)
     if a.update_docs:
         changed = matrix.update(Path(__file__).resolve().parents[1] / "docs" / "engines.md")
         print("docs/engines.md " + ("updated" if changed else "already current"))
@@ -248,12 +258,50 @@ def cmd_engines(a):
     return 0
 
 
+def _tune(a):
+    """kinem engines --tune [ENGINES]: the sweep behind the default settings (adapters/tune.py)."""
+    from adapters import names, tune
+
+    engines = [e.strip() for e in a.tune.split(",") if e.strip()] if a.tune else list(names())
+    unknown = [e for e in engines if e not in names()]
+    if unknown:
+        raise InputError(f"--tune: got {a.tune!r}; expected a comma-separated list of {', '.join(names())}")
+    models = tune._models(tune.QUICK_CASES if a.quick else tune.CASES, a.quick)
+    results = [tune.sweep(e, quick=a.quick, repeats=1 if a.quick else 3, models=models) for e in engines]
+    if a.json:
+        print(json.dumps(results, indent=2, default=float))
+    else:
+        print("\n\n".join(tune.text(r) for r in results))
+    return 0
+
+
+def cmd_export(a):
+    """kinem export CASE --engine NAME --out FILE: the engine model as the harness runs it."""
+    from adapters.export import export
+    from .analysis import solve
+
+    model = _load(a.case)
+    native = solve(model)
+    if not native.success:
+        raise AnalysisError(f"{a.case}: no native solution at t = 0 to start the engine from: {native.message}")
+    text = export(model, a.engine, native.q[0], native.qd[0])
+    out = Path(a.out)
+    if out.is_symlink() or (out.exists() and not out.is_file()):   # a device, FIFO or link: written through
+        with open(out, "w") as f:
+            f.write(text)
+    else:
+        from .output import write_atomic
+
+        write_atomic(out, lambda f: f.write(text.encode()))
+    return 0
+
+
 def cmd_compare(a):
     from adapters.compare import run_case, table
 
     engines = _engines(a.engines)
     model = _load(a.case)
-    native, rows = run_case(model, engines, _settings(a.set, a.dt), a.scheduler)
+    native, rows = run_case(model, engines, _settings(a.set, a.dt, engines), a.scheduler)
     if a.json:
         print(json.dumps({"case": model.case.name, "length": model.length, "unit": model.case.length_unit,
                           "engines": {r.engine: r.as_dict() for r in rows}}, indent=2, default=float))
@@ -322,7 +370,7 @@ def parser():
     i.set_defaults(run=cmd_info)
 
     st = sub.add_parser("stress", help="the stress suite on native and the engines, each outcome classified")
-    st.add_argument("--engines", default="native,pymunk,mujoco,exudyn")
+    st.add_argument("--engines", help="comma-separated: native and engines (default: all)")
     st.add_argument("--quick", action="store_true", help="fewer sweep points and a 100-turn long run")
     st.add_argument("--jobs", type=int, help="worker processes (default: the core count; 0 or 1: none)")
     _scheduler_option(st)
@@ -331,11 +379,23 @@ def parser():
 
     e = sub.add_parser("engines", help="the engines' support matrix, default settings and tolerances")
     e.add_argument("--update-docs", action="store_true", help="rewrite the generated section of docs/engines.md")
+    e.add_argument("--tune", nargs="?", const="", metavar="ENGINES",
+                   help="sweep the engines' own accuracy knobs on the book cases; print each setting's worst error "
+                        "and cost per output interval, the Pareto front and the cheapest setting within tolerance")
+    e.add_argument("--quick", action="store_true", help="with --tune: two short cases (a smoke run)")
+    e.add_argument("--json", action="store_true", help="with --tune: the sweep as JSON")
     e.set_defaults(run=cmd_engines)
+
+    x = sub.add_parser("export", help="the engine model exactly as the harness runs it, as a file "
+                                      "(MuJoCo: MJCF XML; Exudyn, pymunk: a runnable Python script)")
+    x.add_argument("case")
+    x.add_argument("--engine", required=True, help="mujoco, exudyn or pymunk")
+    x.add_argument("--out", required=True, help="output file")
+    x.set_defaults(run=cmd_export)
 
     c = sub.add_parser("compare", help="run the case on the native solver and the engines; compare")
     c.add_argument("case")
-    c.add_argument("--engines", default="native,pymunk,mujoco,exudyn")
+    c.add_argument("--engines", help="comma-separated: native and engines (default: all)")
     c.add_argument("--dt", type=float, help="engine time step (overrides every engine's dt)")
     c.add_argument("--set", action="append", metavar="ENGINE.KEY=VALUE", help="an engine setting (repeatable)")
     _scheduler_option(c)
@@ -346,8 +406,7 @@ def parser():
     r = sub.add_parser("report", help="every case on native and the engines: index.html, summary.md, "
                                       "results.json, baseline gate (docs/report.md)")
     r.add_argument("cases", nargs="*", help="case files (default: cases/*.toml)")
-    r.add_argument("--engines", default="native,pymunk,mujoco,exudyn",
-                   help="engines to run (native always runs: it is the reference)")
+    r.add_argument("--engines", help="engines to run (default: all; native always runs: it is the reference)")
     r.add_argument("--out", default="reports", help="output directory (default: reports)")
     r.add_argument("--baseline", metavar="FILE",
                    help="a stored results.json to gate against (exit 1 on regression); default OUT/baseline.json "

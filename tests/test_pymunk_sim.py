@@ -44,7 +44,7 @@ def simulate(case, settings=None):
 
 def assert_agrees(case, settings=None):
     model, native, run = simulate(case, settings)
-    assert run.ok, run.status
+    assert run.ok, run.label
     velocity_only = kinem.result.trajectory(model, native.trajectory.t, native.q, native.qd)
     assert run.trajectory.columns == velocity_only.columns
     np.testing.assert_array_equal(run.trajectory.t, native.trajectory.t)
@@ -199,8 +199,8 @@ def test_groove_helpers(name, shift, monkeypatch):
 def test_unsupported_gives_status(name, kind):
     model = kinem.compile(kinem.load(CASES / f"{name}.toml"))
     run = ADAPTER.run(model, model.q0, np.zeros(model.n))
-    assert run.status.startswith(f"unsupported: {kind} ("), run.status
-    assert run.trajectory is None and ADAPTER.unsupported(model) == run.status
+    assert run.label.startswith(f"unsupported: {kind} ("), run.label
+    assert run.trajectory is None and ADAPTER.unsupported(model) == run.detail
 
 
 def test_declarations_cover_every_type():
@@ -208,12 +208,12 @@ def test_declarations_cover_every_type():
     assert not set(ADAPTER.supports) & set(ADAPTER.reasons)
 
 
-def test_blow_up_gives_failed_status():
-    """error_bias > 1 turns the position correction into amplification."""
+def test_blow_up_setting_is_an_input_error():
+    """error_bias > 1 would turn the position correction into amplification:
+    the settings check refuses it before pymunk runs."""
     case = kinem.load(CASES / "four_bar.toml").with_time(0.5, 50)
-    _, _, run = simulate(case, {"error_bias": math.inf})
-    assert run.status.startswith("failed: "), run.status
-    assert run.trajectory is None
+    with pytest.raises(kinem.InputError, match="pymunk setting 'error_bias' = inf: expected a number in"):
+        simulate(case, {"error_bias": math.inf})
 
 
 def test_divergence_gives_failed_status():
@@ -221,13 +221,13 @@ def test_divergence_gives_failed_status():
     stops with 'failed' when the joints drift apart, not with a wrong 'ok'."""
     case = kinem.load_dict(four_bar_driver(FLOATING)).with_time(1.0, 100)
     _, _, run = simulate(case, {"iterations": 20})
-    assert run.status.startswith("failed: ") and "lost the mechanism" in run.status, run.status
+    assert run.label.startswith("failed: ") and "lost the mechanism" in run.label, run.label
 
 
 def test_sliding_off_a_groove_end_fails(monkeypatch):
     monkeypatch.setattr(pymunk_sim, "GROOVE", 0.05)   # a groove of +-0.05 L
     _, _, run = simulate(kinem.load(CASES / "slider_crank.toml").with_time(1.0, 100))
-    assert run.status.startswith("failed: ") and "'T' slid off" in run.status, run.status
+    assert run.label.startswith("failed: ") and "'T' slid off" in run.label, run.label
 
 
 def test_settings():

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import adapters
-from adapters.base import Adapter, EngineRun
+from adapters.base import Adapter
 from kinem.errors import InputError
 from kinem.report import Options, results, run
 from kinem.report.gate import ERROR_FACTOR, ERROR_FLOOR, SLOWDOWN_FACTOR, gate
@@ -44,16 +44,14 @@ class FakeEngine(Adapter):
     def unsupported(self, model):
         return None
 
-    def run(self, model, q0, qd0, settings=None):
+    def simulate(self, model, q0, qd0, settings, times):
         from kinem.solver import solve
-        from kinem.result import trajectory
 
         r = solve(model)
         q = r.q.copy()
         q[:, 0::3][:, :len(model.body_names)] += settings["dt"] * 1e-3 * model.length
         steps = int(round(model.case.end / settings["dt"]))
-        return EngineRun("pymunk", "ok", trajectory(model, r.trajectory.t, q, r.qd), q, r.qd, r.wall_time,
-                         steps, 1, dict(settings), "fake-1")
+        return q, r.qd, r.wall_time, steps
 
 
 @pytest.fixture

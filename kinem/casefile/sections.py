@@ -4,7 +4,6 @@ from ..spec import Body, Equivalence, Point, frozen_map
 from .checks import END_RANGE, MAX_STEPS, MAX_UNIT, NAME_RE, names, show
 
 MAX_ITEMS = 100_000
-ENGINES = ("pymunk", "mujoco", "exudyn")  # settings are checked against each adapter when it runs
 SOLVER_KEYS = ("tolerance", "max_iterations", "linear_solver", "jacobian_reuse", "block")
 LINEAR_SOLVERS = ("auto", "dense", "sparse")
 
@@ -23,15 +22,15 @@ def units(ck, u):
 
 
 def engines(ck, e):
-    """[engines.<name>] tables of settings: scalars or short lists of numbers."""
+    """[engines.<name>] tables of settings: scalars or short lists of numbers,
+    kept raw; the engine registry (adapters) checks names and keys when they are used."""
     if not isinstance(e, dict):
         ck.bad("[engines]", None, f"got {show(e)}", "a table of [engines.<name>] tables")
         return {}
     out = {}
     for name, table in e.items():
-        where = f"[engines.{name}]"
-        if name not in ENGINES:
-            ck.bad(where, None, f"unknown engine '{name}'", "one of " + ", ".join(ENGINES))
+        where = f"[engines.{show(name)[1:-1]}]"
+        if ck.name(where, name) is None:
             continue
         if not isinstance(table, dict):
             ck.bad(where, None, f"got {show(table)}", "a table of settings")

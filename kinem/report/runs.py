@@ -25,10 +25,11 @@ ERROR_KEYS = ("position_error", "position_error_rel", "angle_error", "velocity_e
 @dataclass(frozen=True)
 class Task:
     path: str
-    engine: str                 # "native" or an engine of adapters.ENGINES
+    engine: str                 # "native" or an engine of the registry (adapters.REGISTRY)
     knob: str | None = None     # None: main run; "tolerance" (native) or "dt" (engines): a sweep point
     value: float | None = None
     repeats: int = 1            # native runs timed; the median wall time is kept
+    point: tuple = ()           # engines: (key, value) settings of a sweep point over several knobs
 
 
 def _model(path, tolerance=None):
@@ -57,8 +58,8 @@ def reference(path):
 def _blank(task, status, **extra):
     out = {"engine": task.engine, "knob": task.knob, "value": task.value, "status": status,
            "requested": {}, "settings": {}, "version": "", "within_tolerance": None, "tolerance": {},
-           "wall_time": None, "time_per_step": None, "wall_per_sim_second": None, "counts": {},
-           "reference": REFERENCE_LABEL}
+           "wall_time": None, "time_per_step": None, "time_per_interval": None, "overhead_per_interval": None,
+           "wall_per_sim_second": None, "counts": {}, "reference": REFERENCE_LABEL}
     out.update({k: None for k in ERROR_KEYS})
     out.update(extra)
     return out
@@ -122,7 +123,8 @@ def run_native(task):
     counts = {"instants": steps, "newton_iterations": int(r.iterations.sum()),
               "jacobian_evaluations": int(r.jacobian_evaluations), "factorizations": int(r.factorizations)}
     base = dict(requested=settings, settings=settings, version=_version("kinem"), counts=counts, wall_time=wall,
-                repeats=len(walls), time_per_step=wall / max(steps, 1), wall_per_sim_second=wall / model.case.end)
+                repeats=len(walls), time_per_step=wall / max(steps, 1), time_per_interval=wall / max(steps - 1, 1),
+                overhead_per_interval=0.0, wall_per_sim_second=wall / model.case.end)
     if not r.success:
         return _blank(task, f"failed: {r.message}", **base)
     e = errors(model, ref, r.q, r.trajectory)
@@ -154,7 +156,8 @@ def _independent(model, ref, traj, out):
 
 
 def run_engine(task):
-    from adapters import get
+    from adapters.base import Status
+    from adapters import case_settings, get
     from adapters.compare import compare, tolerance_of
 
     try:
@@ -167,23 +170,25 @@ def run_engine(task):
         return _blank(task, "failed: no native reference (" + ref.message + ")", version=version)
     reason = adapter.unsupported(model)
     if reason:
-        return _blank(task, reason, version=version)
-    overrides = dict(model.case.engines.get(task.engine, {}))
-    if task.knob is not None:
+        return _blank(task, f"unsupported: {reason}", version=version)
+    overrides = dict(task.point)
+    if task.knob is not None and not overrides:
         overrides[task.knob] = task.value
-    settings = adapter.settings(overrides)
+    settings = case_settings(model, task.engine, overrides)
     try:
         run = adapter.run(model, ref.q[0], ref.qd[0], settings)
     except Exception as e:  # noqa: BLE001 - adapters should not raise; record it if one does
         return _blank(task, f"failed: {type(e).__name__}: {e}", version=version, requested=_plain(settings))
     c = compare(model, ref, run, tolerance_of(adapter))
-    out = _blank(task, c.status, version=run.version or version, requested=_plain(settings),
+    out = _blank(task, c.label, version=run.version or version, requested=_plain(settings),
                  settings=_plain(run.settings or settings),
                  within_tolerance=c.within_tolerance, tolerance=_plain(c.tolerance),
                  wall_time=_finite(run.wall_time), counts={"steps": int(run.steps), "substeps": int(run.substeps)})
     out["time_per_step"] = _finite(run.wall_time / run.steps) if run.steps else None
+    out["time_per_interval"] = _finite(c.time_per_interval)
+    out["overhead_per_interval"] = _finite(c.overhead_per_interval)
     out["wall_per_sim_second"] = _finite(run.wall_time / model.case.end)
-    if c.status == "ok":
+    if c.status is Status.OK:
         out.update({k: _finite(getattr(c, k)) for k in ERROR_KEYS})
         if task.knob is None:
             out["series"] = _series(model, ref, run.trajectory)
