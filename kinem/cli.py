@@ -11,7 +11,7 @@ import os
 import sys
 from pathlib import Path
 
-from .errors import AnalysisError, InputError, KinemError, one_line
+from .errors import MAX_LINE, AnalysisError, InputError, KinemError, one_line
 from .result import OUTPUTS
 
 
@@ -124,7 +124,12 @@ def cmd_solve(a):
             if o.success:
                 return 0
             kept = f"; the {o.instants} instants solved are in {a.out or 'standard output'}, marked partial"
-    raise AnalysisError(f"{a.case}: {o.message}{kept}")
+    # the note on the instants kept survives the one-line cap: the solver's message is shortened instead
+    room = MAX_LINE - len("kinem: analysis failed: ") - len(f"{a.case}: ") - len(kept)
+    message = one_line(o.message)
+    if len(message) > room:
+        message = message[:max(room - 3, 0)] + "..."
+    raise AnalysisError(f"{a.case}: {message}{kept}")
 
 
 def _format(out, fmt):
