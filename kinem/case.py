@@ -23,7 +23,8 @@ MAX_MAGNITUDE = 1e12  # any length, angle or time beyond this is a mistake, and 
 NAME_RE = re.compile(r"^[a-z0-9_-]+$")
 IDENT_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*$")
 
-TOP_KEYS = ("name", "description", "units", "time", "solver", "bodies", "points", "constraints", "engines")
+TOP_KEYS = ("name", "description", "units", "time", "solver", "bodies", "points", "constraints", "engines",
+            "report")
 ENGINES = ("pymunk", "mujoco", "exudyn")  # settings are checked against each adapter when it runs
 SOLVER_KEYS = ("tolerance", "max_iterations", "linear_solver", "jacobian_reuse", "block")
 LINEAR_SOLVERS = ("auto", "dense", "sparse")
@@ -153,11 +154,13 @@ class _Loader:
         points = self.points(data.get("points", {}), bodies)
         constraints = self.constraints(data.get("constraints", []), bodies, points, end)
         engines = self.engines(data.get("engines", {}))
+        report = self.report(data.get("report", {}), points)
         if self.problems:
             raise InputError(self.problems)
         return Case(name=name, bodies=tuple(bodies.values()), points=tuple(points.values()),
                     constraints=tuple(constraints), end=end, steps=steps, description=description,
-                    units=frozen_map(units), engines=frozen_map(engines), source=self.source, **solver)
+                    units=frozen_map(units), engines=frozen_map(engines), source=self.source,
+                    report=frozen_map(report), **solver)
 
     def units(self, u):
         if not isinstance(u, dict):
@@ -167,6 +170,25 @@ class _Loader:
         if "length" in u:
             self.string("units", "length", u["length"])
         return {k: v for k, v in u.items() if k == "length" and isinstance(v, str)}
+
+    def report(self, r, points):
+        """[report]: points = the named points the report draws and plots (default: all)."""
+        if not isinstance(r, dict):
+            self.bad("[report]", None, f"got {_show(r)}", "a table such as { points = [\"B\"] }")
+            return {}
+        self.keys("[report]", r, ("points",))
+        names = r.get("points")
+        if names is None:
+            return {}
+        if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
+            self.bad("[report]", "points", f"got {_show(names)}", "a non-empty list of names from [points]")
+            return {}
+        unknown = [n for n in names if n not in points]
+        if unknown:
+            self.bad("[report]", "points", f"unknown point {_show(unknown[0])}",
+                     "names from [points]: " + (_names(points) or "(none)"))
+            return {}
+        return {"points": tuple(dict.fromkeys(names))}
 
     def engines(self, e):
         """[engines.<name>] tables of settings: scalars or short lists of numbers."""

@@ -61,6 +61,7 @@ class Case:
     description: str = ""
     units: Mapping = field(default_factory=frozen_map)
     engines: Mapping = field(default_factory=frozen_map)  # engine name -> settings overrides
+    report: Mapping = field(default_factory=frozen_map)   # [report]: points (names the report draws)
     source: str = "<memory>"
 
     @property

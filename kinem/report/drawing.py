@@ -57,7 +57,7 @@ def world(model, q, body, local):
 def plotted_points(model):
     """The named points the report draws and plots: the case's ``[report]
     points`` list when it has one, else every named point."""
-    listed = dict(getattr(model.case, "report", {}) or {}).get("points")
+    listed = model.case.report.get("points")
     names = list(listed) if listed else [p.name for p in model.case.points]
     by_name = {p.name: p for p in model.case.points}
     return [by_name[n] for n in names if n in by_name]

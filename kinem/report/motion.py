@@ -112,12 +112,12 @@ class _Clock:
                 f'keyTimes="{self.keys}" dur="{self.dur:.2f}s" repeatCount="indefinite"'
                 f'{" additive=" + chr(34) + "sum" + chr(34) if additive else ""}/>')
 
-    def group(self, x, y, angle=None):
+    def group(self, x, y, angle=None, attrs=""):
         """<g ...> opening tag with its transform (and animation) for px
         positions x, y and angles in degrees per frame."""
         k = self.at or 0
         static = f"translate({x[k]:.1f} {y[k]:.1f})" + (f" rotate({angle[k]:.2f})" if angle is not None else "")
-        head = f'<g transform="{static}">'
+        head = f'<g{attrs} transform="{static}">'
         if self.at is not None:
             return head
         head += self._anim("translate", ";".join(f"{a:.1f} {b:.1f}" for a, b in zip(x, y)))
@@ -145,10 +145,11 @@ def svg(model, native, ghosts=None, at=None, width=820, max_height=520, standalo
     for name, w in paths.items():                       # coupler curves, under everything
         body = next(b for n, b, _ in sc.points if n == name)
         x, y = v.px(w)
-        out.append(f'<polyline points="{_pts(x, y)}" fill="none" stroke="{color[body]}" stroke-width="1.3" '
-                   f'stroke-opacity=".8"/>')
-    layers = [(None, r, phi)] + [(ENGINE_COLORS.get(e, "#000"), *poses(model, g)) for e, g in ghosts.items()]
-    for ghost, rr, pp in layers:
+        out.append(f'<polyline data-path="{escape(name)}" points="{_pts(x, y)}" fill="none" '
+                   f'stroke="{color[body]}" stroke-width="1.3" stroke-opacity=".8"/>')
+    layers = [("native", None, r, phi)] + [(e, ENGINE_COLORS.get(e, "#000"), *poses(model, g))
+                                            for e, g in ghosts.items()]
+    for layer, ghost, rr, pp in layers:
         for k, b in enumerate(sc.bodies):
             if ghost and b in sc.fixed:
                 continue
@@ -157,9 +158,13 @@ def svg(model, native, ghosts=None, at=None, width=820, max_height=520, standalo
                 mine.sort(key=lambda it: it.role == "joint")
             x, y = v.px(rr[:, k])
             body = "".join(_item(v, it, color[b], ghost) for it in mine)
-            body += "".join(_mark(*[c[0] for c in v.local([p])], "dot")
-                            for _, pb, p in sc.points if pb == b and ghost is None)
-            out.append(clock.group(x, y, -np.degrees(np.unwrap(pp[:, k]))) + body + "</g>")
+            for name, pb, p in sc.points if ghost is None else ():
+                if pb == b:
+                    (px,), (py,) = v.local([p])
+                    body += f'<circle data-point="{escape(name)}" cx="{px:.1f}" cy="{py:.1f}" r="3.5" fill="#111"/>'
+
+            attrs = f' data-layer="{escape(layer)}" data-body="{escape(b)}"'
+            out.append(clock.group(x, y, -np.degrees(np.unwrap(pp[:, k])), attrs) + body + "</g>")
     out += _labels(sc, v, clock, q, model)
     out.append(_scale_bar(v, model.case.length_unit))
     if at is None:
