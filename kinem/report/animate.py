@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import AnalysisError, InputError
-from .drawing import poses, scene, world
+from .drawing import MARK_NAMES, poses, scene, world
 from .motion import BODY_COLORS, ENGINE_COLORS, duration, svg
 from .runs import FRAMES, PATH_INSTANTS, sample
 
@@ -134,8 +134,7 @@ def raster(model, native, ghosts, dense, ext) -> bytes:
     handles += [Line2D([], [], color=ENGINE_COLORS.get(e, "k"), ls="--", label=f"{e} (ghost)") for e in ghosts]
     marks = {it.mark for it in sc.items if it.role == "joint"}
     handles += [Line2D([], [], ls="", marker=m, mfc="white", mec="k", label=text)
-                for m, text in (("o", "revolute"), ("s", "translational"), ("D", "pin in slot"), ("x", "distance"))
-                if m in marks]
+                for m, text in MARK_NAMES if m in marks]
     ax.legend(handles=handles, loc="upper left", fontsize=8, framealpha=0.8)
     nudge = 0.012 * (ax.get_xlim()[1] - ax.get_xlim()[0])
 

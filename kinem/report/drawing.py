@@ -20,7 +20,7 @@ import numpy as np
 
 MARKS = {"revolute": "o", "translational": "s", "revolute-translational": "D", "point-follower": "D",
          "revolute-revolute": "x", "distance-driver": "x"}   # joints marked at their first local point
-SPOKED = {"gear", "rack-pinion", "cam-roller"}  # types whose circles turn with their body
+MARK_NAMES = (("o", "revolute"), ("s", "translational"), ("D", "pin in slot"), ("x", "distance"))  # legends
 
 
 @dataclass(frozen=True, eq=False)

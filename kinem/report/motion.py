@@ -13,7 +13,7 @@ from html import escape
 
 import numpy as np
 
-from .drawing import poses, scene, world
+from .drawing import MARK_NAMES, poses, scene, world
 
 BODY_COLORS = ("#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22", "#d62728", "#7f7f7f")
 ENGINE_COLORS = {"pymunk": "#ff7f0e", "mujoco": "#1f77b4", "exudyn": "#2ca02c"}
@@ -93,7 +93,8 @@ def _mark(x, y, mark):
     if mark == "s":
         return f'<rect x="{x - 4.5:.1f}" y="{y - 4.5:.1f}" width="9" height="9" {style}/>'
     if mark == "D":
-        return f'<polygon points="{x:.1f},{y - 6:.1f} {x + 6:.1f},{y:.1f} {x:.1f},{y + 6:.1f} {x - 6:.1f},{y:.1f}" {style}/>'
+        return (f'<polygon points="{x:.1f},{y - 6:.1f} {x + 6:.1f},{y:.1f} {x:.1f},{y + 6:.1f} '
+                f'{x - 6:.1f},{y:.1f}" {style}/>')
     if mark == "dot":
         return f'<circle cx="{x:.1f}" cy="{y:.1f}" r="3.5" fill="#111"/>'
     return f'<path d="M{x - 4:.1f},{y - 4:.1f}l8,8m0,-8l-8,8" stroke="#000" stroke-width="1.5"/>'
@@ -227,19 +228,16 @@ def _legend(v, sc, engines):
                              f'stroke="#9467bd" stroke-width="2"/>', "native")]
     entries += [(lambda x, y, c=ENGINE_COLORS.get(e, "#000"): f'<polyline points="{x},{y - 4} {x + 14},{y - 4}" '
                  f'stroke="{c}" stroke-width="1.5" stroke-dasharray="5 3"/>', f"{e} (ghost)") for e in engines]
-    keys = [("o", "revolute", lambda x, y: _mark(x + 5, y - 4, "o")),
-            ("s", "translational", lambda x, y: _mark(x + 5, y - 4, "s")),
-            ("D", "pin in slot", lambda x, y: _mark(x + 5, y - 4, "D")),
-            ("x", "distance", lambda x, y: _mark(x + 5, y - 4, "x")),
-            ("ground", "ground", lambda x, y: f'<polygon points="{x + 5},{y - 9} {x - 1},{y + 1} {x + 11},{y + 1}" '
-                                              f'fill="#666"/>'),
-            ("spoke", "rotation mark", lambda x, y: f'<polyline points="{x},{y - 4} {x + 12},{y - 4}" {line}/>'),
-            ("slot", "slot", lambda x, y: f'<polyline points="{x + 2},{y - 4} {x + 10},{y - 4}" stroke="#555" '
-                                          f'stroke-width="9" stroke-linecap="round"/><polyline points="{x + 2},'
-                                          f'{y - 4} {x + 10},{y - 4}" stroke="#fff" stroke-width="5"/>'),
-            ("rail", "guide", lambda x, y: f'<polyline points="{x},{y - 4} {x + 12},{y - 4}" {line}/>'),
-            ("rack", "rack teeth", lambda x, y: f'<polyline points="{x},{y - 1} {x + 3},{y - 7} {x + 6},{y - 1} '
-                                                f'{x + 9},{y - 7} {x + 12},{y - 1}" fill="none" stroke="#666"/>')]
+    keys = [(m, text, lambda x, y, m=m: _mark(x + 5, y - 4, m)) for m, text in MARK_NAMES]
+    keys += [("ground", "ground", lambda x, y: f'<polygon points="{x + 5},{y - 9} {x - 1},{y + 1} {x + 11},{y + 1}" '
+                                               f'fill="#666"/>'),
+             ("spoke", "rotation mark", lambda x, y: f'<polyline points="{x},{y - 4} {x + 12},{y - 4}" {line}/>'),
+             ("slot", "slot", lambda x, y: f'<polyline points="{x + 2},{y - 4} {x + 10},{y - 4}" stroke="#555" '
+                                           f'stroke-width="9" stroke-linecap="round"/><polyline points="{x + 2},'
+                                           f'{y - 4} {x + 10},{y - 4}" stroke="#fff" stroke-width="5"/>'),
+             ("rail", "guide", lambda x, y: f'<polyline points="{x},{y - 4} {x + 12},{y - 4}" {line}/>'),
+             ("rack", "rack teeth", lambda x, y: f'<polyline points="{x},{y - 1} {x + 3},{y - 7} {x + 6},{y - 1} '
+                                                 f'{x + 9},{y - 7} {x + 12},{y - 1}" fill="none" stroke="#666"/>')]
     used = {it.role for it in sc.items} | {it.mark for it in sc.items}
     entries += [(sym, text) for key, text, sym in keys if key in used]
     if sc.points:
