@@ -179,7 +179,8 @@ def _artists(ax, it, color, ghost, Polygon):
         return [ax.add_patch(Polygon(np.zeros((1, 2)), closed=True, fc=color, alpha=0.12, ec=color, lw=1.2))]
     styles = {"link": dict(color=color, lw=5, alpha=0.75, solid_capstyle="round"),
               "disc": dict(marker="o", color=color, ms=8, ls=""),
-              "spoke": dict(color=color, lw=2), "rack": dict(color=color, lw=1.2),
+              "spoke": dict(color=color, lw=2), "face": dict(color=color, lw=3.5),
+              "rack": dict(color=color, lw=1.2),
               "rail": dict(color="#666", lw=2.5),
               "ground": dict(marker="^", color="#666", ms=9, ls=""),
               "joint": dict(marker=it.mark, mfc="white", mec="k", color="k", ms=6, ls="", zorder=6)}

@@ -4,8 +4,9 @@ or with matplotlib).
 
 Each moving body is the polygon of its points (sorted by angle about their
 mean; a bar for two, a disc for one); constraints add their shapes: pitch
-circles and rollers with a rotation mark (a spoke along the body's xi axis),
-cam outlines, curved slots (point-follower), straight slots
+circles, rollers and cams with a rotation mark (a spoke along the body's xi
+axis; a cam's from its outline's centre to the outline's first point), cam
+outlines, flat followers' faces, curved slots (point-follower), straight slots
 (revolute-translational), guide rails (translational) and racks (toothed
 pitch lines). Straight slots, rails and racks span the travel seen in the
 frames they are built from. Joints are marked (o revolute, square
@@ -26,7 +27,7 @@ MARK_NAMES = (("o", "revolute"), ("s", "translational"), ("D", "pin in slot"), (
 @dataclass(frozen=True, eq=False)
 class Item:
     body: str
-    role: str          # link | disc | circle | spoke | cam | slot | rail | rack | joint | ground
+    role: str          # link | disc | circle | spoke | cam | face | slot | rail | rack | joint | ground
     xy: np.ndarray     # local points (complex)
     mark: str = ""     # joint: a MARKS value
 
@@ -98,11 +99,18 @@ def _shapes(model, c, q):
     if t == "rack-pinion":
         centre = complex(*c["center"]) if c.get("center") is not None else 0j
         return _wheel(c["pinion"], centre, c["radius"], ring) + [_rack(model, c, centre, q)]
-    if t == "cam-roller":
-        return [Item(c["cam"], "cam", _outline(c["outline"]))] + _wheel(c["follower"], complex(*c["sj"]),
-                                                                          c["radius"], ring)
-    if t in ("cam-point", "cam-flat"):
-        return [Item(c["cam"], "cam", _outline(c["outline"]))]
+    if t in ("cam-point", "cam-roller", "cam-flat"):
+        o = c["outline"]
+        rim = _outline(o)
+        out = [Item(c["cam"], "cam", rim), Item(c["cam"], "spoke", np.array([complex(*o.center), rim[0]]))]
+        sj = complex(*c["sj"])
+        if t == "cam-roller":
+            out += _wheel(c["follower"], sj, c["radius"], ring)
+        if t == "cam-flat":  # the follower's face: through sj, normal to its normal, as wide as the cam
+            n = complex(*c["normal"]) if c.get("normal") is not None else 1j
+            half = 1j * n / abs(n) * np.max(np.abs(rim - complex(*o.center)))
+            out.append(Item(c["follower"], "face", np.array([sj - half, sj + half])))
+        return out
     if t == "point-follower":
         return [Item(c["j"], "slot", _outline(c["outline"]))]
     if t == "revolute-translational":

@@ -18,7 +18,9 @@ from .drawing import MARK_NAMES, poses, scene, world
 BODY_COLORS = ("#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22", "#d62728", "#7f7f7f")
 ENGINE_COLORS = {"pymunk": "#ff7f0e", "mujoco": "#1f77b4", "exudyn": "#2ca02c"}
 HALO = 'paint-order="stroke" stroke="#fff" stroke-width="3" stroke-linejoin="round"'
+BODY_SIDES = ((8, -8), (8, 20), (-8, -8), (-8, 20), (8, -24), (-8, -24), (8, 36), (-8, 36))  # label offsets, px
 PAD = 28                      # px: margin round the drawing
+TOP = 36                      # px: band above it (time of a snapshot, scale bar)
 
 
 def duration(t):
@@ -32,14 +34,14 @@ class _View:
     def __init__(self, pts, width, max_height):
         lo, hi = np.array([pts.real.min(), pts.imag.min()]), np.array([pts.real.max(), pts.imag.max()])
         span = np.maximum(hi - lo, 1e-9 * max(np.abs(hi - lo).max(), 1e-300))
-        self.s = min((width - 2 * PAD) / span[0], (max_height - 2 * PAD) / span[1])
+        self.s = min((width - 2 * PAD) / span[0], (max_height - TOP - PAD) / span[1])
         self.x0 = lo[0] - ((width - 2 * PAD) / self.s - span[0]) / 2
         self.y1 = hi[1]
-        self.width, self.height = width, int(np.ceil(span[1] * self.s + 2 * PAD))
+        self.width, self.height = width, int(np.ceil(span[1] * self.s + TOP + PAD))
 
     def px(self, w):
         w = np.asarray(w, complex)
-        return PAD + self.s * (w.real - self.x0), PAD + self.s * (self.y1 - w.imag)
+        return PAD + self.s * (w.real - self.x0), TOP + self.s * (self.y1 - w.imag)
 
     def local(self, z):
         """A body's local points in px before its rotation and translation (y flipped)."""
@@ -73,6 +75,8 @@ def _item(v, it, color, ghost=None):
         return f'<polygon points="{p}" fill="{color}" fill-opacity=".1" stroke="{color}" stroke-width="1.5"/>'
     if r == "spoke":
         return f'<polyline points="{p}" stroke="{color}" stroke-width="2.5"/>'
+    if r == "face":
+        return f'<polyline points="{p}" stroke="{color}" stroke-width="4"/>'
     if r == "rack":
         return f'<polyline points="{p}" fill="none" stroke="{color}" stroke-width="1.5"/>'
     if r == "slot":
@@ -173,7 +177,7 @@ def svg(model, native, ghosts=None, at=None, width=820, max_height=520, standalo
         legend, h = _legend(v, sc, list(ghosts))
         out.append(legend)
     else:
-        out.append(f'<text x="{PAD}" y="18" font-weight="bold">t = {t[at]:.3g} s</text>')
+        out.append(f'<text x="{PAD}" y="20" font-weight="bold">t = {t[at]:.3g} s</text>')
         h = v.height
     ns = ' xmlns="http://www.w3.org/2000/svg"' if standalone else ""
     return (f'<svg{ns} class="motion" width="{v.width}" height="{h}" viewBox="0 0 {v.width} {h}" '
@@ -183,18 +187,42 @@ def svg(model, native, ghosts=None, at=None, width=820, max_height=520, standalo
 
 
 def _labels(sc, v, clock, q, model):
-    """Each moving body's name at the mean of its points, each named point's
-    name beside it; upright, following their body."""
-    out = []
+    """Each named point's name beside it, each moving body's name at one of
+    its points (or their mean, or an edge's middle); upright, following their
+    body. Each label takes, in turn, the anchor and side whose box overlaps
+    the labels placed before it at the fewest frames (snapshot: at its frame)."""
+    frames = slice(None) if clock.at is None else slice(clock.at, clock.at + 1)
+    placed, out = [], []
+
+    def place(text, anchors, offsets, style):
+        w = 7.5 * len(text) + 2
+        best = None
+        for x, y in anchors:
+            for dx, dy in offsets:
+                dx = dx if dx >= 0 else dx - w
+                box = np.stack([x[frames] + dx, y[frames] + dy - 11, x[frames] + dx + w, y[frames] + dy + 3])
+                cost = sum(int(np.sum((box[0] < o[2]) & (o[0] < box[2]) & (box[1] < o[3]) & (o[1] < box[3])))
+                           for o in placed)
+                if best is None or cost < best[0]:
+                    best = (cost, box, x, y, dx, dy)
+        cost, box, x, y, dx, dy = best
+        placed.append(box)
+        out.append(clock.group(x, y) + f'<text x="{dx:.0f}" y="{dy}" {style} {HALO}>{escape(text)}</text></g>')
+
+    for name, b, p in sc.points:
+        place(name, [v.px(world(model, q, b, [p])[:, 0])], ((6, 16), (6, -6), (-6, 16), (-6, -6)),
+              'font-style="italic"')
+    anchors = {}
     for b in sc.bodies:
         if b in sc.fixed:
             continue
-        mine = np.concatenate([it.xy for it in sc.items if it.body == b and it.role in ("link", "disc", "circle")])
-        x, y = v.px(world(model, q, b, [mine.mean()])[:, 0])
-        out.append(clock.group(x, y) + f'<text x="8" y="-8" font-weight="bold" {HALO}>{escape(b)}</text></g>')
-    for name, b, p in sc.points:
-        x, y = v.px(world(model, q, b, [p])[:, 0])
-        out.append(clock.group(x, y) + f'<text x="6" y="14" font-style="italic" {HALO}>{escape(name)}</text></g>')
+        mine = [it.xy for it in sc.items if it.body == b and it.role in ("link", "disc", "circle")]
+        ring = mine[0][:-1] if len(mine[0]) > 2 and mine[0][0] == mine[0][-1] else mine[0]
+        edges = (ring + np.roll(ring, -1)) / 2 if len(ring) > 1 else ring
+        cands = np.array(list(dict.fromkeys(np.concatenate([[np.concatenate(mine).mean()], edges, ring]))))
+        anchors[b] = cands[np.linspace(0, len(cands) - 1, min(len(cands), 12)).astype(int)]
+    for b in sorted(anchors, key=lambda b: len(anchors[b])):    # the least choice first
+        place(b, [v.px(w) for w in world(model, q, b, anchors[b]).T], BODY_SIDES, 'font-weight="bold"')
     return out
 
 
@@ -213,7 +241,7 @@ def _time_bar(v, clock, t):
 def _scale_bar(v, unit):
     """A 1-2-5 length about a quarter of the width, in the top right corner."""
     bar = _nice(0.25 * (v.width - 2 * PAD) / v.s)
-    x0, x1, y = v.width - PAD - bar * v.s, v.width - PAD, 14
+    x0, x1, y = v.width - PAD - bar * v.s, v.width - PAD, 16
     return (f'<polyline points="{x0:.1f},{y} {x1},{y}" stroke="#000" stroke-width="2"/>'
             f'<polyline points="{x0:.1f},{y - 4} {x0:.1f},{y + 4}" stroke="#000"/>'
             f'<polyline points="{x1},{y - 4} {x1},{y + 4}" stroke="#000"/>'
