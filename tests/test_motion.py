@@ -161,3 +161,20 @@ def test_animate_writes_svg_and_gif_and_refuses_mp4_without_ffmpeg(tmp_path, mon
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "mp4 needs ffmpeg" in err and not (tmp_path / "a.mp4").exists()
     assert main(["animate", str(case), "--out", str(tmp_path / "a.png")]) == 2
+
+
+@pytest.mark.parametrize("at", [None, 0, 20, 39])
+def test_labels_do_not_overlap_in_a_crowded_drawing(at):
+    """quick_return_1 has six bodies and three named points in a small
+    drawing; no two label boxes overlap (boxes as motion.py estimates them:
+    7.5 px a character, 14 px high; checked at frame 0 of the animation)."""
+    model = short("quick_return_1", steps=39)
+    text = motion.svg(model, frames_of(model), at=at, width=300 if at is not None else 820)
+    boxes = []
+    for tx, ty, x, y, label in re.findall(r'<g transform="translate\(([-\d.]+) ([-\d.]+)\)">(?:<animateTransform'
+                                          r'[^>]*>)?<text x="([-\d.]+)" y="([-\d.]+)"[^>]*>([^<]*)</text>', text):
+        x0, y0 = float(tx) + float(x), float(ty) + float(y)
+        boxes.append((x0, y0 - 11, x0 + 7.5 * len(label) + 2, y0 + 3))
+    assert len(boxes) == 5 + 3                    # the moving bodies and the named points
+    assert not any(a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+                   for i, a in enumerate(boxes) for b in boxes[i + 1:])
