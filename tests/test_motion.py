@@ -178,3 +178,18 @@ def test_labels_do_not_overlap_in_a_crowded_drawing(at):
     assert len(boxes) == 5 + 3                    # the moving bodies and the named points
     assert not any(a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
                    for i, a in enumerate(boxes) for b in boxes[i + 1:])
+
+
+def test_animate_leaves_out_an_engine_that_does_not_import(tmp_path, monkeypatch, capsys):
+    import adapters
+
+    def get(name):
+        raise ImportError(f"no module named {name}_sim (test)")
+
+    monkeypatch.setattr(adapters, "get", get)
+    case = tmp_path / "slider_crank.toml"
+    case.write_text(re.sub(r"\[time\][^\[]*", "[time]\nend = 0.2\nsteps = 4\n\n",
+                           (ROOT / "cases" / "slider_crank.toml").read_text(), count=1))
+    assert main(["animate", str(case), "--out", str(tmp_path / "a.svg"), "--engines", "pymunk"]) == 0
+    assert "pymunk: not drawn: failed: ImportError" in capsys.readouterr().err
+    assert "ghost" not in (tmp_path / "a.svg").read_text()

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import AnalysisError, InputError
+from ..errors import AnalysisError, InputError, KinemError
 from .drawing import MARK_NAMES, poses, scene, world
 from .motion import BODY_COLORS, ENGINE_COLORS, duration, svg
 from .runs import FRAMES, PATH_INSTANTS, sample
@@ -49,12 +49,18 @@ def frames(model, engines):
     native = {"t": r.trajectory.t[idx], "q": r.q[idx]}
     ghosts, skipped = {}, {}
     for name in engines:
-        adapter = get(name)
-        why = adapter.unsupported(model)
-        if why:
-            skipped[name] = why
+        try:
+            adapter = get(name)
+            why = adapter.unsupported(model)
+            if why:
+                skipped[name] = why
+                continue
+            run = adapter.run(model, r.q[0], r.qd[0], adapter.settings(dict(model.case.engines.get(name, {}))))
+        except KinemError:
+            raise                # a bad [engines.<name>] setting: the user's input
+        except Exception as e:  # noqa: BLE001 - an engine that does not import or crashes is left out, named
+            skipped[name] = f"failed: {type(e).__name__}: {e}"
             continue
-        run = adapter.run(model, r.q[0], r.qd[0], adapter.settings(dict(model.case.engines.get(name, {}))))
         if run.ok and len(run.q) == len(r.q):
             ghosts[name] = run.q[idx]
         else:
