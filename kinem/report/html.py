@@ -102,7 +102,12 @@ def case_section(case, model, series):
             out.append("<p>Constant over the run (within 1e-9 L, or 1e-9 rad): " + ", ".join(
                 f"{escape(c)} = {v:.6g} {'rad' if c.endswith('.phi') else escape(case['unit'])}"
                 for c, v in flat.items()) + ".</p>")
-        out.append("<h3>Position error against time</h3>" + _img(plots.errors(series), f"{name} errors"))
+        out.append("<h3>Position error against time</h3>")
+        if max(max(s["error"], default=0.0) for s in series.values()) <= plots.TINY:
+            out.append(f"<p>Below {plots.TINY:.0e} L at every instant for every run drawn "
+                       f"({', '.join(series)}): not plotted.</p>")
+        else:
+            out.append(_img(plots.errors(series), f"{name} errors"))
     out.append("<h3>Comparison</h3>" + case_table(case))
     wp = case["work_precision"]
     if wp:
@@ -124,7 +129,8 @@ def motion_section(model, series):
               if e != "native" and "frames" in s and s["frames"]["t"] == frames["t"]}
     anim = svg(model, frames, ghosts, paths_q=native.get("path_q"))
     n = len(frames["t"])
-    what = (f"engines' poses ({', '.join(ghosts)}) dashed over it" if ghosts else "no engine ran this case")
+    what = (f"engines' poses ({', '.join(ghosts)}) dashed over it" if ghosts
+            else "no engine's run to draw over it (see the comparison below)")
     pts = "named points' paths in the plane (coupler curves)" if model.case.points else "no named points"
     out = [f"<h3>Motion</h3><p>Native solid, {what}; {pts}. {n} frames over t = {frames['t'][0]:g} … "
            f"{frames['t'][-1]:g} s, looping every {duration(frames['t']):.3g} s.</p>", anim,

@@ -167,7 +167,6 @@ def svg(model, native, ghosts=None, at=None, width=820, max_height=520, standalo
                 if pb == b:
                     (px,), (py,) = v.local([p])
                     body += f'<circle data-point="{escape(name)}" cx="{px:.1f}" cy="{py:.1f}" r="3.5" fill="#111"/>'
-
             attrs = f' data-layer="{escape(layer)}" data-body="{escape(b)}"'
             out.append(clock.group(x, y, -np.degrees(np.unwrap(pp[:, k])), attrs) + body + "</g>")
     out += _labels(sc, v, clock, q, model)
@@ -181,7 +180,7 @@ def svg(model, native, ghosts=None, at=None, width=820, max_height=520, standalo
         h = v.height
     ns = ' xmlns="http://www.w3.org/2000/svg"' if standalone else ""
     return (f'<svg{ns} class="motion" width="{v.width}" height="{h}" viewBox="0 0 {v.width} {h}" '
-            f'font-family="sans-serif" font-size="13" role="img"><title>{escape(model.case.name)}: '
+            f'font-family="sans-serif" font-size="13" role="img" style="max-width:100%;height:auto"><title>{escape(model.case.name)}: '
             f'{"motion" if at is None else f"t = {t[at]:.3g} s"}</title>'
             + "".join(out) + "</svg>")
 
