@@ -179,10 +179,12 @@ def _artists(ax, it, color, ghost, Polygon):
         closed = r in ("link", "circle", "cam") and len(it.xy) > 2
         return ax.plot([], [], "--", color=ghost, lw=1.2, zorder=5) if not closed else \
             [ax.add_patch(Polygon(np.zeros((1, 2)), closed=True, fill=False, ec=ghost, ls="--", lw=1.2, zorder=5))]
+    from matplotlib.colors import to_rgba
+
     if r == "link" and len(it.xy) > 2:
-        return [ax.add_patch(Polygon(np.zeros((1, 2)), closed=True, fc=color, alpha=0.35, ec=color, lw=2))]
+        return [ax.add_patch(Polygon(np.zeros((1, 2)), closed=True, fc=to_rgba(color, 0.35), ec=color, lw=2))]
     if r in ("circle", "cam"):
-        return [ax.add_patch(Polygon(np.zeros((1, 2)), closed=True, fc=color, alpha=0.12, ec=color, lw=1.2))]
+        return [ax.add_patch(Polygon(np.zeros((1, 2)), closed=True, fc=to_rgba(color, 0.12), ec=color, lw=1.2))]
     styles = {"link": dict(color=color, lw=5, alpha=0.75, solid_capstyle="round"),
               "disc": dict(marker="o", color=color, ms=8, ls=""),
               "spoke": dict(color=color, lw=2), "face": dict(color=color, lw=3.5),
