@@ -19,7 +19,7 @@ from .spec import Case, frozen_map
 
 MAX_FILE_BYTES = 16 * 2**20
 TOP_KEYS = ("name", "description", "units", "time", "solver", "bodies", "points", "constraints", "engines",
-            "equivalent")
+            "equivalent", "report")
 
 
 def load(path) -> Case:
@@ -74,11 +74,12 @@ def load_dict(data, source: str = "<dict>") -> Case:
     cons = constraints(ck, data.get("constraints"), bodies, points, end)
     engines = sections.engines(ck, data.get("engines", {}))
     equivalent = sections.equivalent(ck, data["equivalent"], points) if "equivalent" in data else None
+    report = sections.report(ck, data.get("report", {}), points)
     ck.raise_if_any()
     return Case(name=name, bodies=tuple(bodies.values()), points=tuple(points.values()),
                 constraints=tuple(cons), end=end or 1.0, steps=steps, description=description,
                 units=frozen_map(units), engines=frozen_map(engines), source=source,
-                equivalent=equivalent, **solver)
+                equivalent=equivalent, report=frozen_map(report), **solver)
 
 
 def check_time(case: Case) -> Case:

@@ -342,6 +342,18 @@ def cmd_report(a):
     return outcome.exit_code
 
 
+def cmd_animate(a):
+    from .report.animate import check_output, write
+
+    engines = [e for e in _engines(a.engines, allow_empty=True) if e != "native"]
+    check_output(a.out)
+    skipped = write(_load(a.case), a.out, engines)
+    for name, why in skipped.items():
+        print(f"{name}: not drawn: {why}", file=sys.stderr)
+    print(a.out)
+    return 0
+
+
 def parser():
     from . import __version__
 
@@ -427,6 +439,14 @@ def parser():
     r.add_argument("--no-stress", action="store_true", help="leave out the stress suite even for the whole case set")
     _scheduler_option(r)
     r.set_defaults(run=cmd_report)
+
+    an = sub.add_parser("animate", help="the report's animation of one case: native solid, engines as ghosts, "
+                                        "the named points' paths (.svg, .gif, or .mp4 with ffmpeg)")
+    an.add_argument("case")
+    an.add_argument("--out", required=True, help="FILE.svg (animated SVG), FILE.gif, or FILE.mp4")
+    an.add_argument("--engines", default="native,pymunk,mujoco,exudyn",
+                    help="engines drawn as ghosts over the native solution")
+    an.set_defaults(run=cmd_animate)
     return p
 
 

@@ -69,6 +69,7 @@ class Case:
     description: str = ""
     units: Mapping = field(default_factory=frozen_map)
     engines: Mapping = field(default_factory=frozen_map)  # engine name -> settings overrides
+    report: Mapping = field(default_factory=frozen_map)   # [report]: points (names the report draws)
     source: str = "<memory>"
     equivalent: Equivalence | None = None  # [equivalent]: the group of equivalent models it belongs to
 

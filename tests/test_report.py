@@ -2,6 +2,7 @@
 synthetic regressions, the self-contained HTML, junit.xml, and bad baselines
 as input errors. Cases are shortened copies (20 instants); engines are a
 fake adapter, run in this process (workers=0)."""
+import base64
 import copy
 import json
 import re
@@ -107,12 +108,22 @@ def test_html_is_self_contained_and_lists_every_case(report):
     outcome, out = report
     html = (out / "index.html").read_text()
     for ref in re.findall(r'(?:src|href)="([^"]*)"', html):   # images inline, links within the page
-        assert ref.startswith(("data:image/png;base64,", "#")), ref[:40]
+        assert ref.startswith(("data:image/png;base64,", "data:image/svg+xml;base64,", "#")), ref[:40]
+        if ref.startswith("data:image/svg+xml"):                # an SVG plot refers only to itself
+            svg = base64.b64decode(ref.partition(",")[2]).decode()
+            assert not re.search(r'href="(?!#)|url\((?!#)|@import|<script', svg)
     text = re.sub(r'"data:[^"]*"', "", html)
-    assert not re.search(r"[a-z]+://|url\(|@import|<script|<link|<iframe", text)
+    assert not re.search(r"[a-z]+://|url\(|@import|<script|<link|<iframe|<foreignObject", text)
     for case in outcome.doc["cases"]:
         assert f'id="case-{case["name"]}"' in html
-    assert html.count("data:image/png;base64,") >= 2 * 4  # mechanism, trajectories, errors, work-precision
+    assert html.count('src="data:image/') >= 2 * 3  # trajectories, errors, work-precision
+    # one animation per case, in that case's section: an inline SVG moved by SMIL, no script
+    sections = re.split(r'<section id="case-', html)[1:]
+    assert len(sections) == len(outcome.doc["cases"])
+    for part in sections:
+        motions = re.findall(r'<svg class="motion".*?</svg>', part, re.S)
+        assert sum("<animateTransform" in m for m in motions) == 1, part[:40]
+        assert sum("<animateTransform" not in m for m in motions) == 4      # the four snapshots
     md = (out / "summary.md").read_text()
     # the summary matrix: one row per case, one column per engine
     assert md.count("| slider_crank |") == 1 and md.count("| four_bar |") == 1

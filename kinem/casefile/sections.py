@@ -202,3 +202,22 @@ def equivalent(ck, e, points):
                "points of [points]: " + (names(points) or "(none defined)"))
         return None
     return Equivalence(group, tuple(dict.fromkeys(listed))) if group else None
+
+
+def report(ck, r, points):
+    """[report]: points = the named points the report draws and plots (default: all)."""
+    if not isinstance(r, dict):
+        ck.bad("[report]", None, f"got {show(r)}", "a table such as { points = [\"B\"] }")
+        return {}
+    ck.keys("[report]", r, ("points",))
+    listed = r.get("points")
+    if listed is None:
+        return {}
+    if not isinstance(listed, list) or not listed or len(listed) > MAX_ITEMS \
+            or not all(isinstance(n, str) for n in listed):
+        ck.bad("[report]", "points", f"got {show(listed)}", "a non-empty list of names from [points]")
+        return {}
+    for n in listed:
+        if ck.choice("[report]", "points", n, points, "point") is None:
+            return {}
+    return {"points": tuple(dict.fromkeys(listed))}

@@ -6,8 +6,10 @@ import json
 from html import escape
 
 from . import plots
+from .runs import sample
 from .text import fmt, headline, matrix, provenance, reason, short, unsupported_lines, us
 
+SNAPSHOTS = 4   # instants of the static mechanism drawings
 CSS = """body{font:14px/1.4 system-ui,sans-serif;margin:1.5em auto;max-width:1250px;padding:0 1em;color:#222}
 table{border-collapse:collapse;margin:.5em 0 1em}td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}
 td:not(.l){white-space:nowrap}
@@ -35,8 +37,8 @@ def _td(text, cls="", left=False):
     return f"<td{f' class={chr(34)}{c}{chr(34)}' if c else ''}>{escape(str(text))}</td>"
 
 
-def _img(b64, alt):
-    return f'<img alt="{escape(alt)}" src="data:image/png;base64,{b64}">'
+def _img(uri, alt):
+    return f'<img alt="{escape(alt)}" src="{uri}">'
 
 
 def summary_matrix(doc):
@@ -132,12 +134,22 @@ def case_section(case, model, series):
            f"tolerance {fmt(case['reference_tolerance'], '.0e')}; native's position error against "
            f"{escape(_native_reference(case))}.</p>"]
     native = series.get("native")
-    if native and "snapshots" in native:
-        snap = native["snapshots"]
-        out.append("<h3>Mechanism</h3>" + _img(plots.mechanism(model, snap["t"], snap["q"]), f"{name} mechanism"))
-        png = plots.trajectories(native["t"], native["reference"], series, case["unit"])
-        out.append("<h3>Key trajectories</h3>" + _img(png, f"{name} trajectories"))
-        out.append("<h3>Position error against time</h3>" + _img(plots.errors(series), f"{name} errors"))
+    if native and "frames" in native:
+        out += motion_section(model, series)
+        img, flat = plots.trajectories(native["t"], native["reference"], series, case["unit"], case["length"])
+        out.append("<h3>Named points against time</h3>" if model.case.points else "<h3>Bodies against time</h3>")
+        if img:
+            out.append(_img(img, f"{name} trajectories"))
+        if flat:
+            out.append("<p>Constant over the run (within 1e-9 L, or 1e-9 rad): " + ", ".join(
+                f"{escape(c)} = {v:.6g} {'rad' if c.endswith('.phi') else escape(case['unit'])}"
+                for c, v in flat.items()) + ".</p>")
+        out.append("<h3>Position error against time</h3>")
+        if max(max(s["error"], default=0.0) for s in series.values()) <= plots.TINY:
+            out.append(f"<p>Below {plots.TINY:.0e} L at every instant for every run drawn "
+                       f"({', '.join(series)}): not plotted.</p>")
+        else:
+            out.append(_img(plots.errors(series), f"{name} errors"))
     out.append("<h3>Comparison</h3>" + case_table(case))
     wp = case["work_precision"]
     if wp:
@@ -151,6 +163,29 @@ def case_section(case, model, series):
 def _native_reference(case):
     native = next((r for r in case["runs"] if r["engine"] == "native"), None)
     return native["reference"] if native else "–"
+
+
+def motion_section(model, series):
+    """The animation (native solid, engines' ghosts, point paths) and the
+    mechanism at SNAPSHOTS instants, drawn by motion.py."""
+    from .motion import duration, svg
+
+    native = series["native"]
+    frames = native["frames"]
+    ghosts = {e: s["frames"]["q"] for e, s in series.items()
+              if e != "native" and "frames" in s and s["frames"]["t"] == frames["t"]}
+    anim = svg(model, frames, ghosts, paths_q=native.get("path_q"))
+    n = len(frames["t"])
+    what = (f"engines' poses ({', '.join(ghosts)}) dashed over it" if ghosts
+            else "no engine's run to draw over it (see the comparison below)")
+    pts = "named points' paths in the plane (coupler curves)" if model.case.points else "no named points"
+    out = [f"<h3>Motion</h3><p>Native solid, {what}; {pts}. {n} frames over t = {frames['t'][0]:g} … "
+           f"{frames['t'][-1]:g} s, looping every {duration(frames['t']):.3g} s.</p>", anim,
+           "<h3>Mechanism at four instants</h3><div style=\"display:flex;flex-wrap:wrap;gap:6px\">"]
+    for k in sample(n, SNAPSHOTS):
+        out.append(svg(model, frames, None, at=int(k), width=300, max_height=260, paths_q=native.get("path_q")))
+    out.append("</div>")
+    return out
 
 
 def render_section(job) -> str:

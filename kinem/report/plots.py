@@ -1,4 +1,5 @@
-"""The report's figures, as base64 PNG for data: URIs (matplotlib, Agg)."""
+"""The report's plots as data: URIs (matplotlib, Agg): SVG or PNG, whichever is lighter.
+The mechanism's drawings and animation are motion.py's."""
 import base64
 import io
 
@@ -6,7 +7,9 @@ import numpy as np
 
 COLORS = {"native": "black", "pymunk": "tab:orange", "mujoco": "tab:blue", "exudyn": "tab:green"}
 TINY = 1e-16   # smaller errors (often exactly 0: the reference's own iterates) are drawn here
-JOINT_MARKERS = {"revolute": "o", "translational": "s", "revolute-translational": "D"}
+SVG_VERTICES = 1000  # a 500-instant trajectory figure: 52 kB SVG against 32 kB PNG
+CONSTANT = 1e-9  # a column whose range is below this x L (or rad) is constant: the reference is converged
+                 # to 1e-13, so this is far above its rounding and far below anything a plot could show
 
 
 def _plt():
@@ -19,103 +22,57 @@ def _plt():
 
 
 def _png(fig) -> str:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=80, bbox_inches="tight")
+    """The figure as a data: URI: SVG (text kept as text) when that is
+    lighter than the PNG, else the PNG. Figures with more than SVG_VERTICES
+    line vertices are always heavier as SVG (measured), so only the PNG is made."""
+    png, svg = io.BytesIO(), io.BytesIO()
+    fig.savefig(png, format="png", dpi=80, bbox_inches="tight")
+    if sum(len(line.get_xdata()) for ax in fig.axes for line in ax.lines) > SVG_VERTICES:
+        _plt().close(fig)
+        return "data:image/png;base64," + base64.b64encode(png.getvalue()).decode("ascii")
+    with _plt().rc_context({"svg.fonttype": "none"}):
+        fig.savefig(svg, format="svg", bbox_inches="tight", metadata={"Date": None})
     _plt().close(fig)
-    return base64.b64encode(buf.getvalue()).decode("ascii")
+    kind, data = min((("image/svg+xml", svg.getvalue()), ("image/png", png.getvalue())), key=lambda k: len(k[1]))
+    return f"data:{kind};base64," + base64.b64encode(data).decode("ascii")
 
 
-def shapes(model):
-    """(body, local points as complex) of the outlines (cams, slots) and the
-    circles (gears' pitch circles, rollers) the constraints put on bodies:
-    each on the body named last before it among the type's keys, a circle
-    about the local point given last on that body (else its origin)."""
-    from kinem.casefile.keys import BodyKey, LocalKey, OutlineKey, PositiveKey
-    from kinem.constraints import REGISTRY
-
-    out, ring = [], np.exp(1j * np.linspace(0, 2 * np.pi, 73))
-    for c in model.case.constraints:
-        body, centre = None, 0j
-        for key in REGISTRY[c.type].keys:
-            v = c.get(key.name)
-            if v is None:
-                continue
-            if isinstance(key, BodyKey):
-                body, centre = v, 0j
-            elif isinstance(key, LocalKey) and key.of and c.get(key.of) == body and not isinstance(v, str):
-                centre = complex(*v)
-            elif isinstance(key, PositiveKey) and key.name != "length" and body:
-                out.append((body, centre + float(v) * ring))
-            elif isinstance(key, OutlineKey) and body and hasattr(v, "point_at"):
-                a, b = v.span
-                out.append((body, np.asarray(v.point_at(np.linspace(a, b, 121))[0])))
-    return out
+def constant(values, scale, rel=CONSTANT):
+    """True when ``values`` vary by no more than rel x scale (rounding, not motion)."""
+    v = np.asarray(values, float)
+    return bool(v.size) and bool(np.all(np.isfinite(v))) and float(np.ptp(v)) <= rel * scale
 
 
-def mechanism(model, times, qs) -> str:
-    """Each body as the polygon of its points (sorted by angle about their
-    centre), ground points as triangles, joints marked, at a few instants."""
-    from adapters.base import body_points, grounded
-    from kinem.casefile.keys import LocalKey
-    from kinem.constraints import REGISTRY
-
+def trajectories(t_ref, ref_cols, runs, unit="", length=1.0):
+    """Key columns, four panels a row: reference thick grey, native solid,
+    engines dashed. runs: engine -> series. Columns of the reference that
+    are constant (positions within CONSTANT x L, angles within CONSTANT rad)
+    are not drawn. Returns (data: URI or None, {column: its constant value})."""
     plt = _plt()
-    pts, fixed, extra = body_points(model), grounded(model), shapes(model)
-    fig, axes = plt.subplots(1, len(times), figsize=(3.2 * len(times), 3.0))
-    axes = np.atleast_1d(axes)
-    for ax, t, q in zip(axes, times, qs):
-        q = np.asarray(q)
-        for k, b in enumerate(model.body_names):
-            local = np.unique(np.array(pts[b] or [(0.0, 0.0)], float), axis=0)
-            w = (q[3 * k] + 1j * q[3 * k + 1]) + (local[:, 0] + 1j * local[:, 1]) * np.exp(1j * q[3 * k + 2])
-            if b in fixed:
-                ax.plot(w.real, w.imag, "^", color="0.4", ms=7)
-                continue
-            c = w.mean()
-            w = w[np.argsort(np.angle(w - c))]
-            ring = np.append(w, w[:1])
-            ax.fill(ring.real, ring.imag, alpha=0.25, color=f"C{k % 10}")
-            ax.plot(ring.real, ring.imag, "-", color=f"C{k % 10}", lw=1.5)
-        for b, local in extra:
-            k = model.body_names.index(b)
-            w = (q[3 * k] + 1j * q[3 * k + 1]) + local * np.exp(1j * q[3 * k + 2])
-            ax.plot(w.real, w.imag, "-", color="0.4" if b in fixed else f"C{k % 10}", lw=1)
-        for c in model.case.constraints:  # each joint at its first local point
-            key = next((k for k in REGISTRY[c.type].keys if isinstance(k, LocalKey) and c.get(k.name) is not None), None)
-            if key is None or c.type == "driver":
-                continue
-            k = model.body_names.index(c[key.of])
-            p = (q[3 * k] + 1j * q[3 * k + 1]) + complex(*c[key.name]) * np.exp(1j * q[3 * k + 2])
-            ax.plot(p.real, p.imag, JOINT_MARKERS.get(c.type, "x"), mfc="white", mec="black", ms=5)
-        ax.set_title(f"t = {t:.3g} s", fontsize=9)
-        ax.tick_params(labelsize=7)
-    lo = np.min([ax.dataLim.min for ax in axes], axis=0)
-    hi = np.max([ax.dataLim.max for ax in axes], axis=0)
-    pad = 0.05 * (hi - lo).max()
-    for ax in axes:  # the same window in every panel
-        ax.set_xlim(lo[0] - pad, hi[0] + pad)
-        ax.set_ylim(lo[1] - pad, hi[1] + pad)
-        ax.set_aspect("equal", adjustable="box")
-    return _png(fig)
-
-
-def trajectories(t_ref, ref_cols, runs, unit="") -> str:
-    """Key columns: reference (native) solid, engines dashed. runs: engine -> series."""
-    plt = _plt()
-    cols = list(ref_cols)
-    fig, axes = plt.subplots(1, len(cols), figsize=(3.2 * len(cols), 2.6), squeeze=False)
-    for ax, col in zip(axes[0], cols):
+    flat = {c: float(np.mean(v)) for c, v in ref_cols.items()
+            if constant(v, 1.0 if c.endswith(".phi") else length)}
+    cols = [c for c in ref_cols if c not in flat]
+    if not cols:
+        return None, flat
+    ncols = min(4, len(cols))
+    nrows = -(-len(cols) // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(3.3 * ncols, 2.5 * nrows), squeeze=False)
+    for ax in axes.flat[len(cols):]:
+        ax.set_visible(False)
+    for ax, col in zip(axes.flat, cols):
         ax.plot(t_ref, ref_cols[col], "-", color="0.7", lw=4, label="reference")
         for e, s in runs.items():
             if col in s["columns"]:
                 ax.plot(s["t"], s["columns"][col], "-" if e == "native" else "--",
                         color=COLORS.get(e), lw=1.2, label=e)
-        ax.set_title(f"{col} ({unit})" if unit else col, fontsize=9, parse_math=False)  # units are text, never mathtext
-        ax.set_xlabel("t (s)", fontsize=8)
-        ax.tick_params(labelsize=7)
+        u = "rad" if col.endswith(".phi") else unit
+        ax.set_title(f"{col} ({u})" if u else col, fontsize=10, parse_math=False)  # units are text, never mathtext
+        ax.set_xlabel("t (s)", fontsize=9)
+        ax.tick_params(labelsize=8)
     if axes[0][0].get_legend_handles_labels()[0]:
-        axes[0][0].legend(fontsize=7)
-    return _png(fig)
+        axes[0][0].legend(fontsize=8)
+    fig.tight_layout()
+    return _png(fig), flat
 
 
 def errors(runs) -> str:
@@ -140,6 +97,7 @@ def work_precision(wp) -> str:
     fig, axes = plt.subplots(1, 2, figsize=(11.0, 4.0))
     for ax, key, label in ((axes[0], "error", "max position error / L"),
                            (axes[1], "velocity_error_rel", "max velocity error / characteristic speed")):
+        labels = []
         for curve in wp["curves"]:
             ok = [p for p in curve["points"] if p["status"] == "ok" and p[key] is not None and p["cost"]]
             if not ok:
@@ -148,8 +106,8 @@ def work_precision(wp) -> str:
             y = [max(p[key], TINY) for p in ok]
             e = curve["engine"]
             ax.loglog(x, y, "o-", color=COLORS.get(e), label=f"{e} ({curve['knob']})")
-            for p, xi, yi in zip(ok, x, y):
-                ax.annotate(f"{p['value']:.0e}", (xi, yi), fontsize=6, xytext=(3, 3), textcoords="offset points")
+            labels += [(f"{p['value']:.0e}", xi, yi, COLORS.get(e)) for p, xi, yi in zip(ok, x, y)]
+        _place_labels(ax, labels)
         ax.set_xlabel("wall time per simulated second (s)", fontsize=8)
         ax.set_ylabel(label, fontsize=8)
         ax.grid(True, which="major", alpha=0.3)
@@ -157,3 +115,25 @@ def work_precision(wp) -> str:
     if axes[0].get_legend_handles_labels()[0]:
         axes[0].legend(fontsize=7)
     return _png(fig)
+
+
+OFFSETS = ((4, 4), (4, -11), (-34, 4), (-34, -11), (4, 12), (-34, 12))   # points, tried in turn
+
+
+def _place_labels(ax, labels):
+    """Annotates (text, x, y, colour) points at the first offset where the
+    label overlaps no label placed before it and no other point; a label with
+    no free place is left out (its point's value is in the table below the plot)."""
+    ax.autoscale_view()
+    renderer = ax.figure.canvas.get_renderer()
+    pts = [ax.transData.transform((x, y)) for _, x, y, _ in labels]
+    placed = []
+    for k, (text, x, y, color) in enumerate(labels):
+        for off in OFFSETS:
+            a = ax.annotate(text, (x, y), fontsize=7, xytext=off, textcoords="offset points", color=color)
+            box = a.get_window_extent(renderer).expanded(1.05, 1.1)
+            if not (any(box.overlaps(b) for b in placed)
+                    or any(box.contains(*p) for j, p in enumerate(pts) if j != k)):
+                placed.append(box)
+                break
+            a.remove()

@@ -17,7 +17,8 @@ import numpy as np
 
 REFERENCE_TOLERANCE = 1e-13  # scaled residual; about 500 machine epsilons of L
 REFERENCE_LABEL = "native at the reference tolerance"  # what a run's figures are against, unless it says otherwise
-SNAPSHOTS = 4                # instants drawn in the mechanism figure
+FRAMES = 120                 # instants of the animation (native and every engine at the same ones)
+PATH_INSTANTS = 480          # instants of the named points' paths drawn in the plane
 ERROR_KEYS = ("position_error", "position_error_rel", "angle_error", "velocity_error", "velocity_error_rel",
               "angular_velocity_error", "constraint_residual")   # adapters.compare.FIGURES
 
@@ -70,15 +71,22 @@ def _finite(x):
 
 
 def key_columns(model):
-    """Up to four trajectory columns worth plotting: x and y of the first two
-    moving named points, else of the first two moving bodies."""
+    """The trajectory columns plotted: x and y of every moving named point the
+    report draws (drawing.plotted_points), else x, y and phi of every moving body."""
     from adapters.base import grounded
 
+    from .drawing import plotted_points
+
     fixed = grounded(model)
-    items = [p.name for p in model.case.points if p.body not in fixed][:2]
-    if not items:
-        items = [b for b in model.body_names if b not in fixed][:2]
-    return [f"{n}.{c}" for n in items for c in ("x", "y")]
+    items = [p.name for p in plotted_points(model) if p.body not in fixed]
+    if items:
+        return [f"{n}.{c}" for n in items for c in ("x", "y")]
+    return [f"{b}.{c}" for b in model.body_names if b not in fixed for c in ("x", "y", "phi")]
+
+
+def sample(n, limit):
+    """Indices of at most ``limit`` instants spread evenly over n, first and last included."""
+    return np.unique(np.round(np.linspace(0, n - 1, min(n, limit))).astype(int))
 
 
 def error_series(model, ref, traj):
@@ -91,14 +99,19 @@ def error_series(model, ref, traj):
     return (np.max(xy, axis=0) / model.length).tolist()
 
 
-def _series(model, ref, traj, with_reference=False):
+def _series(model, ref, traj, q, with_reference=False):
+    """What the page draws of one run: the key columns, the error per instant,
+    the coordinates at the animation's frames (and, for native, the reference's
+    key columns and the denser coordinates the point paths are drawn from)."""
     cols = key_columns(model)
+    q = np.asarray(q)
+    idx = sample(len(q), FRAMES)
     out = {"t": traj.t.tolist(), "error": error_series(model, ref, traj),
-           "columns": {c: traj[c].tolist() for c in cols}}
+           "columns": {c: traj[c].tolist() for c in cols},
+           "frames": {"t": traj.t[idx].tolist(), "q": q[idx].tolist()}}
     if with_reference:
-        idx = np.unique(np.round(np.linspace(0, len(ref.q) - 1, SNAPSHOTS)).astype(int))
         out["reference"] = {c: ref.trajectory[c].tolist() for c in cols}
-        out["snapshots"] = {"t": ref.trajectory.t[idx].tolist(), "q": ref.q[idx].tolist()}
+        out["path_q"] = q[sample(len(q), PATH_INSTANTS)].tolist()
     return out
 
 
@@ -131,7 +144,7 @@ def run_native(task):
     out = _blank(task, "ok", **base, **{k: _finite(e.get(k)) for k in ERROR_KEYS})
     out["within_tolerance"] = True
     if task.knob is None:
-        out["series"] = _series(model, ref, r.trajectory, with_reference=True)
+        out["series"] = _series(model, ref, r.trajectory, r.q, with_reference=True)
         out["reference_tolerance"] = ref_tol
         _independent(model, ref, r.trajectory, out)
     return out
@@ -191,7 +204,7 @@ def run_engine(task):
     if c.status is Status.OK:
         out.update({k: _finite(getattr(c, k)) for k in ERROR_KEYS})
         if task.knob is None:
-            out["series"] = _series(model, ref, run.trajectory)
+            out["series"] = _series(model, ref, run.trajectory, run.q)
     return out
 
 

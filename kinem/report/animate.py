@@ -1,0 +1,199 @@
+"""``kinem animate CASE --out FILE``: the report's animation of one case.
+
+The case runs on the native solver and on each engine asked for (the
+report's main runs: adapter defaults, then the case's [engines.<name>]
+table); the frames are sampled as the report samples them (runs.FRAMES).
+FILE.svg is the report's animated SVG, standalone; FILE.gif and FILE.mp4
+draw the same scene frame by frame with matplotlib (mp4 needs ffmpeg).
+"""
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import AnalysisError, InputError, KinemError
+from .drawing import MARK_NAMES, poses, scene, world
+from .motion import BODY_COLORS, ENGINE_COLORS, duration, svg
+from .runs import FRAMES, PATH_INSTANTS, sample
+
+FORMATS = (".svg", ".gif", ".mp4")
+
+
+def check_output(out):
+    """Input errors about --out, before anything runs."""
+    ext = Path(out).suffix.lower()
+    if ext not in FORMATS:
+        raise InputError(f"--out {out}: expected a file ending in {', '.join(FORMATS)}")
+    if ext == ".mp4":
+        from matplotlib import animation
+
+        if not animation.writers.is_available("ffmpeg"):
+            raise InputError(f"--out {out}: mp4 needs ffmpeg, which is not installed; write .svg or .gif instead")
+    parent = Path(out).parent
+    if not parent.is_dir():
+        raise InputError(f"--out {out}: directory {parent} does not exist")
+    return ext
+
+
+def frames(model, engines):
+    """(native frames {t, q}, engine -> q at the same instants, denser native q
+    for the paths, engine -> why it is not drawn)."""
+    from adapters import get
+    from kinem.analysis import solve
+
+    r = solve(model)
+    if not r.success:
+        raise AnalysisError(f"{model.case.source}: {r.message}")
+    idx = sample(len(r.q), FRAMES)
+    native = {"t": r.trajectory.t[idx], "q": r.q[idx]}
+    ghosts, skipped = {}, {}
+    for name in engines:
+        try:
+            adapter = get(name)
+            why = adapter.unsupported(model)
+            if why:
+                skipped[name] = why
+                continue
+            run = adapter.run(model, r.q[0], r.qd[0], adapter.settings(dict(model.case.engines.get(name, {}))))
+        except KinemError:
+            raise                # a bad [engines.<name>] setting: the user's input
+        except Exception as e:  # noqa: BLE001 - an engine that does not import or crashes is left out, named
+            skipped[name] = f"failed: {type(e).__name__}: {e}"
+            continue
+        if run.ok and len(run.q) == len(r.q):
+            ghosts[name] = run.q[idx]
+        else:
+            skipped[name] = run.status
+    return native, ghosts, r.q[sample(len(r.q), PATH_INSTANTS)], skipped
+
+
+def write(model, out, engines) -> dict:
+    """Writes the animation to ``out``; returns engine -> why it is not drawn."""
+    ext = check_output(out)
+    native, ghosts, dense, skipped = frames(model, engines)
+    if ext == ".svg":
+        data = ('<?xml version="1.0" encoding="utf-8"?>\n'
+                + svg(model, native, ghosts, standalone=True, paths_q=dense) + "\n").encode()
+    else:
+        data = raster(model, native, ghosts, dense, ext)
+    save(out, data)
+    return skipped
+
+
+def save(path, data: bytes):
+    """Atomically (temporary file, then rename), except through what is not a
+    regular file (a device, FIFO or symlink: written through, never replaced)."""
+    from ..output import write_atomic
+
+    p = Path(path)
+    if p.is_symlink() or (p.exists() and not p.is_file()):
+        with open(p, "wb") as f:
+            f.write(data)
+    else:
+        write_atomic(p, lambda f: f.write(data))
+
+
+def raster(model, native, ghosts, dense, ext) -> bytes:
+    """GIF or MP4 bytes: the scene drawn by matplotlib at every frame, at the
+    SVG's pace (motion.duration)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib import animation
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch, Polygon
+
+    t, q = np.asarray(native["t"]), np.asarray(native["q"])
+    sc = scene(model, dense)
+    color = {b: BODY_COLORS[k % len(BODY_COLORS)] for k, b in enumerate(sc.bodies)}
+    fig, ax = plt.subplots(figsize=(8, 6), dpi=90)
+    ax.set_aspect("equal")
+    unit = model.case.length_unit
+    ax.set_xlabel(f"x ({unit})" if unit else "x", parse_math=False)   # units are text, never mathtext
+    ax.set_ylabel(f"y ({unit})" if unit else "y", parse_math=False)
+    ax.grid(True, alpha=0.25)
+    for name, body, p in sc.points:
+        w = world(model, dense, body, [p])[:, 0]
+        ax.plot(w.real, w.imag, "-", color=color[body], lw=1, alpha=0.8)
+    movers = []   # (artist, body, local points, layer's poses)
+    layers = [(None, poses(model, q))] + [(ENGINE_COLORS.get(e, "k"), poses(model, g)) for e, g in ghosts.items()]
+    for ghost, pose in layers:
+        for it in sc.items:
+            if ghost and (it.body in sc.fixed or it.role in ("joint", "ground")):
+                continue
+            movers += [(a, it.body, it.xy, pose) for a in _artists(ax, it, color[it.body], ghost, Polygon)]
+        if ghost is None:
+            for _, body, p in sc.points:
+                movers.append((ax.plot([], [], "o", color="#111", ms=4, zorder=6)[0], body, np.array([p]), pose))
+    labels = [(ax.text(0, 0, b, fontweight="bold", zorder=7), b, np.concatenate(
+        [it.xy for it in sc.items if it.body == b and it.role in ("link", "disc", "circle")]).mean())
+        for b in sc.bodies if b not in sc.fixed]
+    labels += [(ax.text(0, 0, n, style="italic", zorder=7), b, p) for n, b, p in sc.points]
+    clock = ax.set_title("")
+    every = np.concatenate([world(model, q, it.body, it.xy).ravel() for it in sc.items])
+    pad = 0.05 * max(np.ptp(every.real), np.ptp(every.imag), 1e-12)
+    ax.set_xlim(every.real.min() - pad, every.real.max() + pad)
+    ax.set_ylim(every.imag.min() - pad, every.imag.max() + pad)
+    handles = [Patch(facecolor="#9467bd", alpha=0.4, label="native")]
+    handles += [Line2D([], [], color=ENGINE_COLORS.get(e, "k"), ls="--", label=f"{e} (ghost)") for e in ghosts]
+    marks = {it.mark for it in sc.items if it.role == "joint"}
+    handles += [Line2D([], [], ls="", marker=m, mfc="white", mec="k", label=text)
+                for m, text in MARK_NAMES if m in marks]
+    ax.legend(handles=handles, loc="upper left", fontsize=8, framealpha=0.8)
+    nudge = 0.012 * (ax.get_xlim()[1] - ax.get_xlim()[0])
+
+    def draw(k):
+        for artist, body, local, (r, phi) in movers:
+            j = sc.bodies.index(body)
+            w = r[k, j] + local * np.exp(1j * phi[k, j])
+            if isinstance(artist, Polygon):
+                artist.set_xy(np.column_stack([w.real, w.imag]))
+            else:
+                artist.set_data(w.real, w.imag)
+        r, phi = poses(model, q[k:k + 1])
+        for text, body, p in labels:
+            j = sc.bodies.index(body)
+            w = r[0, j] + p * np.exp(1j * phi[0, j])
+            text.set_position((w.real + nudge, w.imag + nudge))
+        clock.set_text(f"{model.case.name}: t = {t[k]:.3f} s")
+        return []
+
+    fps = len(t) / duration(t)
+    anim = animation.FuncAnimation(fig, draw, frames=len(t), blit=False)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "out" + ext)
+        writer = animation.PillowWriter(fps=fps) if ext == ".gif" else animation.FFMpegWriter(fps=fps)
+        anim.save(path, writer=writer)
+        plt.close(fig)
+        return Path(path).read_bytes()
+
+
+def _artists(ax, it, color, ghost, Polygon):
+    """The matplotlib artists of one scene item (data set per frame)."""
+    r = it.role
+    if ghost:
+        if r == "disc":
+            return ax.plot([], [], "o", mfc="none", mec=ghost, ms=8, zorder=5)
+        closed = r in ("link", "circle", "cam") and len(it.xy) > 2
+        return ax.plot([], [], "--", color=ghost, lw=1.2, zorder=5) if not closed else \
+            [ax.add_patch(Polygon(np.zeros((1, 2)), closed=True, fill=False, ec=ghost, ls="--", lw=1.2, zorder=5))]
+    from matplotlib.colors import to_rgba
+
+    if r == "link" and len(it.xy) > 2:
+        return [ax.add_patch(Polygon(np.zeros((1, 2)), closed=True, fc=to_rgba(color, 0.35), ec=color, lw=2))]
+    if r in ("circle", "cam"):
+        return [ax.add_patch(Polygon(np.zeros((1, 2)), closed=True, fc=to_rgba(color, 0.12), ec=color, lw=1.2))]
+    styles = {"link": dict(color=color, lw=5, alpha=0.75, solid_capstyle="round"),
+              "disc": dict(marker="o", color=color, ms=8, ls=""),
+              "spoke": dict(color=color, lw=2), "face": dict(color=color, lw=3.5),
+              "rack": dict(color=color, lw=1.2),
+              "rail": dict(color="#666", lw=2.5),
+              "ground": dict(marker="^", color="#666", ms=9, ls=""),
+              "joint": dict(marker=it.mark, mfc="white", mec="k", color="k", ms=6, ls="", zorder=6)}
+    if r == "slot":
+        return ax.plot([], [], color="#555", lw=9, solid_capstyle="round") + \
+            ax.plot([], [], color="white", lw=5, solid_capstyle="round")
+    return ax.plot([], [], **styles.get(r, dict(color=color)))
+
