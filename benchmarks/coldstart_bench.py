@@ -1,13 +1,22 @@
 """Section 7 (cold start) of benchmarks/run.py; it runs the probe
 benchmarks/coldstart.py in subprocesses."""
+import atexit
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 
 from common import ROOT, say
+
+# The full run's CSV goes to a scratch file, never to os.devnull: run as root, an atomic
+# writer would rename its temporary file over the device.
+SCRATCH = tempfile.mkdtemp(prefix="kinem-bench-")
+atexit.register(shutil.rmtree, SCRATCH, True)
+SINK = os.path.join(SCRATCH, "full.csv")
 
 
 # -- 7 cold start ---------------------------------------------------------------------------------
@@ -35,7 +44,7 @@ def section_coldstart(cfg, envs):
     cmds = {"cli": [sys.executable, "-m", "kinem", "solve", case, "--steps", "1", "--outputs", "positions"],
             "pass": [sys.executable, "-c", "pass"],
             "probe": [sys.executable, str(ROOT / "benchmarks" / "coldstart.py"), case],
-            "full": [sys.executable, "-m", "kinem", "solve", case, "--out", os.devnull, "--format", "csv"]}
+            "full": [sys.executable, "-m", "kinem", "solve", case, "--out", SINK, "--format", "csv"]}
     n = cfg.subprocess_repeats
     dont = os.environ.get("PYTHONDONTWRITEBYTECODE")
     say(f"   PYTHONDONTWRITEBYTECODE={dont!r} here; 'bytecode cached': .pyc files in a temporary "
