@@ -163,3 +163,24 @@ def test_exudyn_script_writes_the_trajectory(tmp_path):
     assert np.allclose(data[:, 0], model.times, rtol=0, atol=1e-12)
     # written with numpy's %.18e: each column within a unit in the last place of the harness's
     assert np.allclose(data[:, 1:], np.column_stack([run.trajectory[c] for c in header[1:]]), rtol=1e-15, atol=0)
+
+
+def test_exudyn_export_takes_the_case_files_engine_settings(tmp_path):
+    # [engines.exudyn] in the case file: the harness runs with it (adapters.case_settings), so does the export
+    from adapters import case_settings
+
+    case = tmp_path / "four_bar.toml"
+    text = (ROOT / "cases" / "four_bar.toml").read_text().replace("end = 2.5", "end = 0.5")
+    case.write_text(text + '\n[engines.exudyn]\nintegrator = "trapezoidal-index2"\nsubsteps = 7\n')
+    model = kinem.compile(kinem.load(case))
+    native = kinem.solve(model)
+    run = get("exudyn").run(model, native.q[0], native.qd[0], case_settings(model, "exudyn"))
+    default = get("exudyn").run(model, native.q[0], native.qd[0])
+    out = tmp_path / "m.py"
+    assert main(["export", str(case), "--engine", "exudyn", "--out", str(out)]) == 0
+    assert "trapezoidal-index2" in out.read_text() and "TrapezoidalIndex2" in out.read_text()
+    p = subprocess.run([sys.executable, "-I", str(out), "--all"], capture_output=True, text=True, cwd="/")
+    assert p.returncode == 0, p.stderr
+    q = np.array(json.loads(p.stdout)["q"])
+    # as in exudyn_script_matches_the_harness; the default settings give a different run (index-2 drifts ~1e-9 L)
+    assert np.abs(q - run.q).max() <= 1e-12 * model.length < np.abs(q - default.q).max()
