@@ -4,8 +4,12 @@ away (``kinem export CASE --engine NAME --out FILE``).
 pymunk: a Python script (pymunk and numpy only) that builds the adapter's
 Space body by body and joint by joint from the built Space itself, and steps
 it as the adapter does; the prescribed poses and driven joint targets at every
-step are embedded as a compressed table. Exudyn: not yet (its drivers are
-symbolic user functions built in memory; writing them out is left to do).
+step are embedded as a compressed table. Exudyn: a Python script (exudyn
+and numpy only) that adds the items of the system the adapter built, read back
+one by one with the fields the adapter set, in the same order, with the
+adapter's simulation settings; its user functions (drivers from their specs,
+user constraints) are made by the adapter's own portable functions
+(adapters.exudyn_sim.PORTABLE), whose source the script carries.
 
 MuJoCo: MJCF XML (adapters.mujoco_sim.mjcf, the same text the adapter
 compiles) plus a keyframe "start" with the harness's initial joint positions
@@ -34,23 +38,30 @@ def _comment(text):
     return "<!-- " + text.replace("--", "- -") + " -->"
 
 
+def _prepared(engine, model, settings, *support):
+    """(the adapter, its checked settings with substeps and dt resolved, the
+    output instants); InputError when the engine cannot represent the case."""
+    from . import get
+
+    adapter = get(engine)
+    why = adapter.unsupported(model, *support)
+    if why:
+        from kinem.errors import InputError
+
+        raise InputError(f"{model.case.source}: {engine} cannot represent this case: {why}")
+    s = adapter.settings(settings)
+    times = np.asarray(model.times, float)
+    adapter.steps_per_interval(s, float(times[1] - times[0]) if len(times) > 1 else float(model.case.end))
+    return adapter, s, times
+
+
 def mujoco_model(model, q0, qd0, settings=None):
     """MJCF text of the model started at (q0, qd0)."""
     import mujoco
 
-    from . import get
     from .mujoco_sim import drive_tables, initial_state
 
-    adapter = get("mujoco")
-    settings = {"armature": ARMATURE, **(settings or {})}
-    why = adapter.unsupported(model, q0)
-    if why:
-        from kinem.errors import InputError
-
-        raise InputError(f"{model.case.source}: mujoco cannot represent this case: {why}")
-    s = adapter.settings(settings)
-    times = np.asarray(model.times, float)
-    adapter.steps_per_interval(s, float(times[1] - times[0]) if len(times) > 1 else float(model.case.end))
+    adapter, s, times = _prepared("mujoco", model, {"armature": ARMATURE, **(settings or {})}, q0)
     plan, xml = adapter.build(model, np.asarray(q0, float), s)
     m = mujoco.MjModel.from_xml_string(xml)
     d = mujoco.MjData(m)
@@ -112,18 +123,9 @@ def _pymunk_script(model, q0, qd0, settings=None):
 
     import pymunk
 
-    from . import get
     from .pymunk_sim import _Mechanism
 
-    adapter = get("pymunk")
-    why = adapter.unsupported(model)
-    if why:
-        from kinem.errors import InputError
-
-        raise InputError(f"{model.case.source}: pymunk cannot represent this case: {why}")
-    s = adapter.settings(settings)
-    times = np.asarray(model.times, float)
-    adapter.steps_per_interval(s, float(times[1] - times[0]) if len(times) > 1 else float(model.case.end))
+    _, s, times = _prepared("pymunk", model, settings)
     n_sub, dt = s["substeps"], s["dt"]
     tt = np.arange(n_sub * (len(times) - 1) + 2) * dt
     mech = _Mechanism(model, np.asarray(q0, float), np.asarray(qd0, float), s, tt)
@@ -252,3 +254,188 @@ print(json.dumps({{"bodies": {names}, "q": rows, "qd": (vout if "--all" in sys.a
 '''
 
 WRITERS["pymunk"] = (_pymunk_script, ".py")
+
+
+def _exudyn_code(v, functions):
+    """Python source of an item field or a setting value as the harness set it
+    (``functions``: id of a user function -> the script's name for it)."""
+    import exudyn as exu
+
+    if id(v) in functions:
+        return functions[id(v)]
+    if v is None or isinstance(v, (bool, str)):
+        return repr(v)
+    if isinstance(v, (float, np.floating)):
+        v = float(v)
+        return repr(v) if math.isfinite(v) else f"float('{v}')"
+    if isinstance(v, (int, np.integer)):
+        return repr(int(v))
+    if isinstance(v, exu.MatrixContainer):
+        return f"exu.MatrixContainer({_exudyn_code(np.asarray(v.GetPythonObject()), functions)})"
+    if isinstance(v, np.ndarray) and v.ndim > 1:
+        return f"np.zeros({v.shape!r})" if not v.size else f"np.array({_exudyn_code(v.tolist(), functions)})"
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return "[" + ", ".join(_exudyn_code(x, functions) for x in v) + "]"
+    if hasattr(exu, type(v).__name__) and hasattr(v, "name"):  # an Exudyn enum
+        return f"exu.{type(v).__name__}.{v.name}"
+    if type(v).__name__.endswith("Index"):                      # NodeIndex, MarkerIndex, ...
+        return repr(int(v))
+    raise NotImplementedError(f"export of {type(v).__name__} {v!r}")
+
+
+def _exudyn_item(item, functions):
+    """``ei.Class(field=value, ...)``: the fields that differ from the class's defaults."""
+    cls = type(item)
+    default = dict(cls())
+    args = []
+    for k, v in list(dict(item).items())[1:]:           # the first is the item's type
+        if k[:1] == "V" and k[1:2].isupper():           # visualization: left at Exudyn's defaults
+            continue
+        code = _exudyn_code(v, functions)
+        if code != _exudyn_code(default.get(k), functions):
+            args.append(f"{k}={code}")
+    return f"ei.{cls.__name__}({', '.join(args)})"
+
+
+# Simulation settings the adapter sets that equal Exudyn's defaults today:
+# written out all the same, so that the script does not depend on them.
+EXUDYN_SETTINGS = ("ss.timeIntegration.startTime", "ss.timeIntegration.verboseMode",
+                   "ss.timeIntegration.generalizedAlpha.spectralRadius", "ss.timeIntegration.newton.absoluteTolerance",
+                   "ss.timeIntegration.newton.maxIterations", "ss.solution.sensors.writePeriod",
+                   "ss.linearSolver.solverType", "ss.linearSolver.ignoreSingularJacobian")
+
+
+def _exudyn_settings(d, default, path="ss"):
+    """``ss.a.b = value`` for every simulation setting that differs from
+    Exudyn's default or is in EXUDYN_SETTINGS."""
+    lines = []
+    for k, v in d.items():
+        if isinstance(v, dict):
+            lines += _exudyn_settings(v, default[k], f"{path}.{k}")
+        elif _exudyn_code(v, {}) != _exudyn_code(default[k], {}) or f"{path}.{k}" in EXUDYN_SETTINGS:
+            lines.append(f"{path}.{k} = {_exudyn_code(v, {})}")
+    return lines
+
+
+def _exudyn_script(model, q0, qd0, settings=None):
+    """A Python script (exudyn and numpy only) that builds the harness's
+    Exudyn system item by item (read back from the system the adapter built,
+    its user functions made by the adapter's own portable functions, whose
+    source the script carries), solves it with the harness's settings and
+    prints the case bodies' final x, y, phi as JSON."""
+    import inspect
+
+    import exudyn as exu
+
+    from kinem.result import BODY_COLUMNS
+
+    from .exudyn_sim import INTEGRATORS, PORTABLE
+
+    adapter, s, times = _prepared("exudyn", model, settings)
+    saved = exu.config.printToConsole
+    exu.config.printToConsole = False
+    try:
+        b, sensors, ss = adapter.build(model, np.asarray(q0, float), np.asarray(qd0, float), s, times, record=True)
+    finally:
+        exu.config.printToConsole = saved
+    names, functions = {}, []
+    for n, (call, made) in enumerate(b.made):
+        functions.append(f"F{n} = {call}")
+        names.update({id(f): f"F{n}[{k}]" for k, f in enumerate(made)})
+    body_of = {("AddNode", int(v)): k for k, v in b.node.items()}
+    body_of.update({("AddObject", int(v)): k for k, v in b.body.items()})
+    items, count = [], {}
+    for method, item in b.mbs.items:
+        index = count[method] = count.get(method, -1) + 1
+        note = f"  # {method[3:].lower()} {index}" + (f": body '{body_of[method, index]}'"
+                                                      if (method, index) in body_of else "")
+        items.append(f"mbs.{method}({_exudyn_item(item, names)}){note}")
+    cols = [f"{body}.{c}" for body in model.body_names for c in BODY_COLUMNS["positions"] + BODY_COLUMNS["velocities"]]
+    return EXUDYN_SCRIPT.format(
+        name=model.case.name, source=model.case.source, version=exu.config.Version(),
+        integrator=s["integrator"], dt=f"{s['dt']:.6g}", substeps=s["substeps"],
+        interval=f"{s['dt'] * s['substeps']:.6g}", intervals=len(times) - 1,
+        portable="\n\n\n".join(inspect.getsource(f).rstrip() for f in PORTABLE),
+        functions="\n".join(functions) or "# (none)", items="\n".join(items),
+        settings="\n".join(_exudyn_settings(ss.GetDictionary(), exu.SimulationSettings().GetDictionary())),
+        solver=INTEGRATORS[s["integrator"]], names=list(model.body_names), start=_exudyn_code(b.q0, {}),
+        sensors={model.body_names.index(k): (int(p), int(v)) for k, (p, v) in sensors.items()},
+        columns=["t"] + cols)
+
+
+EXUDYN_SCRIPT = '''"""kinem export of case '{name}' ({source}) for Exudyn {version}: the
+harness's Exudyn system and solver settings, runnable with exudyn and numpy
+only: {integrator}, step {dt} s ({substeps} steps per output interval of {interval} s),
+{intervals} output intervals, started from kinem's native solution at t = 0.
+
+Every moving body is a NodeRigidBody2D (reference coordinates 0: node
+coordinates are the body frame's absolute x, y, phi) with an ObjectRigidBody2D;
+a fixed body is an ObjectGround. Driving functions are CoordinateConstraint
+offset user functions made from their specs by `evaluate` below (symbolic user
+functions, run in C++, unless the harness was set to Python ones); a table is
+kinem's not-a-knot cubic spline, its piecewise coefficients embedded: the same
+values as the harness. User constraints (distance drivers, rack and pinion)
+are Python user functions. The functions below are the adapter's own source
+(adapters/exudyn_sim.py).
+
+python THIS.py [--all] [--velocities] [TRAJECTORY.csv]: prints the case bodies'
+final x, y, phi as JSON (--all: every output instant; --velocities: their
+velocities too); TRAJECTORY.csv: every output instant, positions and velocities.
+"""
+import bisect
+import json
+import math
+import sys
+
+import numpy as np
+
+import exudyn as exu
+from exudyn import itemInterface as ei
+from exudyn.advancedUtilities import CreateSymbolicUserFunction
+
+
+{portable}
+
+
+sc = exu.SystemContainer()
+mbs = sc.AddSystem()
+
+# user functions (kept in these variables while the system lives)
+{functions}
+
+# the items in the harness's order: the numbers in markerNumbers, nodeNumber, ... are their indices
+{items}
+mbs.Assemble()
+
+ss = exu.SimulationSettings()
+{settings}
+
+BODIES = {names}
+START = np.array({start})      # x, y, phi of each body at t = 0 (fixed bodies stay there)
+SENSORS = {sensors}   # body index: (coordinates sensor, velocities sensor)
+
+exu.config.printToConsole = False   # keep stdout for the JSON
+try:
+    ok = mbs.SolveDynamic(ss, solverType=exu.DynamicSolverType.{solver})
+except Exception:   # the solver raises when it stops
+    ok = False
+if not ok:
+    solver = mbs.sys.get("dynamicSolver")
+    sys.exit(f"Exudyn solver failed: stopped at t = {{solver.it.currentTime:.6g}}: {{solver.GetErrorString().strip()}}")
+
+n = {intervals} + 1
+q, qd, t = np.tile(START, (n, 1)), np.zeros((n, len(START))), None
+for k, (sq, sv) in SENSORS.items():
+    pos, vel = mbs.GetSensorStoredData(sq), mbs.GetSensorStoredData(sv)
+    q[:, 3 * k: 3 * k + 3], qd[:, 3 * k: 3 * k + 3], t = pos[:, 1:4], vel[:, 1:4], pos[:, 0]
+args = [a for a in sys.argv[1:] if not a.startswith("--")]
+if args:
+    t = t if t is not None else np.linspace(0.0, ss.timeIntegration.endTime, n)
+    columns = [m[:, 3 * k: 3 * k + 3] for k in range(len(BODIES)) for m in (q, qd)]   # kinem's column order
+    np.savetxt(args[0], np.column_stack([t] + columns), delimiter=",", header=",".join({columns}), comments="")
+rows = slice(None) if "--all" in sys.argv else slice(-1, None)
+print(json.dumps({{"bodies": BODIES, "q": q[rows].tolist(),
+                  "qd": qd[rows].tolist() if "--velocities" in sys.argv else None}}))
+'''
+
+WRITERS["exudyn"] = (_exudyn_script, ".py")

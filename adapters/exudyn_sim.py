@@ -82,71 +82,215 @@ REASONS = {
 }
 
 
+def function_spec(f):
+    """A kinem function as the plain data ``evaluate`` takes (the same values as
+    kinem.functions: the table is the same not-a-knot CubicSpline)."""
+    if isinstance(f, Poly):
+        c = [float(v) for v in f.coeffs]
+        cs = [c]
+        for _ in range(2):
+            c = [k * v for k, v in enumerate(c)][1:] or [0.0]
+            cs.append(c)
+        return ("poly", cs)
+    if isinstance(f, Harmonic):
+        return ("harmonic", float(f.offset), float(f.amplitude), float(f.omega), float(f.phase))
+    if isinstance(f, Table):
+        s = CubicSpline(np.asarray(f.t, float), np.asarray(f.value, float))
+        return ("table", s.x.tolist(), s.c.T.tolist())  # per interval: c3 .. c0 of (t - x_k)^3 .. ^0
+    raise TypeError(f"unknown function kind {f!r}")
+
+
 class _Function:
-    """d(t), d'(t), d''(t) of a kinem function for Exudyn's user functions:
-    Python numbers (``value``) or, built from the same expressions, Exudyn
-    symbolic user functions that run in C++ (``symbolic``). Same values as
-    kinem.functions: the table is the same not-a-knot CubicSpline."""
+    """d(t), d'(t), d''(t) of a kinem function: Python numbers (``value``) or
+    Exudyn symbolic user functions that run in C++ (``symbolic``), both from
+    ``evaluate``."""
 
     def __init__(self, f):
-        self.f = f
-        if isinstance(f, Poly):
-            c = [float(v) for v in f.coeffs]
-            self.c = [c]
-            for _ in range(2):
-                c = [k * v for k, v in enumerate(c)][1:] or [0.0]
-                self.c.append(c)
-        elif isinstance(f, Table):
-            s = CubicSpline(np.asarray(f.t, float), np.asarray(f.value, float))
-            self.x, self.c = s.x.tolist(), s.c.T.tolist()  # per interval: c3 .. c0 of (t - x_k)^3 .. ^0
-        elif not isinstance(f, Harmonic):
-            raise TypeError(f"unknown function kind {f!r}")
-
-    def expr(self, t, order, symbolic=False):
-        f = self.f
-        if isinstance(f, Poly):
-            v = 0.0
-            for a in reversed(self.c[order]):
-                v = v * t + a
-            return v
-        if isinstance(f, Harmonic):
-            sin, cos = (exu.symbolic.sin, exu.symbolic.cos) if symbolic else (math.sin, math.cos)
-            arg = f.omega * t + f.phase
-            if order == 0:
-                return f.offset + f.amplitude * sin(arg)
-            if order == 1:
-                return f.amplitude * f.omega * cos(arg)
-            return -f.amplitude * f.omega ** 2 * sin(arg)
-        n = len(self.x)
-        if not symbolic:
-            return self._piece(min(max(bisect.bisect_right(self.x, t) - 1, 0), n - 2), t, order)
-        v = self._piece(n - 2, t, order)
-        for k in range(n - 3, -1, -1):
-            v = exu.symbolic.IfThenElse(t < self.x[k + 1], self._piece(k, t, order), v)
-        return v
-
-    def _piece(self, k, t, order):
-        a, b, c, d = self.c[k]
-        h = t - self.x[k]
-        if order == 0:
-            return ((a * h + b) * h + c) * h + d
-        if order == 1:
-            return (3 * a * h + 2 * b) * h + c
-        return 6 * a * h + 2 * b
+        self.f, self.spec = f, function_spec(f)
 
     def value(self, t, order=0):
-        return self.expr(t, order)
+        return evaluate(self.spec, t, order)
 
     def symbolic(self, mbs, offset=0.0):
-        """(offset + d(t), d'(t)) as symbolic offset user functions of a
-        CoordinateConstraint (their argument names are Exudyn's)."""
-        def d(mbs, t, itemNumber, lOffset):
-            return offset + self.expr(t, 0, True)
+        """(offset + d(t), d'(t)) as symbolic offset user functions of a CoordinateConstraint."""
+        return offset_functions(mbs, self.spec, offset, True)
 
-        def d_t(mbs, t, itemNumber, lOffset):
-            return self.expr(t, 1, True)
-        return tuple(CreateSymbolicUserFunction(mbs, g, name, itemTypeName="ObjectConnectorCoordinate")
-                     for g, name in ((d, "offsetUserFunction"), (d_t, "offsetUserFunction_t")))
+
+# -- Portable: the functions from here to _rot use only math, bisect and exudyn;
+# kinem export (adapters/export.py) copies their source into the exported
+# script, so that it runs the very code of the harness.
+
+def evaluate(spec, t, order=0, symbolic=False):
+    """d(t), d'(t) or d''(t) (order 0, 1, 2) of a driving function given as
+    plain data: ("poly", [coefficients of d, d', d'' by rising power]),
+    ("harmonic", offset, amplitude, omega, phase): offset + amplitude
+    sin(omega t + phase), or ("table", breakpoints x, per interval the
+    coefficients of (t - x_k)^3 .. ^0: kinem's not-a-knot cubic spline). t is
+    a float or (symbolic) an Exudyn symbolic real; a table is then a chain of
+    IfThenElse over the same pieces."""
+    if spec[0] == "poly":
+        v = 0.0
+        for a in reversed(spec[1][order]):
+            v = v * t + a
+        return v
+    if spec[0] == "harmonic":
+        _, offset, amplitude, omega, phase = spec
+        sin, cos = (exu.symbolic.sin, exu.symbolic.cos) if symbolic else (math.sin, math.cos)
+        arg = omega * t + phase
+        if order == 0:
+            return offset + amplitude * sin(arg)
+        if order == 1:
+            return amplitude * omega * cos(arg)
+        return -amplitude * omega ** 2 * sin(arg)
+    _, x, c = spec
+    n = len(x)
+    if not symbolic:
+        return _piece(x, c, min(max(bisect.bisect_right(x, t) - 1, 0), n - 2), t, order)
+    v = _piece(x, c, n - 2, t, order)
+    for k in range(n - 3, -1, -1):
+        v = exu.symbolic.IfThenElse(t < x[k + 1], _piece(x, c, k, t, order), v)
+    return v
+
+
+def _piece(x, c, k, t, order):
+    a, b, cc, d = c[k]
+    h = t - x[k]
+    if order == 0:
+        return ((a * h + b) * h + cc) * h + d
+    if order == 1:
+        return (3 * a * h + 2 * b) * h + cc
+    return 6 * a * h + 2 * b
+
+
+def offset_functions(mbs, spec, offset, symbolic):
+    """(offset + d(t), d'(t)): the offsetUserFunction and offsetUserFunction_t
+    of a CoordinateConstraint (their argument names are Exudyn's); symbolic:
+    Exudyn symbolic user functions (keep them alive while the system lives)."""
+    def d(mbs, t, itemNumber, lOffset):
+        return offset + evaluate(spec, t, 0, symbolic)
+
+    def d_t(mbs, t, itemNumber, lOffset):
+        return evaluate(spec, t, 1, symbolic)
+    if not symbolic:
+        return d, d_t
+    return tuple(CreateSymbolicUserFunction(mbs, g, name, itemTypeName="ObjectConnectorCoordinate")
+                 for g, name in ((d, "offsetUserFunction"), (d_t, "offsetUserFunction_t")))
+
+
+def user_functions(phi, grad, phi_t, slots, z0):
+    """constraintUserFunction and jacobianUserFunction of an
+    ObjectConnectorCoordinateVector for a scalar constraint phi(z, t) = 0 with
+    gradient grad(z, t) over z (x, y, phi of each of its bodies): the
+    connector's coordinates fill the places ``slots`` of z, the rest (fixed
+    bodies) keep their values in z0. Plain Python floats."""
+    whole = len(slots) == len(z0)
+
+    def full(q):
+        q = q.tolist() if hasattr(q, "tolist") else list(q)
+        if whole:
+            return q
+        z = list(z0)
+        for k, v in zip(slots, q):
+            z[k] = v
+        return z
+
+    def constraint(mbs, t, item, q, q_t, velocity_level):
+        z = full(q)
+        if velocity_level:  # index 2: dphi/dt = grad . q_t + phi_t
+            g = grad(z, t)
+            v = sum(g[k] * w for k, w in zip(slots, full(q_t) if whole else list(q_t)))
+            return [v + (phi_t(t) if phi_t is not None else 0.0)]
+        return [phi(z, t)]
+
+    def jacobian(mbs, t, item, q, q_t, velocity_level):
+        g = grad(full(q), t)
+        return [[g[k] for k in slots]]
+    return constraint, jacobian
+
+
+def _frame(z, k):
+    """Origin (complex) and e^{i phi} of the k-th body in a coordinate vector."""
+    return complex(z[3 * k], z[3 * k + 1]), complex(math.cos(z[3 * k + 2]), math.sin(z[3 * k + 2]))
+
+
+def _dot(a, b):
+    return a.real * b.real + a.imag * b.imag
+
+
+def distance_driver(si, sj, spec):
+    """|P_j - P_i|^2 - d(t)^2 on z = (x, y, phi of i, of j), its gradient and
+    its partial time derivative; si, sj: the points (complex) in i and j."""
+    def parts(z):
+        ri, ei_ = _frame(z, 0)
+        rj, ej = _frame(z, 1)
+        a, bb = si * ei_, sj * ej
+        return rj + bb - ri - a, a, bb
+
+    def phi(z, t):
+        d, _, _ = parts(z)
+        return _dot(d, d) - evaluate(spec, t) ** 2
+
+    def grad(z, t):
+        d, a, bb = parts(z)
+        # d(d.d)/dz = 2 d . dd/dz; dd/dphi_i = -i a, dd/dphi_j = i bb
+        return [-2 * d.real, -2 * d.imag, -2 * _dot(d, 1j * a), 2 * d.real, 2 * d.imag, 2 * _dot(d, 1j * bb)]
+
+    def phi_t(t):
+        return -2 * evaluate(spec, t) * evaluate(spec, t, 1)
+    return phi, grad, phi_t
+
+
+def rack_pinion(cc, sp, u0, rho, const):
+    """u.(C - P) + rho (phi_i - phi_j) - const on z = (x, y, phi of the pinion
+    i, of the rack j) and its gradient (no explicit time): C the pinion's
+    centre cc in i, P the pitch line's point sp in j, u its direction u0 in j
+    (complex). In the rack's frame the pinion centre's coordinate along the
+    pitch line changes by -rho per radian of relative rotation (the pinion on
+    the side of u turned +90 degrees, as kinem's Eqs. 4.19, 4.20)."""
+    def parts(z):
+        ri, ei_ = _frame(z, 0)
+        rj, ej = _frame(z, 1)
+        a, bb = cc * ei_, sp * ej
+        return u0 * ej, ri + a - rj - bb, a, bb
+
+    def phi(z, t):
+        u, d, _, _ = parts(z)
+        return _dot(u, d) + rho * (z[2] - z[5]) - const
+
+    def grad(z, t):
+        u, d, a, bb = parts(z)
+        # du/dphi_j = i u; dd/dphi_i = i a; dd/dphi_j = -i bb
+        return [u.real, u.imag, _dot(u, 1j * a) + rho, -u.real, -u.imag, _dot(1j * u, d) - _dot(u, 1j * bb) - rho]
+    return phi, grad, None
+
+
+PORTABLE = (evaluate, _piece, offset_functions, user_functions, _frame, _dot, distance_driver, rack_pinion)
+
+
+class _Recorder:
+    """A MainSystem that also keeps every item added, in order, for kinem export."""
+
+    def __init__(self, mbs):
+        self.real, self.items = mbs, []
+
+    def __getattr__(self, name):
+        return getattr(self.real, name)
+
+    def _add(self, method, item):
+        self.items.append((method, item))
+        return getattr(self.real, method)(item)
+
+    def AddNode(self, item):  # noqa: N802 - Exudyn's names
+        return self._add("AddNode", item)
+
+    def AddObject(self, item):  # noqa: N802
+        return self._add("AddObject", item)
+
+    def AddMarker(self, item):  # noqa: N802
+        return self._add("AddMarker", item)
+
+    def AddSensor(self, item):  # noqa: N802
+        return self._add("AddSensor", item)
 
 
 def _rot(phi):
@@ -166,12 +310,16 @@ def _perp(u):
 class _Build:
     """One mechanism in one Exudyn MainSystem."""
 
-    def __init__(self, model, q0, qd0, symbolic):
+    def __init__(self, model, q0, qd0, symbolic, record=False):
         self.model, self.q0, self.qd0 = model, np.asarray(q0, float), np.asarray(qd0, float)
         self.symbolic = symbolic
         self.keep = []  # symbolic user functions must outlive the solve
+        # record (kinem export): every item added (mbs.items) and, per user
+        # function made, how the portable functions make it: (call, functions)
+        self.made = []
         self.sc = exu.SystemContainer()
-        self.mbs = self.sc.AddSystem()
+        self.system = self.sc.AddSystem()
+        self.mbs = _Recorder(self.system) if record else self.system
         self.col = {b: 3 * k for k, b in enumerate(model.body_names)}
         self.fixed = grounded(model)
         self.node, self.body = {}, {}
@@ -219,15 +367,9 @@ class _Build:
         (it acts on the coordinates without reference values: here absolute)."""
         if f is None:
             return self.mbs.AddObject(ei.CoordinateConstraint(markerNumbers=[a, b], factor1=factor, offset=offset))
-        if self.symbolic:
-            d, d_t = f.symbolic(self.mbs, offset)
-            self.keep += [d, d_t]
-        else:
-            def d(mbs, t, item, l):
-                return offset + f.value(t)
-
-            def d_t(mbs, t, item, l):
-                return f.value(t, 1)
+        d, d_t = offset_functions(self.system, f.spec, offset, self.symbolic)
+        self.keep += [d, d_t]
+        self.made.append((f"offset_functions(mbs, {f.spec!r}, {offset!r}, {self.symbolic!r})", (d, d_t)))
         return self.mbs.AddObject(ei.CoordinateConstraint(markerNumbers=[a, b], factor1=factor,
                                                           offsetUserFunction=d, offsetUserFunction_t=d_t))
 
@@ -257,46 +399,19 @@ class _Build:
             markerNumbers=markers, scalingMarker0=np.zeros((1, 0)), scalingMarker1=[[row[k] for k in slots]],
             offset=[sum(r * v for r, v in zip(row, z0)) - fixed]))
 
-    def user(self, bodies, phi, grad, phi_t=None):
-        """A scalar user constraint phi(z, t) = 0 with gradient grad(z, t)
-        (a list over z); fixed bodies enter z with their constant pose. The
-        user functions run at every Newton iteration: plain Python floats."""
+    def user(self, bodies, factory, *args):
+        """A scalar user constraint phi(z, t) = 0 over z (x, y, phi of each of
+        ``bodies``) with phi, its gradient and its time derivative from
+        factory(*args) (distance_driver, rack_pinion); fixed bodies enter z
+        with their constant pose. The user functions run at every Newton
+        iteration: plain Python floats."""
         markers, slots, z0 = self._span(bodies)
-        whole = len(slots) == len(z0)
-
-        def full(q):
-            q = q.tolist() if hasattr(q, "tolist") else list(q)
-            if whole:
-                return q
-            z = list(z0)
-            for k, v in zip(slots, q):
-                z[k] = v
-            return z
-
-        def constraint(mbs, t, item, q, q_t, velocity_level):
-            z = full(q)
-            if velocity_level:  # index 2: dphi/dt = grad . q_t + phi_t
-                g = grad(z, t)
-                v = sum(g[k] * w for k, w in zip(slots, full(q_t) if whole else list(q_t)))
-                return [v + (phi_t(t) if phi_t is not None else 0.0)]
-            return [phi(z, t)]
-
-        def jacobian(mbs, t, item, q, q_t, velocity_level):
-            g = grad(full(q), t)
-            return [[g[k] for k in slots]]
-
+        constraint, jacobian = user_functions(*factory(*args), slots, z0)
+        self.made.append((f"user_functions(*{factory.__name__}{tuple(args)!r}, {slots!r}, {z0!r})",
+                          (constraint, jacobian)))
         self.mbs.AddObject(ei.ObjectConnectorCoordinateVector(
             markerNumbers=markers, scalingMarker0=np.zeros((1, len(slots))),
             constraintUserFunction=constraint, jacobianUserFunction=jacobian))
-
-
-def _frame(z, k):
-    """Origin (complex) and e^{i phi} of the k-th body in a coordinate vector."""
-    return complex(z[3 * k], z[3 * k + 1]), complex(math.cos(z[3 * k + 2]), math.sin(z[3 * k + 2]))
-
-
-def _dot(a, b):
-    return a.real * b.real + a.imag * b.imag
 
 
 class ExudynAdapter(Adapter):
@@ -386,20 +501,24 @@ class ExudynAdapter(Adapter):
         return None
 
     # -- run -------------------------------------------------------------------
-    def simulate(self, model, q0, qd0, s, times):
-        sub = s["substeps"]
+    def build(self, model, q0, qd0, s, times, record=False):
+        """(the assembled _Build, its sensors {body: (coordinates, velocities)},
+        the SimulationSettings) for checked settings s (substeps resolved)."""
         interval = float(times[1] - times[0]) if len(times) > 1 else float(times[-1])
+        b = _Build(model, q0, qd0, bool(s["symbolic_drivers"]), record)
+        self._constraints(b, model)
+        sensors = {name: [b.mbs.AddSensor(ei.SensorNode(nodeNumber=n, storeInternal=True, writeToFile=False,
+                                                        outputVariableType=v))
+                          for v in (exu.OutputVariableType.Coordinates, exu.OutputVariableType.Coordinates_t)]
+                   for name, n in b.node.items()}
+        b.mbs.Assemble()
+        return b, sensors, self._simulation(s, times, s["substeps"], interval, model.m > model.n)
+
+    def simulate(self, model, q0, qd0, s, times):
         saved = exu.config.printToConsole
         exu.config.printToConsole = False   # the solver prints its failure reports
         try:
-            b = _Build(model, q0, qd0, bool(s["symbolic_drivers"]))
-            self._constraints(b, model)
-            sensors = {name: [b.mbs.AddSensor(ei.SensorNode(nodeNumber=n, storeInternal=True, writeToFile=False,
-                                                            outputVariableType=v))
-                              for v in (exu.OutputVariableType.Coordinates, exu.OutputVariableType.Coordinates_t)]
-                       for name, n in b.node.items()}
-            b.mbs.Assemble()
-            ss = self._simulation(s, times, sub, interval, model.m > model.n)
+            b, sensors, ss = self.build(model, q0, qd0, s, times)
         except Exception as e:  # noqa: BLE001 - Exudyn raises plain exceptions on a bad model
             raise Failure(Status.FAILED, f"{type(e).__name__}: {e}") from None
         finally:
@@ -529,25 +648,7 @@ class ExudynAdapter(Adapter):
         b.prismatic(b.rigid(body, c["point"]), mh, _perp(normal), normal, False)
 
     def _distance_driver(self, b, c):
-        f = _Function(c["d"])
-        si, sj = complex(*c["si"]), complex(*c["sj"])
-
-        def parts(z):
-            ri, ei_ = _frame(z, 0)
-            rj, ej = _frame(z, 1)
-            a, bb = si * ei_, sj * ej
-            return rj + bb - ri - a, a, bb
-
-        def phi(z, t):
-            d, _, _ = parts(z)
-            return _dot(d, d) - f.value(t) ** 2
-
-        def grad(z, t):
-            d, a, bb = parts(z)
-            # d(d.d)/dz = 2 d . dd/dz; dd/dphi_i = -i a, dd/dphi_j = i bb
-            return [-2 * d.real, -2 * d.imag, -2 * _dot(d, 1j * a), 2 * d.real, 2 * d.imag, 2 * _dot(d, 1j * bb)]
-
-        b.user([c["i"], c["j"]], phi, grad, phi_t=lambda t: -2 * f.value(t) * f.value(t, 1))
+        b.user([c["i"], c["j"]], distance_driver, complex(*c["si"]), complex(*c["sj"]), function_spec(c["d"]))
 
     def _gear(self, b, c):
         # rho_i (phi_i - phi_k) + sigma rho_j (phi_j - phi_k) = const (Eqs.
@@ -566,34 +667,12 @@ class ExudynAdapter(Adapter):
         b.linear([c["i"], c["j"], k], [0.0, 0.0, ri, 0.0, 0.0, rj, 0.0, 0.0, -(ri + rj)])
 
     def _rack_pinion(self, b, c):
-        # In the rack's frame the pinion centre's coordinate along the pitch
-        # line changes by -rho per radian of relative rotation (the pinion on
-        # the side of u turned +90 degrees, as kinem's Eqs. 4.19, 4.20):
-        # u.(C - P) + rho (phi_i - phi_j) = const, const from the start.
-        cc = complex(*c.get("center", (0.0, 0.0)))
-        sp = complex(*c["sj"])
-        u0 = complex(*_unit(c.get("u", (1.0, 0.0))))
-        rho = float(c["radius"])
-
-        def parts(z):
-            ri, ei_ = _frame(z, 0)
-            rj, ej = _frame(z, 1)
-            a, bb = cc * ei_, sp * ej
-            return u0 * ej, ri + a - rj - bb, a, bb
-
-        def value(z):
-            u, d, _, _ = parts(z)
-            return _dot(u, d) + rho * (z[2] - z[5])
-
+        # u.(C - P) + rho (phi_i - phi_j) = const, const from the start
+        args = [complex(*c.get("center", (0.0, 0.0))), complex(*c["sj"]),
+                complex(*_unit(c.get("u", (1.0, 0.0)))), float(c["radius"])]
         bodies = [c["pinion"], c["rack"]]
-        const = value([float(v) for x in bodies for v in b.q0[b.col[x]: b.col[x] + 3]])
-
-        def grad(z, t):
-            u, d, a, bb = parts(z)
-            # du/dphi_j = i u; dd/dphi_i = i a; dd/dphi_j = -i bb
-            return [u.real, u.imag, _dot(u, 1j * a) + rho, -u.real, -u.imag, _dot(1j * u, d) - _dot(u, 1j * bb) - rho]
-
-        b.user(bodies, lambda z, t: value(z) - const, grad)
+        z0 = [float(v) for x in bodies for v in b.q0[b.col[x]: b.col[x] + 3]]
+        b.user(bodies, rack_pinion, *args, rack_pinion(*args, 0.0)[0](z0, 0.0))
 
 
 ADAPTER = ExudynAdapter()

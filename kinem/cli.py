@@ -289,7 +289,12 @@ def cmd_export(a):
     native = solve(model)
     if not native.success:
         raise AnalysisError(f"{a.case}: no native solution at t = 0 to start the engine from: {native.message}")
-    text = export(model, a.engine, native.q[0], native.qd[0])
+    settings = dict(model.case.engines.get(a.engine, {}))   # the case file's [engines.NAME] table, as the harness
+    if settings:
+        from adapters import case_settings
+
+        case_settings(model, a.engine)   # checked as the harness checks it (naming the file and the key)
+    text = export(model, a.engine, native.q[0], native.qd[0], settings)
     out = Path(a.out)
     if out.is_symlink() or (out.exists() and not out.is_file()):   # a device, FIFO or link: written through
         with open(out, "w") as f:
