@@ -123,7 +123,8 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
                      findings)
             skipped = _sweep(name, e, oc, case, findings, scope)
             if skipped:
-                not_compared.append(f"{name}/{e}: {skipped} work-precision point(s) of the baseline (--quick)")
+                why = "--quick" if scope.sweeps else "not in this run's sweep: a regression"
+                not_compared.append(f"{name}/{e}: {skipped} work-precision point(s) of the baseline ({why})")
             a, b = o.get("time_per_step"), run.get("time_per_step")
             if a and b and (o.get("wall_time") or 0) >= WALL_FLOOR and b > SLOWDOWN_FACTOR * a:
                 findings.append(Finding(name, e, "main", "slower", "time_per_step", a, b, bool(fail_on_slowdown),
