@@ -104,9 +104,21 @@ def test_results_validate_against_schema(report):
     assert len(problems(bad, SCHEMA)) == 2
 
 
+def images_decode(html):
+    """Every inline image is one data: URI whose bytes are the image it names
+    (a doubled prefix or a bad payload shows as a broken picture)."""
+    refs = re.findall(r'<img [^>]*src="([^"]*)"', html)
+    for ref in refs:
+        kind, _, payload = ref.partition(";base64,")
+        data = base64.b64decode(payload, validate=True)
+        assert data.startswith(b"\x89PNG") if kind == "data:image/png" else data.lstrip().startswith(b"<"), ref[:60]
+    return len(refs)
+
+
 def test_html_is_self_contained_and_lists_every_case(report):
     outcome, out = report
     html = (out / "index.html").read_text()
+    assert images_decode(html) >= 2 * 3
     for ref in re.findall(r'(?:src|href)="([^"]*)"', html):   # images inline, links within the page
         assert ref.startswith(("data:image/png;base64,", "data:image/svg+xml;base64,", "#")), ref[:40]
         if ref.startswith("data:image/svg+xml"):                # an SVG plot refers only to itself
@@ -504,6 +516,7 @@ def test_equivalent_models_agree_and_are_gated(tmp_path):
     assert runs["shaper_b"]["position_error_rel"] < 1e-10
     html = (tmp_path / "o" / "index.html").read_text()
     assert '<section id="equivalence">' in html and 'alt="agreement of group crank-shaper"' in html
+    assert images_decode(html.partition('<section id="equivalence">')[2].partition("</section>")[0]) == 1
     assert "Equivalent models **crank-shaper**" in (tmp_path / "o" / "summary.md").read_text()
     base = copy.deepcopy(doc)
     base["equivalence"][0]["max_deviation_rel"] = group["max_deviation_rel"] / 10 if group["max_deviation_rel"] \

@@ -122,7 +122,7 @@ def html(doc, curves) -> str:
     for e in groups:
         if curves.get(e["group"]):
             imgs.append(f'<img alt="agreement of group {escape(e["group"])}" '
-                        f'src="data:image/png;base64,{plot(e, curves[e["group"]])}">')
+                        f'src="{plot(e, curves[e["group"]])}">')
     return ('<section id="equivalence"><h2>Equivalent models</h2><p>Cases that declare the same '
             "<code>[equivalent]</code> group model one mechanism; the named points they list must coincide. "
             "Deviation: the largest distance between a case's points and the first case's, per instant, over the "
