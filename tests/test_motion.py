@@ -141,7 +141,7 @@ def test_work_precision_labels_do_not_overlap():
     plt.close(fig)
 
 
-def test_animate_writes_svg_and_gif_and_refuses_mp4_without_ffmpeg(tmp_path, monkeypatch, capsys):
+def test_animate_writes_svg_gif_and_mp4_and_refuses_mp4_without_ffmpeg(tmp_path, monkeypatch, capsys):
     case = tmp_path / "four_bar.toml"
     case.write_text(re.sub(r"\[time\][^\[]*", "[time]\nend = 0.5\nsteps = 10\n\n",
                            (ROOT / "cases" / "four_bar.toml").read_text(), count=1))
@@ -153,6 +153,10 @@ def test_animate_writes_svg_and_gif_and_refuses_mp4_without_ffmpeg(tmp_path, mon
 
     with Image.open(tmp_path / "a.gif") as im:
         assert im.format == "GIF" and im.n_frames == 11
+    # mp4 through the ffmpeg binary of imageio-ffmpeg (a dependency): an ISO media file ('ftyp' box)
+    assert main(["animate", str(case), "--out", str(tmp_path / "a.mp4"), "--engines", "native"]) == 0
+    assert (tmp_path / "a.mp4").read_bytes()[4:8] == b"ftyp"
+    (tmp_path / "a.mp4").unlink()
     from matplotlib import animation
 
     monkeypatch.setattr(animation.writers, "is_available", lambda name: False)

@@ -4,7 +4,8 @@ The case runs on the native solver and on each engine asked for (the
 report's main runs: adapter defaults, then the case's [engines.<name>]
 table); the frames are sampled as the report samples them (runs.FRAMES).
 FILE.svg is the report's animated SVG, standalone; FILE.gif and FILE.mp4
-draw the same scene frame by frame with matplotlib (mp4 needs ffmpeg).
+draw the same scene frame by frame with matplotlib (mp4 through the ffmpeg
+binary that the imageio-ffmpeg package ships, so nothing else needs installing).
 """
 import os
 import tempfile
@@ -25,15 +26,26 @@ def check_output(out):
     ext = Path(out).suffix.lower()
     if ext not in FORMATS:
         raise InputError(f"--out {out}: expected a file ending in {', '.join(FORMATS)}")
-    if ext == ".mp4":
-        from matplotlib import animation
-
-        if not animation.writers.is_available("ffmpeg"):
+    if ext == ".mp4" and not ffmpeg():
             raise InputError(f"--out {out}: mp4 needs ffmpeg, which is not installed; write .svg or .gif instead")
     parent = Path(out).parent
     if not parent.is_dir():
         raise InputError(f"--out {out}: directory {parent} does not exist")
     return ext
+
+
+def ffmpeg() -> bool:
+    """Points matplotlib at the ffmpeg binary of imageio-ffmpeg (a dependency);
+    whether an ffmpeg is available."""
+    from matplotlib import animation, rcParams
+
+    try:
+        import imageio_ffmpeg
+
+        rcParams["animation.ffmpeg_path"] = imageio_ffmpeg.get_ffmpeg_exe()
+    except (ImportError, RuntimeError):   # not installed, or no binary for this platform
+        pass
+    return animation.writers.is_available("ffmpeg")
 
 
 def frames(model, engines):
