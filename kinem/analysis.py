@@ -115,6 +115,8 @@ def gauss_newton(model, q, t, max_iterations=None):
         if r <= tol or not np.isfinite(r):
             break
         J = model.assemble(model.jac_values(q, t) * model.entry_scale, sparse=False)
+        if not np.isfinite(J).all():  # overflowed: lstsq's SVD would not converge; the residual says it failed
+            break
         q = q + model.col_scale * np.linalg.lstsq(J, -phi / model.scale, rcond=None)[0]
     return q, r
 
