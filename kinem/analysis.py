@@ -75,6 +75,8 @@ class MinimumNorm:
 
     def solve(self, b):
         m = self.model
+        if not np.isfinite(self.J).all():  # overflowed: lstsq's SVD would not converge; the residual says it failed
+            return np.full(m.n, np.nan)
         return m.col_scale * np.linalg.lstsq(self.J, b / m.scale, rcond=None)[0]
 
 

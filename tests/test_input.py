@@ -55,6 +55,16 @@ def test_numbers_out_of_range_are_one_line_exit_2(tmp_path, old, new, needle):
     assert needle in line and len(line) < 600, line
 
 
+@pytest.mark.parametrize("qj", ["[5e-324, 0.0]", "[1e-13, 0.0]"])
+def test_translation_line_too_short(tmp_path, qj):
+    """Found by the 5,000-case fuzz run: a line through [0, 0] and [5e-324, 0] overflowed its normal
+    and `info` ended in numpy's "SVD did not converge" (exit 3)."""
+    text = (CASES / "quick_return_3.toml").read_text()
+    assert "qj = [100.0, 0.0]" in text
+    line = one_error(tmp_path, text.replace("qj = [100.0, 0.0]", f"qj = {qj}"))
+    assert "key 'qj'" in line and "too short" in line
+
+
 def test_large_integer_in_engine_settings(tmp_path):
     line = one_error(tmp_path, SLIDER + "\n[engines.pymunk]\niterations = " + "7" * 400 + "\n")
     assert "[engines.pymunk]: key 'iterations'" in line

@@ -37,6 +37,8 @@ LIMITS = (
                                        "as many intervals"),
     ("table abscissae (`t`, `theta`)", f"strictly increasing, consecutive values at least {MIN_SPACING:g} "
                                        "of the table's span apart"),
+    ("translation lines (`si`, `qi`; `sj`, `qj`)", "two points at least 1e-12 apart (times their largest "
+                                                   "coordinate when that is beyond 1)"),
     ("lists", f"at most {MAX_ARRAY:,} numbers; `poly` at most 32 coefficients; `[engines.*]` lists at most 16"),
     ("bodies, points, constraints", "at most 100,000 each"),
     ("`description`", f"text of at most {MAX_TEXT:,} characters"),

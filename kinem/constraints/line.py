@@ -119,14 +119,25 @@ class RevoluteTranslational(_PointOnLine):
 def _check_translational(f, bodies):
     if "phi0" not in f:
         f["phi0"] = bodies[f["i"]].q[2] - bodies[f["j"]].q[2]
-    if f["si"] == f["qi"]:
-        return [("qi", "coincides with si: the translation line has zero length", "two distinct points P_i, Q_i")]
-    return []
+    return _line_length(f["si"], f["qi"], "qi", "si", "P_i, Q_i")
 
 
 def _check_rt(f, bodies):
-    if f["sj"] == f["qj"]:
-        return [("qj", "coincides with sj: the translation line has zero length", "two distinct points P_j, Q_j")]
+    return _line_length(f["sj"], f["qj"], "qj", "sj", "P_j, Q_j")
+
+
+MIN_LINE = 1e-12  # the length of a translation line, absolute and relative to its points' distance from the origin
+
+
+def _line_length(p, q, key, other, names):
+    """A problem if the line through p and q is too short to give a direction (5e-324 apart
+    would make its normal overflow)."""
+    d = float(np.hypot(q[0] - p[0], q[1] - p[1]))
+    if d == 0:
+        return [(key, f"coincides with {other}: the translation line has zero length", f"two distinct points {names}")]
+    if d < MIN_LINE * max(1.0, *map(abs, p + q)):
+        return [(key, f"only {d:.3g} from {other}: the translation line is too short to give a direction",
+                 f"two points {names} at least {MIN_LINE:g} (relative to their coordinates) apart")]
     return []
 
 
