@@ -484,18 +484,32 @@ def main(argv=None) -> int:
     import signal
 
     def terminate(signum, frame):  # clean up (temporary files) as for Ctrl-C, then exit 128 + signal
+        from . import output
+
+        output.STOP["signal"] = signum   # in case the exit below is swallowed where the signal lands
         raise SystemExit(128 + signum)
+
+    def unraisable(u, default=sys.unraisablehook):  # our exit, swallowed in a callback: no traceback printed
+        from . import output
+
+        if not (output.STOP["signal"] is not None and isinstance(u.exc_value, SystemExit)):
+            default(u)
 
     handled = [s for s in (getattr(signal, "SIGTERM", None), getattr(signal, "SIGHUP", None)) if s is not None]
     try:
         previous = {s: signal.signal(s, terminate) for s in handled}
     except ValueError:   # not the main thread: leave the signals alone
         previous = {}
+    hook, sys.unraisablehook = sys.unraisablehook, unraisable
     try:
         return _main(argv)
     finally:
+        sys.unraisablehook = hook
         for s, h in previous.items():
             signal.signal(s, h)
+        from . import output
+
+        output.STOP["signal"] = None
 
 
 def _main(argv) -> int:

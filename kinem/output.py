@@ -101,6 +101,13 @@ def _links_unnamed(directory) -> bool:
     return _UNNAMED[dev]
 
 
+# Set by the command line's SIGTERM/SIGHUP handler. The SystemExit it raises can
+# be swallowed where the signal lands (Python ignores exceptions raised in a
+# ctypes callback, such as numba's object cache notifier), so a commit checks
+# this too and ends the run instead of publishing its output.
+STOP = {"signal": None}
+
+
 class Output:
     """One output target; ``file`` is a binary file object. Use as a context
     manager and call ``commit()`` when the content is complete: leaving the
@@ -150,6 +157,9 @@ class Output:
         return not self._tmp
 
     def write(self, data: bytes) -> None:
+        if STOP["signal"] is not None:
+            self.close()
+            raise SystemExit(128 + STOP["signal"])
         try:
             self.file.write(data)
         except OSError as e:
@@ -161,6 +171,9 @@ class Output:
 
     def commit(self) -> None:
         """Make the content written so far the target's content."""
+        if STOP["signal"] is not None:   # terminated: discard, exit as the signal asked
+            self.close()
+            raise SystemExit(128 + STOP["signal"])
         try:
             self.file.flush()
             if not self._tmp:

@@ -190,6 +190,18 @@ def test_signal_while_writing_leaves_nothing(tmp_path, sig):
     assert "Traceback" not in err
 
 
+def test_a_swallowed_termination_still_discards_the_output(tmp_path, monkeypatch):
+    """The handler's SystemExit can be swallowed where the signal lands (seen:
+    inside numba's ctypes object-cache callback, and the run then finished with
+    exit 0 and its file); the flag it sets stops the next write or the commit."""
+    monkeypatch.setitem(output.STOP, "signal", signal.SIGTERM)
+    for act in (lambda out: out.write(b"t\n"), lambda out: out.commit()):
+        with pytest.raises(SystemExit) as e:
+            with output.Output(tmp_path / "x.csv") as out:
+                act(out)
+        assert e.value.code == 143 and leftovers(tmp_path) == []
+
+
 def test_format_and_suffix_must_agree(tmp_path):
     code, _, err = run("solve", SLIDER, "--steps", 3, "--out", tmp_path / "f.npz", "--format", "csv")
     assert code == 2 and "--format csv does not match --out" in one_line(err)
