@@ -82,17 +82,42 @@ def sweep(engine, cases=CASES, quick=False, repeats=3, models=None):
             "default_over_recommended": default["time_per_interval"] / best["time_per_interval"] if best else None}
 
 
-def pareto(points):
+def pareto(points, cost="time_per_interval", error="position_error_rel", floor=0.0):
     """Indices of the points that no other point beats on both worst
-    position error and cost (finite errors only), cheapest first."""
-    finite = [(p["time_per_interval"], p["position_error_rel"], k) for k, p in enumerate(points)
-              if p["position_error_rel"] < float("inf")]
-    front, best = [], float("inf")
-    for cost, err, k in sorted(finite):
+    position error and cost (finite errors only; a None error or cost never
+    counts), cheapest first. ``cost`` and ``error`` name the points' keys
+    (the report's points call them "cost" and "error"); errors below
+    ``floor`` (rounding noise) count as equal, so only the cheapest of them
+    is on the front."""
+    inf = float("inf")
+    finite = [(p[cost], max(p[error], floor), k) for k, p in enumerate(points)
+              if p[error] is not None and p[cost] is not None and p[error] < inf and p[cost] < inf]
+    front, best = [], inf
+    for c, err, k in sorted(finite):
         if err < best:
             front.append(k)
             best = err
     return front
+
+
+STEP_KNOB = "substeps"   # the step: the report sweeps it as dt (adapters.base: dt = interval / substeps)
+FAMILY_VALUES = 2        # alternatives per knob in the report: the knob's extremes besides the default
+
+
+def families(adapter, settings, most=FAMILY_VALUES):
+    """The knob families of the report's work-precision sweep: settings
+    overrides of the adapter's knobs other than the step, the first being
+    ``settings``' own values (the defaults' family), then one knob changed at
+    a time to at most ``most`` other values of its list (its first and last:
+    the cheapest and most careful ends). Each family is swept over dt."""
+    names = [k for k in adapter.knobs if k != STEP_KNOB]
+    base = {k: settings.get(k) for k in names}
+    out = [base]
+    for k in names:
+        others = [v for v in adapter.knobs[k] if v != base[k]]
+        pick = others if len(others) <= most else [others[0], others[-1]][:most]
+        out += [dict(base, **{k: v}) for v in pick]
+    return out
 
 
 def text(result) -> str:

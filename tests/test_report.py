@@ -578,3 +578,92 @@ def test_cli_scope_stress_and_default_baseline(monkeypatch, tmp_path):
     assert not mine.whole_set and mine.stress is True and mine.baseline is None and not mine.baseline_default
     assert listed.whole_set and listed.stress is False and listed.baseline is None   # none in tmp_path
     assert kcli.main(["report", "--stress", "--no-stress"]) == 2
+
+
+class KnobEngine(FakeEngine):
+    """A fake with an accuracy knob besides the step: error dt * 1e-3 *
+    (1 + 10 / iterations) of L, stepping cost steps * iterations * 1 us
+    (synthetic, so the Pareto front is deterministic)."""
+    knobs = {"substeps": (1, 10), "iterations": (1, 3, 10, 20)}
+
+    def defaults(self):
+        return {"dt": 1e-3, "substeps": None, "iterations": 3}
+
+    def simulate(self, model, q0, qd0, settings, times):
+        from kinem.solver import solve
+
+        r = solve(model)
+        q = r.q.copy()
+        q[:, 0::3][:, :len(model.body_names)] += settings["dt"] * 1e-3 * (1 + 10 / settings["iterations"]) * model.length
+        steps = settings["substeps"] * (len(times) - 1)
+        return q, r.qd, steps * settings["iterations"] * 1e-6, steps
+
+
+@pytest.fixture(scope="module")
+def knob_report(tmp_path_factory):
+    """A work-precision sweep over the fake's knob families (dt x 10 and 1 in each)."""
+    from kinem.report import execute
+
+    tmp = tmp_path_factory.mktemp("knobs")
+    mp = pytest.MonkeyPatch()
+    mp.setattr(adapters, "get", lambda name: KnobEngine())
+    mp.setattr(execute, "QUICK", execute.Sweep(dt_factors=(10.0, 1.0), tolerances=(1e-6,), native_repeats=1,
+                                               family_factors=(10.0, 1.0)))
+    try:
+        out = run(Options(cases=(short_case(tmp, "slider_crank", 0.2),), engines=("pymunk",), out=str(tmp / "out"),
+                          quick=True, workers=0, progress=False, stress=False))
+    finally:
+        mp.undo()
+    return out.doc, tmp / "out"
+
+
+def test_work_precision_sweeps_knob_families_and_marks_the_pareto_front(knob_report):
+    doc, out = knob_report
+    assert problems(doc, SCHEMA) == []
+    curves = [c for c in doc["cases"][0]["work_precision"]["curves"] if c["engine"] == "pymunk"]
+    # the defaults' family first, then the knob's extremes besides the default (adapters.tune.families)
+    assert [c["family"] for c in curves] == [{"iterations": 3}, {"iterations": 1}, {"iterations": 20}]
+    points = [p for c in curves for p in c["points"]]
+    assert len(points) == 6
+    for c in curves:          # every point says which knob values it ran with
+        for p in c["points"]:
+            assert p["knobs"] == dict(c["family"], dt=pytest.approx(p["value"]))
+            # the fake's error law: the knobs recorded are the ones the engine used
+            assert p["error"] == pytest.approx(p["value"] * 1e-3 * (1 + 10 / p["knobs"]["iterations"]), rel=1e-6)
+
+    def dominated(p):
+        return any(q is not p and q["cost"] <= p["cost"] and q["error"] <= p["error"]
+                   and (q["cost"], q["error"]) != (p["cost"], p["error"]) for q in points)
+
+    marked = [p["front"] for p in points]
+    assert marked == [not dominated(p) for p in points]
+    # not trivial: the front spans families, and some point is off it
+    assert 0 < sum(marked) < len(points) and len({p["knobs"]["iterations"] for p in points if p["front"]}) > 1
+    assert "Pareto" in (out / "index.html").read_text()
+
+
+def test_gate_matches_points_by_their_full_knob_setting(knob_report):
+    doc = knob_report[0]
+    found, g = _regressions(doc, doc)
+    assert found == [] and not g["not_compared"]
+    # a family gone: its points are missing, named by dt and the knob
+    fewer = copy.deepcopy(doc)
+    wp = fewer["cases"][0]["work_precision"]
+    wp["curves"] = [c for c in wp["curves"] if c.get("family") != {"iterations": 1}]
+    found, _ = _regressions(_narrowed(fewer), doc)
+    assert len(found) == 2 and all(f[3] == "missing" and "iterations=1" in f[2] and "dt=" in f[2] for f in found)
+    # a baseline written before the knob families (dt-only points, no knobs): its points are the
+    # defaults' family (the baseline's main-run settings), compared as such; the new families are not missing
+    legacy = copy.deepcopy(doc)
+    wp = legacy["cases"][0]["work_precision"]
+    wp["curves"] = [c for c in wp["curves"] if c["engine"] == "native" or c["family"] == {"iterations": 3}]
+    for c in wp["curves"]:
+        c.pop("family")
+        for p in c["points"]:
+            p.pop("knobs"), p.pop("front")
+    found, g = _regressions(doc, legacy)
+    assert found == [] and not g["not_compared"]
+    bad = copy.deepcopy(legacy)
+    bad["cases"][0]["work_precision"]["curves"][-1]["points"][0]["error"] /= 1e3   # so they were compared
+    found, _ = _regressions(doc, bad)
+    assert [(f[1], f[3]) for f in found] == [("pymunk", "error")] and "iterations=3" in found[0][2]

@@ -9,6 +9,19 @@ def test_pareto_front_keeps_only_undominated_points():
     pts = [{"time_per_interval": c, "position_error_rel": e}
            for c, e in [(1.0, 1e-3), (2.0, 1e-5), (3.0, 1e-4), (4.0, 1e-7), (0.5, float("inf"))]]
     assert tune.pareto(pts) == [0, 1, 3]   # (3, 1e-4) is beaten by (2, 1e-5); inf errors never count
+    # below the floor errors are equal: only the cheapest of them is on the front
+    low = [{"time_per_interval": c, "position_error_rel": e} for c, e in [(1.0, 1e-3), (2.0, 3e-16), (3.0, 1e-16)]]
+    assert tune.pareto(low) == [0, 1, 2] and tune.pareto(low, floor=1e-12) == [0, 1]
+
+
+def test_families_hold_the_defaults_then_change_one_knob_to_its_ends():
+    class A:
+        knobs = {"substeps": (1, 2), "integrator": ("a", "b", "c"), "iterations": (3, 5, 10, 25, 100)}
+
+    fams = tune.families(A, {"integrator": "a", "iterations": 100, "dt": 1e-3})
+    assert fams == [{"integrator": "a", "iterations": 100}, {"integrator": "b", "iterations": 100},
+                    {"integrator": "c", "iterations": 100}, {"integrator": "a", "iterations": 3},
+                    {"integrator": "a", "iterations": 25}]
 
 
 def test_tune_quick_smoke(capsys):

@@ -69,7 +69,8 @@ def run(o: Options) -> Outcome:
                        (stress_tasks(o.engines) if stress else 0) + len(cases))   # then the stress suite, figures
         options = {"quick": o.quick, "engines": list(o.engines), "workers": _workers(o.workers),
                    "reference_tolerance": REFERENCE_TOLERANCE, "native_tolerances": list(sweep.tolerances),
-                   "dt_factors": list(sweep.dt_factors), "native_repeats": sweep.native_repeats,
+                   "dt_factors": list(sweep.dt_factors),
+                   "family_factors": list(sweep.family_factors), "native_repeats": sweep.native_repeats,
                    "whole_set": o.whole_set,
                    "stress": ("--stress" if o.stress else "the whole case set") if stress else None}
         doc, series = results.build(cases, runs, options, time.perf_counter() - start)

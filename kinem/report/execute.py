@@ -2,8 +2,11 @@
 
 Every case gets a main run on the native solver and on each engine (default
 settings). Work-precision cases also get a sweep: the native solver over
-NATIVE_TOLERANCES, each engine over its default time step times DT_FACTORS
-(the factor 1 point is the main run). Runs are independent, so they go to a
+NATIVE_TOLERANCES, each engine over its default time step times
+``dt_factors`` (the factor 1 point is the main run), and each other family
+of the engine's own accuracy knobs (adapters.tune.families: MuJoCo's and
+Exudyn's integrators, pymunk's iterations) over its default time step times
+``family_factors``. Runs are independent, so they go to a
 process pool or a Dask cluster (kinem.parallel); an engine's sweep is
 submitted only once its main run came back "ok", smallest time steps (the
 longest runs) first.
@@ -30,10 +33,13 @@ class Sweep:
     dt_factors: tuple
     tolerances: tuple = NATIVE_TOLERANCES
     native_repeats: int = 3
+    family_factors: tuple = ()   # dt factors of the other knob families (none: the defaults' family only)
 
 
-FULL = Sweep(dt_factors=(10.0, 5.0, 2.0, 1.0, 0.5, 0.2, 0.1), native_repeats=3)  # two decades, 1-2-5 steps
-QUICK = Sweep(dt_factors=(10.0, 5.0, 2.0, 1.0), native_repeats=1)  # the coarse decade only
+# two decades, 1-2-5 steps; the other knob families the coarse decade at three points, none costlier
+# than the main run (their finest steps dominated the added time: Exudyn trapezoidal at 0.2 dt, 3-5x a main run)
+FULL = Sweep(dt_factors=(10.0, 5.0, 2.0, 1.0, 0.5, 0.2, 0.1), native_repeats=3, family_factors=(10.0, 3.0, 1.0))
+QUICK = Sweep(dt_factors=(10.0, 5.0, 2.0, 1.0), native_repeats=1)  # the coarse decade, the defaults' family only
 
 
 def wants_sweep(case) -> bool:
@@ -66,7 +72,13 @@ def execute(cases, engines, sweep: Sweep, workers=None, progress=None, scheduler
             if progress:
                 progress.drop(n)
             return []
-        return [Task(task.path, task.engine, "dt", dt * f) for f in sorted(sweep.dt_factors) if f != 1.0]
+        tasks = [Task(task.path, task.engine, "dt", dt * f) for f in sorted(sweep.dt_factors) if f != 1.0]
+        for family in (r.get("families") or [])[1:]:      # the first is the defaults': swept above
+            tasks += [Task(task.path, task.engine, "dt", dt * f, point=tuple(sorted(dict(family, dt=dt * f).items())))
+                      for f in sorted(sweep.family_factors)]
+        if progress:   # the other families' points are known only now
+            progress.total += len(tasks) - n
+        return tasks
 
     def record(task, r):
         out[task.path].append(r)
@@ -107,4 +119,6 @@ def execute(cases, engines, sweep: Sweep, workers=None, progress=None, scheduler
 
 
 def _label(task):
-    return f"{os.path.basename(task.path)} {task.engine}" + (f" {task.knob}={task.value:.3g}" if task.knob else "")
+    family = "".join(f" {k}={v}" for k, v in task.point if k != task.knob)
+    return (f"{os.path.basename(task.path)} {task.engine}" + (f" {task.knob}={task.value:.3g}" if task.knob else "")
+            + family)

@@ -174,27 +174,56 @@ def _missing(current, baseline, scope, findings) -> list:
 
 
 def _sweep(name, engine, oc, case, findings, scope) -> int:
-    """Compares the work-precision points both have; a baseline point this run
-    lacks is a missing finding (fatal unless --quick). Returns how many it lacks."""
-    def points(c):
-        wp = c.get("work_precision") or {}
-        for curve in wp.get("curves", ()):
-            if curve["engine"] == engine:
-                return {(curve["knob"], float(f"{p['value']:.6g}")): p for p in curve["points"]}
-        return {}
-
-    old, new = points(oc), points(case)
-    lacking = sorted(set(old) - set(new))
+    """Compares the work-precision points both have, matched by their full
+    knob setting (dt and the engine's other knobs, or native's tolerance); a
+    baseline point this run lacks is a missing finding (fatal unless --quick).
+    Returns how many it lacks."""
+    new = _points(case, engine)
+    names = {k for key in new for k, _ in key}
+    old = _points(oc, engine, names)
+    lacking = sorted(set(old) - set(new), key=str)
     for key in lacking:
-        findings.append(Finding(name, engine, f"{key[0]}={key[1]:g}", "missing", "point", old[key]["status"], None,
+        findings.append(Finding(name, engine, _where(key), "missing", "point", old[key]["status"], None,
                                 not scope.sweeps, "work-precision point in the baseline, not in this run"))
-    for key in sorted(set(old) & set(new)):
+    for key in sorted(set(old) & set(new), key=str):
         a, b = old[key], new[key]
-        _compare(name, engine, f"{key[0]}={key[1]:g}",
+        _compare(name, engine, _where(key),
                  {"status": a["status"], "figures": _point_figures(a), "counts": a["counts"]},
                  {"status": b["status"], "figures": _point_figures(b), "counts": b["counts"]},
                  findings)
     return len(lacking)
+
+
+def _points(case, engine, names=()):
+    """{knob setting: point} of one engine's work-precision curves. A point
+    without ``knobs`` (a report written before the knob families) swept its
+    curve's knob alone on the defaults: its other knobs (``names``) are
+    taken from the case's main run's settings."""
+    main = next((r for r in case["runs"] if r["engine"] == engine), {})
+    out = {}
+    for curve in (case.get("work_precision") or {}).get("curves", ()):
+        if curve["engine"] != engine:
+            continue
+        for p in curve["points"]:
+            knobs = p.get("knobs")
+            if knobs is None:
+                knobs = {k: (main.get("settings") or {}).get(k) for k in names if k != curve["knob"]}
+                knobs[curve["knob"]] = p["value"]
+            out[_key(knobs)] = p
+    return out
+
+
+def _key(knobs):
+    """A knob setting as a hashable key; numbers to 6 significant digits."""
+    num = lambda v: isinstance(v, (int, float)) and not isinstance(v, bool)   # noqa: E731
+    return tuple(sorted((k, float(f"{v:.6g}") if num(v) else v) for k, v in knobs.items()))
+
+
+def _where(key):
+    """'dt=0.0005, integrator=RK4': the step or tolerance first."""
+    first = ("dt", "tolerance")
+    items = sorted(key, key=lambda kv: (kv[0] not in first, kv[0]))
+    return ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in items)
 
 
 def _point_figures(p):

@@ -115,12 +115,16 @@ def case_table(case):
 
 
 def wp_table(wp):
-    out = ["<table><tr><th class=l>engine</th><th class=l>knob</th><th>value</th><th class=l>status</th>"
+    out = ["<table><tr><th class=l>engine</th><th class=l>knob</th><th>value</th><th class=l>other knobs</th>"
+           "<th class=l>front</th><th class=l>status</th>"
            "<th>error / L</th><th>wall s / sim. s</th><th class=l>counts</th></tr>"]
     for curve in wp["curves"]:
+        held = ", ".join(f"{k}={v}" for k, v in (curve.get("family") or {}).items())
         for p in curve["points"]:
             out.append("<tr>" + _td(curve["engine"], left=True) + _td(curve["knob"], left=True)
-                       + _td(fmt(p["value"], ".1e")) + _td(short(p["status"]), _cls(p["status"]), True)
+                       + _td(fmt(p["value"], ".1e")) + _td(held, left=True)
+                       + _td("Pareto" if p.get("front") else "", left=True)
+                       + _td(short(p["status"]), _cls(p["status"]), True)
                        + _td(fmt(p["error"])) + _td(fmt(p["cost"], ".3g")) + _td(_counts(p), left=True) + "</tr>")
     return "\n".join(out) + "</table>"
 
@@ -155,7 +159,10 @@ def case_section(case, model, series):
     if wp:
         out.append("<h3>Work-precision</h3><p>Each point is one run, labelled with its native Newton tolerance "
                    "or engine time step; errors are maxima over the run against the reference, those below "
-                   "1e-16 drawn at 1e-16.</p>" + _img(plots.work_precision(wp), f"{name} work-precision")
+                   "1e-16 drawn at 1e-16. Each engine is swept over its time step in each family of its own "
+                   "accuracy knobs (integrator, iterations: one marker and line style each, the defaults' family "
+                   "solid); the pale band joins the engine's Pareto front (no other of its runs is both cheaper "
+                   "and more accurate in position).</p>" + _img(plots.work_precision(wp), f"{name} work-precision")
                    + "<details><summary>points</summary><div class=wrap>" + wp_table(wp) + "</div></details>")
     return "\n".join(out) + "</section>"
 

@@ -90,43 +90,73 @@ def errors(runs) -> str:
     return _png(fig)
 
 
+STYLES = (("o", "-"), ("s", "--"), ("^", ":"), ("D", "-."), ("v", (0, (5, 1))), ("P", (0, (1, 3))))   # per family
+
+
+def family_label(curve) -> str:
+    """'mujoco dt, integrator=Euler': the engine, the swept knob, the knobs held."""
+    held = ", ".join(f"{k}={v}" for k, v in (curve.get("family") or {}).items())
+    return f"{curve['engine']} {curve['knob']}" + (f", {held}" if held else "")
+
+
 def work_precision(wp) -> str:
-    """Error against wall time per simulated second, log-log, one curve per
-    engine: position error / L (left) and relative velocity error (right)."""
+    """Error against wall time per simulated second, log-log: position error
+    / L (left) and relative velocity error (right). One line per engine and
+    knob family: the engine's colour, a marker and line style per family (the
+    defaults' family solid with circles). The engine's Pareto front (points
+    with ``front``, on position error) is outlined by a wide pale band on the
+    left panel. The defaults' family and the front points are labelled with
+    their dt (or tolerance); every point's values are in the table below."""
     plt = _plt()
-    fig, axes = plt.subplots(1, 2, figsize=(11.0, 4.0))
+    fig, axes = plt.subplots(1, 2, figsize=(11.0, 4.4))
     for ax, key, label in ((axes[0], "error", "max position error / L"),
                            (axes[1], "velocity_error_rel", "max velocity error / characteristic speed")):
-        labels = []
+        labels, others, fronts, nth = [], [], {}, {}
         for curve in wp["curves"]:
+            e = curve["engine"]
+            k = nth[e] = nth.get(e, -1) + 1
             ok = [p for p in curve["points"] if p["status"] == "ok" and p[key] is not None and p["cost"]]
             if not ok:
                 continue
             x = [p["cost"] for p in ok]
             y = [max(p[key], TINY) for p in ok]
-            e = curve["engine"]
-            ax.loglog(x, y, "o-", color=COLORS.get(e), label=f"{e} ({curve['knob']})")
-            labels += [(f"{p['value']:.0e}", xi, yi, COLORS.get(e)) for p, xi, yi in zip(ok, x, y)]
-        _place_labels(ax, labels)
+            marker, line = STYLES[k % len(STYLES)]
+            ax.loglog(x, y, marker=marker, linestyle=line, color=COLORS.get(e), ms=4 if k else 5, lw=1.1,
+                      label=family_label(curve))
+            for p, xi, yi in zip(ok, x, y):
+                if k == 0 or p.get("front"):
+                    labels.append((f"{p['value']:.0e}", xi, yi, COLORS.get(e)))
+                else:
+                    others.append((xi, yi))
+                if p.get("front") and key == "error":
+                    fronts.setdefault(e, []).append((xi, yi))
+        for e, pts in fronts.items():
+            ax.plot(*zip(*sorted(pts)), "-", color=COLORS.get(e), lw=7, alpha=0.2, solid_capstyle="round",
+                    label=f"{e} Pareto front")
+        _place_labels(ax, labels, others)
         ax.set_xlabel("wall time per simulated second (s)", fontsize=8)
         ax.set_ylabel(label, fontsize=8)
         ax.grid(True, which="major", alpha=0.3)
         ax.tick_params(labelsize=7)
     if axes[0].get_legend_handles_labels()[0]:
-        axes[0].legend(fontsize=7)
+        fig.legend(*axes[0].get_legend_handles_labels(), fontsize=7, loc="upper center",
+                   ncol=4, bbox_to_anchor=(0.5, 0.0), frameon=False)
+    fig.tight_layout()
     return _png(fig)
 
 
 OFFSETS = ((4, 4), (4, -11), (-34, 4), (-34, -11), (4, 12), (-34, 12))   # points, tried in turn
 
 
-def _place_labels(ax, labels):
+def _place_labels(ax, labels, others=()):
     """Annotates (text, x, y, colour) points at the first offset where the
-    label overlaps no label placed before it and no other point; a label with
-    no free place is left out (its point's value is in the table below the plot)."""
+    label overlaps no label placed before it and no other point (of labels
+    or the unlabelled (x, y) ``others``); a label with no free place is left
+    out (its point's value is in the table below the plot)."""
     ax.autoscale_view()
     renderer = ax.figure.canvas.get_renderer()
     pts = [ax.transData.transform((x, y)) for _, x, y, _ in labels]
+    pts += [ax.transData.transform(xy) for xy in others]
     placed = []
     for k, (text, x, y, color) in enumerate(labels):
         for off in OFFSETS:

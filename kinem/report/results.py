@@ -17,7 +17,7 @@ SCHEMA_VERSION = 2
 PACKAGES = ("kinem", "numpy", "scipy", "matplotlib", "pymunk", "mujoco", "exudyn")
 WP_ERROR = "position_error_rel"      # the work-precision diagram's error
 WP_COST = "wall_per_sim_second"      # and its cost
-PLOT_ONLY = ("series", "path", "elapsed")
+PLOT_ONLY = ("series", "path", "elapsed", "families", "knobs")   # knobs: the work-precision points carry them
 
 
 def build(cases, runs, options, duration):
@@ -64,23 +64,48 @@ def _strip(r):
 
 
 def _point(r):
-    return {"value": r["value"], "status": r["status"], "error": r[WP_ERROR], "cost": r[WP_COST],
-            "velocity_error_rel": r["velocity_error_rel"], "wall_time": r["wall_time"], "counts": r["counts"]}
+    return {"value": r["value"], "knobs": r["knobs"], "status": r["status"], "error": r[WP_ERROR],
+            "cost": r[WP_COST], "velocity_error_rel": r["velocity_error_rel"], "wall_time": r["wall_time"],
+            "counts": r["counts"], "front": False}
 
 
 def _work_precision(rs, engines):
-    """One curve per engine that has sweep points: (knob value, error, cost)."""
+    """One curve per engine and knob family (the knob settings other than
+    the swept one) that has sweep points: (knob value, error, cost), the
+    defaults' family first; each point carries its full knob setting, and
+    ``front`` marks the engine's Pareto front over all its families
+    (adapters.tune.pareto: no other point of the engine is both cheaper and
+    more accurate, errors below the gate's ERROR_FLOOR counting as equal)."""
+    from adapters.tune import pareto
+
+    from .gate import ERROR_FLOOR   # errors below it are rounding noise: equal on the front
+
     curves = []
     for e in ("native",) + tuple(engines):
         pts = [r for r in rs if r["engine"] == e and r["knob"] is not None]
         if not pts:
             continue
         knob = pts[0]["knob"]
-        if e != "native":  # the main run is the sweep's factor-1 point
+        if e != "native":  # the main run is the sweep's factor-1 point of the defaults' family
             pts += [dict(r, value=r["requested"]["dt"]) for r in rs
                     if r["engine"] == e and r["knob"] is None and r["status"] == "ok"]
-        pts.sort(key=lambda r: r["value"])
-        curves.append({"engine": e, "knob": knob, "points": [_point(r) for r in pts]})
+        families = []
+        for r in pts:
+            family = {k: v for k, v in r["knobs"].items() if k != knob}
+            if family not in families:
+                families.append(family)
+        main = next((r["knobs"] for r in rs if r["engine"] == e and r["knob"] is None), {})
+        families.sort(key=lambda f: f != {k: v for k, v in main.items() if k != knob})   # the defaults' first
+        mine = []
+        for family in families:
+            group = sorted((r for r in pts if {k: v for k, v in r["knobs"].items() if k != knob} == family),
+                           key=lambda r: r["value"])
+            curve = {"engine": e, "knob": knob, "family": family, "points": [_point(r) for r in group]}
+            curves.append(curve)
+            mine += curve["points"]
+        ok = [dict(p, error=p["error"] if p["status"] == "ok" else None) for p in mine]
+        for k in pareto(ok, cost="cost", error="error", floor=ERROR_FLOOR):
+            mine[k]["front"] = True
     if not curves:
         return None
     return {"error": WP_ERROR, "cost": WP_COST, "curves": curves}

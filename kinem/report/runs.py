@@ -30,7 +30,8 @@ class Task:
     knob: str | None = None     # None: main run; "tolerance" (native) or "dt" (engines): a sweep point
     value: float | None = None
     repeats: int = 1            # native runs timed; the median wall time is kept
-    point: tuple = ()           # engines: (key, value) settings of a sweep point over several knobs
+    point: tuple = ()           # engines: sorted (key, value) overrides of a sweep point over several knobs
+                                # (its knob family and dt); empty: the knob alone, on the defaults
 
 
 def _model(path, tolerance=None):
@@ -60,7 +61,8 @@ def _blank(task, status, **extra):
     out = {"engine": task.engine, "knob": task.knob, "value": task.value, "status": status,
            "requested": {}, "settings": {}, "version": "", "within_tolerance": None, "tolerance": {},
            "wall_time": None, "time_per_step": None, "time_per_interval": None, "overhead_per_interval": None,
-           "wall_per_sim_second": None, "counts": {}, "reference": REFERENCE_LABEL}
+           "wall_per_sim_second": None, "counts": {}, "reference": REFERENCE_LABEL,
+           "knobs": dict(task.point) or ({task.knob: task.value} if task.knob else {})}
     out.update({k: None for k in ERROR_KEYS})
     out.update(extra)
     return out
@@ -136,6 +138,7 @@ def run_native(task):
     counts = {"instants": steps, "newton_iterations": int(r.iterations.sum()),
               "jacobian_evaluations": int(r.jacobian_evaluations), "factorizations": int(r.factorizations)}
     base = dict(requested=settings, settings=settings, version=_version("kinem"), counts=counts, wall_time=wall,
+                knobs={"tolerance": model.case.tolerance},
                 repeats=len(walls), time_per_step=wall / max(steps, 1), time_per_interval=wall / max(steps - 1, 1),
                 overhead_per_interval=0.0, wall_per_sim_second=wall / model.case.end)
     if not r.success:
@@ -191,7 +194,8 @@ def run_engine(task):
     try:
         run = adapter.run(model, ref.q[0], ref.qd[0], settings)
     except Exception as e:  # noqa: BLE001 - adapters should not raise; record it if one does
-        return _blank(task, f"failed: {type(e).__name__}: {e}", version=version, requested=_plain(settings))
+        return _blank(task, f"failed: {type(e).__name__}: {e}", version=version, requested=_plain(settings),
+                      knobs=_knobs(adapter, settings, settings))
     c = compare(model, ref, run, tolerance_of(adapter))
     out = _blank(task, c.label, version=run.version or version, requested=_plain(settings),
                  settings=_plain(run.settings or settings),
@@ -201,11 +205,26 @@ def run_engine(task):
     out["time_per_interval"] = _finite(c.time_per_interval)
     out["overhead_per_interval"] = _finite(c.overhead_per_interval)
     out["wall_per_sim_second"] = _finite(run.wall_time / model.case.end)
+    out["knobs"] = _knobs(adapter, settings, run.settings or settings)
+    if task.knob is None:   # the main run: the knob families its sweep covers (adapters.tune)
+        from adapters.tune import families
+
+        out["families"] = [_plain(f) for f in families(adapter, run.settings or settings)]
     if c.status is Status.OK:
         out.update({k: _finite(getattr(c, k)) for k in ERROR_KEYS})
         if task.knob is None:
             out["series"] = _series(model, ref, run.trajectory, run.q)
     return out
+
+
+def _knobs(adapter, requested, used):
+    """A run's full knob setting: the requested step dt and the values of the
+    adapter's other accuracy knobs (adapters.tune.families) it ran with."""
+    from adapters.tune import STEP_KNOB
+
+    out = {"dt": requested.get("dt")}
+    out.update({k: used.get(k) for k in adapter.knobs if k != STEP_KNOB})
+    return _plain(out)
 
 
 def run_task(task: Task) -> dict:
