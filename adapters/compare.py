@@ -172,7 +172,7 @@ def run_case(model, engines, overrides=None, scheduler=None):
     asked). overrides: engine name -> settings. The engines run in this
     process, or on the workers of a Dask scheduler (an address)."""
     from kinem import parallel
-    from kinem.analysis import solve
+    from kinem.solver import solve
 
     from . import check_case
 

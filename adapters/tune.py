@@ -22,7 +22,7 @@ REFERENCE_TOLERANCE = 1e-13   # native's reference, as the report's
 
 
 def _models(names, quick):
-    from kinem.analysis import solve
+    from kinem.solver import solve
     from kinem.case import load
     from kinem.model import compile
 

@@ -283,7 +283,7 @@ def _tune(a):
 def cmd_export(a):
     """kinem export CASE --engine NAME --out FILE: the engine model as the harness runs it."""
     from adapters.export import export
-    from .analysis import solve
+    from .solver import solve
 
     model = _load(a.case)
     native = solve(model)
@@ -295,14 +295,9 @@ def cmd_export(a):
 
         case_settings(model, a.engine)   # checked as the harness checks it (naming the file and the key)
     text = export(model, a.engine, native.q[0], native.qd[0], settings)
-    out = Path(a.out)
-    if out.is_symlink() or (out.exists() and not out.is_file()):   # a device, FIFO or link: written through
-        with open(out, "w") as f:
-            f.write(text)
-    else:
-        from .output import write_atomic
+    from .output import write_atomic
 
-        write_atomic(out, lambda f: f.write(text.encode()))
+    write_atomic(a.out, lambda f: f.write(text.encode()))   # devices, FIFOs and links written through
     return 0
 
 

@@ -13,11 +13,9 @@ configuration: ``kinem.diagnose`` then tells a limit position (the analysis
 stops with the diagnosis) from a bifurcation the drivers' motion fits, which
 is stepped over on the smooth continuation and recorded as an event.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
-
-from dataclasses import replace
 
 from . import analysis
 from .diagnose import diagnose

@@ -24,7 +24,7 @@ class DummyAdapter(Adapter):
         return None
 
     def simulate(self, model, q0, qd0, s, times):
-        from kinem.analysis import solve
+        from kinem.solver import solve
 
         r = solve(model)
         if not r.success:

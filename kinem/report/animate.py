@@ -51,8 +51,8 @@ def ffmpeg() -> bool:
 def frames(model, engines):
     """(native frames {t, q}, engine -> q at the same instants, denser native q
     for the paths, engine -> why it is not drawn)."""
-    from adapters import get
-    from kinem.analysis import solve
+    from adapters import case_settings, get
+    from kinem.solver import solve
 
     r = solve(model)
     if not r.success:
@@ -67,7 +67,7 @@ def frames(model, engines):
             if why:
                 skipped[name] = why
                 continue
-            run = adapter.run(model, r.q[0], r.qd[0], adapter.settings(dict(model.case.engines.get(name, {}))))
+            run = adapter.run(model, r.q[0], r.qd[0], case_settings(model, name))
         except KinemError:
             raise                # a bad [engines.<name>] setting: the user's input
         except Exception as e:  # noqa: BLE001 - an engine that does not import or crashes is left out, named
@@ -94,16 +94,11 @@ def write(model, out, engines) -> dict:
 
 
 def save(path, data: bytes):
-    """Atomically (temporary file, then rename), except through what is not a
-    regular file (a device, FIFO or symlink: written through, never replaced)."""
+    """Atomically onto a regular file; a device, FIFO or symlink is written
+    through, never replaced (kinem.output.Output)."""
     from ..output import write_atomic
 
-    p = Path(path)
-    if p.is_symlink() or (p.exists() and not p.is_file()):
-        with open(p, "wb") as f:
-            f.write(data)
-    else:
-        write_atomic(p, lambda f: f.write(data))
+    write_atomic(path, lambda f: f.write(data))
 
 
 def raster(model, native, ghosts, dense, ext) -> bytes:

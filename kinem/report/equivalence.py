@@ -169,7 +169,7 @@ def line(doc) -> str:
 def gate(current, baseline, findings, verdicts, not_compared, finding):
     """The groups' max deviation against the baseline's, as an error figure:
     a regression when it grew beyond ERROR_FACTOR x max(old, ERROR_FLOOR)."""
-    from .gate import ERROR_FACTOR, ERROR_FLOOR, verdict
+    from .gate import grew, verdict
 
     old = {e["group"]: e for e in baseline.get("equivalence") or []}
     for e in current.get("equivalence") or []:
@@ -180,7 +180,7 @@ def gate(current, baseline, findings, verdicts, not_compared, finding):
             continue
         before = len(findings)
         a, b = o["max_deviation_rel"], e["max_deviation_rel"]
-        if a is not None and (b is None or b > ERROR_FACTOR * max(a, ERROR_FLOOR)):
+        if a is not None and grew(a, b):
             findings.append(finding(e["group"], "native", "equivalence", "error", "max_deviation_rel", a, b, True,
                                     f"group {e['group']}: deviation / L {a:.2e} -> "
                                     + ("none" if b is None else f"{b:.2e}")))

@@ -58,6 +58,12 @@ def _figures(run):
     return {k: run.get(k) for k in GATED}
 
 
+def grew(a, b) -> bool:
+    """An error figure regressed from a to b (None: gone): grew beyond
+    ERROR_FACTOR, counting only what lies above ERROR_FLOOR."""
+    return b is None or b > ERROR_FACTOR * max(a, ERROR_FLOOR)
+
+
 def _compare(case, engine, where, old, new, out):
     """old, new: {"status", "figures", "counts"}."""
     def add(kind, metric, a, b, message, fatal=True):
@@ -75,7 +81,7 @@ def _compare(case, engine, where, old, new, out):
         if not math.isfinite(a):   # results.load rejects these; a baseline built in memory must not hide a check
             add("error", k, None, b, f"{k}: baseline figure {a} is not finite")
             continue
-        if b is None or b > ERROR_FACTOR * max(a, ERROR_FLOOR):
+        if grew(a, b):
             add("error", k, a, b, f"{k} {a:.2e} -> " + ("none" if b is None else f"{b:.2e}"))
     for k, a in old["counts"].items():
         b = new["counts"].get(k)
