@@ -67,7 +67,8 @@ def preload(model, block: bool = False, solver: "Solver | None" = None) -> None:
     """Loads what the analysis of the model will use, so that timed analyses
     do not pay for it: scipy's factorisations (imported lazily for a fast
     start), the model's kernels (compiled: on first use, then loaded from
-    numba's cache; kinem.jit) and, for the block march (``block``), kinem.dense's.
+    numba's cache; kinem.jit) and, for the compiled march (``block``), its
+    module (kinem.march.prepare).
     Once per model and kind of analysis: again it would only cost time (about
     100 us on the slider-crank, a tenth of a short block-march run)."""
     from . import jit
@@ -87,9 +88,9 @@ def preload(model, block: bool = False, solver: "Solver | None" = None) -> None:
     model.phi(q, t)
     model.nu(t)
     if block:
-        from . import dense
+        from .march import prepare
 
-        dense.warm(model)
+        prepare(model)
 
 
 def monitor_rows(J) -> np.ndarray:

@@ -1,257 +1,217 @@
-"""The block march: several output instants solved together
-(docs/solver.md, "Block march").
+"""The compiled march (docs/solver.md, "The march"): every output instant
+solved in one compiled loop (kinem.loop.run) while the tracker's acceptance
+test passes; Python runs once per solve, and again only for an instant
+the loop hands back (kinem.tracking: sub-steps, singular configurations).
 
-For a small model the cost of an instant is the Python overhead of some
-forty calls on arrays of a dozen numbers, not arithmetic. So a square model
-whose Jacobian's diagonal blocks are small (kinem.model.Blocks) takes its
-output instants in blocks of up to ``[solver] block``: Newton-Raphson runs
-on every instant of a block at once, each from the extrapolation of the last
-accepted state (kinem.tracking.extrapolate), with one kernel call per
-constraint family and compiled batched LUs of the diagonal blocks
-(kinem.dense) per iteration. Velocities and accelerations follow in the same way.
-
-Every instant then passes the tracker's own tests as if it had been reached
-in one step from the instant before it: converged, pivot ratio above the
-floor, the same sign of det(J_s), and no jump from the predictor of the
-previous instant. The instants before the first that fails are accepted.
-The tracker then takes that output step on its own (sub-steps, singular
-configurations), and blocks resume, growing again from one instant.
+numba cannot loop over constraint families of different kernels, so each
+set of families gets a module of its own: kinem/loop.py's source plus the
+evaluators ``phi_all``, ``jac_all`` and ``gamma_all`` that call the
+families' kernels on their slices of the rows, written once into a cache
+folder and compiled by numba with its cache on disk (a few seconds the
+first time, then about 0.1 s to load in a new process). The module's name
+carries a hash of the sources it compiles in, so an edited kernel never
+runs from a stale cache.
 """
-from dataclasses import dataclass
+import hashlib
+import importlib.util
+import os
+import re
+import sys
+import tempfile
+from pathlib import Path
 
 import numpy as np
 
-from . import dense
 from .analysis import MAX_STEP
-from .linalg import PIVOT_RATIO, lu_det_sign, pivot_ratio
 from .options import Options
-from .tracking import State, extrapolate, jumps, rejected
+from .tracking import State, singular_pivot
 
-
-START = 64
 # Fewer output instants go step by step: that costs under 20 ms, less than
 # loading numba in a new process, about 0.4 s (there such runs interpret the
 # kernels: kinem.solver.interpret).
 MIN_INSTANTS = 64
-GROW_ITERATIONS = 3
-SHRINK_ITERATIONS = 4
-ITERATIONS = 8
 # Coordinates of a diagonal block above which the compiled unblocked LU loses
 # to LAPACK and SuperLU step by step: measured on N-four-bar chains (one
 # block), blocks are 2.9x faster at 78 coordinates, 2.2x at 186, 1.1x at 276
 # and 1.7x slower at 402.
 LIMIT = 200
+HERE = Path(__file__).parent
 
 
 def usable(model, trace: bool, instants: int, options: Options | None = None) -> bool:
-    """Blocks are for runs of at least MIN_INSTANTS output instants of models
-    whose Jacobian is square and made of independent diagonal blocks of at
-    most LIMIT coordinates (kinem.model.Blocks: one block for a small model,
-    one per variant for merged variants). A trace, modified Newton or an
-    explicit sparse LU ask for the step-by-step march."""
+    """The compiled march takes runs of at least MIN_INSTANTS output instants
+    of models whose Jacobian is square and made of independent diagonal
+    blocks of at most LIMIT coordinates (kinem.model.Blocks: one block for a
+    small model, one per variant for merged variants), and whose families
+    all compile (kinem.constraints.base.Family.march). A trace, modified
+    Newton, an explicit sparse LU or ``block = 1`` ask for the step-by-step
+    march."""
     c = Options.of(model.case) if options is None else options
     if (c.block <= 1 or trace or c.jacobian_reuse or c.linear_solver == "sparse" or model.m != model.n
             or instants < MIN_INSTANTS):
         return False
+    if not all(f.march(model.times[:1]) is not None for f in model.families):
+        return False
     return model.blocks.size <= LIMIT and model.blocks.square
 
 
-@dataclass
-class Instants:
-    """Accepted instants of a block, time-major."""
-    q: np.ndarray
-    qd: np.ndarray | None
-    qdd: np.ndarray | None
-    iterations: np.ndarray
-    residual: np.ndarray
-    pivot: np.ndarray
-
-    def __len__(self):
-        return len(self.q)
+def _sources() -> str:
+    """Hash of every source compiled into a march module."""
+    h = hashlib.sha1()
+    for p in sorted([HERE / "loop.py", HERE / "dense.py", HERE / "tracking.py", HERE / "jit.py", Path(__file__)]
+                    + list((HERE / "constraints").glob("*.py"))):
+        h.update(p.read_bytes())
+    return h.hexdigest()[:12]
 
 
-def factorize(Js, blocks):
-    """LU factors of the dimensionless Jacobians of K instants, each as its
-    C diagonal blocks (Js: (K * C, s, s), kinem.model.Blocks; C = 1 for a
-    small model), with each instant's pivot ratio (over all its blocks) and
-    sign of det, as kinem.linalg.Factor computes them, in one compiled pass
-    (kinem.dense); Js is overwritten. Returns ((LU, pivots), pivot ratio
-    (K,), det sign (K,))."""
-    P = dense.factor(Js)
-    diag = np.diagonal(Js, axis1=1, axis2=2)
-    per_instant = diag.reshape(-1, blocks.count * blocks.size)
-    ratio = pivot_ratio(np.delete(per_instant, blocks.pad, axis=1) if blocks.pad.size else per_instant)
-    det = lu_det_sign(diag, P).reshape(-1, blocks.count).prod(axis=1) * blocks.sign
-    return (Js, P), np.where(ratio < PIVOT_RATIO, 0.0, ratio), det
+_SOURCES = None
+_MODULES = {}
 
 
-def solve_each(model, factors, B):
-    """x[k] from Phi_q x[k] = B[k] (K, m), with the factors of the blocks of J_s."""
-    b = model.blocks
-    X = np.zeros((len(B), b.count * b.size))
-    X[:, b.row_pos] = B / model.scale
-    dense.solve(*factors, X.reshape(-1, b.size))
-    return X[:, b.col_pos] * model.col_scale
+def _folder() -> Path:
+    """Where generated modules go: beside kinem's own compiled cache, else
+    a folder of this user's in the temporary directory."""
+    for folder in (os.environ.get("KINEM_CACHE"), HERE / "__pycache__" / "march",
+                   Path(tempfile.gettempdir()) / f"kinem-march-{os.getuid()}"):
+        if folder is None:
+            continue
+        folder = Path(folder)
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            if os.access(folder, os.W_OK):
+                return folder
+        except OSError:
+            continue
+    raise OSError("no writable folder for kinem's compiled march")
 
 
-# Entries of a block's Jacobians (K * C * s * s) at most: bounds the instants per block of merged variants.
-MAX_ENTRIES = 2**20
+def _evaluators(forms, widths):
+    """The imports of the families' kernels and the statements that stand for
+    ``phi_all(q, k, A, out)``, ``jac_all(q, A, out)`` and ``gamma_all(q, qd,
+    k, A, out)`` in kinem/loop.py: family i's arguments are A[i] = (phi
+    args, jac args, gamma args, phi values, gamma values); widths: (rows,
+    Jacobian entries) of each family. Written out in the loop, not called:
+    passing A through a call costs more than the kernels' arithmetic (about
+    0.3 us on the slider-crank, measured)."""
+    imports, phi, jac, gamma = [], [], [], []
+    r = e = 0
+    for i, ((fphi, fjac, fgamma), (rows, nnz)) in enumerate(zip(forms, widths)):
+        for what, k in (("phi", fphi[0]), ("jac", fjac[0]), ("gamma", fgamma[0])):
+            imports.append(f"from {k.py_func.__module__} import {k.__name__} as f{i}_{what}")
+        tv = f", A[{i}][3][{{k}}:{{k}} + 1]" if fphi[2] is not None else ""
+        phi.append(f"f{i}_phi({{q}}, *A[{i}][0]{tv}, {{out}}[:, {r}:{r + rows}])")
+        jac.append(f"f{i}_jac({{q}}, *A[{i}][1], {{out}}[:, {e}:{e + nnz}])")
+        tv = f", A[{i}][4][{{k}}:{{k}} + 1]" if fgamma[2] is not None else ""
+        gamma.append(f"f{i}_gamma({{q}}, {{qd}}, *A[{i}][2]{tv}, {{out}}[:, {r}:{r + rows}])")
+        r, e = r + rows, e + nnz
+    return imports, {"phi_all": (("q", "k", "A", "out"), phi), "jac_all": (("q", "A", "out"), jac),
+                     "gamma_all": (("q", "qd", "k", "A", "out"), gamma)}
 
 
-class Block:
-    def __init__(self, model, tracker):
-        self.model, self.tracker, self.data = model, tracker, tracker.data
-        self.need_v, self.need_a = tracker.need_v, tracker.need_a
-        b = self.blocks = model.blocks
-        self.options = tracker.options
-        self.limit = max(1, min(self.options.block, MAX_ENTRIES // (b.count * b.size**2)))
-        self.size = min(START, self.limit)
-        # Jacobians of a block, reused: a fresh array of this size costs more in page faults than its arithmetic
-        self.work = np.empty((self.limit * b.count, b.size, b.size))
+CALL = re.compile(r"^(\s*)(phi_all|jac_all|gamma_all)\((.*)\)$", re.M)
 
-    def dimensionless(self, Q, t):
-        """J_s at the instants (Q, t) as their diagonal blocks (K * C, s, s),
-        in the block's work array."""
-        m, d, C = self.model, self.data, self.blocks.count
-        d.jacobian_evaluations += len(t)
-        return dense.assemble(m.jac_values(Q, t), *self.blocks.entries, m.entry_scale, self.blocks.pad,
-                              self.work[:len(t) * C])
 
-    def newton(self, Q, t):
-        """Newton-Raphson on all instants at once (kinem.analysis.position);
-        an instant stops iterating when it has converged. Returns (Q,
-        iterations, residual, Phi at convergence, converged)."""
-        m, d = self.model, self.data
-        tol, max_it = self.options.tolerance, min(self.options.max_iterations, ITERATIONS)
-        K = len(t)
-        iterations = np.zeros(K, dtype=int)
-        residual = np.full(K, np.inf)
-        done = np.zeros(K, dtype=bool)
-        final = np.zeros((K, m.m))
-        b = self.blocks
-        for it in range(max_it + 1):
-            phi = m.phi(Q, t)
-            active = dense.converged(phi, m.scale, tol, it, done, iterations, residual, final)
-            if it == max_it or not len(active):
-                break
-            Js = self.dimensionless(Q[active], t[active])
-            d.factorizations += len(active)
-            pivots = dense.factor(Js)
-            dense.newton_step(Js, pivots, phi, active, m.scale, m.col_scale, b.row_pos, b.col_pos, MAX_STEP, Q)
-        return Q, iterations, residual, final, done
+def _write_out(loop, calls):
+    """kinem/loop.py's source with each evaluator call replaced by its statements."""
+    def replace(match):
+        indent, name, args = match.groups()
+        params, lines = calls[name]
+        values = dict(zip(params, (a.strip() for a in args.split(","))))
+        return "\n".join(indent + line.format(**values) for line in lines)
+    return CALL.sub(replace, loop)
 
-    def advance(self, times) -> Instants:
-        """As many of the output instants ``times`` as pass the tests, from
-        the tracker's last accepted state; the tracker's history moves on."""
-        m, tr = self.model, self.tracker
-        hist = tr.history[-3:]
-        last = hist[-1]
-        Q, iterations, residual, final, done = self.newton(self.start(times, hist), times)
-        n = int(np.argmin(done)) if not done.all() else len(done)
-        if n == 0:
-            return self.empty()
-        Q, t = Q[:n], times[:n]
-        b = self.blocks
-        factors, pivot, det = factorize(self.dimensionless(Q, t), b)
-        self.data.factorizations += n
-        previous = np.concatenate([[last.det], det[:-1]])
-        # the tracker's test (tracking.rejected) without the jump, known only with the rates
-        n = self.accepted(rejected(pivot, det, previous, False, tr.pivot_floor))
-        if n == 0:
-            return self.empty()
-        Q, t, factors = Q[:n], t[:n], (factors[0][:n * b.count], factors[1][:n * b.count])
-        Q += solve_each(m, factors, -final[:n])  # analysis.refine: one more Newton correction
-        QD = QDD = None
-        if self.need_v:
-            # rates from the Jacobian at the corrected positions: to rounding, not to the tolerance
-            factors = factorize(self.dimensionless(Q, t), b)[0]
-            self.data.factorizations += n
-            QD = solve_each(m, factors, m.nu(t))
-            if self.need_a:
-                QDD = solve_each(m, factors, m.gamma(Q, QD, t))
-        n = self.accepted(rejected(pivot[:n], det[:n], previous[:n], self.jumps(hist, t, Q, QD, QDD), tr.pivot_floor))
-        if n == 0:
-            return self.empty()
-        out = Instants(Q[:n], None if QD is None else QD[:n], None if QDD is None else QDD[:n],
-                       iterations[:n], residual[:n], pivot[:n])
-        for k in range(max(0, n - 3), n):
-            tr.accept(State(float(t[k]), Q[k].copy(), None if QD is None else QD[k].copy(),
-                            None if QDD is None else QDD[k].copy(), float(pivot[k]), int(det[k]),
-                            int(iterations[k]), float(residual[k])))
-        return out
 
-    def start(self, times, hist):
-        """Newton starts for the block: the tracker's predictor from the last
-        state, plus the cubic Taylor term (the third derivative taken as the
-        change of qdd over the last step), so that far instants start closer.
-        A run that does not output accelerations gets them for this (``rates``)."""
-        K, n, last = len(times), self.model.n, hist[-1]
-        T = np.broadcast_to([p.t for p in hist], (K, len(hist)))
-        H = np.broadcast_to([p.q for p in hist], (K, len(hist), n))
-        if last.qdd is not None:
-            QD, QDD = [last.qd], [p.qdd for p in hist[-2:]]
+def program(model, forms):
+    """The march module of the model's families (generated and imported
+    once per process)."""
+    global _SOURCES
+    widths = [(f.n_rows, len(f.rows)) for f in model.families]
+    imports, calls = _evaluators(forms, widths)
+    key = hashlib.sha1(repr((imports, calls)).encode()).hexdigest()[:12]
+    if key in _MODULES:
+        return _MODULES[key]
+    if _SOURCES is None:
+        _SOURCES = _sources()
+    loop = (HERE / "loop.py").read_text()
+    loop = _write_out(loop[:loop.rindex("phi_all = jac_all = gamma_all = None")], calls)
+    body = (f'"""Generated by kinem.march: the march of families {", ".join(type(f).__name__ for f in model.families)}'
+            f' (sources {_SOURCES}). Not to be edited."""\n' + "\n".join(imports) + "\n" + loop)
+    name = f"march_{key}_{_SOURCES}"
+    path = _folder() / f"{name}.py"
+    if not path.exists() or path.read_text() != body:
+        tmp = path.with_name(f".{name}.{os.getpid()}.tmp")
+        tmp.write_text(body)
+        os.replace(tmp, path)
+    spec = importlib.util.spec_from_file_location(f"kinem._march.{name}", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    _MODULES[key] = module
+    return module
+
+
+def prepare(model):
+    """The model's march module, loaded (compiled the first time) and its
+    ``run`` compiled for the model's argument types."""
+    times = np.asarray(model.times[:1], float)
+    forms = [f.march(times) for f in model.families]
+    m = March(model, None, times, (np.empty((1, model.n)), None, None, np.empty(1, int), np.empty(1), np.empty(1)),
+              forms)
+    state = (model.q0.copy(), model.q0.copy(), model.q0.copy(), np.zeros(2), np.zeros((3, model.n)), np.zeros(3))
+    m.module.run(times, 1, state, m.A, m.nu, m.structure, m.settings, (*m.out, m.counts))
+    return m.module
+
+
+class March:
+    """The compiled march of one solve: the model's families' arguments and
+    time-function values at the output instants, and the tracker whose
+    history it carries on."""
+
+    def __init__(self, model, tracker, times, out, forms=None):
+        self.model, self.tracker, self.times = model, tracker, times
+        forms = [f.march(times) for f in model.families] if forms is None else forms
+        self.module = program(model, forms)
+        empty = np.zeros((0, 0))
+        self.A = tuple((p[1], j[1], g[1], empty if p[2] is None else np.ascontiguousarray(p[2], float),
+                        empty if g[2] is None else np.ascontiguousarray(g[2], float)) for p, j, g in forms)
+        self.rates = tracker is None or tracker.need_v
+        self.nu = np.ascontiguousarray(model.nu(times if self.rates else times[:1]).reshape(-1, model.m))
+        b = model.blocks
+        real = np.ones(b.count * b.size, bool)
+        real[b.pad] = False
+        self.structure = (*b.entries, model.entry_scale, b.row_pos, b.col_pos, b.pad, real, b.sign, model.scale,
+                          model.col_scale, b.count, b.size)
+        o = Options.of(model.case) if tracker is None else tracker.options
+        self.settings = (float(o.tolerance), int(o.max_iterations), MAX_STEP, singular_pivot(o.tolerance), self.rates)
+        Q, QD, QDD, iterations, residual, pivot = out  # QD, QDD None: not asked for; the loop needs them
+        QD = np.empty_like(Q) if QD is None else QD
+        QDD = np.empty_like(Q) if QDD is None else QDD
+        self.out = (Q, QD, QDD, iterations, residual, pivot)
+        self.counts = np.zeros(2, np.int64)
+
+    def advance(self, k: int) -> int:
+        """Output instants from k on, from the tracker's last state, until one
+        is not accepted; returns the first instant not taken (len(times): all)."""
+        tr, last = self.tracker, self.tracker.history[-1]
+        n = self.model.n
+        if self.rates:
+            qd, qdd = (last.qd, last.qdd) if last.qdd is not None else tr.rates(last)
         else:
-            QD, QDD = self.rates(hist[-2:])
-        q, _ = extrapolate(times, T, H, np.broadcast_to(QD[-1], (K, n)), np.broadcast_to(QDD[-1], (K, n)))
-        if len(hist) > 1:
-            h = times - last.t
-            q += (h**3 / 6)[:, None] * ((QDD[-1] - QDD[-2]) / (last.t - hist[-2].t))
-        return q
-
-    def rates(self, states):
-        """Velocities and accelerations at accepted states of a run that does
-        not output them, for the block's starts: without them a block's far
-        instants start from a poorer extrapolation and take more iterations
-        than these few solves cost."""
-        m = self.model
-        Q, t = np.array([s.q for s in states]), np.array([s.t for s in states])
-        Js = self.dimensionless(Q, t)
-        factors = (Js, dense.factor(Js))
-        self.data.factorizations += len(t)
-        QD = solve_each(m, factors, m.nu(t))
-        return QD, solve_each(m, factors, m.gamma(Q, QD, t))
-
-    @staticmethod
-    def accepted(why) -> int:
-        """How many instants pass the test, up to the first that fails."""
-        return int(np.argmax(why != 0)) if why.any() else len(why)
-
-    def jumps(self, hist, t, Q, QD, QDD):
-        """Whether each instant's correction from its own predictor (from the
-        instant before it) is a jump (tracking.jumps)."""
-        m = self.model
-        n = len(t)
-        if QD is not None:
-            prev_q = np.concatenate([[hist[-1].q], Q[:-1]])
-            prev_qd = np.concatenate([[hist[-1].qd], QD[:-1]])
-            prev_qdd = None if QDD is None else np.concatenate([[hist[-1].qdd], QDD[:-1]])
-            T = np.concatenate([[hist[-1].t], t[:-1]])[:, None]
-            pred, order = extrapolate(t, T, prev_q[:, None], prev_qd, prev_qdd)
-        else:
-            pad = 3 - len(hist)
-            allT = np.concatenate([np.full(pad, np.nan), [p.t for p in hist], t])
-            allQ = np.concatenate([np.zeros((pad, m.n)), [p.q for p in hist], Q])
-            idx = np.arange(n)[:, None] + np.arange(3)
-            pred, order = extrapolate(t, allT[idx], allQ[idx])
-            prev_q = allQ[idx[:, -1]]
-        jump, _, _ = jumps(m, Q, pred, prev_q, self.options.tolerance)
-        return jump & (order >= 1)
-
-    def empty(self) -> Instants:
-        return Instants(np.empty((0, self.model.n)), None, None, np.empty(0, int), np.empty(0), np.empty(0))
-
-    def next_size(self, got: Instants) -> int:
-        """The next block's size: after a full block, double it while its last
-        instant converged in at most GROW_ITERATIONS iterations, halve it when
-        that took more than SHRINK_ITERATIONS (far instants start too far
-        away to be worth solving together); after a partial one, what was
-        accepted."""
-        n, size = len(got), self.size
-        if n < size:
-            size = max(1, n)
-        elif got.iterations[-1] <= GROW_ITERATIONS:
-            size = min(2 * size, self.limit)
-        elif got.iterations[-1] > SHRINK_ITERATIONS:
-            size = max(1, size // 2)
-        self.size = size
-        return size
+            qd = qdd = np.zeros(n)
+        H, T = np.zeros((3, n)), np.full(3, np.nan)
+        for i, s in enumerate(tr.history[-3:]):
+            H[3 - len(tr.history[-3:]) + i], T[3 - len(tr.history[-3:]) + i] = s.q, s.t
+        state = (last.q.copy(), qd.copy(), qdd.copy(), np.array([last.t, last.det], float), H, T)
+        self.counts[:] = 0
+        end, _ = self.module.run(self.times, k, state, self.A, self.nu, self.structure, self.settings,
+                                 (*self.out, self.counts))
+        d = tr.data
+        d.jacobian_evaluations += int(self.counts[0])
+        d.factorizations += int(self.counts[1])
+        Q, QD, QDD, iterations, residual, pivot = self.out
+        for j in range(max(k, end - 3), end):
+            # the loop accepts no det flip: every instant it took has the last one's sign
+            tr.accept(State(float(self.times[j]), Q[j].copy(), QD[j].copy() if self.rates else None,
+                            QDD[j].copy() if self.rates else None, float(pivot[j]),
+                            int(state[3][1]), int(iterations[j]), float(residual[j])))
+        return end

@@ -1,6 +1,6 @@
 """``solve``: the analysis of a compiled Model over its output instants
 (docs/solver.md), on top of the stages (kinem.analysis), the tracker
-(kinem.tracking) and the block march (kinem.march); nothing below imports
+(kinem.tracking) and the compiled march (kinem.march); nothing below imports
 it. Its options (kinem.options.Options) are passed to it, not compiled into
 the Model: changing a tolerance never recompiles."""
 import time
@@ -13,7 +13,7 @@ from .analysis import Data, check_square
 from .diagnose import explain_assembly
 from .errors import AnalysisError, SingularError
 from .linalg import choose, preload
-from .march import Block, usable
+from .march import March, usable
 from .options import Options
 from .result import OUTPUTS, SolveResult, Status, trajectory
 from .tracking import Tracker
@@ -64,23 +64,16 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     with jit.interpreted() if interpret(model, blocks, nt) else nullcontext():
         preload(model, blocks, data.solver)  # one-time imports, not part of the analysis's wall time
         start = time.perf_counter()
-        block = Block(model, tracker) if blocks else None
+        march = None
         k = 0
         try:
             while k < nt:
-                if block is not None and k > 0:
-                    got = block.advance(times[k: k + block.size])
-                    n = len(got)
-                    block.next_size(got)
-                    if n:
-                        iters[k:k + n], resid[k:k + n], cond[k:k + n], Q[k:k + n] = (
-                            got.iterations, got.residual, got.pivot, got.q)
-                        if need_v:
-                            QD[k:k + n] = got.qd
-                            if need_a:
-                                QDD[k:k + n] = got.qdd
-                        k += n
-                        continue
+                if blocks and k > 0:
+                    if march is None:
+                        march = March(model, tracker, times, (Q, QD, QDD, iters, resid, cond))
+                    k = march.advance(k)
+                    if k == nt:
+                        break
                 s = tracker.start(times[0], q0) if k == 0 else tracker.advance(times[k])
                 iters[k], resid[k], cond[k], Q[k] = s.iterations, s.residual, s.pivot, s.q
                 if trace:

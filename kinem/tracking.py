@@ -21,6 +21,7 @@ from . import analysis
 from .diagnose import diagnose
 from .errors import AnalysisError, ConvergenceError, SingularError
 from .linalg import det_sign, monitor_rows
+from .jit import kernel
 from .options import Options
 
 KAPPA = 0.5            # a correction above half the predicted motion is a jump, not a refinement
@@ -75,29 +76,39 @@ def extrapolate(t, T, Q, QD=None, QDD=None):
     return q, near.sum(axis=1) - 1
 
 
-def jumps(model, q, q_pred, q_last, tolerance):
-    """A correction from the predictor above KAPPA times the predicted motion
-    (dimensionless, plus ten times the tolerance for round-off): (jump,
-    correction, motion), each per configuration for q of shape (K, n)."""
-    cs = model.col_scale
-    corr = np.max(np.abs(q - q_pred) / cs, axis=-1)
-    move = np.max(np.abs(q_pred - q_last) / cs, axis=-1)
-    return corr > KAPPA * move + 10 * tolerance, corr, move
+@kernel
+def jump_sizes(q, q_pred, q_last, col_scale):
+    """(correction, motion): the largest dimensionless |q - q_pred| and
+    |q_pred - q_last|, the correction from the predictor and the motion it
+    predicted (q (n,))."""
+    corr = move = 0.0
+    for j in range(q.shape[0]):
+        corr = max(corr, abs(q[j] - q_pred[j]) / col_scale[j])
+        move = max(move, abs(q_pred[j] - q_last[j]) / col_scale[j])
+    return corr, move
 
 
 # Why ``rejected`` turns a state down (0: accepted).
 NEAR_SINGULAR, DET_FLIP, JUMP = 1, 2, 3
 
 
-def rejected(pivot, det, previous_det, jump, floor, allow_flip=False):
-    """The acceptance test of a tracked state, reached in one step from the
-    one before it (one state or a batch; arguments broadcast): NEAR_SINGULAR
-    when its pivot ratio is below the floor (singular_pivot), DET_FLIP when
-    det(J_s) changed sign (unless ``allow_flip``: a step over a bifurcation),
-    JUMP when its correction from the predictor is a jump (``jumps``), else 0.
-    The tracker and the block march both decide with it."""
-    flip = (np.asarray(det) != previous_det) & (not allow_flip)
-    return np.where(np.asarray(pivot) < floor, NEAR_SINGULAR, np.where(flip, DET_FLIP, np.where(jump, JUMP, 0)))
+@kernel
+def rejected(pivot, det, previous_det, corr, move, judge_jump, floor, tolerance, allow_flip):
+    """The acceptance test of a tracked state reached in one step from the
+    one before it, the one test of the tracker and of the compiled march
+    (kinem.march): NEAR_SINGULAR when its pivot ratio is below the floor
+    (singular_pivot) or not a number, DET_FLIP when det(J_s) changed sign
+    (unless ``allow_flip``: a step over a bifurcation), JUMP when its
+    correction from the predictor is above KAPPA times the predicted motion
+    plus ten times the tolerance for round-off (``jump_sizes``; judged when
+    ``judge_jump``: the predictor had a slope), else 0."""
+    if not pivot >= floor:
+        return NEAR_SINGULAR
+    if det != previous_det and not allow_flip:
+        return DET_FLIP
+    if judge_jump and corr > KAPPA * move + 10 * tolerance:
+        return JUMP
+    return 0
 
 
 def over_steps(step, limit):
@@ -182,8 +193,8 @@ class Tracker:
         q_pred, order = self.predict(t)
         s = self.settle(t, q_pred)
         last = self.history[-1]
-        jump, corr, move = jumps(self.model, s.q, q_pred, last.q, self.tol)
-        why = rejected(s.pivot, s.det, last.det, jump and order >= 1, self.pivot_floor, allow_flip)
+        corr, move = jump_sizes(s.q, q_pred, last.q, self.model.col_scale)
+        why = rejected(s.pivot, s.det, last.det, corr, move, order >= 1, self.pivot_floor, self.tol, allow_flip)
         if why == NEAR_SINGULAR:
             raise Rejected(f"near-singular configuration (pivot ratio {s.pivot:.1e})")
         if why == DET_FLIP:
@@ -341,7 +352,7 @@ class Tracker:
             corr = np.max(np.abs(f.solve(-m.phi(s.q, t))) / m.col_scale)
         except AnalysisError:
             return None
-        jump, _, _ = jumps(m, s.q, q_pred, before.q, self.tol)
+        jump = rejected(1.0, 0, 0, *jump_sizes(s.q, q_pred, before.q, m.col_scale), True, 0.0, self.tol, False)
         regular = corr <= REGULAR * self.tol**0.5 and s.pivot >= REGULAR * self.pivot_floor
         return s if regular and not jump else None
 

@@ -29,7 +29,7 @@ def test_variants_need_the_same_instants():
 
 
 def test_merged_variants_march_in_blocks_one_per_variant():
-    """Merged models over model.ONE_BLOCK coordinates take the block march with
+    """Merged models over model.ONE_BLOCK coordinates take the compiled march with
     one diagonal block per variant (padded to the largest): the blocks take
     the instants, and the results equal the variants solved one by one.
     An odd reordering sign or a wrong padding would make every block's det
@@ -45,18 +45,18 @@ def test_merged_variants_march_in_blocks_one_per_variant():
     b = model.blocks
     assert model.n > ONE_BLOCK and (b.count, b.size, b.pad.size) == (5, 18, 4 * 6)
     assert march.usable(model, False, len(model.times))
-    taken, original = [], march.Block.advance
+    taken, original = [], march.March.advance
 
-    def advance(self, times):
-        got = original(self, times)
-        taken.append(len(got))
-        return got
+    def advance(self, k):
+        end = original(self, k)
+        taken.append(end - k)
+        return end
 
-    march.Block.advance = advance
+    march.March.advance = advance
     try:
         batch = kinem.solve(model)
     finally:
-        march.Block.advance = original
+        march.March.advance = original
     assert batch.success and sum(taken) >= len(model.times) // 2
     for k, c in enumerate(cases):
         single = kinem.solve(kinem.compile(c)).trajectory

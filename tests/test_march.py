@@ -1,7 +1,7 @@
-"""The block march (kinem/march.py) gives what the step-by-step march gives:
-the same branch, status, events and diagnosis, with positions within what
-the Newton tolerance allows, and it hands singular configurations to the
-tracker."""
+"""The compiled march (kinem/march.py, kinem/loop.py) gives what the
+step-by-step march gives: the same branch, status, events and diagnosis,
+with positions within what the Newton tolerance allows, and it hands every
+instant it does not accept to the tracker."""
 from dataclasses import replace
 from pathlib import Path
 
@@ -53,22 +53,18 @@ def test_block_agrees_with_step_by_step(path, outputs):
     assert np.allclose(step.conditioning[ok], blocked.conditioning[ok], rtol=1e-3)
 
 
-@pytest.mark.parametrize("block", [2, 7, 4096])
-def test_any_block_size_gives_the_same_run(block):
-    case = kinem.load(ROOT / "cases" / "four_bar.toml")
-    step, blocked = pair(case, kinem.OUTPUTS, block)
-    assert blocked.success and np.abs(step.q - blocked.q).max() < 1e-9 * case.end
-
-
-def test_block_is_used_and_cheaper_in_calls():
-    """The default march solves instants together: fewer family calls than instants."""
+def test_the_march_is_compiled_end_to_end():
+    """The compiled march calls no family's Python method per instant: only
+    the assembly at t = 0 and the march's set-up (its time-function values)
+    do."""
     model = kinem.compile(kinem.load(ROOT / "cases" / "slider_crank.toml"))
+    kinem.solve(model)  # compiled and loaded
     calls = []
     fam = model.families[0]
     original = type(fam).phi
 
     def counting(self, q, t):
-        calls.append(q.shape)
+        calls.append(np.shape(q))
         return original(self, q, t)
 
     type(fam).phi = counting
@@ -76,8 +72,7 @@ def test_block_is_used_and_cheaper_in_calls():
         r = kinem.solve(model)
     finally:
         type(fam).phi = original
-    assert r.success and len(calls) < len(r.q) / 4
-    assert max(s[0] for s in calls if len(s) == 2) >= 32
+    assert r.success and len(r.q) == 501 and len(calls) <= 10
 
 
 def blocks(model, trace):
@@ -102,85 +97,74 @@ def test_not_used_where_it_cannot_be():
     assert chain.blocks.count == 1 and blocks(chain, False)
 
 
-class _Flip:
-    """Newton that lands instant ``at`` of every block of more than one
-    instant on the mirrored (other) assembly branch of a four-bar."""
+def _run(model, state, k=1):
+    """kinem.loop.run from ``state`` (q, qd, qdd, (t, det), H, T) over the model's
+    output instants from k on: (first instant not taken, why)."""
+    from kinem.march import March, prepare
 
-    def __init__(self, block, at):
-        self.block, self.at, self.original = block, at, block.newton
-
-    def __call__(self, Q, t):
-        Q, it, res, final, done = self.original(Q, t)
-        if len(t) > self.at:
-            Q = Q.copy()
-            Q[self.at:] += 0.3  # far from every instant's predictor: a jump
-        return Q, it, res, final, done
+    prepare(model)
+    t = model.times
+    out = (np.zeros((len(t), model.n)), None, None, np.zeros(len(t), int), np.zeros(len(t)), np.zeros(len(t)))
+    m = March(model, None, t, out)
+    return m.module.run(t, k, state, m.A, m.nu, m.structure, m.settings, (*m.out, m.counts))
 
 
-def test_a_jump_inside_a_block_is_cut_off_there():
-    model = kinem.compile(kinem.load(ROOT / "cases" / "four_bar.toml"))
-    from kinem.analysis import Data
-    from kinem.tracking import Tracker
-
-    for outputs in BOTH:
-        need_a = "accelerations" in outputs
-        need_v = need_a or "velocities" in outputs
-        tracker = Tracker(model, Data(q=model.q0.copy()), need_v, need_a)
-        tracker.start(model.times[0])
-        block = march.Block(model, tracker)
-        block.newton = _Flip(block, 5)
-        got = block.advance(model.times[1:17])
-        assert len(got) == 5 and tracker.history[-1].t == model.times[5]
-
-
-def test_a_det_flip_inside_a_block_is_cut_off_there():
-    model = kinem.compile(kinem.load(ROOT / "cases" / "four_bar.toml"))
-    from kinem.analysis import Data
-    from kinem.tracking import Tracker
-
-    tracker = Tracker(model, Data(q=model.q0.copy()), True, True)
-    tracker.start(model.times[0])
-    block = march.Block(model, tracker)
-    original = march.factorize
-
-    def flipped(Js, blocks):
-        f, pivot, det = original(Js, blocks)
-        det = det.copy()
-        det[3:] *= -1
-        return f, pivot, det
-
-    march.factorize = flipped
-    try:
-        got = block.advance(model.times[1:9])
-    finally:
-        march.factorize = original
-    assert len(got) == 3
-
-
-def test_factorize_matches_linalg_factor():
-    """Pivot ratio and det sign of the batch equal those of kinem.linalg.Factor."""
+def _start(model):
+    r = kinem.solve(model)
     from kinem.linalg import Factor
+
+    det = Factor(model, model.jac_values(r.q[0], model.times[0])).det_sign
+    H, T = np.zeros((3, model.n)), np.full(3, np.nan)
+    return r, (r.q[0].copy(), r.qd[0].copy(), r.qdd[0].copy(), np.array([model.times[0], float(det)]), H, T)
+
+
+def test_the_loop_hands_back_a_jump_and_a_det_flip():
+    """From the accepted state the loop takes every instant of the four-bar;
+    with the rates zeroed the predictor stays put, the first step's correction
+    is all of the motion (above KAPPA x 0 + 10 tol): a jump, handed back at
+    instant 1; with the det sign of the other branch: a det flip there."""
+    from kinem.loop import NOT_CONVERGED
+    from kinem.tracking import DET_FLIP, JUMP
+
+    model = kinem.compile(kinem.load(ROOT / "cases" / "four_bar.toml"))
+    r, state = _start(model)
+    assert _run(model, tuple(a.copy() for a in state)) == (len(model.times), 0)
+    still = (state[0].copy(), np.zeros(model.n), np.zeros(model.n), *(a.copy() for a in state[3:]))
+    assert _run(model, still) == (1, JUMP)
+    flipped = tuple(a.copy() for a in state)
+    flipped[3][1] *= -1
+    assert _run(model, flipped) == (1, DET_FLIP)
+    lost = tuple(a.copy() for a in state)
+    lost[0][:] = np.nan
+    assert _run(model, lost) == (1, NOT_CONVERGED)
+
+
+def test_the_loops_pivot_ratio_and_det_sign_are_linalg_factors():
+    """Pivot ratio and det sign of the loop's LU (kinem.loop.lu_stats) equal
+    those of kinem.linalg.Factor (LAPACK getrf) at the same configurations."""
+    from kinem import dense
+    from kinem.linalg import Factor
+    from kinem.loop import lu_stats
 
     model = kinem.compile(kinem.load(ROOT / "cases" / "quick_return_1.toml"))
     r = kinem.solve(model)
-    Q, t = r.q[::20], model.times[::20]
-    Js = model.assemble(model.jac_values(Q, t) * model.entry_scale, sparse=False)
-    (LU, P), pivot, det = march.factorize(Js, model.blocks)
-    for k in range(len(t)):
-        f = Factor(model, model.jac_values(Q[k], t[k]))
-        assert pivot[k] == pytest.approx(f.pivot_ratio, rel=1e-12) and det[k] == f.det_sign
-    x = march.solve_each(model, (LU, P), model.nu(t))
-    assert np.allclose(x, r.qd[::20], rtol=1e-9, atol=1e-12 * model.length)
+    b = model.blocks
+    real = np.ones(b.size, bool)
+    for k in range(0, len(r.q), 20):
+        t = model.times[k]
+        J = model.assemble(model.jac_values(r.q[k], t) * model.entry_scale, sparse=False)[None].copy()
+        pivot, det = lu_stats(J, dense.factor(J), real, 1)
+        f = Factor(model, model.jac_values(r.q[k], t))
+        assert pivot == pytest.approx(f.pivot_ratio, rel=1e-12) and det == f.det_sign
 
 
 @pytest.mark.parametrize("name", ["slider_crank", "four_bar", "quick_return_1"])
-def test_positions_only_blocks_start_as_well_as_full_ones(name):
-    """A positions-only run computes the rates at the last accepted states
-    for its blocks' starts (march.Block.rates), so its Newton iterations are
-    those of the full run: without them its far instants start from a
-    Lagrange extrapolation and take more (2.72 against 2.37 per instant on
-    the slider-crank)."""
+def test_positions_only_solves_no_rates_and_lands_where_the_full_run_does(name):
+    """A positions-only run predicts by extrapolating through the last three
+    states (kinem.loop.lagrange) and solves no rate; its positions are those
+    of the full run within what the Newton tolerance allows (``agreement``)."""
     model = kinem.compile(kinem.load(ROOT / "cases" / f"{name}.toml"))
     full, positions = kinem.solve(model), kinem.solve(model, ("positions",))
-    assert full.success and positions.success
-    np.testing.assert_array_equal(positions.iterations, full.iterations)
+    assert full.success and positions.success and positions.qd is None
+    assert np.abs(full.q - positions.q).max() / model.length <= agreement(model, full, positions)
+    assert positions.jacobian_evaluations <= full.jacobian_evaluations + len(full.q)

@@ -72,6 +72,16 @@ class Family:
     def gamma(self, q, qd, t):
         raise NotImplementedError
 
+    def march(self, times):
+        """What the compiled march (kinem.march) calls for this family at the
+        output instants ``times`` (K,): a triple (phi, jac, gamma), each
+        (kernel, args, values): the kernel is called as kernel(Q[, QD], *args,
+        [values[k:k+1],] out) at instant k, ``values`` (K, rows) being the time
+        functions' values it takes (None: it takes none). None: the family is
+        not compiled end to end (its outlines are evaluated by numpy), and
+        models with it march step by step."""
+        return None
+
 
 class Compiled(Family):
     """A family whose phi, jac and gamma are its ``kernels`` (phi, jac, gamma),
@@ -86,6 +96,9 @@ class Compiled(Family):
 
     def gamma(self, q, qd, t):
         return call(self.kernels[2], self.n_rows, q, *self.args, qd=qd)
+
+    def march(self, times):
+        return tuple((k, self.args, None) for k in self.kernels)
 
 
 def pattern(cols: np.ndarray, entry_rows, rows_per_constraint: int) -> tuple:

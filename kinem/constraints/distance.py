@@ -69,7 +69,6 @@ class Distance(Family):
         ci, cj = self.ci, self.cj
         self.rows, self.cols = pattern(np.stack([ci, ci + 1, ci + 2, cj, cj + 1, cj + 2], axis=1), [0] * 6, 1)
         self.args = (self.ci, self.cj, self.si, self.sj)
-        self.zero = np.zeros((1, self.n_rows))
 
     def phi(self, q, t):
         return call(_phi, self.n_rows, q, *self.args, per_instant(self.length(t)))
@@ -81,11 +80,18 @@ class Distance(Family):
         return 2 * self.length(t) * self.length(t, 1)
 
     def gamma(self, q, qd, t):
-        l2 = self.zero
-        if self.time_dependent:
-            l, l1, l2 = (self.length(t, k) for k in range(3))
-            l2 = per_instant(2 * (l1 * l1 + l * l2))
-        return call(_gamma, self.n_rows, q, *self.args, l2, qd=qd)
+        return call(_gamma, self.n_rows, q, *self.args, per_instant(self.second(t)), qd=qd)
+
+    def second(self, t):
+        """(l^2)'' = 2 (l'^2 + l l''), the driver's term of gamma, at t (a scalar or (K,))."""
+        if not self.time_dependent:
+            return np.zeros(np.shape(t) + (self.n_rows,))
+        l, l1, l2 = (self.length(t, k) for k in range(3))
+        return 2 * (l1 * l1 + l * l2)
+
+    def march(self, times):
+        return ((_phi, self.args, self.length(times)), (_jac, self.args, None),
+                (_gamma, self.args, self.second(times)))
 
 
 TYPES = [

@@ -23,6 +23,19 @@ def _gear_phi(q, ai, aj, ak, w, ri, rj, phi0, out):
             out[k, c] = ri[c] * (q[k, ai[c]] - pk) + rj[c] * (q[k, aj[c]] - pk - phi0[c])
 
 
+@kernel
+def _constant(q, values, out):
+    """Jacobian values that do not depend on q."""
+    for k in range(q.shape[0]):
+        out[k] = values
+
+
+@kernel
+def _no_gamma(q, qd, out):
+    """gamma = 0: the rows are linear in q."""
+    out[:] = 0.0
+
+
 class Gear(Family):
     """Phi = rho_i (phi_i - phi_k) + sigma rho_j (phi_j - phi_k - phi0) (Eq. 4.18;
     Eq. 4.17 without a carrier k, phi_k = 0). sigma = +1 for external gears
@@ -55,10 +68,13 @@ class Gear(Family):
 
     def jac(self, q, t):
         """Constant: the same values for every configuration."""
-        return np.broadcast_to(self.values, np.shape(q)[:-1] + self.values.shape).copy()
+        return call(_constant, len(self.rows), q, self.values)
 
     def gamma(self, q, qd, t):
-        return np.zeros(np.broadcast_shapes(np.shape(q), np.shape(qd))[:-1] + (self.n_rows,))
+        return call(_no_gamma, self.n_rows, q, qd=qd)
+
+    def march(self, times):
+        return (_gear_phi, self.args, None), (_constant, (self.values,), None), (_no_gamma, (), None)
 
 
 @kernel

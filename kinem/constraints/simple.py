@@ -111,6 +111,12 @@ class Simple(Family):
         f2 = per_instant(self.f(t, 2)) if self.time_dependent else self.zero
         return call(_gamma, self.n_rows, q, self.angle, self.local, self.mx, self.my, f2, qd=qd)
 
+    def march(self, times):
+        f2 = self.f(times, 2) if self.time_dependent else np.zeros((len(times), self.n_rows))
+        return ((_phi, (self.a, self.k, self.w, self.angle, self.local, self.mx, self.my), self.f(times)),
+                (_jac, (self.angle, self.local, self.mx, self.my, self.point, self.w, self.relative), None),
+                (_gamma, (self.angle, self.local, self.mx, self.my), f2))
+
 
 def _estimate_point(body, point):
     x, y, phi = body.q

@@ -1,0 +1,212 @@
+"""The compiled march loop (docs/solver.md, "The march"): Newton-Raphson
+position analysis, the acceptance test and the velocity and acceleration
+solves at every output instant, in one compiled function.
+
+This file is the source of the march of every model: kinem.march writes a
+module made of this file and three evaluators written for the model's
+constraint families, ``phi_all``, ``jac_all`` and ``gamma_all`` (each calls
+every family's kernel on its slice of the rows), and numba compiles it once
+per set of families, cached on disk. Here, read as a module, the
+evaluators are missing: nothing calls ``run`` from this module itself.
+"""
+import numpy as np
+
+from kinem.dense import _solve1, assemble, factor_into
+from kinem.jit import kernel
+from kinem.tracking import jump_sizes, rejected
+
+# Why ``run`` hands an instant back to the tracker (kinem.tracking codes, and:)
+NOT_CONVERGED = 4
+
+
+@kernel
+def residual(phi, scale):
+    """max |phi_i| / scale_i; a NaN gives NaN."""
+    r = 0.0
+    for i in range(phi.shape[0]):
+        v = abs(phi[i]) / scale[i]
+        if v > r or v != v:
+            r = v
+    return r
+
+
+@kernel
+def lu_solve(J, piv, b, row_pos, col_pos, scale, col_scale, x, w):
+    """x = Phi_q^-1 b from the LU factors of the diagonal blocks of J_s
+    (kinem.model.Blocks): b's row i at position row_pos[i], x's coordinate j
+    at col_pos[j], J_s = diag(1/scale) Phi_q diag(col_scale); w: work (C * s)."""
+    C, s = J.shape[0], J.shape[1]
+    w[:] = 0.0
+    for i in range(row_pos.shape[0]):
+        w[row_pos[i]] = b[i] / scale[i]
+    for c in range(C):
+        _solve1(J[c], piv[c], w[c * s: (c + 1) * s])
+    for j in range(col_pos.shape[0]):
+        x[j] = w[col_pos[j]] * col_scale[j]
+
+
+@kernel
+def lu_stats(J, piv, real, sign):
+    """(pivot ratio, sign of det) of J_s from its blocks' LU factors: the
+    smallest over the largest |pivot| at the ``real`` positions (not
+    padding; 0 when any is not finite) and sign times the product of the
+    blocks' det signs (kinem.linalg.pivot_ratio, lu_det_sign)."""
+    C, s = J.shape[0], J.shape[1]
+    small, big, det = np.inf, 0.0, sign
+    for c in range(C):
+        for j in range(s):
+            d = J[c, j, j]
+            if piv[c, j] != j:
+                det = -det
+            if d < 0:
+                det = -det
+            elif d == 0:
+                det = 0
+            if real[c * s + j]:
+                a = abs(d)
+                if not a < np.inf:
+                    return 0.0, det
+                small, big = min(small, a), max(big, a)
+    return (small / big if big > 0 else 0.0), det
+
+
+@kernel
+def lagrange(t, T, H, q):
+    """q at t extrapolated through the states H (3, n) at times T (3,),
+    oldest first (NaN: none), using those within four steps of t, as
+    kinem.tracking.extrapolate does; returns the order (points used - 1)."""
+    h = t - T[2]
+    q[:] = 0.0
+    used = 0
+    for i in range(3):
+        if not t - T[i] <= 4 * h:
+            continue
+        used += 1
+        w = 1.0
+        for j in range(3):
+            if j != i and t - T[j] <= 4 * h:
+                w *= (t - T[j]) / (T[i] - T[j])
+        for c in range(q.shape[0]):
+            q[c] += w * H[i, c]
+    return used - 1
+
+
+@kernel
+def run(times, k, state, A, nu, structure, settings, out):
+    """March from the accepted state (q, qd, qdd at state time and det sign)
+    over the output instants times[k:], until one is not accepted. Each
+    instant: the Taylor predictor from the last state, Newton-Raphson with
+    steps limited to max_step (dimensionless), one more correction from the
+    last LU (kinem.analysis.refine), then the LU at the corrected q for its
+    pivot ratio and det sign, the acceptance test (kinem.tracking.rejected)
+    and the rates from that LU: to rounding, not to the tolerance.
+
+    state: (q, qd, qdd (n,), last (2,): time and det sign, H (3, n), T (3,):
+    the last three states' q and t, oldest first, NaN for none), updated to
+    the last accepted instant. With ``rates`` (settings) the predictor is
+    Taylor's from q, qd, qdd and the rates are solved at every instant;
+    without, it extrapolates through H (``lagrange``) and no rate is solved. A: the families' arguments (see ``phi_all``).
+    nu: (K, m). structure: (entries (block, row, col), entry_scale, row_pos,
+    col_pos, pad, real, sign, scale, col_scale, count, size). settings:
+    (tolerance, max iterations, max step, pivot floor). out: (Q, QD, QDD
+    (K, n), iterations, residual, pivot (K,), counts (2,): Jacobian
+    evaluations and factorisations, added to). Returns (the first instant
+    not accepted, or K, and why: 0, NOT_CONVERGED or the tracker's code)."""
+    q, qd, qdd, last, H, T = state
+    blk, rows, cols, entry_scale, row_pos, col_pos, pad, real, sign, scale, col_scale, count, size = structure
+    tol, max_it, max_step, floor, rates = settings
+    Q, QD, QDD, iterations, residuals, pivots, counts = out
+    n, m, K = q.shape[0], scale.shape[0], times.shape[0]
+    q1 = np.empty((1, n))
+    qd1 = np.empty((1, n))
+    phi = np.empty((1, m))
+    g = np.empty((1, m))
+    values = np.empty((1, rows.shape[0]))
+    J = np.empty((count, size, size))
+    piv = np.empty((count, size), np.int32)
+    qp = np.empty(n)
+    dq = np.empty(n)
+    b = np.empty(m)
+    w = np.empty(count * size)
+    while k < K:
+        t = times[k]
+        h = t - last[0]
+        judge = True
+        if rates:
+            for j in range(n):
+                qp[j] = q[j] + h * qd[j] + 0.5 * h * h * qdd[j]
+        else:
+            judge = lagrange(t, T, H, qp) >= 1
+        for j in range(n):
+            q1[0, j] = qp[j]
+        it, r, done = 0, np.inf, False
+        while True:
+            phi_all(q1, k, A, phi)
+            r = residual(phi[0], scale)
+            if r <= tol:
+                done = True
+                break
+            if not r < np.inf or it == max_it:
+                break
+            jac_all(q1, A, values)
+            assemble(values, blk, rows, cols, entry_scale, pad, J)
+            factor_into(J, piv)
+            counts[0] += 1
+            counts[1] += 1
+            for i in range(m):
+                b[i] = -phi[0, i]
+            lu_solve(J, piv, b, row_pos, col_pos, scale, col_scale, dq, w)
+            big = 0.0
+            for j in range(n):
+                big = max(big, abs(dq[j]) / col_scale[j])
+            f = min(1.0, max_step / big) if big > 0 else 1.0
+            for j in range(n):
+                q1[0, j] += f * dq[j]
+            it += 1
+        if not done:
+            return k, NOT_CONVERGED
+        if it == 0:  # the predictor converged: an LU for the correction
+            jac_all(q1, A, values)
+            assemble(values, blk, rows, cols, entry_scale, pad, J)
+            factor_into(J, piv)
+            counts[0] += 1
+            counts[1] += 1
+        for i in range(m):
+            b[i] = -phi[0, i]
+        lu_solve(J, piv, b, row_pos, col_pos, scale, col_scale, dq, w)
+        for j in range(n):
+            q1[0, j] += dq[j]
+        jac_all(q1, A, values)
+        assemble(values, blk, rows, cols, entry_scale, pad, J)
+        factor_into(J, piv)
+        counts[0] += 1
+        counts[1] += 1
+        ratio, det = lu_stats(J, piv, real, sign)
+        corr, move = jump_sizes(q1[0], qp, q, col_scale)
+        why = rejected(ratio, det, int(last[1]), corr, move, judge, floor, tol, False)
+        if why != 0:
+            return k, why
+        for j in range(n):
+            q[j] = q1[0, j]
+        if rates:
+            lu_solve(J, piv, nu[k], row_pos, col_pos, scale, col_scale, qd, w)
+            for j in range(n):
+                qd1[0, j] = qd[j]
+            gamma_all(q1, qd1, k, A, g)
+            lu_solve(J, piv, g[0], row_pos, col_pos, scale, col_scale, qdd, w)
+            QD[k] = qd
+            QDD[k] = qdd
+        else:
+            for i in range(2):
+                T[i] = T[i + 1]
+                H[i] = H[i + 1]
+            T[2] = t
+            H[2] = q
+        last[0], last[1] = t, det
+        Q[k] = q
+        iterations[k], residuals[k], pivots[k] = it, r, ratio
+        k += 1
+    return k, 0
+
+
+phi_all = jac_all = gamma_all = None  # written for each model's families (kinem.march)
