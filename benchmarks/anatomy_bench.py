@@ -165,7 +165,7 @@ def counted_calls(model):
 
 
 def anatomy_block(cfg, state):
-    """The block march's time by cProfile groups, its compiled LU and solve
+    """The compiled march's time by cProfile groups, its compiled LU and solve
     calls per instant with their cost per matrix, and its family passes."""
     from kinem import dense
 
@@ -197,7 +197,7 @@ def anatomy_block(cfg, state):
     t_phi = per_call(lambda: model.phi(Q, T))
     t_jac = per_call(lambda: model.jac_values(Q, T))
     dense_us = t_factor * per["matrices factorised"] + t_solve * per["matrices solved"]
-    say(f"   b) block march (the default): {1e6 * per_instant:.1f} us per instant ({r.iterations.sum() / n:.2f} Newton"
+    say(f"   b) compiled march (the default): {1e6 * per_instant:.1f} us per instant ({r.iterations.sum() / n:.2f} Newton"
         f" iterations, {r.jacobian_evaluations / n:.2f} Jacobians per instant); cProfile of {runs} solves, own time"
         f" grouped ({1e3 * total:.0f} ms profiled vs {1e3 * runs * med:.0f} ms unprofiled analysis loops)")
     say(f"      {'group':78s} {'share':>6s} {'~us/instant':>11s}")

@@ -82,7 +82,7 @@ def section_coldstart(cfg, envs):
         + " ".join(f"{1e3 * table[e][2]:8.1f} ms {100 * table[e][2] / table[e][0]:5.1f}%" for e in envs))
     for e in envs:
         say(f"   largest ({e}): {out[e]['largest']}")
-    say(f"   {'full default run (block march: loads numba)':48s} "
+    say(f"   {'full default run (compiled march: loads numba)':48s} "
         + " ".join(f"{1e3 * out[e]['full_run_s']:15.0f} ms" for e in envs))
     say(f"   {'  its ratio to the --steps 1 run':48s} "
         + " ".join(f"{out[e]['full_run_s'] / out[e]['total_s']:17.2f}x" for e in envs))

@@ -87,7 +87,7 @@ def step_by_step(model_or_case):
 def march_of(model) -> str:
     from kinem.march import usable
 
-    return "block" if usable(model, False, len(model.times)) else "step"
+    return "compiled" if usable(model, False, len(model.times)) else "step"
 
 
 def per_step(result) -> float:

@@ -18,7 +18,7 @@ def section_engines(cfg, state):
 
     say("== 1. native cost per output step vs engine cost per step (default settings) ==")
     say("   native: full analysis (positions, velocities, accelerations) to the case tolerance (default 1e-12) by the"
-        " default block march; engine: EngineRun.wall_time/steps")
+        " default compiled march; engine: EngineRun.wall_time/steps")
     say(f"   {'case':15s} {'native us/out':>13s} {'engine':7s} {'us/step':>8s} {'steps/out':>9s} {'us/out':>9s} "
         f"{'nat/eng-step':>12s} {'nat/eng-out':>11s} {'pos err/L':>9s}")
     rows = []
@@ -89,7 +89,7 @@ def section_engines(cfg, state):
                 f"{nat_step / eng_step:12.1f} {row['native_over_engine_output']:11.2f} {c.position_error_rel:9.1e}")
             first = False
         say(f"   {name:15s} native step by step (block = 1): {1e6 * sbs_step:.1f} us/out; "
-            f"default ({'block march' if march['native_march'] == 'block' else 'step by step: block march not usable'})"
+            f"default ({'compiled march' if march['native_march'] == 'compiled' else 'step by step: compiled march not usable'})"
             f" / step by step: x{nat_step / sbs_step:.3f} ({sbs_step / nat_step:.1f} times faster)")
         rows.append({"case": name, "engine": "native step by step", "status": "native", **march,
                      "native_us_per_output_step": 1e6 * nat_step})
@@ -105,7 +105,7 @@ def section_precision(cfg, state):
 
     say("\n== 2. work-precision: wall time per simulated second to reach a position error (/L) ==")
     say(f"   errors: max position error / L against the native solution at tolerance {REFERENCE_TOLERANCE:.0e} "
-        "(as kinem report); native by its default march (block march), its tolerances timed round-robin")
+        "(as kinem report); native by its default march (compiled march), its tolerances timed round-robin")
     say(f"   native's cost: the loosest tolerance of its sweep whose error is <= {TIGHT:.0e}; engines: the first dt"
         f" of the sweep (coarse to fine) that reaches {LOOSE:.0e}, and the first that reaches {TIGHT:.0e}")
     out = {}

@@ -6,7 +6,7 @@ Sections (every figure is a ratio of two timings taken in this same run;
 timings are medians of repeated runs, taken round-robin so that a change in
 the machine's load hits every contender alike):
 
-  1 engines    native cost per output step (default: the block march,
+  1 engines    native cost per output step (default: the compiled march,
                kinem.march) vs each engine's cost per step
                (EngineRun.wall_time / steps: the stepping loop only) at
                default settings, on slider_crank, four_bar, quick_return_1;
@@ -19,11 +19,11 @@ the machine's load hits every contender alike):
   3 scaling    N-four-bar chains of 10 .. 10,000 bodies: cost per step
   4 batch      B slider-crank variants merged (kinem.batch): cost per
                variant-step vs one model solved alone, at its default
-               (block march) and step by step
-  5 skips      what the solver skips and what each skip saves; block march
+               (compiled march) and step by step
+  5 skips      what the solver skips and what each skip saves; compiled march
                vs step by step
   6 anatomy    where the slider-crank step's time goes: step by step (timed
-               pieces, LAPACK vs the rest) and block march (cProfile groups)
+               pieces, LAPACK vs the rest) and compiled march (cProfile groups)
   7 cold start `python -m kinem solve ... --steps 1 --outputs positions`
   targets      each of issue 7's targets: met / not met, with the figure
 
@@ -93,7 +93,7 @@ def targets(res):
     if mj:
         x = mj["native_over_engine_step"]
         add("native slider-crank step <= MuJoCo mj_step", x <= 1.0,
-            f"native {mj['native_us_per_output_step']:.1f} us/output step (block march) vs MuJoCo "
+            f"native {mj['native_us_per_output_step']:.1f} us/output step (compiled march) vs MuJoCo "
             f"{mj['engine_us_per_step']:.2f} us/step: x{x:.2f}", "ratio <= 1",
             f"native {x:.1f} times too slow")
     sc = res.get("scaling", {}).get("ratio_10000_1000")
@@ -105,7 +105,7 @@ def targets(res):
         v = batch[1000]
         x = v["speedup"]
         add("batch of 1,000 slider-cranks: per variant-step >= 20x below single", x >= 20,
-            f"x{x:.1f} against the single model at its default (block march): {v['us_per_variant_step']:.1f} vs "
+            f"x{x:.1f} against the single model at its default (compiled march): {v['us_per_variant_step']:.1f} vs "
             f"{v['single_us_per_step']:.1f} us; x{v['speedup_vs_step_by_step']:.1f} against it step by step "
             f"({v['single_step_by_step_us_per_step']:.1f} us)", ">= 20", f"{20 / x:.1f} times short" if x > 0 else "")
     wp = res.get("precision", {})

@@ -98,8 +98,8 @@ def variants(b, steps, seed=7):
 def section_batch(cfg):
     say("\n== 4. batch: B slider-crank variants (different r, l, offset) merged into one case (kinem.batch) ==")
     say(f"   1 s, {cfg.batch_steps} output steps; a merged model has 12 B coordinates in B diagonal blocks"
-        " (kinem.model.Blocks): the block march solves one 12 x 12 LU per variant and instant")
-    say("   single: one variant alone at its default (block march); sbs: the same solved step by step (block = 1,"
+        " (kinem.model.Blocks): the compiled march solves one 12 x 12 LU per variant and instant")
+    say("   single: one variant alone at its default (compiled march); sbs: the same solved step by step (block = 1,"
         " the march of merged models above that size)")
     say(f"   {'B':>5s} {'coords':>7s} {'path':>6s} {'march':>5s} {'us/variant-step':>15s} {'single us':>9s} "
         f"{'sbs us':>7s} {'single/batch':>12s} {'sbs/batch':>9s} {'C-parity single/batch':>21s} "

@@ -43,7 +43,7 @@ def section_skips(cfg, state):
     out = {}
 
     # outputs not requested
-    say("   a) outputs not requested: positions only vs positions, velocities, accelerations (default: block march)")
+    say("   a) outputs not requested: positions only vs positions, velocities, accelerations (default: compiled march)")
     rows = []
     for name in CASES:
         model = state[name]["model"]
@@ -57,8 +57,8 @@ def section_skips(cfg, state):
             f"x{a[0] / p[0]:.2f} saved; factorisations {a[2].factorizations} -> {p[2].factorizations}")
     out["outputs"] = rows
 
-    # block march vs step by step
-    say("   b) block march (default, [solver] block = 256) vs step by step (block = 1): per output instant")
+    # compiled march vs step by step
+    say("   b) compiled march (default, [solver] block = 256) vs step by step (block = 1): per output instant")
     rows = []
     for name in CASES:
         model = state[name]["model"]
@@ -74,13 +74,13 @@ def section_skips(cfg, state):
         row["ratio_step_block"] = res["step"][0] / res["block"][0]
         rows.append(row)
         b, st = row["block"], row["step"]
-        label = "block" if row["march"] == "block" else "block (not usable)"
+        label = "compiled" if row["march"] == "compiled" else "compiled (not usable)"
         say(f"      {name:15s} {label} {b['us_per_instant']:6.1f} us, {b['iterations_per_instant']:.2f} "
             f"Newton it., {b['jacobians_per_instant']:.2f} Jacobians per instant | step by step "
             f"{st['us_per_instant']:6.1f} us, {st['iterations_per_instant']:.2f} it., {st['jacobians_per_instant']:.2f}"
             f" Jacobians | x{row['ratio_step_block']:.1f} faster")
     say("      (iterations: Newton updates; Jacobians include the one at the converged point for velocities and"
-        " accelerations; the block march starts a block's far instants from an extrapolation, so they take more"
+        " accelerations; the compiled march starts a block's far instants from an extrapolation, so they take more"
         " iterations, each a share of one batched pass)")
     out["block_march"] = rows
 

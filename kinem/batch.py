@@ -3,7 +3,7 @@
 ``merge`` turns B cases on one time grid into one case whose bodies, points
 and constraints are those of every variant, renamed ``v<k>-<name>``: its
 Jacobian is block-diagonal, so one kernel call per constraint family serves
-all B variants at once, and the block march solves each variant's diagonal
+all B variants at once, and the compiled march solves each variant's diagonal
 block with its own small LU (kinem.model.Blocks). ``split`` recovers variant
 k's trajectory with its own column names.
 

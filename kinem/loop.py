@@ -46,6 +46,21 @@ def lu_solve(J, piv, b, row_pos, col_pos, scale, col_scale, x, w):
 
 
 @kernel
+def refine(J, piv, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, max_step):
+    """q1 += -Phi_q^-1 phi from the LU factors, the step limited to max_step
+    in dimensionless coordinates: a Newton step, or the final correction."""
+    for i in range(b.shape[0]):
+        b[i] = -phi[0, i]
+    lu_solve(J, piv, b, row_pos, col_pos, scale, col_scale, dq, w)
+    big = 0.0
+    for j in range(dq.shape[0]):
+        big = max(big, abs(dq[j]) / col_scale[j])
+    f = min(1.0, max_step / big) if big > 0 else 1.0
+    for j in range(dq.shape[0]):
+        q1[0, j] += f * dq[j]
+
+
+@kernel
 def lu_stats(J, piv, real, sign):
     """(pivot ratio, sign of det) of J_s from its blocks' LU factors: the
     smallest over the largest |pivot| at the ``real`` positions (not
@@ -105,10 +120,10 @@ def run(times, k, state, A, nu, structure, settings, out):
     the last three states' q and t, oldest first, NaN for none), updated to
     the last accepted instant. With ``rates`` (settings) the predictor is
     Taylor's from q, qd, qdd and the rates are solved at every instant;
-    without, it extrapolates through H (``lagrange``) and no rate is solved. A: the families' arguments (see ``phi_all``).
-    nu: (K, m). structure: (entries (block, row, col), entry_scale, row_pos,
+    without, it extrapolates through H (``lagrange``) and no rate is solved.
+    A: the families' arguments (kinem.march). nu: (K, m). structure: (entries (block, row, col), entry_scale, row_pos,
     col_pos, pad, real, sign, scale, col_scale, count, size). settings:
-    (tolerance, max iterations, max step, pivot floor). out: (Q, QD, QDD
+    (tolerance, max iterations, max step, pivot floor, rates). out: (Q, QD, QDD
     (K, n), iterations, residual, pivot (K,), counts (2,): Jacobian
     evaluations and factorisations, added to). Returns (the first instant
     not accepted, or K, and why: 0, NOT_CONVERGED or the tracker's code)."""
@@ -139,48 +154,34 @@ def run(times, k, state, A, nu, structure, settings, out):
             judge = lagrange(t, T, H, qp) >= 1
         for j in range(n):
             q1[0, j] = qp[j]
-        it, r, done = 0, np.inf, False
+        # Newton, then the final correction with the last LU at hand (a fresh one
+        # when the predictor converged), then the LU at the corrected q: one
+        # Jacobian site, so that numba compiles the families' kernels once
+        it, r, converged, refined = 0, np.inf, False, False
         while True:
-            phi_all(q1, k, A, phi)
-            r = residual(phi[0], scale)
-            if r <= tol:
-                done = True
-                break
-            if not r < np.inf or it == max_it:
-                break
+            if not converged:
+                phi_all(q1, k, A, phi)
+                r = residual(phi[0], scale)
+                if r <= tol:
+                    converged = True
+                elif not r < np.inf or it == max_it:
+                    return k, NOT_CONVERGED
+            if converged and not refined and it > 0:
+                refine(J, piv, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
+                refined = True
             jac_all(q1, A, values)
             assemble(values, blk, rows, cols, entry_scale, pad, J)
             factor_into(J, piv)
             counts[0] += 1
             counts[1] += 1
-            for i in range(m):
-                b[i] = -phi[0, i]
-            lu_solve(J, piv, b, row_pos, col_pos, scale, col_scale, dq, w)
-            big = 0.0
-            for j in range(n):
-                big = max(big, abs(dq[j]) / col_scale[j])
-            f = min(1.0, max_step / big) if big > 0 else 1.0
-            for j in range(n):
-                q1[0, j] += f * dq[j]
-            it += 1
-        if not done:
-            return k, NOT_CONVERGED
-        if it == 0:  # the predictor converged: an LU for the correction
-            jac_all(q1, A, values)
-            assemble(values, blk, rows, cols, entry_scale, pad, J)
-            factor_into(J, piv)
-            counts[0] += 1
-            counts[1] += 1
-        for i in range(m):
-            b[i] = -phi[0, i]
-        lu_solve(J, piv, b, row_pos, col_pos, scale, col_scale, dq, w)
-        for j in range(n):
-            q1[0, j] += dq[j]
-        jac_all(q1, A, values)
-        assemble(values, blk, rows, cols, entry_scale, pad, J)
-        factor_into(J, piv)
-        counts[0] += 1
-        counts[1] += 1
+            if not converged:
+                refine(J, piv, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, max_step)
+                it += 1
+            elif not refined:
+                refine(J, piv, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
+                refined = True
+            else:
+                break
         ratio, det = lu_stats(J, piv, real, sign)
         corr, move = jump_sizes(q1[0], qp, q, col_scale)
         why = rejected(ratio, det, int(last[1]), corr, move, judge, floor, tol, False)

@@ -15,7 +15,7 @@ class Options:
     max_iterations: int = 25       # Newton iterations per position solve
     linear_solver: str = "auto"    # auto: dense LU up to kinem.model.DENSE_LIMIT coordinates, else sparse
     jacobian_reuse: bool = False   # modified Newton from the last instant's factorisation
-    block: int = 256               # output instants solved together (kinem.march); 1: one at a time
+    block: int = 256               # 1: step by step in Python; more: the compiled march (kinem.march)
 
     def __post_init__(self):
         if not 0 < self.tolerance < 1:

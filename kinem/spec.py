@@ -65,7 +65,7 @@ class Case:
     max_iterations: int = 25
     linear_solver: str = "auto"
     jacobian_reuse: bool = False
-    block: int = 256  # output instants solved together (kinem.march); 1: one at a time
+    block: int = 256  # 1: step by step in Python; more: the compiled march (kinem.march)
     description: str = ""
     units: Mapping = field(default_factory=frozen_map)
     engines: Mapping = field(default_factory=frozen_map)  # engine name -> settings overrides

@@ -26,7 +26,7 @@ def test_harness_runs_tiny(tmp_path):
     assert res["skips"]["families"]["constructed"] < res["skips"]["families"]["registered"]
     assert res["skips"]["factorization_reuse"]["factorizations_per_instant_twice"] > \
         res["skips"]["factorization_reuse"]["factorizations_per_instant_once"]
-    # the block march beside the step-by-step march (block = 1)
+    # the compiled march beside the step-by-step march (block = 1)
     assert all(r["native_step_by_step_us_per_output_step"] > 0 for r in native)
     assert all(r["single_us_per_step"] > 0 and r["single_step_by_step_us_per_step"] > 0 for r in res["batch"])
     assert {r["case"] for r in res["skips"]["block_march"]} == {"slider_crank", "four_bar", "quick_return_1"}

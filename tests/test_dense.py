@@ -1,5 +1,5 @@
 """The compiled batched LU (kinem/dense.py) against LAPACK (scipy), and the
-block march's final Newton correction against closed-form kinematics."""
+compiled march's final Newton correction against closed-form kinematics."""
 from dataclasses import replace
 from pathlib import Path
 
@@ -73,7 +73,7 @@ def test_final_correction_makes_a_loose_tolerance_accurate():
 
 
 def test_short_runs_go_step_by_step():
-    """Below MIN_INSTANTS output instants the block march is not used (the
+    """Below MIN_INSTANTS output instants the compiled march is not used (the
     compiled kernels would cost more to load than they save): the run equals
     the step-by-step one exactly."""
     case = replace(kinem.load(CASES / "four_bar.toml"), steps=march.MIN_INSTANTS - 2)

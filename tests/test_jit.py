@@ -95,7 +95,7 @@ print("numba" in sys.modules, code)
 @pytest.mark.parametrize("steps, loads", [(1, False), (20, False), (200, True)])
 def test_cli_loads_numba_only_for_long_runs(tmp_path, steps, loads):
     """A new process: a short run never imports numba; a run that takes the
-    block march (kinem.march: at least 64 instants) does."""
+    compiled march (kinem.march: at least 64 instants) does."""
     args = ["solve", str(ROOT / "cases" / "slider_crank.toml"), "--steps", str(steps), "--out", str(tmp_path / "x.csv")]
     p = subprocess.run([sys.executable, "-c", PROBE.format(args=args)], capture_output=True, text=True, cwd=ROOT)
     assert p.returncode == 0, p.stderr
