@@ -18,6 +18,7 @@ import os
 import re
 import sys
 import tempfile
+import weakref
 from pathlib import Path
 
 import numpy as np
@@ -131,14 +132,20 @@ def _clean(folder: Path) -> None:
                 pass
 
 
+_OF_MODEL = weakref.WeakKeyDictionary()
+
+
 def program(model, forms):
     """The march module of the model's families (generated and imported
     once per process)."""
     global _SOURCES
+    if model in _OF_MODEL:
+        return _OF_MODEL[model]
     widths = [(f.n_rows, len(f.rows)) for f in model.families]
     imports, calls = _evaluators(forms, widths)
     key = hashlib.sha1(repr((imports, calls)).encode()).hexdigest()[:12]
     if key in _MODULES:
+        _OF_MODEL[model] = _MODULES[key]
         return _MODULES[key]
     if _SOURCES is None:
         _SOURCES = _sources()
@@ -159,7 +166,7 @@ def program(model, forms):
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module
     spec.loader.exec_module(module)
-    _MODULES[key] = module
+    _MODULES[key] = _OF_MODEL[model] = module
     return module
 
 
