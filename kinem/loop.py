@@ -109,7 +109,10 @@ def lagrange(t, T, H, q):
 @kernel
 def run(times, k, state, A, nu, structure, settings, out):
     """March from the accepted state (q, qd, qdd at state time and det sign)
-    over the output instants times[k:], until one is not accepted. Each
+    over the output instants times[k:], until one is not accepted. From
+    k = 0 it first assembles from the estimates in q (Newton from them,
+    accepted when its pivot ratio is above the floor: the tracker's start
+    takes the rest, with its diagnoses). Each
     instant: the Taylor predictor from the last state, Newton-Raphson with
     steps limited to max_step (dimensionless), one more correction from the
     last LU (kinem.analysis.refine), then the LU at the corrected q for its
@@ -146,8 +149,10 @@ def run(times, k, state, A, nu, structure, settings, out):
     while k < K:
         t = times[k]
         h = t - last[0]
-        judge = True
-        if rates:
+        judge = k > 0
+        if k == 0:  # the assembly: from the estimates in q
+            qp[:] = q
+        elif rates:
             for j in range(n):
                 qp[j] = q[j] + h * qd[j] + 0.5 * h * h * qdd[j]
         else:
@@ -184,7 +189,8 @@ def run(times, k, state, A, nu, structure, settings, out):
                 break
         ratio, det = lu_stats(J, piv, real, sign)
         corr, move = jump_sizes(q1[0], qp, q, col_scale)
-        why = rejected(ratio, det, int(last[1]), corr, move, judge, floor, tol, False)
+        # the assembly is not tested for a jump or a det flip: it has no state before it
+        why = rejected(ratio, det, det if k == 0 else int(last[1]), corr, move, judge, floor, tol, False)
         if why != 0:
             return k, why
         for j in range(n):

@@ -209,19 +209,24 @@ class March:
         self.out = (Q, QD, QDD, iterations, residual, pivot)
         self.counts = np.zeros(2, np.int64)
 
-    def advance(self, k: int) -> int:
-        """Output instants from k on, from the tracker's last state, until one
-        is not accepted; returns the first instant not taken (len(times): all)."""
-        tr, last = self.tracker, self.tracker.history[-1]
-        n = self.model.n
-        if self.rates:
-            qd, qdd = (last.qd, last.qdd) if last.qdd is not None else tr.rates(last)
-        else:
-            qd = qdd = np.zeros(n)
+    def advance(self, k: int, q0=None) -> int:
+        """Output instants from k on, from the tracker's last state (k = 0:
+        assembled from q0), until one is not accepted; returns the first
+        instant not taken (len(times): all)."""
+        tr, n = self.tracker, self.model.n
         H, T = np.zeros((3, n)), np.full(3, np.nan)
-        for i, s in enumerate(tr.history[-3:]):
-            H[3 - len(tr.history[-3:]) + i], T[3 - len(tr.history[-3:]) + i] = s.q, s.t
-        state = (last.q.copy(), qd.copy(), qdd.copy(), np.array([last.t, last.det], float), H, T)
+        if k == 0:
+            q = np.array(self.model.q0 if q0 is None else q0, dtype=float)
+            state = (q, np.zeros(n), np.zeros(n), np.array([self.times[0], 0.0]), H, T)
+        else:
+            last = tr.history[-1]
+            if self.rates:
+                qd, qdd = (last.qd, last.qdd) if last.qdd is not None else tr.rates(last)
+            else:
+                qd = qdd = np.zeros(n)
+            for i, s in enumerate(tr.history[-3:]):
+                H[3 - len(tr.history[-3:]) + i], T[3 - len(tr.history[-3:]) + i] = s.q, s.t
+            state = (last.q.copy(), qd.copy(), qdd.copy(), np.array([last.t, last.det], float), H, T)
         self.counts[:] = 0
         end, _ = self.module.run(self.times, k, state, self.A, self.nu, self.structure, self.settings,
                                  (*self.out, self.counts))

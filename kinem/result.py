@@ -2,6 +2,7 @@
 SolveResult that carries it with success, status and message."""
 from dataclasses import dataclass, field
 from enum import IntEnum
+import weakref
 
 import numpy as np
 
@@ -80,35 +81,51 @@ class SolveResult:
                 f"trajectory={self.trajectory!r}, wall_time={self.wall_time:.3g} s)")
 
 
-def trajectory(model, t, Q, QD=None, QDD=None) -> Trajectory:
-    """Named columns (docs/case-format.md, "Trajectory output") from raw coordinates."""
-    stages = [(s, X) for s, X in zip(OUTPUTS, (Q, QD, QDD)) if X is not None]
-    cols, names = [], []
-    nb = len(model.body_names)
+_LAYOUTS = weakref.WeakKeyDictionary()  # model -> {number of stages: (names, sources)}
+
+
+def _layout(model, stages: int):
+    """The column names of the first ``stages`` of OUTPUTS, and the column
+    of each in the sources [X_0 .. X_{S-1}, Re P_0, Im P_0, Re P_1, ...]
+    (X_s: the coordinates of stage s (n), P_s: its points (p))."""
+    per = _LAYOUTS.setdefault(model, {})
+    if stages in per:
+        return per[stages]
+    names, src = [], []
+    n, nb, npt = model.n, len(model.body_names), len(model.point_names)
     for k, body in enumerate(model.body_names):
-        for stage, X in stages:
+        for s, stage in enumerate(OUTPUTS[:stages]):
             for j, quantity in enumerate(BODY_COLUMNS[stage]):
                 names.append(f"{body}.{quantity}")
-                cols.append(X[:, 3 * k + j])
-    if model.point_names:
-        pc = model.point_cols
-        s = model.point_local[None, :] * np.exp(1j * Q[:, pc + 2])
-        values = {"positions": Q[:, pc] + 1j * Q[:, pc + 1] + s}
-        if QD is not None:
-            w = QD[:, pc + 2]
-            values["velocities"] = QD[:, pc] + 1j * QD[:, pc + 1] + 1j * s * w
-            if QDD is not None:
-                values["accelerations"] = QDD[:, pc] + 1j * QDD[:, pc + 1] + 1j * s * QDD[:, pc + 2] - s * w * w
-        for p, point in enumerate(model.point_names):
-            for stage, _ in stages:
-                v = values[stage][:, p]
-                qx, qy = POINT_COLUMNS[stage]
-                names += [f"{point}.{qx}", f"{point}.{qy}"]
-                cols += [v.real, v.imag]
+                src.append(s * n + 3 * k + j)
+    for p, point in enumerate(model.point_names):
+        for s, stage in enumerate(OUTPUTS[:stages]):
+            qx, qy = POINT_COLUMNS[stage]
+            names += [f"{point}.{qx}", f"{point}.{qy}"]
+            src += [stages * n + 2 * s * npt + p, stages * n + (2 * s + 1) * npt + p]
     for a, label in enumerate(model.artificial):
         base = label.rsplit(".", 1)[0]
-        for stage, X in stages:
+        for s, stage in enumerate(OUTPUTS[:stages]):
             names.append(f"{base}.{ARTIFICIAL_COLUMNS[stage]}")
-            cols.append(X[:, 3 * nb + a])
-    data = np.column_stack(cols) if cols else np.empty((len(t), 0))
-    return Trajectory(np.array(t, dtype=float), tuple(names), np.ascontiguousarray(data))
+            src.append(s * n + 3 * nb + a)
+    out = per[stages] = (tuple(names), np.array(src, np.intp))
+    return out
+
+
+def trajectory(model, t, Q, QD=None, QDD=None) -> Trajectory:
+    """Named columns (docs/case-format.md, "Trajectory output") from raw
+    coordinates: one gather from the coordinates and the points' values."""
+    X = [x for x in (Q, QD, QDD) if x is not None]
+    names, src = _layout(model, len(X))
+    if model.point_names:
+        pc = model.point_cols
+        e = model.point_local[None, :] * np.exp(1j * Q[:, pc + 2])
+        values = [Q[:, pc] + 1j * Q[:, pc + 1] + e]
+        if QD is not None:
+            w = QD[:, pc + 2]
+            values.append(QD[:, pc] + 1j * QD[:, pc + 1] + 1j * e * w)
+            if QDD is not None:
+                values.append(QDD[:, pc] + 1j * QDD[:, pc + 1] + 1j * e * QDD[:, pc + 2] - e * w * w)
+        X += [part for v in values for part in (v.real, v.imag)]
+    data = np.take(np.concatenate(X, axis=1), src, axis=1) if len(t) else np.empty((0, len(names)))
+    return Trajectory(np.array(t, dtype=float), names, data)

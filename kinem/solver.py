@@ -64,14 +64,12 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     with jit.interpreted() if interpret(model, blocks, nt) else nullcontext():
         preload(model, blocks, data.solver)  # one-time imports, not part of the analysis's wall time
         start = time.perf_counter()
-        march = None
+        march = March(model, tracker, times, (Q, QD, QDD, iters, resid, cond)) if blocks else None
         k = 0
         try:
             while k < nt:
-                if blocks and k > 0:
-                    if march is None:
-                        march = March(model, tracker, times, (Q, QD, QDD, iters, resid, cond))
-                    k = march.advance(k)
+                if march is not None:
+                    k = march.advance(k, q0)
                     if k == nt:
                         break
                 s = tracker.start(times[0], q0) if k == 0 else tracker.advance(times[k])

@@ -47,8 +47,8 @@ def test_merged_variants_march_in_blocks_one_per_variant():
     assert march.usable(model, False, len(model.times))
     taken, original = [], march.March.advance
 
-    def advance(self, k):
-        end = original(self, k)
+    def advance(self, k, q0=None):
+        end = original(self, k, q0)
         taken.append(end - k)
         return end
 
