@@ -43,15 +43,12 @@ def usable(model, trace: bool, instants: int, options: Options | None = None) ->
     """The compiled march takes runs of at least MIN_INSTANTS output instants
     of models whose Jacobian is square and made of independent diagonal
     blocks of at most LIMIT coordinates (kinem.model.Blocks: one block for a
-    small model, one per variant for merged variants), and whose families
-    all compile (kinem.constraints.base.Family.march). A trace, modified
+    small model, one per variant for merged variants). A trace, modified
     Newton, an explicit sparse LU or ``block = 1`` ask for the step-by-step
     march."""
     c = Options.of(model.case) if options is None else options
     if (c.block <= 1 or trace or c.jacobian_reuse or c.linear_solver == "sparse" or model.m != model.n
             or instants < MIN_INSTANTS):
-        return False
-    if not all(f.march(model.times[:1]) is not None for f in model.families):
         return False
     return model.blocks.size <= LIMIT and model.blocks.square
 
@@ -59,7 +56,8 @@ def usable(model, trace: bool, instants: int, options: Options | None = None) ->
 def _sources() -> str:
     """Hash of every source compiled into a march module."""
     h = hashlib.sha1()
-    for p in sorted([HERE / "loop.py", HERE / "dense.py", HERE / "tracking.py", HERE / "jit.py", Path(__file__)]
+    for p in sorted([HERE / "loop.py", HERE / "dense.py", HERE / "tracking.py", HERE / "jit.py", HERE / "outline.py",
+                     Path(__file__)]
                     + list((HERE / "constraints").glob("*.py"))):
         h.update(p.read_bytes())
     return h.hexdigest()[:12]
@@ -89,24 +87,27 @@ def _folder() -> Path:
 def _evaluators(forms, widths):
     """The imports of the families' kernels and the statements that stand for
     ``phi_all(q, k, A, out)``, ``jac_all(q, A, out)`` and ``gamma_all(q, qd,
-    k, A, out)`` in kinem/loop.py: family i's arguments are A[i] = (phi
-    args, jac args, gamma args, phi values, gamma values); widths: (rows,
-    Jacobian entries) of each family. Written out in the loop, not called:
-    passing A through a call costs more than the kernels' arithmetic (about
-    0.3 us on the slider-crank, measured)."""
-    imports, phi, jac, gamma = [], [], [], []
+    k, A, out)`` in kinem/loop.py. forms: each family's three stages of
+    calls (Family.march); family i's call j takes its arguments from
+    A[i][j] = (args, values); widths: (rows, Jacobian entries) of each
+    family. Written out in the loop, not called: passing A through a call
+    costs more than the kernels' arithmetic (about 0.3 us on the
+    slider-crank, measured)."""
+    imports, stages = [], {"phi_all": [], "jac_all": [], "gamma_all": []}
     r = e = 0
-    for i, ((fphi, fjac, fgamma), (rows, nnz)) in enumerate(zip(forms, widths)):
-        for what, k in (("phi", fphi[0]), ("jac", fjac[0]), ("gamma", fgamma[0])):
-            imports.append(f"from {k.py_func.__module__} import {k.__name__} as f{i}_{what}")
-        tv = f", A[{i}][3][{{k}}:{{k}} + 1]" if fphi[2] is not None else ""
-        phi.append(f"f{i}_phi({{q}}, *A[{i}][0]{tv}, {{out}}[:, {r}:{r + rows}])")
-        jac.append(f"f{i}_jac({{q}}, *A[{i}][1], {{out}}[:, {e}:{e + nnz}])")
-        tv = f", A[{i}][4][{{k}}:{{k}} + 1]" if fgamma[2] is not None else ""
-        gamma.append(f"f{i}_gamma({{q}}, {{qd}}, *A[{i}][2]{tv}, {{out}}[:, {r}:{r + rows}])")
+    for i, (stage_calls, (rows, nnz)) in enumerate(zip(forms, widths)):
+        j = 0
+        for name, calls, (o, width) in zip(stages, stage_calls, ((r, rows), (e, nnz), (r, rows))):
+            for c in calls:
+                imports.append(f"from {c.kernel.py_func.__module__} import {c.kernel.__name__} as f{i}_{j}")
+                qd = ", {qd}" if c.rates else ""
+                tv = f", A[{i}][{j}][1][{{k}}:{{k}} + 1]" if c.values is not None else ""
+                out = f", {{out}}[:, {o}:{o + width}]" if c.out else ""
+                stages[name].append(f"f{i}_{j}({{q}}{qd}, *A[{i}][{j}][0]{tv}{out})")
+                j += 1
         r, e = r + rows, e + nnz
-    return imports, {"phi_all": (("q", "k", "A", "out"), phi), "jac_all": (("q", "A", "out"), jac),
-                     "gamma_all": (("q", "qd", "k", "A", "out"), gamma)}
+    params = {"phi_all": ("q", "k", "A", "out"), "jac_all": ("q", "A", "out"), "gamma_all": ("q", "qd", "k", "A", "out")}
+    return sorted(set(imports)), {name: (params[name], lines) for name, lines in stages.items()}
 
 
 CALL = re.compile(r"^(\s*)(phi_all|jac_all|gamma_all)\((.*)\)$", re.M)
@@ -192,8 +193,8 @@ class March:
         forms = [f.march(times) for f in model.families] if forms is None else forms
         self.module = program(model, forms)
         empty = np.zeros((0, 0))
-        self.A = tuple((p[1], j[1], g[1], empty if p[2] is None else np.ascontiguousarray(p[2], float),
-                        empty if g[2] is None else np.ascontiguousarray(g[2], float)) for p, j, g in forms)
+        self.A = tuple(tuple((c.args, empty if c.values is None else np.ascontiguousarray(c.values, float))
+                             for stage in form for c in stage) for form in forms)
         self.rates = tracker is None or tracker.need_v
         self.nu = np.ascontiguousarray(model.nu(times if self.rates else times[:1]).reshape(-1, model.m))
         b = model.blocks

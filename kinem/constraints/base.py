@@ -74,13 +74,21 @@ class Family:
 
     def march(self, times):
         """What the compiled march (kinem.march) calls for this family at the
-        output instants ``times`` (K,): a triple (phi, jac, gamma), each
-        (kernel, args, values): the kernel is called as kernel(Q[, QD], *args,
-        [values[k:k+1],] out) at instant k, ``values`` (K, rows) being the time
-        functions' values it takes (None: it takes none). None: the family is
-        not compiled end to end (its outlines are evaluated by numpy), and
-        models with it march step by step."""
-        return None
+        output instants ``times`` (K,): three tuples of ``Call``, for phi,
+        the Jacobian values and gamma; the last call of each writes the
+        family's rows (or values)."""
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class Call:
+    """One kernel call of the compiled march at output instant k:
+    kernel(q, [qd,] *args, [values[k:k+1],] [out]) with q (1, n)."""
+    kernel: object
+    args: tuple
+    values: np.ndarray | None = None   # time-function values (K, rows) it takes after args
+    rates: bool = False                # it takes qd after q
+    out: bool = True                   # it writes the rows (the last call of a stage)
 
 
 class Compiled(Family):
@@ -98,7 +106,8 @@ class Compiled(Family):
         return call(self.kernels[2], self.n_rows, q, *self.args, qd=qd)
 
     def march(self, times):
-        return tuple((k, self.args, None) for k in self.kernels)
+        phi, jac, gamma = self.kernels
+        return (Call(phi, self.args),), (Call(jac, self.args),), (Call(gamma, self.args, rates=True),)
 
 
 def pattern(cols: np.ndarray, entry_rows, rows_per_constraint: int) -> tuple:

@@ -4,7 +4,7 @@ contact point P_i on the cam's outline (kinem/constraints/curve.py):
 a = A_i p(theta) and g = A_i g'(theta), the tangent there."""
 import numpy as np
 
-from .base import (BodyKey, DirectionKey, Family, LocalKey, NumberKey, OutlineKey, PositiveKey, TypeDecl,
+from .base import (BodyKey, Call, DirectionKey, Family, LocalKey, NumberKey, OutlineKey, PositiveKey, TypeDecl,
                    batch, call, kernel, local_points, pattern, row_info)
 from .curve import Curve, check_theta
 
@@ -120,6 +120,14 @@ class _CamFollower(Family):
         Q, lead = batch(q)
         return call(fn, width, Q, *self.bodies, *extra, *self.curve.at(Q)[:parts]).reshape(lead + (-1,))
 
+    def compiled(self, kernels, extras):
+        """Family.march for kernels (phi, jac, gamma) taking ``extras`` (one
+        tuple each) after the bodies, then the parts of the outline."""
+        (at, rates), (a, g, h, _, a1, a2, g1, g2) = self.curve.march()
+        (phi, jac, gamma), (ephi, ejac, egamma) = kernels, extras
+        return ((at, Call(phi, (*self.bodies, *ephi, a, g))), (at, Call(jac, (*self.bodies, *ejac, a, g, h))),
+                (at, rates, Call(gamma, (*self.bodies, *egamma, a, g, a1, a2, g1, g2), rates=True)))
+
     def rates(self, fn, q, qd, *extra):
         """fn(Q, QD, i, j, s'_j, *extra, a, g, a', a'', g', g'', out)."""
         q, qd = np.broadcast_arrays(q, qd)
@@ -155,6 +163,9 @@ class CamRoller(_CamFollower):
     def gamma(self, q, qd, t):
         return self.rates(_roller_gamma, q, qd)
 
+    def march(self, times):
+        return self.compiled((_roller_phi, _roller_jac, _roller_gamma), ((self.rho2,), (), ()))
+
 
 class CamFlat(_CamFollower):
     """Phi = [g . n, d . n] with n = A_j n'_j the unit normal of the follower's
@@ -181,6 +192,9 @@ class CamFlat(_CamFollower):
 
     def gamma(self, q, qd, t):
         return self.rates(_flat_gamma, q, qd, self.n)
+
+    def march(self, times):
+        return self.compiled((_flat_phi, _flat_jac, _flat_gamma), ((self.n,),) * 3)
 
 
 TYPES = [

@@ -15,7 +15,9 @@ splines); the families' kernels take their results as (K, constraints) arrays.
 """
 import numpy as np
 
-from ..outline import OutlineSet
+from ..jit import kernel
+from ..outline import OutlineSet, curve_at
+from .base import Call
 
 
 class Curve:
@@ -27,15 +29,36 @@ class Curve:
 
     def at(self, Q):
         """(a, g, h, k) at the configurations Q (K, n), each (K, constraints)."""
-        e = np.exp(1j * Q[:, self.cc + 2])
-        return tuple(np.ascontiguousarray(e * p) for p in self.outlines.curve(Q[:, self.ct]))
+        a, g, h, k = (np.empty((Q.shape[0], len(self.cc)), complex) for _ in range(4))
+        curve_at(Q, self.cc, self.ct, *self.outlines.args, a, g, h, k)
+        return a, g, h, k
 
     def rates(self, QD, a, g, h, k):
         """a', a'', g', g'' (without acceleration terms)."""
-        w, th = QD[:, self.cc + 2], QD[:, self.ct]
-        return tuple(np.ascontiguousarray(x) for x in (
-            1j * w * a + g * th, -w * w * a + 2j * w * th * g + th * th * h,
-            1j * w * g + h * th, -w * w * g + 2j * w * th * h + th * th * k))
+        out = tuple(np.empty_like(a) for _ in range(4))
+        curve_rates(QD, QD, self.cc, self.ct, a, g, h, k, *out)
+        return out
+
+    def march(self):
+        """For the compiled march (one instant): the calls that fill (a, g, h,
+        k) and then the rates (a', a'', g', g''), and those eight arrays."""
+        parts = tuple(np.zeros((1, len(self.cc)), complex) for _ in range(8))
+        return (Call(curve_at, (self.cc, self.ct, *self.outlines.args, *parts[:4]), out=False),
+                Call(curve_rates, (self.cc, self.ct, *parts), rates=True, out=False)), parts
+
+
+@kernel
+def curve_rates(q, qd, cc, ct, a, g, h, k3, a1, a2, g1, g2):
+    """a', a'', g', g'' from a, g, h, k3 and the rates w_c, theta' of qd
+    (the module docstring's formulas; q is not used)."""
+    for k in range(a.shape[0]):
+        for c in range(cc.shape[0]):
+            w, th = qd[k, cc[c] + 2], qd[k, ct[c]]
+            ak, gk, hk = a[k, c], g[k, c], h[k, c]
+            a1[k, c] = 1j * w * ak + gk * th
+            a2[k, c] = -w * w * ak + 2j * w * th * gk + th * th * hk
+            g1[k, c] = 1j * w * gk + hk * th
+            g2[k, c] = -w * w * gk + 2j * w * th * hk + th * th * k3[k, c]
 
 
 def check_theta(f, bodies):

@@ -3,7 +3,7 @@ distance driver, its extension with a length l(t) that follows a function
 (a linear actuator between two points)."""
 import numpy as np
 
-from .base import (BodyKey, Family, FunctionKey, LocalKey, PositiveKey, TypeDecl, call, kernel, local_points,
+from .base import (BodyKey, Call, Family, FunctionKey, LocalKey, PositiveKey, TypeDecl, call, kernel, local_points,
                    pattern, per_instant, row_info)
 from ..functions import FunctionSet, constant
 
@@ -90,8 +90,8 @@ class Distance(Family):
         return 2 * (l1 * l1 + l * l2)
 
     def march(self, times):
-        return ((_phi, self.args, self.length(times)), (_jac, self.args, None),
-                (_gamma, self.args, self.second(times)))
+        return ((Call(_phi, self.args, self.length(times)),), (Call(_jac, self.args),),
+                (Call(_gamma, self.args, self.second(times), rates=True),))
 
 
 TYPES = [

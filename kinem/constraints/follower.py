@@ -4,7 +4,7 @@ follower (Eqs. 4.26, 4.27) and the point-follower, a pin in a slot
 on the outline (kinem/constraints/curve.py)."""
 import numpy as np
 
-from .base import (BodyKey, Family, LocalKey, NumberKey, OutlineKey, TypeDecl, batch, call, kernel,
+from .base import (BodyKey, Call, Family, LocalKey, NumberKey, OutlineKey, TypeDecl, batch, call, kernel,
                    local_points, pattern, row_info)
 from .curve import Curve, check_theta
 
@@ -77,6 +77,12 @@ class PointOnCurve(Family):
         (Q, lead), QD = batch(q), batch(qd)[0]
         _, a2, _, _ = self.curve.rates(QD, *self.curve.at(Q))
         return call(_gamma, self.n_rows, Q, self.cb, self.sb, self.sign, a2, qd=QD).reshape(lead + (-1,))
+
+    def march(self, times):
+        (at, rates), (a, g, _, _, _, a2, _, _) = self.curve.march()
+        return ((at, Call(_phi, (self.curve.cc, self.cb, self.sb, self.sign, a))),
+                (at, Call(_jac, (self.cb, self.sb, self.sign, a, g))),
+                (at, rates, Call(_gamma, (self.cb, self.sb, self.sign, a2), rates=True)))
 
 
 TYPES = [

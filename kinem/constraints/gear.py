@@ -10,7 +10,7 @@ equation: the estimates are the reference configuration (phi_i^0, ...).
 """
 import numpy as np
 
-from .base import (BodyKey, BoolKey, Compiled, DirectionKey, Family, LocalKey, NumberKey, PositiveKey,
+from .base import (BodyKey, BoolKey, Call, Compiled, DirectionKey, Family, LocalKey, NumberKey, PositiveKey,
                    TypeDecl, call, kernel, local_points, pattern, row_info)
 
 
@@ -74,7 +74,7 @@ class Gear(Family):
         return call(_no_gamma, self.n_rows, q, qd=qd)
 
     def march(self, times):
-        return (_gear_phi, self.args, None), (_constant, (self.values,), None), (_no_gamma, (), None)
+        return (Call(_gear_phi, self.args),), (Call(_constant, (self.values,)),), (Call(_no_gamma, (), rates=True),)
 
 
 @kernel

@@ -10,7 +10,7 @@ The point term of row r is mx_r Re(s) + my_r Im(s), s = A_i s'_i^P.
 """
 import numpy as np
 
-from .base import (BodyKey, CoordKey, Family, FunctionKey, LocalKey, NumberKey, TypeDecl, Vector3Key, call,
+from .base import (BodyKey, Call, CoordKey, Family, FunctionKey, LocalKey, NumberKey, TypeDecl, Vector3Key, call,
                    kernel, local_points, per_instant)
 from ..functions import FunctionSet, constant
 
@@ -113,9 +113,9 @@ class Simple(Family):
 
     def march(self, times):
         f2 = self.f(times, 2) if self.time_dependent else np.zeros((len(times), self.n_rows))
-        return ((_phi, (self.a, self.k, self.w, self.angle, self.local, self.mx, self.my), self.f(times)),
-                (_jac, (self.angle, self.local, self.mx, self.my, self.point, self.w, self.relative), None),
-                (_gamma, (self.angle, self.local, self.mx, self.my), f2))
+        return ((Call(_phi, (self.a, self.k, self.w, self.angle, self.local, self.mx, self.my), self.f(times)),),
+                (Call(_jac, (self.angle, self.local, self.mx, self.my, self.point, self.w, self.relative)),),
+                (Call(_gamma, (self.angle, self.local, self.mx, self.my), f2, rates=True),))
 
 
 def _estimate_point(body, point):
