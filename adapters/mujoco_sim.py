@@ -506,7 +506,7 @@ class MujocoAdapter(Adapter):
             # "overwrite": qpos, qvel of driven joints set from d(t), d'(t) before every step, plus a force
             # armature * d''(t); "interval": set only at output instants, the interval stepped in C by
             # mj_step(m, d, substeps) with the force held (exact for drivers of constant d'', i.e.
-            # polynomials of degree <= 2; 7-15 % cheaper at the same errors on the book cases); "auto":
+            # polynomials of degree <= 2; 0.86x the cost at the same errors on the book cases); "auto":
             # "interval" where it is exact, else "overwrite"; "force": that force alone after the initial
             # state (drifts unless the armature dwarfs the reactions)
             "drive": "auto",
