@@ -544,7 +544,7 @@ class MujocoAdapter(Adapter):
         if "dt" not in auto or failure is not None or Q.shape[1] != model.n:
             return None
         res = model.kinematic_residual(Q, times)
-        if res <= CLOSURE:
+        if not res > CLOSURE or not np.isfinite(res):   # non-finite coordinates fail the run instead
             return None
         change = {"dt": s["dt"] * math.sqrt(0.5 * CLOSURE / res), "substeps": None}
         if s["solref"] == (3 * s["dt"], 1.0):    # derived from the step (the default): derive it again
