@@ -52,11 +52,11 @@ class Status(str, enum.Enum):
 
 class Failure(Exception):
     """Raised inside ``simulate`` to end a run with a status; ``partial``:
-    (Q, QD) of the instants reached, or None."""
+    (Q, QD) of the instants reached, or None; ``wall``: stepping seconds spent."""
 
-    def __init__(self, status: Status, detail: str, steps: int = 0, partial=None):
+    def __init__(self, status: Status, detail: str, steps: int = 0, partial=None, wall: float = 0.0):
         super().__init__(detail)
-        self.status, self.detail, self.steps, self.partial = status, detail, steps, partial
+        self.status, self.detail, self.steps, self.partial, self.wall = status, detail, steps, partial, wall
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,6 +74,7 @@ class EngineRun:
     version: str = ""
     overhead: float = 0.0            # seconds of the adapter's own work: build, driving, sampling
     intervals: int = 0               # output intervals simulated
+    notes: tuple = ()                # what the adapter decided on its own: a retry after divergence
 
     @property
     def ok(self) -> bool:
@@ -108,6 +109,18 @@ def nonnegative(v):
 
 def count(v):
     return None if isinstance(v, int) and not isinstance(v, bool) and v >= 1 else "a positive integer"
+
+
+def step_or_auto(v):
+    return None if v == "auto" or positive(v) is None else "a positive number or 'auto'"
+
+
+def positive_or_none(v):
+    return None if v is None or positive(v) is None else "a positive number or none"
+
+
+def count_or_auto(v):
+    return None if v == "auto" or count(v) is None else "a positive integer or 'auto'"
 
 
 def count_or_none(v):
@@ -190,32 +203,91 @@ class Adapter:
         s["dt"] = interval / s["substeps"]
         return s["substeps"]
 
-    def run(self, model, q0, qd0, settings=None) -> EngineRun:
+    def resolve(self, model, s, reference=None):
+        """Fills the step of the checked settings s for the model and returns
+        the steps per output interval. dt = "auto": rate_step / the
+        mechanism's rate scale (``rate_scale`` of native's solution
+        ``reference``, solved here when None; recorded as s["rate_scale"]);
+        then ``steps_per_interval``. An engine with other "auto" settings
+        resolves them here too."""
+        times = np.asarray(model.times, float)
+        interval = float(times[1] - times[0]) if len(times) > 1 else float(model.case.end or 1.0)
+        if s.get("dt") == "auto" and s.get("substeps") is None:
+            s["rate_scale"] = scale = rate_scale(model, reference)
+            s["dt"] = min(interval, s["rate_step"] / scale) if scale > 0 else interval
+        elif s.get("dt") == "auto":
+            s["dt"] = interval / s["substeps"]
+        return self.steps_per_interval(s, interval)
+
+    def step(self, model, settings=None, reference=None) -> float:
+        """The engine step (s) that ``settings`` (defaults when None) give
+        for the model (dt = "auto" resolved before any retry)."""
+        s = self.settings(settings)
+        self.resolve(model, s, reference)
+        return s["dt"]
+
+    def retry(self, model, s, times, auto, failure=None, Q=None, QD=None):
+        """(why, settings) to run once more with after a first attempt, or
+        None: an engine whose own check finds a run diverged (``failure``)
+        or inaccurate (its result Q, QD) says here which costlier settings
+        cure it, among the settings it chose itself (``auto``: the keys
+        requested as "auto"; an explicit value is never changed). Never
+        judged against native's trajectory; the retry is in the run's
+        ``notes`` and its cost includes both attempts."""
+        return None
+
+    def run(self, model, q0, qd0, settings=None, reference=None) -> EngineRun:
         """Simulates over model.times from (q0, qd0). Bad settings raise
-        InputError; an engine failure never raises (its status says it)."""
+        InputError; an engine failure never raises (its status says it).
+        ``reference``: native's solution, for dt = "auto" (solved when None)."""
         start = time.perf_counter()
         s = self.settings(settings)
         times = np.asarray(model.times, float)
-        interval = float(times[1] - times[0]) if len(times) > 1 else float(model.case.end or 1.0)
-        sub = self.steps_per_interval(s, interval)
-        common = dict(engine=self.name, substeps=sub, settings=s, version=self.version(), intervals=len(times) - 1)
+        notes, auto = [], {k for k, v in s.items() if v == "auto"}
+        if s.get("substeps") is not None:
+            auto.discard("dt")                 # the step is given as substeps
+        why, early = self.unsupported_with(model, q0, s), None
+        if not why:
+            try:
+                self.resolve(model, s, reference)
+            except Failure as e:   # no native solution for dt = "auto"
+                early = e
 
         def finish(status, detail="", Q=None, QD=None, wall=0.0, steps=0):
             from kinem.result import trajectory
 
             traj = None if Q is None or status is not Status.OK else trajectory(model, times[:len(Q)], Q, QD)
-            return EngineRun(status=status, detail=detail, trajectory=traj, q=Q if traj is not None else None,
-                             qd=QD if traj is not None else None, wall_time=wall, steps=steps,
-                             overhead=max(time.perf_counter() - start - wall, 0.0), **common)
+            return EngineRun(engine=self.name, status=status, detail=detail, trajectory=traj,
+                             q=Q if traj is not None else None, qd=QD if traj is not None else None, wall_time=wall,
+                             steps=steps, substeps=s.get("substeps") or 0, settings=s, version=self.version(),
+                             overhead=max(time.perf_counter() - start - wall, 0.0), intervals=len(times) - 1,
+                             notes=tuple(notes))
 
-        why = self.unsupported_with(model, q0, s)
         if why:
             return finish(Status.UNSUPPORTED, why)
+        if early is not None:
+            return finish(early.status, early.detail)
         q0, qd0 = np.asarray(q0, float), np.asarray(qd0, float)
-        try:
-            Q, QD, wall, steps = self.simulate(model, q0, qd0, s, times)
-        except Failure as e:
-            return finish(e.status, " ".join(e.detail.split()), steps=e.steps)
+        wall = steps = 0
+        for attempt in (1, 2):
+            try:
+                Q, QD, w, n = self.simulate(model, q0, qd0, s, times)
+                wall, steps, failure = wall + w, steps + n, None
+            except Failure as e:
+                wall, steps, failure = wall + e.wall, steps + e.steps, e
+            again = self.retry(model, s, times, auto, failure, *((None, None) if failure else (Q, QD))) \
+                if attempt == 1 and auto else None
+            if not again:
+                break
+            because, change = again
+            s.update(change)
+            self.resolve(model, s, reference)
+            shown = [f"{k} = {s[k]:.6g}" if isinstance(s[k], float) else f"{k} = {s[k]}"
+                     for k in change if change[k] is not None]
+            notes.append(f"{because}: rerun with {', '.join(shown)} ({s['substeps']} steps per output interval); "
+                         "the cost counts both attempts")
+        if failure is not None:
+            return finish(failure.status, " ".join(failure.detail.split()), steps=steps, wall=wall)
         if not (np.isfinite(Q).all() and np.isfinite(QD).all()):
             return finish(Status.NONFINITE, "non-finite coordinates", wall=wall, steps=steps)
         return finish(Status.OK, "", Q, QD, wall, steps)
@@ -289,6 +361,41 @@ def mass_properties(model):
         mass.append(m)
         inertia.append(b.inertia if b.inertia is not None else m * max(r2, floor))
     return np.array(mass), np.array(inertia)
+
+
+def rate_scale(model, reference=None) -> float:
+    """The mechanism's fastest rate (1/s) in native's solution ``reference``
+    (solved here when None): the largest of |omega|, sqrt(|alpha|),
+    |d alpha/dt|^(1/3) over the bodies and sqrt(|a| / L), (|da/dt| / L)^(1/3)
+    over the bodies and named points (L the characteristic length; the
+    derivatives of the accelerations by differences over the output
+    instants). A time-stepper's errors scale as (rate x step)^2 for a
+    second-order scheme, so a step rate_step / rate_scale gives mechanisms
+    of every speed the same error class (docs/engines.md)."""
+    if reference is None:
+        from kinem.solver import solve
+
+        reference = solve(model)
+        if not reference.success:
+            raise Failure(Status.FAILED, f"dt = 'auto' needs the native solution: {reference.message}")
+    tr, L = reference.trajectory, model.length
+    t = np.asarray(tr.t, float)
+    cols = set(tr.columns)
+
+    def slope(y):
+        return np.abs(np.gradient(y, t)) if len(t) > 2 else np.zeros(1)
+
+    rates = [0.0]
+    for b in model.body_names:
+        if f"{b}.omega" in cols:
+            rates.append(np.abs(tr[f"{b}.omega"]).max())
+        if f"{b}.alpha" in cols:
+            rates += [np.sqrt(np.abs(tr[f"{b}.alpha"]).max()), np.cbrt(slope(tr[f"{b}.alpha"]).max())]
+    for p in list(model.body_names) + list(model.point_names):
+        if f"{p}.ax" in cols:
+            a = tr[f"{p}.ax"] + 1j * tr[f"{p}.ay"]
+            rates += [np.sqrt(np.abs(a).max() / L), np.cbrt(slope(a).max() / L)]
+    return float(max(rates))
 
 
 def drive_table(functions, t, order):

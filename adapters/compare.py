@@ -48,6 +48,7 @@ class Comparison:
     tolerance: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
     version: str = ""
+    notes: tuple = ()                      # what the adapter decided on its own (EngineRun.notes)
 
     @property
     def label(self) -> str:
@@ -115,7 +116,8 @@ def compare(model, native, run, tolerance=None) -> Comparison:
     if unknown:
         raise ValueError(f"{run.engine}: tolerance on unknown figures {sorted(unknown)}; figures: {FIGURES}")
     base = dict(engine=run.engine, status=run.status, detail=run.detail, settings=dict(run.settings),
-                version=run.version, tolerance=dict(tolerance or {}), **costs(run, model.case.end))
+                version=run.version, tolerance=dict(tolerance or {}), notes=tuple(run.notes),
+                **costs(run, model.case.end))
     if run.status is Status.UNSUPPORTED:
         return Comparison(**base)
     if not run.ok:
@@ -159,7 +161,7 @@ def run_engine(model, native, name, overrides=None) -> Comparison:
     reason = adapter.unsupported(model)
     if reason:
         return Comparison(engine=name, status=Status.UNSUPPORTED, detail=reason, version=adapter.version())
-    run = adapter.run(model, native.q[0], native.qd[0], case_settings(model, name, overrides))
+    run = adapter.run(model, native.q[0], native.qd[0], case_settings(model, name, overrides), native)
     return compare(model, native, run, tolerance_of(adapter))
 
 
@@ -205,6 +207,7 @@ def table(case_name, length, unit, rows) -> str:
                      f"{r.angle_error:9.2e} {r.velocity_error:9.2e} {r.angular_velocity_error:9.2e} "
                      f"{r.constraint_residual:9.2e} {r.substeps:9d} {1e6 * r.time_per_interval:8.1f} "
                      f"{1e6 * r.overhead_per_interval:8.1f}  {verdict}")
+        lines += [f"{'':8s} note: {n}" for n in r.notes]
     lines.append("us/out: seconds of stepping per output interval (native: per output instant); "
                  "+adapter: the adapter's own Python per interval (build, driving, sampling)")
     return "\n".join(lines)

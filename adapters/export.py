@@ -14,9 +14,10 @@ user constraints) are made by the adapter's own portable functions
 MuJoCo: MJCF XML (adapters.mujoco_sim.mjcf, the same text the adapter
 compiles) plus a keyframe "start" with the harness's initial joint positions
 and velocities (native's state at t = 0). A driver whose function is linear in
-t is inside the model: its joint has the armature of the settings (1e9 by
-default), so from the keyframe's velocity it keeps turning at that rate
-whatever the reactions (plain mj_step reproduces the harness). Any other
+t is inside the model: its joint has the armature 1e12 (the harness's with
+drive "interval", its default for such drivers), so from the keyframe's
+velocity it keeps turning at that rate whatever the reactions (plain mj_step
+reproduces the harness). Any other
 driver cannot be expressed in MJCF: a comment names its joint and function,
 and the loop that drives it (set qpos, qvel from d(t), d'(t) and qfrc_applied
 from armature d''(t) before every mj_step), as the harness does.
@@ -27,20 +28,22 @@ import numpy as np
 
 from kinem.functions import Poly
 
-# Armature of driven joints in an exported MJCF: the harness overwrites their
-# qpos and qvel before every step (1e9 is ample there); a plain mj_step loop
-# does not, so reactions move them by ~ force / armature: 1e12 keeps the
-# exported run within 2e-8 L of the harness on the book cases (1e9: 6e-6 L).
-ARMATURE = 1e12
+# Armature of driven joints in an exported MJCF: a plain mj_step loop does not
+# overwrite their qpos and qvel, so reactions move them by ~ force / armature:
+# 1e12 (the harness's own with drive "interval") keeps the exported run within
+# 2e-8 L of the harness on the book cases (1e9: 6e-6 L).
+from .mujoco_sim import HELD_ARMATURE as ARMATURE  # noqa: E402
 
 
 def _comment(text):
     return "<!-- " + text.replace("--", "- -") + " -->"
 
 
-def _prepared(engine, model, settings, *support):
+def _prepared(engine, model, settings, q0, qd0, *support):
     """(the adapter, its checked settings with substeps and dt resolved, the
-    output instants); InputError when the engine cannot represent the case."""
+    output instants); InputError when the engine cannot represent the case.
+    Settings the adapter chooses itself ("auto") are those the harness's run
+    from (q0, qd0) ends with, a retry included (adapters.base.Adapter.retry)."""
     from . import get
 
     adapter = get(engine)
@@ -50,8 +53,12 @@ def _prepared(engine, model, settings, *support):
 
         raise InputError(f"{model.case.source}: {engine} cannot represent this case: {why}")
     s = adapter.settings(settings)
+    if "auto" in s.values():
+        run = adapter.run(model, q0, qd0, s)
+        if run.ok:
+            s = adapter.settings({k: v for k, v in run.settings.items() if k in s})
     times = np.asarray(model.times, float)
-    adapter.steps_per_interval(s, float(times[1] - times[0]) if len(times) > 1 else float(model.case.end))
+    adapter.resolve(model, s)
     return adapter, s, times
 
 
@@ -61,7 +68,7 @@ def mujoco_model(model, q0, qd0, settings=None):
 
     from .mujoco_sim import drive_tables, initial_state
 
-    adapter, s, times = _prepared("mujoco", model, {"armature": ARMATURE, **(settings or {})}, q0)
+    adapter, s, times = _prepared("mujoco", model, {"armature": ARMATURE, **(settings or {})}, q0, qd0, q0)
     plan, xml = adapter.build(model, np.asarray(q0, float), s)
     m = mujoco.MjModel.from_xml_string(xml)
     d = mujoco.MjData(m)
@@ -74,8 +81,9 @@ def mujoco_model(model, q0, qd0, settings=None):
              f"{s['substeps']} steps per output interval of {s['dt'] * s['substeps']:.6g} s).",
              "Start from the keyframe 'start' (mj_resetDataKeyframe(m, d, 0)); body frames are the case's;",
              "custom numerics kinem:substeps and kinem:intervals: mj_step(m, d, substeps) once per output interval.",
-             f"Driven joints have armature {s['armature']:g} (the harness: {adapter.defaults()['armature']:g} with "
-             "qpos and qvel overwritten before every step)."]
+             f"Driven joints have armature {s['armature']:g} (the harness's, drive '{s['drive']}': "
+             + ("qpos and qvel overwritten before every step)." if s["drive"] == "overwrite" else
+                "set at output instants, each interval stepped by one mj_step call).")]
     motors = []
     for dr, body, j, a, v0 in plan.driven:
         if isinstance(dr.f, Poly) and len(dr.f.coeffs) <= 3:
@@ -125,7 +133,7 @@ def _pymunk_script(model, q0, qd0, settings=None):
 
     from .pymunk_sim import _Mechanism
 
-    _, s, times = _prepared("pymunk", model, settings)
+    _, s, times = _prepared("pymunk", model, settings, q0, qd0)
     n_sub, dt = s["substeps"], s["dt"]
     tt = np.arange(n_sub * (len(times) - 1) + 2) * dt
     mech = _Mechanism(model, np.asarray(q0, float), np.asarray(qd0, float), s, tt)
@@ -331,7 +339,7 @@ def _exudyn_script(model, q0, qd0, settings=None):
 
     from .exudyn_sim import INTEGRATORS, PORTABLE
 
-    adapter, s, times = _prepared("exudyn", model, settings)
+    adapter, s, times = _prepared("exudyn", model, settings, q0, qd0)
     saved = exu.config.printToConsole
     exu.config.printToConsole = False
     try:

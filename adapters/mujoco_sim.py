@@ -34,14 +34,25 @@ gives it the driver's acceleration within the step, so reaction forces do
 not move it (engines.md: mocap bodies and per-step equality offsets lag by
 O(dt)).
 """
+import math
 import time
 
 import numpy as np
 
 
-from .base import (Adapter, Drive, Failure, Status, boolean, choice, count, count_or_none, drive_table, drives,
-                   finite, grounded, mass_properties, nonnegative, numbers, positive)
+from kinem.functions import Poly
 
+from .base import (Adapter, Drive, Failure, Status, boolean, choice, count, count_or_none, drive_table, drives,
+                   finite, grounded, mass_properties, nonnegative, numbers, positive,
+                   positive_or_none, step_or_auto)
+
+# The loops' closure residual (scaled, ~ of L) above which a run is repeated
+# with a smaller step (MujocoAdapter.retry): a tenth of the position and angle
+# tolerance, since the engine's position and angle errors are at most ~8x its
+# closure residual (measured over 125 random quick-returns and the book cases:
+# 1-8x; the mechanism's geometry sets the ratio).
+CLOSURE = 1e-8
+HELD_ARMATURE = 1e12  # driven joints' armature when set only at output instants (defaults: "armature")
 WORLD = "@world"      # '@' and ':' never occur in a case's names
 TREE_TYPES = ("translational", "revolute", "revolute-translational", "absolute")  # preference order
 
@@ -465,12 +476,17 @@ class MujocoAdapter(Adapter):
             # RK4: ~100x smaller errors than implicitfast or Euler at the same step (docs/engines/mujoco.md),
             # ~3x their cost per step
             "integrator": "RK4",
-            # largest engine step (s); the step used divides the output interval. Loop errors scale as dt^2.
-            # The sweep of `kinem engines --tune` (docs/engines.md): RK4 at 16 steps per 0.01 s interval is
-            # the cheapest within TOLERANCE on the five lower-pair cases (worst 4.6e-8 of L; 8 steps: 1.8e-7),
-            # but a faster quick-return of tests/test_engines_property.py leaves 1.0e-7 rad at 4e-4 and
-            # 1.4e-7 at 3.3e-4: 2.5e-4 (40 steps, 7e-9 of L on the book cases) holds on every test mechanism
-            "dt": 2.5e-4,
+            # engine step (s); the step used divides the output interval. "auto": rate_step / the
+            # mechanism's rate scale (adapters.base.rate_scale: its fastest body rate, or the rate its
+            # accelerations and their changes imply), since the loop errors scale as (rate x dt)^2:
+            # faster mechanisms get proportionally smaller steps. A number: that step whatever the mechanism
+            "dt": "auto",
+            # rate x step of dt = "auto": the cheapest of `kinem engines --tune`'s rate_steps within
+            # TOLERANCE on the five lower-pair cases (docs/engines.md; larger ones cost more, since the
+            # quick-returns then exceed CLOSURE and are run again). A mechanism whose loops still open
+            # more (its geometry sets the error constant: up to 16x the book's among random
+            # quick-returns) is run once more with a smaller step (retry)
+            "rate_step": 1.6e-3,
             # engine steps per output interval; None: the fewest with a step <= dt
             "substeps": None,
             # (time constant s, damping ratio) of the loop-closing equalities; None: (3 dt, 1). 2 dt
@@ -483,14 +499,17 @@ class MujocoAdapter(Adapter):
             "refsafe": True,
             # exact constraint-space inertia diagonal for the impedance: no measurable gain here
             "diagexact": False,
-            # armature of driven joints (mass x length^2 of the case): with qpos/qvel overwritten each step
-            # 1e9 is ample even in mm units (1e12 without overwriting gives the same errors)
-            "armature": 1e9,
+            # armature of driven joints (mass x length^2 of the case); None: 1e9 with drive "overwrite"
+            # (qpos and qvel overwritten each step: ample even in mm units), 1e12 otherwise (between
+            # overwrites the reactions move the joint by ~ force / armature: 1e9 leaves 3x larger errors)
+            "armature": None,
             # "overwrite": qpos, qvel of driven joints set from d(t), d'(t) before every step, plus a force
             # armature * d''(t); "interval": set only at output instants, the interval stepped in C by
-            # mj_step(m, d, substeps) with the force held (exact for drivers linear in t); "force": that
-            # force alone after the initial state (drifts unless the armature dwarfs the reactions)
-            "drive": "overwrite",
+            # mj_step(m, d, substeps) with the force held (exact for drivers of constant d'', i.e.
+            # polynomials of degree <= 2; 0.86x the cost at the same errors on the book cases); "auto":
+            # "interval" where it is exact, else "overwrite"; "force": that force alone after the initial
+            # state (drifts unless the armature dwarfs the reactions)
+            "drive": "auto",
             # "spanning": a spanning tree of joints, loops closed by equalities; "free": every body free in
             # the plane and every constraint an equality (3-25x larger errors, for comparison)
             "tree": "spanning",
@@ -500,10 +519,11 @@ class MujocoAdapter(Adapter):
         }
 
     knobs = {"integrator": ("RK4", "implicitfast", "Euler"), "substeps": (1, 2, 4, 8, 16, 40)}
-    checks = {"integrator": choice("RK4", "Euler", "implicit", "implicitfast"), "dt": positive,
-              "substeps": count_or_none, "solref": numbers(2, finite, optional=True), "solimp": numbers(5),
-              "refsafe": boolean, "diagexact": boolean, "armature": positive,
-              "drive": choice("overwrite", "interval", "force"), "tree": choice("spanning", "free"),
+    rate_steps = (0.8e-3, 1.6e-3, 2.4e-3, 3.2e-3, 4.8e-3, 6.4e-3)   # rate_step values the sweep tries (dt auto)
+    checks = {"integrator": choice("RK4", "Euler", "implicit", "implicitfast"), "dt": step_or_auto,
+              "rate_step": positive, "substeps": count_or_none, "solref": numbers(2, finite, optional=True),
+              "solimp": numbers(5), "refsafe": boolean, "diagexact": boolean, "armature": positive_or_none,
+              "drive": choice("auto", "overwrite", "interval", "force"), "tree": choice("spanning", "free"),
               "tolerance": nonnegative, "iterations": count}
 
     def unsupported(self, model, q0=None, tree="spanning") -> str | None:
@@ -516,6 +536,21 @@ class MujocoAdapter(Adapter):
     def unsupported_with(self, model, q0, s):
         return self.unsupported(model, q0, s["tree"])
 
+    def retry(self, model, s, times, auto, failure=None, Q=None, QD=None):
+        """With dt = "auto", once with a smaller step when the loops' closure
+        residual (kinem's scaled residual of the engine's positions: MuJoCo's
+        equalities are soft) exceeds CLOSURE: the step that brings it to
+        CLOSURE / 2 (it scales as dt^2)."""
+        if "dt" not in auto or failure is not None or Q.shape[1] != model.n:
+            return None
+        res = model.kinematic_residual(Q, times)
+        if not res > CLOSURE or not np.isfinite(res):   # non-finite coordinates fail the run instead
+            return None
+        change = {"dt": s["dt"] * math.sqrt(0.5 * CLOSURE / res), "substeps": None}
+        if s["solref"] == (3 * s["dt"], 1.0):    # derived from the step (the default): derive it again
+            change["solref"] = None
+        return f"the loops' closure residual {res:.1e} of L exceeds {CLOSURE:g}", change
+
     def build(self, model, q0, s):
         """(Plan, MJCF text) of the model in the pose q0 with the settings s
         (substeps and dt resolved; solref filled in here)."""
@@ -523,6 +558,10 @@ class MujocoAdapter(Adapter):
             s["solref"] = (3 * s["dt"], 1.0)
         s["solref"] = tuple(float(x) for x in s["solref"])
         plan = Plan(model, q0, s["tree"])
+        if s["drive"] == "auto":
+            s["drive"] = "interval" if all(held(dr.f) for dr, *_ in plan.driven) else "overwrite"
+        if s["armature"] is None:
+            s["armature"] = 1e9 if s["drive"] == "overwrite" else HELD_ARMATURE
         return plan, mjcf(plan, s)
 
     def simulate(self, model, q0, qd0, s, times):
@@ -603,6 +642,12 @@ class MujocoAdapter(Adapter):
                               f"({', '.join(bad) or 'non-finite'})", n)
             sample(k, n)
         return Q, QD, wall, n
+
+
+def held(f) -> bool:
+    """d'' of the kinem function f is constant (a polynomial of degree <= 2):
+    a force held over an interval drives its joint exactly."""
+    return isinstance(f, Poly) and len(f.coeffs) <= 3
 
 
 def initial_state(m, d, plan, qd0):

@@ -38,9 +38,13 @@ def _models(names, quick):
 
 
 def grid(adapter):
-    """Every combination of the adapter's knobs, as settings overrides."""
+    """Every combination of the adapter's knobs, as settings overrides; then,
+    for an adapter with dt = "auto", each of its ``rate_steps`` (the step
+    from the mechanism's rate scale, adapters.base.Adapter.resolve) with its
+    other knobs at the defaults."""
     keys = list(adapter.knobs)
-    return [dict(zip(keys, values)) for values in itertools.product(*(adapter.knobs[k] for k in keys))]
+    out = [dict(zip(keys, values)) for values in itertools.product(*(adapter.knobs[k] for k in keys))]
+    return out + [{"dt": "auto", "rate_step": c} for c in getattr(adapter, "rate_steps", ())]
 
 
 def sweep(engine, cases=CASES, quick=False, repeats=3, models=None):
@@ -59,15 +63,16 @@ def sweep(engine, cases=CASES, quick=False, repeats=3, models=None):
         per_case, meets, costs, worst = {}, True, [], 0.0
         for name, model, ref in models:
             settings = adapter.settings(dict(model.case.engines.get(engine, {}), **(over or {})))
-            run = adapter.run(model, ref.q[0], ref.qd[0], settings)
+            run = adapter.run(model, ref.q[0], ref.qd[0], settings, ref)
             c = compare(model, ref, run, tol)
             walls = [run.per_interval]
             if c.within_tolerance:      # only settings that count are timed again
-                walls += [adapter.run(model, ref.q[0], ref.qd[0], settings).per_interval for _ in range(repeats - 1)]
+                walls += [adapter.run(model, ref.q[0], ref.qd[0], settings, ref).per_interval
+                          for _ in range(repeats - 1)]
             cost = statistics.median(walls)
             per_case[name] = {"status": c.label, "within": bool(c.within_tolerance),
                               "position_error_rel": c.position_error_rel, "velocity_error_rel": c.velocity_error_rel,
-                              "time_per_interval": cost, "substeps": run.substeps}
+                              "time_per_interval": cost, "substeps": run.substeps, "notes": list(run.notes)}
             meets &= bool(c.within_tolerance)
             worst = max(worst, c.position_error_rel if c.ok else float("inf"))
             costs.append(cost)
@@ -77,9 +82,13 @@ def sweep(engine, cases=CASES, quick=False, repeats=3, models=None):
     front = pareto(swept)
     ok = [p for p in swept if p["meets"]]
     best = min(ok, key=lambda p: p["time_per_interval"]) if ok else None
+    fixed = [p for p in ok if (p["settings"] or {}).get("dt") != "auto"]
+    best_fixed = min(fixed, key=lambda p: p["time_per_interval"]) if fixed else None
+    ratio = (lambda b: default["time_per_interval"] / b["time_per_interval"] if b else None)
     return {"engine": engine, "version": adapter.version(), "tolerance": tol, "knobs": dict(adapter.knobs),
             "points": swept, "front": front, "recommended": best, "default": default,
-            "default_over_recommended": default["time_per_interval"] / best["time_per_interval"] if best else None}
+            "default_over_recommended": ratio(best), "recommended_fixed": best_fixed,
+            "default_over_fixed": ratio(best_fixed)}
 
 
 def pareto(points, cost="time_per_interval", error="position_error_rel", floor=0.0):
@@ -140,4 +149,8 @@ def text(result) -> str:
                      f"{result['default_over_recommended']:.2f}x that")
     else:
         lines.append("  no swept setting meets the tolerance on every case")
+    fixed = result.get("recommended_fixed")
+    if fixed and fixed is not best:
+        lines.append(f"  cheapest fixed step that meets it: {fixed['settings']}, {1e6 * fixed['time_per_interval']:.1f} "
+                     f"us per output interval; the defaults cost {result['default_over_fixed']:.2f}x that")
     return "\n".join(lines)

@@ -197,7 +197,7 @@ def run_one(task):
             return asdict(Outcome(s.group, s.name, engine, "diverged", float("nan"), float("nan"), 0.0,
                                   "no assembled start"))
     overrides = s.engine_settings.get(engine, s.engine_settings.get("*", {}))
-    run = adapter.run(model, native.q[0], native.qd[0], adapter.settings(overrides))
+    run = adapter.run(model, native.q[0], native.qd[0], adapter.settings(overrides), native)
     if not run.ok:
         kind = "nan" if run.status is Status.NONFINITE else "diverged"
         return asdict(Outcome(s.group, s.name, engine, kind, float("nan"), float("nan"), run.wall_time, run.label))

@@ -40,3 +40,13 @@ def test_tune_quick_smoke(capsys):
 def test_tune_names_unknown_engines(capsys):
     assert main(["engines", "--tune", "nope"]) == 2
     assert "--tune: got 'nope'" in capsys.readouterr().err
+
+
+def test_sweep_covers_the_auto_step_constant():
+    # MuJoCo's dt = "auto" is swept as its constant, so --tune re-derives the default rate_step
+    mujoco = __import__("adapters").get("mujoco")
+    auto = [g for g in tune.grid(mujoco) if g.get("dt") == "auto"]
+    assert [g["rate_step"] for g in auto] == list(mujoco.rate_steps)
+    assert mujoco.defaults()["rate_step"] in mujoco.rate_steps
+    # fixed steps are swept too: an explicit step is never retried
+    assert any(g.get("substeps") for g in tune.grid(mujoco))

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 from .. import parallel
 from .progress import TICK
-from .runs import Task, run_task
+from .runs import Task, run_task, step
 
 # Cases with a work-precision diagram (besides any case that asks for one).
 WORK_PRECISION_CASES = ("slider_crank", "four_bar", "quick_return_1")
@@ -67,8 +67,8 @@ def execute(cases, engines, sweep: Sweep, workers=None, progress=None, scheduler
         if task.engine == "native" or task.knob is not None or (task.path, task.engine) not in planned:
             return []
         n = planned[(task.path, task.engine)]
-        dt = (r.get("requested") or {}).get("dt")
-        if r["status"] != "ok" or not isinstance(dt, (int, float)):
+        dt = step(r)   # dt = "auto": the step the engine chose
+        if r["status"] != "ok" or dt is None:
             if progress:
                 progress.drop(n)
             return []

@@ -79,6 +79,7 @@ def _work_precision(rs, engines):
     from adapters.tune import pareto
 
     from .gate import ERROR_FLOOR   # errors below it are rounding noise: equal on the front
+    from .runs import step
 
     curves = []
     for e in ("native",) + tuple(engines):
@@ -87,7 +88,7 @@ def _work_precision(rs, engines):
             continue
         knob = pts[0]["knob"]
         if e != "native":  # the main run is the sweep's factor-1 point of the defaults' family
-            pts += [dict(r, value=r["requested"]["dt"]) for r in rs
+            pts += [dict(r, value=step(r)) for r in rs
                     if r["engine"] == e and r["knob"] is None and r["status"] == "ok"]
         families = []
         for r in pts:

@@ -192,7 +192,7 @@ def run_engine(task):
         overrides[task.knob] = task.value
     settings = case_settings(model, task.engine, overrides)
     try:
-        run = adapter.run(model, ref.q[0], ref.qd[0], settings)
+        run = adapter.run(model, ref.q[0], ref.qd[0], settings, ref)
     except Exception as e:  # noqa: BLE001 - adapters should not raise; record it if one does
         return _blank(task, f"failed: {type(e).__name__}: {e}", version=version, requested=_plain(settings),
                       knobs=_knobs(adapter, settings, settings))
@@ -215,6 +215,15 @@ def run_engine(task):
         if task.knob is None:
             out["series"] = _series(model, ref, run.trajectory, run.q)
     return out
+
+
+def step(r):
+    """An engine row's step dt: the requested one, or the one the engine
+    resolved (dt = "auto"); None without either."""
+    for dt in ((r.get("requested") or {}).get("dt"), (r.get("settings") or {}).get("dt")):
+        if isinstance(dt, (int, float)) and not isinstance(dt, bool):
+            return dt
+    return None
 
 
 def _knobs(adapter, requested, used):

@@ -1,0 +1,119 @@
+"""Settings the adapters choose themselves ("auto"): MuJoCo's step from the
+mechanism's rate scale, its drive mode, and the one retry an adapter makes
+when its own check (never native's trajectory) finds a run diverged or
+inaccurate: MuJoCo with a smaller step (loop-closure residual), pymunk with
+more Gauss-Seidel iterations (divergence, unconverged velocities)."""
+import numpy as np
+import pytest
+
+import kinem
+from adapters import get
+from adapters.base import Status, rate_scale
+from adapters.compare import compare, tolerance_of
+from kinem.reference import four_bar_case, quick_return_case, slider_crank_case
+
+MUJOCO, PYMUNK = get("mujoco"), get("pymunk")
+
+
+def solved(case_dict):
+    model = kinem.compile(kinem.load_dict(case_dict))
+    native = kinem.solve(model)
+    assert native.success, native.message
+    return model, native
+
+
+def slider_crank(w, fn=None):
+    return solved(slider_crank_case(0.1, 0.3, 0.0, fn or {"poly": [0.3, w]}, 0.3, end=0.5, steps=25))
+
+
+# A random four-bar of tests/test_engines_property.py (drawn there): pymunk's
+# Gauss-Seidel diverges on it at 25 iterations with dt = 2e-4, holds at 100.
+DIVERGING_FOUR_BAR = four_bar_case(0.07420530939463176, 0.27794610723853192, 0.29682123757852696,
+                                   0.12728141727082676, {"poly": [-0.0006970427816885632, 1.259060005106527]},
+                                   -0.0006970427816885632, 1.0, end=1.0, steps=50)
+# A quick-return the property test's strategy allows (hypothesis shrank to it):
+# link as long as the rocker, the tool line through O. Its loops' closure
+# residual in MuJoCo at the rate-scaled step is 1.5x CLOSURE; pymunk diverges
+# at 25 iterations.
+HARD_QUICK_RETURN = quick_return_case(100.0, 50.0, 300.0, 300.0, 0.0, {"poly": [0.0, -2.0]}, 0.0, end=1.0, steps=50)
+
+
+def test_rate_scale_follows_the_speed():
+    # a constant-speed crank: rates, sqrt(accelerations) and cbrt(jerks) all scale with w
+    (m1, n1), (m4, n4) = slider_crank(1.0), slider_crank(4.0)
+    assert rate_scale(m1, n1) >= 1.0   # at least the crank's own rate
+    # 5 %: the jerks are differences of the accelerations over the output instants
+    assert rate_scale(m4, n4) / rate_scale(m1, n1) == pytest.approx(4.0, rel=0.05)
+    # solved here when no reference is given: the same scale
+    assert rate_scale(m1) == pytest.approx(rate_scale(m1, n1), rel=1e-9)
+
+
+def test_auto_step_is_smaller_for_a_faster_mechanism():
+    (m1, n1), (m4, n4) = slider_crank(1.0), slider_crank(4.0)
+    slow, fast = MUJOCO.run(m1, n1.q[0], n1.qd[0], None, n1), MUJOCO.run(m4, n4.q[0], n4.qd[0], None, n4)
+    assert slow.ok and fast.ok and not slow.notes and not fast.notes
+    for run in (slow, fast):
+        # the fewest steps per interval with dt <= rate_step / rate_scale
+        h = m1.times[1] - m1.times[0]
+        assert run.substeps == int(np.ceil(h * run.settings["rate_scale"] / MUJOCO.defaults()["rate_step"]))
+    assert fast.settings["dt"] < slow.settings["dt"] / 3   # 4x the rate; steps rounded to divide the interval
+    # an explicit step is taken as it is
+    fixed = MUJOCO.run(m4, n4.q[0], n4.qd[0], {"dt": slow.settings["dt"]}, n4)
+    assert fixed.settings["dt"] == pytest.approx(slow.settings["dt"]) and "rate_scale" not in fixed.settings
+
+
+def test_mujoco_drives_in_c_where_a_held_force_is_exact():
+    m, n = slider_crank(1.0)
+    linear = MUJOCO.run(m, n.q[0], n.qd[0], None, n)
+    assert (linear.settings["drive"], linear.settings["armature"]) == ("interval", 1e12)
+    m, n = slider_crank(1.0, {"harmonic": {"amplitude": 0.5, "omega": 2.0, "phase": 0.0, "offset": 0.3}})
+    harmonic = MUJOCO.run(m, n.q[0], n.qd[0], None, n)
+    assert (harmonic.settings["drive"], harmonic.settings["armature"]) == ("overwrite", 1e9)
+    assert compare(m, n, harmonic, tolerance_of(MUJOCO)).within_tolerance
+
+
+def test_mujoco_retries_with_a_smaller_step_when_its_loops_open():
+    model, native = solved(HARD_QUICK_RETURN)
+    first = MUJOCO.step(model, None, native)
+    run = MUJOCO.run(model, native.q[0], native.qd[0], None, native)
+    assert run.ok and len(run.notes) == 1 and "closure residual" in run.notes[0], run.notes
+    assert run.settings["dt"] < first
+    # the cost counts both attempts
+    h = model.times[1] - model.times[0]
+    assert run.steps == (len(model.times) - 1) * (run.substeps + round(h / first))
+    c = compare(model, native, run, tolerance_of(MUJOCO))
+    assert c.within_tolerance and c.constraint_residual <= 0.5 * 1e-8 * 1.5   # CLOSURE / 2, dt^2 law within 1.5x
+    # an explicit step is never changed
+    fixed = MUJOCO.run(model, native.q[0], native.qd[0], {"dt": first}, native)
+    assert fixed.ok and not fixed.notes and fixed.settings["dt"] == pytest.approx(first)
+
+
+@pytest.mark.parametrize("case", [DIVERGING_FOUR_BAR, HARD_QUICK_RETURN], ids=["four-bar", "quick-return"])
+def test_pymunk_retries_with_more_iterations_when_it_diverges(case):
+    model, native = solved(case)
+    explicit = PYMUNK.run(model, native.q[0], native.qd[0], {"iterations": 25}, native)
+    assert explicit.status is Status.DIVERGED and not explicit.notes
+    run = PYMUNK.run(model, native.q[0], native.qd[0], None, native)
+    assert run.ok and run.settings["iterations"] == 100
+    assert len(run.notes) == 1 and "drifted apart" in run.notes[0] and "iterations = 100" in run.notes[0]
+    assert run.steps > (len(model.times) - 1) * run.substeps   # the diverged attempt's steps count
+    assert compare(model, native, run, tolerance_of(PYMUNK)).within_tolerance
+
+
+def test_pymunk_checks_that_its_velocity_solve_converged():
+    from adapters.pymunk_sim import UNCONVERGED, velocity_residual
+
+    model, native = slider_crank(1.0)
+    rows = ~model.driving
+    # native's own velocities satisfy the velocity equations to round-off
+    assert velocity_residual(model, native.q, native.qd, model.times, rows) < 1e-12
+    s = PYMUNK.settings()
+    PYMUNK.resolve(model, s, native)
+    assert PYMUNK.retry(model, s, model.times, {"iterations"}, None, native.q, native.qd) is None
+    qd = native.qd.copy()
+    qd[len(qd) // 2, 5] *= 1 + 1e-4            # the rod's omega at one instant, off by 1e-4
+    why, change = PYMUNK.retry(model, s, model.times, {"iterations"}, None, native.q, qd)
+    assert velocity_residual(model, native.q, qd, model.times, rows) > UNCONVERGED
+    assert "velocity solve did not converge" in why and change == {"iterations": 100}
+    # only iterations it chose itself
+    assert PYMUNK.retry(model, s, model.times, set(), None, native.q, qd) is None
