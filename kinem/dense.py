@@ -95,3 +95,53 @@ def solve(LU, piv, B):
     for k in range(LU.shape[0]):
         _solve1(LU[k], piv[k], B[k])
     return B
+
+
+@kernel
+def band_factor(AB, piv, kl, ku):
+    """LU with partial pivoting of a band matrix in LAPACK's gbtrf storage
+    (element (i, j) at AB[kl + ku + i - j, j], kl rows of fill-in space
+    above), in place, as LAPACK's gbtf2: the row interchanges into piv (the
+    row chosen for column j; 0-based). A zero pivot leaves its column
+    unscaled."""
+    n, kv = AB.shape[1], kl + ku
+    ju = 0
+    for j in range(n):
+        km = min(kl, n - 1 - j)
+        p, big = 0, abs(AB[kv, j])
+        for i in range(1, km + 1):
+            if abs(AB[kv + i, j]) > big:
+                p, big = i, abs(AB[kv + i, j])
+        piv[j] = j + p
+        if AB[kv + p, j] == 0.0:
+            continue
+        ju = max(ju, min(j + ku + p, n - 1))
+        if p != 0:
+            for c in range(j, ju + 1):
+                a, b = kv + j - c, kv + j + p - c
+                AB[a, c], AB[b, c] = AB[b, c], AB[a, c]
+        r = 1.0 / AB[kv, j]
+        for i in range(1, km + 1):
+            AB[kv + i, j] *= r
+        for c in range(j + 1, ju + 1):
+            t = AB[kv + j - c, c]
+            if t != 0.0:
+                for i in range(1, km + 1):
+                    AB[kv + j + i - c, c] -= AB[kv + i, j] * t
+
+
+@kernel
+def band_solve(AB, piv, kl, ku, b):
+    """b <- A^-1 b from band_factor's result."""
+    n, kv = AB.shape[1], kl + ku
+    for j in range(n):
+        p = piv[j]
+        if p != j:
+            b[j], b[p] = b[p], b[j]
+        km = min(kl, n - 1 - j)
+        for i in range(1, km + 1):
+            b[j + i] -= AB[kv + i, j] * b[j]
+    for j in range(n - 1, -1, -1):
+        b[j] /= AB[kv, j]
+        for i in range(max(0, j - kv), j):
+            b[i] -= AB[kv + i - j, j] * b[j]

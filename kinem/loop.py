@@ -11,7 +11,7 @@ evaluators are missing: nothing calls ``run`` from this module itself.
 """
 import numpy as np
 
-from kinem.dense import _solve1, assemble, factor_into
+from kinem.dense import _solve1, assemble, band_factor, band_solve, factor_into
 from kinem.jit import kernel
 from kinem.tracking import jump_sizes, rejected
 
@@ -31,27 +31,49 @@ def residual(phi, scale):
 
 
 @kernel
-def lu_solve(J, piv, b, row_pos, col_pos, scale, col_scale, x, w):
-    """x = Phi_q^-1 b from the LU factors of the diagonal blocks of J_s
-    (kinem.model.Blocks): b's row i at position row_pos[i], x's coordinate j
-    at col_pos[j], J_s = diag(1/scale) Phi_q diag(col_scale); w: work (C * s)."""
-    C, s = J.shape[0], J.shape[1]
+def factorize(J, piv, band):
+    """LU of J_s: of its diagonal blocks (dense), or banded (kinem.model.Band:
+    band = (kl, ku, size, coupling rows, coupling columns); kl < 0: dense)."""
+    kl, ku, size = band[0], band[1], band[2]
+    if kl < 0:
+        factor_into(J, piv)
+    else:
+        band_factor(J[0, :J.shape[1] - 2, :size], piv[0, :size], kl, ku)
+
+
+@kernel
+def lu_solve(J, piv, band, b, row_pos, col_pos, scale, col_scale, x, w):
+    """x = Phi_q^-1 b from the LU factors of J_s = diag(1/scale) Phi_q
+    diag(col_scale): b's row i at position row_pos[i], x's coordinate j at
+    col_pos[j]; w: work. Dense: the diagonal blocks (kinem.model.Blocks).
+    Banded (kinem.model.Band): the single-entry rows' coordinates first,
+    their columns' terms moved to the right side, then the band."""
+    kl, ku, size, cr, cs = band
     w[:] = 0.0
     for i in range(row_pos.shape[0]):
         w[row_pos[i]] = b[i] / scale[i]
-    for c in range(C):
-        _solve1(J[c], piv[c], w[c * s: (c + 1) * s])
+    if kl < 0:
+        C, s = J.shape[0], J.shape[1]
+        for c in range(C):
+            _solve1(J[c], piv[c], w[c * s: (c + 1) * s])
+    else:
+        H = J.shape[1]
+        for s in range(x.shape[0] - size):
+            w[size + s] /= J[0, H - 2, s]
+        for e in range(cr.shape[0]):
+            w[cr[e]] -= J[0, H - 1, e] * w[size + cs[e]]
+        band_solve(J[0, :H - 2, :size], piv[0, :size], kl, ku, w[:size])
     for j in range(col_pos.shape[0]):
         x[j] = w[col_pos[j]] * col_scale[j]
 
 
 @kernel
-def refine(J, piv, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, max_step):
+def refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, max_step):
     """q1 += -Phi_q^-1 phi from the LU factors, the step limited to max_step
     in dimensionless coordinates: a Newton step, or the final correction."""
     for i in range(b.shape[0]):
         b[i] = -phi[0, i]
-    lu_solve(J, piv, b, row_pos, col_pos, scale, col_scale, dq, w)
+    lu_solve(J, piv, band, b, row_pos, col_pos, scale, col_scale, dq, w)
     big = 0.0
     for j in range(dq.shape[0]):
         big = max(big, abs(dq[j]) / col_scale[j])
@@ -61,17 +83,27 @@ def refine(J, piv, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, max_st
 
 
 @kernel
-def lu_stats(J, piv, real, sign):
-    """(pivot ratio, sign of det) of J_s from its blocks' LU factors: the
-    smallest over the largest |pivot| at the ``real`` positions (not
-    padding; 0 when any is not finite) and sign times the product of the
-    blocks' det signs (kinem.linalg.pivot_ratio, lu_det_sign)."""
-    C, s = J.shape[0], J.shape[1]
+def lu_stats(J, piv, band, real, sign):
+    """(pivot ratio, sign of det) of J_s from its LU factors: the smallest
+    over the largest |pivot| at the ``real`` positions (not padding; 0 when
+    any is not finite) and sign times the product of the pivots' and row
+    interchanges' signs (kinem.linalg.pivot_ratio, lu_det_sign); banded:
+    the single entries count as pivots."""
+    kl, ku, size = band[0], band[1], band[2]
     small, big, det = np.inf, 0.0, sign
+    if kl < 0:
+        C, s = J.shape[0], J.shape[1]
+    else:
+        C, s = 1, real.shape[0]
     for c in range(C):
         for j in range(s):
-            d = J[c, j, j]
-            if piv[c, j] != j:
+            if kl < 0:
+                d, swapped = J[c, j, j], piv[c, j] != j
+            elif j < size:
+                d, swapped = J[0, kl + ku, j], piv[0, j] != j
+            else:
+                d, swapped = J[0, J.shape[1] - 2, j - size], False
+            if swapped:
                 det = -det
             if d < 0:
                 det = -det
@@ -131,7 +163,8 @@ def run(times, k, state, A, nu, structure, settings, out):
     evaluations and factorisations, added to). Returns (the first instant
     not accepted, or K, and why: 0, NOT_CONVERGED or the tracker's code)."""
     q, qd, qdd, last, H, T = state
-    blk, rows, cols, entry_scale, row_pos, col_pos, pad, real, sign, scale, col_scale, count, size = structure
+    (blk, rows, cols, entry_scale, row_pos, col_pos, pad, real, sign, scale, col_scale, count, size, height, width,
+     band) = structure
     tol, max_it, max_step, floor, rates = settings
     Q, QD, QDD, iterations, residuals, pivots, counts = out
     n, m, K = q.shape[0], scale.shape[0], times.shape[0]
@@ -140,12 +173,12 @@ def run(times, k, state, A, nu, structure, settings, out):
     phi = np.empty((1, m))
     g = np.empty((1, m))
     values = np.empty((1, rows.shape[0]))
-    J = np.empty((count, size, size))
+    J = np.empty((count, height, width))
     piv = np.empty((count, size), np.int32)
     qp = np.empty(n)
     dq = np.empty(n)
     b = np.empty(m)
-    w = np.empty(count * size)
+    w = np.empty(max(count * size, n))
     while k < K:
         t = times[k]
         h = t - last[0]
@@ -172,22 +205,22 @@ def run(times, k, state, A, nu, structure, settings, out):
                 elif not r < np.inf or it == max_it:
                     return k, NOT_CONVERGED
             if converged and not refined and it > 0:
-                refine(J, piv, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
+                refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
                 refined = True
             jac_all(q1, A, values)
             assemble(values, blk, rows, cols, entry_scale, pad, J)
-            factor_into(J, piv)
+            factorize(J, piv, band)
             counts[0] += 1
             counts[1] += 1
             if not converged:
-                refine(J, piv, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, max_step)
+                refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, max_step)
                 it += 1
             elif not refined:
-                refine(J, piv, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
+                refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
                 refined = True
             else:
                 break
-        ratio, det = lu_stats(J, piv, real, sign)
+        ratio, det = lu_stats(J, piv, band, real, sign)
         corr, move = jump_sizes(q1[0], qp, q, col_scale)
         # the assembly is not tested for a jump or a det flip: it has no state before it
         why = rejected(ratio, det, det if k == 0 else int(last[1]), corr, move, judge, floor, tol, False)
@@ -196,11 +229,11 @@ def run(times, k, state, A, nu, structure, settings, out):
         for j in range(n):
             q[j] = q1[0, j]
         if rates:
-            lu_solve(J, piv, nu[k], row_pos, col_pos, scale, col_scale, qd, w)
+            lu_solve(J, piv, band, nu[k], row_pos, col_pos, scale, col_scale, qd, w)
             for j in range(n):
                 qd1[0, j] = qd[j]
             gamma_all(q1, qd1, k, A, g)
-            lu_solve(J, piv, g[0], row_pos, col_pos, scale, col_scale, qdd, w)
+            lu_solve(J, piv, band, g[0], row_pos, col_pos, scale, col_scale, qdd, w)
             QD[k] = qd
             QDD[k] = qdd
         else:

@@ -43,14 +43,30 @@ def usable(model, trace: bool, instants: int, options: Options | None = None) ->
     """The compiled march takes runs of at least MIN_INSTANTS output instants
     of models whose Jacobian is square and made of independent diagonal
     blocks of at most LIMIT coordinates (kinem.model.Blocks: one block for a
-    small model, one per variant for merged variants). A trace, modified
+    small model, one per variant for merged variants), or of one block whose
+    rows and columns order into a narrow band (``banded``). A trace, modified
     Newton, an explicit sparse LU or ``block = 1`` ask for the step-by-step
     march."""
     c = Options.of(model.case) if options is None else options
     if (c.block <= 1 or trace or c.jacobian_reuse or c.linear_solver == "sparse" or model.m != model.n
             or instants < MIN_INSTANTS):
         return False
-    return model.blocks.size <= LIMIT and model.blocks.square
+    if model.blocks.size <= LIMIT:
+        return model.blocks.square
+    return model.blocks.count == 1 and banded(model)
+
+
+# Bandwidths kl + ku up to which a model of one block above LIMIT takes the
+# banded LU (kinem.model.Band): its cost per coordinate grows as kl (kl + ku).
+BAND = 32
+
+
+def banded(model) -> bool:
+    """Whether the march solves the model's Jacobian as a band."""
+    if model.blocks.size <= LIMIT:
+        return False
+    b = model.band
+    return b is not None and b.kl + b.ku <= BAND
 
 
 def _sources() -> str:
@@ -197,11 +213,18 @@ class March:
                              for stage in form for c in stage) for form in forms)
         self.rates = tracker is None or tracker.need_v
         self.nu = np.ascontiguousarray(model.nu(times if self.rates else times[:1]).reshape(-1, model.m))
-        b = model.blocks
-        real = np.ones(b.count * b.size, bool)
-        real[b.pad] = False
-        self.structure = (*b.entries, model.entry_scale, b.row_pos, b.col_pos, b.pad, real, b.sign, model.scale,
-                          model.col_scale, b.count, b.size)
+        if banded(model):
+            d = model.band
+            self.structure = (*d.entries, model.entry_scale, d.row_pos, d.col_pos, np.empty(0, np.intp),
+                              np.ones(model.n, bool), d.sign, model.scale, model.col_scale, 1, model.n, d.height,
+                              d.width, (d.kl, d.ku, d.size, *d.coupling))
+        else:
+            b = model.blocks
+            real = np.ones(b.count * b.size, bool)
+            real[b.pad] = False
+            none = np.empty(0, np.intp)
+            self.structure = (*b.entries, model.entry_scale, b.row_pos, b.col_pos, b.pad, real, b.sign, model.scale,
+                              model.col_scale, b.count, b.size, b.size, b.size, (-1, -1, 0, none, none))
         o = Options.of(model.case) if tracker is None else tracker.options
         self.settings = (float(o.tolerance), int(o.max_iterations), MAX_STEP, singular_pivot(o.tolerance), self.rates)
         Q, QD, QDD, iterations, residual, pivot = out  # QD, QDD None: not asked for; the loop needs them

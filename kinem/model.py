@@ -85,6 +85,31 @@ class Blocks:
     entries: tuple        # (block, row in it, column in it) of each Jacobian entry, as kinem.dense.assemble takes them
 
 
+@dataclass(frozen=True)
+class Band:
+    """Phi_q of a large square model arranged for a banded LU (the compiled
+    march, kinem.loop): the rows with a single entry (grounds, drivers of
+    a coordinate) give their coordinate directly, with no fill, and the
+    rest is ordered by reverse Cuthill-McKee to bandwidths kl below and ku
+    above the diagonal. Positions: the reduced system's first (size of
+    them), then the single-entry rows and their columns. Its matrix J (1,
+    height, width): the band in LAPACK's gbtrf storage (rows 0 to 2 kl +
+    ku), then the single entries' values (row ``height - 2``), then the
+    values of the reduced rows' entries in single-entry columns (row
+    ``height - 1``, coupling[0]: their reduced row, coupling[1]: their
+    single-entry index)."""
+    size: int
+    kl: int
+    ku: int
+    height: int
+    width: int
+    row_pos: np.ndarray
+    col_pos: np.ndarray
+    sign: int
+    entries: tuple
+    coupling: tuple
+
+
 @dataclass(frozen=True, eq=False)
 class Model:
     case: Case
@@ -159,6 +184,57 @@ class Model:
         return Blocks(count, size, row_pos, col_pos, np.flatnonzero(~used), bool((cols_in == rows_in).all()),
                       _parity(np.argsort(row_pos)) * _parity(np.argsort(col_pos)),
                       (rows // size, rows % size, cols % size))
+
+    @cached_property
+    def band(self) -> Band | None:
+        """The banded arrangement of a square Phi_q (``Band``); None when its
+        single-entry rows share a column (a structurally singular Jacobian)."""
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import reverse_cuthill_mckee
+
+        from .linalg import _parity
+
+        m, n, rows, cols = self.m, self.n, self.jac_rows, self.jac_cols
+        one = np.flatnonzero(np.bincount(rows, minlength=m) == 1)
+        entry_of = {int(r): e for e, r in enumerate(rows) if r in set(one.tolist())}
+        single_cols = np.array([cols[entry_of[int(r)]] for r in one], np.intp)
+        if m != n or len(np.unique(single_cols)) != len(one):
+            return None
+        ns, size = len(one), n - len(one)
+        rest_r = np.setdiff1d(np.arange(m), one)
+        rest_c = np.setdiff1d(np.arange(n), single_cols)
+        r_idx, c_idx = -np.ones(m, np.intp), -np.ones(n, np.intp)
+        r_idx[rest_r], c_idx[rest_c] = np.arange(size), np.arange(size)
+        inner = (r_idx[rows] >= 0) & (c_idx[cols] >= 0)
+        R, C = r_idx[rows[inner]], c_idx[cols[inner]]
+        P = coo_matrix((np.ones(len(R)), (R, C)), shape=(size, size)).tocsr()
+        order = reverse_cuthill_mckee((P.T @ P).tocsr(), symmetric_mode=True)
+        cpos = np.empty(size, np.intp)
+        cpos[order] = np.arange(size)
+        first, last = np.full(size, size), np.full(size, -1)
+        np.minimum.at(first, R, cpos[C])
+        np.maximum.at(last, R, cpos[C])
+        rpos = np.empty(size, np.intp)
+        rpos[np.lexsort((last, first))] = np.arange(size)
+        row_pos, col_pos = np.empty(m, np.intp), np.empty(n, np.intp)
+        row_pos[rest_r], col_pos[rest_c] = rpos, cpos
+        row_pos[one], col_pos[single_cols] = size + np.arange(ns), size + np.arange(ns)
+        r, c = row_pos[rows], col_pos[cols]
+        band = (r < size) & (c < size)
+        kl = int(max(0, (r - c)[band].max(initial=0)))
+        ku = int(max(0, (c - r)[band].max(initial=0)))
+        height = 2 * kl + ku + 1 + 2
+        couple = (r < size) & (c >= size)
+        n_couple = int(couple.sum())
+        J_row, J_col = np.empty(len(rows), np.intp), np.empty(len(rows), np.intp)
+        J_row[band], J_col[band] = kl + ku + r[band] - c[band], c[band]
+        single = r >= size
+        J_row[single], J_col[single] = height - 2, r[single] - size
+        J_row[couple], J_col[couple] = height - 1, np.arange(n_couple)
+        width = max(size, ns, n_couple, 1)
+        return Band(size, kl, ku, height, width, row_pos, col_pos,
+                    _parity(np.argsort(row_pos)) * _parity(np.argsort(col_pos)),
+                    (self._zero, J_row, J_col), (r[couple], c[couple] - size))
 
     # -- evaluation ----------------------------------------------------------
     def _gather(self, values):

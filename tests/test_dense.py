@@ -80,3 +80,32 @@ def test_short_runs_go_step_by_step():
     a = kinem.solve(kinem.compile(case))
     b = kinem.solve(kinem.compile(replace(case, block=1)))
     assert np.array_equal(a.q, b.q) and np.array_equal(a.iterations, b.iterations)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 25), st.integers(0, 3), st.integers(0, 4), st.integers(0, 2**31 - 1))
+def test_band_lu_is_lapacks_gbtrf(n, kl, ku, seed):
+    """kinem.dense.band_factor makes LAPACK's dgbtrf pivot choices and U
+    diagonal, and band_solve solves the system (to 1e-8 of |b| where the
+    matrix's condition number is below 1e8: rounding times the conditioning)."""
+    from scipy.linalg.lapack import dgbtrf
+
+    rng = np.random.default_rng(seed)
+    A = np.zeros((n, n))
+    for i in range(n):
+        for j in range(max(0, i - kl), min(n, i + ku + 1)):
+            A[i, j] = rng.normal() if rng.random() > 0.2 else 0.0
+    AB = np.zeros((2 * kl + ku + 1, n))
+    i, j = np.nonzero(A)
+    AB[kl + ku + i - j, j] = A[i, j]
+    lapack, ipiv, info = dgbtrf(AB.copy(), kl, ku)
+    piv = np.zeros(n, np.int32)
+    dense.band_factor(AB, piv, kl, ku)
+    if info == 0:
+        np.testing.assert_array_equal(piv, ipiv)
+        np.testing.assert_allclose(AB[kl + ku], lapack[kl + ku], rtol=1e-10, atol=1e-12)
+        if np.linalg.cond(A) < 1e8:
+            b = rng.normal(size=n)
+            x = b.copy()
+            dense.band_solve(AB, piv, kl, ku, x)
+            assert np.allclose(A @ x, b, atol=1e-8 * np.abs(b).max())

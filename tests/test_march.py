@@ -91,8 +91,8 @@ def test_not_used_where_it_cannot_be():
     assert not blocks(kinem.compile(replace(fb, block=1)), False)
     from kinem.reference import n_four_bar
 
-    big = kinem.compile(kinem.load_dict(n_four_bar(34)))  # 70 bodies, one block of 210 coordinates: step by step
-    assert big.blocks.size > march.LIMIT and not blocks(big, False)
+    big = kinem.compile(kinem.load_dict(n_four_bar(34)))  # 70 bodies, one block of 210 coordinates: a band
+    assert big.blocks.size > march.LIMIT and blocks(big, False) and march.banded(big)
     chain = kinem.compile(kinem.load_dict(n_four_bar(12)))  # 78 coordinates: blocks
     assert chain.blocks.count == 1 and blocks(chain, False)
 
@@ -153,7 +153,8 @@ def test_the_loops_pivot_ratio_and_det_sign_are_linalg_factors():
     for k in range(0, len(r.q), 20):
         t = model.times[k]
         J = model.assemble(model.jac_values(r.q[k], t) * model.entry_scale, sparse=False)[None].copy()
-        pivot, det = lu_stats(J, dense.factor(J), real, 1)
+        none = np.empty(0, np.intp)
+        pivot, det = lu_stats(J, dense.factor(J), (-1, -1, 0, none, none), real, 1)
         f = Factor(model, model.jac_values(r.q[k], t))
         assert pivot == pytest.approx(f.pivot_ratio, rel=1e-12) and det == f.det_sign
 
@@ -168,3 +169,41 @@ def test_positions_only_solves_no_rates_and_lands_where_the_full_run_does(name):
     assert full.success and positions.success and positions.qd is None
     assert np.abs(full.q - positions.q).max() / model.length <= agreement(model, full, positions)
     assert positions.jacobian_evaluations <= full.jacobian_evaluations + len(full.q)
+
+
+def test_a_long_chain_marches_as_a_band_and_agrees_with_superlu():
+    """A chain of four-bars over LIMIT coordinates: its rows with one entry
+    (ground, driver) are solved first and the rest is a band of width 2 + 5
+    (kinem.model.Band). Its march gives the step-by-step (SuperLU) march's
+    positions within the agreement bound, the same det sign at every
+    instant (the sign is independent of the elimination order; the pivot
+    ratio is not), and velocities that satisfy Phi_q qd = nu to rounding."""
+    from kinem.linalg import Factor
+    from kinem.reference import n_four_bar
+
+    model = kinem.compile(kinem.load_dict(n_four_bar(34)).with_time(None, 70))
+    b = model.band
+    assert (b.kl, b.ku, model.n - b.size) == (2, 5, 4) and march.banded(model)
+    fast, step = kinem.solve(model), kinem.solve(model, options=kinem.Options(block=1))
+    assert fast.success and step.success
+    assert np.abs(fast.q - step.q).max() / model.length <= agreement(model, step, fast)
+    for k in range(0, len(fast.q), 10):
+        t = model.times[k]
+        J = model.jacobian(fast.q[k], t, sparse=False)
+        # rounding: a few ulps of the largest term, times the size of the system
+        assert np.abs(J @ fast.qd[k] - model.nu(t)).max() <= 1e-13 * np.abs(J).max() * np.abs(fast.qd[k]).max()
+    from kinem.march import March, prepare
+    from kinem.loop import factorize, lu_stats
+
+    prepare(model)
+    m = March(model, None, model.times[:1], (np.zeros((1, model.n)), None, None, np.zeros(1, int), np.zeros(1),
+                                            np.zeros(1)))
+    st = m.structure
+    for k in range(0, len(fast.q), 10):
+        J = np.zeros((1, st[13], st[14]))
+        values = (model.jac_values(fast.q[k], model.times[k])[None] * model.entry_scale)
+        J[0, st[1], st[2]] = values[0]
+        piv = np.zeros((1, model.n), np.int32)
+        factorize(J, piv, st[15])
+        _, det = lu_stats(J, piv, st[15], st[7], st[8])
+        assert det == Factor(model, model.jac_values(fast.q[k], model.times[k])).det_sign
