@@ -27,9 +27,12 @@ from .analysis import MAX_STEP
 from .options import Options
 from .tracking import State, singular_pivot
 
-# Fewer output instants go step by step: that costs under 20 ms, less than
-# loading numba in a new process, about 0.4 s (there such runs interpret the
-# kernels: kinem.solver.interpret).
+# Fewer output instants of a 12-coordinate model go step by step: that costs
+# under 20 ms, less than loading numba in a new process, about 0.4 s (there
+# such runs interpret the kernels: kinem.solver.interpret). A step by step
+# costs about (10 + n) x 15 us for n coordinates (measured: 5.7 ms at 300
+# coordinates with SuperLU), so a larger model takes the march from
+# proportionally fewer instants.
 MIN_INSTANTS = 64
 # Coordinates of a diagonal block above which the compiled unblocked LU loses
 # to LAPACK and SuperLU step by step: measured on N-four-bar chains (one
@@ -41,7 +44,7 @@ HERE = Path(__file__).parent
 
 def usable(model, trace: bool, instants: int, options: Options | None = None) -> bool:
     """The compiled march takes runs of at least MIN_INSTANTS output instants
-    of models whose Jacobian is square and made of independent diagonal
+    (fewer for larger models: instants x (10 + n) >= MIN_INSTANTS x 22) of models whose Jacobian is square and made of independent diagonal
     blocks of at most LIMIT coordinates (kinem.model.Blocks: one block for a
     small model, one per variant for merged variants), or of one block whose
     rows and columns order into a narrow band (``banded``). A trace, modified
@@ -49,7 +52,7 @@ def usable(model, trace: bool, instants: int, options: Options | None = None) ->
     march."""
     c = Options.of(model.case) if options is None else options
     if (c.block <= 1 or trace or c.jacobian_reuse or c.linear_solver == "sparse" or model.m != model.n
-            or instants < MIN_INSTANTS):
+            or instants * (10 + model.n) < MIN_INSTANTS * (10 + 12)):
         return False
     if model.blocks.size <= LIMIT:
         return model.blocks.square
