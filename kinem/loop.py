@@ -17,6 +17,11 @@ from kinem.tracking import jump_sizes, rejected
 
 # Why ``run`` hands an instant back to the tracker (kinem.tracking codes, and:)
 NOT_CONVERGED = 4
+# A final correction (dimensionless) above this calls for one more (``run``):
+# at the default tolerance it is about 1e-12; at a loose one (1e-6) about the
+# tolerance, and the first correction, made with the last iteration's LU,
+# leaves that times the iteration's step (1e-10 of L on the slider-crank).
+POLISH = 1e-10
 
 
 @kernel
@@ -70,7 +75,8 @@ def lu_solve(J, piv, band, b, row_pos, col_pos, scale, col_scale, x, w):
 @kernel
 def refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, max_step):
     """q1 += -Phi_q^-1 phi from the LU factors, the step limited to max_step
-    in dimensionless coordinates: a Newton step, or the final correction."""
+    in dimensionless coordinates: a Newton step, or the final correction.
+    Returns the step's size (dimensionless, before the limit)."""
     for i in range(b.shape[0]):
         b[i] = -phi[0, i]
     lu_solve(J, piv, band, b, row_pos, col_pos, scale, col_scale, dq, w)
@@ -80,6 +86,7 @@ def refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, 
     f = min(1.0, max_step / big) if big > 0 else 1.0
     for j in range(dq.shape[0]):
         q1[0, j] += f * dq[j]
+    return big
 
 
 @kernel
@@ -193,9 +200,12 @@ def run(times, k, state, A, nu, structure, settings, out):
         for j in range(n):
             q1[0, j] = qp[j]
         # Newton, then the final correction with the last LU at hand (a fresh one
-        # when the predictor converged), then the LU at the corrected q: one
-        # Jacobian site, so that numba compiles the families' kernels once
-        it, r, converged, refined = 0, np.inf, False, False
+        # when the predictor converged), then the LU at the corrected q. A final
+        # correction above POLISH (a loose tolerance) leaves the last LU's error
+        # times its own in q: one more correction with the LU at the corrected
+        # q, and the LU again. One Jacobian site, so that numba compiles the
+        # families' kernels once.
+        it, r, converged, refined, polished, size = 0, np.inf, False, False, False, 0.0
         while True:
             if not converged:
                 phi_all(q1, k, A, phi)
@@ -205,7 +215,7 @@ def run(times, k, state, A, nu, structure, settings, out):
                 elif not r < np.inf or it == max_it:
                     return k, NOT_CONVERGED
             if converged and not refined and it > 0:
-                refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
+                size = refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
                 refined = True
             jac_all(q1, A, values)
             assemble(values, blk, rows, cols, entry_scale, pad, J)
@@ -216,8 +226,12 @@ def run(times, k, state, A, nu, structure, settings, out):
                 refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, max_step)
                 it += 1
             elif not refined:
-                refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
+                size = refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
                 refined = True
+            elif size > POLISH and not polished:
+                phi_all(q1, k, A, phi)
+                refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
+                polished = True
             else:
                 break
         ratio, det = lu_stats(J, piv, band, real, sign)
