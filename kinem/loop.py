@@ -2,12 +2,13 @@
 position analysis, the acceptance test and the velocity and acceleration
 solves at every output instant, in one compiled function.
 
-This file is the source of the march of every model: kinem.march writes a
-module made of this file and three evaluators written for the model's
-constraint families, ``phi_all``, ``jac_all`` and ``gamma_all`` (each calls
-every family's kernel on its slice of the rows), and numba compiles it once
-per set of families, cached on disk. Here, read as a module, the
-evaluators are missing: nothing calls ``run`` from this module itself.
+``run`` is the source of the march of every model: kinem.march writes a
+module made of it with its evaluator calls ``phi_all``, ``jac_all`` and
+``gamma_all`` written out for the model's constraint families (each
+family's kernel on its slice of the rows), and numba compiles that once per
+set of families, cached on disk. Here, read as a module, the evaluators
+are missing: nothing calls ``run`` from this module itself. The helpers
+above it are compiled here, once, and imported by every generated module.
 """
 import numpy as np
 
