@@ -6,6 +6,8 @@ import weakref
 
 import numpy as np
 
+from .jit import kernel
+
 OUTPUTS = ("positions", "velocities", "accelerations")
 BODY_COLUMNS = {"positions": ("x", "y", "phi"), "velocities": ("vx", "vy", "omega"),
                 "accelerations": ("ax", "ay", "alpha")}
@@ -112,20 +114,36 @@ def _layout(model, stages: int):
     return out
 
 
+@kernel
+def _points(Q, QD, QDD, stages, pc, local, out):
+    """The named points' x, y (then vx, vy and ax, ay for 2 and 3 stages) at
+    every instant: point p of the body at columns pc[p], at s'_p = local[p]
+    (r + A s', its first and second derivatives), into out (T, 2 stages P)
+    as [x_0 .. x_P-1, y_0 .., vx_0 .., vy .., ax .., ay ..]."""
+    P = pc.shape[0]
+    for k in range(Q.shape[0]):
+        for p in range(P):
+            c = pc[p]
+            e = local[p] * np.exp(1j * Q[k, c + 2])
+            v = complex(Q[k, c], Q[k, c + 1]) + e
+            out[k, p], out[k, P + p] = v.real, v.imag
+            if stages > 1:
+                w = QD[k, c + 2]
+                v = complex(QD[k, c], QD[k, c + 1]) + 1j * e * w
+                out[k, 2 * P + p], out[k, 3 * P + p] = v.real, v.imag
+                if stages > 2:
+                    v = complex(QDD[k, c], QDD[k, c + 1]) + 1j * e * QDD[k, c + 2] - e * w * w
+                    out[k, 4 * P + p], out[k, 5 * P + p] = v.real, v.imag
+
+
 def trajectory(model, t, Q, QD=None, QDD=None) -> Trajectory:
     """Named columns (docs/case-format.md, "Trajectory output") from raw
     coordinates: one gather from the coordinates and the points' values."""
     X = [x for x in (Q, QD, QDD) if x is not None]
     names, src = _layout(model, len(X))
     if model.point_names:
-        pc = model.point_cols
-        e = model.point_local[None, :] * np.exp(1j * Q[:, pc + 2])
-        values = [Q[:, pc] + 1j * Q[:, pc + 1] + e]
-        if QD is not None:
-            w = QD[:, pc + 2]
-            values.append(QD[:, pc] + 1j * QD[:, pc + 1] + 1j * e * w)
-            if QDD is not None:
-                values.append(QDD[:, pc] + 1j * QDD[:, pc + 1] + 1j * e * QDD[:, pc + 2] - e * w * w)
-        X += [part for v in values for part in (v.real, v.imag)]
+        pts = np.empty((len(t), 2 * len(X) * len(model.point_names)))
+        _points(Q, X[min(1, len(X) - 1)], X[-1], len(X), model.point_cols, model.point_local, pts)
+        X.append(pts)
     data = np.take(np.concatenate(X, axis=1), src, axis=1) if len(t) else np.empty((0, len(names)))
     return Trajectory(np.array(t, dtype=float), names, data)

@@ -86,11 +86,11 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
             what = "assembly at" if k == 0 else "step to"
             why = explain_assembly(model, times[0]) if k == 0 else ""  # the root cause, in the user's terms
             message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {why + '; ' if why else ''}{e}"
-    wall = time.perf_counter() - start
-    n_ok = k
-    ok = status == Status.SUCCESS
-    traj = trajectory(model, times[:n_ok], Q[:n_ok], None if QD is None else QD[:n_ok],
-                      None if QDD is None else QDD[:n_ok])
+        wall = time.perf_counter() - start
+        n_ok = k
+        ok = status == Status.SUCCESS
+        traj = trajectory(model, times[:n_ok], Q[:n_ok], None if QD is None else QD[:n_ok],
+                          None if QDD is None else QDD[:n_ok])
     return SolveResult(
         success=ok, status=status, message=message or "all instants solved",
         trajectory=traj, q=Q[:n_ok], qd=None if QD is None else QD[:n_ok],
