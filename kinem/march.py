@@ -45,7 +45,8 @@ HERE = Path(__file__).parent
 
 def usable(model, trace: bool, instants: int, options: Options | None = None) -> bool:
     """The compiled march takes runs of at least MIN_INSTANTS output instants
-    (fewer for larger models: instants x (10 + n) >= MIN_INSTANTS x 22) of models whose Jacobian is square and made of independent diagonal
+    (fewer for larger models: instants x (10 + n) >= MIN_INSTANTS x 22) of
+    models whose Jacobian is square and made of independent diagonal
     blocks of at most LIMIT coordinates (kinem.model.Blocks: one block for a
     small model, one per variant for merged variants), or of one block whose
     rows and columns order into a narrow band (``banded``). A trace, modified
@@ -88,20 +89,23 @@ _MODULES = {}
 
 
 def _folder() -> Path:
-    """Where generated modules go: beside kinem's own compiled cache, else
-    a folder of this user's in the temporary directory."""
+    """Where generated modules go: ``$KINEM_CACHE``, else beside kinem's own
+    compiled cache, else a folder of this user's in the temporary directory;
+    the first that this user owns, can write and nobody else can (the code
+    and numba's caches there are run)."""
     for folder in (os.environ.get("KINEM_CACHE"), HERE / "__pycache__" / "march",
                    Path(tempfile.gettempdir()) / f"kinem-march-{os.getuid()}"):
         if folder is None:
             continue
         folder = Path(folder)
         try:
-            folder.mkdir(parents=True, exist_ok=True)
-            if os.access(folder, os.W_OK):
+            folder.mkdir(mode=0o700, parents=True, exist_ok=True)
+            st = folder.stat()
+            if st.st_uid == os.getuid() and not st.st_mode & 0o022 and os.access(folder, os.W_OK):
                 return folder
         except OSError:
             continue
-    raise OSError("no writable folder for kinem's compiled march")
+    raise OSError("no folder of this user's for kinem's compiled march (set KINEM_CACHE)")
 
 
 def _evaluators(forms, widths):

@@ -207,3 +207,17 @@ def test_a_long_chain_marches_as_a_band_and_agrees_with_superlu():
         factorize(J, piv, st[15])
         _, det = lu_stats(J, piv, st[15], st[7], st[8])
         assert det == Factor(model, model.jac_values(fast.q[k], model.times[k])).det_sign
+
+
+def test_generated_code_goes_only_where_nobody_else_can_write(tmp_path, monkeypatch):
+    """The march's modules and numba's caches beside them are run: a
+    KINEM_CACHE folder that others can write is passed over (for the
+    package's own folder), and one of this user's is taken."""
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    shared.chmod(0o777)
+    monkeypatch.setenv("KINEM_CACHE", str(shared))
+    assert march._folder() != shared
+    mine = tmp_path / "mine"
+    monkeypatch.setenv("KINEM_CACHE", str(mine))
+    assert march._folder() == mine
