@@ -152,22 +152,25 @@ def run(times, k, state, A, nu, structure, settings, out):
     over the output instants times[k:], until one is not accepted. From
     k = 0 it first assembles from the estimates in q (Newton from them,
     accepted when its pivot ratio is above the floor: the tracker's start
-    takes the rest, with its diagnoses). Each
-    instant: the Taylor predictor from the last state, Newton-Raphson with
-    steps limited to max_step (dimensionless), one more correction from the
-    last LU (kinem.analysis.refine), then the LU at the corrected q for its
-    pivot ratio and det sign, the acceptance test (kinem.tracking.rejected)
-    and the rates from that LU: to rounding, not to the tolerance.
+    takes the rest, with its diagnoses). Each instant: the Taylor
+    predictor from the last state, Newton-Raphson with steps limited to
+    max_step (dimensionless), one more correction from the last LU
+    (kinem.analysis.refine), then the LU at the corrected q for its pivot
+    ratio and det sign, the acceptance test (kinem.tracking.rejected) and
+    the rates from that LU: to rounding, not to the tolerance.
 
     state: (q, qd, qdd (n,), last (2,): time and det sign, H (3, n), T (3,):
     the last three states' q and t, oldest first, NaN for none), updated to
     the last accepted instant. With ``rates`` (settings) the predictor is
     Taylor's from q, qd, qdd and the rates are solved at every instant;
     without, it extrapolates through H (``lagrange``) and no rate is solved.
-    A: the families' arguments (kinem.march). nu: (K, m). structure: (entries (block, row, col), entry_scale, row_pos,
-    col_pos, pad, real, sign, scale, col_scale, count, size). settings:
-    (tolerance, max iterations, max step, pivot floor, rates). out: (Q, QD, QDD
-    (K, n), iterations, residual, pivot (K,), counts (2,): Jacobian
+    A: the families' arguments (kinem.march). nu: (K, m). structure:
+    (entries (block, row, col), entry_scale, row_pos, col_pos, pad, real,
+    sign, scale, col_scale, count, size, height, width, band): J_s's
+    diagonal blocks (kinem.model.Blocks; band[0] < 0) or its band
+    (kinem.model.Band), stored in J (count, height, width). settings:
+    (tolerance, max iterations, max step, pivot floor, rates). out: (Q, QD,
+    QDD (K, n), iterations, residual, pivot (K,), counts (2,): Jacobian
     evaluations and factorisations, added to). Returns (the first instant
     not accepted, or K, and why: 0, NOT_CONVERGED or the tracker's code)."""
     q, qd, qdd, last, H, T = state
@@ -206,7 +209,7 @@ def run(times, k, state, A, nu, structure, settings, out):
         # times its own in q: one more correction with the LU at the corrected
         # q, and the LU again. One Jacobian site, so that numba compiles the
         # families' kernels once.
-        it, r, converged, refined, polished, size = 0, np.inf, False, False, False, 0.0
+        it, r, converged, refined, polished, step = 0, np.inf, False, False, False, 0.0
         while True:
             if not converged:
                 phi_all(q1, k, A, phi)
@@ -216,7 +219,7 @@ def run(times, k, state, A, nu, structure, settings, out):
                 elif not r < np.inf or it == max_it:
                     return k, NOT_CONVERGED
             if converged and not refined and it > 0:
-                size = refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
+                step = refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
                 refined = True
             jac_all(q1, A, values)
             assemble(values, blk, rows, cols, entry_scale, pad, J)
@@ -227,9 +230,9 @@ def run(times, k, state, A, nu, structure, settings, out):
                 refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, max_step)
                 it += 1
             elif not refined:
-                size = refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
+                step = refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
                 refined = True
-            elif size > POLISH and not polished:
+            elif step > POLISH and not polished:
                 phi_all(q1, k, A, phi)
                 refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
                 polished = True
