@@ -37,6 +37,14 @@ def residual(phi, scale):
 
 
 @kernel
+def rotate(q, angles, E):
+    """E[0, j] = exp(i q[0, j]) at the angle columns j: once per configuration
+    for every family (kinem.constraints.base.rotations)."""
+    for j in angles:
+        E[0, j] = np.exp(1j * q[0, j])
+
+
+@kernel
 def factorize(J, piv, band):
     """LU of J_s: of its diagonal blocks (dense), or banded (kinem.model.Band:
     band = (kl, ku, size, coupling rows, coupling columns); kl < 0: dense)."""
@@ -166,20 +174,22 @@ def run(times, k, state, A, nu, structure, settings, out):
     without, it extrapolates through H (``lagrange``) and no rate is solved.
     A: the families' arguments (kinem.march). nu: (K, m). structure:
     (entries (block, row, col), entry_scale, row_pos, col_pos, pad, real,
-    sign, scale, col_scale, count, size, height, width, band): J_s's
+    sign, scale, col_scale, count, size, height, width, band, angles): J_s's
     diagonal blocks (kinem.model.Blocks; band[0] < 0) or its band
-    (kinem.model.Band), stored in J (count, height, width). settings:
+    (kinem.model.Band), stored in J (count, height, width); the angle
+    columns, whose exp(i q) the kernels read (``rotate``). settings:
     (tolerance, max iterations, max step, pivot floor, rates). out: (Q, QD,
     QDD (K, n), iterations, residual, pivot (K,), counts (2,): Jacobian
     evaluations and factorisations, added to). Returns (the first instant
     not accepted, or K, and why: 0, NOT_CONVERGED or the tracker's code)."""
     q, qd, qdd, last, H, T = state
     (blk, rows, cols, entry_scale, row_pos, col_pos, pad, real, sign, scale, col_scale, count, size, height, width,
-     band) = structure
+     band, angles) = structure
     tol, max_it, max_step, floor, rates = settings
     Q, QD, QDD, iterations, residuals, pivots, counts = out
     n, m, K = q.shape[0], scale.shape[0], times.shape[0]
     q1 = np.empty((1, n))
+    E1 = np.ones((1, n), np.complex128)
     qd1 = np.empty((1, n))
     phi = np.empty((1, m))
     g = np.empty((1, m))
@@ -212,7 +222,8 @@ def run(times, k, state, A, nu, structure, settings, out):
         it, r, converged, refined, polished, step = 0, np.inf, False, False, False, 0.0
         while True:
             if not converged:
-                phi_all(q1, k, A, phi)
+                rotate(q1, angles, E1)
+                phi_all(q1, E1, k, A, phi)
                 r = residual(phi[0], scale)
                 if r <= tol:
                     converged = True
@@ -221,7 +232,8 @@ def run(times, k, state, A, nu, structure, settings, out):
             if converged and not refined and it > 0:
                 step = refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
                 refined = True
-            jac_all(q1, A, values)
+            rotate(q1, angles, E1)
+            jac_all(q1, E1, A, values)
             assemble(values, blk, rows, cols, entry_scale, pad, J)
             factorize(J, piv, band)
             counts[0] += 1
@@ -233,7 +245,8 @@ def run(times, k, state, A, nu, structure, settings, out):
                 step = refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
                 refined = True
             elif step > POLISH and not polished:
-                phi_all(q1, k, A, phi)
+                rotate(q1, angles, E1)
+                phi_all(q1, E1, k, A, phi)
                 refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
                 polished = True
             else:
@@ -250,7 +263,7 @@ def run(times, k, state, A, nu, structure, settings, out):
             lu_solve(J, piv, band, nu[k], row_pos, col_pos, scale, col_scale, qd, w)
             for j in range(n):
                 qd1[0, j] = qd[j]
-            gamma_all(q1, qd1, k, A, g)
+            gamma_all(q1, qd1, E1, k, A, g)
             lu_solve(J, piv, band, g[0], row_pos, col_pos, scale, col_scale, qdd, w)
             QD[k] = qd
             QDD[k] = qdd

@@ -110,8 +110,9 @@ def _folder() -> Path:
 
 def _evaluators(forms, widths):
     """The imports of the families' kernels and the statements that stand for
-    ``phi_all(q, k, A, out)``, ``jac_all(q, A, out)`` and ``gamma_all(q, qd,
-    k, A, out)`` in kinem/loop.py. forms: each family's three stages of
+    ``phi_all(q, E, k, A, out)``, ``jac_all(q, E, A, out)`` and
+    ``gamma_all(q, qd, E, k, A, out)`` in kinem/loop.py (E = exp(i q) at the
+    angle columns, kinem.constraints.base.rotations). forms: each family's three stages of
     calls (Family.march); family i's call j takes its arguments from
     A[i][j] = (args, values); widths: (rows, Jacobian entries) of each
     family. Written out in the loop, not called: passing A through a call
@@ -127,17 +128,18 @@ def _evaluators(forms, widths):
                 qd = ", {qd}" if c.rates else ""
                 tv = f", A[{i}][{j}][1][{{k}}:{{k}} + 1]" if c.values is not None else ""
                 out = f", {{out}}[:, {o}:{o + width}]" if c.out else ""
-                stages[name].append(f"f{i}_{j}({{q}}{qd}, *A[{i}][{j}][0]{tv}{out})")
+                stages[name].append(f"f{i}_{j}({{q}}{qd}, {{E}}, *A[{i}][{j}][0]{tv}{out})")
                 j += 1
         r, e = r + rows, e + nnz
-    params = {"phi_all": ("q", "k", "A", "out"), "jac_all": ("q", "A", "out"), "gamma_all": ("q", "qd", "k", "A", "out")}
+    params = {"phi_all": ("q", "E", "k", "A", "out"), "jac_all": ("q", "E", "A", "out"),
+              "gamma_all": ("q", "qd", "E", "k", "A", "out")}
     return sorted(set(imports)), {name: (params[name], lines) for name, lines in stages.items()}
 
 
 # What kinem/loop.py's ``run`` uses besides the evaluators: compiled (and
 # cached) once in kinem.loop, not again in every generated module.
 HELPERS = ("import numpy as np\n\nfrom kinem.jit import kernel\nfrom kinem.dense import assemble\n"
-           "from kinem.loop import NOT_CONVERGED, POLISH, factorize, lagrange, lu_solve, lu_stats, refine, residual\n"
+           "from kinem.loop import NOT_CONVERGED, POLISH, factorize, lagrange, lu_solve, lu_stats, refine, residual, rotate\n"
            "from kinem.tracking import jump_sizes, rejected")
 CALL = re.compile(r"^(\s*)(phi_all|jac_all|gamma_all)\((.*)\)$", re.M)
 
@@ -226,18 +228,20 @@ class March:
                              for stage in form for c in stage) for form in forms)
         self.rates = tracker is None or tracker.need_v
         self.nu = np.ascontiguousarray(model.nu(times if self.rates else times[:1]).reshape(-1, model.m))
+        nb = len(model.body_names)  # the angle columns: each body's phi, then the outlines' theta
+        angles = np.concatenate([3 * np.arange(nb) + 2, np.arange(3 * nb, model.n)]).astype(np.intp)
         if banded(model):
             d = model.band
             self.structure = (*d.entries, model.entry_scale, d.row_pos, d.col_pos, np.empty(0, np.intp),
                               np.ones(model.n, bool), d.sign, model.scale, model.col_scale, 1, model.n, d.height,
-                              d.width, (d.kl, d.ku, d.size, *d.coupling))
+                              d.width, (d.kl, d.ku, d.size, *d.coupling), angles)
         else:
             b = model.blocks
             real = np.ones(b.count * b.size, bool)
             real[b.pad] = False
             none = np.empty(0, np.intp)
             self.structure = (*b.entries, model.entry_scale, b.row_pos, b.col_pos, b.pad, real, b.sign, model.scale,
-                              model.col_scale, b.count, b.size, b.size, b.size, (-1, -1, 0, none, none))
+                              model.col_scale, b.count, b.size, b.size, b.size, (-1, -1, 0, none, none), angles)
         o = Options.of(model.case) if tracker is None else tracker.options
         self.settings = (float(o.tolerance), int(o.max_iterations), MAX_STEP, singular_pivot(o.tolerance), self.rates)
         Q, QD, QDD, iterations, residual, pivot = out  # QD, QDD None: not asked for; the loop needs them

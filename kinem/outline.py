@@ -144,7 +144,7 @@ def _radii(theta, which, keys, starts, coef, first, last, t0, span, offset, peri
 
 
 @kernel
-def curve_at(q, cc, ct, keys, starts, coef, first, last, t0, span, offset, periodic, center, a, g, h, k3):
+def curve_at(q, E, cc, ct, keys, starts, coef, first, last, t0, span, offset, periodic, center, a, g, h, k3):
     """a = A_c p(theta), g = A_c dp/dtheta, h and k3 = A_c times the second
     and third derivatives, for the outline of each constraint c (its body's
     columns from cc[c], theta at column ct[c]), at the configurations q
@@ -153,8 +153,8 @@ def curve_at(q, cc, ct, keys, starts, coef, first, last, t0, span, offset, perio
         for c in range(cc.shape[0]):
             th = q[k, ct[c]]
             s, s1, s2, s3 = _radius(th, c, keys, starts, coef, first, last, t0, span, offset, periodic)
-            e = np.exp(1j * th)
-            r = np.exp(1j * q[k, cc[c] + 2])
+            e = E[k, ct[c]]
+            r = E[k, cc[c] + 2]
             a[k, c] = r * (center[c] + s * e)
             g[k, c] = r * (s1 + 1j * s) * e
             h[k, c] = r * (s2 - s + 2j * s1) * e

@@ -10,7 +10,8 @@ at all instants. The Python methods only reshape: q and qd of shape (n,) or
 evaluated by numpy before the call (kinem.functions) and passed per instant.
 
 Planar vectors are complex numbers x + iy inside the kernels: A_i s' (Eq.
-4.4) is s' e^{i phi}, B_i s' (Eq. 4.44) is i A_i s', a dot b is
+4.4) is s' e^{i phi} (e^{i phi} read from E, computed once per
+configuration: ``rotations``), B_i s' (Eq. 4.44) is i A_i s', a dot b is
 Re(conj(a) b) and the scalar cross product a x b is Im(conj(a) b). Every row
 is still the chapter's equation.
 
@@ -154,17 +155,25 @@ def per_instant(values):
 
 
 def call(fn, width, q, *args, qd=None):
-    """fn(Q[, QD], *args, out) on the batch of q (and qd), out (K, width);
-    returns out with q's leading shape."""
+    """fn(Q[, QD], E, *args, out) on the batch of q (and qd), out (K, width),
+    E = exp(i Q) (``rotations``); returns out with q's leading shape."""
     if qd is None:
         Q, lead = batch(q)
         out = np.empty((Q.shape[0], width))
-        fn(Q, *args, out)
+        fn(Q, rotations(Q), *args, out)
     else:
         if np.shape(q) != np.shape(qd):
             q, qd = np.broadcast_arrays(q, qd)
         Q, lead = batch(q)
         out = np.empty((Q.shape[0], width))
-        fn(Q, batch(qd)[0], *args, out)
+        fn(Q, batch(qd)[0], rotations(Q), *args, out)
     return out.reshape(lead + (width,))
+
+
+def rotations(Q):
+    """E = exp(i Q) (K, n), what the kernels read for A_i (E[k, phi column
+    of body i]) and for an outline's angle (E[k, theta column]): shared by all
+    the constraints of a body and all the families of a model. Only the angle
+    columns are read; the compiled march computes only those."""
+    return np.exp(1j * Q)
 

@@ -15,29 +15,29 @@ def _dot(a, b):
 
 
 @kernel
-def _roller_d(qk, ci, cj, sj, a):
+def _roller_d(qk, ek, ci, cj, sj, a):
     """d = r_j + A_j s'_j - r_i - a, and A_j s'_j."""
-    b = sj * np.exp(1j * qk[cj + 2])
+    b = sj * ek[cj + 2]
     return complex(qk[cj], qk[cj + 1]) + b - complex(qk[ci], qk[ci + 1]) - a, b
 
 
 @kernel
-def _roller_phi(q, ci, cj, sj, rho2, a, g, out):
+def _roller_phi(q, E, ci, cj, sj, rho2, a, g, out):
     """Eq. 4.28: [g . d, d . d - rho^2]."""
     for k in range(q.shape[0]):
         for c in range(ci.shape[0]):
-            d, _ = _roller_d(q[k], ci[c], cj[c], sj[c], a[k, c])
+            d, _ = _roller_d(q[k], E[k], ci[c], cj[c], sj[c], a[k, c])
             out[k, 2 * c] = _dot(g[k, c], d)
             out[k, 2 * c + 1] = _dot(d, d) - rho2[c]
 
 
 @kernel
-def _roller_jac(q, ci, cj, sj, a, g, h, out):
+def _roller_jac(q, E, ci, cj, sj, a, g, h, out):
     """Columns [r_i, phi_i, theta, r_j, phi_j] of both rows."""
     for k in range(q.shape[0]):
         for c in range(ci.shape[0]):
             ak, gk = a[k, c], g[k, c]
-            d, b = _roller_d(q[k], ci[c], cj[c], sj[c], ak)
+            d, b = _roller_d(q[k], E[k], ci[c], cj[c], sj[c], ak)
             o = out[k, 14 * c: 14 * c + 14]
             o[0], o[1] = -gk.real, -gk.imag
             o[2], o[3] = _dot(1j * gk, d) - _dot(gk, 1j * ak), _dot(h[k, c], d) - _dot(gk, gk)
@@ -47,12 +47,12 @@ def _roller_jac(q, ci, cj, sj, a, g, h, out):
 
 
 @kernel
-def _roller_gamma(q, qd, ci, cj, sj, a, g, a1, a2, g1, g2, out):
+def _roller_gamma(q, qd, E, ci, cj, sj, a, g, a1, a2, g1, g2, out):
     """-(d/dt)^2 Phi without the acceleration terms: (g.d)'' = g''.d + 2 g'.d' + g.d''."""
     for k in range(q.shape[0]):
         for c in range(ci.shape[0]):
             x, y = ci[c], cj[c]
-            d, b = _roller_d(q[k], x, y, sj[c], a[k, c])
+            d, b = _roller_d(q[k], E[k], x, y, sj[c], a[k, c])
             wj = qd[k, y + 2]
             d1 = complex(qd[k, y], qd[k, y + 1]) + 1j * wj * b - complex(qd[k, x], qd[k, x + 1]) - a1[k, c]
             d2 = -wj * wj * b - a2[k, c]
@@ -61,30 +61,30 @@ def _roller_gamma(q, qd, ci, cj, sj, a, g, a1, a2, g1, g2, out):
 
 
 @kernel
-def _flat_parts(qk, ci, cj, sj, nj, a):
+def _flat_parts(qk, ek, ci, cj, sj, nj, a):
     """d = r_i + a - r_j - A_j s'_j, A_j s'_j and n = A_j n'_j."""
-    e = np.exp(1j * qk[cj + 2])
+    e = ek[cj + 2]
     b = sj * e
     return complex(qk[ci], qk[ci + 1]) + a - complex(qk[cj], qk[cj + 1]) - b, b, nj * e
 
 
 @kernel
-def _flat_phi(q, ci, cj, sj, nj, a, g, out):
+def _flat_phi(q, E, ci, cj, sj, nj, a, g, out):
     """Eq. 4.29: [g . n, d . n]."""
     for k in range(q.shape[0]):
         for c in range(ci.shape[0]):
-            d, _, n = _flat_parts(q[k], ci[c], cj[c], sj[c], nj[c], a[k, c])
+            d, _, n = _flat_parts(q[k], E[k], ci[c], cj[c], sj[c], nj[c], a[k, c])
             out[k, 2 * c] = _dot(g[k, c], n)
             out[k, 2 * c + 1] = _dot(d, n)
 
 
 @kernel
-def _flat_jac(q, ci, cj, sj, nj, a, g, h, out):
+def _flat_jac(q, E, ci, cj, sj, nj, a, g, h, out):
     """Row 1 in [phi_i, theta, phi_j], row 2 in [r_i, phi_i, theta, r_j, phi_j]."""
     for k in range(q.shape[0]):
         for c in range(ci.shape[0]):
             ak, gk = a[k, c], g[k, c]
-            d, b, n = _flat_parts(q[k], ci[c], cj[c], sj[c], nj[c], ak)
+            d, b, n = _flat_parts(q[k], E[k], ci[c], cj[c], sj[c], nj[c], ak)
             o = out[k, 10 * c: 10 * c + 10]
             o[0], o[1], o[2] = _dot(1j * gk, n), _dot(h[k, c], n), _dot(gk, 1j * n)
             o[3], o[4], o[5], o[6] = n.real, n.imag, _dot(1j * ak, n), _dot(gk, n)
@@ -92,12 +92,12 @@ def _flat_jac(q, ci, cj, sj, nj, a, g, h, out):
 
 
 @kernel
-def _flat_gamma(q, qd, ci, cj, sj, nj, a, g, a1, a2, g1, g2, out):
+def _flat_gamma(q, qd, E, ci, cj, sj, nj, a, g, a1, a2, g1, g2, out):
     """-(g . n)'' and -(d . n)'' without the acceleration terms."""
     for k in range(q.shape[0]):
         for c in range(ci.shape[0]):
             x, y = ci[c], cj[c]
-            d, b, n = _flat_parts(q[k], x, y, sj[c], nj[c], a[k, c])
+            d, b, n = _flat_parts(q[k], E[k], x, y, sj[c], nj[c], a[k, c])
             wj = qd[k, y + 2]
             n1, n2 = 1j * wj * n, -wj * wj * n
             d1 = complex(qd[k, x], qd[k, x + 1]) + a1[k, c] - complex(qd[k, y], qd[k, y + 1]) - 1j * wj * b

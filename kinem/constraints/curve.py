@@ -17,7 +17,9 @@ import numpy as np
 
 from ..jit import kernel
 from ..outline import OutlineSet, curve_at
-from .base import Call
+from .base import Call, rotations
+
+NO_ROTATIONS = np.ones((1, 1), complex)  # curve_rates reads none
 
 
 class Curve:
@@ -30,13 +32,13 @@ class Curve:
     def at(self, Q):
         """(a, g, h, k) at the configurations Q (K, n), each (K, constraints)."""
         a, g, h, k = (np.empty((Q.shape[0], len(self.cc)), complex) for _ in range(4))
-        curve_at(Q, self.cc, self.ct, *self.outlines.args, a, g, h, k)
+        curve_at(Q, rotations(Q), self.cc, self.ct, *self.outlines.args, a, g, h, k)
         return a, g, h, k
 
     def rates(self, QD, a, g, h, k):
         """a', a'', g', g'' (without acceleration terms)."""
         out = tuple(np.empty_like(a) for _ in range(4))
-        curve_rates(QD, QD, self.cc, self.ct, a, g, h, k, *out)
+        curve_rates(QD, QD, NO_ROTATIONS, self.cc, self.ct, a, g, h, k, *out)
         return out
 
     def march(self):
@@ -48,9 +50,9 @@ class Curve:
 
 
 @kernel
-def curve_rates(q, qd, cc, ct, a, g, h, k3, a1, a2, g1, g2):
+def curve_rates(q, qd, E, cc, ct, a, g, h, k3, a1, a2, g1, g2):
     """a', a'', g', g'' from a, g, h, k3 and the rates w_c, theta' of qd
-    (the module docstring's formulas; q is not used)."""
+    (the module docstring's formulas; q and E are not used)."""
     for k in range(a.shape[0]):
         for c in range(cc.shape[0]):
             w, th = qd[k, cc[c] + 2], qd[k, ct[c]]

@@ -10,23 +10,23 @@ from .curve import Curve, check_theta
 
 
 @kernel
-def _phi(q, cc, cb, sb, sign, a, out):
+def _phi(q, E, cc, cb, sb, sign, a, out):
     """sigma (r_c + a - r_b - A_b s'_b), rows x and y."""
     for k in range(q.shape[0]):
         for c in range(cc.shape[0]):
             x, y = cc[c], cb[c]
             d = sign[c] * (complex(q[k, x], q[k, x + 1]) + a[k, c] - complex(q[k, y], q[k, y + 1])
-                           - sb[c] * np.exp(1j * q[k, y + 2]))
+                           - sb[c] * E[k, y + 2])
             out[k, 2 * c] = d.real
             out[k, 2 * c + 1] = d.imag
 
 
 @kernel
-def _jac(q, cb, sb, sign, a, g, out):
+def _jac(q, E, cb, sb, sign, a, g, out):
     """sigma [I, i a, g, -I, -B_b s'_b] in columns [r_c, phi_c, theta, r_b, phi_b]."""
     for k in range(q.shape[0]):
         for c in range(cb.shape[0]):
-            b = sb[c] * np.exp(1j * q[k, cb[c] + 2])
+            b = sb[c] * E[k, cb[c] + 2]
             s, ak, gk = sign[c], a[k, c], g[k, c]
             o = out[k, 10 * c: 10 * c + 10]
             o[0], o[1], o[2], o[3], o[4] = s, -s * ak.imag, s * gk.real, -s, s * b.imag
@@ -34,12 +34,12 @@ def _jac(q, cb, sb, sign, a, g, out):
 
 
 @kernel
-def _gamma(q, qd, cb, sb, sign, a2, out):
+def _gamma(q, qd, E, cb, sb, sign, a2, out):
     """-sigma (a'' + A_b s'_b w_b^2)."""
     for k in range(q.shape[0]):
         for c in range(cb.shape[0]):
             y = cb[c]
-            g = -sign[c] * (a2[k, c] + sb[c] * np.exp(1j * q[k, y + 2]) * qd[k, y + 2] ** 2)
+            g = -sign[c] * (a2[k, c] + sb[c] * E[k, y + 2] * qd[k, y + 2] ** 2)
             out[k, 2 * c] = g.real
             out[k, 2 * c + 1] = g.imag
 

@@ -15,7 +15,7 @@ from .base import (BodyKey, BoolKey, Call, Compiled, DirectionKey, Family, Local
 
 
 @kernel
-def _gear_phi(q, ai, aj, ak, w, ri, rj, phi0, out):
+def _gear_phi(q, E, ai, aj, ak, w, ri, rj, phi0, out):
     """Eq. 4.18 (Eq. 4.17 with w = 0)."""
     for k in range(q.shape[0]):
         for c in range(ai.shape[0]):
@@ -24,14 +24,14 @@ def _gear_phi(q, ai, aj, ak, w, ri, rj, phi0, out):
 
 
 @kernel
-def _constant(q, values, out):
+def _constant(q, E, values, out):
     """Jacobian values that do not depend on q."""
     for k in range(q.shape[0]):
         out[k] = values
 
 
 @kernel
-def _no_gamma(q, qd, out):
+def _no_gamma(q, qd, E, out):
     """gamma = 0: the rows are linear in q."""
     out[:] = 0.0
 
@@ -78,29 +78,29 @@ class Gear(Family):
 
 
 @kernel
-def _rack_parts(qk, a, b, cc, s, u):
+def _rack_parts(qk, ek, a, b, cc, s, u):
     """u = A_j u', d = C - P = r_i + A_i c' - r_j - A_j s'_j, A_i c', A_j s'_j."""
-    ei, ej = np.exp(1j * qk[a + 2]), np.exp(1j * qk[b + 2])
+    ei, ej = ek[a + 2], ek[b + 2]
     ca, sb = cc * ei, s * ej
     return u * ej, complex(qk[a], qk[a + 1]) + ca - complex(qk[b], qk[b + 1]) - sb, ca, sb
 
 
 @kernel
-def _rack_phi(q, ci, cj, cc, s, u, rho, phi0, out):
+def _rack_phi(q, E, ci, cj, cc, s, u, rho, phi0, out):
     """u . d + rho (phi_i - phi_j - phi0) (Eqs. 4.19, 4.20, Problem 4.15)."""
     for k in range(q.shape[0]):
         for c in range(ci.shape[0]):
-            uu, d, _, _ = _rack_parts(q[k], ci[c], cj[c], cc[c], s[c], u[c])
+            uu, d, _, _ = _rack_parts(q[k], E[k], ci[c], cj[c], cc[c], s[c], u[c])
             out[k, c] = (uu.real * d.real + uu.imag * d.imag
                          + rho[c] * (q[k, ci[c] + 2] - q[k, cj[c] + 2] - phi0[c]))
 
 
 @kernel
-def _rack_jac(q, ci, cj, cc, s, u, rho, phi0, out):
+def _rack_jac(q, E, ci, cj, cc, s, u, rho, phi0, out):
     """[u^T, u . (i A_i c') + rho, -u^T, (i u) . d - u . (i A_j s'_j) - rho]."""
     for k in range(q.shape[0]):
         for c in range(ci.shape[0]):
-            uu, d, a, b = _rack_parts(q[k], ci[c], cj[c], cc[c], s[c], u[c])
+            uu, d, a, b = _rack_parts(q[k], E[k], ci[c], cj[c], cc[c], s[c], u[c])
             o = out[k, 6 * c: 6 * c + 6]
             o[0], o[1] = uu.real, uu.imag
             o[2] = uu.imag * a.real - uu.real * a.imag + rho[c]
@@ -109,12 +109,12 @@ def _rack_jac(q, ci, cj, cc, s, u, rho, phi0, out):
 
 
 @kernel
-def _rack_gamma(q, qd, ci, cj, cc, s, u, rho, phi0, out):
+def _rack_gamma(q, qd, E, ci, cj, cc, s, u, rho, phi0, out):
     """-(u . d)'' without the acceleration terms."""
     for k in range(q.shape[0]):
         for c in range(ci.shape[0]):
             a_, b_ = ci[c], cj[c]
-            uu, d, a, b = _rack_parts(q[k], a_, b_, cc[c], s[c], u[c])
+            uu, d, a, b = _rack_parts(q[k], E[k], a_, b_, cc[c], s[c], u[c])
             wi, wj = qd[k, a_ + 2], qd[k, b_ + 2]
             dd = complex(qd[k, a_], qd[k, a_ + 1]) + 1j * wi * a - complex(qd[k, b_], qd[k, b_ + 1]) - 1j * wj * b
             iu = 1j * uu

@@ -22,33 +22,33 @@ def _cross(a, b):
 
 
 @kernel
-def _parts(qk, ca, pa, ua, cb, ob):
+def _parts(qk, ek, ca, pa, ua, cb, ob):
     """u = A_a u'_a, d = r_b + A_b s'_b - r_a - A_a s'_a, A_a s'_a, A_b s'_b."""
-    ea, eb = np.exp(1j * qk[ca + 2]), np.exp(1j * qk[cb + 2])
+    ea, eb = ek[ca + 2], ek[cb + 2]
     sa, sb = pa * ea, ob * eb
     return ua * ea, complex(qk[cb], qk[cb + 1]) + sb - complex(qk[ca], qk[ca + 1]) - sa, sa, sb
 
 
 @kernel
-def _phi(q, ca, pa, ua, cb, ob, ai, aj, phi0, out):
+def _phi(q, E, ca, pa, ua, cb, ob, ai, aj, phi0, out):
     """u x d (Eqs. 4.12, 4.16), then phi_i - phi_j - phi0 for translational joints."""
     rows = 2 if ai.shape[0] else 1
     for k in range(q.shape[0]):
         for c in range(ca.shape[0]):
-            u, d, _, _ = _parts(q[k], ca[c], pa[c], ua[c], cb[c], ob[c])
+            u, d, _, _ = _parts(q[k], E[k], ca[c], pa[c], ua[c], cb[c], ob[c])
             out[k, rows * c] = _cross(u, d)
             if rows == 2:
                 out[k, 2 * c + 1] = q[k, ai[c]] - q[k, aj[c]] - phi0[c]
 
 
 @kernel
-def _jac(q, ca, pa, ua, cb, ob, ai, aj, phi0, out):
+def _jac(q, E, ca, pa, ua, cb, ob, ai, aj, phi0, out):
     """Columns [x_a, y_a, phi_a, x_b, y_b, phi_b] of u x d (Table 4.2), then
     [phi_i, phi_j] = [1, -1] for translational joints."""
     width = 8 if ai.shape[0] else 6
     for k in range(q.shape[0]):
         for c in range(ca.shape[0]):
-            u, d, sa, sb = _parts(q[k], ca[c], pa[c], ua[c], cb[c], ob[c])
+            u, d, sa, sb = _parts(q[k], E[k], ca[c], pa[c], ua[c], cb[c], ob[c])
             o = out[k, width * c: width * c + width]
             o[0], o[1], o[2] = u.imag, -u.real, -_dot(u, d + sa)
             o[3], o[4], o[5] = -u.imag, u.real, _dot(u, sb)
@@ -57,12 +57,12 @@ def _jac(q, ca, pa, ua, cb, ob, ai, aj, phi0, out):
 
 
 @kernel
-def _gamma(q, qd, ca, pa, ua, cb, ob, ai, aj, phi0, out):
+def _gamma(q, qd, E, ca, pa, ua, cb, ob, ai, aj, phi0, out):
     """-(u x d)'' without the acceleration terms (Table 4.3), then 0."""
     rows = 2 if ai.shape[0] else 1
     for k in range(q.shape[0]):
         for c in range(ca.shape[0]):
-            u, d, sa, sb = _parts(q[k], ca[c], pa[c], ua[c], cb[c], ob[c])
+            u, d, sa, sb = _parts(q[k], E[k], ca[c], pa[c], ua[c], cb[c], ob[c])
             a, b = ca[c], cb[c]
             wa, wb = qd[k, a + 2], qd[k, b + 2]
             dd = (complex(qd[k, b], qd[k, b + 1]) + 1j * sb * wb

@@ -18,20 +18,20 @@ COORD = {"x": 0, "y": 1, "phi": 2}
 
 
 @kernel
-def _phi(q, a, k, w, angle, local, mx, my, f, out):
+def _phi(q, E, a, k, w, angle, local, mx, my, f, out):
     """Eqs. 4.31-4.40: q_a - w q_k + point term - f(t)."""
     for i in range(q.shape[0]):
         fi = f[0] if f.shape[0] == 1 else f[i]
         for r in range(a.shape[0]):
             v = q[i, a[r]] - w[r] * q[i, k[r]] - fi[r]
             if mx[r] != 0.0 or my[r] != 0.0:
-                s = local[r] * np.exp(1j * q[i, angle[r]])
+                s = local[r] * E[i, angle[r]]
                 v += mx[r] * s.real + my[r] * s.imag
             out[i, r] = v
 
 
 @kernel
-def _jac(q, angle, local, mx, my, point, w, relative, out):
+def _jac(q, E, angle, local, mx, my, point, w, relative, out):
     """1 in column a; d(point term)/dphi_i = (B_i s')_c if a point; -1 in phi_k if relative."""
     for i in range(q.shape[0]):
         e = 0
@@ -39,7 +39,7 @@ def _jac(q, angle, local, mx, my, point, w, relative, out):
             out[i, e] = 1.0
             e += 1
             if point[r]:
-                s = local[r] * np.exp(1j * q[i, angle[r]])
+                s = local[r] * E[i, angle[r]]
                 out[i, e] = -mx[r] * s.imag + my[r] * s.real
                 e += 1
             if relative[r]:
@@ -48,14 +48,14 @@ def _jac(q, angle, local, mx, my, point, w, relative, out):
 
 
 @kernel
-def _gamma(q, qd, angle, local, mx, my, f2, out):
+def _gamma(q, qd, E, angle, local, mx, my, f2, out):
     """Eq. 4.38 and the point forms: d''(t) + (A_i s')_c w_i^2."""
     for i in range(q.shape[0]):
         fi = f2[0] if f2.shape[0] == 1 else f2[i]
         for r in range(angle.shape[0]):
             v = fi[r]
             if mx[r] != 0.0 or my[r] != 0.0:
-                s = local[r] * np.exp(1j * q[i, angle[r]])
+                s = local[r] * E[i, angle[r]]
                 v += (mx[r] * s.real + my[r] * s.imag) * qd[i, angle[r]] ** 2
             out[i, r] = v
 
