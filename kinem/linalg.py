@@ -70,7 +70,8 @@ def preload(model, block: bool = False, solver: "Solver | None" = None) -> None:
     numba's cache; kinem.jit) and, for the compiled march (``block``), its
     module (kinem.march.prepare).
     Once per model and kind of analysis: again it would only cost time (about
-    100 us on the slider-crank, a tenth of a short block-march run)."""
+    100 us on the slider-crank, more than a compiled 64-instant run's fixed
+    cost)."""
     from . import jit
 
     solver = choose(model) if solver is None else solver

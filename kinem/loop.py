@@ -12,7 +12,7 @@ above it are compiled here, once, and imported by every generated module.
 """
 import numpy as np
 
-from kinem.dense import _solve1, assemble, band_factor, band_solve, factor_into
+from kinem.dense import assemble, band_factor, band_solve, factor_into, solve
 from kinem.jit import kernel
 from kinem.tracking import jump_sizes, rejected
 
@@ -68,8 +68,7 @@ def lu_solve(J, piv, band, b, row_pos, col_pos, scale, col_scale, x, w):
         w[row_pos[i]] = b[i] / scale[i]
     if kl < 0:
         C, s = J.shape[0], J.shape[1]
-        for c in range(C):
-            _solve1(J[c], piv[c], w[c * s: (c + 1) * s])
+        solve(J, piv, w[:C * s].reshape(C, s))
     else:
         H = J.shape[1]
         for s in range(x.shape[0] - size):

@@ -195,9 +195,10 @@ class Model:
         from .linalg import _parity
 
         m, n, rows, cols = self.m, self.n, self.jac_rows, self.jac_cols
-        one = np.flatnonzero(np.bincount(rows, minlength=m) == 1)
-        entry_of = {int(r): e for e, r in enumerate(rows) if r in set(one.tolist())}
-        single_cols = np.array([cols[entry_of[int(r)]] for r in one], np.intp)
+        count = np.bincount(rows, minlength=m)
+        one = np.flatnonzero(count == 1)
+        entries = np.flatnonzero(count[rows] == 1)  # one per single-entry row
+        single_cols = cols[entries[np.argsort(rows[entries])]]
         if m != n or len(np.unique(single_cols)) != len(one):
             return None
         ns, size = len(one), n - len(one)
