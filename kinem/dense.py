@@ -70,22 +70,26 @@ def factor_into(A, piv):
 
 @kernel
 def _solve1(a, piv, b):
-    """b <- A^-1 b from one matrix's LU factors a and pivots."""
+    """b <- A^-1 b from one matrix's LU factors a and pivots. Column by
+    column (axpy), as LAPACK's getrs: the updates of one column are
+    independent, where a row's dot product is one chain of dependent adds
+    (measured on 12 x 12: 60 ns against 186 ns)."""
     n = a.shape[0]
     for j in range(n):
         p = piv[j]
         if p != j:
             b[j], b[p] = b[p], b[j]
-    for i in range(1, n):
-        s = b[i]
-        for j in range(i):
-            s -= a[i, j] * b[j]
-        b[i] = s
-    for i in range(n - 1, -1, -1):
-        s = b[i]
-        for j in range(i + 1, n):
-            s -= a[i, j] * b[j]
-        b[i] = s / a[i, i]
+    for j in range(n):
+        x = b[j]
+        if x != 0.0:
+            for i in range(j + 1, n):
+                b[i] -= a[i, j] * x
+    for j in range(n - 1, -1, -1):
+        x = b[j] / a[j, j]
+        b[j] = x
+        if x != 0.0:
+            for i in range(j):
+                b[i] -= a[i, j] * x
 
 
 @kernel

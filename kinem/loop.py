@@ -12,7 +12,7 @@ above it are compiled here, once, and imported by every generated module.
 """
 import numpy as np
 
-from kinem.dense import assemble, band_factor, band_solve, factor_into, solve
+from kinem.dense import _solve1, assemble, band_factor, band_solve, factor_into
 from kinem.jit import kernel
 from kinem.tracking import jump_sizes, rejected
 
@@ -67,8 +67,9 @@ def lu_solve(J, piv, band, b, row_pos, col_pos, scale, col_scale, x, w):
     for i in range(row_pos.shape[0]):
         w[row_pos[i]] = b[i] / scale[i]
     if kl < 0:
-        C, s = J.shape[0], J.shape[1]
-        solve(J, piv, w[:C * s].reshape(C, s))
+        s = J.shape[1]
+        for c in range(J.shape[0]):
+            _solve1(J[c], piv[c], w[c * s:(c + 1) * s])
     else:
         H = J.shape[1]
         for s in range(x.shape[0] - size):
@@ -216,19 +217,23 @@ def run(times, k, state, A, nu, structure, settings, out):
         # when the predictor converged), then the LU at the corrected q. A final
         # correction above POLISH (a loose tolerance) leaves the last LU's error
         # times its own in q: one more correction with the LU at the corrected
-        # q, and the LU again. One Jacobian site, so that numba compiles the
-        # families' kernels once.
-        it, r, converged, refined, polished, step = 0, np.inf, False, False, False, 0.0
+        # q, and the LU again. One site of each evaluator: numba inlines the
+        # families' kernels at every site (kinem.jit.inlined).
+        it, r, converged, refined, polished, polish, step = 0, np.inf, False, False, False, False, 0.0
         while True:
-            if not converged:
+            if not converged or polish:
                 rotate(q1, angles, E1)
                 phi_all(q1, E1, k, A, phi)
-                r = residual(phi[0], scale)
-                if r <= tol:
-                    converged = True
-                elif not r < np.inf or it == max_it:
-                    return k, NOT_CONVERGED
-            if converged and not refined and it > 0:
+                if not converged:
+                    r = residual(phi[0], scale)
+                    if r <= tol:
+                        converged = True
+                    elif not r < np.inf or it == max_it:
+                        return k, NOT_CONVERGED
+            if polish:
+                refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
+                polish, polished = False, True
+            elif converged and not refined and it > 0:
                 step = refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
                 refined = True
             rotate(q1, angles, E1)
@@ -244,10 +249,7 @@ def run(times, k, state, A, nu, structure, settings, out):
                 step = refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
                 refined = True
             elif step > POLISH and not polished:
-                rotate(q1, angles, E1)
-                phi_all(q1, E1, k, A, phi)
-                refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
-                polished = True
+                polish = True
             else:
                 break
         ratio, det = lu_stats(J, piv, band, real, sign)
