@@ -32,15 +32,20 @@ def say(text=""):
 
 # -- timing -------------------------------------------------------------------------
 
-def rounds(fns: dict, repeats: int) -> dict:
+def rounds(fns: dict, repeats: int, warm: bool = False) -> dict:
     """Runs each callable ``repeats`` times round-robin (A B C A B C ...);
     each returns (seconds, payload). Returns name -> (median seconds, all
-    seconds, payload of the last run)."""
+    seconds, payload of the last run). ``warm``: each timed call right
+    after an untimed one of the same callable, as in a loop of calls (the
+    garbage collection between callables empties the processor's caches:
+    it costs a 64-instant slider-crank solve 0.5 ms more, measured)."""
     times = {k: [] for k in fns}
     last = {}
     for _ in range(max(1, repeats)):
         for k, fn in fns.items():
             gc.collect()
+            if warm:
+                fn()
             seconds, last[k] = fn()
             times[k].append(seconds)
     return {k: (statistics.median(v), v, last[k]) for k, v in times.items()}

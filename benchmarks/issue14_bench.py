@@ -12,7 +12,8 @@ run, with the machine's load average (docs/benchmarks.md, "Issue 14").
            (the floor; ``peers.floor_slider_crank``)
   rates    velocities and accelerations against the closed forms at the
            default tolerance, relative to their peak
-  fixed    the cost of a solve beyond its per-instant work: 2 t(500) - t(1000)
+  fixed    the cost of a solve beyond its per-instant work: the intercept of
+           its time over 64 to 1,024 instants
   scaling  N-four-bar chains: t(10,000 bodies) / t(1,000), us per body-step
   batch    1,000 merged slider-crank variants: us per variant-step
 
@@ -69,7 +70,7 @@ def section_peers(repeats):
             fns["floor"] = timed(peers.floor_slider_crank)
         for f in fns.values():
             f()  # warm: compiled kernels loaded
-        res = rounds(fns, repeats)
+        res = rounds(fns, repeats, warm=True)
         r = res["kinem"][2]
         assert r.success, r.message
         us = {k: 1e6 * v[0] / peers.INSTANTS for k, v in res.items()}
@@ -111,15 +112,38 @@ def _rel(got, ref):
     return float(np.abs(got - ref).max() / np.abs(ref).max())
 
 
+FIXED_INSTANTS = (64, 128, 256, 512, 1024)
+
+
+def _loop_of_solves(model, count=10):
+    """Median seconds of ``count`` solves of the model in a row (warm: as a
+    sweep or a loop over parameters runs them)."""
+    out = []
+    for _ in range(count):
+        start = time.perf_counter()
+        kinem.solve(model)
+        out.append(time.perf_counter() - start)
+    return statistics.median(out), None
+
+
 def section_fixed(repeats):
-    say("\n== fixed cost of a solve: 2 t(500 instants) - t(1000), slider-crank, whole kinem.solve call ==")
+    say("\n== fixed cost of a solve: intercept of the whole kinem.solve call's time over "
+        f"{', '.join(map(str, FIXED_INSTANTS))} output instants (least squares; each the median of "
+        "10 solves in a row, rounds interleaved), slider-crank ==")
     case = kinem.load_dict(peers.slider_crank_case())
-    m500 = kinem.compile(case)
-    m1000 = kinem.compile(case.with_time(end=2 * case.end, steps=2 * case.steps + 1))
-    res = rounds({"500": timed(lambda: kinem.solve(m500)), "1000": timed(lambda: kinem.solve(m1000))}, 3 * repeats)
-    fixed = 2 * res["500"][0] - res["1000"][0]
-    say(f"   t(500) {1e3 * res['500'][0]:.2f} ms, t(1000) {1e3 * res['1000'][0]:.2f} ms: fixed {1e6 * fixed:.0f} us")
-    return {"fixed_us": 1e6 * fixed, "t500_ms": 1e3 * res["500"][0], "t1000_ms": 1e3 * res["1000"][0]}
+    models = {K: kinem.compile(case.with_time(end=case.end * (K - 1) / case.steps, steps=K - 1))
+              for K in FIXED_INSTANTS}
+    for K, m in models.items():
+        assert len(m.times) == K, (K, len(m.times))
+    res = rounds({K: (lambda m=m: _loop_of_solves(m)) for K, m in models.items()}, 2 * repeats)
+    K = np.array(FIXED_INSTANTS, float)
+    t = np.array([res[k][0] for k in FIXED_INSTANTS])
+    slope, fixed = np.polyfit(K, t, 1)
+    worst = float(np.abs(t - (fixed + slope * K)).max())
+    say("   " + ", ".join(f"t({k}) {1e6 * res[k][0]:.0f} us" for k in FIXED_INSTANTS))
+    say(f"   fit: {1e6 * fixed:.1f} us + {1e6 * slope:.3f} us per instant (largest residual {1e6 * worst:.1f} us)")
+    return {"fixed_us": 1e6 * fixed, "us_per_instant": 1e6 * slope, "fit_residual_us": 1e6 * worst,
+            "t_us": {str(k): 1e6 * res[k][0] for k in FIXED_INSTANTS}}
 
 
 def section_scaling(bodies, steps, repeats):

@@ -222,34 +222,55 @@ def prepare(model):
     return m.module
 
 
+def _structure(model):
+    """The loop's ``structure`` (kinem.loop.run) of the model: its Jacobian's
+    blocks or band and the angle columns."""
+    nb = len(model.body_names)  # the angle columns: each body's phi, then the outlines' theta
+    angles = np.concatenate([3 * np.arange(nb) + 2, np.arange(3 * nb, model.n)]).astype(np.intp)
+    if banded(model):
+        d = model.band
+        return (*d.entries, model.entry_scale, d.row_pos, d.col_pos, np.empty(0, np.intp), np.ones(model.n, bool),
+                d.sign, model.scale, model.col_scale, 1, model.n, d.height, d.width, (d.kl, d.ku, d.size, *d.coupling),
+                angles)
+    b = model.blocks
+    real = np.ones(b.count * b.size, bool)
+    real[b.pad] = False
+    none = np.empty(0, np.intp)
+    return (*b.entries, model.entry_scale, b.row_pos, b.col_pos, b.pad, real, b.sign, model.scale, model.col_scale,
+            b.count, b.size, b.size, b.size, (-1, -1, 0, none, none), angles)
+
+
+# model -> [structure, (times, rates, A, nu) of its last march, the loop's
+# entry (March._entry)]: a model's next solve over the same instants (a loop
+# of solves, a sweep of options) evaluates no time function again.
+_PLANS = weakref.WeakKeyDictionary()
+
+
 class March:
     """The compiled march of one solve: the model's families' arguments and
     time-function values at the output instants, and the tracker whose
     history it carries on."""
 
     def __init__(self, model, tracker, times, out, forms=None):
-        self.model, self.tracker, self.times = model, tracker, times
-        forms = [f.march(times) for f in model.families] if forms is None else forms
-        self.module = program(model, forms)
-        empty = np.zeros((0, 0))
-        self.A = tuple(tuple((c.args, empty if c.values is None else np.ascontiguousarray(c.values, float))
-                             for stage in form for c in stage) for form in forms)
+        self.model, self.tracker = model, tracker
+        self.times = times = np.ascontiguousarray(times, float)
         self.rates = tracker is None or tracker.need_v
-        self.nu = np.ascontiguousarray(model.nu(times if self.rates else times[:1]).reshape(-1, model.m))
-        nb = len(model.body_names)  # the angle columns: each body's phi, then the outlines' theta
-        angles = np.concatenate([3 * np.arange(nb) + 2, np.arange(3 * nb, model.n)]).astype(np.intp)
-        if banded(model):
-            d = model.band
-            self.structure = (*d.entries, model.entry_scale, d.row_pos, d.col_pos, np.empty(0, np.intp),
-                              np.ones(model.n, bool), d.sign, model.scale, model.col_scale, 1, model.n, d.height,
-                              d.width, (d.kl, d.ku, d.size, *d.coupling), angles)
+        plan = self.plan = _PLANS.get(model)
+        if plan is None:
+            plan = self.plan = _PLANS[model] = [_structure(model), None, None]
+        self.structure, last = plan[:2]
+        if (forms is None and last is not None and last[1] == self.rates and len(last[0]) == len(times)
+                and np.array_equal(last[0], times)):
+            _, _, self.A, self.nu = last
+            self.module = program(model, None)
         else:
-            b = model.blocks
-            real = np.ones(b.count * b.size, bool)
-            real[b.pad] = False
-            none = np.empty(0, np.intp)
-            self.structure = (*b.entries, model.entry_scale, b.row_pos, b.col_pos, b.pad, real, b.sign, model.scale,
-                              model.col_scale, b.count, b.size, b.size, b.size, (-1, -1, 0, none, none), angles)
+            forms = [f.march(times) for f in model.families] if forms is None else forms
+            self.module = program(model, forms)
+            empty = np.zeros((0, 0))
+            self.A = tuple(tuple((c.args, empty if c.values is None else np.ascontiguousarray(c.values, float))
+                                 for stage in form for c in stage) for form in forms)
+            self.nu = np.ascontiguousarray(model.nu(times if self.rates else times[:1]).reshape(-1, model.m))
+            plan[1] = (np.array(times, float), self.rates, self.A, self.nu)
         o = Options.of(model.case) if tracker is None else tracker.options
         self.settings = (float(o.tolerance), int(o.max_iterations), MAX_STEP, singular_pivot(o.tolerance), self.rates)
         Q, QD, QDD, iterations, residual, pivot = out  # QD, QDD None: not asked for; the loop needs them
@@ -257,6 +278,19 @@ class March:
         QDD = np.empty_like(Q) if QDD is None else QDD
         self.out = (Q, QD, QDD, iterations, residual, pivot)
         self.counts = np.zeros(2, np.int64)
+
+    def _entry(self, args):
+        """The loop compiled for these arguments' types (compiled now if need
+        be), to be called without numba's dispatch: typing the arguments'
+        nested tuples costs more (about 5 us) than the call. The types are
+        the model's (its families' arguments, its structure) and fixed by
+        March (contiguous float arrays), so one entry serves its solves."""
+        run = self.module.run.compiled()
+        sig = tuple(run.typeof_pyval(a) for a in args)
+        if sig not in run.overloads:
+            run.compile(sig)
+        self.plan[2] = run.overloads[sig].entry_point
+        return self.plan[2]
 
     def advance(self, k: int, q0=None) -> int:
         """Output instants from k on, from the tracker's last state (k = 0:
@@ -277,8 +311,8 @@ class March:
                 H[3 - len(tr.history[-3:]) + i], T[3 - len(tr.history[-3:]) + i] = s.q, s.t
             state = (last.q.copy(), qd.copy(), qdd.copy(), np.array([last.t, last.det], float), H, T)
         self.counts[:] = 0
-        end, _ = self.module.run(self.times, k, state, self.A, self.nu, self.structure, self.settings,
-                                 (*self.out, self.counts))
+        args = (self.times, k, state, self.A, self.nu, self.structure, self.settings, (*self.out, self.counts))
+        end, _ = (self.plan[2] or self._entry(args))(*args)
         d = tr.data
         d.jacobian_evaluations += int(self.counts[0])
         d.factorizations += int(self.counts[1])

@@ -115,35 +115,46 @@ def _layout(model, stages: int):
 
 
 @kernel
-def _points(Q, QD, QDD, stages, pc, local, out):
-    """The named points' x, y (then vx, vy and ax, ay for 2 and 3 stages) at
-    every instant: point p of the body at columns pc[p], at s'_p = local[p]
-    (r + A s', its first and second derivatives), into out (T, 2 stages P)
-    as [x_0 .. x_P-1, y_0 .., vx_0 .., vy .., ax .., ay ..]."""
-    P = pc.shape[0]
+def _columns(Q, QD, QDD, stages, src, pc, local, pts, out):
+    """out[k, c] = column c's value at instant k (T, columns), in one pass:
+    coordinate src[c] of stage src[c] // n (X_0 = Q, X_1 = QD, X_2 = QDD)
+    when src[c] < stages n, else entry src[c] - stages n of the points'
+    values pts (2 stages P: [x_0 .. x_P-1, y_0 .., vx_0 .., vy .., ax ..,
+    ay ..]), point p of the body at columns pc[p], at s'_p = local[p]
+    (r + A s', its first and second derivatives)."""
+    n, P = Q.shape[1], pc.shape[0]
     for k in range(Q.shape[0]):
         for p in range(P):
             c = pc[p]
             e = local[p] * np.exp(1j * Q[k, c + 2])
             v = complex(Q[k, c], Q[k, c + 1]) + e
-            out[k, p], out[k, P + p] = v.real, v.imag
+            pts[p], pts[P + p] = v.real, v.imag
             if stages > 1:
                 w = QD[k, c + 2]
                 v = complex(QD[k, c], QD[k, c + 1]) + 1j * e * w
-                out[k, 2 * P + p], out[k, 3 * P + p] = v.real, v.imag
+                pts[2 * P + p], pts[3 * P + p] = v.real, v.imag
                 if stages > 2:
                     v = complex(QDD[k, c], QDD[k, c + 1]) + 1j * e * QDD[k, c + 2] - e * w * w
-                    out[k, 4 * P + p], out[k, 5 * P + p] = v.real, v.imag
+                    pts[4 * P + p], pts[5 * P + p] = v.real, v.imag
+        for c in range(src.shape[0]):
+            j = src[c]
+            if j < n:
+                out[k, c] = Q[k, j]
+            elif j >= stages * n:
+                out[k, c] = pts[j - stages * n]
+            elif j < 2 * n:
+                out[k, c] = QD[k, j - n]
+            else:
+                out[k, c] = QDD[k, j - 2 * n]
 
 
 def trajectory(model, t, Q, QD=None, QDD=None) -> Trajectory:
     """Named columns (docs/case-format.md, "Trajectory output") from raw
-    coordinates: one gather from the coordinates and the points' values."""
+    coordinates, in one compiled pass."""
     X = [x for x in (Q, QD, QDD) if x is not None]
     names, src = _layout(model, len(X))
-    if model.point_names:
-        pts = np.empty((len(t), 2 * len(X) * len(model.point_names)))
-        _points(Q, X[min(1, len(X) - 1)], X[-1], len(X), model.point_cols, model.point_local, pts)
-        X.append(pts)
-    data = np.take(np.concatenate(X, axis=1), src, axis=1) if len(t) else np.empty((0, len(names)))
+    data = np.empty((len(t), len(names)))
+    if len(t):
+        _columns(Q, X[min(1, len(X) - 1)], X[-1], len(X), src, model.point_cols, model.point_local,
+                 np.empty(2 * len(X) * len(model.point_names)), data)
     return Trajectory(np.array(t, dtype=float), names, data)
