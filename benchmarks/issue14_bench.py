@@ -154,7 +154,8 @@ def section_scaling(bodies, steps, repeats):
     for b in bodies:
         case, n = chain_case(b, steps, "auto")
         model = kinem.compile(case)
-        res = rounds({"solve": timed(lambda m=model: kinem.solve(m))}, repeats if b < 5000 else max(2, repeats // 2))
+        res = rounds({"solve": timed(lambda m=model: kinem.solve(m))}, repeats if b < 5000 else max(2, repeats // 2),
+                     warm=True)
         r = res["solve"][2]
         assert r.success, r.message
         per = res["solve"][0] / len(r.iterations)
@@ -171,7 +172,7 @@ def section_batch(b, steps, repeats):
 
     say(f"\n== batch: {b} slider-crank variants merged, {steps} output steps ==")
     model = kinem.compile(merge(variants(b, steps)))
-    res = rounds({"batch": timed(lambda: kinem.solve(model))}, max(2, repeats // 2))
+    res = rounds({"batch": timed(lambda: kinem.solve(model))}, max(2, repeats // 2), warm=True)
     r = res["batch"][2]
     assert r.success, r.message
     per = res["batch"][0] / (len(r.iterations) * b)
