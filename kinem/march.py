@@ -260,7 +260,7 @@ class March:
             plan = self.plan = _PLANS[model] = [_structure(model), None, None]
         self.structure, last = plan[:2]
         if (forms is None and last is not None and last[1] == self.rates and len(last[0]) == len(times)
-                and np.array_equal(last[0], times)):
+                and (last[0] is times or np.array_equal(last[0], times))):
             _, _, self.A, self.nu = last
             self.module = program(model, None)
         else:
@@ -270,7 +270,9 @@ class March:
             self.A = tuple(tuple((c.args, empty if c.values is None else np.ascontiguousarray(c.values, float))
                                  for stage in form for c in stage) for form in forms)
             self.nu = np.ascontiguousarray(model.nu(times if self.rates else times[:1]).reshape(-1, model.m))
-            plan[1] = (np.array(times, float), self.rates, self.A, self.nu)
+            # the model's own (read-only) instants are kept as they are: the next solve passes them again
+            kept = times if times is model.times else times.copy()
+            plan[1] = (kept, self.rates, self.A, self.nu)
         o = Options.of(model.case) if tracker is None else tracker.options
         self.settings = (float(o.tolerance), int(o.max_iterations), MAX_STEP, singular_pivot(o.tolerance), self.rates)
         Q, QD, QDD, iterations, residual, pivot = out  # QD, QDD None: not asked for; the loop needs them

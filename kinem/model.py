@@ -147,9 +147,12 @@ class Model:
     def nnz(self) -> int:
         return len(self.jac_rows)
 
-    @property
+    @cached_property
     def times(self) -> np.ndarray:
-        return self.case.times
+        """The case's output instants (read-only)."""
+        t = self.case.times
+        t.flags.writeable = False
+        return t
 
     @cached_property
     def blocks(self) -> Blocks:

@@ -28,10 +28,11 @@ class Trajectory:
     t: np.ndarray
     columns: tuple
     data: np.ndarray
-    _index: dict = field(init=False, repr=False)
+    _index: dict | None = field(default=None, repr=False)  # column -> position (None: made here)
 
     def __post_init__(self):
-        object.__setattr__(self, "_index", {c: k for k, c in enumerate(self.columns)})
+        if self._index is None:
+            object.__setattr__(self, "_index", {c: k for k, c in enumerate(self.columns)})
         self.t.flags.writeable = False
         self.data.flags.writeable = False
 
@@ -87,9 +88,10 @@ _LAYOUTS = weakref.WeakKeyDictionary()  # model -> {number of stages: (names, so
 
 
 def _layout(model, stages: int):
-    """The column names of the first ``stages`` of OUTPUTS, and the column
-    of each in the sources [X_0 .. X_{S-1}, Re P_0, Im P_0, Re P_1, ...]
-    (X_s: the coordinates of stage s (n), P_s: its points (p))."""
+    """The column names of the first ``stages`` of OUTPUTS, the column of
+    each in the sources [X_0 .. X_{S-1}, Re P_0, Im P_0, Re P_1, ...] (X_s:
+    the coordinates of stage s (n), P_s: its points (p)), and the names'
+    positions by name."""
     per = _LAYOUTS.setdefault(model, {})
     if stages in per:
         return per[stages]
@@ -110,7 +112,7 @@ def _layout(model, stages: int):
         for s, stage in enumerate(OUTPUTS[:stages]):
             names.append(f"{base}.{ARTIFICIAL_COLUMNS[stage]}")
             src.append(s * n + 3 * nb + a)
-    out = per[stages] = (tuple(names), np.array(src, np.intp))
+    out = per[stages] = (tuple(names), np.array(src, np.intp), {c: k for k, c in enumerate(names)})
     return out
 
 
@@ -152,9 +154,9 @@ def trajectory(model, t, Q, QD=None, QDD=None) -> Trajectory:
     """Named columns (docs/case-format.md, "Trajectory output") from raw
     coordinates, in one compiled pass."""
     X = [x for x in (Q, QD, QDD) if x is not None]
-    names, src = _layout(model, len(X))
+    names, src, index = _layout(model, len(X))
     data = np.empty((len(t), len(names)))
     if len(t):
         _columns(Q, X[min(1, len(X) - 1)], X[-1], len(X), src, model.point_cols, model.point_local,
                  np.empty(2 * len(X) * len(model.point_names)), data)
-    return Trajectory(np.array(t, dtype=float), names, data)
+    return Trajectory(np.array(t, dtype=float), names, data, index)
