@@ -63,25 +63,30 @@ _CHECKED = False
 
 
 def coherent() -> None:
-    """Removes kinem's numba caches once the kernels' sources change. numba
-    checks a cached function against its own source file only, but a
-    compiled call of another module's kernel (kinem.loop calls kinem.dense)
-    or an inlined one (``inlined``) is part of the caller's cached code: an
-    edit there would otherwise leave the caller running the old code. The
-    sources' hash is kept in kinem/__pycache__/kernels.stamp; the check runs
-    once per process, under a lock."""
+    """Removes kinem's numba caches once the kernels' sources change
+    (``refresh`` on kinem's folder), once per process."""
     global _CHECKED
-    if _CHECKED:
-        return
-    _CHECKED = True
+    if not _CHECKED:
+        _CHECKED = True
+        from pathlib import Path
+
+        refresh(Path(__file__).parent)
+
+
+def refresh(root) -> bool:
+    """Removes the numba caches (*.nbi, *.nbc) of root's and
+    root/constraints' modules when the sources with kernels there differ
+    from those of the hash kept in root/__pycache__/kernels.stamp (written
+    anew), under a lock; returns whether it did. numba checks a cached
+    function against its own source file only, but a compiled call of
+    another module's kernel (kinem.loop calls kinem.dense) or an inlined
+    one (``inlined``) is part of the caller's cached code: an edit there
+    would otherwise leave the caller running the old code."""
     import fcntl
     import hashlib
-    from pathlib import Path
 
-    root = Path(__file__).parent
-    files = sorted(root.glob("*.py")) + sorted(root.glob("constraints/*.py"))
     h = hashlib.sha1()
-    for p in files:
+    for p in sorted(root.glob("*.py")) + sorted(root.glob("constraints/*.py")):
         text = p.read_bytes()
         if b"@kernel" in text:
             h.update(p.name.encode() + text)
@@ -91,13 +96,14 @@ def coherent() -> None:
         with open(stamp.with_suffix(".lock"), "w") as lock:
             fcntl.flock(lock, fcntl.LOCK_EX)
             if stamp.exists() and stamp.read_text() == digest:
-                return
+                return False
             for folder in (root / "__pycache__", root / "constraints" / "__pycache__"):
                 for p in list(folder.glob("*.nbi")) + list(folder.glob("*.nbc")):
                     p.unlink(missing_ok=True)
             stamp.write_text(digest)
+            return True
     except OSError:  # a read-only install: its caches are the ones it shipped with
-        pass
+        return False
 
 
 _TWINS = {}

@@ -115,3 +115,32 @@ print(interpret(m, False, limit), interpret(m, False, limit + 1), interpret(m, T
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
     assert p.returncode == 0, p.stderr
     assert p.stdout.split() == ["True", "False", "False"]
+
+
+def test_an_edited_kernel_source_removes_the_caches_that_may_hold_it(tmp_path):
+    """numba checks a cache against its own function's file only, and a
+    compiled caller holds the code of the kernels it calls or inlines from
+    other modules: an edit of any kernel source removes every cache."""
+    (tmp_path / "constraints" / "__pycache__").mkdir(parents=True)
+    (tmp_path / "__pycache__").mkdir()
+    kernels = tmp_path / "dense.py"
+    kernels.write_text("@kernel\ndef f(x):\n    return x\n")
+    (tmp_path / "cli.py").write_text("print('no kernel here')\n")
+    caches = [tmp_path / "__pycache__" / "loop.run-1.py311.nbi", tmp_path / "__pycache__" / "loop.run-1.py311.1.nbc",
+              tmp_path / "constraints" / "__pycache__" / "line._jac-9.py311.nbi"]
+
+    def write_caches():
+        for c in caches:
+            c.write_bytes(b"x")
+
+    write_caches()
+    assert jit.refresh(tmp_path)            # no stamp yet: the caches' sources are unknown
+    assert not any(c.exists() for c in caches)
+    write_caches()
+    assert not jit.refresh(tmp_path)        # the same sources: the caches stay
+    assert all(c.exists() for c in caches)
+    (tmp_path / "cli.py").write_text("print('still no kernel')\n")
+    assert not jit.refresh(tmp_path)        # a source without kernels does not count
+    kernels.write_text("@kernel\ndef f(x):\n    return 2 * x\n")
+    assert jit.refresh(tmp_path)
+    assert not any(c.exists() for c in caches)

@@ -221,3 +221,26 @@ def test_generated_code_goes_only_where_nobody_else_can_write(tmp_path, monkeypa
     mine = tmp_path / "mine"
     monkeypatch.setenv("KINEM_CACHE", str(mine))
     assert march._folder() == mine
+
+
+def test_a_model_solved_again_reuses_its_instants_values_only_for_the_same_instants(monkeypatch):
+    """The march keeps a model's last instants' time-function values
+    (march._PLANS): a solve over other instants, or with other outputs,
+    must not read them, and a solve over the same ones must give the same
+    numbers as the first."""
+    case = kinem.load(ROOT / "cases" / "slider_crank.toml")
+    model = kinem.compile(case)
+    first = kinem.solve(model)
+    half = model.times * 0.5  # as many instants, other ones (the drive's values differ)
+    other = kinem.solve(model, times=half)
+    fresh = kinem.solve(kinem.compile(case), times=half)
+    assert other.success and np.array_equal(other.q, fresh.q) and np.array_equal(other.qdd, fresh.qdd)
+    only = kinem.solve(model, outputs=("positions",))
+    assert only.qd is None and np.abs(only.q - first.q).max() < 1e-9  # the same branch, its own predictor
+    again = kinem.solve(model)
+    assert np.array_equal(again.q, first.q) and np.array_equal(again.qdd, first.qdd)
+    assert march._PLANS[model][1][0] is model.times
+    # a long run's values are not kept after its solve
+    monkeypatch.setattr(march, "KEEP", 10)
+    kinem.solve(model, times=half)
+    assert march._PLANS[model][1][0] is model.times  # still the last kept: the long run's were not
