@@ -244,8 +244,9 @@ def _structure(model):
 # entry (March._entry)]: a model's next solve over the same instants (a loop
 # of solves, a sweep of options) evaluates no time function again.
 _PLANS = weakref.WeakKeyDictionary()
-# Values kept at most (nu's entries; the families' values are fewer): a long
-# run's (8 MB and up) are freed with its solve, as they cost little against it.
+# Values kept at most (instants x equations, the size of nu; the families'
+# values are fewer): a long run's (8 MB and up) are freed with its solve,
+# as they cost little against it.
 KEEP = 1_000_000
 
 
@@ -273,7 +274,7 @@ class March:
             self.A = tuple(tuple((c.args, empty if c.values is None else np.ascontiguousarray(c.values, float))
                                  for stage in form for c in stage) for form in forms)
             self.nu = np.ascontiguousarray(model.nu(times if self.rates else times[:1]).reshape(-1, model.m))
-            if self.nu.size <= KEEP:
+            if len(times) * model.m <= KEEP:
                 # the model's own (read-only) instants are kept as they are: the next solve passes them again
                 kept = times if times is model.times else times.copy()
                 plan[1] = (kept, self.rates, self.A, self.nu)
