@@ -48,6 +48,8 @@ class Kernel:
             from numba import njit
 
             coherent()
+            if not _REGISTERED:
+                _register()
 
             self.dispatcher = njit(cache=True, nogil=True, error_model="numpy")(self.py_func)
         return self.dispatcher
@@ -60,6 +62,13 @@ class Kernel:
 
 
 _CHECKED = False
+_REGISTERED = False
+
+
+def _register():
+    global _REGISTERED
+    _REGISTERED = True
+    _register_trailing_zeros()
 
 
 def coherent() -> None:
@@ -120,6 +129,9 @@ def inlined(k: Kernel):
         return _TWINS[k]
     from numba import njit
 
+    if not _REGISTERED:
+        _register()
+
     fn = k.py_func
     scope = dict(fn.__globals__)
     for name in fn.__code__.co_names:
@@ -128,6 +140,26 @@ def inlined(k: Kernel):
     twin = types.FunctionType(fn.__code__, scope, fn.__name__, fn.__defaults__, fn.__closure__)
     _TWINS[k] = njit(nogil=True, error_model="numpy", inline="always")(twin)
     return _TWINS[k]
+
+
+def trailing_zeros(x):
+    """The number of trailing zero bits of an unsigned integer x > 0: in a
+    compiled kernel numba's intrinsic (``cttz``, replacing this function),
+    interpreted this loop."""
+    n = 0
+    while not x & 1:
+        x >>= 1
+        n += 1
+    return n
+
+
+def _register_trailing_zeros():
+    from numba.core.extending import overload
+    from numba.cpython.unsafe.numbers import trailing_zeros as cttz
+
+    @overload(trailing_zeros, inline="always")
+    def _overload(x):
+        return lambda x: cttz(x)
 
 
 def kernel(fn) -> Kernel:

@@ -12,7 +12,7 @@ above it are compiled here, once, and imported by every generated module.
 """
 import numpy as np
 
-from kinem.dense import _solve1, assemble, band_factor, band_solve, factor_into
+from kinem.dense import MASK, _solve1, assemble, band_factor, band_solve, factor_into, sparse_factor, sparse_solve
 from kinem.jit import kernel
 from kinem.tracking import jump_sizes, rejected
 
@@ -45,21 +45,31 @@ def rotate(q, angles, E):
 
 
 @kernel
-def factorize(J, piv, band):
-    """LU of J_s: of its diagonal blocks (dense), or banded (kinem.model.Band:
-    band = (kl, ku, size, coupling rows, coupling columns); kl < 0: dense)."""
+def factorize(J, piv, band, patterns, rm, cm):
+    """LU of J_s: of its diagonal blocks (dense; blocks of up to MASK
+    coordinates visiting only their nonzeros, kinem.dense.sparse_factor,
+    from their patterns (2, count, size) into the row and column masks rm,
+    cm), or banded (kinem.model.Band: band = (kl, ku, size, coupling rows,
+    coupling columns); kl < 0: dense)."""
     kl, ku, size = band[0], band[1], band[2]
     if kl < 0:
-        factor_into(J, piv)
+        if J.shape[1] <= MASK:
+            for c in range(J.shape[0]):
+                rm[c] = patterns[0, c]
+                cm[c] = patterns[1, c]
+                sparse_factor(J[c], piv[c], rm[c], cm[c])
+        else:
+            factor_into(J, piv)
     else:
         band_factor(J[0, :J.shape[1] - 2, :size], piv[0, :size], kl, ku)
 
 
 @kernel
-def lu_solve(J, piv, band, b, row_pos, col_pos, scale, col_scale, x, w):
+def lu_solve(J, piv, band, rm, b, row_pos, col_pos, scale, col_scale, x, w):
     """x = Phi_q^-1 b from the LU factors of J_s = diag(1/scale) Phi_q
     diag(col_scale): b's row i at position row_pos[i], x's coordinate j at
-    col_pos[j]; w: work. Dense: the diagonal blocks (kinem.model.Blocks).
+    col_pos[j]; w: work. Dense: the diagonal blocks (kinem.model.Blocks;
+    rm: their factors' row masks, ``factorize``).
     Banded (kinem.model.Band): the single-entry rows' coordinates first,
     their columns' terms moved to the right side, then the band."""
     kl, ku, size, cr, cs = band
@@ -69,7 +79,10 @@ def lu_solve(J, piv, band, b, row_pos, col_pos, scale, col_scale, x, w):
     if kl < 0:
         s = J.shape[1]
         for c in range(J.shape[0]):
-            _solve1(J[c], piv[c], w[c * s:(c + 1) * s])
+            if s <= MASK:
+                sparse_solve(J[c], piv[c], rm[c], w[c * s:(c + 1) * s])
+            else:
+                _solve1(J[c], piv[c], w[c * s:(c + 1) * s])
     else:
         H = J.shape[1]
         for s in range(x.shape[0] - size):
@@ -82,13 +95,13 @@ def lu_solve(J, piv, band, b, row_pos, col_pos, scale, col_scale, x, w):
 
 
 @kernel
-def refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, max_step):
+def refine(J, piv, band, rm, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, max_step):
     """q1 += -Phi_q^-1 phi from the LU factors, the step limited to max_step
     in dimensionless coordinates: a Newton step, or the final correction.
     Returns the step's size (dimensionless, before the limit)."""
     for i in range(b.shape[0]):
         b[i] = -phi[0, i]
-    lu_solve(J, piv, band, b, row_pos, col_pos, scale, col_scale, dq, w)
+    lu_solve(J, piv, band, rm, b, row_pos, col_pos, scale, col_scale, dq, w)
     big = 0.0
     for j in range(dq.shape[0]):
         big = max(big, abs(dq[j]) / col_scale[j])
@@ -174,17 +187,18 @@ def run(times, k, state, A, nu, structure, settings, out):
     without, it extrapolates through H (``lagrange``) and no rate is solved.
     A: the families' arguments (kinem.march). nu: (K, m). structure:
     (entries (block, row, col), entry_scale, row_pos, col_pos, pad, real,
-    sign, scale, col_scale, count, size, height, width, band, angles): J_s's
-    diagonal blocks (kinem.model.Blocks; band[0] < 0) or its band
-    (kinem.model.Band), stored in J (count, height, width); the angle
-    columns, whose exp(i q) the kernels read (``rotate``). settings:
+    sign, scale, col_scale, count, size, height, width, band, angles,
+    patterns): J_s's diagonal blocks (kinem.model.Blocks; band[0] < 0) or
+    its band (kinem.model.Band), stored in J (count, height, width); the
+    angle columns, whose exp(i q) the kernels read (``rotate``); the
+    blocks' patterns as bit masks (kinem.dense.masks; ``factorize``). settings:
     (tolerance, max iterations, max step, pivot floor, rates). out: (Q, QD,
     QDD (K, n), iterations, residual, pivot (K,), counts (2,): Jacobian
     evaluations and factorisations, added to). Returns (the first instant
     not accepted, or K, and why: 0, NOT_CONVERGED or the tracker's code)."""
     q, qd, qdd, last, H, T = state
     (blk, rows, cols, entry_scale, row_pos, col_pos, pad, real, sign, scale, col_scale, count, size, height, width,
-     band, angles) = structure
+     band, angles, patterns) = structure
     tol, max_it, max_step, floor, rates = settings
     Q, QD, QDD, iterations, residuals, pivots, counts = out
     n, m, K = q.shape[0], scale.shape[0], times.shape[0]
@@ -196,6 +210,8 @@ def run(times, k, state, A, nu, structure, settings, out):
     values = np.empty((1, rows.shape[0]))
     J = np.empty((count, height, width))
     piv = np.empty((count, size), np.int32)
+    rm = np.empty((count, size), np.uint64)
+    cm = np.empty((count, size), np.uint64)
     qp = np.empty(n)
     dq = np.empty(n)
     b = np.empty(m)
@@ -231,22 +247,22 @@ def run(times, k, state, A, nu, structure, settings, out):
                     elif not r < np.inf or it == max_it:
                         return k, NOT_CONVERGED
             if polish:
-                refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
+                refine(J, piv, band, rm, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
                 polish, polished = False, True
             elif converged and not refined and it > 0:
-                step = refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
+                step = refine(J, piv, band, rm, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
                 refined = True
             rotate(q1, angles, E1)
             jac_all(q1, E1, A, values)
             assemble(values, blk, rows, cols, entry_scale, pad, J)
-            factorize(J, piv, band)
+            factorize(J, piv, band, patterns, rm, cm)
             counts[0] += 1
             counts[1] += 1
             if not converged:
-                refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, max_step)
+                refine(J, piv, band, rm, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, max_step)
                 it += 1
             elif not refined:
-                step = refine(J, piv, band, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
+                step = refine(J, piv, band, rm, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
                 refined = True
             elif step > POLISH and not polished:
                 polish = True
@@ -261,11 +277,11 @@ def run(times, k, state, A, nu, structure, settings, out):
         for j in range(n):
             q[j] = q1[0, j]
         if rates:
-            lu_solve(J, piv, band, nu[k], row_pos, col_pos, scale, col_scale, qd, w)
+            lu_solve(J, piv, band, rm, nu[k], row_pos, col_pos, scale, col_scale, qd, w)
             for j in range(n):
                 qd1[0, j] = qd[j]
             gamma_all(q1, qd1, E1, k, A, g)
-            lu_solve(J, piv, band, g[0], row_pos, col_pos, scale, col_scale, qdd, w)
+            lu_solve(J, piv, band, rm, g[0], row_pos, col_pos, scale, col_scale, qdd, w)
             QD[k] = qd
             QDD[k] = qdd
         else:

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import dense
 from .analysis import MAX_STEP
 from .options import Options
 from .tracking import State, singular_pivot
@@ -231,13 +232,15 @@ def _structure(model):
         d = model.band
         return (*d.entries, model.entry_scale, d.row_pos, d.col_pos, np.empty(0, np.intp), np.ones(model.n, bool),
                 d.sign, model.scale, model.col_scale, 1, model.n, d.height, d.width, (d.kl, d.ku, d.size, *d.coupling),
-                angles)
+                angles, np.zeros((2, 1, model.n), np.uint64))
     b = model.blocks
     real = np.ones(b.count * b.size, bool)
     real[b.pad] = False
     none = np.empty(0, np.intp)
+    patterns = dense.masks(*b.entries, b.pad, b.count, b.size) if b.size <= dense.MASK else \
+        np.zeros((2, b.count, b.size), np.uint64)
     return (*b.entries, model.entry_scale, b.row_pos, b.col_pos, b.pad, real, b.sign, model.scale, model.col_scale,
-            b.count, b.size, b.size, b.size, (-1, -1, 0, none, none), angles)
+            b.count, b.size, b.size, b.size, (-1, -1, 0, none, none), angles, patterns)
 
 
 # model -> [structure, (times, rates, A, nu) of its last march, the loop's

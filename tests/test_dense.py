@@ -48,6 +48,51 @@ def test_factor_and_solve_match_lapack(A):
         assert lu_det_sign(diag, piv[k]) == np.sign(np.linalg.det(A[k]))
 
 
+@st.composite
+def sparse_matrices(draw):
+    """Jacobian-like sparse matrices: a few entries a row, many of them +-1
+    (exact ties between candidate pivots), some zero after elimination."""
+    n = draw(st.integers(1, dense.MASK))
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    values = np.array([1.0, -1.0, 0.5, 2.0, rng.normal(), -rng.normal()])
+    A = np.where(rng.random((n, n)) < 3.0 / n, rng.choice(values, size=(n, n)), 0.0)
+    A[np.arange(n), rng.permutation(n)] = rng.choice([1.0, -1.0, 3.0], size=n)
+    if draw(st.booleans()):
+        A[rng.integers(n)] = 0.0  # a zero row: singular, a zero pivot somewhere
+    return A
+
+
+@settings(max_examples=150, deadline=None)
+@given(sparse_matrices())
+def test_sparse_factor_is_factor_into_to_the_bit(A):
+    """The masked LU (dense.sparse_factor) makes factor_into's pivot choices,
+    ties included, and its arithmetic on every nonzero: the same factors
+    and pivots to the bit, so the pivot ratio and det sign do not depend on
+    which one the march takes. Its solve sums in another order: the same
+    solution to rounding (1e3 eps cond, as against LAPACK above)."""
+    n = A.shape[0]
+    LU, piv = A[None].copy(), np.zeros((1, n), np.int32)
+    dense.factor_into(LU, piv)
+    pattern = np.argwhere(A != 0)
+    m = dense.masks(np.zeros(len(pattern), np.intp), pattern[:, 0].astype(np.intp), pattern[:, 1].astype(np.intp),
+                    np.empty(0, np.intp), 1, n)
+    a, p, rm, cm = A.copy(), np.zeros(n, np.int32), m[0, 0].copy(), m[1, 0].copy()
+    dense.sparse_factor(a, p, rm, cm)
+    assert np.array_equal(p, piv[0])
+    assert np.array_equal(a, LU[0], equal_nan=True)
+    for i in range(n):  # the masks cover the factors' nonzeros
+        cols = [c for c in range(n) if int(rm[i]) >> c & 1]
+        assert set(np.flatnonzero(a[i])) <= set(cols)
+    cond = np.linalg.cond(A)
+    if np.isfinite(cond) and cond < 1e10:
+        b = np.arange(1.0, n + 1)
+        x, y = b.copy(), b.copy()
+        dense._solve1(LU[0], piv[0], x)
+        dense.sparse_solve(a, p, rm, y)
+        assert np.linalg.norm(x - y) <= 1e3 * np.finfo(float).eps * cond * np.linalg.norm(x)
+
+
 def test_a_zero_pivot_gives_pivot_ratio_zero_without_error():
     A = np.array([[[1.0, 2.0], [2.0, 4.0]]])
     piv = dense.factor(A)
