@@ -13,7 +13,7 @@ one implementation; tests/test_jit.py checks that they agree.
 
 error_model="numpy": a division by zero gives inf or nan, as in numpy, for
 the callers to test. numba checks a cache against the kernel's own source
-file only; ``coherent`` removes every kinem cache when any kernel's source
+file only; ``refresh`` removes every kinem cache when any kernel's source
 changes, so a kernel may call (or inline) another module's.
 """
 import sys
@@ -47,10 +47,7 @@ class Kernel:
         if self.dispatcher is None:
             from numba import njit
 
-            coherent()
-            if not _REGISTERED:
-                _register()
-
+            _ready()
             self.dispatcher = njit(cache=True, nogil=True, error_model="numpy")(self.py_func)
         return self.dispatcher
 
@@ -61,37 +58,26 @@ class Kernel:
         return types.Dispatcher(self.compiled())
 
 
-_CHECKED = False
-_REGISTERED = False
+_READY = False
 
 
-def _register():
-    global _REGISTERED
-    _REGISTERED = True
-    _register_trailing_zeros()
-
-
-def coherent() -> None:
-    """Removes kinem's numba caches once the kernels' sources change
-    (``refresh`` on kinem's folder), once per process."""
-    global _CHECKED
-    if not _CHECKED:
-        _CHECKED = True
+def _ready() -> None:
+    """Once per process, before numba compiles a kernel: stale caches
+    removed (``refresh`` on kinem's folder) and ``trailing_zeros`` given
+    to numba."""
+    global _READY
+    if not _READY:
+        _READY = True
         from pathlib import Path
 
         refresh(Path(__file__).parent)
+        _register_trailing_zeros()
 
 
-def refresh(root) -> bool:
-    """Removes the numba caches (*.nbi, *.nbc) of root's and
-    root/constraints' modules when the sources with kernels there differ
-    from those of the hash kept in root/__pycache__/kernels.stamp (written
-    anew), under a lock; returns whether it did. numba checks a cached
-    function against its own source file only, but a compiled call of
-    another module's kernel (kinem.loop calls kinem.dense) or an inlined
-    one (``inlined``) is part of the caller's cached code: an edit there
-    would otherwise leave the caller running the old code."""
-    import fcntl
+def sources(root) -> str:
+    """Hash of the sources with kernels in root and root/constraints (a
+    generated module's source counts too: kinem.march names its modules
+    by it)."""
     import hashlib
 
     h = hashlib.sha1()
@@ -99,7 +85,21 @@ def refresh(root) -> bool:
         text = p.read_bytes()
         if b"@kernel" in text:
             h.update(p.name.encode() + text)
-    stamp, digest = root / "__pycache__" / "kernels.stamp", h.hexdigest()
+    return h.hexdigest()
+
+
+def refresh(root) -> bool:
+    """Removes the numba caches (*.nbi, *.nbc) of root's and
+    root/constraints' modules when their ``sources`` differ from those of
+    the hash kept in root/__pycache__/kernels.stamp (written anew), under a
+    lock; returns whether it did. numba checks a cached function against
+    its own source file only, but a compiled call of another module's
+    kernel (kinem.loop calls kinem.dense) or an inlined one (``inlined``)
+    is part of the caller's cached code: an edit there would otherwise
+    leave the caller running the old code."""
+    import fcntl
+
+    stamp, digest = root / "__pycache__" / "kernels.stamp", sources(root)
     try:
         stamp.parent.mkdir(exist_ok=True)
         with open(stamp.with_suffix(".lock"), "w") as lock:
@@ -129,9 +129,7 @@ def inlined(k: Kernel):
         return _TWINS[k]
     from numba import njit
 
-    if not _REGISTERED:
-        _register()
-
+    _ready()
     fn = k.py_func
     scope = dict(fn.__globals__)
     for name in fn.__code__.co_names:

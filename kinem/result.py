@@ -84,7 +84,7 @@ class SolveResult:
                 f"trajectory={self.trajectory!r}, wall_time={self.wall_time:.3g} s)")
 
 
-_LAYOUTS = weakref.WeakKeyDictionary()  # model -> {number of stages: (names, sources)}
+_LAYOUTS = weakref.WeakKeyDictionary()  # model -> {number of stages: ``_layout``}
 
 
 def _layout(model, stages: int):
