@@ -3,23 +3,20 @@ on a Model and a separate mutable Data; ``kinem.solver.solve`` runs them over
 the output instants.
 
 Position: Newton-Raphson on Phi(q, t) = 0 (Eqs. 4.41, 4.42), converged when
-every scaled residual |Phi_k| / scale_k <= tolerance (docs/solver.md).
-Velocity: Phi_q qd = nu. Acceleration: Phi_q qdd = gamma. The Jacobian at the
-converged q is factorised once and serves both solves.
+every scaled residual |Phi_k| / scale_k <= tolerance (docs/solver.md): the
+one Newton of kinem (kinem.newton.settle) on this module's operations, for
+any linear solver. Velocity: Phi_q qd = nu. Acceleration: Phi_q qdd = gamma.
+The Jacobian at the corrected q is factorised once and serves both solves.
 """
 from dataclasses import dataclass
 
 import numpy as np
 
 from .diagnose import explain_assembly
-from .errors import ConvergenceError, InputError
+from .errors import ConvergenceError, InputError, SingularError
+from .jit import bound
 from .linalg import Factor, Solver
-
-
-# Newton steps are limited to this length in dimensionless coordinates
-# (lengths over L, angles in radians): a rough estimate never sends the
-# assembly many turns away, and tracking steps are far shorter anyway.
-MAX_STEP = 0.5
+from .newton import MAX_STEP, settle
 
 
 @dataclass
@@ -29,11 +26,10 @@ class Data:
     t: float = 0.0
     qd: np.ndarray | None = None
     qdd: np.ndarray | None = None
-    factor: Factor | None = None        # LU of Phi_q at the converged (q, t)
-    newton_factor: Factor | None = None  # LU at the last Newton iterate
+    factor: Factor | None = None        # LU of Phi_q at (q, t) after a position solve
     iterations: int = 0                 # Newton iterations of the last position solve
     residual: float = np.inf            # its final max scaled residual
-    phi: np.ndarray | None = None       # Phi at the converged q (for ``refine``)
+    correction: float = 0.0             # its last Newton correction (kinem.newton.settle)
     worst_row: int = 0
     jacobian_evaluations: int = 0
     factorizations: int = 0
@@ -80,49 +76,103 @@ class MinimumNorm:
         return m.col_scale * np.linalg.lstsq(self.J, b / m.scale, rcond=None)[0]
 
 
+class Singular:
+    """The final factorisation of a position solve where Phi_q is singular
+    (kinem.linalg.PIVOT_RATIO): pivot ratio 0, det sign 0, no solve."""
+    pivot_ratio, det_sign = 0.0, 0
+
+    def __init__(self, error):
+        self.error = error
+
+    def solve(self, b):
+        raise self.error
+
+
+class Steps:
+    """kinem.newton.settle's ``work`` step by step: Phi and the factorisation
+    at the current q (``_evaluate``, ``_factor_at``, ``_correct``)."""
+
+    def __init__(self, model, data, t, reuse, minimum_norm):
+        self.model, self.data, self.t = model, data, t
+        self.reuse, self.minimum_norm = reuse, minimum_norm
+        self.phi = self.f = None
+        self.r = self.previous = np.inf
+        self.reused = 0
+
+
+def _evaluate(q, k, s, it):
+    m, d = s.model, s.data
+    s.phi = m.phi(q, s.t)
+    r = m.scaled_residual(s.phi)
+    worst = int(np.argmax(r)) if r.size else 0
+    residual = float(r[worst]) if r.size else 0.0
+    if it >= 0:
+        s.r, d.worst_row = residual, worst
+        if d.trace is not None:
+            d.trace.append((s.t, "newton", it, residual, m.row_labels[worst] if r.size else ""))
+    return residual
+
+
+def _factor_at(q, s, final):
+    """The factorisation at q; with Jacobian reuse (modified Newton: s.reuse,
+    one from a nearby configuration) that one while it shrinks the residual
+    by REUSE_RATE per iteration, at most REUSE_ITERATIONS times."""
+    m, d = s.model, s.data
+    if s.minimum_norm:
+        s.f = MinimumNorm(m, q, s.t)
+    elif final or s.reuse is None or s.reused >= REUSE_ITERATIONS or s.r > REUSE_RATE * s.previous:
+        s.reuse = None  # full Newton from here on: a fresh Jacobian every iteration
+        try:
+            s.f = _factor(m, d, q, s.t)
+        except SingularError as e:
+            if not final:
+                raise
+            s.f = Singular(e)
+    else:
+        s.f, s.reused = s.reuse, s.reused + 1
+    s.previous = s.r
+
+
+def _correct(q, s, limit):
+    if isinstance(s.f, Singular):
+        return 0.0
+    dq = s.f.solve(-s.phi)
+    size = float(np.max(np.abs(dq) / s.model.col_scale)) if dq.size else 0.0
+    if size > limit:
+        dq *= limit / size
+    q += dq
+    return size
+
+
+_SETTLE = bound(settle, evaluate=_evaluate, factor=_factor_at, correct=_correct)
+
+
 def position(model, data: Data, t: float, tolerance=None, max_iterations=None, factor=None,
-             minimum_norm=False) -> None:
-    """Newton-Raphson from data.q to Phi(q, t) = 0, steps limited to MAX_STEP.
+             minimum_norm=False, finish=True) -> None:
+    """Newton-Raphson from data.q to Phi(q, t) = 0, steps limited to MAX_STEP
+    (kinem.newton.settle), then (``finish``) the final correction and the
+    factorisation at the corrected q in data.factor (a ``Singular`` one
+    where Phi_q is singular there) for the rate solves.
     ``factor``: a factorisation of Phi_q at a nearby configuration to start
     with (modified Newton); a fresh one is made as soon as it converges slowly.
     ``minimum_norm``: Gauss-Newton (``MinimumNorm`` steps, not limited)."""
     tol = model.case.tolerance if tolerance is None else tolerance
     max_it = model.case.max_iterations if max_iterations is None else max_iterations
-    q = data.q.copy()
+    q = np.array(data.q, dtype=float)
     data.t = t
     data.factor = None
-    previous = np.inf
-    for it in range(max_it + 1):
-        phi = model.phi(q, t)
-        r = model.scaled_residual(phi)
-        worst = int(np.argmax(r)) if r.size else 0
-        data.residual, data.worst_row, data.iterations = float(r[worst]) if r.size else 0.0, worst, it
-        if data.trace is not None:
-            data.trace.append((t, "newton", it, data.residual, model.row_labels[worst] if r.size else ""))
-        if not np.isfinite(data.residual):
-            break
-        if data.residual <= tol:
-            data.q, data.phi = q, phi
-            return
-        if it == max_it:
-            break
-        if minimum_norm:
-            f = MinimumNorm(model, q, t)
-        elif factor is None or it >= REUSE_ITERATIONS or data.residual > REUSE_RATE * previous:
-            factor = None  # full Newton from here on: a fresh Jacobian every iteration
-            f = data.newton_factor = _factor(model, data, q, t)
-        else:
-            f = factor
-        previous = data.residual
-        dq = f.solve(-phi)
-        size = np.max(np.abs(dq) / model.col_scale)
-        if size > MAX_STEP and not minimum_norm:
-            dq *= MAX_STEP / size
-        q += dq
-    data.q = q
-    raise ConvergenceError(f"no convergence after {data.iterations} iterations: scaled residual "
-                           f"{data.residual:.2e} (tolerance {tol:.1e}), largest in constraint "
-                           f"'{model.row_owner[data.worst_row]}' ({model.row_labels[data.worst_row]})")
+    steps = Steps(model, data, t, factor, minimum_norm)
+    try:
+        data.iterations, data.residual, status, data.correction = _SETTLE(
+            q, 0, steps, tol, max_it, np.inf if minimum_norm else MAX_STEP, finish)
+    finally:
+        data.q = q
+    if status:
+        raise ConvergenceError(f"no convergence after {data.iterations} iterations: scaled residual "
+                               f"{data.residual:.2e} (tolerance {tol:.1e}), largest in constraint "
+                               f"'{model.row_owner[data.worst_row]}' ({model.row_labels[data.worst_row]})")
+    if finish:
+        data.factor = steps.f
 
 
 def gauss_newton(model, q, t, max_iterations=None, tolerance=None):
@@ -131,23 +181,15 @@ def gauss_newton(model, q, t, max_iterations=None, tolerance=None):
     constraints, a singular configuration). Returns (q, max scaled residual)."""
     data = Data(q=np.array(q, dtype=float))
     try:
-        position(model, data, t, tolerance, max_iterations or None, minimum_norm=True)
+        position(model, data, t, tolerance, max_iterations or None, minimum_norm=True, finish=False)
     except ConvergenceError:
         pass
     return data.q, data.residual
 
 
 def factorize(model, data: Data) -> None:
-    """Factorise Phi_q at the converged data.q for the velocity and acceleration solves."""
+    """Factorise Phi_q at data.q for the velocity and acceleration solves."""
     data.factor = _factor(model, data, data.q, data.t)
-
-
-def refine(data: Data, factor) -> None:
-    """One more Newton correction at the converged q with a factorisation at
-    hand (the one at q, or the last iterate's): the position error falls
-    from about the tolerance to about its square for one solve. The reported
-    residual stays that of the converged iterate, an upper bound."""
-    data.q = data.q + factor.solve(-data.phi)
 
 
 def velocity(model, data: Data) -> None:

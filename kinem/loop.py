@@ -1,28 +1,26 @@
 """The compiled march loop (docs/solver.md, "The march"): Newton-Raphson
-position analysis, the acceptance test and the velocity and acceleration
-solves at every output instant, in one compiled function.
+position analysis (kinem.newton.settle), the acceptance test and the
+velocity and acceleration solves at every output instant, in one compiled
+function.
 
-``run`` is the source of the march of every model: kinem.march writes a
-module made of it with its evaluator calls ``phi_all``, ``jac_all`` and
-``gamma_all`` written out for the model's constraint families (each
-family's kernel on its slice of the rows), and numba compiles that once per
-set of families, cached on disk. Here, read as a module, the evaluators
-are missing: nothing calls ``run`` from this module itself. The helpers
-above it are compiled here, once, and imported by every generated module.
+``evaluate``, ``factor``, ``correct`` and ``run`` are the source of the march of every
+model: kinem.march writes a module made of them with their evaluator calls
+``phi_all``, ``jac_all`` and ``gamma_all`` written out for the model's
+constraint families (each family's kernel on its slice of the rows), binds
+kinem.newton.settle's operations to the first three, and numba compiles that once per set of families, cached on
+disk. Here, read as a module, the evaluators are missing: nothing calls
+``run`` from this module itself. The helpers above them are compiled here,
+once, and imported by every generated module.
 """
 import numpy as np
 
 from kinem.dense import MASK, _solve1, assemble, band_factor, band_solve, factor_into, sparse_factor, sparse_solve
 from kinem.jit import kernel
+from kinem.newton import NOT_CONVERGED
 from kinem.tracking import jump_sizes, rejected
 
-# Why ``run`` hands an instant back to the tracker (kinem.tracking codes, and:)
-NOT_CONVERGED = 4
-# A final correction (dimensionless) above this calls for one more (``run``):
-# at the default tolerance it is about 1e-12; at a loose one (1e-6) about the
-# tolerance, and the first correction, made with the last iteration's LU,
-# leaves that times the iteration's step (1e-10 of L on the slider-crank).
-POLISH = 1e-10
+# Why ``run`` hands an instant back to the tracker: kinem.tracking's codes, and
+# kinem.newton.NOT_CONVERGED.
 
 
 @kernel
@@ -168,6 +166,39 @@ def lagrange(t, T, H, q):
 
 
 @kernel
+def evaluate(q1, k, work, it):
+    """kinem.newton's ``evaluate`` in the march: Phi at q1 (1, n) into
+    work's phi, and its max scaled residual (``run``)."""
+    A, E1, phi, st = work[0], work[1], work[2], work[12]
+    rotate(q1, st[16], E1)
+    phi_all(q1, E1, k, A, phi)
+    return residual(phi[0], st[9])
+
+
+@kernel
+def factor(q1, work, final):
+    """kinem.newton's ``factor`` in the march: J_s at q1 assembled into
+    work's J and factorised, always at q1 (``run``)."""
+    A, E1, values, J, piv, rm, cm, counts, st = work[0], work[1], work[3], work[4], work[5], work[6], work[7], \
+        work[11], work[12]
+    rotate(q1, st[16], E1)
+    jac_all(q1, E1, A, values)
+    assemble(values, st[0], st[1], st[2], st[3], st[6], J)
+    factorize(J, piv, st[15], st[17], rm, cm)
+    counts[0] += 1
+    counts[1] += 1
+
+
+@kernel
+def correct(q1, work, limit):
+    """kinem.newton's ``correct`` in the march: ``refine`` with the LU in
+    ``work`` (``run``)."""
+    st = work[12]
+    return refine(work[4], work[5], st[15], work[6], work[2], st[4], st[5], st[9], st[10], work[8], work[9],
+                  work[10], q1, limit)
+
+
+@kernel
 def run(times, k, state, A, nu, structure, settings, out):
     """March from the accepted state (q, qd, qdd at state time and det sign)
     over the output instants times[k:], until one is not accepted. From
@@ -175,10 +206,10 @@ def run(times, k, state, A, nu, structure, settings, out):
     accepted when its pivot ratio is above the floor: the tracker's start
     takes the rest, with its diagnoses). Each instant: the Taylor
     predictor from the last state, Newton-Raphson with steps limited to
-    max_step (dimensionless), one more correction from the last LU
-    (kinem.analysis.refine), then the LU at the corrected q for its pivot
-    ratio and det sign, the acceptance test (kinem.tracking.rejected) and
-    the rates from that LU: to rounding, not to the tolerance.
+    max_step (dimensionless), the final correction and the LU at the
+    corrected q (kinem.newton.settle), its pivot ratio and det sign, the
+    acceptance test (kinem.tracking.rejected) and the rates from that LU:
+    to rounding, not to the tolerance.
 
     state: (q, qd, qdd (n,), last (2,): time and det sign, H (3, n), T (3,):
     the last three states' q and t, oldest first, NaN for none), updated to
@@ -216,6 +247,7 @@ def run(times, k, state, A, nu, structure, settings, out):
     dq = np.empty(n)
     b = np.empty(m)
     w = np.empty(max(count * size, n))
+    work = (A, E1, phi, values, J, piv, rm, cm, dq, w, b, counts, structure)
     while k < K:
         t = times[k]
         h = t - last[0]
@@ -229,49 +261,13 @@ def run(times, k, state, A, nu, structure, settings, out):
             judge = lagrange(t, T, H, qp) >= 1
         for j in range(n):
             q1[0, j] = qp[j]
-        # Newton, then the final correction with the last LU at hand (a fresh one
-        # when the predictor converged), then the LU at the corrected q. A final
-        # correction above POLISH (a loose tolerance) leaves the last LU's error
-        # times its own in q: one more correction with the LU at the corrected
-        # q, and the LU again. One site of each evaluator: numba inlines the
-        # families' kernels at every site (kinem.jit.inlined).
-        it, r, converged, refined, polished, polish, step = 0, np.inf, False, False, False, False, 0.0
-        while True:
-            if not converged or polish:
-                rotate(q1, angles, E1)
-                phi_all(q1, E1, k, A, phi)
-                if not converged:
-                    r = residual(phi[0], scale)
-                    if r <= tol:
-                        converged = True
-                    elif not r < np.inf or it == max_it:
-                        return k, NOT_CONVERGED
-            if polish:
-                refine(J, piv, band, rm, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
-                polish, polished = False, True
-            elif converged and not refined and it > 0:
-                step = refine(J, piv, band, rm, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
-                refined = True
-            rotate(q1, angles, E1)
-            jac_all(q1, E1, A, values)
-            assemble(values, blk, rows, cols, entry_scale, pad, J)
-            factorize(J, piv, band, patterns, rm, cm)
-            counts[0] += 1
-            counts[1] += 1
-            if not converged:
-                refine(J, piv, band, rm, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, max_step)
-                it += 1
-            elif not refined:
-                step = refine(J, piv, band, rm, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, np.inf)
-                refined = True
-            elif step > POLISH and not polished:
-                polish = True
-            else:
-                break
+        it, r, why, last_step = settle(q1, k, work, tol, max_it, max_step, True)
+        if why != 0:
+            return k, why
         ratio, det = lu_stats(J, piv, band, real, sign)
         corr, move = jump_sizes(q1[0], qp, q, col_scale)
         # the assembly is not tested for a jump or a det flip: it has no state before it
-        why = rejected(ratio, det, det if k == 0 else int(last[1]), corr, move, judge, floor, tol, False)
+        why = rejected(ratio, last_step, det, det if k == 0 else int(last[1]), corr, move, judge, floor, tol, False)
         if why != 0:
             return k, why
         for j in range(n):
@@ -297,4 +293,4 @@ def run(times, k, state, A, nu, structure, settings, out):
     return k, 0
 
 
-phi_all = jac_all = gamma_all = None  # written for each model's families (kinem.march)
+phi_all = jac_all = gamma_all = settle = None  # written for each model's families, and bound (kinem.march)

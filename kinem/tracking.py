@@ -93,16 +93,21 @@ NEAR_SINGULAR, DET_FLIP, JUMP = 1, 2, 3
 
 
 @kernel
-def rejected(pivot, det, previous_det, corr, move, judge_jump, floor, tolerance, allow_flip):
+def rejected(pivot, correction, det, previous_det, corr, move, judge_jump, floor, tolerance, allow_flip):
     """The acceptance test of a tracked state reached in one step from the
     one before it, the one test of the tracker and of the compiled march
     (kinem.march): NEAR_SINGULAR when its pivot ratio is below the floor
-    (singular_pivot) or not a number, DET_FLIP when det(J_s) changed sign
-    (unless ``allow_flip``: a step over a bifurcation), JUMP when its
-    correction from the predictor is above KAPPA times the predicted motion
-    plus ten times the tolerance for round-off (``jump_sizes``; judged when
-    ``judge_jump``: the predictor had a slope), else 0."""
-    if not pivot >= floor:
+    (singular_pivot) or not a number, or when its last Newton correction
+    (kinem.newton.settle) is above REGULAR x sqrt(tolerance): Newton
+    converged linearly, to a singular root, where a correction with the
+    nearly singular LU can throw q to a configuration that passes the floor
+    (docs/solver.md, "Branches and singular configurations"); DET_FLIP
+    when det(J_s) changed sign (unless ``allow_flip``: a step over a
+    bifurcation), JUMP when its correction from the predictor is above
+    KAPPA times the predicted motion plus ten times the tolerance for
+    round-off (``jump_sizes``; judged when ``judge_jump``: the predictor
+    had a slope), else 0."""
+    if not pivot >= floor or not correction <= REGULAR * tolerance**0.5:
         return NEAR_SINGULAR
     if det != previous_det and not allow_flip:
         return DET_FLIP
@@ -130,6 +135,7 @@ class State:
     det: int
     iterations: int
     residual: float
+    correction: float = 0.0  # the last Newton correction (kinem.newton.settle)
 
 
 class Rejected(Exception):
@@ -150,36 +156,24 @@ class Tracker:
 
     # -- one configuration -------------------------------------------------
     def settle(self, t, q_start) -> State:
-        """Newton from q_start at t, then the monitor factorisation (and the
-        velocity and acceleration when asked)."""
+        """Newton from q_start at t to the corrected q and the factorisation
+        there (kinem.analysis.position), its pivot ratio and det sign, and the
+        velocity and acceleration when asked (none where Phi_q is singular)."""
         m, d = self.model, self.data
-        # modified Newton from the last converged Jacobian, when the case asks for it
-        reuse = d.factor if self.options.jacobian_reuse and self.need_v and self.history else None
+        # modified Newton from the last instant's factorisation, when the case asks for it
+        reuse = d.factor if self.options.jacobian_reuse and self.history and d.factor.pivot_ratio > 0 else None
         d.q = q_start
-        d.newton_factor = None
         self.a.position(m, d, t, self.tol, self.options.max_iterations, factor=reuse)
+        f = d.factor
         qd = qdd = None
-        try:
-            if self.need_v:
-                self.a.factorize(m, d)
-                f = d.factor
-            else:
-                f = d.newton_factor if d.iterations > 0 else self.a._factor(m, d, d.q, t)
-            self.a.refine(d, f)
-            if self.need_v:
-                if not self.options.jacobian_reuse:
-                    # rates from the Jacobian at the corrected position: to rounding, not to the
-                    # tolerance (modified Newton trades that for one factorisation per instant)
-                    self.a.factorize(m, d)
-                self.a.velocity(m, d)
-                qd = d.qd
-                if self.need_a:
-                    self.a.acceleration(m, d)
-                    qdd = d.qdd
-            pivot, det = f.pivot_ratio, f.det_sign
-        except SingularError:
-            pivot, det = 0.0, 0
-        return State(t, d.q.copy(), qd, qdd, pivot, det, d.iterations, d.residual)
+        if self.need_v and f.pivot_ratio > 0:
+            # rates from the factorisation at the corrected position: to rounding, not to the tolerance
+            self.a.velocity(m, d)
+            qd = d.qd
+            if self.need_a:
+                self.a.acceleration(m, d)
+                qdd = d.qdd
+        return State(t, d.q.copy(), qd, qdd, f.pivot_ratio, f.det_sign, d.iterations, d.residual, d.correction)
 
     def predict(self, t):
         """(start, order) at t from the accepted states (``extrapolate``)."""
@@ -194,7 +188,8 @@ class Tracker:
         s = self.settle(t, q_pred)
         last = self.history[-1]
         corr, move = jump_sizes(s.q, q_pred, last.q, self.model.col_scale)
-        why = rejected(s.pivot, s.det, last.det, corr, move, order >= 1, self.pivot_floor, self.tol, allow_flip)
+        why = rejected(s.pivot, s.correction, s.det, last.det, corr, move, order >= 1, self.pivot_floor, self.tol,
+                       allow_flip)
         if why == NEAR_SINGULAR:
             raise Rejected(f"near-singular configuration (pivot ratio {s.pivot:.1e})")
         if why == DET_FLIP:
@@ -348,11 +343,10 @@ class Tracker:
             s = self.settle(t, q_pred)
             if s.det != before.det:
                 return None
-            f = self.a._factor(m, d, s.q, t)
-            corr = np.max(np.abs(f.solve(-m.phi(s.q, t))) / m.col_scale)
+            corr = np.max(np.abs(d.factor.solve(-m.phi(s.q, t))) / m.col_scale)  # the factorisation at s.q
         except AnalysisError:
             return None
-        jump = rejected(1.0, 0, 0, *jump_sizes(s.q, q_pred, before.q, m.col_scale), True, 0.0, self.tol, False)
+        jump = rejected(1.0, 0.0, 0, 0, *jump_sizes(s.q, q_pred, before.q, m.col_scale), True, 0.0, self.tol, False)
         regular = corr <= REGULAR * self.tol**0.5 and s.pivot >= REGULAR * self.pivot_floor
         return s if regular and not jump else None
 

@@ -1,0 +1,94 @@
+"""kinem.newton.settle, the one Newton loop: the compiled march and the
+step-by-step analysis run it on their own operations and take the same
+iterations and factorisations; its last correction tells a singular root
+(linear convergence) from a regular one."""
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import kinem
+from kinem import analysis
+from kinem.tracking import NEAR_SINGULAR, REGULAR, rejected, singular_pivot
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.parametrize("name", ["slider_crank", "four_bar", "quick_return_1"])
+@pytest.mark.parametrize("outputs", [kinem.OUTPUTS, ("positions",)])
+def test_the_march_and_the_step_by_step_analysis_take_the_same_steps(name, outputs):
+    """Same Newton, same final correction, same factorisation at the
+    corrected q: the same iteration and factorisation counts, and positions
+    and rates equal to rounding (LAPACK's blocked getrf and the march's
+    unblocked LU round differently, and the conditioning amplifies that:
+    1e-12 of the size or of the rates' peak is 1e4 times rounding)."""
+    case = kinem.load(ROOT / "cases" / f"{name}.toml")
+    step = kinem.solve(kinem.compile(replace(case, block=1)), outputs)
+    march = kinem.solve(kinem.compile(case), outputs)
+    assert step.success and march.success
+    assert np.array_equal(step.iterations, march.iterations)
+    assert (step.jacobian_evaluations, step.factorizations) == (march.jacobian_evaluations, march.factorizations)
+    model = kinem.compile(case)
+    assert np.abs(step.q - march.q).max() / model.length < 1e-12
+    for a, b in [(step.qd, march.qd), (step.qdd, march.qdd)]:
+        if a is not None:
+            assert np.abs(a - b).max() <= 1e-12 * np.abs(b).max()
+
+
+def change_point():
+    """The change-point four-bar at t = 1.5, on its change point (coupler and
+    rocker collinear with the ground: both angles 0), and its exact
+    configuration there."""
+    model = kinem.compile(kinem.load(ROOT / "cases" / "stress" / "change_point.toml"))
+    q = np.zeros(model.n)
+    names = model.coordinate_names
+    q[names.index("crank.x")], q[names.index("coupler.x")] = 0.0, 1.0
+    q[names.index("rocker.x")] = 2.0
+    return model, q
+
+
+def test_a_singular_root_leaves_a_large_last_correction_and_is_rejected():
+    """Newton converges linearly at a singular root: 1e-6 off the change point
+    along the Jacobian's null direction (coupler and rocker turning together,
+    B moving along the vertical) the residual is already below the tolerance
+    (it is quadratic there), and the final correction halves the distance:
+    about 4e-7, far above 1e-2 sqrt(tolerance) = 1e-8. At a regular
+    configuration the final correction is rounding."""
+    model, exact = change_point()
+    tol = model.case.tolerance
+    assert np.abs(model.phi(exact, 1.5)).max() < 1e-15
+    names = model.coordinate_names
+    start = exact.copy()
+    start[names.index("coupler.phi")] += 1e-6
+    start[names.index("rocker.phi")] += 1.5e-6
+    data = kinem.Data(q=start)
+    analysis.position(model, data, 1.5)
+    assert data.iterations == 0 and data.residual <= tol
+    assert data.correction > REGULAR * tol**0.5
+    # the pivot ratio is small here too; the correction alone rejects it
+    assert rejected(1.0, data.correction, 1, 1, 0.0, 1.0, True, singular_pivot(tol), tol, False) == NEAR_SINGULAR
+    regular = kinem.Data(q=start)
+    analysis.position(model, regular, 1.2)
+    assert regular.correction <= 1e-10 and regular.factor.pivot_ratio > 1e-3
+    assert rejected(regular.factor.pivot_ratio, regular.correction, 1, 1, 0.0, 1.0, True, singular_pivot(tol),
+                    tol, False) == 0
+
+
+@pytest.mark.parametrize("block", [64, 1])
+@pytest.mark.parametrize("outputs", [kinem.OUTPUTS, ("positions",)])
+def test_the_instant_on_the_change_point_is_the_singular_configuration(outputs, block):
+    """Both output sets, compiled march or step by step, find the change point
+    at its instant (t = 1.5) and give its configuration (interpolated, then
+    Gauss-Newton: to 1e-9 rad) and carry on along the same smooth branch.
+    Guarded by the last correction: sub-steps get Newton within 1e-10 of
+    the change point, where a final correction with the nearly singular LU
+    threw q 5e-4 rad along the null direction, to a pivot ratio of 1e-4
+    that passes the floor (seen with the correction test off)."""
+    model, exact = change_point()
+    r = kinem.solve(kinem.compile(replace(model.case, block=block)), outputs)
+    assert r.success and [t for t, _ in r.events] == [1.5]
+    k = int(np.argmin(np.abs(r.trajectory.t - 1.5)))
+    assert np.abs(r.q[k] - exact).max() < 1e-9
+    full = kinem.solve(model)
+    assert np.abs(r.q - full.q).max() < 1e-8
