@@ -17,7 +17,7 @@ import numpy as np
 from kinem.dense import MASK, _solve1, assemble, band_factor, band_solve, factor_into, sparse_factor, sparse_solve
 from kinem.jit import kernel
 from kinem.newton import NOT_CONVERGED
-from kinem.tracking import jump_sizes, rejected
+from kinem.tracking import jump_sizes, lagrange, rejected
 
 # Why ``run`` hands an instant back to the tracker: kinem.tracking's codes, and
 # kinem.newton.NOT_CONVERGED.
@@ -142,27 +142,6 @@ def lu_stats(J, piv, band, real, sign):
                     return 0.0, det
                 small, big = min(small, a), max(big, a)
     return (small / big if big > 0 else 0.0), det
-
-
-@kernel
-def lagrange(t, T, H, q):
-    """q at t extrapolated through the states H (3, n) at times T (3,),
-    oldest first (NaN: none), using those within four steps of t, as
-    kinem.tracking.extrapolate does; returns the order (points used - 1)."""
-    h = t - T[2]
-    q[:] = 0.0
-    used = 0
-    for i in range(3):
-        if not t - T[i] <= 4 * h:
-            continue
-        used += 1
-        w = 1.0
-        for j in range(3):
-            if j != i and t - T[j] <= 4 * h:
-                w *= (t - T[j]) / (T[i] - T[j])
-        for c in range(q.shape[0]):
-            q[c] += w * H[i, c]
-    return used - 1
 
 
 @kernel

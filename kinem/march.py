@@ -137,7 +137,7 @@ def _evaluators(forms, widths):
 # small ones called once or twice an iteration inlined, as the families'
 # kernels (kinem.jit.inlined: a call costs more than their arithmetic).
 CALLED = {"dense": ("assemble",), "loop": ("factorize", "lu_solve", "refine")}
-INLINED = {"loop": ("lagrange", "lu_stats", "residual", "rotate"), "tracking": ("jump_sizes", "rejected")}
+INLINED = {"loop": ("lu_stats", "residual", "rotate"), "tracking": ("jump_sizes", "lagrange", "rejected")}
 HELPERS = ("import numpy as np\n\nfrom kinem import dense, loop, newton, tracking\nfrom kinem.jit import inlined, kernel\n"
            "from kinem.newton import NOT_CONVERGED\n\n"
            + "".join(f"{name} = {module}.{name}.compiled()\n" for module, names in CALLED.items() for name in names)
@@ -301,18 +301,16 @@ class March:
         assembled from q0), until one is not accepted; returns the first
         instant not taken (len(times): all)."""
         tr, n = self.tracker, self.model.n
-        H, T = np.zeros((3, n)), np.full(3, np.nan)
         if k == 0:
             q = np.array(self.model.q0 if q0 is None else q0, dtype=float)
-            state = (q, np.zeros(n), np.zeros(n), np.array([self.times[0], 0.0]), H, T)
+            state = (q, np.zeros(n), np.zeros(n), np.array([self.times[0], 0.0]), np.zeros((3, n)), np.full(3, np.nan))
         else:
             last = tr.history[-1]
             if self.rates:
                 qd, qdd = (last.qd, last.qdd) if last.qdd is not None else tr.rates(last)
             else:
                 qd = qdd = np.zeros(n)
-            for i, s in enumerate(tr.history[-3:]):
-                H[3 - len(tr.history[-3:]) + i], T[3 - len(tr.history[-3:]) + i] = s.q, s.t
+            T, H = tr.recent()
             state = (last.q.copy(), qd.copy(), qdd.copy(), np.array([last.t, last.det], float), H, T)
         self.counts[:] = 0
         args = (self.times, k, state, self.A, self.nu, self.structure, self.settings, (*self.out, self.counts))

@@ -49,31 +49,27 @@ def singular_pivot(tolerance: float) -> float:
     return min(1e-3, 1.5 * tolerance**0.5)
 
 
-def extrapolate(t, T, Q, QD=None, QDD=None):
-    """Predicted configurations at the times t (K,), each from the states
-    before it: T (K, p) their times, oldest first (NaN: no state), Q (K, p, n)
-    their q, QD and QDD (K, n) the rates of the last one, when known.
-    Taylor from the last state when its velocity is known (order 2); else
-    Lagrange extrapolation through those of the last p states that lie within
-    four steps (order: their number - 1; order 0 means there is no slope to
-    judge a jump by). Returns (q (K, n), order (K,))."""
-    h = t - T[:, -1]
-    if QD is not None:
-        q = Q[:, -1] + h[:, None] * QD
-        if QDD is not None:
-            q = q + (0.5 * h * h)[:, None] * QDD
-        return q, np.full(len(t), 2)
-    # only points within a few steps: far ones make the slope too poor to judge a jump by
-    near = (t[:, None] - T) <= 4 * h[:, None]
-    q = np.zeros(Q.shape[:1] + Q.shape[2:])
-    p = T.shape[1]
-    for i in range(p):
-        w = np.ones(len(t))
-        for j in range(p):
-            if j != i:
-                w = np.where(near[:, j], w * (t - T[:, j]) / (T[:, i] - T[:, j]), w)
-        q += np.where(near[:, i], w, 0.0)[:, None] * np.where(near[:, i, None], Q[:, i], 0.0)
-    return q, near.sum(axis=1) - 1
+@kernel
+def lagrange(t, T, H, q):
+    """q at t extrapolated through the states H (3, n) at times T (3,),
+    oldest first (NaN: none), the predictor when no velocity is known (the
+    tracker's and the compiled march's): Lagrange through those within four
+    steps of t (far ones make the slope too poor to judge a jump by).
+    Returns the order: the points used - 1 (0: no slope to judge a jump by)."""
+    h = t - T[2]
+    q[:] = 0.0
+    used = 0
+    for i in range(3):
+        if not t - T[i] <= 4 * h:
+            continue
+        used += 1
+        w = 1.0
+        for j in range(3):
+            if j != i and t - T[j] <= 4 * h:
+                w *= (t - T[j]) / (T[i] - T[j])
+        for c in range(q.shape[0]):
+            q[c] += w * H[i, c]
+    return used - 1
 
 
 @kernel
@@ -175,13 +171,25 @@ class Tracker:
                 qdd = d.qdd
         return State(t, d.q.copy(), qd, qdd, f.pivot_ratio, f.det_sign, d.iterations, d.residual, d.correction)
 
-    def predict(self, t):
-        """(start, order) at t from the accepted states (``extrapolate``)."""
+    def recent(self):
+        """(T (3,), H (3, n)): the last three accepted states' times and q,
+        oldest first, NaN times where there are fewer (``lagrange``)."""
         h = self.history[-3:]
-        last = h[-1]
-        q, order = extrapolate(np.array([t]), np.array([[p.t for p in h]]), np.array([[p.q for p in h]]),
-                               None if last.qd is None else last.qd[None], None if last.qdd is None else last.qdd[None])
-        return q[0], int(order[0])
+        T, H = np.full(3, np.nan), np.zeros((3, self.model.n))
+        for i, s in enumerate(h):
+            T[3 - len(h) + i], H[3 - len(h) + i] = s.t, s.q
+        return T, H
+
+    def predict(self, t):
+        """(start, order) at t from the accepted states: Taylor from the last
+        one when its rates are known (order 2), else ``lagrange``."""
+        last = self.history[-1]
+        h = t - last.t
+        if last.qd is not None:
+            q = last.q + h * last.qd
+            return (q if last.qdd is None else q + 0.5 * h * h * last.qdd), 2
+        q = np.empty(self.model.n)
+        return q, int(lagrange(t, *self.recent(), q))
 
     def attempt(self, t, allow_flip=False) -> State:
         q_pred, order = self.predict(t)

@@ -162,7 +162,7 @@ def test_the_loops_pivot_ratio_and_det_sign_are_linalg_factors():
 @pytest.mark.parametrize("name", ["slider_crank", "four_bar", "quick_return_1"])
 def test_positions_only_solves_no_rates_and_lands_where_the_full_run_does(name):
     """A positions-only run predicts by extrapolating through the last three
-    states (kinem.loop.lagrange) and solves no rate; its positions are those
+    states (kinem.tracking.lagrange) and solves no rate; its positions are those
     of the full run within what the Newton tolerance allows (``agreement``)."""
     model = kinem.compile(kinem.load(ROOT / "cases" / f"{name}.toml"))
     full, positions = kinem.solve(model), kinem.solve(model, ("positions",))
