@@ -126,28 +126,25 @@ def bound(k: Kernel, **names):
     return types.FunctionType(fn.__code__, scope, fn.__name__, fn.__defaults__, fn.__closure__)
 
 
-def inlined(k: Kernel, **names):
+def inlined(k: Kernel):
     """k's twin that numba inlines into the compiled function calling it
-    (``inline="always"``), with the kernels it calls inlined too, and the
-    globals ``names`` bound to other objects (``bound``): a call of a
-    compiled function costs tens of ns beyond its arithmetic (measured:
+    (``inline="always"``), with the kernels it calls inlined too: a call of
+    a compiled function costs tens of ns beyond its arithmetic (measured:
     the simple constraints' Jacobian kernel 58 ns called, 6 ns inlined), a
     large part of the compiled march's instant (kinem.march). Not cached
     itself: what inlines it is."""
-    if not names and k in _TWINS:
+    if k in _TWINS:
         return _TWINS[k]
     from numba import njit
 
     _ready()
-    twin = bound(k, **names)
+    twin = bound(k)
     scope = twin.__globals__
     for name in twin.__code__.co_names:
         if isinstance(scope.get(name), Kernel):
             scope[name] = inlined(scope[name])
-    twin = njit(nogil=True, error_model="numpy", inline="always")(twin)
-    if not names:
-        _TWINS[k] = twin
-    return twin
+    _TWINS[k] = njit(nogil=True, error_model="numpy", inline="always")(twin)
+    return _TWINS[k]
 
 
 def trailing_zeros(x):

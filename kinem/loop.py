@@ -3,20 +3,22 @@ position analysis (kinem.newton.settle), the acceptance test and the
 velocity and acceleration solves at every output instant, in one compiled
 function.
 
-``evaluate``, ``factor``, ``correct`` and ``run`` are the source of the march of every
-model: kinem.march writes a module made of them with their evaluator calls
-``phi_all``, ``jac_all`` and ``gamma_all`` written out for the model's
-constraint families (each family's kernel on its slice of the rows), binds
-kinem.newton.settle's operations to the first three, and numba compiles that once per set of families, cached on
-disk. Here, read as a module, the evaluators are missing: nothing calls
-``run`` from this module itself. The helpers above them are compiled here,
-once, and imported by every generated module.
+``run`` is the source of the march of every model: kinem.march writes a
+module made of it with kinem.newton.settle's statements in place of its
+call, those of ``evaluate``, ``factor`` and ``correct`` in place of
+settle's operations, and the evaluator calls ``phi_all``, ``jac_all`` and
+``gamma_all`` written out for the model's constraint families (each
+family's kernel on its slice of the rows); numba compiles that once per
+set of families, cached on disk. Here, read as a module, the evaluators
+are missing: nothing calls ``run`` from this module itself. The helpers
+above the operations are compiled here, once, and imported by every
+generated module.
 """
 import numpy as np
 
 from kinem.dense import MASK, _solve1, assemble, band_factor, band_solve, factor_into, sparse_factor, sparse_solve
 from kinem.jit import kernel
-from kinem.newton import NOT_CONVERGED
+from kinem.newton import NOT_CONVERGED, settle
 from kinem.tracking import jump_sizes, lagrange, rejected
 
 # Why ``run`` hands an instant back to the tracker: kinem.tracking's codes, and
@@ -144,37 +146,29 @@ def lu_stats(J, piv, band, real, sign):
     return (small / big if big > 0 else 0.0), det
 
 
-@kernel
+# kinem.newton.settle's operations in the march: kinem.march writes their
+# statements in place of their calls (``work`` is None: they use run's own
+# arrays).
 def evaluate(q1, k, work, it):
-    """kinem.newton's ``evaluate`` in the march: Phi at q1 (1, n) into
-    work's phi, and its max scaled residual (``run``)."""
-    A, E1, phi, st = work[0], work[1], work[2], work[12]
-    rotate(q1, st[16], E1)
+    """Phi at q1 (1, n) into phi, and its max scaled residual."""
+    rotate(q1, angles, E1)
     phi_all(q1, E1, k, A, phi)
-    return residual(phi[0], st[9])
+    return residual(phi[0], scale)
 
 
-@kernel
 def factor(q1, work, final):
-    """kinem.newton's ``factor`` in the march: J_s at q1 assembled into
-    work's J and factorised, always at q1 (``run``)."""
-    A, E1, values, J, piv, rm, cm, counts, st = work[0], work[1], work[3], work[4], work[5], work[6], work[7], \
-        work[11], work[12]
-    rotate(q1, st[16], E1)
+    """J_s at q1 assembled into J and factorised (always at q1)."""
+    rotate(q1, angles, E1)
     jac_all(q1, E1, A, values)
-    assemble(values, st[0], st[1], st[2], st[3], st[6], J)
-    factorize(J, piv, st[15], st[17], rm, cm)
+    assemble(values, blk, rows, cols, entry_scale, pad, J)
+    factorize(J, piv, band, patterns, rm, cm)
     counts[0] += 1
     counts[1] += 1
 
 
-@kernel
 def correct(q1, work, limit):
-    """kinem.newton's ``correct`` in the march: ``refine`` with the LU in
-    ``work`` (``run``)."""
-    st = work[12]
-    return refine(work[4], work[5], st[15], work[6], work[2], st[4], st[5], st[9], st[10], work[8], work[9],
-                  work[10], q1, limit)
+    """q1 -= Phi_q^-1 phi from the LU (``refine``)."""
+    return refine(J, piv, band, rm, phi, row_pos, col_pos, scale, col_scale, dq, w, b, q1, limit)
 
 
 @kernel
@@ -226,7 +220,6 @@ def run(times, k, state, A, nu, structure, settings, out):
     dq = np.empty(n)
     b = np.empty(m)
     w = np.empty(max(count * size, n))
-    work = (A, E1, phi, values, J, piv, rm, cm, dq, w, b, counts, structure)
     while k < K:
         t = times[k]
         h = t - last[0]
@@ -240,7 +233,7 @@ def run(times, k, state, A, nu, structure, settings, out):
             judge = lagrange(t, T, H, qp) >= 1
         for j in range(n):
             q1[0, j] = qp[j]
-        it, r, why, last_step = settle(q1, k, work, tol, max_it, max_step, True)
+        it, r, why, last_step = settle(q1, k, None, tol, max_it, max_step, True)
         if why != 0:
             return k, why
         ratio, det = lu_stats(J, piv, band, real, sign)
@@ -272,4 +265,4 @@ def run(times, k, state, A, nu, structure, settings, out):
     return k, 0
 
 
-phi_all = jac_all = gamma_all = settle = None  # written for each model's families, and bound (kinem.march)
+phi_all = jac_all = gamma_all = None  # written for each model's families (kinem.march)

@@ -4,11 +4,12 @@ factorisation at the corrected configuration that the conditioning monitor
 and the rate solves use.
 
 ``settle`` is written once, on three operations it finds as globals:
-``evaluate``, ``factor`` and ``correct``. It runs compiled in the march
-(kinem/loop.py binds them to the compiled block and band LUs, and numba
-inlines it: kinem.jit.inlined) and interpreted step by step
-(kinem.analysis binds them to any linear solver: LAPACK, SuperLU, least
-squares, minimum norm; kinem.jit.bound). Here they are unbound.
+``evaluate``, ``factor`` and ``correct``. The compiled march writes its
+statements into its loop, with those of kinem/loop.py's operations (block
+and band LUs) in place of their calls (kinem.march, kinem.inline); the
+step-by-step analysis runs it as Python with them bound to any linear
+solver: LAPACK, SuperLU, least squares, minimum norm (kinem.analysis,
+kinem.jit.bound). Here they are unbound.
 """
 import numpy as np
 
@@ -47,8 +48,8 @@ def settle(q, k, work, tolerance, max_iterations, max_step, finish):
     the one left at the end; a step-by-step run with Jacobian reuse may
     hand back a nearby one otherwise); ``correct(q, work, limit)`` q -=
     Phi_q^-1 Phi, the step limited to ``limit``, returning its size before
-    the limit. One site of each: numba inlines the families' kernels at
-    every site of the compiled march.
+    the limit. One site of each: the march writes the families' kernels
+    out at every site.
     Returns (iterations, max scaled residual, status: 0 or NOT_CONVERGED,
     the last correction's size: the polishing one's when there was one,
     else the final correction's; 0 without ``finish``). At a regular root
