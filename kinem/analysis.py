@@ -101,6 +101,8 @@ class Steps:
 
 
 def _evaluate(q, k, s, it):
+    """Phi at q and its max scaled residual; a Newton iteration's (it >= 0)
+    is recorded: worst row, trace."""
     m, d = s.model, s.data
     s.phi = m.phi(q, s.t)
     r = m.scaled_residual(s.phi)
@@ -134,6 +136,9 @@ def _factor_at(q, s, final):
 
 
 def _correct(q, s, limit):
+    """q -= Phi_q^-1 Phi with the factorisation at hand, limited to ``limit``
+    (dimensionless); returns the step's size before the limit (0: none,
+    where the final factorisation is singular)."""
     if isinstance(s.f, Singular):
         return 0.0
     dq = s.f.solve(-s.phi)

@@ -156,8 +156,9 @@ class Tracker:
         there (kinem.analysis.position), its pivot ratio and det sign, and the
         velocity and acceleration when asked (none where Phi_q is singular)."""
         m, d = self.model, self.data
-        # modified Newton from the last instant's factorisation, when the case asks for it
-        reuse = d.factor if self.options.jacobian_reuse and self.history and d.factor.pivot_ratio > 0 else None
+        # modified Newton from the last solve's factorisation (none after a failed one), when the case asks for it
+        f = d.factor
+        reuse = f if self.options.jacobian_reuse and self.history and f is not None and f.pivot_ratio > 0 else None
         d.q = q_start
         self.a.position(m, d, t, self.tol, self.options.max_iterations, factor=reuse)
         f = d.factor
@@ -199,7 +200,8 @@ class Tracker:
         why = rejected(s.pivot, s.correction, s.det, last.det, corr, move, order >= 1, self.pivot_floor, self.tol,
                        allow_flip)
         if why == NEAR_SINGULAR:
-            raise Rejected(f"near-singular configuration (pivot ratio {s.pivot:.1e})")
+            raise Rejected(f"near-singular configuration (pivot ratio {s.pivot:.1e}, last Newton correction "
+                           f"{s.correction:.1e})")
         if why == DET_FLIP:
             raise Rejected("det(J) changed sign")
         if why == JUMP:

@@ -115,3 +115,13 @@ def test_jacobian_reuse_takes_one_factorisation_per_instant_and_keeps_the_rates(
         assert rel_error(r.trajectory[f"{body}.omega"], ref[f"w{k}"]) <= 1e-11
         assert rel_error(r.trajectory[f"{body}.alpha"], ref[f"a{k}"]) <= 1e-11
     assert r.factorizations <= len(t) + 10
+
+
+def test_jacobian_reuse_after_a_failed_solve_starts_with_a_fresh_factorisation():
+    """A step whose Newton fails leaves no factorisation to reuse: coarse
+    steps with three iterations allowed fail, are halved, and go on (this
+    raised AttributeError when the next step looked for one)."""
+    case = kinem.load(ROOT / "cases" / "four_bar.toml").with_time(steps=5)
+    r = kinem.solve(kinem.compile(replace(case, jacobian_reuse=True, max_iterations=3)), trace=True)
+    assert r.success and r.substeps > 0
+    assert any(what == "rejected" and "no convergence" in detail for _, what, _, _, detail in r.trace)
