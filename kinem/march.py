@@ -4,9 +4,10 @@ test passes; Python runs once per solve, and again only for an instant
 the loop hands back (kinem.tracking: sub-steps, singular configurations).
 
 numba cannot loop over constraint families of different kernels, so each
-set of families gets a module of its own: kinem/loop.py's ``run`` with its
-evaluators ``phi_all``, ``jac_all`` and ``gamma_all`` written out as the
-families' kernel calls on their slices of the rows, written once into a
+set of families gets a module of its own: kinem/loop.py's ``run`` with
+kinem.newton.settle written into it (``_run``) and its evaluators
+``phi_all``, ``jac_all`` and ``gamma_all`` written out as the families'
+kernel calls on their slices of the rows, written once into a
 cache folder and compiled by numba with its cache on disk (a few seconds
 the first time, then about 0.1 s to load in a new process); the loop's
 helpers are kinem.loop's own, compiled once. The module's name
@@ -25,9 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import dense, inline
+from . import dense, inline, newton
 from .jit import sources
-from .newton import MAX_STEP
 from .options import Options
 from .tracking import State, singular_pivot
 
@@ -158,8 +158,6 @@ def _write_out(loop, calls):
 def _run() -> str:
     """kinem/loop.py's ``run`` with kinem.newton.settle's statements in place
     of its call and loop.py's operations' in place of settle's (kinem.inline)."""
-    from . import newton
-
     fns = {f.name: f for f in ast.parse((HERE / "loop.py").read_text()).body if isinstance(f, ast.FunctionDef)}
     run = fns["run"]
     inline.expand(run, inline.function(newton.settle), "_s_")
@@ -286,7 +284,8 @@ class March:
                 kept = times if times is model.times else times.copy()
                 plan[1] = (kept, self.rates, self.A, self.nu)
         o = Options.of(model.case) if tracker is None else tracker.options
-        self.settings = (float(o.tolerance), int(o.max_iterations), MAX_STEP, singular_pivot(o.tolerance), self.rates)
+        self.settings = (float(o.tolerance), int(o.max_iterations), newton.MAX_STEP, singular_pivot(o.tolerance),
+                         self.rates)
         Q, QD, QDD, iterations, residual, pivot = out  # QD, QDD None: not asked for; the loop needs them
         QD = np.empty_like(Q) if QD is None else QD
         QDD = np.empty_like(Q) if QDD is None else QDD
