@@ -31,6 +31,8 @@ NOT_CONVERGED = 4
 evaluate = factor = correct = None  # bound by each caller
 
 
+# A kernel so that its source counts in the march's module names and cache
+# check (kinem.jit.sources); numba never compiles it on its own.
 @kernel
 def settle(q, k, work, tolerance, max_iterations, max_step, finish):
     """Newton-Raphson from q (updated in place) to Phi(q, t_k) = 0, every
