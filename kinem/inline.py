@@ -92,9 +92,9 @@ def expand(caller: ast.FunctionDef, fn: ast.FunctionDef, prefix: str) -> None:
                 continue
             for i, target, call in reversed(list(_calls(statements, fn.name))):
                 copied = copy.deepcopy(body)
-                new = []
+                writer, new = _Body(fn, call, target, prefix, copied[-1]), []
                 for s in copied:
-                    out = _Body(fn, call, target, prefix, copied[-1]).visit(s)
+                    out = writer.visit(s)
                     new.extend(out if isinstance(out, list) else [out])
                 statements[i:i + 1] = new
     ast.fix_missing_locations(caller)

@@ -15,6 +15,7 @@ carries a hash of the sources it compiles in, so an edited kernel never
 runs from a stale cache.
 """
 import ast
+import functools
 import hashlib
 import importlib.util
 import os
@@ -155,9 +156,11 @@ def _write_out(loop, calls):
     return CALL.sub(replace, loop)
 
 
+@functools.cache
 def _run() -> str:
     """kinem/loop.py's ``run`` with kinem.newton.settle's statements in place
-    of its call and loop.py's operations' in place of settle's (kinem.inline)."""
+    of its call and loop.py's operations' in place of settle's (kinem.inline;
+    the same for every set of families, so written once per process)."""
     fns = {f.name: f for f in ast.parse((HERE / "loop.py").read_text()).body if isinstance(f, ast.FunctionDef)}
     run = fns["run"]
     inline.expand(run, inline.function(newton.settle), "_s_")

@@ -356,9 +356,10 @@ class Tracker:
             corr = np.max(np.abs(d.factor.solve(-m.phi(s.q, t))) / m.col_scale)  # the factorisation at s.q
         except AnalysisError:
             return None
-        jump = rejected(1.0, 0.0, 0, 0, *jump_sizes(s.q, q_pred, before.q, m.col_scale), True, 0.0, self.tol, False)
-        regular = corr <= REGULAR * self.tol**0.5 and s.pivot >= REGULAR * self.pivot_floor
-        return s if regular and not jump else None
+        # the acceptance test on one more correction, with a pivot floor REGULAR times lower
+        why = rejected(s.pivot, corr, s.det, before.det, *jump_sizes(s.q, q_pred, before.q, m.col_scale), True,
+                       REGULAR * self.pivot_floor, self.tol, False)
+        return s if why == 0 else None
 
     def rates(self, state):
         """Velocity and acceleration of a (regular) state."""
