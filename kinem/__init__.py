@@ -8,7 +8,7 @@
 
 Versions: ``kinem.__version__``, ``kinem --version``.
 """
-__version__ = "0.1.0"   # the one place it is set (pyproject.toml reads it)
+__version__ = "0.1.0"   # as pyproject.toml's version (tests/test_front_door.py holds them equal)
 
 from .analysis import Data, acceleration, factorize, position, velocity
 from .case import load, load_dict, loads

@@ -1,0 +1,17 @@
+//! TODO(issue 23): port from kinem/constraints (stub).
+use super::{At, Shared};
+use crate::table::Table;
+
+pub struct PointOnCurve { rows: usize, entries: usize }
+
+impl PointOnCurve {
+    pub fn new(t: &Table, n: usize, outlines: usize) -> Result<Self, String> {
+        let _ = (t, n, outlines);
+        Err("PointOnCurve: not ported yet".into())
+    }
+    pub fn rows(&self) -> usize { self.rows }
+    pub fn entries(&self) -> usize { self.entries }
+    pub fn phi(&self, _: &At, _: &Shared, _: &mut [f64]) {}
+    pub fn jac(&self, _: &At, _: &Shared, _: &mut [f64]) {}
+    pub fn gamma(&self, _: &At, _: &[f64], _: &Shared, _: &mut [f64]) {}
+}

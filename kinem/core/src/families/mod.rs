@@ -1,0 +1,161 @@
+//! The constraint families of Chapter 4, each in its own module with its
+//! Phi, Jacobian values, nu (= -Phi_t) and gamma, evaluated over all the
+//! constraints of a type at once from its struct-of-arrays table. The
+//! Jacobian values of a family come in the order of its structural pattern
+//! (rows, cols), which kinem/constraints/*.py compute when the model is compiled.
+//!
+//! Planar vectors are complex numbers x + iy: A_i s' (Eq. 4.4) is
+//! s' e^{i phi_i}, B_i s' (Eq. 4.44) is i A_i s', a . b = Re(conj(a) b),
+//! and the scalar cross product a x b = Im(conj(a) b). e^{i phi} of every
+//! angle column is computed once per configuration (`At::e`) and shared by
+//! every family.
+use crate::functions::Functions;
+use crate::outline::Outlines;
+use crate::table::Table;
+use num_complex::Complex64 as C64;
+
+pub mod cam;
+pub mod curve;
+pub mod distance;
+pub mod gear;
+pub mod line;
+pub mod rack;
+pub mod revolute;
+pub mod simple;
+
+pub const I: C64 = C64 { re: 0.0, im: 1.0 };
+
+/// One configuration: coordinates q (n), e[j] = e^{i q[j]} at the angle
+/// columns (other entries unspecified), and the time t.
+pub struct At<'a> {
+    pub q: &'a [f64],
+    pub e: &'a [C64],
+    pub t: f64,
+}
+
+impl At<'_> {
+    /// r = x + iy of the body whose x column is c.
+    #[inline(always)]
+    pub fn r(&self, c: usize) -> C64 {
+        C64::new(self.q[c], self.q[c + 1])
+    }
+    /// e^{i phi} of the body whose x column is c.
+    #[inline(always)]
+    pub fn rot(&self, c: usize) -> C64 {
+        self.e[c + 2]
+    }
+}
+
+/// r' = xd + i yd of the body whose x column is c.
+#[inline(always)]
+pub fn rd(qd: &[f64], c: usize) -> C64 {
+    C64::new(qd[c], qd[c + 1])
+}
+
+#[inline(always)]
+pub fn dot(a: C64, b: C64) -> f64 {
+    a.re * b.re + a.im * b.im
+}
+
+#[inline(always)]
+pub fn cross(a: C64, b: C64) -> f64 {
+    a.re * b.im - a.im * b.re
+}
+
+/// What the families read besides their own tables.
+pub struct Shared<'a> {
+    pub functions: &'a Functions,
+    pub outlines: &'a Outlines,
+}
+
+/// The type switch: one variant per family, each holding its table.
+pub enum Family {
+    Simple(simple::Simple),
+    Revolute(revolute::Revolute),
+    Line(line::Line),
+    Distance(distance::Distance),
+    Gear(gear::Gear),
+    Rack(rack::Rack),
+    PointOnCurve(curve::PointOnCurve),
+    CamRoller(cam::Roller),
+    CamFlat(cam::Flat),
+}
+
+/// The `kind` names Python's families hand over (kinem/constraints/*.py).
+pub const KINDS: [&str; 9] =
+    ["simple", "revolute", "line", "distance", "gear", "rack-pinion", "point-on-curve", "cam-roller", "cam-flat"];
+
+macro_rules! each {
+    ($self:expr, $f:ident => $e:expr) => {
+        match $self {
+            Family::Simple($f) => $e,
+            Family::Revolute($f) => $e,
+            Family::Line($f) => $e,
+            Family::Distance($f) => $e,
+            Family::Gear($f) => $e,
+            Family::Rack($f) => $e,
+            Family::PointOnCurve($f) => $e,
+            Family::CamRoller($f) => $e,
+            Family::CamFlat($f) => $e,
+        }
+    };
+}
+
+impl Family {
+    /// The family of `kind` from its table; n: the model's coordinates (every
+    /// column index is checked against it), functions and outlines: how many
+    /// there are (every reference to one is checked).
+    pub fn new(kind: &str, t: &Table, n: usize, functions: usize, outlines: usize) -> Result<Family, String> {
+        let r = match kind {
+            "simple" => Family::Simple(simple::Simple::new(t, n, functions)?),
+            "revolute" => Family::Revolute(revolute::Revolute::new(t, n)?),
+            "line" => Family::Line(line::Line::new(t, n)?),
+            "distance" => Family::Distance(distance::Distance::new(t, n, functions)?),
+            "gear" => Family::Gear(gear::Gear::new(t, n)?),
+            "rack-pinion" => Family::Rack(rack::Rack::new(t, n)?),
+            "point-on-curve" => Family::PointOnCurve(curve::PointOnCurve::new(t, n, outlines)?),
+            "cam-roller" => Family::CamRoller(cam::Roller::new(t, n, outlines)?),
+            "cam-flat" => Family::CamFlat(cam::Flat::new(t, n, outlines)?),
+            _ => return Err(format!("unknown family kind '{kind}'; valid: {}", KINDS.join(", "))),
+        };
+        Ok(r)
+    }
+
+    pub fn rows(&self) -> usize {
+        each!(self, f => f.rows())
+    }
+
+    pub fn entries(&self) -> usize {
+        each!(self, f => f.entries())
+    }
+
+    /// Whether nu can be non-zero (a driver).
+    pub fn time_dependent(&self, s: &Shared) -> bool {
+        match self {
+            Family::Simple(f) => f.time_dependent(s),
+            Family::Distance(f) => f.time_dependent(s),
+            _ => false,
+        }
+    }
+
+    pub fn phi(&self, at: &At, s: &Shared, out: &mut [f64]) {
+        each!(self, f => f.phi(at, s, out))
+    }
+
+    pub fn jac(&self, at: &At, s: &Shared, out: &mut [f64]) {
+        each!(self, f => f.jac(at, s, out))
+    }
+
+    /// nu = -Phi_t (zero for families without drivers).
+    pub fn nu(&self, t: f64, s: &Shared, out: &mut [f64]) {
+        match self {
+            Family::Simple(f) => f.nu(t, s, out),
+            Family::Distance(f) => f.nu(t, s, out),
+            _ => out.fill(0.0),
+        }
+    }
+
+    pub fn gamma(&self, at: &At, qd: &[f64], s: &Shared, out: &mut [f64]) {
+        each!(self, f => f.gamma(at, qd, s, out))
+    }
+}

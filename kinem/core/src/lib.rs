@@ -1,0 +1,14 @@
+//! kinem's compiled core (issue 23): the constraint families of Nikravesh's
+//! Chapter 4, the driving functions and outlines, the linear algebra, the
+//! one Newton-Raphson loop, the one acceptance test and the march over
+//! output instants. One fixed kernel serves every mechanism: a model is
+//! handed over once as struct-of-arrays tables (kinem.model.compile) and
+//! the core switches on the family type. Nothing is generated at run time.
+pub mod families;
+pub mod functions;
+pub mod model;
+pub mod outline;
+pub mod table;
+
+#[cfg(feature = "python")]
+mod py;
