@@ -58,3 +58,8 @@ class ConvergenceError(AnalysisError):
 
 class SingularError(AnalysisError):
     """The constraint Jacobian is (numerically) singular."""
+
+
+class CoreError(AnalysisError):
+    """A fault inside the compiled core (kinem._core): a panic or an
+    inconsistent table, reported as one line (exit code 1), never an abort."""
