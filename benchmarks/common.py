@@ -104,7 +104,7 @@ def per_step(result) -> float:
 
 def parity_c(perm) -> int:
     """Permutation parity with the cycle count from scipy's C connected
-    components instead of kinem.linalg._parity's Python loop."""
+    components instead of kinem.model.parity's Python loop."""
     from scipy.sparse import csr_matrix
     from scipy.sparse.csgraph import connected_components
 
@@ -140,8 +140,8 @@ def fast_parity():
     from kinem import linalg
 
     if not _PARITY:
-        _PARITY.append(linalg._parity)
-    return patched((linalg, "_parity", parity_c))
+        _PARITY.append(linalg.parity)
+    return patched((linalg, "parity", parity_c))
 
 
 def timed_with(patch_factory, run):

@@ -4,19 +4,19 @@ the output instants.
 
 Position: Newton-Raphson on Phi(q, t) = 0 (Eqs. 4.41, 4.42), converged when
 every scaled residual |Phi_k| / scale_k <= tolerance (docs/solver.md): the
-one Newton of kinem (kinem.newton.settle) on this module's operations, for
-any linear solver. Velocity: Phi_q qd = nu. Acceleration: Phi_q qdd = gamma.
+one Newton of kinem (the compiled core's ``settle``, kinem/core/src/newton.rs)
+on this module's operations (``Steps``), for any linear solver. Velocity: Phi_q qd = nu. Acceleration: Phi_q qdd = gamma.
 The Jacobian at the corrected q is factorised once and serves both solves.
 """
 from dataclasses import dataclass
 
 import numpy as np
 
-from .diagnose import explain_assembly
-from .errors import ConvergenceError, InputError, SingularError
-from .jit import bound
+from .errors import ConvergenceError, SingularError
+from . import native
 from .linalg import Factor, Solver
-from .newton import MAX_STEP, settle
+
+MAX_STEP = native.MAX_STEP  # Newton steps' limit, dimensionless (kinem/core/src/newton.rs)
 
 
 @dataclass
@@ -29,7 +29,7 @@ class Data:
     factor: Factor | None = None        # LU of Phi_q at (q, t) after a position solve
     iterations: int = 0                 # Newton iterations of the last position solve
     residual: float = np.inf            # its final max scaled residual
-    correction: float = 0.0             # its last Newton correction (kinem.newton.settle)
+    correction: float = 0.0             # its last Newton correction (the core's settle)
     worst_row: int = 0
     jacobian_evaluations: int = 0
     factorizations: int = 0
@@ -89,73 +89,68 @@ class Singular:
 
 
 class Steps:
-    """kinem.newton.settle's ``work`` step by step: Phi and the factorisation
-    at the current q (``_evaluate``, ``_factor_at``, ``_correct``)."""
+    """The core's ``settle`` operations step by step, on q (updated in
+    place): Phi and the factorisation at q with the analysis's linear
+    solver, Jacobian reuse (modified Newton: ``reuse``, a factorisation from
+    a nearby configuration, kept while it shrinks the residual by REUSE_RATE
+    per iteration, at most REUSE_ITERATIONS times) and the trace."""
 
-    def __init__(self, model, data, t, reuse, minimum_norm):
-        self.model, self.data, self.t = model, data, t
+    def __init__(self, model, data, q, t, reuse, minimum_norm):
+        self.model, self.data, self.q, self.t = model, data, q, t
         self.reuse, self.minimum_norm = reuse, minimum_norm
         self.phi = self.f = None
         self.r = self.previous = np.inf
         self.reused = 0
 
+    def evaluate(self, it):
+        """Phi at q and its max scaled residual; a Newton iteration's (it >= 0)
+        is recorded: worst row, trace."""
+        m, d = self.model, self.data
+        self.phi = m.phi(self.q, self.t)
+        r = m.scaled_residual(self.phi)
+        worst = int(np.argmax(r)) if r.size else 0
+        residual = float(r[worst]) if r.size else 0.0
+        if it >= 0:
+            self.r, d.worst_row = residual, worst
+            if d.trace is not None:
+                d.trace.append((self.t, "newton", it, residual, m.row_labels[worst] if r.size else ""))
+        return residual
 
-def _evaluate(q, k, s, it):
-    """Phi at q and its max scaled residual; a Newton iteration's (it >= 0)
-    is recorded: worst row, trace."""
-    m, d = s.model, s.data
-    s.phi = m.phi(q, s.t)
-    r = m.scaled_residual(s.phi)
-    worst = int(np.argmax(r)) if r.size else 0
-    residual = float(r[worst]) if r.size else 0.0
-    if it >= 0:
-        s.r, d.worst_row = residual, worst
-        if d.trace is not None:
-            d.trace.append((s.t, "newton", it, residual, m.row_labels[worst] if r.size else ""))
-    return residual
+    def factor(self, last):
+        """The factorisation at q (``last``: the one left at the end, always fresh)."""
+        m, d = self.model, self.data
+        if self.minimum_norm:
+            self.f = MinimumNorm(m, self.q, self.t)
+        elif last or self.reuse is None or self.reused >= REUSE_ITERATIONS or self.r > REUSE_RATE * self.previous:
+            self.reuse = None  # full Newton from here on: a fresh Jacobian every iteration
+            try:
+                self.f = _factor(m, d, self.q, self.t)
+            except SingularError as e:
+                if not last:
+                    raise
+                self.f = Singular(e)
+        else:
+            self.f, self.reused = self.reuse, self.reused + 1
+        self.previous = self.r
 
-
-def _factor_at(q, s, final):
-    """The factorisation at q; with Jacobian reuse (modified Newton: s.reuse,
-    one from a nearby configuration) that one while it shrinks the residual
-    by REUSE_RATE per iteration, at most REUSE_ITERATIONS times."""
-    m, d = s.model, s.data
-    if s.minimum_norm:
-        s.f = MinimumNorm(m, q, s.t)
-    elif final or s.reuse is None or s.reused >= REUSE_ITERATIONS or s.r > REUSE_RATE * s.previous:
-        s.reuse = None  # full Newton from here on: a fresh Jacobian every iteration
-        try:
-            s.f = _factor(m, d, q, s.t)
-        except SingularError as e:
-            if not final:
-                raise
-            s.f = Singular(e)
-    else:
-        s.f, s.reused = s.reuse, s.reused + 1
-    s.previous = s.r
-
-
-def _correct(q, s, limit):
-    """q -= Phi_q^-1 Phi with the factorisation at hand, limited to ``limit``
-    (dimensionless); returns the step's size before the limit (0: none,
-    where the final factorisation is singular)."""
-    if isinstance(s.f, Singular):
-        return 0.0
-    dq = s.f.solve(-s.phi)
-    size = float(np.max(np.abs(dq) / s.model.col_scale)) if dq.size else 0.0
-    if size > limit:
-        dq *= limit / size
-    q += dq
-    return size
-
-
-_SETTLE = bound(settle, evaluate=_evaluate, factor=_factor_at, correct=_correct)
+    def correct(self, limit):
+        """q -= Phi_q^-1 Phi with the factorisation at hand, limited to ``limit``
+        (dimensionless); returns the step's size before the limit (0: none,
+        where the final factorisation is singular)."""
+        if isinstance(self.f, Singular):
+            return 0.0
+        dq = self.f.solve(-self.phi)
+        size = float(np.max(np.abs(dq) / self.model.col_scale)) if dq.size else 0.0
+        if size > limit:
+            dq *= limit / size
+        self.q += dq
+        return size
 
 
 def position(model, data: Data, t: float, tolerance=None, max_iterations=None, factor=None,
              minimum_norm=False, finish=True) -> None:
     """Newton-Raphson from data.q to Phi(q, t) = 0, steps limited to MAX_STEP
-    (kinem.newton.settle), then (``finish``) the final correction and the
+    (the core's settle), then (``finish``) the final correction and the
     factorisation at the corrected q in data.factor (a ``Singular`` one
     where Phi_q is singular there) for the rate solves.
     ``factor``: a factorisation of Phi_q at a nearby configuration to start
@@ -166,13 +161,13 @@ def position(model, data: Data, t: float, tolerance=None, max_iterations=None, f
     q = np.array(data.q, dtype=float)
     data.t = t
     data.factor = None
-    steps = Steps(model, data, t, factor, minimum_norm)
+    steps = Steps(model, data, q, t, factor, minimum_norm)
     try:
-        data.iterations, data.residual, status, data.correction = _SETTLE(
-            q, 0, steps, tol, max_it, np.inf if minimum_norm else MAX_STEP, finish)
+        data.iterations, data.residual, converged, data.correction = native.settle(
+            steps, tol, max_it, np.inf if minimum_norm else MAX_STEP, finish)
     finally:
         data.q = q
-    if status:
+    if not converged:
         raise ConvergenceError(f"no convergence after {data.iterations} iterations: scaled residual "
                                f"{data.residual:.2e} (tolerance {tol:.1e}), largest in constraint "
                                f"'{model.row_owner[data.worst_row]}' ({model.row_labels[data.worst_row]})")
@@ -209,25 +204,3 @@ def acceleration(model, data: Data) -> None:
     if data.factor is None:
         factorize(model, data)
     data.qdd = data.factor.solve(model.gamma(data.q, data.qd, data.t))
-
-
-def check_square(model) -> None:
-    """Kinematic analysis needs at least as many equations as coordinates
-    (Sec. 4.3); more are accepted when they are consistent (redundant
-    constraints, solved in the least-squares sense)."""
-    if model.m < model.n:
-        gap = model.n - model.m
-        why = explain_assembly(model, float(model.times[0]))  # names the driving equations and the DOF
-        raise InputError(f"{model.case.source}: {model.m} equations for {model.n} coordinates: "
-                         f"{gap} equation{'s' * (gap != 1)} missing" + (f"; {why}" if why else
-                                                                        " (add drivers or constraints)"))
-
-
-def __getattr__(name):
-    """``solve`` lives in kinem.solver, on top of the stages; the old import
-    path ``from kinem.analysis import solve`` still finds it."""
-    if name == "solve":
-        from .solver import solve
-
-        return solve
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

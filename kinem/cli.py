@@ -82,7 +82,7 @@ def cmd_solve(a):
     if stream.work(model) > limit:
         raise InputError(f"{a.case}: {nt:,} output instants x {model.n} coordinates = {stream.work(model):.3g} "
                          f"exceeds the work limit {limit:.3g}; raise it with --max-work, or fewer --steps")
-    from .analysis import check_square
+    from .solver import check_square
 
     check_square(model)
     bar = None

@@ -19,29 +19,17 @@ the system of its square twin, so that a least-squares model's branch is
 guarded as its twin's is (dense models; a sparse one reports +1 and is
 guarded by the jump test alone).
 """
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
 
 from .errors import SingularError
+from .model import BLOCK_LIMIT, DENSE_LIMIT, parity
 
 # A pivot below this fraction of the largest one is taken as zero: about
 # 1e3 x machine epsilon, so rounding alone cannot trigger it, while a
 # Jacobian that has really lost rank gives pivots of order epsilon.
 PIVOT_RATIO = 1e-13
-
-
-def _parity(perm) -> int:
-    """+1 for an even permutation, -1 for an odd one: (-1)^(n - cycles), the
-    cycles counted as connected components of the graph k -> perm[k]."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    n = len(perm)
-    graph = coo_matrix((np.ones(n), (np.arange(n), np.asarray(perm))), shape=(n, n))
-    cycles = connected_components(graph, directed=True, connection="weak", return_labels=False)
-    return -1 if (n - cycles) % 2 else 1
 
 
 def pivot_ratio(diag) -> np.ndarray:
@@ -58,40 +46,6 @@ def lu_det_sign(diag, piv) -> np.ndarray:
     the last axis: one LU or a batch)."""
     swaps = np.count_nonzero(piv != np.arange(piv.shape[-1]), axis=-1)
     return np.prod(np.sign(diag), axis=-1).astype(int) * (1 - 2 * (swaps % 2))
-
-
-_PRELOADED = weakref.WeakKeyDictionary()   # model -> kinds of analysis preloaded
-
-
-def preload(model, block: bool = False, solver: "Solver | None" = None) -> None:
-    """Loads what the analysis of the model will use, so that timed analyses
-    do not pay for it: scipy's factorisations (imported lazily for a fast
-    start), the model's kernels (compiled: on first use, then loaded from
-    numba's cache; kinem.jit) and, for the compiled march (``block``), its
-    module (kinem.march.prepare).
-    Once per model and kind of analysis: again it would only cost time (about
-    100 us on the slider-crank, more than a compiled 64-instant run's fixed
-    cost)."""
-    from . import jit
-
-    solver = choose(model) if solver is None else solver
-    key = (block, solver.sparse or solver.least_squares, bool(jit._interpreted))
-    done = _PRELOADED.setdefault(model, set())
-    if key in done:
-        return
-    done.add(key)
-    if solver.sparse or solver.least_squares:
-        import scipy.sparse.linalg  # noqa: F401
-    import scipy.linalg.lapack  # noqa: F401
-    q, t = model.q0, 0.0  # the first output instant (not model.times: a long run's times are many)
-    model.jacobian(q, t)
-    model.gamma(q, q, t)
-    model.phi(q, t)
-    model.nu(t)
-    if block:
-        from .march import prepare
-
-        prepare(model)
 
 
 def monitor_rows(J) -> np.ndarray:
@@ -115,23 +69,29 @@ def det_sign(J) -> int:
 
 @dataclass(frozen=True)
 class Solver:
-    """The linear solver of an analysis, chosen once (``choose``): dense LU,
-    sparse LU, or least squares (dense QR, or sparse normal equations) for
-    a model with redundant equations, whose det sign is that of its
-    ``rows`` (``monitor_rows``; None: +1)."""
+    """The linear solver of an analysis, chosen once (``choose``): kinem's
+    own LU (``core``: the march's), dense LAPACK LU, sparse LU, or least
+    squares (dense QR, or sparse normal equations) for a model with
+    redundant equations, whose det sign is that of its ``rows``
+    (``monitor_rows``; None: +1)."""
     sparse: bool
     least_squares: bool
     rows: np.ndarray | None = None
+    core: bool = False
 
 
 def choose(model, options=None) -> Solver:
     """The linear solver for a model under ``options`` (kinem.options.Options;
-    default: its case's [solver] section)."""
-    from .model import DENSE_LIMIT
+    default: its case's [solver] section): kinem's own LU where the model
+    has a plan (kinem.model.Model.plan) and the options do not ask for
+    another; SuperLU for a large model without one or when asked for;
+    LAPACK for ``dense`` where there is no plan."""
 
     kind = model.case.linear_solver if options is None else options.linear_solver
-    sparse = model.n > DENSE_LIMIT if kind == "auto" else kind == "sparse"
-    return Solver(sparse, model.m > model.n)
+    least_squares = model.m > model.n
+    core = not least_squares and kind != "sparse" and model.plan is not None
+    sparse = not core and (model.n > DENSE_LIMIT if kind == "auto" else kind == "sparse")
+    return Solver(sparse, least_squares, core=core)
 
 
 class Factor:
@@ -140,11 +100,21 @@ class Factor:
 
     def __init__(self, model, values, solver: Solver | None = None):
         solver = choose(model) if solver is None else solver
-        self.sparse = solver.sparse
+        self.sparse, self.core = solver.sparse, solver.core
+        self.least_squares = solver.least_squares
+        if self.core:
+            self.lu = model.plan.factor(np.ascontiguousarray(values, dtype=float))
+            self.pivot_ratio = float(self.lu.pivot_ratio)
+            if self.pivot_ratio < PIVOT_RATIO:
+                b = model.blocks
+                col_pos = b.col_pos if b.size <= BLOCK_LIMIT else model.band.col_pos
+                at = np.flatnonzero(col_pos == self.lu.smallest)
+                name = model.coordinate_names[at[0]] if at.size else "?"
+                raise SingularError(f"singular Jacobian: pivot ratio {self.pivot_ratio:.1e} at coordinate '{name}'")
+            return
         self.row = 1.0 / model.scale
         self.col = model.col_scale
         J = model.assemble(values * model.entry_scale, self.sparse)
-        self.least_squares = solver.least_squares
         self._rows, self._J = solver.rows, J
         if self.least_squares:
             diag = self._qr(J)
@@ -193,13 +163,17 @@ class Factor:
 
     @property
     def det_sign(self) -> int:
+        if self.core:
+            return int(self.lu.det_sign)
         if self.least_squares:
             return 1 if self._rows is None else det_sign(self._J[self._rows])
         if self._perms is None:
             return int(lu_det_sign(self._diag, self.lu[1]))
-        return int(np.prod(np.sign(self._diag))) * _parity(self._perms[0]) * _parity(self._perms[1])
+        return int(np.prod(np.sign(self._diag))) * parity(self._perms[0]) * parity(self._perms[1])
 
     def solve(self, b):
+        if self.core:
+            return self.lu.solve(np.ascontiguousarray(b, dtype=float))
         b = b * self.row
         if self.least_squares:
             if self.sparse:

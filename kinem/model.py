@@ -13,7 +13,7 @@ from functools import cached_property
 
 import numpy as np
 
-from . import dense
+from . import native
 from .constraints import REGISTRY
 from .constraints.base import local_points
 from .spec import Case
@@ -22,6 +22,25 @@ DENSE_LIMIT = 200  # coordinates; above this 'auto' uses the sparse LU
 # Coordinates up to which a model is one diagonal block (Model.blocks): finding
 # the blocks imports scipy.sparse.csgraph, 0.27 s, more than such a run costs.
 ONE_BLOCK = 64
+# The march (kinem.native.Plan) takes diagonal blocks of up to BLOCK_LIMIT
+# coordinates (a dense LU each; up to 64 on their nonzeros), or one block
+# whose rows and columns order into a band of kl + ku <= BAND_LIMIT (its cost
+# per coordinate grows as kl (kl + ku)).
+BLOCK_LIMIT = 200
+BAND_LIMIT = 32
+MASK = 64  # blocks of up to this many coordinates are factorised on their nonzeros (bit masks)
+
+
+def parity(perm) -> int:
+    """+1 for an even permutation, -1 for an odd one: (-1)^(n - cycles), the
+    cycles counted as connected components of the graph k -> perm[k]."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n = len(perm)
+    graph = coo_matrix((np.ones(n), (np.arange(n), np.asarray(perm))), shape=(n, n))
+    cycles = connected_components(graph, directed=True, connection="weak", return_labels=False)
+    return -1 if (n - cycles) % 2 else 1
 
 
 class _Context:
@@ -178,14 +197,12 @@ class Model:
             pos[order] = block[order] * size + np.arange(len(block)) - start[block[order]]
             return pos
 
-        from .linalg import _parity
-
         used = np.zeros(count * size, bool)
         row_pos, col_pos = positions(row_block), positions(col_block)
         used[col_pos] = True
         rows, cols = row_pos[self.jac_rows], col_pos[self.jac_cols]
         return Blocks(count, size, row_pos, col_pos, np.flatnonzero(~used), bool((cols_in == rows_in).all()),
-                      _parity(np.argsort(row_pos)) * _parity(np.argsort(col_pos)),
+                      parity(np.argsort(row_pos)) * parity(np.argsort(col_pos)),
                       (rows // size, rows % size, cols % size))
 
     @cached_property
@@ -194,8 +211,6 @@ class Model:
         single-entry rows share a column (a structurally singular Jacobian)."""
         from scipy.sparse import coo_matrix
         from scipy.sparse.csgraph import reverse_cuthill_mckee
-
-        from .linalg import _parity
 
         m, n, rows, cols = self.m, self.n, self.jac_rows, self.jac_cols
         count = np.bincount(rows, minlength=m)
@@ -237,8 +252,50 @@ class Model:
         J_row[couple], J_col[couple] = height - 1, np.arange(n_couple)
         width = max(size, ns, n_couple, 1)
         return Band(size, kl, ku, height, width, row_pos, col_pos,
-                    _parity(np.argsort(row_pos)) * _parity(np.argsort(col_pos)),
+                    parity(np.argsort(row_pos)) * parity(np.argsort(col_pos)),
                     (self._zero, J_row, J_col), (r[couple], c[couple] - size))
+
+    @cached_property
+    def plan(self):
+        """The march's linear structure in the compiled core (kinem.native.Plan:
+        its LU and march): J_s's diagonal blocks, or its band for a large
+        chain; None for a model with neither (not square, a block above
+        BLOCK_LIMIT without a narrow band): those go step by step with
+        SuperLU (kinem.linalg)."""
+        if self.m != self.n:
+            return None
+        b = self.blocks
+        if b.size <= BLOCK_LIMIT:
+            if not b.square:
+                return None
+            blk, rows, cols = b.entries
+            real = np.ones(b.count * b.size, np.int64)
+            real[b.pad] = 0
+            masks = np.zeros((2, b.count * b.size), np.uint64)
+            if b.size <= MASK:
+                one = np.uint64(1)
+                base = np.asarray(blk, np.int64) * b.size
+                np.bitwise_or.at(masks[0], base + rows, one << np.asarray(cols, np.uint64))
+                np.bitwise_or.at(masks[1], base + cols, one << np.asarray(rows, np.uint64))
+                diag = np.asarray(b.pad, np.int64)
+                np.bitwise_or.at(masks[0], diag, one << (diag % b.size).astype(np.uint64))
+                np.bitwise_or.at(masks[1], diag, one << (diag % b.size).astype(np.uint64))
+            columns = dict(pad=np.asarray(b.pad, np.int64), rows_mask=masks[0].view(np.int64),
+                           cols_mask=masks[1].view(np.int64), row_pos=b.row_pos, col_pos=b.col_pos, real=real)
+            shape = (False, b.count, b.size, b.size, b.size, 0, 0, b.sign)
+        else:
+            d = self.band if b.count == 1 else None
+            if d is None or d.kl + d.ku > BAND_LIMIT:
+                return None
+            blk, rows, cols = d.entries
+            columns = dict(couple_row=d.coupling[0], couple_col=d.coupling[1], row_pos=d.row_pos, col_pos=d.col_pos,
+                           real=np.ones(self.n, np.int64))
+            shape = (True, 1, d.size, d.height, d.width, d.kl, d.ku, d.sign)
+        columns.update(block=blk, row=rows, col=cols, entry_scale=self.entry_scale, scale=self.scale,
+                       col_scale=self.col_scale)
+        columns = {k: np.ascontiguousarray(v, np.float64 if np.asarray(v).dtype.kind == "f" else np.int64)
+                   for k, v in columns.items()}
+        return native.Plan(self.core, *shape, columns)
 
     # -- evaluation ----------------------------------------------------------
     def _gather(self, values):
@@ -280,10 +337,10 @@ class Model:
 
             order, indices, indptr = self._csc
             return csc_matrix((values[order], indices, indptr), shape=(self.m, self.n))
-        V = np.ascontiguousarray(values, dtype=float).reshape(-1, self.nnz)
-        J = dense.assemble(V, self._zero, self.jac_rows, self.jac_cols, self._unit, self._zero[:0],
-                           np.empty((len(V), self.m, self.n)))
-        return J.reshape(values.shape[:-1] + (self.m, self.n))
+        values = np.asarray(values, dtype=float)
+        J = np.zeros(values.shape[:-1] + (self.m, self.n))
+        J[..., self.jac_rows, self.jac_cols] = values
+        return J
 
     def scaled_residual(self, phi) -> np.ndarray:
         """|Phi| / scale, row by row (phi (m,) or a batch (..., m))."""

@@ -6,7 +6,6 @@ import weakref
 
 import numpy as np
 
-from .jit import kernel
 
 OUTPUTS = ("positions", "velocities", "accelerations")
 BODY_COLUMNS = {"positions": ("x", "y", "phi"), "velocities": ("vx", "vy", "omega"),
@@ -116,38 +115,27 @@ def _layout(model, stages: int):
     return out
 
 
-@kernel
-def _columns(Q, QD, QDD, stages, src, pc, local, pts, out):
-    """out[k, c] = column c's value at instant k (T, columns), in one pass:
-    coordinate src[c] of stage src[c] // n (X_0 = Q, X_1 = QD, X_2 = QDD)
-    when src[c] < stages n, else entry src[c] - stages n of the points'
-    values pts (2 stages P: [x_0 .. x_P-1, y_0 .., vx_0 .., vy .., ax ..,
-    ay ..]), point p of the body at columns pc[p], at s'_p = local[p]
-    (r + A s', its first and second derivatives)."""
-    n, P = Q.shape[1], pc.shape[0]
-    for k in range(Q.shape[0]):
-        for p in range(P):
-            c = pc[p]
-            e = local[p] * np.exp(1j * Q[k, c + 2])
-            v = complex(Q[k, c], Q[k, c + 1]) + e
-            pts[p], pts[P + p] = v.real, v.imag
-            if stages > 1:
-                w = QD[k, c + 2]
-                v = complex(QD[k, c], QD[k, c + 1]) + 1j * e * w
-                pts[2 * P + p], pts[3 * P + p] = v.real, v.imag
-                if stages > 2:
-                    v = complex(QDD[k, c], QDD[k, c + 1]) + 1j * e * QDD[k, c + 2] - e * w * w
-                    pts[4 * P + p], pts[5 * P + p] = v.real, v.imag
-        for c in range(src.shape[0]):
-            j = src[c]
-            if j < n:
-                out[k, c] = Q[k, j]
-            elif j >= stages * n:
-                out[k, c] = pts[j - stages * n]
-            elif j < 2 * n:
-                out[k, c] = QD[k, j - n]
-            else:
-                out[k, c] = QDD[k, j - 2 * n]
+def _columns(X, stages, src, pc, local, out):
+    """out[k, c] = column c's value at instant k (T, columns): coordinate
+    src[c] of stage src[c] // n (X[0] = Q, X[1] = QD, X[2] = QDD) when
+    src[c] < stages n, else entry src[c] - stages n of the points' values
+    [x_0 .., y_0 .., vx_0 .., vy_0 .., ax_0 .., ay_0 ..]: point p of the body
+    at columns pc[p], at s'_p = local[p] (r + A s', its first and second
+    derivatives)."""
+    values = list(X)
+    if len(pc):
+        Q = X[0]
+        e = local * np.exp(1j * Q[:, pc + 2])
+        parts = [Q[:, pc] + 1j * Q[:, pc + 1] + e]
+        if stages > 1:
+            w = X[1][:, pc + 2]
+            parts.append(X[1][:, pc] + 1j * X[1][:, pc + 1] + 1j * e * w)
+            if stages > 2:
+                parts.append(X[2][:, pc] + 1j * X[2][:, pc + 1] + 1j * e * X[2][:, pc + 2] - e * w * w)
+        for v in parts:
+            values += [v.real, v.imag]
+    flat = np.concatenate(values, axis=1) if len(values) > 1 else values[0]
+    np.take(flat, src, axis=1, out=out)
 
 
 def trajectory(model, t, Q, QD=None, QDD=None) -> Trajectory:
@@ -157,6 +145,5 @@ def trajectory(model, t, Q, QD=None, QDD=None) -> Trajectory:
     names, src, index = _layout(model, len(X))
     data = np.empty((len(t), len(names)))
     if len(t):
-        _columns(Q, X[min(1, len(X) - 1)], X[-1], len(X), src, model.point_cols, model.point_local,
-                 np.empty(2 * len(X) * len(model.point_names)), data)
+        _columns(X, len(X), src, model.point_cols, model.point_local, data)
     return Trajectory(np.array(t, dtype=float), names, data, index)

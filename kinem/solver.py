@@ -1,37 +1,20 @@
 """``solve``: the analysis of a compiled Model over its output instants
 (docs/solver.md), on top of the stages (kinem.analysis), the tracker
-(kinem.tracking) and the compiled march (kinem.march); nothing below imports
+(kinem.tracking) and the march (kinem.march, the compiled core's loop); nothing below imports
 it. Its options (kinem.options.Options) are passed to it, not compiled into
 the Model: changing a tolerance never recompiles."""
 import time
-from contextlib import nullcontext
 
 import numpy as np
 
-from . import jit
-from .analysis import Data, check_square
+from .analysis import Data
 from .diagnose import explain_assembly
-from .errors import AnalysisError, SingularError
-from .linalg import choose, preload
+from .errors import AnalysisError, InputError, SingularError
+from .linalg import choose
 from .march import March, usable
 from .options import Options
 from .result import OUTPUTS, SolveResult, Status, trajectory
 from .tracking import Tracker
-
-# Step-by-step runs with instants x (100 + coordinates) up to this run their
-# kernels interpreted in a process without numba (``interpret``). Measured on
-# N-four-bar chains in new processes: an interpreted instant costs about
-# (100 + n) x 15 us more than a compiled one, and loading numba costs about
-# 0.37 s, i.e. 25,000 x 15 us.
-INTERPRET_WORK = 25_000
-
-
-def interpret(model, blocks: bool, instants: int) -> bool:
-    """Whether a run's kernels should run interpreted (kinem.jit): a short
-    step-by-step run in a process that has not loaded numba costs less that
-    way than numba's start-up (INTERPRET_WORK)."""
-    return not blocks and not jit.loaded() and instants * (100 + model.n) <= INTERPRET_WORK
-
 
 def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | None = None,
           q0=None) -> SolveResult:
@@ -61,36 +44,34 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     tracker = Tracker(model, data, need_v, need_a, options)
     status, message = Status.SUCCESS, ""
     blocks = usable(model, trace, nt, options)
-    with jit.interpreted() if interpret(model, blocks, nt) else nullcontext():
-        preload(model, blocks, data.solver)  # one-time imports, not part of the analysis's wall time
-        start = time.perf_counter()
-        march = March(model, tracker, times, (Q, QD, QDD, iters, resid, cond)) if blocks else None
-        k = 0
-        try:
-            while k < nt:
-                if march is not None:
-                    k = march.advance(k, q0)
-                    if k == nt:
-                        break
-                s = tracker.start(times[0], q0) if k == 0 else tracker.advance(times[k])
-                iters[k], resid[k], cond[k], Q[k] = s.iterations, s.residual, s.pivot, s.q
-                if trace:
-                    data.trace.append((times[k], "instant", s.iterations, s.residual, f"pivot ratio {s.pivot:.3e}"))
-                if need_v:
-                    QD[k] = s.qd
-                    if need_a:
-                        QDD[k] = s.qdd
-                k += 1
-        except AnalysisError as e:
-            status = Status.SINGULAR if isinstance(e, SingularError) else Status.NOT_CONVERGED
-            what = "assembly at" if k == 0 else "step to"
-            why = explain_assembly(model, times[0]) if k == 0 else ""  # the root cause, in the user's terms
-            message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {why + '; ' if why else ''}{e}"
-        wall = time.perf_counter() - start
-        n_ok = k
-        ok = status == Status.SUCCESS
-        traj = trajectory(model, times[:n_ok], Q[:n_ok], None if QD is None else QD[:n_ok],
-                          None if QDD is None else QDD[:n_ok])
+    start = time.perf_counter()
+    march = March(model, tracker, times, (Q, QD, QDD, iters, resid, cond), options) if blocks else None
+    k = 0
+    try:
+        while k < nt:
+            if march is not None:
+                k = march.advance(k, q0)
+                if k == nt:
+                    break
+            s = tracker.start(times[0], q0) if k == 0 else tracker.advance(times[k])
+            iters[k], resid[k], cond[k], Q[k] = s.iterations, s.residual, s.pivot, s.q
+            if trace:
+                data.trace.append((times[k], "instant", s.iterations, s.residual, f"pivot ratio {s.pivot:.3e}"))
+            if need_v:
+                QD[k] = s.qd
+                if need_a:
+                    QDD[k] = s.qdd
+            k += 1
+    except AnalysisError as e:
+        status = Status.SINGULAR if isinstance(e, SingularError) else Status.NOT_CONVERGED
+        what = "assembly at" if k == 0 else "step to"
+        why = explain_assembly(model, times[0]) if k == 0 else ""  # the root cause, in the user's terms
+        message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {why + '; ' if why else ''}{e}"
+    wall = time.perf_counter() - start
+    n_ok = k
+    ok = status == Status.SUCCESS
+    traj = trajectory(model, times[:n_ok], Q[:n_ok], None if QD is None else QD[:n_ok],
+                      None if QDD is None else QDD[:n_ok])
     return SolveResult(
         success=ok, status=status, message=message or "all instants solved",
         trajectory=traj, q=Q[:n_ok], qd=None if QD is None else QD[:n_ok],
@@ -101,3 +82,15 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         wall_time=wall, t_fail=None if ok else float(times[n_ok]),
         failed_constraint=None if ok or status == Status.SINGULAR else model.row_owner[data.worst_row],
     )
+
+
+def check_square(model) -> None:
+    """Kinematic analysis needs at least as many equations as coordinates
+    (Sec. 4.3); more are accepted when they are consistent (redundant
+    constraints, solved in the least-squares sense)."""
+    if model.m < model.n:
+        gap = model.n - model.m
+        why = explain_assembly(model, float(model.times[0]))  # names the driving equations and the DOF
+        raise InputError(f"{model.case.source}: {model.m} equations for {model.n} coordinates: "
+                         f"{gap} equation{'s' * (gap != 1)} missing" + (f"; {why}" if why else
+                                                                        " (add drivers or constraints)"))

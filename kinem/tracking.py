@@ -18,13 +18,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from . import analysis
+from . import native
 from .diagnose import diagnose
 from .errors import AnalysisError, ConvergenceError, SingularError
 from .linalg import det_sign, monitor_rows
-from .jit import kernel
 from .options import Options
 
-KAPPA = 0.5            # a correction above half the predicted motion is a jump, not a refinement
+KAPPA = native.KAPPA    # a correction above half the predicted motion is a jump, not a refinement
 MIN_STEP = 1e-5        # of the output interval: below it the path is stuck at a singular point
 # An output instant near a singular configuration is solved directly (not interpolated)
 # when one more Newton correction after convergence is below REGULAR x sqrt(tolerance)
@@ -35,7 +35,7 @@ MIN_STEP = 1e-5        # of the output interval: below it the path is stuck at a
 # distance (1e-11 there). At a regular root the correction is rounding over the conditioning
 # and the pivot ratio that of the configuration: 1e-10 and 3.8e-7 for a four-bar 1e-6 (in
 # crank angle) from its change point.
-REGULAR = 1e-2
+REGULAR = native.REGULAR
 
 
 def singular_pivot(tolerance: float) -> float:
@@ -49,52 +49,32 @@ def singular_pivot(tolerance: float) -> float:
     return min(1e-3, 1.5 * tolerance**0.5)
 
 
-@kernel
 def lagrange(t, T, H, q):
-    """q at t extrapolated through the states H (3, n) at times T (3,),
-    oldest first (NaN: none), the predictor when no velocity is known (the
-    tracker's and the compiled march's): Lagrange through those within four
-    steps of t (far ones make the slope too poor to judge a jump by).
-    Returns the order: the points used - 1 (0: no slope to judge a jump by)."""
-    h = t - T[2]
-    q[:] = 0.0
-    used = 0
-    for i in range(3):
-        if not t - T[i] <= 4 * h:
-            continue
-        used += 1
-        w = 1.0
-        for j in range(3):
-            if j != i and t - T[j] <= 4 * h:
-                w *= (t - T[j]) / (T[i] - T[j])
-        for c in range(q.shape[0]):
-            q[c] += w * H[i, c]
-    return used - 1
+    """q at t (into q) extrapolated through the states H (3, n) at times T
+    (3,), oldest first (NaN: none): Lagrange through those within four steps
+    of t (the compiled core's, kinem/core/src/accept.rs). Returns the order:
+    the points used - 1 (0: no slope to judge a jump by)."""
+    q[:], order = native.lagrange(float(t), np.ascontiguousarray(T, float), np.ascontiguousarray(H, float))
+    return order
 
 
-@kernel
 def jump_sizes(q, q_pred, q_last, col_scale):
     """(correction, motion): the largest dimensionless |q - q_pred| and
-    |q_pred - q_last|, the correction from the predictor and the motion it
-    predicted (q (n,))."""
-    corr = move = 0.0
-    for j in range(q.shape[0]):
-        corr = max(corr, abs(q[j] - q_pred[j]) / col_scale[j])
-        move = max(move, abs(q_pred[j] - q_last[j]) / col_scale[j])
-    return corr, move
+    |q_pred - q_last| (the compiled core's)."""
+    c = np.ascontiguousarray
+    return native.jump_sizes(c(q, float), c(q_pred, float), c(q_last, float), c(col_scale, float))
 
 
 # Why ``rejected`` turns a state down (0: accepted).
-NEAR_SINGULAR, DET_FLIP, JUMP = 1, 2, 3
+NEAR_SINGULAR, DET_FLIP, JUMP = native.NEAR_SINGULAR, native.DET_FLIP, native.JUMP
 
 
-@kernel
 def rejected(pivot, correction, det, previous_det, corr, move, judge_jump, floor, tolerance, allow_flip):
     """The acceptance test of a tracked state reached in one step from the
-    one before it, the one test of the tracker and of the compiled march
-    (kinem.march): NEAR_SINGULAR when its pivot ratio is below the floor
-    (singular_pivot) or not a number, or when its last Newton correction
-    (kinem.newton.settle) is above REGULAR x sqrt(tolerance): Newton
+    one before it, the one test of the tracker and of the march (the
+    compiled core's, kinem/core/src/accept.rs): NEAR_SINGULAR when its pivot
+    ratio is below the floor (singular_pivot) or not a number, or when its
+    last Newton correction is above REGULAR x sqrt(tolerance): Newton
     converged linearly, to a singular root, where a correction with the
     nearly singular LU can throw q to a configuration that passes the floor
     (docs/solver.md, "Branches and singular configurations"); DET_FLIP
@@ -103,13 +83,8 @@ def rejected(pivot, correction, det, previous_det, corr, move, judge_jump, floor
     KAPPA times the predicted motion plus ten times the tolerance for
     round-off (``jump_sizes``; judged when ``judge_jump``: the predictor
     had a slope), else 0."""
-    if not pivot >= floor or not correction <= REGULAR * tolerance**0.5:
-        return NEAR_SINGULAR
-    if det != previous_det and not allow_flip:
-        return DET_FLIP
-    if judge_jump and corr > KAPPA * move + 10 * tolerance:
-        return JUMP
-    return 0
+    return native.rejected(float(pivot), float(correction), int(det), int(previous_det), float(corr), float(move),
+                          bool(judge_jump), float(floor), float(tolerance), bool(allow_flip))
 
 
 def over_steps(step, limit):
@@ -131,7 +106,7 @@ class State:
     det: int
     iterations: int
     residual: float
-    correction: float = 0.0  # the last Newton correction (kinem.newton.settle)
+    correction: float = 0.0  # the last Newton correction (the core's settle)
 
 
 class Rejected(Exception):

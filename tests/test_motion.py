@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from kinem.analysis import solve
+from kinem.solver import solve
 from kinem.case import load, loads
 from kinem.cli import main
 from kinem.errors import InputError

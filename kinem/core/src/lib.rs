@@ -4,9 +4,13 @@
 //! output instants. One fixed kernel serves every mechanism: a model is
 //! handed over once as struct-of-arrays tables (kinem.model.compile) and
 //! the core switches on the family type. Nothing is generated at run time.
+pub mod accept;
 pub mod families;
 pub mod functions;
+pub mod lu;
+pub mod march;
 pub mod model;
+pub mod newton;
 pub mod outline;
 pub mod table;
 

@@ -200,6 +200,325 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     // a panic's message reaches Python in the CoreError; nothing is printed
     std::panic::set_hook(Box::new(|_| {}));
     m.add_class::<Core>()?;
+    register(m)?;
     m.add("KINDS", crate::families::KINDS.to_vec())?;
+    Ok(())
+}
+
+// ---- the march's linear structure, the march, and the step-by-step kernels ----
+
+use crate::accept;
+use crate::lu::{Factors, Layout, Shape};
+use crate::march;
+use crate::newton::{self, Ops};
+use numpy::PyReadwriteArray1;
+use numpy::PyReadwriteArray2;
+
+fn positions(t: &Table, key: &str, bound: usize) -> PyResult<Vec<usize>> {
+    t.index(key, bound).map_err(pyo3::exceptions::PyValueError::new_err)
+}
+
+fn reals(t: &Table, key: &str) -> PyResult<Vec<f64>> {
+    t.real(key).map_err(pyo3::exceptions::PyValueError::new_err)
+}
+
+/// A model's linear structure (kinem.model.Blocks or Band) with its
+/// evaluation: what the march and the step-by-step LU run on.
+#[pyclass(frozen, module = "kinem._core")]
+pub struct Plan {
+    kin: Arc<Kin>,
+    layout: Arc<Layout>,
+}
+
+#[pymethods]
+impl Plan {
+    /// Plan(core, band, count, size, height, width, kl, ku, sign, columns): band
+    /// False: `count` diagonal blocks of `size` (columns pad, rows_mask,
+    /// cols_mask (count size, the patterns as int64 bits)); True: the band
+    /// (kl, ku, size: the reduced system; columns couple_row, couple_col).
+    /// Columns for both: block, row, col (per Jacobian entry), entry_scale,
+    /// row_pos, col_pos, real, scale, col_scale.
+    #[new]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        core: &Core,
+        band: bool,
+        count: usize,
+        size: usize,
+        height: usize,
+        width: usize,
+        kl: usize,
+        ku: usize,
+        sign: i32,
+        columns: Bound<'_, PyDict>,
+    ) -> PyResult<Self> {
+        let kin = core.kin.clone();
+        let t = table(&columns)?;
+        let (n, m, nnz) = (kin.n, kin.m, kin.nnz);
+        t.same_length(nnz, &["block", "row", "col", "entry_scale"]).map_err(pyo3::exceptions::PyValueError::new_err)?;
+        let block = positions(&t, "block", count.max(1))?;
+        let row = positions(&t, "row", height.max(1))?;
+        let col = positions(&t, "col", width.max(1))?;
+        let stored = if band { n.max(size) } else { count * size };
+        let shape = if band {
+            if 2 * kl + ku + 3 != height || size > n || width < size.max(n - size) {
+                return Err(pyo3::exceptions::PyValueError::new_err("plan: band dimensions do not fit"));
+            }
+            let couple_row = positions(&t, "couple_row", size.max(1))?;
+            let couple_col = positions(&t, "couple_col", (n - size).max(1))?;
+            if couple_row.len() != couple_col.len() || couple_row.len() > width {
+                return Err(pyo3::exceptions::PyValueError::new_err("plan: coupling columns do not fit"));
+            }
+            Shape::Band { kl, ku, size, singles: n - size, couple_row, couple_col }
+        } else {
+            if height != size || width != size || count * size < n.max(m) || size > 4096 {
+                return Err(pyo3::exceptions::PyValueError::new_err("plan: block dimensions do not fit"));
+            }
+            let pad = positions(&t, "pad", count * size)?;
+            let rm = t.int("rows_mask").map_err(pyo3::exceptions::PyValueError::new_err)?;
+            let cm = t.int("cols_mask").map_err(pyo3::exceptions::PyValueError::new_err)?;
+            let patterns = if size <= crate::lu::MASK {
+                if rm.len() != count * size || cm.len() != count * size {
+                    return Err(pyo3::exceptions::PyValueError::new_err("plan: masks do not fit"));
+                }
+                rm.iter().zip(&cm).map(|(&a, &b)| (a as u64, b as u64)).collect()
+            } else {
+                Vec::new()
+            };
+            Shape::Blocks { count, size, pad, patterns }
+        };
+        let real = t.flags("real").map_err(pyo3::exceptions::PyValueError::new_err)?;
+        if real.len() != stored.max(n) && real.len() != stored {
+            return Err(pyo3::exceptions::PyValueError::new_err("plan: real has the wrong length"));
+        }
+        let layout = Layout {
+            shape,
+            n,
+            m,
+            height,
+            width,
+            count: if band { 1 } else { count },
+            at: (0..nnz).map(|e| (block[e], row[e], col[e])).collect(),
+            entry_scale: reals(&t, "entry_scale")?,
+            row_pos: positions(&t, "row_pos", stored.max(1))?,
+            col_pos: positions(&t, "col_pos", stored.max(1))?,
+            real,
+            sign,
+            scale: reals(&t, "scale")?,
+            col_scale: reals(&t, "col_scale")?,
+        };
+        if layout.row_pos.len() != m || layout.col_pos.len() != n || layout.scale.len() != m || layout.col_scale.len() != n {
+            return Err(pyo3::exceptions::PyValueError::new_err("plan: positions or scales have the wrong length"));
+        }
+        Ok(Plan { kin, layout: Arc::new(layout) })
+    }
+
+    /// The LU of J_s at these Jacobian values (nnz).
+    fn factor(&self, py: Python<'_>, values: PyReadonlyArray1<'_, f64>) -> PyResult<Lu> {
+        let v = values.as_slice()?;
+        if v.len() != self.kin.nnz {
+            return Err(pyo3::exceptions::PyValueError::new_err("factor: wrong number of values"));
+        }
+        let layout = self.layout.clone();
+        let (f, stats) = guard(py, move || {
+            let mut f = layout.factors();
+            layout.factor(v, &mut f);
+            let s = layout.pivots(&f);
+            Ok((f, s))
+        })?;
+        Ok(Lu {
+            layout: self.layout.clone(),
+            f: std::sync::Mutex::new(f),
+            pivot_ratio: stats.0,
+            det_sign: stats.1,
+            smallest: stats.2,
+        })
+    }
+
+    /// March from the state (q, qd, qdd (n), last (2): time and det sign, H
+    /// (3, n), T (3)) over times[k:]; fills Q, QD, QDD (K, n), iterations,
+    /// residual, pivot (K), adds to counts (2). Returns (end, why).
+    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (times, k, q, qd, qdd, last, h, tt, tolerance, max_iterations, max_step, floor, rates, out_q, out_qd, out_qdd, iterations, residual, pivot, counts))]
+    fn march(
+        &self,
+        py: Python<'_>,
+        times: PyReadonlyArray1<'_, f64>,
+        k: usize,
+        mut q: PyReadwriteArray1<'_, f64>,
+        mut qd: PyReadwriteArray1<'_, f64>,
+        mut qdd: PyReadwriteArray1<'_, f64>,
+        mut last: PyReadwriteArray1<'_, f64>,
+        mut h: PyReadwriteArray2<'_, f64>,
+        mut tt: PyReadwriteArray1<'_, f64>,
+        tolerance: f64,
+        max_iterations: usize,
+        max_step: f64,
+        floor: f64,
+        rates: bool,
+        mut out_q: PyReadwriteArray2<'_, f64>,
+        mut out_qd: PyReadwriteArray2<'_, f64>,
+        mut out_qdd: PyReadwriteArray2<'_, f64>,
+        mut iterations: PyReadwriteArray1<'_, i64>,
+        mut residual: PyReadwriteArray1<'_, f64>,
+        mut pivot: PyReadwriteArray1<'_, f64>,
+        mut counts: PyReadwriteArray1<'_, i64>,
+    ) -> PyResult<(usize, u8)> {
+        let (n, kk) = (self.kin.n, times.len());
+        let bad = |what: &str| pyo3::exceptions::PyValueError::new_err(format!("march: {what} has the wrong shape"));
+        let times = times.as_slice()?;
+        let sl = |a: &mut PyReadwriteArray1<'_, f64>, len: usize, what: &str| -> PyResult<()> {
+            if a.len() != len || a.as_slice_mut().is_err() {
+                return Err(bad(what));
+            }
+            Ok(())
+        };
+        sl(&mut q, n, "q")?;
+        sl(&mut qd, n, "qd")?;
+        sl(&mut qdd, n, "qdd")?;
+        sl(&mut last, 2, "last")?;
+        sl(&mut tt, 3, "T")?;
+        sl(&mut residual, kk, "residual")?;
+        sl(&mut pivot, kk, "pivot")?;
+        if h.shape() != [3, n] || iterations.len() != kk || counts.len() != 2 || k > kk {
+            return Err(bad("H, iterations, counts or k"));
+        }
+        for (a, what) in [(&out_q, "Q"), (&out_qd, "QD"), (&out_qdd, "QDD")] {
+            if a.shape() != [kk, n] {
+                return Err(bad(what));
+            }
+        }
+        let settings = march::Settings { tolerance, max_iterations, max_step, floor, rates };
+        let (kin, layout) = (self.kin.clone(), self.layout.clone());
+        let st = march::State {
+            q: q.as_slice_mut()?,
+            qd: qd.as_slice_mut()?,
+            qdd: qdd.as_slice_mut()?,
+            last: last.as_slice_mut()?,
+            h: h.as_slice_mut()?,
+            tt: tt.as_slice_mut()?,
+        };
+        let out = march::Out {
+            q: out_q.as_slice_mut()?,
+            qd: out_qd.as_slice_mut()?,
+            qdd: out_qdd.as_slice_mut()?,
+            iterations: iterations.as_slice_mut()?,
+            residual: residual.as_slice_mut()?,
+            pivot: pivot.as_slice_mut()?,
+            counts: counts.as_slice_mut()?,
+        };
+        guard(py, move || Ok(march::run(&kin, &layout, times, k, st, &settings, out)))
+    }
+}
+
+/// LU factors of J_s (Plan.factor): solve, pivot ratio and det sign.
+#[pyclass(frozen, module = "kinem._core")]
+pub struct Lu {
+    layout: Arc<Layout>,
+    f: std::sync::Mutex<Factors>,
+    #[pyo3(get)]
+    pivot_ratio: f64,
+    #[pyo3(get)]
+    det_sign: i32,
+    /// the stored position of the smallest |pivot| (kinem.model's row_pos / col_pos order)
+    #[pyo3(get)]
+    smallest: usize,
+}
+
+#[pymethods]
+impl Lu {
+    /// x with Phi_q x = b (b: m rows).
+    fn solve<'py>(&self, py: Python<'py>, b: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let b = b.as_slice()?;
+        if b.len() != self.layout.m {
+            return Err(pyo3::exceptions::PyValueError::new_err("solve: wrong number of rows"));
+        }
+        let layout = self.layout.clone();
+        let f = &self.f;
+        let x = guard(py, move || {
+            let mut x = vec![0.0; layout.n];
+            let mut g = f.lock().map_err(|_| "LU factors poisoned by an earlier fault".to_string())?;
+            layout.solve(&mut g, b, &mut x);
+            Ok(x)
+        })?;
+        Ok(PyArray1::from_vec(py, x))
+    }
+}
+
+/// settle's operations as a Python object's methods (the step-by-step
+/// analysis, kinem.analysis): evaluate(it) -> residual, factor(last),
+/// correct(limit) -> step size.
+struct PyOps<'a, 'py> {
+    ops: &'a Bound<'py, PyAny>,
+}
+
+impl Ops for PyOps<'_, '_> {
+    type Error = PyErr;
+    fn evaluate(&mut self, it: i64) -> PyResult<f64> {
+        self.ops.call_method1("evaluate", (it,))?.extract()
+    }
+    fn factor(&mut self, last: bool) -> PyResult<()> {
+        self.ops.call_method1("factor", (last,)).map(|_| ())
+    }
+    fn correct(&mut self, limit: f64) -> PyResult<f64> {
+        self.ops.call_method1("correct", (limit,))?.extract()
+    }
+}
+
+/// The one Newton-Raphson (newton::settle) on a Python object's operations:
+/// returns (iterations, residual, converged, last step).
+#[pyfunction]
+fn settle(ops: &Bound<'_, PyAny>, tolerance: f64, max_iterations: usize, max_step: f64, finish: bool) -> PyResult<(usize, f64, bool, f64)> {
+    let mut o = PyOps { ops };
+    let s = newton::settle(&mut o, tolerance, max_iterations, max_step, finish)?;
+    Ok((s.iterations, s.residual, s.converged, s.last_step))
+}
+
+/// The acceptance test (accept::rejected).
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn rejected(pivot: f64, correction: f64, det: i32, previous_det: i32, corr: f64, motion: f64, judge_jump: bool, floor: f64, tolerance: f64, allow_flip: bool) -> u8 {
+    accept::rejected(pivot, correction, det, previous_det, corr, motion, judge_jump, floor, tolerance, allow_flip)
+}
+
+/// (correction from the predictor, predicted motion), dimensionless.
+#[pyfunction]
+fn jump_sizes(q: PyReadonlyArray1<'_, f64>, q_pred: PyReadonlyArray1<'_, f64>, q_last: PyReadonlyArray1<'_, f64>, col_scale: PyReadonlyArray1<'_, f64>) -> PyResult<(f64, f64)> {
+    let (a, b, c, d) = (q.as_slice()?, q_pred.as_slice()?, q_last.as_slice()?, col_scale.as_slice()?);
+    if b.len() != a.len() || c.len() != a.len() || d.len() != a.len() {
+        return Err(pyo3::exceptions::PyValueError::new_err("jump_sizes: lengths differ"));
+    }
+    Ok(accept::jump_sizes(a, b, c, d))
+}
+
+/// q at t extrapolated through the states H (3, n) at T (3) (accept::lagrange):
+/// (q, order).
+#[pyfunction]
+fn lagrange<'py>(py: Python<'py>, t: f64, tt: PyReadonlyArray1<'py, f64>, h: PyReadonlyArray2<'py, f64>) -> PyResult<(Bound<'py, PyArray1<f64>>, i32)> {
+    let tt = tt.as_slice()?;
+    let shape = h.shape();
+    if tt.len() != 3 || shape[0] != 3 {
+        return Err(pyo3::exceptions::PyValueError::new_err("lagrange: T (3,) and H (3, n)"));
+    }
+    let mut q = vec![0.0; shape[1]];
+    let order = accept::lagrange(t, &[tt[0], tt[1], tt[2]], h.as_slice()?, &mut q);
+    Ok((PyArray1::from_vec(py, q), order))
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Plan>()?;
+    m.add_class::<Lu>()?;
+    m.add_function(wrap_pyfunction!(settle, m)?)?;
+    m.add_function(wrap_pyfunction!(rejected, m)?)?;
+    m.add_function(wrap_pyfunction!(jump_sizes, m)?)?;
+    m.add_function(wrap_pyfunction!(lagrange, m)?)?;
+    m.add("MAX_STEP", newton::MAX_STEP)?;
+    m.add("POLISH", newton::POLISH)?;
+    m.add("KAPPA", accept::KAPPA)?;
+    m.add("REGULAR", accept::REGULAR)?;
+    m.add("NEAR_SINGULAR", accept::NEAR_SINGULAR)?;
+    m.add("DET_FLIP", accept::DET_FLIP)?;
+    m.add("JUMP", accept::JUMP)?;
+    m.add("NOT_CONVERGED", accept::NOT_CONVERGED)?;
     Ok(())
 }

@@ -1,0 +1,123 @@
+//! The predictor and the one acceptance test of a tracked state (the
+//! tracker's, kinem/tracking.py, and the march's): docs/solver.md,
+//! "Branches and singular configurations".
+
+/// A correction above half the predicted motion is a jump, not a refinement.
+pub const KAPPA: f64 = 0.5;
+/// A state whose last Newton correction is above REGULAR sqrt(tolerance)
+/// (dimensionless) converged linearly, to a singular root.
+pub const REGULAR: f64 = 1e-2;
+
+/// Why `rejected` turns a state down (0: accepted).
+pub const NEAR_SINGULAR: u8 = 1;
+pub const DET_FLIP: u8 = 2;
+pub const JUMP: u8 = 3;
+/// The march's code for a position solve that did not converge.
+pub const NOT_CONVERGED: u8 = 4;
+
+/// The acceptance test: NEAR_SINGULAR when the pivot ratio is below the
+/// floor (or not a number) or the last Newton correction is above REGULAR
+/// sqrt(tolerance); DET_FLIP when det(J_s) changed sign (unless
+/// `allow_flip`: a step over a bifurcation); JUMP when the correction from
+/// the predictor is above KAPPA times the predicted motion plus ten times
+/// the tolerance for round-off (judged when `judge_jump`: the predictor had
+/// a slope); else 0.
+#[allow(clippy::too_many_arguments)]
+pub fn rejected(
+    pivot: f64,
+    correction: f64,
+    det: i32,
+    previous_det: i32,
+    corr: f64,
+    motion: f64,
+    judge_jump: bool,
+    floor: f64,
+    tolerance: f64,
+    allow_flip: bool,
+) -> u8 {
+    if !(pivot >= floor) || !(correction <= REGULAR * tolerance.sqrt()) {
+        return NEAR_SINGULAR;
+    }
+    if det != previous_det && !allow_flip {
+        return DET_FLIP;
+    }
+    if judge_jump && corr > KAPPA * motion + 10.0 * tolerance {
+        return JUMP;
+    }
+    0
+}
+
+/// (correction, motion): the largest dimensionless |q - q_pred| and
+/// |q_pred - q_last|.
+pub fn jump_sizes(q: &[f64], q_pred: &[f64], q_last: &[f64], col_scale: &[f64]) -> (f64, f64) {
+    let (mut corr, mut motion) = (0.0f64, 0.0f64);
+    for j in 0..q.len() {
+        corr = corr.max((q[j] - q_pred[j]).abs() / col_scale[j]);
+        motion = motion.max((q_pred[j] - q_last[j]).abs() / col_scale[j]);
+    }
+    (corr, motion)
+}
+
+/// q at t extrapolated through the states h (3 rows of n) at times tt (3),
+/// oldest first (NaN: none): Lagrange through those within four steps of t.
+/// Returns the order: the points used - 1 (0: no slope to judge a jump by;
+/// -1: none).
+pub fn lagrange(t: f64, tt: &[f64; 3], h: &[f64], q: &mut [f64]) -> i32 {
+    let n = q.len();
+    let step = t - tt[2];
+    q.fill(0.0);
+    let near = |i: usize| t - tt[i] <= 4.0 * step;
+    let mut used = 0;
+    for i in 0..3 {
+        if !near(i) {
+            continue;
+        }
+        used += 1;
+        let mut w = 1.0;
+        for j in 0..3 {
+            if j != i && near(j) {
+                w *= (t - tt[j]) / (tt[i] - tt[j]);
+            }
+        }
+        for c in 0..n {
+            q[c] += w * h[i * n + c];
+        }
+    }
+    used - 1
+}
+
+/// The Taylor predictor q + h qd + h^2/2 qdd.
+pub fn taylor(q: &[f64], qd: &[f64], qdd: &[f64], h: f64, out: &mut [f64]) {
+    for j in 0..q.len() {
+        out[j] = q[j] + h * qd[j] + 0.5 * h * h * qdd[j];
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lagrange_is_exact_on_a_parabola() {
+        let f = |t: f64| 1.0 + 2.0 * t - 3.0 * t * t;
+        let tt = [0.0, 0.1, 0.2];
+        let h: Vec<f64> = tt.iter().map(|&t| f(t)).collect();
+        let mut q = [0.0];
+        assert_eq!(lagrange(0.3, &tt, &h, &mut q), 2);
+        assert!((q[0] - f(0.3)).abs() < 1e-14);
+        let none = [f64::NAN, f64::NAN, 0.2];
+        assert_eq!(lagrange(0.3, &none, &h, &mut q), 0);
+    }
+
+    #[test]
+    fn the_test_rejects_each_way() {
+        assert_eq!(rejected(1e-3, 0.0, 1, 1, 0.0, 0.0, true, 1e-5, 1e-12, false), 0);
+        assert_eq!(rejected(1e-7, 0.0, 1, 1, 0.0, 0.0, true, 1e-5, 1e-12, false), NEAR_SINGULAR);
+        assert_eq!(rejected(f64::NAN, 0.0, 1, 1, 0.0, 0.0, true, 1e-5, 1e-12, false), NEAR_SINGULAR);
+        assert_eq!(rejected(1e-3, 1e-7, 1, 1, 0.0, 0.0, true, 1e-5, 1e-12, false), NEAR_SINGULAR);
+        assert_eq!(rejected(1e-3, 0.0, -1, 1, 0.0, 0.0, true, 1e-5, 1e-12, false), DET_FLIP);
+        assert_eq!(rejected(1e-3, 0.0, -1, 1, 0.0, 0.0, true, 1e-5, 1e-12, true), 0);
+        assert_eq!(rejected(1e-3, 0.0, 1, 1, 1.0, 1.0, true, 1e-5, 1e-12, false), JUMP);
+        assert_eq!(rejected(1e-3, 0.0, 1, 1, 1.0, 1.0, false, 1e-5, 1e-12, false), 0);
+    }
+}

@@ -1,0 +1,486 @@
+//! The linear algebra of the march: J_s = diag(1/scale) Phi_q diag(col_scale)
+//! (the dimensionless Jacobian, docs/solver.md) laid out once per model
+//! (kinem.model.Blocks or Band) and factorised with partial pivoting.
+//!
+//! Blocks: J_s's independent diagonal blocks (one for a small model, one per
+//! variant of merged variants), each dense; blocks of up to 64 coordinates
+//! visit only their structural nonzeros (row and column patterns as 64-bit
+//! masks, grown by fill-in). The elimination is LAPACK getf2's: partial
+//! pivoting on the first largest |entry| of the column, whole-row
+//! interchanges, so the pivots (and the conditioning figure and det sign)
+//! are LAPACK's. Band: a large chain's J_s in LAPACK gbtrf storage after its
+//! single-entry rows (grounds, drivers) are taken out (gbtf2's elimination).
+
+/// Blocks of up to this many coordinates are factorised on their nonzeros.
+pub const MASK: usize = 64;
+
+/// How J_s is stored and factorised (kinem.model.Blocks / Band).
+#[derive(Clone, Debug)]
+pub enum Shape {
+    /// `count` dense blocks of `size` (padding positions hold 1 on the diagonal).
+    Blocks { count: usize, size: usize, pad: Vec<usize>, patterns: Vec<(u64, u64)> },
+    /// The band: kl, ku, the reduced system's size, the rows with a single
+    /// entry (their count `singles`), and the reduced rows' entries in
+    /// single-entry columns (coupling: reduced row, single index).
+    Band { kl: usize, ku: usize, size: usize, singles: usize, couple_row: Vec<usize>, couple_col: Vec<usize> },
+}
+
+/// Where each Jacobian entry goes and how it is scaled.
+#[derive(Clone, Debug)]
+pub struct Layout {
+    pub shape: Shape,
+    pub n: usize,
+    pub m: usize,
+    pub height: usize,
+    pub width: usize,
+    pub count: usize,
+    /// per entry: (block, row, column) of the stored matrix
+    pub at: Vec<(usize, usize, usize)>,
+    pub entry_scale: Vec<f64>,
+    pub row_pos: Vec<usize>,
+    pub col_pos: Vec<usize>,
+    pub real: Vec<bool>,
+    pub sign: i32,
+    pub scale: Vec<f64>,
+    pub col_scale: Vec<f64>,
+}
+
+/// A factorisation's storage: J (count, height, width), pivots, masks, work.
+#[derive(Clone, Debug)]
+pub struct Factors {
+    pub j: Vec<f64>,
+    pub piv: Vec<usize>,
+    pub rm: Vec<u64>,
+    pub cm: Vec<u64>,
+    pub w: Vec<f64>,
+}
+
+impl Layout {
+    pub fn factors(&self) -> Factors {
+        let per = match &self.shape {
+            Shape::Blocks { size, .. } => *size,
+            Shape::Band { size, .. } => *size,
+        };
+        Factors {
+            j: vec![0.0; self.count * self.height * self.width],
+            piv: vec![0; self.count * per.max(1)],
+            rm: vec![0; self.count * per.max(1)],
+            cm: vec![0; self.count * per.max(1)],
+            w: vec![0.0; (self.count * per).max(self.n).max(self.width)],
+        }
+    }
+
+    /// J_s assembled from the Jacobian's values (nnz) into f.j and factorised.
+    pub fn factor(&self, values: &[f64], f: &mut Factors) {
+        let (h, w) = (self.height, self.width);
+        f.j.fill(0.0);
+        for (e, &(b, r, c)) in self.at.iter().enumerate() {
+            f.j[(b * h + r) * w + c] = values[e] * self.entry_scale[e];
+        }
+        match &self.shape {
+            Shape::Blocks { count, size, pad, patterns } => {
+                let s = *size;
+                for &p in pad {
+                    f.j[((p / s) * h + p % s) * w + p % s] = 1.0;
+                }
+                for c in 0..*count {
+                    let a = &mut f.j[c * s * s..(c + 1) * s * s];
+                    let piv = &mut f.piv[c * s..(c + 1) * s];
+                    if s <= MASK {
+                        let (rm, cm) = (&mut f.rm[c * s..(c + 1) * s], &mut f.cm[c * s..(c + 1) * s]);
+                        for i in 0..s {
+                            rm[i] = patterns[c * s + i].0;
+                            cm[i] = patterns[c * s + i].1;
+                        }
+                        masked_factor(a, s, piv, rm, cm);
+                    } else {
+                        dense_factor(a, s, piv);
+                    }
+                }
+            }
+            Shape::Band { kl, ku, size, .. } => band_factor(&mut f.j, w, *size, &mut f.piv, *kl, *ku),
+        }
+    }
+
+    /// x = Phi_q^-1 b from the factors (b: m rows, x: n coordinates).
+    pub fn solve(&self, f: &mut Factors, b: &[f64], x: &mut [f64]) {
+        let w = &mut f.w;
+        w.fill(0.0);
+        for i in 0..self.m {
+            w[self.row_pos[i]] = b[i] / self.scale[i];
+        }
+        match &self.shape {
+            Shape::Blocks { count, size, .. } => {
+                let s = *size;
+                for c in 0..*count {
+                    let a = &f.j[c * s * s..(c + 1) * s * s];
+                    let piv = &f.piv[c * s..(c + 1) * s];
+                    let v = &mut w[c * s..(c + 1) * s];
+                    if s <= MASK {
+                        masked_solve(a, s, piv, &f.rm[c * s..(c + 1) * s], v);
+                    } else {
+                        dense_solve(a, s, piv, v);
+                    }
+                }
+            }
+            Shape::Band { kl, ku, size, singles, couple_row, couple_col } => {
+                let (h, wd) = (self.height, self.width);
+                for s in 0..*singles {
+                    w[size + s] /= f.j[(h - 2) * wd + s];
+                }
+                for e in 0..couple_row.len() {
+                    w[couple_row[e]] -= f.j[(h - 1) * wd + e] * w[size + couple_col[e]];
+                }
+                band_solve(&f.j, wd, *size, &f.piv, *kl, *ku, &mut w[..*size]);
+            }
+        }
+        for j in 0..self.n {
+            x[j] = w[self.col_pos[j]] * self.col_scale[j];
+        }
+    }
+
+    /// (pivot ratio, det sign) of J_s from its factors: the smallest over the
+    /// largest |pivot| at the real (not padding) positions, 0 when one is not
+    /// finite; the sign of det(J_s) (the rows' and columns' reordering
+    /// included), 0 for a zero pivot.
+    pub fn stats(&self, f: &Factors) -> (f64, i32) {
+        let (ratio, det, _) = self.pivots(f);
+        (ratio, det)
+    }
+
+    /// `stats` and the position of the smallest |pivot| (in the stored order).
+    pub fn pivots(&self, f: &Factors) -> (f64, i32, usize) {
+        let (mut small, mut big, mut det) = (f64::INFINITY, 0.0f64, self.sign);
+        let (mut at, mut pos) = (0usize, 0usize);
+        let mut visit = |d: f64, swapped: bool, real: bool| -> bool {
+            if swapped {
+                det = -det;
+            }
+            if d < 0.0 {
+                det = -det;
+            } else if d == 0.0 {
+                det = 0;
+            }
+            if real {
+                let a = d.abs();
+                if !(a < f64::INFINITY) {
+                    return false;
+                }
+                if a < small {
+                    small = a;
+                    at = pos;
+                }
+                big = big.max(a);
+            }
+            pos += 1;
+            true
+        };
+        match &self.shape {
+            Shape::Blocks { count, size, .. } => {
+                let s = *size;
+                for c in 0..*count {
+                    for j in 0..s {
+                        let d = f.j[c * s * s + j * s + j];
+                        if !visit(d, f.piv[c * s + j] != j, self.real[c * s + j]) {
+                            return (0.0, det, at);
+                        }
+                    }
+                }
+            }
+            Shape::Band { kl, ku, size, .. } => {
+                let (h, wd) = (self.height, self.width);
+                for j in 0..self.n {
+                    let (d, sw) = if j < *size {
+                        (f.j[(kl + ku) * wd + j], f.piv[j] != j)
+                    } else {
+                        (f.j[(h - 2) * wd + j - size], false)
+                    };
+                    if !visit(d, sw, self.real[j]) {
+                        return (0.0, det, at);
+                    }
+                }
+            }
+        }
+        (if big > 0.0 { small / big } else { 0.0 }, det, at)
+    }
+}
+
+/// LU of a (n x n, row-major) in place with partial pivoting (getf2).
+pub fn dense_factor(a: &mut [f64], n: usize, piv: &mut [usize]) {
+    for j in 0..n {
+        let (mut p, mut big) = (j, a[j * n + j].abs());
+        for i in j + 1..n {
+            if a[i * n + j].abs() > big {
+                p = i;
+                big = a[i * n + j].abs();
+            }
+        }
+        piv[j] = p;
+        if p != j {
+            for c in 0..n {
+                a.swap(j * n + c, p * n + c);
+            }
+        }
+        let d = a[j * n + j];
+        if d != 0.0 {
+            let r = 1.0 / d;
+            for i in j + 1..n {
+                let f = a[i * n + j] * r;
+                a[i * n + j] = f;
+                if f != 0.0 {
+                    for c in j + 1..n {
+                        a[i * n + c] -= f * a[j * n + c];
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// b <- A^-1 b from dense_factor's result, column by column (as getrs).
+pub fn dense_solve(a: &[f64], n: usize, piv: &[usize], b: &mut [f64]) {
+    for j in 0..n {
+        b.swap(j, piv[j]);
+    }
+    for j in 0..n {
+        let x = b[j];
+        if x != 0.0 {
+            for i in j + 1..n {
+                b[i] -= a[i * n + j] * x;
+            }
+        }
+    }
+    for j in (0..n).rev() {
+        let x = b[j] / a[j * n + j];
+        b[j] = x;
+        if x != 0.0 {
+            for i in 0..j {
+                b[i] -= a[i * n + j] * x;
+            }
+        }
+    }
+}
+
+/// dense_factor's LU of one matrix (n <= 64) visiting only its structural
+/// nonzeros: rm[i] has the columns of row i, cm[j] the rows of column j (in:
+/// a's pattern; out: the factors', fill-in included). The same pivots in the
+/// same order and the same arithmetic on every nonzero: the same factors to
+/// the bit.
+pub fn masked_factor(a: &mut [f64], n: usize, piv: &mut [usize], rm: &mut [u64], cm: &mut [u64]) {
+    for j in 0..n {
+        let bj = 1u64 << j;
+        let (mut p, mut big) = (j, a[j * n + j].abs());
+        let mut m = below(cm[j], j);
+        while m != 0 {
+            let i = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let v = a[i * n + j].abs();
+            if v > big {
+                p = i;
+                big = v;
+            }
+        }
+        piv[j] = p;
+        if p != j {
+            let bp = 1u64 << p;
+            let mut u = rm[j] | rm[p];
+            while u != 0 {
+                let c = u.trailing_zeros() as usize;
+                u &= u - 1;
+                a.swap(j * n + c, p * n + c);
+                let x = cm[c] & (bj | bp);
+                if x == bj || x == bp {
+                    cm[c] ^= bj | bp;
+                }
+            }
+            rm.swap(j, p);
+        }
+        let d = a[j * n + j];
+        if d != 0.0 {
+            let r = 1.0 / d;
+            let upper = rm[j] & !(bj | (bj - 1));
+            let mut m = below(cm[j], j);
+            while m != 0 {
+                let i = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let f = a[i * n + j] * r;
+                a[i * n + j] = f;
+                if f != 0.0 {
+                    let bi = 1u64 << i;
+                    let mut u = upper;
+                    while u != 0 {
+                        let c = u.trailing_zeros() as usize;
+                        u &= u - 1;
+                        a[i * n + c] -= f * a[j * n + c];
+                        cm[c] |= bi;
+                    }
+                    rm[i] |= upper;
+                }
+            }
+        }
+    }
+}
+
+/// The bits of mask above bit j.
+#[inline(always)]
+fn below(mask: u64, j: usize) -> u64 {
+    if j >= 63 {
+        0
+    } else {
+        mask & !((2u64 << j) - 1)
+    }
+}
+
+/// b <- A^-1 b from masked_factor's factors and row masks.
+pub fn masked_solve(a: &[f64], n: usize, piv: &[usize], rm: &[u64], b: &mut [f64]) {
+    for j in 0..n {
+        b.swap(j, piv[j]);
+    }
+    for i in 1..n {
+        let mut m = rm[i] & ((1u64 << i) - 1);
+        let mut s = b[i];
+        while m != 0 {
+            let c = m.trailing_zeros() as usize;
+            m &= m - 1;
+            s -= a[i * n + c] * b[c];
+        }
+        b[i] = s;
+    }
+    for i in (0..n).rev() {
+        let mut m = below(rm[i], i);
+        let mut s = b[i];
+        while m != 0 {
+            let c = m.trailing_zeros() as usize;
+            m &= m - 1;
+            s -= a[i * n + c] * b[c];
+        }
+        b[i] = s / a[i * n + i];
+    }
+}
+
+/// LU with partial pivoting of a band matrix in gbtrf storage (element
+/// (i, j) at ab[(kl + ku + i - j) * w + j], kl rows of fill-in space above),
+/// in place, as LAPACK's gbtf2; n columns.
+pub fn band_factor(ab: &mut [f64], w: usize, n: usize, piv: &mut [usize], kl: usize, ku: usize) {
+    let kv = kl + ku;
+    let mut ju = 0usize;
+    let at = |r: usize, c: usize| r * w + c;
+    for j in 0..n {
+        let km = kl.min(n - 1 - j);
+        let (mut p, mut big) = (0usize, ab[at(kv, j)].abs());
+        for i in 1..=km {
+            if ab[at(kv + i, j)].abs() > big {
+                p = i;
+                big = ab[at(kv + i, j)].abs();
+            }
+        }
+        piv[j] = j + p;
+        if ab[at(kv + p, j)] == 0.0 {
+            continue;
+        }
+        ju = ju.max((j + ku + p).min(n - 1));
+        if p != 0 {
+            for c in j..=ju {
+                ab.swap(at(kv + j - c, c), at(kv + j + p - c, c));
+            }
+        }
+        let r = 1.0 / ab[at(kv, j)];
+        for i in 1..=km {
+            ab[at(kv + i, j)] *= r;
+        }
+        for c in j + 1..=ju {
+            let t = ab[at(kv + j - c, c)];
+            if t != 0.0 {
+                for i in 1..=km {
+                    ab[at(kv + j + i - c, c)] -= ab[at(kv + i, j)] * t;
+                }
+            }
+        }
+    }
+}
+
+/// b <- A^-1 b from band_factor's result.
+pub fn band_solve(ab: &[f64], w: usize, n: usize, piv: &[usize], kl: usize, ku: usize, b: &mut [f64]) {
+    let kv = kl + ku;
+    for j in 0..n {
+        let p = piv[j];
+        if p != j {
+            b.swap(j, p);
+        }
+        let km = kl.min(n - 1 - j);
+        for i in 1..=km {
+            b[j + i] -= ab[(kv + i) * w + j] * b[j];
+        }
+    }
+    for j in (0..n).rev() {
+        b[j] /= ab[kv * w + j];
+        for i in j.saturating_sub(kv)..j {
+            b[i] -= ab[(kv + i - j) * w + j] * b[j];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lcg(seed: &mut u64) -> f64 {
+        *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((*seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    }
+
+    #[test]
+    fn masked_equals_dense_and_solves() {
+        let mut seed = 7u64;
+        for n in [1usize, 3, 12, 40, 64] {
+            let mut a = vec![0.0; n * n];
+            let (mut rm, mut cm) = (vec![0u64; n], vec![0u64; n]);
+            for i in 0..n {
+                for j in 0..n {
+                    if i == j || lcg(&mut seed) > 0.6 {
+                        a[i * n + j] = if lcg(&mut seed) > 0.5 { 1.0 } else { lcg(&mut seed) };
+                        rm[i] |= 1 << j;
+                        cm[j] |= 1 << i;
+                    }
+                }
+            }
+            let (mut d, mut s) = (a.clone(), a.clone());
+            let (mut pd, mut ps) = (vec![0; n], vec![0; n]);
+            dense_factor(&mut d, n, &mut pd);
+            masked_factor(&mut s, n, &mut ps, &mut rm, &mut cm);
+            assert_eq!(pd, ps);
+            // equal as numbers (an untouched zero of L is +0 where getf2 writes 0 x (1/pivot), maybe -0)
+            let bad: Vec<usize> = (0..n * n).filter(|&k| d[k] != s[k]).collect();
+            assert!(bad.is_empty(), "n {n}: {} differ, first {:?} {} {}", bad.len(), bad.first(), d[bad[0]], s[bad[0]]);
+            let x: Vec<f64> = (0..n).map(|_| lcg(&mut seed)).collect();
+            let mut b: Vec<f64> = (0..n).map(|i| (0..n).map(|j| a[i * n + j] * x[j]).sum()).collect();
+            masked_solve(&s, n, &ps, &rm, &mut b);
+            let err = b.iter().zip(&x).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
+            assert!(err < 1e-8, "n {n}: error {err}");
+        }
+    }
+
+    #[test]
+    fn band_solves_a_tridiagonal_system() {
+        let n = 30;
+        let (kl, ku) = (1usize, 1usize);
+        let w = n;
+        let h = 2 * kl + ku + 1;
+        let mut ab = vec![0.0; h * w];
+        let mut full = vec![0.0; n * n];
+        for i in 0..n {
+            for j in i.saturating_sub(kl)..(i + ku + 1).min(n) {
+                let v = if i == j { 0.1 } else { 1.0 + (i + 2 * j) as f64 * 0.01 };
+                ab[(kl + ku + i - j) * w + j] = v;
+                full[i * n + j] = v;
+            }
+        }
+        let x: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
+        let mut b: Vec<f64> = (0..n).map(|i| (0..n).map(|j| full[i * n + j] * x[j]).sum()).collect();
+        let mut piv = vec![0; n];
+        band_factor(&mut ab, w, n, &mut piv, kl, ku);
+        band_solve(&ab, w, n, &piv, kl, ku, &mut b);
+        let err = b.iter().zip(&x).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
+        assert!(err < 1e-12, "error {err}");
+    }
+}

@@ -1,0 +1,193 @@
+//! The march over output instants (docs/solver.md, "The march"): at each
+//! instant the predictor, Newton-Raphson with the final correction and the
+//! LU at the corrected q (newton::settle on the core's own operations), the
+//! acceptance test and the velocity and acceleration solves from that LU.
+//! It stops at the first instant not accepted and hands it to the tracker
+//! (kinem/tracking.py), which sub-steps, diagnoses and steps over.
+use crate::accept::{jump_sizes, lagrange, rejected, taylor, NOT_CONVERGED};
+use crate::families::At;
+use crate::lu::{Factors, Layout};
+use crate::model::Kin;
+use crate::newton::{settle, Ops};
+use num_complex::Complex64 as C64;
+use std::convert::Infallible;
+
+pub struct Settings {
+    pub tolerance: f64,
+    pub max_iterations: usize,
+    pub max_step: f64,
+    /// the pivot ratio below which a state is near-singular (kinem.tracking.singular_pivot)
+    pub floor: f64,
+    /// solve velocities and accelerations (and predict by Taylor from them)
+    pub rates: bool,
+}
+
+/// The accepted state the march starts from and leaves at its last instant.
+pub struct State<'a> {
+    pub q: &'a mut [f64],
+    pub qd: &'a mut [f64],
+    pub qdd: &'a mut [f64],
+    /// (time, det sign) of the last accepted state
+    pub last: &'a mut [f64],
+    /// the last three states' q (3 n) and times (3), oldest first, NaN for none
+    pub h: &'a mut [f64],
+    pub tt: &'a mut [f64],
+}
+
+/// Per instant: Q, QD, QDD (K n), Newton iterations, residual, pivot ratio
+/// (K); counts: Jacobian evaluations and factorisations, added to.
+pub struct Out<'a> {
+    pub q: &'a mut [f64],
+    pub qd: &'a mut [f64],
+    pub qdd: &'a mut [f64],
+    pub iterations: &'a mut [i64],
+    pub residual: &'a mut [f64],
+    pub pivot: &'a mut [f64],
+    pub counts: &'a mut [i64],
+}
+
+/// settle's operations on the core's own model and LU: q lives in `q`.
+pub struct Native<'a> {
+    pub kin: &'a Kin,
+    pub layout: &'a Layout,
+    pub f: Factors,
+    pub q: Vec<f64>,
+    pub e: Vec<C64>,
+    pub phi: Vec<f64>,
+    values: Vec<f64>,
+    dq: Vec<f64>,
+    b: Vec<f64>,
+    pub t: f64,
+    pub counts: [i64; 2],
+}
+
+impl<'a> Native<'a> {
+    pub fn new(kin: &'a Kin, layout: &'a Layout) -> Self {
+        Native {
+            kin,
+            layout,
+            f: layout.factors(),
+            q: vec![0.0; kin.n],
+            e: vec![C64::new(1.0, 0.0); kin.n],
+            phi: vec![0.0; kin.m],
+            values: vec![0.0; kin.nnz],
+            dq: vec![0.0; kin.n],
+            b: vec![0.0; kin.m],
+            t: 0.0,
+            counts: [0, 0],
+        }
+    }
+}
+
+/// max |phi_i| / scale_i; a NaN gives NaN.
+pub fn residual(phi: &[f64], scale: &[f64]) -> f64 {
+    let mut r = 0.0f64;
+    for i in 0..phi.len() {
+        let v = phi[i].abs() / scale[i];
+        if v > r || v.is_nan() {
+            r = v;
+        }
+    }
+    r
+}
+
+impl Ops for Native<'_> {
+    type Error = Infallible;
+
+    fn evaluate(&mut self, _: i64) -> Result<f64, Infallible> {
+        self.kin.rotate(&self.q, &mut self.e);
+        self.kin.phi(&At { q: &self.q, e: &self.e, t: self.t }, &mut self.phi);
+        Ok(residual(&self.phi, &self.layout.scale))
+    }
+
+    /// Always at q; it leaves `e` at q too (the rates read it).
+    fn factor(&mut self, _: bool) -> Result<(), Infallible> {
+        self.kin.rotate(&self.q, &mut self.e);
+        self.kin.jac(&At { q: &self.q, e: &self.e, t: self.t }, &mut self.values);
+        self.layout.factor(&self.values, &mut self.f);
+        self.counts[0] += 1;
+        self.counts[1] += 1;
+        Ok(())
+    }
+
+    fn correct(&mut self, limit: f64) -> Result<f64, Infallible> {
+        for i in 0..self.b.len() {
+            self.b[i] = -self.phi[i];
+        }
+        self.layout.solve(&mut self.f, &self.b, &mut self.dq);
+        let cs = &self.layout.col_scale;
+        let big = self.dq.iter().zip(cs).fold(0.0f64, |a, (d, c)| a.max(d.abs() / c));
+        let f = if big > 0.0 { (limit / big).min(1.0) } else { 1.0 };
+        for j in 0..self.q.len() {
+            self.q[j] += f * self.dq[j];
+        }
+        Ok(big)
+    }
+}
+
+/// March from the accepted `state` over times[k..] until an instant is not
+/// accepted; returns (the first instant not taken, or times.len(), and why:
+/// 0, NOT_CONVERGED or the acceptance test's code). From k = 0 it first
+/// assembles from the estimates in state.q (accepted when its pivot ratio is
+/// above the floor; not tested for a jump or a det flip: no state before it).
+pub fn run(kin: &Kin, layout: &Layout, times: &[f64], mut k: usize, st: State, s: &Settings, out: Out) -> (usize, u8) {
+    let n = kin.n;
+    let mut ops = Native::new(kin, layout);
+    let mut qp = vec![0.0; n];
+    let mut nu = vec![0.0; kin.m];
+    let mut gamma = vec![0.0; kin.m];
+    let mut result = (times.len(), 0u8);
+    while k < times.len() {
+        let t = times[k];
+        let h = t - st.last[0];
+        let mut judge = k > 0;
+        if k == 0 {
+            qp.copy_from_slice(st.q);
+        } else if s.rates {
+            taylor(st.q, st.qd, st.qdd, h, &mut qp);
+        } else {
+            let tt = [st.tt[0], st.tt[1], st.tt[2]];
+            judge = lagrange(t, &tt, st.h, &mut qp) >= 1;
+        }
+        ops.q.copy_from_slice(&qp);
+        ops.t = t;
+        let Ok(settled) = settle(&mut ops, s.tolerance, s.max_iterations, s.max_step, true);
+        if !settled.converged {
+            result = (k, NOT_CONVERGED);
+            break;
+        }
+        let (ratio, det) = layout.stats(&ops.f);
+        let (corr, motion) = jump_sizes(&ops.q, &qp, st.q, &layout.col_scale);
+        let previous = if k == 0 { det } else { st.last[1] as i32 };
+        let why = rejected(ratio, settled.last_step, det, previous, corr, motion, judge, s.floor, s.tolerance, false);
+        if why != 0 {
+            result = (k, why);
+            break;
+        }
+        st.q.copy_from_slice(&ops.q);
+        if s.rates {
+            // the factorisation and e^{i q} are at the corrected q: settle's last operation
+            kin.nu(t, &mut nu);
+            layout.solve(&mut ops.f, &nu, st.qd);
+            kin.gamma(&At { q: &ops.q, e: &ops.e, t }, st.qd, &mut gamma);
+            layout.solve(&mut ops.f, &gamma, st.qdd);
+            out.qd[k * n..(k + 1) * n].copy_from_slice(st.qd);
+            out.qdd[k * n..(k + 1) * n].copy_from_slice(st.qdd);
+        } else {
+            st.tt.copy_within(1..3, 0);
+            st.h.copy_within(n..3 * n, 0);
+            st.tt[2] = t;
+            st.h[2 * n..3 * n].copy_from_slice(st.q);
+        }
+        st.last[0] = t;
+        st.last[1] = det as f64;
+        out.q[k * n..(k + 1) * n].copy_from_slice(st.q);
+        out.iterations[k] = settled.iterations as i64;
+        out.residual[k] = settled.residual;
+        out.pivot[k] = ratio;
+        k += 1;
+    }
+    out.counts[0] += ops.counts[0];
+    out.counts[1] += ops.counts[1];
+    result
+}

@@ -1,0 +1,150 @@
+//! The one Newton-Raphson of kinem (Eqs. 4.41, 4.42; docs/solver.md,
+//! "Residual scaling and convergence"), with the final correction and the
+//! factorisation at the corrected configuration that the conditioning
+//! monitor and the rate solves use. It runs on three operations (`Ops`):
+//! the march's own (kinem's LU, kinem/core/src/march.rs) and, for the
+//! step-by-step analysis, Python's (any linear solver: LAPACK, SuperLU,
+//! least squares, minimum-norm steps; kinem.analysis).
+
+/// Newton steps are limited to this length in dimensionless coordinates
+/// (lengths over L, angles in radians): a rough estimate never sends the
+/// assembly many turns away, and tracking steps are far shorter anyway.
+pub const MAX_STEP: f64 = 0.5;
+/// A final correction (dimensionless) above this calls for one more: at the
+/// default tolerance it is about 1e-12; at a loose one (1e-6) about the
+/// tolerance, and the first correction, made with the last iteration's LU,
+/// leaves that times the iteration's step.
+pub const POLISH: f64 = 1e-10;
+
+/// What `settle` works on: the configuration q lives in the implementor.
+pub trait Ops {
+    type Error;
+    /// Phi at q and its max scaled residual (it: the Newton iteration, -1
+    /// after convergence).
+    fn evaluate(&mut self, it: i64) -> Result<f64, Self::Error>;
+    /// The factorisation at q (final: the one left at the end; a
+    /// step-by-step run with Jacobian reuse may keep a nearby one otherwise).
+    fn factor(&mut self, last: bool) -> Result<(), Self::Error>;
+    /// q -= Phi_q^-1 Phi, the step limited to `limit`; returns its size
+    /// (dimensionless) before the limit.
+    fn correct(&mut self, limit: f64) -> Result<f64, Self::Error>;
+}
+
+/// How a `settle` ended.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settled {
+    pub iterations: usize,
+    /// the max scaled residual of the last iteration
+    pub residual: f64,
+    pub converged: bool,
+    /// the last correction's size: the polishing one's when there was one,
+    /// else the final correction's (0 without `finish`). At a regular root
+    /// the polishing correction is about the square of the first; at a
+    /// singular one Newton converges linearly and it is of the first's order
+    /// (the acceptance test judges it).
+    pub last_step: f64,
+}
+
+/// Newton-Raphson from q to Phi(q, t) = 0, every scaled residual at or
+/// below the tolerance, steps limited to max_step. With `finish`, then the
+/// final correction (the position error falls from about the tolerance to
+/// about its square) with the last iteration's factorisation (a fresh one
+/// when q already converged), one more when that correction is above
+/// POLISH, and the factorisation at the corrected q, left in the operations
+/// for the pivot ratio, det sign and rate solves.
+pub fn settle<O: Ops>(
+    ops: &mut O,
+    tolerance: f64,
+    max_iterations: usize,
+    max_step: f64,
+    finish: bool,
+) -> Result<Settled, O::Error> {
+    let (mut it, mut r, mut step) = (0usize, f64::INFINITY, 0.0);
+    let (mut converged, mut refined, mut polished, mut polish) = (false, false, false, false);
+    let done = |it, r, converged, last_step| Ok(Settled { iterations: it, residual: r, converged, last_step });
+    loop {
+        if !converged || polish {
+            let e = ops.evaluate(if converged { -1 } else { it as i64 })?;
+            if !converged {
+                r = e;
+                if r <= tolerance {
+                    converged = true;
+                    if !finish {
+                        return done(it, r, true, 0.0);
+                    }
+                } else if !(r < f64::INFINITY) || it == max_iterations {
+                    return done(it, r, false, step);
+                }
+            }
+        }
+        if polish {
+            step = ops.correct(f64::INFINITY)?;
+            polish = false;
+            polished = true;
+        } else if converged && !refined && it > 0 {
+            step = ops.correct(f64::INFINITY)?;
+            refined = true;
+        }
+        ops.factor(refined)?;
+        if !converged {
+            ops.correct(max_step)?;
+            it += 1;
+        } else if !refined {
+            step = ops.correct(f64::INFINITY)?;
+            refined = true;
+        } else if step > POLISH && !polished {
+            polish = true;
+        } else {
+            return done(it, r, true, step);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Newton on x^2 - 2 = 0 (scaled residual |x^2 - 2|).
+    struct Sqrt2 {
+        x: f64,
+        slope: f64,
+        evaluations: usize,
+        factorizations: usize,
+    }
+
+    impl Ops for Sqrt2 {
+        type Error = ();
+        fn evaluate(&mut self, _: i64) -> Result<f64, ()> {
+            self.evaluations += 1;
+            Ok((self.x * self.x - 2.0).abs())
+        }
+        fn factor(&mut self, _: bool) -> Result<(), ()> {
+            self.factorizations += 1;
+            self.slope = 2.0 * self.x;
+            Ok(())
+        }
+        fn correct(&mut self, limit: f64) -> Result<f64, ()> {
+            let dx = -(self.x * self.x - 2.0) / self.slope;
+            let f = if dx.abs() > limit { limit / dx.abs() } else { 1.0 };
+            self.x += f * dx;
+            Ok(dx.abs())
+        }
+    }
+
+    #[test]
+    fn converges_quadratically_with_the_final_correction() {
+        let mut s = Sqrt2 { x: 1.0, slope: 0.0, evaluations: 0, factorizations: 0 };
+        let r = settle(&mut s, 1e-12, 25, 0.5, true).unwrap();
+        assert!(r.converged && r.iterations <= 6);
+        assert!((s.x - 2f64.sqrt()).abs() <= 2.0 * f64::EPSILON);
+        // the last factorisation is at the corrected x
+        assert_eq!(s.slope, 2.0 * s.x);
+    }
+
+    #[test]
+    fn reports_no_convergence_after_max_iterations() {
+        let mut s = Sqrt2 { x: 1.0, slope: 0.0, evaluations: 0, factorizations: 0 };
+        let r = settle(&mut s, 1e-12, 2, 0.5, true).unwrap();
+        assert!(!r.converged && r.iterations == 2);
+    }
+}
