@@ -8,20 +8,14 @@ compiled loop serves every model: nothing is generated or compiled here.
 import numpy as np
 
 from . import native
+from .model import BLOCK_LIMIT
 from .options import Options
 from .tracking import State, singular_pivot
-
-# Coordinates of the largest diagonal block the march takes (dense LU of
-# each block; a larger model of one block takes the band, ``banded``).
-LIMIT = 200
-# Bandwidths kl + ku up to which a model of one block above LIMIT takes the
-# banded LU (kinem.model.Band): its cost per coordinate grows as kl (kl + ku).
-BAND = 32
 
 
 def usable(model, trace: bool, instants: int = 0, options: Options | None = None) -> bool:
     """Whether the march takes the model: square, made of independent
-    diagonal blocks of at most LIMIT coordinates (kinem.model.Blocks: one
+    diagonal blocks of at most BLOCK_LIMIT coordinates (kinem.model.Blocks: one
     block for a small model, one per variant for merged variants), or of one
     block whose rows and columns order into a narrow band (``banded``). A
     trace, modified Newton, an explicit sparse LU or ``block = 1`` ask for
@@ -35,10 +29,7 @@ def usable(model, trace: bool, instants: int = 0, options: Options | None = None
 
 def banded(model) -> bool:
     """Whether the model's Jacobian is solved as a band (kinem.model.Band)."""
-    if model.blocks.size <= LIMIT:
-        return False
-    b = model.band
-    return b is not None and b.kl + b.ku <= BAND
+    return model.blocks.size > BLOCK_LIMIT and model.plan is not None
 
 
 class March:

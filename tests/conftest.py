@@ -13,8 +13,3 @@ settings.register_profile("ci", max_examples=40, derandomize=True, deadline=None
 settings.register_profile("dev", max_examples=200, deadline=None,
                           suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
-
-# Kernels run compiled in every test (kinem.jit: a process that has loaded
-# numba never interprets them), so results do not depend on which test runs
-# first; tests/test_jit.py compares the interpreted runs with the compiled ones.
-import numba  # noqa: E402,F401

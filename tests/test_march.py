@@ -1,5 +1,5 @@
-"""The compiled march (kinem/march.py, kinem/loop.py) gives what the
-step-by-step march gives: the same branch, status, events and diagnosis,
+"""The march (kinem/march.py on the compiled core's loop,
+kinem/core/src/march.rs) gives what the step-by-step march gives: the same branch, status, events and diagnosis,
 with positions within what the Newton tolerance allows, and it hands every
 instant it does not accept to the tracker."""
 from dataclasses import replace
@@ -10,6 +10,7 @@ import pytest
 
 import kinem
 from kinem import march
+from kinem.model import BLOCK_LIMIT
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = sorted((ROOT / "cases").glob("*.toml")) + sorted((ROOT / "cases" / "stress").glob("*.toml"))
@@ -92,21 +93,24 @@ def test_not_used_where_it_cannot_be():
     from kinem.reference import n_four_bar
 
     big = kinem.compile(kinem.load_dict(n_four_bar(34)))  # 70 bodies, one block of 210 coordinates: a band
-    assert big.blocks.size > march.LIMIT and blocks(big, False) and march.banded(big)
+    assert big.blocks.size > BLOCK_LIMIT and blocks(big, False) and march.banded(big)
     chain = kinem.compile(kinem.load_dict(n_four_bar(12)))  # 78 coordinates: blocks
     assert chain.blocks.count == 1 and blocks(chain, False)
 
 
 def _run(model, state, k=1):
-    """kinem.loop.run from ``state`` (q, qd, qdd, (t, det), H, T) over the model's
-    output instants from k on: (first instant not taken, why)."""
-    from kinem.march import March, prepare
+    """The core's march (kinem._core.Plan.march) from ``state`` (q, qd, qdd,
+    (t, det), H, T) over the model's output instants from k on: (first
+    instant not taken, why)."""
+    from kinem.tracking import singular_pivot
 
-    prepare(model)
     t = model.times
-    out = (np.zeros((len(t), model.n)), None, None, np.zeros(len(t), int), np.zeros(len(t)), np.zeros(len(t)))
-    m = March(model, None, t, out)
-    return m.module.run(t, k, state, m.A, m.nu, m.structure, m.settings, (*m.out, m.counts))
+    n, K = model.n, len(t)
+    tol = model.case.tolerance
+    out = (np.zeros((K, n)), np.zeros((K, n)), np.zeros((K, n)), np.zeros(K, np.int64), np.zeros(K), np.zeros(K),
+           np.zeros(2, np.int64))
+    return tuple(model.plan.march(t, k, *state, tol, model.case.max_iterations, kinem.native.MAX_STEP,
+                                  singular_pivot(tol), True, *out))
 
 
 def _start(model):
@@ -123,7 +127,7 @@ def test_the_loop_hands_back_a_jump_and_a_det_flip():
     with the rates zeroed the predictor stays put, the first step's correction
     is all of the motion (above KAPPA x 0 + 10 tol): a jump, handed back at
     instant 1; with the det sign of the other branch: a det flip there."""
-    from kinem.loop import NOT_CONVERGED
+    from kinem.native import NOT_CONVERGED
     from kinem.tracking import DET_FLIP, JUMP
 
     model = kinem.compile(kinem.load(ROOT / "cases" / "four_bar.toml"))
@@ -139,24 +143,25 @@ def test_the_loop_hands_back_a_jump_and_a_det_flip():
     assert _run(model, lost) == (1, NOT_CONVERGED)
 
 
-def test_the_loops_pivot_ratio_and_det_sign_are_linalg_factors():
-    """Pivot ratio and det sign of the loop's LU (kinem.loop.lu_stats) equal
-    those of kinem.linalg.Factor (LAPACK getrf) at the same configurations."""
-    from kinem import dense
-    from kinem.linalg import Factor
-    from kinem.loop import lu_stats
+def test_the_cores_pivot_ratio_and_det_sign_are_lapacks():
+    """Pivot ratio and det sign of the core's LU (kinem._core.Plan.factor,
+    the march's) equal those of LAPACK's getrf on the same dimensionless
+    Jacobian (the same partial pivoting; the blocked order rounds
+    differently: 1e-12), and its solves agree with LAPACK's to rounding."""
+    from kinem.linalg import Factor, Solver
 
     model = kinem.compile(kinem.load(ROOT / "cases" / "quick_return_1.toml"))
     r = kinem.solve(model)
-    b = model.blocks
-    real = np.ones(b.size, bool)
+    lapack = Solver(sparse=False, least_squares=False)
     for k in range(0, len(r.q), 20):
-        t = model.times[k]
-        J = model.assemble(model.jac_values(r.q[k], t) * model.entry_scale, sparse=False)[None].copy()
-        none = np.empty(0, np.intp)
-        pivot, det = lu_stats(J, dense.factor(J), (-1, -1, 0, none, none), real, 1)
-        f = Factor(model, model.jac_values(r.q[k], t))
-        assert pivot == pytest.approx(f.pivot_ratio, rel=1e-12) and det == f.det_sign
+        values = model.jac_values(r.q[k], model.times[k])
+        ours, theirs = Factor(model, values), Factor(model, values, lapack)
+        assert ours.core and not theirs.core
+        assert ours.pivot_ratio == pytest.approx(theirs.pivot_ratio, rel=1e-12) and ours.det_sign == theirs.det_sign
+        b = model.nu(model.times[k]) + 1.0
+        x, y = ours.solve(b), theirs.solve(b)
+        # rounding times the conditioning (the pivot ratio bounds it within a modest factor)
+        assert np.abs(x - y).max() <= 1e-12 / ours.pivot_ratio * np.abs(y).max()
 
 
 @pytest.mark.parametrize("name", ["slider_crank", "four_bar", "quick_return_1"])
@@ -192,43 +197,19 @@ def test_a_long_chain_marches_as_a_band_and_agrees_with_superlu():
         J = model.jacobian(fast.q[k], t, sparse=False)
         # rounding: a few ulps of the largest term, times the size of the system
         assert np.abs(J @ fast.qd[k] - model.nu(t)).max() <= 1e-13 * np.abs(J).max() * np.abs(fast.qd[k]).max()
-    from kinem.march import March, prepare
-    from kinem.loop import factorize, lu_stats
+    from kinem.linalg import Solver
 
-    prepare(model)
-    m = March(model, None, model.times[:1], (np.zeros((1, model.n)), None, None, np.zeros(1, int), np.zeros(1),
-                                            np.zeros(1)))
-    st = m.structure
+    superlu = Solver(sparse=True, least_squares=False)
     for k in range(0, len(fast.q), 10):
-        J = np.zeros((1, st[13], st[14]))
-        values = (model.jac_values(fast.q[k], model.times[k])[None] * model.entry_scale)
-        J[0, st[1], st[2]] = values[0]
-        piv = np.zeros((1, model.n), np.int32)
-        masks = np.empty((1, model.n), np.uint64)  # the masked LU's work: unused by the band
-        factorize(J, piv, st[15], st[17], masks, masks.copy())
-        _, det = lu_stats(J, piv, st[15], st[7], st[8])
-        assert det == Factor(model, model.jac_values(fast.q[k], model.times[k])).det_sign
+        values = model.jac_values(fast.q[k], model.times[k])
+        band = Factor(model, values)
+        assert band.core and band.det_sign == Factor(model, values, superlu).det_sign
 
 
-def test_generated_code_goes_only_where_nobody_else_can_write(tmp_path, monkeypatch):
-    """The march's modules and numba's caches beside them are run: a
-    KINEM_CACHE folder that others can write is passed over (for the
-    package's own folder), and one of this user's is taken."""
-    shared = tmp_path / "shared"
-    shared.mkdir()
-    shared.chmod(0o777)
-    monkeypatch.setenv("KINEM_CACHE", str(shared))
-    assert march._folder() != shared
-    mine = tmp_path / "mine"
-    monkeypatch.setenv("KINEM_CACHE", str(mine))
-    assert march._folder() == mine
-
-
-def test_a_model_solved_again_reuses_its_instants_values_only_for_the_same_instants(monkeypatch):
-    """The march keeps a model's last instants' time-function values
-    (march._PLANS): a solve over other instants, or with other outputs,
-    must not read them, and a solve over the same ones must give the same
-    numbers as the first."""
+def test_a_model_solved_again_gives_the_same_numbers_and_other_instants_their_own():
+    """A model solved over other instants, or with other outputs, gets what
+    a fresh model gets, and solved again the same numbers as the first time
+    (nothing of one solve leaks into the next)."""
     case = kinem.load(ROOT / "cases" / "slider_crank.toml")
     model = kinem.compile(case)
     first = kinem.solve(model)
@@ -240,8 +221,3 @@ def test_a_model_solved_again_reuses_its_instants_values_only_for_the_same_insta
     assert only.qd is None and np.abs(only.q - first.q).max() < 1e-9  # the same branch, its own predictor
     again = kinem.solve(model)
     assert np.array_equal(again.q, first.q) and np.array_equal(again.qdd, first.qdd)
-    assert march._PLANS[model][1][0] is model.times
-    # a long run's values are not kept after its solve
-    monkeypatch.setattr(march, "KEEP", 10)
-    kinem.solve(model, times=half)
-    assert march._PLANS[model][1][0] is model.times  # still the last kept: the long run's were not

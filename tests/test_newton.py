@@ -1,5 +1,5 @@
-"""kinem.newton.settle, the one Newton loop: the compiled march and the
-step-by-step analysis run it on their own operations and take the same
+"""The core's settle (kinem/core/src/newton.rs), the one Newton loop: the
+march and the step-by-step analysis run it on their own operations and take the same
 iterations and factorisations; its last correction tells a singular root
 (linear convergence) from a regular one."""
 from dataclasses import replace
