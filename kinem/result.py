@@ -6,6 +6,8 @@ import weakref
 
 import numpy as np
 
+from . import native
+
 
 OUTPUTS = ("positions", "velocities", "accelerations")
 BODY_COLUMNS = {"positions": ("x", "y", "phi"), "velocities": ("vx", "vy", "omega"),
@@ -111,31 +113,8 @@ def _layout(model, stages: int):
         for s, stage in enumerate(OUTPUTS[:stages]):
             names.append(f"{base}.{ARTIFICIAL_COLUMNS[stage]}")
             src.append(s * n + 3 * nb + a)
-    out = per[stages] = (tuple(names), np.array(src, np.intp), {c: k for k, c in enumerate(names)})
+    out = per[stages] = (tuple(names), np.array(src, np.int64), {c: k for k, c in enumerate(names)})
     return out
-
-
-def _columns(X, stages, src, pc, local, out):
-    """out[k, c] = column c's value at instant k (T, columns): coordinate
-    src[c] of stage src[c] // n (X[0] = Q, X[1] = QD, X[2] = QDD) when
-    src[c] < stages n, else entry src[c] - stages n of the points' values
-    [x_0 .., y_0 .., vx_0 .., vy_0 .., ax_0 .., ay_0 ..]: point p of the body
-    at columns pc[p], at s'_p = local[p] (r + A s', its first and second
-    derivatives)."""
-    values = list(X)
-    if len(pc):
-        Q = X[0]
-        e = local * np.exp(1j * Q[:, pc + 2])
-        parts = [Q[:, pc] + 1j * Q[:, pc + 1] + e]
-        if stages > 1:
-            w = X[1][:, pc + 2]
-            parts.append(X[1][:, pc] + 1j * X[1][:, pc + 1] + 1j * e * w)
-            if stages > 2:
-                parts.append(X[2][:, pc] + 1j * X[2][:, pc + 1] + 1j * e * X[2][:, pc + 2] - e * w * w)
-        for v in parts:
-            values += [v.real, v.imag]
-    flat = np.concatenate(values, axis=1) if len(values) > 1 else values[0]
-    np.take(flat, src, axis=1, out=out)
 
 
 def trajectory(model, t, Q, QD=None, QDD=None) -> Trajectory:
@@ -143,7 +122,8 @@ def trajectory(model, t, Q, QD=None, QDD=None) -> Trajectory:
     coordinates, in one compiled pass."""
     X = [x for x in (Q, QD, QDD) if x is not None]
     names, src, index = _layout(model, len(X))
-    data = np.empty((len(t), len(names)))
     if len(t):
-        _columns(X, len(X), src, model.point_cols, model.point_local, data)
+        data = native.columns([np.ascontiguousarray(x, float) for x in X], src, model.point_cols, model.point_local)
+    else:
+        data = np.empty((0, len(names)))
     return Trajectory(np.array(t, dtype=float), names, data, index)

@@ -5,6 +5,7 @@
 //! handed over once as struct-of-arrays tables (kinem.model.compile) and
 //! the core switches on the family type. Nothing is generated at run time.
 pub mod accept;
+pub mod columns;
 pub mod families;
 pub mod functions;
 pub mod lu;

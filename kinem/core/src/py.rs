@@ -509,6 +509,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Plan>()?;
     m.add_class::<Lu>()?;
     m.add_function(wrap_pyfunction!(settle, m)?)?;
+    m.add_function(wrap_pyfunction!(columns, m)?)?;
     m.add_function(wrap_pyfunction!(rejected, m)?)?;
     m.add_function(wrap_pyfunction!(jump_sizes, m)?)?;
     m.add_function(wrap_pyfunction!(lagrange, m)?)?;
@@ -521,4 +522,44 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("JUMP", accept::JUMP)?;
     m.add("NOT_CONVERGED", accept::NOT_CONVERGED)?;
     Ok(())
+}
+
+/// A trajectory's columns (columns::columns): X a list of 1 to 3 arrays (K,
+/// n) (positions, velocities, accelerations), src (C,), pc (P,), local (P,).
+#[pyfunction]
+fn columns<'py>(
+    py: Python<'py>,
+    x: Vec<PyReadonlyArray2<'py, f64>>,
+    src: PyReadonlyArray1<'py, i64>,
+    pc: PyReadonlyArray1<'py, i64>,
+    local: PyReadonlyArray1<'py, C64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let bad = |w: &str| pyo3::exceptions::PyValueError::new_err(format!("columns: {w}"));
+    if x.is_empty() || x.len() > 3 {
+        return Err(bad("one to three stages"));
+    }
+    let shape = x[0].shape().to_vec();
+    let (k, n) = (shape[0], shape[1]);
+    let stages: Vec<&[f64]> = x.iter().map(|a| a.as_slice()).collect::<Result<_, _>>()?;
+    if x.iter().any(|a| a.shape() != [k, n]) {
+        return Err(bad("stages differ in shape"));
+    }
+    let (pc, local) = (pc.as_slice()?, local.as_slice()?);
+    if pc.len() != local.len() || pc.iter().any(|&c| c < 0 || c as usize + 2 >= n.max(1)) {
+        return Err(bad("point columns out of range"));
+    }
+    let limit = (stages.len() * (n + 2 * pc.len())) as i64;
+    let src = src.as_slice()?;
+    if src.iter().any(|&j| j < 0 || j >= limit) {
+        return Err(bad("a source out of range"));
+    }
+    let src: Vec<usize> = src.iter().map(|&j| j as usize).collect();
+    let pc: Vec<usize> = pc.iter().map(|&c| c as usize).collect();
+    let w = src.len();
+    let v = guard(py, || {
+        let mut out = vec![0.0; k * w];
+        crate::columns::columns(&stages, n, &src, &pc, local, &mut out);
+        Ok(out)
+    })?;
+    out2(py, v, k, w)
 }

@@ -1,0 +1,45 @@
+//! A trajectory's named columns (kinem.result.trajectory) from the raw
+//! coordinates, in one pass: each column is a coordinate of a stage
+//! (positions, velocities, accelerations) or a named point's x or y there
+//! (r + A s', its first and second derivatives, Eqs. 4.43-4.45).
+use num_complex::Complex64 as C64;
+
+/// out (K, C): column c of instant k is coordinate src[c] of stage
+/// src[c] / n when src[c] < stages n, else entry src[c] - stages n of the
+/// points' values [x_0 .., y_0 .., vx_0 .., vy_0 .., ax_0 .., ay_0 ..], point
+/// p on the body whose x column is pc[p], at s'_p = local[p]. x[s] holds
+/// stage s (K n each).
+pub fn columns(x: &[&[f64]], n: usize, src: &[usize], pc: &[usize], local: &[C64], out: &mut [f64]) {
+    let stages = x.len();
+    let (p, w) = (pc.len(), src.len());
+    let k_count = if n == 0 { 0 } else { x[0].len() / n };
+    let mut pts = vec![0.0; 2 * stages * p];
+    let i = C64::new(0.0, 1.0);
+    for k in 0..k_count {
+        let row = |s: usize| &x[s][k * n..(k + 1) * n];
+        for (j, (&c, &s)) in pc.iter().zip(local).enumerate() {
+            let q = row(0);
+            let e = s * C64::from_polar(1.0, q[c + 2]);
+            let v = C64::new(q[c], q[c + 1]) + e;
+            pts[j] = v.re;
+            pts[p + j] = v.im;
+            if stages > 1 {
+                let qd = row(1);
+                let om = qd[c + 2];
+                let v = C64::new(qd[c], qd[c + 1]) + i * e * om;
+                pts[2 * p + j] = v.re;
+                pts[3 * p + j] = v.im;
+                if stages > 2 {
+                    let qdd = row(2);
+                    let v = C64::new(qdd[c], qdd[c + 1]) + i * e * qdd[c + 2] - e * (om * om);
+                    pts[4 * p + j] = v.re;
+                    pts[5 * p + j] = v.im;
+                }
+            }
+        }
+        let o = &mut out[k * w..(k + 1) * w];
+        for (col, &j) in src.iter().enumerate() {
+            o[col] = if j < stages * n { x[j / n][k * n + j % n] } else { pts[j - stages * n] };
+        }
+    }
+}
