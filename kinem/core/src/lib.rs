@@ -12,6 +12,8 @@ pub mod lu;
 pub mod march;
 pub mod model;
 pub mod newton;
+pub mod order;
+pub mod plan;
 pub mod outline;
 pub mod table;
 

@@ -11,14 +11,24 @@
 //! are LAPACK's. Band: a large chain's J_s in LAPACK gbtrf storage after its
 //! single-entry rows (grounds, drivers) are taken out (gbtf2's elimination).
 
+use crate::order::Order;
+
 /// Blocks of up to this many coordinates are factorised on their nonzeros.
 pub const MASK: usize = 64;
+/// A block whose fixed-order pivots span more than this ratio (smallest over
+/// largest) is factorised again with partial pivoting, so that every figure
+/// near the acceptance test's floor (about 1.5e-6) and every decision taken
+/// on it is partial pivoting's, as in the step-by-step analysis before the
+/// fixed order existed; regular configurations keep the fixed order's.
+pub const FALLBACK: f64 = 1e-3;
 
 /// How J_s is stored and factorised (kinem.model.Blocks / Band).
 #[derive(Clone, Debug)]
 pub enum Shape {
-    /// `count` dense blocks of `size` (padding positions hold 1 on the diagonal).
-    Blocks { count: usize, size: usize, pad: Vec<usize>, patterns: Vec<(u64, u64)> },
+    /// `count` dense blocks of `size` (padding positions hold 1 on the
+    /// diagonal); blocks of up to MASK coordinates have their patterns as
+    /// bit masks and, where the structure allows one, a fixed pivot order.
+    Blocks { count: usize, size: usize, pad: Vec<usize>, patterns: Vec<(u64, u64)>, orders: Vec<Option<Order>> },
     /// The band: kl, ku, the reduced system's size, the rows with a single
     /// entry (their count `singles`), and the reduced rows' entries in
     /// single-entry columns (coupling: reduced row, single index).
@@ -43,6 +53,9 @@ pub struct Layout {
     pub sign: i32,
     pub scale: Vec<f64>,
     pub col_scale: Vec<f64>,
+    /// the entries of each block (by_block[start[c]..start[c + 1]])
+    pub by_block: Vec<usize>,
+    pub block_start: Vec<usize>,
 }
 
 /// A factorisation's storage: J (count, height, width), pivots, masks, work.
@@ -53,6 +66,9 @@ pub struct Factors {
     pub rm: Vec<u64>,
     pub cm: Vec<u64>,
     pub w: Vec<f64>,
+    /// per block: factorised in its fixed order (else partial pivoting)
+    pub fixed: Vec<bool>,
+    y: Vec<f64>,
 }
 
 impl Layout {
@@ -67,24 +83,86 @@ impl Layout {
             rm: vec![0; self.count * per.max(1)],
             cm: vec![0; self.count * per.max(1)],
             w: vec![0.0; (self.count * per).max(self.n).max(self.width)],
+            fixed: vec![false; self.count],
+            y: vec![0.0; per.max(1)],
         }
     }
 
-    /// J_s assembled from the Jacobian's values (nnz) into f.j and factorised.
+    /// Groups the entries by block (`by_block`); called once when built.
+    pub fn group(&mut self) {
+        let mut lists = vec![Vec::new(); self.count];
+        for (e, &(b, _, _)) in self.at.iter().enumerate() {
+            lists[b].push(e);
+        }
+        self.block_start = vec![0];
+        self.by_block.clear();
+        for l in lists {
+            self.by_block.extend(l);
+            self.block_start.push(self.by_block.len());
+        }
+    }
+
+    /// Block c of J_s from the values: in its fixed order's positions, or natural.
+    fn assemble_block(&self, values: &[f64], c: usize, s: usize, pad: &[usize], order: Option<&Order>, a: &mut [f64]) {
+        a.fill(0.0);
+        let entries = &self.by_block[self.block_start[c]..self.block_start[c + 1]];
+        match order {
+            Some(o) => {
+                for (&e, &at) in entries.iter().zip(&o.entry_at) {
+                    a[at] = values[e] * self.entry_scale[e];
+                }
+                for &at in &o.pad_at {
+                    a[at] = 1.0;
+                }
+            }
+            None => {
+                for &e in entries {
+                    let (_, r, k) = self.at[e];
+                    a[r * s + k] = values[e] * self.entry_scale[e];
+                }
+                for &p in pad.iter().filter(|&&p| p / s == c) {
+                    a[(p % s) * (s + 1)] = 1.0;
+                }
+            }
+        }
+    }
+
+    /// The smallest over the largest |pivot| of a block in its fixed order.
+    fn fixed_ratio(&self, c: usize, s: usize, o: &Order, a: &[f64]) -> f64 {
+        let (mut small, mut big) = (f64::INFINITY, 0.0f64);
+        for k in 0..s {
+            if self.real[c * s + o.col[k]] {
+                let d = a[k * s + k].abs();
+                small = small.min(d);
+                big = big.max(d);
+            }
+        }
+        if big > 0.0 {
+            small / big
+        } else {
+            0.0
+        }
+    }
+
+    /// J_s assembled from the Jacobian's values (nnz) into f.j and
+    /// factorised: each block in its fixed order when it has one and the
+    /// values suit it, else with partial pivoting; the band with gbtf2's.
     pub fn factor(&self, values: &[f64], f: &mut Factors) {
         let (h, w) = (self.height, self.width);
-        f.j.fill(0.0);
-        for (e, &(b, r, c)) in self.at.iter().enumerate() {
-            f.j[(b * h + r) * w + c] = values[e] * self.entry_scale[e];
-        }
         match &self.shape {
-            Shape::Blocks { count, size, pad, patterns } => {
+            Shape::Blocks { count, size, pad, patterns, orders } => {
                 let s = *size;
-                for &p in pad {
-                    f.j[((p / s) * h + p % s) * w + p % s] = 1.0;
-                }
                 for c in 0..*count {
                     let a = &mut f.j[c * s * s..(c + 1) * s * s];
+                    if let Some(o) = orders.get(c).and_then(|o| o.as_ref()) {
+                        self.assemble_block(values, c, s, pad, Some(o), a);
+                        if o.numeric(a) && self.fixed_ratio(c, s, o, a) >= FALLBACK {
+                            f.fixed[c] = true;
+                            continue;
+                        }
+                    }
+                    f.fixed[c] = false;
+                    self.assemble_block(values, c, s, pad, None, a);
                     let piv = &mut f.piv[c * s..(c + 1) * s];
                     if s <= MASK {
                         let (rm, cm) = (&mut f.rm[c * s..(c + 1) * s], &mut f.cm[c * s..(c + 1) * s]);
@@ -98,25 +176,47 @@ impl Layout {
                     }
                 }
             }
-            Shape::Band { kl, ku, size, .. } => band_factor(&mut f.j, w, *size, &mut f.piv, *kl, *ku),
+            Shape::Band { kl, ku, size, .. } => {
+                f.j.fill(0.0);
+                for (e, &(b, r, c)) in self.at.iter().enumerate() {
+                    f.j[(b * h + r) * w + c] = values[e] * self.entry_scale[e];
+                }
+                band_factor(&mut f.j, w, *size, &mut f.piv, *kl, *ku)
+            }
         }
     }
 
     /// x = Phi_q^-1 b from the factors (b: m rows, x: n coordinates).
     pub fn solve(&self, f: &mut Factors, b: &[f64], x: &mut [f64]) {
+        if let Shape::Blocks { count, size, orders, .. } = &self.shape {
+            if f.fixed.iter().all(|&x| x) {
+                // every block in its fixed order: straight from b to x
+                let s = *size;
+                for (c, o) in orders.iter().enumerate().take(*count) {
+                    if let Some(o) = o {
+                        o.solve_fused(&f.j[c * s * s..(c + 1) * s * s], b, x, &mut f.y);
+                    }
+                }
+                return;
+            }
+        }
         let w = &mut f.w;
         w.fill(0.0);
         for i in 0..self.m {
             w[self.row_pos[i]] = b[i] / self.scale[i];
         }
         match &self.shape {
-            Shape::Blocks { count, size, .. } => {
+            Shape::Blocks { count, size, orders, .. } => {
                 let s = *size;
                 for c in 0..*count {
                     let a = &f.j[c * s * s..(c + 1) * s * s];
                     let piv = &f.piv[c * s..(c + 1) * s];
                     let v = &mut w[c * s..(c + 1) * s];
-                    if s <= MASK {
+                    if f.fixed[c] {
+                        if let Some(o) = &orders[c] {
+                            o.solve(a, v, &mut f.y);
+                        }
+                    } else if s <= MASK {
                         masked_solve(a, s, piv, &f.rm[c * s..(c + 1) * s], v);
                     } else {
                         dense_solve(a, s, piv, v);
@@ -151,8 +251,8 @@ impl Layout {
     /// `stats` and the position of the smallest |pivot| (in the stored order).
     pub fn pivots(&self, f: &Factors) -> (f64, i32, usize) {
         let (mut small, mut big, mut det) = (f64::INFINITY, 0.0f64, self.sign);
-        let (mut at, mut pos) = (0usize, 0usize);
-        let mut visit = |d: f64, swapped: bool, real: bool| -> bool {
+        let mut at = 0usize;
+        let mut visit = |d: f64, swapped: bool, real: bool, pos: usize| -> bool {
             if swapped {
                 det = -det;
             }
@@ -172,16 +272,28 @@ impl Layout {
                 }
                 big = big.max(a);
             }
-            pos += 1;
             true
         };
         match &self.shape {
-            Shape::Blocks { count, size, .. } => {
+            Shape::Blocks { count, size, orders, .. } => {
                 let s = *size;
                 for c in 0..*count {
+                    if f.fixed[c] {
+                        if let Some(o) = &orders[c] {
+                            for k in 0..s {
+                                let p = c * s + o.col[k];
+                                // the order's permutations count once, as one interchange when odd
+                                let odd = k == 0 && o.parity < 0;
+                                if !visit(f.j[c * s * s + k * s + k], odd, self.real[p], p) {
+                                    return (0.0, det, at);
+                                }
+                            }
+                        }
+                        continue;
+                    }
                     for j in 0..s {
                         let d = f.j[c * s * s + j * s + j];
-                        if !visit(d, f.piv[c * s + j] != j, self.real[c * s + j]) {
+                        if !visit(d, f.piv[c * s + j] != j, self.real[c * s + j], c * s + j) {
                             return (0.0, det, at);
                         }
                     }
@@ -195,7 +307,7 @@ impl Layout {
                     } else {
                         (f.j[(h - 2) * wd + j - size], false)
                     };
-                    if !visit(d, sw, self.real[j]) {
+                    if !visit(d, sw, self.real[j], j) {
                         return (0.0, det, at);
                     }
                 }

@@ -59,6 +59,8 @@ pub struct Native<'a> {
     b: Vec<f64>,
     pub t: f64,
     pub counts: [i64; 2],
+    /// e holds e^{i q} of the current q (q has not moved since)
+    rotated: bool,
 }
 
 impl<'a> Native<'a> {
@@ -75,6 +77,7 @@ impl<'a> Native<'a> {
             b: vec![0.0; kin.m],
             t: 0.0,
             counts: [0, 0],
+            rotated: false,
         }
     }
 }
@@ -91,18 +94,35 @@ pub fn residual(phi: &[f64], scale: &[f64]) -> f64 {
     r
 }
 
+impl Native<'_> {
+    /// e = e^{i q} at the angle columns, once per configuration.
+    fn rotate(&mut self) {
+        if !self.rotated {
+            self.kin.rotate(&self.q, &mut self.e);
+            self.rotated = true;
+        }
+    }
+
+    /// Starts a solve at (q, t).
+    pub fn start(&mut self, q: &[f64], t: f64) {
+        self.q.copy_from_slice(q);
+        self.t = t;
+        self.rotated = false;
+    }
+}
+
 impl Ops for Native<'_> {
     type Error = Infallible;
 
     fn evaluate(&mut self, _: i64) -> Result<f64, Infallible> {
-        self.kin.rotate(&self.q, &mut self.e);
+        self.rotate();
         self.kin.phi(&At { q: &self.q, e: &self.e, t: self.t }, &mut self.phi);
         Ok(residual(&self.phi, &self.layout.scale))
     }
 
     /// Always at q; it leaves `e` at q too (the rates read it).
     fn factor(&mut self, _: bool) -> Result<(), Infallible> {
-        self.kin.rotate(&self.q, &mut self.e);
+        self.rotate();
         self.kin.jac(&At { q: &self.q, e: &self.e, t: self.t }, &mut self.values);
         self.layout.factor(&self.values, &mut self.f);
         self.counts[0] += 1;
@@ -121,6 +141,7 @@ impl Ops for Native<'_> {
         for j in 0..self.q.len() {
             self.q[j] += f * self.dq[j];
         }
+        self.rotated = false;
         Ok(big)
     }
 }
@@ -149,8 +170,7 @@ pub fn run(kin: &Kin, layout: &Layout, times: &[f64], mut k: usize, st: State, s
             let tt = [st.tt[0], st.tt[1], st.tt[2]];
             judge = lagrange(t, &tt, st.h, &mut qp) >= 1;
         }
-        ops.q.copy_from_slice(&qp);
-        ops.t = t;
+        ops.start(&qp, t);
         let Ok(settled) = settle(&mut ops, s.tolerance, s.max_iterations, s.max_step, true);
         if !settled.converged {
             result = (k, NOT_CONVERGED);

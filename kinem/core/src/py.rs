@@ -241,6 +241,7 @@ impl Plan {
     #[new]
     #[allow(clippy::too_many_arguments)]
     fn new(
+        py: Python<'_>,
         core: &Core,
         band: bool,
         count: usize,
@@ -285,13 +286,13 @@ impl Plan {
             } else {
                 Vec::new()
             };
-            Shape::Blocks { count, size, pad, patterns }
+            Shape::Blocks { count, size, pad, patterns, orders: Vec::new() }
         };
         let real = t.flags("real").map_err(pyo3::exceptions::PyValueError::new_err)?;
         if real.len() != stored.max(n) && real.len() != stored {
             return Err(pyo3::exceptions::PyValueError::new_err("plan: real has the wrong length"));
         }
-        let layout = Layout {
+        let mut layout = Layout {
             shape,
             n,
             m,
@@ -306,10 +307,18 @@ impl Plan {
             sign,
             scale: reals(&t, "scale")?,
             col_scale: reals(&t, "col_scale")?,
+            by_block: Vec::new(),
+            block_start: Vec::new(),
         };
         if layout.row_pos.len() != m || layout.col_pos.len() != n || layout.scale.len() != m || layout.col_scale.len() != n {
             return Err(pyo3::exceptions::PyValueError::new_err("plan: positions or scales have the wrong length"));
         }
+        layout.group();
+        let kin2 = kin.clone();
+        let layout = guard(py, move || {
+            crate::plan::order_blocks(&kin2, &mut layout);
+            Ok(layout)
+        })?;
         Ok(Plan { kin, layout: Arc::new(layout) })
     }
 

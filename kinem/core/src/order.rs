@@ -1,0 +1,345 @@
+//! A fixed pivot order for a small block of J_s, chosen once per model from
+//! the Jacobian's structure (shared/reference/performance.md, "What a
+//! static pivot order must respect"): a greedy Markowitz order over the
+//! structural pattern that prefers, among the cheapest pivots, entries that
+//! are constant +-1 whatever the configuration (then other constants) and
+//! have not been changed by an earlier elimination step. Its elimination
+//! is a flat program over the factors' pattern (fill-in included), with no
+//! search and no interchange at run time. Each factorisation checks it
+//! numerically (`numeric`): a zero pivot or a multiplier above MULTIPLIER
+//! (threshold pivoting with u = 1 / MULTIPLIER) rejects it, and the caller
+//! factorises that block with partial pivoting instead.
+
+/// Multipliers above this reject the fixed order for a factorisation: with
+/// |l| <= 10 the elimination's growth stays bounded as with partial
+/// pivoting (threshold u = 0.1, the usual choice of sparse direct solvers).
+pub const MULTIPLIER: f64 = 10.0;
+
+/// The program of one block of `s` coordinates (s <= 64).
+#[derive(Clone, Debug)]
+pub struct Order {
+    pub s: usize,
+    /// step k pivots on block row row[k] and block column col[k]
+    pub row: Vec<usize>,
+    pub col: Vec<usize>,
+    /// position (k s + l) of natural (i, j) in the permuted block: inv_row[i] s + inv_col[j]
+    pub inv_row: Vec<usize>,
+    pub inv_col: Vec<usize>,
+    /// sign of the two permutations (det(J) = parity * prod of the pivots)
+    pub parity: i32,
+    /// for step k: rows i > k of L's column k (below[start[k]..start[k + 1]])
+    below: Vec<usize>,
+    below_start: Vec<usize>,
+    /// for step k: columns l > k of U's row k
+    right: Vec<usize>,
+    right_start: Vec<usize>,
+    /// for step k: rows i < k of U's column k (back substitution)
+    above: Vec<usize>,
+    above_start: Vec<usize>,
+    /// set by `fuse`: step k's right side is b[gather[k]] * gscale[k]
+    /// (NONE: padding, 0) and x[scatter[l]] = y[l] * sscale[l]
+    gather: Vec<usize>,
+    gscale: Vec<f64>,
+    scatter: Vec<usize>,
+    sscale: Vec<f64>,
+    /// per Jacobian entry of the block, its position in the permuted block
+    pub entry_at: Vec<usize>,
+    /// the permuted positions of the block's padding (1 on the diagonal)
+    pub pad_at: Vec<usize>,
+}
+
+/// No row or coordinate (a padding position).
+pub const NONE: usize = usize::MAX;
+
+fn flatten(lists: Vec<Vec<usize>>) -> (Vec<usize>, Vec<usize>) {
+    let mut start = vec![0];
+    let mut flat = Vec::new();
+    for l in lists {
+        flat.extend(l);
+        start.push(flat.len());
+    }
+    (flat, start)
+}
+
+fn parity(perm: &[usize]) -> i32 {
+    let mut seen = vec![false; perm.len()];
+    let mut sign = 1;
+    for i in 0..perm.len() {
+        if seen[i] {
+            continue;
+        }
+        let mut j = i;
+        let mut len = 0;
+        while !seen[j] {
+            seen[j] = true;
+            j = perm[j];
+            len += 1;
+        }
+        if len % 2 == 0 {
+            sign = -sign;
+        }
+    }
+    sign
+}
+
+impl Order {
+    /// The order for a block of size s with row patterns `rows` (bit j of
+    /// rows[i]: entry (i, j) may be non-zero); `unit[i]` and `constant[i]`:
+    /// the columns where row i's entry is constant with |value| 1, or
+    /// constant at all. None when the pattern is structurally singular.
+    pub fn new(s: usize, rows: &[u64], unit: &[u64], constant: &[u64]) -> Option<Order> {
+        assert!(s <= 64 && rows.len() == s);
+        let full = if s == 64 { u64::MAX } else { (1u64 << s) - 1 };
+        let mut pat = rows.to_vec();
+        let mut changed = vec![0u64; s];
+        let (mut live_r, mut live_c) = (full, full);
+        let (mut row, mut col) = (Vec::with_capacity(s), Vec::with_capacity(s));
+        for _ in 0..s {
+            let mut best: Option<(u64, u8, usize, usize)> = None;
+            let mut rr = live_r;
+            while rr != 0 {
+                let i = rr.trailing_zeros() as usize;
+                rr &= rr - 1;
+                let ri = pat[i] & live_c;
+                let rc = ri.count_ones() as u64;
+                let mut cc = ri;
+                while cc != 0 {
+                    let j = cc.trailing_zeros() as usize;
+                    cc &= cc - 1;
+                    let colj = (0..s).filter(|&r| live_r >> r & 1 == 1 && pat[r] >> j & 1 == 1).count() as u64;
+                    let cost = (rc - 1) * (colj - 1);
+                    let bit = 1u64 << j;
+                    let fresh = changed[i] & bit == 0;
+                    let pref = if fresh && unit[i] & bit != 0 {
+                        0
+                    } else if fresh && constant[i] & bit != 0 {
+                        1
+                    } else {
+                        2
+                    };
+                    let key = (cost, pref, i, j);
+                    if best.is_none_or(|b| key < b) {
+                        best = Some(key);
+                    }
+                }
+            }
+            let (_, _, i, j) = best?;
+            let upd = pat[i] & live_c & !(1u64 << j);
+            for r in 0..s {
+                if r != i && live_r >> r & 1 == 1 && pat[r] >> j & 1 == 1 {
+                    pat[r] |= upd;
+                    changed[r] |= upd;
+                }
+            }
+            live_r &= !(1u64 << i);
+            live_c &= !(1u64 << j);
+            row.push(i);
+            col.push(j);
+        }
+        let (mut inv_row, mut inv_col) = (vec![0; s], vec![0; s]);
+        for k in 0..s {
+            inv_row[row[k]] = k;
+            inv_col[col[k]] = k;
+        }
+        // the permuted pattern and its fill
+        let mut p = vec![0u64; s];
+        for (k, pk) in p.iter_mut().enumerate() {
+            let mut m = rows[row[k]];
+            while m != 0 {
+                let j = m.trailing_zeros() as usize;
+                m &= m - 1;
+                *pk |= 1u64 << inv_col[j];
+            }
+        }
+        for k in 0..s {
+            let upper = if k >= 63 { 0 } else { p[k] & !((1u64 << (k + 1)) - 1) };
+            for i in k + 1..s {
+                if p[i] >> k & 1 == 1 {
+                    p[i] |= upper;
+                }
+            }
+        }
+        let bits = |m: u64| (0..s).filter(move |&l| m >> l & 1 == 1);
+        let below = (0..s).map(|k| (k + 1..s).filter(|&i| p[i] >> k & 1 == 1).collect()).collect();
+        let right = (0..s).map(|k| bits(p[k]).filter(|&l| l > k).collect()).collect();
+        let above = (0..s).map(|k| (0..k).filter(|&i| p[i] >> k & 1 == 1).collect()).collect();
+        let (below, below_start) = flatten(below);
+        let (right, right_start) = flatten(right);
+        let (above, above_start) = flatten(above);
+        Some(Order {
+            s,
+            parity: parity(&row) * parity(&col),
+            row,
+            col,
+            inv_row,
+            inv_col,
+            below,
+            below_start,
+            right,
+            right_start,
+            above,
+            above_start,
+            gather: Vec::new(),
+            gscale: Vec::new(),
+            scatter: Vec::new(),
+            sscale: Vec::new(),
+            entry_at: Vec::new(),
+            pad_at: Vec::new(),
+        })
+    }
+
+    /// Binds the order to its block's place in the model: the model row
+    /// (row_at) and coordinate (col_at) at each natural block position
+    /// (NONE for padding), the row scales and column scales, the block's
+    /// entries' natural (row, col) and its padding's local indices.
+    #[allow(clippy::too_many_arguments)]
+    pub fn fuse(
+        &mut self,
+        row_at: &[usize],
+        col_at: &[usize],
+        scale: &[f64],
+        col_scale: &[f64],
+        entries: &[(usize, usize)],
+        pads: &[usize],
+    ) {
+        let s = self.s;
+        self.gather = (0..s).map(|k| row_at[self.row[k]]).collect();
+        self.gscale = self.gather.iter().map(|&i| if i == NONE { 0.0 } else { 1.0 / scale[i] }).collect();
+        self.scatter = (0..s).map(|l| col_at[self.col[l]]).collect();
+        self.sscale = self.scatter.iter().map(|&j| if j == NONE { 0.0 } else { col_scale[j] }).collect();
+        self.entry_at = entries.iter().map(|&(r, c)| self.inv_row[r] * s + self.inv_col[c]).collect();
+        self.pad_at = pads.iter().map(|&i| self.inv_row[i] * s + self.inv_col[i]).collect();
+    }
+
+    /// x (model coordinates) from b (model rows) with `numeric`'s factors
+    /// and the block's place (`fuse`); y: work (s).
+    #[inline]
+    pub fn solve_fused(&self, a: &[f64], b: &[f64], x: &mut [f64], y: &mut [f64]) {
+        let s = self.s;
+        for k in 0..s {
+            let i = self.gather[k];
+            y[k] = if i == NONE { 0.0 } else { b[i] * self.gscale[k] };
+        }
+        self.eliminate(a, y);
+        for l in 0..s {
+            let j = self.scatter[l];
+            if j != NONE {
+                x[j] = y[l] * self.sscale[l];
+            }
+        }
+    }
+
+    /// y <- U^-1 L^-1 y (permuted order).
+    #[inline]
+    fn eliminate(&self, a: &[f64], y: &mut [f64]) {
+        let s = self.s;
+        for k in 0..s {
+            let yk = y[k];
+            if yk != 0.0 {
+                for &i in &self.below[self.below_start[k]..self.below_start[k + 1]] {
+                    y[i] -= a[i * s + k] * yk;
+                }
+            }
+        }
+        for k in (0..s).rev() {
+            let yk = y[k] / a[k * s + k];
+            y[k] = yk;
+            if yk != 0.0 {
+                for &i in &self.above[self.above_start[k]..self.above_start[k + 1]] {
+                    y[i] -= a[i * s + k] * yk;
+                }
+            }
+        }
+    }
+
+    /// LU of the permuted block a (s x s, row-major) in place along the
+    /// fixed order; false when a pivot is zero or a multiplier above
+    /// MULTIPLIER (the order does not suit these values).
+    #[inline]
+    pub fn numeric(&self, a: &mut [f64]) -> bool {
+        let s = self.s;
+        for k in 0..s {
+            let d = a[k * s + k];
+            if d == 0.0 || !d.is_finite() {
+                return false;
+            }
+            let r = 1.0 / d;
+            let right = &self.right[self.right_start[k]..self.right_start[k + 1]];
+            for &i in &self.below[self.below_start[k]..self.below_start[k + 1]] {
+                let l = a[i * s + k] * r;
+                if !(l.abs() <= MULTIPLIER) {
+                    return false;
+                }
+                a[i * s + k] = l;
+                if l != 0.0 {
+                    for &j in right {
+                        a[i * s + j] -= l * a[k * s + j];
+                    }
+                }
+            }
+        }
+        true
+    }
+
+    /// b <- A^-1 b (natural order in and out) from `numeric`'s factors; y: work (s).
+    #[inline]
+    pub fn solve(&self, a: &[f64], b: &mut [f64], y: &mut [f64]) {
+        let s = self.s;
+        for k in 0..s {
+            y[k] = b[self.row[k]];
+        }
+        self.eliminate(a, y);
+        for l in 0..s {
+            b[self.col[l]] = y[l];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_fixed_order_solves_and_gives_the_determinant() {
+        // a slider-crank-like pattern: unit diagonal-ish entries and a few couplings
+        let s = 6;
+        let a: [[f64; 6]; 6] = [
+            [1.0, 0.0, 0.3, -1.0, 0.0, 0.0],
+            [0.0, 1.0, -0.2, 0.0, -1.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0, 1.0, 0.0, 0.7],
+            [0.0, 0.0, 0.0, 0.0, 1.0, -0.4],
+            [0.0, 0.0, 0.0, 0.5, 0.8, 0.0],
+        ];
+        let rows: Vec<u64> = a.iter().map(|r| (0..s).filter(|&j| r[j] != 0.0).fold(0, |m, j| m | 1 << j)).collect();
+        let unit: Vec<u64> = a.iter().map(|r| (0..s).filter(|&j| r[j].abs() == 1.0).fold(0, |m, j| m | 1 << j)).collect();
+        let o = Order::new(s, &rows, &unit, &unit).unwrap();
+        let mut p = vec![0.0; s * s];
+        for i in 0..s {
+            for j in 0..s {
+                p[o.inv_row[i] * s + o.inv_col[j]] = a[i][j];
+            }
+        }
+        assert!(o.numeric(&mut p));
+        let x = [1.0, -2.0, 0.5, 3.0, 0.25, -1.5];
+        let mut b: Vec<f64> = (0..s).map(|i| (0..s).map(|j| a[i][j] * x[j]).sum()).collect();
+        let mut y = vec![0.0; s];
+        o.solve(&p, &mut b, &mut y);
+        for i in 0..s {
+            assert!((b[i] - x[i]).abs() < 1e-13, "{b:?}");
+        }
+        // det by the pivots against a dense elimination's
+        let det: f64 = o.parity as f64 * (0..s).map(|k| p[k * s + k]).product::<f64>();
+        let mut d = a.iter().flatten().copied().collect::<Vec<_>>();
+        let mut piv = vec![0; s];
+        crate::lu::dense_factor(&mut d, s, &mut piv);
+        let swaps = (0..s).filter(|&j| piv[j] != j).count();
+        let dense: f64 = (0..s).map(|k| d[k * s + k]).product::<f64>() * if swaps % 2 == 1 { -1.0 } else { 1.0 };
+        assert!((det - dense).abs() < 1e-12 * dense.abs(), "{det} {dense}");
+    }
+
+    #[test]
+    fn a_structurally_singular_pattern_has_no_order() {
+        assert!(Order::new(2, &[0b01, 0b01], &[0, 0], &[0, 0]).is_none());
+    }
+}
