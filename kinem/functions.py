@@ -70,6 +70,7 @@ class FunctionSet:
 
     def __init__(self, funcs):
         funcs = list(funcs)
+        self.funcs = tuple(funcs)
         self.n = len(funcs)
         polys = [(k, f) for k, f in enumerate(funcs) if isinstance(f, Poly)]
         harms = [(k, f) for k, f in enumerate(funcs) if isinstance(f, Harmonic)]
@@ -111,3 +112,66 @@ class FunctionSet:
         for k, splines in self.tables:
             out[:, k] = splines[order](flat)
         return out.reshape(t.shape + (self.n,))
+
+
+# kinds of kinem/core/src/functions.rs
+POLY, HARMONIC, PIECES = 0, 1, 2
+
+
+def spline_pieces(f: Table):
+    """Breakpoints x (k+1,) and coefficients c (4, k) of a table function:
+    the not-a-knot CubicSpline FunctionSet evaluates (scipy's PPoly layout)."""
+    from scipy.interpolate import CubicSpline
+
+    s = CubicSpline(np.asarray(f.t, float), np.asarray(f.value, float))
+    return s.x, s.c
+
+
+def identity(obj) -> tuple:
+    """A hashable key of a frozen dataclass by value (its fields may be lists)."""
+    return (type(obj),) + tuple(tuple(np.ravel(v).tolist()) if isinstance(v, (list, tuple, np.ndarray)) else v
+                                for v in vars(obj).values())
+
+
+class FunctionTable:
+    """Every driving function of a model, numbered as the compiled core
+    (kinem._core) reads them: ``index`` gives a function's number (equal
+    functions share one), ``arrays`` the table {kind, start, data} of
+    kinem/core/src/functions.rs: function f's parameters are
+    data[start[f]:start[f + 1]], POLY c_0 .. c_d, HARMONIC amplitude, omega,
+    phase, offset, PIECES k, the k + 1 breakpoints and the 4 k coefficients
+    piece by piece, highest power first."""
+
+    def __init__(self):
+        self.functions = []
+        self._number = {}
+
+    def index(self, f) -> int:
+        key = identity(f)
+        k = self._number.get(key)
+        if k is None:
+            k = self._number[key] = len(self.functions)
+            self.functions.append(f)
+        return k
+
+    def indices(self, funcs) -> np.ndarray:
+        return np.array([self.index(f) for f in funcs], dtype=np.int64)
+
+    def arrays(self) -> dict:
+        kinds, parts = [], []
+        for f in self.functions:
+            if isinstance(f, Poly):
+                kinds.append(POLY)
+                parts.append(np.asarray(f.coeffs, float))
+            elif isinstance(f, Harmonic):
+                kinds.append(HARMONIC)
+                parts.append(np.array([f.amplitude, f.omega, f.phase, f.offset], float))
+            elif isinstance(f, Table):
+                x, c = spline_pieces(f)
+                kinds.append(PIECES)
+                parts.append(np.concatenate([[len(x) - 1.0], x, c.T.ravel()]))
+            else:
+                raise TypeError("unknown function kind")
+        start = np.concatenate([[0], np.cumsum([len(p) for p in parts], dtype=np.int64)]).astype(np.int64)
+        return {"kind": np.array(kinds, dtype=np.int64), "start": start,
+                "data": np.concatenate(parts) if parts else np.zeros(0)}

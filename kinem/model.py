@@ -2,11 +2,12 @@
 
 The Model holds the coordinate index map (three coordinates per body, then
 artificial coordinates), the constraint families with their rows, and the
-Jacobian sparsity pattern, all computed once. Its methods evaluate Phi, the
-Jacobian values, nu and gamma by one vectorised pass per family present, at
-one instant (q of shape (n,), t a number) or at a batch of them (q, qd of
-shape (..., n), t a number or an array of the leading shape (...)): the
-rows, or Jacobian values, are on the last axis.
+Jacobian sparsity pattern, all computed once, and the compiled core
+(kinem._core.Core, built from the families' tables) that evaluates Phi,
+the Jacobian values, nu and gamma of all the families in one call, at one
+instant (q of shape (n,), t a number) or at a batch of them (q, qd of shape
+(..., n), t a number or an array of the leading shape (...)): the rows, or
+Jacobian values, are on the last axis.
 """
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -15,7 +16,10 @@ import numpy as np
 
 from . import native
 from .constraints import REGISTRY
+from ._core import Core
 from .constraints.base import local_points
+from .functions import FunctionTable
+from .outline import OutlineTable
 from .spec import Case
 
 DENSE_LIMIT = 200  # coordinates; above this 'auto' uses the sparse LU
@@ -156,6 +160,7 @@ class Model:
     _csc: tuple = field(repr=False, default=None)
     _unit: np.ndarray = field(repr=False, default=None)  # ones (nnz,)
     _zero: np.ndarray = field(repr=False, default=None)  # zeros (nnz,), intp
+    core: Core = field(repr=False, default=None)         # the compiled evaluation (kinem._core)
 
     # -- structure ---------------------------------------------------------
     @property
@@ -298,30 +303,77 @@ class Model:
         return native.Plan(self.core, *shape, columns)
 
     # -- evaluation ----------------------------------------------------------
-    def _gather(self, values):
-        return np.concatenate(values, axis=-1) if len(values) > 1 else values[0]
+    def _batch(self, q, t, qd=None):
+        """Q (K, n) (and QD), T (K,) C-contiguous float64 for the core, and
+        the leading shape: q (..., n) (broadcast with qd), t a number or an
+        array that broadcasts with the leading shape."""
+        if qd is None and isinstance(t, (float, int)) and type(q) is np.ndarray and q.ndim == 1 and q.dtype == float:
+            return np.ascontiguousarray(q).reshape(1, -1), np.array((t,), dtype=float), ()  # one instant: the fast path
+        q = np.asarray(q, dtype=float)
+        if qd is not None:
+            qd = np.asarray(qd, dtype=float)
+            if qd.shape != q.shape:
+                q, qd = np.broadcast_arrays(q, qd)
+        t = np.asarray(t, dtype=float)
+        lead = q.shape[:-1]
+        if t.shape != lead:
+            lead = np.broadcast_shapes(lead, t.shape)
+            q = np.broadcast_to(q, lead + q.shape[-1:])
+            qd = None if qd is None else np.broadcast_to(qd, lead + qd.shape[-1:])
+            t = np.broadcast_to(t, lead)
+        Q = np.ascontiguousarray(q.reshape(-1, self.n))
+        T = np.ascontiguousarray(t.reshape(-1))
+        if qd is None:
+            return Q, T, lead
+        return Q, np.ascontiguousarray(qd.reshape(-1, self.n)), T, lead
+
+    def _replaced(self, name, values, *args):
+        """A family whose method ``name`` was replaced on the instance (a
+        test's deliberate fault, tests/test_jacobians.py) is evaluated by that
+        method: its rows (or values) in ``values`` are overwritten."""
+        for k, f in enumerate(self.families):
+            fn = vars(f).get(name)
+            if fn is not None:
+                lo = self.offsets[k] if name != "jac" else self._entry_offsets[k]
+                width = f.n_rows if name != "jac" else len(f.rows)
+                values[..., lo: lo + width] = fn(*args)
+        return values
 
     def phi(self, q, t) -> np.ndarray:
-        return self._gather([f.phi(q, t) for f in self.families])
+        Q, T, lead = self._batch(q, t)
+        out = self.core.phi(Q, T).reshape(lead + (self.m,))
+        return self._replaced("phi", out, q, t) if self._patched("phi") else out
 
     def jac_values(self, q, t) -> np.ndarray:
         """Jacobian entries in the order of (jac_rows, jac_cols)."""
-        return self._gather([f.jac(q, t) for f in self.families])
+        Q, T, lead = self._batch(q, t)
+        out = self.core.jac(Q, T).reshape(lead + (self.nnz,))
+        return self._replaced("jac", out, q, t) if self._patched("jac") else out
 
     def nu(self, t) -> np.ndarray:
-        if getattr(t, "ndim", 0):
-            out = np.zeros(t.shape + (self.m,))
-            for k in self.time_dependent:
-                out[..., self.offsets[k]: self.offsets[k] + self.families[k].n_rows] = self.families[k].nu(t)
-            return out
-        out = np.zeros(self.m)
-        for k in self.time_dependent:
-            f = self.families[k]
-            out[self.offsets[k]: self.offsets[k] + f.n_rows] = f.nu(t)
-        return out
+        t = np.asarray(t, dtype=float)
+        out = self.core.nu(np.ascontiguousarray(t.reshape(-1))).reshape(t.shape + (self.m,))
+        return self._replaced("nu", out, t) if self._patched("nu") else out
 
     def gamma(self, q, qd, t) -> np.ndarray:
-        return self._gather([f.gamma(q, qd, t) for f in self.families])
+        Q, QD, T, lead = self._batch(q, t, qd)
+        out = self.core.gamma(Q, QD, T).reshape(lead + (self.m,))
+        return self._replaced("gamma", out, q, qd, t) if self._patched("gamma") else out
+
+    def _patched(self, name) -> bool:
+        """Whether a family's method ``name`` was replaced on its instance."""
+        for d in self._family_dicts:
+            if name in d:
+                return True
+        return False
+
+    @cached_property
+    def _family_dicts(self) -> tuple:
+        return tuple(vars(f) for f in self.families)
+
+    @cached_property
+    def _entry_offsets(self) -> tuple:
+        return tuple(np.cumsum([0] + [len(f.rows) for f in self.families])[:-1].tolist())
 
     def jacobian(self, q, t, sparse=None):
         """Phi_q as a dense array, or a scipy CSC matrix when sparse."""
@@ -352,6 +404,17 @@ class Model:
         nd = ~self.driving
         return max((float(self.scaled_residual(self.phi(q, t))[nd].max(initial=0.0)) for q, t in zip(Q, times)),
                    default=0.0)
+
+
+def core_of(families, n: int, n_bodies: int, artificial: int) -> Core:
+    """The compiled core of the families: their tables (Family.table), the
+    model's driving functions and outlines, and its angle columns (every
+    body's phi, every artificial coordinate: e^{i q} of those is computed
+    once per configuration)."""
+    functions, outlines = FunctionTable(), OutlineTable()
+    tables = [f.table(functions, outlines) for f in families]
+    angles = np.concatenate([3 * np.arange(n_bodies) + 2, 3 * n_bodies + np.arange(artificial)]).astype(np.int64)
+    return Core(n, tables, functions.arrays(), outlines.arrays(), angles)
 
 
 def compile(case: Case) -> Model:
@@ -401,6 +464,7 @@ def compile(case: Case) -> Model:
         artificial=tuple(label for label, _ in ctx.artificial),
         time_dependent=tuple(k for k, f in enumerate(families) if f.time_dependent),
         _csc=csc, _unit=np.ones(len(jac_rows)), _zero=np.zeros(len(jac_rows), np.intp),
+        core=core_of(families, n, len(case.bodies), len(ctx.artificial)),
     )
     for a in (model.q0, model.driving, model.scale, model.jac_rows, model.jac_cols,
               model.point_cols, model.point_local, model.col_scale, model.entry_scale):

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .functions import identity
 from .jit import kernel
 
 TWO_PI = 2.0 * np.pi
@@ -159,3 +160,48 @@ def curve_at(q, E, cc, ct, keys, starts, coef, first, last, t0, span, offset, pe
             g[k, c] = r * (s1 + 1j * s) * e
             h[k, c] = r * (s2 - s + 2j * s1) * e
             k3[k, c] = r * (s3 - 3 * s1 + 1j * (3 * s2 - s)) * e
+
+
+class OutlineTable:
+    """Every outline of a model, numbered as the compiled core (kinem._core)
+    reads them: ``index`` gives an outline's number (equal outlines share
+    one), ``arrays`` the table of kinem/core/src/outline.rs: outline o's
+    pieces are first[o] .. last[o], each starting at starts (theta from
+    t0[o]) with 4 coefficients, highest power first; span the table's
+    length in theta (a periodic outline's period), center Q. A circle is
+    one constant piece over [0, 2 pi), periodic (Outline.pieces)."""
+
+    def __init__(self):
+        self.outlines = []
+        self._number = {}
+
+    def index(self, o: Outline) -> int:
+        key = identity(o)
+        k = self._number.get(key)
+        if k is None:
+            k = self._number[key] = len(self.outlines)
+            self.outlines.append(o)
+        return k
+
+    def indices(self, outlines) -> np.ndarray:
+        return np.array([self.index(o) for o in outlines], dtype=np.int64)
+
+    def arrays(self) -> dict:
+        first, last, t0, span, starts, coef = [], [], [], [], [], []
+        count = 0
+        for o in self.outlines:
+            x, c = o.pieces()
+            local = x - x[0]
+            first.append(count)
+            count += len(x) - 1
+            last.append(count - 1)
+            t0.append(x[0])
+            span.append(local[-1])
+            starts.append(local[:-1])
+            coef.append(np.asarray(c, float).T.ravel())
+        return {"first": np.array(first, np.int64), "last": np.array(last, np.int64),
+                "t0": np.array(t0, float), "span": np.array(span, float),
+                "periodic": np.array([o.periodic for o in self.outlines], np.int64),
+                "center": np.array([complex(*o.center) for o in self.outlines], complex),
+                "starts": np.concatenate(starts) if starts else np.zeros(0),
+                "coef": np.concatenate(coef) if coef else np.zeros(0)}

@@ -73,6 +73,14 @@ class Family:
     def gamma(self, q, qd, t):
         raise NotImplementedError
 
+    def table(self, functions, outlines) -> tuple:
+        """(kind, {column: 1-d array}): the family's struct-of-arrays table
+        for the compiled core (kinem/core/src/families), indices of driving
+        functions and outlines numbered by ``functions``
+        (kinem.functions.FunctionTable) and ``outlines``
+        (kinem.outline.OutlineTable), model-wide."""
+        raise NotImplementedError
+
     def march(self, times):
         """What the compiled march (kinem.march) calls for this family at the
         output instants ``times`` (K,): three tuples of ``Call``, for phi,
@@ -109,6 +117,19 @@ class Compiled(Family):
     def march(self, times):
         phi, jac, gamma = self.kernels
         return (Call(phi, self.args),), (Call(jac, self.args),), (Call(gamma, self.args, rates=True),)
+
+
+def ints(a) -> np.ndarray:
+    """Indices or flags as the compiled core's tables take them (int64)."""
+    return np.ascontiguousarray(a, dtype=np.int64)
+
+
+def reals(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def points(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.complex128)
 
 
 def pattern(cols: np.ndarray, entry_rows, rows_per_constraint: int) -> tuple:

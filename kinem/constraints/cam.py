@@ -5,7 +5,7 @@ a = A_i p(theta) and g = A_i g'(theta), the tangent there."""
 import numpy as np
 
 from .base import (BodyKey, Call, DirectionKey, Family, LocalKey, NumberKey, OutlineKey, PositiveKey, TypeDecl,
-                   batch, call, kernel, local_points, pattern, row_info)
+                   batch, call, ints, kernel, local_points, pattern, points, reals, row_info)
 from .curve import Curve, check_theta
 
 
@@ -115,6 +115,10 @@ class _CamFollower(Family):
         self.sb = local_points([c["sj"] for c in cons])
         self.bodies = (self.curve.cc, self.cb, self.sb)
 
+    def columns(self, outlines) -> dict:
+        """The cam's and the follower's columns of the core table."""
+        return dict(self.curve.table(outlines), cj=ints(self.cb), sj=points(self.sb))
+
     def evaluate(self, fn, width, q, *extra, parts=2):
         """fn(Q, i, j, s'_j, *extra, first ``parts`` of (a, g, h), out)."""
         Q, lead = batch(q)
@@ -154,6 +158,9 @@ class CamRoller(_CamFollower):
         cols = np.stack([ci, ci + 1, ci + 2, ct, cj, cj + 1, cj + 2], axis=1)
         self.rows, self.cols = pattern(np.concatenate([cols, cols], axis=1), [0] * 7 + [1] * 7, 2)
 
+    def table(self, functions, outlines):
+        return "cam-roller", dict(self.columns(outlines), rho2=reals(self.rho2))
+
     def phi(self, q, t):
         return self.evaluate(_roller_phi, self.n_rows, q, self.rho2)
 
@@ -183,6 +190,9 @@ class CamFlat(_CamFollower):
         ci, ct, cj = self.curve.cc, self.curve.ct, self.cb
         cols = np.stack([ci + 2, ct, cj + 2, ci, ci + 1, ci + 2, ct, cj, cj + 1, cj + 2], axis=1)
         self.rows, self.cols = pattern(cols, [0] * 3 + [1] * 7, 2)
+
+    def table(self, functions, outlines):
+        return "cam-flat", dict(self.columns(outlines), n=points(self.n))
 
     def phi(self, q, t):
         return self.evaluate(_flat_phi, self.n_rows, q, self.n)

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..jit import kernel
 from ..outline import OutlineSet, curve_at
-from .base import Call, rotations
+from .base import Call, ints, rotations
 
 NO_ROTATIONS = np.ones((1, 1), complex)  # curve_rates reads none
 
@@ -27,7 +27,13 @@ class Curve:
         """bodies: the name of the outline body of each constraint."""
         self.cc = ctx.cols(bodies)
         self.ct = ctx.add_coordinates([f"{c.name}.theta" for c in cons], [c["theta"] for c in cons])
-        self.outlines = OutlineSet(c["outline"] for c in cons)
+        self.outline_list = [c["outline"] for c in cons]
+        self.outlines = OutlineSet(self.outline_list)
+
+    def table(self, outlines) -> dict:
+        """The columns every curve family's core table has: cc, ct and the
+        outlines' numbers (kinem.outline.OutlineTable)."""
+        return {"cc": ints(self.cc), "ct": ints(self.ct), "outline": outlines.indices(self.outline_list)}
 
     def at(self, Q):
         """(a, g, h, k) at the configurations Q (K, n), each (K, constraints)."""

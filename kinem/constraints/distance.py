@@ -3,8 +3,8 @@ distance driver, its extension with a length l(t) that follows a function
 (a linear actuator between two points)."""
 import numpy as np
 
-from .base import (BodyKey, Call, Family, FunctionKey, LocalKey, PositiveKey, TypeDecl, call, kernel, local_points,
-                   pattern, per_instant, row_info)
+from .base import (BodyKey, Call, Family, FunctionKey, LocalKey, PositiveKey, TypeDecl, call, ints, kernel,
+                   local_points, pattern, per_instant, points, row_info)
 from ..functions import FunctionSet, constant
 
 
@@ -69,6 +69,10 @@ class Distance(Family):
         ci, cj = self.ci, self.cj
         self.rows, self.cols = pattern(np.stack([ci, ci + 1, ci + 2, cj, cj + 1, cj + 2], axis=1), [0] * 6, 1)
         self.args = (self.ci, self.cj, self.si, self.sj)
+
+    def table(self, functions, outlines):
+        return "distance", {"ci": ints(self.ci), "cj": ints(self.cj), "si": points(self.si), "sj": points(self.sj),
+                            "f": functions.indices(self.length.funcs)}
 
     def phi(self, q, t):
         return call(_phi, self.n_rows, q, *self.args, per_instant(self.length(t)))

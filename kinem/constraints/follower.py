@@ -4,8 +4,8 @@ follower (Eqs. 4.26, 4.27) and the point-follower, a pin in a slot
 on the outline (kinem/constraints/curve.py)."""
 import numpy as np
 
-from .base import (BodyKey, Call, Family, LocalKey, NumberKey, OutlineKey, TypeDecl, batch, call, kernel,
-                   local_points, pattern, row_info)
+from .base import (BodyKey, Call, Family, LocalKey, NumberKey, OutlineKey, TypeDecl, batch, call, ints, kernel,
+                   local_points, pattern, points, reals, row_info)
 from .curve import Curve, check_theta
 
 
@@ -61,6 +61,10 @@ class PointOnCurve(Family):
         cc, ct, cb = self.curve.cc, self.curve.ct, self.cb
         cols = np.stack([cc, cc + 2, ct, cb, cb + 2, cc + 1, cc + 2, ct, cb + 1, cb + 2], axis=1)
         self.rows, self.cols = pattern(cols, [0] * 5 + [1] * 5, 2)
+
+    def table(self, functions, outlines):
+        return "point-on-curve", dict(self.curve.table(outlines), cb=ints(self.cb), sb=points(self.sb),
+                                      sign=reals(self.sign))
 
     def phi(self, q, t):
         Q, lead = batch(q)

@@ -11,7 +11,7 @@ equation: the estimates are the reference configuration (phi_i^0, ...).
 import numpy as np
 
 from .base import (BodyKey, BoolKey, Call, Compiled, DirectionKey, Family, LocalKey, NumberKey, PositiveKey,
-                   TypeDecl, call, kernel, local_points, pattern, row_info)
+                   TypeDecl, call, ints, kernel, local_points, pattern, points, reals, row_info)
 
 
 @kernel
@@ -62,6 +62,10 @@ class Gear(Family):
         self.cols = np.stack([self.ai, self.aj, self.ak], axis=1).ravel()[keep]
         self.values = np.stack([self.ri, self.rj, -(self.ri + self.rj)], axis=1).ravel()[keep]
         self.args = (self.ai, self.aj, self.ak, self.w, self.ri, self.rj, self.phi0)
+
+    def table(self, functions, outlines):
+        return "gear", {"ai": ints(self.ai), "aj": ints(self.aj), "ak": ints(self.ak), "carrier": ints(self.w != 0),
+                        "ri": reals(self.ri), "rj": reals(self.rj), "phi0": reals(self.phi0)}
 
     def phi(self, q, t):
         return call(_gear_phi, self.n_rows, q, *self.args)
@@ -148,6 +152,10 @@ class RackPinion(Compiled):
         ci, cj = self.ci, self.cj
         self.rows, self.cols = pattern(np.stack([ci, ci + 1, ci + 2, cj, cj + 1, cj + 2], axis=1), [0] * 6, 1)
         self.args = (self.ci, self.cj, self.c, self.s, self.u, self.rho, self.phi0)
+
+    def table(self, functions, outlines):
+        return "rack-pinion", {"ci": ints(self.ci), "cj": ints(self.cj), "c": points(self.c), "s": points(self.s),
+                               "u": points(self.u), "rho": reals(self.rho), "phi0": reals(self.phi0)}
 
 
 def _angle(bodies, name):

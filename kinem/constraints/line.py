@@ -8,7 +8,8 @@ d = P_j - P_i, and Eq. 4.16 with a = j, u = Q_j - P_j, d = P_i - P_j.
 """
 import numpy as np
 
-from .base import BodyKey, Compiled, LocalKey, NumberKey, TypeDecl, kernel, local_points, pattern, row_info
+from .base import (BodyKey, Compiled, LocalKey, NumberKey, TypeDecl, ints, kernel, local_points, pattern, points, reals,
+                   row_info)
 
 
 @kernel
@@ -82,6 +83,13 @@ class _PointOnLine(Compiled):
         self.line_cols = np.stack([ca, ca + 1, ca + 2, cb, cb + 1, cb + 2], axis=1)
         ai, aj = np.asarray(ai, np.intp), np.asarray(aj, np.intp)
         self.args = (ca, pa, ua, cb, ob, ai, aj, np.asarray(phi0, float))
+
+    def table(self, functions, outlines):
+        """One core family "line" for both joints: the angle row's columns
+        (ai, aj, phi0) are empty for the revolute-translational joint."""
+        ca, pa, ua, cb, ob, ai, aj, phi0 = self.args
+        return "line", {"ca": ints(ca), "pa": points(pa), "ua": points(ua), "cb": ints(cb), "ob": points(ob),
+                        "ai": ints(ai), "aj": ints(aj), "phi0": reals(phi0)}
 
 
 class Translational(_PointOnLine):

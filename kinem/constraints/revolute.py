@@ -1,7 +1,7 @@
 """Revolute joint, Eqs. 4.7-4.9; Jacobian Eq. 4.46 (Table 4.2); gamma Eq. 4.47."""
 import numpy as np
 
-from .base import BodyKey, Compiled, LocalKey, TypeDecl, kernel, local_points, pattern, row_info
+from .base import BodyKey, Compiled, LocalKey, TypeDecl, ints, kernel, local_points, pattern, points, row_info
 
 
 @kernel
@@ -56,6 +56,9 @@ class Revolute(Compiled):
         cols = np.stack([ci, ci + 2, cj, cj + 2, ci + 1, ci + 2, cj + 1, cj + 2], axis=1)
         self.rows, self.cols = pattern(cols, [0, 0, 0, 0, 1, 1, 1, 1], 2)
         self.args = (self.ci, self.cj, self.si, self.sj)
+
+    def table(self, functions, outlines):
+        return "revolute", {"ci": ints(self.ci), "cj": ints(self.cj), "si": points(self.si), "sj": points(self.sj)}
 
 
 TYPES = [

@@ -11,7 +11,7 @@ The point term of row r is mx_r Re(s) + my_r Im(s), s = A_i s'_i^P.
 import numpy as np
 
 from .base import (BodyKey, Call, CoordKey, Family, FunctionKey, LocalKey, NumberKey, TypeDecl, Vector3Key, call,
-                   kernel, local_points, per_instant)
+                   ints, kernel, local_points, per_instant, points, reals)
 from ..functions import FunctionSet, constant
 
 COORD = {"x": 0, "y": 1, "phi": 2}
@@ -95,6 +95,11 @@ class Simple(Family):
         self.cols = np.stack([self.a, self.angle, self.k], axis=1).ravel()[keep]
         self.point, self.relative = has_point, relative
         self.zero = np.zeros((1, n))
+
+    def table(self, functions, outlines):
+        return "simple", {"a": ints(self.a), "angle": ints(self.angle), "k": ints(self.k), "local": points(self.local),
+                          "mx": reals(self.mx), "my": reals(self.my), "point": ints(self.point),
+                          "relative": ints(self.relative), "f": functions.indices(self.f.funcs)}
 
     def phi(self, q, t):
         return call(_phi, self.n_rows, q, self.a, self.k, self.w, self.angle, self.local, self.mx, self.my,

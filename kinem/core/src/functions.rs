@@ -123,8 +123,9 @@ mod tests {
 
     #[test]
     fn poly_and_harmonic_derivatives() {
-        let f = Functions::from_table(&table(vec![POLY, HARMONIC], vec![0, 3, 7], vec![1.0, 2.0, 3.0, 2.0, 3.0, 0.5, 1.0]))
-            .unwrap();
+        let f =
+            Functions::from_table(&table(vec![POLY, HARMONIC], vec![0, 3, 7], vec![1.0, 2.0, 3.0, 2.0, 3.0, 0.5, 1.0]))
+                .unwrap();
         let t = 0.7;
         assert!((f.eval(0, t, 0) - (1.0 + 2.0 * t + 3.0 * t * t)).abs() < 1e-15);
         assert!((f.eval(0, t, 1) - (2.0 + 6.0 * t)).abs() < 1e-15);

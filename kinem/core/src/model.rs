@@ -41,7 +41,13 @@ impl Kin {
         }
         let angles = angles
             .into_iter()
-            .map(|a| if a >= 0 && (a as usize) < n { Ok(a as usize) } else { Err(format!("angle column {a} outside 0..{n}")) })
+            .map(|a| {
+                if a >= 0 && (a as usize) < n {
+                    Ok(a as usize)
+                } else {
+                    Err(format!("angle column {a} outside 0..{n}"))
+                }
+            })
             .collect::<Result<Vec<_>, _>>()?;
         let (mut row_off, mut entry_off) = (vec![0], vec![0]);
         for f in &list {

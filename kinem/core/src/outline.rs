@@ -9,14 +9,14 @@ use num_complex::Complex64 as C64;
 
 #[derive(Default, Clone, Debug)]
 pub struct Outlines {
-    first: Vec<usize>,   // first piece of outline o
-    last: Vec<usize>,    // last piece of outline o
-    t0: Vec<f64>,        // theta of its table's first entry
-    span: Vec<f64>,      // its table's length in theta (the period of a periodic one)
+    first: Vec<usize>, // first piece of outline o
+    last: Vec<usize>,  // last piece of outline o
+    t0: Vec<f64>,      // theta of its table's first entry
+    span: Vec<f64>,    // its table's length in theta (the period of a periodic one)
     periodic: Vec<bool>,
-    center: Vec<C64>,    // Q, local
-    starts: Vec<f64>,    // each piece's start, from t0
-    coef: Vec<f64>,      // 4 per piece, highest power first
+    center: Vec<C64>, // Q, local
+    starts: Vec<f64>, // each piece's start, from t0
+    coef: Vec<f64>,   // 4 per piece, highest power first
 }
 
 /// A = A_c p(theta), G = A_c dp/dtheta, H and K = A_c times the second and
@@ -50,7 +50,16 @@ impl Outlines {
         if span.iter().any(|s| !(*s > 0.0 && s.is_finite())) {
             return Err("outlines: a span is not a positive number".into());
         }
-        Ok(Outlines { first, last, t0: t.real("t0")?, span, periodic: t.flags("periodic")?, center: t.cplx("center")?, starts, coef })
+        Ok(Outlines {
+            first,
+            last,
+            t0: t.real("t0")?,
+            span,
+            periodic: t.flags("periodic")?,
+            center: t.cplx("center")?,
+            starts,
+            coef,
+        })
     }
 
     pub fn len(&self) -> usize {

@@ -66,7 +66,10 @@ fn rows<'a>(a: &'a PyReadonlyArray2<'a, f64>, width: usize, what: &str) -> PyRes
     if shape[1] != width {
         return Err(pyo3::exceptions::PyValueError::new_err(format!("{what}: {} columns, expected {width}", shape[1])));
     }
-    Ok((a.as_slice().map_err(|_| pyo3::exceptions::PyValueError::new_err(format!("{what}: not C-contiguous")))?, shape[0]))
+    Ok((
+        a.as_slice().map_err(|_| pyo3::exceptions::PyValueError::new_err(format!("{what}: not C-contiguous")))?,
+        shape[0],
+    ))
 }
 
 fn out2<'py>(py: Python<'py>, v: Vec<f64>, k: usize, w: usize) -> PyResult<Bound<'py, PyAny>> {
@@ -110,7 +113,12 @@ impl Core {
     }
 
     /// Phi at Q (K, n), T (K,): (K, m).
-    fn phi<'py>(&self, py: Python<'py>, q: PyReadonlyArray2<'py, f64>, t: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyAny>> {
+    fn phi<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyReadonlyArray2<'py, f64>,
+        t: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let kin = self.kin.clone();
         let (q, k) = rows(&q, kin.n, "q")?;
         let t = t.as_slice()?;
@@ -123,7 +131,12 @@ impl Core {
     }
 
     /// Jacobian values at Q (K, n), T (K,): (K, nnz), in the model's pattern order.
-    fn jac<'py>(&self, py: Python<'py>, q: PyReadonlyArray2<'py, f64>, t: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyAny>> {
+    fn jac<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyReadonlyArray2<'py, f64>,
+        t: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let kin = self.kin.clone();
         let (q, k) = rows(&q, kin.n, "q")?;
         let t = t.as_slice()?;

@@ -1,19 +1,105 @@
-//! TODO(issue 23): port from kinem/constraints (stub).
-use super::{At, Shared};
+//! Revolute-revolute composite joint (Eq. 4.13; Jacobian Table 4.2; gamma
+//! Table 4.3) and the distance driver, its extension with a length l(t)
+//! that follows a function (a linear actuator between two points).
+use super::{dot, rd, At, Shared, I};
 use crate::table::Table;
+use num_complex::Complex64 as C64;
 
-pub struct Distance { rows: usize, entries: usize }
+/// Phi = d . d - l(t)^2 with d = r_j^P - r_i^P (Eq. 4.13): one row.
+/// Columns: ci, cj the bodies' x columns; si, sj the points P on each;
+/// f the length's function (a constant for revolute-revolute), an index
+/// into the model's functions.
+pub struct Distance {
+    ci: Vec<usize>,
+    cj: Vec<usize>,
+    si: Vec<C64>,
+    sj: Vec<C64>,
+    f: Vec<usize>,
+}
 
 impl Distance {
     pub fn new(t: &Table, n: usize, functions: usize) -> Result<Self, String> {
-        let _ = (t, n, functions);
-        Err("Distance: not ported yet".into())
+        let ci = t.index("ci", n.saturating_sub(2))?;
+        t.same_length(ci.len(), &["cj", "si", "sj", "f"])?;
+        Ok(Distance {
+            cj: t.index("cj", n.saturating_sub(2))?,
+            si: t.cplx("si")?,
+            sj: t.cplx("sj")?,
+            f: t.index("f", functions)?,
+            ci,
+        })
     }
-    pub fn rows(&self) -> usize { self.rows }
-    pub fn entries(&self) -> usize { self.entries }
-    pub fn phi(&self, _: &At, _: &Shared, _: &mut [f64]) {}
-    pub fn jac(&self, _: &At, _: &Shared, _: &mut [f64]) {}
-    pub fn gamma(&self, _: &At, _: &[f64], _: &Shared, _: &mut [f64]) {}
-    pub fn time_dependent(&self, _: &Shared) -> bool { false }
-    pub fn nu(&self, _: f64, _: &Shared, out: &mut [f64]) { out.fill(0.0) }
+
+    pub fn rows(&self) -> usize {
+        self.ci.len()
+    }
+
+    pub fn entries(&self) -> usize {
+        6 * self.ci.len()
+    }
+
+    /// Whether any length is not a constant (a distance driver).
+    pub fn time_dependent(&self, s: &Shared) -> bool {
+        self.f.iter().any(|&f| !s.functions.constant(f))
+    }
+
+    /// d = r_j + A_j s'_j - r_i - A_i s'_i, A_i s'_i, A_j s'_j.
+    #[inline(always)]
+    fn parts(&self, at: &At, c: usize) -> (C64, C64, C64) {
+        let (a, b) = (self.ci[c], self.cj[c]);
+        let (sa, sb) = (self.si[c] * at.rot(a), self.sj[c] * at.rot(b));
+        (at.r(b) + sb - at.r(a) - sa, sa, sb)
+    }
+
+    /// Eq. 4.13: d . d - l(t)^2.
+    pub fn phi(&self, at: &At, s: &Shared, out: &mut [f64]) {
+        for (c, o) in out.iter_mut().enumerate() {
+            let (d, _, _) = self.parts(at, c);
+            let l = s.functions.eval(self.f[c], at.t, 0);
+            *o = d.re * d.re + d.im * d.im - l * l;
+        }
+    }
+
+    /// 2 [-d^T, -d^T B_i s'_i, d^T, d^T B_j s'_j] (Table 4.2).
+    pub fn jac(&self, at: &At, _: &Shared, out: &mut [f64]) {
+        for c in 0..self.ci.len() {
+            let (d, a, b) = self.parts(at, c);
+            out[6 * c..6 * c + 6].copy_from_slice(&[
+                -2.0 * d.re,
+                -2.0 * d.im,
+                -2.0 * (d.im * a.re - d.re * a.im),
+                2.0 * d.re,
+                2.0 * d.im,
+                2.0 * (d.im * b.re - d.re * b.im),
+            ]);
+        }
+    }
+
+    /// nu = -Phi_t = (l^2)' = 2 l l'.
+    pub fn nu(&self, t: f64, s: &Shared, out: &mut [f64]) {
+        for (c, o) in out.iter_mut().enumerate() {
+            *o = 2.0 * s.functions.eval(self.f[c], t, 0) * s.functions.eval(self.f[c], t, 1);
+        }
+    }
+
+    /// -2 d'.d' - 2 d.(A_i s'_i w_i^2 - A_j s'_j w_j^2) (Table 4.3), plus
+    /// (l^2)'' = 2 (l'^2 + l l'') for a distance driver.
+    pub fn gamma(&self, at: &At, qd: &[f64], s: &Shared, out: &mut [f64]) {
+        for (c, o) in out.iter_mut().enumerate() {
+            let (x, y) = (self.ci[c], self.cj[c]);
+            let (d, a, b) = self.parts(at, c);
+            let (wi, wj) = (qd[x + 2], qd[y + 2]);
+            let dd = rd(qd, y) + I * b * wj - rd(qd, x) - I * a * wi;
+            let e = a * (wi * wi) - b * (wj * wj);
+            let f = self.f[c];
+            let second = if s.functions.constant(f) {
+                0.0
+            } else {
+                let (l, l1, l2) =
+                    (s.functions.eval(f, at.t, 0), s.functions.eval(f, at.t, 1), s.functions.eval(f, at.t, 2));
+                2.0 * (l1 * l1 + l * l2)
+            };
+            *o = -2.0 * (dd.re * dd.re + dd.im * dd.im) - 2.0 * dot(d, e) + second;
+        }
+    }
 }

@@ -1,17 +1,96 @@
-//! TODO(issue 23): port from kinem/constraints (stub).
-use super::{At, Shared};
+//! Rack and pinion (Eqs. 4.19, 4.20 and their general form, Problem 4.15),
+//! Sec. 4.2.3: the integrated no-slip condition of the pitch circle on the
+//! pitch line.
+use super::{dot, rd, At, Shared, I};
 use crate::table::Table;
+use num_complex::Complex64 as C64;
 
-pub struct Rack { rows: usize, entries: usize }
+/// Phi = u . (C - P) + rho (phi_i - phi_j - phi0): pinion i with pitch
+/// radius rho and centre C = r_i + A_i c'; rack j with pitch line through
+/// P = r_j + A_j s'_j along the unit vector u = A_j u'. Rack fixed along x:
+/// Eq. 4.20; pinion centre fixed too: Eq. 4.19. Columns: ci (pinion), cj
+/// (rack) x columns; c (c'), s (s'_j), u (u', unit), rho, phi0.
+pub struct Rack {
+    ci: Vec<usize>,
+    cj: Vec<usize>,
+    cc: Vec<C64>,
+    s: Vec<C64>,
+    u: Vec<C64>,
+    rho: Vec<f64>,
+    phi0: Vec<f64>,
+}
+
+/// u = A_j u', d = C - P = r_i + A_i c' - r_j - A_j s'_j, A_i c', A_j s'_j.
+struct Parts {
+    u: C64,
+    d: C64,
+    a: C64,
+    b: C64,
+}
 
 impl Rack {
     pub fn new(t: &Table, n: usize) -> Result<Self, String> {
-        let _ = (t, n);
-        Err("Rack: not ported yet".into())
+        let ci = t.index("ci", n.saturating_sub(2))?;
+        t.same_length(ci.len(), &["cj", "c", "s", "u", "rho", "phi0"])?;
+        Ok(Rack {
+            cj: t.index("cj", n.saturating_sub(2))?,
+            cc: t.cplx("c")?,
+            s: t.cplx("s")?,
+            u: t.cplx("u")?,
+            rho: t.real("rho")?,
+            phi0: t.real("phi0")?,
+            ci,
+        })
     }
-    pub fn rows(&self) -> usize { self.rows }
-    pub fn entries(&self) -> usize { self.entries }
-    pub fn phi(&self, _: &At, _: &Shared, _: &mut [f64]) {}
-    pub fn jac(&self, _: &At, _: &Shared, _: &mut [f64]) {}
-    pub fn gamma(&self, _: &At, _: &[f64], _: &Shared, _: &mut [f64]) {}
+
+    pub fn rows(&self) -> usize {
+        self.ci.len()
+    }
+
+    pub fn entries(&self) -> usize {
+        6 * self.ci.len()
+    }
+
+    #[inline(always)]
+    fn parts(&self, at: &At, c: usize) -> Parts {
+        let (x, y) = (self.ci[c], self.cj[c]);
+        let (ei, ej) = (at.rot(x), at.rot(y));
+        let (a, b) = (self.cc[c] * ei, self.s[c] * ej);
+        Parts { u: self.u[c] * ej, d: at.r(x) + a - at.r(y) - b, a, b }
+    }
+
+    /// u . d + rho (phi_i - phi_j - phi0) (Eqs. 4.19, 4.20, Problem 4.15).
+    pub fn phi(&self, at: &At, _: &Shared, out: &mut [f64]) {
+        for (c, o) in out.iter_mut().enumerate() {
+            let p = self.parts(at, c);
+            *o = dot(p.u, p.d) + self.rho[c] * (at.q[self.ci[c] + 2] - at.q[self.cj[c] + 2] - self.phi0[c]);
+        }
+    }
+
+    /// [u^T, u . (i A_i c') + rho, -u^T, (i u) . d - u . (i A_j s'_j) - rho].
+    pub fn jac(&self, at: &At, _: &Shared, out: &mut [f64]) {
+        for c in 0..self.ci.len() {
+            let Parts { u, d, a, b } = self.parts(at, c);
+            out[6 * c..6 * c + 6].copy_from_slice(&[
+                u.re,
+                u.im,
+                u.im * a.re - u.re * a.im + self.rho[c],
+                -u.re,
+                -u.im,
+                (u.re * d.im - u.im * d.re) - (u.im * b.re - u.re * b.im) - self.rho[c],
+            ]);
+        }
+    }
+
+    /// -(u . d)'' without the acceleration terms.
+    pub fn gamma(&self, at: &At, qd: &[f64], _: &Shared, out: &mut [f64]) {
+        for (c, o) in out.iter_mut().enumerate() {
+            let (x, y) = (self.ci[c], self.cj[c]);
+            let Parts { u, d, a, b } = self.parts(at, c);
+            let (wi, wj) = (qd[x + 2], qd[y + 2]);
+            let dd = rd(qd, x) + I * wi * a - rd(qd, y) - I * wj * b;
+            let iu = I * u;
+            *o = wj * wj * dot(u, d) - 2.0 * wj * dot(iu, dd) + wi * wi * dot(u, a) - wj * wj * dot(u, b);
+        }
+    }
 }

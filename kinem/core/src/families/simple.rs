@@ -1,19 +1,127 @@
-//! TODO(issue 23): port from kinem/constraints (stub).
+//! Simplified constraints (Eqs. 4.31-4.34) and driving constraints
+//! (Eqs. 4.36-4.40); gamma Eq. 4.38 and the point forms.
+//!
+//! Every row has the form Phi = q_a [+ (A_i s'_i^P)_c] [- phi_k] - f(t):
+//! q_a is x_i, y_i or phi_i, the point term mx Re(s) + my Im(s) with
+//! s = A_i s'_i^P is present for the point forms (Eqs. 4.34, 4.39, 4.40),
+//! the relative term for a motor between two moving bodies. ground,
+//! absolute and driver rows all come here, one row each (ground: three).
 use super::{At, Shared};
 use crate::table::Table;
+use num_complex::Complex64 as C64;
 
-pub struct Simple { rows: usize, entries: usize }
+/// Columns, one entry per row: a (the coordinate q_a), angle (phi_i's
+/// column), k (phi_k's column when relative, else any valid column),
+/// local (s'_i^P; 0 without a point), mx, my (1.0 for a point row's x or y
+/// component, else 0.0), point and relative (flags: which Jacobian entries
+/// the row has besides its 1 in column a), f (the driving function, an
+/// index into the model's functions; a constant for ground and absolute).
+pub struct Simple {
+    a: Vec<usize>,
+    angle: Vec<usize>,
+    k: Vec<usize>,
+    w: Vec<f64>, // 1.0 for a relative row, 0.0 otherwise
+    local: Vec<C64>,
+    mx: Vec<f64>,
+    my: Vec<f64>,
+    point: Vec<bool>,
+    relative: Vec<bool>,
+    f: Vec<usize>,
+    entries: usize,
+}
 
 impl Simple {
     pub fn new(t: &Table, n: usize, functions: usize) -> Result<Self, String> {
-        let _ = (t, n, functions);
-        Err("Simple: not ported yet".into())
+        let a = t.index("a", n)?;
+        t.same_length(a.len(), &["angle", "k", "local", "mx", "my", "point", "relative", "f"])?;
+        let point = t.flags("point")?;
+        let relative = t.flags("relative")?;
+        let entries = a.len() + point.iter().filter(|&&p| p).count() + relative.iter().filter(|&&r| r).count();
+        Ok(Simple {
+            angle: t.index("angle", n)?,
+            k: t.index("k", n)?,
+            w: relative.iter().map(|&r| if r { 1.0 } else { 0.0 }).collect(),
+            local: t.cplx("local")?,
+            mx: t.real("mx")?,
+            my: t.real("my")?,
+            f: t.index("f", functions)?,
+            a,
+            point,
+            relative,
+            entries,
+        })
     }
-    pub fn rows(&self) -> usize { self.rows }
-    pub fn entries(&self) -> usize { self.entries }
-    pub fn phi(&self, _: &At, _: &Shared, _: &mut [f64]) {}
-    pub fn jac(&self, _: &At, _: &Shared, _: &mut [f64]) {}
-    pub fn gamma(&self, _: &At, _: &[f64], _: &Shared, _: &mut [f64]) {}
-    pub fn time_dependent(&self, _: &Shared) -> bool { false }
-    pub fn nu(&self, _: f64, _: &Shared, out: &mut [f64]) { out.fill(0.0) }
+
+    pub fn rows(&self) -> usize {
+        self.a.len()
+    }
+
+    pub fn entries(&self) -> usize {
+        self.entries
+    }
+
+    /// Whether any row's function is not a constant (a driver: nu, gamma terms).
+    pub fn time_dependent(&self, s: &Shared) -> bool {
+        self.f.iter().any(|&f| !s.functions.constant(f))
+    }
+
+    /// The point term of row r: mx Re(A_i s') + my Im(A_i s'), if the row has one.
+    #[inline(always)]
+    fn point_term(&self, r: usize, at: &At) -> Option<f64> {
+        if self.mx[r] != 0.0 || self.my[r] != 0.0 {
+            let s = self.local[r] * at.e[self.angle[r]];
+            Some(self.mx[r] * s.re + self.my[r] * s.im)
+        } else {
+            None
+        }
+    }
+
+    /// Eqs. 4.31-4.40: q_a - w q_k + point term - f(t).
+    pub fn phi(&self, at: &At, s: &Shared, out: &mut [f64]) {
+        for (r, o) in out.iter_mut().enumerate() {
+            let mut v = at.q[self.a[r]] - self.w[r] * at.q[self.k[r]] - s.functions.eval(self.f[r], at.t, 0);
+            if let Some(p) = self.point_term(r, at) {
+                v += p;
+            }
+            *o = v;
+        }
+    }
+
+    /// 1 in column a; d(point term)/dphi_i = (B_i s')_c if a point; -1 in
+    /// phi_k if relative (the pattern's order: a, angle, k, kept entries only).
+    pub fn jac(&self, at: &At, _: &Shared, out: &mut [f64]) {
+        let mut e = 0;
+        for r in 0..self.a.len() {
+            out[e] = 1.0;
+            e += 1;
+            if self.point[r] {
+                let s = self.local[r] * at.e[self.angle[r]];
+                out[e] = -self.mx[r] * s.im + self.my[r] * s.re;
+                e += 1;
+            }
+            if self.relative[r] {
+                out[e] = -self.w[r];
+                e += 1;
+            }
+        }
+    }
+
+    /// nu = -Phi_t = f'(t) per row (Eq. 4.37).
+    pub fn nu(&self, t: f64, s: &Shared, out: &mut [f64]) {
+        for (r, o) in out.iter_mut().enumerate() {
+            *o = s.functions.eval(self.f[r], t, 1);
+        }
+    }
+
+    /// Eq. 4.38 and the point forms: f''(t) + (A_i s')_c w_i^2.
+    pub fn gamma(&self, at: &At, qd: &[f64], s: &Shared, out: &mut [f64]) {
+        for (r, o) in out.iter_mut().enumerate() {
+            let mut v = s.functions.eval(self.f[r], at.t, 2);
+            if let Some(p) = self.point_term(r, at) {
+                let w = qd[self.angle[r]];
+                v += p * (w * w);
+            }
+            *o = v;
+        }
+    }
 }
