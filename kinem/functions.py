@@ -3,15 +3,15 @@
 A case file gives a function as a bare number (constant), ``{poly = [c0, c1, ...]}``
 (sum of c_k t^k), ``{harmonic = {amplitude, omega, phase, offset}}``
 (offset + amplitude sin(omega t + phase)) or ``{table = {t = [...], value = [...]}}``
-(not-a-knot cubic spline through the table). ``FunctionSet`` evaluates all the
-functions of one constraint family at once: polynomials and harmonics in one
-compiled loop (kinem.jit), tables by scipy.
+(not-a-knot cubic spline through the table). The compiled core evaluates
+them in the analysis (kinem/core/src/functions.rs, from ``FunctionTable``);
+``FunctionSet`` evaluates them with numpy for everything else (the engines'
+drives, the report's references).
 """
 from dataclasses import dataclass
 
 import numpy as np
 
-from .jit import kernel
 
 
 @dataclass(frozen=True)
@@ -42,31 +42,8 @@ def value_at(f, t: float, order: int = 0) -> float:
     return float(FunctionSet([f])(t, order)[0])
 
 
-@kernel
-def _evaluate(t, order, poly_idx, coeffs, harm_idx, harm, out):
-    """out[k, poly_idx[r]] = sum_j coeffs[r, j] t_k^j (Horner), and
-    out[k, harm_idx[r]] = the harmonic's d, d' or d'' at t_k."""
-    for k in range(t.shape[0]):
-        tk = t[k]
-        for r in range(poly_idx.shape[0]):
-            v = 0.0
-            for j in range(coeffs.shape[1] - 1, -1, -1):
-                v = v * tk + coeffs[r, j]
-            out[k, poly_idx[r]] = v
-        for r in range(harm_idx.shape[0]):
-            a, w, p, c = harm[r, 0], harm[r, 1], harm[r, 2], harm[r, 3]
-            if order == 0:
-                v = c + a * np.sin(w * tk + p)
-            elif order == 1:
-                v = a * w * np.cos(w * tk + p)
-            else:
-                v = -a * w * w * np.sin(w * tk + p)
-            out[k, harm_idx[r]] = v
-
-
 class FunctionSet:
-    """All functions of a family, evaluated together: one compiled loop for the
-    polynomials and harmonics, one spline call per table."""
+    """Several functions, evaluated together with numpy (one spline call per table)."""
 
     def __init__(self, funcs):
         funcs = list(funcs)
@@ -108,7 +85,14 @@ class FunctionSet:
         t = np.asarray(t, dtype=float)
         flat = np.ascontiguousarray(t.reshape(-1))
         out = np.empty((flat.shape[0], self.n))
-        _evaluate(flat, order, self.poly_idx, self.poly_coeffs[order], self.harm_idx, self.harm, out)
+        c = self.poly_coeffs[order]
+        if len(self.poly_idx):
+            out[:, self.poly_idx] = np.polynomial.polynomial.polyval(flat, c.T).T.reshape(len(flat), -1)
+        if len(self.harm_idx):
+            a, w, p, off = (self.harm[:, i] for i in range(4))
+            arg = np.multiply.outer(flat, w) + p
+            out[:, self.harm_idx] = (off + a * np.sin(arg) if order == 0 else a * w * np.cos(arg) if order == 1
+                                     else -a * w * w * np.sin(arg))
         for k, splines in self.tables:
             out[:, k] = splines[order](flat)
         return out.reshape(t.shape + (self.n,))

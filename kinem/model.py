@@ -16,7 +16,6 @@ import numpy as np
 
 from . import native
 from .constraints import REGISTRY
-from ._core import Core
 from .constraints.base import local_points
 from .functions import FunctionTable
 from .outline import OutlineTable
@@ -154,13 +153,11 @@ class Model:
     point_cols: np.ndarray
     point_local: np.ndarray   # complex
     artificial: tuple         # labels of artificial coordinates
-    time_dependent: tuple     # indices of families with nu != 0
     col_scale: np.ndarray     # L for x, y columns, 1 for angles: q = col_scale * (dimensionless q)
     entry_scale: np.ndarray   # per Jacobian entry: col_scale[col] / scale[row]
     _csc: tuple = field(repr=False, default=None)
-    _unit: np.ndarray = field(repr=False, default=None)  # ones (nnz,)
     _zero: np.ndarray = field(repr=False, default=None)  # zeros (nnz,), intp
-    core: Core = field(repr=False, default=None)         # the compiled evaluation (kinem._core)
+    core: native.Core = field(repr=False, default=None)  # the compiled evaluation (kinem._core)
 
     # -- structure ---------------------------------------------------------
     @property
@@ -327,53 +324,22 @@ class Model:
             return Q, T, lead
         return Q, np.ascontiguousarray(qd.reshape(-1, self.n)), T, lead
 
-    def _replaced(self, name, values, *args):
-        """A family whose method ``name`` was replaced on the instance (a
-        test's deliberate fault, tests/test_jacobians.py) is evaluated by that
-        method: its rows (or values) in ``values`` are overwritten."""
-        for k, f in enumerate(self.families):
-            fn = vars(f).get(name)
-            if fn is not None:
-                lo = self.offsets[k] if name != "jac" else self._entry_offsets[k]
-                width = f.n_rows if name != "jac" else len(f.rows)
-                values[..., lo: lo + width] = fn(*args)
-        return values
-
     def phi(self, q, t) -> np.ndarray:
         Q, T, lead = self._batch(q, t)
-        out = self.core.phi(Q, T).reshape(lead + (self.m,))
-        return self._replaced("phi", out, q, t) if self._patched("phi") else out
+        return self.core.phi(Q, T).reshape(lead + (self.m,))
 
     def jac_values(self, q, t) -> np.ndarray:
         """Jacobian entries in the order of (jac_rows, jac_cols)."""
         Q, T, lead = self._batch(q, t)
-        out = self.core.jac(Q, T).reshape(lead + (self.nnz,))
-        return self._replaced("jac", out, q, t) if self._patched("jac") else out
+        return self.core.jac(Q, T).reshape(lead + (self.nnz,))
 
     def nu(self, t) -> np.ndarray:
         t = np.asarray(t, dtype=float)
-        out = self.core.nu(np.ascontiguousarray(t.reshape(-1))).reshape(t.shape + (self.m,))
-        return self._replaced("nu", out, t) if self._patched("nu") else out
+        return self.core.nu(np.ascontiguousarray(t.reshape(-1))).reshape(t.shape + (self.m,))
 
     def gamma(self, q, qd, t) -> np.ndarray:
         Q, QD, T, lead = self._batch(q, t, qd)
-        out = self.core.gamma(Q, QD, T).reshape(lead + (self.m,))
-        return self._replaced("gamma", out, q, qd, t) if self._patched("gamma") else out
-
-    def _patched(self, name) -> bool:
-        """Whether a family's method ``name`` was replaced on its instance."""
-        for d in self._family_dicts:
-            if name in d:
-                return True
-        return False
-
-    @cached_property
-    def _family_dicts(self) -> tuple:
-        return tuple(vars(f) for f in self.families)
-
-    @cached_property
-    def _entry_offsets(self) -> tuple:
-        return tuple(np.cumsum([0] + [len(f.rows) for f in self.families])[:-1].tolist())
+        return self.core.gamma(Q, QD, T).reshape(lead + (self.m,))
 
     def jacobian(self, q, t, sparse=None):
         """Phi_q as a dense array, or a scipy CSC matrix when sparse."""
@@ -406,7 +372,7 @@ class Model:
                    default=0.0)
 
 
-def core_of(families, n: int, n_bodies: int, artificial: int) -> Core:
+def core_of(families, n: int, n_bodies: int, artificial: int) -> native.Core:
     """The compiled core of the families: their tables (Family.table), the
     model's driving functions and outlines, and its angle columns (every
     body's phi, every artificial coordinate: e^{i q} of those is computed
@@ -414,7 +380,7 @@ def core_of(families, n: int, n_bodies: int, artificial: int) -> Core:
     functions, outlines = FunctionTable(), OutlineTable()
     tables = [f.table(functions, outlines) for f in families]
     angles = np.concatenate([3 * np.arange(n_bodies) + 2, 3 * n_bodies + np.arange(artificial)]).astype(np.int64)
-    return Core(n, tables, functions.arrays(), outlines.arrays(), angles)
+    return native.Core(n, tables, functions.arrays(), outlines.arrays(), angles)
 
 
 def compile(case: Case) -> Model:
@@ -462,8 +428,7 @@ def compile(case: Case) -> Model:
         point_cols=ctx.cols(p.body for p in case.points),
         point_local=local_points([p.at for p in case.points]),
         artificial=tuple(label for label, _ in ctx.artificial),
-        time_dependent=tuple(k for k, f in enumerate(families) if f.time_dependent),
-        _csc=csc, _unit=np.ones(len(jac_rows)), _zero=np.zeros(len(jac_rows), np.intp),
+        _csc=csc, _zero=np.zeros(len(jac_rows), np.intp),
         core=core_of(families, n, len(case.bodies), len(ctx.artificial)),
     )
     for a in (model.q0, model.driving, model.scale, model.jac_rows, model.jac_cols,

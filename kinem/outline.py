@@ -18,7 +18,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .functions import identity
-from .jit import kernel
 
 TWO_PI = 2.0 * np.pi
 OPEN_BC = ("not-a-knot", "natural")
@@ -99,8 +98,6 @@ class OutlineSet:
         self.center = np.array([complex(*o.center) for o in outlines])
         self.size = np.array([np.max(np.abs(c[3])) for c in coefs])  # the largest tabulated s
 
-        self.args = (self.keys, self.starts, np.ascontiguousarray(self.c), self.first, self.last, self.t0, self.span,
-                     self.offset, self.periodic, self.center)
 
     def radius(self, theta):
         """s and its first three derivatives with respect to theta: outline
@@ -109,8 +106,15 @@ class OutlineSet:
         shape = np.broadcast_shapes(theta.shape, self.t0.shape)
         flat = np.ascontiguousarray(np.broadcast_to(theta, shape)).reshape(-1)
         which = np.ascontiguousarray(np.broadcast_to(np.arange(len(self.t0)), shape)).reshape(-1)
-        out = np.empty((4, flat.size))
-        _radii(flat, which, *self.args[:9], out)
+        x = flat - self.t0[which]
+        periodic = self.periodic[which]
+        x[periodic] = x[periodic] % self.span[which][periodic]
+        key = self.offset[which] + np.clip(x, 0.0, self.span[which])
+        i = np.clip(np.searchsorted(self.keys, key, side="right") - 1, self.first[which], self.last[which])
+        h = x - self.starts[i]
+        c0, c1, c2, c3 = self.c[:, i]
+        out = np.stack([((c0 * h + c1) * h + c2) * h + c3, (3 * c0 * h + 2 * c1) * h + c2, 6 * c0 * h + 2 * c1,
+                        6 * c0 + 0 * h])
         return tuple(out.reshape((4,) + shape))
 
     def curve(self, theta):
@@ -120,46 +124,6 @@ class OutlineSet:
         e = np.exp(1j * np.asarray(theta, float))
         return (self.center + s * e, (s1 + 1j * s) * e, (s2 - s + 2j * s1) * e,
                 (s3 - 3 * s1 + 1j * (3 * s2 - s)) * e)
-
-
-@kernel
-def _radius(x, c, keys, starts, coef, first, last, t0, span, offset, periodic):
-    """s and its first three derivatives of outline c at theta x (the
-    pieces of OutlineSet; a periodic outline wraps x into its period)."""
-    x = x - t0[c]
-    if periodic[c]:
-        x = x % span[c]
-    key = offset[c] + min(max(x, 0.0), span[c])
-    i = min(max(np.searchsorted(keys, key, side="right") - 1, first[c]), last[c])
-    h = x - starts[i]
-    c0, c1, c2, c3 = coef[0, i], coef[1, i], coef[2, i], coef[3, i]
-    return ((c0 * h + c1) * h + c2) * h + c3, (3 * c0 * h + 2 * c1) * h + c2, 6 * c0 * h + 2 * c1, 6 * c0
-
-
-@kernel
-def _radii(theta, which, keys, starts, coef, first, last, t0, span, offset, periodic, out):
-    """out[:, j]: s and its derivatives of outline which[j] at theta[j]."""
-    for j in range(theta.shape[0]):
-        out[0, j], out[1, j], out[2, j], out[3, j] = _radius(theta[j], which[j], keys, starts, coef, first, last,
-                                                             t0, span, offset, periodic)
-
-
-@kernel
-def curve_at(q, E, cc, ct, keys, starts, coef, first, last, t0, span, offset, periodic, center, a, g, h, k3):
-    """a = A_c p(theta), g = A_c dp/dtheta, h and k3 = A_c times the second
-    and third derivatives, for the outline of each constraint c (its body's
-    columns from cc[c], theta at column ct[c]), at the configurations q
-    (K, n): (K, constraints) each (kinem/constraints/curve.py)."""
-    for k in range(q.shape[0]):
-        for c in range(cc.shape[0]):
-            th = q[k, ct[c]]
-            s, s1, s2, s3 = _radius(th, c, keys, starts, coef, first, last, t0, span, offset, periodic)
-            e = E[k, ct[c]]
-            r = E[k, cc[c] + 2]
-            a[k, c] = r * (center[c] + s * e)
-            g[k, c] = r * (s1 + 1j * s) * e
-            h[k, c] = r * (s2 - s + 2j * s1) * e
-            k3[k, c] = r * (s3 - 3 * s1 + 1j * (3 * s2 - s)) * e
 
 
 class OutlineTable:

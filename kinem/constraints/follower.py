@@ -4,44 +4,9 @@ follower (Eqs. 4.26, 4.27) and the point-follower, a pin in a slot
 on the outline (kinem/constraints/curve.py)."""
 import numpy as np
 
-from .base import (BodyKey, Call, Family, LocalKey, NumberKey, OutlineKey, TypeDecl, batch, call, ints, kernel,
-                   local_points, pattern, points, reals, row_info)
+from .base import (BodyKey, Family, LocalKey, NumberKey, OutlineKey, TypeDecl, ints, local_points, pattern, points,
+                   reals, row_info)
 from .curve import Curve, check_theta
-
-
-@kernel
-def _phi(q, E, cc, cb, sb, sign, a, out):
-    """sigma (r_c + a - r_b - A_b s'_b), rows x and y."""
-    for k in range(q.shape[0]):
-        for c in range(cc.shape[0]):
-            x, y = cc[c], cb[c]
-            d = sign[c] * (complex(q[k, x], q[k, x + 1]) + a[k, c] - complex(q[k, y], q[k, y + 1])
-                           - sb[c] * E[k, y + 2])
-            out[k, 2 * c] = d.real
-            out[k, 2 * c + 1] = d.imag
-
-
-@kernel
-def _jac(q, E, cb, sb, sign, a, g, out):
-    """sigma [I, i a, g, -I, -B_b s'_b] in columns [r_c, phi_c, theta, r_b, phi_b]."""
-    for k in range(q.shape[0]):
-        for c in range(cb.shape[0]):
-            b = sb[c] * E[k, cb[c] + 2]
-            s, ak, gk = sign[c], a[k, c], g[k, c]
-            o = out[k, 10 * c: 10 * c + 10]
-            o[0], o[1], o[2], o[3], o[4] = s, -s * ak.imag, s * gk.real, -s, s * b.imag
-            o[5], o[6], o[7], o[8], o[9] = s, s * ak.real, s * gk.imag, -s, -s * b.real
-
-
-@kernel
-def _gamma(q, qd, E, cb, sb, sign, a2, out):
-    """-sigma (a'' + A_b s'_b w_b^2)."""
-    for k in range(q.shape[0]):
-        for c in range(cb.shape[0]):
-            y = cb[c]
-            g = -sign[c] * (a2[k, c] + sb[c] * E[k, y + 2] * qd[k, y + 2] ** 2)
-            out[k, 2 * c] = g.real
-            out[k, 2 * c + 1] = g.imag
 
 
 class PointOnCurve(Family):
@@ -65,28 +30,6 @@ class PointOnCurve(Family):
     def table(self, functions, outlines):
         return "point-on-curve", dict(self.curve.table(outlines), cb=ints(self.cb), sb=points(self.sb),
                                       sign=reals(self.sign))
-
-    def phi(self, q, t):
-        Q, lead = batch(q)
-        a, _, _, _ = self.curve.at(Q)
-        return call(_phi, self.n_rows, Q, self.curve.cc, self.cb, self.sb, self.sign, a).reshape(lead + (-1,))
-
-    def jac(self, q, t):
-        Q, lead = batch(q)
-        a, g, _, _ = self.curve.at(Q)
-        return call(_jac, len(self.rows), Q, self.cb, self.sb, self.sign, a, g).reshape(lead + (-1,))
-
-    def gamma(self, q, qd, t):
-        q, qd = np.broadcast_arrays(q, qd)
-        (Q, lead), QD = batch(q), batch(qd)[0]
-        _, a2, _, _ = self.curve.rates(QD, *self.curve.at(Q))
-        return call(_gamma, self.n_rows, Q, self.cb, self.sb, self.sign, a2, qd=QD).reshape(lead + (-1,))
-
-    def march(self, times):
-        (at, rates), (a, g, _, _, _, a2, _, _) = self.curve.march()
-        return ((at, Call(_phi, (self.curve.cc, self.cb, self.sb, self.sign, a))),
-                (at, Call(_jac, (self.cb, self.sb, self.sign, a, g))),
-                (at, rates, Call(_gamma, (self.cb, self.sb, self.sign, a2), rates=True)))
 
 
 TYPES = [

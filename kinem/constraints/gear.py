@@ -10,30 +10,8 @@ equation: the estimates are the reference configuration (phi_i^0, ...).
 """
 import numpy as np
 
-from .base import (BodyKey, BoolKey, Call, Compiled, DirectionKey, Family, LocalKey, NumberKey, PositiveKey,
-                   TypeDecl, call, ints, kernel, local_points, pattern, points, reals, row_info)
-
-
-@kernel
-def _gear_phi(q, E, ai, aj, ak, w, ri, rj, phi0, out):
-    """Eq. 4.18 (Eq. 4.17 with w = 0)."""
-    for k in range(q.shape[0]):
-        for c in range(ai.shape[0]):
-            pk = w[c] * q[k, ak[c]]
-            out[k, c] = ri[c] * (q[k, ai[c]] - pk) + rj[c] * (q[k, aj[c]] - pk - phi0[c])
-
-
-@kernel
-def _constant(q, E, values, out):
-    """Jacobian values that do not depend on q."""
-    for k in range(q.shape[0]):
-        out[k] = values
-
-
-@kernel
-def _no_gamma(q, qd, E, out):
-    """gamma = 0: the rows are linear in q."""
-    out[:] = 0.0
+from .base import (BodyKey, BoolKey, DirectionKey, Family, LocalKey, NumberKey, PositiveKey, TypeDecl, ints,
+                   local_points, pattern, points, reals, row_info)
 
 
 class Gear(Family):
@@ -67,66 +45,8 @@ class Gear(Family):
         return "gear", {"ai": ints(self.ai), "aj": ints(self.aj), "ak": ints(self.ak), "carrier": ints(self.w != 0),
                         "ri": reals(self.ri), "rj": reals(self.rj), "phi0": reals(self.phi0)}
 
-    def phi(self, q, t):
-        return call(_gear_phi, self.n_rows, q, *self.args)
 
-    def jac(self, q, t):
-        """Constant: the same values for every configuration."""
-        return call(_constant, len(self.rows), q, self.values)
-
-    def gamma(self, q, qd, t):
-        return call(_no_gamma, self.n_rows, q, qd=qd)
-
-    def march(self, times):
-        return (Call(_gear_phi, self.args),), (Call(_constant, (self.values,)),), (Call(_no_gamma, (), rates=True),)
-
-
-@kernel
-def _rack_parts(qk, ek, a, b, cc, s, u):
-    """u = A_j u', d = C - P = r_i + A_i c' - r_j - A_j s'_j, A_i c', A_j s'_j."""
-    ei, ej = ek[a + 2], ek[b + 2]
-    ca, sb = cc * ei, s * ej
-    return u * ej, complex(qk[a], qk[a + 1]) + ca - complex(qk[b], qk[b + 1]) - sb, ca, sb
-
-
-@kernel
-def _rack_phi(q, E, ci, cj, cc, s, u, rho, phi0, out):
-    """u . d + rho (phi_i - phi_j - phi0) (Eqs. 4.19, 4.20, Problem 4.15)."""
-    for k in range(q.shape[0]):
-        for c in range(ci.shape[0]):
-            uu, d, _, _ = _rack_parts(q[k], E[k], ci[c], cj[c], cc[c], s[c], u[c])
-            out[k, c] = (uu.real * d.real + uu.imag * d.imag
-                         + rho[c] * (q[k, ci[c] + 2] - q[k, cj[c] + 2] - phi0[c]))
-
-
-@kernel
-def _rack_jac(q, E, ci, cj, cc, s, u, rho, phi0, out):
-    """[u^T, u . (i A_i c') + rho, -u^T, (i u) . d - u . (i A_j s'_j) - rho]."""
-    for k in range(q.shape[0]):
-        for c in range(ci.shape[0]):
-            uu, d, a, b = _rack_parts(q[k], E[k], ci[c], cj[c], cc[c], s[c], u[c])
-            o = out[k, 6 * c: 6 * c + 6]
-            o[0], o[1] = uu.real, uu.imag
-            o[2] = uu.imag * a.real - uu.real * a.imag + rho[c]
-            o[3], o[4] = -uu.real, -uu.imag
-            o[5] = (uu.real * d.imag - uu.imag * d.real) - (uu.imag * b.real - uu.real * b.imag) - rho[c]
-
-
-@kernel
-def _rack_gamma(q, qd, E, ci, cj, cc, s, u, rho, phi0, out):
-    """-(u . d)'' without the acceleration terms."""
-    for k in range(q.shape[0]):
-        for c in range(ci.shape[0]):
-            a_, b_ = ci[c], cj[c]
-            uu, d, a, b = _rack_parts(q[k], E[k], a_, b_, cc[c], s[c], u[c])
-            wi, wj = qd[k, a_ + 2], qd[k, b_ + 2]
-            dd = complex(qd[k, a_], qd[k, a_ + 1]) + 1j * wi * a - complex(qd[k, b_], qd[k, b_ + 1]) - 1j * wj * b
-            iu = 1j * uu
-            out[k, c] = (wj * wj * (uu.real * d.real + uu.imag * d.imag) - 2 * wj * (iu.real * dd.real + iu.imag * dd.imag)
-                         + wi * wi * (uu.real * a.real + uu.imag * a.imag) - wj * wj * (uu.real * b.real + uu.imag * b.imag))
-
-
-class RackPinion(Compiled):
+class RackPinion(Family):
     """Phi = u . (C - P) + rho (phi_i - phi_j - phi0): pinion i with pitch
     radius rho and centre C = r_i + A_i c'; rack j with pitch line through
     P = r_j + A_j s'_j along the unit vector u = A_j u'. The pinion lies on
@@ -135,7 +55,6 @@ class RackPinion(Compiled):
     relative rotation (rolling without slip). phi0 is phi_i - phi_j when C is
     on the normal through P. Rack fixed along x: Eq. 4.20; pinion centre
     fixed too: Eq. 4.19."""
-    kernels = (_rack_phi, _rack_jac, _rack_gamma)
 
     def __init__(self, cons, ctx):
         self.ci = ctx.cols(c["pinion"] for c in cons)

@@ -8,75 +8,12 @@ d = P_j - P_i, and Eq. 4.16 with a = j, u = Q_j - P_j, d = P_i - P_j.
 """
 import numpy as np
 
-from .base import (BodyKey, Compiled, LocalKey, NumberKey, TypeDecl, ints, kernel, local_points, pattern, points, reals,
-                   row_info)
+from .base import BodyKey, Family, LocalKey, NumberKey, TypeDecl, ints, local_points, pattern, points, reals, row_info
 
 
-@kernel
-def _dot(a, b):
-    return a.real * b.real + a.imag * b.imag
-
-
-@kernel
-def _cross(a, b):
-    return a.real * b.imag - a.imag * b.real
-
-
-@kernel
-def _parts(qk, ek, ca, pa, ua, cb, ob):
-    """u = A_a u'_a, d = r_b + A_b s'_b - r_a - A_a s'_a, A_a s'_a, A_b s'_b."""
-    ea, eb = ek[ca + 2], ek[cb + 2]
-    sa, sb = pa * ea, ob * eb
-    return ua * ea, complex(qk[cb], qk[cb + 1]) + sb - complex(qk[ca], qk[ca + 1]) - sa, sa, sb
-
-
-@kernel
-def _phi(q, E, ca, pa, ua, cb, ob, ai, aj, phi0, out):
-    """u x d (Eqs. 4.12, 4.16), then phi_i - phi_j - phi0 for translational joints."""
-    rows = 2 if ai.shape[0] else 1
-    for k in range(q.shape[0]):
-        for c in range(ca.shape[0]):
-            u, d, _, _ = _parts(q[k], E[k], ca[c], pa[c], ua[c], cb[c], ob[c])
-            out[k, rows * c] = _cross(u, d)
-            if rows == 2:
-                out[k, 2 * c + 1] = q[k, ai[c]] - q[k, aj[c]] - phi0[c]
-
-
-@kernel
-def _jac(q, E, ca, pa, ua, cb, ob, ai, aj, phi0, out):
-    """Columns [x_a, y_a, phi_a, x_b, y_b, phi_b] of u x d (Table 4.2), then
-    [phi_i, phi_j] = [1, -1] for translational joints."""
-    width = 8 if ai.shape[0] else 6
-    for k in range(q.shape[0]):
-        for c in range(ca.shape[0]):
-            u, d, sa, sb = _parts(q[k], E[k], ca[c], pa[c], ua[c], cb[c], ob[c])
-            o = out[k, width * c: width * c + width]
-            o[0], o[1], o[2] = u.imag, -u.real, -_dot(u, d + sa)
-            o[3], o[4], o[5] = -u.imag, u.real, _dot(u, sb)
-            if width == 8:
-                o[6], o[7] = 1.0, -1.0
-
-
-@kernel
-def _gamma(q, qd, E, ca, pa, ua, cb, ob, ai, aj, phi0, out):
-    """-(u x d)'' without the acceleration terms (Table 4.3), then 0."""
-    rows = 2 if ai.shape[0] else 1
-    for k in range(q.shape[0]):
-        for c in range(ca.shape[0]):
-            u, d, sa, sb = _parts(q[k], E[k], ca[c], pa[c], ua[c], cb[c], ob[c])
-            a, b = ca[c], cb[c]
-            wa, wb = qd[k, a + 2], qd[k, b + 2]
-            dd = (complex(qd[k, b], qd[k, b + 1]) + 1j * sb * wb
-                  - complex(qd[k, a], qd[k, a + 1]) - 1j * sa * wa)
-            out[k, rows * c] = wa * wa * _cross(u, d) + 2 * wa * _dot(u, dd) + _cross(u, sb * wb * wb - sa * wa * wa)
-            if rows == 2:
-                out[k, 2 * c + 1] = 0.0
-
-
-class _PointOnLine(Compiled):
+class _PointOnLine(Family):
     """The row u x d = 0 for several constraints (a = the line's body, b the
     other), with the angle rows of translational joints when ``ai`` is given."""
-    kernels = (_phi, _jac, _gamma)
 
     def setup(self, ca, pa, ua, cb, ob, length, ai=(), aj=(), phi0=()):
         self.scale_line = np.abs(ua) * length

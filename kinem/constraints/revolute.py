@@ -1,48 +1,11 @@
 """Revolute joint, Eqs. 4.7-4.9; Jacobian Eq. 4.46 (Table 4.2); gamma Eq. 4.47."""
 import numpy as np
 
-from .base import BodyKey, Compiled, LocalKey, TypeDecl, ints, kernel, local_points, pattern, points, row_info
+from .base import BodyKey, Family, LocalKey, TypeDecl, ints, local_points, pattern, points, row_info
 
 
-@kernel
-def _phi(q, E, ci, cj, si, sj, out):
-    """Eq. 4.7: r_i + A_i s'_i - r_j - A_j s'_j, rows x and y."""
-    for k in range(q.shape[0]):
-        for c in range(ci.shape[0]):
-            a, b = ci[c], cj[c]
-            d = (complex(q[k, a], q[k, a + 1]) + si[c] * E[k, a + 2]
-                 - complex(q[k, b], q[k, b + 1]) - sj[c] * E[k, b + 2])
-            out[k, 2 * c] = d.real
-            out[k, 2 * c + 1] = d.imag
-
-
-@kernel
-def _jac(q, E, ci, cj, si, sj, out):
-    """Eq. 4.46: [I, B_i s'_i, -I, -B_j s'_j]; B s' = i A s'."""
-    for k in range(q.shape[0]):
-        for c in range(ci.shape[0]):
-            a = si[c] * E[k, ci[c] + 2]
-            b = sj[c] * E[k, cj[c] + 2]
-            o = out[k, 8 * c: 8 * c + 8]
-            o[0], o[1], o[2], o[3] = 1.0, -a.imag, -1.0, b.imag
-            o[4], o[5], o[6], o[7] = 1.0, a.real, -1.0, -b.real
-
-
-@kernel
-def _gamma(q, qd, E, ci, cj, si, sj, out):
-    """Eq. 4.47: A_i s'_i w_i^2 - A_j s'_j w_j^2."""
-    for k in range(q.shape[0]):
-        for c in range(ci.shape[0]):
-            wi, wj = qd[k, ci[c] + 2], qd[k, cj[c] + 2]
-            g = (si[c] * E[k, ci[c] + 2] * wi ** 2
-                 - sj[c] * E[k, cj[c] + 2] * wj ** 2)
-            out[k, 2 * c] = g.real
-            out[k, 2 * c + 1] = g.imag
-
-
-class Revolute(Compiled):
+class Revolute(Family):
     """Phi = r_i + A_i s'_i^P - r_j - A_j s'_j^P (Eq. 4.7): two rows, x and y."""
-    kernels = (_phi, _jac, _gamma)
 
     def __init__(self, cons, ctx):
         self.ci = ctx.cols(c["i"] for c in cons)

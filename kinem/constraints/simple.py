@@ -10,54 +10,11 @@ The point term of row r is mx_r Re(s) + my_r Im(s), s = A_i s'_i^P.
 """
 import numpy as np
 
-from .base import (BodyKey, Call, CoordKey, Family, FunctionKey, LocalKey, NumberKey, TypeDecl, Vector3Key, call,
-                   ints, kernel, local_points, per_instant, points, reals)
+from .base import (BodyKey, CoordKey, Family, FunctionKey, LocalKey, NumberKey, TypeDecl, Vector3Key, ints,
+                   local_points, points, reals)
 from ..functions import FunctionSet, constant
 
 COORD = {"x": 0, "y": 1, "phi": 2}
-
-
-@kernel
-def _phi(q, E, a, k, w, angle, local, mx, my, f, out):
-    """Eqs. 4.31-4.40: q_a - w q_k + point term - f(t)."""
-    for i in range(q.shape[0]):
-        fi = f[0] if f.shape[0] == 1 else f[i]
-        for r in range(a.shape[0]):
-            v = q[i, a[r]] - w[r] * q[i, k[r]] - fi[r]
-            if mx[r] != 0.0 or my[r] != 0.0:
-                s = local[r] * E[i, angle[r]]
-                v += mx[r] * s.real + my[r] * s.imag
-            out[i, r] = v
-
-
-@kernel
-def _jac(q, E, angle, local, mx, my, point, w, relative, out):
-    """1 in column a; d(point term)/dphi_i = (B_i s')_c if a point; -1 in phi_k if relative."""
-    for i in range(q.shape[0]):
-        e = 0
-        for r in range(angle.shape[0]):
-            out[i, e] = 1.0
-            e += 1
-            if point[r]:
-                s = local[r] * E[i, angle[r]]
-                out[i, e] = -mx[r] * s.imag + my[r] * s.real
-                e += 1
-            if relative[r]:
-                out[i, e] = -w[r]
-                e += 1
-
-
-@kernel
-def _gamma(q, qd, E, angle, local, mx, my, f2, out):
-    """Eq. 4.38 and the point forms: d''(t) + (A_i s')_c w_i^2."""
-    for i in range(q.shape[0]):
-        fi = f2[0] if f2.shape[0] == 1 else f2[i]
-        for r in range(angle.shape[0]):
-            v = fi[r]
-            if mx[r] != 0.0 or my[r] != 0.0:
-                s = local[r] * E[i, angle[r]]
-                v += (mx[r] * s.real + my[r] * s.imag) * qd[i, angle[r]] ** 2
-            out[i, r] = v
 
 
 class Simple(Family):
@@ -100,27 +57,6 @@ class Simple(Family):
         return "simple", {"a": ints(self.a), "angle": ints(self.angle), "k": ints(self.k), "local": points(self.local),
                           "mx": reals(self.mx), "my": reals(self.my), "point": ints(self.point),
                           "relative": ints(self.relative), "f": functions.indices(self.f.funcs)}
-
-    def phi(self, q, t):
-        return call(_phi, self.n_rows, q, self.a, self.k, self.w, self.angle, self.local, self.mx, self.my,
-                    per_instant(self.f(t)))
-
-    def jac(self, q, t):
-        return call(_jac, len(self.rows), q, self.angle, self.local, self.mx, self.my, self.point, self.w,
-                    self.relative)
-
-    def nu(self, t):
-        return self.f(t, 1)
-
-    def gamma(self, q, qd, t):
-        f2 = per_instant(self.f(t, 2)) if self.time_dependent else self.zero
-        return call(_gamma, self.n_rows, q, self.angle, self.local, self.mx, self.my, f2, qd=qd)
-
-    def march(self, times):
-        f2 = self.f(times, 2) if self.time_dependent else np.zeros((len(times), self.n_rows))
-        return ((Call(_phi, (self.a, self.k, self.w, self.angle, self.local, self.mx, self.my), self.f(times)),),
-                (Call(_jac, (self.angle, self.local, self.mx, self.my, self.point, self.w, self.relative)),),
-                (Call(_gamma, (self.angle, self.local, self.mx, self.my), f2, rates=True),))
 
 
 def _estimate_point(body, point):

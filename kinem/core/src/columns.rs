@@ -12,7 +12,7 @@ use num_complex::Complex64 as C64;
 pub fn columns(x: &[&[f64]], n: usize, src: &[usize], pc: &[usize], local: &[C64], out: &mut [f64]) {
     let stages = x.len();
     let (p, w) = (pc.len(), src.len());
-    let k_count = if n == 0 { 0 } else { x[0].len() / n };
+    let k_count = x[0].len().checked_div(n).unwrap_or(0);
     let mut pts = vec![0.0; 2 * stages * p];
     let i = C64::new(0.0, 1.0);
     for k in 0..k_count {

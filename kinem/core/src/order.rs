@@ -312,7 +312,8 @@ mod tests {
             [0.0, 0.0, 0.0, 0.5, 0.8, 0.0],
         ];
         let rows: Vec<u64> = a.iter().map(|r| (0..s).filter(|&j| r[j] != 0.0).fold(0, |m, j| m | 1 << j)).collect();
-        let unit: Vec<u64> = a.iter().map(|r| (0..s).filter(|&j| r[j].abs() == 1.0).fold(0, |m, j| m | 1 << j)).collect();
+        let unit: Vec<u64> =
+            a.iter().map(|r| (0..s).filter(|&j| r[j].abs() == 1.0).fold(0, |m, j| m | 1 << j)).collect();
         let o = Order::new(s, &rows, &unit, &unit).unwrap();
         let mut p = vec![0.0; s * s];
         for i in 0..s {

@@ -76,7 +76,14 @@ pub fn order_blocks(kin: &Kin, layout: &mut Layout) {
                 .map(|&e| (layout.at[e].1, layout.at[e].2))
                 .collect();
             let pads: Vec<usize> = pad.iter().filter(|&&p| p / s == c).map(|&p| p % s).collect();
-            o.fuse(&row_at[c * s..(c + 1) * s], &col_at[c * s..(c + 1) * s], &layout.scale, &layout.col_scale, &entries, &pads);
+            o.fuse(
+                &row_at[c * s..(c + 1) * s],
+                &col_at[c * s..(c + 1) * s],
+                &layout.scale,
+                &layout.col_scale,
+                &entries,
+                &pads,
+            );
         }
         orders.push(order);
     }

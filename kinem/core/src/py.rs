@@ -323,7 +323,11 @@ impl Plan {
             by_block: Vec::new(),
             block_start: Vec::new(),
         };
-        if layout.row_pos.len() != m || layout.col_pos.len() != n || layout.scale.len() != m || layout.col_scale.len() != n {
+        if layout.row_pos.len() != m
+            || layout.col_pos.len() != n
+            || layout.scale.len() != m
+            || layout.col_scale.len() != n
+        {
             return Err(pyo3::exceptions::PyValueError::new_err("plan: positions or scales have the wrong length"));
         }
         layout.group();
@@ -490,7 +494,13 @@ impl Ops for PyOps<'_, '_> {
 /// The one Newton-Raphson (newton::settle) on a Python object's operations:
 /// returns (iterations, residual, converged, last step).
 #[pyfunction]
-fn settle(ops: &Bound<'_, PyAny>, tolerance: f64, max_iterations: usize, max_step: f64, finish: bool) -> PyResult<(usize, f64, bool, f64)> {
+fn settle(
+    ops: &Bound<'_, PyAny>,
+    tolerance: f64,
+    max_iterations: usize,
+    max_step: f64,
+    finish: bool,
+) -> PyResult<(usize, f64, bool, f64)> {
     let mut o = PyOps { ops };
     let s = newton::settle(&mut o, tolerance, max_iterations, max_step, finish)?;
     Ok((s.iterations, s.residual, s.converged, s.last_step))
@@ -499,13 +509,29 @@ fn settle(ops: &Bound<'_, PyAny>, tolerance: f64, max_iterations: usize, max_ste
 /// The acceptance test (accept::rejected).
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-fn rejected(pivot: f64, correction: f64, det: i32, previous_det: i32, corr: f64, motion: f64, judge_jump: bool, floor: f64, tolerance: f64, allow_flip: bool) -> u8 {
+fn rejected(
+    pivot: f64,
+    correction: f64,
+    det: i32,
+    previous_det: i32,
+    corr: f64,
+    motion: f64,
+    judge_jump: bool,
+    floor: f64,
+    tolerance: f64,
+    allow_flip: bool,
+) -> u8 {
     accept::rejected(pivot, correction, det, previous_det, corr, motion, judge_jump, floor, tolerance, allow_flip)
 }
 
 /// (correction from the predictor, predicted motion), dimensionless.
 #[pyfunction]
-fn jump_sizes(q: PyReadonlyArray1<'_, f64>, q_pred: PyReadonlyArray1<'_, f64>, q_last: PyReadonlyArray1<'_, f64>, col_scale: PyReadonlyArray1<'_, f64>) -> PyResult<(f64, f64)> {
+fn jump_sizes(
+    q: PyReadonlyArray1<'_, f64>,
+    q_pred: PyReadonlyArray1<'_, f64>,
+    q_last: PyReadonlyArray1<'_, f64>,
+    col_scale: PyReadonlyArray1<'_, f64>,
+) -> PyResult<(f64, f64)> {
     let (a, b, c, d) = (q.as_slice()?, q_pred.as_slice()?, q_last.as_slice()?, col_scale.as_slice()?);
     if b.len() != a.len() || c.len() != a.len() || d.len() != a.len() {
         return Err(pyo3::exceptions::PyValueError::new_err("jump_sizes: lengths differ"));
@@ -516,7 +542,12 @@ fn jump_sizes(q: PyReadonlyArray1<'_, f64>, q_pred: PyReadonlyArray1<'_, f64>, q
 /// q at t extrapolated through the states H (3, n) at T (3) (accept::lagrange):
 /// (q, order).
 #[pyfunction]
-fn lagrange<'py>(py: Python<'py>, t: f64, tt: PyReadonlyArray1<'py, f64>, h: PyReadonlyArray2<'py, f64>) -> PyResult<(Bound<'py, PyArray1<f64>>, i32)> {
+fn lagrange<'py>(
+    py: Python<'py>,
+    t: f64,
+    tt: PyReadonlyArray1<'py, f64>,
+    h: PyReadonlyArray2<'py, f64>,
+) -> PyResult<(Bound<'py, PyArray1<f64>>, i32)> {
     let tt = tt.as_slice()?;
     let shape = h.shape();
     if tt.len() != 3 || shape[0] != 3 {
