@@ -267,8 +267,9 @@ def section_batch(b, steps, repeats):
 def targets(res):
     out = []
 
-    def add(name, figure, ratio, goal):
-        out.append({"target": name, "figure": figure, "goal": goal, "ratio": ratio,
+    def add(name, figure, ratio, goal, goal_text):
+        """ratio: the figure over its reference (x) or over the goal (us); met when ratio <= goal."""
+        out.append({"target": name, "figure": figure, "goal": goal, "goal_text": goal_text, "ratio": ratio,
                     "met": ratio is not None and ratio <= goal})
 
     for name, row in res.get("peers", {}).items():
@@ -277,30 +278,33 @@ def targets(res):
         us = row["us_per_instant"]
         if "kinem_over_pylinkage" in row:
             add(f"{name}: kinem / pylinkage per instant", f"{us['kinem']:.3f} / {us['pylinkage']:.3f} us",
-                row["kinem_over_pylinkage"], 1.0)
+                row["kinem_over_pylinkage"], 1.0, "<= 1x")
         if "kinem_over_floor" in row:
             add(f"{name}: kinem / C floor per instant", f"{us['kinem']:.3f} / {us['floor']:.3f} us",
-                row["kinem_over_floor"], 1.3)
+                row["kinem_over_floor"], 1.3, "<= 1.3x")
     if "first" in res:
         f = res["first"]
         m = f["median_s"]
         add("first `kinem solve cases/four_bar.toml` / numpy+scipy.linalg import",
-            f"{m['first']:.3f} / {m['baseline']:.3f} s", f["first_over_baseline"], 3.0)
+            f"{m['first']:.3f} / {m['baseline']:.3f} s", f["first_over_baseline"], 3.0, "<= 3x")
         add("second run / numpy+scipy.linalg import", f"{m['second']:.3f} / {m['baseline']:.3f} s",
-            f["second_over_baseline"], 2.0)
+            f["second_over_baseline"], 2.0, "<= 2x")
     if "fixed" in res:
-        v = res["fixed"]["fixed_us"]
-        add("fixed cost of a solve (intercept, 64..1,024 instants) [us / 20 us]", f"{v:.1f} us", v / 20.0, 1.0)
+        v, worst = res["fixed"]["fixed_us"], res["fixed"]["fit_residual_us"]
+        name = "fixed cost of a solve (intercept, 64..1,024 instants; ratio: / goal)"
+        if v < 0 or worst > 20.0:  # the fit says nothing about 20 us: not met, and said why
+            add(name, f"{v:.1f} us, fit residual {worst:.0f} us: noise", None, 1.0, "<= 20 us")
+        else:
+            add(name, f"{v:.1f} us", v / 20.0, 1.0, "<= 20 us")
     if "batch" in res:
         bt = res["batch"]
-        add(f"1,000 merged variants, per variant-step, {bt['cores']} cores [us / 0.5 us]",
-            f"{bt['us_per_variant_step']:.3f} us", bt["us_per_variant_step"] / 0.5, 1.0)
+        add(f"1,000 merged variants, per variant-step, {bt['cores']} cores (ratio: / goal)",
+            f"{bt['us_per_variant_step']:.3f} us", bt["us_per_variant_step"] / 0.5, 1.0, "<= 0.5 us")
     say(f"\n== issue 23 targets (goals, not test assertions); load average {load()} ==")
-    say(f"   {'target':72s} {'figure':>22s} {'goal':>6s} {'ratio':>7s}  met")
+    say(f"   {'target':70s} {'figure':>24s} {'goal':>9s} {'ratio':>7s}  met")
     for t in out:
         ratio = "n/a" if t["ratio"] is None else f"{t['ratio']:.2f}"
-        say(f"   {t['target']:72s} {t['figure']:>22s} {'<= ' + format(t['goal'], 'g'):>6s} {ratio:>7s}  "
-            f"{'yes' if t['met'] else 'NO'}")
+        say(f"   {t['target']:70s} {t['figure']:>24s} {t['goal_text']:>9s} {ratio:>7s}  {'yes' if t['met'] else 'NO'}")
     return out
 
 
