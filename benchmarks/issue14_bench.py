@@ -8,7 +8,7 @@ run, with the machine's load average (docs/benchmarks.md, "Issue 14").
            the linkage built) beforehand: kinem vs pylinkage 1.3's numba path
            (``Linkage.step_fast_with_kinematics``) on a slider-crank, a
            four-bar with a coupler point and Theo Jansen's leg (500 instants,
-           benchmarks/peers.py), and vs the hand-tight numba slider-crank
+           benchmarks/peers.py), and vs the hand-tight C slider-crank
            (the floor; ``peers.floor_slider_crank``)
   rates    velocities and accelerations against the closed forms at the
            default tolerance, relative to their peak

@@ -1,15 +1,23 @@
 """The mechanisms of issue 14's peer comparison, each as a kinem case and as a
 pylinkage 1.3 linkage with the same geometry, drive and output instants, and
-the hand-tight slider-crank floor (``floor_slider_crank``).
+the hand-tight slider-crank floor (``floor_slider_crank``: C,
+benchmarks/floor/slider_crank.c, compiled at run time into a temporary
+directory with gcc or $CC).
 
 Every mechanism turns its crank once at OMEGA rad/s from PHI0 in INSTANTS
 output instants: positions, velocities and accelerations of every point.
 pylinkage (closed-form dyads, numba: ``Linkage.step_fast_with_kinematics``)
 is a benchmark-only dependency (``pip install -e .[bench]``).
 """
+import atexit
+import ctypes
 import math
+import os
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
 
-import numba
 import numpy as np
 
 INSTANTS = 500
@@ -179,112 +187,114 @@ def pylinkage_run(name):
     return p, v, a, names
 
 
-# -- the floor: the slider-crank's Newton/LU analysis written tightly in numba --------------------
+# -- the floor: the slider-crank's Newton/LU analysis written tightly in C ------------------------
 
-@numba.njit(cache=True)
-def _lu_solve(Jm, piv, b):
-    n = b.shape[0]
-    for j in range(n):  # the row interchanges (applied to whole rows of the factors, as LAPACK's getrf)
-        p = piv[j]
-        if p != j:
-            b[j], b[p] = b[p], b[j]
-    for j in range(n):
-        for i in range(j + 1, n):
-            b[i] -= Jm[i, j] * b[j]
-    for j in range(n - 1, -1, -1):
-        b[j] /= Jm[j, j]
-        for i in range(j):
-            b[i] -= Jm[i, j] * b[j]
+FLOOR_SOURCE = Path(__file__).resolve().parent / "floor" / "slider_crank.c"
+CC = os.environ.get("CC", "gcc")
+CFLAGS = ("-O3", "-march=native", "-shared", "-fPIC")
+_FLOOR = []
 
 
-@numba.njit(cache=True, fastmath=False)
-def march(q0, qd0, qdd0, phi0, w, r, l, h, steps, tol, Q, QD, QDD):
-    """Coordinates (x, y, phi) of ground, crank (origin at O), rod (origin
-    at B) and slider (origin at A): 12 equations (ground 3, O 2, B 2, A 2,
-    slider on the x axis 2, driver 1), Newton from the Taylor predictor,
-    dense 12 x 12 LU with partial pivoting, one final correction,
-    velocities and accelerations from the same LU. Returns Newton
-    iterations in all."""
-    n = 12
-    Jm = np.zeros((n, n))
-    piv = np.zeros(n, np.int64)
-    f = np.zeros(n)
-    q = q0.copy()
-    qd = qd0.copy()
-    qdd = qdd0.copy()
-    scale = np.array([r, r, 1.0, r, r, r, r, r, r, r, 1.0, 1.0])  # residual scales (length rows by L ~ r)
-    total = 0
-    for k in range(steps):
-        t = k * h
-        if k > 0:
-            for i in range(n):
-                q[i] += h * qd[i] + 0.5 * h * h * qdd[i]
-        for it in range(26):
-            c1, s1, c2, s2 = np.cos(q[5]), np.sin(q[5]), np.cos(q[8]), np.sin(q[8])
-            f[0] = q[0]; f[1] = q[1]; f[2] = q[2]
-            f[3] = q[3] - q[0]; f[4] = q[4] - q[1]
-            f[5] = q[6] - q[3] - r * c1; f[6] = q[7] - q[4] - r * s1
-            f[7] = q[9] - q[6] - l * c2; f[8] = q[10] - q[7] - l * s2
-            f[9] = q[10] - q[1]; f[10] = q[11] - q[2]; f[11] = q[5] - phi0 - w * t
-            worst = 0.0
-            for i in range(n):
-                worst = max(worst, abs(f[i]) / scale[i])
-            # the Jacobian at q (also after convergence: the final correction and the rates use it)
-            Jm[:, :] = 0.0
-            Jm[0, 0] = 1.0; Jm[1, 1] = 1.0; Jm[2, 2] = 1.0
-            Jm[3, 3] = 1.0; Jm[3, 0] = -1.0; Jm[4, 4] = 1.0; Jm[4, 1] = -1.0
-            Jm[5, 6] = 1.0; Jm[5, 3] = -1.0; Jm[5, 5] = r * s1
-            Jm[6, 7] = 1.0; Jm[6, 4] = -1.0; Jm[6, 5] = -r * c1
-            Jm[7, 9] = 1.0; Jm[7, 6] = -1.0; Jm[7, 8] = l * s2
-            Jm[8, 10] = 1.0; Jm[8, 7] = -1.0; Jm[8, 8] = -l * c2
-            Jm[9, 10] = 1.0; Jm[9, 1] = -1.0; Jm[10, 11] = 1.0; Jm[10, 2] = -1.0; Jm[11, 5] = 1.0
-            for j in range(n):  # LU, partial pivoting
-                p = j
-                for i in range(j + 1, n):
-                    if abs(Jm[i, j]) > abs(Jm[p, j]):
-                        p = i
-                piv[j] = p
-                if p != j:
-                    for c in range(n):
-                        Jm[j, c], Jm[p, c] = Jm[p, c], Jm[j, c]
-                d = 1.0 / Jm[j, j]
-                for i in range(j + 1, n):
-                    m = Jm[i, j] * d
-                    if m != 0.0:
-                        Jm[i, j] = m
-                        for c in range(j + 1, n):
-                            Jm[i, c] -= m * Jm[j, c]
-            for i in range(n):
-                f[i] = -f[i]
-            _lu_solve(Jm, piv, f)
-            for i in range(n):
-                q[i] += f[i]           # a Newton step, or the final correction once converged
-            if worst <= tol:
-                break
-            total += 1
-        c1, s1, c2, s2 = np.cos(q[5]), np.sin(q[5]), np.cos(q[8]), np.sin(q[8])
-        qd[:] = 0.0
-        qd[11] = w
-        _lu_solve(Jm, piv, qd)
-        g = qdd
-        g[:] = 0.0
-        g[5] = -r * c1 * qd[5] * qd[5]; g[6] = -r * s1 * qd[5] * qd[5]
-        g[7] = -l * c2 * qd[8] * qd[8]; g[8] = -l * s2 * qd[8] * qd[8]
-        _lu_solve(Jm, piv, g)
-        Q[k] = q
-        QD[k] = qd
-        QDD[k] = qdd
-    return total
+def floor_library():
+    """The C floor (benchmarks/floor/slider_crank.c) compiled once per process
+    with ``CC CFLAGS`` into a temporary directory (removed at exit) and loaded
+    with ctypes. Raises RuntimeError when the compiler is missing or fails."""
+    if _FLOOR:
+        return _FLOOR[0]
+    tmp = tempfile.mkdtemp(prefix="kinem-floor-")
+    atexit.register(shutil.rmtree, tmp, True)
+    so = os.path.join(tmp, "slider_crank.so")
+    cmd = [CC, *CFLAGS, "-o", so, str(FLOOR_SOURCE), "-lm"]
+    try:
+        out = subprocess.run(cmd, capture_output=True, text=True)
+    except OSError as e:
+        raise RuntimeError(f"the C floor needs a C compiler ({' '.join(cmd)}): {e}") from e
+    if out.returncode:
+        raise RuntimeError(f"{' '.join(cmd)} failed:\n{out.stderr}")
+    lib = ctypes.CDLL(so)
+    d, i, p = ctypes.c_double, ctypes.c_int, ctypes.c_void_p
+    common = [p, d, d, d, d, d, d, i, d, p, p, p, p]
+    lib.floor_march.argtypes, lib.floor_march.restype = common, i
+    lib.floor_time.argtypes, lib.floor_time.restype = common + [i, p], i
+    _FLOOR.append(lib)
+    return lib
 
 
-def floor_slider_crank(instants=INSTANTS):
-    """The slider-crank of ``slider_crank_case`` over ``instants`` output
-    instants, hand-tight: (q, qd, qdd) arrays (instants, 12) and the Newton
-    iterations in all. Starts from the assembled configuration at t = 0 with
-    its rates (as a warm analysis does)."""
+def floor_pivots():
+    """The C floor's static pivot order [(row, column)] and the Jacobian's
+    structure [(row, column, constant)] it was chosen from."""
+    lib = floor_library()
+    piv = (ctypes.c_int * 24).in_dll(lib, "PIVOTS")
+    size = ctypes.c_int.in_dll(lib, "PATTERN_SIZE").value
+    pat = (ctypes.c_int * (3 * size)).in_dll(lib, "PATTERN")
+    return [tuple(piv[2 * k: 2 * k + 2]) for k in range(12)], [tuple(pat[3 * k: 3 * k + 3]) for k in range(size)]
+
+
+def markowitz_order(pattern, n=12):
+    """A greedy Markowitz order over a structure [(row, column, constant)]:
+    at each step the active entry of least (r - 1)(c - 1) (r, c: active
+    entries in its row and column), constant entries first among equals,
+    then the lowest row and column; eliminating it adds its fill. Returns
+    [(row, column)]."""
+    rows = {i: {} for i in range(n)}
+    for i, j, const in pattern:
+        rows[i][j] = bool(const)
+    order = []
+    while rows:
+        count = {}
+        for r in rows.values():
+            for j in r:
+                count[j] = count.get(j, 0) + 1
+        _, _, i, j = min(((len(r) - 1) * (count[j] - 1), not c, i, j) for i, r in rows.items() for j, c in r.items())
+        order.append((i, j))
+        pivot_row = rows.pop(i)
+        for r in rows.values():
+            if j in r:
+                del r[j]
+                for c in pivot_row:
+                    if c != j:
+                        r[c] = False  # an updated or filled entry varies
+    return order
+
+
+def _floor_start():
     B, A = slider_crank_geometry(PHI0)
     p2 = math.atan2((A - B).imag, (A - B).real)
-    q0 = np.array([0, 0, 0, 0, 0, PHI0, B.real, B.imag, p2, A.real, 0, 0], float)
+    return np.array([0, 0, 0, 0, 0, PHI0, B.real, B.imag, p2, A.real, 0, 0], float)
+
+
+def floor_slider_crank(instants=INSTANTS, tol=1e-12):
+    """The slider-crank of ``slider_crank_case`` over ``instants`` output
+    instants, hand-tight (the C floor): (q, qd, qdd) arrays (instants, 12)
+    and the Newton iterations in all. Starts from the assembled
+    configuration at t = 0 with its rates (as a warm analysis does)."""
     Q, QD, QDD = (np.empty((instants, 12)) for _ in range(3))
-    it = march(q0, np.zeros(12), np.zeros(12), PHI0, OMEGA, R, L_ROD, DT, instants, 1e-12, Q, QD, QDD)
-    return Q, QD, QDD, it
+    info = np.zeros(3, np.intc)
+    status = floor_library().floor_march(_floor_start().ctypes.data, PHI0, OMEGA, R, L_ROD, L_ROD, DT, instants, tol,
+                                         Q.ctypes.data, QD.ctypes.data, QDD.ctypes.data, info.ctypes.data)
+    if status:
+        raise RuntimeError(f"the C floor did not converge at instant {status - 1}")
+    return Q, QD, QDD, int(info[0])
+
+
+def floor_info(instants=INSTANTS):
+    """(Newton iterations, dense fallbacks, polishing corrections) of a floor run."""
+    Q, QD, QDD = (np.empty((instants, 12)) for _ in range(3))
+    info = np.zeros(3, np.intc)
+    floor_library().floor_march(_floor_start().ctypes.data, PHI0, OMEGA, R, L_ROD, L_ROD, DT, instants, 1e-12,
+                                Q.ctypes.data, QD.ctypes.data, QDD.ctypes.data, info.ctypes.data)
+    return tuple(int(x) for x in info)
+
+
+def floor_seconds(repeats, instants=INSTANTS):
+    """Seconds of each of ``repeats`` floor runs in a row, timed inside C
+    (CLOCK_MONOTONIC, no Python or ctypes around the analysis)."""
+    Q, QD, QDD = (np.empty((instants, 12)) for _ in range(3))
+    info = np.zeros(3, np.intc)
+    seconds = np.empty(repeats)
+    status = floor_library().floor_time(_floor_start().ctypes.data, PHI0, OMEGA, R, L_ROD, L_ROD, DT, instants, 1e-12,
+                                        Q.ctypes.data, QD.ctypes.data, QDD.ctypes.data, info.ctypes.data, repeats,
+                                        seconds.ctypes.data)
+    if status:
+        raise RuntimeError(f"the C floor did not converge at instant {status - 1}")
+    return seconds

@@ -1,4 +1,4 @@
-"""The peer comparison of benchmarks/issue14_bench.py compares like with like:
+"""The peer comparison of benchmarks/issue14_bench.py and issue23_bench.py compares like with like:
 the hand-tight floor and kinem solve the same slider-crank to the closed
 form, and pylinkage (when installed: a benchmark-only dependency) follows
 the same geometry as kinem's cases."""
@@ -22,7 +22,20 @@ def crank(t):
     return peers.PHI0 + peers.OMEGA * t, peers.OMEGA + 0 * t, 0 * t
 
 
+def _floor():
+    """The C floor's library, or a skip without a C compiler."""
+    try:
+        return peers.floor_library()
+    except RuntimeError as e:
+        pytest.skip(str(e))
+
+
+def _columns(tr, quantities):
+    return np.stack([tr[f"{b}.{c}"] for b in ("ground", "crank", "rod", "slider") for c in quantities], axis=1)
+
+
 def test_floor_and_kinem_solve_the_same_slider_crank():
+    _floor()
     t = np.arange(peers.INSTANTS) * peers.DT
     ref = slider_crank(*crank(t), peers.R, peers.L_ROD)
     Q, QD, QDD, iterations = peers.floor_slider_crank()
@@ -33,6 +46,39 @@ def test_floor_and_kinem_solve_the_same_slider_crank():
     assert r.success and np.allclose(r.trajectory.t, t, rtol=0, atol=1e-12)
     for col, key in (("slider.x", "x"), ("slider.vx", "vx"), ("slider.ax", "ax")):
         assert rel_error(r.trajectory[col], ref[key]) <= TOL
+    # the same trajectory, coordinate by coordinate: positions to 1e-12 of the size, rates to 1e-10 of their peaks
+    tr = r.trajectory
+    assert np.abs(Q - _columns(tr, ("x", "y", "phi"))).max() <= 1e-12 * peers.L_ROD
+    for got, quantities in ((QD, ("vx", "vy", "omega")), (QDD, ("ax", "ay", "alpha"))):
+        want = _columns(tr, quantities)
+        assert np.abs(got - want).max() <= 1e-10 * np.abs(want).max()
+    assert iterations == r.iterations.sum()
+
+
+def test_floor_pivot_order_is_the_greedy_markowitz_order_of_its_structure():
+    _floor()
+    pivots, pattern = peers.floor_pivots()
+    assert pivots == peers.markowitz_order(pattern)
+    assert sorted(i for i, _ in pivots) == list(range(12)) and sorted(j for _, j in pivots) == list(range(12))
+
+
+def test_floor_dense_fallback_gives_the_same_trajectory():
+    import ctypes
+
+    lib = _floor()
+    Q, QD, QDD, it = peers.floor_slider_crank()
+    assert peers.floor_info()[1] == 0  # no pivot check fails on this crank turn
+    flag = ctypes.c_int.in_dll(lib, "force_dense")
+    flag.value = 1
+    try:
+        assert peers.floor_info()[1] == 2 * peers.INSTANTS  # two factorisations per instant, all dense
+        Q2, QD2, QDD2, it2 = peers.floor_slider_crank()
+    finally:
+        flag.value = 0
+    assert it2 == it
+    assert np.abs(Q2 - Q).max() <= 1e-14 * peers.L_ROD
+    for a, b in ((QD, QD2), (QDD, QDD2)):
+        assert np.abs(a - b).max() <= 1e-13 * np.abs(a).max()
 
 
 def test_four_bar_and_jansen_cases_assemble_as_built():
