@@ -12,6 +12,16 @@
 //! single-entry rows (grounds, drivers) are taken out (gbtf2's elimination).
 
 use crate::order::Order;
+use rayon::prelude::*;
+
+/// Models of at least this many diagonal blocks (merged variants)
+/// factorise their blocks in parallel: below it the threads' start-up and
+/// join cost more than the blocks' LUs (about 0.1 us each).
+pub const PARALLEL: usize = 64;
+
+/// One block's share of the factors: its storage, pivots, row and column
+/// masks, and whether it is in its fixed order.
+type BlockParts<'a> = (((&'a mut [f64], &'a mut [usize]), (&'a mut [u64], &'a mut [u64])), &'a mut bool);
 
 /// Blocks of up to this many coordinates are factorised on their nonzeros.
 pub const MASK: usize = 64;
@@ -150,30 +160,26 @@ impl Layout {
     pub fn factor(&self, values: &[f64], f: &mut Factors) {
         let (h, w) = (self.height, self.width);
         match &self.shape {
-            Shape::Blocks { count, size, pad, patterns, orders } => {
+            Shape::Blocks { count, size, .. } => {
                 let s = *size;
-                for c in 0..*count {
-                    let a = &mut f.j[c * s * s..(c + 1) * s * s];
-                    if let Some(o) = orders.get(c).and_then(|o| o.as_ref()) {
-                        self.assemble_block(values, c, s, pad, Some(o), a);
-                        if o.numeric(a) && self.fixed_ratio(c, s, o, a) >= FALLBACK {
-                            f.fixed[c] = true;
-                            continue;
-                        }
-                    }
-                    f.fixed[c] = false;
-                    self.assemble_block(values, c, s, pad, None, a);
-                    let piv = &mut f.piv[c * s..(c + 1) * s];
-                    if s <= MASK {
-                        let (rm, cm) = (&mut f.rm[c * s..(c + 1) * s], &mut f.cm[c * s..(c + 1) * s]);
-                        for i in 0..s {
-                            rm[i] = patterns[c * s + i].0;
-                            cm[i] = patterns[c * s + i].1;
-                        }
-                        masked_factor(a, s, piv, rm, cm);
-                    } else {
-                        dense_factor(a, s, piv);
-                    }
+                let one = |(c, (((a, piv), (rm, cm)), fixed)): (usize, BlockParts)| {
+                    *fixed = self.factor_block(values, c, a, piv, rm, cm);
+                };
+                let blocks =
+                    f.j.chunks_mut(s * s)
+                        .zip(f.piv.chunks_mut(s))
+                        .zip(f.rm.chunks_mut(s).zip(f.cm.chunks_mut(s)))
+                        .zip(f.fixed.iter_mut());
+                if *count >= PARALLEL {
+                    // many variants: their blocks factorise on every core (rayon)
+                    let blocks =
+                        f.j.par_chunks_mut(s * s)
+                            .zip(f.piv.par_chunks_mut(s))
+                            .zip(f.rm.par_chunks_mut(s).zip(f.cm.par_chunks_mut(s)))
+                            .zip(f.fixed.par_iter_mut());
+                    blocks.enumerate().for_each(one);
+                } else {
+                    blocks.enumerate().for_each(one);
                 }
             }
             Shape::Band { kl, ku, size, .. } => {
@@ -184,6 +190,39 @@ impl Layout {
                 band_factor(&mut f.j, w, *size, &mut f.piv, *kl, *ku)
             }
         }
+    }
+
+    /// Block c factorised into a (its storage): in its fixed order when it
+    /// has one and the values suit it (returns true), else with partial
+    /// pivoting into piv, rm, cm.
+    fn factor_block(
+        &self,
+        values: &[f64],
+        c: usize,
+        a: &mut [f64],
+        piv: &mut [usize],
+        rm: &mut [u64],
+        cm: &mut [u64],
+    ) -> bool {
+        let Shape::Blocks { size, pad, patterns, orders, .. } = &self.shape else { return false };
+        let s = *size;
+        if let Some(o) = orders.get(c).and_then(|o| o.as_ref()) {
+            self.assemble_block(values, c, s, pad, Some(o), a);
+            if o.numeric(a) && self.fixed_ratio(c, s, o, a) >= FALLBACK {
+                return true;
+            }
+        }
+        self.assemble_block(values, c, s, pad, None, a);
+        if s <= MASK {
+            for i in 0..s {
+                rm[i] = patterns[c * s + i].0;
+                cm[i] = patterns[c * s + i].1;
+            }
+            masked_factor(a, s, piv, rm, cm);
+        } else {
+            dense_factor(a, s, piv);
+        }
+        false
     }
 
     /// x = Phi_q^-1 b from the factors (b: m rows, x: n coordinates).

@@ -558,7 +558,15 @@ fn lagrange<'py>(
     Ok((PyArray1::from_vec(py, q), order))
 }
 
+/// Panics inside the core with `message` (tests/test_core.py: a panic
+/// reaches Python as kinem.errors.CoreError, never an abort).
+#[pyfunction]
+fn _panic(py: Python<'_>, message: String) -> PyResult<()> {
+    guard(py, move || -> Result<(), String> { panic!("{message}") })
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(_panic, m)?)?;
     m.add_class::<Plan>()?;
     m.add_class::<Lu>()?;
     m.add_function(wrap_pyfunction!(settle, m)?)?;
