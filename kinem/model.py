@@ -349,21 +349,15 @@ class Model:
                    default=0.0)
 
 
-def core_tables(families, n_bodies: int, artificial: int) -> tuple:
-    """What the compiled core is built from (kinem._core.Core's arguments
-    after n): the families' tables (Family.table), the model's driving
-    functions and outlines, and its angle columns (every body's phi, every
-    artificial coordinate: e^{i q} of those is computed once per
-    configuration)."""
+def core_of(families, n: int, n_bodies: int, artificial: int) -> Core:
+    """The compiled core of the families: their tables (Family.table), the
+    model's driving functions and outlines, and its angle columns (every
+    body's phi, every artificial coordinate: e^{i q} of those is computed
+    once per configuration)."""
     functions, outlines = FunctionTable(), OutlineTable()
     tables = [f.table(functions, outlines) for f in families]
     angles = np.concatenate([3 * np.arange(n_bodies) + 2, 3 * n_bodies + np.arange(artificial)]).astype(np.int64)
-    return tables, functions.arrays(), outlines.arrays(), angles
-
-
-def core_of(families, n: int, n_bodies: int, artificial: int) -> Core:
-    """The compiled core of the families (core_tables)."""
-    return Core(n, *core_tables(families, n_bodies, artificial))
+    return Core(n, tables, functions.arrays(), outlines.arrays(), angles)
 
 
 def compile(case: Case) -> Model:

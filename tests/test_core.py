@@ -3,7 +3,7 @@ kernels, and its refusal of malformed tables.
 
 The cross-check is temporary (issue 23): it holds while the numba kernels
 are still in the tree (the compiled march uses them until it is replaced)
-and goes with them. For every constraint type, on random models
+and is skipped once they are gone (no Family.phi). For every constraint type, on random models
 (tests/test_jacobians.py's builders, every kind of driving function and
 outline) and random batches of configurations (angles and theta well beyond
 2 pi, times beyond the function tables), Model.phi, jac_values, nu and
@@ -25,9 +25,12 @@ import kinem
 from kinem._core import KINDS, Core
 from kinem.errors import CoreError
 from kinem.functions import FunctionTable
-from kinem.model import core_tables
+from kinem.constraints.base import Family
 from kinem.outline import OutlineTable
 from test_jacobians import BUILDERS, END, random_model
+
+# the families' numba kernels, while they exist
+numba_kernels = pytest.mark.skipif(not hasattr(Family, "phi"), reason="the families' numba kernels are gone")
 
 TOL = 1e-12
 FLAGS = {"point", "relative", "carrier"}  # int64 columns that are flags, not indices
@@ -83,11 +86,11 @@ def check(model, Q, QD, T):
 @given(data=st.data())
 def test_every_kind_is_covered(data):
     """The builders' types reach every family kind of the core."""
-    kinds = {f.table(FunctionTable(), OutlineTable())[0] for ctype in BUILDERS
-             for f in random_model(data.draw, ctype).families}
+    kinds = {kind for ctype in BUILDERS for kind, _ in parts_of(random_model(data.draw, ctype))[0]}
     assert kinds == set(KINDS)
 
 
+@numba_kernels
 @pytest.mark.parametrize("ctype", sorted(BUILDERS))
 @given(data=st.data())
 def test_core_equals_numba_kernels(ctype, data):
@@ -95,6 +98,7 @@ def test_core_equals_numba_kernels(ctype, data):
     check(model, *random_batch(data.draw, model))
 
 
+@numba_kernels
 @given(data=st.data())
 def test_core_equals_numba_kernels_on_mixed_models(data):
     """Several types in one model: every family's rows and Jacobian entries at its offsets."""
@@ -109,7 +113,13 @@ def test_core_equals_numba_kernels_on_mixed_models(data):
 # -- malformed tables ----------------------------------------------------------
 
 def parts_of(model):
-    return core_tables(model.families, len(model.case.bodies), len(model.artificial))
+    """Model.core's arguments after n (as kinem.model.compile makes them):
+    the families' tables, the functions, the outlines, the angle columns."""
+    functions, outlines = FunctionTable(), OutlineTable()
+    tables = [f.table(functions, outlines) for f in model.families]
+    bodies, art = len(model.case.bodies), len(model.artificial)
+    angles = np.concatenate([3 * np.arange(bodies) + 2, 3 * bodies + np.arange(art)]).astype(np.int64)
+    return tables, functions.arrays(), outlines.arrays(), angles
 
 
 def build(model, tables, functions=None, outlines=None):
@@ -130,7 +140,10 @@ def corrupted(tables, k, column, value):
 def test_malformed_tables_raise_core_error(ctype, data):
     model = random_model(data.draw, ctype)
     tables, functions, outlines, _ = parts_of(model)
-    build(model, tables)  # the model's own tables are accepted
+    core = build(model, tables)  # the model's own tables are accepted, and are the model's core
+    q, t = np.linspace(-1.0, 1.0, model.n), 0.4
+    np.testing.assert_array_equal(core.phi(q[None], np.array([t]))[0], model.phi(q, t))
+    np.testing.assert_array_equal(core.jac(q[None], np.array([t]))[0], model.jac_values(q, t))
     n, nf, no = model.n, len(functions["kind"]), len(outlines["first"])
     for k, (kind, cols) in enumerate(tables):
         for name, col in cols.items():
