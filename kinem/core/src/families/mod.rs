@@ -23,6 +23,9 @@ pub mod rack;
 pub mod revolute;
 pub mod simple;
 
+#[cfg(test)]
+mod tests;
+
 pub const I: C64 = C64 { re: 0.0, im: 1.0 };
 
 /// One configuration: coordinates q (n), e[j] = e^{i q[j]} at the angle

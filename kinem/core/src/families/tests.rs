@@ -1,0 +1,381 @@
+//! Unit tests of the outlines and the families: the outline's radius and
+//! curve against its cubic and finite differences, and each family's
+//! Jacobian, nu and gamma against finite differences of its Phi along a
+//! straight path (as tests/fd.py does in Python): with q(s) = q + s qd,
+//! t(s) = t + s, d/ds Phi = Phi_q qd - nu and d2/ds2 Phi = -gamma.
+use crate::functions::{HARMONIC, POLY};
+use crate::model::Kin;
+use crate::outline::Outlines;
+use crate::table::Table;
+use num_complex::Complex64 as C64;
+use std::f64::consts::PI;
+
+const H: f64 = 1e-3;
+
+fn c(re: f64, im: f64) -> C64 {
+    C64::new(re, im)
+}
+
+fn table(ints: &[(&str, Vec<i64>)], reals: &[(&str, Vec<f64>)], complex: &[(&str, Vec<C64>)]) -> Table {
+    let mut t = Table::default();
+    for (k, v) in ints {
+        t.ints.insert(k.to_string(), v.clone());
+    }
+    for (k, v) in reals {
+        t.reals.insert(k.to_string(), v.clone());
+    }
+    for (k, v) in complex {
+        t.complex.insert(k.to_string(), v.clone());
+    }
+    t
+}
+
+/// Functions: 0 a constant 1.3, 1 a cubic, 2 a harmonic.
+fn functions() -> Table {
+    let data = vec![1.3, 0.9, 0.5, -0.2, 0.1, 0.7, 2.0, 0.3, 0.1];
+    table(&[("kind", vec![POLY, POLY, HARMONIC]), ("start", vec![0, 1, 5, 9])], &[("data", data)], &[])
+}
+
+/// Outlines: 0 a circle of radius 1.2 about (0.1, -0.2); 1 a periodic
+/// outline of two cubic pieces over [0.5, 0.5 + 2 pi); 2 an open one of
+/// one piece over [-1, 1].
+fn outlines() -> Table {
+    let coef = vec![
+        0.0, 0.0, 0.0, 1.2, // circle
+        0.02, -0.1, 0.3, 1.0, // periodic, piece 1
+        -0.03, 0.05, -0.2, 1.4, // periodic, piece 2
+        0.1, 0.2, -0.3, 1.1, // open
+    ];
+    table(
+        &[("first", vec![0, 1, 3]), ("last", vec![0, 2, 3]), ("periodic", vec![1, 1, 0])],
+        &[
+            ("t0", vec![0.0, 0.5, -1.0]),
+            ("span", vec![2.0 * PI, 2.0 * PI, 2.0]),
+            ("starts", vec![0.0, 0.0, 3.0, 0.0]),
+            ("coef", coef),
+        ],
+        &[("center", vec![c(0.1, -0.2), c(0.3, 0.1), c(-0.2, 0.0)])],
+    )
+}
+
+#[test]
+fn outline_radius_is_its_cubic_and_wraps() {
+    let o = Outlines::from_table(&outlines()).unwrap();
+    assert_eq!(o.radius(0, 0.7), [1.2, 0.0, 0.0, 0.0]);
+    assert_eq!(o.radius(0, -40.0), [1.2, 0.0, 0.0, 0.0]);
+    // periodic, second piece: h = theta - 0.5 - 3.0
+    let th = 0.5 + 3.7;
+    let h = 0.7;
+    let want =
+        [-0.03 * h * h * h + 0.05 * h * h - 0.2 * h + 1.4, -0.09 * h * h + 0.1 * h - 0.2, -0.18 * h + 0.1, -0.18];
+    for turns in [-3.0, 0.0, 2.0] {
+        let r = o.radius(1, th + turns * 2.0 * PI);
+        for k in 0..4 {
+            assert!((r[k] - want[k]).abs() < 1e-12, "derivative {k}: {} != {}", r[k], want[k]);
+        }
+    }
+    // open: beyond its table, the end cubic continues
+    let h = 2.5;
+    let r = o.radius(2, -1.0 + h);
+    assert!((r[0] - (0.1 * h * h * h + 0.2 * h * h - 0.3 * h + 1.1)).abs() < 1e-12);
+    let h = -0.5;
+    let r = o.radius(2, -1.0 + h);
+    assert!((r[1] - (0.3 * h * h + 0.4 * h - 0.3)).abs() < 1e-12);
+}
+
+#[test]
+fn outline_curve_derivatives_match_finite_differences() {
+    let o = Outlines::from_table(&outlines()).unwrap();
+    let rot = C64::from_polar(1.0, 0.8);
+    let at = |k: usize, th: f64| o.curve(k, th, C64::from_polar(1.0, th), rot);
+    for (k, th) in [(0, 2.0), (1, 1.3), (1, 4.9 + 4.0 * PI), (2, 0.2)] {
+        let p = at(k, th);
+        let d = |f: &dyn Fn(f64) -> C64| (-f(2.0 * H) + 8.0 * f(H) - 8.0 * f(-H) + f(-2.0 * H)) / (12.0 * H);
+        let g = d(&|s| at(k, th + s).a);
+        let h = d(&|s| at(k, th + s).g);
+        let kk = d(&|s| at(k, th + s).h);
+        assert!((g - p.g).norm() < 1e-9, "outline {k}: g {} != {}", p.g, g);
+        assert!((h - p.h).norm() < 1e-9, "outline {k}: h {} != {}", p.h, h);
+        assert!((kk - p.k).norm() < 1e-9, "outline {k}: k {} != {}", p.k, kk);
+        // a = A_c (Q + s e^{i theta})
+        let s = o.radius(k, th)[0];
+        let q = [c(0.1, -0.2), c(0.3, 0.1), c(-0.2, 0.0)][k];
+        assert!((p.a - rot * (q + s * C64::from_polar(1.0, th))).norm() < 1e-14);
+    }
+}
+
+#[test]
+fn malformed_outlines_are_refused() {
+    let mut t = outlines();
+    t.ints.insert("last".into(), vec![0, 2, 9]);
+    assert!(Outlines::from_table(&t).is_err());
+    let mut t = outlines();
+    t.reals.get_mut("coef").unwrap().pop();
+    assert!(Outlines::from_table(&t).is_err());
+}
+
+/// Three bodies (columns 0..9) and `art` artificial coordinates after them.
+fn kin(kind: &str, t: Table, art: usize) -> Kin {
+    let n = 9 + art;
+    let angles = [2, 5, 8].into_iter().chain(9..n as i64).collect();
+    Kin::new(n, vec![(kind.to_string(), t)], &functions(), &outlines(), angles).unwrap()
+}
+
+fn eval(k: &Kin, q: &[f64], t: f64, what: u8, qd: &[f64]) -> Vec<f64> {
+    use crate::families::At;
+    let mut e = vec![C64::new(1.0, 0.0); k.n];
+    k.rotate(q, &mut e);
+    let at = At { q, e: &e, t };
+    match what {
+        0 => {
+            let mut o = vec![0.0; k.m];
+            k.phi(&at, &mut o);
+            o
+        }
+        1 => {
+            let mut o = vec![0.0; k.nnz];
+            k.jac(&at, &mut o);
+            o
+        }
+        2 => {
+            let mut o = vec![0.0; k.m];
+            k.nu(t, &mut o);
+            o
+        }
+        _ => {
+            let mut o = vec![0.0; k.m];
+            k.gamma(&at, qd, &mut o);
+            o
+        }
+    }
+}
+
+/// Checks the Jacobian (pattern rows, cols), nu and gamma of `k` at
+/// (q, qd, t) against fourth-order central differences of Phi.
+fn check(k: &Kin, rows: &[usize], cols: &[usize], q: &[f64], qd: &[f64], t: f64) {
+    assert_eq!(rows.len(), k.nnz);
+    let phi = |s: f64, dir: &[f64], dt: f64| {
+        let qs: Vec<f64> = q.iter().zip(dir).map(|(a, b)| a + s * b).collect();
+        eval(k, &qs, t + s * dt, 0, qd)
+    };
+    let d1 = |dir: &[f64], dt: f64| -> Vec<f64> {
+        let (a, b, c, d) = (phi(2.0 * H, dir, dt), phi(H, dir, dt), phi(-H, dir, dt), phi(-2.0 * H, dir, dt));
+        (0..k.m).map(|r| (-a[r] + 8.0 * b[r] - 8.0 * c[r] + d[r]) / (12.0 * H)).collect()
+    };
+    let values = eval(k, q, t, 1, qd);
+    let mut jac = vec![vec![0.0; k.n]; k.m];
+    for (e, v) in values.iter().enumerate() {
+        jac[rows[e]][cols[e]] += v;
+    }
+    for col in 0..k.n {
+        let mut dir = vec![0.0; k.n];
+        dir[col] = 1.0;
+        let fd = d1(&dir, 0.0);
+        for r in 0..k.m {
+            let err = (jac[r][col] - fd[r]).abs() / fd[r].abs().max(1.0);
+            assert!(err < 1e-8, "Jacobian ({r}, {col}): {} != {} (finite differences)", jac[r][col], fd[r]);
+        }
+    }
+    // along the path: d Phi/ds = Phi_q qd - nu, d2 Phi/ds2 = -gamma
+    let rate = d1(qd, 1.0);
+    let nu = eval(k, q, t, 2, qd);
+    let gamma = eval(k, q, t, 3, qd);
+    let (a, b, c0, d, e) =
+        (phi(2.0 * H, qd, 1.0), phi(H, qd, 1.0), phi(0.0, qd, 1.0), phi(-H, qd, 1.0), phi(-2.0 * H, qd, 1.0));
+    for r in 0..k.m {
+        let jq: f64 = (0..k.n).map(|c| jac[r][c] * qd[c]).sum();
+        let err = (jq - nu[r] - rate[r]).abs() / rate[r].abs().max(1.0);
+        assert!(err < 1e-8, "nu, row {r}: {} != {} (finite differences)", jq - rate[r], nu[r]);
+        let second = (-a[r] + 16.0 * b[r] - 30.0 * c0[r] + 16.0 * d[r] - e[r]) / (12.0 * H * H);
+        let err = (gamma[r] + second).abs() / second.abs().max(1.0);
+        assert!(err < 1e-6, "gamma, row {r}: {} != {} (finite differences)", gamma[r], -second);
+    }
+}
+
+fn state(art: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let mut q = vec![0.3, -0.4, 7.1, 1.2, 0.5, -2.3, -0.6, 0.9, 13.4];
+    q.extend_from_slice(art);
+    let qd: Vec<f64> = (0..q.len()).map(|k| 1.7 * ((k as f64) * 1.3).sin() + 0.2).collect();
+    (q, qd)
+}
+
+/// Per constraint, entries (row within the constraint, column).
+fn pattern(per: usize, entries: &[&[(usize, usize)]]) -> (Vec<usize>, Vec<usize>) {
+    let mut rows = Vec::new();
+    let mut cols = Vec::new();
+    for (k, e) in entries.iter().enumerate() {
+        for &(r, c) in e.iter() {
+            rows.push(per * k + r);
+            cols.push(c);
+        }
+    }
+    (rows, cols)
+}
+
+#[test]
+fn distance_derivatives_match_finite_differences() {
+    // revolute-revolute (constant length) between bodies 0 and 1, and a
+    // distance driver (the cubic) between 1 and 2
+    let t = table(
+        &[("ci", vec![0, 3]), ("cj", vec![3, 6]), ("f", vec![0, 1])],
+        &[],
+        &[("si", vec![c(0.4, 0.1), c(-0.3, 0.2)]), ("sj", vec![c(0.0, -0.5), c(0.6, 0.6)])],
+    );
+    let k = kin("distance", t, 0);
+    let (rows, cols) = pattern(
+        1,
+        &[&[(0, 0), (0, 1), (0, 2), (0, 3), (0, 4), (0, 5)], &[(0, 3), (0, 4), (0, 5), (0, 6), (0, 7), (0, 8)]],
+    );
+    let (q, qd) = state(&[]);
+    check(&k, &rows, &cols, &q, &qd, 0.8);
+}
+
+#[test]
+fn simple_derivatives_match_finite_differences() {
+    // x of a point of body 1 = a constant; phi_2 - phi_0 = the harmonic; y_0 = the cubic
+    let t = table(
+        &[
+            ("a", vec![3, 8, 1]),
+            ("angle", vec![5, 8, 2]),
+            ("k", vec![0, 2, 0]),
+            ("point", vec![1, 0, 0]),
+            ("relative", vec![0, 1, 0]),
+            ("f", vec![0, 2, 1]),
+        ],
+        &[("mx", vec![1.0, 0.0, 0.0]), ("my", vec![0.0, 0.0, 0.0])],
+        &[("local", vec![c(0.7, -0.2), c(0.0, 0.0), c(0.0, 0.0)])],
+    );
+    let k = kin("simple", t, 0);
+    let (rows, cols) = (vec![0, 0, 1, 1, 2], vec![3, 5, 8, 2, 1]);
+    let (q, qd) = state(&[]);
+    check(&k, &rows, &cols, &q, &qd, 0.8);
+}
+
+#[test]
+fn line_and_rack_derivatives_match_finite_differences() {
+    let (q, qd) = state(&[]);
+    // translational joint: line on body 0, point on body 1, the angle row
+    let t = table(
+        &[("ca", vec![0]), ("cb", vec![3]), ("ai", vec![2]), ("aj", vec![5])],
+        &[("phi0", vec![0.3])],
+        &[("pa", vec![c(0.2, 0.1)]), ("ua", vec![c(-0.5, 0.8)]), ("ob", vec![c(0.4, -0.3)])],
+    );
+    let k = kin("line", t, 0);
+    let (rows, cols) = pattern(2, &[&[(0, 0), (0, 1), (0, 2), (0, 3), (0, 4), (0, 5), (1, 2), (1, 5)]]);
+    check(&k, &rows, &cols, &q, &qd, 0.8);
+    // revolute-translational: no angle row
+    let t = table(
+        &[("ca", vec![6]), ("cb", vec![0]), ("ai", vec![]), ("aj", vec![])],
+        &[("phi0", vec![])],
+        &[("pa", vec![c(0.2, 0.1)]), ("ua", vec![c(-0.5, 0.8)]), ("ob", vec![c(0.4, -0.3)])],
+    );
+    let k = kin("line", t, 0);
+    let (rows, cols) = pattern(1, &[&[(0, 6), (0, 7), (0, 8), (0, 0), (0, 1), (0, 2)]]);
+    check(&k, &rows, &cols, &q, &qd, 0.8);
+    // rack and pinion: pinion 1, rack 2
+    let t = table(
+        &[("ci", vec![3]), ("cj", vec![6])],
+        &[("rho", vec![0.4]), ("phi0", vec![0.2])],
+        &[("c", vec![c(0.1, 0.05)]), ("s", vec![c(-0.3, 0.2)]), ("u", vec![C64::from_polar(1.0, 0.6)])],
+    );
+    let k = kin("rack-pinion", t, 0);
+    let (rows, cols) = pattern(1, &[&[(0, 3), (0, 4), (0, 5), (0, 6), (0, 7), (0, 8)]]);
+    check(&k, &rows, &cols, &q, &qd, 0.8);
+}
+
+#[test]
+fn curve_derivatives_match_finite_differences() {
+    // theta of each constraint on its outline: off the periodic outline's knot (0.5 + 3 + 2 pi k)
+    let (q, qd) = state(&[2.1 - 4.0 * PI, 5.5, 0.4]);
+    let curve = |cb: &str| {
+        table(
+            &[("cc", vec![0, 3, 6]), ("ct", vec![9, 10, 11]), ("outline", vec![0, 1, 2]), (cb, vec![3, 6, 0])],
+            &[],
+            &[],
+        )
+    };
+    let mut t = curve("cb");
+    t.complex.insert("sb".into(), vec![c(0.3, -0.1), c(-0.2, 0.4), c(0.5, 0.5)]);
+    t.reals.insert("sign".into(), vec![1.0, -1.0, 1.0]);
+    let k = kin("point-on-curve", t, 3);
+    let per = |cc: usize, ct: usize, cb: usize| {
+        [
+            (0, cc),
+            (0, cc + 2),
+            (0, ct),
+            (0, cb),
+            (0, cb + 2),
+            (1, cc + 1),
+            (1, cc + 2),
+            (1, ct),
+            (1, cb + 1),
+            (1, cb + 2),
+        ]
+    };
+    let (a, b, d) = (per(0, 9, 3), per(3, 10, 6), per(6, 11, 0));
+    let (rows, cols) = pattern(2, &[&a, &b, &d]);
+    check(&k, &rows, &cols, &q, &qd, 0.8);
+
+    let body = |cc: usize, ct: usize, cj: usize| [cc, cc + 1, cc + 2, ct, cj, cj + 1, cj + 2];
+    let mut t = curve("cj");
+    t.complex.insert("sj".into(), vec![c(2.3, -0.1), c(-0.2, 2.4), c(0.5, 1.5)]);
+    t.reals.insert("rho2".into(), vec![0.25, 0.16, 0.5]);
+    let k = kin("cam-roller", t, 3);
+    let per = |cc, ct, cj| -> Vec<(usize, usize)> {
+        let b = body(cc, ct, cj);
+        b.iter().map(|&x| (0, x)).chain(b.iter().map(|&x| (1, x))).collect()
+    };
+    let (a, b, d) = (per(0, 9, 3), per(3, 10, 6), per(6, 11, 0));
+    let (rows, cols) = pattern(2, &[&a, &b, &d]);
+    check(&k, &rows, &cols, &q, &qd, 0.8);
+
+    let mut t = curve("cj");
+    t.complex.insert("sj".into(), vec![c(2.3, -0.1), c(-0.2, 2.4), c(0.5, 1.5)]);
+    t.complex
+        .insert("n".into(), vec![C64::from_polar(1.0, 0.3), C64::from_polar(1.0, -2.0), C64::from_polar(1.0, 1.0)]);
+    let k = kin("cam-flat", t, 3);
+    let per = |cc: usize, ct: usize, cj: usize| -> Vec<(usize, usize)> {
+        [(0, cc + 2), (0, ct), (0, cj + 2)].into_iter().chain(body(cc, ct, cj).iter().map(|&x| (1, x))).collect()
+    };
+    let (a, b, d) = (per(0, 9, 3), per(3, 10, 6), per(6, 11, 0));
+    let (rows, cols) = pattern(2, &[&a, &b, &d]);
+    check(&k, &rows, &cols, &q, &qd, 0.8);
+}
+
+#[test]
+fn gear_jacobian_is_constant_and_matches_finite_differences() {
+    let t = table(
+        &[("ai", vec![2, 2]), ("aj", vec![5, 8]), ("ak", vec![0, 5]), ("carrier", vec![0, 1])],
+        &[("ri", vec![0.5, 0.3]), ("rj", vec![0.8, -1.1]), ("phi0", vec![0.1, -0.4])],
+        &[],
+    );
+    let k = kin("gear", t, 0);
+    let (rows, cols) = (vec![0, 0, 1, 1, 1], vec![2, 5, 2, 8, 5]);
+    let (q, qd) = state(&[]);
+    check(&k, &rows, &cols, &q, &qd, 0.8);
+}
+
+#[test]
+fn malformed_family_tables_are_refused() {
+    let ok = || {
+        table(
+            &[("ci", vec![0, 3]), ("cj", vec![3, 6]), ("f", vec![0, 1])],
+            &[],
+            &[("si", vec![c(0.4, 0.1), c(-0.3, 0.2)]), ("sj", vec![c(0.0, -0.5), c(0.6, 0.6)])],
+        )
+    };
+    let build = |t: Table| Kin::new(9, vec![("distance".to_string(), t)], &functions(), &outlines(), vec![2, 5, 8]);
+    assert!(build(ok()).is_ok());
+    let mut t = ok();
+    t.ints.insert("cj".into(), vec![3, 7]); // 7 + 2 = 9: outside the coordinates
+    assert!(build(t).is_err());
+    let mut t = ok();
+    t.ints.insert("f".into(), vec![0, 3]); // three functions
+    assert!(build(t).is_err());
+    let mut t = ok();
+    t.complex.insert("sj".into(), vec![c(0.0, -0.5)]);
+    assert!(build(t).is_err());
+    let mut t = ok();
+    t.ints.remove("ci");
+    assert!(build(t).is_err());
+}
