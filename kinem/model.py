@@ -159,6 +159,12 @@ class Model:
     _zero: np.ndarray = field(repr=False, default=None)  # zeros (nnz,), intp
     core: native.Core = field(repr=False, default=None)  # the compiled evaluation (kinem._core)
 
+    def __reduce__(self):
+        """A model pickles as its case and compiles again where it is
+        loaded (a Dask worker, another process): the core's tables are built
+        from the case, never shipped."""
+        return compile, (self.case,)
+
     # -- structure ---------------------------------------------------------
     @property
     def body_names(self) -> tuple:
