@@ -72,6 +72,8 @@ class March:
         d = tr.data
         d.jacobian_evaluations += int(self.counts[0])
         d.factorizations += int(self.counts[1])
+        if end == len(self.times):
+            return end  # every instant taken: the tracker carries nothing on
         for j in range(max(k, end - 3), end):
             # the loop accepts no det flip: every instant it took has the last one's sign
             tr.accept(State(float(self.times[j]), Q[j].copy(), QD[j].copy() if self.rates else None,
