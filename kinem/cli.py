@@ -11,7 +11,7 @@ import os
 import sys
 from pathlib import Path
 
-from .errors import MAX_LINE, AnalysisError, InputError, KinemError, one_line
+from .errors import MAX_LINE, AnalysisError, BrokenPipe, InputError, KinemError, one_line
 from .result import OUTPUTS
 
 
@@ -68,6 +68,38 @@ def _quiet_stdout():
         os.close(fd)
     except (OSError, ValueError):
         pass
+
+
+def _standard_streams():
+    """Standard descriptors closed by the caller (``>&-``, ``2>&-``) are
+    reopened on /dev/null before anything else is opened, so that no output
+    file takes their number: standard output read-only (printing to it fails
+    with EBADF, exit code 1, where the output was to be printed there),
+    standard error writable (its messages are lost, the exit code stays)."""
+    for fd, flags in ((0, os.O_RDONLY), (1, os.O_RDONLY), (2, os.O_WRONLY)):
+        try:
+            os.fstat(fd)
+            continue
+        except OSError:
+            pass
+        new = os.open(os.devnull, flags)
+        if new != fd:
+            os.dup2(new, fd)
+            os.close(new)
+        if fd == 1:
+            sys.stdout = open(1, "w", closefd=False)  # noqa: SIM115 - the process's standard output
+        elif fd == 2:
+            sys.stderr = open(2, "w", closefd=False)  # noqa: SIM115
+
+
+def _note(text):
+    """Prints a note on standard output after the named output is complete
+    (the file written): a closed or broken standard output does not fail the
+    command."""
+    try:
+        print(text, flush=True)
+    except (OSError, ValueError):
+        _quiet_stdout()
 
 
 def cmd_solve(a):
@@ -350,7 +382,7 @@ def cmd_animate(a):
     skipped = write(_load(a.case), a.out, engines)
     for name, why in skipped.items():
         print(f"{name}: not drawn: {why}", file=sys.stderr)
-    print(a.out)
+    _note(a.out)
     return 0
 
 
@@ -497,6 +529,7 @@ def main(argv=None) -> int:
         previous = {}
     hook, sys.unraisablehook = sys.unraisablehook, unraisable
     try:
+        _standard_streams()
         return _main(argv)
     finally:
         sys.unraisablehook = hook
@@ -529,6 +562,9 @@ def _main(argv) -> int:
     except AnalysisError as e:
         print(f"kinem: analysis failed: {one_line(e)}", file=sys.stderr)
         return 1
+    except BrokenPipe:   # kinem solve CASE | head: quietly, as a Unix tool
+        _quiet_stdout()
+        return 141
     except KinemError as e:   # OutputError among them: a write that failed
         print(f"kinem: error: {one_line(e)}", file=sys.stderr)
         try:
@@ -539,7 +575,10 @@ def _main(argv) -> int:
     except KeyboardInterrupt:
         return 130
     except OSError as e:
-        if e.errno in (errno.EPIPE, errno.ENOSPC, errno.EIO, errno.EDQUOT, errno.EFBIG):  # print() to stdout
+        if e.errno == errno.EPIPE:   # print() to standard output, its reader gone: quietly
+            _quiet_stdout()
+            return 141
+        if e.errno in (errno.EBADF, errno.ENOSPC, errno.EIO, errno.EDQUOT, errno.EFBIG):  # print() to stdout
             print(f"kinem: error: standard output: write failed: {e.strerror}", file=sys.stderr)
             _quiet_stdout()
             return 1

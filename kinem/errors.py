@@ -52,6 +52,12 @@ class OutputError(KinemError):
     A bad output path (a missing directory, no permission) is an InputError."""
 
 
+class BrokenPipe(OutputError):
+    """Standard output's reader went away (``kinem solve CASE | head``): the
+    command line ends quietly with exit code 141 (128 + SIGPIPE), as a Unix
+    tool that SIGPIPE stops."""
+
+
 class ConvergenceError(AnalysisError):
     """Newton-Raphson did not reach the tolerance."""
 

@@ -33,7 +33,7 @@ import zipfile
 
 import numpy as np
 
-from .errors import InputError, OutputError
+from .errors import BrokenPipe, InputError, OutputError
 
 # errno values that mean the path is wrong (exit 2), not that a write failed
 _BAD_PATH = {errno.ENOENT, errno.ENOTDIR, errno.EISDIR, errno.EACCES, errno.EPERM, errno.EROFS,
@@ -166,8 +166,10 @@ class Output:
             raise self.error(e) from None
 
     def error(self, e: OSError):
-        where = "standard output" if self.path == "-" else self.path
-        return OutputError(f"{where}: write failed: {_reason(e)}")
+        if self.path == "-":
+            cls = BrokenPipe if e.errno == errno.EPIPE else OutputError
+            return cls(f"standard output: write failed: {_reason(e)}")
+        return OutputError(f"{self.path}: write failed: {_reason(e)}")
 
     def commit(self) -> None:
         """Make the content written so far the target's content."""
