@@ -13,6 +13,9 @@
 - a device (``/dev/null``, ``/dev/full``), a FIFO or a socket, and ``-``
   (standard output): written in place, never replaced.
 - a symbolic link: followed; its target is written as above and the link stays.
+- a replaced file keeps its permission bits (and owner and group where the
+  process may set them); it is a new file all the same, so a hard link to the
+  old one is not followed: the other names keep the old content.
 
 Errors name the target path: ``InputError`` (exit code 2) for a bad path
 (missing directory, a directory, no permission), ``OutputError`` (exit code 1)
@@ -180,6 +183,7 @@ class Output:
             self.file.flush()
             if not self._tmp:
                 return
+            self._keep_owner_and_mode()
             if self._tmp_name is None:
                 self._link(self.file.fileno())
             else:
@@ -189,6 +193,26 @@ class Output:
             raise self.error(e) from None
         finally:
             self.close()
+
+    def _keep_owner_and_mode(self):
+        """A file being replaced keeps its permission bits, and its owner and
+        group where the process may set them (root; a group of the user's):
+        the new content gets them before it takes the name. A new path gets
+        the umask's mode."""
+        try:
+            st = os.stat(self._real)
+        except FileNotFoundError:
+            return
+        fd = self.file.fileno()
+        if (st.st_uid, st.st_gid) != (os.geteuid(), os.getegid()):
+            try:
+                os.fchown(fd, st.st_uid, st.st_gid)
+            except PermissionError:
+                try:
+                    os.fchown(fd, -1, st.st_gid)
+                except PermissionError:
+                    pass
+        os.fchmod(fd, stat.S_IMODE(st.st_mode))   # after fchown, which may clear set-id bits
 
     def _link(self, fd):
         try:  # a new path: one atomic link, nothing else to clean up
