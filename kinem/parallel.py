@@ -60,8 +60,44 @@ def executor(jobs=None, scheduler=None):
     elif workers(jobs) <= 1:
         yield None
     else:
-        with ProcessPoolExecutor(max_workers=workers(jobs)) as pool:
+        pdeathsig = threading.current_thread() is threading.main_thread()
+        with ProcessPoolExecutor(max_workers=workers(jobs), initializer=_die_with_parent,
+                                 initargs=(os.getpid(), pdeathsig)) as pool:
             yield pool
+
+
+PR_SET_PDEATHSIG = 1   # prctl(2)
+
+
+def _die_with_parent(parent, pdeathsig):
+    """A local worker's initializer: the worker ends when the process that
+    made it does, so that SIGKILL of kinem leaves no worker holding memory and
+    the caller's pipes. On Linux the kernel sends it SIGKILL (prctl
+    PR_SET_PDEATHSIG; only when the pool was made on the main thread, as the
+    signal follows the thread that forked); elsewhere, and besides, a daemon
+    thread checks every WATCH seconds that the parent is still its parent."""
+    import signal
+    import sys
+
+    if pdeathsig and sys.platform.startswith("linux"):
+        import ctypes
+
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != parent:   # the parent died before the line above
+        os._exit(1)
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(WATCH)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="kinem-parent-watch", daemon=True).start()
+
+
+WATCH = 1.0   # seconds between a worker's checks that its parent lives (where prctl is not used)
 
 
 def map(fn, tasks, jobs=None, scheduler=None) -> list:
