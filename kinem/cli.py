@@ -46,6 +46,8 @@ def _outputs(text):
 # in docs/benchmarks.md, "Long runs and output"). Memory does not limit it: output is
 # streamed (kinem.stream).
 MAX_WORK = 5e7
+# The progress bar is redrawn every SHOW_SUBSTEPS sub-steps (each costs milliseconds).
+SHOW_SUBSTEPS = 100
 
 
 def _flush():
@@ -117,12 +119,13 @@ def cmd_solve(a):
     from .analysis import check_square
 
     check_square(model)
-    bar = None
-    if sys.stderr.isatty() and nt > stream.PROGRESS_INSTANTS:
+    bar, shown = None, [False]
+    if sys.stderr.isatty():
         from .report.progress import Progress
 
         bar = Progress(nt)
-    size = stream.chunk_size(model, outputs, nt, progress=bar is not None)
+    long = nt > stream.PROGRESS_INSTANTS
+    size = stream.chunk_size(model, outputs, nt, progress=bar is not None and long)
     with Output(a.out or "-") as out, _Trace(a.diagnostics) as trace:
         writer, held = None, None
 
@@ -136,15 +139,35 @@ def cmd_solve(a):
                 writer.add(held.t, held.data)
             held = traj
 
-        def progress(done, t):
-            bar.done = done
-            bar.show(f"t = {t:.6g} of {model.case.end:.6g}")
+        substeps = [0, 0]   # the run's sub-steps: in the chunks done, in this one
 
+        def show(t):
+            shown[0] = True
+            count = substeps[0] + substeps[1]
+            bar.show(f"t = {t:.6g} of {model.case.end:.6g}" + (f", {count:,} sub-steps" if count else ""))
+
+        def progress(done, t):
+            substeps[0], substeps[1] = substeps[0] + substeps[1], 0
+            bar.done = done
+            if long or shown[0]:
+                show(t)
+
+        def on_substeps(count, t):   # a run that sub-steps a lot shows its bar, whatever its instants
+            substeps[1] = count
+            if count % SHOW_SUBSTEPS == 0:
+                show(t)
+
+        from dataclasses import replace
+
+        from .options import Options
+
+        options = replace(Options.of(model.case), max_substeps=stream.substep_budget(model, limit),
+                          on_substeps=on_substeps if bar else None)
         try:
             o = stream.run(model, outputs, on_chunk, trace.add if trace else None,
-                           progress if bar else None, size)
+                           progress if bar else None, size, options)
         finally:
-            if bar:
+            if bar and shown[0]:
                 bar.close()
         if trace:
             trace.finish(o.events)

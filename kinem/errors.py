@@ -66,6 +66,12 @@ class SingularError(AnalysisError):
     """The constraint Jacobian is (numerically) singular."""
 
 
+class WorkLimitError(AnalysisError):
+    """A run needs more sub-steps than its limit (Options.max_substeps,
+    ``kinem solve --max-work``): the drivers move too fast for the output
+    interval."""
+
+
 class CoreError(AnalysisError):
     """A fault inside the compiled core (kinem._core): a panic or an
     inconsistent table, reported as one line (exit code 1), never an abort."""
