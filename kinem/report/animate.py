@@ -84,13 +84,20 @@ def write(model, out, engines) -> dict:
     """Writes the animation to ``out``; returns engine -> why it is not drawn."""
     ext = check_output(out)
     native, ghosts, dense, skipped = frames(model, engines)
+    render(model, native, ghosts, dense, out, ext)
+    return skipped
+
+
+def render(model, native, ghosts, dense, out, ext=None):
+    """Draws the frames (native {t, q}, engine -> q) and the paths (dense q)
+    to ``out`` in its format."""
+    ext = ext or Path(out).suffix.lower()
     if ext == ".svg":
         data = ('<?xml version="1.0" encoding="utf-8"?>\n'
                 + svg(model, native, ghosts, standalone=True, paths_q=dense) + "\n").encode()
     else:
         data = raster(model, native, ghosts, dense, ext)
     save(out, data)
-    return skipped
 
 
 def save(path, data: bytes):
