@@ -283,8 +283,14 @@ def _engines(text, allow_empty=False) -> list:
     ENGINES = names()
     if text is None:
         return ["native", *ENGINES]
+    from .casefile.checks import suggest
+
     engines = [e.strip() for e in text.split(",") if e.strip()]
-    if any(e not in ("native",) + ENGINES for e in engines) or not (engines or allow_empty):
+    unknown = [e for e in engines if e not in ("native",) + ENGINES]
+    guess = suggest(unknown[0], ("native",) + ENGINES) if unknown else None
+    if guess is not None:
+        raise InputError(f"--engines: unknown engine {unknown[0]!r}; did you mean '{guess}'?")
+    if unknown or not (engines or allow_empty):
         raise InputError(f"--engines: got {text!r}; expected a comma-separated list of native, {', '.join(ENGINES)}")
     return engines
 
@@ -353,6 +359,17 @@ def cmd_export(a):
     from .output import write_atomic
 
     write_atomic(a.out, lambda f: f.write(text.encode()))   # devices, FIFOs and links written through
+    _note(a.out)
+    return 0
+
+
+def cmd_completion(a):
+    """kinem completion SHELL: the tab-completion script (shtab, optional)."""
+    try:
+        import shtab
+    except ImportError:
+        raise KinemError("completion needs shtab, which is not installed: pip install shtab") from None
+    print(shtab.complete(parser(), shell=a.shell), end="")
     return 0
 
 
@@ -418,9 +435,11 @@ def parser():
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
 
     s = sub.add_parser("solve", help="solve a case; write its trajectory")
-    s.add_argument("case")
+    s.add_argument("case", help="the case file (TOML; docs/case-format.md)")
     s.add_argument("--out", help="output file (default: CSV to standard output)")
-    s.add_argument("--format", choices=("csv", "npz"))
+    s.add_argument("--format", choices=("csv", "npz"),
+                   help="csv (default; to standard output without --out) or npz (needs --out); must agree with "
+                        "--out's suffix")
     s.add_argument("--outputs", default=",".join(OUTPUTS), help="any of positions,velocities,accelerations")
     s.add_argument("--end", help="end time (overrides the case; the case file's range)")
     s.add_argument("--steps", help="number of output intervals (overrides the case; the case file's range)")
@@ -436,8 +455,8 @@ def parser():
     s.set_defaults(run=cmd_solve)
 
     i = sub.add_parser("info", help="coordinates, equations, Jacobian non-zeros, degrees of freedom")
-    i.add_argument("case")
-    i.add_argument("--json", action="store_true")
+    i.add_argument("case", help="the case file (TOML; docs/case-format.md)")
+    i.add_argument("--json", action="store_true", help="the same figures as JSON")
     _errors_option(i)
     i.set_defaults(run=cmd_info)
 
@@ -446,7 +465,7 @@ def parser():
     st.add_argument("--quick", action="store_true", help="fewer sweep points and a 100-turn long run")
     st.add_argument("--jobs", type=int, help="worker processes (default: the core count; 0 or 1: none)")
     _scheduler_option(st)
-    st.add_argument("--json", action="store_true")
+    st.add_argument("--json", action="store_true", help="every outcome as JSON instead of the table")
     st.set_defaults(run=cmd_stress)
 
     e = sub.add_parser("engines", help="the engines' support matrix, default settings and tolerances")
@@ -460,18 +479,18 @@ def parser():
 
     x = sub.add_parser("export", help="the engine model exactly as the harness runs it, as a file "
                                       "(MuJoCo: MJCF XML; Exudyn, pymunk: a runnable Python script)")
-    x.add_argument("case")
+    x.add_argument("case", help="the case file (TOML; docs/case-format.md)")
     x.add_argument("--engine", required=True, help="mujoco, exudyn or pymunk")
     x.add_argument("--out", required=True, help="output file")
     x.set_defaults(run=cmd_export)
 
     c = sub.add_parser("compare", help="run the case on the native solver and the engines; compare")
-    c.add_argument("case")
+    c.add_argument("case", help="the case file (TOML; docs/case-format.md)")
     c.add_argument("--engines", help="comma-separated: native and engines (default: all)")
     c.add_argument("--dt", type=float, help="engine time step (overrides every engine's dt)")
     c.add_argument("--set", action="append", metavar="ENGINE.KEY=VALUE", help="an engine setting (repeatable)")
     _scheduler_option(c)
-    c.add_argument("--json", action="store_true")
+    c.add_argument("--json", action="store_true", help="the error figures as JSON instead of the table")
     _errors_option(c)
     c.set_defaults(run=cmd_compare)
 
@@ -497,11 +516,16 @@ def parser():
 
     an = sub.add_parser("animate", help="the report's animation of one case: native solid, engines as ghosts, "
                                         "the named points' paths (.svg, .gif, or .mp4 with ffmpeg)")
-    an.add_argument("case")
+    an.add_argument("case", help="the case file (TOML; docs/case-format.md)")
     an.add_argument("--out", required=True, help="FILE.svg (animated SVG), FILE.gif, or FILE.mp4")
     an.add_argument("--engines", default="native,pymunk,mujoco,exudyn",
                     help="engines drawn as ghosts over the native solution")
     an.set_defaults(run=cmd_animate)
+
+    co = sub.add_parser("completion", help="print the shell's tab-completion script (needs shtab): "
+                                           "eval \"$(kinem completion bash)\"")
+    co.add_argument("shell", choices=("bash", "zsh", "tcsh"), help="the shell")
+    co.set_defaults(run=cmd_completion)
     return p
 
 
