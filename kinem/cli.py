@@ -554,14 +554,20 @@ class _Timeout(argparse.Action):
         setattr(namespace, self.dest, value)
 
 
+def _terminate(signum, frame):
+    """SIGTERM, SIGHUP: clean up (temporary files) as for Ctrl-C, then exit
+    128 + signal; while an output is being published (output.HOLD) the exit
+    waits until it is."""
+    from . import output
+
+    output.STOP["signal"] = signum   # in case the exit below is swallowed where the signal lands
+    if output.HOLD["depth"]:
+        return
+    raise SystemExit(128 + signum)
+
+
 def main(argv=None) -> int:
     import signal
-
-    def terminate(signum, frame):  # clean up (temporary files) as for Ctrl-C, then exit 128 + signal
-        from . import output
-
-        output.STOP["signal"] = signum   # in case the exit below is swallowed where the signal lands
-        raise SystemExit(128 + signum)
 
     def unraisable(u, default=sys.unraisablehook):  # our exit, swallowed in a callback: no traceback printed
         from . import output
@@ -571,7 +577,7 @@ def main(argv=None) -> int:
 
     handled = [s for s in (getattr(signal, "SIGTERM", None), getattr(signal, "SIGHUP", None)) if s is not None]
     try:
-        previous = {s: signal.signal(s, terminate) for s in handled}
+        previous = {s: signal.signal(s, _terminate) for s in handled}
     except ValueError:   # not the main thread: leave the signals alone
         previous = {}
     hook, sys.unraisablehook = sys.unraisablehook, unraisable

@@ -33,6 +33,7 @@ import secrets
 import stat
 import sys
 import zipfile
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -93,8 +94,9 @@ def _links_unnamed(directory) -> bool:
         if fd is not None:
             probe = os.path.join(directory, f".kinem-probe.{secrets.token_hex(6)}")
             try:
-                _link_fd(fd, probe)
-                os.unlink(probe)
+                with _signals_held():   # the probe's name exists only inside
+                    _link_fd(fd, probe)
+                    os.unlink(probe)
                 ok = True
             except (OSError, AttributeError):
                 pass
@@ -109,6 +111,21 @@ def _links_unnamed(directory) -> bool:
 # ctypes callback, such as numba's object cache notifier), so a commit checks
 # this too and ends the run instead of publishing its output.
 STOP = {"signal": None}
+HOLD = {"depth": 0}   # > 0 while an output is being published: a signal's exit waits (_signals_held)
+
+
+@contextmanager
+def _signals_held():
+    """The few system calls that publish an output happen whole: the command
+    line's SIGTERM/SIGHUP handler only records a signal that comes inside
+    (HOLD), and its exit is raised here, right after."""
+    HOLD["depth"] += 1
+    try:
+        yield
+    finally:
+        HOLD["depth"] -= 1
+    if not HOLD["depth"] and STOP["signal"] is not None:
+        raise SystemExit(128 + STOP["signal"])
 
 
 class Output:
@@ -187,8 +204,9 @@ class Output:
             if self._tmp_name is None:
                 self._link(self.file.fileno())
             else:
-                os.replace(self._tmp_name, self._real)
-                self._tmp_name = None
+                with _signals_held():
+                    os.replace(self._tmp_name, self._real)
+                    self._tmp_name = None
         except OSError as e:
             raise self.error(e) from None
         finally:
@@ -220,14 +238,21 @@ class Output:
             return
         except FileExistsError:
             pass
-        # an existing regular file: link under a temporary name, rename over it
+        # an existing regular file: link under a temporary name, rename over it, with
+        # SIGTERM, SIGHUP and SIGINT held meanwhile (their exit comes after the rename)
         name = _temporary_name(self._real)
-        _link_fd(fd, name)
-        try:
-            os.replace(name, self._real)
-        except BaseException:
-            os.unlink(name)
-            raise
+        with _signals_held():
+            try:
+                _link_fd(fd, name)
+                os.replace(name, self._real)
+            except FileExistsError:   # the random name is taken: not ours to remove
+                raise
+            except BaseException:
+                try:
+                    os.unlink(name)
+                except FileNotFoundError:   # not linked, or renamed already (the new content in place)
+                    pass
+                raise
 
     def close(self):
         if self.file is not None and self.path != "-":
