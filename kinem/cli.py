@@ -99,7 +99,7 @@ def _note(text):
     (the file written): a closed or broken standard output does not fail the
     command."""
     try:
-        print(text, flush=True)
+        print(one_line(text), flush=True)   # a path with a newline stays one line
     except (OSError, ValueError):
         _quiet_stdout()
 
@@ -126,7 +126,7 @@ def cmd_solve(a):
         bar = Progress(nt)
     long = nt > stream.PROGRESS_INSTANTS
     size = stream.chunk_size(model, outputs, nt, progress=bar is not None and long)
-    with Output(a.out or "-") as out, _Trace(a.diagnostics) as trace:
+    with Output("-" if a.out is None else a.out) as out, _Trace(a.diagnostics) as trace:
         writer, held = None, None
 
         def on_chunk(traj):
@@ -421,7 +421,7 @@ def cmd_animate(a):
     check_output(a.out)
     skipped = write(_load(a.case), a.out, engines)
     for name, why in skipped.items():
-        print(f"{name}: not drawn: {why}", file=sys.stderr)
+        print(one_line(f"{name}: not drawn: {why}"), file=sys.stderr)
     _note(a.out)
     return 0
 

@@ -139,6 +139,8 @@ class Output:
         if self.path == "-":
             self.file = sys.stdout.buffer
             return
+        if not self.path:
+            raise InputError("'': cannot write: an empty path (an unset shell variable?); expected a file name")
         try:
             real = os.path.realpath(self.path)
             try:
@@ -147,13 +149,17 @@ class Output:
                 st = None
             if st is not None and stat.S_ISDIR(st.st_mode):
                 raise InputError(f"{self.path}: cannot write: is a directory")
+            if st is not None and stat.S_ISFIFO(st.st_mode):
+                self.file = os.fdopen(_fifo_writer(self.path, real), "wb", buffering=0)   # in place
+                return
             if st is not None and not stat.S_ISREG(st.st_mode):
-                self.file = open(real, "wb", buffering=0)  # a device, FIFO or socket: in place
+                self.file = open(real, "wb", buffering=0)  # a device or socket: in place
                 return
             directory = os.path.dirname(real)
             if not os.path.isdir(directory):
-                raise InputError(f"{self.path}: cannot write: directory {os.path.dirname(self.path) or '.'} "
-                                 "does not exist")
+                where = (f"{directory} (where the symbolic link points)" if os.path.islink(self.path)
+                         else os.path.dirname(self.path) or ".")
+                raise InputError(f"{self.path}: cannot write: directory {where} does not exist")
             self._real = real
             self.file = self._temporary(directory)
         except OSError as e:
@@ -282,6 +288,58 @@ class Output:
                     raise self.error(e) from None
         self.close()
         return False
+
+
+# Seconds a FIFO is waited for: its reader (an output) or writer (a case file);
+# a peer started just before (mkfifo p; reader < p & kinem ... p) comes within milliseconds.
+FIFO_WAIT = 10.0
+
+
+def _fifo_writer(path, real) -> int:
+    """A blocking descriptor writing to the FIFO real, once it has a reader
+    (within FIFO_WAIT; OutputError otherwise, instead of blocking forever)."""
+    import fcntl
+    import time
+
+    end = time.monotonic() + FIFO_WAIT
+    while True:
+        try:
+            fd = os.open(real, os.O_WRONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+            break
+        except OSError as e:
+            if e.errno != errno.ENXIO:   # ENXIO: no reader yet
+                raise
+            if time.monotonic() > end:
+                raise OutputError(f"{path}: write failed: the FIFO has no reader (waited {FIFO_WAIT:g} s)") from None
+            time.sleep(0.05)
+    fcntl.fcntl(fd, fcntl.F_SETFL, fcntl.fcntl(fd, fcntl.F_GETFL) & ~os.O_NONBLOCK)
+    return fd
+
+
+def read_fifo(path, limit) -> bytes:
+    """At most limit bytes from the FIFO at path, its writer waited for at most
+    FIFO_WAIT at a time (InputError when none comes, instead of blocking forever)."""
+    import select
+
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+    try:
+        poller, chunks, size = select.poll(), [], 0
+        poller.register(fd, select.POLLIN)
+        while size < limit:
+            if not poller.poll(FIFO_WAIT * 1000):
+                what = "no writer" if not size else "its writer stopped"
+                raise InputError(f"{path}: cannot read: a FIFO with {what} (waited {FIFO_WAIT:g} s)")
+            try:
+                chunk = os.read(fd, min(limit - size, 1 << 20))
+            except BlockingIOError:
+                continue
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+        return b"".join(chunks)
+    finally:
+        os.close(fd)
 
 
 def write_atomic(path, write) -> None:

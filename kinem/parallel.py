@@ -131,8 +131,7 @@ def connect(address):
         client.__init__(address, timeout=CONNECT_TIMEOUT, set_as_default=False)
     except Exception as e:  # noqa: BLE001 - OSError, TimeoutError, TLS configuration, ...
         _close(client)
-        reason = " ".join(str(e).split()) or type(e).__name__
-        raise InputError(f"--scheduler {address}: cannot connect to a Dask scheduler: {reason}") from None
+        raise InputError(f"--scheduler {address}: cannot connect to a Dask scheduler: {_why(e)}") from None
     try:
         client.wait_for_workers(1, timeout=CONNECT_TIMEOUT)
     except Exception:  # noqa: BLE001 - a timeout
@@ -174,8 +173,16 @@ def _probe(address):
         raise InputError(f"--scheduler {address}: cannot connect to a Dask scheduler: no Dask handshake "
                          f"within {CONNECT_TIMEOUT:g} s (is it a scheduler's address?)") from None
     except Exception as e:  # noqa: BLE001 - OSError, a garbled handshake, ...
-        reason = " ".join(str(e).split()) or type(e).__name__
-        raise InputError(f"--scheduler {address}: cannot connect to a Dask scheduler: {reason}") from None
+        raise InputError(f"--scheduler {address}: cannot connect to a Dask scheduler: {_why(e)}") from None
+
+
+def _why(e) -> str:
+    """An exception from connecting, in the user's terms: a port that answers in
+    another protocol makes Dask read its bytes as a frame length (MemoryError,
+    "Unable to allocate 3.07 EiB")."""
+    if isinstance(e, MemoryError) or "Unable to allocate" in str(e):
+        return "the port answered, but not in Dask's protocol (is it a scheduler's address, not e.g. its dashboard?)"
+    return " ".join(str(e).split()) or type(e).__name__
 
 
 def _quiet():
