@@ -86,11 +86,16 @@ def _die_with_parent(parent, pdeathsig):
             ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
         except (OSError, AttributeError):
             pass
-    if os.getppid() != parent:   # the parent died before the line above
+    maker = os.getppid()   # kinem itself (fork), or a fork server that ends with it
+    try:
+        os.kill(parent, 0)   # kinem died before the prctl above
+    except ProcessLookupError:
         os._exit(1)
+    except PermissionError:
+        pass
 
     def watch():
-        while os.getppid() == parent:
+        while os.getppid() == maker:
             time.sleep(WATCH)
         os._exit(1)
 
