@@ -23,6 +23,8 @@ and the loop that drives it (set qpos, qvel from d(t), d'(t) and qfrc_applied
 from armature d''(t) before every mj_step), as the harness does.
 """
 import math
+import re
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
@@ -36,7 +38,10 @@ from .mujoco_sim import HELD_ARMATURE as ARMATURE  # noqa: E402
 
 
 def _comment(text):
-    return "<!-- " + text.replace("--", "- -") + " -->"
+    """An XML comment holding ``text`` (which must not contain "--": every
+    hyphen before another gets a space; strings from the case are repr'd by
+    the caller, so the comment holds no control character)."""
+    return "<!-- " + re.sub("-(?=-)", "- ", text) + " -->"
 
 
 def _prepared(engine, model, settings, q0, qd0, *support):
@@ -76,12 +81,12 @@ def mujoco_model(model, q0, qd0, settings=None):
     jid = [m.joint(f"{b}:{j}").id for _, b, j, _, _ in plan.driven]
     P, V, _ = drive_tables(plan, np.zeros(1), s["armature"])
     d.qpos[m.jnt_qposadr[jid]], d.qvel[m.jnt_dofadr[jid]] = P[0], V[0]
-    notes = [f"kinem export of case '{model.case.name}' ({model.case.source}) for MuJoCo {mujoco.__version__}:",
+    notes = [f"kinem export of case {model.case.name!r} ({model.case.source!r}) for MuJoCo {mujoco.__version__!r}:",
              f"the harness's model and settings ({s['integrator']}, timestep {s['dt']:.6g} s, "
              f"{s['substeps']} steps per output interval of {s['dt'] * s['substeps']:.6g} s).",
              "Start from the keyframe 'start' (mj_resetDataKeyframe(m, d, 0)); body frames are the case's;",
              "custom numerics kinem:substeps and kinem:intervals: mj_step(m, d, substeps) once per output interval.",
-             f"Driven joints have armature {s['armature']:g} (the harness's, drive '{s['drive']}': "
+             f"Driven joints have armature {s['armature']:g} (the harness's, drive {s['drive']!r}: "
              + ("qpos and qvel overwritten before every step)." if s["drive"] == "overwrite" else
                 "set at output instants, each interval stepped by one mj_step call).")]
     motors = []
@@ -90,13 +95,13 @@ def mujoco_model(model, q0, qd0, settings=None):
             # d'' constant: a motor with gear armature a d'' at ctrl 1 gives the joint that acceleration
             force = s["armature"] * a * (2.0 * dr.f.coeffs[2] if len(dr.f.coeffs) == 3 else 0.0)
             if force:
-                motors.append(f'<motor name="drive:{len(motors)}" joint="{body}:{j}" gear="{force!r}"/>')
+                motors.append(f'<motor name="drive:{len(motors)}" joint={quoteattr(f"{body}:{j}")} gear="{force!r}"/>')
             how = ("polynomial of degree <= 2: inside the model (armature, keyframe velocity"
                    + (", a motor at ctrl 1 for d''" if force else "") + "); plain mj_step reproduces it")
         else:
             how = ("not expressible in MJCF: before every mj_step set qpos = a (d(t) - v0), qvel = a d'(t) and "
                    "qfrc_applied = armature a d''(t) on this joint, as the harness does")
-        notes.append(f"driver '{dr.name}' on joint '{body}:{j}' (a = {a:.17g}, v0 = {v0:.17g}, d = {dr.f}): {how}")
+        notes.append(f"driver {dr.name!r} on joint {f'{body}:{j}'!r} (a = {a:.17g}, v0 = {v0:.17g}, d = {dr.f}): {how}")
     ctrl = f' ctrl="{" ".join("1" for _ in motors)}"' if motors else ""
     key = (f'<keyframe><key name="start" qpos="{" ".join(repr(float(x)) for x in d.qpos)}" '
            f'qvel="{" ".join(repr(float(x)) for x in d.qvel)}"{ctrl}/></keyframe>')
@@ -186,15 +191,15 @@ def _pymunk_script(model, q0, qd0, settings=None):
                          centered=bool(s["centered_velocity"]), bodies=case_bodies, names=list(model.body_names))
 
 
-SCRIPT = '''"""kinem export of case '{name}' ({source}) for pymunk {version}: the harness's
-Space and stepping, runnable with pymunk and numpy only. Prints the case bodies'
+SCRIPT = '''"""kinem export for pymunk of the case CASE (read from the file SOURCE): the
+harness's Space and stepping, runnable with pymunk and numpy only. Prints the case bodies'
 final x, y, phi as JSON (--all: every output instant; --velocities: x', y', phi' too)."""
 import base64, io, json, math, sys, zlib
 
-import math
-
 import numpy as np
 import pymunk
+
+CASE, SOURCE, PYMUNK = {name!r}, {source!r}, {version!r}   # Python literals: a path may hold any character
 
 space = pymunk.Space()
 space.iterations = {iterations}
@@ -355,7 +360,7 @@ def _exudyn_script(model, q0, qd0, settings=None):
     items, count = [], {}
     for method, item in b.mbs.items:
         index = count[method] = count.get(method, -1) + 1
-        note = f"  # {method[3:].lower()} {index}" + (f": body '{body_of[method, index]}'"
+        note = f"  # {method[3:].lower()} {index}" + (f": body {body_of[method, index]!r}"
                                                       if (method, index) in body_of else "")
         items.append(f"mbs.{method}({_exudyn_item(item, names)}){note}")
     cols = [f"{body}.{c}" for body in model.body_names for c in BODY_COLUMNS["positions"] + BODY_COLUMNS["velocities"]]
@@ -371,9 +376,9 @@ def _exudyn_script(model, q0, qd0, settings=None):
         columns=["t"] + cols)
 
 
-EXUDYN_SCRIPT = '''"""kinem export of case '{name}' ({source}) for Exudyn {version}: the
-harness's Exudyn system and solver settings, runnable with exudyn and numpy
-only: {integrator}, step {dt} s ({substeps} steps per output interval of {interval} s),
+EXUDYN_SCRIPT = '''"""kinem export for Exudyn of the case CASE (read from the file SOURCE):
+the harness's Exudyn system and solver settings, runnable with exudyn and numpy
+only: the integrator INTEGRATOR, step {dt} s ({substeps} steps per output interval of {interval} s),
 {intervals} output intervals, started from kinem's native solution at t = 0.
 
 Every moving body is a NodeRigidBody2D (reference coordinates 0: node
@@ -401,6 +406,8 @@ import exudyn as exu
 from exudyn import itemInterface as ei
 from exudyn.advancedUtilities import CreateSymbolicUserFunction
 
+CASE, SOURCE, EXUDYN = {name!r}, {source!r}, {version!r}   # Python literals: a path may hold any character
+INTEGRATOR = {integrator!r}
 
 {portable}
 

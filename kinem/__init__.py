@@ -14,6 +14,7 @@ from .analysis import Data, acceleration, factorize, position, velocity
 from .case import load, load_dict, loads
 from .errors import AnalysisError, ConvergenceError, InputError, KinemError, SingularError
 from .model import Model, compile
+from .notebook import animate, plot
 from .options import Options
 from .result import OUTPUTS, SolveResult, Status, Trajectory
 from .solver import solve
@@ -22,5 +23,5 @@ from .spec import Body, Case, Constraint, Point
 __all__ = [
     "__version__", "load", "loads", "load_dict", "compile", "solve", "position", "velocity", "acceleration",
     "factorize", "Data", "Options", "Model", "Case", "Body", "Point", "Constraint", "SolveResult", "Trajectory",
-    "Status", "OUTPUTS", "KinemError", "InputError", "AnalysisError", "ConvergenceError", "SingularError",
+    "Status", "OUTPUTS", "plot", "animate", "KinemError", "InputError", "AnalysisError", "ConvergenceError", "SingularError",
 ]

@@ -5,6 +5,7 @@ saying what was expected; then one InputError carries them all. Case files
 are data: nothing in them is evaluated, and size limits keep a hostile file
 from exhausting memory. The checks live in kinem.casefile, split by concern.
 """
+import os
 import tomllib
 from pathlib import Path
 
@@ -24,10 +25,17 @@ TOP_KEYS = ("name", "description", "units", "time", "solver", "bodies", "points"
 
 def load(path) -> Case:
     """Read and validate a case file."""
+    import stat
+
+    from .output import read_fifo
+
     path = Path(path)
     try:
-        with open(path, "rb") as f:  # at most one byte past the cap: /dev/zero and pipes end too
-            raw = f.read(MAX_FILE_BYTES + 1)
+        if stat.S_ISFIFO(os.stat(path).st_mode):   # a named pipe or process substitution: its writer waited for
+            raw = read_fifo(path, MAX_FILE_BYTES + 1)
+        else:
+            with open(path, "rb") as f:  # at most one byte past the cap: /dev/zero ends too
+                raw = f.read(MAX_FILE_BYTES + 1)
     except OSError as e:
         raise InputError(f"{path}: cannot read: {e.strerror or e}") from None
     if len(raw) > MAX_FILE_BYTES:

@@ -11,7 +11,7 @@ import os
 import sys
 from pathlib import Path
 
-from .errors import MAX_LINE, AnalysisError, InputError, KinemError, one_line
+from .errors import MAX_LINE, AnalysisError, BrokenPipe, InputError, KinemError, one_line
 from .result import OUTPUTS
 
 
@@ -46,6 +46,8 @@ def _outputs(text):
 # in docs/benchmarks.md, "Long runs and output"). Memory does not limit it: output is
 # streamed (kinem.stream).
 MAX_WORK = 5e7
+# The progress bar is redrawn every SHOW_SUBSTEPS sub-steps (each costs milliseconds).
+SHOW_SUBSTEPS = 100
 
 
 def _flush():
@@ -70,6 +72,38 @@ def _quiet_stdout():
         pass
 
 
+def _standard_streams():
+    """Standard descriptors closed by the caller (``>&-``, ``2>&-``) are
+    reopened on /dev/null before anything else is opened, so that no output
+    file takes their number: standard output read-only (printing to it fails
+    with EBADF, exit code 1, where the output was to be printed there),
+    standard error writable (its messages are lost, the exit code stays)."""
+    for fd, flags in ((0, os.O_RDONLY), (1, os.O_RDONLY), (2, os.O_WRONLY)):
+        try:
+            os.fstat(fd)
+            continue
+        except OSError:
+            pass
+        new = os.open(os.devnull, flags)
+        if new != fd:
+            os.dup2(new, fd)
+            os.close(new)
+        if fd == 1:
+            sys.stdout = open(1, "w", closefd=False)  # noqa: SIM115 - the process's standard output
+        elif fd == 2:
+            sys.stderr = open(2, "w", closefd=False)  # noqa: SIM115
+
+
+def _note(text):
+    """Prints a note on standard output after the named output is complete
+    (the file written): a closed or broken standard output does not fail the
+    command."""
+    try:
+        print(one_line(text), flush=True)   # a path with a newline stays one line
+    except (OSError, ValueError):
+        _quiet_stdout()
+
+
 def cmd_solve(a):
     from . import stream
     from .output import Output, TrajectoryWriter
@@ -85,13 +119,14 @@ def cmd_solve(a):
     from .solver import check_square
 
     check_square(model)
-    bar = None
-    if sys.stderr.isatty() and nt > stream.PROGRESS_INSTANTS:
+    bar, shown = None, [False]
+    if sys.stderr.isatty():
         from .report.progress import Progress
 
         bar = Progress(nt)
-    size = stream.chunk_size(model, outputs, nt, progress=bar is not None)
-    with Output(a.out or "-") as out, _Trace(a.diagnostics) as trace:
+    long = nt > stream.PROGRESS_INSTANTS
+    size = stream.chunk_size(model, outputs, nt, progress=bar is not None and long)
+    with Output("-" if a.out is None else a.out) as out, _Trace(a.diagnostics) as trace:
         writer, held = None, None
 
         def on_chunk(traj):
@@ -104,15 +139,35 @@ def cmd_solve(a):
                 writer.add(held.t, held.data)
             held = traj
 
-        def progress(done, t):
-            bar.done = done
-            bar.show(f"t = {t:.6g} of {model.case.end:.6g}")
+        substeps = [0, 0]   # the run's sub-steps: in the chunks done, in this one
 
+        def show(t):
+            shown[0] = True
+            count = substeps[0] + substeps[1]
+            bar.show(f"t = {t:.6g} of {model.case.end:.6g}" + (f", {count:,} sub-steps" if count else ""))
+
+        def progress(done, t):
+            substeps[0], substeps[1] = substeps[0] + substeps[1], 0
+            bar.done = done
+            if long or shown[0]:
+                show(t)
+
+        def on_substeps(count, t):   # a run that sub-steps a lot shows its bar, whatever its instants
+            substeps[1] = count
+            if count % SHOW_SUBSTEPS == 0:
+                show(t)
+
+        from dataclasses import replace
+
+        from .options import Options
+
+        options = replace(Options.of(model.case), max_substeps=stream.substep_budget(model, limit),
+                          on_substeps=on_substeps if bar else None)
         try:
             o = stream.run(model, outputs, on_chunk, trace.add if trace else None,
-                           progress if bar else None, size)
+                           progress if bar else None, size, options)
         finally:
-            if bar:
+            if bar and shown[0]:
                 bar.close()
         if trace:
             trace.finish(o.events)
@@ -228,8 +283,14 @@ def _engines(text, allow_empty=False) -> list:
     ENGINES = names()
     if text is None:
         return ["native", *ENGINES]
+    from .casefile.checks import suggest
+
     engines = [e.strip() for e in text.split(",") if e.strip()]
-    if any(e not in ("native",) + ENGINES for e in engines) or not (engines or allow_empty):
+    unknown = [e for e in engines if e not in ("native",) + ENGINES]
+    guess = suggest(unknown[0], ("native",) + ENGINES) if unknown else None
+    if guess is not None:
+        raise InputError(f"--engines: unknown engine {unknown[0]!r}; did you mean '{guess}'?")
+    if unknown or not (engines or allow_empty):
         raise InputError(f"--engines: got {text!r}; expected a comma-separated list of native, {', '.join(ENGINES)}")
     return engines
 
@@ -298,6 +359,17 @@ def cmd_export(a):
     from .output import write_atomic
 
     write_atomic(a.out, lambda f: f.write(text.encode()))   # devices, FIFOs and links written through
+    _note(a.out)
+    return 0
+
+
+def cmd_completion(a):
+    """kinem completion SHELL: the tab-completion script (shtab, optional)."""
+    try:
+        import shtab
+    except ImportError:
+        raise KinemError("completion needs shtab, which is not installed: pip install shtab") from None
+    print(shtab.complete(parser(), shell=a.shell), end="")
     return 0
 
 
@@ -349,8 +421,8 @@ def cmd_animate(a):
     check_output(a.out)
     skipped = write(_load(a.case), a.out, engines)
     for name, why in skipped.items():
-        print(f"{name}: not drawn: {why}", file=sys.stderr)
-    print(a.out)
+        print(one_line(f"{name}: not drawn: {why}"), file=sys.stderr)
+    _note(a.out)
     return 0
 
 
@@ -363,9 +435,11 @@ def parser():
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
 
     s = sub.add_parser("solve", help="solve a case; write its trajectory")
-    s.add_argument("case")
+    s.add_argument("case", help="the case file (TOML; docs/case-format.md)")
     s.add_argument("--out", help="output file (default: CSV to standard output)")
-    s.add_argument("--format", choices=("csv", "npz"))
+    s.add_argument("--format", choices=("csv", "npz"),
+                   help="csv (default; to standard output without --out) or npz (needs --out); must agree with "
+                        "--out's suffix")
     s.add_argument("--outputs", default=",".join(OUTPUTS), help="any of positions,velocities,accelerations")
     s.add_argument("--end", help="end time (overrides the case; the case file's range)")
     s.add_argument("--steps", help="number of output intervals (overrides the case; the case file's range)")
@@ -381,8 +455,8 @@ def parser():
     s.set_defaults(run=cmd_solve)
 
     i = sub.add_parser("info", help="coordinates, equations, Jacobian non-zeros, degrees of freedom")
-    i.add_argument("case")
-    i.add_argument("--json", action="store_true")
+    i.add_argument("case", help="the case file (TOML; docs/case-format.md)")
+    i.add_argument("--json", action="store_true", help="the same figures as JSON")
     _errors_option(i)
     i.set_defaults(run=cmd_info)
 
@@ -391,7 +465,7 @@ def parser():
     st.add_argument("--quick", action="store_true", help="fewer sweep points and a 100-turn long run")
     st.add_argument("--jobs", type=int, help="worker processes (default: the core count; 0 or 1: none)")
     _scheduler_option(st)
-    st.add_argument("--json", action="store_true")
+    st.add_argument("--json", action="store_true", help="every outcome as JSON instead of the table")
     st.set_defaults(run=cmd_stress)
 
     e = sub.add_parser("engines", help="the engines' support matrix, default settings and tolerances")
@@ -405,18 +479,18 @@ def parser():
 
     x = sub.add_parser("export", help="the engine model exactly as the harness runs it, as a file "
                                       "(MuJoCo: MJCF XML; Exudyn, pymunk: a runnable Python script)")
-    x.add_argument("case")
+    x.add_argument("case", help="the case file (TOML; docs/case-format.md)")
     x.add_argument("--engine", required=True, help="mujoco, exudyn or pymunk")
     x.add_argument("--out", required=True, help="output file")
     x.set_defaults(run=cmd_export)
 
     c = sub.add_parser("compare", help="run the case on the native solver and the engines; compare")
-    c.add_argument("case")
+    c.add_argument("case", help="the case file (TOML; docs/case-format.md)")
     c.add_argument("--engines", help="comma-separated: native and engines (default: all)")
     c.add_argument("--dt", type=float, help="engine time step (overrides every engine's dt)")
     c.add_argument("--set", action="append", metavar="ENGINE.KEY=VALUE", help="an engine setting (repeatable)")
     _scheduler_option(c)
-    c.add_argument("--json", action="store_true")
+    c.add_argument("--json", action="store_true", help="the error figures as JSON instead of the table")
     _errors_option(c)
     c.set_defaults(run=cmd_compare)
 
@@ -442,11 +516,16 @@ def parser():
 
     an = sub.add_parser("animate", help="the report's animation of one case: native solid, engines as ghosts, "
                                         "the named points' paths (.svg, .gif, or .mp4 with ffmpeg)")
-    an.add_argument("case")
+    an.add_argument("case", help="the case file (TOML; docs/case-format.md)")
     an.add_argument("--out", required=True, help="FILE.svg (animated SVG), FILE.gif, or FILE.mp4")
     an.add_argument("--engines", default="native,pymunk,mujoco,exudyn",
                     help="engines drawn as ghosts over the native solution")
     an.set_defaults(run=cmd_animate)
+
+    co = sub.add_parser("completion", help="print the shell's tab-completion script (needs shtab): "
+                                           "eval \"$(kinem completion bash)\"")
+    co.add_argument("shell", choices=("bash", "zsh", "tcsh"), help="the shell")
+    co.set_defaults(run=cmd_completion)
     return p
 
 
@@ -475,14 +554,20 @@ class _Timeout(argparse.Action):
         setattr(namespace, self.dest, value)
 
 
+def _terminate(signum, frame):
+    """SIGTERM, SIGHUP: clean up (temporary files) as for Ctrl-C, then exit
+    128 + signal; while an output is being published (output.HOLD) the exit
+    waits until it is."""
+    from . import output
+
+    output.STOP["signal"] = signum   # in case the exit below is swallowed where the signal lands
+    if output.HOLD["depth"]:
+        return
+    raise SystemExit(128 + signum)
+
+
 def main(argv=None) -> int:
     import signal
-
-    def terminate(signum, frame):  # clean up (temporary files) as for Ctrl-C, then exit 128 + signal
-        from . import output
-
-        output.STOP["signal"] = signum   # in case the exit below is swallowed where the signal lands
-        raise SystemExit(128 + signum)
 
     def unraisable(u, default=sys.unraisablehook):  # our exit, swallowed in a callback: no traceback printed
         from . import output
@@ -492,11 +577,12 @@ def main(argv=None) -> int:
 
     handled = [s for s in (getattr(signal, "SIGTERM", None), getattr(signal, "SIGHUP", None)) if s is not None]
     try:
-        previous = {s: signal.signal(s, terminate) for s in handled}
+        previous = {s: signal.signal(s, _terminate) for s in handled}
     except ValueError:   # not the main thread: leave the signals alone
         previous = {}
     hook, sys.unraisablehook = sys.unraisablehook, unraisable
     try:
+        _standard_streams()
         return _main(argv)
     finally:
         sys.unraisablehook = hook
@@ -529,6 +615,9 @@ def _main(argv) -> int:
     except AnalysisError as e:
         print(f"kinem: analysis failed: {one_line(e)}", file=sys.stderr)
         return 1
+    except BrokenPipe:   # kinem solve CASE | head: quietly, as a Unix tool
+        _quiet_stdout()
+        return 141
     except KinemError as e:   # OutputError among them: a write that failed
         print(f"kinem: error: {one_line(e)}", file=sys.stderr)
         try:
@@ -539,7 +628,10 @@ def _main(argv) -> int:
     except KeyboardInterrupt:
         return 130
     except OSError as e:
-        if e.errno in (errno.EPIPE, errno.ENOSPC, errno.EIO, errno.EDQUOT, errno.EFBIG):  # print() to stdout
+        if e.errno == errno.EPIPE:   # print() to standard output, its reader gone: quietly
+            _quiet_stdout()
+            return 141
+        if e.errno in (errno.EBADF, errno.ENOSPC, errno.EIO, errno.EDQUOT, errno.EFBIG):  # print() to stdout
             print(f"kinem: error: standard output: write failed: {e.strerror}", file=sys.stderr)
             _quiet_stdout()
             return 1

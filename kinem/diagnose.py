@@ -159,6 +159,29 @@ def cycle(model, name) -> list:
     return path
 
 
+# A residual below ROUNDING x eps x (the largest |x|, |y|) / L is rounding: each
+# equation sums a few coordinates and rotated local vectors, each rounded to eps of itself.
+ROUNDING = 64
+
+
+def _beyond_precision(model, q, residual) -> str:
+    """The explanation when the residual left is what double precision can
+    resolve where the mechanism is (far from the origin), '' otherwise."""
+    names = np.asarray(model.coordinate_names, dtype=object)
+    xy = np.array([n.endswith((".x", ".y")) for n in names], bool)
+    if not xy.any():
+        return ""
+    far = float(np.abs(q[xy]).max())
+    floor = ROUNDING * np.finfo(float).eps * far / model.length   # the scale of the length equations
+    if residual > floor:
+        return ""
+    unit = model.case.length_unit
+    u = f" {unit}" if unit else ""
+    return (f"the mechanism is {far:.3g}{u} from the origin, where double precision resolves only about "
+            f"{np.finfo(float).eps * far:.2g}{u}: the tolerance {model.case.tolerance:g} (scaled residual) cannot be "
+            "reached there; move the mechanism nearer the origin, or loosen [solver] tolerance")
+
+
 def explain_assembly(model, t=0.0, q=None) -> str:
     """Why an assembly at t fails, in the user's terms ('' when no cause is
     found): a number of driving equations other than the degrees of freedom
@@ -192,6 +215,9 @@ def explain_assembly(model, t=0.0, q=None) -> str:
     r = np.abs(model.phi(q_ls, t)) / model.scale
     if not r.size or r.max() <= model.case.tolerance:
         return ""
+    far = _beyond_precision(model, q_ls, r.max())
+    if far:
+        return far
     owners = np.asarray(model.row_owner, dtype=object)
     kinematic = np.where(nd, r, 0.0)
     worst = owners[int(np.argmax(kinematic if kinematic.max() > 0 else r))]

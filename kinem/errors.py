@@ -52,12 +52,24 @@ class OutputError(KinemError):
     A bad output path (a missing directory, no permission) is an InputError."""
 
 
+class BrokenPipe(OutputError):
+    """Standard output's reader went away (``kinem solve CASE | head``): the
+    command line ends quietly with exit code 141 (128 + SIGPIPE), as a Unix
+    tool that SIGPIPE stops."""
+
+
 class ConvergenceError(AnalysisError):
     """Newton-Raphson did not reach the tolerance."""
 
 
 class SingularError(AnalysisError):
     """The constraint Jacobian is (numerically) singular."""
+
+
+class WorkLimitError(AnalysisError):
+    """A run needs more sub-steps than its limit (Options.max_substeps,
+    ``kinem solve --max-work``): the drivers move too fast for the output
+    interval."""
 
 
 class CoreError(AnalysisError):

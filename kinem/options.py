@@ -2,11 +2,17 @@
 separate from the Model, so that changing a tolerance never recompiles.
 The case file's [solver] section gives the defaults (``Options.of(case)``;
 docs/case-format.md); docs/solver.md explains each option."""
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Callable
 
 from .errors import InputError
 
 LINEAR_SOLVERS = ("auto", "dense", "sparse")
+# Sub-steps (steps between output instants, kinem.tracking) one run may take:
+# each is a Newton solve in Python, about 3 to 6 ms with its rejected tries on
+# the slider-crank (a harmonic driver of omega 1e2 and 1e3, measured), so about
+# 5 to 10 minutes; no case in cases/ needs any.
+MAX_SUBSTEPS = 100_000
 
 
 @dataclass(frozen=True)
@@ -16,6 +22,9 @@ class Options:
     linear_solver: str = "auto"    # auto: dense LU up to kinem.model.DENSE_LIMIT coordinates, else sparse
     jacobian_reuse: bool = False   # modified Newton from the last instant's factorisation
     block: int = 256               # 1: step by step in Python; more: the compiled march (kinem.march)
+    max_substeps: int = MAX_SUBSTEPS   # sub-steps a run may take: beyond, it fails naming the drivers' rates
+    # on_substeps(count, t): called after each sub-step (kinem solve's progress bar)
+    on_substeps: Callable | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self):
         if not 0 < self.tolerance < 1:
@@ -25,6 +34,8 @@ class Options:
         if self.linear_solver not in LINEAR_SOLVERS:
             raise InputError(f"solver options: linear_solver {self.linear_solver!r}; expected one of "
                              f"{', '.join(LINEAR_SOLVERS)}")
+        if int(self.max_substeps) != self.max_substeps or self.max_substeps < 0:
+            raise InputError(f"solver options: max_substeps {self.max_substeps!r}; expected a whole number >= 0")
         if int(self.block) != self.block or self.block < 1:
             raise InputError(f"solver options: block {self.block!r}; expected a whole number >= 1")
 

@@ -13,6 +13,9 @@
 - a device (``/dev/null``, ``/dev/full``), a FIFO or a socket, and ``-``
   (standard output): written in place, never replaced.
 - a symbolic link: followed; its target is written as above and the link stays.
+- a replaced file keeps its permission bits (and owner and group where the
+  process may set them); it is a new file all the same, so a hard link to the
+  old one is not followed: the other names keep the old content.
 
 Errors name the target path: ``InputError`` (exit code 2) for a bad path
 (missing directory, a directory, no permission), ``OutputError`` (exit code 1)
@@ -30,10 +33,11 @@ import secrets
 import stat
 import sys
 import zipfile
+from contextlib import contextmanager
 
 import numpy as np
 
-from .errors import InputError, OutputError
+from .errors import BrokenPipe, InputError, OutputError
 
 # errno values that mean the path is wrong (exit 2), not that a write failed
 _BAD_PATH = {errno.ENOENT, errno.ENOTDIR, errno.EISDIR, errno.EACCES, errno.EPERM, errno.EROFS,
@@ -90,8 +94,9 @@ def _links_unnamed(directory) -> bool:
         if fd is not None:
             probe = os.path.join(directory, f".kinem-probe.{secrets.token_hex(6)}")
             try:
-                _link_fd(fd, probe)
-                os.unlink(probe)
+                with _signals_held():   # the probe's name exists only inside
+                    _link_fd(fd, probe)
+                    os.unlink(probe)
                 ok = True
             except (OSError, AttributeError):
                 pass
@@ -106,6 +111,21 @@ def _links_unnamed(directory) -> bool:
 # ctypes callback, such as numba's object cache notifier), so a commit checks
 # this too and ends the run instead of publishing its output.
 STOP = {"signal": None}
+HOLD = {"depth": 0}   # > 0 while an output is being published: a signal's exit waits (_signals_held)
+
+
+@contextmanager
+def _signals_held():
+    """The few system calls that publish an output happen whole: the command
+    line's SIGTERM/SIGHUP handler only records a signal that comes inside
+    (HOLD), and its exit is raised here, right after."""
+    HOLD["depth"] += 1
+    try:
+        yield
+    finally:
+        HOLD["depth"] -= 1
+    if not HOLD["depth"] and STOP["signal"] is not None:
+        raise SystemExit(128 + STOP["signal"])
 
 
 class Output:
@@ -119,6 +139,8 @@ class Output:
         if self.path == "-":
             self.file = sys.stdout.buffer
             return
+        if not self.path:
+            raise InputError("'': cannot write: an empty path (an unset shell variable?); expected a file name")
         try:
             real = os.path.realpath(self.path)
             try:
@@ -127,13 +149,17 @@ class Output:
                 st = None
             if st is not None and stat.S_ISDIR(st.st_mode):
                 raise InputError(f"{self.path}: cannot write: is a directory")
+            if st is not None and stat.S_ISFIFO(st.st_mode):
+                self.file = os.fdopen(_fifo_writer(self.path, real), "wb", buffering=0)   # in place
+                return
             if st is not None and not stat.S_ISREG(st.st_mode):
-                self.file = open(real, "wb", buffering=0)  # a device, FIFO or socket: in place
+                self.file = open(real, "wb", buffering=0)  # a device or socket: in place
                 return
             directory = os.path.dirname(real)
             if not os.path.isdir(directory):
-                raise InputError(f"{self.path}: cannot write: directory {os.path.dirname(self.path) or '.'} "
-                                 "does not exist")
+                where = (f"{directory} (where the symbolic link points)" if os.path.islink(self.path)
+                         else os.path.dirname(self.path) or ".")
+                raise InputError(f"{self.path}: cannot write: directory {where} does not exist")
             self._real = real
             self.file = self._temporary(directory)
         except OSError as e:
@@ -166,8 +192,10 @@ class Output:
             raise self.error(e) from None
 
     def error(self, e: OSError):
-        where = "standard output" if self.path == "-" else self.path
-        return OutputError(f"{where}: write failed: {_reason(e)}")
+        if self.path == "-":
+            cls = BrokenPipe if e.errno == errno.EPIPE else OutputError
+            return cls(f"standard output: write failed: {_reason(e)}")
+        return OutputError(f"{self.path}: write failed: {_reason(e)}")
 
     def commit(self) -> None:
         """Make the content written so far the target's content."""
@@ -178,15 +206,37 @@ class Output:
             self.file.flush()
             if not self._tmp:
                 return
+            self._keep_owner_and_mode()
             if self._tmp_name is None:
                 self._link(self.file.fileno())
             else:
-                os.replace(self._tmp_name, self._real)
-                self._tmp_name = None
+                with _signals_held():
+                    os.replace(self._tmp_name, self._real)
+                    self._tmp_name = None
         except OSError as e:
             raise self.error(e) from None
         finally:
             self.close()
+
+    def _keep_owner_and_mode(self):
+        """A file being replaced keeps its permission bits, and its owner and
+        group where the process may set them (root; a group of the user's):
+        the new content gets them before it takes the name. A new path gets
+        the umask's mode."""
+        try:
+            st = os.stat(self._real)
+        except FileNotFoundError:
+            return
+        fd = self.file.fileno()
+        if (st.st_uid, st.st_gid) != (os.geteuid(), os.getegid()):
+            try:
+                os.fchown(fd, st.st_uid, st.st_gid)
+            except PermissionError:
+                try:
+                    os.fchown(fd, -1, st.st_gid)
+                except PermissionError:
+                    pass
+        os.fchmod(fd, stat.S_IMODE(st.st_mode))   # after fchown, which may clear set-id bits
 
     def _link(self, fd):
         try:  # a new path: one atomic link, nothing else to clean up
@@ -194,14 +244,21 @@ class Output:
             return
         except FileExistsError:
             pass
-        # an existing regular file: link under a temporary name, rename over it
+        # an existing regular file: link under a temporary name, rename over it, with
+        # SIGTERM, SIGHUP and SIGINT held meanwhile (their exit comes after the rename)
         name = _temporary_name(self._real)
-        _link_fd(fd, name)
-        try:
-            os.replace(name, self._real)
-        except BaseException:
-            os.unlink(name)
-            raise
+        with _signals_held():
+            try:
+                _link_fd(fd, name)
+                os.replace(name, self._real)
+            except FileExistsError:   # the random name is taken: not ours to remove
+                raise
+            except BaseException:
+                try:
+                    os.unlink(name)
+                except FileNotFoundError:   # not linked, or renamed already (the new content in place)
+                    pass
+                raise
 
     def close(self):
         if self.file is not None and self.path != "-":
@@ -231,6 +288,58 @@ class Output:
                     raise self.error(e) from None
         self.close()
         return False
+
+
+# Seconds a FIFO is waited for: its reader (an output) or writer (a case file);
+# a peer started just before (mkfifo p; reader < p & kinem ... p) comes within milliseconds.
+FIFO_WAIT = 10.0
+
+
+def _fifo_writer(path, real) -> int:
+    """A blocking descriptor writing to the FIFO real, once it has a reader
+    (within FIFO_WAIT; OutputError otherwise, instead of blocking forever)."""
+    import fcntl
+    import time
+
+    end = time.monotonic() + FIFO_WAIT
+    while True:
+        try:
+            fd = os.open(real, os.O_WRONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+            break
+        except OSError as e:
+            if e.errno != errno.ENXIO:   # ENXIO: no reader yet
+                raise
+            if time.monotonic() > end:
+                raise OutputError(f"{path}: write failed: the FIFO has no reader (waited {FIFO_WAIT:g} s)") from None
+            time.sleep(0.05)
+    fcntl.fcntl(fd, fcntl.F_SETFL, fcntl.fcntl(fd, fcntl.F_GETFL) & ~os.O_NONBLOCK)
+    return fd
+
+
+def read_fifo(path, limit) -> bytes:
+    """At most limit bytes from the FIFO at path, its writer waited for at most
+    FIFO_WAIT at a time (InputError when none comes, instead of blocking forever)."""
+    import select
+
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+    try:
+        poller, chunks, size = select.poll(), [], 0
+        poller.register(fd, select.POLLIN)
+        while size < limit:
+            if not poller.poll(FIFO_WAIT * 1000):
+                what = "no writer" if not size else "its writer stopped"
+                raise InputError(f"{path}: cannot read: a FIFO with {what} (waited {FIFO_WAIT:g} s)")
+            try:
+                chunk = os.read(fd, min(limit - size, 1 << 20))
+            except BlockingIOError:
+                continue
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+        return b"".join(chunks)
+    finally:
+        os.close(fd)
 
 
 def write_atomic(path, write) -> None:

@@ -60,8 +60,49 @@ def executor(jobs=None, scheduler=None):
     elif workers(jobs) <= 1:
         yield None
     else:
-        with ProcessPoolExecutor(max_workers=workers(jobs)) as pool:
+        pdeathsig = threading.current_thread() is threading.main_thread()
+        with ProcessPoolExecutor(max_workers=workers(jobs), initializer=_die_with_parent,
+                                 initargs=(os.getpid(), pdeathsig)) as pool:
             yield pool
+
+
+PR_SET_PDEATHSIG = 1   # prctl(2)
+
+
+def _die_with_parent(parent, pdeathsig):
+    """A local worker's initializer: the worker ends when the process that
+    made it does, so that SIGKILL of kinem leaves no worker holding memory and
+    the caller's pipes. On Linux the kernel sends it SIGKILL (prctl
+    PR_SET_PDEATHSIG; only when the pool was made on the main thread, as the
+    signal follows the thread that forked); elsewhere, and besides, a daemon
+    thread checks every WATCH seconds that the parent is still its parent."""
+    import signal
+    import sys
+
+    if pdeathsig and sys.platform.startswith("linux"):
+        import ctypes
+
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+        except (OSError, AttributeError):
+            pass
+    maker = os.getppid()   # kinem itself (fork), or a fork server that ends with it
+    try:
+        os.kill(parent, 0)   # kinem died before the prctl above
+    except ProcessLookupError:
+        os._exit(1)
+    except PermissionError:
+        pass
+
+    def watch():
+        while os.getppid() == maker:
+            time.sleep(WATCH)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="kinem-parent-watch", daemon=True).start()
+
+
+WATCH = 1.0   # seconds between a worker's checks that its parent lives (where prctl is not used)
 
 
 def map(fn, tasks, jobs=None, scheduler=None) -> list:
@@ -95,8 +136,7 @@ def connect(address):
         client.__init__(address, timeout=CONNECT_TIMEOUT, set_as_default=False)
     except Exception as e:  # noqa: BLE001 - OSError, TimeoutError, TLS configuration, ...
         _close(client)
-        reason = " ".join(str(e).split()) or type(e).__name__
-        raise InputError(f"--scheduler {address}: cannot connect to a Dask scheduler: {reason}") from None
+        raise InputError(f"--scheduler {address}: cannot connect to a Dask scheduler: {_why(e)}") from None
     try:
         client.wait_for_workers(1, timeout=CONNECT_TIMEOUT)
     except Exception:  # noqa: BLE001 - a timeout
@@ -138,8 +178,16 @@ def _probe(address):
         raise InputError(f"--scheduler {address}: cannot connect to a Dask scheduler: no Dask handshake "
                          f"within {CONNECT_TIMEOUT:g} s (is it a scheduler's address?)") from None
     except Exception as e:  # noqa: BLE001 - OSError, a garbled handshake, ...
-        reason = " ".join(str(e).split()) or type(e).__name__
-        raise InputError(f"--scheduler {address}: cannot connect to a Dask scheduler: {reason}") from None
+        raise InputError(f"--scheduler {address}: cannot connect to a Dask scheduler: {_why(e)}") from None
+
+
+def _why(e) -> str:
+    """An exception from connecting, in the user's terms: a port that answers in
+    another protocol makes Dask read its bytes as a frame length (MemoryError,
+    "Unable to allocate 3.07 EiB")."""
+    if isinstance(e, MemoryError) or "Unable to allocate" in str(e):
+        return "the port answered, but not in Dask's protocol (is it a scheduler's address, not e.g. its dashboard?)"
+    return " ".join(str(e).split()) or type(e).__name__
 
 
 def _quiet():

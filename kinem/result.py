@@ -53,6 +53,25 @@ class Trajectory:
     def __len__(self) -> int:
         return len(self.t)
 
+    def __array__(self, dtype=None, copy=None) -> np.ndarray:
+        """``np.asarray(traj)``: the table as the CSV has it, (instants, 1 +
+        columns), t first and then ``columns`` (always a new array)."""
+        if copy is False:
+            raise ValueError("a Trajectory's array is always a new one (t beside data): copy=False is impossible")
+        table = np.column_stack([self.t, self.data]) if len(self.columns) else self.t[:, None].copy()
+        return table if dtype is None else table.astype(dtype, copy=False)
+
+    def to_pandas(self):
+        """A pandas DataFrame: one column per name, indexed by t (pandas is
+        optional: a KinemError names it when it is not installed)."""
+        try:
+            import pandas as pd
+        except ImportError:
+            from .errors import KinemError
+
+            raise KinemError("Trajectory.to_pandas needs pandas, which is not installed: pip install pandas") from None
+        return pd.DataFrame(np.array(self.data), columns=list(self.columns), index=pd.Index(np.array(self.t), name="t"))
+
     def __repr__(self) -> str:
         span = f", t {self.t[0]:.6g} to {self.t[-1]:.6g}" if len(self.t) else ""
         names = ", ".join(self.columns[:4]) + (", ..." if len(self.columns) > 4 else "")

@@ -16,6 +16,25 @@ from .options import Options
 from .result import OUTPUTS, SolveResult, Status, trajectory
 from .tracking import Tracker
 
+def _checked_times(times):
+    """times as a float array: one or more finite, strictly increasing instants (InputError otherwise)."""
+    if times is None:
+        return None
+    from .errors import InputError
+
+    try:
+        t = np.asarray(times, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"solve: times {times!r:.80}: expected a sequence of numbers") from None
+    if t.ndim != 1 or not len(t) or not np.isfinite(t).all():
+        raise InputError(f"solve: times of shape {t.shape}: expected one or more finite instants in a 1-D sequence")
+    if len(t) > 1 and not (np.diff(t) > 0).all():
+        k = int(np.flatnonzero(np.diff(t) <= 0)[0])
+        raise InputError(f"solve: times must increase strictly: times[{k + 1}] = {t[k + 1]:g} "
+                         f"after times[{k}] = {t[k]:g}")
+    return t
+
+
 def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | None = None,
           q0=None) -> SolveResult:
     """Position (and, when asked, velocity and acceleration) analysis at every
@@ -27,6 +46,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     ``q0``: the estimate to assemble from at ``times[0]`` (default the case's
     ``model.q0``); a run continued from a solved state passes that state, so a
     long run can be solved in pieces (``kinem solve`` does: kinem.stream)."""
+    times = _checked_times(times)
     options = Options.of(model.case) if options is None else options
     check_square(model)
     outputs = tuple(o for o in OUTPUTS if o in outputs)

@@ -73,6 +73,10 @@ class Case:
     source: str = "<memory>"
     equivalent: Equivalence | None = None  # [equivalent]: the group of equivalent models it belongs to
 
+    def __repr__(self) -> str:   # a summary: the whole case is kinem.load's input, and thousands of characters
+        return (f"Case({self.name!r}: {len(self.bodies)} bodies, {len(self.points)} points, "
+                f"{len(self.constraints)} constraints, end {self.end:g}, {self.steps} steps, source {self.source!r})")
+
     @property
     def times(self) -> np.ndarray:
         """Output instants t = 0, h, ..., end with h = end/steps."""

@@ -30,9 +30,21 @@ class Outcome:
     events: tuple          # (t, text) singular configurations passed
 
 
+# A sub-step (kinem.tracking, in Python: about 3 ms with its rejected tries on the
+# slider-crank) costs about as much as SUBSTEP_WORK output instants of the compiled
+# march (about 50 us each at 12 coordinates: docs/benchmarks.md, "Long runs and output").
+SUBSTEP_WORK = 100
+
+
 def work(model, instants=None) -> int:
-    """The estimated work of a run: output instants x coordinates."""
+    """The estimated work of a run before it starts: output instants x coordinates."""
     return (model.case.steps + 1 if instants is None else instants) * model.n
+
+
+def substep_budget(model, limit, instants=None) -> int:
+    """The sub-steps a run may take within the work limit: each counts as
+    SUBSTEP_WORK output instants."""
+    return max(int((limit - work(model, instants)) // (SUBSTEP_WORK * model.n)), 0)
 
 
 def chunk_size(model, outputs, instants, progress=False) -> int:
@@ -43,20 +55,29 @@ def chunk_size(model, outputs, instants, progress=False) -> int:
     return size
 
 
-def run(model, outputs, on_chunk, trace=None, progress=None, size=None) -> Outcome:
+def run(model, outputs, on_chunk, trace=None, progress=None, size=None, options=None) -> Outcome:
     """Solves the case's output instants chunk by chunk: on_chunk(result) for
     each chunk's SolveResult (overlapping instant removed), trace(records) for
-    each chunk's trace when given, progress(instants done, t) after each."""
+    each chunk's trace when given, progress(instants done, t) after each.
+    ``options`` (default the case's): its max_substeps holds for the whole
+    run, each chunk gets what the ones before left."""
+    from dataclasses import replace
+
+    from .options import Options
     from .solver import solve
 
     case = model.case
+    options = Options.of(case) if options is None else options
+    left = options.max_substeps
     nt, h = case.steps + 1, case.end / case.steps
     size = size or chunk_size(model, outputs, nt)
     k, q0, events = 0, None, []
     while k < nt:
         first = max(k - 1, 0)                       # the overlap: the last instant solved
         times = np.arange(first, min(k + size, nt)) * h   # the same values as case.times
-        r = solve(model, outputs, times=times, trace=trace is not None, q0=q0)
+        r = solve(model, outputs, times=times, trace=trace is not None, q0=q0,
+                  options=replace(options, max_substeps=left))
+        left -= r.substeps
         skip = k - first
         t0 = times[0] if skip else -np.inf
         if trace is not None:
@@ -68,6 +89,8 @@ def run(model, outputs, on_chunk, trace=None, progress=None, size=None) -> Outco
         if not r.success:
             message = re.sub(r"\(instant (\d+) of \d+\)",
                              lambda m: f"(instant {int(m.group(1)) + first} of {nt - 1})", r.message, count=1)
+            message = message.replace(f"limit of {max(left + r.substeps, 0):,} sub-steps",
+                                      f"limit of {options.max_substeps:,} sub-steps", 1)
             return Outcome(False, message, k + max(done, 0), tuple(events))
         k += done
         q0 = r.q[-1]

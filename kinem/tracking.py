@@ -20,7 +20,7 @@ import numpy as np
 from . import analysis
 from . import native
 from .diagnose import diagnose
-from .errors import AnalysisError, ConvergenceError, SingularError
+from .errors import AnalysisError, ConvergenceError, SingularError, WorkLimitError
 from .linalg import det_sign, monitor_rows
 from .options import Options
 
@@ -227,7 +227,7 @@ class Tracker:
     def advance(self, target) -> State:
         """The state at the output instant ``target``."""
         h_out = self.h_out = target - self.history[-1].t
-        h = h_out
+        h, first = h_out, self.substeps
         while self.history[-1].t < target:
             last = self.history[-1]
             t1 = last.t + h
@@ -247,6 +247,15 @@ class Tracker:
                 continue
             if t1 != target:
                 self.substeps += 1
+                o = self.options
+                if self.substeps > o.max_substeps:
+                    from .rates import too_many_substeps
+
+                    start = target - h_out
+                    raise WorkLimitError(too_many_substeps(self.model, start, t1, self.substeps - first,
+                                                           h_out, o.max_substeps))
+                if o.on_substeps is not None:
+                    o.on_substeps(self.substeps, t1)
             self.accept(s)
             h = min(2 * h, h_out)
         return self.history[-1]

@@ -184,3 +184,34 @@ def test_exudyn_export_takes_the_case_files_engine_settings(tmp_path):
     q = np.array(json.loads(p.stdout)["q"])
     # as in exudyn_script_matches_the_harness; the default settings give a different run (index-2 drifts ~1e-9 L)
     assert np.abs(q - run.q).max() <= 1e-12 * model.length < np.abs(q - default.q).max()
+
+
+# A path, as the case's source, that closes a docstring, a string, a comment and an XML
+# comment and then runs code, with backslashes, non-ASCII and an undecodable byte besides.
+HOSTILE = ('x"""\n__import__("os").system("touch PWNED")\n"""\'\'\'\n'
+           "__import__('os').system('touch PWNED2') # \\ \\n \\\\ é 雪 \udcff --> <b> <!-- ---")
+
+
+@pytest.mark.parametrize("engine, suffix", [("pymunk", ".py"), ("exudyn", ".py"), ("mujoco", ".xml")])
+def test_export_of_a_case_with_a_hostile_path_runs_only_the_mechanism(engine, suffix, tmp_path):
+    folder = tmp_path / HOSTILE
+    folder.mkdir()
+    lines = (ROOT / "cases" / "slider_crank.toml").read_text().splitlines()
+    assert lines[1].startswith("description = ")
+    lines[1] = "description = " + json.dumps('"""\n__import__("os").system("touch PWNED3")\n--> \\ é')
+    case = folder / "case.toml"
+    case.write_text("\n".join(lines) + "\n")
+    out = tmp_path / f"model{suffix}"
+    assert main(["export", str(case), "--engine", engine, "--out", str(out)]) == 0
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    model = kinem.compile(kinem.load(case))
+    if engine == "mujoco":
+        p = subprocess.run([sys.executable, "-I", "-c", MUJOCO_RUN, str(out), ",".join(model.body_names)],
+                           capture_output=True, text=True, cwd=scratch)
+    else:
+        p = subprocess.run([sys.executable, "-I", str(out)], capture_output=True, text=True, cwd=scratch)
+    assert p.returncode == 0, p.stderr
+    assert json.loads(p.stdout) and not p.stderr.strip() and list(scratch.iterdir()) == []
+    if engine != "mujoco":
+        assert json.loads(p.stdout)["bodies"] == list(model.body_names)

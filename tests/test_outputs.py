@@ -298,3 +298,39 @@ def test_progress_only_on_a_terminal():
     finally:
         os.close(master)
     assert p.returncode == 0 and b"/30001" in seen and b"t = " in seen
+
+
+@pytest.mark.parametrize("mode", [0o600, 0o640, 0o444])
+def test_a_replaced_file_keeps_its_mode_and_owner(tmp_path, mode):
+    out = tmp_path / "f.csv"
+    out.write_text("old\n")
+    os.chmod(out, mode)
+    owner = (os.stat(out).st_uid, os.stat(out).st_gid)
+    if os.geteuid() == 0:   # as root: a file of another user and group stays theirs
+        owner = (12345, 23456)
+        os.chown(out, *owner)
+    code, _, err = run("solve", SLIDER, "--steps", 5, "--out", out)
+    assert code == 0, err
+    st = os.stat(out)
+    assert stat.S_IMODE(st.st_mode) == mode and (st.st_uid, st.st_gid) == owner
+    assert out.read_text().startswith("t,")
+    assert leftovers(tmp_path) == ["f.csv"]
+
+
+def test_a_hard_link_is_not_followed(tmp_path):
+    # documented (README, "Command line"): the name gets a new file, the other name keeps the old one
+    out, other = tmp_path / "f.csv", tmp_path / "g.csv"
+    out.write_text("old\n")
+    os.link(out, other)
+    assert run("solve", SLIDER, "--steps", 5, "--out", out)[0] == 0
+    assert other.read_text() == "old\n" and out.read_text().startswith("t,")
+
+
+def test_the_named_temporary_fallback_keeps_the_mode_too(tmp_path, monkeypatch):
+    monkeypatch.setattr(output, "_links_unnamed", lambda directory: False)   # no O_TMPFILE
+    out = tmp_path / "f.txt"
+    out.write_text("old\n")
+    os.chmod(out, 0o600)
+    output.write_atomic(out, lambda f: f.write(b"new\n"))
+    assert out.read_text() == "new\n" and stat.S_IMODE(os.stat(out).st_mode) == 0o600
+    assert leftovers(tmp_path) == ["f.txt"]

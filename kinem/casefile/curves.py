@@ -5,6 +5,7 @@ from .. import functions as fn
 from ..outline import OPEN_BC, Outline
 from .checks import show
 
+KINDS = ("poly", "harmonic", "table")
 FUNCTION_FORMS = "a number, { poly = [...] }, { harmonic = {...} } or { table = {...} }"
 OUTLINE_FORMS = ("{ spline = { theta = [...], s = [...] } or circle = { radius = R }, "
                  "center = [xi, eta] (optional) }")
@@ -15,6 +16,15 @@ def function(ck, where, key, v, end):
     if isinstance(v, (int, float)) and not isinstance(v, bool):
         c = ck.number(where, key, v)
         return None if c is None else fn.constant(c)
+    if isinstance(v, dict) and len(v) > 1:   # name the key that does not belong
+        kinds = [k for k in v if k in KINDS]
+        extra = [k for k in v if k not in KINDS]
+        if extra:
+            ck.bad(where, key, f"unknown key {show(extra[0])}" + (f" beside '{kinds[0]}'" if kinds else ""),
+                   FUNCTION_FORMS)
+        else:
+            ck.bad(where, key, f"two kinds of function, '{kinds[0]}' and '{kinds[1]}'", FUNCTION_FORMS)
+        return None
     if not isinstance(v, dict) or len(v) != 1:
         ck.bad(where, key, f"got {show(v)}", FUNCTION_FORMS)
         return None

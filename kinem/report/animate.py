@@ -9,6 +9,7 @@ binary that the imageio-ffmpeg package ships, so nothing else needs installing).
 """
 import os
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -84,13 +85,20 @@ def write(model, out, engines) -> dict:
     """Writes the animation to ``out``; returns engine -> why it is not drawn."""
     ext = check_output(out)
     native, ghosts, dense, skipped = frames(model, engines)
+    render(model, native, ghosts, dense, out, ext)
+    return skipped
+
+
+def render(model, native, ghosts, dense, out, ext=None):
+    """Draws the frames (native {t, q}, engine -> q) and the paths (dense q)
+    to ``out`` in its format."""
+    ext = ext or Path(out).suffix.lower()
     if ext == ".svg":
         data = ('<?xml version="1.0" encoding="utf-8"?>\n'
                 + svg(model, native, ghosts, standalone=True, paths_q=dense) + "\n").encode()
     else:
         data = raster(model, native, ghosts, dense, ext)
     save(out, data)
-    return skipped
 
 
 def save(path, data: bytes):
@@ -169,12 +177,49 @@ def raster(model, native, ghosts, dense, ext) -> bytes:
 
     fps = len(t) / duration(t)
     anim = animation.FuncAnimation(fig, draw, frames=len(t), blit=False)
-    with tempfile.TemporaryDirectory() as tmp:
-        path = os.path.join(tmp, "out" + ext)
-        writer = animation.PillowWriter(fps=fps) if ext == ".gif" else animation.FFMpegWriter(fps=fps)
+    with _scratch(ext) as path:
+        if ext == ".gif":
+            writer = _gif_writer(animation)(fps=fps)
+        else:   # the format named: the scratch path may have no suffix
+            writer = animation.FFMpegWriter(fps=fps, extra_args=["-f", "mp4"])
         anim.save(path, writer=writer)
         plt.close(fig)
         return Path(path).read_bytes()
+
+
+@contextmanager
+def _scratch(ext):
+    """A path to render into that SIGKILL leaves nothing behind for: an
+    unnamed file (Linux O_TMPFILE in the temporary directory) reached through
+    /proc/PID/fd/N, which the ffmpeg child process can open too; elsewhere a
+    temporary directory, removed on any error Python sees."""
+    fd = None
+    if hasattr(os, "O_TMPFILE"):
+        try:
+            fd = os.open(tempfile.gettempdir(), os.O_TMPFILE | os.O_RDWR | os.O_CLOEXEC, 0o600)
+        except OSError:
+            fd = None
+    path = f"/proc/{os.getpid()}/fd/{fd}" if fd is not None else None
+    if path is not None and os.path.exists(path):
+        try:
+            yield path
+        finally:
+            os.close(fd)
+        return
+    if fd is not None:
+        os.close(fd)
+    with tempfile.TemporaryDirectory() as tmp:
+        yield os.path.join(tmp, "out" + ext)
+
+
+def _gif_writer(animation):
+    """matplotlib's PillowWriter, saving with the format named (the scratch
+    path may have no suffix for Pillow to infer it from)."""
+    class GifWriter(animation.PillowWriter):
+        def finish(self):
+            self._frames[0].save(self.outfile, format="GIF", save_all=True, append_images=self._frames[1:],
+                                 duration=int(1000 / self.fps), loop=0)
+    return GifWriter
 
 
 def _artists(ax, it, color, ghost, Polygon):
