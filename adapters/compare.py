@@ -10,6 +10,9 @@ Figures (docs/engines.md):
   units per second); velocity_error_rel: the same divided by the mechanism's
   characteristic speed (the larger of L max|omega| and max|v| of native);
   angular_velocity_error: max |omega difference| (rad/s);
+  angular_velocity_error_rel: the same divided by the run's peak angular
+  speed (the characteristic speed / L: max|omega|, or max|v| / L when
+  larger, so that a slider's bodies have a scale too);
 - constraint_residual: max scaled residual |Phi_k(q_engine, t)| / scale_k of
   the native kinematic (non-driving) constraints on the engine's trajectory,
   i.e. loop-closure drift relative to the mechanism size (docs/solver.md).
@@ -36,6 +39,7 @@ class Comparison:
     velocity_error: float = float("nan")
     velocity_error_rel: float = float("nan")
     angular_velocity_error: float = float("nan")
+    angular_velocity_error_rel: float = float("nan")
     constraint_residual: float = float("nan")
     wall_time: float = float("nan")
     steps: int = 0
@@ -58,6 +62,11 @@ class Comparison:
     def ok(self) -> bool:
         return self.status is Status.OK
 
+    @property
+    def exceeded(self) -> tuple:
+        """(figure, value, limit) of every figure above its tolerance."""
+        return tuple((k, getattr(self, k), v) for k, v in self.tolerance.items() if getattr(self, k) > v)
+
     def as_dict(self) -> dict:
         """JSON-ready: ``status`` the one-string label, ``outcome`` its kind."""
         d = asdict(self)
@@ -66,7 +75,7 @@ class Comparison:
 
 
 FIGURES = ("position_error", "position_error_rel", "angle_error", "velocity_error", "velocity_error_rel",
-           "angular_velocity_error", "constraint_residual")
+           "angular_velocity_error", "angular_velocity_error_rel", "constraint_residual")
 
 
 def _xy(traj, names):
@@ -96,6 +105,7 @@ def errors(model, native, q, traj) -> dict:
         out["velocity_error_rel"] = out["velocity_error"] / speed
         dw = np.stack([traj[f"{b}.omega"][:nt] for b in bodies]) - w_ref
         out["angular_velocity_error"] = float(np.abs(dw).max())
+        out["angular_velocity_error_rel"] = out["angular_velocity_error"] * model.length / speed
     out["constraint_residual"] = model.kinematic_residual(q[:nt], ref.t[:nt])
     return out
 
@@ -139,7 +149,7 @@ def native_row(model, native) -> Comparison:
     return Comparison(engine="native", status=Status.OK if native.success else Status.FAILED,
                       detail="" if native.success else native.message, position_error=0.0, position_error_rel=0.0,
                       angle_error=0.0, velocity_error=0.0, velocity_error_rel=0.0, angular_velocity_error=0.0,
-                      constraint_residual=res, wall_time=native.wall_time, steps=steps, substeps=1,
+                      angular_velocity_error_rel=0.0, constraint_residual=res, wall_time=native.wall_time, steps=steps, substeps=1,
                       time_per_step=native.wall_time / max(steps, 1), time_per_interval=native.wall_time / n,
                       overhead_per_interval=0.0, time_per_sim_second=native.wall_time / model.case.end,
                       within_tolerance=native.success,
@@ -195,19 +205,22 @@ def run_case(model, engines, overrides=None, scheduler=None):
 
 def table(case_name, length, unit, rows) -> str:
     head = (f"case {case_name} (L = {length:.4g} {unit})".rstrip() + "\n"
-            f"{'engine':8s} {'status':10s} {'pos err':>9s} {'pos/L':>9s} {'angle':>9s} {'vel':>9s} "
-            f"{'omega':>9s} {'resid':>9s} {'steps/out':>9s} {'us/out':>8s} {'+adapter':>8s}  verdict")
+            f"{'engine':8s} {'status':10s} {'pos err':>9s} {'pos/L':>9s} {'angle':>9s} {'vel/V':>9s} "
+            f"{'omega/W':>9s} {'resid':>9s} {'steps/out':>9s} {'us/out':>8s} {'+adapter':>8s}  verdict")
     lines = [head]
     for r in rows:
         if r.status is not Status.OK:
             lines.append(f"{r.engine:8s} {r.label}")
             continue
-        verdict = {True: "within tolerance", False: "OUT OF TOLERANCE", None: ""}[r.within_tolerance]
+        verdict = {True: "within tolerance", False: "OUT OF TOLERANCE: " + "; ".join(
+            f"{k} {v:.2e} > {limit:.0e}" for k, v, limit in r.exceeded), None: ""}[r.within_tolerance]
         lines.append(f"{r.engine:8s} {r.label:10s} {r.position_error:9.2e} {r.position_error_rel:9.2e} "
-                     f"{r.angle_error:9.2e} {r.velocity_error:9.2e} {r.angular_velocity_error:9.2e} "
+                     f"{r.angle_error:9.2e} {r.velocity_error_rel:9.2e} {r.angular_velocity_error_rel:9.2e} "
                      f"{r.constraint_residual:9.2e} {r.substeps:9d} {1e6 * r.time_per_interval:8.1f} "
                      f"{1e6 * r.overhead_per_interval:8.1f}  {verdict}")
         lines += [f"{'':8s} note: {n}" for n in r.notes]
-    lines.append("us/out: seconds of stepping per output interval (native: per output instant); "
-                 "+adapter: the adapter's own Python per interval (build, driving, sampling)")
+    lines.append("vel/V, omega/W: velocity and angular-velocity errors over the run's peak speed V and peak "
+                 "angular speed W (docs/engines.md, Tolerances); us/out: seconds of stepping per output interval "
+                 "(native: one solve per output instant); +adapter: the adapter's own Python per interval "
+                 "(build, driving, sampling)")
     return "\n".join(lines)

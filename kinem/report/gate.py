@@ -6,19 +6,30 @@ A regression (exit code 1) is, for a case and engine present in both:
   what lies above ERROR_FLOOR (new > ERROR_FACTOR * max(old, ERROR_FLOOR));
 - a deterministic cost count that grew at all (Newton iterations, Jacobian
   evaluations, factorisations; engine steps and substeps).
+- a compact trajectory (every body coordinate and named point at fixed
+  instants) that moved: native by more than NATIVE_MOVE of L (or rad), an
+  engine by more than its tolerance; this sees a formulation change where
+  no closed form exists;
+- a case whose fingerprint changed: "case changed: baseline stale" (its
+  runs are then not compared).
 The same rules apply to every work-precision point both runs have (its
 position and velocity errors and its counts). Wall time is only flagged: time per step more than
-SLOWDOWN_FACTOR times the baseline's is a slowdown, fatal only with
---fail-on-slowdown.
+SLOWDOWN_FACTOR times the baseline's, relative to native's in the same run
+(native itself: only with --fail-on-slowdown), is a slowdown, fatal only with
+--fail-on-slowdown. A run within its tolerance in the baseline and outside it
+now is a regression naming each figure, its value and its limit.
 
 No blind spots: a case, engine run or sweep point the baseline has and this
 run lacks is a "missing" finding, fatal unless the run was narrowed on
 purpose (scope: case files given that are not the whole case set, --engines
 without that engine, --quick for sweep points); either way it is listed in
-``not_compared``. Cases and engines new in this run are "new".
+``not_compared``. A case or run new in this run is "new": fatal in a run of
+the whole case set (the baseline should hold all of it), else only listed.
 """
 import math
 from dataclasses import asdict, dataclass
+
+from .fingerprint import moved
 
 # Errors and residuals are relative to L (or radians, rad/s, scaled residual
 # units); below 1e-12 they are rounding noise (the reference itself is only
@@ -29,12 +40,19 @@ ERROR_FLOOR = 1e-12
 # rounding while catching a formulation or adapter change (those move errors
 # by orders of magnitude).
 ERROR_FACTOR = 2.0
-# Shared CI machines vary by up to about 1.5x from run to run.
+# Shared CI machines vary by up to about 1.5x from run to run, and load
+# moves engines and native alike: the ratio of the two is steadier (the
+# flag compares that ratio, see _slower).
 SLOWDOWN_FACTOR = 2.0
 # Baseline runs shorter than this are dominated by timer and scheduler noise.
 WALL_FLOOR = 0.01
 STATUS_RANK = {"ok": 0, "unsupported": 1}   # anything else ("failed: ...") ranks 2
-GATED = ("position_error_rel", "angle_error", "velocity_error_rel", "angular_velocity_error", "constraint_residual")
+# Native's answers are deterministic to rounding: its compact trajectory may
+# move by this much (of L, or rad) between runs; anything more is a change
+# of formulation even where no closed form exists.
+NATIVE_MOVE = 1e-12
+GATED = ("position_error_rel", "angle_error", "velocity_error_rel", "angular_velocity_error_rel",
+         "constraint_residual")
 
 
 @dataclass(frozen=True)
@@ -42,7 +60,7 @@ class Finding:
     case: str
     engine: str
     where: str          # "main" or the sweep point, e.g. "dt=0.0005"
-    kind: str           # status | error | count | slower | missing
+    kind: str           # status | error | count | tolerance | trajectory | stale | new | slower | missing
     metric: str
     old: object
     new: object
@@ -112,29 +130,41 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
     findings, verdicts = [], {}
     old_cases = {c["name"]: c for c in baseline["cases"]}
     not_compared = _missing(current, baseline, scope, findings)
+    whole = current["options"]["whole_set"]
     for case in current["cases"]:
         name = case["name"]
         oc = old_cases.get(name)
         old_runs = {r["engine"]: r for r in oc["runs"]} if oc else {}
+        if oc and oc["fingerprint"] != case["fingerprint"]:
+            findings.append(Finding(name, "all", "main", "stale", "fingerprint", oc["fingerprint"],
+                                    case["fingerprint"], True,
+                                    f"case {name} changed: baseline stale (fingerprint {oc['fingerprint']} -> "
+                                    f"{case['fingerprint']}; --update-baseline records it)"))
+            verdicts.update({f"{name}/{r['engine']}": "REGRESSED: case changed: baseline stale" for r in case["runs"]})
+            continue
         for run in case["runs"]:
             e = run["engine"]
             before = len(findings)
             o = old_runs.get(e)
             if o is None:
-                verdicts[f"{name}/{e}"] = "new"
+                if whole:   # the whole set ran: the baseline should hold every run of it
+                    findings.append(Finding(name, e, "main", "new", "run", None, run["status"], True,
+                                            f"{name}/{e} is not in the baseline (--update-baseline records it)"))
+                    verdicts[f"{name}/{e}"] = "REGRESSED: not in the baseline"
+                else:
+                    verdicts[f"{name}/{e}"] = "new"
                 continue
             _compare(name, e, "main",
                      {"status": o["status"], "figures": _figures(o), "counts": o["counts"]},
                      {"status": run["status"], "figures": _figures(run), "counts": run["counts"]},
                      findings)
+            _trajectory(name, case["length"], o, run, findings)
             skipped = _sweep(name, e, oc, case, findings, scope)
             if skipped:
                 why = "--quick" if scope.sweeps else "not in this run's sweep: a regression"
                 not_compared.append(f"{name}/{e}: {skipped} work-precision point(s) of the baseline ({why})")
-            a, b = o.get("time_per_step"), run.get("time_per_step")
-            if a and b and (o.get("wall_time") or 0) >= WALL_FLOOR and b > SLOWDOWN_FACTOR * a:
-                findings.append(Finding(name, e, "main", "slower", "time_per_step", a, b, bool(fail_on_slowdown),
-                                        f"time per step x{b / a:.1f} ({1e6 * a:.3g} -> {1e6 * b:.3g} us)"))
+            _tolerance(name, o, run, findings)
+            _slower(name, o, run, old_runs.get("native"), case["runs"][0], fail_on_slowdown, findings)
             verdicts[f"{name}/{e}"] = verdict(findings[before:])
     from . import equivalence
 
@@ -147,6 +177,67 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
             "slowdowns": sum(f.kind == "slower" for f in findings), "fail_on_slowdown": bool(fail_on_slowdown),
             "findings": [asdict(f) for f in findings], "verdicts": verdicts, "not_compared": not_compared,
             "default": bool(default)}
+
+
+def _per_interval(r):
+    return r.get("time_per_interval") or r.get("time_per_step")
+
+
+def _slower(name, old, new, old_native, new_native, fail_on_slowdown, findings):
+    """A slowdown, measured so that machine load cancels: an engine's time
+    per interval relative to native's on the same case in the same run,
+    against the same ratio in the baseline. Native's own time has no
+    same-run reference: compared as it is only with --fail-on-slowdown."""
+    a, b = _per_interval(old), _per_interval(new)
+    if not (a and b) or (old.get("wall_time") or 0) < WALL_FLOOR:
+        return
+    if new["engine"] == "native":
+        if fail_on_slowdown and b > SLOWDOWN_FACTOR * a:
+            findings.append(Finding(name, "native", "main", "slower", "time_per_interval", a, b, True,
+                                    f"time per interval x{b / a:.1f} ({1e6 * a:.3g} -> {1e6 * b:.3g} us)"))
+        return
+    na, nb = _per_interval(old_native or {}), _per_interval(new_native or {})
+    if not (na and nb) or new_native["engine"] != "native":
+        return
+    ra, rb = a / na, b / nb
+    if rb > SLOWDOWN_FACTOR * ra:
+        findings.append(Finding(name, new["engine"], "main", "slower", "time_per_interval / native", ra, rb,
+                                bool(fail_on_slowdown),
+                                f"time per interval relative to native x{rb / ra:.1f} ({ra:.3g} -> {rb:.3g} "
+                                f"native's, same run)"))
+
+
+def _tolerance(name, old, new, findings):
+    """A run within its tolerance in the baseline and outside it now: each
+    figure over its limit, named."""
+    if old.get("within_tolerance") is not True or new.get("within_tolerance") is not False:
+        return
+    tol = new.get("tolerance") or {}
+    for k, limit in tol.items():
+        v = new.get(k)
+        if v is not None and v > limit:
+            findings.append(Finding(name, new["engine"], "main", "tolerance", k, limit, v, True,
+                                    f"{k} {v:.2e} above its limit {limit:.0e} (within it in the baseline)"))
+
+
+def _trajectory(name, length, old, new, findings):
+    """Every body coordinate and named point of the compact trajectories of
+    two ok runs: native may move by NATIVE_MOVE (of L, or rad), an engine by
+    its tolerance (position_error_rel, angle_error)."""
+    a, b = old.get("trajectory"), new.get("trajectory")
+    if a is None or b is None or rank(old["status"]) or rank(new["status"]):
+        return
+    tol = new.get("tolerance") or {}
+    limits = ({"L": NATIVE_MOVE, "rad": NATIVE_MOVE} if new["engine"] == "native" else
+              {"L": tol.get("position_error_rel", NATIVE_MOVE), "rad": tol.get("angle_error", NATIVE_MOVE)})
+    m = moved(a, b, length, limits)
+    if m is None:
+        return
+    column, d, unit, t, limit = m
+    when = "" if t is None else f" at t = {t:.6g} s"
+    findings.append(Finding(name, new["engine"], "main", "trajectory", column, limit, d, True,
+                            f"{name}: {new['engine']}'s {column} moved by {d:.2e} {unit}{when} "
+                            f"(limit {limit:.0e} {unit})"))
 
 
 def _missing(current, baseline, scope, findings) -> list:

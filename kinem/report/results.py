@@ -6,14 +6,16 @@ import json
 import math
 import os
 import platform
+import re
 import subprocess
 from datetime import datetime, timezone
 from pathlib import Path
 
 from ..errors import InputError
+from .fingerprint import fingerprint
 from .schema import SCHEMA, problems
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 PACKAGES = ("kinem", "numpy", "scipy", "matplotlib", "pymunk", "mujoco", "exudyn")
 WP_ERROR = "position_error_rel"      # the work-precision diagram's error
 WP_COST = "wall_per_sim_second"      # and its cost
@@ -38,7 +40,7 @@ def build(cases, runs, options, duration):
                 if r.get("import_failed"):
                     e["status"] = r["status"]
         out.append({
-            "name": case.name, "path": str(path), "description": case.description,
+            "name": case.name, "path": str(path), "fingerprint": fingerprint(case), "description": case.description,
             "length": model.length, "unit": case.length_unit, "end": case.end, "steps": case.steps,
             "coordinates": model.n, "reference_tolerance": ref_tol,
             "equivalent": None if case.equivalent is None else {"group": case.equivalent.group,
@@ -143,10 +145,43 @@ def load(path, what="baseline"):
     if version != SCHEMA_VERSION:
         raise InputError(f"{what} {path}: schema_version {version!r}; expected {SCHEMA_VERSION} "
                          "(rewrite it with --update-baseline)")
-    bad = problems(doc, SCHEMA) or missing_figures(doc)
+    bad = problems(doc, SCHEMA) or untyped(doc) or missing_figures(doc)
     if bad:
-        raise InputError([f"{what} {path}: {p}" for p in bad[:5]])
+        raise InputError(f"{what} {path}: {bad[0]}" + (f" (+{len(bad) - 1} more)" if len(bad) > 1 else ""))
     return doc
+
+
+# The deterministic cost counts of each kind of run; an edited baseline with
+# other keys (or none) would switch their check off.
+COUNTS = {"native": ("instants", "newton_iterations", "jacobian_evaluations", "factorizations"),
+          "engine": ("steps", "substeps")}
+STATUS_RE = re.compile(r"(ok|(unsupported|failed)(: .+)?)", re.S)
+
+
+def untyped(doc) -> list:
+    """Statuses that are not "ok", "unsupported[: why]" or "failed[: why]",
+    and count keys that are not the run's own (an ok run must have them all;
+    another may have none): 'where: problem' lines."""
+    out = []
+
+    def check(where, engine, status, counts):
+        if not STATUS_RE.fullmatch(status):
+            out.append(f"{where}: status {status[:40]!r}; expected 'ok', 'unsupported: why' or 'failed: why'")
+        keys = COUNTS["native" if engine == "native" else "engine"]
+        if (status == "ok" or counts) and sorted(counts) != sorted(keys):
+            out.append(f"{where}: counts {sorted(counts)}; expected {list(keys)}")
+
+    for c in doc["cases"]:
+        for r in c["runs"]:
+            check(f"cases.{c['name']}.runs.{r['engine']}", r["engine"], r["status"], r["counts"])
+        for curve in (c.get("work_precision") or {}).get("curves", ()):
+            for p in curve["points"]:
+                check(f"cases.{c['name']}.work_precision.{curve['engine']}.{p['value']:g}", curve["engine"],
+                      p["status"], p["counts"])
+    for name, e in doc["engines"].items():
+        if not STATUS_RE.fullmatch(e["status"]):
+            out.append(f"engines.{name}: status {e['status'][:40]!r}; expected 'ok' or 'failed: why'")
+    return out
 
 
 def _no_constant(name):

@@ -15,12 +15,14 @@ from functools import lru_cache
 
 import numpy as np
 
+from .fingerprint import compact
+
 REFERENCE_TOLERANCE = 1e-13  # scaled residual; about 500 machine epsilons of L
 REFERENCE_LABEL = "native at the reference tolerance"  # what a run's figures are against, unless it says otherwise
 FRAMES = 120                 # instants of the animation (native and every engine at the same ones)
 PATH_INSTANTS = 480          # instants of the named points' paths drawn in the plane
 ERROR_KEYS = ("position_error", "position_error_rel", "angle_error", "velocity_error", "velocity_error_rel",
-              "angular_velocity_error", "constraint_residual")   # adapters.compare.FIGURES
+              "angular_velocity_error", "angular_velocity_error_rel", "constraint_residual")   # adapters.compare.FIGURES
 
 
 @dataclass(frozen=True)
@@ -62,7 +64,7 @@ def _blank(task, status, **extra):
            "requested": {}, "settings": {}, "version": "", "within_tolerance": None, "tolerance": {},
            "wall_time": None, "time_per_step": None, "time_per_interval": None, "overhead_per_interval": None,
            "wall_per_sim_second": None, "counts": {}, "reference": REFERENCE_LABEL,
-           "knobs": dict(task.point) or ({task.knob: task.value} if task.knob else {})}
+           "knobs": dict(task.point) or ({task.knob: task.value} if task.knob else {}), "trajectory": None}
     out.update({k: None for k in ERROR_KEYS})
     out.update(extra)
     return out
@@ -147,6 +149,7 @@ def run_native(task):
     out = _blank(task, "ok", **base, **{k: _finite(e.get(k)) for k in ERROR_KEYS})
     out["within_tolerance"] = True
     if task.knob is None:
+        out["trajectory"] = compact(model, r.trajectory)
         out["series"] = _series(model, ref, r.trajectory, r.q, with_reference=True)
         out["reference_tolerance"] = ref_tol
         _independent(model, ref, r.trajectory, out)
@@ -213,6 +216,7 @@ def run_engine(task):
     if c.status is Status.OK:
         out.update({k: _finite(getattr(c, k)) for k in ERROR_KEYS})
         if task.knob is None:
+            out["trajectory"] = compact(model, run.trajectory)
             out["series"] = _series(model, ref, run.trajectory, run.q)
     return out
 
