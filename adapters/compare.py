@@ -21,11 +21,22 @@ Costs are per output interval (``time_per_interval``: the engine's stepping
 calls; ``overhead_per_interval``: the adapter's own Python around them) and
 per simulated second, whatever the engine's steps per interval.
 """
+import enum
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
 from .base import Status
+
+
+class Verdict(enum.Enum):
+    """A comparison's judgement; ``value`` is what the CLI, JSON and HTML show."""
+    WITHIN = "within tolerance"
+    OUTSIDE = "outside tolerance"
+    CAPPED = "cannot reach the tolerance within the cost cap"
+    UNSUPPORTED = "unsupported"
+    FAILED = "failed"
+    NONE = ""                     # no tolerance given
 
 
 @dataclass(frozen=True)
@@ -53,6 +64,33 @@ class Comparison:
     settings: dict = field(default_factory=dict)
     version: str = ""
     notes: tuple = ()                      # what the adapter decided on its own (EngineRun.notes)
+    estimate: dict = field(default_factory=dict)   # the engine's own error figures (EngineRun.estimate)
+    capped: bool = False                   # its self-check still missed the tolerance at the cost cap
+
+    @property
+    def verdict(self) -> Verdict:
+        if self.status is Status.UNSUPPORTED:
+            return Verdict.UNSUPPORTED
+        if self.status is not Status.OK:
+            return Verdict.FAILED
+        if self.within_tolerance is None:
+            return Verdict.NONE
+        if self.within_tolerance:
+            return Verdict.WITHIN
+        return Verdict.CAPPED if self.capped else Verdict.OUTSIDE
+
+    @property
+    def verdict_text(self) -> str:
+        """The verdict with what it rests on: the figures over their limits
+        (and, at the cost cap, what the best reached cost)."""
+        v = self.verdict
+        if v in (Verdict.OUTSIDE, Verdict.CAPPED):
+            over = "; ".join(f"{k} {x:.2e} > {limit:.0e}" for k, x, limit in self.exceeded)
+            cost = f" ({self.substeps} steps per interval, {1e6 * self.time_per_interval:.3g} us per interval)"
+            return f"{v.value}: {over}" + (cost if v is Verdict.CAPPED else "")
+        if v is Verdict.WITHIN:
+            return f"{v.value} at {self.substeps} steps per interval"
+        return v.value
 
     @property
     def label(self) -> str:
@@ -71,7 +109,8 @@ class Comparison:
         """JSON-ready: ``status`` the one-string label, ``outcome`` its kind."""
         d = asdict(self)
         del d["detail"]
-        return dict(d, status=self.label, outcome=self.status.value)
+        return dict(d, status=self.label, outcome=self.status.value, verdict=self.verdict.value,
+                    exceeded=[{"figure": k, "value": x, "limit": limit} for k, x, limit in self.exceeded])
 
 
 FIGURES = ("position_error", "position_error_rel", "angle_error", "velocity_error", "velocity_error_rel",
@@ -127,6 +166,7 @@ def compare(model, native, run, tolerance=None) -> Comparison:
         raise ValueError(f"{run.engine}: tolerance on unknown figures {sorted(unknown)}; figures: {FIGURES}")
     base = dict(engine=run.engine, status=run.status, detail=run.detail, settings=dict(run.settings),
                 version=run.version, tolerance=dict(tolerance or {}), notes=tuple(run.notes),
+                estimate=dict(run.estimate), capped=bool(run.capped),
                 **costs(run, model.case.end))
     if run.status is Status.UNSUPPORTED:
         return Comparison(**base)
@@ -212,8 +252,7 @@ def table(case_name, length, unit, rows) -> str:
         if r.status is not Status.OK:
             lines.append(f"{r.engine:8s} {r.label}")
             continue
-        verdict = {True: "within tolerance", False: "OUT OF TOLERANCE: " + "; ".join(
-            f"{k} {v:.2e} > {limit:.0e}" for k, v, limit in r.exceeded), None: ""}[r.within_tolerance]
+        verdict = r.verdict_text if r.engine != "native" else r.verdict.value
         lines.append(f"{r.engine:8s} {r.label:10s} {r.position_error:9.2e} {r.position_error_rel:9.2e} "
                      f"{r.angle_error:9.2e} {r.velocity_error_rel:9.2e} {r.angular_velocity_error_rel:9.2e} "
                      f"{r.constraint_residual:9.2e} {r.substeps:9d} {1e6 * r.time_per_interval:8.1f} "

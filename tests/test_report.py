@@ -3,6 +3,7 @@ synthetic regressions, the self-contained HTML, junit.xml, and bad baselines
 as input errors. Cases are shortened copies (20 instants); engines are a
 fake adapter, run in this process (workers=0)."""
 import base64
+import dataclasses
 import copy
 import json
 import re
@@ -362,8 +363,9 @@ def test_report_directory_is_consistent_through_its_manifest(report, tmp_path, m
     assert not rep.complete(target)               # a file that does not match its manifest
 
 
-def test_stress_runs_only_when_asked_or_for_the_whole_set(report):
-    """A report on the user's own case files leaves the stress suite out."""
+def test_stress_runs_only_when_asked(report):
+    """A report on the user's own case files leaves the stress suite out
+    (it runs only with --stress: test_no_summary_cell_... checks a whole set)."""
     doc = report[0].doc
     assert "stress" not in doc and doc["options"]["stress"] is None and doc["options"]["whole_set"] is False
     assert "Stress suite" not in (report[1] / "index.html").read_text()
@@ -790,7 +792,8 @@ def test_no_summary_cell_compares_native_with_itself_silently(tmp_path):
 
     case = short_case(tmp_path, "gear_pair", 0.1, steps=5)
     out = run(Options(cases=(case,), engines=(), out=str(tmp_path / "o"), quick=True, workers=0, progress=False,
-                      stress=False))
+                      whole_set=True))   # stress None (the CLI's default): no stress suite, even for a whole set
+    assert "stress" not in out.doc and out.doc["options"]["stress"] is None
     md = (tmp_path / "o" / "summary.md").read_text()
     row = next(line for line in md.splitlines() if line.startswith("| gear_pair |"))
     assert SELF in row and "e+00" not in row and "e-" not in row
@@ -810,9 +813,33 @@ def test_summary_figure_is_the_worst_moving_coordinate(report):
     engine = copy.deepcopy(report[0].doc["cases"][0]["runs"][1])
     engine.update(position_error_rel=0.0, angle_error=1.2e-10)
     assert figure(engine) == (1.2e-10, "angle, rad")
-    engine.update(angle_error=1e-3, within_tolerance=False, tolerance={"angle_error": 1e-6})
+    engine.update(angle_error=1e-3, within_tolerance=False, tolerance={"angle_error": 1e-6}, verdict="outside tolerance")
     cell = _md_cell((engine, "pass", "warn"))
     assert "1.0e-03 (angle, rad)" in cell and "angle_error 1.00e-03 > 1e-06" in cell
     assert "µs/interval (200 steps)" not in cell and "µs/interval (" in cell
     native = report[0].doc["cases"][0]["runs"][0]
     assert figure(native)[1] == "position / L" and native["reference"].startswith("closed form")
+
+
+def test_animation_label_says_slowed_or_faster():
+    """The loop plays the run's span in dur seconds: slowed when longer."""
+    from kinem.report.motion import speed_label
+
+    assert speed_label(4.0, 2.5) == "slowed x1.6"
+    assert speed_label(12.0, 30.0) == "x2.5 faster"
+    assert speed_label(5.0, 5.0) == "real time"
+
+
+def test_work_precision_is_asked_by_the_case_or_the_flag(tmp_path):
+    """[report] work_precision = true sweeps a case; --work-precision every
+    case; neither: none (no list of case names in the code)."""
+    from kinem.case import load, loads
+    from kinem.report.execute import FULL, wants_sweep
+
+    plain = load(short_case(tmp_path, "gear_pair", 0.1, steps=5))
+    asked = load(short_case(tmp_path, "four_bar", 0.1, steps=5))
+    assert asked.report["work_precision"] is True and not wants_sweep(plain, FULL)
+    assert wants_sweep(asked, FULL) and wants_sweep(plain, dataclasses.replace(FULL, every_case=True))
+    text = (ROOT / "cases" / "gear_pair.toml").read_text() + "\n[report]\nwork_precision = 1\n"
+    with pytest.raises(InputError, match="work_precision.*true or false"):
+        loads(text)

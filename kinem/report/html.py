@@ -71,7 +71,7 @@ def _matrix_cell(cell):
         return f'<td class=c-bad title="{tip}">{escape(short(r["status"], 60))}</td>'
     note = "" if v in ("pass", "no baseline") else f"<br><small>{escape(short(v, 90))}</small>"
     if r["within_tolerance"] is False:
-        note += f"<br><small>outside tolerance: {escape(exceeded_text(r))}</small>"
+        note += f"<br><small>{escape(r['verdict'])}: {escape(exceeded_text(r))}</small>"
     mark = "ᶜ" if r["reference"].startswith("closed form") else "ᵍ" if r["reference"].startswith("equivalence") else ""
     value, what = figure(r)
     shown = (f"<i>{escape(what)}</i>" if value is None

@@ -64,10 +64,20 @@ def _blank(task, status, **extra):
            "requested": {}, "settings": {}, "version": "", "within_tolerance": None, "tolerance": {},
            "wall_time": None, "time_per_step": None, "time_per_interval": None, "overhead_per_interval": None,
            "wall_per_sim_second": None, "counts": {}, "reference": REFERENCE_LABEL,
-           "knobs": dict(task.point) or ({task.knob: task.value} if task.knob else {}), "trajectory": None}
+           "knobs": dict(task.point) or ({task.knob: task.value} if task.knob else {}), "trajectory": None,
+           "verdict": _verdict_of(status), "estimate": {}}
     out.update({k: None for k in ERROR_KEYS})
     out.update(extra)
     return out
+
+
+def _verdict_of(status):
+    """A run's verdict before any comparison (adapters.compare.Verdict values)."""
+    from adapters.compare import Verdict
+
+    if status.startswith("unsupported"):
+        return Verdict.UNSUPPORTED.value
+    return Verdict.FAILED.value if status != "ok" else Verdict.NONE.value
 
 
 def _finite(x):
@@ -148,6 +158,7 @@ def run_native(task):
     e = errors(model, ref, r.q, r.trajectory)
     out = _blank(task, "ok", **base, **{k: _finite(e.get(k)) for k in ERROR_KEYS})
     out["within_tolerance"] = True
+    out["verdict"] = "within tolerance"
     if task.knob is None:
         out["trajectory"] = compact(model, r.trajectory)
         out["series"] = _series(model, ref, r.trajectory, r.q, with_reference=True)
@@ -209,6 +220,8 @@ def run_engine(task):
     out["overhead_per_interval"] = _finite(c.overhead_per_interval)
     out["wall_per_sim_second"] = _finite(run.wall_time / model.case.end)
     out["knobs"] = _knobs(adapter, settings, run.settings or settings)
+    out["verdict"] = c.verdict.value
+    out["estimate"] = {k: _finite(v) for k, v in c.estimate.items()}
     if task.knob is None:   # the main run: the knob families its sweep covers (adapters.tune)
         from adapters.tune import families
 

@@ -86,7 +86,7 @@ def grade(run, verdict) -> str:
         return "bad"
     if st.startswith("unsupported"):
         return "skip"
-    if verdict.startswith("new") or run["within_tolerance"] is False:
+    if verdict.startswith("new") or run["within_tolerance"] is False:   # outside, or capped
         return "warn"
     if verdict.startswith("pass, slower"):
         return "slow"
@@ -232,7 +232,7 @@ def _md_cell(cell) -> str:
     value, what = figure(r)
     text = f"{MARK[g]} " + (what if value is None else f"{fmt(value)} ({what})") + f", {cost(r)}"
     if r["within_tolerance"] is False:
-        text += f" (outside tolerance: {exceeded_text(r)})"
+        text += f" ({r['verdict']}: {exceeded_text(r)})"
     if v.startswith("REGRESSED"):
         text += f" ({short(v, 80)})"
     elif v.startswith(("new", "pass, slower")):
@@ -249,7 +249,7 @@ def junit_xml(doc) -> str:
             msg = r["status"] if r["status"].startswith("failed") else v
             body = f"<failure message={quoteattr(msg)}/>"
         elif r["within_tolerance"] is False:   # shown, not failing the job: the message names what
-            body = f"<system-out>{escape('outside tolerance: ' + exceeded_text(r))}</system-out>"
+            body = f"<system-out>{escape(r['verdict'] + ': ' + exceeded_text(r))}</system-out>"
         elif r["status"] != "ok":
             skips += 1
             body = f"<skipped message={quoteattr(r['status'])}/>"
