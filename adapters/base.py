@@ -340,7 +340,7 @@ class Adapter:
 # -- the engines' own error check (dt = "auto") ---------------------------------
 
 REFINE_AT = 1.0        # a self-check figure above this fraction of its limit refines the step ...
-REFINE_TO = 0.5        # ... to the step that brings it to this fraction (errors ~ dt^order)
+REFINE_TO = 0.7        # ... to the step that brings it to this fraction (errors ~ dt^order)
 MAX_SUBSTEPS = 2000    # cost cap: engine steps per output interval
 MAX_REFINEMENTS = 3    # cost cap: reruns after the first attempt
 

@@ -447,7 +447,7 @@ class ExudynAdapter(Adapter):
             "dt": "auto",
             # rate x step of dt = "auto": the first attempt, refined by the
             # self-check (docs/engines.md, "Settings chosen from the mechanism").
-            "rate_step": 8e-4,
+            "rate_step": 1.2e-3,
             # Steps per output interval; None: the fewest keeping step <= dt.
             "substeps": None,
             # Index-3 generalized-alpha: constraints held at position level.
