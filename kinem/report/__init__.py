@@ -197,14 +197,16 @@ def _exit_code(doc, o) -> int:
     failed (without a baseline: any failed run)."""
     from .gate import failed
 
-    if any(e["status"] != "ok" for e in doc["engines"].values()):
+    from .text import failed as lost
+
+    if any(e["outcome"] != "ok" for e in doc["engines"].values()):
         return 1
     if doc.get("stress") and doc["stress"]["native_misses"]:
         return 1
     g = doc["gate"]
     for c in doc["cases"]:
         for r in c["runs"]:
-            if not r["status"].startswith("failed"):
+            if not lost(r):
                 continue
             known = g and r["engine"] != "native" and g["verdicts"].get(f"{c['name']}/{r['engine']}") != "new"
             if not known:
@@ -216,7 +218,9 @@ def _exit_code(doc, o) -> int:
 
 def _line(doc, out, code, o) -> str:
     runs = [r for c in doc["cases"] for r in c["runs"]]
-    failed = sum(r["status"].startswith("failed") for r in runs)
+    from .text import failed as lost
+
+    failed = sum(lost(r) for r in runs)
     g = doc["gate"]
     if not g:
         gate = "no baseline" + (f" (none at {out / 'baseline.json'}; --update-baseline writes one)"

@@ -69,7 +69,7 @@ def execute(cases, engines, sweep: Sweep, workers=None, progress=None, scheduler
             return []
         n = planned[(task.path, task.engine)]
         dt = step(r)   # dt = "auto": the step the engine chose
-        if r["status"] != "ok" or dt is None:
+        if r["outcome"] != "ok" or dt is None:
             if progress:
                 progress.drop(n)
             return []
