@@ -75,6 +75,8 @@ class EngineRun:
     overhead: float = 0.0            # seconds of the adapter's own work: build, driving, sampling
     intervals: int = 0               # output intervals simulated
     notes: tuple = ()                # what the adapter decided on its own: a retry after divergence
+    estimate: dict = field(default_factory=dict)   # the engine's own error figures (self_check), no native
+    capped: bool = False             # the self-check still exceeded the tolerance at the cost cap
 
     @property
     def ok(self) -> bool:
@@ -163,6 +165,7 @@ class Adapter:
     tolerance: dict = {}
     checks: dict = {}
     knobs: dict = {}       # the engine's own accuracy knobs and the values adapters.tune sweeps
+    order: int = 0         # error order in the step: > 0 refines dt = "auto" by self_check (``refine``)
 
     def version(self) -> str:
         raise NotImplementedError
@@ -253,6 +256,8 @@ class Adapter:
             except Failure as e:   # no native solution for dt = "auto"
                 early = e
 
+        state = {"estimate": {}, "capped": False}
+
         def finish(status, detail="", Q=None, QD=None, wall=0.0, steps=0):
             from kinem.result import trajectory
 
@@ -261,7 +266,7 @@ class Adapter:
                              q=Q if traj is not None else None, qd=QD if traj is not None else None, wall_time=wall,
                              steps=steps, substeps=s.get("substeps") or 0, settings=s, version=self.version(),
                              overhead=max(time.perf_counter() - start - wall, 0.0), intervals=len(times) - 1,
-                             notes=tuple(notes))
+                             notes=tuple(notes), estimate=state["estimate"], capped=state["capped"])
 
         if why:
             return finish(Status.UNSUPPORTED, why)
@@ -269,7 +274,7 @@ class Adapter:
             return finish(early.status, early.detail)
         q0, qd0 = np.asarray(q0, float), np.asarray(qd0, float)
         wall = steps = 0
-        for attempt in (1, 2):
+        for attempt in range(1, 2 + MAX_REFINEMENTS):
             try:
                 Q, QD, w, n = self.simulate(model, q0, qd0, s, times)
                 wall, steps, failure = wall + w, steps + n, None
@@ -277,6 +282,8 @@ class Adapter:
                 wall, steps, failure = wall + e.wall, steps + e.steps, e
             again = self.retry(model, s, times, auto, failure, *((None, None) if failure else (Q, QD))) \
                 if attempt == 1 and auto else None
+            if not again and failure is None and "dt" in auto and self.order:
+                again = self.refine(model, s, times, Q, QD, state, last=attempt == 1 + MAX_REFINEMENTS)
             if not again:
                 break
             because, change = again
@@ -292,6 +299,33 @@ class Adapter:
             return finish(Status.NONFINITE, "non-finite coordinates", wall=wall, steps=steps)
         return finish(Status.OK, "", Q, QD, wall, steps)
 
+    def refine(self, model, s, times, Q, QD, state, last=False):
+        """dt = "auto": checks a run by ``self_check`` (the engine's own error
+        figures, computed without native's trajectory) against the
+        tolerance; above REFINE_AT of it, (why, settings) with the step that
+        brings the worst figure to REFINE_TO of it (errors ~ dt^order),
+        unless that passes the cost cap (MAX_SUBSTEPS per output interval,
+        MAX_REFINEMENTS reruns): then None and state["capped"]."""
+        est = self_check(model, Q, QD, times)
+        state["estimate"] = est
+        ratios = [(est[k] / v, k) for k, v in self.tolerance.items() if k in est and v > 0]
+        if not ratios:
+            return None
+        ratio, worst = max(ratios)
+        if not ratio > REFINE_AT:
+            state["capped"] = False
+            return None
+        interval = float(times[1] - times[0]) if len(times) > 1 else float(model.case.end or 1.0)
+        dt = s["dt"] * (REFINE_TO / ratio) ** (1.0 / self.order)
+        if last or not np.isfinite(dt) or interval / dt > MAX_SUBSTEPS:
+            state["capped"] = ratio > 1.0
+            if not last and np.isfinite(dt) and s["substeps"] < MAX_SUBSTEPS:   # the cap itself, once
+                return (f"self-check: {worst} {est[worst]:.1e} is {ratio:.2g}x its limit; the cap is "
+                        f"{MAX_SUBSTEPS} steps per output interval", {"dt": interval / MAX_SUBSTEPS, "substeps": None})
+            return None
+        return (f"self-check: {worst} {est[worst]:.1e} is {ratio:.2g}x its limit",
+                {"dt": dt, "substeps": None})
+
     def unsupported_with(self, model, q0, s) -> str | None:
         """``unsupported`` for these settings and start (an engine whose
         support depends on them overrides it)."""
@@ -302,6 +336,62 @@ class Adapter:
         with the checked settings s (substeps and dt resolved); raises
         Failure to stop with a status."""
         raise NotImplementedError
+
+# -- the engines' own error check (dt = "auto") ---------------------------------
+
+REFINE_AT = 1.0        # a self-check figure above this fraction of its limit refines the step ...
+REFINE_TO = 0.7        # ... to the step that brings it to this fraction (errors ~ dt^order)
+MAX_SUBSTEPS = 2000    # cost cap: engine steps per output interval
+MAX_REFINEMENTS = 3    # cost cap: reruns after the first attempt
+
+
+def self_check(model, Q, QD, times) -> dict:
+    """The errors of an engine's trajectory estimated from the constraints
+    alone, without native's trajectory: a kinematically driven mechanism
+    has as many constraints (drivers included) as coordinates, so at each
+    output instant the position error is, to first order, dq = Phi_q^-1
+    Phi(q, t) (the loop-closure and driver residual carried to the
+    coordinates) and the velocity error exactly dqd = Phi_q^-1 (Phi_q qd - nu).
+    Figures as adapters.compare's (bodies' origins and the named points /
+    L or / the run's peak speed, angles in rad, angular velocities / the
+    peak angular speed); {} when Phi_q is not square or is singular."""
+    if Q is None or Q.shape[1] != model.n or model.m != model.n or not len(Q):
+        return {}
+    pts = _point_offsets(model)
+    L = model.length
+    dpos = dang = dvel = dw = 0.0
+    vmax = wmax = 0.0
+    for q, qd, t in zip(Q, QD, times):
+        J = model.jacobian(q, t, sparse=False)
+        try:
+            dq = np.linalg.solve(J, model.phi(q, t))
+            dqd = np.linalg.solve(J, J @ qd - model.nu(t))
+        except np.linalg.LinAlgError:
+            return {}
+        for k, (b, offsets) in enumerate(pts):
+            phi, w = q[3 * k + 2], qd[3 * k + 2]
+            c, sn = np.cos(phi), np.sin(phi)
+            for xi, eta in offsets:   # the origin is (0, 0)
+                r = np.array([c * xi - sn * eta, sn * xi + c * eta])
+                perp = np.array([-r[1], r[0]])
+                dpos = max(dpos, float(np.hypot(*(dq[3 * k: 3 * k + 2] + perp * dq[3 * k + 2]))))
+                dvel = max(dvel, float(np.hypot(*(dqd[3 * k: 3 * k + 2] + perp * dqd[3 * k + 2]))))
+                vmax = max(vmax, float(np.hypot(*(qd[3 * k: 3 * k + 2] + perp * w))))
+            dang = max(dang, abs(float(dq[3 * k + 2])))
+            dw = max(dw, abs(float(dqd[3 * k + 2])))
+            wmax = max(wmax, abs(float(w)))
+    speed = max(L * wmax, vmax, 1e-300)
+    return {"position_error_rel": dpos / L, "angle_error": dang, "velocity_error_rel": dvel / speed,
+            "angular_velocity_error_rel": dw * L / speed}
+
+
+def _point_offsets(model):
+    """(body, [(0, 0) and each named point's local coordinates]) per body, in coordinate order."""
+    named = {b: [(0.0, 0.0)] for b in model.body_names}
+    for p in model.case.points:
+        named[p.body].append(tuple(float(x) for x in p.at))
+    return [(b, named[b]) for b in model.body_names]
+
 
 # -- helpers shared by the adapters -------------------------------------------
 
@@ -365,7 +455,8 @@ def mass_properties(model):
 
 def rate_scale(model, reference=None) -> float:
     """The mechanism's fastest rate (1/s) in native's solution ``reference``
-    (solved here when None): the largest of |omega|, sqrt(|alpha|),
+    (solved here when None; one that stopped early gives the rates of the
+    instants it reached, as the stress suite's singular cases need): the largest of |omega|, sqrt(|alpha|),
     |d alpha/dt|^(1/3) over the bodies and sqrt(|a| / L), (|da/dt| / L)^(1/3)
     over the bodies and named points (L the characteristic length; the
     derivatives of the accelerations by differences over the output
@@ -376,8 +467,8 @@ def rate_scale(model, reference=None) -> float:
         from kinem.solver import solve
 
         reference = solve(model)
-        if not reference.success:
-            raise Failure(Status.FAILED, f"dt = 'auto' needs the native solution: {reference.message}")
+    if not reference.success and len(reference.trajectory) < 3:   # else: the rates of the instants it reached
+        raise Failure(Status.FAILED, f"dt = 'auto' needs the native solution: {reference.message}")
     tr, L = reference.trajectory, model.length
     t = np.asarray(tr.t, float)
     cols = set(tr.columns)

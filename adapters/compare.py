@@ -10,6 +10,9 @@ Figures (docs/engines.md):
   units per second); velocity_error_rel: the same divided by the mechanism's
   characteristic speed (the larger of L max|omega| and max|v| of native);
   angular_velocity_error: max |omega difference| (rad/s);
+  angular_velocity_error_rel: the same divided by the run's peak angular
+  speed (the characteristic speed / L: max|omega|, or max|v| / L when
+  larger, so that a slider's bodies have a scale too);
 - constraint_residual: max scaled residual |Phi_k(q_engine, t)| / scale_k of
   the native kinematic (non-driving) constraints on the engine's trajectory,
   i.e. loop-closure drift relative to the mechanism size (docs/solver.md).
@@ -18,11 +21,22 @@ Costs are per output interval (``time_per_interval``: the engine's stepping
 calls; ``overhead_per_interval``: the adapter's own Python around them) and
 per simulated second, whatever the engine's steps per interval.
 """
+import enum
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
 from .base import Status
+
+
+class Verdict(enum.Enum):
+    """A comparison's judgement; ``value`` is what the CLI, JSON and HTML show."""
+    WITHIN = "within tolerance"
+    OUTSIDE = "outside tolerance"
+    CAPPED = "cannot reach the tolerance within the cost cap"
+    UNSUPPORTED = "unsupported"
+    FAILED = "failed"
+    NONE = ""                     # no tolerance given
 
 
 @dataclass(frozen=True)
@@ -36,6 +50,7 @@ class Comparison:
     velocity_error: float = float("nan")
     velocity_error_rel: float = float("nan")
     angular_velocity_error: float = float("nan")
+    angular_velocity_error_rel: float = float("nan")
     constraint_residual: float = float("nan")
     wall_time: float = float("nan")
     steps: int = 0
@@ -49,6 +64,33 @@ class Comparison:
     settings: dict = field(default_factory=dict)
     version: str = ""
     notes: tuple = ()                      # what the adapter decided on its own (EngineRun.notes)
+    estimate: dict = field(default_factory=dict)   # the engine's own error figures (EngineRun.estimate)
+    capped: bool = False                   # its self-check still missed the tolerance at the cost cap
+
+    @property
+    def verdict(self) -> Verdict:
+        if self.status is Status.UNSUPPORTED:
+            return Verdict.UNSUPPORTED
+        if self.status is not Status.OK:
+            return Verdict.FAILED
+        if self.within_tolerance is None:
+            return Verdict.NONE
+        if self.within_tolerance:
+            return Verdict.WITHIN
+        return Verdict.CAPPED if self.capped else Verdict.OUTSIDE
+
+    @property
+    def verdict_text(self) -> str:
+        """The verdict with what it rests on: the figures over their limits
+        (and, at the cost cap, what the best reached cost)."""
+        v = self.verdict
+        if v in (Verdict.OUTSIDE, Verdict.CAPPED):
+            over = "; ".join(f"{k} {x:.2e} > {limit:.0e}" for k, x, limit in self.exceeded)
+            cost = f" ({self.substeps} steps per interval, {1e6 * self.time_per_interval:.3g} us per interval)"
+            return f"{v.value}: {over}" + (cost if v is Verdict.CAPPED else "")
+        if v is Verdict.WITHIN:
+            return f"{v.value} at {self.substeps} steps per interval"
+        return v.value
 
     @property
     def label(self) -> str:
@@ -58,15 +100,21 @@ class Comparison:
     def ok(self) -> bool:
         return self.status is Status.OK
 
+    @property
+    def exceeded(self) -> tuple:
+        """(figure, value, limit) of every figure above its tolerance."""
+        return tuple((k, getattr(self, k), v) for k, v in self.tolerance.items() if getattr(self, k) > v)
+
     def as_dict(self) -> dict:
         """JSON-ready: ``status`` the one-string label, ``outcome`` its kind."""
         d = asdict(self)
         del d["detail"]
-        return dict(d, status=self.label, outcome=self.status.value)
+        return dict(d, status=self.label, outcome=self.status.value, verdict=self.verdict.value,
+                    exceeded=[{"figure": k, "value": x, "limit": limit} for k, x, limit in self.exceeded])
 
 
 FIGURES = ("position_error", "position_error_rel", "angle_error", "velocity_error", "velocity_error_rel",
-           "angular_velocity_error", "constraint_residual")
+           "angular_velocity_error", "angular_velocity_error_rel", "constraint_residual")
 
 
 def _xy(traj, names):
@@ -96,6 +144,7 @@ def errors(model, native, q, traj) -> dict:
         out["velocity_error_rel"] = out["velocity_error"] / speed
         dw = np.stack([traj[f"{b}.omega"][:nt] for b in bodies]) - w_ref
         out["angular_velocity_error"] = float(np.abs(dw).max())
+        out["angular_velocity_error_rel"] = out["angular_velocity_error"] * model.length / speed
     out["constraint_residual"] = model.kinematic_residual(q[:nt], ref.t[:nt])
     return out
 
@@ -117,6 +166,7 @@ def compare(model, native, run, tolerance=None) -> Comparison:
         raise ValueError(f"{run.engine}: tolerance on unknown figures {sorted(unknown)}; figures: {FIGURES}")
     base = dict(engine=run.engine, status=run.status, detail=run.detail, settings=dict(run.settings),
                 version=run.version, tolerance=dict(tolerance or {}), notes=tuple(run.notes),
+                estimate=dict(run.estimate), capped=bool(run.capped),
                 **costs(run, model.case.end))
     if run.status is Status.UNSUPPORTED:
         return Comparison(**base)
@@ -139,7 +189,7 @@ def native_row(model, native) -> Comparison:
     return Comparison(engine="native", status=Status.OK if native.success else Status.FAILED,
                       detail="" if native.success else native.message, position_error=0.0, position_error_rel=0.0,
                       angle_error=0.0, velocity_error=0.0, velocity_error_rel=0.0, angular_velocity_error=0.0,
-                      constraint_residual=res, wall_time=native.wall_time, steps=steps, substeps=1,
+                      angular_velocity_error_rel=0.0, constraint_residual=res, wall_time=native.wall_time, steps=steps, substeps=1,
                       time_per_step=native.wall_time / max(steps, 1), time_per_interval=native.wall_time / n,
                       overhead_per_interval=0.0, time_per_sim_second=native.wall_time / model.case.end,
                       within_tolerance=native.success,
@@ -195,19 +245,21 @@ def run_case(model, engines, overrides=None, scheduler=None):
 
 def table(case_name, length, unit, rows) -> str:
     head = (f"case {case_name} (L = {length:.4g} {unit})".rstrip() + "\n"
-            f"{'engine':8s} {'status':10s} {'pos err':>9s} {'pos/L':>9s} {'angle':>9s} {'vel':>9s} "
-            f"{'omega':>9s} {'resid':>9s} {'steps/out':>9s} {'us/out':>8s} {'+adapter':>8s}  verdict")
+            f"{'engine':8s} {'status':10s} {'pos err':>9s} {'pos/L':>9s} {'angle':>9s} {'vel/V':>9s} "
+            f"{'omega/W':>9s} {'resid':>9s} {'steps/out':>9s} {'us/out':>8s} {'+adapter':>8s}  verdict")
     lines = [head]
     for r in rows:
         if r.status is not Status.OK:
             lines.append(f"{r.engine:8s} {r.label}")
             continue
-        verdict = {True: "within tolerance", False: "OUT OF TOLERANCE", None: ""}[r.within_tolerance]
+        verdict = r.verdict_text if r.engine != "native" else r.verdict.value
         lines.append(f"{r.engine:8s} {r.label:10s} {r.position_error:9.2e} {r.position_error_rel:9.2e} "
-                     f"{r.angle_error:9.2e} {r.velocity_error:9.2e} {r.angular_velocity_error:9.2e} "
+                     f"{r.angle_error:9.2e} {r.velocity_error_rel:9.2e} {r.angular_velocity_error_rel:9.2e} "
                      f"{r.constraint_residual:9.2e} {r.substeps:9d} {1e6 * r.time_per_interval:8.1f} "
                      f"{1e6 * r.overhead_per_interval:8.1f}  {verdict}")
         lines += [f"{'':8s} note: {n}" for n in r.notes]
-    lines.append("us/out: seconds of stepping per output interval (native: per output instant); "
-                 "+adapter: the adapter's own Python per interval (build, driving, sampling)")
+    lines.append("vel/V, omega/W: velocity and angular-velocity errors over the run's peak speed V and peak "
+                 "angular speed W (docs/engines.md, Tolerances); us/out: seconds of stepping per output interval "
+                 "(native: one solve per output instant); +adapter: the adapter's own Python per interval "
+                 "(build, driving, sampling)")
     return "\n".join(lines)

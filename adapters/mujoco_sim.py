@@ -52,6 +52,12 @@ from .base import (Adapter, Drive, Failure, Status, boolean, choice, count, coun
 # closure residual (measured over 125 random quick-returns and the book cases:
 # 1-8x; the mechanism's geometry sets the ratio).
 CLOSURE = 1e-8
+# The armatures above are absolute (kg m^2 in the case's units): a mechanism
+# 1000x larger has 1e6x the inertia, and its driven joint then yields to the
+# reactions (a quick-return at 1000x its size diverged). Beyond a largest body
+# inertia of ARMATURE_INERTIA (above every case of the repository, which keep
+# their armature) the armature grows with it.
+ARMATURE_INERTIA = 1e6
 HELD_ARMATURE = 1e12  # driven joints' armature when set only at output instants (defaults: "armature")
 WORLD = "@world"      # '@' and ':' never occur in a case's names
 TREE_TYPES = ("translational", "revolute", "revolute-translational", "absolute")  # preference order
@@ -68,7 +74,7 @@ TREE_TYPES = ("translational", "revolute", "revolute-translational", "absolute")
 # the characteristic speed >= L max|omega|, so 3e-5 /s over omega >= 1 rad/s
 # is the same bound or looser.
 TOLERANCE = {"position_error_rel": 1e-7, "angle_error": 1e-7, "velocity_error_rel": 3e-5,
-             "angular_velocity_error": 3e-5}
+             "angular_velocity_error_rel": 3e-5}
 
 
 def _rot(phi):
@@ -560,8 +566,9 @@ class MujocoAdapter(Adapter):
         plan = Plan(model, q0, s["tree"])
         if s["drive"] == "auto":
             s["drive"] = "interval" if all(held(dr.f) for dr, *_ in plan.driven) else "overwrite"
-        if s["armature"] is None:
-            s["armature"] = 1e9 if s["drive"] == "overwrite" else HELD_ARMATURE
+        if s["armature"] is None:   # scale-free: at least ARMATURE_RATIO x the largest body inertia
+            top = float(mass_properties(model)[1].max(initial=0.0))
+            s["armature"] = (1e9 if s["drive"] == "overwrite" else HELD_ARMATURE) * max(1.0, top / ARMATURE_INERTIA)
         return plan, mjcf(plan, s)
 
     def simulate(self, model, q0, qd0, s, times):

@@ -43,7 +43,7 @@ import pymunk
 
 
 from .base import (Adapter, Failure, Status, boolean, count, count_or_auto, count_or_none, drive_table, drives,
-                   fraction, grounded, mass_properties, nonnegative, numbers, positive)
+                   fraction, grounded, mass_properties, nonnegative, numbers, positive, step_or_auto)
 
 # Agreement with native at the default settings, in the figures of
 # adapters.compare (max over instants, bodies and named points). The scheme is
@@ -54,7 +54,8 @@ TOLERANCE = {
     "position_error_rel": 1e-6,     # |r_engine - r_native| / L
     "angle_error": 1e-6,            # rad
     "constraint_residual": 1e-6,    # native scaled residual of the engine's positions
-    "velocity_error_rel": 1e-5,     # |v_engine - v_native| / (L max|omega_native|), omega / max|omega|
+    "velocity_error_rel": 1e-5,     # |v_engine - v_native| / the run's peak speed
+    "angular_velocity_error_rel": 1e-5,  # |omega_engine - omega_native| / the run's peak angular speed
 }
 
 GROOVE = 1e4   # groove half-length in units of L: far beyond any sliding in a
@@ -292,7 +293,9 @@ class PymunkAdapter(Adapter):
     name = "pymunk"
     tolerance = TOLERANCE
     knobs = {"substeps": (1, 2, 5, 10, 20, 50, 100), "iterations": (3, 5, 10, 25, 100)}
-    checks = {"dt": positive, "substeps": count_or_none, "iterations": count_or_auto,
+    order = 2      # error_bias 0: positions and velocities O(dt^2)
+    rate_steps = (0.5e-3, 1e-3, 2e-3, 3e-3, 4e-3)   # rate_step values the tuning sweep tries (dt auto)
+    checks = {"dt": step_or_auto, "rate_step": positive, "substeps": count_or_none, "iterations": count_or_auto,
               "auto_iterations": numbers(2, count), "error_bias": fraction, "centered_velocity": boolean}
     supports = {
         "ground": "STATIC body",
@@ -322,13 +325,17 @@ class PymunkAdapter(Adapter):
 
     def defaults(self) -> dict:
         return {
-            # Step. Errors are O(dt^2) with error_bias 0: <= 2e-8 L at 1e-4
-            # on the book's cases (2e-6 at 1e-3, 2e-10 at 1e-5) for 1-10 us/step.
-            # The sweep of `kinem engines --tune` (docs/engines.md): 50 steps per
-            # 0.01 s interval (2e-4) is the fewest within TOLERANCE on the five
-            # lower-pair cases (worst 7.4e-8 of L; 20 steps miss on the
-            # quick-returns' angles).
-            "dt": 2e-4,
+            # Step. Errors are O(dt^2) with error_bias 0 (2e-6 L at 1e-3 on the
+            # book's cases, 2e-10 at 1e-5). "auto": rate_step / the mechanism's
+            # fastest rate (adapters.base.rate_scale), so a mechanism turning 4x
+            # faster gets a quarter of the step and the same errors; then
+            # checked by the engine's own error figures (adapters.base.self_check:
+            # closure and velocity residuals carried to the coordinates) and
+            # refined until they are within TOLERANCE or the cost cap.
+            "dt": "auto",
+            # rate x step of dt = "auto" (docs/engines.md, "Settings chosen
+            # from the mechanism"): the first attempt; the self-check refines it.
+            "rate_step": 2e-3,
             # Steps per output interval; None: the fewest with h / substeps
             # <= dt. When given it wins, and dt = h / substeps.
             "substeps": None,

@@ -409,6 +409,7 @@ def cmd_report(a):
                           baseline=baseline, update_baseline=a.update_baseline, quick=a.quick, junit=a.junit,
                           fail_on_slowdown=a.fail_on_slowdown, workers=a.jobs, scheduler=a.scheduler,
                           stress=True if a.stress else False if a.no_stress else None, whole_set=whole_set,
+                          work_precision=a.work_precision,
                           baseline_default=a.baseline is None))
     print(outcome.line)
     return outcome.exit_code
@@ -509,8 +510,10 @@ def parser():
     r.add_argument("--fail-on-slowdown", action="store_true", help="a flagged wall-time slowdown fails the run")
     r.add_argument("--jobs", type=int, help="worker processes (default: CPU count; 0 or 1: none)")
     r.add_argument("--stress", action="store_true",
-                   help="run the stress suite as a section (default: only when the cases are all of cases/*.toml)")
-    r.add_argument("--no-stress", action="store_true", help="leave out the stress suite even for the whole case set")
+                   help="also run kinem's own stress suite as a section (never by default)")
+    r.add_argument("--no-stress", action="store_true", help="no stress suite (the default; kept for old scripts)")
+    r.add_argument("--work-precision", action="store_true",
+                   help="work-precision diagrams for every case (default: cases with [report] work_precision = true)")
     _scheduler_option(r)
     r.set_defaults(run=cmd_report)
 

@@ -1,10 +1,16 @@
 """``kinem info``: counts, degrees of freedom and redundant equations of a model.
 
-Assembly for info uses Gauss-Newton with minimum-norm least-squares steps,
-so that it also settles redundant (consistent) or non-square systems. Ranks
-are taken on the dimensionless Jacobian (rows divided by their residual
-scale, length columns multiplied by the characteristic length L), where a
-singular value below kinem.diagnose.RANK_TOL of the largest counts as zero.
+The assembly info reports is the one ``kinem solve`` performs: the solver
+itself at the first output instant (one assembly, one answer). Where the
+solver cannot assemble, the ranks are taken at a Gauss-Newton (minimum-norm
+least-squares) point instead, which also settles redundant or non-square
+systems, and the report says so. Ranks are taken on the dimensionless
+Jacobian (rows divided by their residual scale, length columns multiplied by
+the characteristic length L), where a singular value below
+kinem.diagnose.RANK_TOL of the largest counts as zero. The configuration the
+estimates chose is shown as the relative angle at every revolute joint
+between two moving bodies (its sign is each loop's closure orientation:
+elbow up or down).
 """
 from dataclasses import asdict, dataclass
 
@@ -26,11 +32,13 @@ class Info:
     assembled: bool
     rank_method: str
     redundant_equations: tuple
-    diagnosis: str = ""  # why it does not assemble (kinem.diagnose.explain_assembly), when it does not
+    diagnosis: str = ""  # why it does not assemble (the solver's message), when it does not
+    configuration: tuple = ()   # (joint, relative angle phi_j - phi_i in (-pi, pi]) of the assembly
 
     def as_dict(self) -> dict:
         d = asdict(self)
         d["redundant_equations"] = list(self.redundant_equations)
+        d["configuration"] = {name: angle for name, angle in self.configuration}
         return d
 
 
@@ -38,43 +46,62 @@ def dimensionless_jacobian(model, q, t=0.0) -> np.ndarray:
     return model.assemble(model.jac_values(q, t) * model.entry_scale, sparse=False)
 
 
-def assemble(model, t=0.0, max_iterations=None):
-    """Gauss-Newton from the estimate; returns (q, max scaled residual, converged)."""
+def least_squares_point(model, t=0.0, max_iterations=None):
+    """Gauss-Newton from the estimate; returns (q, max scaled residual, converged).
+    Only for the ranks where the solver cannot assemble."""
     from .analysis import gauss_newton
 
     q, r = gauss_newton(model, model.q0.copy(), t, max_iterations)
     return q, r, bool(r <= model.case.tolerance)
 
 
+def assemble(model):
+    """The solver's own assembly at the first output instant: (q or None,
+    scaled residual, assembled, message)."""
+    from .solver import solve
+
+    t0 = model.times[:1]
+    r = solve(model, times=t0, outputs=("positions",))
+    if r.success:
+        return r.q[0], float(r.residual[0]), True, ""
+    return None, float("nan"), False, r.message
+
+
+def configuration(model, q) -> tuple:
+    """(revolute joint, phi_j - phi_i wrapped to (-pi, pi]) for every revolute
+    joint between two bodies that are not grounded: the branch the estimates
+    chose."""
+    fixed = {c["body"] for c in model.case.constraints if c.type == "ground"}
+    col = {b: 3 * k + 2 for k, b in enumerate(model.body_names)}
+    out = []
+    for c in model.case.constraints:
+        if c.type == "revolute" and c["i"] not in fixed and c["j"] not in fixed:
+            d = float(q[col[c["j"]]] - q[col[c["i"]]])
+            out.append((c.name, float(np.pi - (np.pi - d) % (2 * np.pi))))
+    return tuple(out)
+
+
 def info(model) -> Info:
     from .diagnose import rank_analysis
 
     nd = ~model.driving
+    q, residual, ok, message = assemble(model)
+    at = q
+    if at is None:   # the ranks at a least-squares point; the verdict stays the solver's
+        at, residual, _ = least_squares_point(model)
     if model.n <= DENSE_RANK_LIMIT:
-        q, residual, ok = assemble(model)
-        rank, redundant = rank_analysis(model, q, 0.0, nd)
+        rank, redundant = rank_analysis(model, at, 0.0, nd)
         method = "numerical"
     else:
         from scipy.sparse.csgraph import structural_rank
 
-        from .analysis import Data, position
-
-        data = Data(q=model.q0.copy())
-        try:
-            position(model, data, 0.0)
-        except Exception:
-            pass
-        q, residual, ok = data.q, data.residual, data.residual <= model.case.tolerance
-        rank = int(structural_rank(model.jacobian(q, 0.0, sparse=True)[nd].tocsr()))
+        rank = int(structural_rank(model.jacobian(at, 0.0, sparse=True)[nd].tocsr()))
         redundant, method = (), "structural"
-    from .diagnose import explain_assembly
-
     return Info(
-        diagnosis="" if ok else (explain_assembly(model, 0.0) or "no convergence"),
-        case=model.case.name, coordinates=model.n, artificial_coordinates=len(model.artificial),
+        diagnosis=message, case=model.case.name, coordinates=model.n, artificial_coordinates=len(model.artificial),
         equations=model.m, driving_equations=int(model.driving.sum()), jacobian_nonzeros=model.nnz,
         dof=model.n - rank, residual=float(residual), assembled=ok, rank_method=method,
-        redundant_equations=redundant,
+        redundant_equations=redundant, configuration=configuration(model, q) if ok else (),
     )
 
 
@@ -86,8 +113,12 @@ def describe(i: Info) -> str:
         f"  Jacobian non-zeros {i.jacobian_nonzeros} of {i.equations * i.coordinates}"
         f" ({100 * i.jacobian_nonzeros / max(1, i.equations * i.coordinates):.1f}%)",
         f"  degrees of freedom {i.dof} (coordinates minus the {i.rank_method} rank of the non-driving Jacobian)",
-        f"  assembly residual  {i.residual:.2e} (scaled){'' if i.assembled else '  NOT ASSEMBLED'}",
+        f"  assembly residual  {i.residual:.2e} (scaled){'' if i.assembled else '  NOT ASSEMBLED (least-squares point)'}"
+        + (" (the assembly kinem solve performs)" if i.assembled else ""),
     ]
+    if i.configuration:
+        lines.append("  configuration      " + ", ".join(f"{n} {a:+.3f} rad" for n, a in i.configuration)
+                     + " (relative angle at each joint between moving bodies: the branch the estimates chose)")
     if i.redundant_equations:
         lines.append("  warning: redundant equations: " + ", ".join(i.redundant_equations))
     if i.diagnosis:

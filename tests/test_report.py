@@ -3,6 +3,7 @@ synthetic regressions, the self-contained HTML, junit.xml, and bad baselines
 as input errors. Cases are shortened copies (20 instants); engines are a
 fake adapter, run in this process (workers=0)."""
 import base64
+import dataclasses
 import copy
 import json
 import re
@@ -35,6 +36,7 @@ def short_case(tmp_path, name, end, steps=20):
 class FakeEngine(Adapter):
     """The native solution moved by dt * 1e-3 L in x: errors grow with dt."""
     name = "pymunk"
+    tolerance = {"position_error_rel": 1e-5, "angle_error": 1e-5}
 
     def version(self):
         return "fake-1"
@@ -166,7 +168,7 @@ def test_gate_flags_each_kind_of_regression(report, kind):
     native, engine = case["runs"]
     sweep = next(c for c in case["work_precision"]["curves"] if c["engine"] == "pymunk")["points"][0]
     if kind == "status":
-        engine["status"] = "failed: exploded"
+        engine.update(status="failed: exploded", outcome="failed")
         expect = ("engine", "main", "status")
     elif kind == "error":
         engine["angle_error"] = (ERROR_FACTOR + 1) * max(engine["angle_error"], ERROR_FLOOR)
@@ -197,15 +199,23 @@ def test_gate_tolerates_noise_and_flags_slowdowns_only_on_request(report):
     native, engine = doc["cases"][0]["runs"]
     native["position_error_rel"] = 0.9 * ERROR_FLOOR        # grew from ~0 but below the floor
     engine["position_error_rel"] *= 0.9 * ERROR_FACTOR      # grew, by less than the factor
-    for r in (native, engine):
-        r["time_per_step"] *= 1.1 * SLOWDOWN_FACTOR
-        r["wall_time"] = max(r["wall_time"], 1.0)
-    for r in base["cases"][0]["runs"]:
-        r["wall_time"] = max(r["wall_time"], 1.0)
+    for c in doc["cases"]:          # a loaded machine: every case slower alike, the ratios unchanged
+        for r in c["runs"]:
+            r["time_per_step"] = (r["time_per_step"] or 0) * 1.1 * SLOWDOWN_FACTOR or None
+            r["wall_time"] = max(r["wall_time"] or 0, 1.0)
+    for c in base["cases"]:
+        for r in c["runs"]:
+            r["wall_time"] = max(r["wall_time"] or 0, 1.0)
     found, g = _regressions(doc, base)
-    assert found == [] and g["slowdowns"] == 2
+    assert found == [] and g["slowdowns"] == 0
+    found, _ = _regressions(doc, base, fail_on_slowdown=True)   # asked: native's own time too
+    assert sorted((f[1], f[3]) for f in found) == [("native", "slower")] * 2
+    engine["time_per_step"] *= 1.1 * SLOWDOWN_FACTOR ** 2        # this case slower than the engine's others
+    found, g = _regressions(doc, base)
+    assert found == [] and g["slowdowns"] == 1
+    assert g["verdicts"][f"{doc['cases'][0]['name']}/pymunk"].startswith("pass, slower")
     found, _ = _regressions(doc, base, fail_on_slowdown=True)
-    assert {f[3] for f in found} == {"slower"} and len(found) == 2
+    assert sorted((f[1], f[3]) for f in found) == [("native", "slower")] * 2 + [("pymunk", "slower")]
     # a case or engine the baseline lacks is new, never a regression
     nb = copy.deepcopy(base)
     nb["cases"] = nb["cases"][1:]
@@ -245,12 +255,12 @@ def test_known_engine_failure_passes_a_new_one_fails(report):
 
     base = copy.deepcopy(report[0].doc)
     opts = Options(cases=(), engines=("pymunk",))
-    base["cases"][0]["runs"][1]["status"] = "failed: diverged"
+    base["cases"][0]["runs"][1].update(status="failed: diverged", outcome="diverged")
     assert _exit_code(dict(base, gate=None), opts) == 1          # no baseline: any failure fails
     doc = copy.deepcopy(base)
     doc["gate"] = gate(doc, base, "base.json")                   # the baseline has it too: known
     assert doc["gate"]["findings"] == [] and _exit_code(doc, opts) == 0
-    doc["cases"][0]["runs"][0]["status"] = "failed: no convergence"   # native: always fatal
+    doc["cases"][0]["runs"][0].update(status="failed: no convergence", outcome="failed")   # native: always fatal
     doc["gate"] = gate(doc, base, "base.json")
     assert _exit_code(doc, opts) == 1
 
@@ -355,8 +365,9 @@ def test_report_directory_is_consistent_through_its_manifest(report, tmp_path, m
     assert not rep.complete(target)               # a file that does not match its manifest
 
 
-def test_stress_runs_only_when_asked_or_for_the_whole_set(report):
-    """A report on the user's own case files leaves the stress suite out."""
+def test_stress_runs_only_when_asked(report):
+    """A report on the user's own case files leaves the stress suite out
+    (it runs only with --stress: test_no_summary_cell_... checks a whole set)."""
     doc = report[0].doc
     assert "stress" not in doc and doc["options"]["stress"] is None and doc["options"]["whole_set"] is False
     assert "Stress suite" not in (report[1] / "index.html").read_text()
@@ -410,9 +421,10 @@ def test_non_finite_or_null_baseline_figures_are_rejected(tmp_path, report):
     doc["cases"][1]["runs"][0]["angle_error"] = None
     doc["cases"][0]["work_precision"]["curves"][0]["points"][0]["error"] = None
     p.write_text(results.dumps(doc))
-    with pytest.raises(InputError, match="angle_error is null in an ok run"):
+    with pytest.raises(InputError, match=r"error is null in an ok point; .*\(\+1 more\)$"):   # one line
         results.load(p)
     assert len(results.missing_figures(doc)) == 2
+    assert "angle_error is null in an ok run" in results.missing_figures(doc)[1]
     base = copy.deepcopy(report[0].doc)
     base["cases"][0]["runs"][1]["position_error_rel"] = float("nan")   # built in memory: the gate flags it
     found, _ = _regressions(report[0].doc, base)
@@ -667,3 +679,173 @@ def test_gate_matches_points_by_their_full_knob_setting(knob_report):
     bad["cases"][0]["work_precision"]["curves"][-1]["points"][0]["error"] /= 1e3   # so they were compared
     found, _ = _regressions(doc, bad)
     assert [(f[1], f[3]) for f in found] == [("pymunk", "error")] and "iterations=3" in found[0][2]
+
+
+@pytest.mark.parametrize("edit", ["status OK", "status empty", "counts empty", "counts renamed", "point counts",
+                                  "engine status", "outcome", "outcome against status"])
+def test_edited_baselines_are_rejected(tmp_path, report, edit):
+    """Issue 25 item 6: an edited status or count keys would switch the gate
+    off (an unknown status ranked as failed, its figures never compared; no
+    counts, no count check): each is an input error in one line."""
+    doc = copy.deepcopy(report[0].doc)
+    native = doc["cases"][0]["runs"][0]
+    if edit == "status OK":
+        native["status"] = "OK"
+    elif edit == "status empty":
+        native["status"] = ""
+    elif edit == "counts empty":
+        native["counts"] = {}
+    elif edit == "counts renamed":
+        native["counts"]["jacobians"] = native["counts"].pop("jacobian_evaluations")
+    elif edit == "point counts":
+        doc["cases"][0]["work_precision"]["curves"][0]["points"][0]["counts"] = {"steps": 1}
+    elif edit == "engine status":
+        doc["engines"]["pymunk"]["status"] = "fine"
+    elif edit == "outcome":
+        native["outcome"] = "OK"
+    else:                          # a failed run edited to look ok by its outcome alone
+        doc["cases"][0]["runs"][1].update(status="failed: diverged", outcome="ok")
+    p = tmp_path / "b.json"
+    p.write_text(results.dumps(doc))
+    with pytest.raises(InputError) as e:
+        results.load(p)
+    assert "\n" not in str(e.value) and any(w in str(e.value) for w in ("status", "counts", "outcome"))
+    # the untouched document loads, and a real regression in it is caught
+    p.write_text(results.dumps(report[0].doc))
+    base = results.load(p)
+    now = copy.deepcopy(base)
+    now["cases"][0]["runs"][0]["counts"]["jacobian_evaluations"] += 249
+    found, _ = _regressions(now, base)
+    assert [(f[1], f[3], f[4]) for f in found] == [("native", "count", "jacobian_evaluations")]
+
+
+def test_whole_set_run_fails_on_runs_the_baseline_lacks(report):
+    """Issue 25 item 6: in a run of the whole case set, a run present now and
+    missing from the baseline fails the gate; a narrowed run only lists it."""
+    doc = report[0].doc
+    base = copy.deepcopy(doc)
+    del base["cases"][0]["runs"][1]
+    found, g = _regressions(doc, base)
+    assert found == [] and g["verdicts"][f"{doc['cases'][0]['name']}/pymunk"] == "new"
+    whole = _narrowed(doc, whole_set=True, engines=("pymunk", "mujoco", "exudyn"))
+    found, g = _regressions(whole, base, scope=gate_scope())
+    assert [(f[1], f[3]) for f in found] == [("pymunk", "new")]
+    assert g["verdicts"][f"{doc['cases'][0]['name']}/pymunk"].startswith("REGRESSED")
+
+
+def gate_scope():
+    from kinem.report.gate import Scope
+
+    return Scope()
+
+
+def test_case_edit_makes_the_baseline_stale(tmp_path):
+    """A 1 mm edit of a link (the case is in metres) changes the case's fingerprint: the gate says
+    "case changed: baseline stale" naming the case, and fails."""
+    from kinem.case import load
+    from kinem.report.fingerprint import fingerprint
+
+    path = short_case(tmp_path, "four_bar", 0.1, steps=5)
+    text = Path(path).read_text()
+    before = fingerprint(load(path))
+    assert fingerprint(load(path)) == before                    # deterministic
+    Path(path).write_text(text.replace("description", "# a comment\ndescription", 1))
+    assert fingerprint(load(path)) == before                    # comments and layout are not the case
+    edited = re.sub(r"(\bsi\s*=\s*\[\s*)(-?[0-9.]+)", lambda m: f"{m[1]}{float(m[2]) + 0.001}", text, count=1)
+    assert edited != text
+    Path(path).write_text(edited)
+    assert fingerprint(load(path)) != before
+
+
+def test_gate_sees_a_case_edit_and_a_moved_trajectory(report):
+    """The gate fails on a changed fingerprint (case named) and on native's
+    compact trajectory moving by 1e-9 L (case, quantity and size named),
+    though no figure moved; an engine moving within its tolerance passes."""
+    base = report[0].doc
+    name = base["cases"][0]["name"]
+    doc = copy.deepcopy(base)
+    doc["cases"][0]["fingerprint"] = "0" * 16
+    found, g = _regressions(doc, base)
+    assert [(f[0], f[3]) for f in found] == [(name, "stale")]
+    assert f"case {name} changed: baseline stale" in g["findings"][0]["message"]
+    doc = copy.deepcopy(base)
+    native, engine = doc["cases"][0]["runs"]
+    column = next(c for c in native["trajectory"]["columns"] if c.endswith(".x"))
+    native["trajectory"]["columns"][column][3] += 1e-9 * doc["cases"][0]["length"]
+    found, g = _regressions(doc, base)
+    assert [(f[0], f[1], f[3], f[4]) for f in found] == [(name, "native", "trajectory", column)]
+    message = g["findings"][0]["message"]
+    assert name in message and column in message and "1.00e-09 L" in message
+    doc = copy.deepcopy(base)
+    native = doc["cases"][0]["runs"][0]
+    phi = next(c for c in native["trajectory"]["columns"] if c.endswith(".phi"))
+    native["trajectory"]["columns"][phi][-1] += 2e-12                # angles: rad, same limit
+    assert [f[4] for f in _regressions(doc, base)[0]] == [phi]
+    doc = copy.deepcopy(base)
+    engine = doc["cases"][0]["runs"][1]
+    column = next(c for c in engine["trajectory"]["columns"] if c.endswith(".y"))
+    engine["trajectory"]["columns"][column][2] += 1e-9 * doc["cases"][0]["length"]
+    assert _regressions(doc, base)[0] == []                      # an engine: its tolerance
+    engine["trajectory"]["columns"][column][2] += 1e-3 * doc["cases"][0]["length"]
+    assert [f[3] for f in _regressions(doc, base)[0]] == ["trajectory"]
+
+
+def test_no_summary_cell_compares_native_with_itself_silently(tmp_path):
+    """A case without a closed form or equivalence group: native's cell says
+    "no independent reference" (in summary.md and index.html), never a
+    figure of native against itself."""
+    from kinem.report.text import SELF
+
+    case = short_case(tmp_path, "gear_pair", 0.1, steps=5)
+    out = run(Options(cases=(case,), engines=(), out=str(tmp_path / "o"), quick=True, workers=0, progress=False,
+                      whole_set=True))   # stress None (the CLI's default): no stress suite, even for a whole set
+    assert "stress" not in out.doc and out.doc["options"]["stress"] is None
+    md = (tmp_path / "o" / "summary.md").read_text()
+    row = next(line for line in md.splitlines() if line.startswith("| gear_pair |"))
+    assert SELF in row and "e+00" not in row and "e-" not in row
+    html = (tmp_path / "o" / "index.html").read_text()
+    cell = re.search(r'<a href="#case-gear_pair">gear_pair</a></th><td[^>]*>(.*?)</td>', html).group(1)
+    assert SELF in cell and "e+00" not in cell
+    assert out.doc["cases"][0]["runs"][0]["reference"].startswith("native")
+
+
+def test_summary_figure_is_the_worst_moving_coordinate(report):
+    """The summary figure is the worst of positions / L and angles (rad): a
+    gear pair's engines, whose origins do not move, show their angle error;
+    an out-of-tolerance cell names the metric, its value and its limit; the
+    cost is per output interval with the engine steps beside it."""
+    from kinem.report.text import _md_cell, figure
+
+    engine = copy.deepcopy(report[0].doc["cases"][0]["runs"][1])
+    engine.update(position_error_rel=0.0, angle_error=1.2e-10)
+    assert figure(engine) == (1.2e-10, "angle, rad")
+    engine.update(angle_error=1e-3, within_tolerance=False, tolerance={"angle_error": 1e-6}, verdict="outside tolerance")
+    cell = _md_cell((engine, "pass", "warn"))
+    assert "1.0e-03 (angle, rad)" in cell and "angle_error 1.00e-03 > 1e-06" in cell
+    assert "µs/interval (200 steps)" not in cell and "µs/interval (" in cell
+    native = report[0].doc["cases"][0]["runs"][0]
+    assert figure(native)[1] == "position / L" and native["reference"].startswith("closed form")
+
+
+def test_animation_label_says_slowed_or_faster():
+    """The loop plays the run's span in dur seconds: slowed when longer."""
+    from kinem.report.motion import speed_label
+
+    assert speed_label(4.0, 2.5) == "slowed x1.6"
+    assert speed_label(12.0, 30.0) == "x2.5 faster"
+    assert speed_label(5.0, 5.0) == "real time"
+
+
+def test_work_precision_is_asked_by_the_case_or_the_flag(tmp_path):
+    """[report] work_precision = true sweeps a case; --work-precision every
+    case; neither: none (no list of case names in the code)."""
+    from kinem.case import load, loads
+    from kinem.report.execute import FULL, wants_sweep
+
+    plain = load(short_case(tmp_path, "gear_pair", 0.1, steps=5))
+    asked = load(short_case(tmp_path, "four_bar", 0.1, steps=5))
+    assert asked.report["work_precision"] is True and not wants_sweep(plain, FULL)
+    assert wants_sweep(asked, FULL) and wants_sweep(plain, dataclasses.replace(FULL, every_case=True))
+    text = (ROOT / "cases" / "gear_pair.toml").read_text() + "\n[report]\nwork_precision = 1\n"
+    with pytest.raises(InputError, match="work_precision.*true or false"):
+        loads(text)

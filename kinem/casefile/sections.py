@@ -205,19 +205,28 @@ def equivalent(ck, e, points):
 
 
 def report(ck, r, points):
-    """[report]: points = the named points the report draws and plots (default: all)."""
+    """[report]: points = the named points the report draws and plots (default:
+    all); work_precision = true: the report sweeps the case's work-precision
+    diagram (default false)."""
     if not isinstance(r, dict):
         ck.bad("[report]", None, f"got {show(r)}", "a table such as { points = [\"B\"] }")
         return {}
-    ck.keys("[report]", r, ("points",))
+    ck.keys("[report]", r, ("points", "work_precision"))
+    out = {}
+    wp = r.get("work_precision")
+    if wp is not None:
+        if isinstance(wp, bool):
+            out["work_precision"] = wp
+        else:
+            ck.bad("[report]", "work_precision", f"got {show(wp)}", "true or false")
     listed = r.get("points")
     if listed is None:
-        return {}
+        return out
     if not isinstance(listed, list) or not listed or len(listed) > MAX_ITEMS \
             or not all(isinstance(n, str) for n in listed):
         ck.bad("[report]", "points", f"got {show(listed)}", "a non-empty list of names from [points]")
         return {}
     for n in listed:
         if ck.choice("[report]", "points", n, points, "point") is None:
-            return {}
-    return {"points": tuple(dict.fromkeys(listed))}
+            return out
+    return dict(out, points=tuple(dict.fromkeys(listed)))

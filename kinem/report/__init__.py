@@ -5,6 +5,7 @@ work-precision sweeps, and the baseline gate (docs/report.md).
     results.py  results.json and its schema         gate.py   the baseline gate
     html.py, plots.py, text.py: index.html, summary.md, junit.xml
 """
+import dataclasses
 import os
 import time
 from dataclasses import dataclass
@@ -26,9 +27,10 @@ class Options:
     workers: int | None = None   # None: os.cpu_count(); 0 or 1: in this process
     scheduler: str | None = None  # a Dask scheduler address: the runs go to its workers
     progress: bool | None = None  # None: when standard error is a terminal
-    stress: bool | None = None   # the quick stress suite as a section; None: when whole_set
+    stress: bool | None = None   # the quick stress suite as a section: only when True (--stress)
     whole_set: bool = False      # the cases are the repository's whole case set (not narrowed)
     baseline_default: bool = False  # no --baseline given: OUT/baseline.json is used when it exists
+    work_precision: bool = False  # every case gets work-precision diagrams (else: [report] work_precision)
 
 
 @dataclass(frozen=True)
@@ -62,9 +64,11 @@ def run(o: Options) -> Outcome:
     if o.update_baseline and not (target.parent.is_dir() or target.parent == out):
         raise InputError(f"--baseline {target}: directory {target.parent} does not exist")
     sweep = QUICK if o.quick else FULL
-    stress = o.whole_set if o.stress is None else o.stress
+    stress = bool(o.stress)   # only when asked: a user's cases are not followed by kinem's own scenarios
     bar = Progress(0, enabled=o.progress)
     try:
+        if o.work_precision:
+            sweep = dataclasses.replace(sweep, every_case=True)
         runs = execute([(p, c) for p, c, _ in cases], o.engines, sweep, o.workers, bar, o.scheduler,
                        (stress_tasks(o.engines) if stress else 0) + len(cases))   # then the stress suite, figures
         options = {"quick": o.quick, "engines": list(o.engines), "workers": _workers(o.workers),
@@ -72,7 +76,7 @@ def run(o: Options) -> Outcome:
                    "dt_factors": list(sweep.dt_factors),
                    "family_factors": list(sweep.family_factors), "native_repeats": sweep.native_repeats,
                    "whole_set": o.whole_set,
-                   "stress": ("--stress" if o.stress else "the whole case set") if stress else None}
+                   "stress": "--stress" if stress else None}
         doc, series = results.build(cases, runs, options, time.perf_counter() - start)
         if stress:
             from . import stress_section
@@ -193,14 +197,16 @@ def _exit_code(doc, o) -> int:
     failed (without a baseline: any failed run)."""
     from .gate import failed
 
-    if any(e["status"] != "ok" for e in doc["engines"].values()):
+    from .text import failed as lost
+
+    if any(e["outcome"] != "ok" for e in doc["engines"].values()):
         return 1
     if doc.get("stress") and doc["stress"]["native_misses"]:
         return 1
     g = doc["gate"]
     for c in doc["cases"]:
         for r in c["runs"]:
-            if not r["status"].startswith("failed"):
+            if not lost(r):
                 continue
             known = g and r["engine"] != "native" and g["verdicts"].get(f"{c['name']}/{r['engine']}") != "new"
             if not known:
@@ -212,7 +218,9 @@ def _exit_code(doc, o) -> int:
 
 def _line(doc, out, code, o) -> str:
     runs = [r for c in doc["cases"] for r in c["runs"]]
-    failed = sum(r["status"].startswith("failed") for r in runs)
+    from .text import failed as lost
+
+    failed = sum(lost(r) for r in runs)
     g = doc["gate"]
     if not g:
         gate = "no baseline" + (f" (none at {out / 'baseline.json'}; --update-baseline writes one)"

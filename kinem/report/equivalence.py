@@ -67,7 +67,7 @@ def _group(name, members):
     entry["max_deviation_rel"] = max(m["max_deviation_rel"] for m in entry["members"])
     for c, p in members:   # members without a closed form: their native row against the group
         native = next((r for r in c["runs"] if r["engine"] == "native"), None)
-        if native is None or native["status"] != "ok" or native["reference"] != _default_label():
+        if native is None or native["outcome"] != "ok" or native["reference"] != _default_label():
             continue
         worst, other = _against_group(c, p, members, shared)
         native.update(position_error=worst, position_error_rel=worst / c["length"],
@@ -164,28 +164,3 @@ def line(doc) -> str:
                    f"max deviation / L {dev}" + (f"; {e['status']}" if e["status"] != "ok" else "")
                    + (f"; {v}" if v else ""))
     return "\n".join(out)
-
-
-def gate(current, baseline, findings, verdicts, not_compared, finding):
-    """The groups' max deviation against the baseline's, as an error figure:
-    a regression when it grew beyond ERROR_FACTOR x max(old, ERROR_FLOOR)."""
-    from .gate import grew, verdict
-
-    old = {e["group"]: e for e in baseline.get("equivalence") or []}
-    for e in current.get("equivalence") or []:
-        o = old.get(e["group"])
-        key = f"equivalence/{e['group']}"
-        if o is None:
-            verdicts[key] = "new"
-            continue
-        before = len(findings)
-        a, b = o["max_deviation_rel"], e["max_deviation_rel"]
-        if a is not None and grew(a, b):
-            findings.append(finding(e["group"], "native", "equivalence", "error", "max_deviation_rel", a, b, True,
-                                    f"group {e['group']}: deviation / L {a:.2e} -> "
-                                    + ("none" if b is None else f"{b:.2e}")))
-        verdicts[key] = verdict(findings[before:])
-    names = {e["group"] for e in current.get("equivalence") or [] if e["max_deviation_rel"] is not None}
-    for g in old:
-        if g not in names and old[g]["max_deviation_rel"] is not None:
-            not_compared.append(f"equivalence group {g}: not all of its cases in this run")

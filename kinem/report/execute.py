@@ -1,7 +1,8 @@
 """Which runs the report makes and where they run.
 
 Every case gets a main run on the native solver and on each engine (default
-settings). Work-precision cases also get a sweep: the native solver over
+settings). Work-precision cases (the case file's [report] work_precision =
+true, or every case with --work-precision) also get a sweep: the native solver over
 NATIVE_TOLERANCES, each engine over its default time step times
 ``dt_factors`` (the factor 1 point is the main run), and each other family
 of the engine's own accuracy knobs (adapters.tune.families: MuJoCo's and
@@ -20,8 +21,6 @@ from .. import parallel
 from .progress import TICK
 from .runs import Task, run_task, step
 
-# Cases with a work-precision diagram (besides any case that asks for one).
-WORK_PRECISION_CASES = ("slider_crank", "four_bar", "quick_return_1")
 NATIVE_TOLERANCES = (1e-4, 1e-6, 1e-8, 1e-10, 1e-12)
 
 
@@ -34,6 +33,7 @@ class Sweep:
     tolerances: tuple = NATIVE_TOLERANCES
     native_repeats: int = 3
     family_factors: tuple = ()   # dt factors of the other knob families (none: the defaults' family only)
+    every_case: bool = False     # --work-precision: every case swept, not only those whose file asks
 
 
 # two decades, 1-2-5 steps; the other knob families the coarse decade at three points, none costlier
@@ -42,8 +42,9 @@ FULL = Sweep(dt_factors=(10.0, 5.0, 2.0, 1.0, 0.5, 0.2, 0.1), native_repeats=3, 
 QUICK = Sweep(dt_factors=(10.0, 5.0, 2.0, 1.0), native_repeats=1)  # the coarse decade, the defaults' family only
 
 
-def wants_sweep(case) -> bool:
-    return case.name in WORK_PRECISION_CASES
+def wants_sweep(case, sweep=None) -> bool:
+    """The case file's [report] work_precision = true, or --work-precision."""
+    return bool(case.report.get("work_precision")) or bool(sweep and sweep.every_case)
 
 
 def execute(cases, engines, sweep: Sweep, workers=None, progress=None, scheduler=None, later=0):
@@ -54,7 +55,7 @@ def execute(cases, engines, sweep: Sweep, workers=None, progress=None, scheduler
     counts after these (the stress suite)."""
     main = [Task(p, "native", repeats=sweep.native_repeats) for p, _ in cases]
     main += [Task(p, e) for p, _ in cases for e in engines]
-    swept = {p for p, c in cases if wants_sweep(c)}
+    swept = {p for p, c in cases if wants_sweep(c, sweep)}
     extra = [Task(p, "native", "tolerance", tol, sweep.native_repeats) for p in sorted(swept)
              for tol in sweep.tolerances]
     planned = {(p, e): len([f for f in sweep.dt_factors if f != 1.0]) for p in swept for e in engines}
@@ -68,7 +69,7 @@ def execute(cases, engines, sweep: Sweep, workers=None, progress=None, scheduler
             return []
         n = planned[(task.path, task.engine)]
         dt = step(r)   # dt = "auto": the step the engine chose
-        if r["status"] != "ok" or dt is None:
+        if r["outcome"] != "ok" or dt is None:
             if progress:
                 progress.drop(n)
             return []

@@ -7,7 +7,8 @@ from html import escape
 
 from . import plots
 from .runs import sample
-from .text import fmt, headline, matrix, provenance, reason, short, unsupported_lines, us
+from .text import (cost, exceeded_text, failed, figure, fmt, headline, matrix, provenance, reason, short, unsupported,
+                   unsupported_lines, us)
 
 SNAPSHOTS = 4   # instants of the static mechanism drawings
 CSS = """body{font:14px/1.4 system-ui,sans-serif;margin:1.5em auto;max-width:1250px;padding:0 1em;color:#222}
@@ -19,17 +20,15 @@ code,pre{font-size:12px}pre{background:#f7f7f7;padding:.5em;overflow-x:auto;whit
 p.head{font-size:17px;padding:.4em .6em;border-left:6px solid #176b1a;background:#eef7ee}
 p.head.bad{border-color:#b00020;background:#fbeaea;color:#222;font-weight:normal}
 table.matrix td{text-align:left;min-width:9em;vertical-align:top}table.matrix td.c-ok{background:#e3f4e3}
-table.matrix td.c-warn{background:#fff3cd}table.matrix td.c-bad{background:#f8d7da;font-weight:bold}
+table.matrix td.c-warn{background:#fff3cd}table.matrix td.c-slow{background:#e3ecf8}
+table.matrix td.c-self{background:#fff;color:#555}table.matrix td.c-bad{background:#f8d7da;font-weight:bold}
 table.matrix td.c-skip{background:#f4f4f4;color:#999;text-align:center}td small{color:#555}
 details{margin:.3em 0 1em}summary{cursor:pointer;color:#335}.wrap{overflow-x:auto;max-width:100%}"""
 
 
-def _cls(text):
-    if text.startswith(("failed", "REGRESSED")):
-        return "bad"
-    if text.startswith(("ok", "pass")):
-        return "ok"
-    return "skip"
+def _cls(r):
+    """A run's or point's class by its typed outcome."""
+    return {"ok": "ok", "unsupported": "skip"}.get(r["outcome"], "bad")
 
 
 def _td(text, cls="", left=False):
@@ -45,15 +44,15 @@ def summary_matrix(doc):
     """One row per case (failed or regressed first), one column per engine:
     each cell coloured by its verdict, with position error / L and µs/step;
     unsupported engines collapsed below into one line per engine."""
-    engines, table, unsupported = matrix(doc)
+    engines, table, skipped = matrix(doc)
     out = ["<table class=matrix><tr><th class=l>case</th>" + "".join(f"<th class=l>{escape(e)}</th>" for e in engines)
            + "</tr>"]
     for c, cells in table:
         out.append(f'<tr><th class=l><a href="#case-{escape(c["name"])}">{escape(c["name"])}</a></th>'
                    + "".join(_matrix_cell(cells.get(e)) for e in engines) + "</tr>")
     out.append("</table>")
-    if unsupported:
-        items = "".join(f"<li><b>{escape(e)}</b>: {escape(text)}</li>" for e, text in unsupported_lines(unsupported).items())
+    if skipped:
+        items = "".join(f"<li><b>{escape(e)}</b>: {escape(text)}</li>" for e, text in unsupported_lines(skipped).items())
         out.append(f"<p>Not supported (grey cells):</p><ul>{items}</ul>")
     return "\n".join(out)
 
@@ -64,16 +63,20 @@ def _matrix_cell(cell):
     r, v, g = cell
     if g == "skip":
         return f'<td class=c-skip title="{escape(": ".join(reason(r["status"])))}">–</td>'
-    tip = escape(f"{r['status']}; angle error {fmt(r['angle_error'])} rad; residual {fmt(r['constraint_residual'])}; "
+    tip = escape(f"{r['status']}; position error / L {fmt(r['position_error_rel'])}; angle error "
+                 f"{fmt(r['angle_error'])} rad; residual {fmt(r['constraint_residual'])}; "
                  f"verdict: {v}; position error against {r['reference']}")
-    if r["status"].startswith("failed"):
+    if failed(r):
         return f'<td class=c-bad title="{tip}">{escape(short(r["status"], 60))}</td>'
-    note = "" if v in ("pass", "no baseline") else f"<br><small>{escape(short(v, 70))}</small>"
+    note = "" if v in ("pass", "no baseline") else f"<br><small>{escape(short(v, 90))}</small>"
     if r["within_tolerance"] is False:
-        note += "<br><small>outside the engine's tolerance</small>"
+        note += f"<br><small>{escape(r['verdict'])}: {escape(exceeded_text(r))}</small>"
     mark = "ᶜ" if r["reference"].startswith("closed form") else "ᵍ" if r["reference"].startswith("equivalence") else ""
-    return (f'<td class=c-{g} title="{tip}">{fmt(r["position_error_rel"])}{mark} · {us(r["time_per_step"])} µs'
-            f"{note}</td>")
+    value, what = figure(r)
+    shown = (f"<i>{escape(what)}</i>" if value is None
+             else f"{fmt(value)}{mark} <small>{escape(what)}</small>")
+    return f'<td class=c-{g} title="{tip}">{shown}<br>{escape(cost(r))}{note}</td>'
+
 
 
 def _counts(r):
@@ -91,20 +94,20 @@ def _per_step(r):
 
 def case_table(case):
     head = ["engine", "status", "pos. error", "pos. / L", "pos. error against", "angle (rad)", "velocity (rel.)",
-            "omega (rad/s)", "residual", "wall (s)", "µs/step", "cost (native per instant)", "within tol."]
+            "omega (rel.)", "residual", "wall (s)", "µs/interval", "cost (native per instant)", "within tol."]
     out = ["<div class=wrap><table><tr>" + "".join(f"<th class=l>{h}</th>" for h in head) + "</tr>"]
     for r in case["runs"]:
-        if r["status"].startswith("unsupported"):   # one cell: the reason, no row of dashes
+        if unsupported(r):   # one cell: the reason, no row of dashes
             out.append("<tr>" + _td(r["engine"], left=True)
                        + f'<td class="l skip" colspan={len(head) - 1}>{escape(r["status"])}</td></tr>')
             continue
         wt = {True: "yes", False: "NO", None: "–"}[r["within_tolerance"]]
-        out.append("<tr>" + _td(r["engine"], left=True) + _td(short(r["status"], 60), _cls(r["status"]), True)
+        out.append("<tr>" + _td(r["engine"], left=True) + _td(short(r["status"], 60), _cls(r), True)
                    + "".join(_td(fmt(r[k])) for k in ("position_error", "position_error_rel"))
                    + _td(r["reference"], left=True)
-                   + "".join(_td(fmt(r[k])) for k in ("angle_error", "velocity_error_rel", "angular_velocity_error",
+                   + "".join(_td(fmt(r[k])) for k in ("angle_error", "velocity_error_rel", "angular_velocity_error_rel",
                                                         "constraint_residual"))
-                   + _td(fmt(r["wall_time"], ".3g")) + _td(us(r["time_per_step"])) + _td(_per_step(r), left=True)
+                   + _td(fmt(r["wall_time"], ".3g")) + _td(us(r["time_per_interval"])) + _td(_per_step(r), left=True)
                    + _td(wt) + "</tr>")
     out.append("</table></div>")
     settings = "".join(f"<li><b>{escape(r['engine'])}</b> {escape(r['version'])}: "
@@ -124,7 +127,7 @@ def wp_table(wp):
             out.append("<tr>" + _td(curve["engine"], left=True) + _td(curve["knob"], left=True)
                        + _td(fmt(p["value"], ".1e")) + _td(held, left=True)
                        + _td("Pareto" if p.get("front") else "", left=True)
-                       + _td(short(p["status"]), _cls(p["status"]), True)
+                       + _td(short(p["status"]), _cls(p), True)
                        + _td(fmt(p["error"])) + _td(fmt(p["cost"], ".3g")) + _td(_counts(p), left=True) + "</tr>")
     return "\n".join(out) + "</table>"
 
@@ -225,13 +228,17 @@ def index_html(doc, sections, curves=None) -> str:
         items = "".join(f"<li>{escape(x)}</li>" for x in g["not_compared"])
         parts.append(f"<h3>Not compared (in the baseline {escape(g['baseline'])}, not in this run)</h3><ul>{items}</ul>")
     parts.append("<h2>Summary</h2>" + summary_matrix(doc))
-    parts.append("<p><small>Each cell: position error / L (max over instants, bodies and named points) · wall time "
-                 "per engine step (native: per output instant); hover for the angle error, residual and verdict. "
-                 "References: engines against the native solution at tolerance 1e-13; native against the case's "
-                 "closed form (ᶜ, kinem.reference) or its equivalence group (ᵍ) where it has one, else against "
-                 "itself at 1e-13. Green: ok and no regression; yellow: new, slower or outside the engine's "
-                 "documented tolerance; red: failed or regressed. Work-precision: max position error / L against "
-                 "wall time per simulated second.</small></p>")
+    parts.append("<p><small>Each cell: the worst error over instants and every coordinate that moves (positions of "
+                 "bodies and named points / L, bodies' angles in rad; which one is named), then the wall time per "
+                 "output interval and the engine steps per interval (native: one solve per instant), the same unit "
+                 "in every column; hover for the other figures and the verdict. References: engines against the "
+                 "native solution at tolerance 1e-13; native against the case's closed form (ᶜ, kinem.reference) "
+                 "or its equivalence group (ᵍ) where it has one, else \"no independent reference\" (white). Green: ok and "
+                 "no regression; yellow: new, or outside the engine's documented tolerance (the metric, its value "
+                 "and its limit named); blue: slower than the baseline relative to the engine's other cases in the same run (shown, "
+                 "not failing unless --fail-on-slowdown); red: failed or regressed. Rows: cases with a red cell "
+                 "first, then by name. Work-precision: max position error / L against wall time per simulated "
+                 "second.</small></p>")
     parts.append(equivalence_html(doc, (curves or {})))
     parts += sections
     parts.append(stress_html(doc))

@@ -234,7 +234,16 @@ def _time_bar(v, clock, t):
             f'<rect x="{PAD}" y="{y}" width="0" height="5" fill="#444"><animate attributeName="width" '
             f'values="0;{w}" keyTimes="0;1" dur="{clock.dur:.2f}s" repeatCount="indefinite"/></rect>'
             f'<text x="{PAD + w / 2:.0f}" y="{y + 18}" font-size="11" text-anchor="middle" fill="#555">'
-            f'{clock.dur / max(t[-1] - t[0], 1e-300):.2g} x real time</text>')
+            f'{speed_label(clock.dur, t[-1] - t[0])}</text>')
+
+
+def speed_label(dur, span) -> str:
+    """How the loop's dur seconds play the run's span seconds: "slowed x1.6",
+    "x2.5 faster" or "real time"."""
+    ratio = dur / max(span, 1e-300)
+    if abs(ratio - 1.0) < 0.005:
+        return "real time"
+    return f"slowed x{ratio:.2g}" if ratio > 1 else f"x{1 / ratio:.2g} faster"
 
 
 def _scale_bar(v, unit):

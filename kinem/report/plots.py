@@ -115,7 +115,7 @@ def work_precision(wp) -> str:
         for curve in wp["curves"]:
             e = curve["engine"]
             k = nth[e] = nth.get(e, -1) + 1
-            ok = [p for p in curve["points"] if p["status"] == "ok" and p[key] is not None and p["cost"]]
+            ok = [p for p in curve["points"] if p["outcome"] == "ok" and p[key] is not None and p["cost"]]
             if not ok:
                 continue
             x = [p["cost"] for p in ok]

@@ -6,14 +6,16 @@ import json
 import math
 import os
 import platform
+import re
 import subprocess
 from datetime import datetime, timezone
 from pathlib import Path
 
 from ..errors import InputError
+from .fingerprint import fingerprint
 from .schema import SCHEMA, problems
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 PACKAGES = ("kinem", "numpy", "scipy", "matplotlib", "pymunk", "mujoco", "exudyn")
 WP_ERROR = "position_error_rel"      # the work-precision diagram's error
 WP_COST = "wall_per_sim_second"      # and its cost
@@ -34,11 +36,11 @@ def build(cases, runs, options, duration):
         ref_tol = next((r.get("reference_tolerance") for r in main if r["engine"] == "native"), None)
         for r in main:
             if r["engine"] != "native":
-                e = engines.setdefault(r["engine"], {"version": r["version"], "status": "ok"})
+                e = engines.setdefault(r["engine"], {"version": r["version"], "status": "ok", "outcome": "ok"})
                 if r.get("import_failed"):
-                    e["status"] = r["status"]
+                    e["status"], e["outcome"] = r["status"], r["outcome"]
         out.append({
-            "name": case.name, "path": str(path), "description": case.description,
+            "name": case.name, "path": str(path), "fingerprint": fingerprint(case), "description": case.description,
             "length": model.length, "unit": case.length_unit, "end": case.end, "steps": case.steps,
             "coordinates": model.n, "reference_tolerance": ref_tol,
             "equivalent": None if case.equivalent is None else {"group": case.equivalent.group,
@@ -64,7 +66,8 @@ def _strip(r):
 
 
 def _point(r):
-    return {"value": r["value"], "knobs": r["knobs"], "status": r["status"], "error": r[WP_ERROR],
+    return {"value": r["value"], "knobs": r["knobs"], "status": r["status"], "outcome": r["outcome"],
+            "error": r[WP_ERROR],
             "cost": r[WP_COST], "velocity_error_rel": r["velocity_error_rel"], "wall_time": r["wall_time"],
             "counts": r["counts"], "front": False}
 
@@ -89,7 +92,7 @@ def _work_precision(rs, engines):
         knob = pts[0]["knob"]
         if e != "native":  # the main run is the sweep's factor-1 point of the defaults' family
             pts += [dict(r, value=step(r)) for r in rs
-                    if r["engine"] == e and r["knob"] is None and r["status"] == "ok"]
+                    if r["engine"] == e and r["knob"] is None and r["outcome"] == "ok"]
         families = []
         for r in pts:
             family = {k: v for k, v in r["knobs"].items() if k != knob}
@@ -104,7 +107,7 @@ def _work_precision(rs, engines):
             curve = {"engine": e, "knob": knob, "family": family, "points": [_point(r) for r in group]}
             curves.append(curve)
             mine += curve["points"]
-        ok = [dict(p, error=p["error"] if p["status"] == "ok" else None) for p in mine]
+        ok = [dict(p, error=p["error"] if p["outcome"] == "ok" else None) for p in mine]
         for k in pareto(ok, cost="cost", error="error", floor=ERROR_FLOOR):
             mine[k]["front"] = True
     if not curves:
@@ -143,10 +146,46 @@ def load(path, what="baseline"):
     if version != SCHEMA_VERSION:
         raise InputError(f"{what} {path}: schema_version {version!r}; expected {SCHEMA_VERSION} "
                          "(rewrite it with --update-baseline)")
-    bad = problems(doc, SCHEMA) or missing_figures(doc)
+    bad = problems(doc, SCHEMA) or untyped(doc) or missing_figures(doc)
     if bad:
-        raise InputError([f"{what} {path}: {p}" for p in bad[:5]])
+        raise InputError(f"{what} {path}: {bad[0]}" + (f" (+{len(bad) - 1} more)" if len(bad) > 1 else ""))
     return doc
+
+
+# The deterministic cost counts of each kind of run; an edited baseline with
+# other keys (or none) would switch their check off.
+COUNTS = {"native": ("instants", "newton_iterations", "jacobian_evaluations", "factorizations"),
+          "engine": ("steps", "substeps")}
+STATUS_RE = re.compile(r"(ok|(unsupported|failed)(: .+)?)", re.S)
+# adapters.base.Status values -> the word their label starts with (the schema's enum checks the value)
+KIND = {"ok": "ok", "unsupported": "unsupported", "failed": "failed", "diverged": "failed", "non-finite": "failed"}
+
+
+def untyped(doc) -> list:
+    """Statuses that are not "ok", "unsupported[: why]" or "failed[: why]",
+    and count keys that are not the run's own (an ok run must have them all;
+    another may have none): 'where: problem' lines."""
+    out = []
+
+    def check(where, engine, status, counts, outcome):
+        if not STATUS_RE.fullmatch(status) or KIND[outcome] != status.split(":", 1)[0]:
+            out.append(f"{where}: status {status[:40]!r} with outcome {outcome!r}; expected 'ok', "
+                       "'unsupported: why' or 'failed: why' and its outcome")
+        keys = COUNTS["native" if engine == "native" else "engine"]
+        if (status == "ok" or counts) and sorted(counts) != sorted(keys):
+            out.append(f"{where}: counts {sorted(counts)}; expected {list(keys)}")
+
+    for c in doc["cases"]:
+        for r in c["runs"]:
+            check(f"cases.{c['name']}.runs.{r['engine']}", r["engine"], r["status"], r["counts"], r["outcome"])
+        for curve in (c.get("work_precision") or {}).get("curves", ()):
+            for p in curve["points"]:
+                check(f"cases.{c['name']}.work_precision.{curve['engine']}.{p['value']:g}", curve["engine"],
+                      p["status"], p["counts"], p["outcome"])
+    for name, e in doc["engines"].items():
+        if not STATUS_RE.fullmatch(e["status"]):
+            out.append(f"engines.{name}: status {e['status'][:40]!r}; expected 'ok' or 'failed: why'")
+    return out
 
 
 def _no_constant(name):
@@ -161,12 +200,12 @@ def missing_figures(doc) -> list:
     out = []
     for c in doc["cases"]:
         for r in c["runs"]:
-            if r["status"] == "ok":
+            if r["outcome"] == "ok":
                 out += [f"cases.{c['name']}.runs.{r['engine']}: {k} is null in an ok run; expected a finite number"
                         for k in GATED if r.get(k) is None]
         for curve in (c.get("work_precision") or {}).get("curves", ()):
             for p in curve["points"]:
-                if p["status"] == "ok":
+                if p["outcome"] == "ok":
                     out += [f"cases.{c['name']}.work_precision.{curve['engine']}.{p['value']:g}: {k} is null in an "
                             "ok point; expected a finite number" for k in ("error", "velocity_error_rel")
                             if p.get(k) is None]

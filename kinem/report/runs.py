@@ -15,12 +15,16 @@ from functools import lru_cache
 
 import numpy as np
 
+from adapters.base import Status
+
+from .fingerprint import compact
+
 REFERENCE_TOLERANCE = 1e-13  # scaled residual; about 500 machine epsilons of L
 REFERENCE_LABEL = "native at the reference tolerance"  # what a run's figures are against, unless it says otherwise
 FRAMES = 120                 # instants of the animation (native and every engine at the same ones)
 PATH_INSTANTS = 480          # instants of the named points' paths drawn in the plane
 ERROR_KEYS = ("position_error", "position_error_rel", "angle_error", "velocity_error", "velocity_error_rel",
-              "angular_velocity_error", "constraint_residual")   # adapters.compare.FIGURES
+              "angular_velocity_error", "angular_velocity_error_rel", "constraint_residual")   # adapters.compare.FIGURES
 
 
 @dataclass(frozen=True)
@@ -57,15 +61,29 @@ def reference(path):
     return model, solve(model), model.case.tolerance
 
 
-def _blank(task, status, **extra):
+def _blank(task, outcome, detail="", **extra):
+    """A run's row: outcome an adapters.base.Status (its value is stored as
+    ``outcome``; ``status`` is the one-string label shown to people)."""
+    status = outcome.label(detail)
     out = {"engine": task.engine, "knob": task.knob, "value": task.value, "status": status,
+           "outcome": outcome.value,
            "requested": {}, "settings": {}, "version": "", "within_tolerance": None, "tolerance": {},
            "wall_time": None, "time_per_step": None, "time_per_interval": None, "overhead_per_interval": None,
            "wall_per_sim_second": None, "counts": {}, "reference": REFERENCE_LABEL,
-           "knobs": dict(task.point) or ({task.knob: task.value} if task.knob else {})}
+           "knobs": dict(task.point) or ({task.knob: task.value} if task.knob else {}), "trajectory": None,
+           "verdict": _verdict_of(outcome), "estimate": {}}
     out.update({k: None for k in ERROR_KEYS})
     out.update(extra)
     return out
+
+
+def _verdict_of(outcome):
+    """A run's verdict before any comparison (adapters.compare.Verdict values)."""
+    from adapters.compare import Verdict
+
+    if outcome is Status.UNSUPPORTED:
+        return Verdict.UNSUPPORTED.value
+    return Verdict.FAILED.value if outcome.failure else Verdict.NONE.value
 
 
 def _finite(x):
@@ -142,11 +160,13 @@ def run_native(task):
                 repeats=len(walls), time_per_step=wall / max(steps, 1), time_per_interval=wall / max(steps - 1, 1),
                 overhead_per_interval=0.0, wall_per_sim_second=wall / model.case.end)
     if not r.success:
-        return _blank(task, f"failed: {r.message}", **base)
+        return _blank(task, Status.FAILED, r.message, **base)
     e = errors(model, ref, r.q, r.trajectory)
-    out = _blank(task, "ok", **base, **{k: _finite(e.get(k)) for k in ERROR_KEYS})
+    out = _blank(task, Status.OK, **base, **{k: _finite(e.get(k)) for k in ERROR_KEYS})
     out["within_tolerance"] = True
+    out["verdict"] = "within tolerance"
     if task.knob is None:
+        out["trajectory"] = compact(model, r.trajectory)
         out["series"] = _series(model, ref, r.trajectory, r.q, with_reference=True)
         out["reference_tolerance"] = ref_tol
         _independent(model, ref, r.trajectory, out)
@@ -172,7 +192,6 @@ def _independent(model, ref, traj, out):
 
 
 def run_engine(task):
-    from adapters.base import Status
     from adapters import case_settings, get
     from adapters.compare import compare, tolerance_of
 
@@ -180,13 +199,13 @@ def run_engine(task):
         adapter = get(task.engine)
         version = adapter.version()
     except Exception as e:  # noqa: BLE001 - a missing or broken adapter is a report row, not a crash
-        return _blank(task, f"failed: import error: {type(e).__name__}: {e}", import_failed=True)
+        return _blank(task, Status.FAILED, f"import error: {type(e).__name__}: {e}", import_failed=True)
     model, ref, _ = reference(task.path)
     if not ref.success:
-        return _blank(task, "failed: no native reference (" + ref.message + ")", version=version)
+        return _blank(task, Status.FAILED, "no native reference (" + ref.message + ")", version=version)
     reason = adapter.unsupported(model)
     if reason:
-        return _blank(task, f"unsupported: {reason}", version=version)
+        return _blank(task, Status.UNSUPPORTED, reason, version=version)
     overrides = dict(task.point)
     if task.knob is not None and not overrides:
         overrides[task.knob] = task.value
@@ -194,10 +213,10 @@ def run_engine(task):
     try:
         run = adapter.run(model, ref.q[0], ref.qd[0], settings, ref)
     except Exception as e:  # noqa: BLE001 - adapters should not raise; record it if one does
-        return _blank(task, f"failed: {type(e).__name__}: {e}", version=version, requested=_plain(settings),
+        return _blank(task, Status.FAILED, f"{type(e).__name__}: {e}", version=version, requested=_plain(settings),
                       knobs=_knobs(adapter, settings, settings))
     c = compare(model, ref, run, tolerance_of(adapter))
-    out = _blank(task, c.label, version=run.version or version, requested=_plain(settings),
+    out = _blank(task, c.status, c.detail, version=run.version or version, requested=_plain(settings),
                  settings=_plain(run.settings or settings),
                  within_tolerance=c.within_tolerance, tolerance=_plain(c.tolerance),
                  wall_time=_finite(run.wall_time), counts={"steps": int(run.steps), "substeps": int(run.substeps)})
@@ -206,6 +225,8 @@ def run_engine(task):
     out["overhead_per_interval"] = _finite(c.overhead_per_interval)
     out["wall_per_sim_second"] = _finite(run.wall_time / model.case.end)
     out["knobs"] = _knobs(adapter, settings, run.settings or settings)
+    out["verdict"] = c.verdict.value
+    out["estimate"] = {k: _finite(v) for k, v in c.estimate.items()}
     if task.knob is None:   # the main run: the knob families its sweep covers (adapters.tune)
         from adapters.tune import families
 
@@ -213,6 +234,7 @@ def run_engine(task):
     if c.status is Status.OK:
         out.update({k: _finite(getattr(c, k)) for k in ERROR_KEYS})
         if task.knob is None:
+            out["trajectory"] = compact(model, run.trajectory)
             out["series"] = _series(model, ref, run.trajectory, run.q)
     return out
 
@@ -242,7 +264,7 @@ def run_task(task: Task) -> dict:
     try:
         out = run_native(task) if task.engine == "native" else run_engine(task)
     except Exception as e:  # noqa: BLE001
-        out = _blank(task, f"failed: internal error: {type(e).__name__}: {e}")
+        out = _blank(task, Status.FAILED, f"internal error: {type(e).__name__}: {e}")
     out["path"] = task.path
     out["elapsed"] = time.perf_counter() - start
     return out

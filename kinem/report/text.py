@@ -2,7 +2,7 @@
 (one test case per case x engine); the summary matrix and headline both
 summary.md and index.html show."""
 import re
-from xml.sax.saxutils import quoteattr
+from xml.sax.saxutils import escape, quoteattr
 
 
 def fmt(x, spec=".1e"):
@@ -15,6 +15,15 @@ def us(x):
 
 def short(status, n=60):
     return status if len(status) <= n else status[:n - 1] + "…"
+
+
+def failed(r) -> bool:
+    """A run or sweep point that failed in any way (its typed outcome)."""
+    return r["outcome"] not in ("ok", "unsupported")
+
+
+def unsupported(r) -> bool:
+    return r["outcome"] == "unsupported"
 
 
 def verdict_of(doc, case, engine):
@@ -35,39 +44,86 @@ def engines_of(doc):
     return ["native"] + list(doc["options"]["engines"])
 
 
+SELF = "no independent reference"
+
+
+def figure(run) -> tuple:
+    """A run's summary figure: (value, what) with the worst error over every
+    coordinate that moves, positions / L and bodies' angles in rad alike.
+    Native's figures are against native itself unless the case has a closed
+    form or an equivalence group: then (None, SELF), never a green 0; with
+    one, its positions against it (what the independent reference gives)."""
+    from .runs import REFERENCE_LABEL
+
+    if run["outcome"] != "ok":
+        return None, ""
+    if run["engine"] == "native":
+        if run["reference"] == REFERENCE_LABEL:
+            return None, SELF
+        return run["position_error_rel"], "position / L"
+    pos, angle = run["position_error_rel"], run["angle_error"]
+    if angle is not None and (pos is None or angle > pos):
+        return angle, "angle, rad"
+    return pos, "position / L"
+
+
+def exceeded(run) -> list:
+    """(metric, value, limit) of every figure above the run's tolerance."""
+    return [(k, run.get(k), limit) for k, limit in (run.get("tolerance") or {}).items()
+            if run.get(k) is not None and run[k] > limit]
+
+
+def exceeded_text(run) -> str:
+    return "; ".join(f"{k} {v:.2e} > {limit:.0e}" for k, v, limit in exceeded(run))
+
+
+def cost(run) -> str:
+    """Like for like: seconds per output interval, and engine steps per interval."""
+    per = run.get("time_per_interval")
+    if per is None:
+        return "–"
+    steps = (run.get("counts") or {}).get("substeps", 1)
+    shown = f"{1e3 * per:.3g} ms" if per >= 1e-3 else f"{us(per)} µs"
+    return f"{shown}/interval ({steps} step{'s' if steps != 1 else ''})"
+
+
 def grade(run, verdict) -> str:
     """A cell's class: bad (failed, regressed), skip (unsupported), warn
-    (new, slower, outside the adapter's tolerance), ok."""
-    st = run["status"]
-    if st.startswith("failed") or verdict.startswith("REGRESSED"):
+    (new, outside the adapter's tolerance), slow (slower than the baseline,
+    not failing), ok."""
+    if failed(run) or verdict.startswith("REGRESSED"):
         return "bad"
-    if st.startswith("unsupported"):
+    if unsupported(run):
         return "skip"
-    if verdict.startswith(("new", "pass, slower")) or run["within_tolerance"] is False:
+    if verdict.startswith("new") or run["within_tolerance"] is False:   # outside, or capped
         return "warn"
+    if verdict.startswith("pass, slower"):
+        return "slow"
+    if figure(run)[1] == SELF:   # nothing independent checked it: neither green nor a warning
+        return "self"
     return "ok"
 
 
 def matrix(doc):
     """The summary matrix: (engines, [(case, {engine: (run, verdict, grade)})],
     {engine: {reason: ([joint types], [cases])}} of the unsupported runs).
-    Cases with a failed or regressed run come first, then those with a
-    warning, then the rest."""
-    engines, rows, unsupported = engines_of(doc), [], {}
+    Cases with a failed or regressed run come first, then the rest; each
+    part by case name (never by warnings or speed: two reports of the same
+    code list the cases in the same order)."""
+    engines, rows, skipped = engines_of(doc), [], {}
     for c in doc["cases"]:
         cells = {}
         for r in c["runs"]:
             v = verdict_of(doc, c["name"], r["engine"])
             cells[r["engine"]] = (r, v, grade(r, v))
-            if r["status"].startswith("unsupported") and not v.startswith("REGRESSED"):
+            if unsupported(r) and not v.startswith("REGRESSED"):
                 what, why = reason(r["status"])
-                types, names = unsupported.setdefault(r["engine"], {}).setdefault(why, ([], []))
+                types, names = skipped.setdefault(r["engine"], {}).setdefault(why, ([], []))
                 types += [what] if what not in types else []
                 names.append(c["name"])
         rows.append((c, cells))
-    order = {"bad": 0, "warn": 1}
-    rows.sort(key=lambda row: min((order.get(g, 2) for _, _, g in row[1].values()), default=2))
-    return engines, rows, unsupported
+    rows.sort(key=lambda row: (all(g != "bad" for _, _, g in row[1].values()), row[0]["name"]))
+    return engines, rows, skipped
 
 
 def reason(status) -> tuple:
@@ -88,21 +144,21 @@ def unsupported_lines(unsupported):
 
 def counts(doc):
     runs = [r for _, r, _ in rows(doc)]
-    ok = sum(r["status"] == "ok" for r in runs)
-    failed = sum(r["status"].startswith("failed") for r in runs)
-    return len(runs), ok, failed, len(runs) - ok - failed
+    ok = sum(r["outcome"] == "ok" for r in runs)
+    bad = sum(failed(r) for r in runs)
+    return len(runs), ok, bad, len(runs) - ok - bad
 
 
 def headline(doc) -> str:
     """One sentence: the verdict, then what it covers."""
-    n, ok, failed, unsupported = counts(doc)
+    n, ok, n_failed, n_unsupported = counts(doc)
     g = doc.get("gate")
     regressions = g["regressions"] if g else 0
     misses = len((doc.get("stress") or {}).get("native_misses", ()))
-    bad = failed or regressions or misses or any(e["status"] != "ok" for e in doc["engines"].values())
+    bad = n_failed or regressions or misses or any(e["outcome"] != "ok" for e in doc["engines"].values())
     verdict = "FAILED" if bad else "PASS"
-    what = (f"{len(doc['cases'])} case(s) on {', '.join(engines_of(doc))}: {ok} of {n} runs ok, {failed} failed, "
-            f"{unsupported} unsupported")
+    what = (f"{len(doc['cases'])} case(s) on {', '.join(engines_of(doc))}: {ok} of {n} runs ok, {n_failed} failed, "
+            f"{n_unsupported} unsupported")
     if g:
         base = (f"{regressions} regression(s), {g['slowdowns']} slowdown(s) against {g['baseline']}"
                 + (" (found by default; --baseline none skips it)" if g.get("default") else ""))
@@ -136,14 +192,14 @@ def summary_md(doc) -> str:
         out += [f"- **{f['case']} / {f['engine']}** ({f['where']}): {f['message']}" for f in fatal[:30]]
         out += [f"- … and {len(fatal) - 30} more (results.json)"] if len(fatal) > 30 else []
         out.append("")
-    failed = {}
+    lost = {}
     for c, r, _ in rows(doc):  # one line per engine and distinct failure (an import error fails every case)
-        if r["status"].startswith("failed"):
-            failed.setdefault((r["engine"], r["status"]), []).append(c["name"])
-    if failed:
+        if failed(r):
+            lost.setdefault((r["engine"], r["status"]), []).append(c["name"])
+    if lost:
         out += ["### Failed runs", ""]
         out += [f"- **{e}** ({', '.join(names) if len(names) < 4 else f'{len(names)} cases'}): {short(st, 200)}"
-                for (e, st), names in failed.items()]
+                for (e, st), names in lost.items()]
         out.append("")
     slow = [f for f in (g or {}).get("findings", ()) if f["kind"] == "slower" and not f["fatal"]]
     if slow:
@@ -157,21 +213,23 @@ def summary_md(doc) -> str:
 
     if doc.get("equivalence"):
         out += [groups_line(doc), ""]
-    engines, table, unsupported = matrix(doc)
+    engines, table, skipped = matrix(doc)
     out += ["| case | " + " | ".join(engines) + " |", "|---|" + "---:|" * len(engines)]
     for c, cells in table:
         out.append(f"| {c['name']} | " + " | ".join(_md_cell(cells.get(e)) for e in engines) + " |")
-    if unsupported:
+    if skipped:
         out += ["", "Not supported (–):"]
-        out += [f"- **{e}**: {text}" for e, text in unsupported_lines(unsupported).items()]
-    out += ["", "Cells: position error / L (native: against the closed form or equivalence group where the case "
-            "has one, else native at tolerance 1e-13; engines: against native at 1e-13) and µs per step; "
-            "✅ pass or ok, ⚠️ new, slower or outside the engine's tolerance, ❌ failed or regressed. "
+        out += [f"- **{e}**: {text}" for e, text in unsupported_lines(skipped).items()]
+    out += ["", "Cells: the worst error over every coordinate that moves (positions / L, bodies' angles in rad; "
+            "engines against native at tolerance 1e-13; native against the closed form or equivalence group where "
+            "the case has one, else \"no independent reference\"), then the cost per output interval and the "
+            "engine steps per interval; ◦ native without an independent reference, ✅ pass or ok, ⚠️ new or "
+            "outside the engine's tolerance (the metric, value and limit named), 🐢 slower than the baseline (not failing), ❌ failed or regressed. "
             "Details, plots and work-precision diagrams: index.html."]
     return "\n".join(out) + "\n"
 
 
-MARK = {"ok": "✅", "warn": "⚠️", "bad": "❌", "skip": "–"}
+MARK = {"ok": "✅", "warn": "⚠️", "slow": "🐢", "bad": "❌", "skip": "–", "self": "◦"}
 
 
 def _md_cell(cell) -> str:
@@ -180,11 +238,14 @@ def _md_cell(cell) -> str:
     r, v, g = cell
     if g == "skip":
         return "–"
-    if r["status"].startswith("failed"):
+    if failed(r):
         return f"❌ {short(r['status'], 40)}".replace("|", "\\|")
-    text = f"{MARK[g]} {fmt(r['position_error_rel'])}, {us(r['time_per_step'])} µs"
+    value, what = figure(r)
+    text = f"{MARK[g]} " + (what if value is None else f"{fmt(value)} ({what})") + f", {cost(r)}"
+    if r["within_tolerance"] is False:
+        text += f" ({r['verdict']}: {exceeded_text(r)})"
     if v.startswith("REGRESSED"):
-        text += f" ({short(v, 50)})"
+        text += f" ({short(v, 80)})"
     elif v.startswith(("new", "pass, slower")):
         text += f" ({v})"
     return text.replace("|", "\\|")
@@ -194,11 +255,13 @@ def junit_xml(doc) -> str:
     cases, fails, skips = [], 0, 0
     for c, r, v in rows(doc):
         body = ""
-        if r["status"].startswith("failed") or v.startswith("REGRESSED"):
+        if failed(r) or v.startswith("REGRESSED"):
             fails += 1
-            msg = r["status"] if r["status"].startswith("failed") else v
+            msg = r["status"] if failed(r) else v
             body = f"<failure message={quoteattr(msg)}/>"
-        elif r["status"] != "ok":
+        elif r["within_tolerance"] is False:   # shown, not failing the job: the message names what
+            body = f"<system-out>{escape(r['verdict'] + ': ' + exceeded_text(r))}</system-out>"
+        elif unsupported(r):
             skips += 1
             body = f"<skipped message={quoteattr(r['status'])}/>"
         cases.append(f'  <testcase classname={quoteattr("kinem.report." + c["name"])} name={quoteattr(r["engine"])} '

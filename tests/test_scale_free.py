@@ -1,0 +1,118 @@
+"""Issue 24 items 1 and 2: verdicts that do not depend on speed or size.
+Tolerances are relative to the mechanism's own scales (L, the run's peak
+speed and peak angular speed), engines pick their step from the mechanism's
+fastest rate and check it with their own error figures (no native
+trajectory), refining up to a cost cap. The mechanisms are not in cases/:
+tests/mechanisms24.py (Watt II, Klann-type, Geneva, geared five-bar) and
+benchmarks/generated.py (random slider-crank, four-bar, quick-return)."""
+import dataclasses
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import kinem
+from adapters import ENGINES, case_settings, get
+from adapters import base
+from adapters.compare import Verdict, compare, run_engine, tolerance_of
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from benchmarks.generated import generated  # noqa: E402
+from tests.mechanisms24 import MECHANISMS  # noqa: E402
+
+FIGURES = ("position_error_rel", "angle_error", "velocity_error_rel", "angular_velocity_error_rel")
+
+
+def solved(case_dict):
+    case = kinem.load_dict(case_dict)
+    model = kinem.compile(case)
+    return model, kinem.solve(kinem.compile(dataclasses.replace(case, tolerance=1e-13)))
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("mechanism", sorted(MECHANISMS))
+def test_same_verdict_at_a_quarter_one_and_four_times_the_speed(mechanism, engine):
+    """Each engine is within its tolerance at its chosen setting on each
+    mechanism at 0.25x, 1x and 4x speed, with the same steps per interval
+    and the same figures (the motion is the same in scaled time; 5 % allows
+    for rounding moved by the scaling)."""
+    rows = []
+    for f in (0.25, 1.0, 4.0):
+        model, ref = solved(MECHANISMS[mechanism](f))
+        c = run_engine(model, ref, engine)
+        assert c.verdict is Verdict.WITHIN, (f, c.verdict_text, c.label)
+        rows.append(c)
+    assert len({c.substeps for c in rows}) == 1
+    for k in FIGURES:
+        values = [getattr(c, k) for c in rows]
+        assert max(values) <= 1.05 * min(values) + 1e-14, (k, values)
+
+
+@pytest.mark.parametrize("kind", ["slider-crank", "four-bar", "quick-return"])
+def test_same_verdict_at_a_thousand_times_the_size(kind):
+    """A generated mechanism scaled 1000x in size: same verdicts, same figures
+    (MuJoCo's armature grows with the inertia beyond ARMATURE_INERTIA: an
+    absolute one let a 1000x quick-return diverge)."""
+    for engine in ENGINES:
+        out = []
+        for k in (1.0, 1000.0):
+            model, ref = solved(generated(kind, 0, 1.0, k))
+            c = run_engine(model, ref, engine)
+            assert c.verdict is Verdict.WITHIN, (engine, k, c.verdict_text, c.label)
+            out.append(c)
+        for fig in FIGURES:   # 25 %: MuJoCo's armature is not scaled exactly by the size
+            a, b = (getattr(c, fig) for c in out)
+            assert b <= 1.25 * a + 1e-14 and a <= 1.25 * b + 1e-14, (engine, fig, a, b)
+
+
+def test_self_check_predicts_the_error_without_native():
+    """The engines' own figures (adapters.base.self_check: residuals carried
+    to the coordinates through Phi_q^-1) match the errors against native:
+    Exudyn's velocities within 1 % (its positions are exact, so the velocity
+    mapping is exact), pymunk's positions within a factor 2 (first order)."""
+    model, ref = solved(MECHANISMS["watt2"]())
+    for engine, figure, factor in (("exudyn", "velocity_error_rel", 1.01), ("exudyn", "angular_velocity_error_rel",
+                                                                            1.01),
+                                   ("pymunk", "position_error_rel", 2.0), ("pymunk", "angle_error", 2.0)):
+        a = get(engine)
+        run = a.run(model, ref.q[0], ref.qd[0], case_settings(model, engine, {"dt": 1e-3}), ref)
+        c = compare(model, ref, run, tolerance_of(a))
+        est = base.self_check(model, run.q, run.qd, model.times)[figure]
+        actual = getattr(c, figure)
+        assert actual / factor <= est <= actual * factor, (engine, figure, est, actual)
+
+
+def test_a_coarse_first_step_is_refined_until_within_tolerance():
+    """dt = "auto" starting far too coarse: the self-check refines the step
+    (said in the notes) until the run is within tolerance."""
+    model, ref = solved(MECHANISMS["klann"]())
+    a = get("exudyn")
+    run = a.run(model, ref.q[0], ref.qd[0], case_settings(model, "exudyn", {"rate_step": 1e-2}), ref)
+    c = compare(model, ref, run, tolerance_of(a))
+    assert c.verdict is Verdict.WITHIN, c.verdict_text
+    assert any(n.startswith("self-check:") for n in run.notes), run.notes
+    assert run.estimate and max(run.estimate[k] / v for k, v in a.tolerance.items() if k in run.estimate) <= 1.0
+
+
+def test_cost_cap_gives_a_typed_verdict_with_the_best_error(monkeypatch):
+    """When the self-check still misses the tolerance at the cost cap, the
+    verdict is CAPPED, naming each figure over its limit and the cost."""
+    monkeypatch.setattr(base, "MAX_SUBSTEPS", 3)
+    model, ref = solved(MECHANISMS["geneva"]())
+    a = get("pymunk")
+    run = a.run(model, ref.q[0], ref.qd[0], case_settings(model, "pymunk", {"rate_step": 5e-2}), ref)
+    c = compare(model, ref, run, tolerance_of(a))
+    assert run.capped and c.verdict is Verdict.CAPPED
+    text = c.verdict_text
+    assert text.startswith("cannot reach the tolerance within the cost cap: ") and "steps per interval" in text
+    assert all(f"{k} " in text for k, _, _ in c.exceeded) and c.exceeded
+
+
+def test_explicit_steps_are_never_refined():
+    """An explicit dt (the report's sweeps, --dt) runs as it is."""
+    model, ref = solved(MECHANISMS["geared_five_bar"]())
+    a = get("exudyn")
+    run = a.run(model, ref.q[0], ref.qd[0], case_settings(model, "exudyn", {"dt": 2e-3}), ref)
+    assert not run.notes and run.settings["dt"] == pytest.approx(model.times[1] / np.ceil(model.times[1] / 2e-3))
