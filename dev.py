@@ -9,7 +9,8 @@ Each first makes ``.venv`` and installs the project into it, building the
 compiled core (kinem/core, Rust, by maturin in the release profile): again
 when ``pyproject.toml`` or the crate's sources change, so a fresh clone
 needs no other step. ``test`` also checks the crate (cargo fmt, clippy,
-cargo test) and the layers of the Python package (import-linter) first.
+cargo test) and the layers of the Python package (import-linter) first, then
+runs pytest on two worker processes (``-n 0`` for one).
 """
 import hashlib
 import os
@@ -80,7 +81,9 @@ def main(argv: list[str]) -> int:
     else:
         if check_core():
             return 1
-        args = [str(PYTHON), "-m", "pytest", *rest]
+        # both cores by default (the suite's tests are independent); -n 0 runs them in one process
+        workers = [] if any(a == "-n" or a.startswith(("-n", "--numprocesses")) for a in rest) else ["-n", "2"]
+        args = [str(PYTHON), "-m", "pytest", *workers, *rest]
     return subprocess.run(args, cwd=ROOT).returncode
 
 

@@ -48,6 +48,8 @@ def _toml(v):
         return "[" + ", ".join(_toml(x) for x in v) + "]"
     if isinstance(v, str):
         return '"' + v + '"'
+    if isinstance(v, bool):
+        return "true" if v else "false"
     return repr(v)
 
 

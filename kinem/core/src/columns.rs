@@ -14,6 +14,9 @@ pub fn columns(x: &[&[f64]], n: usize, src: &[usize], pc: &[usize], local: &[C64
     let (p, w) = (pc.len(), src.len());
     let k_count = x[0].len().checked_div(n).unwrap_or(0);
     let mut pts = vec![0.0; 2 * stages * p];
+    // each column's stage and index there (stage `stages`: a point's value in pts)
+    let from: Vec<(usize, usize)> =
+        src.iter().map(|&j| if j < stages * n { (j / n, j % n) } else { (stages, j - stages * n) }).collect();
     let i = C64::new(0.0, 1.0);
     for k in 0..k_count {
         let row = |s: usize| &x[s][k * n..(k + 1) * n];
@@ -38,8 +41,8 @@ pub fn columns(x: &[&[f64]], n: usize, src: &[usize], pc: &[usize], local: &[C64
             }
         }
         let o = &mut out[k * w..(k + 1) * w];
-        for (col, &j) in src.iter().enumerate() {
-            o[col] = if j < stages * n { x[j / n][k * n + j % n] } else { pts[j - stages * n] };
+        for (col, &(s, j)) in from.iter().enumerate() {
+            o[col] = if s < stages { x[s][k * n + j] } else { pts[j] };
         }
     }
 }

@@ -114,10 +114,13 @@ impl Layout {
 
     /// Block c of J_s from the values: in its fixed order's positions, or natural.
     fn assemble_block(&self, values: &[f64], c: usize, s: usize, pad: &[usize], order: Option<&Order>, a: &mut [f64]) {
-        a.fill(0.0);
         let entries = &self.by_block[self.block_start[c]..self.block_start[c + 1]];
         match order {
             Some(o) => {
+                // the elimination reads only the factors' pattern: clear just that
+                for &at in &o.pattern_at {
+                    a[at] = 0.0;
+                }
                 for (&e, &at) in entries.iter().zip(&o.entry_at) {
                     a[at] = values[e] * self.entry_scale[e];
                 }
@@ -126,6 +129,7 @@ impl Layout {
                 }
             }
             None => {
+                a.fill(0.0);
                 for &e in entries {
                     let (_, r, k) = self.at[e];
                     a[r * s + k] = values[e] * self.entry_scale[e];

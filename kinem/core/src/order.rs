@@ -36,6 +36,12 @@ pub struct Order {
     /// for step k: rows i < k of U's column k (back substitution)
     above: Vec<usize>,
     above_start: Vec<usize>,
+    /// positions i s + k of below's and above's entries
+    below_at: Vec<usize>,
+    above_at: Vec<usize>,
+    /// every position of the factors' pattern (fill-in included): the only
+    /// ones the elimination reads, so the only ones to clear before assembly
+    pub pattern_at: Vec<usize>,
     /// set by `fuse`: step k's right side is b[gather[k]] * gscale[k]
     /// (NONE: padding, 0) and x[scatter[l]] = y[l] * sscale[l]
     gather: Vec<usize>,
@@ -166,6 +172,12 @@ impl Order {
         let (below, below_start) = flatten(below);
         let (right, right_start) = flatten(right);
         let (above, above_start) = flatten(above);
+        let at = |list: &[usize], start: &[usize]| -> Vec<usize> {
+            (0..s).flat_map(|k| list[start[k]..start[k + 1]].iter().map(move |&i| i * s + k)).collect()
+        };
+        let below_at = at(&below, &below_start);
+        let above_at = at(&above, &above_start);
+        let pattern_at = (0..s).flat_map(|k| bits(p[k] | 1u64 << k).map(move |l| k * s + l)).collect();
         Some(Order {
             s,
             parity: parity(&row) * parity(&col),
@@ -179,6 +191,9 @@ impl Order {
             right_start,
             above,
             above_start,
+            below_at,
+            above_at,
+            pattern_at,
             gather: Vec::new(),
             gscale: Vec::new(),
             scatter: Vec::new(),
@@ -236,8 +251,9 @@ impl Order {
         for k in 0..s {
             let yk = y[k];
             if yk != 0.0 {
-                for &i in &self.below[self.below_start[k]..self.below_start[k + 1]] {
-                    y[i] -= a[i * s + k] * yk;
+                let (lo, hi) = (self.below_start[k], self.below_start[k + 1]);
+                for (&i, &at) in self.below[lo..hi].iter().zip(&self.below_at[lo..hi]) {
+                    y[i] -= a[at] * yk;
                 }
             }
         }
@@ -245,8 +261,9 @@ impl Order {
             let yk = y[k] / a[k * s + k];
             y[k] = yk;
             if yk != 0.0 {
-                for &i in &self.above[self.above_start[k]..self.above_start[k + 1]] {
-                    y[i] -= a[i * s + k] * yk;
+                let (lo, hi) = (self.above_start[k], self.above_start[k + 1]);
+                for (&i, &at) in self.above[lo..hi].iter().zip(&self.above_at[lo..hi]) {
+                    y[i] -= a[at] * yk;
                 }
             }
         }
