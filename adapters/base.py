@@ -274,16 +274,28 @@ class Adapter:
             return finish(early.status, early.detail)
         q0, qd0 = np.asarray(q0, float), np.asarray(qd0, float)
         wall = steps = 0
+        kept = None   # the last ok attempt before a refinement: (Q, QD, settings, estimate)
         for attempt in range(1, 2 + MAX_REFINEMENTS):
             try:
                 Q, QD, w, n = self.simulate(model, q0, qd0, s, times)
                 wall, steps, failure = wall + w, steps + n, None
             except Failure as e:
                 wall, steps, failure = wall + e.wall, steps + e.steps, e
+            if failure is not None and kept is not None:   # a refined run failed: the last good one stands
+                Q, QD = kept[0], kept[1]
+                s.clear()
+                s.update(kept[2])
+                notes.append(f"the refined run failed ({' '.join(failure.detail.split())[:100]}); kept the run "
+                             f"at {s['substeps']} steps per output interval")
+                state.update(estimate=kept[3], capped=True)
+                failure = None
+                break
             again = self.retry(model, s, times, auto, failure, *((None, None) if failure else (Q, QD))) \
                 if attempt == 1 and auto else None
             if not again and failure is None and "dt" in auto and self.order:
                 again = self.refine(model, s, times, Q, QD, state, last=attempt == 1 + MAX_REFINEMENTS)
+                if again:
+                    kept = (Q, QD, dict(s), state["estimate"])
             if not again:
                 break
             because, change = again
@@ -343,6 +355,9 @@ REFINE_AT = 1.0        # a self-check figure above this fraction of its limit re
 REFINE_TO = 0.7        # ... to the step that brings it to this fraction (errors ~ dt^order)
 MAX_SUBSTEPS = 2000    # cost cap: engine steps per output interval
 MAX_REFINEMENTS = 3    # cost cap: reruns after the first attempt
+NEAR_SINGULAR = 1e-6   # smallest / largest singular value of the dimensionless Phi_q below which the
+                       # first-order estimate means nothing (a change point: stress/change_point's
+                       # estimate was 0.4 of V and refining made Exudyn stop)
 
 
 def self_check(model, Q, QD, times) -> dict:
@@ -354,7 +369,8 @@ def self_check(model, Q, QD, times) -> dict:
     coordinates) and the velocity error exactly dqd = Phi_q^-1 (Phi_q qd - nu).
     Figures as adapters.compare's (bodies' origins and the named points /
     L or / the run's peak speed, angles in rad, angular velocities / the
-    peak angular speed); {} when Phi_q is not square or is singular."""
+    peak angular speed); {} when Phi_q is not square, or is singular or nearly
+    so (NEAR_SINGULAR) at an output instant."""
     if Q is None or Q.shape[1] != model.n or model.m != model.n or not len(Q):
         return {}
     pts = _point_offsets(model)
@@ -363,6 +379,9 @@ def self_check(model, Q, QD, times) -> dict:
     vmax = wmax = 0.0
     for q, qd, t in zip(Q, QD, times):
         J = model.jacobian(q, t, sparse=False)
+        sv = np.linalg.svd(model.assemble(model.jac_values(q, t) * model.entry_scale, False), compute_uv=False)
+        if not sv[-1] > NEAR_SINGULAR * sv[0]:   # through a singular configuration: no estimate, no refinement
+            return {}
         try:
             dq = np.linalg.solve(J, model.phi(q, t))
             dqd = np.linalg.solve(J, J @ qd - model.nu(t))

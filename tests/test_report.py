@@ -820,7 +820,7 @@ def test_summary_figure_is_the_worst_moving_coordinate(report):
     engine.update(position_error_rel=0.0, angle_error=1.2e-10)
     assert figure(engine) == (1.2e-10, "angle, rad")
     engine.update(angle_error=1e-3, within_tolerance=False, tolerance={"angle_error": 1e-6}, verdict="outside tolerance")
-    cell = _md_cell((engine, "pass", "warn"))
+    cell = _md_cell((engine, ("pass", "pass"), "warn"))
     assert "1.0e-03 (angle, rad)" in cell and "angle_error 1.00e-03 > 1e-06" in cell
     assert "µs/interval (200 steps)" not in cell and "µs/interval (" in cell
     native = report[0].doc["cases"][0]["runs"][0]
@@ -849,3 +849,24 @@ def test_work_precision_is_asked_by_the_case_or_the_flag(tmp_path):
     text = (ROOT / "cases" / "gear_pair.toml").read_text() + "\n[report]\nwork_precision = 1\n"
     with pytest.raises(InputError, match="work_precision.*true or false"):
         loads(text)
+
+
+def test_gate_verdicts_are_typed(report):
+    """The report reads a verdict's kind (gate.Verdict), never its sentence:
+    a regressed kind is red whatever the sentence says; the schema allows
+    only the enum's values."""
+    from kinem.report.gate import Verdict
+    from kinem.report.text import matrix
+
+    base = report[0].doc
+    doc = copy.deepcopy(base)
+    doc["cases"][0]["runs"][0]["counts"]["newton_iterations"] += 1
+    g = gate(doc, base, "base.json")
+    key = f"{doc['cases'][0]['name']}/native"
+    assert g["kinds"][key] == Verdict.REGRESSED.value and set(g["kinds"].values()) <= {v.value for v in Verdict}
+    g["verdicts"][key] = "pass"                      # the sentence edited: the kind still decides
+    _, rows, _ = matrix(dict(doc, gate=g))
+    cells = next(c for case, c in rows if case["name"] == key.split("/")[0])
+    assert cells["native"][2] == "bad"
+    g["kinds"][key] = "fine"
+    assert any("kinds" in p for p in problems(dict(doc, gate=g), SCHEMA))

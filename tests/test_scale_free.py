@@ -116,3 +116,24 @@ def test_explicit_steps_are_never_refined():
     a = get("exudyn")
     run = a.run(model, ref.q[0], ref.qd[0], case_settings(model, "exudyn", {"dt": 2e-3}), ref)
     assert not run.notes and run.settings["dt"] == pytest.approx(model.times[1] / np.ceil(model.times[1] / 2e-3))
+
+
+def test_a_failed_refinement_keeps_the_last_good_run(monkeypatch):
+    """A refined run that fails (an engine that stops at the finer step)
+    does not turn a finished run into a failure: the last good attempt
+    stands, capped, and the notes say so."""
+    model, ref = solved(MECHANISMS["klann"]())
+    a = get("exudyn")
+    real, calls = type(a).simulate, []
+
+    def simulate(self, model, q0, qd0, s, times):
+        calls.append(s["substeps"])
+        if len(calls) > 1:
+            raise base.Failure(base.Status.FAILED, "stopped (test)")
+        return real(self, model, q0, qd0, s, times)
+
+    monkeypatch.setattr(type(a), "simulate", simulate)
+    run = a.run(model, ref.q[0], ref.qd[0], case_settings(model, "exudyn", {"rate_step": 1e-2}), ref)
+    assert run.ok and run.capped and len(calls) == 2 and run.substeps == calls[0]
+    assert any("kept the run" in n for n in run.notes)
+    assert compare(model, ref, run, tolerance_of(a)).verdict is Verdict.CAPPED

@@ -208,7 +208,7 @@ def _exit_code(doc, o) -> int:
         for r in c["runs"]:
             if not lost(r):
                 continue
-            known = g and r["engine"] != "native" and g["verdicts"].get(f"{c['name']}/{r['engine']}") != "new"
+            known = g and r["engine"] != "native" and g["kinds"].get(f"{c['name']}/{r['engine']}") != "new"
             if not known:
                 return 1
     if not o.update_baseline and failed(g):

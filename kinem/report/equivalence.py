@@ -107,14 +107,15 @@ def html(doc, curves) -> str:
     groups = doc.get("equivalence") or []
     if not groups:
         return ""
-    g = doc.get("gate") or {}
+    from .text import verdict_of
+
     rows = []
     for e in groups:
-        verdict = (g.get("verdicts") or {}).get(f"equivalence/{e['group']}", "no baseline" if not g else "new")
+        kind, verdict = verdict_of(doc, f"equivalence/{e['group']}")
         dev = "–" if e["max_deviation_rel"] is None else f"{e['max_deviation_rel']:.1e}"
         worst = max(e["members"], key=lambda m: m["max_deviation_rel"], default=None)
         where = "" if worst is None else f"{worst['case']} point {worst['point']} at t = {worst['t']:.3g} s"
-        cls = "bad" if e["status"].startswith("failed") or verdict.startswith("REGRESSED") else ""
+        cls = "bad" if e["status"].startswith("failed") or kind == "regressed" else ""
         rows.append(f"<tr><td class=l>{escape(e['group'])}</td><td class=l>{escape(', '.join(e['cases']))}</td>"
                     f"<td class=l>{escape(', '.join(e['points']))}</td><td>{dev}</td><td class=l>{escape(where)}</td>"
                     f"<td class='l {cls}'>{escape(e['status'] if e['status'] != 'ok' else verdict)}</td></tr>")

@@ -26,6 +26,7 @@ without that engine, --quick for sweep points); either way it is listed in
 ``not_compared``. A case or run new in this run is "new": fatal in a run of
 the whole case set (the baseline should hold all of it), else only listed.
 """
+import enum
 import math
 from dataclasses import asdict, dataclass
 
@@ -53,6 +54,15 @@ STATUS_RANK = {"ok": 0, "unsupported": 1}   # outcomes; every failure kind ranks
 NATIVE_MOVE = 1e-12
 GATED = ("position_error_rel", "angle_error", "velocity_error_rel", "angular_velocity_error_rel",
          "constraint_residual")
+
+
+class Verdict(str, enum.Enum):
+    """A case/engine's (or equivalence group's) gate verdict; ``gate.kinds``
+    holds its value, ``gate.verdicts`` the sentence for people."""
+    PASS = "pass"
+    SLOWER = "slower"         # passes; slower than the baseline (not failing unless --fail-on-slowdown)
+    NEW = "new"               # not in the baseline (fatal in a whole-set run: then REGRESSED)
+    REGRESSED = "regressed"
 
 
 @dataclass(frozen=True)
@@ -128,7 +138,11 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
     scope: what the run may lack (default: from current's options); default:
     the baseline was found without --baseline."""
     scope = scope or scope_of(current)
-    findings, verdicts = [], {}
+    findings, verdicts, kinds = [], {}, {}
+
+    def set_(key, kind, sentence):
+        kinds[key], verdicts[key] = kind, sentence
+
     old_cases = {c["name"]: c for c in baseline["cases"]}
     not_compared = _missing(current, baseline, scope, findings)
     whole = current["options"]["whole_set"]
@@ -142,7 +156,8 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
                                     case["fingerprint"], True,
                                     f"case {name} changed: baseline stale (fingerprint {oc['fingerprint']} -> "
                                     f"{case['fingerprint']}; --update-baseline records it)"))
-            verdicts.update({f"{name}/{r['engine']}": "REGRESSED: case changed: baseline stale" for r in case["runs"]})
+            for r in case["runs"]:
+                set_(f"{name}/{r['engine']}", Verdict.REGRESSED, "REGRESSED: case changed: baseline stale")
             continue
         for run in case["runs"]:
             e = run["engine"]
@@ -152,9 +167,9 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
                 if whole:   # the whole set ran: the baseline should hold every run of it
                     findings.append(Finding(name, e, "main", "new", "run", None, run["status"], True,
                                             f"{name}/{e} is not in the baseline (--update-baseline records it)"))
-                    verdicts[f"{name}/{e}"] = "REGRESSED: not in the baseline"
+                    set_(f"{name}/{e}", Verdict.REGRESSED, "REGRESSED: not in the baseline")
                 else:
-                    verdicts[f"{name}/{e}"] = "new"
+                    set_(f"{name}/{e}", Verdict.NEW, "new")
                 continue
             _compare(name, e, "main",
                      {"status": o["status"], "outcome": o["outcome"], "figures": _figures(o), "counts": o["counts"]},
@@ -168,15 +183,16 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
                 not_compared.append(f"{name}/{e}: {skipped} work-precision point(s) of the baseline ({why})")
             _tolerance(name, o, run, findings)
             _slower(name, o, run, typical_old, typical_new, fail_on_slowdown, findings)
-            verdicts[f"{name}/{e}"] = verdict(findings[before:])
-    _equivalence(current, baseline, findings, verdicts, not_compared)
+            set_(f"{name}/{e}", *verdict(findings[before:]))
+    _equivalence(current, baseline, findings, set_, not_compared)
     for f in findings:   # a run the baseline has and this one lacks (fatal) marks its case/engine
         if f.kind == "missing" and f.fatal and f.where == "main":
-            verdicts[f"{f.case}/{f.engine}"] = "REGRESSED: " + f.message
+            set_(f"{f.case}/{f.engine}", Verdict.REGRESSED, "REGRESSED: " + f.message)
     regressions = sum(f.fatal and f.kind != "slower" for f in findings)
     return {"baseline": str(path), "regressions": regressions,
             "slowdowns": sum(f.kind == "slower" for f in findings), "fail_on_slowdown": bool(fail_on_slowdown),
-            "findings": [asdict(f) for f in findings], "verdicts": verdicts, "not_compared": not_compared,
+            "findings": [asdict(f) for f in findings], "verdicts": verdicts,
+            "kinds": {k: v.value for k, v in kinds.items()}, "not_compared": not_compared,
             "default": bool(default)}
 
 
@@ -263,7 +279,7 @@ def _trajectory(name, length, old, new, findings):
                             f"(limit {limit:.0e} {unit})"))
 
 
-def _equivalence(current, baseline, findings, verdicts, not_compared):
+def _equivalence(current, baseline, findings, set_, not_compared):
     """The equivalence groups' max deviation against the baseline's, as an
     error figure: a regression when it grew beyond ERROR_FACTOR x max(old,
     ERROR_FLOOR) (the gate owns this rule; equivalence.py only measures)."""
@@ -272,7 +288,7 @@ def _equivalence(current, baseline, findings, verdicts, not_compared):
         o = old.get(e["group"])
         key = f"equivalence/{e['group']}"
         if o is None:
-            verdicts[key] = "new"
+            set_(key, Verdict.NEW, "new")
             continue
         before = len(findings)
         a, b = o["max_deviation_rel"], e["max_deviation_rel"]
@@ -280,7 +296,7 @@ def _equivalence(current, baseline, findings, verdicts, not_compared):
             findings.append(Finding(e["group"], "native", "equivalence", "error", "max_deviation_rel", a, b, True,
                                     f"group {e['group']}: deviation / L {a:.2e} -> "
                                     + ("none" if b is None else f"{b:.2e}")))
-        verdicts[key] = verdict(findings[before:])
+        set_(key, *verdict(findings[before:]))
     names = {e["group"] for e in current.get("equivalence") or [] if e["max_deviation_rel"] is not None}
     for g in old:
         if g not in names and old[g]["max_deviation_rel"] is not None:
@@ -374,15 +390,18 @@ def _point_figures(p):
     return {"position_error_rel": p["error"], "velocity_error_rel": p["velocity_error_rel"]}
 
 
-def verdict(findings) -> str:
+def verdict(findings) -> tuple:
+    """(Verdict, sentence) of one case/engine's findings."""
     fatal = [f for f in findings if f.fatal]
     if fatal:
         f = fatal[0]
         more = f" (+{len(fatal) - 1} more)" if len(fatal) > 1 else ""
         where = "" if f.where == "main" else f"{f.where}: "
-        return f"REGRESSED: {where}{f.message}{more}"
+        return Verdict.REGRESSED, f"REGRESSED: {where}{f.message}{more}"
     slow = [f for f in findings if f.kind == "slower"]
-    return f"pass, slower x{slow[0].new / slow[0].old:.1f}" if slow else "pass"
+    if slow:
+        return Verdict.SLOWER, f"pass, slower x{slow[0].new / slow[0].old:.1f}"
+    return Verdict.PASS, "pass"
 
 
 def failed(gate_section) -> bool:

@@ -65,10 +65,10 @@ def _matrix_cell(cell):
         return f'<td class=c-skip title="{escape(": ".join(reason(r["status"])))}">–</td>'
     tip = escape(f"{r['status']}; position error / L {fmt(r['position_error_rel'])}; angle error "
                  f"{fmt(r['angle_error'])} rad; residual {fmt(r['constraint_residual'])}; "
-                 f"verdict: {v}; position error against {r['reference']}")
+                 f"verdict: {v[1]}; position error against {r['reference']}")
     if failed(r):
         return f'<td class=c-bad title="{tip}">{escape(short(r["status"], 60))}</td>'
-    note = "" if v in ("pass", "no baseline") else f"<br><small>{escape(short(v, 90))}</small>"
+    note = "" if v[0] in ("pass", "no baseline") else f"<br><small>{escape(short(v[1], 90))}</small>"
     if r["within_tolerance"] is False:
         note += f"<br><small>{escape(r['verdict'])}: {escape(exceeded_text(r))}</small>"
     mark = "ᶜ" if r["reference"].startswith("closed form") else "ᵍ" if r["reference"].startswith("equivalence") else ""

@@ -26,18 +26,26 @@ def unsupported(r) -> bool:
     return r["outcome"] == "unsupported"
 
 
-def verdict_of(doc, case, engine):
+NO_BASELINE, UNCOMPARED = "no baseline", "not compared"   # kinds besides gate.Verdict's values
+
+
+def verdict_of(doc, key):
+    """(kind, sentence) of a gate verdict key ("case/engine" or
+    "equivalence/group"): kind a gate.Verdict value, or NO_BASELINE or
+    UNCOMPARED."""
     g = doc.get("gate")
     if not g:
-        return "no baseline"
-    return g["verdicts"].get(f"{case}/{engine}", "not compared")
+        return NO_BASELINE, "no baseline"
+    if key not in g["kinds"]:
+        return UNCOMPARED, "not compared"
+    return g["kinds"][key], g["verdicts"][key]
 
 
 def rows(doc):
     """(case, run, verdict) for every main run, in report order."""
     for c in doc["cases"]:
         for r in c["runs"]:
-            yield c, r, verdict_of(doc, c["name"], r["engine"])
+            yield c, r, verdict_of(doc, f"{c['name']}/{r['engine']}")
 
 
 def engines_of(doc):
@@ -87,17 +95,17 @@ def cost(run) -> str:
     return f"{shown}/interval ({steps} step{'s' if steps != 1 else ''})"
 
 
-def grade(run, verdict) -> str:
+def grade(run, kind) -> str:
     """A cell's class: bad (failed, regressed), skip (unsupported), warn
     (new, outside the adapter's tolerance), slow (slower than the baseline,
     not failing), ok."""
-    if failed(run) or verdict.startswith("REGRESSED"):
+    if failed(run) or kind == "regressed":
         return "bad"
     if unsupported(run):
         return "skip"
-    if verdict.startswith("new") or run["within_tolerance"] is False:   # outside, or capped
+    if kind == "new" or run["within_tolerance"] is False:   # outside, or capped
         return "warn"
-    if verdict.startswith("pass, slower"):
+    if kind == "slower":
         return "slow"
     if figure(run)[1] == SELF:   # nothing independent checked it: neither green nor a warning
         return "self"
@@ -114,9 +122,9 @@ def matrix(doc):
     for c in doc["cases"]:
         cells = {}
         for r in c["runs"]:
-            v = verdict_of(doc, c["name"], r["engine"])
-            cells[r["engine"]] = (r, v, grade(r, v))
-            if unsupported(r) and not v.startswith("REGRESSED"):
+            v = verdict_of(doc, f"{c['name']}/{r['engine']}")
+            cells[r["engine"]] = (r, v, grade(r, v[0]))
+            if unsupported(r) and v[0] != "regressed":
                 what, why = reason(r["status"])
                 types, names = skipped.setdefault(r["engine"], {}).setdefault(why, ([], []))
                 types += [what] if what not in types else []
@@ -244,10 +252,11 @@ def _md_cell(cell) -> str:
     text = f"{MARK[g]} " + (what if value is None else f"{fmt(value)} ({what})") + f", {cost(r)}"
     if r["within_tolerance"] is False:
         text += f" ({r['verdict']}: {exceeded_text(r)})"
-    if v.startswith("REGRESSED"):
-        text += f" ({short(v, 80)})"
-    elif v.startswith(("new", "pass, slower")):
-        text += f" ({v})"
+    kind, sentence = v
+    if kind == "regressed":
+        text += f" ({short(sentence, 80)})"
+    elif kind in ("new", "slower"):
+        text += f" ({sentence})"
     return text.replace("|", "\\|")
 
 
@@ -255,9 +264,9 @@ def junit_xml(doc) -> str:
     cases, fails, skips = [], 0, 0
     for c, r, v in rows(doc):
         body = ""
-        if failed(r) or v.startswith("REGRESSED"):
+        if failed(r) or v[0] == "regressed":
             fails += 1
-            msg = r["status"] if failed(r) else v
+            msg = r["status"] if failed(r) else v[1]
             body = f"<failure message={quoteattr(msg)}/>"
         elif r["within_tolerance"] is False:   # shown, not failing the job: the message names what
             body = f"<system-out>{escape(r['verdict'] + ': ' + exceeded_text(r))}</system-out>"
