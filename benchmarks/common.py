@@ -95,7 +95,7 @@ def march_of(model) -> str:
     except ImportError:  # issue 23: no numba march; the compiled core marches every model
         return "core"
 
-    return "compiled" if usable(model, False, len(model.times)) else "step"
+    return "compiled" if usable(model, False, len(model.times), kinem.Options.of(model.case)) else "step"
 
 
 def per_step(result) -> float:

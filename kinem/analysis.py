@@ -15,6 +15,7 @@ import numpy as np
 from .errors import ConvergenceError, SingularError
 from . import native
 from .linalg import Factor, Solver
+from .options import Options
 
 MAX_STEP = native.MAX_STEP  # Newton steps' limit, dimensionless (kinem/core/src/newton.rs)
 
@@ -156,8 +157,8 @@ def position(model, data: Data, t: float, tolerance=None, max_iterations=None, f
     ``factor``: a factorisation of Phi_q at a nearby configuration to start
     with (modified Newton); a fresh one is made as soon as it converges slowly.
     ``minimum_norm``: Gauss-Newton (``MinimumNorm`` steps, not limited)."""
-    tol = model.case.tolerance if tolerance is None else tolerance
-    max_it = model.case.max_iterations if max_iterations is None else max_iterations
+    tol = Options.tolerance if tolerance is None else tolerance   # the defaults of Options, not the case's
+    max_it = Options.max_iterations if max_iterations is None else max_iterations
     q = np.array(data.q, dtype=float)
     data.t = t
     data.factor = None

@@ -164,7 +164,7 @@ def cycle(model, name) -> list:
 ROUNDING = 64
 
 
-def _beyond_precision(model, q, residual) -> str:
+def _beyond_precision(model, q, residual, tolerance) -> str:
     """The explanation when the residual left is what double precision can
     resolve where the mechanism is (far from the origin), '' otherwise."""
     names = np.asarray(model.coordinate_names, dtype=object)
@@ -178,11 +178,11 @@ def _beyond_precision(model, q, residual) -> str:
     unit = model.case.length_unit
     u = f" {unit}" if unit else ""
     return (f"the mechanism is {far:.3g}{u} from the origin, where double precision resolves only about "
-            f"{np.finfo(float).eps * far:.2g}{u}: the tolerance {model.case.tolerance:g} (scaled residual) cannot be "
+            f"{np.finfo(float).eps * far:.2g}{u}: the tolerance {tolerance:g} (scaled residual) cannot be "
             "reached there; move the mechanism nearer the origin, or loosen [solver] tolerance")
 
 
-def explain_assembly(model, t=0.0, q=None) -> str:
+def explain_assembly(model, t=0.0, q=None, tolerance=1e-12) -> str:
     """Why an assembly at t fails, in the user's terms ('' when no cause is
     found): a number of driving equations other than the degrees of freedom
     (named, with the count), or the loop of constraints that cannot close
@@ -213,9 +213,9 @@ def explain_assembly(model, t=0.0, q=None) -> str:
                 f"{dof} degree{'s' * (dof != 1)} of freedom ({model.n} coordinates, {rank} independent "
                 f"kinematic equations)")
     r = np.abs(model.phi(q_ls, t)) / model.scale
-    if not r.size or r.max() <= model.case.tolerance:
+    if not r.size or r.max() <= tolerance:
         return ""
-    far = _beyond_precision(model, q_ls, r.max())
+    far = _beyond_precision(model, q_ls, r.max(), tolerance)
     if far:
         return far
     owners = np.asarray(model.row_owner, dtype=object)

@@ -25,6 +25,7 @@ import numpy as np
 
 from .errors import SingularError
 from .model import BLOCK_LIMIT, DENSE_LIMIT, parity
+from .options import Options
 
 # A pivot below this fraction of the largest one is taken as zero: about
 # 1e3 x machine epsilon, so rounding alone cannot trigger it, while a
@@ -80,14 +81,14 @@ class Solver:
     core: bool = False
 
 
-def choose(model, options=None) -> Solver:
-    """The linear solver for a model under ``options`` (kinem.options.Options;
-    default: its case's [solver] section): kinem's own LU where the model
+def choose(model, options) -> Solver:
+    """The linear solver for a model under ``options`` (kinem.options.Options,
+    as solve was given them): kinem's own LU where the model
     has a plan (kinem.model.Model.plan) and the options do not ask for
     another; SuperLU for a large model without one or when asked for;
     LAPACK for ``dense`` where there is no plan."""
 
-    kind = model.case.linear_solver if options is None else options.linear_solver
+    kind = options.linear_solver
     least_squares = model.m > model.n
     core = not least_squares and kind != "sparse" and model.plan is not None
     sparse = not core and (model.n > DENSE_LIMIT if kind == "auto" else kind == "sparse")
@@ -99,7 +100,7 @@ class Factor:
     by the ``solver`` chosen for the analysis (``choose``)."""
 
     def __init__(self, model, values, solver: Solver | None = None):
-        solver = choose(model) if solver is None else solver
+        solver = choose(model, Options()) if solver is None else solver
         self.sparse, self.core = solver.sparse, solver.core
         self.least_squares = solver.least_squares
         if self.core:

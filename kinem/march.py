@@ -13,7 +13,7 @@ from .options import Options
 from .tracking import State, singular_pivot
 
 
-def usable(model, trace: bool, instants: int = 0, options: Options | None = None) -> bool:
+def usable(model, trace: bool, instants: int, options: Options) -> bool:
     """Whether the march takes the model: square, made of independent
     diagonal blocks of at most BLOCK_LIMIT coordinates (kinem.model.Blocks: one
     block for a small model, one per variant for merged variants), or of one
@@ -21,7 +21,7 @@ def usable(model, trace: bool, instants: int = 0, options: Options | None = None
     trace, modified Newton, an explicit sparse LU or ``block = 1`` ask for
     the step-by-step march (the same Newton and acceptance test, on any
     linear solver: kinem.analysis)."""
-    c = Options.of(model.case) if options is None else options
+    c = options
     if c.block <= 1 or trace or c.jacobian_reuse or c.linear_solver == "sparse" or model.m != model.n:
         return False
     return model.plan is not None

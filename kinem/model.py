@@ -411,10 +411,7 @@ def compile(case: Case) -> Model:
     names += [label for label, _ in ctx.artificial]
     q0 = np.array([v for b in case.bodies for v in b.q] + [e for _, e in ctx.artificial], dtype=float)
 
-    if case.linear_solver == "auto":
-        sparse = n > DENSE_LIMIT
-    else:
-        sparse = case.linear_solver == "sparse"
+    sparse = n > DENSE_LIMIT  # the format Model.jacobian gives by default (the solver is solve's options')
     order = np.lexsort((jac_rows, jac_cols))
     indptr = np.searchsorted(jac_cols[order], np.arange(n + 1))
     csc = (order, jac_rows[order], indptr)

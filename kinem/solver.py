@@ -85,7 +85,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     except AnalysisError as e:
         status = Status.SINGULAR if isinstance(e, SingularError) else Status.NOT_CONVERGED
         what = "assembly at" if k == 0 else "step to"
-        why = explain_assembly(model, times[0]) if k == 0 else ""  # the root cause, in the user's terms
+        why = explain_assembly(model, times[0], tolerance=options.tolerance) if k == 0 else ""  # the root cause, in the user's terms
         message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {why + '; ' if why else ''}{e}"
     wall = time.perf_counter() - start
     n_ok = k

@@ -114,11 +114,11 @@ class Rejected(Exception):
 
 
 class Tracker:
-    def __init__(self, model, data, need_v, need_a, options: Options | None = None):
+    def __init__(self, model, data, need_v, need_a, options: Options):
         self.a = analysis
         self.model, self.data = model, data
         self.need_v, self.need_a = need_v, need_a
-        self.options = o = Options.of(model.case) if options is None else options
+        self.options = o = options
         self.tol = o.tolerance
         self.history = []       # accepted states, last three kept
         self.events = []        # (t, text): singular configurations passed

@@ -11,13 +11,13 @@ CASES = Path(__file__).resolve().parents[1] / "cases"
 
 
 def test_sparse_and_dense_lu_agree():
-    case = kinem.load(CASES / "quick_return_1.toml")
-    dense = kinem.solve(kinem.compile(case))
-    from dataclasses import replace
+    from kinem.linalg import choose
 
-    sparse_model = kinem.compile(replace(case, linear_solver="sparse"))
-    assert sparse_model.sparse
-    sparse = kinem.solve(sparse_model)
+    model = kinem.compile(kinem.load(CASES / "quick_return_1.toml"))
+    dense = kinem.solve(model)
+    options = kinem.Options(linear_solver="sparse")   # the same model: options never recompile
+    assert choose(model, options).sparse and not choose(model, kinem.Options()).sparse
+    sparse = kinem.solve(model, options=options)
     assert dense.success and sparse.success
     # the same Newton iterates up to rounding: agreement far below the 1e-12 tolerance
     assert np.max(np.abs(sparse.trajectory.data - dense.trajectory.data) / (1 + np.abs(dense.trajectory.data))) < 1e-9

@@ -44,7 +44,7 @@ def test_merged_variants_march_in_blocks_one_per_variant():
     model = kinem.compile(merge(cases))
     b = model.blocks
     assert model.n > ONE_BLOCK and (b.count, b.size, b.pad.size) == (5, 18, 4 * 6)
-    assert march.usable(model, False, len(model.times))
+    assert march.usable(model, False, len(model.times), kinem.Options.of(model.case))
     taken, original = [], march.March.advance
 
     def advance(self, k, q0=None):

@@ -82,7 +82,7 @@ def test_the_march_is_compiled_end_to_end():
 
 
 def blocks(model, trace):
-    return march.usable(model, trace, len(model.times))
+    return march.usable(model, trace, len(model.times), kinem.Options.of(model.case))
 
 
 def test_not_used_where_it_cannot_be():

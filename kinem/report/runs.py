@@ -38,14 +38,11 @@ class Task:
                                 # (its knob family and dt); empty: the knob alone, on the defaults
 
 
-def _model(path, tolerance=None):
+def _model(path):
     from kinem.case import load
     from kinem.model import compile
 
-    case = load(path)
-    if tolerance is not None:
-        case = dataclasses.replace(case, tolerance=tolerance)
-    return compile(case)
+    return compile(load(path))
 
 
 @lru_cache(maxsize=8)
@@ -54,11 +51,13 @@ def reference(path):
     Falls back to the case's own tolerance when 1e-13 cannot be reached."""
     from kinem.solver import solve
 
+    from kinem.options import Options
+
     model = _model(path)
-    ref = solve(_model(path, REFERENCE_TOLERANCE))
+    ref = solve(model, options=dataclasses.replace(Options.of(model.case), tolerance=REFERENCE_TOLERANCE))
     if ref.success:
         return model, ref, REFERENCE_TOLERANCE
-    return model, solve(model), model.case.tolerance
+    return model, solve(model), Options.of(model.case).tolerance
 
 
 def _blank(task, outcome, detail="", **extra):
@@ -139,24 +138,27 @@ def run_native(task):
     from adapters.compare import errors
     from kinem.solver import solve
 
+    from ..linalg import choose
+    from ..march import usable
+    from ..options import Options
+
     model, ref, ref_tol = reference(task.path)
-    if task.knob is not None:
-        model = _model(task.path, task.value)
+    options = Options.of(model.case)
+    if task.knob is not None:   # a tolerance of the sweep: the same model, other options
+        options = dataclasses.replace(options, tolerance=task.value)
     walls, r = [], None
     for _ in range(max(1, task.repeats)):
-        r = solve(model)
+        r = solve(model, options=options)
         walls.append(r.wall_time)
     wall = statistics.median(walls)
     steps = len(r.iterations)
-    from ..march import usable
-
-    settings = {"tolerance": model.case.tolerance, "max_iterations": model.case.max_iterations,
-                "linear_solver": "sparse" if model.sparse else "dense",
-                "block": model.case.block if usable(model, False, len(model.times)) else 1}
+    settings = {"tolerance": options.tolerance, "max_iterations": options.max_iterations,
+                "linear_solver": "sparse" if choose(model, options).sparse else "dense",
+                "block": options.block if usable(model, False, len(model.times), options) else 1}
     counts = {"instants": steps, "newton_iterations": int(r.iterations.sum()),
               "jacobian_evaluations": int(r.jacobian_evaluations), "factorizations": int(r.factorizations)}
     base = dict(requested=settings, settings=settings, version=_version("kinem"), counts=counts, wall_time=wall,
-                knobs={"tolerance": model.case.tolerance},
+                knobs={"tolerance": options.tolerance},
                 repeats=len(walls), time_per_step=wall / max(steps, 1), time_per_interval=wall / max(steps - 1, 1),
                 overhead_per_interval=0.0, wall_per_sim_second=wall / model.case.end)
     if not r.success:
