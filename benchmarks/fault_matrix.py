@@ -179,7 +179,7 @@ def prepare(scratch, out):
         os.chmod(out, 0o600)
 
 
-def judge(label, p, scratch, out, reference, killed_by, problems):
+def judge(label, p, scratch, out, reference, killed_by, problems, keep=()):
     """Checks a finished run (p waited for) against the contract."""
     try:
         stdout, stderr = p.communicate(timeout=600)
@@ -205,7 +205,7 @@ def judge(label, p, scratch, out, reference, killed_by, problems):
         for pid in left:   # ours: started by this run
             with contextlib.suppress(OSError):
                 os.kill(pid, signal.SIGKILL)
-    named = {out} if out is not None else set()
+    named = ({out} if out is not None else set()) | {scratch / k for k in keep}
     if out is not None and out.exists():
         data = out.read_bytes()
         mode = stat.S_IMODE(os.stat(out).st_mode)
@@ -290,7 +290,7 @@ def disk_full(root, refs, problems):
                 while True:
                     f.write(b"\0" * 4096)
                     f.flush()
-            code = judge(f"{name} disk full", launch(argv, mount), mount, path, None, None, problems)
+            code = judge(f"{name} disk full", launch(argv, mount), mount, path, None, None, problems, keep=("filler",))
             if code != 1 or path.read_bytes() != OLD:
                 problems.append(f"{name} disk full: exit {code}, old file {'kept' if path.read_bytes() == OLD else 'lost'}")
             filler.unlink()
