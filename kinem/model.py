@@ -159,6 +159,12 @@ class Model:
     _zero: np.ndarray = field(repr=False, default=None)  # zeros (nnz,), intp
     core: native.Core = field(repr=False, default=None)  # the compiled evaluation (kinem._core)
 
+    def __repr__(self) -> str:
+        """One line: the case, its size and its families (not the case's whole text)."""
+        kinds = ", ".join(type(f).__name__ for f in self.families)
+        return (f"Model({self.case.name!r}: {len(self.case.bodies)} bodies, {self.n} coordinates, {self.m} "
+                f"equations, {self.nnz} Jacobian entries; families {kinds})")
+
     def __reduce__(self):
         """A model pickles as its case and compiles again where it is
         loaded (a Dask worker, another process): the core's tables are built

@@ -70,3 +70,11 @@ def test_animate_writes_the_results_motion(solved, tmp_path):
 def test_repr_of_a_case_is_a_summary(solved):
     text = repr(solved[0].case)
     assert text.startswith("Case('slider_crank': 4 bodies, 2 points, 6 constraints") and len(text) < 200
+
+
+def test_a_models_repr_is_one_short_line():
+    """repr(model) names the case and its size, not the case's whole text
+    (it was 4.7 kB for five bodies)."""
+    model = kinem.compile(kinem.load(ROOT / "cases" / "cam_table41.toml"))
+    text = repr(model)
+    assert "\n" not in text and len(text) < 200 and "'cam_table41'" in text and "10 coordinates" in text
