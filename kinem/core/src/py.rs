@@ -119,15 +119,7 @@ impl Core {
         q: PyReadonlyArray2<'py, f64>,
         t: PyReadonlyArray1<'py, f64>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let kin = self.kin.clone();
-        let (q, k) = rows(&q, kin.n, "q")?;
-        let t = t.as_slice()?;
-        let m = kin.m;
-        let v = guard(py, || {
-            check(t.len(), k)?;
-            Ok(batch(&kin, q, k, m, |i, q, e, o| kin.phi(&At { q, e, t: t[i] }, o)))
-        })?;
-        out2(py, v, k, m)
+        self.at_configurations(py, q, t, false)
     }
 
     /// Jacobian values at Q (K, n), T (K,): (K, nnz), in the model's pattern order.
@@ -137,15 +129,7 @@ impl Core {
         q: PyReadonlyArray2<'py, f64>,
         t: PyReadonlyArray1<'py, f64>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let kin = self.kin.clone();
-        let (q, k) = rows(&q, kin.n, "q")?;
-        let t = t.as_slice()?;
-        let w = kin.nnz;
-        let v = guard(py, || {
-            check(t.len(), k)?;
-            Ok(batch(&kin, q, k, w, |i, q, e, o| kin.jac(&At { q, e, t: t[i] }, o)))
-        })?;
-        out2(py, v, k, w)
+        self.at_configurations(py, q, t, true)
     }
 
     /// nu at T (K,): (K, m).
@@ -183,6 +167,34 @@ impl Core {
             Ok(batch(&kin, q, k, m, |i, q, e, o| kin.gamma(&At { q, e, t: t[i] }, &qd[i * n..(i + 1) * n], o)))
         })?;
         out2(py, v, k, m)
+    }
+}
+
+impl Core {
+    /// Phi (jac false) or the Jacobian's values (jac true) at Q (K, n), T (K,).
+    fn at_configurations<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyReadonlyArray2<'py, f64>,
+        t: PyReadonlyArray1<'py, f64>,
+        jac: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let kin = self.kin.clone();
+        let (q, k) = rows(&q, kin.n, "q")?;
+        let t = t.as_slice()?;
+        let w = if jac { kin.nnz } else { kin.m };
+        let v = guard(py, || {
+            check(t.len(), k)?;
+            Ok(batch(&kin, q, k, w, |i, q, e, o| {
+                let at = At { q, e, t: t[i] };
+                if jac {
+                    kin.jac(&at, o)
+                } else {
+                    kin.phi(&at, o)
+                }
+            }))
+        })?;
+        out2(py, v, k, w)
     }
 }
 
