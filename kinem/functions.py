@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import native
+
 
 
 @dataclass(frozen=True)
@@ -43,58 +45,27 @@ def value_at(f, t: float, order: int = 0) -> float:
 
 
 class FunctionSet:
-    """Several functions, evaluated together with numpy (one spline call per table)."""
+    """Several functions, evaluated together by the compiled core (the
+    analysis's own evaluation, kinem/core/src/functions.rs, from their
+    ``FunctionTable``)."""
 
     def __init__(self, funcs):
         funcs = list(funcs)
+        if not all(isinstance(f, (Poly, Harmonic, Table)) for f in funcs):
+            raise TypeError("unknown function kind")
         self.funcs = tuple(funcs)
         self.n = len(funcs)
-        polys = [(k, f) for k, f in enumerate(funcs) if isinstance(f, Poly)]
-        harms = [(k, f) for k, f in enumerate(funcs) if isinstance(f, Harmonic)]
-        tables = [(k, f) for k, f in enumerate(funcs) if isinstance(f, Table)]
-        if len(polys) + len(harms) + len(tables) != self.n:
-            raise TypeError("unknown function kind")
-        self.constant = len(harms) == len(tables) == 0 and all(len(f.coeffs) == 1 for _, f in polys)
-
-        self.poly_idx = np.array([k for k, _ in polys], dtype=np.intp)
-        deg = max((len(f.coeffs) for _, f in polys), default=1)
-        c0 = np.zeros((len(polys), deg))  # c0[r, j]: coefficient of t^j
-        for r, (_, f) in enumerate(polys):
-            c0[r, : len(f.coeffs)] = f.coeffs
-        powers = np.arange(deg)
-        c1 = np.zeros_like(c0)
-        c1[:, :-1] = c0[:, 1:] * powers[1:]
-        c2 = np.zeros_like(c0)
-        c2[:, :-1] = c1[:, 1:] * powers[1:]
-        self.poly_coeffs = (c0, c1, c2)
-
-        self.harm_idx = np.array([k for k, _ in harms], dtype=np.intp)
-        self.harm = np.array([[f.amplitude, f.omega, f.phase, f.offset] for _, f in harms], dtype=float).reshape(-1, 4)
-
-        self.tables = []
-        if tables:
-            from scipy.interpolate import CubicSpline
-
-            for k, f in tables:
-                s = CubicSpline(np.asarray(f.t, float), np.asarray(f.value, float))
-                self.tables.append((k, (s, s.derivative(1), s.derivative(2))))
+        self.constant = all(isinstance(f, Poly) and len(f.coeffs) == 1 for f in funcs)
+        table = FunctionTable()
+        self._index = table.indices(funcs)
+        self._table = table.arrays()
 
     def __call__(self, t, order: int = 0) -> np.ndarray:
         """d^(order)(t) for every function, order 0, 1 or 2: (n,) at a scalar
         t, S + (n,) at an array of instants of shape S."""
         t = np.asarray(t, dtype=float)
         flat = np.ascontiguousarray(t.reshape(-1))
-        out = np.empty((flat.shape[0], self.n))
-        c = self.poly_coeffs[order]
-        if len(self.poly_idx):
-            out[:, self.poly_idx] = np.polynomial.polynomial.polyval(flat, c.T).T.reshape(len(flat), -1)
-        if len(self.harm_idx):
-            a, w, p, off = (self.harm[:, i] for i in range(4))
-            arg = np.multiply.outer(flat, w) + p
-            out[:, self.harm_idx] = (off + a * np.sin(arg) if order == 0 else a * w * np.cos(arg) if order == 1
-                                     else -a * w * w * np.sin(arg))
-        for k, splines in self.tables:
-            out[:, k] = splines[order](flat)
+        out = native.functions(self._table, flat, order)[:, self._index]
         return out.reshape(t.shape + (self.n,))
 
 
@@ -104,7 +75,7 @@ POLY, HARMONIC, PIECES = 0, 1, 2
 
 def spline_pieces(f: Table):
     """Breakpoints x (k+1,) and coefficients c (4, k) of a table function:
-    the not-a-knot CubicSpline FunctionSet evaluates (scipy's PPoly layout)."""
+    its not-a-knot CubicSpline (scipy's PPoly layout)."""
     from scipy.interpolate import CubicSpline
 
     s = CubicSpline(np.asarray(f.t, float), np.asarray(f.value, float))

@@ -5,17 +5,19 @@ coordinates s(theta) about a centre point Q of the body (Eq. 4.25),
 
 s is a cubic spline through a table (scipy ``CubicSpline``: periodic, or an
 open table with not-a-knot or natural ends) or a constant (a circle of
-radius R about Q, exact). Both are piecewise cubics, so ``OutlineSet``
-evaluates any mix of outlines, each at its own theta, with one vectorised
-pass: the pieces of all outlines are concatenated, and a periodic outline
-wraps an accumulated theta into its period first. An open outline is
-extended beyond its table by its end cubics (there is no stop at the ends).
+radius R about Q, exact). Both are piecewise cubics, laid out once for
+the compiled core (``OutlineTable``), which evaluates them for the analysis
+and, through ``OutlineSet``, for everything else: a periodic outline wraps
+an accumulated theta into its period first; an open outline is extended
+beyond its table by its end cubics (there is no stop at the ends).
 
 Planar vectors are complex xi + i eta, as in the constraint families.
 """
 from dataclasses import dataclass
 
 import numpy as np
+
+from . import native
 
 from .functions import identity
 
@@ -73,49 +75,21 @@ class OutlineSet:
 
     def __init__(self, outlines):
         outlines = list(outlines)
-        keys, starts, coefs, first, last = [], [], [], [], []
-        t0, span, offset = [], [], []
-        key, count = 0.0, 0
-        for o in outlines:
-            x, c = o.pieces()
-            local = x - x[0]
-            keys.append(local[:-1] + key)
-            starts.append(local[:-1])
-            coefs.append(c)
-            first.append(count)
-            count += len(x) - 1
-            last.append(count - 1)
-            t0.append(x[0])
-            span.append(local[-1])
-            offset.append(key)
-            key += local[-1] + 1.0  # a gap keeps the outlines' keys apart
-        self.keys = np.concatenate(keys)
-        self.starts = np.concatenate(starts)
-        self.c = np.concatenate(coefs, axis=1)
-        self.first, self.last = np.array(first), np.array(last)
-        self.t0, self.span, self.offset = np.array(t0), np.array(span), np.array(offset)
-        self.periodic = np.array([o.periodic for o in outlines])
+        table = OutlineTable()
+        self._which = table.indices(outlines)   # equal outlines share one number
+        self._table = table.arrays()
         self.center = np.array([complex(*o.center) for o in outlines])
-        self.size = np.array([np.max(np.abs(c[3])) for c in coefs])  # the largest tabulated s
-
+        self.size = np.array([np.max(np.abs(o.pieces()[1][3])) for o in outlines])  # the largest tabulated s
 
     def radius(self, theta):
         """s and its first three derivatives with respect to theta: outline
-        k at theta[..., k] (a single outline: at any array of angles)."""
+        k at theta[..., k] (a single outline: at any array of angles), by the
+        compiled core (kinem/core/src/outline.rs, the analysis's own)."""
         theta = np.asarray(theta, float)
-        shape = np.broadcast_shapes(theta.shape, self.t0.shape)
+        shape = np.broadcast_shapes(theta.shape, self._which.shape)
         flat = np.ascontiguousarray(np.broadcast_to(theta, shape)).reshape(-1)
-        which = np.ascontiguousarray(np.broadcast_to(np.arange(len(self.t0)), shape)).reshape(-1)
-        x = flat - self.t0[which]
-        periodic = self.periodic[which]
-        x[periodic] = x[periodic] % self.span[which][periodic]
-        key = self.offset[which] + np.clip(x, 0.0, self.span[which])
-        i = np.clip(np.searchsorted(self.keys, key, side="right") - 1, self.first[which], self.last[which])
-        h = x - self.starts[i]
-        c0, c1, c2, c3 = self.c[:, i]
-        out = np.stack([((c0 * h + c1) * h + c2) * h + c3, (3 * c0 * h + 2 * c1) * h + c2, 6 * c0 * h + 2 * c1,
-                        6 * c0 + 0 * h])
-        return tuple(out.reshape((4,) + shape))
+        which = np.ascontiguousarray(np.broadcast_to(self._which, shape), np.int64).reshape(-1)
+        return tuple(native.outline_radius(self._table, which, flat).reshape((4,) + shape))
 
     def curve(self, theta):
         """p and dp/dtheta, d2p/dtheta2, d3p/dtheta3 in local components

@@ -570,6 +570,64 @@ fn lagrange<'py>(
     Ok((PyArray1::from_vec(py, q), order))
 }
 
+/// The functions of a table {kind, start, data} (kinem.functions.FunctionTable)
+/// at the instants t (K,): their order-th derivative, (K, functions). The
+/// driving functions' one implementation, for every caller outside the analysis too.
+#[pyfunction]
+fn functions<'py>(
+    py: Python<'py>,
+    table: Bound<'py, PyDict>,
+    t: PyReadonlyArray1<'py, f64>,
+    order: u8,
+) -> PyResult<Bound<'py, PyAny>> {
+    let tb = self::table(&table)?;
+    let t = t.as_slice()?;
+    if order > 2 {
+        return Err(pyo3::exceptions::PyValueError::new_err("functions: order 0, 1 or 2"));
+    }
+    let (v, w) = guard(py, || {
+        let f = crate::functions::Functions::from_table(&tb)?;
+        let w = f.len();
+        let mut out = vec![0.0; t.len() * w];
+        for (k, &tk) in t.iter().enumerate() {
+            for j in 0..w {
+                out[k * w + j] = f.eval(j, tk, order);
+            }
+        }
+        Ok((out, w))
+    })?;
+    out2(py, v, t.len(), w)
+}
+
+/// s and its first three derivatives (4, N) of outline which[j] at theta[j]
+/// (a table of kinem.outline.OutlineTable): the outlines' one implementation.
+#[pyfunction]
+fn outline_radius<'py>(
+    py: Python<'py>,
+    table: Bound<'py, PyDict>,
+    which: PyReadonlyArray1<'py, i64>,
+    theta: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let tb = self::table(&table)?;
+    let (which, theta) = (which.as_slice()?, theta.as_slice()?);
+    let n = theta.len();
+    let v = guard(py, || {
+        let o = crate::outline::Outlines::from_table(&tb)?;
+        if which.len() != n || which.iter().any(|&w| w < 0 || w as usize >= o.len()) {
+            return Err("outline_radius: which out of range or of another length than theta".to_string());
+        }
+        let mut out = vec![0.0; 4 * n];
+        for j in 0..n {
+            let r = o.radius(which[j] as usize, theta[j]);
+            for d in 0..4 {
+                out[d * n + j] = r[d];
+            }
+        }
+        Ok(out)
+    })?;
+    out2(py, v, 4, n)
+}
+
 /// Panics inside the core with `message` (tests/test_core.py: a panic
 /// reaches Python as kinem.errors.CoreError, never an abort).
 #[pyfunction]
@@ -579,6 +637,8 @@ fn _panic(py: Python<'_>, message: String) -> PyResult<()> {
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(_panic, m)?)?;
+    m.add_function(wrap_pyfunction!(functions, m)?)?;
+    m.add_function(wrap_pyfunction!(outline_radius, m)?)?;
     m.add_class::<Plan>()?;
     m.add_class::<Lu>()?;
     m.add_function(wrap_pyfunction!(settle, m)?)?;
