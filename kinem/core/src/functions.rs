@@ -18,6 +18,9 @@ pub struct Functions {
     kind: Vec<i64>,
     start: Vec<usize>,
     data: Vec<f64>,
+    /// per function: its value when it is a constant (a ground's, an
+    /// absolute constraint's), evaluated without the general path
+    value: Vec<Option<f64>>,
 }
 
 impl Functions {
@@ -46,7 +49,10 @@ impl Functions {
                 return Err(format!("functions: function {f} (kind {}) is malformed", kind[f]));
             }
         }
-        Ok(Functions { kind, start, data })
+        let value = (0..kind.len())
+            .map(|f| (kind[f] == POLY && start[f + 1] - start[f] == 1).then(|| data[start[f]]))
+            .collect();
+        Ok(Functions { kind, start, data, value })
     }
 
     pub fn len(&self) -> usize {
@@ -59,12 +65,15 @@ impl Functions {
 
     /// Whether function f is a constant (its derivatives vanish).
     pub fn constant(&self, f: usize) -> bool {
-        self.kind[f] == POLY && self.start[f + 1] - self.start[f] == 1
+        self.value[f].is_some()
     }
 
     /// d(t) (order 0), d'(t) (1) or d''(t) (2) of function f.
     #[inline]
     pub fn eval(&self, f: usize, t: f64, order: u8) -> f64 {
+        if let Some(v) = self.value[f] {
+            return if order == 0 { v } else { 0.0 };
+        }
         let p = &self.data[self.start[f]..self.start[f + 1]];
         match self.kind[f] {
             POLY => {

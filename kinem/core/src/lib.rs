@@ -18,6 +18,7 @@ pub mod model;
 pub mod newton;
 pub mod order;
 pub mod outline;
+pub mod parts;
 pub mod plan;
 pub mod table;
 

@@ -11,7 +11,7 @@
 //! are LAPACK's. Band: a large chain's J_s in LAPACK gbtrf storage after its
 //! single-entry rows (grounds, drivers) are taken out (gbtf2's elimination).
 
-use crate::order::Order;
+use crate::order::{Order, Pivots};
 use rayon::prelude::*;
 
 /// Models of at least this many diagonal blocks (merged variants)
@@ -21,7 +21,7 @@ pub const PARALLEL: usize = 64;
 
 /// One block's share of the factors: its storage, pivots, row and column
 /// masks, and whether it is in its fixed order.
-type BlockParts<'a> = (((&'a mut [f64], &'a mut [usize]), (&'a mut [u64], &'a mut [u64])), &'a mut bool);
+type BlockParts<'a> = (((&'a mut [f64], &'a mut [usize]), (&'a mut [u64], &'a mut [u64])), &'a mut Option<Pivots>);
 
 /// Blocks of up to this many coordinates are factorised on their nonzeros.
 pub const MASK: usize = 64;
@@ -76,8 +76,9 @@ pub struct Factors {
     pub rm: Vec<u64>,
     pub cm: Vec<u64>,
     pub w: Vec<f64>,
-    /// per block: factorised in its fixed order (else partial pivoting)
-    pub fixed: Vec<bool>,
+    /// per block: factorised in its fixed order, with its pivots' figures
+    /// (None: with partial pivoting)
+    pub fixed: Vec<Option<Pivots>>,
     y: Vec<f64>,
 }
 
@@ -93,7 +94,7 @@ impl Layout {
             rm: vec![0; self.count * per.max(1)],
             cm: vec![0; self.count * per.max(1)],
             w: vec![0.0; (self.count * per).max(self.n).max(self.width)],
-            fixed: vec![false; self.count],
+            fixed: vec![None; self.count],
             y: vec![0.0; per.max(1)],
         }
     }
@@ -112,17 +113,52 @@ impl Layout {
         }
     }
 
+    /// Block c of a Blocks layout as a layout of its own (one block at the
+    /// same positions, det sign without the model's reordering): rows, cols
+    /// and entries are the block's global rows, coordinates and Jacobian
+    /// entries, ascending (a part of the model, crate::model::Kin::split).
+    pub fn part(&self, c: usize, rows: &[usize], cols: &[usize], entries: &[usize]) -> Option<Layout> {
+        let Shape::Blocks { size, pad, patterns, .. } = &self.shape else { return None };
+        let (s, o) = (*size, c * size);
+        let mut l = Layout {
+            shape: Shape::Blocks {
+                count: 1,
+                size: s,
+                pad: pad.iter().filter(|&&p| p / s == c).map(|&p| p - o).collect(),
+                patterns: if patterns.is_empty() { Vec::new() } else { patterns[o..o + s].to_vec() },
+                orders: Vec::new(),
+            },
+            n: cols.len(),
+            m: rows.len(),
+            height: s,
+            width: s,
+            count: 1,
+            at: entries.iter().map(|&e| (0, self.at[e].1, self.at[e].2)).collect(),
+            entry_scale: entries.iter().map(|&e| self.entry_scale[e]).collect(),
+            row_pos: rows.iter().map(|&g| self.row_pos[g] - o).collect(),
+            col_pos: cols.iter().map(|&g| self.col_pos[g] - o).collect(),
+            real: self.real[o..o + s].to_vec(),
+            sign: 1,
+            scale: rows.iter().map(|&g| self.scale[g]).collect(),
+            col_scale: cols.iter().map(|&g| self.col_scale[g]).collect(),
+            by_block: Vec::new(),
+            block_start: Vec::new(),
+        };
+        l.group();
+        Some(l)
+    }
+
     /// Block c of J_s from the values: in its fixed order's positions, or natural.
     fn assemble_block(&self, values: &[f64], c: usize, s: usize, pad: &[usize], order: Option<&Order>, a: &mut [f64]) {
         let entries = &self.by_block[self.block_start[c]..self.block_start[c + 1]];
         match order {
             Some(o) => {
-                // the elimination reads only the factors' pattern: clear just that
-                for &at in &o.pattern_at {
+                // the elimination reads only the factors' pattern: clear the fill, set the rest
+                for &at in &o.fill_at {
                     a[at] = 0.0;
                 }
-                for (&e, &at) in entries.iter().zip(&o.entry_at) {
-                    a[at] = values[e] * self.entry_scale[e];
+                for &(e, at, scale) in &o.place {
+                    a[at as usize] = values[e as usize] * scale;
                 }
                 for &at in &o.pad_at {
                     a[at] = 1.0;
@@ -138,23 +174,6 @@ impl Layout {
                     a[(p % s) * (s + 1)] = 1.0;
                 }
             }
-        }
-    }
-
-    /// The smallest over the largest |pivot| of a block in its fixed order.
-    fn fixed_ratio(&self, c: usize, s: usize, o: &Order, a: &[f64]) -> f64 {
-        let (mut small, mut big) = (f64::INFINITY, 0.0f64);
-        for k in 0..s {
-            if self.real[c * s + o.col[k]] {
-                let d = a[k * s + k].abs();
-                small = small.min(d);
-                big = big.max(d);
-            }
-        }
-        if big > 0.0 {
-            small / big
-        } else {
-            0.0
         }
     }
 
@@ -197,8 +216,8 @@ impl Layout {
     }
 
     /// Block c factorised into a (its storage): in its fixed order when it
-    /// has one and the values suit it (returns true), else with partial
-    /// pivoting into piv, rm, cm.
+    /// has one and the values suit it (returns its pivots' figures), else
+    /// with partial pivoting into piv, rm, cm (returns None).
     fn factor_block(
         &self,
         values: &[f64],
@@ -207,13 +226,13 @@ impl Layout {
         piv: &mut [usize],
         rm: &mut [u64],
         cm: &mut [u64],
-    ) -> bool {
-        let Shape::Blocks { size, pad, patterns, orders, .. } = &self.shape else { return false };
+    ) -> Option<Pivots> {
+        let Shape::Blocks { size, pad, patterns, orders, .. } = &self.shape else { return None };
         let s = *size;
         if let Some(o) = orders.get(c).and_then(|o| o.as_ref()) {
             self.assemble_block(values, c, s, pad, Some(o), a);
-            if o.numeric(a) && self.fixed_ratio(c, s, o, a) >= FALLBACK {
-                return true;
+            if let Some(p) = o.numeric(a).filter(|p| p.ratio() >= FALLBACK) {
+                return Some(p);
             }
         }
         self.assemble_block(values, c, s, pad, None, a);
@@ -226,13 +245,13 @@ impl Layout {
         } else {
             dense_factor(a, s, piv);
         }
-        false
+        None
     }
 
     /// x = Phi_q^-1 b from the factors (b: m rows, x: n coordinates).
     pub fn solve(&self, f: &mut Factors, b: &[f64], x: &mut [f64]) {
         if let Shape::Blocks { count, size, orders, .. } = &self.shape {
-            if f.fixed.iter().all(|&x| x) {
+            if f.fixed.iter().all(|x| x.is_some()) {
                 // every block in its fixed order: straight from b to x
                 let s = *size;
                 for (c, o) in orders.iter().enumerate().take(*count) {
@@ -255,7 +274,7 @@ impl Layout {
                     let a = &f.j[c * s * s..(c + 1) * s * s];
                     let piv = &f.piv[c * s..(c + 1) * s];
                     let v = &mut w[c * s..(c + 1) * s];
-                    if f.fixed[c] {
+                    if f.fixed[c].is_some() {
                         if let Some(o) = &orders[c] {
                             o.solve(a, v, &mut f.y);
                         }
@@ -293,51 +312,22 @@ impl Layout {
 
     /// `stats` and the position of the smallest |pivot| (in the stored order).
     pub fn pivots(&self, f: &Factors) -> (f64, i32, usize) {
-        let (mut small, mut big, mut det) = (f64::INFINITY, 0.0f64, self.sign);
-        let mut at = 0usize;
-        let mut visit = |d: f64, swapped: bool, real: bool, pos: usize| -> bool {
-            if swapped {
-                det = -det;
-            }
-            if d < 0.0 {
-                det = -det;
-            } else if d == 0.0 {
-                det = 0;
-            }
-            if real {
-                let a = d.abs();
-                if !(a < f64::INFINITY) {
-                    return false;
-                }
-                if a < small {
-                    small = a;
-                    at = pos;
-                }
-                big = big.max(a);
-            }
-            true
-        };
+        let mut acc = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det: self.sign };
         match &self.shape {
-            Shape::Blocks { count, size, orders, .. } => {
+            Shape::Blocks { count, size, .. } => {
                 let s = *size;
                 for c in 0..*count {
-                    if f.fixed[c] {
-                        if let Some(o) = &orders[c] {
-                            for k in 0..s {
-                                let p = c * s + o.col[k];
-                                // the order's permutations count once, as one interchange when odd
-                                let odd = k == 0 && o.parity < 0;
-                                if !visit(f.j[c * s * s + k * s + k], odd, self.real[p], p) {
-                                    return (0.0, det, at);
-                                }
-                            }
-                        }
+                    if let Some(p) = &f.fixed[c] {
+                        // the figures its fixed-order elimination took
+                        acc.det *= p.det;
+                        acc.take(p.small, c * s + p.at);
+                        acc.big = acc.big.max(p.big);
                         continue;
                     }
                     for j in 0..s {
                         let d = f.j[c * s * s + j * s + j];
-                        if !visit(d, f.piv[c * s + j] != j, self.real[c * s + j], c * s + j) {
-                            return (0.0, det, at);
+                        if !acc.visit(d, f.piv[c * s + j] != j, self.real[c * s + j], c * s + j) {
+                            return (0.0, acc.det, acc.at);
                         }
                     }
                 }
@@ -350,13 +340,45 @@ impl Layout {
                     } else {
                         (f.j[(h - 2) * wd + j - size], false)
                     };
-                    if !visit(d, sw, self.real[j], j) {
-                        return (0.0, det, at);
+                    if !acc.visit(d, sw, self.real[j], j) {
+                        return (0.0, acc.det, acc.at);
                     }
                 }
             }
         }
-        (if big > 0.0 { small / big } else { 0.0 }, det, at)
+        (acc.ratio(), acc.det, acc.at)
+    }
+}
+
+impl Pivots {
+    /// |pivot| x at position `at`, if the smallest so far.
+    fn take(&mut self, x: f64, at: usize) {
+        if x < self.small {
+            self.small = x;
+            self.at = at;
+        }
+    }
+
+    /// One pivot d of a partial-pivoting factorisation (swapped: its row was
+    /// interchanged); false when a real one is not finite.
+    fn visit(&mut self, d: f64, swapped: bool, real: bool, pos: usize) -> bool {
+        if swapped {
+            self.det = -self.det;
+        }
+        if d < 0.0 {
+            self.det = -self.det;
+        } else if d == 0.0 {
+            self.det = 0;
+        }
+        if real {
+            let a = d.abs();
+            if !(a < f64::INFINITY) {
+                return false;
+            }
+            self.take(a, pos);
+            self.big = self.big.max(a);
+        }
+        true
     }
 }
 

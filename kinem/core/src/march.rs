@@ -34,8 +34,8 @@ pub struct State<'a> {
     pub tt: &'a mut [f64],
 }
 
-/// Per instant: Q, QD, QDD (K n), Newton iterations, residual, pivot ratio
-/// (K); counts: Jacobian evaluations and factorisations, added to.
+/// Per instant: Q, QD, QDD (K n), Newton iterations, residual, pivot ratio,
+/// det sign (K); counts: Jacobian evaluations and factorisations, added to.
 pub struct Out<'a> {
     pub q: &'a mut [f64],
     pub qd: &'a mut [f64],
@@ -43,6 +43,8 @@ pub struct Out<'a> {
     pub iterations: &'a mut [i64],
     pub residual: &'a mut [f64],
     pub pivot: &'a mut [f64],
+    /// the det sign of each instant's factorisation
+    pub det: &'a mut [i8],
     pub counts: &'a mut [i64],
 }
 
@@ -53,6 +55,8 @@ pub struct Native<'a> {
     pub f: Factors,
     pub q: Vec<f64>,
     pub e: Vec<C64>,
+    /// the angles e holds (NaN: none yet)
+    seen: Vec<f64>,
     pub phi: Vec<f64>,
     values: Vec<f64>,
     dq: Vec<f64>,
@@ -71,6 +75,7 @@ impl<'a> Native<'a> {
             f: layout.factors(),
             q: vec![0.0; kin.n],
             e: vec![C64::new(1.0, 0.0); kin.n],
+            seen: vec![f64::NAN; kin.n],
             phi: vec![0.0; kin.m],
             values: vec![0.0; kin.nnz],
             dq: vec![0.0; kin.n],
@@ -98,7 +103,7 @@ impl Native<'_> {
     /// e = e^{i q} at the angle columns, once per configuration.
     fn rotate(&mut self) {
         if !self.rotated {
-            self.kin.rotate(&self.q, &mut self.e);
+            self.kin.rotate_changed(&self.q, &mut self.e, &mut self.seen);
             self.rotated = true;
         }
     }
@@ -205,6 +210,7 @@ pub fn run(kin: &Kin, layout: &Layout, times: &[f64], mut k: usize, st: State, s
         out.iterations[k] = settled.iterations as i64;
         out.residual[k] = settled.residual;
         out.pivot[k] = ratio;
+        out.det[k] = det as i8;
         k += 1;
     }
     out.counts[0] += ops.counts[0];

@@ -2,7 +2,7 @@
 //! Jacobian entries in the order of kinem.model.Model), the driving
 //! functions and outlines they read, and the angle columns whose e^{i q}
 //! the families share.
-use crate::families::{At, Family, Shared};
+use crate::families::{coordinate_columns, At, Family, Shared};
 use crate::functions::Functions;
 use crate::outline::Outlines;
 use crate::table::Table;
@@ -19,24 +19,29 @@ pub struct Kin {
     pub functions: Functions,
     pub outlines: Outlines,
     pub time_dependent: Vec<usize>, // families whose nu may be non-zero
+    /// the tables it was built from (Kin::split builds its parts from them)
+    tables: Vec<(String, Table)>,
+    function_table: Table,
+    outline_table: Table,
 }
 
 impl Kin {
     pub fn new(
         n: usize,
         families: Vec<(String, Table)>,
-        functions: &Table,
-        outlines: &Table,
+        functions_table: &Table,
+        outlines_table: &Table,
         angles: Vec<i64>,
     ) -> Result<Kin, String> {
-        let functions = Functions::from_table(functions)?;
-        let outlines = if outlines.ints.is_empty() && outlines.reals.is_empty() {
+        let functions = Functions::from_table(functions_table)?;
+        let outlines = if outlines_table.ints.is_empty() && outlines_table.reals.is_empty() {
             Outlines::default()
         } else {
-            Outlines::from_table(outlines)?
+            Outlines::from_table(outlines_table)?
         };
         let mut list = Vec::new();
-        for (kind, t) in &families {
+        let tables = families;
+        for (kind, t) in &tables {
             list.push(Family::new(kind, t, n, functions.len(), outlines.len()).map_err(|e| format!("{kind}: {e}"))?);
         }
         let angles = angles
@@ -67,7 +72,76 @@ impl Kin {
             functions,
             outlines,
             time_dependent,
+            tables,
+            function_table: functions_table.clone(),
+            outline_table: outlines_table.clone(),
         })
+    }
+
+    /// The model's independent parts, one per diagonal block (cols[b]: the
+    /// block's coordinates, ascending): each a Kin over its own coordinates
+    /// (numbered in the same order) with the constraints whose first
+    /// coordinate column is in the block, in the same order, so that its
+    /// rows and Jacobian entries are the block's in ascending global order.
+    pub fn split(&self, cols: &[Vec<usize>]) -> Result<Vec<Kin>, String> {
+        const NONE: usize = usize::MAX;
+        let (mut block, mut local) = (vec![NONE; self.n], vec![0usize; self.n]);
+        for (b, c) in cols.iter().enumerate() {
+            for (i, &g) in c.iter().enumerate() {
+                block[g] = b;
+                local[g] = i;
+            }
+        }
+        let mut parts: Vec<Vec<(String, Table)>> = vec![Vec::new(); cols.len()];
+        for (kind, t) in &self.tables {
+            let coords = coordinate_columns(kind);
+            let first = coords.first().and_then(|k| t.ints.get(*k)).ok_or(format!("{kind}: no coordinate column"))?;
+            let count = first.len();
+            let mut keep = vec![Vec::new(); cols.len()];
+            for (r, &x) in first.iter().enumerate() {
+                // x was checked against n when this Kin was built
+                match block[x as usize] {
+                    NONE => return Err(format!("{kind}: coordinate {x} is in no block")),
+                    b => keep[b].push(r),
+                }
+            }
+            for (b, rows) in keep.iter().enumerate().filter(|(_, r)| !r.is_empty()) {
+                let pick = |len: usize| len == count;
+                let mut s = Table::default();
+                for (k, v) in &t.ints {
+                    let mut w: Vec<i64> = if pick(v.len()) { rows.iter().map(|&r| v[r]).collect() } else { v.clone() };
+                    if coords.contains(&k.as_str()) {
+                        for x in &mut w {
+                            let g = *x as usize;
+                            // an unused column outside the block: any valid one
+                            *x = if g < self.n && block[g] == b { local[g] as i64 } else { 0 };
+                        }
+                    }
+                    s.ints.insert(k.clone(), w);
+                }
+                for (k, v) in &t.reals {
+                    s.reals.insert(
+                        k.clone(),
+                        if pick(v.len()) { rows.iter().map(|&r| v[r]).collect() } else { v.clone() },
+                    );
+                }
+                for (k, v) in &t.complex {
+                    s.complex.insert(
+                        k.clone(),
+                        if pick(v.len()) { rows.iter().map(|&r| v[r]).collect() } else { v.clone() },
+                    );
+                }
+                parts[b].push((kind.clone(), s));
+            }
+        }
+        parts
+            .into_iter()
+            .enumerate()
+            .map(|(b, fams)| {
+                let angles = self.angles.iter().filter(|&&a| block[a] == b).map(|&a| local[a] as i64).collect();
+                Kin::new(cols[b].len(), fams, &self.function_table, &self.outline_table, angles)
+            })
+            .collect()
     }
 
     fn shared(&self) -> Shared<'_> {
@@ -80,6 +154,19 @@ impl Kin {
         for &j in &self.angles {
             let (s, c) = q[j].sin_cos();
             e[j] = C64::new(c, s);
+        }
+    }
+
+    /// `rotate` where q[j] has changed since `seen` (the angles e holds), as
+    /// in a march: a grounded or sliding body's angle keeps its sin and cos.
+    #[inline]
+    pub fn rotate_changed(&self, q: &[f64], e: &mut [C64], seen: &mut [f64]) {
+        for &j in &self.angles {
+            if q[j].to_bits() != seen[j].to_bits() || q[j].is_nan() {
+                let (s, c) = q[j].sin_cos();
+                e[j] = C64::new(c, s);
+                seen[j] = q[j];
+            }
         }
     }
 

@@ -27,21 +27,25 @@ pub struct Order {
     pub inv_col: Vec<usize>,
     /// sign of the two permutations (det(J) = parity * prod of the pivots)
     pub parity: i32,
-    /// for step k: rows i > k of L's column k (below[start[k]..start[k + 1]])
-    below: Vec<usize>,
-    below_start: Vec<usize>,
-    /// for step k: columns l > k of U's row k
-    right: Vec<usize>,
-    right_start: Vec<usize>,
-    /// for step k: rows i < k of U's column k (back substitution)
-    above: Vec<usize>,
-    above_start: Vec<usize>,
-    /// positions i s + k of below's and above's entries
-    below_at: Vec<usize>,
-    above_at: Vec<usize>,
+    /// the elimination's steps with work, as (k, lo, hi): step k's
+    /// multipliers are L's entries mult[lo..hi] (row i, position i s + k),
+    /// each updating row i at U's row k's columns right[rlo[k]..rlo[k + 1]]
+    steps: Vec<(u32, u32, u32)>,
+    mult: Vec<(u32, u32)>,
+    right: Vec<u32>,
+    right_start: Vec<u32>,
+    /// the solves' back substitution as one program: (i, at, k) is
+    /// y[k] /= a[at] (the pivot) when i == k, else y[i] -= a[at] y[k] (U's
+    /// column k above the diagonal); the forward steps are `steps` over `mult`
+    back: Vec<(u32, u32, u32)>,
+    /// per step: the pivot is at a real (not padding) position (set by `fuse`)
+    real: Vec<bool>,
     /// every position of the factors' pattern (fill-in included): the only
     /// ones the elimination reads, so the only ones to clear before assembly
     pub pattern_at: Vec<usize>,
+    /// the pattern's positions that no Jacobian entry or padding sets (set
+    /// by `fuse`): the only ones to clear before each assembly
+    pub fill_at: Vec<usize>,
     /// set by `fuse`: step k's right side is b[gather[k]] * gscale[k]
     /// (NONE: padding, 0) and x[scatter[l]] = y[l] * sscale[l]
     gather: Vec<usize>,
@@ -50,8 +54,32 @@ pub struct Order {
     sscale: Vec<f64>,
     /// per Jacobian entry of the block, its position in the permuted block
     pub entry_at: Vec<usize>,
+    /// the assembly: Jacobian entry e goes to position at, times its scale
+    pub place: Vec<(u32, u32, f64)>,
     /// the permuted positions of the block's padding (1 on the diagonal)
     pub pad_at: Vec<usize>,
+}
+
+/// A fixed-order factorisation's pivots: the smallest and largest |pivot|
+/// at real positions (`at`: the block column of the smallest), and the
+/// sign of the block's determinant.
+#[derive(Clone, Copy, Debug)]
+pub struct Pivots {
+    pub small: f64,
+    pub big: f64,
+    pub at: usize,
+    pub det: i32,
+}
+
+impl Pivots {
+    /// smallest over largest (0 without a real pivot)
+    pub fn ratio(&self) -> f64 {
+        if self.big > 0.0 {
+            self.small / self.big
+        } else {
+            0.0
+        }
+    }
 }
 
 /// No row or coordinate (a padding position).
@@ -166,17 +194,23 @@ impl Order {
             }
         }
         let bits = |m: u64| (0..s).filter(move |&l| m >> l & 1 == 1);
-        let below = (0..s).map(|k| (k + 1..s).filter(|&i| p[i] >> k & 1 == 1).collect()).collect();
-        let right = (0..s).map(|k| bits(p[k]).filter(|&l| l > k).collect()).collect();
-        let above = (0..s).map(|k| (0..k).filter(|&i| p[i] >> k & 1 == 1).collect()).collect();
-        let (below, below_start) = flatten(below);
+        let u = |x: usize| x as u32;
+        let below: Vec<Vec<usize>> = (0..s).map(|k| (k + 1..s).filter(|&i| p[i] >> k & 1 == 1).collect()).collect();
+        let right: Vec<Vec<usize>> = (0..s).map(|k| bits(p[k]).filter(|&l| l > k).collect()).collect();
+        let (mut steps, mut mult) = (Vec::new(), Vec::new());
+        for k in 0..s {
+            if !below[k].is_empty() {
+                let lo = u(mult.len());
+                mult.extend(below[k].iter().map(|&i| (u(i), u(i * s + k))));
+                steps.push((u(k), lo, u(mult.len())));
+            }
+        }
         let (right, right_start) = flatten(right);
-        let (above, above_start) = flatten(above);
-        let at = |list: &[usize], start: &[usize]| -> Vec<usize> {
-            (0..s).flat_map(|k| list[start[k]..start[k + 1]].iter().map(move |&i| i * s + k)).collect()
-        };
-        let below_at = at(&below, &below_start);
-        let above_at = at(&above, &above_start);
+        let mut back = Vec::new();
+        for k in (0..s).rev() {
+            back.push((u(k), u(k * s + k), u(k)));
+            back.extend((0..k).filter(|&i| p[i] >> k & 1 == 1).map(|i| (u(i), u(i * s + k), u(k))));
+        }
         let pattern_at = (0..s).flat_map(|k| bits(p[k] | 1u64 << k).map(move |l| k * s + l)).collect();
         Some(Order {
             s,
@@ -185,20 +219,20 @@ impl Order {
             col,
             inv_row,
             inv_col,
-            below,
-            below_start,
-            right,
-            right_start,
-            above,
-            above_start,
-            below_at,
-            above_at,
+            steps,
+            mult,
+            right: right.into_iter().map(u).collect(),
+            right_start: right_start.into_iter().map(u).collect(),
+            back,
+            real: vec![true; s],
             pattern_at,
+            fill_at: Vec::new(),
             gather: Vec::new(),
             gscale: Vec::new(),
             scatter: Vec::new(),
             sscale: Vec::new(),
             entry_at: Vec::new(),
+            place: Vec::new(),
             pad_at: Vec::new(),
         })
     }
@@ -216,14 +250,21 @@ impl Order {
         col_scale: &[f64],
         entries: &[(usize, usize)],
         pads: &[usize],
+        real: &[bool],
     ) {
         let s = self.s;
+        self.real = (0..s).map(|k| real[self.col[k]]).collect();
         self.gather = (0..s).map(|k| row_at[self.row[k]]).collect();
         self.gscale = self.gather.iter().map(|&i| if i == NONE { 0.0 } else { 1.0 / scale[i] }).collect();
         self.scatter = (0..s).map(|l| col_at[self.col[l]]).collect();
         self.sscale = self.scatter.iter().map(|&j| if j == NONE { 0.0 } else { col_scale[j] }).collect();
         self.entry_at = entries.iter().map(|&(r, c)| self.inv_row[r] * s + self.inv_col[c]).collect();
         self.pad_at = pads.iter().map(|&i| self.inv_row[i] * s + self.inv_col[i]).collect();
+        let mut set = vec![false; s * s];
+        for &at in self.entry_at.iter().chain(&self.pad_at) {
+            set[at] = true;
+        }
+        self.fill_at = self.pattern_at.iter().copied().filter(|&at| !set[at]).collect();
     }
 
     /// x (model coordinates) from b (model rows) with `numeric`'s factors
@@ -247,55 +288,68 @@ impl Order {
     /// y <- U^-1 L^-1 y (permuted order).
     #[inline]
     fn eliminate(&self, a: &[f64], y: &mut [f64]) {
-        let s = self.s;
-        for k in 0..s {
-            let yk = y[k];
+        for &(k, lo, hi) in &self.steps {
+            let yk = y[k as usize];
             if yk != 0.0 {
-                let (lo, hi) = (self.below_start[k], self.below_start[k + 1]);
-                for (&i, &at) in self.below[lo..hi].iter().zip(&self.below_at[lo..hi]) {
-                    y[i] -= a[at] * yk;
+                for &(i, at) in &self.mult[lo as usize..hi as usize] {
+                    y[i as usize] -= a[at as usize] * yk;
                 }
             }
         }
-        for k in (0..s).rev() {
-            let yk = y[k] / a[k * s + k];
-            y[k] = yk;
-            if yk != 0.0 {
-                let (lo, hi) = (self.above_start[k], self.above_start[k + 1]);
-                for (&i, &at) in self.above[lo..hi].iter().zip(&self.above_at[lo..hi]) {
-                    y[i] -= a[at] * yk;
-                }
+        for &(i, at, k) in &self.back {
+            let (i, at, k) = (i as usize, at as usize, k as usize);
+            if i == k {
+                y[k] /= a[at];
+            } else {
+                y[i] -= a[at] * y[k];
             }
         }
     }
 
     /// LU of the permuted block a (s x s, row-major) in place along the
-    /// fixed order; false when a pivot is zero or a multiplier above
-    /// MULTIPLIER (the order does not suit these values).
+    /// fixed order, and its pivots' figures; None when a pivot is zero or
+    /// not finite or a multiplier above MULTIPLIER (the order does not suit
+    /// these values).
     #[inline]
-    pub fn numeric(&self, a: &mut [f64]) -> bool {
+    pub fn numeric(&self, a: &mut [f64]) -> Option<Pivots> {
         let s = self.s;
-        for k in 0..s {
-            let d = a[k * s + k];
-            if d == 0.0 || !d.is_finite() {
-                return false;
-            }
-            let r = 1.0 / d;
-            let right = &self.right[self.right_start[k]..self.right_start[k + 1]];
-            for &i in &self.below[self.below_start[k]..self.below_start[k + 1]] {
-                let l = a[i * s + k] * r;
+        for &(k, lo, hi) in &self.steps {
+            let k = k as usize;
+            let r = 1.0 / a[k * s + k];
+            let right = &self.right[self.right_start[k] as usize..self.right_start[k + 1] as usize];
+            for &(i, at) in &self.mult[lo as usize..hi as usize] {
+                let l = a[at as usize] * r;
                 if !(l.abs() <= MULTIPLIER) {
-                    return false;
+                    return None; // a zero or non-finite pivot too
                 }
-                a[i * s + k] = l;
+                a[at as usize] = l;
                 if l != 0.0 {
+                    let (i, k) = (i as usize * s, k * s);
                     for &j in right {
-                        a[i * s + j] -= l * a[k * s + j];
+                        a[i + j as usize] -= l * a[k + j as usize];
                     }
                 }
             }
         }
-        true
+        let mut p = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det: self.parity };
+        for k in 0..s {
+            let d = a[k * s + k];
+            if d == 0.0 || !d.is_finite() {
+                return None;
+            }
+            if d < 0.0 {
+                p.det = -p.det;
+            }
+            if self.real[k] {
+                let x = d.abs();
+                if x < p.small {
+                    p.small = x;
+                    p.at = self.col[k];
+                }
+                p.big = p.big.max(x);
+            }
+        }
+        Some(p)
     }
 
     /// b <- A^-1 b (natural order in and out) from `numeric`'s factors; y: work (s).
@@ -338,7 +392,7 @@ mod tests {
                 p[o.inv_row[i] * s + o.inv_col[j]] = a[i][j];
             }
         }
-        assert!(o.numeric(&mut p));
+        assert!(o.numeric(&mut p).is_some());
         let x = [1.0, -2.0, 0.5, 3.0, 0.25, -1.5];
         let mut b: Vec<f64> = (0..s).map(|i| (0..s).map(|j| a[i][j] * x[j]).sum()).collect();
         let mut y = vec![0.0; s];

@@ -83,7 +83,11 @@ pub fn order_blocks(kin: &Kin, layout: &mut Layout) {
                 &layout.col_scale,
                 &entries,
                 &pads,
+                &layout.real[c * s..(c + 1) * s],
             );
+            let ids = &layout.by_block[layout.block_start[c]..layout.block_start[c + 1]];
+            o.place =
+                ids.iter().zip(&o.entry_at).map(|(&e, &at)| (e as u32, at as u32, layout.entry_scale[e])).collect();
         }
         orders.push(order);
     }

@@ -238,6 +238,7 @@ use crate::march;
 use crate::newton::{self, Ops};
 use numpy::PyReadwriteArray1;
 use numpy::PyReadwriteArray2;
+use numpy::PyReadwriteArray3;
 
 fn positions(t: &Table, key: &str, bound: usize) -> PyResult<Vec<usize>> {
     t.index(key, bound).map_err(pyo3::exceptions::PyValueError::new_err)
@@ -253,6 +254,9 @@ fn reals(t: &Table, key: &str) -> PyResult<Vec<f64>> {
 pub struct Plan {
     kin: Arc<Kin>,
     layout: Arc<Layout>,
+    /// a model of several diagonal blocks as one model per block, built at
+    /// its first march (crate::parts)
+    parts: std::sync::OnceLock<Result<Vec<crate::parts::Part>, String>>,
 }
 
 #[pymethods]
@@ -348,7 +352,7 @@ impl Plan {
             crate::plan::order_blocks(&kin2, &mut layout);
             Ok(layout)
         })?;
-        Ok(Plan { kin, layout: Arc::new(layout) })
+        Ok(Plan { kin, layout: Arc::new(layout), parts: std::sync::OnceLock::new() })
     }
 
     /// The LU of J_s at these Jacobian values (nnz).
@@ -373,79 +377,64 @@ impl Plan {
         })
     }
 
-    /// March from the state (q, qd, qdd (n), last (2): time and det sign, H
-    /// (3, n), T (3)) over times[k:]; fills Q, QD, QDD (K, n), iterations,
-    /// residual, pivot (K), adds to counts (2). Returns (end, why).
+    /// March from `state` over times[k:], until an instant is not accepted.
+    /// state (6 n + 5): q, qd, qdd (n each), last (2: time and det sign),
+    /// H (3 n: the last three q, oldest first), T (3: their times), left at
+    /// the last instant taken; settings: (tolerance, max_iterations,
+    /// max_step, floor, rates); out (3, K, n): Q, QD, QDD; figures (2, K):
+    /// residual and pivot ratio; ints (K + 2): Newton iterations per instant,
+    /// then the Jacobian evaluations and factorisations, added to. Returns
+    /// (the first instant not taken, or K; why: 0 or the acceptance code).
     #[allow(clippy::too_many_arguments)]
-    #[pyo3(signature = (times, k, q, qd, qdd, last, h, tt, tolerance, max_iterations, max_step, floor, rates, out_q, out_qd, out_qdd, iterations, residual, pivot, counts))]
     fn march(
         &self,
         py: Python<'_>,
         times: PyReadonlyArray1<'_, f64>,
         k: usize,
-        mut q: PyReadwriteArray1<'_, f64>,
-        mut qd: PyReadwriteArray1<'_, f64>,
-        mut qdd: PyReadwriteArray1<'_, f64>,
-        mut last: PyReadwriteArray1<'_, f64>,
-        mut h: PyReadwriteArray2<'_, f64>,
-        mut tt: PyReadwriteArray1<'_, f64>,
-        tolerance: f64,
-        max_iterations: usize,
-        max_step: f64,
-        floor: f64,
-        rates: bool,
-        mut out_q: PyReadwriteArray2<'_, f64>,
-        mut out_qd: PyReadwriteArray2<'_, f64>,
-        mut out_qdd: PyReadwriteArray2<'_, f64>,
-        mut iterations: PyReadwriteArray1<'_, i64>,
-        mut residual: PyReadwriteArray1<'_, f64>,
-        mut pivot: PyReadwriteArray1<'_, f64>,
-        mut counts: PyReadwriteArray1<'_, i64>,
+        mut state: PyReadwriteArray1<'_, f64>,
+        settings: (f64, usize, f64, f64, bool),
+        mut out: PyReadwriteArray3<'_, f64>,
+        mut figures: PyReadwriteArray2<'_, f64>,
+        mut ints: PyReadwriteArray1<'_, i64>,
     ) -> PyResult<(usize, u8)> {
         let (n, kk) = (self.kin.n, times.len());
         let bad = |what: &str| pyo3::exceptions::PyValueError::new_err(format!("march: {what} has the wrong shape"));
         let times = times.as_slice()?;
-        let sl = |a: &mut PyReadwriteArray1<'_, f64>, len: usize, what: &str| -> PyResult<()> {
-            if a.len() != len || a.as_slice_mut().is_err() {
-                return Err(bad(what));
-            }
-            Ok(())
-        };
-        sl(&mut q, n, "q")?;
-        sl(&mut qd, n, "qd")?;
-        sl(&mut qdd, n, "qdd")?;
-        sl(&mut last, 2, "last")?;
-        sl(&mut tt, 3, "T")?;
-        sl(&mut residual, kk, "residual")?;
-        sl(&mut pivot, kk, "pivot")?;
-        if h.shape() != [3, n] || iterations.len() != kk || counts.len() != 2 || k > kk {
-            return Err(bad("H, iterations, counts or k"));
+        if state.len() != 6 * n + 5 || out.shape() != [3, kk, n] || figures.shape() != [2, kk] || ints.len() != kk + 2 || k > kk {
+            return Err(bad("state, out, figures, ints or k"));
         }
-        for (a, what) in [(&out_q, "Q"), (&out_qd, "QD"), (&out_qdd, "QDD")] {
-            if a.shape() != [kk, n] {
-                return Err(bad(what));
-            }
-        }
+        let (tolerance, max_iterations, max_step, floor, rates) = settings;
         let settings = march::Settings { tolerance, max_iterations, max_step, floor, rates };
         let (kin, layout) = (self.kin.clone(), self.layout.clone());
-        let st = march::State {
-            q: q.as_slice_mut()?,
-            qd: qd.as_slice_mut()?,
-            qdd: qdd.as_slice_mut()?,
-            last: last.as_slice_mut()?,
-            h: h.as_slice_mut()?,
-            tt: tt.as_slice_mut()?,
-        };
+        let (q, rest) = state.as_slice_mut().map_err(|_| bad("state"))?.split_at_mut(n);
+        let (qd, rest) = rest.split_at_mut(n);
+        let (qdd, rest) = rest.split_at_mut(n);
+        let (last, rest) = rest.split_at_mut(2);
+        let (h, tt) = rest.split_at_mut(3 * n);
+        let st = march::State { q, qd, qdd, last, h, tt };
+        let (oq, rest) = out.as_slice_mut().map_err(|_| bad("out"))?.split_at_mut(kk * n);
+        let (oqd, oqdd) = rest.split_at_mut(kk * n);
+        let (residual, pivot) = figures.as_slice_mut().map_err(|_| bad("figures"))?.split_at_mut(kk);
+        let (iterations, counts) = ints.as_slice_mut().map_err(|_| bad("ints"))?.split_at_mut(kk);
+        let mut det = vec![0i8; kk];
         let out = march::Out {
-            q: out_q.as_slice_mut()?,
-            qd: out_qd.as_slice_mut()?,
-            qdd: out_qdd.as_slice_mut()?,
-            iterations: iterations.as_slice_mut()?,
-            residual: residual.as_slice_mut()?,
-            pivot: pivot.as_slice_mut()?,
-            counts: counts.as_slice_mut()?,
+            q: oq,
+            qd: oqd,
+            qdd: oqdd,
+            iterations,
+            residual,
+            pivot,
+            det: &mut det,
+            counts,
         };
-        guard(py, move || Ok(march::run(&kin, &layout, times, k, st, &settings, out)))
+        let parts = &self.parts;
+        guard(py, move || {
+            if layout.count < 2 || !matches!(layout.shape, Shape::Blocks { .. }) {
+                return Ok(march::run(&kin, &layout, times, k, st, &settings, out));
+            }
+            let parts = parts.get_or_init(|| crate::parts::split(&kin, &layout)).as_ref()?;
+            Ok(crate::parts::run_parts(parts, layout.sign, times, k, st, &settings, out))
+        })
     }
 }
 

@@ -88,6 +88,22 @@ pub enum Family {
 pub const KINDS: [&str; 9] =
     ["simple", "revolute", "line", "distance", "gear", "rack-pinion", "point-on-curve", "cam-roller", "cam-flat"];
 
+/// The columns of a kind's table that hold coordinate indices; the first is
+/// always used, so it places each constraint in its diagonal block
+/// (crate::model::Kin::split). The others may hold any valid column where a
+/// constraint does not use them (a ground row's k).
+pub fn coordinate_columns(kind: &str) -> &'static [&'static str] {
+    match kind {
+        "simple" => &["a", "angle", "k"],
+        "revolute" | "distance" | "rack-pinion" => &["ci", "cj"],
+        "line" => &["ca", "cb", "ai", "aj"],
+        "gear" => &["ai", "aj", "ak"],
+        "point-on-curve" => &["cc", "ct", "cb"],
+        "cam-roller" | "cam-flat" => &["cc", "ct", "cj"],
+        _ => &[],
+    }
+}
+
 macro_rules! each {
     ($self:expr, $f:ident => $e:expr) => {
         match $self {

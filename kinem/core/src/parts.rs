@@ -1,0 +1,200 @@
+//! Independent parts marched on their own (issue 23, "batch across
+//! cores"): a model whose Jacobian has several diagonal blocks (merged
+//! variants, kinem.batch) is split once into one model per block, and each
+//! part marches with its own predictor, Newton, acceptance test and rate
+//! solves, in parallel (rayon). A part that converges in one iteration does
+//! not iterate again because another needs three; the march of the whole
+//! ends where the first part stops, and the tracker (kinem/tracking.py)
+//! takes that instant for the whole model as before.
+use crate::families::At;
+use crate::lu::Layout;
+use crate::march::{run, Native, Out, Settings, State};
+use crate::model::Kin;
+use crate::newton::Ops;
+use rayon::prelude::*;
+
+/// One diagonal block as a model of its own: its evaluation and layout over
+/// its coordinates `cols` (global, ascending).
+pub struct Part {
+    pub kin: Kin,
+    pub layout: Layout,
+    pub cols: Vec<usize>,
+}
+
+/// The parts of a model of `layout.count` >= 2 blocks, each checked once:
+/// its residual and Jacobian values at an arbitrary configuration equal the
+/// whole model's at the block's rows and entries, to the bit (they are the
+/// same arithmetic on the same numbers).
+pub fn split(kin: &Kin, layout: &Layout) -> Result<Vec<Part>, String> {
+    let (count, s) = (layout.count, layout.height);
+    let (mut rows, mut cols, mut entries) = (vec![Vec::new(); count], vec![Vec::new(); count], vec![Vec::new(); count]);
+    for (i, &p) in layout.row_pos.iter().enumerate() {
+        rows[p / s].push(i);
+    }
+    for (j, &p) in layout.col_pos.iter().enumerate() {
+        cols[p / s].push(j);
+    }
+    for (e, &(b, _, _)) in layout.at.iter().enumerate() {
+        entries[b].push(e);
+    }
+    let kins = kin.split(&cols)?;
+    // the check's configuration
+    let q: Vec<f64> = (0..kin.n).map(|j| (0.37 * j as f64 + 0.2).sin()).collect();
+    let t = 0.43;
+    let (phi, jac) = evaluate(kin, &q, t);
+    let mut parts = Vec::with_capacity(count);
+    for (c, k) in kins.into_iter().enumerate() {
+        let l = layout.part(c, &rows[c], &cols[c], &entries[c]).ok_or("not a blocks layout")?;
+        if k.m != rows[c].len() || k.nnz != entries[c].len() {
+            return Err(format!(
+                "part {c}: {} rows and {} entries for the block's {} and {}",
+                k.m,
+                k.nnz,
+                rows[c].len(),
+                entries[c].len()
+            ));
+        }
+        let local: Vec<f64> = cols[c].iter().map(|&j| q[j]).collect();
+        let (p, v) = evaluate(&k, &local, t);
+        let same = rows[c].iter().zip(&p).all(|(&i, &x)| x.to_bits() == phi[i].to_bits())
+            && entries[c].iter().zip(&v).all(|(&e, &x)| x.to_bits() == jac[e].to_bits());
+        if !same {
+            return Err(format!("part {c}: its residual or Jacobian differs from the whole model's"));
+        }
+        let mut l = l;
+        crate::plan::order_blocks(&k, &mut l);
+        parts.push(Part { kin: k, layout: l, cols: cols[c].clone() });
+    }
+    Ok(parts)
+}
+
+fn evaluate(kin: &Kin, q: &[f64], t: f64) -> (Vec<f64>, Vec<f64>) {
+    let mut e = vec![num_complex::Complex64::new(1.0, 0.0); kin.n];
+    kin.rotate(q, &mut e);
+    let at = At { q, e: &e, t };
+    let (mut phi, mut jac) = (vec![0.0; kin.m], vec![0.0; kin.nnz]);
+    kin.phi(&at, &mut phi);
+    kin.jac(&at, &mut jac);
+    (phi, jac)
+}
+
+/// What one part's march left: its outputs over every instant (rows k..end
+/// filled), where it stopped and why.
+struct Marched {
+    q: Vec<f64>,
+    qd: Vec<f64>,
+    qdd: Vec<f64>,
+    iterations: Vec<i64>,
+    residual: Vec<f64>,
+    pivot: Vec<f64>,
+    det: Vec<i8>,
+    counts: [i64; 2],
+    end: usize,
+    why: u8,
+}
+
+/// crate::march::run for a model split into parts, with the whole model's
+/// state and outputs: every part marches from the state at its coordinates
+/// (in parallel); the whole takes the instants every part took, each
+/// instant's iterations and residual the largest of the parts', its pivot
+/// ratio the smallest, its det sign `sign` times the parts' product; the
+/// counts are the busiest part's. The state is left at the last instant
+/// taken.
+pub fn run_parts(parts: &[Part], sign: i32, times: &[f64], k: usize, st: State, s: &Settings, out: Out) -> (usize, u8) {
+    let kk = times.len();
+    let n = st.q.len();
+    let marched: Vec<Marched> = parts
+        .par_iter()
+        .map(|p| {
+            let nb = p.cols.len();
+            let gather = |v: &[f64]| p.cols.iter().map(|&j| v[j]).collect::<Vec<f64>>();
+            let (mut q, mut qd, mut qdd) = (gather(st.q), gather(st.qd), gather(st.qdd));
+            let mut h: Vec<f64> =
+                (0..3).flat_map(|r| p.cols.iter().map(move |&j| r * n + j)).map(|i| st.h[i]).collect();
+            let mut tt = st.tt.to_vec();
+            // the part's own det sign at the state it starts from (none at k = 0: the assembly sets it)
+            let det = if k == 0 {
+                0
+            } else {
+                let mut ops = Native::new(&p.kin, &p.layout);
+                ops.start(&q, st.last[0]);
+                let Ok(()) = ops.factor(true);
+                p.layout.stats(&ops.f).1
+            };
+            let mut last = vec![st.last[0], det as f64];
+            let mut m = Marched {
+                q: vec![0.0; kk * nb],
+                qd: vec![0.0; kk * nb],
+                qdd: vec![0.0; kk * nb],
+                iterations: vec![0; kk],
+                residual: vec![0.0; kk],
+                pivot: vec![0.0; kk],
+                det: vec![0; kk],
+                counts: [0, 0],
+                end: k,
+                why: 0,
+            };
+            let state = State { q: &mut q, qd: &mut qd, qdd: &mut qdd, last: &mut last, h: &mut h, tt: &mut tt };
+            let mut counts = [0i64; 2];
+            let o = Out {
+                q: &mut m.q,
+                qd: &mut m.qd,
+                qdd: &mut m.qdd,
+                iterations: &mut m.iterations,
+                residual: &mut m.residual,
+                pivot: &mut m.pivot,
+                det: &mut m.det,
+                counts: &mut counts,
+            };
+            (m.end, m.why) = run(&p.kin, &p.layout, times, k, state, s, o);
+            m.counts = counts;
+            m
+        })
+        .collect();
+    let (end, why) = marched.iter().map(|m| (m.end, m.why)).min_by_key(|x| x.0).unwrap_or((kk, 0));
+    for i in k..end {
+        let (mut it, mut res, mut piv, mut det) = (0i64, 0.0f64, f64::INFINITY, sign);
+        for (p, m) in parts.iter().zip(&marched) {
+            let nb = p.cols.len();
+            for (l, &j) in p.cols.iter().enumerate() {
+                out.q[i * n + j] = m.q[i * nb + l];
+                if s.rates {
+                    out.qd[i * n + j] = m.qd[i * nb + l];
+                    out.qdd[i * n + j] = m.qdd[i * nb + l];
+                }
+            }
+            it = it.max(m.iterations[i]);
+            if m.residual[i] > res || m.residual[i].is_nan() {
+                res = m.residual[i];
+            }
+            piv = piv.min(m.pivot[i]);
+            det *= m.det[i] as i32;
+        }
+        out.iterations[i] = it;
+        out.residual[i] = res;
+        out.pivot[i] = piv;
+        out.det[i] = det as i8;
+    }
+    for m in &marched {
+        out.counts[0] = out.counts[0].max(m.counts[0]);
+        out.counts[1] = out.counts[1].max(m.counts[1]);
+    }
+    if end > k {
+        let i = end - 1;
+        st.q.copy_from_slice(&out.q[i * n..(i + 1) * n]);
+        if s.rates {
+            st.qd.copy_from_slice(&out.qd[i * n..(i + 1) * n]);
+            st.qdd.copy_from_slice(&out.qdd[i * n..(i + 1) * n]);
+        } else {
+            for j in end.saturating_sub(3).max(k)..end {
+                st.tt.copy_within(1..3, 0);
+                st.h.copy_within(n..3 * n, 0);
+                st.tt[2] = times[j];
+                st.h[2 * n..3 * n].copy_from_slice(&out.q[j * n..(j + 1) * n]);
+            }
+        }
+        st.last[0] = times[i];
+        st.last[1] = out.det[i] as f64;
+    }
+    (end, why)
+}
