@@ -36,47 +36,50 @@ class March:
     """The march of one solve: the model's plan, the output instants and
     the tracker whose history it carries on."""
 
-    def __init__(self, model, tracker, times, out, options: Options):
+    def __init__(self, model, tracker, times, X, figures, ints, options: Options):
+        """X (3, K, n): Q, QD, QDD with rates, else (1, K, n): Q; figures (2, K): residual and pivot ratio; ints
+        (K + 2): Newton iterations, then the loop's counts (Plan.march)."""
         self.model, self.tracker = model, tracker
         self.times = np.ascontiguousarray(times, float)
         self.rates = tracker.need_v
         self.settings = (float(options.tolerance), int(options.max_iterations), float(native.MAX_STEP),
                          singular_pivot(options.tolerance), self.rates)
-        Q, QD, QDD, iterations, residual, pivot = out  # QD, QDD None: not asked for; the loop needs them
-        QD = np.empty_like(Q) if QD is None else QD
-        QDD = np.empty_like(Q) if QDD is None else QDD
-        self.out = (Q, QD, QDD, iterations, residual, pivot)
-        self.counts = np.zeros(2, np.int64)
+        self.X, self.figures, self.ints = X, figures, ints
+        self.state = np.zeros(6 * model.n + 5)
 
     def advance(self, k: int, q0=None) -> int:
         """Output instants from k on, from the tracker's last state (k = 0:
         assembled from q0), until one is not accepted; returns the first
         instant not taken (len(times): all)."""
-        tr, n = self.tracker, self.model.n
+        tr, n, st = self.tracker, self.model.n, self.state
+        # the state's parts: q, qd, qdd, (time, det sign), H (3 n), T (3)
+        q, qd, qdd, last, H, T = st[:n], st[n:2 * n], st[2 * n:3 * n], st[3 * n:3 * n + 2], st[3 * n + 2:6 * n + 2], st[6 * n + 2:]
         if k == 0:
-            q = np.array(self.model.q0 if q0 is None else q0, dtype=float)
-            qd, qdd = np.zeros(n), np.zeros(n)
-            last, H, T = np.array([self.times[0], 0.0]), np.zeros((3, n)), np.full(3, np.nan)
+            q[:] = self.model.q0 if q0 is None else q0
+            qd[:] = qdd[:] = H[:] = 0.0
+            last[:] = self.times[0], 0.0
+            T[:] = np.nan
         else:
             s = tr.history[-1]
             if self.rates:
-                qd, qdd = (s.qd, s.qdd) if s.qdd is not None else tr.rates(s)
+                qd[:], qdd[:] = (s.qd, s.qdd) if s.qdd is not None else tr.rates(s)
             else:
-                qd = qdd = np.zeros(n)
-            T, H = tr.recent()
-            q, qd, qdd, last = s.q.copy(), np.array(qd, float), np.array(qdd, float), np.array([s.t, s.det], float)
-        self.counts[:] = 0
-        Q, QD, QDD, iterations, residual, pivot = self.out
-        end, _ = self.model.plan.march(self.times, k, q, qd, qdd, last, H, T, *self.settings,
-                                       Q, QD, QDD, iterations, residual, pivot, self.counts)
+                qd[:] = qdd[:] = 0.0
+            T[:], H[:] = tr.recent()[0], tr.recent()[1].ravel()
+            q[:], last[:] = s.q, (s.t, s.det)
+        ints = self.ints
+        ints[-2:] = 0
+        end, _ = self.model.plan.march(self.times, k, st, self.settings, self.X, self.figures, ints)
         d = tr.data
-        d.jacobian_evaluations += int(self.counts[0])
-        d.factorizations += int(self.counts[1])
+        d.jacobian_evaluations += int(ints[-2])
+        d.factorizations += int(ints[-1])
         if end == len(self.times):
             return end  # every instant taken: the tracker carries nothing on
+        Q, QD, QDD = self.X if self.rates else (self.X[0], None, None)
+        residual, pivot = self.figures
         for j in range(max(k, end - 3), end):
             # the loop accepts no det flip: every instant it took has the last one's sign
             tr.accept(State(float(self.times[j]), Q[j].copy(), QD[j].copy() if self.rates else None,
                             QDD[j].copy() if self.rates else None, float(pivot[j]),
-                            int(last[1]), int(iterations[j]), float(residual[j])))
+                            int(last[1]), int(ints[j]), float(residual[j])))
         return end

@@ -56,16 +56,16 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     need_v = need_a or "velocities" in outputs
     times = model.times if times is None else np.asarray(times, dtype=float)
     nt = len(times)
-    Q = np.empty((nt, model.n))
-    QD = np.empty((nt, model.n)) if need_v else None
-    QDD = np.empty((nt, model.n)) if need_a else None
-    iters, resid, cond = np.zeros(nt, dtype=int), np.zeros(nt), np.zeros(nt)
+    X = np.empty((3 if need_v else 1, nt, model.n))  # Q (QD, QDD): one array for the march (kinem.march)
+    Q, QD, QDD = X[0], X[1] if need_v else None, X[2] if need_a else None
+    figures, ints = np.zeros((2, nt)), np.zeros(nt + 2, np.int64)
+    iters, resid, cond = ints[:nt], figures[0], figures[1]
     data = Data(q=model.q0.copy(), trace=[] if trace else None, solver=choose(model, options))
     tracker = Tracker(model, data, need_v, need_a, options)
     status, message = Status.SUCCESS, ""
     blocks = usable(model, trace, nt, options)
     start = time.perf_counter()
-    march = March(model, tracker, times, (Q, QD, QDD, iters, resid, cond), options) if blocks else None
+    march = March(model, tracker, times, X, figures, ints, options) if blocks else None
     k = 0
     try:
         while k < nt:

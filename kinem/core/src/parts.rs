@@ -124,8 +124,8 @@ pub fn run_parts(parts: &[Part], sign: i32, times: &[f64], k: usize, st: State, 
             let mut last = vec![st.last[0], det as f64];
             let mut m = Marched {
                 q: vec![0.0; kk * nb],
-                qd: vec![0.0; kk * nb],
-                qdd: vec![0.0; kk * nb],
+                qd: vec![0.0; if s.rates { kk * nb } else { 0 }],
+                qdd: vec![0.0; if s.rates { kk * nb } else { 0 }],
                 iterations: vec![0; kk],
                 residual: vec![0.0; kk],
                 pivot: vec![0.0; kk],

@@ -381,7 +381,8 @@ impl Plan {
     /// state (6 n + 5): q, qd, qdd (n each), last (2: time and det sign),
     /// H (3 n: the last three q, oldest first), T (3: their times), left at
     /// the last instant taken; settings: (tolerance, max_iterations,
-    /// max_step, floor, rates); out (3, K, n): Q, QD, QDD; figures (2, K):
+    /// max_step, floor, rates); out (3, K, n): Q, QD, QDD ((1, K, n): Q
+    /// without rates); figures (2, K):
     /// residual and pivot ratio; ints (K + 2): Newton iterations per instant,
     /// then the Jacobian evaluations and factorisations, added to. Returns
     /// (the first instant not taken, or K; why: 0 or the acceptance code).
@@ -400,7 +401,13 @@ impl Plan {
         let (n, kk) = (self.kin.n, times.len());
         let bad = |what: &str| pyo3::exceptions::PyValueError::new_err(format!("march: {what} has the wrong shape"));
         let times = times.as_slice()?;
-        if state.len() != 6 * n + 5 || out.shape() != [3, kk, n] || figures.shape() != [2, kk] || ints.len() != kk + 2 || k > kk {
+        let stages = if settings.4 { 3 } else { 1 };
+        if state.len() != 6 * n + 5
+            || out.shape() != [stages, kk, n]
+            || figures.shape() != [2, kk]
+            || ints.len() != kk + 2
+            || k > kk
+        {
             return Err(bad("state, out, figures, ints or k"));
         }
         let (tolerance, max_iterations, max_step, floor, rates) = settings;
@@ -413,20 +420,11 @@ impl Plan {
         let (h, tt) = rest.split_at_mut(3 * n);
         let st = march::State { q, qd, qdd, last, h, tt };
         let (oq, rest) = out.as_slice_mut().map_err(|_| bad("out"))?.split_at_mut(kk * n);
-        let (oqd, oqdd) = rest.split_at_mut(kk * n);
+        let (oqd, oqdd) = rest.split_at_mut(rest.len() / 2);
         let (residual, pivot) = figures.as_slice_mut().map_err(|_| bad("figures"))?.split_at_mut(kk);
         let (iterations, counts) = ints.as_slice_mut().map_err(|_| bad("ints"))?.split_at_mut(kk);
         let mut det = vec![0i8; kk];
-        let out = march::Out {
-            q: oq,
-            qd: oqd,
-            qdd: oqdd,
-            iterations,
-            residual,
-            pivot,
-            det: &mut det,
-            counts,
-        };
+        let out = march::Out { q: oq, qd: oqd, qdd: oqdd, iterations, residual, pivot, det: &mut det, counts };
         let parts = &self.parts;
         guard(py, move || {
             if layout.count < 2 || !matches!(layout.shape, Shape::Blocks { .. }) {
