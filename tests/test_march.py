@@ -94,10 +94,10 @@ def test_not_used_where_it_cannot_be():
     fb = kinem.compile(kinem.load(ROOT / "cases" / "four_bar.toml"))
     assert blocks(fb, False)
     assert not blocks(fb, True)
-    own = kinem.Options.of(fb.case)
-    assert not blocks(fb, False, replace(own, linear_solver="sparse"))
-    assert not blocks(fb, False, replace(own, jacobian_reuse=True))
-    assert not blocks(fb, False, replace(own, block=1))
+    options = kinem.Options.of(fb.case)
+    assert not blocks(fb, False, replace(options, linear_solver="sparse"))
+    assert not blocks(fb, False, replace(options, jacobian_reuse=True))
+    assert not blocks(fb, False, replace(options, block=1))
     from kinem.reference import n_four_bar
 
     big = kinem.compile(kinem.load_dict(n_four_bar(34)))  # 70 bodies, one block of 210 coordinates: a band
