@@ -180,9 +180,14 @@ def compare(model, native, run, tolerance=None) -> Comparison:
     return Comparison(**base, **e, within_tolerance=within)
 
 
-def native_row(model, native) -> Comparison:
+def native_row(model, native, options=None) -> Comparison:
     """The native solver's own row: its residual, wall time and instants
-    (an output interval is one native step)."""
+    (an output interval is one native step), and the options it was solved
+    with (kinem.Options; default the case's)."""
+    from kinem.linalg import choose
+    from kinem.options import Options
+
+    options = Options.of(model.case) if options is None else options
     res = model.kinematic_residual(native.q, native.trajectory.t)
     steps = len(native.iterations)
     n = max(steps - 1, 1)
@@ -193,8 +198,8 @@ def native_row(model, native) -> Comparison:
                       time_per_step=native.wall_time / max(steps, 1), time_per_interval=native.wall_time / n,
                       overhead_per_interval=0.0, time_per_sim_second=native.wall_time / model.case.end,
                       within_tolerance=native.success,
-                      settings={"tolerance": model.case.tolerance, "max_iterations": model.case.max_iterations,
-                                "linear_solver": "sparse" if model.sparse else "dense"})
+                      settings={"tolerance": options.tolerance, "max_iterations": options.max_iterations,
+                                "linear_solver": "sparse" if choose(model, options).sparse else "dense"})
 
 
 def tolerance_of(adapter) -> dict:
@@ -219,23 +224,24 @@ def _run_engine(task):
     return run_engine(*task)
 
 
-def run_case(model, engines, overrides=None, scheduler=None):
-    """Native solution and one Comparison per engine ('native' included when
-    asked). overrides: engine name -> settings. The engines run in this
-    process, or on the workers of a Dask scheduler (an address)."""
+def run_case(model, engines, overrides=None, scheduler=None, options=None):
+    """Native solution (solved with ``options``, kinem.Options; default the
+    case's) and one Comparison per engine ('native' included when asked).
+    overrides: engine name -> settings. The engines run in this process, or
+    on the workers of a Dask scheduler (an address)."""
     from kinem import parallel
     from kinem.solver import solve
 
     from . import check_case
 
     check_case(model.case)
-    native = solve(model)
+    native = solve(model, options=options)
     todo = [(model, native, n, (overrides or {}).get(n)) for n in engines if n != "native" and native.success]
     done = iter(parallel.map(_run_engine, todo, jobs=0, scheduler=scheduler))
     rows = []
     for name in engines:
         if name == "native":
-            rows.append(native_row(model, native))
+            rows.append(native_row(model, native, options))
         elif not native.success:
             rows.append(Comparison(engine=name, status=Status.FAILED, detail=f"no native reference ({native.message})"))
         else:

@@ -37,8 +37,8 @@ def anatomy_step_by_step(cfg, state):
 
     from kinem.linalg import Factor
 
-    model = state["slider_crank"].get("model_sbs") or step_by_step(state["slider_crank"]["model"])
-    med, _, r = rounds({"n": native(model)}, cfg.native_repeats)["n"]
+    model = state["slider_crank"]["model"]
+    med, _, r = rounds({"n": native(model, options=step_by_step(model))}, cfg.native_repeats)["n"]
     n = len(r.iterations)
     step = med / n
     k = n // 2

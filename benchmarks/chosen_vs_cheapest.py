@@ -44,7 +44,7 @@ def main(seeds, engines):
         for seed in range(seeds):
             case = kinem.load_dict(generated(kind, 100 + seed))
             model = kinem.compile(case)
-            ref = kinem.solve(kinem.compile(dataclasses.replace(case, tolerance=1e-13)))
+            ref = kinem.solve(model, options=dataclasses.replace(kinem.Options.of(case), tolerance=1e-13))
             for e in engines:
                 a = get(e)
                 run = a.run(model, ref.q[0], ref.qd[0], case_settings(model, e), ref)

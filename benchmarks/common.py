@@ -71,31 +71,33 @@ def per_call(fn, min_time=0.1, repeats=7) -> float:
     return statistics.median(samples)
 
 
-def native(model, outputs=kinem.OUTPUTS):
-    """A timed native solve: (wall_time of the analysis loop, SolveResult)."""
+def native(model, outputs=kinem.OUTPUTS, options=None):
+    """A timed native solve with ``options`` (kinem.Options; default the
+    case's): (wall_time of the analysis loop, SolveResult)."""
     def run():
-        r = kinem.solve(model, outputs)
+        r = kinem.solve(model, outputs, options=options)
         if not r.success:
             raise RuntimeError(f"{model.case.name}: {r.message}")
         return r.wall_time, r
     return run
 
 
-def step_by_step(model_or_case):
-    """The same model marched one output instant at a time ([solver] block =
+def step_by_step(model) -> kinem.Options:
+    """The options that march the model one output instant at a time (block =
     1: the march before kinem.march, and the one sparse models, modified
-    Newton and traces always use)."""
-    case = getattr(model_or_case, "case", model_or_case)
-    return kinem.compile(dataclasses.replace(case, block=1))
+    Newton and traces always use), the case's other options kept."""
+    return dataclasses.replace(kinem.Options.of(model.case), block=1)
 
 
-def march_of(model) -> str:
+def march_of(model, options=None) -> str:
+    """The march ``kinem.solve(model, options=options)`` takes (default: the case's options)."""
     try:
         from kinem.march import usable
     except ImportError:  # issue 23: no numba march; the compiled core marches every model
         return "core"
 
-    return "compiled" if usable(model, False, len(model.times), kinem.Options.of(model.case)) else "step"
+    options = kinem.Options.of(model.case) if options is None else options
+    return "compiled" if usable(model, False, len(model.times), options) else "step"
 
 
 def per_step(result) -> float:
@@ -189,9 +191,10 @@ def load_case(name, cfg):
     return case
 
 
-def reference_solution(case):
-    r = kinem.solve(kinem.compile(dataclasses.replace(case, tolerance=REFERENCE_TOLERANCE)))
-    return r if r.success else kinem.solve(kinem.compile(case))
+def reference_solution(model):
+    """The model solved at REFERENCE_TOLERANCE (at the case's if that fails)."""
+    r = kinem.solve(model, options=dataclasses.replace(kinem.Options.of(model.case), tolerance=REFERENCE_TOLERANCE))
+    return r if r.success else kinem.solve(model)
 
 
 def adapter_of(name):

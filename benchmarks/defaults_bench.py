@@ -22,6 +22,7 @@ from adapters.compare import compare, tolerance_of
 from adapters.tune import CASES, REFERENCE_TOLERANCE
 from kinem.case import load
 from kinem.model import compile
+from kinem.options import Options
 from kinem.solver import solve
 
 BEFORE = {"pymunk": {"iterations": 100}, "mujoco": {"dt": 2.5e-4, "drive": "overwrite", "armature": 1e9},
@@ -42,7 +43,8 @@ def main(argv=None):
         adapter, tol, rows = get(e), tolerance_of(get(e)), {}
         for name in CASES:
             case = load(ROOT / "cases" / f"{name}.toml")
-            model, ref = compile(case), solve(compile(replace(case, tolerance=REFERENCE_TOLERANCE)))
+            model = compile(case)
+            ref = solve(model, options=replace(Options.of(case), tolerance=REFERENCE_TOLERANCE))
             runs = {"before": [], "after": []}
             for k in range(a.n):
                 for which in ("before", "after") if k % 2 == 0 else ("after", "before"):

@@ -25,12 +25,11 @@ def section_engines(cfg, state):
     for name in CASES:
         case = load_case(name, cfg)
         model = kinem.compile(case)
-        ref = reference_solution(case)
-        sbs = step_by_step(model)
-        state[name] = {"case": case, "model": model, "ref": ref, "model_sbs": sbs}
-        native(model)()  # warm-up (lazy imports, caches)
-        native(sbs)()
-        fns = {"native": native(model), "step": native(sbs)}
+        ref = reference_solution(model)
+        state[name] = {"case": case, "model": model, "ref": ref}
+        fns = {"native": native(model), "step": native(model, options=step_by_step(model))}
+        fns["native"]()  # warm-up (lazy imports, caches)
+        fns["step"]()
         adapters = {}
         for e in ENGINES:
             adapter, why = adapter_of(e)
@@ -113,29 +112,29 @@ def section_precision(cfg, state):
         s = state[name]
         case, model, ref = s["case"], s["model"], s["ref"]
         # native: the tolerance sweep; the loosest tolerance reaching TIGHT gives native's cost
-        sweep = sorted({1e-6, 1e-8, 1e-10, 1e-12, case.tolerance}, reverse=True)
-        models = {tol: model if tol == case.tolerance else kinem.compile(dataclasses.replace(case, tolerance=tol))
-                  for tol in sweep}
-        for m in models.values():
-            native(m)()  # warm-up
-        timed = rounds({tol: native(m) for tol, m in models.items()}, cfg.native_repeats)
+        options = kinem.Options.of(case)
+        sweep = sorted({1e-6, 1e-8, 1e-10, 1e-12, options.tolerance}, reverse=True)
+        fns = {tol: native(model, options=dataclasses.replace(options, tolerance=tol)) for tol in sweep}
+        for f in fns.values():
+            f()  # warm-up
+        timed = rounds(fns, cfg.native_repeats)
         nat = {}
         for tol, (med, walls, r) in timed.items():
             nat[tol] = {"tolerance": tol, "wall_per_sim_second": med / case.end, "runs": len(walls),
-                        "position_error_rel": errors(models[tol], ref, r.q, r.trajectory)["position_error_rel"]}
+                        "position_error_rel": errors(model, ref, r.q, r.trajectory)["position_error_rel"]}
         reached = next((tol for tol in sweep if nat[tol]["position_error_rel"] <= TIGHT), None)
-        used = reached if reached is not None else case.tolerance
+        used = reached if reached is not None else options.tolerance
         native_err = nat[used]["position_error_rel"]
         native_cost = nat[used]["wall_per_sim_second"]
-        default = nat[case.tolerance]
+        default = nat[options.tolerance]
         target = max(TIGHT, native_err)
         if reached is not None:
             say(f"   {name}: native reaches {TIGHT:.0e} at tolerance {reached:.0e}: error {native_err:.1e}, "
-                f"{1e3 * native_cost:.2f} ms per simulated s; at the case tolerance {case.tolerance:.0e}: error "
+                f"{1e3 * native_cost:.2f} ms per simulated s; at the case tolerance {options.tolerance:.0e}: error "
                 f"{default['position_error_rel']:.1e}, {1e3 * default['wall_per_sim_second']:.2f} ms/s")
         else:
             say(f"   {name}: native does not reach {TIGHT:.0e} in its sweep; at the case tolerance "
-                f"{case.tolerance:.0e}: error {native_err:.1e}, {1e3 * native_cost:.2f} ms/s "
+                f"{options.tolerance:.0e}: error {native_err:.1e}, {1e3 * native_cost:.2f} ms/s "
                 f"(target for the engines: {target:.0e})")
         say("     native tolerance sweep: " + ", ".join(
             f"{t:.0e}: err {v['position_error_rel']:.1e} at {1e3 * v['wall_per_sim_second']:.2f} ms/s"
@@ -192,7 +191,7 @@ def section_precision(cfg, state):
         fastest_loose = min(loose_costs) if loose_costs else None
         out[name] = {"native": {str(k): v for k, v in nat.items()}, "native_tolerance": used,
                      "native_reaches_tight": reached is not None, "native_error": native_err,
-                     "native_wall_per_sim_second": native_cost, "native_default_tolerance": case.tolerance,
+                     "native_wall_per_sim_second": native_cost, "native_default_tolerance": options.tolerance,
                      "native_default_error": default["position_error_rel"],
                      "native_default_wall_per_sim_second": default["wall_per_sim_second"],
                      "target_error": target, "engines": engines, "fastest_engine_to_1e-6": fastest_loose,
@@ -201,7 +200,7 @@ def section_precision(cfg, state):
                          default["wall_per_sim_second"] / fastest_loose if fastest_loose else None}
         if fastest_loose:
             say(f"     native to {TIGHT:.0e} (tolerance {used:.0e}) / fastest engine to {LOOSE:.0e}: "
-                f"{native_cost / fastest_loose:.2f}; at the case tolerance {case.tolerance:.0e}: "
+                f"{native_cost / fastest_loose:.2f}; at the case tolerance {options.tolerance:.0e}: "
                 f"{default['wall_per_sim_second'] / fastest_loose:.2f}")
     return out
 
@@ -234,14 +233,15 @@ def section_equal_error(cfg, state):
         for label, end in lengths.items():
             case = full if end == full.end else full.with_time(end, max(1, round(full.steps * end / full.end)))
             model = kinem.compile(case)
-            ref = reference_solution(case)
+            ref = reference_solution(model)
             n = max(case.steps, 1)
-            models = {tol: kinem.compile(dataclasses.replace(case, tolerance=tol)) for tol in (1e-4, 1e-6, 1e-8,
-                                                                                                1e-10, 1e-12)}
-            for m in models.values():
-                native(m)()   # warm-up
-            timed = rounds({tol: native(m) for tol, m in models.items()}, cfg.native_repeats)
-            nat = {tol: (med / n, errors(models[tol], ref, r.q, r.trajectory)["position_error_rel"])
+            options = kinem.Options.of(case)
+            fns = {tol: native(model, options=dataclasses.replace(options, tolerance=tol))
+                   for tol in (1e-4, 1e-6, 1e-8, 1e-10, 1e-12)}
+            for f in fns.values():
+                f()   # warm-up
+            timed = rounds(fns, cfg.native_repeats)
+            nat = {tol: (med / n, errors(model, ref, r.q, r.trajectory)["position_error_rel"])
                    for tol, (med, walls, r) in timed.items()}
             engines = {}
             for e in ENGINES:

@@ -161,7 +161,7 @@ def section_scaling(bodies, steps, repeats):
     say(f"\n== scaling: N-four-bar chains, {steps} output steps, default options ==")
     out = {}
     for b in bodies:
-        case, n = chain_case(b, steps, "auto")
+        case, n = chain_case(b, steps)
         model = kinem.compile(case)
         res = rounds({"solve": timed(lambda m=model: kinem.solve(m))}, repeats if b < 5000 else max(2, repeats // 2),
                      warm=True)

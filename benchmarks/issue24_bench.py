@@ -20,7 +20,7 @@ def main(engines):
         for f in (0.25, 1.0, 4.0):
             case = kinem.load_dict(make(f))
             model = kinem.compile(case)
-            ref = kinem.solve(kinem.compile(dataclasses.replace(case, tolerance=1e-13)))
+            ref = kinem.solve(model, options=dataclasses.replace(kinem.Options.of(case), tolerance=1e-13))
             for e in engines:
                 c = run_engine(model, ref, e)
                 figs = (f"pos {c.position_error_rel:.1e} ang {c.angle_error:.1e} vel {c.velocity_error_rel:.1e} "

@@ -33,7 +33,7 @@ def mechanisms(seeds):
 def main(engines, seeds, dt):
     for name, case in mechanisms(seeds):
         model = kinem.compile(case)
-        ref = kinem.solve(kinem.compile(dataclasses.replace(case, tolerance=1e-13)))
+        ref = kinem.solve(model, options=dataclasses.replace(kinem.Options.of(case), tolerance=1e-13))
         rate = rate_scale(model, ref)
         for e in engines:
             a = get(e)

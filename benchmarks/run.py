@@ -41,7 +41,7 @@ from pathlib import Path
 
 # sibling modules of this script (benchmarks/ is sys.path[0]); common, imported first, puts the
 # repository root on sys.path for kinem and adapters
-from common import CASES, TIGHT, _plain, load_case, machine, native, reference_solution, say, step_by_step
+from common import CASES, TIGHT, _plain, load_case, machine, native, reference_solution, say
 from anatomy_bench import section_anatomy
 from coldstart_bench import environments, section_coldstart
 from engines_bench import section_engines, section_equal_error, section_precision
@@ -182,8 +182,7 @@ def main(argv=None):
             for name in CASES:
                 case = load_case(name, cfg)
                 model = kinem.compile(case)
-                state[name] = {"case": case, "model": model, "ref": reference_solution(case),
-                               "model_sbs": step_by_step(model)}
+                state[name] = {"case": case, "model": model, "ref": reference_solution(model)}
                 native(model)()
     if "precision" in only:
         timed("precision", lambda: section_precision(cfg, state))

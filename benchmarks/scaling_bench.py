@@ -13,13 +13,12 @@ from kinem.reference import n_four_bar, slider_crank_case
 
 # -- 3 scaling --------------------------------------------------------------------------------
 
-def chain_case(bodies, steps, solver):
+def chain_case(bodies, steps):
     n = max(1, round((bodies - 2) / 2))
     d = n_four_bar(n)
     # crank 0 from pi/2 + 0.5 turning 0.5 rad: never near the horizontal (singular) position
     d["time"] = {"end": 0.5, "steps": steps}
-    case = kinem.load_dict(d)
-    return dataclasses.replace(case, linear_solver=solver), n
+    return kinem.load_dict(d), n
 
 
 def lu_pieces(model, r):
@@ -40,14 +39,15 @@ def section_scaling(cfg):
         f"{'max err':>8s}")
     rows = []
     for bodies in cfg.bodies:
-        case, n = chain_case(bodies, cfg.scaling_steps, "sparse")
+        case, n = chain_case(bodies, cfg.scaling_steps)
         t = time.perf_counter()
         model = kinem.compile(case)
         compile_s = time.perf_counter() - t
-        auto = kinem.compile(dataclasses.replace(case, linear_solver="auto"))
-        fns = {"sparse": native(model), "C-parity": timed_with(fast_parity, native(model))}
-        if not auto.sparse:
-            fns["auto"] = native(auto)
+        sparse, auto = (dataclasses.replace(kinem.Options.of(case), linear_solver=s) for s in ("sparse", "auto"))
+        fns = {"sparse": native(model, options=sparse),
+               "C-parity": timed_with(fast_parity, native(model, options=sparse))}
+        if not model.sparse:
+            fns["auto"] = native(model, options=auto)
         for f in fns.values():
             f()  # warm-up
         res = rounds(fns, cfg.native_repeats if bodies < 5000 else max(3, cfg.native_repeats // 2))
@@ -61,7 +61,7 @@ def section_scaling(cfg):
         drive = np.pi / 2 + 0.5 - r.trajectory.t
         err = max(float(np.max(np.abs(r.trajectory[f"crank{k}.phi"] - drive))) for k in range(0, n + 1, max(1, n // 10)))
         rows.append({"bodies": 2 * n + 2, "N": n, "coordinates": model.n, "us_per_step_sparse": 1e6 * step,
-                     "us_per_body_step": 1e6 * step / (2 * n + 2), "auto_path": "sparse" if auto.sparse else "dense",
+                     "us_per_body_step": 1e6 * step / (2 * n + 2), "auto_path": "sparse" if model.sparse else "dense",
                      "us_per_step_auto": 1e6 * auto_step, "ms_factor": 1e3 * t_lu, "ms_det_sign": 1e3 * t_det,
                      "det_sign_share": t_det / step, "us_per_step_c_parity": 1e6 * fast,
                      "compile_s": compile_s, "max_crank_error": err,
@@ -112,7 +112,7 @@ def section_batch(cfg):
         t = time.perf_counter()
         model = kinem.compile(merge(cases[:b])) if b > 1 else single_model
         build = time.perf_counter() - t
-        fns = {"single": native(single_model), "sbs": native(single_sbs), "batch": native(model)}
+        fns = {"single": native(single_model), "sbs": native(single_model, options=single_sbs), "batch": native(model)}
         if model.sparse:
             fns["C-parity"] = timed_with(fast_parity, native(model))
         for f in fns.values():

@@ -62,8 +62,7 @@ def section_skips(cfg, state):
     rows = []
     for name in CASES:
         model = state[name]["model"]
-        sbs = state[name].get("model_sbs") or step_by_step(model)
-        res = rounds({"block": native(model), "step": native(sbs)}, cfg.native_repeats)
+        res = rounds({"block": native(model), "step": native(model, options=step_by_step(model))}, cfg.native_repeats)
         row = {"case": name, "march": march_of(model)}
         for k in ("block", "step"):
             med, _, r = res[k]
@@ -89,10 +88,10 @@ def section_skips(cfg, state):
         " (block = 1; modified Newton exists only there); error vs closed form (kinem.reference)")
     rows = []
     for name in ("slider_crank", "four_bar"):
-        case = state[name]["case"]
-        off = kinem.compile(dataclasses.replace(case, jacobian_reuse=False, block=1))
-        on = kinem.compile(dataclasses.replace(case, jacobian_reuse=True, block=1))
-        res = rounds({"off": native(off), "on": native(on)}, cfg.native_repeats)
+        model = state[name]["model"]
+        step_options = step_by_step(model)
+        off, on = (dataclasses.replace(step_options, jacobian_reuse=reuse) for reuse in (False, True))
+        res = rounds({"off": native(model, options=off), "on": native(model, options=on)}, cfg.native_repeats)
         row = {"case": name}
         for k in ("off", "on"):
             med, _, r = res[k]
@@ -114,7 +113,8 @@ def section_skips(cfg, state):
     # factorisation reuse between velocity and acceleration
     say("   d) one factorisation per instant serves velocity and acceleration (step by step, block = 1; the block"
         " march's two getrs per instant share one getrf by construction)")
-    model = state["slider_crank"].get("model_sbs") or step_by_step(state["slider_crank"]["model"])
+    model = state["slider_crank"]["model"]
+    step_options = step_by_step(model)
     real_acc = analysis.acceleration
 
     def twice(m, d):  # a solver that factorises again for the acceleration solve
@@ -124,10 +124,10 @@ def section_skips(cfg, state):
     def native_twice():
         analysis.acceleration = twice
         try:
-            return native(model)()
+            return native(model, options=step_options)()
         finally:
             analysis.acceleration = real_acc
-    res = rounds({"once": native(model), "twice": native_twice}, cfg.native_repeats)
+    res = rounds({"once": native(model, options=step_options), "twice": native_twice}, cfg.native_repeats)
     r1, r2 = res["once"][2], res["twice"][2]
     n = len(r1.iterations)
     q, t0 = r1.q[n // 2], float(r1.trajectory.t[n // 2])

@@ -20,7 +20,8 @@ def main(seeds=2, engines=("pymunk", "mujoco", "exudyn")):
             for f, k in ((0.25, 1), (1, 1), (4, 1), (1, 1000)):
                 case = kinem.load_dict(generated(kind, seed, f, k))
                 model = kinem.compile(case)
-                ref = kinem.solve(kinem.compile(dataclasses.replace(case, tolerance=REFERENCE_TOLERANCE)))
+                ref = kinem.solve(model, options=dataclasses.replace(kinem.Options.of(case),
+                                                                     tolerance=REFERENCE_TOLERANCE))
                 for e in engines:
                     c = run_engine(model, ref, e)
                     bad = "; ".join(f"{m} {v:.1e}>{lim:.0e}" for m, v, lim in c.exceeded) if c.ok else c.label

@@ -16,6 +16,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from .options import Options
+
 DENSE_RANK_LIMIT = 3000  # coordinates; above, the structural rank is reported
 
 
@@ -52,7 +54,7 @@ def least_squares_point(model, t=0.0, max_iterations=None):
     from .analysis import gauss_newton
 
     q, r = gauss_newton(model, model.q0.copy(), t, max_iterations)
-    return q, r, bool(r <= model.case.tolerance)
+    return q, r, bool(r <= Options.of(model.case).tolerance)
 
 
 def assemble(model):

@@ -108,7 +108,7 @@ def test_positions_only_does_no_velocity_work(monkeypatch):
     # with jacobian_reuse, the next instant's Newton iterations start from that one
     from dataclasses import replace
 
-    reuse = kinem.solve(kinem.compile(replace(model.case, jacobian_reuse=True)))
+    reuse = kinem.solve(model, options=replace(kinem.Options.of(model.case), jacobian_reuse=True))
     assert len(reuse.iterations) <= reuse.jacobian_evaluations < 1.1 * len(reuse.iterations)
     assert np.allclose(p.q, full.q, atol=1e-9 * model.length)
 

@@ -60,8 +60,9 @@ def test_positions_at_round_off_against_a_tightly_converged_native():
     # of test_case_matches_native; with native converged to 1e-14 both are at
     # round-off: measured <= 1.3e-14 of L on the five cases, 1e-12 is 100x that.
     case = kinem.load(CASES / "quick_return_1.toml").with_time(end=0.6, steps=60)
-    model = kinem.compile(dataclasses.replace(case, tolerance=1e-14, max_iterations=50))
-    e = run_against_native(model)
+    model = kinem.compile(case)
+    tight = dataclasses.replace(kinem.Options.of(case), tolerance=1e-14, max_iterations=50)
+    e = run_against_native(model, native=kinem.solve(model, options=tight))
     assert e["position_error_rel"] <= 1e-12 and e["angle_error"] <= 1e-12
     assert e["constraint_residual"] <= 1e-12
 

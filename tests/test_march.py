@@ -17,9 +17,11 @@ CASES = sorted((ROOT / "cases").glob("*.toml")) + sorted((ROOT / "cases" / "stre
 BOTH = [kinem.OUTPUTS, ("positions",)]
 
 
-def pair(case, outputs, block=64):
-    step = kinem.solve(kinem.compile(replace(case, block=1)), outputs)
-    blocked = kinem.solve(kinem.compile(replace(case, block=block)), outputs)
+def pair(model, outputs, block=64):
+    """The model solved step by step and by the march, with the case's other options."""
+    options = kinem.Options.of(model.case)
+    step = kinem.solve(model, outputs, options=replace(options, block=1))
+    blocked = kinem.solve(model, outputs, options=replace(options, block=block))
     return step, blocked
 
 
@@ -29,7 +31,7 @@ def agreement(model, step, blocked):
     (the Jacobian's inverse amplifies residual differences by at most
     1 / sigma_min, and the pivot ratio bounds sigma_min from below to within
     a modest factor); a factor 10 covers that bound's slack."""
-    tol = model.case.tolerance
+    tol = kinem.Options.of(model.case).tolerance
     cond = min(step.conditioning.min(), blocked.conditioning.min())
     return 10 * tol / max(cond, 1e-8)
 
@@ -39,7 +41,7 @@ def agreement(model, step, blocked):
 def test_block_agrees_with_step_by_step(path, outputs):
     case = kinem.load(path)
     model = kinem.compile(case)
-    step, blocked = pair(case, outputs)
+    step, blocked = pair(model, outputs)
     assert (step.success, step.status, len(step.q)) == (blocked.success, blocked.status, len(blocked.q))
     assert [t for t, _ in step.events] == pytest.approx([t for t, _ in blocked.events], abs=1e-9 * case.end)
     if not step.success:
@@ -81,20 +83,21 @@ def test_the_march_is_compiled_end_to_end():
     assert r.success and len(r.q) == 501 and len(calls) <= 10
 
 
-def blocks(model, trace):
-    return march.usable(model, trace, len(model.times), kinem.Options.of(model.case))
+def blocks(model, trace, options=None):
+    return march.usable(model, trace, len(model.times), options or kinem.Options.of(model.case))
 
 
 def test_not_used_where_it_cannot_be():
     """Redundant (least squares), sparse, large, traced and modified-Newton runs go step by step."""
     par = kinem.compile(kinem.load(ROOT / "cases" / "stress" / "parallelogram_redundant.toml"))
     assert par.m > par.n and not blocks(par, False)
-    fb = kinem.load(ROOT / "cases" / "four_bar.toml")
-    assert blocks(kinem.compile(fb), False)
-    assert not blocks(kinem.compile(fb), True)
-    assert not blocks(kinem.compile(replace(fb, linear_solver="sparse")), False)
-    assert not blocks(kinem.compile(replace(fb, jacobian_reuse=True)), False)
-    assert not blocks(kinem.compile(replace(fb, block=1)), False)
+    fb = kinem.compile(kinem.load(ROOT / "cases" / "four_bar.toml"))
+    assert blocks(fb, False)
+    assert not blocks(fb, True)
+    options = kinem.Options.of(fb.case)
+    assert not blocks(fb, False, replace(options, linear_solver="sparse"))
+    assert not blocks(fb, False, replace(options, jacobian_reuse=True))
+    assert not blocks(fb, False, replace(options, block=1))
     from kinem.reference import n_four_bar
 
     big = kinem.compile(kinem.load_dict(n_four_bar(34)))  # 70 bodies, one block of 210 coordinates: a band
@@ -111,10 +114,11 @@ def _run(model, state, k=1):
 
     t = model.times
     n, K = model.n, len(t)
-    tol = model.case.tolerance
+    options = kinem.Options.of(model.case)
+    tol = options.tolerance
     out = (np.zeros((K, n)), np.zeros((K, n)), np.zeros((K, n)), np.zeros(K, np.int64), np.zeros(K), np.zeros(K),
            np.zeros(2, np.int64))
-    return tuple(model.plan.march(t, k, *state, tol, model.case.max_iterations, kinem.native.MAX_STEP,
+    return tuple(model.plan.march(t, k, *state, tol, options.max_iterations, kinem.native.MAX_STEP,
                                   singular_pivot(tol), True, *out))
 
 

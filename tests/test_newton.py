@@ -26,13 +26,12 @@ def test_the_march_and_the_step_by_step_analysis_take_the_same_steps(name, outpu
     and rates equal to rounding (LAPACK's blocked getrf and the march's
     unblocked LU round differently, and the conditioning amplifies that:
     1e-12 of the size or of the rates' peak is 1e4 times rounding)."""
-    case = kinem.load(ROOT / "cases" / f"{name}.toml")
-    step = kinem.solve(kinem.compile(replace(case, block=1)), outputs)
-    march = kinem.solve(kinem.compile(case), outputs)
+    model = kinem.compile(kinem.load(ROOT / "cases" / f"{name}.toml"))
+    step = kinem.solve(model, outputs, options=replace(kinem.Options.of(model.case), block=1))
+    march = kinem.solve(model, outputs)
     assert step.success and march.success
     assert np.array_equal(step.iterations, march.iterations)
     assert (step.jacobian_evaluations, step.factorizations) == (march.jacobian_evaluations, march.factorizations)
-    model = kinem.compile(case)
     assert np.abs(step.q - march.q).max() / model.length < 1e-12
     for a, b in [(step.qd, march.qd), (step.qdd, march.qdd)]:
         if a is not None:
@@ -59,7 +58,7 @@ def test_a_singular_root_leaves_a_large_last_correction_and_is_rejected():
     about 4e-7, far above 1e-2 sqrt(tolerance) = 1e-8. At a regular
     configuration the final correction is rounding."""
     model, exact = change_point()
-    tol = model.case.tolerance
+    tol = kinem.Options.of(model.case).tolerance
     assert np.abs(model.phi(exact, 1.5)).max() < 1e-15
     names = model.coordinate_names
     start = exact.copy()
@@ -89,7 +88,7 @@ def test_the_instant_on_the_change_point_is_the_singular_configuration(outputs, 
     threw q 5e-4 rad along the null direction, to a pivot ratio of 1e-4
     that passes the floor (seen with the correction test off)."""
     model, exact = change_point()
-    r = kinem.solve(kinem.compile(replace(model.case, block=block)), outputs)
+    r = kinem.solve(model, outputs, options=replace(kinem.Options.of(model.case), block=block))
     assert r.success and [t for t, _ in r.events] == [1.5]
     k = int(np.argmin(np.abs(r.trajectory.t - 1.5)))
     assert np.abs(r.q[k] - exact).max() < 1e-9
@@ -105,8 +104,8 @@ def test_jacobian_reuse_takes_one_factorisation_per_instant_and_keeps_the_rates(
     ten times it: the rates come from the factorisation at the corrected
     q, which the conditioning (about 1e-2 here) amplifies. One factorisation
     per instant (two without), and the assembly's."""
-    case = kinem.load(ROOT / "cases" / "four_bar.toml")
-    r = kinem.solve(kinem.compile(replace(case, jacobian_reuse=True)))
+    model = kinem.compile(kinem.load(ROOT / "cases" / "four_bar.toml"))
+    r = kinem.solve(model, options=replace(kinem.Options.of(model.case), jacobian_reuse=True))
     assert r.success
     t = r.trajectory.t
     ref = four_bar(math.pi / 4 + 1.5 * t - 0.6 * t**2, 1.5 - 1.2 * t, np.full_like(t, -1.2), 0.1, 0.3, 0.22, 0.2)
@@ -121,7 +120,8 @@ def test_jacobian_reuse_after_a_failed_solve_starts_with_a_fresh_factorisation()
     """A step whose Newton fails leaves no factorisation to reuse: coarse
     steps with three iterations allowed fail, are halved, and go on (this
     raised AttributeError when the next step looked for one)."""
-    case = kinem.load(ROOT / "cases" / "four_bar.toml").with_time(steps=5)
-    r = kinem.solve(kinem.compile(replace(case, jacobian_reuse=True, max_iterations=3)), trace=True)
+    model = kinem.compile(kinem.load(ROOT / "cases" / "four_bar.toml").with_time(steps=5))
+    r = kinem.solve(model, trace=True, options=replace(kinem.Options.of(model.case), jacobian_reuse=True,
+                                                       max_iterations=3))
     assert r.success and r.substeps > 0
     assert any(what == "rejected" and "no convergence" in detail for _, what, _, _, detail in r.trace)

@@ -28,7 +28,7 @@ FIGURES = ("position_error_rel", "angle_error", "velocity_error_rel", "angular_v
 def solved(case_dict):
     case = kinem.load_dict(case_dict)
     model = kinem.compile(case)
-    return model, kinem.solve(kinem.compile(dataclasses.replace(case, tolerance=1e-13)))
+    return model, kinem.solve(model, options=dataclasses.replace(kinem.Options.of(case), tolerance=1e-13))
 
 
 @pytest.mark.parametrize("engine", ENGINES)

@@ -43,7 +43,7 @@ def test_near_change_point_four_bar_stays_on_branch(margin):
     assert d.max() < 1e-6
     # and as accurate as the conditioning allows: the residual tolerance over the smallest
     # conditioning figure of the run bounds the coordinate error (x 10 for the geometry)
-    assert d.max() <= 10 * case.tolerance / r.conditioning.min()
+    assert d.max() <= 10 * kinem.Options.of(case).tolerance / r.conditioning.min()
 
 
 @pytest.mark.parametrize("n", [1, 2, 5, 40])
