@@ -116,10 +116,11 @@ def _run(model, state, k=1):
     n, K = model.n, len(t)
     options = kinem.Options.of(model.case)
     tol = options.tolerance
-    out = (np.zeros((K, n)), np.zeros((K, n)), np.zeros((K, n)), np.zeros(K, np.int64), np.zeros(K), np.zeros(K),
-           np.zeros(2, np.int64))
-    return tuple(model.plan.march(t, k, *state, tol, options.max_iterations, kinem.native.MAX_STEP,
-                                  singular_pivot(tol), True, *out))
+    q, qd, qdd, last, H, T = state
+    packed = np.concatenate([q, qd, qdd, last, H.ravel(), T])
+    settings = (tol, options.max_iterations, kinem.native.MAX_STEP, singular_pivot(tol), True)
+    return tuple(model.plan.march(t, k, packed, settings, np.zeros((3, K, n)), np.zeros((2, K)),
+                                  np.zeros(K + 2, np.int64)))
 
 
 def _start(model):
