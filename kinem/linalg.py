@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import SingularError
-from .model import BLOCK_LIMIT, DENSE_LIMIT, parity
+from .model import DENSE_LIMIT, parity
 from .options import Options
 
 # A pivot below this fraction of the largest one is taken as zero: about
@@ -107,10 +107,8 @@ class Factor:
             self.lu = model.plan.factor(np.ascontiguousarray(values, dtype=float))
             self.pivot_ratio = float(self.lu.pivot_ratio)
             if self.pivot_ratio < PIVOT_RATIO:
-                b = model.blocks
-                col_pos = b.col_pos if b.size <= BLOCK_LIMIT else model.band.col_pos
-                at = np.flatnonzero(col_pos == self.lu.smallest)
-                name = model.coordinate_names[at[0]] if at.size else "?"
+                at = self.lu.smallest
+                name = "?" if at is None else model.coordinate_names[at]
                 raise SingularError(f"singular Jacobian: pivot ratio {self.pivot_ratio:.1e} at coordinate '{name}'")
             return
         self.row = 1.0 / model.scale

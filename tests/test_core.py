@@ -135,3 +135,23 @@ def test_a_panic_in_the_core_is_a_core_error_not_an_abort():
     assert "internal error in kinem's compiled core: index 7 out of range for a table of 3" in str(e.value)
     assert "\n" not in str(e.value)
     assert isinstance(e.value, kinem.KinemError)
+
+
+def test_a_singular_factorisation_names_the_coordinate_of_its_zero_pivot():
+    """The core's LU says which coordinate's column holds its smallest pivot
+    (Lu.smallest): with every Jacobian entry of the crank's angle zeroed that
+    column is zero, its pivot 0, and the error names crank.phi."""
+    from pathlib import Path
+
+    from kinem.errors import SingularError
+    from kinem.linalg import Factor, choose
+
+    model = kinem.compile(kinem.load(Path(__file__).parent.parent / "cases" / "slider_crank.toml"))
+    j = model.coordinate_names.index("crank.phi")
+    values = model.jac_values(model.q0, 0.0)
+    values[model.jac_cols == j] = 0.0
+    solver = choose(model, kinem.Options())
+    assert solver.core
+    with pytest.raises(SingularError, match="at coordinate 'crank.phi'"):
+        Factor(model, values, solver)
+    assert Factor(model, model.jac_values(model.q0, 0.0), solver).pivot_ratio > 0

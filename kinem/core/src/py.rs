@@ -373,7 +373,8 @@ impl Plan {
             f: std::sync::Mutex::new(f),
             pivot_ratio: stats.0,
             det_sign: stats.1,
-            smallest: stats.2,
+            // the coordinate stored where the smallest pivot is (None: padding)
+            smallest: self.layout.col_pos.iter().position(|&p| p == stats.2),
         })
     }
 
@@ -445,9 +446,9 @@ pub struct Lu {
     pivot_ratio: f64,
     #[pyo3(get)]
     det_sign: i32,
-    /// the stored position of the smallest |pivot| (kinem.model's row_pos / col_pos order)
+    /// the coordinate whose column holds the smallest |pivot| (None: a padding position)
     #[pyo3(get)]
-    smallest: usize,
+    smallest: Option<usize>,
 }
 
 #[pymethods]
