@@ -2,14 +2,15 @@
 
 ``merge`` turns B cases on one time grid into one case whose bodies, points
 and constraints are those of every variant, renamed ``v<k>-<name>``: its
-Jacobian is block-diagonal, so one kernel call per constraint family serves
-all B variants at once, and the compiled march solves each variant's diagonal
-block with its own small LU (kinem.model.Blocks). ``split`` recovers variant
-k's trajectory with its own column names.
+Jacobian is block-diagonal (kinem.model.Blocks, a block per variant), and
+the compiled march splits it into one model per variant and marches those
+in parallel, each converging on its own (docs/solver.md, "The march").
+``split`` recovers variant k's trajectory with its own column names.
 
-The merged case converges when every variant does, sub-steps when any one
-needs it, and measures residuals against the largest variant's size: give
-variants of comparable size (the usual case for a parameter sweep).
+An instant that one variant does not accept in the march (a sub-step, a
+limit position) is taken by the tracker for the whole merged case; residuals
+are measured against the largest variant's size: give variants of comparable
+size (the usual case for a parameter sweep).
 """
 from dataclasses import replace
 
