@@ -331,7 +331,7 @@ class Adapter:
             state["capped"] = False
             return None
         interval = float(times[1] - times[0]) if len(times) > 1 else float(model.case.end or 1.0)
-        dt = s["dt"] * min(min(REFINE_TO / r, 1.0) ** (1.0 / orders[k]) for r, k in ratios)
+        dt = s["dt"] * min((REFINE_TO / r) ** (1.0 / orders[k]) for r, k in ratios if r > REFINE_TO)
         if last or not np.isfinite(dt) or interval / dt > MAX_SUBSTEPS:
             state["capped"] = ratio > 1.0
             if not last and np.isfinite(dt) and s["substeps"] < MAX_SUBSTEPS:   # the cap itself, once

@@ -160,3 +160,34 @@ def test_a_failed_refinement_keeps_the_last_good_run(monkeypatch):
     assert run.ok and run.capped and len(calls) == 2 and run.substeps == calls[0]
     assert any("kept the run" in n for n in run.notes)
     assert compare(model, ref, run, tolerance_of(a)).verdict is Verdict.CAPPED
+
+
+def test_refinement_takes_each_figures_own_order(monkeypatch):
+    """MuJoCo's figures refine by their own orders (positions and angles
+    dt^2, velocities dt^1: adapters.mujoco_sim.ORDER): the step is the
+    smallest any figure over REFINE_TO asks for; a figure at 0 asks
+    nothing (Exudyn's gear pair has no position error); a derived solref
+    is derived again from the new step."""
+    model, ref = solved(generated("four-bar", 101))
+    a = get("mujoco")
+    s = a.settings()
+    a.resolve(model, s, ref)
+    s["solref"] = (3 * s["dt"], 1.0)     # as build derives it
+    tol = a.tolerance
+
+    def refine(est):
+        monkeypatch.setattr(base, "self_check", lambda *args: est)
+        return a.refine(model, s, model.times, None, None, {"estimate": {}, "capped": False})
+
+    zero = dict.fromkeys(FIGURES, 0.0)
+    why, change = refine(dict(zero, position_error_rel=2.8 * tol["position_error_rel"]))
+    assert change["dt"] == pytest.approx(s["dt"] * 0.5) and change["solref"] is None   # (0.7 / 2.8)^(1/2)
+    assert why.startswith("self-check: position_error_rel")
+    why, change = refine(dict(zero, position_error_rel=2.8 * tol["position_error_rel"],
+                              velocity_error_rel=1.4 * tol["velocity_error_rel"]))
+    assert change["dt"] == pytest.approx(s["dt"] * 0.5)   # velocity: (0.7 / 1.4)^1, the same step
+    _, change = refine(dict(zero, velocity_error_rel=2.8 * tol["velocity_error_rel"]))
+    assert change["dt"] == pytest.approx(s["dt"] * 0.25)  # (0.7 / 2.8)^1
+    assert refine(dict(zero, position_error_rel=0.9 * tol["position_error_rel"])) is None
+    s["solref"] = (1e-3, 1.0)                              # given: kept
+    assert "solref" not in refine(dict(zero, angle_error=4 * tol["angle_error"]))[1]
