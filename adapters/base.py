@@ -165,7 +165,8 @@ class Adapter:
     tolerance: dict = {}
     checks: dict = {}
     knobs: dict = {}       # the engine's own accuracy knobs and the values adapters.tune sweeps
-    order: int = 0         # error order in the step: > 0 refines dt = "auto" by self_check (``refine``)
+    order: int | dict = 0  # error order in the step: > 0 refines dt = "auto" by self_check (``refine``);
+                           # a dict: each self_check figure's own order (a figure not in it is not refined on)
 
     def version(self) -> str:
         raise NotImplementedError
@@ -315,12 +316,14 @@ class Adapter:
         """dt = "auto": checks a run by ``self_check`` (the engine's own error
         figures, computed without native's trajectory) against the
         tolerance; above REFINE_AT of it, (why, settings) with the step that
-        brings the worst figure to REFINE_TO of it (errors ~ dt^order),
-        unless that passes the cost cap (MAX_SUBSTEPS per output interval,
+        brings every figure to at most REFINE_TO of it (each figure ~
+        dt^order, its own order when ``order`` is a dict), unless that
+        passes the cost cap (MAX_SUBSTEPS per output interval,
         MAX_REFINEMENTS reruns): then None and state["capped"]."""
         est = self_check(model, Q, QD, times)
         state["estimate"] = est
-        ratios = [(est[k] / v, k) for k, v in self.tolerance.items() if k in est and v > 0]
+        orders = self.order if isinstance(self.order, dict) else dict.fromkeys(self.tolerance, self.order)
+        ratios = [(est[k] / v, k) for k, v in self.tolerance.items() if k in est and v > 0 and orders.get(k)]
         if not ratios:
             return None
         ratio, worst = max(ratios)
@@ -328,7 +331,7 @@ class Adapter:
             state["capped"] = False
             return None
         interval = float(times[1] - times[0]) if len(times) > 1 else float(model.case.end or 1.0)
-        dt = s["dt"] * (REFINE_TO / ratio) ** (1.0 / self.order)
+        dt = s["dt"] * min((REFINE_TO / r) ** (1.0 / orders[k]) for r, k in ratios if r > REFINE_TO)
         if last or not np.isfinite(dt) or interval / dt > MAX_SUBSTEPS:
             state["capped"] = ratio > 1.0
             if not last and np.isfinite(dt) and s["substeps"] < MAX_SUBSTEPS:   # the cap itself, once

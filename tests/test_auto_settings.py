@@ -1,8 +1,8 @@
 """Settings the adapters choose themselves ("auto"): MuJoCo's step from the
-mechanism's rate scale, its drive mode, and the one retry an adapter makes
-when its own check (never native's trajectory) finds a run diverged or
-inaccurate: MuJoCo with a smaller step (loop-closure residual), pymunk with
-more Gauss-Seidel iterations (divergence, unconverged velocities)."""
+mechanism's rate scale, its drive mode, MuJoCo's refinement by its
+self-check (never native's trajectory) with solref following the step, and
+pymunk's one retry with more Gauss-Seidel iterations (divergence,
+unconverged velocities)."""
 import numpy as np
 import pytest
 
@@ -33,8 +33,8 @@ DIVERGING_FOUR_BAR = four_bar_case(0.07420530939463176, 0.27794610723853192, 0.2
                                    -0.0006970427816885632, 1.0, end=1.0, steps=50)
 # A quick-return the property test's strategy allows (hypothesis shrank to it):
 # link as long as the rocker, the tool line through O. Its loops' closure
-# residual in MuJoCo at the rate-scaled step is 1.5x CLOSURE; pymunk diverges
-# at 25 iterations.
+# MuJoCo's first step misses its tolerance there (the self-check refines it);
+# pymunk diverges at 25 iterations.
 HARD_QUICK_RETURN = quick_return_case(100.0, 50.0, 300.0, 300.0, 0.0, {"poly": [0.0, -2.0]}, 0.0, end=1.0, steps=50)
 
 
@@ -50,16 +50,23 @@ def test_rate_scale_follows_the_speed():
 
 def test_auto_step_is_smaller_for_a_faster_mechanism():
     (m1, n1), (m4, n4) = slider_crank(1.0), slider_crank(4.0)
-    slow, fast = MUJOCO.run(m1, n1.q[0], n1.qd[0], None, n1), MUJOCO.run(m4, n4.q[0], n4.qd[0], None, n4)
-    assert slow.ok and fast.ok and not slow.notes and not fast.notes
-    for run in (slow, fast):
-        # the fewest steps per interval with dt <= rate_step / rate_scale
-        h = m1.times[1] - m1.times[0]
-        assert run.substeps == int(np.ceil(h * run.settings["rate_scale"] / MUJOCO.defaults()["rate_step"]))
-    assert fast.settings["dt"] < slow.settings["dt"] / 3   # 4x the rate; steps rounded to divide the interval
+    h = m1.times[1] - m1.times[0]
+    first = {}
+    for w, (m, n) in ((1, (m1, n1)), (4, (m4, n4))):
+        # the first attempt: the fewest steps per interval with dt <= rate_step / rate_scale
+        s = MUJOCO.settings()
+        MUJOCO.resolve(m, s, n)
+        assert s["substeps"] == int(np.ceil(h * s["rate_scale"] / MUJOCO.defaults()["rate_step"]))
+        first[w] = s["dt"]
+        # the run ends within tolerance at that step or a refined one (never coarser)
+        run = MUJOCO.run(m, n.q[0], n.qd[0], None, n)
+        assert run.ok and run.settings["dt"] <= s["dt"] * (1 + 1e-12)
+        assert compare(m, n, run, tolerance_of(MUJOCO)).within_tolerance
+    assert first[4] < first[1] / 3   # 4x the rate; steps rounded to divide the interval
     # an explicit step is taken as it is
-    fixed = MUJOCO.run(m4, n4.q[0], n4.qd[0], {"dt": slow.settings["dt"]}, n4)
-    assert fixed.settings["dt"] == pytest.approx(slow.settings["dt"]) and "rate_scale" not in fixed.settings
+    fixed = MUJOCO.run(m4, n4.q[0], n4.qd[0], {"dt": first[1]}, n4)
+    assert fixed.settings["dt"] == pytest.approx(first[1]) and "rate_scale" not in fixed.settings
+    assert not fixed.notes
 
 
 def test_mujoco_drives_in_c_where_a_held_force_is_exact():
@@ -72,20 +79,26 @@ def test_mujoco_drives_in_c_where_a_held_force_is_exact():
     assert compare(m, n, harmonic, tolerance_of(MUJOCO)).within_tolerance
 
 
-def test_mujoco_retries_with_a_smaller_step_when_its_loops_open():
+def test_mujoco_refines_its_step_and_solref_when_its_self_check_misses():
     model, native = solved(HARD_QUICK_RETURN)
     first = MUJOCO.step(model, None, native)
     run = MUJOCO.run(model, native.q[0], native.qd[0], None, native)
-    assert run.ok and len(run.notes) == 1 and "closure residual" in run.notes[0], run.notes
+    assert run.ok and run.notes and all("self-check: " in n for n in run.notes), run.notes
     assert run.settings["dt"] < first
-    # the cost counts both attempts
-    h = model.times[1] - model.times[0]
-    assert run.steps == (len(model.times) - 1) * (run.substeps + round(h / first))
+    # the loops' time constant follows the refined step (else their softness, ~ solref[0]^2, stays)
+    assert run.settings["solref"] == (3 * run.settings["dt"], 1.0)
+    # the cost counts every attempt
+    intervals = len(model.times) - 1
+    assert run.steps > intervals * (run.substeps + round((model.times[1] - model.times[0]) / first)) - 1
     c = compare(model, native, run, tolerance_of(MUJOCO))
-    assert c.within_tolerance and c.constraint_residual <= 0.5 * 1e-8 * 1.5   # CLOSURE / 2, dt^2 law within 1.5x
+    assert c.within_tolerance and max(run.estimate[k] / v for k, v in MUJOCO.tolerance.items()) <= 1.0
     # an explicit step is never changed
     fixed = MUJOCO.run(model, native.q[0], native.qd[0], {"dt": first}, native)
     assert fixed.ok and not fixed.notes and fixed.settings["dt"] == pytest.approx(first)
+    assert fixed.settings["solref"] == (3 * fixed.settings["dt"], 1.0)
+    # a given solref is never changed by a refinement
+    given = MUJOCO.run(model, native.q[0], native.qd[0], {"solref": (2e-3, 1.0)}, native)
+    assert given.notes and given.settings["solref"] == (2e-3, 1.0)
 
 
 @pytest.mark.parametrize("case", [DIVERGING_FOUR_BAR, HARD_QUICK_RETURN], ids=["four-bar", "quick-return"])
