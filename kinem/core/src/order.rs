@@ -392,7 +392,7 @@ mod tests {
                 p[o.inv_row[i] * s + o.inv_col[j]] = a[i][j];
             }
         }
-        assert!(o.numeric(&mut p).is_some());
+        let figures = o.numeric(&mut p).expect("the fixed order suits these values");
         let x = [1.0, -2.0, 0.5, 3.0, 0.25, -1.5];
         let mut b: Vec<f64> = (0..s).map(|i| (0..s).map(|j| a[i][j] * x[j]).sum()).collect();
         let mut y = vec![0.0; s];
@@ -408,6 +408,16 @@ mod tests {
         let swaps = (0..s).filter(|&j| piv[j] != j).count();
         let dense: f64 = (0..s).map(|k| d[k * s + k]).product::<f64>() * if swaps % 2 == 1 { -1.0 } else { 1.0 };
         assert!((det - dense).abs() < 1e-12 * dense.abs(), "{det} {dense}");
+        // the figures taken during the elimination: the det's sign and the pivots' span
+        assert_eq!(figures.det as f64, det.signum());
+        let mags: Vec<f64> = (0..s).map(|k| p[k * s + k].abs()).collect();
+        let (small, big) =
+            (mags.iter().cloned().fold(f64::INFINITY, f64::min), mags.iter().cloned().fold(0.0, f64::max));
+        assert_eq!((figures.small, figures.big), (small, big));
+        assert_eq!(p[o.inv_col[figures.at] * (s + 1)].abs(), small);
+        // a zero pivot rejects the order
+        let mut z = vec![0.0; s * s];
+        assert!(o.numeric(&mut z).is_none());
     }
 
     #[test]
