@@ -244,7 +244,10 @@ def cmd_info(a):
     i = info(_load(a.case))
     print(json.dumps(i.as_dict(), indent=2) if a.json else describe(i))
     if not i.assembled:  # the figures above are of the closest configuration found
-        raise AnalysisError(f"{a.case}: does not assemble at t = 0: {i.diagnosis}")
+        from .result import Status
+
+        what = "assembles on a branch it excludes" if i.status is Status.WRONG_BRANCH else "does not assemble at t = 0"
+        raise AnalysisError(f"{a.case}: {what}: {i.diagnosis}")
     return 0
 
 
