@@ -304,11 +304,18 @@ def grid(outcomes):
     return names, {(o.value.scenario, o.value.engine): o for o in outcomes}
 
 
+SHORT = {"position_error_rel": "pos", "angle_error": "angle", "velocity_error_rel": "vel",
+         "angular_velocity_error_rel": "omega", "constraint_residual": "resid"}   # figure names in a cell
+
+
 def cell(o) -> str:
-    """One outcome as text: its class and error (the class alone when there is
-    none), or '-' (not run)."""
+    """One outcome as text: its class and the figure farthest over its limit
+    (named), else its error (the class alone when there is none); '-' (not run)."""
     if o is None:
         return "-"
+    if o.value.exceeded:
+        k, v, _ = max(o.value.exceeded, key=lambda x: x[1] / x[2])
+        return f"{o.status.value} {SHORT.get(k, k)} {v:.0e}"
     e = o.value.error
     return f"{o.status.value} {e:.0e}" if np.isfinite(e) else o.status.value
 
@@ -316,7 +323,7 @@ def cell(o) -> str:
 def table(outcomes, engines) -> str:
     names, by = grid(outcomes)
     width = max(len(n) for _, n in names) + 2
-    lines = [f"{'group':26s}{'scenario':{width}s}" + "".join(f"{e:22s}" for e in engines)]
+    lines = [f"{'group':26s}{'scenario':{width}s}" + "".join(f"{e:24s}" for e in engines)]
     for g, n in names:
-        lines.append(f"{g:26s}{n:{width}s}" + "".join(f"{cell(by.get((n, e))):22s}" for e in engines))
+        lines.append(f"{g:26s}{n:{width}s}" + "".join(f"{cell(by.get((n, e))):24s}" for e in engines))
     return "\n".join(lines)

@@ -955,7 +955,7 @@ def test_stress_outcomes_render_with_their_messages(report):
     page = html(doc)
     assert 'title="within its tolerance: 3 steps">accurate 1e-09</td>' in page
     assert ('<td class=bad title="a figure outside its tolerance: velocity_error_rel 2.00e-04 &gt; 1e-05">'
-            "inaccurate 1e-09</td>") in page
+            "inaccurate vel 2e-04</td>") in page
     assert 'title="the engine cannot represent the scenario: gear: no gear joint">unsupported</td>' in page
     assert line(doc).endswith("engines: 1 accurate, 1 inaccurate, 1 unsupported")
     doc["stress"]["rows"][2]["outcome"] = "unsupported: gear"          # the old free text

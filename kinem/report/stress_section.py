@@ -45,7 +45,10 @@ def html(doc) -> str:
             "when the report covers the whole case set). Each outcome classified (kinem stress --quick; classes in "
             "kinem/stress.py): native has an expected class per scenario, and native missing it fails the run "
             "(exit 1); engines are measured only, their red cells (diverged, nan, inaccurate) do not affect the "
-            "exit code. Numbers: position error / L (angles in rad) against the closed form or native.</p>"
+            "exit code. Engines are judged on every figure of the scale-free tolerance table (docs/engines.md); "
+            "a cell outside it names the figure farthest over its limit (pos: position / L, angle: rad, vel: / V, "
+            "omega: / (V / L), resid: loop closure), else shows the position error / L (angles in rad) against "
+            "the closed form or native. Hover for the class's message and the figures over their limits.</p>"
             + (f"<p class=bad>Native missed its expectation:</p><ul>{misses}</ul>" if misses else "")
             + f"<div class=wrap><table>{head}{''.join(body)}</table></div></section>")
 
