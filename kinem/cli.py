@@ -170,18 +170,18 @@ def cmd_solve(a):
             if bar and shown[0]:
                 bar.close()
         if trace:
-            trace.finish(o.events)
+            trace.finish(o.value.events)
         kept = ""
         if o.success or (held is not None and (a.partial or writer is not None and out.in_place)):
             on_chunk(None)
-            writer.finish(None if o.success else o.message)   # a failed run's instants: marked partial
+            writer.finish(None if o.success else o.detail)   # a failed run's instants: marked partial
             out.commit()
             if o.success:
                 return 0
-            kept = f"; the {o.instants} instants solved are in {a.out or 'standard output'}, marked partial"
+            kept = f"; the {o.value.instants} instants solved are in {a.out or 'standard output'}, marked partial"
     # the note on the instants kept survives the one-line cap: the solver's message is shortened instead
     room = MAX_LINE - len("kinem: analysis failed: ") - len(f"{a.case}: ") - len(kept)
-    message = one_line(o.message)
+    message = one_line(o.detail)
     if len(message) > room:
         message = message[:max(room - 3, 0)] + "..."
     raise AnalysisError(f"{a.case}: {message}{kept}")
@@ -244,7 +244,10 @@ def cmd_info(a):
     i = info(_load(a.case))
     print(json.dumps(i.as_dict(), indent=2) if a.json else describe(i))
     if not i.assembled:  # the figures above are of the closest configuration found
-        raise AnalysisError(f"{a.case}: does not assemble at t = 0: {i.diagnosis}")
+        from .result import Status
+
+        what = "assembles on a branch it excludes" if i.status is Status.WRONG_BRANCH else "does not assemble at t = 0"
+        raise AnalysisError(f"{a.case}: {what}: {i.diagnosis}")
     return 0
 
 
@@ -299,15 +302,14 @@ def cmd_stress(a):
     from . import stress
 
     engines = _engines(a.engines)
-    rows = stress.run(engines, a.quick, a.jobs, a.scheduler)
+    outcomes = stress.run(engines, a.quick, a.jobs, a.scheduler)
     if a.json:
-        print(json.dumps(rows, indent=2, default=float))
+        print(json.dumps([stress.as_dict(o) for o in outcomes], indent=2, default=float))
     else:
-        print(stress.table(rows, engines))
-    want = stress.expected(a.quick)
-    misses = [r for r in rows if r["engine"] == "native" and r["outcome"] != want[r["scenario"]]]
-    for r in misses:
-        print(f"native: {r['scenario']}: {r['outcome']}, expected {want[r['scenario']]}", file=sys.stderr)
+        print(stress.table(outcomes, engines))
+    misses = stress.misses(outcomes, a.quick)
+    for o, want in misses:
+        print(f"native: {o.value.scenario}: {o.status.value} ({o.message}), expected {want.value}", file=sys.stderr)
     return 1 if misses else 0
 
 
@@ -411,7 +413,7 @@ def cmd_report(a):
                           stress=True if a.stress else False if a.no_stress else None, whole_set=whole_set,
                           work_precision=a.work_precision,
                           baseline_default=a.baseline is None))
-    print(outcome.line)
+    print(outcome.detail)
     return outcome.exit_code
 
 

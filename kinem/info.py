@@ -10,13 +10,16 @@ the characteristic length L), where a singular value below
 kinem.diagnose.RANK_TOL of the largest counts as zero. The configuration the
 estimates chose is shown as the relative angle at every revolute joint
 between two moving bodies (its sign is each loop's closure orientation:
-elbow up or down).
+elbow up or down) and the side of the outline every cam roller is on
+(kinem.branches); a case's ``sign`` and ``side`` keys pin them (the solver
+fails on the other branch, and so does info).
 """
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from .options import Options
+from .result import Status
 
 DENSE_RANK_LIMIT = 3000  # coordinates; above, the structural rank is reported
 
@@ -36,11 +39,15 @@ class Info:
     redundant_equations: tuple
     diagnosis: str = ""  # why it does not assemble (the solver's message), when it does not
     configuration: tuple = ()   # (joint, relative angle phi_j - phi_i in (-pi, pi]) of the assembly
+    sides: tuple = ()           # kinem.branches.Side of every cam roller at the assembly
+    status: Status = Status.SUCCESS   # the solver's (WRONG_BRANCH: assembled on a branch the case's pins exclude)
 
     def as_dict(self) -> dict:
         d = asdict(self)
         d["redundant_equations"] = list(self.redundant_equations)
         d["configuration"] = {name: angle for name, angle in self.configuration}
+        d["status"] = self.status.name
+        d["sides"] = {s.constraint: {"side": s.side, "distance": s.distance, "radius": s.radius} for s in self.sides}
         return d
 
 
@@ -59,35 +66,34 @@ def least_squares_point(model, t=0.0, max_iterations=None):
 
 def assemble(model):
     """The solver's own assembly at the first output instant: (q or None,
-    scaled residual, assembled, message)."""
+    scaled residual, status, message)."""
     from .solver import solve
 
     t0 = model.times[:1]
     r = solve(model, times=t0, outputs=("positions",))
     if r.success:
-        return r.q[0], float(r.residual[0]), True, ""
-    return None, float("nan"), False, r.message
+        return r.q[0], float(r.residual[0]), r.status, ""
+    return None, float("nan"), r.status, r.message
 
 
 def configuration(model, q) -> tuple:
     """(revolute joint, phi_j - phi_i wrapped to (-pi, pi]) for every revolute
     joint between two bodies that are not grounded: the branch the estimates
     chose."""
+    from .branches import relative_angle
+
     fixed = {c["body"] for c in model.case.constraints if c.type == "ground"}
-    col = {b: 3 * k + 2 for k, b in enumerate(model.body_names)}
-    out = []
-    for c in model.case.constraints:
-        if c.type == "revolute" and c["i"] not in fixed and c["j"] not in fixed:
-            d = float(q[col[c["j"]]] - q[col[c["i"]]])
-            out.append((c.name, float(np.pi - (np.pi - d) % (2 * np.pi))))
-    return tuple(out)
+    return tuple((c.name, relative_angle(model, q, c)) for c in model.case.constraints
+                 if c.type == "revolute" and c["i"] not in fixed and c["j"] not in fixed)
 
 
 def info(model) -> Info:
+    from .branches import sides
     from .diagnose import rank_analysis
 
     nd = ~model.driving
-    q, residual, ok, message = assemble(model)
+    q, residual, status, message = assemble(model)
+    ok = status is Status.SUCCESS
     at = q
     if at is None:   # the ranks at a least-squares point; the verdict stays the solver's
         at, residual, _ = least_squares_point(model)
@@ -104,6 +110,7 @@ def info(model) -> Info:
         equations=model.m, driving_equations=int(model.driving.sum()), jacobian_nonzeros=model.nnz,
         dof=model.n - rank, residual=float(residual), assembled=ok, rank_method=method,
         redundant_equations=redundant, configuration=configuration(model, q) if ok else (),
+        sides=sides(model, q) if ok else (), status=status,
     )
 
 
@@ -115,16 +122,22 @@ def describe(i: Info) -> str:
         f"  Jacobian non-zeros {i.jacobian_nonzeros} of {i.equations * i.coordinates}"
         f" ({100 * i.jacobian_nonzeros / max(1, i.equations * i.coordinates):.1f}%)",
         f"  degrees of freedom {i.dof} (coordinates minus the {i.rank_method} rank of the non-driving Jacobian)",
-        f"  assembly residual  {i.residual:.2e} (scaled){'' if i.assembled else '  NOT ASSEMBLED (least-squares point)'}"
-        + (" (the assembly kinem solve performs)" if i.assembled else ""),
+        f"  assembly residual  {i.residual:.2e} (scaled)" + (
+            " (the assembly kinem solve performs)" if i.assembled
+            else "  (least-squares point: the solver's assembly is on a branch the case excludes)"
+            if i.status is Status.WRONG_BRANCH else "  NOT ASSEMBLED (least-squares point)"),
     ]
     if i.configuration:
         lines.append("  configuration      " + ", ".join(f"{n} {a:+.3f} rad" for n, a in i.configuration)
                      + " (relative angle at each joint between moving bodies: the branch the estimates chose)")
+    for s in i.sides:
+        lines.append(f"  cam roller         {s.constraint}: {s.side} the outline (its centre {s.distance:.6g} from the outline's "
+                     f"centre, outline radius {s.radius:.6g} at the contact: the branch the estimates chose)")
     if i.redundant_equations:
         lines.append("  warning: redundant equations: " + ", ".join(i.redundant_equations))
     if i.diagnosis:
-        lines.append(f"  not assembled: {i.diagnosis}")
+        what = "on a branch the case excludes" if i.status is Status.WRONG_BRANCH else "not assembled"
+        lines.append(f"  {what}: {i.diagnosis}")
     if i.equations != i.coordinates:
         lines.append(f"  warning: {i.equations} equations for {i.coordinates} coordinates")
     return "\n".join(lines)

@@ -20,6 +20,7 @@ class Status(IntEnum):
     SUCCESS = 0
     NOT_CONVERGED = 1
     SINGULAR = 2
+    WRONG_BRANCH = 3     # assembled on a branch the case's pins exclude (kinem.branches)
 
 
 @dataclass(frozen=True, eq=False)

@@ -8,6 +8,7 @@ import time
 import numpy as np
 
 from .analysis import Data
+from .branches import violation
 from .diagnose import explain_assembly
 from .errors import AnalysisError, InputError, SingularError
 from .linalg import choose
@@ -87,6 +88,8 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         what = "assembly at" if k == 0 else "step to"
         why = explain_assembly(model, times[0], tolerance=options.tolerance) if k == 0 else ""  # the root cause, in the user's terms
         message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {why + '; ' if why else ''}{e}"
+    if q0 is None and k and (pin := violation(model, Q[0])):   # the branch the case pins (kinem.branches)
+        status, message, k = Status.WRONG_BRANCH, f"assembly at t = {times[0]:.6g}: {pin[1]}", 0
     wall = time.perf_counter() - start
     n_ok = k
     ok = status == Status.SUCCESS
@@ -100,7 +103,8 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         trace=tuple(data.trace or ()),
         jacobian_evaluations=data.jacobian_evaluations, factorizations=data.factorizations,
         wall_time=wall, t_fail=None if ok else float(times[n_ok]),
-        failed_constraint=None if ok or status == Status.SINGULAR else model.row_owner[data.worst_row],
+        failed_constraint=pin[0] if status == Status.WRONG_BRANCH else None if ok or status == Status.SINGULAR
+        else model.row_owner[data.worst_row],
     )
 
 

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .outcome import Kind, Outcome
+
 # Values (instants x columns) held per chunk: 1e6 doubles is 8 MB per array
 # (trajectory, coordinates, rates, CSV text), a few of which are alive at once.
 CHUNK_VALUES = 1_000_000
@@ -22,10 +24,15 @@ PROGRESS_INSTANTS = 20_000
 PROGRESS_UPDATES = 50
 
 
+class Run(Kind):
+    """How a streamed run ended (``Outcome.status``)."""
+    SOLVED = ("solved", "all instants solved")
+    STOPPED = ("stopped", "the analysis stopped", True)   # detail: the solver's message
+
+
 @dataclass(frozen=True)
-class Outcome:
-    success: bool
-    message: str
+class Progress:
+    """A streamed run's ``Outcome.value``."""
     instants: int          # instants solved
     events: tuple          # (t, text) singular configurations passed
 
@@ -56,7 +63,7 @@ def chunk_size(model, outputs, instants, progress=False) -> int:
 
 
 def run(model, outputs, on_chunk, trace=None, progress=None, size=None, options=None) -> Outcome:
-    """Solves the case's output instants chunk by chunk: on_chunk(result) for
+    """An Outcome (Run, the solver's message, Progress): solves the case's output instants chunk by chunk: on_chunk(result) for
     each chunk's SolveResult (overlapping instant removed), trace(records) for
     each chunk's trace when given, progress(instants done, t) after each.
     ``options`` (default the case's): its max_substeps holds for the whole
@@ -91,12 +98,12 @@ def run(model, outputs, on_chunk, trace=None, progress=None, size=None, options=
                              lambda m: f"(instant {int(m.group(1)) + first} of {nt - 1})", r.message, count=1)
             message = message.replace(f"limit of {max(left + r.substeps, 0):,} sub-steps",
                                       f"limit of {options.max_substeps:,} sub-steps", 1)
-            return Outcome(False, message, k + max(done, 0), tuple(events))
+            return Outcome(Run.STOPPED, message, Progress(k + max(done, 0), tuple(events)))
         k += done
         q0 = r.q[-1]
         if progress is not None:
             progress(k, float(times[-1]))
-    return Outcome(True, "all instants solved", nt, tuple(events))
+    return Outcome(Run.SOLVED, value=Progress(nt, tuple(events)))
 
 
 def _tail(r, skip):

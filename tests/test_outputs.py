@@ -221,7 +221,7 @@ def test_streamed_chunks_equal_one_solve():
     whole = kinem.solve(model).trajectory
     parts = []
     o = stream.run(model, kinem.OUTPUTS, parts.append, size=700)
-    assert o.success and o.instants == 2501 and len(parts) == 4
+    assert o.success and o.value.instants == 2501 and len(parts) == 4
     t = np.concatenate([p.t for p in parts])
     data = np.concatenate([p.data for p in parts])
     assert np.array_equal(t, whole.t) and parts[0].columns == whole.columns

@@ -47,7 +47,7 @@ def test_stress_on_cluster_equals_local(scheduler, monkeypatch):
     monkeypatch.setattr(stress, "scenarios", lambda quick=False: subset[:5])
     local = stress.run(("native", "pymunk"), quick=True, jobs=0)
     remote = stress.run(("native", "pymunk"), quick=True, scheduler=scheduler)
-    key = lambda r: (r["scenario"], r["engine"], r["outcome"], r["detail"], f"{r['error']:.12g}")
+    key = lambda o: (o.value.scenario, o.value.engine, o.status, o.detail, f"{o.value.error:.12g}")
     assert [key(r) for r in remote] == [key(r) for r in local]
     assert len(local) == 10
 

@@ -52,7 +52,7 @@ def test_a_new_engine_is_one_module_and_one_line(dummy, tmp_path, capsys):
 
     s = next(s for s in stress.scenarios(True) if s.engines and s.group == "length-scale")
     out = stress.run_one((s, "dummy"))
-    assert out["outcome"] == "accurate", out
+    assert out.status is stress.Class.ACCURATE, out
 
 
 @pytest.mark.parametrize("value, expected", [("0", "= 0: expected a positive number"),

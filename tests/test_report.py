@@ -128,12 +128,12 @@ def test_html_is_self_contained_and_lists_every_case(report):
             assert not re.search(r'href="(?!#)|url\((?!#)|@import|<script', svg)
     text = re.sub(r'"data:[^"]*"', "", html)
     assert not re.search(r"[a-z]+://|url\(|@import|<script|<link|<iframe|<foreignObject", text)
-    for case in outcome.doc["cases"]:
+    for case in outcome.value.doc["cases"]:
         assert f'id="case-{case["name"]}"' in html
     assert html.count('src="data:image/') >= 2 * 3  # trajectories, errors, work-precision
     # one animation per case, in that case's section: an inline SVG moved by SMIL, no script
     sections = re.split(r'<section id="case-', html)[1:]
-    assert len(sections) == len(outcome.doc["cases"])
+    assert len(sections) == len(outcome.value.doc["cases"])
     for part in sections:
         motions = re.findall(r'<svg class="motion".*?</svg>', part, re.S)
         assert sum("<animateTransform" in m for m in motions) == 1, part[:40]
@@ -148,7 +148,7 @@ def test_html_is_self_contained_and_lists_every_case(report):
 
 
 def test_unchanged_results_pass_the_gate(report):
-    doc = report[0].doc
+    doc = report[0].value.doc
     g = gate(doc, copy.deepcopy(doc), "base.json")
     assert g["findings"] == [] and g["regressions"] == 0
     assert set(g["verdicts"].values()) == {"pass"}
@@ -162,7 +162,7 @@ def _regressions(doc, base, **kw):
 
 @pytest.mark.parametrize("kind", ["status", "error", "residual", "count", "sweep-error", "sweep-count"])
 def test_gate_flags_each_kind_of_regression(report, kind):
-    base = report[0].doc
+    base = report[0].value.doc
     doc = copy.deepcopy(base)
     case = doc["cases"][0]
     native, engine = case["runs"]
@@ -194,7 +194,7 @@ def test_gate_flags_each_kind_of_regression(report, kind):
 
 
 def test_gate_tolerates_noise_and_flags_slowdowns_only_on_request(report):
-    base = report[0].doc
+    base = report[0].value.doc
     doc = copy.deepcopy(base)
     native, engine = doc["cases"][0]["runs"]
     native["position_error_rel"] = 0.9 * ERROR_FLOOR        # grew from ~0 but below the floor
@@ -233,7 +233,7 @@ def test_missing_or_corrupt_baseline_is_an_input_error(tmp_path, report):
     p.write_text(json.dumps({"schema_version": 99}))
     with pytest.raises(InputError, match="schema_version 99"):
         results.load(p)
-    doc = copy.deepcopy(report[0].doc)
+    doc = copy.deepcopy(report[0].value.doc)
     del doc["cases"][0]["runs"][0]["counts"]
     p.write_text(json.dumps(doc))
     with pytest.raises(InputError, match="missing key 'counts'"):
@@ -244,16 +244,16 @@ def test_import_failure_makes_the_run_fail(tmp_path, fake_engines):
     case = short_case(tmp_path, "four_bar", 0.1, steps=5)
     out = run(Options(cases=(case,), engines=("pymunk", "exudyn"), out=str(tmp_path / "o"), quick=True,
                       workers=0, progress=False, stress=False))
-    runs = {r["engine"]: r for r in out.doc["cases"][0]["runs"]}
+    runs = {r["engine"]: r for r in out.value.doc["cases"][0]["runs"]}
     assert runs["exudyn"]["status"].startswith("failed: import error")
-    assert out.doc["engines"]["exudyn"]["status"].startswith("failed: import error")
-    assert out.exit_code == 1 and "1 failed" in out.line
+    assert out.value.doc["engines"]["exudyn"]["status"].startswith("failed: import error")
+    assert out.exit_code == 1 and "1 failed" in out.detail
 
 
 def test_known_engine_failure_passes_a_new_one_fails(report):
     from kinem.report import _exit_code
 
-    base = copy.deepcopy(report[0].doc)
+    base = copy.deepcopy(report[0].value.doc)
     opts = Options(cases=(), engines=("pymunk",))
     base["cases"][0]["runs"][1].update(status="failed: diverged", outcome="diverged")
     assert _exit_code(dict(base, gate=None), opts) == 1          # no baseline: any failure fails
@@ -315,7 +315,7 @@ def test_progress_is_silent_off_a_terminal():
 def test_numbers_in_results_are_finite(report):
     text = (report[1] / "results.json").read_text()
     assert "NaN" not in text and "Infinity" not in text
-    assert np.isfinite(report[0].doc["duration"])
+    assert np.isfinite(report[0].value.doc["duration"])
 
 
 def test_stress_section(tmp_path):
@@ -368,7 +368,7 @@ def test_report_directory_is_consistent_through_its_manifest(report, tmp_path, m
 def test_stress_runs_only_when_asked(report):
     """A report on the user's own case files leaves the stress suite out
     (it runs only with --stress: test_no_summary_cell_... checks a whole set)."""
-    doc = report[0].doc
+    doc = report[0].value.doc
     assert "stress" not in doc and doc["options"]["stress"] is None and doc["options"]["whole_set"] is False
     assert "Stress suite" not in (report[1] / "index.html").read_text()
 
@@ -381,7 +381,7 @@ def test_gate_fails_on_runs_the_baseline_has_and_the_run_lacks(report):
     """No blind spots: a baseline case, engine or sweep point missing from the
     run fails the gate unless the run was narrowed on purpose, and is listed
     in not_compared either way."""
-    base = report[0].doc
+    base = report[0].value.doc
     name = base["cases"][0]["name"]
     fewer_cases = dict(base, cases=base["cases"][1:])
     found, g = _regressions(_narrowed(fewer_cases, whole_set=True), base)   # the whole set, a case gone
@@ -409,15 +409,15 @@ def test_gate_fails_on_runs_the_baseline_has_and_the_run_lacks(report):
 def test_non_finite_or_null_baseline_figures_are_rejected(tmp_path, report):
     """A NaN (not JSON, but Python writes it) or a null error of an ok run
     would switch its check off: both are input errors on read."""
-    text = results.dumps(report[0].doc)
+    text = results.dumps(report[0].value.doc)
     p = tmp_path / "b.json"
-    p.write_text(text.replace('"position_error_rel": ' + json.dumps(report[0].doc["cases"][0]["runs"][1]
+    p.write_text(text.replace('"position_error_rel": ' + json.dumps(report[0].value.doc["cases"][0]["runs"][1]
                                                                     ["position_error_rel"]),
                               '"position_error_rel": NaN', 1))
     assert "NaN" in p.read_text()
     with pytest.raises(InputError, match="non-finite number NaN"):
         results.load(p)
-    doc = copy.deepcopy(report[0].doc)
+    doc = copy.deepcopy(report[0].value.doc)
     doc["cases"][1]["runs"][0]["angle_error"] = None
     doc["cases"][0]["work_precision"]["curves"][0]["points"][0]["error"] = None
     p.write_text(results.dumps(doc))
@@ -425,9 +425,9 @@ def test_non_finite_or_null_baseline_figures_are_rejected(tmp_path, report):
         results.load(p)
     assert len(results.missing_figures(doc)) == 2
     assert "angle_error is null in an ok run" in results.missing_figures(doc)[1]
-    base = copy.deepcopy(report[0].doc)
+    base = copy.deepcopy(report[0].value.doc)
     base["cases"][0]["runs"][1]["position_error_rel"] = float("nan")   # built in memory: the gate flags it
-    found, _ = _regressions(report[0].doc, base)
+    found, _ = _regressions(report[0].value.doc, base)
     assert [(f[1], f[4]) for f in found] == [("pymunk", "position_error_rel")]
 
 
@@ -441,7 +441,7 @@ def test_update_baseline_refuses_null_figures(tmp_path, monkeypatch):
     base = tmp_path / "base.json"
     out = run(Options(cases=(case,), engines=(), out=str(tmp_path / "o"), quick=True, workers=0, progress=False,
                       baseline=str(base), update_baseline=True))
-    assert out.exit_code == 1 and "baseline NOT written" in out.line and not base.exists()
+    assert out.exit_code == 1 and "baseline NOT written" in out.detail and not base.exists()
     assert (tmp_path / "o" / "index.html").exists()
 
 
@@ -476,7 +476,7 @@ def test_progress_says_what_it_waits_for():
 def test_native_rows_use_independent_references(report):
     """Native's position error is against kinem.reference's closed form where
     the case has one, and each row says what its figures are against."""
-    for case in report[0].doc["cases"]:
+    for case in report[0].value.doc["cases"]:
         native, engine = case["runs"]
         assert native["reference"].startswith(f"closed form kinem.reference.{case['name']}")
         assert engine["reference"] == "native at the reference tolerance"
@@ -516,7 +516,7 @@ def test_equivalent_models_agree_and_are_gated(tmp_path):
     Path(paths[1]).write_text(other)                       # no closed form under this name
     out = run(Options(cases=tuple(paths), engines=(), out=str(tmp_path / "o"), quick=True, workers=0,
                       progress=False))
-    doc = out.doc
+    doc = out.value.doc
     (group,) = doc["equivalence"]
     assert group["group"] == "crank-shaper" and group["cases"] == ["quick_return_1", "shaper_b"]
     assert group["points"] == ["A", "B", "D"] and group["status"] == "ok"
@@ -626,7 +626,7 @@ def knob_report(tmp_path_factory):
                           quick=True, workers=0, progress=False, stress=False))
     finally:
         mp.undo()
-    return out.doc, tmp / "out"
+    return out.value.doc, tmp / "out"
 
 
 def test_work_precision_sweeps_knob_families_and_marks_the_pareto_front(knob_report):
@@ -687,7 +687,7 @@ def test_edited_baselines_are_rejected(tmp_path, report, edit):
     """Issue 25 item 6: an edited status or count keys would switch the gate
     off (an unknown status ranked as failed, its figures never compared; no
     counts, no count check): each is an input error in one line."""
-    doc = copy.deepcopy(report[0].doc)
+    doc = copy.deepcopy(report[0].value.doc)
     native = doc["cases"][0]["runs"][0]
     if edit == "status OK":
         native["status"] = "OK"
@@ -711,7 +711,7 @@ def test_edited_baselines_are_rejected(tmp_path, report, edit):
         results.load(p)
     assert "\n" not in str(e.value) and any(w in str(e.value) for w in ("status", "counts", "outcome"))
     # the untouched document loads, and a real regression in it is caught
-    p.write_text(results.dumps(report[0].doc))
+    p.write_text(results.dumps(report[0].value.doc))
     base = results.load(p)
     now = copy.deepcopy(base)
     now["cases"][0]["runs"][0]["counts"]["jacobian_evaluations"] += 249
@@ -722,7 +722,7 @@ def test_edited_baselines_are_rejected(tmp_path, report, edit):
 def test_whole_set_run_fails_on_runs_the_baseline_lacks(report):
     """Issue 25 item 6: in a run of the whole case set, a run present now and
     missing from the baseline fails the gate; a narrowed run only lists it."""
-    doc = report[0].doc
+    doc = report[0].value.doc
     base = copy.deepcopy(doc)
     del base["cases"][0]["runs"][1]
     found, g = _regressions(doc, base)
@@ -761,7 +761,7 @@ def test_gate_sees_a_case_edit_and_a_moved_trajectory(report):
     """The gate fails on a changed fingerprint (case named) and on native's
     compact trajectory moving by 1e-9 L (case, quantity and size named),
     though no figure moved; an engine moving within its tolerance passes."""
-    base = report[0].doc
+    base = report[0].value.doc
     name = base["cases"][0]["name"]
     doc = copy.deepcopy(base)
     doc["cases"][0]["fingerprint"] = "0" * 16
@@ -799,14 +799,14 @@ def test_no_summary_cell_compares_native_with_itself_silently(tmp_path):
     case = short_case(tmp_path, "gear_pair", 0.1, steps=5)
     out = run(Options(cases=(case,), engines=(), out=str(tmp_path / "o"), quick=True, workers=0, progress=False,
                       whole_set=True))   # stress None (the CLI's default): no stress suite, even for a whole set
-    assert "stress" not in out.doc and out.doc["options"]["stress"] is None
+    assert "stress" not in out.value.doc and out.value.doc["options"]["stress"] is None
     md = (tmp_path / "o" / "summary.md").read_text()
     row = next(line for line in md.splitlines() if line.startswith("| gear_pair |"))
     assert SELF in row and "e+00" not in row and "e-" not in row
     html = (tmp_path / "o" / "index.html").read_text()
     cell = re.search(r'<a href="#case-gear_pair">gear_pair</a></th><td[^>]*>(.*?)</td>', html).group(1)
     assert SELF in cell and "e+00" not in cell
-    assert out.doc["cases"][0]["runs"][0]["reference"].startswith("native")
+    assert out.value.doc["cases"][0]["runs"][0]["reference"].startswith("native")
 
 
 def test_summary_figure_is_the_worst_moving_coordinate(report):
@@ -816,14 +816,14 @@ def test_summary_figure_is_the_worst_moving_coordinate(report):
     cost is per output interval with the engine steps beside it."""
     from kinem.report.text import _md_cell, figure
 
-    engine = copy.deepcopy(report[0].doc["cases"][0]["runs"][1])
+    engine = copy.deepcopy(report[0].value.doc["cases"][0]["runs"][1])
     engine.update(position_error_rel=0.0, angle_error=1.2e-10)
     assert figure(engine) == (1.2e-10, "angle, rad")
     engine.update(angle_error=1e-3, within_tolerance=False, tolerance={"angle_error": 1e-6}, verdict="outside tolerance")
     cell = _md_cell((engine, ("pass", "pass"), "warn"))
     assert "1.0e-03 (angle, rad)" in cell and "angle_error 1.00e-03 > 1e-06" in cell
     assert "µs/interval (200 steps)" not in cell and "µs/interval (" in cell
-    native = report[0].doc["cases"][0]["runs"][0]
+    native = report[0].value.doc["cases"][0]["runs"][0]
     assert figure(native)[1] == "position / L" and native["reference"].startswith("closed form")
 
 
@@ -858,7 +858,7 @@ def test_gate_verdicts_are_typed(report):
     from kinem.report.gate import Verdict
     from kinem.report.text import matrix
 
-    base = report[0].doc
+    base = report[0].value.doc
     doc = copy.deepcopy(base)
     doc["cases"][0]["runs"][0]["counts"]["newton_iterations"] += 1
     g = gate(doc, base, "base.json")
@@ -870,3 +870,93 @@ def test_gate_verdicts_are_typed(report):
     assert cells["native"][2] == "bad"
     g["kinds"][key] = "fine"
     assert any("kinds" in p for p in problems(dict(doc, gate=g), SCHEMA))
+
+
+def test_one_outcome_type(report, tmp_path):
+    """A report, a streamed solve and a stress scenario end in the same
+    Outcome class; its status is a member of a kinem.outcome.Kind enum with
+    its message, and a failure is exit code 1."""
+    import kinem
+    from kinem import stream, stress
+    from kinem.outcome import Kind, Outcome
+
+    solved = stream.run(kinem.compile(kinem.load(short_case(tmp_path, "four_bar", 0.1, steps=5))), ("positions",),
+                        lambda r: None)
+    scenario = next(s for s in stress.scenarios(quick=True) if s.name == "change_point")
+    outcomes = [report[0], solved, stress.run_one((scenario, "native"))]
+    assert [type(o) for o in outcomes] == [Outcome] * 3
+    assert all(isinstance(o.status, Kind) and o.status.message for o in outcomes)
+    assert [o.status.value for o in outcomes] == ["ok", "solved", "accurate"]
+    assert [o.exit_code for o in outcomes] == [0, 0, 0]
+    assert solved.message == "all instants solved" and solved.value.instants == 6
+    assert stream.Run.STOPPED.failure and Outcome(stream.Run.STOPPED, "why").exit_code == 1
+
+
+def _native(doc):
+    return doc["cases"][0]["runs"][0]
+
+
+def test_reference_kind_decides_not_the_label(report):
+    """Whether native has an independent reference is its reference_kind
+    (kinem.report.runs.Reference), whatever the label says."""
+    from kinem.report.html import index_html
+    from kinem.report.runs import Reference
+    from kinem.report.text import SELF, figure
+
+    doc = copy.deepcopy(report[0].value.doc)
+    native = _native(doc)
+    native.update(reference="closed form kinem.reference.slider_crank (edited)", reference_kind="native")
+    assert figure(native) == (None, SELF)
+    native.update(reference="something else", reference_kind=Reference.CLOSED_FORM.value)
+    assert figure(native)[1] == "position / L" and "ᶜ" in index_html(doc, {})
+    native["reference_kind"] = "closed form"
+    assert any("reference_kind" in p for p in problems(doc, SCHEMA))
+
+
+@pytest.mark.parametrize("status, detail, shown, bad", [
+    ("one-case", "", "not compared: one case of the group in this run", False),
+    ("no-shared-point", "", "failed: the cases share no named point", True),
+    ("no-reference", "b, c", "failed: no reference solution of b, c", True)])
+def test_equivalence_status_is_typed(report, status, detail, shown, bad):
+    """A group's status is an Agreement value in JSON, shown with its message
+    in index.html (red when it is a failure) and summary.md."""
+    from kinem.report import equivalence
+
+    doc = copy.deepcopy(report[0].value.doc)
+    doc["equivalence"] = [{"group": "g", "cases": ["a", "b", "c"], "points": [], "reference": equivalence.LABEL,
+                           "length": 1.0, "members": [], "max_deviation_rel": None, "status": status,
+                           "detail": detail}]
+    assert problems(doc, SCHEMA) == []
+    doc = json.loads(results.dumps(doc))                     # through JSON
+    assert equivalence.Agreement(doc["equivalence"][0]["status"]).failure is bad
+    html = equivalence.html(doc, {})
+    assert f"<td class='l {'bad' if bad else ''}'>{shown}</td>" in html
+    assert f"; {shown}" in equivalence.line(doc)
+    doc["equivalence"][0]["status"] = "failed: the cases share no named point"   # the old free text
+    assert any("status" in p for p in problems(doc, SCHEMA))
+
+
+def test_stress_outcomes_render_with_their_messages(report):
+    """Stress rows in results.json carry their Class's value; index.html
+    shows each with its message (red for a failure), summary.md counts them."""
+    from kinem import stress
+    from kinem.outcome import Outcome
+    from kinem.report.stress_section import html, line
+
+    rows = [Outcome(stress.Class.ACCURATE, "3 steps", stress.Row("g", "s1", "pymunk", 1e-9, 1e-12, 0.1)),
+            Outcome(stress.Class.INACCURATE, "velocity_error_rel 2.00e-04 > 1e-05",
+                    stress.Row("g", "s2", "pymunk", 1e-9, 1e-12, 0.1, (("velocity_error_rel", 2e-4, 1e-5),))),
+            Outcome(stress.Class.UNSUPPORTED, "gear: no gear joint", stress.Row("g", "s3", "pymunk", *[float("nan")] * 2, 0.0))]
+    doc = copy.deepcopy(report[0].value.doc)
+    doc["stress"] = {"quick": True, "rows": results.clean([stress.as_dict(o) for o in rows]), "native_misses": []}
+    assert problems(doc, SCHEMA) == []
+    doc = json.loads(results.dumps(doc))
+    assert [stress.from_dict(r).status for r in doc["stress"]["rows"]] == [o.status for o in rows]
+    page = html(doc)
+    assert 'title="within its tolerance: 3 steps">accurate 1e-09</td>' in page
+    assert ('<td class=bad title="a figure outside its tolerance: velocity_error_rel 2.00e-04 &gt; 1e-05">'
+            "inaccurate vel 2e-04</td>") in page
+    assert 'title="the engine cannot represent the scenario: gear: no gear joint">unsupported</td>' in page
+    assert line(doc).endswith("engines: 1 accurate, 1 inaccurate, 1 unsupported")
+    doc["stress"]["rows"][2]["outcome"] = "unsupported: gear"          # the old free text
+    assert any("outcome" in p for p in problems(doc, SCHEMA))

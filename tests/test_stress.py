@@ -76,15 +76,67 @@ def test_long_run_does_not_drift():
 def test_mass_ratio_runs_are_classified(engine):
     scenario = next(s for s in stress.scenarios(quick=True) if s.group == "mass-ratio")
     out = stress.run_one((scenario, engine))
-    assert out["outcome"] in ("accurate", "inaccurate", "branch-flip", "diverged", "nan")
+    assert out.status in (stress.Class.ACCURATE, stress.Class.INACCURATE, stress.Class.BRANCH_FLIP,
+                          stress.Class.DIVERGED, stress.Class.NAN)
 
 
 def test_classify():
-    assert stress.classify(1e-12, 1e-12, 1e-8) == "accurate"
-    assert stress.classify(1e-5, 1e-9, 1e-8) == "inaccurate"
-    assert stress.classify(0.5, 1e-9, 1e-8) == "branch-flip"
-    assert stress.classify(0.5, 1e-3, 1e-8) == "inaccurate"
-    assert stress.classify(0.0, 0.0, 1e-8, finite=False) == "nan"
+    C, tol = stress.Class, {"position_error_rel": 1e-8}
+    assert stress.classify({"position_error_rel": 1e-12}, 1e-12, tol) == (C.ACCURATE, ())
+    assert stress.classify({"position_error_rel": 1e-5}, 1e-9, tol) == (C.INACCURATE, (("position_error_rel", 1e-5, 1e-8),))
+    assert stress.classify({"position_error_rel": 0.5}, 1e-9, tol)[0] is C.BRANCH_FLIP
+    assert stress.classify({"position_error_rel": 0.5}, 1e-3, tol)[0] is C.INACCURATE
+    assert stress.classify({}, 0.0, tol, finite=False)[0] is C.NAN
+
+
+def _engine_run(model, native, q, qd):
+    from adapters.base import EngineRun, Status
+    from kinem.result import trajectory
+
+    return EngineRun("fake", Status.OK, "", trajectory(model, native.trajectory.t, q, qd), q, qd,
+                     steps=len(q), intervals=len(q) - 1)
+
+
+@pytest.mark.parametrize("speed", [0.25, 1.0, 4.0])
+def test_stress_judges_velocity_with_the_scale_free_table(speed):
+    """An engine run with exact positions and velocities off by 1e-4 of the
+    run's peak speed: inaccurate by velocity_error_rel at every speed of the
+    same mechanism (the table's limit 1e-5 is relative), accurate at 1e-6 of it."""
+    from adapters.compare import tolerance_of
+    from adapters.pymunk_sim import PymunkAdapter
+
+    w = 2.0 * speed
+    model = kinem.compile(kinem.load_dict(slider_crank_case(0.1, 0.3, 0.0, {"poly": [0.5, w]}, 0.5,
+                                                            end=2.0 / speed, steps=50)))
+    native = kinem.solve(model)
+    table = tolerance_of(PymunkAdapter())
+    assert table["velocity_error_rel"] == 1e-5
+    tr = native.trajectory
+    items = model.body_names + model.point_names
+    peak = max(model.length * max(np.abs(tr[f"{b}.omega"]).max() for b in model.body_names),
+               max(np.hypot(tr[f"{i}.vx"], tr[f"{i}.vy"]).max() for i in items))   # V of docs/engines.md
+    for off, want in ((1e-4, stress.Class.INACCURATE), (1e-6, stress.Class.ACCURATE)):
+        qd = native.qd.copy()
+        qd[:, 3 * model.body_names.index("slider")] += off * peak     # the slider's vx
+        cls, figures, _, exceeded = stress.judge(model, native, _engine_run(model, native, native.q, qd), None, table)
+        assert cls is want, (figures, exceeded)
+        assert figures["velocity_error_rel"] == pytest.approx(off, rel=1e-6)
+        assert figures["position_error_rel"] == 0.0
+        assert [k for k, *_ in exceeded] == (["velocity_error_rel"] if off > 1e-5 else [])
+
+
+def test_stress_outcome_round_trips_through_json():
+    """An outcome's class goes to JSON as its value and comes back as the same
+    member, its message with it."""
+    import json
+
+    from kinem.outcome import Outcome
+
+    o = Outcome(stress.Class.INACCURATE, "velocity_error_rel 1.00e-04 > 1e-05",
+                stress.Row("g", "s", "pymunk", 1e-9, 1e-12, 0.1, (("velocity_error_rel", 1e-4, 1e-5),)))
+    back = stress.from_dict(json.loads(json.dumps(stress.as_dict(o))))
+    assert back == o and back.status is stress.Class.INACCURATE
+    assert back.message == "a figure outside its tolerance: velocity_error_rel 1.00e-04 > 1e-05"
 
 
 def test_native_meets_every_expectation_quick():

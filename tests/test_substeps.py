@@ -66,7 +66,7 @@ def test_the_limit_holds_for_the_whole_chunked_run():
     model = kinem.compile(kinem.load_dict(fast_slider_crank(1e3)))
     o = stream.run(model, ("positions",), lambda r: None, size=5,
                    options=kinem.Options(max_substeps=80))
-    assert not o.success and "more than the limit of 80 sub-steps" in o.message
+    assert not o.success and "more than the limit of 80 sub-steps" in o.detail
 
 
 def test_kinem_solve_counts_substeps_against_max_work(tmp_path):

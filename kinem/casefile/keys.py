@@ -126,6 +126,22 @@ class CoordKey(Key):
 
 
 @dataclass(frozen=True)
+class WordKey(Key):
+    """One of a few words (``words``)."""
+    words: tuple = ()
+
+    @property
+    def accepts(self):
+        return " or ".join(f'"{w}"' for w in self.words)
+
+    def parse(self, ck, where, v, scope):
+        if v not in self.words:
+            ck.bad(where, self.name, f"got {show(v)}", self.accepts)
+            return None
+        return v
+
+
+@dataclass(frozen=True)
 class BoolKey(Key):
     accepts = "true or false"
 

@@ -14,7 +14,7 @@ from typing import Callable
 import numpy as np
 
 from ..casefile.keys import (BodyKey, BoolKey, CoordKey, DirectionKey, FunctionKey, Key, LocalKey,  # noqa: F401
-                             NumberKey, OutlineKey, PositiveKey, Vector3Key)  # the key kinds types declare
+                             NumberKey, OutlineKey, PositiveKey, Vector3Key, WordKey)  # the key kinds types declare
 
 
 @dataclass(frozen=True)

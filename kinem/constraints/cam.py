@@ -4,8 +4,8 @@ contact point P_i on the cam's outline (kinem/constraints/curve.py):
 a = A_i p(theta) and g = A_i g'(theta), the tangent there."""
 import numpy as np
 
-from .base import (BodyKey, DirectionKey, Family, LocalKey, NumberKey, OutlineKey, PositiveKey, TypeDecl, ints,
-                   local_points, pattern, points, reals, row_info)
+from .base import (BodyKey, DirectionKey, Family, LocalKey, NumberKey, OutlineKey, PositiveKey, TypeDecl, WordKey,
+                   ints, local_points, pattern, points, reals, row_info)
 from .curve import Curve, check_theta
 
 
@@ -73,6 +73,9 @@ TYPES = [
         LocalKey("sj", of="follower", doc="Q_j: the roller's centre"),
         PositiveKey("radius", doc="rho: the roller's radius"),
         NumberKey("theta", doc="estimate of the contact angle theta on the outline (rad)"),
+        WordKey("side", required=False, words=("outside", "inside"),
+                doc="the branch the assembly must reach: the roller's centre outside or inside the outline "
+                    "at the first instant; else the analysis fails (kinem/branches.py)"),
     ), CamRoller, check=check_theta, rows=2,
         doc="Disk cam and roller follower: the roller (a circle about Q_j) touches the outline."),
     TypeDecl("cam-flat", "4.29", (

@@ -1,7 +1,7 @@
 """Revolute joint, Eqs. 4.7-4.9; Jacobian Eq. 4.46 (Table 4.2); gamma Eq. 4.47."""
 import numpy as np
 
-from .base import BodyKey, Family, LocalKey, TypeDecl, ints, local_points, pattern, points, row_info
+from .base import BodyKey, Family, LocalKey, TypeDecl, WordKey, ints, local_points, pattern, points, row_info
 
 
 class Revolute(Family):
@@ -30,5 +30,8 @@ TYPES = [
         LocalKey("si", of="i", doc="s'_i^P: the joint centre on body i"),
         BodyKey("j", doc="body j"),
         LocalKey("sj", of="j", doc="s'_j^P: the joint centre on body j"),
+        WordKey("sign", required=False, words=("positive", "negative"),
+                doc="the branch the assembly must reach: the sign of phi_j - phi_i (wrapped to (-pi, pi]) "
+                    "at the first instant; else the analysis fails (kinem/branches.py)"),
     ), Revolute, rows=2, doc="Revolute joint: point P of body i coincides with point P of body j."),
 ]

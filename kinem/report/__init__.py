@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputError
+from ..outcome import Kind, Outcome
 
 
 @dataclass(frozen=True)
@@ -33,12 +34,18 @@ class Options:
     work_precision: bool = False  # every case gets work-precision diagrams (else: [report] work_precision)
 
 
+class Report(Kind):
+    """How a report ended (``Outcome.status``; the detail is the one line the
+    command prints)."""
+    OK = ("ok", "ok")
+    FAILED = ("failed", "FAILED", True)   # exit code 1: see _exit_code
+
+
 @dataclass(frozen=True)
-class Outcome:
+class Written:
+    """A report's ``Outcome.value``."""
     doc: dict                    # results.json
     written: tuple               # paths written
-    exit_code: int               # 0, or 1 (see _exit_code)
-    line: str                    # the one line the command prints
 
 
 def run(o: Options) -> Outcome:
@@ -103,7 +110,7 @@ def run(o: Options) -> Outcome:
     line = _line(doc, out, code, o)
     if refused:
         line += f"; baseline NOT written: {refused[0]}"
-    return Outcome(doc, tuple(written), code, line)
+    return Outcome(Report.FAILED if code else Report.OK, line, Written(doc, tuple(written)))
 
 
 def stress_tasks(engines) -> int:

@@ -13,7 +13,24 @@ from html import escape
 
 import numpy as np
 
+from ..outcome import Kind
+from .runs import Reference
+
 LABEL = "native at the reference tolerance of each case"
+
+
+class Agreement(Kind):
+    """An equivalence group's status (results.json "status"; "detail" the specifics)."""
+    OK = ("ok", "compared")
+    ONE_CASE = ("one-case", "not compared: one case of the group in this run")
+    NO_SHARED_POINT = ("no-shared-point", "failed: the cases share no named point", True)
+    NO_REFERENCE = ("no-reference", "failed: no reference solution", True)
+
+
+def status_text(entry) -> str:
+    """A group's status for people: its message and detail."""
+    a = Agreement(entry["status"])
+    return f"{a.message} of {entry['detail']}" if entry.get("detail") else a.message
 
 
 def build(cases, series) -> tuple:
@@ -43,15 +60,16 @@ def _group(name, members):
     shared = [n for n in first["equivalent"]["points"]
               if all(n in c["equivalent"]["points"] for c, _ in members[1:])]
     entry = {"group": name, "cases": [c["name"] for c, _ in members], "points": shared, "reference": LABEL,
-             "length": first["length"], "members": [], "max_deviation_rel": None, "status": "ok"}
+             "length": first["length"], "members": [], "max_deviation_rel": None, "status": Agreement.OK.value, "detail": ""}
     if len(members) < 2:
-        entry["status"] = "not compared: one case of the group in this run"
+        entry["status"] = Agreement.ONE_CASE.value
         return entry, {}
     if not shared:
-        entry["status"] = "failed: the cases share no named point"
+        entry["status"] = Agreement.NO_SHARED_POINT.value
         return entry, {}
     if any(p is None for _, p in members):
-        entry["status"] = "failed: no reference solution of " + ", ".join(c["name"] for c, p in members if p is None)
+        entry["status"] = Agreement.NO_REFERENCE.value
+        entry["detail"] = ", ".join(c["name"] for c, p in members if p is None)
         return entry, {}
     t0, length, curves = np.asarray(p0["t"]), first["length"], {}
     for c, p in members[1:]:
@@ -67,18 +85,13 @@ def _group(name, members):
     entry["max_deviation_rel"] = max(m["max_deviation_rel"] for m in entry["members"])
     for c, p in members:   # members without a closed form: their native row against the group
         native = next((r for r in c["runs"] if r["engine"] == "native"), None)
-        if native is None or native["outcome"] != "ok" or native["reference"] != _default_label():
+        if native is None or native["outcome"] != "ok" or native["reference_kind"] != Reference.NATIVE.value:
             continue
         worst, other = _against_group(c, p, members, shared)
         native.update(position_error=worst, position_error_rel=worst / c["length"],
-                      reference=f"equivalence group {name} (points {', '.join(shared)} of {other})")
+                      reference=f"equivalence group {name} (points {', '.join(shared)} of {other})",
+                      reference_kind=Reference.GROUP.value)
     return entry, curves
-
-
-def _default_label():
-    from .runs import REFERENCE_LABEL
-
-    return REFERENCE_LABEL
 
 
 def _interp(t, z, at):
@@ -115,10 +128,11 @@ def html(doc, curves) -> str:
         dev = "–" if e["max_deviation_rel"] is None else f"{e['max_deviation_rel']:.1e}"
         worst = max(e["members"], key=lambda m: m["max_deviation_rel"], default=None)
         where = "" if worst is None else f"{worst['case']} point {worst['point']} at t = {worst['t']:.3g} s"
-        cls = "bad" if e["status"].startswith("failed") or kind == "regressed" else ""
+        status = Agreement(e["status"])
+        cls = "bad" if status.failure or kind == "regressed" else ""
         rows.append(f"<tr><td class=l>{escape(e['group'])}</td><td class=l>{escape(', '.join(e['cases']))}</td>"
                     f"<td class=l>{escape(', '.join(e['points']))}</td><td>{dev}</td><td class=l>{escape(where)}</td>"
-                    f"<td class='l {cls}'>{escape(e['status'] if e['status'] != 'ok' else verdict)}</td></tr>")
+                    f"<td class='l {cls}'>{escape(verdict if status is Agreement.OK else status_text(e))}</td></tr>")
     imgs = []
     for e in groups:
         if curves.get(e["group"]):
@@ -162,6 +176,6 @@ def line(doc) -> str:
         dev = "–" if e["max_deviation_rel"] is None else f"{e['max_deviation_rel']:.1e}"
         v = ((doc.get("gate") or {}).get("verdicts") or {}).get(f"equivalence/{e['group']}", "")
         out.append(f"- Equivalent models **{e['group']}** ({', '.join(e['cases'])}; points {', '.join(e['points'])}): "
-                   f"max deviation / L {dev}" + (f"; {e['status']}" if e["status"] != "ok" else "")
+                   f"max deviation / L {dev}" + (f"; {status_text(e)}" if Agreement(e["status"]) is not Agreement.OK else "")
                    + (f"; {v}" if v else ""))
     return "\n".join(out)

@@ -6,8 +6,8 @@ import json
 from html import escape
 
 from . import plots
-from .runs import sample
-from .text import (cost, exceeded_text, failed, figure, fmt, headline, matrix, provenance, reason, short, unsupported,
+from .runs import Reference, sample
+from .text import (cost, exceeded_text, failed, figure, fmt, headline, matrix, passed, provenance, reason, short, unsupported,
                    unsupported_lines, us)
 
 SNAPSHOTS = 4   # instants of the static mechanism drawings
@@ -62,7 +62,7 @@ def _matrix_cell(cell):
         return "<td class=c-bad>not run</td>"
     r, v, g = cell
     if g == "skip":
-        return f'<td class=c-skip title="{escape(": ".join(reason(r["status"])))}">–</td>'
+        return f'<td class=c-skip title="{escape(": ".join(reason(r["detail"])))}">–</td>'
     tip = escape(f"{r['status']}; position error / L {fmt(r['position_error_rel'])}; angle error "
                  f"{fmt(r['angle_error'])} rad; residual {fmt(r['constraint_residual'])}; "
                  f"verdict: {v[1]}; position error against {r['reference']}")
@@ -71,7 +71,7 @@ def _matrix_cell(cell):
     note = "" if v[0] in ("pass", "no baseline") else f"<br><small>{escape(short(v[1], 90))}</small>"
     if r["within_tolerance"] is False:
         note += f"<br><small>{escape(r['verdict'])}: {escape(exceeded_text(r))}</small>"
-    mark = "ᶜ" if r["reference"].startswith("closed form") else "ᵍ" if r["reference"].startswith("equivalence") else ""
+    mark = {Reference.CLOSED_FORM: "ᶜ", Reference.GROUP: "ᵍ"}.get(Reference(r["reference_kind"]), "")
     value, what = figure(r)
     shown = (f"<i>{escape(what)}</i>" if value is None
              else f"{fmt(value)}{mark} <small>{escape(what)}</small>")
@@ -218,7 +218,7 @@ def index_html(doc, sections, curves=None) -> str:
     head = headline(doc)
     parts = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8"><title>kinem report</title>',
              f"<style>{CSS}</style></head><body>", "<h1>kinem report</h1>",
-             f'<p class="head{" bad" if head.startswith("FAILED") else ""}">{escape(head)}</p>',
+             f'<p class="head{"" if passed(doc) else " bad"}">{escape(head)}</p>',
              f"<p><small>{escape(provenance(doc))}</small></p>"]
     if fatal:
         items = "".join(f"<li><b>{escape(f['case'])} / {escape(f['engine'])}</b> ({escape(f['where'])}): "

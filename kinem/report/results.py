@@ -6,7 +6,6 @@ import json
 import math
 import os
 import platform
-import re
 import subprocess
 from datetime import datetime, timezone
 from pathlib import Path
@@ -15,7 +14,7 @@ from ..errors import InputError
 from .fingerprint import fingerprint
 from .schema import SCHEMA, problems
 
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 4
 PACKAGES = ("kinem", "numpy", "scipy", "matplotlib", "pymunk", "mujoco", "exudyn")
 WP_ERROR = "position_error_rel"      # the work-precision diagram's error
 WP_COST = "wall_per_sim_second"      # and its cost
@@ -36,9 +35,10 @@ def build(cases, runs, options, duration):
         ref_tol = next((r.get("reference_tolerance") for r in main if r["engine"] == "native"), None)
         for r in main:
             if r["engine"] != "native":
-                e = engines.setdefault(r["engine"], {"version": r["version"], "status": "ok", "outcome": "ok"})
+                e = engines.setdefault(r["engine"], {"version": r["version"], "status": "ok", "outcome": "ok",
+                                                     "detail": ""})
                 if r.get("import_failed"):
-                    e["status"], e["outcome"] = r["status"], r["outcome"]
+                    e.update(status=r["status"], outcome=r["outcome"], detail=r["detail"])
         out.append({
             "name": case.name, "path": str(path), "fingerprint": fingerprint(case), "description": case.description,
             "length": model.length, "unit": case.length_unit, "end": case.end, "steps": case.steps,
@@ -67,6 +67,7 @@ def _strip(r):
 
 def _point(r):
     return {"value": r["value"], "knobs": r["knobs"], "status": r["status"], "outcome": r["outcome"],
+            "detail": r["detail"],
             "error": r[WP_ERROR],
             "cost": r[WP_COST], "velocity_error_rel": r["velocity_error_rel"], "wall_time": r["wall_time"],
             "counts": r["counts"], "front": False}
@@ -156,35 +157,35 @@ def load(path, what="baseline"):
 # other keys (or none) would switch their check off.
 COUNTS = {"native": ("instants", "newton_iterations", "jacobian_evaluations", "factorizations"),
           "engine": ("steps", "substeps")}
-STATUS_RE = re.compile(r"(ok|(unsupported|failed)(: .+)?)", re.S)
-# adapters.base.Status values -> the word their label starts with (the schema's enum checks the value)
-KIND = {"ok": "ok", "unsupported": "unsupported", "failed": "failed", "diverged": "failed", "non-finite": "failed"}
-
-
 def untyped(doc) -> list:
-    """Statuses that are not "ok", "unsupported[: why]" or "failed[: why]",
-    and count keys that are not the run's own (an ok run must have them all;
-    another may have none): 'where: problem' lines."""
+    """Statuses that are not the label of their outcome (adapters.base.Status)
+    and detail, and count keys that are not the run's own (an ok run must
+    have them all; another may have none): 'where: problem' lines."""
+    from adapters.base import Status
+
     out = []
 
-    def check(where, engine, status, counts, outcome):
-        if not STATUS_RE.fullmatch(status) or KIND[outcome] != status.split(":", 1)[0]:
-            out.append(f"{where}: status {status[:40]!r} with outcome {outcome!r}; expected 'ok', "
-                       "'unsupported: why' or 'failed: why' and its outcome")
+    def label(where, status, outcome, detail):
+        if status != Status(outcome).label(detail):
+            out.append(f"{where}: status {status[:40]!r} is not the label of outcome {outcome!r} and detail "
+                       f"{detail[:40]!r}; expected {Status(outcome).label(detail)[:40]!r}")
+
+    def check(where, engine, status, counts, outcome, detail):
+        label(where, status, outcome, detail)
         keys = COUNTS["native" if engine == "native" else "engine"]
         if (status == "ok" or counts) and sorted(counts) != sorted(keys):
             out.append(f"{where}: counts {sorted(counts)}; expected {list(keys)}")
 
     for c in doc["cases"]:
         for r in c["runs"]:
-            check(f"cases.{c['name']}.runs.{r['engine']}", r["engine"], r["status"], r["counts"], r["outcome"])
+            check(f"cases.{c['name']}.runs.{r['engine']}", r["engine"], r["status"], r["counts"], r["outcome"],
+                  r["detail"])
         for curve in (c.get("work_precision") or {}).get("curves", ()):
             for p in curve["points"]:
                 check(f"cases.{c['name']}.work_precision.{curve['engine']}.{p['value']:g}", curve["engine"],
-                      p["status"], p["counts"], p["outcome"])
+                      p["status"], p["counts"], p["outcome"], p["detail"])
     for name, e in doc["engines"].items():
-        if not STATUS_RE.fullmatch(e["status"]):
-            out.append(f"engines.{name}: status {e['status'][:40]!r}; expected 'ok' or 'failed: why'")
+        label(f"engines.{name}", e["status"], e["outcome"], e["detail"])
     return out
 
 

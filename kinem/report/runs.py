@@ -17,10 +17,20 @@ import numpy as np
 
 from adapters.base import Status
 
+from ..outcome import Kind
 from .fingerprint import compact
 
 REFERENCE_TOLERANCE = 1e-13  # scaled residual; about 500 machine epsilons of L
 REFERENCE_LABEL = "native at the reference tolerance"  # what a run's figures are against, unless it says otherwise
+
+
+class Reference(Kind):
+    """What a run's position figures are against (results.json
+    "reference_kind"; "reference" names it in full)."""
+    NATIVE = ("native", REFERENCE_LABEL)
+    CLOSED_FORM = ("closed-form", "a closed form of kinem.reference")
+    GROUP = ("equivalence", "the case's equivalence group")
+
 FRAMES = 120                 # instants of the animation (native and every engine at the same ones)
 PATH_INSTANTS = 480          # instants of the named points' paths drawn in the plane
 ERROR_KEYS = ("position_error", "position_error_rel", "angle_error", "velocity_error", "velocity_error_rel",
@@ -65,10 +75,11 @@ def _blank(task, outcome, detail="", **extra):
     ``outcome``; ``status`` is the one-string label shown to people)."""
     status = outcome.label(detail)
     out = {"engine": task.engine, "knob": task.knob, "value": task.value, "status": status,
-           "outcome": outcome.value,
+           "outcome": outcome.value, "detail": detail,
            "requested": {}, "settings": {}, "version": "", "within_tolerance": None, "tolerance": {},
            "wall_time": None, "time_per_step": None, "time_per_interval": None, "overhead_per_interval": None,
            "wall_per_sim_second": None, "counts": {}, "reference": REFERENCE_LABEL,
+           "reference_kind": Reference.NATIVE.value,
            "knobs": dict(task.point) or ({task.knob: task.value} if task.knob else {}), "trajectory": None,
            "verdict": _verdict_of(outcome), "estimate": {}}
     out.update({k: None for k in ERROR_KEYS})
@@ -185,7 +196,8 @@ def _independent(model, ref, traj, out):
     if cf is not None:
         label, points = cf
         d = error(model, traj, points)
-        out.update(position_error=_finite(d), position_error_rel=_finite(d / model.length), reference=label)
+        out.update(position_error=_finite(d), position_error_rel=_finite(d / model.length), reference=label,
+                   reference_kind=Reference.CLOSED_FORM.value)
     eq = model.case.equivalent
     if eq is not None:
         pick = lambda tr: {n: [tr[f"{n}.x"].tolist(), tr[f"{n}.y"].tolist()] for n in eq.points}  # noqa: E731

@@ -61,12 +61,12 @@ def figure(run) -> tuple:
     Native's figures are against native itself unless the case has a closed
     form or an equivalence group: then (None, SELF), never a green 0; with
     one, its positions against it (what the independent reference gives)."""
-    from .runs import REFERENCE_LABEL
+    from .runs import Reference
 
     if run["outcome"] != "ok":
         return None, ""
     if run["engine"] == "native":
-        if run["reference"] == REFERENCE_LABEL:
+        if Reference(run["reference_kind"]) is Reference.NATIVE:
             return None, SELF
         return run["position_error_rel"], "position / L"
     pos, angle = run["position_error_rel"], run["angle_error"]
@@ -125,7 +125,7 @@ def matrix(doc):
             v = verdict_of(doc, f"{c['name']}/{r['engine']}")
             cells[r["engine"]] = (r, v, grade(r, v[0]))
             if unsupported(r) and v[0] != "regressed":
-                what, why = reason(r["status"])
+                what, why = reason(r["detail"])
                 types, names = skipped.setdefault(r["engine"], {}).setdefault(why, ([], []))
                 types += [what] if what not in types else []
                 names.append(c["name"])
@@ -134,11 +134,11 @@ def matrix(doc):
     return engines, rows, skipped
 
 
-def reason(status) -> tuple:
-    """An unsupported status as (what, why) without the constraint's own name,
-    so that cases share it: "unsupported: cam-flat ('contact'): no ..." ->
-    ("cam-flat", "no ...")."""
-    text = re.sub(r" \('[^']*'\)", "", status.split(":", 1)[-1].strip())
+def reason(detail) -> tuple:
+    """An adapter's reason for unsupported (a run's detail) as (what, why)
+    without the constraint's own name, so that cases share it: "cam-flat
+    ('contact'): no ..." -> ("cam-flat", "no ...")."""
+    text = re.sub(r" \('[^']*'\)", "", detail.strip())
     what, _, why = text.partition(": ")
     return (what, why) if why else ("", what)
 
@@ -157,14 +157,21 @@ def counts(doc):
     return len(runs), ok, bad, len(runs) - ok - bad
 
 
+def passed(doc) -> bool:
+    """The headline's verdict: no failed run, regression, engine that did not
+    import, nor native stress miss."""
+    g = doc.get("gate")
+    return not (counts(doc)[2] or (g and g["regressions"]) or (doc.get("stress") or {}).get("native_misses")
+                or any(e["outcome"] != "ok" for e in doc["engines"].values()))
+
+
 def headline(doc) -> str:
     """One sentence: the verdict, then what it covers."""
     n, ok, n_failed, n_unsupported = counts(doc)
     g = doc.get("gate")
     regressions = g["regressions"] if g else 0
     misses = len((doc.get("stress") or {}).get("native_misses", ()))
-    bad = n_failed or regressions or misses or any(e["outcome"] != "ok" for e in doc["engines"].values())
-    verdict = "FAILED" if bad else "PASS"
+    verdict = "PASS" if passed(doc) else "FAILED"
     what = (f"{len(doc['cases'])} case(s) on {', '.join(engines_of(doc))}: {ok} of {n} runs ok, {n_failed} failed, "
             f"{n_unsupported} unsupported")
     if g:
