@@ -15,8 +15,11 @@ info`` honour them alike; ``kinem info`` shows the branch (``sides``, and
 kinem.info's relative angles).
 """
 from dataclasses import dataclass
+import weakref
 
 import numpy as np
+
+_PINS = weakref.WeakKeyDictionary()  # model -> its pins, found once
 
 
 @dataclass(frozen=True)
@@ -59,14 +62,23 @@ def sides(model, q) -> tuple:
     return tuple(cam_side(model, q, c) for c in model.case.constraints if c.type == "cam-roller")
 
 
+def pins(model) -> tuple:
+    """(constraint, the branch it pins) of every pinned constraint, looked
+    for once per model (a solve asks at every call)."""
+    found = _PINS.get(model)
+    if found is None:
+        found = _PINS[model] = tuple(
+            (c, want) for c in model.case.constraints
+            if (want := c.get("sign") if c.type == "revolute" else c.get("side") if c.type == "cam-roller" else None)
+            is not None)
+    return found
+
+
 def violation(model, q):
     """The first pin (``sign`` of a revolute, ``side`` of a cam roller) that
     the assembled q does not meet: (constraint name, one-line message naming
     the constraint, the key, what was expected and what was found), or None."""
-    for c in model.case.constraints:
-        want = c.get("sign") if c.type == "revolute" else c.get("side") if c.type == "cam-roller" else None
-        if want is None:
-            continue
+    for c, want in pins(model):
         if c.type == "revolute":
             a = relative_angle(model, q, c)
             found = "positive" if a > 0 else "negative" if a < 0 else "zero"
