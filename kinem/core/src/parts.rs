@@ -78,6 +78,9 @@ fn evaluate(kin: &Kin, q: &[f64], t: f64) -> (Vec<f64>, Vec<f64>) {
     (phi, jac)
 }
 
+/// One stage's outputs of a part's march (q, qd or qdd).
+type Stage = fn(&Marched) -> &[f64];
+
 /// What one part's march left: its outputs over every instant (rows k..end
 /// filled), where it stopped and why.
 struct Marched {
@@ -152,17 +155,21 @@ pub fn run_parts(parts: &[Part], sign: i32, times: &[f64], k: usize, st: State, 
         })
         .collect();
     let (end, why) = marched.iter().map(|m| (m.end, m.why)).min_by_key(|x| x.0).unwrap_or((kk, 0));
-    for i in k..end {
-        let (mut it, mut res, mut piv, mut det) = (0i64, 0.0f64, f64::INFINITY, sign);
-        for (p, m) in parts.iter().zip(&marched) {
-            let nb = p.cols.len();
-            for (l, &j) in p.cols.iter().enumerate() {
-                out.q[i * n + j] = m.q[i * nb + l];
-                if s.rates {
-                    out.qd[i * n + j] = m.qd[i * nb + l];
-                    out.qdd[i * n + j] = m.qdd[i * nb + l];
+    // the instants every part took, into the whole model's rows (in parallel over instants)
+    let stages: [(&mut [f64], Stage); 3] = [(out.q, |m| &m.q), (out.qd, |m| &m.qd), (out.qdd, |m| &m.qdd)];
+    for (x, of) in stages.into_iter().take(if s.rates { 3 } else { 1 }) {
+        x.par_chunks_mut(n).enumerate().skip(k).take(end.saturating_sub(k)).for_each(|(i, row)| {
+            for (p, m) in parts.iter().zip(&marched) {
+                let nb = p.cols.len();
+                for (&j, &v) in p.cols.iter().zip(&of(m)[i * nb..(i + 1) * nb]) {
+                    row[j] = v;
                 }
             }
+        });
+    }
+    for i in k..end {
+        let (mut it, mut res, mut piv, mut det) = (0i64, 0.0f64, f64::INFINITY, sign);
+        for m in &marched {
             it = it.max(m.iterations[i]);
             if m.residual[i] > res || m.residual[i].is_nan() {
                 res = m.residual[i];
