@@ -50,6 +50,27 @@ class Status(str, enum.Enum):
         return self not in (Status.OK, Status.UNSUPPORTED)
 
 
+class Reason(str):
+    """Why an engine cannot represent a model: the text shown to people
+    ("cam-flat ('cam'): no ..."), with its parts kept typed: ``kind`` (the
+    constraint type, "" when the reason is not one type's) and ``why`` (the
+    text without the constraint's own name), so that the report groups the
+    cases that share a reason without reading its text back."""
+    kind: str
+    name: str   # the constraint's
+    why: str
+
+    def __new__(cls, kind: str, name: str, why: str):
+        text = f"{kind} ('{name}'): {why}" if kind else why
+        r = super().__new__(cls, text)
+        r.kind, r.name, r.why = kind, name, why
+        return r
+
+    def __reduce__(self):
+        """Pickles as its parts (runs come back from worker processes)."""
+        return Reason, (self.kind, self.name, self.why)
+
+
 class Failure(Exception):
     """Raised inside ``simulate`` to end a run with a status; ``partial``:
     (Q, QD) of the instants reached, or None; ``wall``: stepping seconds spent."""
@@ -174,12 +195,11 @@ class Adapter:
     def defaults(self) -> dict:
         raise NotImplementedError
 
-    def unsupported(self, model) -> str | None:
+    def unsupported(self, model) -> Reason | None:
         """None when the engine can represent the model, else why not."""
         for c in model.case.constraints:
             if c.type not in self.supports:
-                why = self.reasons.get(c.type, "no equivalent in this engine")
-                return f"{c.type} ('{c.name}'): {why}"
+                return Reason(c.type, c.name, self.reasons.get(c.type, "no equivalent in this engine"))
         return None
 
     def settings(self, overrides=None, where="") -> dict:
@@ -341,7 +361,7 @@ class Adapter:
         return (f"self-check: {worst} {est[worst]:.1e} is {ratio:.2g}x its limit",
                 {"dt": dt, "substeps": None})
 
-    def unsupported_with(self, model, q0, s) -> str | None:
+    def unsupported_with(self, model, q0, s) -> Reason | None:
         """``unsupported`` for these settings and start (an engine whose
         support depends on them overrides it)."""
         return self.unsupported(model)

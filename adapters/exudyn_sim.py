@@ -30,7 +30,7 @@ from scipy.interpolate import CubicSpline
 
 from kinem.functions import Harmonic, Poly, Table
 
-from .base import (Adapter, Failure, Status, boolean, choice, count, count_or_none, drives, fraction, grounded,
+from .base import (Adapter, Failure, Reason, Status, boolean, choice, count, count_or_none, drives, fraction, grounded,
                    mass_properties, nonnegative, positive, step_or_auto)
 
 # Limits on the figures of adapters/compare.py at the default settings.
@@ -495,17 +495,17 @@ class ExudynAdapter(Adapter):
             "adaptive_step": False,
         }
 
-    def unsupported(self, model) -> str | None:
+    def unsupported(self, model) -> Reason | None:
         why = super().unsupported(model)
         if why:
             return why
         fixed = grounded(model)
         for d in drives(model):
             if d.body in fixed:
-                return f"driver ('{d.name}') on body '{d.body}', which a 'ground' constraint fixes"
+                return Reason("driver", d.name, f"on body '{d.body}', which a 'ground' constraint fixes")
         for c in model.case.constraints:
             if c.type == "absolute" and c["body"] in fixed:
-                return f"absolute ('{c.name}') on body '{c['body']}', which a 'ground' constraint fixes"
+                return Reason("absolute", c.name, f"on body '{c['body']}', which a 'ground' constraint fixes")
         return None
 
     # -- run -------------------------------------------------------------------

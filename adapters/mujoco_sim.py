@@ -41,7 +41,7 @@ import numpy as np
 
 from kinem.functions import Poly
 
-from .base import (Adapter, Drive, Failure, Status, boolean, choice, count, count_or_none, drive_table, drives,
+from .base import (Adapter, Drive, Failure, Reason, Status, boolean, choice, count, count_or_none, drive_table, drives,
                    finite, grounded, mass_properties, nonnegative, numbers, positive,
                    positive_or_none, step_or_auto)
 
@@ -216,7 +216,7 @@ class Plan:
             ra, rb = (root(b) for b in self.ends(c))
             if ra == rb:
                 if c in first:
-                    self.problem = f"the driven joint '{c.name}' closes a loop of driven joints"
+                    self.problem = Reason(c.type, c.name, "a driven joint that closes a loop of driven joints")
                     return []
                 continue
             if ra == WORLD:
@@ -325,7 +325,7 @@ class Plan:
         """The constraint whose tree joint carries the driven coordinate."""
         b = dr.body
         if b in self.ground:
-            self.problem = f"driver '{dr.name}' moves ground body '{b}'"
+            self.problem = Reason("driver", dr.name, f"moves ground body '{b}'")
             return None
         for c in cons:
             if c.type not in ("revolute", "translational", "revolute-translational") or b not in (c["i"], c["j"]):
@@ -343,13 +343,13 @@ class Plan:
                     return c
         if dr.coord == "phi":
             to = f"body '{dr.relative_to}'" if dr.relative_to else "a ground body"
-            self.problem = (f"driver '{dr.name}' (phi of '{b}') needs a revolute or revolute-translational joint "
-                            f"between '{b}' and {to}: a driven angle must be one hinge's coordinate")
+            self.problem = Reason("driver", dr.name, f"phi of '{b}' needs a revolute or revolute-translational "
+                                  f"joint between '{b}' and {to}: a driven angle must be one hinge's coordinate")
         else:
-            self.problem = (f"driver '{dr.name}' ({dr.coord} of '{b}') needs a translational joint between '{b}' "
-                            f"and a ground body, or a revolute-translational one whose pin is the driven point, "
-                            f"along a line with an {dr.coord} component: a driven position must be one slide's "
-                            "coordinate")
+            self.problem = Reason("driver", dr.name, f"{dr.coord} of '{b}' needs a translational joint between "
+                                  f"'{b}' and a ground body, or a revolute-translational one whose pin is the driven "
+                                  f"point, along a line with an {dr.coord} component: a driven position must be one "
+                                  "slide's coordinate")
         return None
 
     def _map_drive(self, dr, c, parent):
@@ -357,8 +357,8 @@ class Plan:
         n = {"x": 0, "y": 1, "phi": 2}[dr.coord]
         if c is None:                                   # tree = "free": the body's own planar joints
             if dr.relative_to is not None or dr.point is not None:
-                self.problem = (f"driver '{dr.name}': with tree = 'free' only a body's own x, y or phi "
-                                "can be driven")
+                self.problem = Reason("driver", dr.name, "with tree = 'free' only a body's own x, y or phi can be "
+                                      "driven")
                 return
             self.driven.append((dr, dr.body, n, 1.0, self.q0[k + n]))
             return
@@ -535,7 +535,7 @@ class MujocoAdapter(Adapter):
               "drive": choice("auto", "overwrite", "interval", "force"), "tree": choice("spanning", "free"),
               "tolerance": nonnegative, "iterations": count}
 
-    def unsupported(self, model, q0=None, tree="spanning") -> str | None:
+    def unsupported(self, model, q0=None, tree="spanning") -> Reason | None:
         why = super().unsupported(model)
         if why is None:
             plan = Plan(model, model.q0 if q0 is None else q0, tree)

@@ -42,7 +42,7 @@ import numpy as np
 import pymunk
 
 
-from .base import (Adapter, Failure, Status, boolean, count, count_or_auto, count_or_none, drive_table, drives,
+from .base import (Adapter, Failure, Reason, Status, boolean, count, count_or_auto, count_or_none, drive_table, drives,
                    fraction, grounded, mass_properties, nonnegative, numbers, positive, step_or_auto)
 
 # Agreement with native at the default settings, in the figures of
@@ -361,15 +361,15 @@ class PymunkAdapter(Adapter):
             "centered_velocity": True,
         }
 
-    def unsupported(self, model) -> str | None:
+    def unsupported(self, model) -> Reason | None:
         why = super().unsupported(model)
         if why:
             return why
         fixed = grounded(model)
         for c in model.case.constraints:
             if c.type == "gear" and c.get("carrier") is not None and c["carrier"] not in fixed:
-                return (f"gear ('{c.name}') on the moving carrier '{c['carrier']}': "
-                        "GearJoint relates absolute angles, so only fixed axes can be represented")
+                return Reason("gear", c.name, f"on the moving carrier '{c['carrier']}': GearJoint relates absolute "
+                              "angles, so only fixed axes can be represented")
         return None
 
     def resolve(self, model, s, reference=None):

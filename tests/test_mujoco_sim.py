@@ -8,6 +8,8 @@ there from the soft-constraint error at the default step.
 import tomllib
 from pathlib import Path
 
+import pickle
+
 import numpy as np
 import pytest
 
@@ -245,7 +247,12 @@ def test_unsupported_driver_form():
             c.update(body="coupler", d={"poly": [0.27, 0.5]})
     model = kinem.compile(kinem.load_dict(data))
     run = ADAPTER.run(model, model.q0, np.zeros(model.n))
-    assert run.label.startswith("unsupported: driver 'crank-drive'"), run.label
+    assert run.label.startswith("unsupported: driver ('crank-drive'): phi of 'coupler' needs"), run.label
+    # typed: the report groups cases by the constraint type and the why, never by reading the text back
+    assert (run.detail.kind, run.detail.why.split(" needs")[0]) == ("driver", "phi of 'coupler'")
+    # and it comes back whole from a worker process (the report's pool pickles runs)
+    back = pickle.loads(pickle.dumps(run.detail))
+    assert (back, back.kind, back.name, back.why) == (run.detail, "driver", "crank-drive", run.detail.why)
 
 
 @pytest.mark.parametrize("settings", [

@@ -960,3 +960,30 @@ def test_stress_outcomes_render_with_their_messages(report):
     assert line(doc).endswith("engines: 1 accurate, 1 inaccurate, 1 unsupported")
     doc["stress"]["rows"][2]["outcome"] = "unsupported: gear"          # the old free text
     assert any("outcome" in p for p in problems(doc, SCHEMA))
+
+
+def test_unsupported_runs_are_grouped_by_their_typed_reason(tmp_path, monkeypatch):
+    """Two cases that an engine cannot represent for the same reason, on
+    constraints of different names, share one line under the matrix, read
+    from each run's typed reason ([constraint type, why]; adapters.base.Reason),
+    not from its text: the line names the type, the why and both cases, and
+    neither constraint's name."""
+    import kinem
+    from adapters.base import Reason
+
+    class Refuses(FakeEngine):
+        def unsupported(self, model):
+            driver = next(c for c in model.case.constraints if c.type == "driver")
+            return Reason("driver", driver.name, "not this engine's kind of drive (test)")
+
+    monkeypatch.setattr(adapters, "get", lambda name: Refuses())
+    cases = (short_case(tmp_path, "slider_crank", 0.2), short_case(tmp_path, "four_bar", 0.2))
+    run(Options(cases=cases, engines=("pymunk",), out=str(tmp_path / "out"), quick=True, workers=0, progress=False,
+                stress=False))
+    doc = json.loads((tmp_path / "out" / "results.json").read_text())
+    reasons = [r["reason"] for c in doc["cases"] for r in c["runs"] if r["engine"] == "pymunk"]
+    assert reasons == [["driver", "not this engine's kind of drive (test)"]] * 2
+    names = [next(c.name for c in kinem.load(p).constraints if c.type == "driver") for p in cases]
+    line = next(x for x in (tmp_path / "out" / "summary.md").read_text().splitlines() if x.startswith("- **pymunk**"))
+    assert "driver: not this engine's kind of drive (test) (slider_crank, four_bar)" in line, line
+    assert not any(n in line for n in names), (names, line)

@@ -62,7 +62,7 @@ def _matrix_cell(cell):
         return "<td class=c-bad>not run</td>"
     r, v, g = cell
     if g == "skip":
-        return f'<td class=c-skip title="{escape(": ".join(reason(r["detail"])))}">–</td>'
+        return f'<td class=c-skip title="{escape(": ".join(x for x in reason(r) if x))}">–</td>'
     tip = escape(f"{r['status']}; position error / L {fmt(r['position_error_rel'])}; angle error "
                  f"{fmt(r['angle_error'])} rad; residual {fmt(r['constraint_residual'])}; "
                  f"verdict: {v[1]}; position error against {r['reference']}")

@@ -15,7 +15,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from adapters.base import Status
+from adapters.base import Reason, Status
 
 from ..outcome import Kind
 from .fingerprint import compact
@@ -74,6 +74,7 @@ def _blank(task, outcome, detail="", **extra):
     """A run's row: outcome an adapters.base.Status (its value is stored as
     ``outcome``; ``status`` is the one-string label shown to people)."""
     status = outcome.label(detail)
+    reason = [detail.kind, detail.why] if isinstance(detail, Reason) else None
     out = {"engine": task.engine, "knob": task.knob, "value": task.value, "status": status,
            "outcome": outcome.value, "detail": detail,
            "requested": {}, "settings": {}, "version": "", "within_tolerance": None, "tolerance": {},
@@ -81,7 +82,7 @@ def _blank(task, outcome, detail="", **extra):
            "wall_per_sim_second": None, "counts": {}, "reference": REFERENCE_LABEL,
            "reference_kind": Reference.NATIVE.value,
            "knobs": dict(task.point) or ({task.knob: task.value} if task.knob else {}), "trajectory": None,
-           "verdict": _verdict_of(outcome), "estimate": {}}
+           "verdict": _verdict_of(outcome), "estimate": {}, "reason": reason}
     out.update({k: None for k in ERROR_KEYS})
     out.update(extra)
     return out

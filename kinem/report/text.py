@@ -1,7 +1,6 @@
 """summary.md (GitHub-flavoured Markdown for a CI job summary) and junit.xml
 (one test case per case x engine); the summary matrix and headline both
 summary.md and index.html show."""
-import re
 from xml.sax.saxutils import escape, quoteattr
 
 
@@ -125,7 +124,7 @@ def matrix(doc):
             v = verdict_of(doc, f"{c['name']}/{r['engine']}")
             cells[r["engine"]] = (r, v, grade(r, v[0]))
             if unsupported(r) and v[0] != "regressed":
-                what, why = reason(r["detail"])
+                what, why = reason(r)
                 types, names = skipped.setdefault(r["engine"], {}).setdefault(why, ([], []))
                 types += [what] if what not in types else []
                 names.append(c["name"])
@@ -134,13 +133,12 @@ def matrix(doc):
     return engines, rows, skipped
 
 
-def reason(detail) -> tuple:
-    """An adapter's reason for unsupported (a run's detail) as (what, why)
-    without the constraint's own name, so that cases share it: "cam-flat
-    ('contact'): no ..." -> ("cam-flat", "no ...")."""
-    text = re.sub(r" \('[^']*'\)", "", detail.strip())
-    what, _, why = text.partition(": ")
-    return (what, why) if why else ("", what)
+def reason(run) -> tuple:
+    """An unsupported run's reason as (constraint type, why without the
+    constraint's own name), so that cases share it: the run's typed
+    ``reason`` (adapters.base.Reason); a file written before it had one
+    gives ("", its detail)."""
+    return tuple(run.get("reason") or ("", run["detail"]))
 
 
 def unsupported_lines(unsupported):
