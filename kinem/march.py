@@ -52,8 +52,8 @@ class March:
         assembled from q0), until one is not accepted; returns the first
         instant not taken (len(times): all)."""
         tr, n, st = self.tracker, self.model.n, self.state
-        # the state's parts: q, qd, qdd, (time, det sign), H (3 n), T (3)
-        q, qd, qdd, last, H, T = st[:n], st[n:2 * n], st[2 * n:3 * n], st[3 * n:3 * n + 2], st[3 * n + 2:6 * n + 2], st[6 * n + 2:]
+        # the state's parts (views): q, qd, qdd, (time, det sign), H (3 n), T (3)
+        q, qd, qdd, last, H, T = np.split(st, np.cumsum((n, n, n, 2, 3 * n)))
         if k == 0:
             q[:] = self.model.q0 if q0 is None else q0
             qd[:] = qdd[:] = H[:] = 0.0
@@ -65,7 +65,8 @@ class March:
                 qd[:], qdd[:] = (s.qd, s.qdd) if s.qdd is not None else tr.rates(s)
             else:
                 qd[:] = qdd[:] = 0.0
-            T[:], H[:] = tr.recent()[0], tr.recent()[1].ravel()
+            times, states = tr.recent()
+            T[:], H[:] = times, states.ravel()
             q[:], last[:] = s.q, (s.t, s.det)
         ints = self.ints
         ints[-2:] = 0
