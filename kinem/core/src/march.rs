@@ -46,6 +46,8 @@ pub struct Out<'a> {
     /// the det sign of each instant's factorisation
     pub det: &'a mut [i8],
     pub counts: &'a mut [i64],
+    /// the instant of the outputs' first row (0: they hold every instant)
+    pub first: usize,
 }
 
 /// settle's operations on the core's own model and LU: q lives in `q`.
@@ -196,8 +198,9 @@ pub fn run(kin: &Kin, layout: &Layout, times: &[f64], mut k: usize, st: State, s
             layout.solve(&mut ops.f, &nu, st.qd);
             kin.gamma(&At { q: &ops.q, e: &ops.e, t }, st.qd, &mut gamma);
             layout.solve(&mut ops.f, &gamma, st.qdd);
-            out.qd[k * n..(k + 1) * n].copy_from_slice(st.qd);
-            out.qdd[k * n..(k + 1) * n].copy_from_slice(st.qdd);
+            let r = k - out.first;
+            out.qd[r * n..(r + 1) * n].copy_from_slice(st.qd);
+            out.qdd[r * n..(r + 1) * n].copy_from_slice(st.qdd);
         } else {
             st.tt.copy_within(1..3, 0);
             st.h.copy_within(n..3 * n, 0);
@@ -206,11 +209,12 @@ pub fn run(kin: &Kin, layout: &Layout, times: &[f64], mut k: usize, st: State, s
         }
         st.last[0] = t;
         st.last[1] = det as f64;
-        out.q[k * n..(k + 1) * n].copy_from_slice(st.q);
-        out.iterations[k] = settled.iterations as i64;
-        out.residual[k] = settled.residual;
-        out.pivot[k] = ratio;
-        out.det[k] = det as i8;
+        let r = k - out.first;
+        out.q[r * n..(r + 1) * n].copy_from_slice(st.q);
+        out.iterations[r] = settled.iterations as i64;
+        out.residual[r] = settled.residual;
+        out.pivot[r] = ratio;
+        out.det[r] = det as i8;
         k += 1;
     }
     out.counts[0] += ops.counts[0];

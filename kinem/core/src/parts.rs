@@ -81,8 +81,19 @@ fn evaluate(kin: &Kin, q: &[f64], t: f64) -> (Vec<f64>, Vec<f64>) {
 /// One stage's outputs of a part's march (q, qd or qdd).
 type Stage = fn(&Marched) -> &[f64];
 
-/// What one part's march left: its outputs over every instant (rows k..end
-/// filled), where it stopped and why.
+/// A part's march state between windows: q, qd, qdd, (time, det sign), H, T
+/// at its coordinates (crate::march::State's parts).
+struct PartState {
+    q: Vec<f64>,
+    qd: Vec<f64>,
+    qdd: Vec<f64>,
+    last: Vec<f64>,
+    h: Vec<f64>,
+    tt: Vec<f64>,
+}
+
+/// What one part's march over a window left: its outputs from the window's
+/// first instant k (row i - k for instant i), where it stopped and why.
 struct Marched {
     q: Vec<f64>,
     qd: Vec<f64>,
@@ -96,25 +107,36 @@ struct Marched {
     why: u8,
 }
 
+/// The first window's instants; each window without a stop doubles it. A
+/// part that stops makes every other part stop at that instant too (the
+/// tracker takes it for the whole model), so after a stop the others have
+/// marched at most twice as far as the whole did, and resuming after every
+/// instant of a long run costs no more than a march of its length.
+const WINDOW: usize = 16;
+
 /// crate::march::run for a model split into parts, with the whole model's
-/// state and outputs: every part marches from the state at its coordinates
-/// (in parallel); the whole takes the instants every part took, each
-/// instant's iterations and residual the largest of the parts', its pivot
-/// ratio the smallest, its det sign `sign` times the parts' product; the
-/// counts are the busiest part's. The state is left at the last instant
-/// taken.
-pub fn run_parts(parts: &[Part], sign: i32, times: &[f64], k: usize, st: State, s: &Settings, out: Out) -> (usize, u8) {
+/// state and outputs: the parts march from the state at their coordinates,
+/// in parallel, over windows of instants; the whole takes the instants
+/// every part took, each instant's iterations and residual the largest of
+/// the parts', its pivot ratio the smallest, its det sign `sign` times the
+/// parts' product; the counts are the busiest part's. The state is left at
+/// the last instant taken.
+pub fn run_parts(
+    parts: &[Part],
+    sign: i32,
+    times: &[f64],
+    k: usize,
+    st: State,
+    s: &Settings,
+    mut out: Out,
+) -> (usize, u8) {
     let kk = times.len();
     let n = st.q.len();
-    let marched: Vec<Marched> = parts
+    let mut states: Vec<PartState> = parts
         .par_iter()
         .map(|p| {
-            let nb = p.cols.len();
             let gather = |v: &[f64]| p.cols.iter().map(|&j| v[j]).collect::<Vec<f64>>();
-            let (mut q, mut qd, mut qdd) = (gather(st.q), gather(st.qd), gather(st.qdd));
-            let mut h: Vec<f64> =
-                (0..3).flat_map(|r| p.cols.iter().map(move |&j| r * n + j)).map(|i| st.h[i]).collect();
-            let mut tt = st.tt.to_vec();
+            let q = gather(st.q);
             // the part's own det sign at the state it starts from (none at k = 0: the assembly sets it)
             let det = if k == 0 {
                 0
@@ -124,67 +146,31 @@ pub fn run_parts(parts: &[Part], sign: i32, times: &[f64], k: usize, st: State, 
                 let Ok(()) = ops.factor(true);
                 p.layout.stats(&ops.f).1
             };
-            let mut last = vec![st.last[0], det as f64];
-            let mut m = Marched {
-                q: vec![0.0; kk * nb],
-                qd: vec![0.0; if s.rates { kk * nb } else { 0 }],
-                qdd: vec![0.0; if s.rates { kk * nb } else { 0 }],
-                iterations: vec![0; kk],
-                residual: vec![0.0; kk],
-                pivot: vec![0.0; kk],
-                det: vec![0; kk],
-                counts: [0, 0],
-                end: k,
-                why: 0,
-            };
-            let state = State { q: &mut q, qd: &mut qd, qdd: &mut qdd, last: &mut last, h: &mut h, tt: &mut tt };
-            let mut counts = [0i64; 2];
-            let o = Out {
-                q: &mut m.q,
-                qd: &mut m.qd,
-                qdd: &mut m.qdd,
-                iterations: &mut m.iterations,
-                residual: &mut m.residual,
-                pivot: &mut m.pivot,
-                det: &mut m.det,
-                counts: &mut counts,
-            };
-            (m.end, m.why) = run(&p.kin, &p.layout, times, k, state, s, o);
-            m.counts = counts;
-            m
+            PartState {
+                qd: gather(st.qd),
+                qdd: gather(st.qdd),
+                last: vec![st.last[0], det as f64],
+                h: (0..3).flat_map(|r| p.cols.iter().map(move |&j| r * n + j)).map(|i| st.h[i]).collect(),
+                tt: st.tt.to_vec(),
+                q,
+            }
         })
         .collect();
-    let (end, why) = marched.iter().map(|m| (m.end, m.why)).min_by_key(|x| x.0).unwrap_or((kk, 0));
-    // the instants every part took, into the whole model's rows (in parallel over instants)
-    let stages: [(&mut [f64], Stage); 3] = [(out.q, |m| &m.q), (out.qd, |m| &m.qd), (out.qdd, |m| &m.qdd)];
-    for (x, of) in stages.into_iter().take(if s.rates { 3 } else { 1 }) {
-        x.par_chunks_mut(n).enumerate().skip(k).take(end.saturating_sub(k)).for_each(|(i, row)| {
-            for (p, m) in parts.iter().zip(&marched) {
-                let nb = p.cols.len();
-                for (&j, &v) in p.cols.iter().zip(&of(m)[i * nb..(i + 1) * nb]) {
-                    row[j] = v;
-                }
-            }
-        });
-    }
-    for i in k..end {
-        let (mut it, mut res, mut piv, mut det) = (0i64, 0.0f64, f64::INFINITY, sign);
-        for m in &marched {
-            it = it.max(m.iterations[i]);
-            if m.residual[i] > res || m.residual[i].is_nan() {
-                res = m.residual[i];
-            }
-            piv = piv.min(m.pivot[i]);
-            det *= m.det[i] as i32;
+    let (mut from, mut window, mut end, mut why) = (k, WINDOW, k, 0u8);
+    while from < kk {
+        let stop = (from + window).min(kk);
+        let marched: Vec<Marched> = parts
+            .par_iter()
+            .zip(states.par_iter_mut())
+            .map(|(p, ps)| window_of(p, ps, &times[..stop], from, s))
+            .collect();
+        // the first part to stop, with why (a part that reached the window's end has why 0)
+        (end, why) = marched.iter().map(|m| (m.end, m.why)).min_by_key(|&(e, w)| (e, w == 0)).unwrap_or((stop, 0));
+        gather(parts, &marched, n, from, end, s.rates, sign, &mut out);
+        if end < stop {
+            break;
         }
-        out.iterations[i] = it;
-        out.residual[i] = res;
-        out.pivot[i] = piv;
-        out.det[i] = det as i8;
-    }
-    for m in &marched {
-        out.counts[0] = out.counts[0].max(m.counts[0]);
-        out.counts[1] = out.counts[1].max(m.counts[1]);
+        (from, window) = (stop, 2 * window);
     }
     if end > k {
         let i = end - 1;
@@ -204,4 +190,84 @@ pub fn run_parts(parts: &[Part], sign: i32, times: &[f64], k: usize, st: State, 
         st.last[1] = out.det[i] as f64;
     }
     (end, why)
+}
+
+/// Part p's march over times[from..] (a window: `times` ends where it
+/// does), from and into its state ps.
+fn window_of(p: &Part, ps: &mut PartState, times: &[f64], from: usize, s: &Settings) -> Marched {
+    let (nb, rows) = (p.cols.len(), times.len() - from);
+    let mut m = Marched {
+        q: vec![0.0; rows * nb],
+        qd: vec![0.0; if s.rates { rows * nb } else { 0 }],
+        qdd: vec![0.0; if s.rates { rows * nb } else { 0 }],
+        iterations: vec![0; rows],
+        residual: vec![0.0; rows],
+        pivot: vec![0.0; rows],
+        det: vec![0; rows],
+        counts: [0, 0],
+        end: from,
+        why: 0,
+    };
+    let state =
+        State { q: &mut ps.q, qd: &mut ps.qd, qdd: &mut ps.qdd, last: &mut ps.last, h: &mut ps.h, tt: &mut ps.tt };
+    let o = Out {
+        q: &mut m.q,
+        qd: &mut m.qd,
+        qdd: &mut m.qdd,
+        iterations: &mut m.iterations,
+        residual: &mut m.residual,
+        pivot: &mut m.pivot,
+        det: &mut m.det,
+        counts: &mut m.counts,
+        first: from,
+    };
+    (m.end, m.why) = run(&p.kin, &p.layout, times, from, state, s, o);
+    m
+}
+
+/// The instants from..end that every part took, from the parts' window
+/// outputs into the whole model's rows (in parallel over instants), with
+/// each instant's figures; adds the busiest part's counts.
+#[allow(clippy::too_many_arguments)]
+fn gather(
+    parts: &[Part],
+    marched: &[Marched],
+    n: usize,
+    from: usize,
+    end: usize,
+    rates: bool,
+    sign: i32,
+    out: &mut Out,
+) {
+    let stages: [(&mut [f64], Stage); 3] =
+        [(&mut *out.q, |m| &m.q), (&mut *out.qd, |m| &m.qd), (&mut *out.qdd, |m| &m.qdd)];
+    for (x, of) in stages.into_iter().take(if rates { 3 } else { 1 }) {
+        x.par_chunks_mut(n).enumerate().skip(from).take(end.saturating_sub(from)).for_each(|(i, row)| {
+            let r = i - from;
+            for (p, m) in parts.iter().zip(marched) {
+                let nb = p.cols.len();
+                for (&j, &v) in p.cols.iter().zip(&of(m)[r * nb..(r + 1) * nb]) {
+                    row[j] = v;
+                }
+            }
+        });
+    }
+    for i in from..end {
+        let (r, mut it, mut res, mut piv, mut det) = (i - from, 0i64, 0.0f64, f64::INFINITY, sign);
+        for m in marched {
+            it = it.max(m.iterations[r]);
+            if m.residual[r] > res || m.residual[r].is_nan() {
+                res = m.residual[r];
+            }
+            piv = piv.min(m.pivot[r]);
+            det *= m.det[r] as i32;
+        }
+        out.iterations[i] = it;
+        out.residual[i] = res;
+        out.pivot[i] = piv;
+        out.det[i] = det as i8;
+    }
+    for c in 0..2 {
+        out.counts[c] += marched.iter().map(|m| m.counts[c]).max().unwrap_or(0);
+    }
 }

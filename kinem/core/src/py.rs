@@ -425,7 +425,8 @@ impl Plan {
         let (residual, pivot) = figures.as_slice_mut().map_err(|_| bad("figures"))?.split_at_mut(kk);
         let (iterations, counts) = ints.as_slice_mut().map_err(|_| bad("ints"))?.split_at_mut(kk);
         let mut det = vec![0i8; kk];
-        let out = march::Out { q: oq, qd: oqd, qdd: oqdd, iterations, residual, pivot, det: &mut det, counts };
+        let out =
+            march::Out { q: oq, qd: oqd, qdd: oqdd, iterations, residual, pivot, det: &mut det, counts, first: 0 };
         let parts = &self.parts;
         guard(py, move || {
             if layout.count < 2 || !matches!(layout.shape, Shape::Blocks { .. }) {
