@@ -109,10 +109,11 @@ struct Marched {
 
 /// The first window's instants; each window without a stop doubles it. A
 /// part that stops makes every other part stop at that instant too (the
-/// tracker takes it for the whole model), so after a stop the others have
-/// marched at most twice as far as the whole did, and resuming after every
-/// instant of a long run costs no more than a march of its length.
-const WINDOW: usize = 16;
+/// tracker takes it for the whole model), so the others have marched at
+/// most WINDOW instants or twice as far as the whole did past it: resuming
+/// after every instant of a long run costs about WINDOW instants each time,
+/// not a march to the end.
+const WINDOW: usize = 4;
 
 /// crate::march::run for a model split into parts, with the whole model's
 /// state and outputs: the parts march from the state at their coordinates,
