@@ -1,9 +1,48 @@
 """Variants solved together equal the same variants solved one by one."""
+import glob
+import os
+
 import numpy as np
+import pytest
 
 import kinem
+from kinem import march
 from kinem.batch import merge, split
-from kinem.reference import four_bar_case, slider_crank_case
+from kinem.model import ONE_BLOCK
+from kinem.reference import four_bar_case, n_four_bar, slider_crank_case
+
+CASES = os.path.join(os.path.dirname(__file__), "..", "cases")
+
+
+def assert_equal_to_singles(batch, cases, outputs=kinem.OUTPUTS, away=None):
+    """Each variant's part of a merged solve equals its own solve: both are
+    converged to the same tolerance (the merged one measured against the
+    largest variant's size), so 1e-9 of each quantity's size apart at most;
+    ``away``: a mask of the instants compared (default all)."""
+    for k, c in enumerate(cases):
+        single = kinem.solve(kinem.compile(c), outputs).trajectory
+        part = split(batch.trajectory, k)
+        assert part.columns == single.columns
+        size = np.maximum(1.0, np.abs(single.data).max(axis=0))
+        keep = slice(None) if away is None else away
+        assert (np.abs(part.data - single.data)[keep] <= 1e-9 * size).all(), (c.name, outputs)
+
+
+def watched(model, outputs=kinem.OUTPUTS):
+    """kinem.solve with every march call recorded: (result, [(k, end, the
+    call's own Jacobian evaluations)])."""
+    calls, original = [], march.March.advance
+
+    def advance(self, k, q0=None):
+        end = original(self, k, q0)
+        calls.append((k, end, int(self.ints[-2])))
+        return end
+
+    march.March.advance = advance
+    try:
+        return kinem.solve(model, outputs), calls
+    finally:
+        march.March.advance = original
 
 
 def test_merged_variants_equal_single_solves():
@@ -11,17 +50,10 @@ def test_merged_variants_equal_single_solves():
     cases.append(kinem.load_dict(four_bar_case(0.1, 0.3, 0.22, 0.2, end=1.0, steps=40)))  # any topology merges
     batch = kinem.solve(kinem.compile(merge(cases)))
     assert batch.success
-    for k, c in enumerate(cases):
-        single = kinem.solve(kinem.compile(c)).trajectory
-        part = split(batch.trajectory, k)
-        assert part.columns == single.columns
-        # both are converged to the same tolerance: 1e-9 of the size (0.4) apart at most
-        assert np.abs(part.data - single.data).max() <= 1e-9 * max(1.0, np.abs(single.data).max())
+    assert_equal_to_singles(batch, cases)
 
 
 def test_variants_need_the_same_instants():
-    import pytest
-
     a = kinem.load_dict(slider_crank_case(0.1, 0.3, end=1.0, steps=40))
     b = kinem.load_dict(slider_crank_case(0.1, 0.3, end=1.0, steps=41))
     with pytest.raises(kinem.InputError):
@@ -35,35 +67,15 @@ def test_merged_variants_march_in_blocks_one_per_variant():
     An odd reordering sign or a wrong padding would make every block's det
     sign or solution differ from the step-by-step march's, and blocks would
     take no instant."""
-    from kinem import march
-    from kinem.model import ONE_BLOCK
-    from kinem.reference import n_four_bar
-
     cases = [kinem.load_dict(slider_crank_case(0.1 * (1 + 0.1 * k), 0.3, 0.01 * k, end=1.0, steps=80)) for k in range(4)]
     cases.append(kinem.load_dict(n_four_bar(2)).with_time(1.0, 80))  # 18 coordinates: the others are padded
     model = kinem.compile(merge(cases))
     b = model.blocks
     assert model.n > ONE_BLOCK and (b.count, b.size, b.pad.size) == (5, 18, 4 * 6)
     assert march.usable(model, False, len(model.times), kinem.Options.of(model.case))
-    taken, original = [], march.March.advance
-
-    def advance(self, k, q0=None):
-        end = original(self, k, q0)
-        taken.append(end - k)
-        return end
-
-    march.March.advance = advance
-    try:
-        batch = kinem.solve(model)
-    finally:
-        march.March.advance = original
-    assert batch.success and sum(taken) >= len(model.times) // 2
-    for k, c in enumerate(cases):
-        single = kinem.solve(kinem.compile(c)).trajectory
-        part = split(batch.trajectory, k)
-        assert part.columns == single.columns
-        # both converged to the same tolerance: 1e-9 of the size apart at most
-        assert np.abs(part.data - single.data).max() <= 1e-9 * max(1.0, np.abs(single.data).max())
+    batch, calls = watched(model)
+    assert batch.success and sum(end - k for k, end, _ in calls) >= len(model.times) // 2
+    assert_equal_to_singles(batch, cases)
 
 
 def test_every_family_marches_in_its_own_part():
@@ -73,26 +85,13 @@ def test_every_family_marches_in_its_own_part():
     checks each part's residual and Jacobian against the whole model's to
     the bit when it splits). Each variant's answers equal its single solve,
     positions only (the Lagrange predictor) and with rates (Taylor)."""
-    import glob
-    import os
-
-    from kinem.model import ONE_BLOCK
-
-    root = os.path.join(os.path.dirname(__file__), "..", "cases")
-    cases = [kinem.load(f).with_time(1.0, 30) for f in sorted(glob.glob(os.path.join(root, "*.toml")))]
+    cases = [kinem.load(f).with_time(1.0, 30) for f in sorted(glob.glob(os.path.join(CASES, "*.toml")))]
     model = kinem.compile(merge(cases))
     assert model.n > ONE_BLOCK and model.blocks.count == len(cases)
-    for outputs in (("positions",), ("positions", "velocities", "accelerations")):
+    for outputs in (("positions",), kinem.OUTPUTS):
         batch = kinem.solve(model, outputs)
         assert batch.success, batch.message
-        for k, c in enumerate(cases):
-            single = kinem.solve(kinem.compile(c), outputs).trajectory
-            part = split(batch.trajectory, k)
-            assert part.columns == single.columns
-            # both converged to the tolerance (the merged one measured against the largest variant's size):
-            # 1e-9 of each quantity's size apart at most
-            size = np.maximum(1.0, np.abs(single.data).max(axis=0))
-            assert (np.abs(part.data - single.data) <= 1e-9 * size).all(), c.name
+        assert_equal_to_singles(batch, cases, outputs)
 
 
 def test_a_variant_handed_to_the_tracker_and_the_parts_resuming_after_it():
@@ -106,42 +105,20 @@ def test_a_variant_handed_to_the_tracker_and_the_parts_resuming_after_it():
     other variants' rates there are interpolated too, 4e-7 of their size off,
     and the singular variant's acceleration depends on where the sub-steps
     fall.)"""
-    import os
-
-    from kinem import march
-
-    root = os.path.join(os.path.dirname(__file__), "..", "cases")
-    change = kinem.load(os.path.join(root, "stress", "change_point.toml"))
-    slider, four_bar = (kinem.load(os.path.join(root, f)).with_time(change.end, change.steps)
+    change = kinem.load(os.path.join(CASES, "stress", "change_point.toml"))
+    slider, four_bar = (kinem.load(os.path.join(CASES, f)).with_time(change.end, change.steps)
                         for f in ("slider_crank.toml", "four_bar.toml"))
     cases = [slider, change, four_bar, slider, four_bar, slider]  # 72 coordinates: above ONE_BLOCK, 6 blocks
     model = kinem.compile(merge(cases))
     assert model.blocks.count == 6
-    resumed, original = [], march.March.advance
-
-    def advance(self, k, q0=None):
-        end = original(self, k, q0)
-        if k > 0:
-            resumed.append((k, end))
-        return end
-
-    march.March.advance = advance
-    try:
-        for outputs in (("positions",), kinem.OUTPUTS):
-            batch = kinem.solve(model, outputs)
-            assert batch.success, batch.message
-            assert [t for t, _ in batch.events] == [1.5]
-            for k, c in enumerate(cases):
-                single = kinem.solve(kinem.compile(c), outputs).trajectory
-                part = split(batch.trajectory, k)
-                size = np.maximum(1.0, np.abs(single.data).max(axis=0))
-                away = ~np.isclose(single.t, 1.5)
-                # 1e-9 of each quantity's size, as above
-                assert (np.abs(part.data - single.data)[away] <= 1e-9 * size).all(), (c.name, outputs)
-    finally:
-        march.March.advance = original
-    # the parts marched again after the tracker's instants, to the end
-    assert resumed and resumed[-1][1] == len(model.times)
+    for outputs in (("positions",), kinem.OUTPUTS):
+        batch, calls = watched(model, outputs)
+        assert batch.success, batch.message
+        assert [t for t, _ in batch.events] == [1.5]
+        assert_equal_to_singles(batch, cases, outputs, away=~np.isclose(batch.trajectory.t, 1.5))
+        # the parts marched again after the tracker's instants, to the end
+        resumed = [(k, end) for k, end, _ in calls if k > 0]
+        assert resumed and resumed[-1][1] == len(model.times)
 
 
 def test_a_variant_handed_back_at_many_instants_keeps_the_march_linear():
@@ -155,30 +132,12 @@ def test_a_variant_handed_back_at_many_instants_keeps_the_march_linear():
     so below 25 per instant; marching every part to the end at each of the
     200 hand-backs would report about 200 per instant. Every variant still
     equals its single solve."""
-    from kinem import march
-    from kinem.reference import slider_crank_case
-
     K = 200
     fast = kinem.load_dict(slider_crank_case(0.1, 0.3, 0.0, fn={"poly": [0.5, 1200.0]}, end=1.0, steps=K))
     cases = [kinem.load_dict(slider_crank_case(0.1 * (1 + 0.02 * k), 0.3, 0.0, end=1.0, steps=K)) for k in range(6)]
     cases.insert(3, fast)
     model = kinem.compile(merge(cases))
-    evaluations, original = [], march.March.advance
-
-    def advance(self, k, q0=None):
-        end = original(self, k, q0)
-        evaluations.append(int(self.ints[-2]))   # this march call's own count (Plan.march)
-        return end
-
-    march.March.advance = advance
-    try:
-        batch = kinem.solve(model)
-    finally:
-        march.March.advance = original
-    assert batch.success and len(evaluations) > K // 2, (batch.message, len(evaluations))
-    assert sum(evaluations) < 25 * len(model.times), sum(evaluations)
-    for k, c in enumerate(cases):
-        single = kinem.solve(kinem.compile(c)).trajectory
-        size = np.maximum(1.0, np.abs(single.data).max(axis=0))
-        # 1e-9 of each quantity's size, as above
-        assert (np.abs(split(batch.trajectory, k).data - single.data) <= 1e-9 * size).all(), c.name
+    batch, calls = watched(model)
+    assert batch.success and len(calls) > K // 2, (batch.message, len(calls))
+    assert sum(own for _, _, own in calls) < 25 * len(model.times)
+    assert_equal_to_singles(batch, cases)
