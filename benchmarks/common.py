@@ -51,6 +51,38 @@ def rounds(fns: dict, repeats: int, warm: bool = False) -> dict:
     return {k: (statistics.median(v), v, last[k]) for k, v in times.items()}
 
 
+FIXED_INSTANTS = (64, 128, 256, 512, 1024)
+
+
+def fixed_cost(case, repeats: int) -> dict:
+    """The fixed cost of a solve: the least-squares intercept of the whole
+    kinem.solve call's time over FIXED_INSTANTS output instants (each the
+    median of 10 warm solves in a row, rounds interleaved) of ``case`` at
+    its own step; prints the times and the fit."""
+    def loop_of_solves(model, count=10):
+        out = []
+        for _ in range(count):
+            start = time.perf_counter()
+            kinem.solve(model)
+            out.append(time.perf_counter() - start)
+        return statistics.median(out), None
+
+    models = {K: kinem.compile(case.with_time(end=case.end * (K - 1) / case.steps, steps=K - 1))
+              for K in FIXED_INSTANTS}
+    for K, m in models.items():
+        assert len(m.times) == K, (K, len(m.times))
+        kinem.solve(m)  # warm
+    res = rounds({K: (lambda m=m: loop_of_solves(m)) for K, m in models.items()}, repeats)
+    K = np.array(FIXED_INSTANTS, float)
+    t = np.array([res[k][0] for k in FIXED_INSTANTS])
+    slope, fixed = np.polyfit(K, t, 1)
+    worst = float(np.abs(t - (fixed + slope * K)).max())
+    say("   " + ", ".join(f"t({k}) {1e6 * res[k][0]:.0f} us" for k in FIXED_INSTANTS))
+    say(f"   fit: {1e6 * fixed:.1f} us + {1e6 * slope:.3f} us per instant (largest residual {1e6 * worst:.1f} us)")
+    return {"fixed_us": 1e6 * fixed, "us_per_instant": 1e6 * slope, "fit_residual_us": 1e6 * worst,
+            "t_us": {str(k): 1e6 * res[k][0] for k in FIXED_INSTANTS}, "rounds": repeats}
+
+
 def per_call(fn, min_time=0.1, repeats=7) -> float:
     """Median seconds per call of a fast function (batches of calls)."""
     n, t = 1, 0.0

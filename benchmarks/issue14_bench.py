@@ -30,7 +30,7 @@ import time
 
 import numpy as np
 
-from common import rounds, say  # puts the repository root on sys.path
+from common import FIXED_INSTANTS, fixed_cost, rounds, say  # puts the repository root on sys.path
 import peers
 
 import kinem
@@ -121,38 +121,11 @@ def _rel(got, ref):
     return float(np.abs(got - ref).max() / np.abs(ref).max())
 
 
-FIXED_INSTANTS = (64, 128, 256, 512, 1024)
-
-
-def _loop_of_solves(model, count=10):
-    """Median seconds of ``count`` solves of the model in a row (warm: as a
-    sweep or a loop over parameters runs them)."""
-    out = []
-    for _ in range(count):
-        start = time.perf_counter()
-        kinem.solve(model)
-        out.append(time.perf_counter() - start)
-    return statistics.median(out), None
-
-
 def section_fixed(repeats):
     say("\n== fixed cost of a solve: intercept of the whole kinem.solve call's time over "
         f"{', '.join(map(str, FIXED_INSTANTS))} output instants (least squares; each the median of "
         "10 solves in a row, rounds interleaved), slider-crank ==")
-    case = kinem.load_dict(peers.slider_crank_case())
-    models = {K: kinem.compile(case.with_time(end=case.end * (K - 1) / case.steps, steps=K - 1))
-              for K in FIXED_INSTANTS}
-    for K, m in models.items():
-        assert len(m.times) == K, (K, len(m.times))
-    res = rounds({K: (lambda m=m: _loop_of_solves(m)) for K, m in models.items()}, 2 * repeats)
-    K = np.array(FIXED_INSTANTS, float)
-    t = np.array([res[k][0] for k in FIXED_INSTANTS])
-    slope, fixed = np.polyfit(K, t, 1)
-    worst = float(np.abs(t - (fixed + slope * K)).max())
-    say("   " + ", ".join(f"t({k}) {1e6 * res[k][0]:.0f} us" for k in FIXED_INSTANTS))
-    say(f"   fit: {1e6 * fixed:.1f} us + {1e6 * slope:.3f} us per instant (largest residual {1e6 * worst:.1f} us)")
-    return {"fixed_us": 1e6 * fixed, "us_per_instant": 1e6 * slope, "fit_residual_us": 1e6 * worst,
-            "t_us": {str(k): 1e6 * res[k][0] for k in FIXED_INSTANTS}}
+    return fixed_cost(kinem.load_dict(peers.slider_crank_case()), 2 * repeats)
 
 
 def section_scaling(bodies, steps, repeats):
