@@ -50,41 +50,12 @@ SETTLE = 5.0   # seconds a killed command's processes get to end (the issue's bo
 
 # -- fuzz ---------------------------------------------------------------------------------------
 
-def mutate(rng, base_doc):
-    """One mutated case file (the kinds of tests/test_fuzz.py's ``mutated``) and whether it must be invalid."""
-    from test_fuzz import INVALID, ODD, document, get, paths
-
-    d = json.loads(json.dumps(base_doc))
-    path = rng.choice(paths(d))
-    parent, key = get(d, path[:-1]), path[-1]
-    kind = rng.choice(["delete", "rename", "invalid", "odd", "swap-bodies"])
-    invalid = False
-    if kind == "delete":
-        if isinstance(parent, list):
-            parent.pop(key)
-        else:
-            del parent[key]
-    elif kind == "rename" and isinstance(parent, dict):
-        parent[str(key) + "_typo"] = parent.pop(key)
-        invalid = parent is not d.get("points")
-    elif kind == "invalid" and isinstance(get(d, path), (int, float)) and not isinstance(get(d, path), bool):
-        parent[key] = INVALID[rng.choice(sorted(INVALID))]
-        invalid = True
-    elif kind == "swap-bodies":
-        cons = [c for c in d.get("constraints", []) if isinstance(c, dict) and "i" in c and "j" in c]
-        if cons:
-            c = rng.choice(cons)
-            c["i"], c["j"] = c["j"], c["i"]
-    else:
-        parent[key] = ODD[rng.choice(sorted(ODD))]
-    return document(d), invalid
-
-
 def fuzz(n, rng, problems):
     """n mutated cases through kinem.cli.main in this process; returns (counts by exit code, slowest s)."""
     import tomllib
 
     from kinem.cli import main
+    from test_fuzz import mutate
 
     bases = {b: tomllib.loads((CASES / f"{b}.toml").read_text()) for b in ("slider_crank", "four_bar",
                                                                            "quick_return_3")}
@@ -92,7 +63,7 @@ def fuzz(n, rng, problems):
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         for k in range(n):
-            text, invalid = mutate(rng, bases[rng.choice(sorted(bases))])
+            text, invalid = mutate(bases[rng.choice(sorted(bases))], rng.choice)
             case = folder / "case.toml"
             case.write_text(text)
             command = rng.choice(["info", "solve"])

@@ -80,13 +80,15 @@ def budget(n):
     return settings(max_examples=EXAMPLES or n)
 
 
-@st.composite
-def mutated(draw):
-    base = draw(st.sampled_from(BASES))
-    d = json.loads(json.dumps(PARSED[base]))  # deep copy
-    path = draw(st.sampled_from(paths(d)))
+def mutate(doc, choose):
+    """One mutation of a parsed case file (a deep copy of ``doc``), each
+    choice made by ``choose(sequence)`` (hypothesis's draw here, a seeded
+    random.choice in benchmarks/fault_matrix.py): (TOML text, whether it
+    must be invalid)."""
+    d = json.loads(json.dumps(doc))  # deep copy
+    path = choose(paths(d))
     parent, key = get(d, path[:-1]), path[-1]
-    kind = draw(st.sampled_from(["delete", "rename", "invalid", "odd", "swap-bodies"]))
+    kind = choose(["delete", "rename", "invalid", "odd", "swap-bodies"])
     invalid = False
     if kind == "delete":
         if isinstance(parent, list):
@@ -99,16 +101,22 @@ def mutated(draw):
         # a renamed point is valid when no constraint names it (found by the 5,000-case run)
         invalid = parent is not d.get("points")
     elif kind == "invalid" and isinstance(get(d, path), (int, float)) and not isinstance(get(d, path), bool):
-        parent[key] = INVALID[draw(st.sampled_from(sorted(INVALID)))]
+        parent[key] = INVALID[choose(sorted(INVALID))]
         invalid = True
     elif kind == "swap-bodies":
         cons = [c for c in d.get("constraints", []) if isinstance(c, dict) and "i" in c and "j" in c]
         if cons:
-            c = draw(st.sampled_from(cons))
+            c = choose(cons)
             c["i"], c["j"] = c["j"], c["i"]
     else:
-        parent[key] = ODD[draw(st.sampled_from(sorted(ODD)))]
+        parent[key] = ODD[choose(sorted(ODD))]
     return document(d), invalid
+
+
+@st.composite
+def mutated(draw):
+    base = draw(st.sampled_from(BASES))
+    return mutate(PARSED[base], lambda seq: draw(st.sampled_from(seq)))
 
 
 def check(tmp_path, text, must_be_invalid, command="info", options=("--steps", "3")):
