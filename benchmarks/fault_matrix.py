@@ -118,16 +118,10 @@ def commands(scratch):
 
 
 def session_processes(sid):
-    out = []
-    for d in Path("/proc").iterdir():
-        if d.name.isdigit():
-            try:
-                fields = (d / "stat").read_text().rsplit(")", 1)[1].split()
-            except OSError:
-                continue
-            if int(fields[3]) == sid and fields[0] != "Z":
-                out.append(int(d.name))
-    return out
+    """PIDs of the live processes of session sid (from /proc)."""
+    from test_orphans import processes
+
+    return processes(3, sid)
 
 
 def launch(argv, scratch, redirect=""):

@@ -31,8 +31,9 @@ else:
 """
 
 
-def children(pid):
-    """PIDs of the live processes whose parent is pid (from /proc)."""
+def processes(field, value):
+    """PIDs of the live processes whose /proc stat field ``field`` (counted
+    after the command name: 1 the parent, 3 the session) equals value."""
     out = []
     for d in Path("/proc").iterdir():
         if d.name.isdigit():
@@ -40,9 +41,14 @@ def children(pid):
                 fields = (d / "stat").read_text().rsplit(")", 1)[1].split()
             except OSError:
                 continue
-            if int(fields[1]) == pid and fields[0] != "Z":
+            if int(fields[field]) == value and fields[0] != "Z":
                 out.append(int(d.name))
     return out
+
+
+def children(pid):
+    """PIDs of the live processes whose parent is pid (from /proc)."""
+    return processes(1, pid)
 
 
 def alive(pid):
