@@ -275,16 +275,15 @@ def test_work_limit_refuses_with_a_clear_error():
     assert code == 2 and "exceeds the work limit 5e+07" in one_line(err)   # refused before any work
 
 
-def test_progress_only_on_a_terminal():
+def on_a_terminal(args, timeout):
+    """``kinem ARGS`` with its standard error on a pseudo-terminal (stdout
+    discarded): (exit code, every byte written to the terminal)."""
     import pty
 
-    args = ["solve", SLIDER, "--steps", 30_000, "--outputs", "positions", "--out", os.devnull]
-    code, _, err = run(*args)
-    assert code == 0 and err == ""                    # not a terminal: nothing
     master, slave = pty.openpty()
     try:
         p = subprocess.run([sys.executable, "-m", "kinem", *map(str, args)], stderr=slave,
-                           stdout=subprocess.DEVNULL, cwd=ROOT, timeout=300)
+                           stdout=subprocess.DEVNULL, cwd=ROOT, timeout=timeout)
         os.close(slave)
         seen = b""
         while True:
@@ -297,7 +296,15 @@ def test_progress_only_on_a_terminal():
             seen += chunk
     finally:
         os.close(master)
-    assert p.returncode == 0 and b"/30001" in seen and b"t = " in seen
+    return p.returncode, seen
+
+
+def test_progress_only_on_a_terminal():
+    args = ["solve", SLIDER, "--steps", 30_000, "--outputs", "positions", "--out", os.devnull]
+    code, _, err = run(*args)
+    assert code == 0 and err == ""                    # not a terminal: nothing
+    code, seen = on_a_terminal(args, timeout=300)
+    assert code == 0 and b"/30001" in seen and b"t = " in seen
 
 
 @pytest.mark.parametrize("mode", [0o600, 0o640, 0o444])

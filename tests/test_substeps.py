@@ -84,29 +84,14 @@ def test_kinem_solve_counts_substeps_against_max_work(tmp_path):
 
 
 def test_the_progress_bar_counts_substeps_on_a_terminal(tmp_path):
-    import pty
+    from test_outputs import on_a_terminal
 
     case = case_file(tmp_path, 1e3)
     model = kinem.compile(kinem.load(case))
     limit = stream.work(model) + 250 * stream.SUBSTEP_WORK * model.n
-    master, slave = pty.openpty()
-    try:
-        p = subprocess.run([sys.executable, "-m", "kinem", "solve", str(case), "--max-work", str(limit),
-                            "--out", os.devnull], stderr=slave, stdout=subprocess.DEVNULL, cwd=ROOT, timeout=600)
-        os.close(slave)
-        seen = b""
-        while True:
-            try:
-                chunk = os.read(master, 65536)
-            except OSError:
-                break
-            if not chunk:
-                break
-            seen += chunk
-    finally:
-        os.close(master)
+    code, seen = on_a_terminal(["solve", case, "--max-work", limit, "--out", os.devnull], timeout=600)
     # 501 instants: too few for the bar by instants; the sub-steps show it (every SHOW_SUBSTEPS = 100)
-    assert p.returncode == 1 and b"200 sub-steps" in seen and b"t = " in seen
+    assert code == 1 and b"200 sub-steps" in seen and b"t = " in seen
 
 
 @pytest.mark.parametrize("bad", [-1, 1.5])
