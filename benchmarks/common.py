@@ -51,6 +51,20 @@ def rounds(fns: dict, repeats: int, warm: bool = False) -> dict:
     return {k: (statistics.median(v), v, last[k]) for k, v in times.items()}
 
 
+def load() -> str:
+    """The load average (1, 5, 15 minutes) as the benchmarks print it."""
+    return " ".join(open("/proc/loadavg").read().split()[:3]) if os.path.exists("/proc/loadavg") else "n/a"
+
+
+def timed(fn):
+    """fn as a ``rounds`` callable: () -> (seconds, fn's result)."""
+    def run():
+        start = time.perf_counter()
+        out = fn()
+        return time.perf_counter() - start, out
+    return run
+
+
 FIXED_INSTANTS = (64, 128, 256, 512, 1024)
 
 

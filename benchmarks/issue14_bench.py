@@ -30,23 +30,11 @@ import time
 
 import numpy as np
 
-from common import FIXED_INSTANTS, fixed_cost, rounds, say  # puts the repository root on sys.path
+from common import FIXED_INSTANTS, fixed_cost, load, rounds, say, timed  # puts the repository root on sys.path
 import peers
 
 import kinem
 from kinem.reference import four_bar, slider_crank
-
-
-def load():
-    return " ".join(open("/proc/loadavg").read().split()[:3]) if os.path.exists("/proc/loadavg") else "n/a"
-
-
-def timed(fn):
-    def run():
-        start = time.perf_counter()
-        out = fn()
-        return time.perf_counter() - start, out
-    return run
 
 
 def section_peers(repeats):

@@ -39,24 +39,13 @@ import time
 
 import numpy as np
 
-from common import FIXED_INSTANTS, ROOT, fixed_cost, machine, rounds, say  # puts the repository root on sys.path
+# common puts the repository root on sys.path
+from common import FIXED_INSTANTS, ROOT, fixed_cost, load, machine, rounds, say, timed
 import peers
 
 import kinem
 
 SECTIONS = ("peers", "first", "fixed", "batch")
-
-
-def load():
-    return " ".join(open("/proc/loadavg").read().split()[:3]) if os.path.exists("/proc/loadavg") else "n/a"
-
-
-def timed(fn):
-    def run():
-        start = time.perf_counter()
-        out = fn()
-        return time.perf_counter() - start, out
-    return run
 
 
 # -- peers ----------------------------------------------------------------------------------------
