@@ -150,7 +150,6 @@ impl Layout {
 
     /// Block c of J_s from the values: in its fixed order's positions, or natural.
     fn assemble_block(&self, values: &[f64], c: usize, s: usize, pad: &[usize], order: Option<&Order>, a: &mut [f64]) {
-        let entries = &self.by_block[self.block_start[c]..self.block_start[c + 1]];
         match order {
             Some(o) => {
                 // the elimination reads only the factors' pattern: clear the fill, set the rest
@@ -166,7 +165,7 @@ impl Layout {
             }
             None => {
                 a.fill(0.0);
-                for &e in entries {
+                for &e in &self.by_block[self.block_start[c]..self.block_start[c + 1]] {
                     let (_, r, k) = self.at[e];
                     a[r * s + k] = values[e] * self.entry_scale[e];
                 }

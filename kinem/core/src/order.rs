@@ -41,8 +41,8 @@ pub struct Order {
     /// per step: the pivot is at a real (not padding) position (set by `fuse`)
     real: Vec<bool>,
     /// every position of the factors' pattern (fill-in included): the only
-    /// ones the elimination reads, so the only ones to clear before assembly
-    pub pattern_at: Vec<usize>,
+    /// ones the elimination reads (`fuse` keeps those no entry sets: fill_at)
+    pattern_at: Vec<usize>,
     /// the pattern's positions that no Jacobian entry or padding sets (set
     /// by `fuse`): the only ones to clear before each assembly
     pub fill_at: Vec<usize>,
