@@ -19,9 +19,10 @@ from .options import Options
 from .result import OUTPUTS, SolveResult, Status, Trajectory
 from .solver import solve
 from .spec import Body, Case, Constraint, Point
+from .sweep import Sweep, sweep
 
 __all__ = [
     "__version__", "load", "loads", "load_dict", "compile", "solve", "position", "velocity", "acceleration",
     "factorize", "Data", "Options", "Model", "Case", "Body", "Point", "Constraint", "SolveResult", "Trajectory",
-    "Status", "OUTPUTS", "plot", "animate", "KinemError", "InputError", "AnalysisError", "ConvergenceError", "SingularError",
+    "Status", "OUTPUTS", "sweep", "Sweep", "plot", "animate", "KinemError", "InputError", "AnalysisError", "ConvergenceError", "SingularError",
 ]

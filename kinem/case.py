@@ -19,12 +19,18 @@ from .errors import InputError
 from .spec import Case, frozen_map
 
 MAX_FILE_BYTES = 16 * 2**20
-TOP_KEYS = ("name", "description", "units", "time", "solver", "bodies", "points", "constraints", "engines",
+TOP_KEYS = ("name", "description", "parameters", "units", "time", "solver", "bodies", "points", "constraints", "engines",
             "equivalent", "report")
 
 
-def load(path) -> Case:
-    """Read and validate a case file."""
+def load(path, parameters=None) -> Case:
+    """Read and validate a case file; ``parameters``: values of its named
+    dimensions ({"crank": 55} or {"parameters.crank": 55}) instead of the file's."""
+    return load_dict(read(path), source=str(path), parameters=parameters)
+
+
+def read(path) -> dict:
+    """A case file's TOML as a dict, not yet validated (size-capped; a FIFO's writer waited for)."""
     import stat
 
     from .output import read_fifo
@@ -40,11 +46,15 @@ def load(path) -> Case:
         raise InputError(f"{path}: cannot read: {e.strerror or e}") from None
     if len(raw) > MAX_FILE_BYTES:
         raise InputError(f"{path}: more than {MAX_FILE_BYTES} bytes; expected a case file of at most 16 MiB")
-    return loads(raw, source=str(path))
+    return _toml(raw, str(path))
 
 
-def loads(text, source: str = "<string>") -> Case:
+def loads(text, source: str = "<string>", parameters=None) -> Case:
     """Validate a case given as TOML text (str or bytes)."""
+    return load_dict(_toml(text, source), source=source, parameters=parameters)
+
+
+def _toml(text, source) -> dict:
     if isinstance(text, bytes):
         if len(text) > MAX_FILE_BYTES:
             raise InputError(f"{source}: {len(text)} bytes; expected at most {MAX_FILE_BYTES}")
@@ -53,7 +63,7 @@ def loads(text, source: str = "<string>") -> Case:
         except UnicodeDecodeError as e:
             raise InputError(f"{source}: not UTF-8 text (byte {e.start}); expected a TOML case file") from None
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise InputError(f"{source}: TOML syntax error: {e}") from None
     except RecursionError:
@@ -61,19 +71,22 @@ def loads(text, source: str = "<string>") -> Case:
     except ValueError as e:  # an integer of more digits than Python converts (sys.get_int_max_str_digits)
         raise InputError(f"{source}: {str(e).split(':')[0]}; expected numbers of magnitude at most "
                          f"{MAX_MAGNITUDE:g}") from None
-    return load_dict(data, source=source)
 
 
-def load_dict(data, source: str = "<dict>") -> Case:
-    """Validate a case given as a dict with the case file's structure."""
+def load_dict(data, source: str = "<dict>", parameters=None) -> Case:
+    """Validate a case given as a dict with the case file's structure
+    (``parameters`` as for ``load``)."""
     ck = Checker(source)
     if not isinstance(data, dict):
         raise InputError(f"{source}: expected a table at the top level")
+    if parameters:
+        data = set_values(data, parameters, source)
     ck.keys("top level", data, TOP_KEYS, ("name", "time", "bodies", "constraints"))
     name = ck.string("top level", "name", data.get("name", "case"), NAME_RE,
                      f"an identifier of 1 to {MAX_NAME} characters a-z, 0-9, '_' and '-'")
     description = ck.string("top level", "description", data.get("description", ""),
                             expected=f"a string of at most {MAX_TEXT} characters")
+    params = sections.parameters(ck, data.get("parameters", {}))
     units = sections.units(ck, data.get("units", {}))
     end, steps = sections.time(ck, data.get("time"))
     solver = sections.solver(ck, data.get("solver", {}))
@@ -87,7 +100,32 @@ def load_dict(data, source: str = "<dict>") -> Case:
     return Case(name=name, bodies=tuple(bodies.values()), points=tuple(points.values()),
                 constraints=tuple(cons), end=end or 1.0, steps=steps, description=description,
                 units=frozen_map(units), engines=frozen_map(engines), source=source,
-                equivalent=equivalent, report=frozen_map(report), **solver)
+                equivalent=equivalent, report=frozen_map(report), parameters=frozen_map(params), **solver)
+
+
+def set_values(data: dict, values, source: str = "command line") -> dict:
+    """The case file's dict with ``values`` (name -> number, or its text)
+    set: the one place a design parameter's name is resolved (``--set``,
+    sweeps, ``load(parameters=...)``). Names: ``NAME`` or ``parameters.NAME``
+    for a named dimension of [parameters]. Returns a new dict (``data`` is
+    not changed); an unknown name or a value that is not a number is an
+    InputError naming it."""
+    declared = data.get("parameters")
+    declared = declared if isinstance(declared, dict) else {}
+    out = dict(declared)
+    for name, value in values.items():
+        key = name.removeprefix("parameters.") if isinstance(name, str) else name
+        if key not in declared:
+            from .casefile.checks import names, suggest
+
+            guess = suggest(key, declared)
+            raise InputError(f"{source}: unknown parameter {name!r}" + (f"; did you mean '{guess}'?" if guess else
+                             f"; expected a name of the case's [parameters]: {names(declared) or '(none defined)'}"))
+        value = _number(value)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise InputError(f"{source}: parameter {name!r}: got {value!r}; expected a number")
+        out[key] = value
+    return dict(data, parameters=out)
 
 
 def check_time(case: Case) -> Case:

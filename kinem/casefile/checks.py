@@ -60,6 +60,8 @@ class Checker:
         self.failures = 0
         self.rejected = set()  # names of bodies and points whose definition was rejected
         self.unknowable = set()  # what (body, point) cannot be checked: its whole section was rejected
+        self.parameters = {}     # [parameters]: name -> value, used where a number is expected
+        self.rejected_parameters = set()   # names of [parameters] whose value was rejected
 
     def raise_if_any(self):
         if self.problems:
@@ -118,8 +120,19 @@ class Checker:
         return None
 
     def number(self, where, key, v, positive=False, nonneg=False):
+        if isinstance(v, str) and v in self.parameters:   # a named dimension: its value, nothing evaluated
+            v = self.parameters[v]
+        if isinstance(v, str) and v in self.rejected_parameters:
+            self.knock_on()
+            return None
         if isinstance(v, bool) or not isinstance(v, (int, float)):
-            self.bad(where, key, f"got {show(v)}", "a number")
+            guess = suggest(v, self.parameters) if isinstance(v, str) else None
+            if guess is not None:
+                self.bad(where, key, f"unknown parameter {show(v)}; did you mean '{guess}'?")
+            else:
+                named = isinstance(v, str) and self.parameters
+                self.bad(where, key, f"got {show(v)}",
+                         "a number" + (f" or a name of [parameters] ({names(self.parameters)})" if named else ""))
             return None
         if isinstance(v, int) and abs(v) > MAX_MAGNITUDE:  # before float(): 10**400 has none
             self.bad(where, key, f"got a whole number of {len(str(abs(v)))} digits",

@@ -21,6 +21,32 @@ def units(ck, u):
     return {}
 
 
+def parameters(ck, p):
+    """[parameters]: name -> number, the case's named dimensions; a number
+    elsewhere in the file may be given as one of these names (a string,
+    never an expression: nothing is evaluated). Sets ``ck.parameters``."""
+    if not isinstance(p, dict) or len(p) > MAX_ITEMS:
+        ck.bad("[parameters]", None, f"got {show(p)}" if not isinstance(p, dict) else f"{len(p)} parameters",
+               "a table of names and numbers such as { crank = 50.0 }" if not isinstance(p, dict)
+               else f"at most {MAX_ITEMS}")
+        return {}
+    out = {}
+    for name, v in p.items():
+        if ck.name("parameter", name) is None:
+            continue
+        if isinstance(v, str):   # one parameter naming another would be an expression by another name
+            ck.bad("[parameters]", name, f"got {show(v)}", "a number (a parameter's value is not another's name)")
+            v = None
+        else:
+            v = ck.number("[parameters]", name, v)
+        if v is None:
+            ck.rejected_parameters.add(name)
+        else:
+            out[name] = v
+    ck.parameters = out
+    return out
+
+
 def engines(ck, e):
     """[engines.<name>] tables of settings: scalars or short lists of numbers,
     kept raw; the engine registry (adapters) checks names and keys when they are used."""
