@@ -13,6 +13,7 @@ from . import functions as fn
 from .casefile import sections
 from .casefile.checks import IDENT_RE, MAX_ARRAY, MAX_MAGNITUDE, MAX_NAME, MAX_TEXT, NAME_RE, Checker  # noqa: F401
 from .casefile.constraints import constraints
+from .casefile.drawn import place
 from .casefile.keys import COORDS  # noqa: F401
 from .casefile.sections import LINEAR_SOLVERS, MAX_ITEMS, SOLVER_KEYS  # noqa: F401
 from .errors import InputError
@@ -91,7 +92,8 @@ def load_dict(data, source: str = "<dict>", parameters=None) -> Case:
     end, steps = sections.time(ck, data.get("time"))
     solver = sections.solver(ck, data.get("solver", {}))
     bodies = sections.bodies(ck, data.get("bodies"))
-    points = sections.points(ck, data.get("points", {}), bodies)
+    points, drawn = sections.points(ck, data.get("points", {}), bodies)
+    bodies, points = place(ck, bodies, points, drawn, list(data["points"]) if isinstance(data.get("points"), dict) else [])
     cons = constraints(ck, data.get("constraints"), bodies, points, end)
     engines = sections.engines(ck, data.get("engines", {}))
     equivalent = sections.equivalent(ck, data["equivalent"], points) if "equivalent" in data else None

@@ -15,9 +15,10 @@ def frozen_map(d=None) -> Mapping:
 @dataclass(frozen=True)
 class Body:
     name: str
-    q: tuple  # initial estimate (x, y, phi)
+    q: tuple  # initial estimate (x, y, phi); derived from its points where drawn (kinem.casefile.drawn)
     mass: float | None = None
     inertia: float | None = None
+    carries: tuple = ()   # (point name, (xi, eta)): the drawn points it carries, in its own frame
 
 
 @dataclass(frozen=True)

@@ -61,6 +61,9 @@ class LocalKey(Key):
     def parse(self, ck, where, v, scope):
         body = scope.table.get(self.of)
         if isinstance(v, str):
+            carries = dict(scope.bodies[body].carries) if body in scope.bodies else {}
+            if v in carries:   # a point drawn in the global frame that the body carries (kinem.casefile.drawn)
+                return carries[v]
             if ck.choice(where, self.name, v, scope.points, "point") is None:
                 return None
             if scope.points[v].body != body:

@@ -154,7 +154,8 @@ def solver(ck, s):
 
 
 def bodies(ck, b):
-    """name -> Body of [bodies]."""
+    """name -> Body of [bodies]; a drawn body (``points = [...]``, kinem.casefile.drawn)
+    may leave out q, and its ``carries`` holds the names of the points it lists until they are placed."""
     if b is None or not isinstance(b, dict) or not b or len(b) > MAX_ITEMS:
         ck.unknowable.add("body")  # references to bodies are not checked again
         if b is not None:  # missing: reported with the top level's keys
@@ -168,27 +169,34 @@ def bodies(ck, b):
         if ck.name(where, name) is None:
             pass
         elif not isinstance(v, dict):
-            ck.bad(where, None, f"got {show(v)}", "a table such as { q = [x, y, phi] }")
+            ck.bad(where, None, f"got {show(v)}", "a table such as { q = [x, y, phi] } or { points = [\"A\", \"B\"] }")
         else:
-            ck.keys(where, v, ("q", "mass", "inertia"), ("q",))
+            ck.keys(where, v, ("q", "points", "mass", "inertia"), () if "points" in v else ("q",))
             q = ck.vector(where, "q", v["q"], 3, "[x, y, phi]") if "q" in v else None
             mass = ck.number(where, "mass", v["mass"], positive=True) if "mass" in v else None
             inertia = ck.number(where, "inertia", v["inertia"], positive=True) if "inertia" in v else None
+            listed = v.get("points", [])
+            if not isinstance(listed, list) or len(listed) > MAX_ITEMS or not all(isinstance(n, str) for n in listed):
+                ck.bad(where, "points", f"got {show(listed)}", "a list of names of points drawn in the global frame")
+            elif "points" in v and not listed and q is None:
+                ck.bad(where, "points", "empty", "one or more points, or q = [x, y, phi]")
             if ck.failures == n_before:
-                out[name] = Body(name, q, mass, inertia)
+                out[name] = Body(name, q, mass, inertia, tuple(dict.fromkeys(listed)))
         if name not in out:
             ck.rejected.add(name)
     return out
 
 
 def points(ck, p, bodies):
-    """name -> Point of [points]."""
+    """name -> Point of [points] given in a body's frame; name -> (body or
+    None, (x, y)) of the points drawn in the global frame (``frame = "global"``),
+    placed by kinem.casefile.drawn."""
     if not isinstance(p, dict) or len(p) > MAX_ITEMS:
         ck.unknowable.add("point")
         ck.bad("[points]", None, f"got {show(p)}" if not isinstance(p, dict) else f"{len(p)} points",
                "a table of points" if not isinstance(p, dict) else f"at most {MAX_ITEMS}")
-        return {}
-    out = {}
+        return {}, {}
+    out, drawn = {}, {}
     for name, v in p.items():
         where = f"point {show(name)}"
         if ck.name(where, name) is None:
@@ -197,14 +205,22 @@ def points(ck, p, bodies):
             ck.bad(where, None, "has the name of a body", "point names distinct from body names")
         elif not isinstance(v, dict):
             ck.bad(where, None, f"got {show(v)}", "a table such as { body = \"crank\", at = [xi, eta] }")
-        elif ck.keys(where, v, ("body", "at"), ("body", "at")):
+        elif v.get("frame") == "global":
+            if ck.keys(where, v, ("body", "at", "frame"), ("at",)):
+                body = ck.choice(where, "body", v["body"], bodies, "body") if "body" in v else None
+                at = ck.vector(where, "at", v["at"], 2, "[x, y] in the global frame")
+                if at is not None and ("body" not in v or body is not None):
+                    drawn[name] = (body, at)
+        elif "frame" in v and v["frame"] != "body":
+            ck.bad(where, "frame", f"got {show(v['frame'])}", '"global" (at = [x, y] as drawn) or "body" (the default)')
+        elif ck.keys(where, v, ("body", "at", "frame"), ("body", "at")):
             body = ck.choice(where, "body", v["body"], bodies, "body")
             at = ck.vector(where, "at", v["at"], 2, "[xi, eta]")
             if body is not None and at is not None:
                 out[name] = Point(name, body, at)
-        if name not in out:
+        if name not in out and name not in drawn:
             ck.rejected.add(name)
-    return out
+    return out, drawn
 
 
 def equivalent(ck, e, points):
