@@ -105,6 +105,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         wall_time=wall, t_fail=None if ok else float(times[n_ok]),
         failed_constraint=pin[0] if status == Status.WRONG_BRANCH else None if ok or status == Status.SINGULAR
         else model.row_owner[data.worst_row],
+        model=model,
     )
 
 
