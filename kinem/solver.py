@@ -110,12 +110,24 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
 
 
 def check_square(model) -> None:
-    """Kinematic analysis needs at least as many equations as coordinates
-    (Sec. 4.3); more are accepted when they are consistent (redundant
+    """Kinematic analysis needs one driving equation per degree of freedom
+    (Sec. 4.3): fewer (fewer equations than coordinates) or more (counted
+    where there are more equations than coordinates) is bad input, named with
+    the mobility (kinem.diagnose.driver_count). More equations than
+    coordinates are accepted when they are consistent (redundant
     constraints, solved in the least-squares sense)."""
+    from .diagnose import driver_count
+
+    if model.m == model.n:
+        return
+    # fewer: the ranks where the equations settle; more: as estimated (redundant constraints that
+    # hold only in the configuration drawn, a parallelogram's third crank, keep their mobility there)
+    counted = driver_count(model, float(model.times[0]), settle=model.m < model.n)
+    why = counted[1] if counted is not None else ""
     if model.m < model.n:
         gap = model.n - model.m
-        why = explain_assembly(model, float(model.times[0]))  # names the driving equations and the DOF
         raise InputError(f"{model.case.source}: {model.m} equations for {model.n} coordinates: "
                          f"{gap} equation{'s' * (gap != 1)} missing" + (f"; {why}" if why else
                                                                         " (add drivers or constraints)"))
+    if why.startswith("too many"):
+        raise InputError(f"{model.case.source}: {model.m} equations for {model.n} coordinates: {why}")

@@ -31,10 +31,22 @@ def with_extra_driver():
 
 
 def test_surplus_driver_is_named_with_the_degrees_of_freedom():
-    r = kinem.solve(kinem.compile(kinem.load_dict(with_extra_driver())))
-    assert not r.success
+    with pytest.raises(kinem.InputError) as e:   # bad input, as a missing driver is (issue 32)
+        kinem.solve(kinem.compile(kinem.load_dict(with_extra_driver())))
     assert ("too many driving equations: 2 (crank-drive, extra) for 1 degree of freedom "
-            "(12 coordinates, 11 independent kinematic equations)") in r.message, r.message
+            "(12 coordinates, 11 independent kinematic equations; Gruebler count 12 - 11 = 1): "
+            "remove 1 driving equation") in str(e.value), str(e.value)
+
+
+def test_too_few_and_too_many_drivers_exit_alike(tmp_path):
+    driver = SLIDER[SLIDER.index('[[constraints]]\ntype = "driver"'):SLIDER.index("[report]")]
+    extra = '[[constraints]]\ntype = "driver"\nname = "extra"\nbody = "rod"\ncoord = "phi"\nd = 0.2\n\n'
+    for name, text, words in (("few", SLIDER.replace(driver, ""), "add 1 driver"),
+                              ("many", SLIDER.replace(driver, driver + extra), "remove 1 driving")):
+        path = tmp_path / f"{name}.toml"
+        path.write_text(text)
+        code, err = cli("solve", path, "--out", tmp_path / "o.csv")
+        assert code == 2 and len(err.splitlines()) == 1 and words in err and "Gruebler count 12 - 11 = 1" in err, err
 
 
 def test_missing_driver_is_named_with_the_degrees_of_freedom():
