@@ -260,3 +260,43 @@ def explain_assembly(model, t=0.0, q=None, tolerance=1e-12) -> str:
         unit = model.case.length_unit
         return text + f": with '{worst}' left open, its ends are {miss:.4g}{' ' + unit if unit else ''} apart"
     return text + f": with '{worst}' left open, its equations miss by {miss:.4g}"
+
+
+# higher pairs with a contact angle: type -> (outline's body key, other body key, the other's point key)
+CONTACTS = {"cam-roller": ("cam", "follower", "sj"), "cam-point": ("cam", "follower", "sj"),
+            "cam-flat": ("cam", "follower", "sj"), "point-follower": ("j", "i", "si")}
+FAR_THETA = 0.5   # rad between a contact angle's estimate and where the bodies' estimates put the contact
+
+
+def contact_hint(model) -> str:
+    """'' or, for each higher pair whose contact-angle estimate ``theta`` is
+    far (more than FAR_THETA) from where its bodies' estimates put the
+    contact, the value it would need: the polar angle, about the outline's
+    centre in the outline body's frame, of the follower's point (a roller's
+    centre, a pin), or for a flat face the direction of the face's normal
+    that points from the outline towards the face."""
+    bodies = {b.name: b.q for b in model.case.bodies}
+    hints = []
+    for c in model.case.constraints:
+        if c.type not in CONTACTS or "theta" not in c.fields:
+            continue
+        on, other, key = CONTACTS[c.type]
+        (xi, yi, pi), (xj, yj, pj) = bodies[c[on]], bodies[c[other]]
+        centre = complex(*c["outline"].center)
+        point = complex(xj, yj) + complex(*c[key]) * np.exp(1j * pj)       # the follower's point, global
+        local = (point - complex(xi, yi)) * np.exp(-1j * pi) - centre       # about the outline's centre
+        if c.type == "cam-flat":
+            n = complex(*c["normal"]) * np.exp(1j * (pj - pi))            # the face's normal in the cam's frame
+            local = n if (local.conjugate() * n).real > 0 else -n
+        if abs(local) == 0:
+            continue
+        need = float(np.angle(local))
+        off = (c["theta"] - need + np.pi) % (2 * np.pi) - np.pi           # wrapped: a turn more is no mistake
+        if abs(off) > FAR_THETA:
+            a, b = c["outline"].span
+            turns = [need + 2 * np.pi * k for k in range(-4, 5)]
+            inside = [x for x in turns if a <= x <= b]                   # on the outline's table if it can be
+            need = min(inside or turns, key=lambda x: abs(x - c["theta"]))
+            hints.append(f"the estimate theta = {c['theta']:.6g} of '{c.name}' is {abs(off):.3g} rad from where "
+                         f"the bodies' estimates put the contact: try theta = {need:.6g}")
+    return "; ".join(hints)

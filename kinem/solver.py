@@ -9,7 +9,7 @@ import numpy as np
 
 from .analysis import Data
 from .branches import violation
-from .diagnose import explain_assembly
+from .diagnose import contact_hint, explain_assembly
 from .errors import AnalysisError, InputError, SingularError
 from .linalg import choose
 from .march import March, usable
@@ -87,6 +87,8 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         status = Status.SINGULAR if isinstance(e, SingularError) else Status.NOT_CONVERGED
         what = "assembly at" if k == 0 else "step to"
         why = explain_assembly(model, times[0], tolerance=options.tolerance) if k == 0 else ""  # the root cause, in the user's terms
+        if k == 0 and (hint := contact_hint(model)):
+            why = f"{why}; {hint}" if why else hint
         message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {why + '; ' if why else ''}{e}"
     if q0 is None and k and (pin := violation(model, Q[0])):   # the branch the case pins (kinem.branches)
         status, message, k = Status.WRONG_BRANCH, f"assembly at t = {times[0]:.6g}: {pin[1]}", 0

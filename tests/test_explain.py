@@ -85,3 +85,26 @@ def test_info_exits_1_when_the_case_does_not_assemble(tmp_path):
 def test_info_of_a_good_case_still_exits_0():
     code, err = cli("info", Path(__file__).resolve().parents[1] / "cases" / "four_bar.toml")
     assert code == 0, err
+
+
+def test_one_misspelt_body_is_one_problem():
+    """A body misspelt where it is defined: every reference to its right name is the same problem (issue 32)."""
+    text = SLIDER.replace("crank  = { q", "crnak  = { q")
+    with pytest.raises(kinem.InputError) as e:
+        kinem.loads(text)
+    assert len(e.value.problems) == 1, e.value.problems
+    assert "unknown body 'crank'; did you mean 'crnak'? (the same name in 4 places)" in e.value.problems[0]
+
+
+@pytest.mark.parametrize("estimate", [-1.3, 5.0])
+def test_a_far_contact_estimate_is_named_with_the_value_it_needs(estimate, tmp_path):
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "cases" / "cam_roller_circle.toml").read_text()
+    assert "theta = 1.84" in text
+    r = kinem.solve(kinem.compile(kinem.loads(text.replace("theta = 1.84", f"theta = {estimate}"))))
+    assert not r.success
+    assert f"the estimate theta = {estimate:g} of 'contact' is" in r.message, r.message
+    need = float(r.message.split("try theta = ")[1].split(";")[0])
+    assert abs(need - 1.84) < 0.05   # the contact angle the bodies' estimates give, near the file's own
+    fixed = kinem.solve(kinem.compile(kinem.loads(text.replace("theta = 1.84", f"theta = {need}"))))
+    assert fixed.success, fixed.message

@@ -62,6 +62,7 @@ class Checker:
         self.unknowable = set()  # what (body, point) cannot be checked: its whole section was rejected
         self.parameters = {}     # [parameters]: name -> value, used where a number is expected
         self.rejected_parameters = set()   # names of [parameters] whose value was rejected
+        self.unknown = {}   # (what, name) of an unknown reference -> [its problem's index, text, places]
 
     def raise_if_any(self):
         if self.problems:
@@ -112,11 +113,19 @@ class Checker:
         if (isinstance(v, str) and v in self.rejected) or what in self.unknowable:
             self.knock_on()
             return None
+        seen = self.unknown.get((what, v)) if isinstance(v, str) else None
+        if seen is not None:   # the same unknown name again: one problem, counting its places
+            seen[2] += 1
+            self.problems[seen[0]] = f"{seen[1]} (the same name in {seen[2]} places)"
+            self.knock_on()
+            return None
         guess = suggest(v, options) if isinstance(v, str) else None
         if guess is not None:
             self.bad(where, key, f"unknown {what} {show(v)}; did you mean '{guess}'?")
         else:
             self.bad(where, key, f"unknown {what} {show(v)}", "one of " + (names(options) or "(none defined)"))
+        if isinstance(v, str):
+            self.unknown[(what, v)] = [len(self.problems) - 1, self.problems[-1], 1]
         return None
 
     def number(self, where, key, v, positive=False, nonneg=False):
