@@ -99,10 +99,46 @@ def load_dict(data, source: str = "<dict>", parameters=None) -> Case:
     equivalent = sections.equivalent(ck, data["equivalent"], points) if "equivalent" in data else None
     report = sections.report(ck, data.get("report", {}), points)
     ck.raise_if_any()
-    return Case(name=name, bodies=tuple(bodies.values()), points=tuple(points.values()),
+    case = Case(name=name, bodies=tuple(bodies.values()), points=tuple(points.values()),
                 constraints=tuple(cons), end=end or 1.0, steps=steps, description=description,
                 units=frozen_map(units), engines=frozen_map(engines), source=source,
                 equivalent=equivalent, report=frozen_map(report), parameters=frozen_map(params), **solver)
+    for text in fast_drivers(case):
+        import warnings
+
+        from .errors import KinemWarning
+
+        warnings.warn(text, KinemWarning, stacklevel=2)
+    return case
+
+
+FAST_TURNS = 50        # turns a second: a crank faster than this looks like degrees per second given as rad/s
+MANY_TURNS = 100       # turns over the output span, likewise
+
+
+def fast_drivers(case) -> list:
+    """A warning for each driver of an angle that turns faster than FAST_TURNS
+    a second or more than MANY_TURNS times over [0, end]: a speed given in
+    degrees per second where radians per second are read (units = { angle =
+    "deg" } reads them as degrees)."""
+    import math
+
+    import numpy as np
+
+    out = []
+    t = np.linspace(0.0, case.end, 1001)
+    for c in case.constraints:
+        if c.type != "driver" or c.get("coord") != "phi":
+            continue
+        f = fn.FunctionSet([c["d"]])
+        speed = float(np.abs(f(t, 1)).max())
+        turns = float(abs(f(case.end)[0] - f(0.0)[0])) / (2 * math.pi)
+        if speed > 2 * math.pi * FAST_TURNS or turns > MANY_TURNS:
+            out.append(f"{case.source}: {c.where}: turns body '{c['body']}' at up to {speed:.4g} rad/s "
+                       f"({speed / (2 * math.pi):.3g} turns a second, {turns:.3g} turns in {case.end:g} s); if its "
+                       f"d(t) is in degrees, that is {math.radians(speed):.4g} rad/s: convert it, or set "
+                       "units = { angle = \"deg\" } for the case's angles")
+    return out
 
 
 def set_values(data: dict, values, source: str = "command line") -> dict:

@@ -26,7 +26,7 @@ def _load(path, end=None, steps=None, values=None):
     from .model import compile
 
     end, steps = time_options(end, steps)  # the rules of the case file's [time]
-    case = load(path, parameters=_values(values))
+    case = _warned(load, path, parameters=_values(values))
     if end is not None or steps is not None:
         case = check_time(case.with_time(end, steps))
     return compile(case)
@@ -187,6 +187,23 @@ def cmd_solve(a):
     raise AnalysisError(f"{a.case}: {message}{kept}")
 
 
+def _warned(fn, *args, **kwargs):
+    """fn(...) with the KinemWarnings it gives printed as one line each on standard error."""
+    import warnings
+
+    from .errors import KinemWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", KinemWarning)
+        out = fn(*args, **kwargs)
+    for w in caught:
+        if issubclass(w.category, KinemWarning):
+            print(one_line(f"kinem: warning: {w.message}"), file=sys.stderr)
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return out
+
+
 def _values(items) -> dict:
     """--set NAME=VALUE (repeatable) of solve and info: name -> value text
     (kinem.case.set_values resolves the name and checks the value)."""
@@ -276,7 +293,7 @@ def cmd_sweep(a):
 
         bar = Progress(0)
     try:
-        result = sweep(a.case, values, columns, bar)
+        result = _warned(sweep, a.case, values, columns, bar)
     finally:
         if bar:
             bar.close()

@@ -124,9 +124,15 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
     cases, errors = [], [""] * len(grid_values)
     if progress:
         progress.total = 2 * len(grid_values)
+    import warnings
+
+    from .errors import KinemWarning
+
     for k, row in enumerate(grid_values):
         try:
-            cases.append(load_dict(data, f"{source} (variant {k})", dict(zip(names, row.tolist()))))
+            with warnings.catch_warnings():   # the case's own warnings are the base's, given once
+                warnings.simplefilter("ignore", KinemWarning)
+                cases.append(load_dict(data, f"{source} (variant {k})", dict(zip(names, row.tolist()))))
         except InputError as e:
             cases.append(None)
             errors[k] = f"bad input: {e.summary()}"

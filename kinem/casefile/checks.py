@@ -62,6 +62,7 @@ class Checker:
         self.unknowable = set()  # what (body, point) cannot be checked: its whole section was rejected
         self.parameters = {}     # [parameters]: name -> value, used where a number is expected
         self.rejected_parameters = set()   # names of [parameters] whose value was rejected
+        self.degrees = False   # units = { angle = "deg" }: the case's angles are converted once, as parsed
         self.unknown = {}   # (what, name) of an unknown reference -> [its problem's index, text, places]
 
     def raise_if_any(self):

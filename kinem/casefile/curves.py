@@ -110,7 +110,7 @@ def _spline(ck, where, w, body, center):
     if pair is None:
         return None
     theta, s = pair
-    if flags["degrees"]:
+    if flags["degrees"] or (ck.degrees and "degrees" not in body):   # its own flag, else the case's units
         theta = tuple(math.radians(x) for x in theta)
     if not ck.increasing(where, f"{w}.theta", theta, "angles"):
         return None

@@ -1,5 +1,7 @@
 """The case file's sections other than [[constraints]]: units, [time],
 [solver], [engines.*], [bodies] and [points]."""
+import math
+
 from ..spec import Body, Equivalence, Point, frozen_map
 from .checks import END_RANGE, MAX_STEPS, MAX_UNIT, NAME_RE, names, show
 
@@ -9,16 +11,27 @@ LINEAR_SOLVERS = ("auto", "dense", "sparse")
 
 
 def units(ck, u):
+    """units = { length = "mm", angle = "rad" or "deg" }: length is shown in
+    reports; angle "deg" sets ``ck.degrees`` (every angle of the case in degrees)."""
     if not isinstance(u, dict):
         ck.bad("units", None, f"got {show(u)}", "a table such as { length = \"mm\" }")
         return {}
-    ck.keys("units", u, ("length",))
+    ck.keys("units", u, ("length", "angle"))
+    out = {}
+    if "angle" in u:
+        if u["angle"] in ("rad", "deg"):
+            out["angle"] = u["angle"]
+            ck.degrees = u["angle"] == "deg"
+        else:
+            ck.bad("units", "angle", f"got {show(u['angle'])}", '"rad" (the default) or "deg"')
     if "length" in u and ck.string("units", "length", u["length"], max_len=MAX_UNIT,
                                    expected=f"1 to {MAX_UNIT} printable characters such as \"mm\"") is not None:
         if u["length"] and u["length"].isprintable():
-            return {"length": u["length"]}
-        ck.bad("units", "length", f"got {show(u['length'])}", f"1 to {MAX_UNIT} printable characters such as \"mm\"")
-    return {}
+            out["length"] = u["length"]
+        else:
+            ck.bad("units", "length", f"got {show(u['length'])}",
+                   f"1 to {MAX_UNIT} printable characters such as \"mm\"")
+    return out
 
 
 def parameters(ck, p):
@@ -173,6 +186,8 @@ def bodies(ck, b):
         else:
             ck.keys(where, v, ("q", "points", "mass", "inertia"), () if "points" in v else ("q",))
             q = ck.vector(where, "q", v["q"], 3, "[x, y, phi]") if "q" in v else None
+            if q is not None and ck.degrees:
+                q = (q[0], q[1], math.radians(q[2]))
             mass = ck.number(where, "mass", v["mass"], positive=True) if "mass" in v else None
             inertia = ck.number(where, "inertia", v["inertia"], positive=True) if "inertia" in v else None
             listed = v.get("points", [])
