@@ -113,14 +113,16 @@ def load_dict(data, source: str = "<dict>", parameters=None) -> Case:
 
 
 FAST_TURNS = 50        # turns a second: a crank faster than this looks like degrees per second given as rad/s
-MANY_TURNS = 100       # turns over the output span, likewise
+MANY_TURNS = 100       # turns over the output span, likewise, when the output instants are too few to follow them
+COARSE = 0.25          # turns per output interval: more, and the output does not show the turning
 
 
 def fast_drivers(case) -> list:
     """A warning for each driver of an angle that turns faster than FAST_TURNS
-    a second or more than MANY_TURNS times over [0, end]: a speed given in
-    degrees per second where radians per second are read (units = { angle =
-    "deg" } reads them as degrees)."""
+    a second, or more than MANY_TURNS times over [0, end] at more than COARSE
+    turns per output interval (a long run sampled to follow it is meant): a
+    speed given in degrees per second where radians per second are read
+    (units = { angle = "deg" } reads them as degrees)."""
     import math
 
     import numpy as np
@@ -133,9 +135,9 @@ def fast_drivers(case) -> list:
         f = fn.FunctionSet([c["d"]])
         speed = float(np.abs(f(t, 1)).max())
         turns = float(abs(f(case.end)[0] - f(0.0)[0])) / (2 * math.pi)
-        if speed > 2 * math.pi * FAST_TURNS or turns > MANY_TURNS:
+        if speed > 2 * math.pi * FAST_TURNS or (turns > MANY_TURNS and turns / case.steps > COARSE):
             out.append(f"{case.source}: {c.where}: turns body '{c['body']}' at up to {speed:.4g} rad/s "
-                       f"({speed / (2 * math.pi):.3g} turns a second, {turns:.3g} turns in {case.end:g} s); if its "
+                       f"({speed / (2 * math.pi):.3g} turns a second, {turns:.3g} turns in {case.end:g} s, {case.steps} output intervals); if its "
                        f"d(t) is in degrees, that is {math.radians(speed):.4g} rad/s: convert it, or set "
                        "units = { angle = \"deg\" } for the case's angles")
     return out
