@@ -204,6 +204,15 @@ def _warned(fn, *args, **kwargs):
     return out
 
 
+def _frame_bar():
+    """A frame progress bar (kinem.notebook.frame_bar) when standard error is a terminal, else None."""
+    if not sys.stderr.isatty():
+        return None
+    from .notebook import frame_bar
+
+    return frame_bar(1)
+
+
 def _values(items) -> dict:
     """--set NAME=VALUE (repeatable) of solve and info: name -> value text
     (kinem.case.set_values resolves the name and checks the value)."""
@@ -492,7 +501,12 @@ def cmd_animate(a):
 
     engines = [e for e in _engines(a.engines, allow_empty=True) if e != "native"]
     check_output(a.out)
-    skipped = write(_load(a.case), a.out, engines)
+    bar = _frame_bar()
+    try:
+        skipped = write(_load(a.case), a.out, engines, bar)
+    finally:
+        if bar:
+            bar.close()
     for name, why in skipped.items():
         print(one_line(f"{name}: not drawn: {why}"), file=sys.stderr)
     _note(a.out)

@@ -201,23 +201,30 @@ def animate(result, path, model=None, frames=None, progress=None):
 
     if progress is None:
         progress = sys.stderr.isatty() or "ipykernel" in sys.modules
-    bar = None
-    if progress:
-        from .report.progress import Progress
-
-        bar = Progress(len(idx), stream=sys.stderr, enabled=True)
-
-    def on_frame(k):
-        bar.done = k + 1
-        if (k + 1) % max(1, len(idx) // 50) == 0 or k + 1 == len(idx):   # some 50 redraws
-            bar.show(f"frame {k + 1} of {len(idx)} drawn")
+    bar = frame_bar(len(idx)) if progress else None
     try:
         render(model, native, {}, result.q[sample(len(result.q), PATH_INSTANTS)], str(path),
-               on_frame=on_frame if bar else None)
+               on_frame=(lambda k: bar(k, len(idx))) if bar else None)
     finally:
         if bar:
             bar.close()
     return Path(path)
+
+
+def frame_bar(total):
+    """on_frame(k, total) drawing a progress bar on standard error, some 50 redraws; ``.close()``."""
+    import sys
+
+    from .report.progress import Progress
+
+    bar = Progress(total, stream=sys.stderr, enabled=True)
+
+    def on_frame(k, count):
+        bar.total, bar.done = count, k + 1
+        if (k + 1) % max(1, count // 50) == 0 or k + 1 == count:
+            bar.show(f"frame {k + 1} of {count} drawn")
+    on_frame.close = bar.close
+    return on_frame
 
 
 def trajectory_html(traj) -> str:

@@ -84,3 +84,16 @@ def test_cli_sweep(tmp_path, capsys):
                      "--out", str(out)]) == 1
     assert "1 of 2 variants failed" in capsys.readouterr().err
     assert cli.main(["sweep", str(FOUR_BAR), "--outputs", "B.x"]) == 2
+
+
+def test_progress_on_a_terminal(tmp_path):
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_outputs import on_a_terminal
+
+    code, seen = on_a_terminal(["sweep", FOUR_BAR, "--set", "coupler=0.29:0.31:5", "--outputs", "B.x",
+                                "--out", tmp_path / "s.csv"], timeout=120)
+    assert code == 0 and b"variant 5 loaded" in seen and b"5 variants solved" in seen and b"10/10" in seen
+    code, seen = on_a_terminal(["animate", FOUR_BAR, "--engines", "", "--out", tmp_path / "m.gif"], timeout=300)
+    assert code == 0 and b"frame 120 of 120 drawn" in seen

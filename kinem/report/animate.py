@@ -81,11 +81,13 @@ def frames(model, engines):
     return native, ghosts, r.q[sample(len(r.q), PATH_INSTANTS)], skipped
 
 
-def write(model, out, engines) -> dict:
-    """Writes the animation to ``out``; returns engine -> why it is not drawn."""
+def write(model, out, engines, on_frame=None) -> dict:
+    """Writes the animation to ``out``; returns engine -> why it is not drawn.
+    ``on_frame(k, frames)`` after each GIF or MP4 frame drawn."""
     ext = check_output(out)
     native, ghosts, dense, skipped = frames(model, engines)
-    render(model, native, ghosts, dense, out, ext)
+    count = len(native["t"])
+    render(model, native, ghosts, dense, out, ext, (lambda k: on_frame(k, count)) if on_frame else None)
     return skipped
 
 
