@@ -118,8 +118,8 @@ COARSE = 0.25          # turns per output interval: more, and the output does no
 
 
 def fast_drivers(case) -> list:
-    """A warning for each driver of an angle that turns faster than FAST_TURNS
-    a second, or more than MANY_TURNS times over [0, end] at more than COARSE
+    """A warning for each driver of an angle that turns (a turn or more over
+    [0, end]: not a fast small oscillation) faster than FAST_TURNS a second, or more than MANY_TURNS times over [0, end] at more than COARSE
     turns per output interval (a long run sampled to follow it is meant): a
     speed given in degrees per second where radians per second are read
     (units = { angle = "deg" } reads them as degrees)."""
@@ -135,7 +135,7 @@ def fast_drivers(case) -> list:
         f = fn.FunctionSet([c["d"]])
         speed = float(np.abs(f(t, 1)).max())
         turns = float(abs(f(case.end)[0] - f(0.0)[0])) / (2 * math.pi)
-        if speed > 2 * math.pi * FAST_TURNS or (turns > MANY_TURNS and turns / case.steps > COARSE):
+        if (speed > 2 * math.pi * FAST_TURNS and turns >= 1) or (turns > MANY_TURNS and turns / case.steps > COARSE):
             out.append(f"{case.source}: {c.where}: turns body '{c['body']}' at up to {speed:.4g} rad/s "
                        f"({speed / (2 * math.pi):.3g} turns a second, {turns:.3g} turns in {case.end:g} s, {case.steps} output intervals); if its "
                        f"d(t) is in degrees, that is {math.radians(speed):.4g} rad/s: convert it, or set "
@@ -161,7 +161,7 @@ def set_values(data: dict, values, source: str = "command line") -> dict:
             guess = suggest(key, declared)
             raise InputError(f"{source}: unknown parameter {name!r}" + (f"; did you mean '{guess}'?" if guess else
                              f"; expected a name of the case's [parameters]: {names(declared) or '(none defined)'}"))
-        value = _number(value)
+        value = _number(value.item() if hasattr(value, "item") and hasattr(value, "dtype") else value)
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise InputError(f"{source}: parameter {name!r}: got {value!r}; expected a number")
         out[key] = value

@@ -101,4 +101,6 @@ def test_cli_set(tmp_path, capsys):
     assert "did you mean 'coupler'" in capsys.readouterr().err
     assert cli.main(["solve", str(FOUR_BAR), "--set", "coupler"]) == 2
     assert "NAME=VALUE" in capsys.readouterr().err
+    capsys.readouterr()
     assert cli.main(["info", str(FOUR_BAR), "--set", "coupler=0.31"]) == 0
+    assert "parameters         crank = 0.1, coupler = 0.31, rocker = 0.22, ground = 0.2" in capsys.readouterr().out
