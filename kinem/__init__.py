@@ -12,16 +12,17 @@ __version__ = "0.1.0"   # as pyproject.toml's version (tests/test_front_door.py 
 
 from .analysis import Data, acceleration, factorize, position, velocity
 from .case import load, load_dict, loads
-from .errors import AnalysisError, ConvergenceError, InputError, KinemError, SingularError
+from .errors import AnalysisError, ConvergenceError, InputError, KinemError, KinemWarning, SingularError
 from .model import Model, compile
 from .notebook import animate, plot
 from .options import Options
 from .result import OUTPUTS, SolveResult, Status, Trajectory
 from .solver import solve
 from .spec import Body, Case, Constraint, Point
+from .sweep import Sweep, sweep
 
 __all__ = [
     "__version__", "load", "loads", "load_dict", "compile", "solve", "position", "velocity", "acceleration",
     "factorize", "Data", "Options", "Model", "Case", "Body", "Point", "Constraint", "SolveResult", "Trajectory",
-    "Status", "OUTPUTS", "plot", "animate", "KinemError", "InputError", "AnalysisError", "ConvergenceError", "SingularError",
+    "Status", "OUTPUTS", "sweep", "Sweep", "plot", "animate", "KinemError", "KinemWarning", "InputError", "AnalysisError", "ConvergenceError", "SingularError",
 ]

@@ -13,18 +13,25 @@ from . import functions as fn
 from .casefile import sections
 from .casefile.checks import IDENT_RE, MAX_ARRAY, MAX_MAGNITUDE, MAX_NAME, MAX_TEXT, NAME_RE, Checker  # noqa: F401
 from .casefile.constraints import constraints
+from .casefile.drawn import place
 from .casefile.keys import COORDS  # noqa: F401
 from .casefile.sections import LINEAR_SOLVERS, MAX_ITEMS, SOLVER_KEYS  # noqa: F401
 from .errors import InputError
 from .spec import Case, frozen_map
 
 MAX_FILE_BYTES = 16 * 2**20
-TOP_KEYS = ("name", "description", "units", "time", "solver", "bodies", "points", "constraints", "engines",
+TOP_KEYS = ("name", "description", "parameters", "units", "time", "solver", "bodies", "points", "constraints", "engines",
             "equivalent", "report")
 
 
-def load(path) -> Case:
-    """Read and validate a case file."""
+def load(path, parameters=None) -> Case:
+    """Read and validate a case file; ``parameters``: values of its named
+    dimensions ({"crank": 55} or {"parameters.crank": 55}) instead of the file's."""
+    return load_dict(read(path), source=str(path), parameters=parameters)
+
+
+def read(path) -> dict:
+    """A case file's TOML as a dict, not yet validated (size-capped; a FIFO's writer waited for)."""
     import stat
 
     from .output import read_fifo
@@ -40,11 +47,15 @@ def load(path) -> Case:
         raise InputError(f"{path}: cannot read: {e.strerror or e}") from None
     if len(raw) > MAX_FILE_BYTES:
         raise InputError(f"{path}: more than {MAX_FILE_BYTES} bytes; expected a case file of at most 16 MiB")
-    return loads(raw, source=str(path))
+    return _toml(raw, str(path))
 
 
-def loads(text, source: str = "<string>") -> Case:
+def loads(text, source: str = "<string>", parameters=None) -> Case:
     """Validate a case given as TOML text (str or bytes)."""
+    return load_dict(_toml(text, source), source=source, parameters=parameters)
+
+
+def _toml(text, source) -> dict:
     if isinstance(text, bytes):
         if len(text) > MAX_FILE_BYTES:
             raise InputError(f"{source}: {len(text)} bytes; expected at most {MAX_FILE_BYTES}")
@@ -53,7 +64,7 @@ def loads(text, source: str = "<string>") -> Case:
         except UnicodeDecodeError as e:
             raise InputError(f"{source}: not UTF-8 text (byte {e.start}); expected a TOML case file") from None
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise InputError(f"{source}: TOML syntax error: {e}") from None
     except RecursionError:
@@ -61,33 +72,100 @@ def loads(text, source: str = "<string>") -> Case:
     except ValueError as e:  # an integer of more digits than Python converts (sys.get_int_max_str_digits)
         raise InputError(f"{source}: {str(e).split(':')[0]}; expected numbers of magnitude at most "
                          f"{MAX_MAGNITUDE:g}") from None
-    return load_dict(data, source=source)
 
 
-def load_dict(data, source: str = "<dict>") -> Case:
-    """Validate a case given as a dict with the case file's structure."""
+def load_dict(data, source: str = "<dict>", parameters=None) -> Case:
+    """Validate a case given as a dict with the case file's structure
+    (``parameters`` as for ``load``)."""
     ck = Checker(source)
     if not isinstance(data, dict):
         raise InputError(f"{source}: expected a table at the top level")
+    if parameters:
+        data = set_values(data, parameters, source)
     ck.keys("top level", data, TOP_KEYS, ("name", "time", "bodies", "constraints"))
     name = ck.string("top level", "name", data.get("name", "case"), NAME_RE,
                      f"an identifier of 1 to {MAX_NAME} characters a-z, 0-9, '_' and '-'")
     description = ck.string("top level", "description", data.get("description", ""),
                             expected=f"a string of at most {MAX_TEXT} characters")
+    params = sections.parameters(ck, data.get("parameters", {}))
     units = sections.units(ck, data.get("units", {}))
     end, steps = sections.time(ck, data.get("time"))
     solver = sections.solver(ck, data.get("solver", {}))
     bodies = sections.bodies(ck, data.get("bodies"))
-    points = sections.points(ck, data.get("points", {}), bodies)
+    points, drawn = sections.points(ck, data.get("points", {}), bodies)
+    bodies, points = place(ck, bodies, points, drawn, list(data["points"]) if isinstance(data.get("points"), dict) else [])
     cons = constraints(ck, data.get("constraints"), bodies, points, end)
     engines = sections.engines(ck, data.get("engines", {}))
     equivalent = sections.equivalent(ck, data["equivalent"], points) if "equivalent" in data else None
     report = sections.report(ck, data.get("report", {}), points)
     ck.raise_if_any()
-    return Case(name=name, bodies=tuple(bodies.values()), points=tuple(points.values()),
+    case = Case(name=name, bodies=tuple(bodies.values()), points=tuple(points.values()),
                 constraints=tuple(cons), end=end or 1.0, steps=steps, description=description,
                 units=frozen_map(units), engines=frozen_map(engines), source=source,
-                equivalent=equivalent, report=frozen_map(report), **solver)
+                equivalent=equivalent, report=frozen_map(report), parameters=frozen_map(params), **solver)
+    for text in fast_drivers(case):
+        import warnings
+
+        from .errors import KinemWarning
+
+        warnings.warn(text, KinemWarning, stacklevel=2)
+    return case
+
+
+FAST_TURNS = 50        # turns a second: a crank faster than this looks like degrees per second given as rad/s
+MANY_TURNS = 100       # turns over the output span, likewise, when the output instants are too few to follow them
+COARSE = 0.25          # turns per output interval: more, and the output does not show the turning
+
+
+def fast_drivers(case) -> list:
+    """A warning for each driver of an angle that turns (a turn or more over
+    [0, end]: not a fast small oscillation) faster than FAST_TURNS a second, or more than MANY_TURNS times over [0, end] at more than COARSE
+    turns per output interval (a long run sampled to follow it is meant): a
+    speed given in degrees per second where radians per second are read
+    (units = { angle = "deg" } reads them as degrees)."""
+    import math
+
+    import numpy as np
+
+    out = []
+    t = np.linspace(0.0, case.end, 1001)
+    for c in case.constraints:
+        if c.type != "driver" or c.get("coord") != "phi":
+            continue
+        f = fn.FunctionSet([c["d"]])
+        speed = float(np.abs(f(t, 1)).max())
+        turns = float(abs(f(case.end)[0] - f(0.0)[0])) / (2 * math.pi)
+        if (speed > 2 * math.pi * FAST_TURNS and turns >= 1) or (turns > MANY_TURNS and turns / case.steps > COARSE):
+            out.append(f"{case.source}: {c.where}: turns body '{c['body']}' at up to {speed:.4g} rad/s "
+                       f"({speed / (2 * math.pi):.3g} turns a second, {turns:.3g} turns in {case.end:g} s, {case.steps} output intervals); if its "
+                       f"d(t) is in degrees, that is {math.radians(speed):.4g} rad/s: convert it, or set "
+                       "units = { angle = \"deg\" } for the case's angles")
+    return out
+
+
+def set_values(data: dict, values, source: str = "command line") -> dict:
+    """The case file's dict with ``values`` (name -> number, or its text)
+    set: the one place a design parameter's name is resolved (``--set``,
+    sweeps, ``load(parameters=...)``). Names: ``NAME`` or ``parameters.NAME``
+    for a named dimension of [parameters]. Returns a new dict (``data`` is
+    not changed); an unknown name or a value that is not a number is an
+    InputError naming it."""
+    declared = data.get("parameters")
+    declared = declared if isinstance(declared, dict) else {}
+    out = dict(declared)
+    for name, value in values.items():
+        key = name.removeprefix("parameters.") if isinstance(name, str) else name
+        if key not in declared:
+            from .casefile.checks import names, suggest
+
+            guess = suggest(key, declared)
+            raise InputError(f"{source}: unknown parameter {name!r}" + (f"; did you mean '{guess}'?" if guess else
+                             f"; expected a name of the case's [parameters]: {names(declared) or '(none defined)'}"))
+        value = _number(value.item() if hasattr(value, "item") and hasattr(value, "dtype") else value)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise InputError(f"{source}: parameter {name!r}: got {value!r}; expected a number")
+        out[key] = value
+    return dict(data, parameters=out)
 
 
 def check_time(case: Case) -> Case:

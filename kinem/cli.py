@@ -21,12 +21,12 @@ class _Parser(argparse.ArgumentParser):
         raise InputError(f"{command}: {message}" if command else message)
 
 
-def _load(path, end=None, steps=None):
+def _load(path, end=None, steps=None, values=None):
     from .case import check_time, load, time_options
     from .model import compile
 
     end, steps = time_options(end, steps)  # the rules of the case file's [time]
-    case = load(path)
+    case = _warned(load, path, parameters=_values(values))
     if end is not None or steps is not None:
         case = check_time(case.with_time(end, steps))
     return compile(case)
@@ -110,7 +110,7 @@ def cmd_solve(a):
 
     fmt = _format(a.out, a.format)
     outputs = _outputs(a.outputs)
-    model = _load(a.case, a.end, a.steps)
+    model = _load(a.case, a.end, a.steps, a.set)
     limit = MAX_WORK if a.max_work is None else a.max_work
     nt = model.case.steps + 1
     if stream.work(model) > limit:
@@ -187,6 +187,50 @@ def cmd_solve(a):
     raise AnalysisError(f"{a.case}: {message}{kept}")
 
 
+def _warned(fn, *args, **kwargs):
+    """fn(...) with the KinemWarnings it gives printed as one line each on standard error."""
+    import warnings
+
+    from .errors import KinemWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", KinemWarning)
+        out = fn(*args, **kwargs)
+    for w in caught:
+        if issubclass(w.category, KinemWarning):
+            print(one_line(f"kinem: warning: {w.message}"), file=sys.stderr)
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return out
+
+
+def _frame_bar():
+    """A frame progress bar (kinem.notebook.frame_bar) when standard error is a terminal, else None."""
+    if not sys.stderr.isatty():
+        return None
+    from .notebook import frame_bar
+
+    return frame_bar(1)
+
+
+def _values(items) -> dict:
+    """--set NAME=VALUE (repeatable) of solve and info: name -> value text
+    (kinem.case.set_values resolves the name and checks the value)."""
+    out = {}
+    for item in items or ():
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip() or not value.strip():
+            raise InputError(f"--set: got {item!r}; expected NAME=VALUE with NAME a parameter of the case "
+                             "(its [parameters] section)")
+        out[name.strip()] = value.strip()
+    return out
+
+
+def _set_option(p):
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="a named dimension of the case's [parameters] (repeatable): --set crank=55")
+
+
 def _format(out, fmt):
     """--format, or the one --out's suffix names (csv by default); they must agree."""
     suffix = Path(out).suffix.lower().lstrip(".") if out and out != "-" else ""
@@ -238,10 +282,45 @@ class _Trace:
         return False
 
 
+def cmd_sweep(a):
+    """kinem sweep CASE --set NAME=START:STOP:COUNT ...: one table of every variant (kinem.sweep)."""
+    from .output import Output
+    from .sweep import parse_values, sweep
+
+    values = {}
+    for item in a.set or ():
+        name, v = parse_values(item)
+        if name in values:
+            raise InputError(f"--set: {name!r} given twice; expected each parameter once")
+        values[name] = v
+    if not values:
+        raise InputError("sweep: no --set; expected one or more --set NAME=START:STOP:COUNT")
+    columns = [c.strip() for c in a.outputs.split(",") if c.strip()] if a.outputs is not None else None
+    bar = None
+    if sys.stderr.isatty():
+        from .report.progress import Progress
+
+        bar = Progress(0)
+    try:
+        result = _warned(sweep, a.case, values, columns, bar)
+    finally:
+        if bar:
+            bar.close()
+    with Output("-" if a.out is None else a.out) as out:
+        out.write(result.csv())
+        out.commit()
+    failed = [k for k, e in enumerate(result.errors) if e]
+    if failed:
+        print(one_line(f"kinem: {len(failed)} of {len(result)} variants failed (variant {failed[0]}: "
+                       f"{result.errors[failed[0]]}); their rows say why"), file=sys.stderr)
+        return 1
+    return 0
+
+
 def cmd_info(a):
     from .info import describe, info
 
-    i = info(_load(a.case))
+    i = info(_load(a.case, values=a.set))
     print(json.dumps(i.as_dict(), indent=2) if a.json else describe(i))
     if not i.assembled:  # the figures above are of the closest configuration found
         from .result import Status
@@ -422,7 +501,12 @@ def cmd_animate(a):
 
     engines = [e for e in _engines(a.engines, allow_empty=True) if e != "native"]
     check_output(a.out)
-    skipped = write(_load(a.case), a.out, engines)
+    bar = _frame_bar()
+    try:
+        skipped = write(_load(a.case), a.out, engines, bar)
+    finally:
+        if bar:
+            bar.close()
     for name, why in skipped.items():
         print(one_line(f"{name}: not drawn: {why}"), file=sys.stderr)
     _note(a.out)
@@ -455,13 +539,26 @@ def parser():
                         "(CSV: a last line '# partial: REASON'; NPZ: arrays partial and message)")
     s.add_argument("--max-work", type=float, metavar="N",
                    help=f"refuse runs above N output instants x coordinates (default {MAX_WORK:g})")
+    _set_option(s)
     s.set_defaults(run=cmd_solve)
 
     i = sub.add_parser("info", help="coordinates, equations, Jacobian non-zeros, degrees of freedom")
     i.add_argument("case", help="the case file (TOML; docs/case-format.md)")
     i.add_argument("--json", action="store_true", help="the same figures as JSON")
+    _set_option(i)
     _errors_option(i)
     i.set_defaults(run=cmd_info)
+
+    sw = sub.add_parser("sweep", help="solve a case over a grid of its named parameters; one table "
+                                      "(variant, parameters, t, outputs)")
+    sw.add_argument("case", help="the case file (TOML; docs/case-format.md) with a [parameters] section")
+    sw.add_argument("--set", action="append", metavar="NAME=START:STOP:COUNT",
+                    help="a parameter's values (repeatable: every combination): COUNT values from START to STOP, "
+                         "or A,B,C")
+    sw.add_argument("--outputs", metavar="COLUMNS", help="comma-separated trajectory columns (default: all)")
+    sw.add_argument("--out", help="output CSV file (default: standard output)")
+    _errors_option(sw)
+    sw.set_defaults(run=cmd_sweep)
 
     st = sub.add_parser("stress", help="the stress suite on native and the engines, each outcome classified")
     st.add_argument("--engines", help="comma-separated: native and engines (default: all)")

@@ -182,6 +182,42 @@ def _beyond_precision(model, q, residual, tolerance) -> str:
             "reached there; move the mechanism nearer the origin, or loosen [solver] tolerance")
 
 
+def driver_count(model, t=0.0, q=None, settle=True):
+    """(least-squares configuration, '' or why the driving equations do not
+    match the degrees of freedom: their count and names, the mobility both
+    ways (the Gruebler count, coordinates minus kinematic equations, and
+    coordinates minus the rank of their Jacobian) and how many to add or
+    remove); None where it cannot be told (too large, no equations, not finite).
+    ``settle``: the ranks at the least-squares configuration from q (default
+    the estimates); else at q itself."""
+    from .analysis import gauss_newton
+
+    if model.n > EXPLAIN_LIMIT or model.m == 0:
+        return None
+    q_ls = (model.q0 if q is None else q).copy()
+    if settle:
+        q_ls, _ = gauss_newton(model, q_ls, t, EXPLAIN_ITERATIONS)
+    J = model.assemble(model.jac_values(q_ls, t) * model.entry_scale, sparse=False)
+    if not (np.isfinite(q_ls).all() and np.isfinite(J).all()):
+        return None
+    nd = ~model.driving
+    s = np.linalg.svd(J[nd], compute_uv=False) if nd.any() else np.zeros(0)
+    rank = int((s > RANK_TOL * s[0]).sum()) if s.size and s[0] > 0 else 0
+    dof, drivers = model.n - rank, list(dict.fromkeys(np.asarray(model.row_owner, dtype=object)[model.driving]))
+    n_driving = int(model.driving.sum())
+    if n_driving == dof:
+        return q_ls, ""
+    named = f" ({', '.join(drivers)})" if drivers else ""
+    gap = abs(n_driving - dof)
+    kinematic = int(nd.sum())
+    return q_ls, (f"too {'many' if n_driving > dof else 'few'} driving equations: {n_driving}{named} for "
+                  f"{dof} degree{'s' * (dof != 1)} of freedom ({model.n} coordinates, {rank} independent "
+                  f"kinematic equations; Gruebler count {model.n} - {kinematic} = {model.n - kinematic}"
+                  + (f", {kinematic - rank} redundant" if kinematic > rank else "") + "): "
+                  + (f"remove {gap} driving equation{'s' * (gap != 1)}" if n_driving > dof else
+                     f"add {gap} driver{'s' * (gap != 1)} (one per degree of freedom)"))
+
+
 def explain_assembly(model, t=0.0, q=None, tolerance=1e-12) -> str:
     """Why an assembly at t fails, in the user's terms ('' when no cause is
     found): a number of driving equations other than the degrees of freedom
@@ -194,24 +230,13 @@ def explain_assembly(model, t=0.0, q=None, tolerance=1e-12) -> str:
     constraints of the loop that cannot close. The constraint with the
     largest residual is then left open and the rest solved: how far its
     equations miss is the gap."""
-    from .analysis import gauss_newton
-
-    if model.n > EXPLAIN_LIMIT or model.m == 0:
+    counted = driver_count(model, t, q)
+    if counted is None:
         return ""
-    q_ls, _ = gauss_newton(model, (model.q0 if q is None else q).copy(), t, EXPLAIN_ITERATIONS)
-    J = model.assemble(model.jac_values(q_ls, t) * model.entry_scale, sparse=False)
-    if not (np.isfinite(q_ls).all() and np.isfinite(J).all()):
-        return ""
+    q_ls, message = counted
+    if message:
+        return message
     nd = ~model.driving
-    s = np.linalg.svd(J[nd], compute_uv=False) if nd.any() else np.zeros(0)
-    rank = int((s > RANK_TOL * s[0]).sum()) if s.size and s[0] > 0 else 0
-    dof, drivers = model.n - rank, list(dict.fromkeys(np.asarray(model.row_owner, dtype=object)[model.driving]))
-    n_driving = int(model.driving.sum())
-    if n_driving != dof:
-        named = f" ({', '.join(drivers)})" if drivers else ""
-        return (f"too {'many' if n_driving > dof else 'few'} driving equations: {n_driving}{named} for "
-                f"{dof} degree{'s' * (dof != 1)} of freedom ({model.n} coordinates, {rank} independent "
-                f"kinematic equations)")
     r = np.abs(model.phi(q_ls, t)) / model.scale
     if not r.size or r.max() <= tolerance:
         return ""
@@ -235,3 +260,43 @@ def explain_assembly(model, t=0.0, q=None, tolerance=1e-12) -> str:
         unit = model.case.length_unit
         return text + f": with '{worst}' left open, its ends are {miss:.4g}{' ' + unit if unit else ''} apart"
     return text + f": with '{worst}' left open, its equations miss by {miss:.4g}"
+
+
+# higher pairs with a contact angle: type -> (outline's body key, other body key, the other's point key)
+CONTACTS = {"cam-roller": ("cam", "follower", "sj"), "cam-point": ("cam", "follower", "sj"),
+            "cam-flat": ("cam", "follower", "sj"), "point-follower": ("j", "i", "si")}
+FAR_THETA = 0.5   # rad between a contact angle's estimate and where the bodies' estimates put the contact
+
+
+def contact_hint(model) -> str:
+    """'' or, for each higher pair whose contact-angle estimate ``theta`` is
+    far (more than FAR_THETA) from where its bodies' estimates put the
+    contact, the value it would need: the polar angle, about the outline's
+    centre in the outline body's frame, of the follower's point (a roller's
+    centre, a pin), or for a flat face the direction of the face's normal
+    that points from the outline towards the face."""
+    bodies = {b.name: b.q for b in model.case.bodies}
+    hints = []
+    for c in model.case.constraints:
+        if c.type not in CONTACTS or "theta" not in c.fields:
+            continue
+        on, other, key = CONTACTS[c.type]
+        (xi, yi, pi), (xj, yj, pj) = bodies[c[on]], bodies[c[other]]
+        centre = complex(*c["outline"].center)
+        point = complex(xj, yj) + complex(*c[key]) * np.exp(1j * pj)       # the follower's point, global
+        local = (point - complex(xi, yi)) * np.exp(-1j * pi) - centre       # about the outline's centre
+        if c.type == "cam-flat":
+            n = complex(*c["normal"]) * np.exp(1j * (pj - pi))            # the face's normal in the cam's frame
+            local = n if (local.conjugate() * n).real > 0 else -n
+        if abs(local) == 0:
+            continue
+        need = float(np.angle(local))
+        off = (c["theta"] - need + np.pi) % (2 * np.pi) - np.pi           # wrapped: a turn more is no mistake
+        if abs(off) > FAR_THETA:
+            a, b = c["outline"].span
+            turns = [need + 2 * np.pi * k for k in range(-4, 5)]
+            inside = [x for x in turns if a <= x <= b]                   # on the outline's table if it can be
+            need = min(inside or turns, key=lambda x: abs(x - c["theta"]))
+            hints.append(f"the estimate theta = {c['theta']:.6g} of '{c.name}' is {abs(off):.3g} rad from where "
+                         f"the bodies' estimates put the contact: try theta = {need:.6g}")
+    return "; ".join(hints)

@@ -10,6 +10,12 @@ class KinemError(Exception):
     """Root of all kinem errors."""
 
 
+class KinemWarning(UserWarning):
+    """Input that is valid but looks like a mistake (a crank speed that
+    looks like degrees per second given as radians); the command line prints
+    each as one line, ``kinem: warning: ...``."""
+
+
 class InputError(KinemError):
     """Bad input. ``problems`` lists every problem found, each a one-line text
     that names the file, the place (constraint, body, section) and the key, and

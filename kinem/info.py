@@ -41,12 +41,16 @@ class Info:
     configuration: tuple = ()   # (joint, relative angle phi_j - phi_i in (-pi, pi]) of the assembly
     sides: tuple = ()           # kinem.branches.Side of every cam roller at the assembly
     status: Status = Status.SUCCESS   # the solver's (WRONG_BRANCH: assembled on a branch the case's pins exclude)
+    drawn: tuple = ()           # (body, frame (x, y, phi) at the drawing, ((point, (xi, eta)), ...)) of drawn points
+    parameters: tuple = ()      # (name, value) of the case's [parameters], as used (--set applied)
 
     def as_dict(self) -> dict:
         d = asdict(self)
         d["redundant_equations"] = list(self.redundant_equations)
         d["configuration"] = {name: angle for name, angle in self.configuration}
         d["status"] = self.status.name
+        d["parameters"] = dict(self.parameters)
+        d["drawn"] = {b: {"frame": list(q), "points": {n: list(at) for n, at in pts}} for b, q, pts in self.drawn}
         d["sides"] = {s.constraint: {"side": s.side, "distance": s.distance, "radius": s.radius} for s in self.sides}
         return d
 
@@ -111,6 +115,8 @@ def info(model) -> Info:
         dof=model.n - rank, residual=float(residual), assembled=ok, rank_method=method,
         redundant_equations=redundant, configuration=configuration(model, q) if ok else (),
         sides=sides(model, q) if ok else (), status=status,
+        drawn=tuple((b.name, b.q, b.carries) for b in model.case.bodies if b.carries),
+        parameters=tuple(model.case.parameters.items()),
     )
 
 
@@ -133,6 +139,11 @@ def describe(i: Info) -> str:
     for s in i.sides:
         lines.append(f"  cam roller         {s.constraint}: {s.side} the outline (its centre {s.distance:.6g} from the outline's "
                      f"centre, outline radius {s.radius:.6g} at the contact: the branch the estimates chose)")
+    if i.parameters:
+        lines.append("  parameters         " + ", ".join(f"{n} = {v:.10g}" for n, v in i.parameters))
+    for body, q, pts in i.drawn:
+        lines.append(f"  drawn body         {body}: frame x {q[0]:.10g}, y {q[1]:.10g}, phi {q[2]:.10g}; local "
+                     + ", ".join(f"{n} [{xi:.10g}, {eta:.10g}]" for n, (xi, eta) in pts))
     if i.redundant_equations:
         lines.append("  warning: redundant equations: " + ", ".join(i.redundant_equations))
     if i.diagnosis:

@@ -22,6 +22,28 @@ class Status(IntEnum):
     SINGULAR = 2
     WRONG_BRANCH = 3     # assembled on a branch the case's pins exclude (kinem.branches)
 
+    def __str__(self) -> str:   # printed by name (JSON and comparisons keep the number)
+        return self.name
+
+    def __format__(self, spec) -> str:
+        return format(self.name, spec)
+
+
+# Jupyter's rich display of a Trajectory and a SolveResult: set by kinem.notebook,
+# which may draw (the drawing is above the solver core, which imports this module).
+HTML = {}
+
+
+def missing_column(name, columns) -> str:
+    """"no column 'p.x'" with the nearest names (did you mean) or the first columns."""
+    import difflib
+
+    close = difflib.get_close_matches(str(name), list(columns), n=3, cutoff=0.6) if isinstance(name, str) else []
+    if close:
+        return f"no column {name!r}; did you mean " + " or ".join(f"'{c}'" for c in close) + "?"
+    head = ", ".join(columns[:12]) + (f" ... ({len(columns)} columns)" if len(columns) > 12 else "")
+    return f"no column {name!r}; columns: {head}"
+
 
 @dataclass(frozen=True, eq=False)
 class Trajectory:
@@ -42,7 +64,7 @@ class Trajectory:
         try:
             return self.data[:, self._index[name]]
         except KeyError:
-            raise KeyError(f"no column '{name}'; columns: {', '.join(self.columns[:12])}...") from None
+            raise KeyError(missing_column(name, self.columns)) from None
 
     def __contains__(self, name) -> bool:
         return name in self._index
@@ -73,6 +95,9 @@ class Trajectory:
             raise KinemError("Trajectory.to_pandas needs pandas, which is not installed: pip install pandas") from None
         return pd.DataFrame(np.array(self.data), columns=list(self.columns), index=pd.Index(np.array(self.t), name="t"))
 
+    def _repr_html_(self):
+        return HTML["trajectory"](self) if "trajectory" in HTML else None
+
     def __repr__(self) -> str:
         span = f", t {self.t[0]:.6g} to {self.t[-1]:.6g}" if len(self.t) else ""
         names = ", ".join(self.columns[:4]) + (", ..." if len(self.columns) > 4 else "")
@@ -99,6 +124,10 @@ class SolveResult:
     wall_time: float                 # seconds in the analysis loop
     t_fail: float | None = None
     failed_constraint: str | None = None
+    model: object = field(default=None, repr=False)   # the Model solved (kept alive: kinem.animate draws it)
+
+    def _repr_html_(self):
+        return HTML["result"](self) if "result" in HTML else None
 
     def __repr__(self) -> str:
         return (f"SolveResult(success={self.success}, status={self.status.name}, message={self.message!r}, "

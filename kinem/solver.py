@@ -9,7 +9,7 @@ import numpy as np
 
 from .analysis import Data
 from .branches import violation
-from .diagnose import explain_assembly
+from .diagnose import contact_hint, explain_assembly
 from .errors import AnalysisError, InputError, SingularError
 from .linalg import choose
 from .march import March, usable
@@ -87,6 +87,8 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         status = Status.SINGULAR if isinstance(e, SingularError) else Status.NOT_CONVERGED
         what = "assembly at" if k == 0 else "step to"
         why = explain_assembly(model, times[0], tolerance=options.tolerance) if k == 0 else ""  # the root cause, in the user's terms
+        if k == 0 and (hint := contact_hint(model)):
+            why = f"{why}; {hint}" if why else hint
         message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {why + '; ' if why else ''}{e}"
     if q0 is None and k and (pin := violation(model, Q[0])):   # the branch the case pins (kinem.branches)
         status, message, k = Status.WRONG_BRANCH, f"assembly at t = {times[0]:.6g}: {pin[1]}", 0
@@ -105,16 +107,29 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         wall_time=wall, t_fail=None if ok else float(times[n_ok]),
         failed_constraint=pin[0] if status == Status.WRONG_BRANCH else None if ok or status == Status.SINGULAR
         else model.row_owner[data.worst_row],
+        model=model,
     )
 
 
 def check_square(model) -> None:
-    """Kinematic analysis needs at least as many equations as coordinates
-    (Sec. 4.3); more are accepted when they are consistent (redundant
+    """Kinematic analysis needs one driving equation per degree of freedom
+    (Sec. 4.3): fewer (fewer equations than coordinates) or more (counted
+    where there are more equations than coordinates) is bad input, named with
+    the mobility (kinem.diagnose.driver_count). More equations than
+    coordinates are accepted when they are consistent (redundant
     constraints, solved in the least-squares sense)."""
+    from .diagnose import driver_count
+
+    if model.m == model.n:
+        return
+    # fewer: the ranks where the equations settle; more: as estimated (redundant constraints that
+    # hold only in the configuration drawn, a parallelogram's third crank, keep their mobility there)
+    counted = driver_count(model, float(model.times[0]), settle=model.m < model.n)
+    why = counted[1] if counted is not None else ""
     if model.m < model.n:
         gap = model.n - model.m
-        why = explain_assembly(model, float(model.times[0]))  # names the driving equations and the DOF
         raise InputError(f"{model.case.source}: {model.m} equations for {model.n} coordinates: "
                          f"{gap} equation{'s' * (gap != 1)} missing" + (f"; {why}" if why else
                                                                         " (add drivers or constraints)"))
+    if why.startswith("too many"):
+        raise InputError(f"{model.case.source}: {model.m} equations for {model.n} coordinates: {why}")

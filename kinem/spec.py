@@ -15,9 +15,10 @@ def frozen_map(d=None) -> Mapping:
 @dataclass(frozen=True)
 class Body:
     name: str
-    q: tuple  # initial estimate (x, y, phi)
+    q: tuple  # initial estimate (x, y, phi); derived from its points where drawn (kinem.casefile.drawn)
     mass: float | None = None
     inertia: float | None = None
+    carries: tuple = ()   # (point name, (xi, eta)): the drawn points it carries, in its own frame
 
 
 @dataclass(frozen=True)
@@ -72,6 +73,7 @@ class Case:
     report: Mapping = field(default_factory=frozen_map)   # [report]: points (names the report draws)
     source: str = "<memory>"
     equivalent: Equivalence | None = None  # [equivalent]: the group of equivalent models it belongs to
+    parameters: Mapping = field(default_factory=frozen_map)   # [parameters]: name -> the value used
 
     def __repr__(self) -> str:   # a summary: the whole case is kinem.load's input, and thousands of characters
         return (f"Case({self.name!r}: {len(self.bodies)} bodies, {len(self.points)} points, "

@@ -31,10 +31,22 @@ def with_extra_driver():
 
 
 def test_surplus_driver_is_named_with_the_degrees_of_freedom():
-    r = kinem.solve(kinem.compile(kinem.load_dict(with_extra_driver())))
-    assert not r.success
+    with pytest.raises(kinem.InputError) as e:   # bad input, as a missing driver is (issue 32)
+        kinem.solve(kinem.compile(kinem.load_dict(with_extra_driver())))
     assert ("too many driving equations: 2 (crank-drive, extra) for 1 degree of freedom "
-            "(12 coordinates, 11 independent kinematic equations)") in r.message, r.message
+            "(12 coordinates, 11 independent kinematic equations; Gruebler count 12 - 11 = 1): "
+            "remove 1 driving equation") in str(e.value), str(e.value)
+
+
+def test_too_few_and_too_many_drivers_exit_alike(tmp_path):
+    driver = SLIDER[SLIDER.index('[[constraints]]\ntype = "driver"'):SLIDER.index("[report]")]
+    extra = '[[constraints]]\ntype = "driver"\nname = "extra"\nbody = "rod"\ncoord = "phi"\nd = 0.2\n\n'
+    for name, text, words in (("few", SLIDER.replace(driver, ""), "add 1 driver"),
+                              ("many", SLIDER.replace(driver, driver + extra), "remove 1 driving")):
+        path = tmp_path / f"{name}.toml"
+        path.write_text(text)
+        code, err = cli("solve", path, "--out", tmp_path / "o.csv")
+        assert code == 2 and len(err.splitlines()) == 1 and words in err and "Gruebler count 12 - 11 = 1" in err, err
 
 
 def test_missing_driver_is_named_with_the_degrees_of_freedom():
@@ -73,3 +85,26 @@ def test_info_exits_1_when_the_case_does_not_assemble(tmp_path):
 def test_info_of_a_good_case_still_exits_0():
     code, err = cli("info", Path(__file__).resolve().parents[1] / "cases" / "four_bar.toml")
     assert code == 0, err
+
+
+def test_one_misspelt_body_is_one_problem():
+    """A body misspelt where it is defined: every reference to its right name is the same problem (issue 32)."""
+    text = SLIDER.replace("crank  = { q", "crnak  = { q")
+    with pytest.raises(kinem.InputError) as e:
+        kinem.loads(text)
+    assert len(e.value.problems) == 1, e.value.problems
+    assert "unknown body 'crank'; did you mean 'crnak'? (the same name in 4 places)" in e.value.problems[0]
+
+
+@pytest.mark.parametrize("estimate", [-1.3, 5.0])
+def test_a_far_contact_estimate_is_named_with_the_value_it_needs(estimate, tmp_path):
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "cases" / "cam_roller_circle.toml").read_text()
+    assert "theta = 1.84" in text
+    r = kinem.solve(kinem.compile(kinem.loads(text.replace("theta = 1.84", f"theta = {estimate}"))))
+    assert not r.success
+    assert f"the estimate theta = {estimate:g} of 'contact' is" in r.message, r.message
+    need = float(r.message.split("try theta = ")[1].split(";")[0])
+    assert abs(need - 1.84) < 0.05   # the contact angle the bodies' estimates give, near the file's own
+    fixed = kinem.solve(kinem.compile(kinem.loads(text.replace("theta = 1.84", f"theta = {need}"))))
+    assert fixed.success, fixed.message

@@ -260,3 +260,98 @@ def test_every_declared_key_is_documented():
     for name, decl in REGISTRY.items():
         for k in decl.keys:
             assert f"| `{name}` | `{k.name}` | {k.accepts} |" in table
+
+
+# -- issue 32: angles in degrees, and speeds that look like degrees ---------------------------------
+
+def test_angles_in_degrees_are_converted_once():
+    import math
+
+    import numpy as np
+
+    import kinem
+
+    text = (ROOT / "cases" / "slider_crank.toml").read_text()
+    deg = (text.replace('units = { length = "mm" }', 'units = { length = "mm", angle = "deg" }')
+           .replace("5.76]", f"{math.degrees(5.76)!r}]").replace("0.2]", f"{math.degrees(0.2)!r}]")
+           .replace("[5.76, -1.2]", f"[{math.degrees(5.76)!r}, {math.degrees(-1.2)!r}]"))
+    assert deg.count("angle = \"deg\"") == 1 and "5.76]" not in deg and "-1.2]" not in deg
+    a, b = kinem.load(ROOT / "cases" / "slider_crank.toml"), kinem.loads(deg)
+    assert b.units["angle"] == "deg"
+    for x, y in zip(a.bodies, b.bodies):
+        assert abs(x.q[2] - y.q[2]) <= 1e-15 * 7, (x, y)
+    ra, rb = (kinem.solve(kinem.compile(c)) for c in (a, b))
+    for col in ("A.x", "B.y", "crank.phi", "rod.omega"):   # outputs stay in radians
+        np.testing.assert_allclose(rb.trajectory[col], ra.trajectory[col], rtol=0, atol=1e-12 * 700)
+
+
+def test_degrees_reach_every_angle_key():
+    import math
+
+    import kinem
+    from kinem import functions as fn
+
+    case = kinem.loads("""
+        name = "d"
+        units = { angle = "deg" }
+        [time]
+        end = 1.0
+        steps = 1
+        [bodies]
+        g = { q = [0.0, 0.0, 90.0] }
+        b = { q = [0.0, 0.0, 180.0] }
+        [[constraints]]
+        type = "ground"
+        body = "g"
+        value = [0.0, 0.0, 90.0]
+        [[constraints]]
+        type = "absolute"
+        body = "b"
+        coord = "phi"
+        value = 45.0
+        [[constraints]]
+        type = "driver"
+        body = "b"
+        coord = "x"
+        d = { harmonic = { amplitude = 2.0, omega = 180.0, phase = 90.0 } }
+        [[constraints]]
+        type = "driver"
+        body = "b"
+        coord = "phi"
+        d = { poly = [30.0, 360.0] }
+        [[constraints]]
+        type = "point-follower"
+        i = "b"
+        si = [0.0, 0.0]
+        j = "g"
+        outline = { spline = { theta = [0.0, 90.0, 180.0, 270.0, 360.0], s = [1.0, 2.0, 1.0, 2.0, 1.0], periodic = true } }
+        theta = 45.0
+    """)
+    c = case.constraints
+    q = math.pi / 180
+    assert case.bodies[0].q[2] == 90 * q and c[0]["value"][2] == 90 * q and c[1]["value"] == 45 * q
+    assert c[2]["d"] == fn.Harmonic(2.0, 180 * q, 90 * q, 0.0)      # x: the amplitude is a length
+    assert c[3]["d"] == fn.Poly((30 * q, 360 * q))
+    assert c[4]["theta"] == 45 * q and abs(c[4]["outline"].theta[-1] - 2 * math.pi) < 1e-15
+
+
+def test_a_crank_speed_that_looks_like_degrees_is_warned(tmp_path):
+    import warnings
+
+    import kinem
+    from kinem import cli
+
+    text = (ROOT / "cases" / "slider_crank.toml").read_text().replace("[5.76, -1.2]", "[5.76, 360.0]")
+    with pytest.warns(kinem.KinemWarning, match=r"constraint 6 \('crank-drive', driver\): turns body 'crank' at "
+                                                r"up to 360 rad/s .* that is 6.283 rad/s"):
+        kinem.loads(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        kinem.load(ROOT / "cases" / "slider_crank.toml")   # 1.2 rad/s: no warning
+    path = tmp_path / "fast.toml"
+    path.write_text(text)
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        assert cli.main(["info", str(path)]) == 0
+    (line,) = err.getvalue().splitlines()
+    assert line.startswith("kinem: warning: ") and "units = { angle = \"deg\" }" in line

@@ -60,6 +60,10 @@ class Checker:
         self.failures = 0
         self.rejected = set()  # names of bodies and points whose definition was rejected
         self.unknowable = set()  # what (body, point) cannot be checked: its whole section was rejected
+        self.parameters = {}     # [parameters]: name -> value, used where a number is expected
+        self.rejected_parameters = set()   # names of [parameters] whose value was rejected
+        self.degrees = False   # units = { angle = "deg" }: the case's angles are converted once, as parsed
+        self.unknown = {}   # (what, name) of an unknown reference -> [its problem's index, text, places]
 
     def raise_if_any(self):
         if self.problems:
@@ -110,16 +114,35 @@ class Checker:
         if (isinstance(v, str) and v in self.rejected) or what in self.unknowable:
             self.knock_on()
             return None
+        seen = self.unknown.get((what, v)) if isinstance(v, str) else None
+        if seen is not None:   # the same unknown name again: one problem, counting its places
+            seen[2] += 1
+            self.problems[seen[0]] = f"{seen[1]} (the same name in {seen[2]} places)"
+            self.knock_on()
+            return None
         guess = suggest(v, options) if isinstance(v, str) else None
         if guess is not None:
             self.bad(where, key, f"unknown {what} {show(v)}; did you mean '{guess}'?")
         else:
             self.bad(where, key, f"unknown {what} {show(v)}", "one of " + (names(options) or "(none defined)"))
+        if isinstance(v, str):
+            self.unknown[(what, v)] = [len(self.problems) - 1, self.problems[-1], 1]
         return None
 
     def number(self, where, key, v, positive=False, nonneg=False):
+        if isinstance(v, str) and v in self.parameters:   # a named dimension: its value, nothing evaluated
+            v = self.parameters[v]
+        if isinstance(v, str) and v in self.rejected_parameters:
+            self.knock_on()
+            return None
         if isinstance(v, bool) or not isinstance(v, (int, float)):
-            self.bad(where, key, f"got {show(v)}", "a number")
+            guess = suggest(v, self.parameters) if isinstance(v, str) else None
+            if guess is not None:
+                self.bad(where, key, f"unknown parameter {show(v)}; did you mean '{guess}'?")
+            else:
+                named = isinstance(v, str) and self.parameters
+                self.bad(where, key, f"got {show(v)}",
+                         "a number" + (f" or a name of [parameters] ({names(self.parameters)})" if named else ""))
             return None
         if isinstance(v, int) and abs(v) > MAX_MAGNITUDE:  # before float(): 10**400 has none
             self.bad(where, key, f"got a whole number of {len(str(abs(v)))} digits",

@@ -63,7 +63,7 @@ def constraint(ck, index, c, bodies, points, end):
         if key.name in c:
             v = key.parse(ck, where, c[key.name], scope)
             if v is not None:
-                fields[key.name] = v
+                fields[key.name] = key.radians(v, c) if ck.degrees else v
     if ck.failures > n_before:
         return None
     used = [fields[k.name] for k in decl.keys if isinstance(k, BodyKey) and k.name in fields]

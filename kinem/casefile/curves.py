@@ -13,7 +13,7 @@ OUTLINE_FORMS = ("{ spline = { theta = [...], s = [...] } or circle = { radius =
 
 def function(ck, where, key, v, end):
     """A number, { poly }, { harmonic } or { table } into a time function."""
-    if isinstance(v, (int, float)) and not isinstance(v, bool):
+    if isinstance(v, (int, float, str)) and not isinstance(v, bool):   # a number or a parameter's name
         c = ck.number(where, key, v)
         return None if c is None else fn.constant(c)
     if isinstance(v, dict) and len(v) > 1:   # name the key that does not belong
@@ -110,7 +110,7 @@ def _spline(ck, where, w, body, center):
     if pair is None:
         return None
     theta, s = pair
-    if flags["degrees"]:
+    if flags["degrees"] or (ck.degrees and "degrees" not in body):   # its own flag, else the case's units
         theta = tuple(math.radians(x) for x in theta)
     if not ck.increasing(where, f"{w}.theta", theta, "angles"):
         return None

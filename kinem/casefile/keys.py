@@ -15,6 +15,7 @@ from .checks import show
 from .curves import function, outline
 
 COORDS = ("x", "y", "phi")
+DEGREE = math.pi / 180
 
 
 @dataclass(frozen=True)
@@ -34,10 +35,15 @@ class Key:
     name: str
     required: bool = True
     doc: str = ""
+    angle: bool = False      # an angle: given in degrees where the case has units = { angle = "deg" }
     accepts = ""  # what a value looks like, in the docs' words
 
     def parse(self, ck, where, v, scope: Scope):
         raise NotImplementedError
+
+    def radians(self, v, table):
+        """The parsed value with its angles given in degrees converted to radians."""
+        return v * DEGREE if self.angle else v
 
     def size(self, v) -> float | None:
         """The length this value contributes to the mechanism's size (kinem.model), if any."""
@@ -61,6 +67,9 @@ class LocalKey(Key):
     def parse(self, ck, where, v, scope):
         body = scope.table.get(self.of)
         if isinstance(v, str):
+            carries = dict(scope.bodies[body].carries) if body in scope.bodies else {}
+            if v in carries:   # a point drawn in the global frame that the body carries (kinem.casefile.drawn)
+                return carries[v]
             if ck.choice(where, self.name, v, scope.points, "point") is None:
                 return None
             if scope.points[v].body != body:
@@ -77,9 +86,13 @@ class LocalKey(Key):
 @dataclass(frozen=True)
 class NumberKey(Key):
     accepts = "a number"
+    phi_angle: bool = False   # an angle where the table's coord is phi (an absolute constraint's value)
 
     def parse(self, ck, where, v, scope):
         return ck.number(where, self.name, v)
+
+    def radians(self, v, table):
+        return v * DEGREE if self.angle or (self.phi_angle and table.get("coord") == "phi") else v
 
 
 @dataclass(frozen=True)
@@ -112,6 +125,9 @@ class Vector3Key(Key):
 
     def parse(self, ck, where, v, scope):
         return ck.vector(where, self.name, v, 3, "[x, y, phi]")
+
+    def radians(self, v, table):
+        return (v[0], v[1], v[2] * DEGREE)
 
 
 @dataclass(frozen=True)
@@ -155,9 +171,21 @@ class BoolKey(Key):
 @dataclass(frozen=True)
 class FunctionKey(Key):
     accepts = "a function of time d(t) (Functions d(t))"
+    phi_angle: bool = False   # its values are angles where the table's coord is phi (a driver's d)
 
     def parse(self, ck, where, v, scope):
         return function(ck, where, self.name, v, scope.end)
+
+    def radians(self, v, table):
+        """A harmonic's omega and phase are angles always; the values where they are angles."""
+        from .. import functions as fn
+
+        k = DEGREE if self.phi_angle and table.get("coord") == "phi" else 1.0
+        if isinstance(v, fn.Harmonic):
+            return fn.Harmonic(v.amplitude * k, v.omega * DEGREE, v.phase * DEGREE, v.offset * k)
+        if isinstance(v, fn.Poly):
+            return fn.Poly(tuple(c * k for c in v.coeffs))
+        return fn.Table(v.t, tuple(x * k for x in v.value)) if k != 1.0 else v
 
 
 @dataclass(frozen=True)

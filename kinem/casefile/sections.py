@@ -1,5 +1,7 @@
 """The case file's sections other than [[constraints]]: units, [time],
 [solver], [engines.*], [bodies] and [points]."""
+import math
+
 from ..spec import Body, Equivalence, Point, frozen_map
 from .checks import END_RANGE, MAX_STEPS, MAX_UNIT, NAME_RE, names, show
 
@@ -9,16 +11,53 @@ LINEAR_SOLVERS = ("auto", "dense", "sparse")
 
 
 def units(ck, u):
+    """units = { length = "mm", angle = "rad" or "deg" }: length is shown in
+    reports; angle "deg" sets ``ck.degrees`` (every angle of the case in degrees)."""
     if not isinstance(u, dict):
         ck.bad("units", None, f"got {show(u)}", "a table such as { length = \"mm\" }")
         return {}
-    ck.keys("units", u, ("length",))
+    ck.keys("units", u, ("length", "angle"))
+    out = {}
+    if "angle" in u:
+        if u["angle"] in ("rad", "deg"):
+            out["angle"] = u["angle"]
+            ck.degrees = u["angle"] == "deg"
+        else:
+            ck.bad("units", "angle", f"got {show(u['angle'])}", '"rad" (the default) or "deg"')
     if "length" in u and ck.string("units", "length", u["length"], max_len=MAX_UNIT,
                                    expected=f"1 to {MAX_UNIT} printable characters such as \"mm\"") is not None:
         if u["length"] and u["length"].isprintable():
-            return {"length": u["length"]}
-        ck.bad("units", "length", f"got {show(u['length'])}", f"1 to {MAX_UNIT} printable characters such as \"mm\"")
-    return {}
+            out["length"] = u["length"]
+        else:
+            ck.bad("units", "length", f"got {show(u['length'])}",
+                   f"1 to {MAX_UNIT} printable characters such as \"mm\"")
+    return out
+
+
+def parameters(ck, p):
+    """[parameters]: name -> number, the case's named dimensions; a number
+    elsewhere in the file may be given as one of these names (a string,
+    never an expression: nothing is evaluated). Sets ``ck.parameters``."""
+    if not isinstance(p, dict) or len(p) > MAX_ITEMS:
+        ck.bad("[parameters]", None, f"got {show(p)}" if not isinstance(p, dict) else f"{len(p)} parameters",
+               "a table of names and numbers such as { crank = 50.0 }" if not isinstance(p, dict)
+               else f"at most {MAX_ITEMS}")
+        return {}
+    out = {}
+    for name, v in p.items():
+        if ck.name("parameter", name) is None:
+            continue
+        if isinstance(v, str):   # one parameter naming another would be an expression by another name
+            ck.bad("[parameters]", name, f"got {show(v)}", "a number (a parameter's value is not another's name)")
+            v = None
+        else:
+            v = ck.number("[parameters]", name, v)
+        if v is None:
+            ck.rejected_parameters.add(name)
+        else:
+            out[name] = v
+    ck.parameters = out
+    return out
 
 
 def engines(ck, e):
@@ -128,7 +167,8 @@ def solver(ck, s):
 
 
 def bodies(ck, b):
-    """name -> Body of [bodies]."""
+    """name -> Body of [bodies]; a drawn body (``points = [...]``, kinem.casefile.drawn)
+    may leave out q, and its ``carries`` holds the names of the points it lists until they are placed."""
     if b is None or not isinstance(b, dict) or not b or len(b) > MAX_ITEMS:
         ck.unknowable.add("body")  # references to bodies are not checked again
         if b is not None:  # missing: reported with the top level's keys
@@ -142,27 +182,36 @@ def bodies(ck, b):
         if ck.name(where, name) is None:
             pass
         elif not isinstance(v, dict):
-            ck.bad(where, None, f"got {show(v)}", "a table such as { q = [x, y, phi] }")
+            ck.bad(where, None, f"got {show(v)}", "a table such as { q = [x, y, phi] } or { points = [\"A\", \"B\"] }")
         else:
-            ck.keys(where, v, ("q", "mass", "inertia"), ("q",))
+            ck.keys(where, v, ("q", "points", "mass", "inertia"), () if "points" in v else ("q",))
             q = ck.vector(where, "q", v["q"], 3, "[x, y, phi]") if "q" in v else None
+            if q is not None and ck.degrees:
+                q = (q[0], q[1], math.radians(q[2]))
             mass = ck.number(where, "mass", v["mass"], positive=True) if "mass" in v else None
             inertia = ck.number(where, "inertia", v["inertia"], positive=True) if "inertia" in v else None
+            listed = v.get("points", [])
+            if not isinstance(listed, list) or len(listed) > MAX_ITEMS or not all(isinstance(n, str) for n in listed):
+                ck.bad(where, "points", f"got {show(listed)}", "a list of names of points drawn in the global frame")
+            elif "points" in v and not listed and q is None:
+                ck.bad(where, "points", "empty", "one or more points, or q = [x, y, phi]")
             if ck.failures == n_before:
-                out[name] = Body(name, q, mass, inertia)
+                out[name] = Body(name, q, mass, inertia, tuple(dict.fromkeys(listed)))
         if name not in out:
             ck.rejected.add(name)
     return out
 
 
 def points(ck, p, bodies):
-    """name -> Point of [points]."""
+    """name -> Point of [points] given in a body's frame; name -> (body or
+    None, (x, y)) of the points drawn in the global frame (``frame = "global"``),
+    placed by kinem.casefile.drawn."""
     if not isinstance(p, dict) or len(p) > MAX_ITEMS:
         ck.unknowable.add("point")
         ck.bad("[points]", None, f"got {show(p)}" if not isinstance(p, dict) else f"{len(p)} points",
                "a table of points" if not isinstance(p, dict) else f"at most {MAX_ITEMS}")
-        return {}
-    out = {}
+        return {}, {}
+    out, drawn = {}, {}
     for name, v in p.items():
         where = f"point {show(name)}"
         if ck.name(where, name) is None:
@@ -171,14 +220,22 @@ def points(ck, p, bodies):
             ck.bad(where, None, "has the name of a body", "point names distinct from body names")
         elif not isinstance(v, dict):
             ck.bad(where, None, f"got {show(v)}", "a table such as { body = \"crank\", at = [xi, eta] }")
-        elif ck.keys(where, v, ("body", "at"), ("body", "at")):
+        elif v.get("frame") == "global":
+            if ck.keys(where, v, ("body", "at", "frame"), ("at",)):
+                body = ck.choice(where, "body", v["body"], bodies, "body") if "body" in v else None
+                at = ck.vector(where, "at", v["at"], 2, "[x, y] in the global frame")
+                if at is not None and ("body" not in v or body is not None):
+                    drawn[name] = (body, at)
+        elif "frame" in v and v["frame"] != "body":
+            ck.bad(where, "frame", f"got {show(v['frame'])}", '"global" (at = [x, y] as drawn) or "body" (the default)')
+        elif ck.keys(where, v, ("body", "at", "frame"), ("body", "at")):
             body = ck.choice(where, "body", v["body"], bodies, "body")
             at = ck.vector(where, "at", v["at"], 2, "[xi, eta]")
             if body is not None and at is not None:
                 out[name] = Point(name, body, at)
-        if name not in out:
+        if name not in out and name not in drawn:
             ck.rejected.add(name)
-    return out
+    return out, drawn
 
 
 def equivalent(ck, e, points):

@@ -92,14 +92,14 @@ TYPES = [
         BodyKey("body"),
         CoordKey("coord", doc="x, y or phi"),
         LocalKey("point", required=False, of="body", doc="for x/y: a point of the body (Eq. 4.34)"),
-        NumberKey("value", required=False, doc="the constant; default from the estimates"),
+        NumberKey("value", required=False, phi_angle=True, doc="the constant; default from the estimates"),
     ), Simple, check=_check_coord, doc="Holds one coordinate of a body, or of a point of it, constant."),
     TypeDecl("driver", "4.36-4.40", (
         BodyKey("body"),
         CoordKey("coord", doc="x, y or phi"),
         LocalKey("point", required=False, of="body", doc="for x/y: a point of the body (Eqs. 4.39-4.40)"),
         BodyKey("relative_to", required=False, doc="body k: drives phi_i - phi_k (a motor between moving bodies)"),
-        FunctionKey("d", doc="d(t)"),
+        FunctionKey("d", phi_angle=True, doc="d(t)"),
     ), Simple, check=lambda f, b: _check_coord(f, b, driver=True), driving=True,
         doc="Driving constraint: a coordinate, a point coordinate or a relative angle follows d(t)."),
 ]

@@ -81,23 +81,25 @@ def frames(model, engines):
     return native, ghosts, r.q[sample(len(r.q), PATH_INSTANTS)], skipped
 
 
-def write(model, out, engines) -> dict:
-    """Writes the animation to ``out``; returns engine -> why it is not drawn."""
+def write(model, out, engines, on_frame=None) -> dict:
+    """Writes the animation to ``out``; returns engine -> why it is not drawn.
+    ``on_frame(k, frames)`` after each GIF or MP4 frame drawn."""
     ext = check_output(out)
     native, ghosts, dense, skipped = frames(model, engines)
-    render(model, native, ghosts, dense, out, ext)
+    count = len(native["t"])
+    render(model, native, ghosts, dense, out, ext, (lambda k: on_frame(k, count)) if on_frame else None)
     return skipped
 
 
-def render(model, native, ghosts, dense, out, ext=None):
+def render(model, native, ghosts, dense, out, ext=None, on_frame=None):
     """Draws the frames (native {t, q}, engine -> q) and the paths (dense q)
-    to ``out`` in its format."""
+    to ``out`` in its format; ``on_frame(k)`` after each raster frame."""
     ext = ext or Path(out).suffix.lower()
     if ext == ".svg":
         data = ('<?xml version="1.0" encoding="utf-8"?>\n'
                 + svg(model, native, ghosts, standalone=True, paths_q=dense) + "\n").encode()
     else:
-        data = raster(model, native, ghosts, dense, ext)
+        data = raster(model, native, ghosts, dense, ext, on_frame)
     save(out, data)
 
 
@@ -109,9 +111,11 @@ def save(path, data: bytes):
     write_atomic(path, lambda f: f.write(data))
 
 
-def raster(model, native, ghosts, dense, ext) -> bytes:
+def raster(model, native, ghosts, dense, ext, on_frame=None) -> bytes:
     """GIF or MP4 bytes: the scene drawn by matplotlib at every frame, at the
-    SVG's pace (motion.duration)."""
+    SVG's pace (motion.duration). The static parts (axes, grid, paths,
+    legend) are rendered once; each frame draws only the moving artists over
+    that background (blitting) and a GIF's frames share one palette."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -176,15 +180,52 @@ def raster(model, native, ghosts, dense, ext) -> bytes:
         return []
 
     fps = len(t) / duration(t)
-    anim = animation.FuncAnimation(fig, draw, frames=len(t), blit=False)
+    moving = [m[0] for m in movers] + [lab[0] for lab in labels] + [clock]
+    for a in moving:
+        a.set_animated(True)   # left out of the background
+    fig.canvas.draw()
+    background = fig.canvas.copy_from_bbox(fig.bbox)
+    images = []
+    for k in range(len(t)):
+        draw(k)
+        fig.canvas.restore_region(background)
+        for a in moving:
+            fig.draw_artist(a)
+        images.append(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
+        if on_frame:
+            on_frame(k)
+    plt.close(fig)
     with _scratch(ext) as path:
         if ext == ".gif":
-            writer = _gif_writer(animation)(fps=fps)
+            _save_gif(path, images, fps)
         else:   # the format named: the scratch path may have no suffix
             writer = animation.FFMpegWriter(fps=fps, extra_args=["-f", "mp4"])
-        anim.save(path, writer=writer)
-        plt.close(fig)
+            _save_frames(writer, images, fig.dpi, path)
         return Path(path).read_bytes()
+
+
+def _save_gif(path, images, fps):
+    """One adaptive palette from the first frame (the scene's colours are all
+    in it), every frame mapped to it without dithering."""
+    from PIL import Image
+
+    first = Image.fromarray(images[0]).quantize(colors=255, method=Image.Quantize.MEDIANCUT)
+    frames = [first] + [Image.fromarray(im).quantize(palette=first, dither=Image.Dither.NONE) for im in images[1:]]
+    frames[0].save(path, format="GIF", save_all=True, append_images=frames[1:], duration=int(1000 / fps), loop=0)
+
+
+def _save_frames(writer, images, dpi, path):
+    """Rendered frames (RGB arrays) through a matplotlib movie writer."""
+    import matplotlib.pyplot as plt
+
+    h, w = images[0].shape[:2]
+    fig = plt.figure(figsize=(w / dpi, h / dpi), dpi=dpi)
+    fig.figimage(images[0])
+    with writer.saving(fig, path, dpi):
+        for im in images:
+            fig.images[0].set_data(im)
+            writer.grab_frame()
+    plt.close(fig)
 
 
 @contextmanager
@@ -210,16 +251,6 @@ def _scratch(ext):
         os.close(fd)
     with tempfile.TemporaryDirectory() as tmp:
         yield os.path.join(tmp, "out" + ext)
-
-
-def _gif_writer(animation):
-    """matplotlib's PillowWriter, saving with the format named (the scratch
-    path may have no suffix for Pillow to infer it from)."""
-    class GifWriter(animation.PillowWriter):
-        def finish(self):
-            self._frames[0].save(self.outfile, format="GIF", save_all=True, append_images=self._frames[1:],
-                                 duration=int(1000 / self.fps), loop=0)
-    return GifWriter
 
 
 def _artists(ax, it, color, ghost, Polygon):

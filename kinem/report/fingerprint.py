@@ -9,14 +9,16 @@ from collections.abc import Mapping
 import numpy as np
 
 TRAJECTORY_INSTANTS = 11     # first and last included, spread evenly
-NOT_HASHED = ("source", "description", "report")   # where the file is, its prose, what the page draws
+NOT_HASHED = ("source", "description", "report",    # where the file is, its prose, what the page draws
+              "parameters")   # the named dimensions' values are hashed where they are used
+DERIVED = ("carries",)   # a body's drawn points: hashed in the constraints and points that use them
 
 
 def _canonical(x):
     """JSON-ready and exact: floats as their hex form, dataclasses by field."""
     if dataclasses.is_dataclass(x) and not isinstance(x, type):
         return {"__type__": type(x).__name__,
-                **{f.name: _canonical(getattr(x, f.name)) for f in dataclasses.fields(x)}}
+                **{f.name: _canonical(getattr(x, f.name)) for f in dataclasses.fields(x) if f.name not in DERIVED}}
     if isinstance(x, Mapping):
         return {str(k): _canonical(v) for k, v in sorted(x.items(), key=lambda kv: str(kv[0]))}
     if isinstance(x, (list, tuple)):

@@ -1,0 +1,224 @@
+"""Sweeps: a case solved over a grid of its named parameters' values.
+
+``sweep(case, {"coupler": np.linspace(0.28, 0.32, 201)}, outputs=["B.x"])``
+loads one variant per point of the grid (the product of the values given
+for each parameter; kinem.case.set_values resolves each name), solves them
+all as one batch (kinem.batch: one merged case, its variants marched side
+by side) and returns a Sweep: one table of variant, parameters, t and the
+outputs. A batch that fails is halved until each failing variant is solved
+alone, so one variant's failure (or bad input: a value that makes a radius
+negative) is that variant's row and not the others'.
+"""
+import itertools
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError, KinemError
+
+MAX_VARIANTS = 100_000
+STAGE_OF = {"x": 0, "y": 0, "phi": 0, "theta": 0, "vx": 1, "vy": 1, "omega": 1, "dtheta": 1,
+            "ax": 2, "ay": 2, "alpha": 2, "ddtheta": 2}
+
+
+@dataclass(frozen=True, eq=False)
+class Sweep:
+    """``names`` swept and ``values`` (variants, names); ``t`` the output
+    instants; ``data`` (variants, instants, columns), NaN for a variant that
+    failed; ``errors`` per variant ("" when solved)."""
+    names: tuple
+    values: np.ndarray
+    columns: tuple
+    t: np.ndarray
+    data: np.ndarray
+    errors: tuple
+
+    @property
+    def success(self) -> bool:
+        return not any(self.errors)
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+    def __getitem__(self, column) -> np.ndarray:
+        """A column over (variants, instants)."""
+        if column not in self.columns:
+            from .casefile.checks import suggest
+
+            guess = suggest(column, self.columns)
+            raise KeyError(f"no column {column!r}" + (f"; did you mean '{guess}'?" if guess else
+                                                       f"; columns: {', '.join(self.columns)}"))
+        return self.data[:, :, self.columns.index(column)]
+
+    def csv(self) -> bytes:
+        """The table: variant, the parameters, t, the outputs, error (one row
+        per variant and instant; a failed variant: one row with its error)."""
+        from .output import csv_rows
+
+        out = [(",".join(("variant",) + self.names + ("t",) + self.columns + ("error",)) + "\n").encode()]
+        nt = len(self.t)
+        for k, (vals, error) in enumerate(zip(self.values, self.errors)):
+            if error:
+                text = error.replace('"', "'").replace("\n", " ")
+                out.append(f"{k},{','.join(map(repr, vals.tolist()))},{',' * len(self.columns)},\"{text}\"\n".encode())
+                continue
+            block = np.column_stack([np.repeat(vals[None, 1:], nt, 0), self.t, self.data[k]])
+            rows = csv_rows(np.full(nt, vals[0]), block).split(b"\n")[:-1]
+            head = f"{k},".encode()
+            out.append(b"".join(head + r + b",\n" for r in rows))
+        return b"".join(out)
+
+    def to_pandas(self):
+        """A long DataFrame: variant, parameters, t, outputs, error (pandas is optional)."""
+        try:
+            import pandas as pd
+        except ImportError:
+            raise KinemError("Sweep.to_pandas needs pandas, which is not installed: pip install pandas") from None
+        nv, nt = len(self.values), len(self.t)
+        frame = {"variant": np.repeat(np.arange(nv), nt)}
+        for j, n in enumerate(self.names):
+            frame[n] = np.repeat(self.values[:, j], nt)
+        frame["t"] = np.tile(self.t, nv)
+        for j, c in enumerate(self.columns):
+            frame[c] = self.data[:, :, j].ravel()
+        frame["error"] = np.repeat(np.array(self.errors, dtype=object), nt)
+        return pd.DataFrame(frame)
+
+    def __repr__(self) -> str:
+        failed = sum(1 for e in self.errors if e)
+        return (f"Sweep({len(self.values)} variants of {', '.join(self.names)}, {len(self.t)} instants, "
+                f"{len(self.columns)} columns, {failed} failed)")
+
+
+def grid(values: dict):
+    """(names, values (variants, names)): every combination of the values given per name."""
+    names = tuple(values)
+    lists = []
+    for n in names:
+        v = np.atleast_1d(np.asarray(values[n], dtype=float))
+        if v.ndim != 1 or not len(v) or not np.isfinite(v).all():
+            raise InputError(f"sweep: parameter {n!r}: expected one or more finite numbers")
+        lists.append(v)
+    count = int(np.prod([len(v) for v in lists])) if lists else 0
+    if not names or count > MAX_VARIANTS:
+        raise InputError(f"sweep: {count} variants; expected 1 to {MAX_VARIANTS} (give values for one or more "
+                         "parameters)")
+    return names, np.array(list(itertools.product(*lists)), dtype=float).reshape(count, len(names))
+
+
+def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
+    """Solves ``case`` (a case file's path, or its dict) for every combination
+    of ``values`` (parameter name -> numbers); ``outputs``: trajectory column
+    names (default all); ``progress``: a kinem.report.progress.Progress."""
+    from .case import load_dict, read, set_values
+    from .model import compile
+
+    source = str(case) if isinstance(case, (str, Path)) else "<dict>"
+    data = case if isinstance(case, dict) else read(case)
+    names, grid_values = grid(values)
+    set_values(data, dict.fromkeys(names, 0.0), source)   # the names resolve (else one InputError for all)
+    base = compile(load_dict(data, source))
+    columns = _columns(base, outputs)
+    stages = 1 + max(STAGE_OF[c.rsplit(".", 1)[1]] for c in columns)
+    cases, errors = [], [""] * len(grid_values)
+    if progress:
+        progress.total = 2 * len(grid_values)
+    import warnings
+
+    from .errors import KinemWarning
+
+    for k, row in enumerate(grid_values):
+        try:
+            with warnings.catch_warnings():   # the case's own warnings are the base's, given once
+                warnings.simplefilter("ignore", KinemWarning)
+                cases.append(load_dict(data, f"{source} (variant {k})", dict(zip(names, row.tolist()))))
+        except InputError as e:
+            cases.append(None)
+            errors[k] = f"bad input: {e.summary()}"
+        if progress:
+            progress.step(f"variant {k + 1} loaded")
+    out = np.full((len(grid_values), len(base.times), len(columns)), np.nan)
+    from .result import OUTPUTS
+
+    _solve([k for k, c in enumerate(cases) if c is not None], cases, OUTPUTS[:stages], columns, out, errors, progress)
+    return Sweep(names, grid_values, columns, np.array(base.times), out, tuple(errors))
+
+
+def _columns(model, outputs) -> tuple:
+    from .casefile.checks import suggest
+    from .result import _layout
+
+    names = _layout(model, 3)[0]
+    if outputs is None:
+        return tuple(names)
+    outputs = tuple(dict.fromkeys(outputs))
+    for c in outputs:
+        if c not in names:
+            guess = suggest(c, names)
+            raise InputError(f"--outputs: no column {c!r}" + (f"; did you mean '{guess}'?" if guess else
+                                                             f"; columns: {', '.join(names[:24])}..."))
+    if not outputs:
+        raise InputError("--outputs: no columns given; expected trajectory column names such as B.x")
+    return outputs
+
+
+def _solve(ks, cases, stages, columns, out, errors, progress):
+    """Solves variants ``ks`` as one batch; halves a batch that fails."""
+    from .batch import merge, split
+    from .model import compile
+    from .solver import solve
+
+    if not ks:
+        return
+    try:
+        model = compile(merge([cases[k] for k in ks]) if len(ks) > 1 else cases[ks[0]])
+        result = solve(model, outputs=stages)
+    except InputError as e:   # e.g. a variant whose equations cannot be counted square
+        if len(ks) > 1:
+            return _halves(ks, cases, stages, columns, out, errors, progress)
+        errors[ks[0]] = f"bad input: {e.summary()}"
+        result = None
+    if result is not None and result.success:
+        for j, k in enumerate(ks):
+            traj = split(result.trajectory, j) if len(ks) > 1 else result.trajectory
+            out[k] = np.column_stack([traj[c] for c in columns])
+        if progress:
+            progress.done += len(ks)
+            progress.show(f"{len(ks)} variants solved")
+        return
+    if result is not None and len(ks) == 1:
+        errors[ks[0]] = f"{result.status.name}: {result.message}"
+        if progress:
+            progress.step("1 variant failed")
+        return
+    _halves(ks, cases, stages, columns, out, errors, progress)
+
+
+def _halves(ks, cases, stages, columns, out, errors, progress):
+    half = len(ks) // 2
+    _solve(ks[:half], cases, stages, columns, out, errors, progress)
+    _solve(ks[half:], cases, stages, columns, out, errors, progress)
+
+
+def parse_values(item: str):
+    """--set NAME=START:STOP:COUNT (COUNT values, ends included), NAME=A,B,C or NAME=A: (name, values)."""
+    name, sep, text = item.partition("=")
+    form = "NAME=START:STOP:COUNT, NAME=A,B,C or NAME=VALUE"
+    if not sep or not name.strip() or not text.strip():
+        raise InputError(f"--set: got {item!r}; expected {form}")
+    try:
+        if ":" in text:
+            start, stop, count = text.split(":")
+            n = int(count)
+            if not 1 <= n <= MAX_VARIANTS:
+                raise ValueError
+            values = np.linspace(float(start), float(stop), n)
+        else:
+            values = np.array([float(x) for x in text.split(",")])
+    except ValueError:
+        raise InputError(f"--set: got {item!r}; expected {form} (COUNT a whole number from 1 to "
+                         f"{MAX_VARIANTS})") from None
+    if not np.isfinite(values).all():
+        raise InputError(f"--set: got {item!r}; expected finite numbers")
+    return name.strip(), values
