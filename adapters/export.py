@@ -63,7 +63,7 @@ def _prepared(engine, model, settings, q0, qd0, *support):
         if run.ok:
             s = adapter.settings({k: v for k, v in run.settings.items() if k in s})
     times = np.asarray(model.times, float)
-    adapter.resolve(model, s)
+    adapter.resolve(model, s, q0, qd0)
     return adapter, s, times
 
 
