@@ -46,9 +46,12 @@ def runs(model, engine):
     return get(engine).run(model, settings=case_settings(model, engine))
 
 
-@pytest.mark.parametrize("name", ["four_bar", "gear_pair"])
+@pytest.mark.parametrize("name", ["four_bar", "gear_pair", "cam_roller_circle"])
 def test_a_wrong_native_answer_changes_no_engine_run(name, monkeypatch):
-    model = compile(load(CASES / f"{name}.toml"))
+    case = load(CASES / f"{name}.toml")
+    if name.startswith("cam"):   # Exudyn's Python user constraints: a fifth of the run is enough here
+        case = case.with_time(case.end / 5, case.steps // 5)
+    model = compile(case)
     native = kinem.solver.solve(model)
     engines = [e for e in names() if not get(e).unsupported(model)]
     assert engines
