@@ -14,7 +14,7 @@ user constraints) are made by the adapter's own portable functions
 
 MuJoCo: MJCF XML (adapters.mujoco_sim.mjcf, the same text the adapter
 compiles) plus a keyframe "start" with the harness's initial joint positions
-and velocities (native's state at t = 0). A driver whose function is linear in
+and velocities (the harness's start: the model's assembly at t = 0). A driver whose function is linear in
 t is inside the model: its joint has the armature 1e12 (the harness's with
 drive "interval", its default for such drivers), so from the keyframe's
 velocity it keeps turning at that rate whatever the reactions (plain mj_step
@@ -387,7 +387,7 @@ CURVE_IMPORT = "from kinem.outline import Outline, OutlineSet  # outlines of cam
 EXUDYN_SCRIPT = '''"""kinem export for Exudyn of the case CASE (read from the file SOURCE):
 the harness's Exudyn system and solver settings, runnable with {only}
 only: the integrator INTEGRATOR, step {dt} s ({substeps} steps per output interval of {interval} s),
-{intervals} output intervals, started from kinem's native solution at t = 0.
+{intervals} output intervals, started from the model's assembly at t = 0 (the harness's start).
 
 Every moving body is a NodeRigidBody2D (reference coordinates 0: node
 coordinates are the body frame's absolute x, y, phi) with an ObjectRigidBody2D;
