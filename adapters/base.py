@@ -545,9 +545,9 @@ def start(model):
     from kinem.tracking import Tracker
 
     t0 = float(np.asarray(model.times, float)[0])
-    case = Options.of(model.case)
+    case_options = Options.of(model.case)
     why = ""
-    for options in (replace(case, tolerance=min(case.tolerance, START_TOLERANCE)), case):
+    for options in (replace(case_options, tolerance=min(case_options.tolerance, START_TOLERANCE)), case_options):
         data = Data(q=model.q0.copy(), solver=choose(model, options))
         try:
             s = Tracker(model, data, True, False, options).start(t0)

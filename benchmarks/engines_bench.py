@@ -144,7 +144,7 @@ def section_precision(cfg, state):
             adapter, why = adapter_of(e)
             if adapter is None or adapter.unsupported(model):
                 continue
-            dt0 = adapter.step(model, dict(model.case.engines.get(e, {})), ref)   # dt = "auto": the one it picks
+            dt0 = adapter.step(model, dict(model.case.engines.get(e, {})))   # dt = "auto": the one it picks
             points, seen, per_step_cost = [], set(), None
             for f in cfg.dt_factors:
                 h = case.end / case.steps
