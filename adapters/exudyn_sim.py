@@ -271,28 +271,23 @@ def rack_pinion(cc, sp, u0, rho, const):
     return phi, grad, None
 
 
-def _outline(outline):
-    """theta -> (p, p', p'') of an outline in its body's components
-    (complex), by kinem.outline (the compiled core's evaluation, Eqs.
-    4.21-4.25); the last angle's values are kept (Exudyn asks for the
-    constraint and its Jacobian at the same coordinates)."""
+def _contact(outline):
+    """z -> (r_c, r_b, e^{i phi_b}, a = A_c p, g = A_c p', h = A_c p'') of z =
+    (x, y, phi of the outline body c, of the other body b, theta), complex,
+    with p(theta) and its derivatives by kinem.outline (the compiled core's
+    evaluation, Eqs. 4.21-4.25); the last z's values are kept (Exudyn asks
+    for the constraint and its Jacobian at the same coordinates)."""
     curve, last = OutlineSet([outline]).curve_at, [None, None]
 
-    def at(theta):
-        if theta != last[0]:
-            last[0], last[1] = theta, curve(theta)[:3]
+    def contact(z):
+        key = tuple(z)
+        if key != last[0]:
+            rc, ec = _frame(z, 0)
+            rb, eb = _frame(z, 1)
+            p, p1, p2, _ = curve(z[6])
+            last[0], last[1] = key, (rc, rb, eb, p * ec, p1 * ec, p2 * ec)
         return last[1]
-    return at
-
-
-def _contact(z, at):
-    """Of z = (x, y, phi of the outline body c, of the other body b, theta):
-    c's and b's origins (complex), e^{i phi_c}, e^{i phi_b}, and a = A_c p,
-    g = A_c p', h = A_c p'' at theta."""
-    rc, ec = _frame(z, 0)
-    rb, eb = _frame(z, 1)
-    p, p1, p2 = at(z[6])
-    return rc, rb, eb, p * ec, p1 * ec, p2 * ec
+    return contact
 
 
 def point_on_curve(outline, sb):
@@ -300,15 +295,15 @@ def point_on_curve(outline, sb):
     phi of the outline body c, of the point's body b, theta): cam-point (c
     the cam, b the follower, Eq. 4.26) and point-follower (c the slotted
     body, b the pin's, Eq. 4.30); sb the point in b (complex)."""
-    at = _outline(outline)
+    contact = _contact(outline)
 
     def phi(z, t):
-        rc, rb, eb, a, _, _ = _contact(z, at)
+        rc, rb, eb, a, _, _ = contact(z)
         d = rc + a - rb - sb * eb
         return [d.real, d.imag]
 
     def grad(z, t):
-        _, _, eb, a, g, _ = _contact(z, at)
+        _, _, eb, a, g, _ = contact(z)
         ia, ib = 1j * a, -1j * sb * eb      # d/dphi_c, d/dphi_b
         return [[1.0, 0.0, ia.real, -1.0, 0.0, ib.real, g.real],
                 [0.0, 1.0, ia.imag, 0.0, -1.0, ib.imag, g.imag]]
@@ -319,10 +314,10 @@ def cam_roller(outline, sb, rho):
     """[g . d, d . d - rho^2] on z = (x, y, phi of the cam c, of the
     follower b, theta), d = r_b + A_b s_b - r_c - a from the contact point
     to the roller's centre s_b (complex; Eq. 4.28)."""
-    at = _outline(outline)
+    contact = _contact(outline)
 
     def parts(z):
-        rc, rb, eb, a, g, h = _contact(z, at)
+        rc, rb, eb, a, g, h = contact(z)
         bb = sb * eb
         return rb + bb - rc - a, a, g, h, bb
 
@@ -343,10 +338,10 @@ def cam_flat(outline, sb, normal):
     """[g . n, d . n] on z = (x, y, phi of the cam c, of the follower b,
     theta), n = A_b n_b the face's unit normal (n_b complex, unit), d = r_c +
     a - r_b - A_b s_b from the face's point s_b to the contact (Eq. 4.29)."""
-    at = _outline(outline)
+    contact = _contact(outline)
 
     def parts(z):
-        rc, rb, eb, a, g, h = _contact(z, at)
+        rc, rb, eb, a, g, h = contact(z)
         bb = sb * eb
         return rc + a - rb - bb, a, g, h, bb, normal * eb
 
@@ -363,8 +358,8 @@ def cam_flat(outline, sb, normal):
     return phi, grad, None
 
 
-PORTABLE = (evaluate, _piece, offset_functions, user_functions, _frame, _dot, distance_driver, rack_pinion, _outline,
-            _contact, point_on_curve, cam_roller, cam_flat)
+PORTABLE = (evaluate, _piece, offset_functions, user_functions, _frame, _dot, distance_driver, rack_pinion, _contact,
+            point_on_curve, cam_roller, cam_flat)
 
 
 class _Recorder:
