@@ -89,3 +89,23 @@ def test_the_distance_to_native_is_measured_after_the_run():
     bad = compare(model, wrong(native, model, PATCHES["velocities x 1.001"]), run, tolerance_of(get(e)))
     assert good.within_tolerance and not bad.within_tolerance
     assert bad.velocity_error_rel > 1e-4 > good.velocity_error_rel
+
+
+def test_the_reports_engine_rows_do_not_move_with_native(monkeypatch):
+    """The report's own engine run (kinem.report.runs.run_engine, native
+    solved through the patched kinem.solver.solve): the same settings and
+    counts with a wrong native answer; only the figures against it move."""
+    from kinem.report import runs as report_runs
+
+    path = str(CASES / "four_bar.toml")
+    task = report_runs.Task(path, "pymunk")
+    report_runs.reference.cache_clear()
+    clean = report_runs.run_engine(task)
+    with monkeypatch.context() as m:
+        patched_solve(m, PATCHES["velocities x 1.001"])
+        report_runs.reference.cache_clear()
+        bad = report_runs.run_engine(task)
+    report_runs.reference.cache_clear()
+    assert clean["outcome"] == bad["outcome"] == "ok"
+    assert bad["settings"] == clean["settings"] and bad["counts"] == clean["counts"]
+    assert clean["within_tolerance"] and not bad["within_tolerance"]
