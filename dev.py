@@ -8,14 +8,19 @@
 Each first makes ``.venv`` and installs the project into it, building the
 compiled core (kinem/core, Rust, by maturin in the release profile): again
 when ``pyproject.toml`` or the crate's sources change, so a fresh clone
-needs no other step. ``test`` also checks the crate (cargo fmt, clippy,
+needs no other step. The build takes minutes the first time: its stages
+(pip's downloads, each crate cargo compiles) are printed as they happen,
+with the seconds elapsed; on a failure, the last lines of the build's own
+output. ``test`` also checks the crate (cargo fmt, clippy,
 cargo test) and the layers of the Python package (import-linter) first, then
 runs pytest on two worker processes (``-n 0`` for one).
 """
+import collections
 import hashlib
 import os
 import subprocess
 import sys
+import time
 import venv
 from pathlib import Path
 
@@ -46,14 +51,44 @@ def ensure_env() -> None:
     if not PYTHON.exists():
         print("dev.py: creating .venv", file=sys.stderr)
         venv.create(VENV, with_pip=True)
-    pip = [str(PYTHON), "-m", "pip", "--disable-pip-version-check", "-q"]
+    pip = [str(PYTHON), "-m", "pip", "--disable-pip-version-check", "-v"]
     if have[:1] == [deps]:
-        print("dev.py: rebuilding kinem's compiled core", file=sys.stderr)
-        subprocess.run(pip + ["install", "--no-deps", "-e", str(ROOT)], check=True)
+        with_progress(pip + ["install", "--no-deps", "-e", str(ROOT)], "rebuilding kinem's compiled core")
     else:
-        print("dev.py: installing kinem and its dependencies into .venv (and building its core)", file=sys.stderr)
-        subprocess.run(pip + ["install", "-e", f"{ROOT}[test]"], check=True)
+        with_progress(pip + ["install", "-e", f"{ROOT}[test]"],
+                      "installing kinem and its dependencies into .venv and building its core")
     STAMP.write_text(f"{deps} {core}")
+
+
+# the lines of pip's and cargo's verbose output that mark a stage of the install
+STAGES = ("Collecting ", "Downloading ", "Building wheel", "Building editable", "Compiling ", "Finished ",
+          "Installing collected", "Successfully installed", "\U0001f4e6")   # the last: maturin's "Built wheel"
+TAIL = 40   # lines of the build's own output shown when it fails
+
+
+def stage(line: str) -> str | None:
+    """The stage a line of the verbose install output marks, or None."""
+    text = line.strip()
+    return text if text.startswith(STAGES) else None
+
+
+def with_progress(cmd, what) -> None:
+    """Runs the (verbose) pip command, printing each stage it reaches with the
+    seconds elapsed, so that a multi-minute build shows it is alive; on a
+    failure, the last TAIL lines of its output, then CalledProcessError."""
+    start = time.monotonic()
+    print(f"dev.py: {what} (minutes the first time; its stages follow)", file=sys.stderr, flush=True)
+    tail = collections.deque(maxlen=TAIL)
+    with subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, errors="replace") as p:
+        for line in p.stdout:
+            tail.append(line)
+            shown = stage(line)
+            if shown:
+                print(f"dev.py: [{time.monotonic() - start:5.0f} s] {shown[:110]}", file=sys.stderr, flush=True)
+    if p.returncode:
+        sys.stderr.write("".join(tail))
+        raise subprocess.CalledProcessError(p.returncode, cmd)
+    print(f"dev.py: done in {time.monotonic() - start:.0f} s", file=sys.stderr, flush=True)
 
 
 def check_core() -> int:

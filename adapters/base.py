@@ -1,8 +1,9 @@
 """What every engine adapter shares.
 
 An adapter builds one mechanism in its engine from the compiled kinem Model
-(never from TOML), starts it from the native solution at t = 0 (positions and
-velocities), drives it with the case's drivers, samples it at the model's
+(never from TOML), starts it from the model's assembly at the first output
+instant (``start``: positions and velocities; never from a native
+trajectory), drives it with the case's drivers, samples it at the model's
 output instants and returns an EngineRun whose trajectory has the same
 column names as the native one (built with kinem.result.trajectory from raw
 coordinates in the case's body frames).
@@ -227,27 +228,30 @@ class Adapter:
         s["dt"] = interval / s["substeps"]
         return s["substeps"]
 
-    def resolve(self, model, s, reference=None):
+    def resolve(self, model, s, q0=None, qd0=None):
         """Fills the step of the checked settings s for the model and returns
         the steps per output interval. dt = "auto": rate_step / the
-        mechanism's rate scale (``rate_scale`` of native's solution
-        ``reference``, solved here when None; recorded as s["rate_scale"]);
-        then ``steps_per_interval``. An engine with other "auto" settings
-        resolves them here too."""
+        mechanism's rate scale at its start (``start_rate`` of (q0, qd0):
+        no native trajectory; recorded as s["rate_scale"]), refined after
+        the first attempt by the rates of the engine's own run
+        (``refine``); then ``steps_per_interval``. An engine with other
+        "auto" settings resolves them here too."""
         times = np.asarray(model.times, float)
         interval = float(times[1] - times[0]) if len(times) > 1 else float(model.case.end or 1.0)
         if s.get("dt") == "auto" and s.get("substeps") is None:
-            s["rate_scale"] = scale = rate_scale(model, reference)
+            s["rate_scale"] = scale = start_rate(model, q0, qd0)
             s["dt"] = min(interval, s["rate_step"] / scale) if scale > 0 else interval
         elif s.get("dt") == "auto":
             s["dt"] = interval / s["substeps"]
         return self.steps_per_interval(s, interval)
 
-    def step(self, model, settings=None, reference=None) -> float:
+    def step(self, model, settings=None, q0=None, qd0=None) -> float:
         """The engine step (s) that ``settings`` (defaults when None) give
-        for the model (dt = "auto" resolved before any retry)."""
+        for the model's first attempt (dt = "auto" from the start's rates)."""
         s = self.settings(settings)
-        self.resolve(model, s, reference)
+        if q0 is None:
+            q0, qd0 = start(model)
+        self.resolve(model, s, q0, qd0)
         return s["dt"]
 
     def retry(self, model, s, times, auto, failure=None, Q=None, QD=None):
@@ -260,22 +264,28 @@ class Adapter:
         ``notes`` and its cost includes both attempts."""
         return None
 
-    def run(self, model, q0, qd0, settings=None, reference=None) -> EngineRun:
-        """Simulates over model.times from (q0, qd0). Bad settings raise
+    def run(self, model, q0=None, qd0=None, settings=None) -> EngineRun:
+        """Simulates over model.times from (q0, qd0), by default the model's
+        own assembly at the first instant (``start``). Bad settings raise
         InputError; an engine failure never raises (its status says it).
-        ``reference``: native's solution, for dt = "auto" (solved when None)."""
-        start = time.perf_counter()
+        Nothing of native's trajectory is read: the step is chosen and
+        refined from the start's and the run's own figures alone."""
+        began = time.perf_counter()
         s = self.settings(settings)
         times = np.asarray(model.times, float)
         notes, auto = [], {k for k, v in s.items() if v == "auto"}
         if s.get("substeps") is not None:
             auto.discard("dt")                 # the step is given as substeps
-        why, early = self.unsupported_with(model, q0, s), None
-        if not why:
+        why, early = None, None
+        if q0 is None:
             try:
-                self.resolve(model, s, reference)
-            except Failure as e:   # no native solution for dt = "auto"
+                q0, qd0 = start(model)
+            except Failure as e:
                 early = e
+        if early is None:
+            why = self.unsupported_with(model, q0, s)
+        if early is None and not why:
+            self.resolve(model, s, q0, qd0)
 
         state = {"estimate": {}, "capped": False}
 
@@ -286,7 +296,7 @@ class Adapter:
             return EngineRun(engine=self.name, status=status, detail=detail, trajectory=traj,
                              q=Q if traj is not None else None, qd=QD if traj is not None else None, wall_time=wall,
                              steps=steps, substeps=s.get("substeps") or 0, settings=s, version=self.version(),
-                             overhead=max(time.perf_counter() - start - wall, 0.0), intervals=len(times) - 1,
+                             overhead=max(time.perf_counter() - began - wall, 0.0), intervals=len(times) - 1,
                              notes=tuple(notes), estimate=state["estimate"], capped=state["capped"])
 
         if why:
@@ -314,14 +324,16 @@ class Adapter:
             again = self.retry(model, s, times, auto, failure, *((None, None) if failure else (Q, QD))) \
                 if attempt == 1 and auto else None
             if not again and failure is None and "dt" in auto and self.order:
-                again = self.refine(model, s, times, Q, QD, state, last=attempt == 1 + MAX_REFINEMENTS)
+                again = self.refine(model, s, times, Q, QD, state, last=attempt == 1 + MAX_REFINEMENTS,
+                                    first=not state.get("rated"))
+                state["rated"] = True
                 if again:
                     kept = (Q, QD, dict(s), state["estimate"])
             if not again:
                 break
             because, change = again
             s.update(change)
-            self.resolve(model, s, reference)
+            self.resolve(model, s, q0, qd0)
             shown = [f"{k} = {s[k]:.6g}" if isinstance(s[k], float) else f"{k} = {s[k]}"
                      for k in change if change[k] is not None]
             notes.append(f"{because}: rerun with {', '.join(shown)} ({s['substeps']} steps per output interval); "
@@ -332,34 +344,50 @@ class Adapter:
             return finish(Status.NONFINITE, "non-finite coordinates", wall=wall, steps=steps)
         return finish(Status.OK, "", Q, QD, wall, steps)
 
-    def refine(self, model, s, times, Q, QD, state, last=False):
+    def refine(self, model, s, times, Q, QD, state, last=False, first=False):
         """dt = "auto": checks a run by ``self_check`` (the engine's own error
         figures, computed without native's trajectory) against the
         tolerance; above REFINE_AT of it, (why, settings) with the step that
         brings every figure to at most REFINE_TO of it (each figure ~
-        dt^order, its own order when ``order`` is a dict), unless that
-        passes the cost cap (MAX_SUBSTEPS per output interval,
-        MAX_REFINEMENTS reruns): then None and state["capped"]."""
+        dt^order, its own order when ``order`` is a dict). After the
+        ``first`` completed attempt also by the rates of the run itself
+        (``trajectory_rate``): a mechanism faster somewhere than at its
+        start reruns at rate_step / that rate when that needs more than
+        RATE_SLACK times the steps run (any more when the self-check has no
+        figure: through a singular configuration); below that, the
+        self-check judges the run. None when neither asks for
+        more, or past the cost cap (MAX_SUBSTEPS per output interval,
+        MAX_REFINEMENTS reruns): then state["capped"] when the self-check
+        still exceeds the tolerance."""
         est = self_check(model, Q, QD, times)
         state["estimate"] = est
         orders = self.order if isinstance(self.order, dict) else dict.fromkeys(self.tolerance, self.order)
         ratios = [(est[k] / v, k) for k, v in self.tolerance.items() if k in est and v > 0 and orders.get(k)]
-        if not ratios:
-            return None
-        ratio, worst = max(ratios)
-        if not ratio > REFINE_AT:
+        ratio, worst = max(ratios) if ratios else (0.0, "")
+        interval = float(times[1] - times[0]) if len(times) > 1 else float(model.case.end or 1.0)
+        wanted = []   # (step, why)
+        if ratio > REFINE_AT:
+            wanted.append((s["dt"] * min((REFINE_TO / r) ** (1.0 / orders[k]) for r, k in ratios if r > REFINE_TO),
+                           f"self-check: {worst} {est[worst]:.1e} is {ratio:.2g}x its limit"))
+        if first and s.get("rate_step") and s.get("rate_scale") is not None:
+            own = trajectory_rate(model, times, Q, QD)
+            dt = min(interval, s["rate_step"] / own) if own > 0 else interval
+            need = math.ceil(interval / dt * (1 - 1e-12))
+            if need > s["substeps"] * (1 if not est else RATE_SLACK):
+                wanted.append((dt, f"its own run's rate scale {own:.3g}/s is above its start's "
+                                   f"{s['rate_scale']:.3g}/s"))
+                s["rate_scale"] = own
+        if not wanted:
             state["capped"] = False
             return None
-        interval = float(times[1] - times[0]) if len(times) > 1 else float(model.case.end or 1.0)
-        dt = s["dt"] * min((REFINE_TO / r) ** (1.0 / orders[k]) for r, k in ratios if r > REFINE_TO)
+        dt, why = min(wanted)
         if last or not np.isfinite(dt) or interval / dt > MAX_SUBSTEPS:
             state["capped"] = ratio > 1.0
             if not last and np.isfinite(dt) and s["substeps"] < MAX_SUBSTEPS:   # the cap itself, once
-                return (f"self-check: {worst} {est[worst]:.1e} is {ratio:.2g}x its limit; the cap is "
-                        f"{MAX_SUBSTEPS} steps per output interval", {"dt": interval / MAX_SUBSTEPS, "substeps": None})
+                return (f"{why}; the cap is {MAX_SUBSTEPS} steps per output interval",
+                        {"dt": interval / MAX_SUBSTEPS, "substeps": None})
             return None
-        return (f"self-check: {worst} {est[worst]:.1e} is {ratio:.2g}x its limit",
-                {"dt": dt, "substeps": None})
+        return why, {"dt": dt, "substeps": None}
 
     def unsupported_with(self, model, q0, s) -> Reason | None:
         """``unsupported`` for these settings and start (an engine whose
@@ -378,6 +406,8 @@ REFINE_AT = 1.0        # a self-check figure above this fraction of its limit re
 REFINE_TO = 0.7        # ... to the step that brings it to this fraction (errors ~ dt^order)
 MAX_SUBSTEPS = 2000    # cost cap: engine steps per output interval
 MAX_REFINEMENTS = 3    # cost cap: reruns after the first attempt
+RATE_SLACK = 1.5       # a run whose own rates need more than this times its steps (rate_step / its rate
+                       # scale) runs again at that step, whatever its self-check says
 NEAR_SINGULAR = 1e-6   # smallest / largest singular value of the dimensionless Phi_q below which the
                        # first-order estimate means nothing (a change point: stress/change_point's
                        # estimate was 0.4 of V and refining made Exudyn stop)
@@ -495,23 +525,51 @@ def mass_properties(model):
     return np.array(mass), np.array(inertia)
 
 
-def rate_scale(model, reference=None) -> float:
-    """The mechanism's fastest rate (1/s) in native's solution ``reference``
-    (solved here when None; one that stopped early gives the rates of the
-    instants it reached, as the stress suite's singular cases need): the largest of |omega|, sqrt(|alpha|),
+START_TOLERANCE = 1e-13   # the start's assembly, as the report's reference
+
+
+def start(model):
+    """(q0, qd0): the model's own assembly at its first output instant (the
+    position solve from the case's estimates at START_TOLERANCE, or the
+    case's own tolerance when that cannot be reached, and the velocity
+    solve there; kinem.tracking's, as native's first instant), from which
+    every engine starts. Computed here from the model, never taken from a
+    native trajectory, so that a changed native answer cannot change an
+    engine's run. Raises Failure when the mechanism does not assemble."""
+    from dataclasses import replace
+
+    from kinem.analysis import Data
+    from kinem.errors import AnalysisError
+    from kinem.linalg import choose
+    from kinem.options import Options
+    from kinem.tracking import Tracker
+
+    t0 = float(np.asarray(model.times, float)[0])
+    case_options = Options.of(model.case)
+    why = ""
+    for options in (replace(case_options, tolerance=min(case_options.tolerance, START_TOLERANCE)), case_options):
+        data = Data(q=model.q0.copy(), solver=choose(model, options))
+        try:
+            s = Tracker(model, data, True, False, options).start(t0)
+        except AnalysisError as e:
+            why = str(e)
+            continue
+        if s.qd is not None:
+            return s.q.copy(), s.qd.copy()
+        why = "singular at the start"
+    raise Failure(Status.FAILED, f"no start: the assembly at t = {t0:g} failed ({why})")
+
+
+def rate_scale(model, trajectory) -> float:
+    """The mechanism's fastest rate (1/s) in a ``trajectory`` with
+    velocities and accelerations: the largest of |omega|, sqrt(|alpha|),
     |d alpha/dt|^(1/3) over the bodies and sqrt(|a| / L), (|da/dt| / L)^(1/3)
     over the bodies and named points (L the characteristic length; the
-    derivatives of the accelerations by differences over the output
-    instants). A time-stepper's errors scale as (rate x step)^2 for a
-    second-order scheme, so a step rate_step / rate_scale gives mechanisms
-    of every speed the same error class (docs/engines.md)."""
-    if reference is None:
-        from kinem.solver import solve
-
-        reference = solve(model)
-    if not reference.success and len(reference.trajectory) < 3:   # else: the rates of the instants it reached
-        raise Failure(Status.FAILED, f"dt = 'auto' needs the native solution: {reference.message}")
-    tr, L = reference.trajectory, model.length
+    derivatives of the accelerations by differences over its instants). A
+    time-stepper's errors scale as (rate x step)^2 for a second-order
+    scheme, so a step rate_step / rate_scale gives mechanisms of every speed
+    the same error class (docs/engines.md)."""
+    tr, L = trajectory, model.length
     t = np.asarray(tr.t, float)
     cols = set(tr.columns)
 
@@ -529,6 +587,30 @@ def rate_scale(model, reference=None) -> float:
             a = tr[f"{p}.ax"] + 1j * tr[f"{p}.ay"]
             rates += [np.sqrt(np.abs(a).max() / L), np.cbrt(slope(a).max() / L)]
     return float(max(rates))
+
+
+def start_rate(model, q0, qd0) -> float:
+    """``rate_scale`` at the start (q0, qd0) alone: the accelerations there
+    from Phi_q qdd = gamma (least squares when Phi_q is not square)."""
+    from kinem.result import trajectory
+
+    t0 = float(np.asarray(model.times, float)[0])
+    q0, qd0 = np.asarray(q0, float), np.asarray(qd0, float)
+    J = model.jacobian(q0, t0, sparse=False)
+    qdd = np.linalg.lstsq(J, model.gamma(q0, qd0, t0), rcond=None)[0]
+    if not np.isfinite(qdd).all():
+        qdd = np.zeros_like(q0)
+    return rate_scale(model, trajectory(model, [t0], q0[None], qd0[None], qdd[None]))
+
+
+def trajectory_rate(model, times, Q, QD) -> float:
+    """``rate_scale`` of an engine's own run: its velocities, and its
+    accelerations by differences of them over the output instants."""
+    from kinem.result import trajectory
+
+    times = np.asarray(times, float)[:len(Q)]
+    QDD = np.gradient(QD, times, axis=0) if len(times) > 1 else np.zeros_like(QD)
+    return rate_scale(model, trajectory(model, times, Q, QD, QDD))
 
 
 def drive_table(functions, t, order):

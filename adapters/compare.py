@@ -216,7 +216,7 @@ def run_engine(model, native, name, overrides=None) -> Comparison:
     reason = adapter.unsupported(model)
     if reason:
         return Comparison(engine=name, status=Status.UNSUPPORTED, detail=reason, version=adapter.version())
-    run = adapter.run(model, native.q[0], native.qd[0], case_settings(model, name, overrides), native)
+    run = adapter.run(model, settings=case_settings(model, name, overrides))   # its own start, never native's
     return compare(model, native, run, tolerance_of(adapter))
 
 

@@ -5,7 +5,8 @@ pymunk: a Python script (pymunk and numpy only) that builds the adapter's
 Space body by body and joint by joint from the built Space itself, and steps
 it as the adapter does; the prescribed poses and driven joint targets at every
 step are embedded as a compressed table. Exudyn: a Python script (exudyn
-and numpy only) that adds the items of the system the adapter built, read back
+and numpy only; with kinem too for cams and slots, whose outlines kinem's
+core evaluates) that adds the items of the system the adapter built, read back
 one by one with the fields the adapter set, in the same order, with the
 adapter's simulation settings; its user functions (drivers from their specs,
 user constraints) are made by the adapter's own portable functions
@@ -13,7 +14,7 @@ user constraints) are made by the adapter's own portable functions
 
 MuJoCo: MJCF XML (adapters.mujoco_sim.mjcf, the same text the adapter
 compiles) plus a keyframe "start" with the harness's initial joint positions
-and velocities (native's state at t = 0). A driver whose function is linear in
+and velocities (the harness's start: the model's assembly at t = 0). A driver whose function is linear in
 t is inside the model: its joint has the armature 1e12 (the harness's with
 drive "interval", its default for such drivers), so from the keyframe's
 velocity it keeps turning at that rate whatever the reactions (plain mj_step
@@ -63,7 +64,7 @@ def _prepared(engine, model, settings, q0, qd0, *support):
         if run.ok:
             s = adapter.settings({k: v for k, v in run.settings.items() if k in s})
     times = np.asarray(model.times, float)
-    adapter.resolve(model, s)
+    adapter.resolve(model, s, q0, qd0)
     return adapter, s, times
 
 
@@ -364,7 +365,9 @@ def _exudyn_script(model, q0, qd0, settings=None):
                                                       if (method, index) in body_of else "")
         items.append(f"mbs.{method}({_exudyn_item(item, names)}){note}")
     cols = [f"{body}.{c}" for body in model.body_names for c in BODY_COLUMNS["positions"] + BODY_COLUMNS["velocities"]]
+    curves = any(c.type in CURVE_TYPES for c in model.case.constraints)
     return EXUDYN_SCRIPT.format(
+        imports=CURVE_IMPORT if curves else "", only="exudyn, numpy and kinem" if curves else "exudyn and numpy",
         name=model.case.name, source=model.case.source, version=exu.config.Version(),
         integrator=s["integrator"], dt=f"{s['dt']:.6g}", substeps=s["substeps"],
         interval=f"{s['dt'] * s['substeps']:.6g}", intervals=len(times) - 1,
@@ -373,13 +376,18 @@ def _exudyn_script(model, q0, qd0, settings=None):
         settings="\n".join(_exudyn_settings(ss.GetDictionary(), exu.SimulationSettings().GetDictionary())),
         solver=INTEGRATORS[s["integrator"]], names=list(model.body_names), start=_exudyn_code(b.q0, {}),
         sensors={model.body_names.index(k): (int(p), int(v)) for k, (p, v) in sensors.items()},
+        angles={col: (int(p), int(v)) for col, (p, v) in b.angles.items()},
         columns=["t"] + cols)
 
 
+CURVE_TYPES = ("cam-point", "cam-roller", "cam-flat", "point-follower")
+# the outlines of cams and slots are evaluated by kinem's core, as in the harness (never a second copy)
+CURVE_IMPORT = "from kinem.outline import Outline, OutlineSet  # outlines of cams and slots: kinem's own evaluation\n"
+
 EXUDYN_SCRIPT = '''"""kinem export for Exudyn of the case CASE (read from the file SOURCE):
-the harness's Exudyn system and solver settings, runnable with exudyn and numpy
+the harness's Exudyn system and solver settings, runnable with {only}
 only: the integrator INTEGRATOR, step {dt} s ({substeps} steps per output interval of {interval} s),
-{intervals} output intervals, started from kinem's native solution at t = 0.
+{intervals} output intervals, started from the model's assembly at t = 0 (the harness's start).
 
 Every moving body is a NodeRigidBody2D (reference coordinates 0: node
 coordinates are the body frame's absolute x, y, phi) with an ObjectRigidBody2D;
@@ -387,8 +395,9 @@ a fixed body is an ObjectGround. Driving functions are CoordinateConstraint
 offset user functions made from their specs by `evaluate` below (symbolic user
 functions, run in C++, unless the harness was set to Python ones); a table is
 kinem's not-a-knot cubic spline, its piecewise coefficients embedded: the same
-values as the harness. User constraints (distance drivers, rack and pinion)
-are Python user functions. The functions below are the adapter's own source
+values as the harness. User constraints (distance drivers, rack and pinion,
+cams and slots: their outline angle theta a NodeGenericODE2 of its own) are
+Python user functions. The functions below are the adapter's own source
 (adapters/exudyn_sim.py).
 
 python THIS.py [--all] [--velocities] [TRAJECTORY.csv]: prints the case bodies'
@@ -405,7 +414,7 @@ import numpy as np
 import exudyn as exu
 from exudyn import itemInterface as ei
 from exudyn.advancedUtilities import CreateSymbolicUserFunction
-
+{imports}
 CASE, SOURCE, EXUDYN = {name!r}, {source!r}, {version!r}   # Python literals: a path may hold any character
 INTEGRATOR = {integrator!r}
 
@@ -426,8 +435,9 @@ ss = exu.SimulationSettings()
 {settings}
 
 BODIES = {names}
-START = np.array({start})      # x, y, phi of each body at t = 0 (fixed bodies stay there)
+START = np.array({start})      # x, y, phi of each body, then any outline angle, at t = 0 (fixed bodies stay there)
 SENSORS = {sensors}   # body index: (coordinates sensor, velocities sensor)
+ANGLES = {angles}   # column of an outline angle theta after the bodies': (its coordinate, velocity sensor)
 
 exu.config.printToConsole = False   # keep stdout for the JSON
 try:
@@ -443,6 +453,8 @@ q, qd, t = np.tile(START, (n, 1)), np.zeros((n, len(START))), None
 for k, (sq, sv) in SENSORS.items():
     pos, vel = mbs.GetSensorStoredData(sq), mbs.GetSensorStoredData(sv)
     q[:, 3 * k: 3 * k + 3], qd[:, 3 * k: 3 * k + 3], t = pos[:, 1:4], vel[:, 1:4], pos[:, 0]
+for col, (sq, sv) in ANGLES.items():
+    q[:, col], qd[:, col] = mbs.GetSensorStoredData(sq)[:, 1], mbs.GetSensorStoredData(sv)[:, 1]
 args = [a for a in sys.argv[1:] if not a.startswith("--")]
 if args:
     t = t if t is not None else np.linspace(0.0, ss.timeIntegration.endTime, n)

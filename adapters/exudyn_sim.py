@@ -29,6 +29,7 @@ from exudyn.advancedUtilities import CreateSymbolicUserFunction
 from scipy.interpolate import CubicSpline
 
 from kinem.functions import Harmonic, Poly, Table
+from kinem.outline import Outline, OutlineSet  # noqa: F401 - Outline: the repr of the exported calls
 
 from .base import (Adapter, Failure, Reason, Status, boolean, choice, count, count_or_none, drives, fraction, grounded,
                    mass_properties, nonnegative, positive, step_or_auto)
@@ -75,11 +76,16 @@ SUPPORTS = {
     "rack-pinion": "ObjectConnectorCoordinateVector with constraint and Jacobian user functions "
                    "u.(C - P) + rho (phi_i - phi_j) - const",
 }
-REASONS = {
-    t: "needs the artificial outline coordinate theta as an extra node and a user constraint along the "
-       "spline outline; not implemented in this adapter (Exudyn has no built-in cam joint)"
-    for t in ("cam-point", "cam-roller", "cam-flat", "point-follower")
-}
+REASONS = {}
+CURVE = ("ObjectConnectorCoordinateVector with constraint and Jacobian user functions over the bodies' node "
+         "coordinates and a NodeGenericODE2 for the outline angle theta; the outline by kinem.outline (the core's "
+         "evaluation): ")
+SUPPORTS.update({
+    "cam-point": CURVE + "r_c + A_c p(theta) - r_f - A_f s_f (Eq. 4.26)",
+    "point-follower": CURVE + "r_j + A_j p(theta) - r_i - A_i s_i (Eq. 4.30)",
+    "cam-roller": CURVE + "[g . d, d . d - rho^2], d from the contact point to the roller centre (Eq. 4.28)",
+    "cam-flat": CURVE + "[g . n, d . n], n the face's normal, d from the face point to the contact (Eq. 4.29)",
+})
 
 
 def function_spec(f):
@@ -179,10 +185,11 @@ def offset_functions(mbs, spec, offset, symbolic):
 
 def user_functions(phi, grad, phi_t, slots, z0):
     """constraintUserFunction and jacobianUserFunction of an
-    ObjectConnectorCoordinateVector for a scalar constraint phi(z, t) = 0 with
-    gradient grad(z, t) over z (x, y, phi of each of its bodies): the
-    connector's coordinates fill the places ``slots`` of z, the rest (fixed
-    bodies) keep their values in z0. Plain Python floats."""
+    ObjectConnectorCoordinateVector for constraint rows phi(z, t) = 0 (a
+    list) with gradients grad(z, t) (one list per row) over z (x, y, phi of
+    each of its bodies, then any outline angle theta): the connector's
+    coordinates fill the places ``slots`` of z, the rest (fixed bodies)
+    keep their values in z0. Plain Python floats."""
     whole = len(slots) == len(z0)
 
     def full(q):
@@ -197,14 +204,14 @@ def user_functions(phi, grad, phi_t, slots, z0):
     def constraint(mbs, t, item, q, q_t, velocity_level):
         z = full(q)
         if velocity_level:  # index 2: dphi/dt = grad . q_t + phi_t
-            g = grad(z, t)
-            v = sum(g[k] * w for k, w in zip(slots, full(q_t) if whole else list(q_t)))
-            return [v + (phi_t(t) if phi_t is not None else 0.0)]
-        return [phi(z, t)]
+            w = list(q_t)
+            rates = phi_t(t) if phi_t is not None else None
+            return [sum(g[k] * v for k, v in zip(slots, w)) + (rates[r] if rates is not None else 0.0)
+                    for r, g in enumerate(grad(z, t))]
+        return phi(z, t)
 
     def jacobian(mbs, t, item, q, q_t, velocity_level):
-        g = grad(full(q), t)
-        return [[g[k] for k in slots]]
+        return [[g[k] for k in slots] for g in grad(full(q), t)]
     return constraint, jacobian
 
 
@@ -228,15 +235,15 @@ def distance_driver(si, sj, spec):
 
     def phi(z, t):
         d, _, _ = parts(z)
-        return _dot(d, d) - evaluate(spec, t) ** 2
+        return [_dot(d, d) - evaluate(spec, t) ** 2]
 
     def grad(z, t):
         d, a, bb = parts(z)
         # d(d.d)/dz = 2 d . dd/dz; dd/dphi_i = -i a, dd/dphi_j = i bb
-        return [-2 * d.real, -2 * d.imag, -2 * _dot(d, 1j * a), 2 * d.real, 2 * d.imag, 2 * _dot(d, 1j * bb)]
+        return [[-2 * d.real, -2 * d.imag, -2 * _dot(d, 1j * a), 2 * d.real, 2 * d.imag, 2 * _dot(d, 1j * bb)]]
 
     def phi_t(t):
-        return -2 * evaluate(spec, t) * evaluate(spec, t, 1)
+        return [-2 * evaluate(spec, t) * evaluate(spec, t, 1)]
     return phi, grad, phi_t
 
 
@@ -255,16 +262,104 @@ def rack_pinion(cc, sp, u0, rho, const):
 
     def phi(z, t):
         u, d, _, _ = parts(z)
-        return _dot(u, d) + rho * (z[2] - z[5]) - const
+        return [_dot(u, d) + rho * (z[2] - z[5]) - const]
 
     def grad(z, t):
         u, d, a, bb = parts(z)
         # du/dphi_j = i u; dd/dphi_i = i a; dd/dphi_j = -i bb
-        return [u.real, u.imag, _dot(u, 1j * a) + rho, -u.real, -u.imag, _dot(1j * u, d) - _dot(u, 1j * bb) - rho]
+        return [[u.real, u.imag, _dot(u, 1j * a) + rho, -u.real, -u.imag, _dot(1j * u, d) - _dot(u, 1j * bb) - rho]]
     return phi, grad, None
 
 
-PORTABLE = (evaluate, _piece, offset_functions, user_functions, _frame, _dot, distance_driver, rack_pinion)
+def _contact(outline):
+    """z -> (r_c, r_b, e^{i phi_b}, a = A_c p, g = A_c p', h = A_c p'') of z =
+    (x, y, phi of the outline body c, of the other body b, theta), complex,
+    with p(theta) and its derivatives by kinem.outline (the compiled core's
+    evaluation, Eqs. 4.21-4.25); the last z's values are kept (Exudyn asks
+    for the constraint and its Jacobian at the same coordinates)."""
+    curve, last = OutlineSet([outline]).curve_at, [None, None]
+
+    def contact(z):
+        key = tuple(z)
+        if key != last[0]:
+            rc, ec = _frame(z, 0)
+            rb, eb = _frame(z, 1)
+            p, p1, p2, _ = curve(z[6])
+            last[0], last[1] = key, (rc, rb, eb, p * ec, p1 * ec, p2 * ec)
+        return last[1]
+    return contact
+
+
+def point_on_curve(outline, sb):
+    """r_c + A_c p(theta) - r_b - A_b s_b = 0 (x and y rows) on z = (x, y,
+    phi of the outline body c, of the point's body b, theta): cam-point (c
+    the cam, b the follower, Eq. 4.26) and point-follower (c the slotted
+    body, b the pin's, Eq. 4.30); sb the point in b (complex)."""
+    contact = _contact(outline)
+
+    def phi(z, t):
+        rc, rb, eb, a, _, _ = contact(z)
+        d = rc + a - rb - sb * eb
+        return [d.real, d.imag]
+
+    def grad(z, t):
+        _, _, eb, a, g, _ = contact(z)
+        ia, ib = 1j * a, -1j * sb * eb      # d/dphi_c, d/dphi_b
+        return [[1.0, 0.0, ia.real, -1.0, 0.0, ib.real, g.real],
+                [0.0, 1.0, ia.imag, 0.0, -1.0, ib.imag, g.imag]]
+    return phi, grad, None
+
+
+def cam_roller(outline, sb, rho):
+    """[g . d, d . d - rho^2] on z = (x, y, phi of the cam c, of the
+    follower b, theta), d = r_b + A_b s_b - r_c - a from the contact point
+    to the roller's centre s_b (complex; Eq. 4.28)."""
+    contact = _contact(outline)
+
+    def parts(z):
+        rc, rb, eb, a, g, h = contact(z)
+        bb = sb * eb
+        return rb + bb - rc - a, a, g, h, bb
+
+    def phi(z, t):
+        d, _, g, _, _ = parts(z)
+        return [_dot(g, d), _dot(d, d) - rho * rho]
+
+    def grad(z, t):
+        d, a, g, h, bb = parts(z)
+        # dd/dz: x_c -1, y_c -i, phi_c -i a, x_b 1, y_b i, phi_b i bb, theta -g; dg/dphi_c = i g, dg/dtheta = h
+        dd = [-1.0, -1j, -1j * a, 1.0, 1j, 1j * bb, -g]
+        dg = [0.0, 0.0, 1j * g, 0.0, 0.0, 0.0, h]
+        return [[_dot(g, x) + _dot(d, y) for x, y in zip(dd, dg)], [2 * _dot(d, x) for x in dd]]
+    return phi, grad, None
+
+
+def cam_flat(outline, sb, normal):
+    """[g . n, d . n] on z = (x, y, phi of the cam c, of the follower b,
+    theta), n = A_b n_b the face's unit normal (n_b complex, unit), d = r_c +
+    a - r_b - A_b s_b from the face's point s_b to the contact (Eq. 4.29)."""
+    contact = _contact(outline)
+
+    def parts(z):
+        rc, rb, eb, a, g, h = contact(z)
+        bb = sb * eb
+        return rc + a - rb - bb, a, g, h, bb, normal * eb
+
+    def phi(z, t):
+        d, _, g, _, _, n = parts(z)
+        return [_dot(g, n), _dot(d, n)]
+
+    def grad(z, t):
+        d, a, g, h, bb, n = parts(z)
+        # dn/dphi_b = i n; dd/dz: x_c 1, y_c i, phi_c i a, x_b -1, y_b -i, phi_b -i bb, theta g
+        dd = [1.0, 1j, 1j * a, -1.0, -1j, -1j * bb, g]
+        return [[0.0, 0.0, _dot(1j * g, n), 0.0, 0.0, _dot(g, 1j * n), _dot(h, n)],
+                [_dot(x, n) for x in dd[:5]] + [_dot(dd[5], n) + _dot(d, 1j * n), _dot(g, n)]]
+    return phi, grad, None
+
+
+PORTABLE = (evaluate, _piece, offset_functions, user_functions, _frame, _dot, distance_driver, rack_pinion, _contact,
+            point_on_curve, cam_roller, cam_flat)
 
 
 class _Recorder:
@@ -323,6 +418,7 @@ class _Build:
         self.col = {b: 3 * k for k, b in enumerate(model.body_names)}
         self.fixed = grounded(model)
         self.node, self.body = {}, {}
+        self.theta = {}   # the model's column of each outline angle -> its node
         mass, inertia = mass_properties(model)
         mbs = self.mbs
         for k, b in enumerate(model.body_names):
@@ -377,14 +473,19 @@ class _Build:
         self.mbs.AddObject(ei.ObjectJointPrismatic2D(markerNumbers=[m0, m1], axisMarker0=list(axis0),
                                                      normalMarker1=list(normal1), constrainRotation=rotation))
 
-    def _span(self, bodies):
-        """Markers [dummy ground, all node coordinates of the moving bodies]
-        (a massless ObjectGenericODE2 spans their nodes), the places of those
-        coordinates in z = (x, y, phi of each body in order), and z at t = 0."""
+    def _span(self, bodies, extra=()):
+        """Markers [dummy ground, all node coordinates of the moving bodies
+        and of the ``extra`` one-coordinate nodes] (a massless
+        ObjectGenericODE2 spans their nodes), the places of those coordinates
+        in z = (x, y, phi of each body in order, then each extra node's), and
+        z at t = 0."""
         moving = [b for b in bodies if b not in self.fixed]
         z0 = [float(v) for b in bodies for v in self.q0[self.col[b]: self.col[b] + 3]]
         slots = [3 * k + j for k, b in enumerate(bodies) if b not in self.fixed for j in range(3)]
-        span = self.mbs.AddObject(ei.ObjectGenericODE2(nodeNumbers=[self.node[b] for b in moving],
+        slots += [len(z0) + k for k in range(len(extra))]
+        z0 += [float(self.q0[col]) for col in extra]
+        nodes = [self.node[b] for b in moving] + [self.theta[col] for col in extra]
+        span = self.mbs.AddObject(ei.ObjectGenericODE2(nodeNumbers=nodes,
                                                        massMatrix=exu.MatrixContainer(np.zeros((len(slots),) * 2))))
         markers = [self.mbs.AddMarker(ei.MarkerNodeCoordinates(nodeNumber=self.ground_node)),
                    self.mbs.AddMarker(ei.MarkerObjectODE2Coordinates(objectNumber=span))]
@@ -399,18 +500,28 @@ class _Build:
             markerNumbers=markers, scalingMarker0=np.zeros((1, 0)), scalingMarker1=[[row[k] for k in slots]],
             offset=[sum(r * v for r, v in zip(row, z0)) - fixed]))
 
-    def user(self, bodies, factory, *args):
-        """A scalar user constraint phi(z, t) = 0 over z (x, y, phi of each of
-        ``bodies``) with phi, its gradient and its time derivative from
-        factory(*args) (distance_driver, rack_pinion); fixed bodies enter z
-        with their constant pose. The user functions run at every Newton
-        iteration: plain Python floats."""
-        markers, slots, z0 = self._span(bodies)
+    def angle(self, col):
+        """A NodeGenericODE2 for the model's artificial coordinate ``col``
+        (an outline's angle theta), started at its value and rate; no mass of
+        its own (the constraints that hold it determine it)."""
+        self.theta[col] = self.mbs.AddNode(ei.NodeGenericODE2(
+            referenceCoordinates=[0.0], initialCoordinates=[float(self.q0[col])],
+            initialCoordinates_t=[float(self.qd0[col])], numberOfODE2Coordinates=1))
+        return col
+
+    def user(self, bodies, factory, *args, extra=(), rows=1):
+        """``rows`` user constraint equations phi(z, t) = 0 over z (x, y,
+        phi of each of ``bodies``, then the ``extra`` artificial coordinates)
+        with phi, its gradient and its time derivative from factory(*args)
+        (distance_driver, rack_pinion, point_on_curve, cam_roller,
+        cam_flat); fixed bodies enter z with their constant pose. The user
+        functions run at every Newton iteration: plain Python floats."""
+        markers, slots, z0 = self._span(bodies, extra)
         constraint, jacobian = user_functions(*factory(*args), slots, z0)
         self.made.append((f"user_functions(*{factory.__name__}{tuple(args)!r}, {slots!r}, {z0!r})",
                           (constraint, jacobian)))
         self.mbs.AddObject(ei.ObjectConnectorCoordinateVector(
-            markerNumbers=markers, scalingMarker0=np.zeros((1, len(slots))),
+            markerNumbers=markers, scalingMarker0=np.zeros((rows, len(slots))),
             constraintUserFunction=constraint, jacobianUserFunction=jacobian))
 
 
@@ -519,6 +630,10 @@ class ExudynAdapter(Adapter):
                                                         outputVariableType=v))
                           for v in (exu.OutputVariableType.Coordinates, exu.OutputVariableType.Coordinates_t)]
                    for name, n in b.node.items()}
+        b.angles = {col: [b.mbs.AddSensor(ei.SensorNode(nodeNumber=n, storeInternal=True, writeToFile=False,
+                                                        outputVariableType=v))
+                          for v in (exu.OutputVariableType.Coordinates, exu.OutputVariableType.Coordinates_t)]
+                    for col, n in b.theta.items()}
         b.mbs.Assemble()
         return b, sensors, self._simulation(s, times, s["substeps"], interval, model.m > model.n)
 
@@ -584,6 +699,9 @@ class ExudynAdapter(Adapter):
                               "instants", steps)
             Q[:, k: k + 3] = pos[:, 1:4]
             QD[:, k: k + 3] = vel[:, 1:4]
+        for col, (sq, sv) in b.angles.items():   # the outline angles theta
+            Q[:, col] = b.mbs.GetSensorStoredData(sq)[:, 1]
+            QD[:, col] = b.mbs.GetSensorStoredData(sv)[:, 1]
         return Q, QD, wall, steps
 
     # -- constraints -------------------------------------------------------------
@@ -680,7 +798,27 @@ class ExudynAdapter(Adapter):
                 complex(*_unit(c.get("u", (1.0, 0.0)))), float(c["radius"])]
         bodies = [c["pinion"], c["rack"]]
         z0 = [float(v) for x in bodies for v in b.q0[b.col[x]: b.col[x] + 3]]
-        b.user(bodies, rack_pinion, *args, rack_pinion(*args, 0.0)[0](z0, 0.0))
+        b.user(bodies, rack_pinion, *args, rack_pinion(*args, 0.0)[0](z0, 0.0)[0])
+
+    def _curve(self, b, c, outline_body, other, factory, *args):
+        """A two-row curve constraint (factory: point_on_curve, cam_roller,
+        cam_flat) on the outline body, the other body and the constraint's
+        angle theta (its own node)."""
+        col = b.angle(b.model.coordinate_names.index(f"{c.name}.theta"))
+        b.user([outline_body, other], factory, c["outline"], *args, extra=[col], rows=2)
+
+    def _cam_point(self, b, c):
+        self._curve(b, c, c["cam"], c["follower"], point_on_curve, complex(*c["sj"]))
+
+    def _point_follower(self, b, c):
+        self._curve(b, c, c["j"], c["i"], point_on_curve, complex(*c["si"]))
+
+    def _cam_roller(self, b, c):
+        self._curve(b, c, c["cam"], c["follower"], cam_roller, complex(*c["sj"]), float(c["radius"]))
+
+    def _cam_flat(self, b, c):
+        n = complex(*c["normal"])
+        self._curve(b, c, c["cam"], c["follower"], cam_flat, complex(*c["sj"]), n / abs(n))
 
 
 ADAPTER = ExudynAdapter()

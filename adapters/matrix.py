@@ -41,7 +41,32 @@ def markdown() -> str:
     for e in ENGINES:
         tol = tolerance_of(adapters[e])
         lines.append(f"| {e} | " + " | ".join(f"{tol[k]:.0e}" if k in tol else "" for k in keys) + " |")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + cases(adapters)) + "\n"
+
+
+def cases(adapters) -> list:
+    """Lines of the table of the repository's cases (cases/*.toml): the
+    engines that represent each, and its checks that need no engine (a
+    closed form of the report, an equivalence group); a case with neither
+    engine nor closed form nor group is checked by nothing but native."""
+    from pathlib import Path
+
+    from kinem.case import load
+    from kinem.model import compile
+    from kinem.report.references import CLOSED_FORMS
+
+    lines = ["", "## The repository's cases and their independent checks", "",
+             "Every case of `cases/` with the engines that can represent it (each judged by its own tolerance) "
+             "and its checks that need no engine: a closed form of `kinem report` (kinem/report/references.py) "
+             "and an `[equivalent]` group (kinem/report/equivalence.py).", "",
+             "| case | engines | closed form | equivalence group |", "|---|---|---|---|"]
+    for path in sorted((Path(__file__).resolve().parents[1] / "cases").glob("*.toml")):
+        model = compile(load(path))
+        able = [e for e, a in adapters.items() if a.unsupported(model) is None]
+        group = model.case.equivalent.group if model.case.equivalent else None
+        lines.append(f"| `{path.stem}` | {', '.join(able) or '**none**'} | "
+                     f"{'yes' if model.case.name in CLOSED_FORMS else 'none'} | {group or 'none'} |")
+    return lines
 
 
 def update(path) -> bool:

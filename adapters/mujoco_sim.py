@@ -545,12 +545,12 @@ class MujocoAdapter(Adapter):
     def unsupported_with(self, model, q0, s):
         return self.unsupported(model, q0, s["tree"])
 
-    def refine(self, model, s, times, Q, QD, state, last=False):
+    def refine(self, model, s, times, Q, QD, state, last=False, first=False):
         """adapters.base's refinement by the self-check; a solref derived from
         the step (the default, 3 dt) is derived again from the refined step:
         the loop error is the equalities' softness, ~ solref[0]^2, so a
         smaller step with the old time constant would leave it unchanged."""
-        again = super().refine(model, s, times, Q, QD, state, last)
+        again = super().refine(model, s, times, Q, QD, state, last, first)
         if again and s["solref"] == (3 * s["dt"], 1.0):
             again = (again[0], dict(again[1], solref=None))
         return again

@@ -372,10 +372,10 @@ class PymunkAdapter(Adapter):
                               "angles, so only fixed axes can be represented")
         return None
 
-    def resolve(self, model, s, reference=None):
+    def resolve(self, model, s, q0=None, qd0=None):
         if s["iterations"] == "auto":
             s["iterations"] = s["auto_iterations"][0]
-        return super().resolve(model, s, reference)
+        return super().resolve(model, s, q0, qd0)
 
     def retry(self, model, s, times, auto, failure=None, Q=None, QD=None):
         """With iterations = "auto", once with auto_iterations[1] sweeps when

@@ -65,11 +65,11 @@ def sweep(engine, cases=CASES, quick=False, repeats=3, models=None):
         per_case, meets, costs, worst = {}, True, [], 0.0
         for name, model, ref in models:
             settings = adapter.settings(dict(model.case.engines.get(engine, {}), **(over or {})))
-            run = adapter.run(model, ref.q[0], ref.qd[0], settings, ref)
+            run = adapter.run(model, settings=settings)
             c = compare(model, ref, run, tol)
             walls = [run.per_interval]
             if c.within_tolerance:      # only settings that count are timed again
-                walls += [adapter.run(model, ref.q[0], ref.qd[0], settings, ref).per_interval
+                walls += [adapter.run(model, settings=settings).per_interval
                           for _ in range(repeats - 1)]
             cost = statistics.median(walls)
             per_case[name] = {"status": c.label, "within": bool(c.within_tolerance),

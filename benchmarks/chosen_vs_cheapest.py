@@ -20,7 +20,7 @@ from benchmarks.generated import KINDS, generated  # noqa: E402
 
 
 def within(a, model, ref, engine, n):
-    run = a.run(model, ref.q[0], ref.qd[0], case_settings(model, engine, {"substeps": n, "dt": "auto"}), ref)
+    run = a.run(model, settings=case_settings(model, engine, {"substeps": n, "dt": "auto"}))
     return bool(compare(model, ref, run, tolerance_of(a)).within_tolerance)
 
 
@@ -47,7 +47,7 @@ def main(seeds, engines):
             ref = kinem.solve(model, options=dataclasses.replace(kinem.Options.of(case), tolerance=1e-13))
             for e in engines:
                 a = get(e)
-                run = a.run(model, ref.q[0], ref.qd[0], case_settings(model, e), ref)
+                run = a.run(model, settings=case_settings(model, e))
                 c = compare(model, ref, run, tolerance_of(a))
                 best = cheapest(a, model, ref, e, max(run.substeps, 1))
                 total = run.steps / (len(model.times) - 1)

@@ -256,7 +256,7 @@ def engine_runner(adapter, model, ref, overrides=None):
     settings = adapter.settings({**dict(model.case.engines.get(adapter.name, {})), **(overrides or {})})
 
     def run():
-        r = adapter.run(model, ref.q[0], ref.qd[0], settings, ref)
+        r = adapter.run(model, settings=settings)
         return r.wall_time, r
     return run
 

@@ -49,7 +49,7 @@ def main(argv=None):
             for k in range(a.n):
                 for which in ("before", "after") if k % 2 == 0 else ("after", "before"):
                     over = dict(case.engines.get(e, {}), **(before if which == "before" else {}))
-                    runs[which].append(adapter.run(model, ref.q[0], ref.qd[0], adapter.settings(over), ref))
+                    runs[which].append(adapter.run(model, settings=adapter.settings(over)))
             rows[name] = {w: {"us_per_interval": 1e6 * statistics.median(r.per_interval for r in rs),
                               "substeps": rs[0].substeps, "notes": list(rs[0].notes),
                               "position_error_rel": compare(model, ref, rs[0], tol).position_error_rel,

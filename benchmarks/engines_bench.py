@@ -144,7 +144,7 @@ def section_precision(cfg, state):
             adapter, why = adapter_of(e)
             if adapter is None or adapter.unsupported(model):
                 continue
-            dt0 = adapter.step(model, dict(model.case.engines.get(e, {})), ref)   # dt = "auto": the one it picks
+            dt0 = adapter.step(model, dict(model.case.engines.get(e, {})))   # dt = "auto": the one it picks
             points, seen, per_step_cost = [], set(), None
             for f in cfg.dt_factors:
                 h = case.end / case.steps
@@ -250,7 +250,7 @@ def section_equal_error(cfg, state):
                     continue
                 pts = []
                 for over in tune.grid(adapter):
-                    run = adapter.run(model, ref.q[0], ref.qd[0], adapter.settings(over), ref)
+                    run = adapter.run(model, settings=adapter.settings(over))
                     c = compare(model, ref, run)
                     if c.ok:
                         pts.append({"settings": over, "time_per_interval": run.per_interval,
@@ -269,7 +269,7 @@ def section_equal_error(cfg, state):
                         continue
                     best = dict(min(ok, key=lambda p: p["time_per_interval"]))
                     walls = [best["time_per_interval"]] + [
-                        adapter.run(model, ref.q[0], ref.qd[0], adapter.settings(best["settings"]), ref).per_interval
+                        adapter.run(model, settings=adapter.settings(best["settings"])).per_interval
                         for _ in range(cfg.retime - 1)]
                     best["time_per_interval"] = statistics.median(walls)
                     if row["native"]:

@@ -35,13 +35,13 @@ def main(engines, seeds, dt):
     for name, case in mechanisms(seeds):
         model = kinem.compile(case)
         ref = kinem.solve(model, options=dataclasses.replace(kinem.Options.of(case), tolerance=1e-13))
-        rate = rate_scale(model, ref)
+        rate = rate_scale(model, ref.trajectory)
         for e in engines:
             a = get(e)
             if a.unsupported(model):
                 continue
             s = case_settings(model, e, {"dt": dt, "substeps": None})
-            run = a.run(model, ref.q[0], ref.qd[0], s, ref)
+            run = a.run(model, settings=s)
             c = compare(model, ref, run, tolerance_of(a))
             if not c.ok:
                 print(f"{name:16s} {e:7s} {c.label}")

@@ -424,19 +424,20 @@ def _tune(a):
 
 def cmd_export(a):
     """kinem export CASE --engine NAME --out FILE: the engine model as the harness runs it."""
+    from adapters.base import Failure, start
     from adapters.export import export
-    from .solver import solve
 
     model = _load(a.case)
-    native = solve(model)
-    if not native.success:
-        raise AnalysisError(f"{a.case}: no native solution at t = 0 to start the engine from: {native.message}")
+    try:
+        q0, qd0 = start(model)   # the harness's start: the model's own assembly at the first instant
+    except Failure as e:
+        raise AnalysisError(f"{a.case}: no start to run the engine from: {e.detail}") from None
     settings = dict(model.case.engines.get(a.engine, {}))   # the case file's [engines.NAME] table, as the harness
     if settings:
         from adapters import case_settings
 
         case_settings(model, a.engine)   # checked as the harness checks it (naming the file and the key)
-    text = export(model, a.engine, native.q[0], native.qd[0], settings)
+    text = export(model, a.engine, q0, qd0, settings)
     from .output import write_atomic
 
     write_atomic(a.out, lambda f: f.write(text.encode()))   # devices, FIFOs and links written through

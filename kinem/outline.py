@@ -13,6 +13,7 @@ beyond its table by its end cubics (there is no stop at the ends).
 
 Planar vectors are complex xi + i eta, as in the constraint families.
 """
+import cmath
 from dataclasses import dataclass
 
 import numpy as np
@@ -94,10 +95,19 @@ class OutlineSet:
     def curve(self, theta):
         """p and dp/dtheta, d2p/dtheta2, d3p/dtheta3 in local components
         (Eqs. 4.21-4.25 with p = Q + s e^{i theta}; g' = dp/dtheta)."""
-        s, s1, s2, s3 = self.radius(theta)
-        e = np.exp(1j * np.asarray(theta, float))
-        return (self.center + s * e, (s1 + 1j * s) * e, (s2 - s + 2j * s1) * e,
-                (s3 - 3 * s1 + 1j * (3 * s2 - s)) * e)
+        return _curve(self.center, np.exp(1j * np.asarray(theta, float)), *self.radius(theta))
+
+    def curve_at(self, theta: float) -> tuple:
+        """``curve`` of the first outline at one angle, as Python complex
+        numbers, without numpy's broadcasting: the hot path of a user
+        constraint called at every Newton iteration (adapters/exudyn_sim.py)."""
+        s = native.outline_radius(self._table, self._which[:1], np.array([float(theta)])).reshape(4).tolist()
+        return _curve(complex(self.center[0]), cmath.exp(1j * theta), *s)
+
+
+def _curve(center, e, s, s1, s2, s3):
+    """p and its first three derivatives in theta from s and its own, e = e^{i theta}."""
+    return (center + s * e, (s1 + 1j * s) * e, (s2 - s + 2j * s1) * e, (s3 - 3 * s1 + 1j * (3 * s2 - s)) * e)
 
 
 class OutlineTable:

@@ -267,7 +267,7 @@ def run_one(task) -> Outcome:
         if len(native.trajectory) == 0:
             return Outcome(Class.DIVERGED, "no assembled start", row())
     overrides = s.engine_settings.get(engine, s.engine_settings.get("*", {}))
-    run = adapter.run(model, native.q[0], native.qd[0], adapter.settings(overrides), native)
+    run = adapter.run(model, native.q[0], native.qd[0], adapter.settings(overrides))
     if not run.ok:
         kind = Class.NAN if run.status is Status.NONFINITE else Class.DIVERGED
         return Outcome(kind, run.label, row(wall_time=run.wall_time))

@@ -8,7 +8,7 @@ import pytest
 
 import kinem
 from adapters import get
-from adapters.base import Status, rate_scale
+from adapters.base import Status, rate_scale, start_rate, trajectory_rate
 from adapters.compare import compare, tolerance_of
 from kinem.reference import four_bar_case, quick_return_case, slider_crank_case
 
@@ -41,11 +41,13 @@ HARD_QUICK_RETURN = quick_return_case(100.0, 50.0, 300.0, 300.0, 0.0, {"poly": [
 def test_rate_scale_follows_the_speed():
     # a constant-speed crank: rates, sqrt(accelerations) and cbrt(jerks) all scale with w
     (m1, n1), (m4, n4) = slider_crank(1.0), slider_crank(4.0)
-    assert rate_scale(m1, n1) >= 1.0   # at least the crank's own rate
+    assert rate_scale(m1, n1.trajectory) >= 1.0   # at least the crank's own rate
     # 5 %: the jerks are differences of the accelerations over the output instants
-    assert rate_scale(m4, n4) / rate_scale(m1, n1) == pytest.approx(4.0, rel=0.05)
-    # solved here when no reference is given: the same scale
-    assert rate_scale(m1) == pytest.approx(rate_scale(m1, n1), rel=1e-9)
+    assert rate_scale(m4, n4.trajectory) / rate_scale(m1, n1.trajectory) == pytest.approx(4.0, rel=0.05)
+    # an engine's own run (accelerations by differences of its velocities) gives the same scale within 5 %
+    assert trajectory_rate(m1, m1.times, n1.q, n1.qd) == pytest.approx(rate_scale(m1, n1.trajectory), rel=0.05)
+    # the start's alone: at most the whole run's, and as fast as the crank
+    assert 1.0 <= start_rate(m1, n1.q[0], n1.qd[0]) <= rate_scale(m1, n1.trajectory) * (1 + 1e-9)
 
 
 def test_auto_step_is_smaller_for_a_faster_mechanism():
@@ -53,36 +55,36 @@ def test_auto_step_is_smaller_for_a_faster_mechanism():
     h = m1.times[1] - m1.times[0]
     first = {}
     for w, (m, n) in ((1, (m1, n1)), (4, (m4, n4))):
-        # the first attempt: the fewest steps per interval with dt <= rate_step / rate_scale
+        # the first attempt: the fewest steps per interval with dt <= rate_step / the start's rate scale
         s = MUJOCO.settings()
-        MUJOCO.resolve(m, s, n)
+        MUJOCO.resolve(m, s, n.q[0], n.qd[0])
         assert s["substeps"] == int(np.ceil(h * s["rate_scale"] / MUJOCO.defaults()["rate_step"]))
         first[w] = s["dt"]
         # the run ends within tolerance at that step or a refined one (never coarser)
-        run = MUJOCO.run(m, n.q[0], n.qd[0], None, n)
+        run = MUJOCO.run(m, n.q[0], n.qd[0], None)
         assert run.ok and run.settings["dt"] <= s["dt"] * (1 + 1e-12)
         assert compare(m, n, run, tolerance_of(MUJOCO)).within_tolerance
     assert first[4] < first[1] / 3   # 4x the rate; steps rounded to divide the interval
     # an explicit step is taken as it is
-    fixed = MUJOCO.run(m4, n4.q[0], n4.qd[0], {"dt": first[1]}, n4)
+    fixed = MUJOCO.run(m4, n4.q[0], n4.qd[0], {"dt": first[1]})
     assert fixed.settings["dt"] == pytest.approx(first[1]) and "rate_scale" not in fixed.settings
     assert not fixed.notes
 
 
 def test_mujoco_drives_in_c_where_a_held_force_is_exact():
     m, n = slider_crank(1.0)
-    linear = MUJOCO.run(m, n.q[0], n.qd[0], None, n)
+    linear = MUJOCO.run(m, n.q[0], n.qd[0], None)
     assert (linear.settings["drive"], linear.settings["armature"]) == ("interval", 1e12)
     m, n = slider_crank(1.0, {"harmonic": {"amplitude": 0.5, "omega": 2.0, "phase": 0.0, "offset": 0.3}})
-    harmonic = MUJOCO.run(m, n.q[0], n.qd[0], None, n)
+    harmonic = MUJOCO.run(m, n.q[0], n.qd[0], None)
     assert (harmonic.settings["drive"], harmonic.settings["armature"]) == ("overwrite", 1e9)
     assert compare(m, n, harmonic, tolerance_of(MUJOCO)).within_tolerance
 
 
 def test_mujoco_refines_its_step_and_solref_when_its_self_check_misses():
     model, native = solved(HARD_QUICK_RETURN)
-    first = MUJOCO.step(model, None, native)
-    run = MUJOCO.run(model, native.q[0], native.qd[0], None, native)
+    first = MUJOCO.step(model)
+    run = MUJOCO.run(model, native.q[0], native.qd[0], None)
     assert run.ok and run.notes and all("self-check: " in n for n in run.notes), run.notes
     assert run.settings["dt"] < first
     # the loops' time constant follows the refined step (else their softness, ~ solref[0]^2, stays)
@@ -93,22 +95,24 @@ def test_mujoco_refines_its_step_and_solref_when_its_self_check_misses():
     c = compare(model, native, run, tolerance_of(MUJOCO))
     assert c.within_tolerance and max(run.estimate[k] / v for k, v in MUJOCO.tolerance.items()) <= 1.0
     # an explicit step is never changed
-    fixed = MUJOCO.run(model, native.q[0], native.qd[0], {"dt": first}, native)
+    fixed = MUJOCO.run(model, native.q[0], native.qd[0], {"dt": first})
     assert fixed.ok and not fixed.notes and fixed.settings["dt"] == pytest.approx(first)
     assert fixed.settings["solref"] == (3 * fixed.settings["dt"], 1.0)
     # a given solref is never changed by a refinement
-    given = MUJOCO.run(model, native.q[0], native.qd[0], {"solref": (2e-3, 1.0)}, native)
+    given = MUJOCO.run(model, native.q[0], native.qd[0], {"solref": (2e-3, 1.0)})
     assert given.notes and given.settings["solref"] == (2e-3, 1.0)
 
 
 @pytest.mark.parametrize("case", [DIVERGING_FOUR_BAR, HARD_QUICK_RETURN], ids=["four-bar", "quick-return"])
 def test_pymunk_retries_with_more_iterations_when_it_diverges(case):
     model, native = solved(case)
-    explicit = PYMUNK.run(model, native.q[0], native.qd[0], {"iterations": 25}, native)
+    explicit = PYMUNK.run(model, native.q[0], native.qd[0], {"iterations": 25})
     assert explicit.status is Status.DIVERGED and not explicit.notes
-    run = PYMUNK.run(model, native.q[0], native.qd[0], None, native)
+    run = PYMUNK.run(model, native.q[0], native.qd[0], None)
     assert run.ok and run.settings["iterations"] == 100
-    assert len(run.notes) == 1 and "drifted apart" in run.notes[0] and "iterations = 100" in run.notes[0]
+    assert "drifted apart" in run.notes[0] and "iterations = 100" in run.notes[0]
+    # then at most refinements of the step by its own figures (the start's rates can be below the run's)
+    assert all("self-check: " in n or "own run's rate" in n for n in run.notes[1:]), run.notes
     assert run.steps > (len(model.times) - 1) * run.substeps   # the diverged attempt's steps count
     assert compare(model, native, run, tolerance_of(PYMUNK)).within_tolerance
 
@@ -121,7 +125,7 @@ def test_pymunk_checks_that_its_velocity_solve_converged():
     # native's own velocities satisfy the velocity equations to round-off
     assert velocity_residual(model, native.q, native.qd, model.times, rows) < 1e-12
     s = PYMUNK.settings()
-    PYMUNK.resolve(model, s, native)
+    PYMUNK.resolve(model, s, native.q[0], native.qd[0])
     assert PYMUNK.retry(model, s, model.times, {"iterations"}, None, native.q, native.qd) is None
     qd = native.qd.copy()
     qd[len(qd) // 2, 5] *= 1 + 1e-4            # the rod's omega at one instant, off by 1e-4

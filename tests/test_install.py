@@ -1,5 +1,6 @@
 """The package as users get it: ``pip wheel .`` builds a wheel with the
-compiled core inside, and that wheel, installed into a fresh virtual
+compiled core inside (the ``wheel`` fixture of tests/conftest.py, shared with
+tests/test_ci_recipe.py), and that wheel, installed into a fresh virtual
 environment on a machine without a Rust toolchain, solves a case and
 writes nothing at run time but the output named (no cache folder, nothing
 under the package, nothing in the temporary directory)."""
@@ -11,8 +12,6 @@ import sysconfig
 import venv
 from pathlib import Path
 
-import pytest
-
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -20,22 +19,10 @@ def files(folder: Path) -> set:
     return {p.relative_to(folder) for p in folder.rglob("*")} if folder.exists() else set()
 
 
-@pytest.fixture(scope="module")
-def wheel(tmp_path_factory):
-    out = tmp_path_factory.mktemp("wheel")
-    if shutil.which("cargo") is None:
-        pytest.skip("no Rust toolchain to build the wheel with")
-    r = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation",
-                        "--disable-pip-version-check", "-q", "-w", str(out), str(ROOT)],
-                       capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr[-2000:]
-    (whl,) = out.glob("kinem-*.whl")
-    return whl
-
-
 def test_the_wheel_carries_the_core_and_the_packages(wheel):
     import zipfile
 
+    assert "-cp311-abi3-" in wheel.name   # one wheel for every CPython >= 3.11 (pyo3's abi3-py311)
     names = zipfile.ZipFile(wheel).namelist()
     assert any(n.startswith("kinem/_core") and n.endswith(".so") for n in names)
     assert "kinem/report/schema.json" in names and "adapters/base.py" in names

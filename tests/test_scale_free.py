@@ -80,7 +80,7 @@ def test_self_check_predicts_the_error_without_native():
                                    ("pymunk", "position_error_rel", 2.0), ("pymunk", "angle_error", 2.0),
                                    *(("mujoco", k, 1.05) for k in FIGURES)):
         a = get(engine)
-        run = a.run(model, ref.q[0], ref.qd[0], case_settings(model, engine, {"dt": 1e-3}), ref)
+        run = a.run(model, settings=case_settings(model, engine, {"dt": 1e-3}))
         c = compare(model, ref, run, tolerance_of(a))
         est = base.self_check(model, run.q, run.qd, model.times)[figure]
         actual = getattr(c, figure)
@@ -92,7 +92,7 @@ def test_a_coarse_first_step_is_refined_until_within_tolerance():
     (said in the notes) until the run is within tolerance."""
     model, ref = solved(MECHANISMS["klann"]())
     a = get("exudyn")
-    run = a.run(model, ref.q[0], ref.qd[0], case_settings(model, "exudyn", {"rate_step": 1e-2}), ref)
+    run = a.run(model, settings=case_settings(model, "exudyn", {"rate_step": 1e-2}))
     c = compare(model, ref, run, tolerance_of(a))
     assert c.verdict is Verdict.WITHIN, c.verdict_text
     assert any(n.startswith("self-check:") for n in run.notes), run.notes
@@ -109,10 +109,10 @@ def test_mujoco_chooses_within_one_and_a_half_times_the_cheapest_step():
     a = get("mujoco")
 
     def within(n):
-        run = a.run(model, ref.q[0], ref.qd[0], case_settings(model, "mujoco", {"substeps": n, "dt": "auto"}), ref)
+        run = a.run(model, settings=case_settings(model, "mujoco", {"substeps": n, "dt": "auto"}))
         return compare(model, ref, run, tolerance_of(a)).within_tolerance
 
-    run = a.run(model, ref.q[0], ref.qd[0], case_settings(model, "mujoco"), ref)
+    run = a.run(model, settings=case_settings(model, "mujoco"))
     assert compare(model, ref, run, tolerance_of(a)).verdict is Verdict.WITHIN
     cheapest = next(n for n in range(1, run.substeps + 1) if within(n))   # errors fall with n
     assert run.substeps <= 1.5 * cheapest, (run.substeps, cheapest, run.notes)
@@ -125,7 +125,7 @@ def test_cost_cap_gives_a_typed_verdict_with_the_best_error(monkeypatch):
     monkeypatch.setattr(base, "MAX_SUBSTEPS", 3)
     model, ref = solved(MECHANISMS["geneva"]())
     a = get("pymunk")
-    run = a.run(model, ref.q[0], ref.qd[0], case_settings(model, "pymunk", {"rate_step": 5e-2}), ref)
+    run = a.run(model, settings=case_settings(model, "pymunk", {"rate_step": 5e-2}))
     c = compare(model, ref, run, tolerance_of(a))
     assert run.capped and c.verdict is Verdict.CAPPED
     text = c.verdict_text
@@ -137,7 +137,7 @@ def test_explicit_steps_are_never_refined():
     """An explicit dt (the report's sweeps, --dt) runs as it is."""
     model, ref = solved(MECHANISMS["geared_five_bar"]())
     a = get("exudyn")
-    run = a.run(model, ref.q[0], ref.qd[0], case_settings(model, "exudyn", {"dt": 2e-3}), ref)
+    run = a.run(model, settings=case_settings(model, "exudyn", {"dt": 2e-3}))
     assert not run.notes and run.settings["dt"] == pytest.approx(model.times[1] / np.ceil(model.times[1] / 2e-3))
 
 
@@ -156,7 +156,7 @@ def test_a_failed_refinement_keeps_the_last_good_run(monkeypatch):
         return real(self, model, q0, qd0, s, times)
 
     monkeypatch.setattr(type(a), "simulate", simulate)
-    run = a.run(model, ref.q[0], ref.qd[0], case_settings(model, "exudyn", {"rate_step": 1e-2}), ref)
+    run = a.run(model, settings=case_settings(model, "exudyn", {"rate_step": 1e-2}))
     assert run.ok and run.capped and len(calls) == 2 and run.substeps == calls[0]
     assert any("kept the run" in n for n in run.notes)
     assert compare(model, ref, run, tolerance_of(a)).verdict is Verdict.CAPPED
@@ -171,7 +171,7 @@ def test_refinement_takes_each_figures_own_order(monkeypatch):
     model, ref = solved(generated("four-bar", 101))
     a = get("mujoco")
     s = a.settings()
-    a.resolve(model, s, ref)
+    a.resolve(model, s, ref.q[0], ref.qd[0])
     s["solref"] = (3 * s["dt"], 1.0)     # as build derives it
     tol = a.tolerance
 

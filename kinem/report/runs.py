@@ -226,7 +226,7 @@ def run_engine(task):
         overrides[task.knob] = task.value
     settings = case_settings(model, task.engine, overrides)
     try:
-        run = adapter.run(model, ref.q[0], ref.qd[0], settings, ref)
+        run = adapter.run(model, settings=settings)   # its own start (adapters.base.start), not native's
     except Exception as e:  # noqa: BLE001 - adapters should not raise; record it if one does
         return _blank(task, Status.FAILED, f"{type(e).__name__}: {e}", version=version, requested=_plain(settings),
                       knobs=_knobs(adapter, settings, settings))
