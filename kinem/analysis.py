@@ -36,6 +36,7 @@ class Data:
     factorizations: int = 0
     trace: list | None = None           # when a list: (t, what, iteration, scaled residual, detail) records
     solver: Solver | None = None        # the linear solver (kinem.linalg.choose; None: the case's)
+    budget: object | None = None        # the run's kinem.budget.Budget: Newton iterations check its time
 
     def __post_init__(self):
         if not isinstance(self.q, np.ndarray) and hasattr(self.q, "q0"):
@@ -107,6 +108,11 @@ class Steps:
         """Phi at q and its max scaled residual; a Newton iteration's (it >= 0)
         is recorded: worst row, trace."""
         m, d = self.model, self.data
+        if d.budget is not None and it >= 0:
+            if self.minimum_norm:
+                d.budget.spend(self.t)   # a least-squares step counts as an attempt
+            else:
+                d.budget.check(self.t)
         self.phi = m.phi(self.q, self.t)
         r = m.scaled_residual(self.phi)
         worst = int(np.argmax(r)) if r.size else 0
@@ -176,11 +182,12 @@ def position(model, data: Data, t: float, tolerance=None, max_iterations=None, f
         data.factor = steps.f
 
 
-def gauss_newton(model, q, t, max_iterations=None, tolerance=None):
+def gauss_newton(model, q, t, max_iterations=None, tolerance=None, budget=None):
     """Minimum-norm least-squares Newton steps on the dimensionless system:
     converges where Phi_q is rank-deficient or not square (redundant
-    constraints, a singular configuration). Returns (q, max scaled residual)."""
-    data = Data(q=np.array(q, dtype=float))
+    constraints, a singular configuration), each spent from ``budget`` (a
+    kinem.budget.Budget) when given. Returns (q, max scaled residual)."""
+    data = Data(q=np.array(q, dtype=float), budget=budget)
     try:
         position(model, data, t, tolerance, max_iterations or None, minimum_norm=True, finish=False)
     except ConvergenceError:

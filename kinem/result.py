@@ -99,6 +99,7 @@ class SolveResult:
     wall_time: float                 # seconds in the analysis loop
     t_fail: float | None = None
     failed_constraint: str | None = None
+    attempts: int = 0                # step attempts counted against Options.max_substeps (kinem.budget)
 
     def __repr__(self) -> str:
         return (f"SolveResult(success={self.success}, status={self.status.name}, message={self.message!r}, "

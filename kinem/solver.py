@@ -36,6 +36,19 @@ def _checked_times(times):
     return t
 
 
+def _checked_q0(model, q0):
+    """q0 as n finite floats (InputError otherwise), or None."""
+    if q0 is None:
+        return None
+    try:
+        q = np.array(q0, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"solve: q0 {q0!r:.80}: expected {model.n} numbers") from None
+    if q.shape != (model.n,) or not np.isfinite(q).all():
+        raise InputError(f"solve: q0 of shape {q.shape}: expected {model.n} finite numbers (the model's coordinates)")
+    return q
+
+
 def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | None = None,
           q0=None) -> SolveResult:
     """Position (and, when asked, velocity and acceleration) analysis at every
@@ -47,8 +60,18 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     ``q0``: the estimate to assemble from at ``times[0]`` (default the case's
     ``model.q0``); a run continued from a solved state passes that state, so a
     long run can be solved in pieces (``kinem solve`` does: kinem.stream)."""
+    from .model import Model
+
+    if not isinstance(model, Model):
+        raise InputError(f"solve: model {type(model).__name__}: expected a kinem.Model (kinem.compile(case))")
     times = _checked_times(times)
     options = Options.of(model.case) if options is None else options
+    if not isinstance(options, Options):
+        raise InputError(f"solve: options {type(options).__name__}: expected a kinem.Options")
+    q0 = _checked_q0(model, q0)
+    outputs = (outputs,) if isinstance(outputs, str) else outputs
+    if not all(isinstance(o, str) and o in OUTPUTS for o in outputs):
+        raise InputError(f"solve: outputs {outputs!r:.80}: expected a sequence of {', '.join(OUTPUTS)}")
     check_square(model)
     outputs = tuple(o for o in OUTPUTS if o in outputs)
     if "positions" not in outputs:
@@ -84,6 +107,8 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
                     QDD[k] = s.qdd
             k += 1
     except AnalysisError as e:
+        if getattr(e, "instant", None) is not None:   # the march's instants before it are solved
+            k = e.instant
         status = Status.SINGULAR if isinstance(e, SingularError) else Status.NOT_CONVERGED
         what = "assembly at" if k == 0 else "step to"
         why = explain_assembly(model, times[0], tolerance=options.tolerance) if k == 0 else ""  # the root cause, in the user's terms
@@ -102,7 +127,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         conditioning=cond[:n_ok], substeps=tracker.substeps, events=tuple(tracker.events),
         trace=tuple(data.trace or ()),
         jacobian_evaluations=data.jacobian_evaluations, factorizations=data.factorizations,
-        wall_time=wall, t_fail=None if ok else float(times[n_ok]),
+        wall_time=wall, t_fail=None if ok else float(times[n_ok]), attempts=tracker.budget.attempts,
         failed_constraint=pin[0] if status == Status.WRONG_BRANCH else None if ok or status == Status.SINGULAR
         else model.row_owner[data.worst_row],
     )

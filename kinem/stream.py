@@ -66,15 +66,19 @@ def run(model, outputs, on_chunk, trace=None, progress=None, size=None, options=
     """An Outcome (Run, the solver's message, Progress): solves the case's output instants chunk by chunk: on_chunk(result) for
     each chunk's SolveResult (overlapping instant removed), trace(records) for
     each chunk's trace when given, progress(instants done, t) after each.
-    ``options`` (default the case's): its max_substeps holds for the whole
-    run, each chunk gets what the ones before left."""
+    ``options`` (default the case's): its max_substeps and max_seconds hold
+    for the whole run, each chunk gets what the ones before left."""
     from dataclasses import replace
 
     from .options import Options
     from .solver import solve
 
+    import time
+
     case = model.case
     options = Options.of(case) if options is None else options
+    if options.started is None:   # the time limit holds for the whole run
+        options = replace(options, started=time.perf_counter())
     left = options.max_substeps
     nt, h = case.steps + 1, case.end / case.steps
     size = size or chunk_size(model, outputs, nt)
@@ -84,7 +88,7 @@ def run(model, outputs, on_chunk, trace=None, progress=None, size=None, options=
         times = np.arange(first, min(k + size, nt)) * h   # the same values as case.times
         r = solve(model, outputs, times=times, trace=trace is not None, q0=q0,
                   options=replace(options, max_substeps=left))
-        left -= r.substeps
+        left -= r.attempts
         skip = k - first
         t0 = times[0] if skip else -np.inf
         if trace is not None:
@@ -96,8 +100,8 @@ def run(model, outputs, on_chunk, trace=None, progress=None, size=None, options=
         if not r.success:
             message = re.sub(r"\(instant (\d+) of \d+\)",
                              lambda m: f"(instant {int(m.group(1)) + first} of {nt - 1})", r.message, count=1)
-            message = message.replace(f"limit of {max(left + r.substeps, 0):,} sub-steps",
-                                      f"limit of {options.max_substeps:,} sub-steps", 1)
+            message = message.replace(f"limit of {max(left + r.attempts, 0):,} step attempts",
+                                      f"limit of {options.max_substeps:,} step attempts", 1)
             return Outcome(Run.STOPPED, message, Progress(k + max(done, 0), tuple(events)))
         k += done
         q0 = r.q[-1]
