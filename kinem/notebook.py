@@ -76,7 +76,7 @@ def animate(result, path, model=None):
         raise InputError(f"animate: the result has no instants ({result.message})")
     if result.q.shape[1] != model.n:
         raise InputError(f"animate: the result has {result.q.shape[1]} coordinates, the model {model.n}")
-    check_output(str(path))
+    check_output(str(path), "animate: path")
     idx = sample(len(result.q), FRAMES)
     native = {"t": result.trajectory.t[idx], "q": result.q[idx]}
     render(model, native, {}, result.q[sample(len(result.q), PATH_INSTANTS)], str(path))
