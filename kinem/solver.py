@@ -17,16 +17,19 @@ from .options import Options
 from .result import OUTPUTS, SolveResult, Status, trajectory
 from .tracking import Tracker
 
+def _floats(name, value, expected):
+    """value as a float array (InputError naming ``name`` otherwise)."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"solve: {name} {value!r:.80}: expected {expected}") from None
+
+
 def _checked_times(times):
     """times as a float array: one or more finite, strictly increasing instants (InputError otherwise)."""
     if times is None:
         return None
-    from .errors import InputError
-
-    try:
-        t = np.asarray(times, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"solve: times {times!r:.80}: expected a sequence of numbers") from None
+    t = _floats("times", times, "a sequence of numbers")
     if t.ndim != 1 or not len(t) or not np.isfinite(t).all():
         raise InputError(f"solve: times of shape {t.shape}: expected one or more finite instants in a 1-D sequence")
     if len(t) > 1 and not (np.diff(t) > 0).all():
@@ -40,10 +43,7 @@ def _checked_q0(model, q0):
     """q0 as n finite floats (InputError otherwise), or None."""
     if q0 is None:
         return None
-    try:
-        q = np.array(q0, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"solve: q0 {q0!r:.80}: expected {model.n} numbers") from None
+    q = _floats("q0", q0, f"{model.n} numbers")
     if q.shape != (model.n,) or not np.isfinite(q).all():
         raise InputError(f"solve: q0 of shape {q.shape}: expected {model.n} finite numbers (the model's coordinates)")
     return q

@@ -37,9 +37,10 @@ class Progress:
     events: tuple          # (t, text) singular configurations passed
 
 
-# A sub-step (kinem.tracking, in Python: about 3 ms with its rejected tries on the
-# slider-crank) costs about as much as SUBSTEP_WORK output instants of the compiled
-# march (about 50 us each at 12 coordinates: docs/benchmarks.md, "Long runs and output").
+# A step attempt beyond one per output interval (kinem.budget: a sub-step, a rejected
+# attempt, a least-squares step; in Python, about 1 ms on the slider-crank) costs about as
+# much as SUBSTEP_WORK output instants of the compiled march with their output (about
+# 50 us each at 12 coordinates: docs/benchmarks.md, "Long runs and output").
 SUBSTEP_WORK = 100
 
 
@@ -49,8 +50,8 @@ def work(model, instants=None) -> int:
 
 
 def substep_budget(model, limit, instants=None) -> int:
-    """The sub-steps a run may take within the work limit: each counts as
-    SUBSTEP_WORK output instants."""
+    """The step attempts a run may make within the work limit (Options.max_substeps):
+    each counts as SUBSTEP_WORK output instants."""
     return max(int((limit - work(model, instants)) // (SUBSTEP_WORK * model.n)), 0)
 
 
