@@ -32,6 +32,9 @@ def merge(cases, name="batch") -> Case:
     cases = list(cases)
     if not cases:
         raise InputError("merge: no cases")
+    if not all(isinstance(c, Case) for c in cases):
+        bad = next(c for c in cases if not isinstance(c, Case))
+        raise InputError(f"merge: cases: a {type(bad).__name__}; expected kinem.Case objects (kinem.load(path))")
     end, steps = cases[0].end, cases[0].steps
     if any(c.end != end or c.steps != steps for c in cases):
         raise InputError("merge: the variants must share their output instants (end and steps)")

@@ -44,6 +44,14 @@ def one_line(text) -> str:
     return text if len(text) <= MAX_LINE else text[:MAX_LINE - 3] + "..."
 
 
+class UnknownColumn(InputError, KeyError):
+    """A trajectory has no column of that name (a KeyError too: the
+    mapping's own error)."""
+
+    def __str__(self):
+        return self.summary()
+
+
 class AnalysisError(KinemError):
     """An analysis that could not finish."""
 

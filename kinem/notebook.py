@@ -26,6 +26,9 @@ def plot(result, columns=None):
 
     traj = _trajectory(result)
     if columns is not None:
+        columns = [columns] if isinstance(columns, str) else columns
+        if not isinstance(columns, (list, tuple)):
+            raise InputError(f"plot: columns {columns!r:.60}: expected a list of column names")
         missing = [c for c in columns if c not in traj]
         if missing:
             raise InputError(f"plot: no column {missing[0]!r}; columns: {', '.join(traj.columns[:12])}...")

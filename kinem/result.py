@@ -42,7 +42,9 @@ class Trajectory:
         try:
             return self.data[:, self._index[name]]
         except KeyError:
-            raise KeyError(f"no column '{name}'; columns: {', '.join(self.columns[:12])}...") from None
+            from .errors import UnknownColumn
+
+            raise UnknownColumn(f"no column {name!r:.80}; columns: {', '.join(self.columns[:12])}...") from None
 
     def __contains__(self, name) -> bool:
         return name in self._index

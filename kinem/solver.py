@@ -70,7 +70,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         raise InputError(f"solve: options {type(options).__name__}: expected a kinem.Options")
     q0 = _checked_q0(model, q0)
     outputs = (outputs,) if isinstance(outputs, str) else outputs
-    if not all(isinstance(o, str) and o in OUTPUTS for o in outputs):
+    if not isinstance(outputs, (tuple, list)) or not all(isinstance(o, str) and o in OUTPUTS for o in outputs):
         raise InputError(f"solve: outputs {outputs!r:.80}: expected a sequence of {', '.join(OUTPUTS)}")
     check_square(model)
     outputs = tuple(o for o in OUTPUTS if o in outputs)

@@ -228,6 +228,27 @@ def test_api_messages_name_the_parameter_not_a_flag(slider, tmp_path):
     assert "--out" not in str(e.value) and str(e.value).startswith("animate: path")
 
 
+PROBES = {
+    "load": lambda m, r: kinem.load(123),
+    "compile": lambda m, r: kinem.compile("case.toml"),
+    "solve outputs": lambda m, r: kinem.solve(m, outputs=5),
+    "solve options": lambda m, r: kinem.solve(m, options={"tolerance": 1e-9}),
+    "solve times": lambda m, r: kinem.solve(m, times=[[0.0, 1.0]]),
+    "plot columns": lambda m, r: kinem.plot(r, columns=5),
+    "a column": lambda m, r: r.trajectory["nope"],
+    "merge": lambda m, r: batch.merge([1]),
+    "velocity": lambda m, r: kinem.velocity(m, kinem.Data(q=np.zeros(3))),
+    "position t": lambda m, r: kinem.position(m, kinem.Data.from_model(m), "0"),
+}
+
+
+@pytest.mark.parametrize("probe", sorted(PROBES))
+def test_public_functions_raise_only_kinem_errors(slider, probe):
+    r = kinem.solve(slider, times=slider.times[:3])
+    with pytest.raises(kinem.KinemError):
+        PROBES[probe](slider, r)
+
+
 @pytest.mark.parametrize("k", [2, -1, 1.5, None, "0", True])
 def test_split_validates_the_variant_index(k):
     cases = [kinem.load(SLIDER).with_time(1.0, 4)] * 2

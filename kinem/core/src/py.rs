@@ -450,9 +450,9 @@ impl Plan {
         {
             return Err(pyo3::exceptions::PyValueError::new_err("plan: positions or scales have the wrong length"));
         }
-        layout.group();
         let kin2 = kin.clone();
         let layout = guard(py, move || {
+            layout.group();
             crate::plan::order_blocks(&kin2, &mut layout);
             Ok(layout)
         })?;
