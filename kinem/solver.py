@@ -10,7 +10,7 @@ import numpy as np
 from .analysis import Data
 from .branches import violation
 from .diagnose import explain_assembly
-from .errors import AnalysisError, InputError, SingularError
+from .errors import AnalysisError, InputError, SingularError, WorkLimitError
 from .linalg import choose
 from .march import March, usable
 from .options import Options
@@ -110,8 +110,10 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         if getattr(e, "instant", None) is not None:   # the march's instants before it are solved
             k = e.instant
         status = Status.SINGULAR if isinstance(e, SingularError) else Status.NOT_CONVERGED
-        what = "assembly at" if k == 0 else "step to"
-        why = explain_assembly(model, times[0], tolerance=options.tolerance) if k == 0 else ""  # the root cause, in the user's terms
+        limit = isinstance(e, WorkLimitError)
+        what = "stopped at" if limit else "assembly at" if k == 0 else "step to"
+        # the root cause, in the user's terms (a limit names its own)
+        why = explain_assembly(model, times[0], tolerance=options.tolerance) if k == 0 and not limit else ""
         message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {why + '; ' if why else ''}{e}"
     if q0 is None and k and (pin := violation(model, Q[0])):   # the branch the case pins (kinem.branches)
         status, message, k = Status.WRONG_BRANCH, f"assembly at t = {times[0]:.6g}: {pin[1]}", 0

@@ -103,12 +103,30 @@ def run(model, outputs, on_chunk, trace=None, progress=None, size=None, options=
                              lambda m: f"(instant {int(m.group(1)) + first} of {nt - 1})", r.message, count=1)
             message = message.replace(f"limit of {max(left + r.attempts, 0):,} step attempts",
                                       f"limit of {options.max_substeps:,} step attempts", 1)
+            message = _run_pace(message, options, k + max(done, 0), nt)
             return Outcome(Run.STOPPED, message, Progress(k + max(done, 0), tuple(events)))
         k += done
         q0 = r.q[-1]
         if progress is not None:
             progress(k, float(times[-1]))
     return Outcome(Run.SOLVED, value=Progress(nt, tuple(events)))
+
+
+def _run_pace(message, options, solved, nt):
+    """A march stopped by the run's time limit: the whole run's pace (with
+    its output) instead of the last chunk's."""
+    import time
+
+    if options.max_seconds is None:
+        return message
+    elapsed = time.perf_counter() - options.started
+    if elapsed < options.max_seconds:
+        return message
+    pace = elapsed / max(solved, 1)
+    run = (f"the run solved {solved:,} of {nt:,} instants in {elapsed:.3g} s ({pace * 1e6:.3g} us each, with their "
+           f"output); all of them need about {pace * nt:.3g} s")
+    return re.sub(r"(is reached at t = \S+?)(: the march took .*)?$", lambda m: f"{m.group(1)}: {run}", message,
+                  count=1)
 
 
 def _tail(r, skip):

@@ -70,6 +70,14 @@ def test_kinem_solve_max_seconds_answers_in_one_line(tmp_path):
     assert not (tmp_path / "o.csv").exists()
 
 
+def test_a_long_run_out_of_time_names_its_pace():
+    code, out, err = kinem_cli("solve", SLIDER, "--steps", 4_000_000, "--max-seconds", 1, "--out", os.devnull)
+    lines = err.strip().splitlines()
+    assert code == 1 and len(lines) == 1 and "Traceback" not in err, err
+    assert "the time limit of 1 s" in lines[0] and "the run solved" in lines[0] and "of 4,000,001 instants" in lines[0]
+    assert "assembly" not in lines[0]
+
+
 @pytest.mark.parametrize("flag,value", [("--max-work", "inf"), ("--max-work", "nan"), ("--max-work", "1e400"),
                                         ("--max-work", "0"), ("--max-seconds", "inf"), ("--max-seconds", "nan"),
                                         ("--max-seconds", "-1"), ("--max-seconds", "1e30")])
