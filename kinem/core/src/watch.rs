@@ -83,9 +83,9 @@ impl<'a> Watch<'a> {
         rayon::in_place_scope(|s| {
             let (done, result) = (&done, &mut result);
             s.spawn(move |_| {
+                // done even when f panics (the scope then raises the panic here)
+                let _done = Done(done, caller);
                 *result = Some(f());
-                done.store(true, Ordering::Release);
-                caller.unpark();
             });
             let mut next = Instant::now() + POLL;
             while !done.load(Ordering::Acquire) {
@@ -99,6 +99,16 @@ impl<'a> Watch<'a> {
             Some(v) => v,
             None => unreachable!("the scope ends after its task"),
         }
+    }
+}
+
+/// Sets its flag and wakes the calling thread when dropped.
+struct Done<'a>(&'a AtomicBool, std::thread::Thread);
+
+impl Drop for Done<'_> {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::Release);
+        self.1.unpark();
     }
 }
 
@@ -120,5 +130,13 @@ mod tests {
         // the flag stops every thread
         assert_eq!(w.check(false, &mut next), Some(Why::Interrupted));
         assert_eq!(w.around(|| 7), 7);
+    }
+
+    #[test]
+    fn a_panic_around_comes_back_not_a_hang() {
+        let no = || false;
+        let w = Watch::new(f64::INFINITY, Some(&no));
+        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| w.around(|| -> i32 { panic!("inside") })));
+        assert!(r.is_err());
     }
 }
