@@ -4,10 +4,14 @@ checked against the command line's contract.
     python benchmarks/fault_matrix.py [--cases 5000] [--faults 48] [--seed 0] [--json FILE]
 
 Fuzz: ``--cases`` mutated case files (the mutations of tests/test_fuzz.py:
-deleted, renamed, invalid and odd values, swapped bodies), each run by
-``kinem info`` or ``kinem solve --steps 3 --out o.csv`` in this process.
+deleted, renamed, invalid and odd values, swapped bodies, and its SLOW_KINDS:
+drivers up to 1e6 times faster than the output step, tables of up to 1e5
+rows, outline splines cut short), each run by ``kinem info`` or
+``kinem solve --steps 3 --out o.csv`` (the default limits) in this process.
 Contract: exit 0, 1 or 2; no traceback or internal error; one line on
-standard error for 1 and 2; no output unless 0; nothing left in the folder.
+standard error for 1 and 2; no output unless 0; nothing left in the folder;
+every case answered or refused within LIMIT_S. A progress line every
+PROGRESS cases (a long run can be stopped and still tell its figures).
 
 Fault matrix, each run in a scratch folder (its cwd and TMPDIR) in a session
 of its own, its output path holding an old file of mode 0600 beforehand:
@@ -46,6 +50,9 @@ sys.path.insert(0, str(ROOT / "tests"))
 CASES = ROOT / "cases"
 OLD = b"old content\n"
 SETTLE = 5.0   # seconds a killed command's processes get to end (the issue's bound)
+LIMIT_S = 60.0   # seconds within which every fuzzed case is answered (issue 33)
+PROGRESS = 50
+BASES = ("slider_crank", "four_bar", "quick_return_3", "pin_in_spline_slot", "cam_table41")
 
 
 # -- fuzz ---------------------------------------------------------------------------------------
@@ -55,15 +62,14 @@ def fuzz(n, rng, problems):
     import tomllib
 
     from kinem.cli import main
-    from test_fuzz import mutate
+    from test_fuzz import KINDS, SLOW_KINDS, mutate
 
-    bases = {b: tomllib.loads((CASES / f"{b}.toml").read_text()) for b in ("slider_crank", "four_bar",
-                                                                           "quick_return_3")}
-    counts, slowest = {}, 0.0
+    bases = {b: tomllib.loads((CASES / f"{b}.toml").read_text()) for b in BASES}
+    counts, slowest, begun = {}, 0.0, time.monotonic()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         for k in range(n):
-            text, invalid = mutate(bases[rng.choice(sorted(bases))], rng.choice)
+            text, invalid = mutate(bases[rng.choice(sorted(bases))], rng.choice, KINDS + SLOW_KINDS)
             case = folder / "case.toml"
             case.write_text(text)
             command = rng.choice(["info", "solve"])
@@ -76,7 +82,8 @@ def fuzz(n, rng, problems):
                     code = main(args)
             except BaseException as e:  # noqa: BLE001 - a violation, recorded
                 code = f"raised {type(e).__name__}"
-            slowest = max(slowest, time.monotonic() - start)
+            took = time.monotonic() - start
+            slowest = max(slowest, took)
             counts[code] = counts.get(code, 0) + 1
             e = err.getvalue()
             why = []
@@ -86,6 +93,8 @@ def fuzz(n, rng, problems):
                 why.append("traceback or internal error")
             if code in (1, 2) and (len(e.splitlines()) != 1 or not e.startswith("kinem: ")):
                 why.append("not one line")
+            if took > LIMIT_S:
+                why.append(f"took {took:.0f} s")
             if invalid and code != 2:
                 why.append("invalid case not exit 2")
             if code != 0 and (folder / "o.csv").exists():
@@ -98,6 +107,10 @@ def fuzz(n, rng, problems):
                 shutil.copy(case, keep)
                 problems.append(f"fuzz {k} ({command}): {'; '.join(why)}: {e.strip()[:200]} (case kept in {keep})")
             (folder / "o.csv").unlink(missing_ok=True)
+            if (k + 1) % PROGRESS == 0:
+                print(f"fuzz progress: {k + 1} cases in {time.monotonic() - begun:.0f} s, exit codes "
+                      f"{dict(sorted(counts.items(), key=str))}, slowest {slowest:.1f} s, {len(problems)} problems",
+                      flush=True)
     return counts, slowest
 
 
@@ -279,8 +292,10 @@ def main(argv=None):
     fuzz_s = time.monotonic() - start
     print(f"fuzz: {a.cases} cases in {fuzz_s:.0f} s, exit codes {dict(sorted(counts.items(), key=str))}, "
           f"slowest {slowest:.1f} s", flush=True)
-    with tempfile.TemporaryDirectory() as tmp:
-        table = faults(a.faults, rng, problems, Path(tmp))
+    table = {}
+    if a.faults:   # --faults 0: the fuzz alone
+        with tempfile.TemporaryDirectory() as tmp:
+            table = faults(a.faults, rng, problems, Path(tmp))
     for label, codes in sorted(table.items()):
         print(f"  {label}: exits {codes}")
     for p in problems:

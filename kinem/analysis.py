@@ -36,6 +36,7 @@ class Data:
     factorizations: int = 0
     trace: list | None = None           # when a list: (t, what, iteration, scaled residual, detail) records
     solver: Solver | None = None        # the linear solver (kinem.linalg.choose; None: the case's)
+    budget: object | None = None        # the run's kinem.budget.Budget: Newton iterations check its time
 
     def __post_init__(self):
         if not isinstance(self.q, np.ndarray) and hasattr(self.q, "q0"):
@@ -107,6 +108,11 @@ class Steps:
         """Phi at q and its max scaled residual; a Newton iteration's (it >= 0)
         is recorded: worst row, trace."""
         m, d = self.model, self.data
+        if d.budget is not None and it >= 0:
+            if self.minimum_norm:
+                d.budget.spend(self.t)   # a least-squares step counts as an attempt
+            else:
+                d.budget.check(self.t)
         self.phi = m.phi(self.q, self.t)
         r = m.scaled_residual(self.phi)
         worst = int(np.argmax(r)) if r.size else 0
@@ -148,6 +154,25 @@ class Steps:
         return size
 
 
+def _checked(what, model, data, t=None, rates=False):
+    """InputError naming the argument of the public function ``what`` when
+    model, data (its q, and its qd when ``rates``) or t is not what it needs."""
+    from .errors import InputError
+
+    n = getattr(model, "n", None)
+    if not isinstance(n, int) or not hasattr(model, "phi"):
+        raise InputError(f"{what}: model {type(model).__name__}: expected a kinem.Model (kinem.compile(case))")
+    if not isinstance(data, Data):
+        raise InputError(f"{what}: data {type(data).__name__}: expected a kinem.Data (kinem.Data.from_model(model))")
+    for name in ("q", "qd") if rates else ("q",):
+        v = getattr(data, name)
+        if not isinstance(v, np.ndarray) or v.shape != (n,) or v.dtype.kind not in "fiu":
+            shape = getattr(v, "shape", type(v).__name__)
+            raise InputError(f"{what}: data.{name} of shape {shape}: expected {n} numbers (the model's coordinates)")
+    if t is not None and not (isinstance(t, (int, float, np.number)) and np.isfinite(t)):
+        raise InputError(f"{what}: t {t!r:.40}: expected a finite time")
+
+
 def position(model, data: Data, t: float, tolerance=None, max_iterations=None, factor=None,
              minimum_norm=False, finish=True) -> None:
     """Newton-Raphson from data.q to Phi(q, t) = 0, steps limited to MAX_STEP
@@ -157,8 +182,10 @@ def position(model, data: Data, t: float, tolerance=None, max_iterations=None, f
     ``factor``: a factorisation of Phi_q at a nearby configuration to start
     with (modified Newton); a fresh one is made as soon as it converges slowly.
     ``minimum_norm``: Gauss-Newton (``MinimumNorm`` steps, not limited)."""
+    _checked("position", model, data, t)
     tol = Options.tolerance if tolerance is None else tolerance   # the defaults of Options, not the case's
     max_it = Options.max_iterations if max_iterations is None else max_iterations
+    Options(tolerance=tol, max_iterations=max_it)   # checked as the options are (InputError)
     q = np.array(data.q, dtype=float)
     data.t = t
     data.factor = None
@@ -176,11 +203,12 @@ def position(model, data: Data, t: float, tolerance=None, max_iterations=None, f
         data.factor = steps.f
 
 
-def gauss_newton(model, q, t, max_iterations=None, tolerance=None):
+def gauss_newton(model, q, t, max_iterations=None, tolerance=None, budget=None):
     """Minimum-norm least-squares Newton steps on the dimensionless system:
     converges where Phi_q is rank-deficient or not square (redundant
-    constraints, a singular configuration). Returns (q, max scaled residual)."""
-    data = Data(q=np.array(q, dtype=float))
+    constraints, a singular configuration), each spent from ``budget`` (a
+    kinem.budget.Budget) when given. Returns (q, max scaled residual)."""
+    data = Data(q=np.array(q, dtype=float), budget=budget)
     try:
         position(model, data, t, tolerance, max_iterations or None, minimum_norm=True, finish=False)
     except ConvergenceError:
@@ -190,11 +218,13 @@ def gauss_newton(model, q, t, max_iterations=None, tolerance=None):
 
 def factorize(model, data: Data) -> None:
     """Factorise Phi_q at data.q for the velocity and acceleration solves."""
+    _checked("factorize", model, data, data.t)
     data.factor = _factor(model, data, data.q, data.t)
 
 
 def velocity(model, data: Data) -> None:
     """qd from Phi_q qd = nu (Eq. 3.13)."""
+    _checked("velocity", model, data, data.t)
     if data.factor is None:
         factorize(model, data)
     data.qd = data.factor.solve(model.nu(data.t))
@@ -202,6 +232,7 @@ def velocity(model, data: Data) -> None:
 
 def acceleration(model, data: Data) -> None:
     """qdd from Phi_q qdd = gamma (Eq. 3.15); needs data.qd."""
+    _checked("acceleration", model, data, data.t, rates=True)
     if data.factor is None:
         factorize(model, data)
     data.qdd = data.factor.solve(model.gamma(data.q, data.qd, data.t))

@@ -12,6 +12,7 @@ limit position) is taken by the tracker for the whole merged case; residuals
 are measured against the largest variant's size: give variants of comparable
 size (the usual case for a parameter sweep).
 """
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -31,6 +32,9 @@ def merge(cases, name="batch") -> Case:
     cases = list(cases)
     if not cases:
         raise InputError("merge: no cases")
+    if not all(isinstance(c, Case) for c in cases):
+        bad = next(c for c in cases if not isinstance(c, Case))
+        raise InputError(f"merge: cases: a {type(bad).__name__}; expected kinem.Case objects (kinem.load(path))")
     end, steps = cases[0].end, cases[0].steps
     if any(c.end != end or c.steps != steps for c in cases):
         raise InputError("merge: the variants must share their output instants (end and steps)")
@@ -49,8 +53,21 @@ def merge(cases, name="batch") -> Case:
                 description=f"{len(cases)} variants merged", units=cases[0].units, source="<batch>")
 
 
+def variants(traj: Trajectory) -> int:
+    """The number of variants of a merged trajectory (0: not one)."""
+    found = [re.match(r"v(\d+)-", c) for c in traj.columns]
+    return 1 + max((int(m.group(1)) for m in found if m), default=-1)
+
+
 def split(traj: Trajectory, k: int) -> Trajectory:
-    """Variant k's columns of a merged trajectory, with their own names."""
+    """Variant k's columns of a merged trajectory, with their own names
+    (InputError for a k that is not one of its variants)."""
+    if not isinstance(traj, Trajectory):
+        raise InputError(f"split: traj {type(traj).__name__}: expected the Trajectory of a merged case")
+    count = variants(traj)
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < count:
+        raise InputError(f"split: k {k!r:.40}: expected a variant index, a whole number from 0 to {count - 1}"
+                         if count else f"split: k {k!r:.40}: the trajectory has no variants (not of a merged case)")
     p = prefix(k)
     idx = [i for i, c in enumerate(traj.columns) if c.startswith(p)]
     return Trajectory(np.array(traj.t), tuple(traj.columns[i][len(p):] for i in idx),

@@ -36,6 +36,8 @@ def read(path) -> dict:
 
     from .output import read_fifo
 
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError(f"load: path {path!r:.80}: expected a file path (str or pathlib.Path)")
     path = Path(path)
     try:
         if stat.S_ISFIFO(os.stat(path).st_mode):   # a named pipe or process substitution: its writer waited for

@@ -11,7 +11,7 @@ import os
 import sys
 from pathlib import Path
 
-from .errors import MAX_LINE, AnalysisError, BrokenPipe, InputError, KinemError, one_line
+from .errors import MAX_LINE, AnalysisError, BrokenPipe, CoreError, InputError, KinemError, one_line
 from .result import OUTPUTS
 
 
@@ -46,6 +46,11 @@ def _outputs(text):
 # in docs/benchmarks.md, "Long runs and output"). Memory does not limit it: output is
 # streamed (kinem.stream).
 MAX_WORK = 5e7
+# The largest --max-work accepted: beyond, a typo (1e400 is infinite).
+MOST_WORK = 1e15
+# Seconds a ``kinem solve`` may take by default (--max-seconds): with the start
+# and the writing, any case file is answered or refused within a minute.
+MAX_SECONDS = 50.0
 # The progress bar is redrawn every SHOW_SUBSTEPS sub-steps (each costs milliseconds).
 SHOW_SUBSTEPS = 100
 
@@ -108,10 +113,21 @@ def cmd_solve(a):
     from . import stream
     from .output import Output, TrajectoryWriter
 
+    import time
+
+    from .options import MOST_SECONDS
+
+    started = time.perf_counter()
     fmt = _format(a.out, a.format)
     outputs = _outputs(a.outputs)
-    model = _load(a.case, a.end, a.steps, a.set)
     limit = MAX_WORK if a.max_work is None else a.max_work
+    if not 1 <= limit <= MOST_WORK:   # NaN too
+        raise InputError(f"--max-work: got {limit:g}; expected a number of output instants x coordinates "
+                         f"from 1 to {MOST_WORK:g}")
+    seconds = MAX_SECONDS if a.max_seconds is None else a.max_seconds
+    if not 0 < seconds <= MOST_SECONDS:
+        raise InputError(f"--max-seconds: got {seconds:g}; expected a number of seconds in (0, {MOST_SECONDS:g}]")
+    model = _load(a.case, a.end, a.steps, a.set)
     nt = model.case.steps + 1
     if stream.work(model) > limit:
         raise InputError(f"{a.case}: {nt:,} output instants x {model.n} coordinates = {stream.work(model):.3g} "
@@ -162,7 +178,7 @@ def cmd_solve(a):
         from .options import Options
 
         options = replace(Options.of(model.case), max_substeps=stream.substep_budget(model, limit),
-                          on_substeps=on_substeps if bar else None)
+                          max_seconds=seconds, started=started, on_substeps=on_substeps if bar else None)
         try:
             o = stream.run(model, outputs, on_chunk, trace.add if trace else None,
                            progress if bar else None, size, options)
@@ -516,6 +532,7 @@ def cmd_animate(a):
 
 def parser():
     from . import __version__
+    from .stream import SUBSTEP_WORK
 
     p = _Parser(prog="kinem", description="Planar kinematics in Cartesian coordinates (Nikravesh, Ch. 4).",
                 epilog="kinem COMMAND --help for a command's options; README.md and docs/ for more.")
@@ -539,7 +556,10 @@ def parser():
                    help="when the analysis fails, still write the instants solved, marked partial "
                         "(CSV: a last line '# partial: REASON'; NPZ: arrays partial and message)")
     s.add_argument("--max-work", type=float, metavar="N",
-                   help=f"refuse runs above N output instants x coordinates (default {MAX_WORK:g})")
+                   help=f"refuse runs above N output instants x coordinates (default {MAX_WORK:g}); each step "
+                        f"attempt beyond one per output interval counts as {SUBSTEP_WORK} instants")
+    s.add_argument("--max-seconds", type=float, metavar="S",
+                   help=f"stop a run after S seconds, naming what took the time (default {MAX_SECONDS:g})")
     _set_option(s)
     s.set_defaults(run=cmd_solve)
 
@@ -705,6 +725,7 @@ def _main(argv) -> int:
             p.print_help()
             _flush()
             return 0
+        _threads_note()
         code = a.run(a)
         _flush()
         return code
@@ -718,6 +739,8 @@ def _main(argv) -> int:
     except AnalysisError as e:
         print(f"kinem: analysis failed: {one_line(e)}", file=sys.stderr)
         return 1
+    except CoreError as e:   # a fault of kinem's compiled core: not a verdict on the case
+        return _internal(e)
     except BrokenPipe:   # kinem solve CASE | head: quietly, as a Unix tool
         _quiet_stdout()
         return 141
@@ -741,6 +764,19 @@ def _main(argv) -> int:
         return _internal(e)
     except Exception as e:  # noqa: BLE001 - one line, never a traceback
         return _internal(e)
+
+
+def _threads_note():
+    """A note on standard error when RAYON_NUM_THREADS asks for more threads
+    than the machine has cores: the core's pool is capped at the cores."""
+    asked = os.environ.get("RAYON_NUM_THREADS", "").strip()
+    if not asked.isdigit():
+        return
+    from . import native
+
+    if int(asked) > native.CORES:
+        print(f"kinem: note: RAYON_NUM_THREADS={asked} is above this machine's {native.CORES} cores: "
+              f"the core uses {native.THREADS} threads", file=sys.stderr)
 
 
 def _internal(e) -> int:

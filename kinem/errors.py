@@ -1,8 +1,9 @@
 """One root for every error kinem raises on purpose.
 
 ``InputError`` (exit code 2) is a problem with what the user gave: a case file,
-a command-line value. ``AnalysisError`` (exit code 1) is an analysis that
-could not finish: no Newton convergence, a singular Jacobian.
+a command-line value, an argument. ``AnalysisError`` (exit code 1) is an analysis that
+could not finish: no Newton convergence, a singular Jacobian, a work or time
+limit. ``CoreError`` (exit code 3) is a fault of kinem itself.
 """
 
 
@@ -49,6 +50,14 @@ def one_line(text) -> str:
     return text if len(text) <= MAX_LINE else text[:MAX_LINE - 3] + "..."
 
 
+class UnknownColumn(InputError, KeyError):
+    """A trajectory has no column of that name (a KeyError too: the
+    mapping's own error)."""
+
+    def __str__(self):
+        return self.summary()
+
+
 class AnalysisError(KinemError):
     """An analysis that could not finish."""
 
@@ -73,11 +82,18 @@ class SingularError(AnalysisError):
 
 
 class WorkLimitError(AnalysisError):
-    """A run needs more sub-steps than its limit (Options.max_substeps,
-    ``kinem solve --max-work``): the drivers move too fast for the output
-    interval."""
+    """A run needs more step attempts than its limit (Options.max_substeps,
+    ``kinem solve --max-work``) or more time (Options.max_seconds,
+    ``--max-seconds``): kinem.budget. ``instant``: the first output instant
+    not solved (None: the one being stepped to)."""
+
+    def __init__(self, message, instant=None):
+        super().__init__(message)
+        self.instant = instant
 
 
-class CoreError(AnalysisError):
+class CoreError(KinemError):
     """A fault inside the compiled core (kinem._core): a panic or an
-    inconsistent table, reported as one line (exit code 1), never an abort."""
+    inconsistent table. Not a verdict on the analysis (never reported as a
+    numerical failure nor retried with a smaller step): ``kinem`` reports
+    it as an internal error with its message (exit code 3), never an abort."""

@@ -4,10 +4,16 @@ Newton, the acceptance test and the rate solves) while the acceptance test
 passes; Python runs once per solve, and again only for an instant the loop
 hands back (kinem.tracking: sub-steps, singular configurations). The same
 compiled loop serves every model: nothing is generated or compiled here.
+The loop polls for signals every few milliseconds (Ctrl-C raises
+KeyboardInterrupt at once, whatever the number of instants) and stops at the
+run's time limit (kinem.budget).
 """
+import time
+
 import numpy as np
 
 from . import native
+from .errors import WorkLimitError
 from .model import BLOCK_LIMIT
 from .options import Options
 from .tracking import State, singular_pivot
@@ -44,6 +50,7 @@ class March:
         self.rates = tracker.need_v
         self.settings = (float(options.tolerance), int(options.max_iterations), float(native.MAX_STEP),
                          singular_pivot(options.tolerance), self.rates)
+        self.budget = tracker.budget
         self.X, self.figures, self.ints = X, figures, ints
         self.state = np.zeros(6 * model.n + 5)
 
@@ -70,10 +77,16 @@ class March:
             q[:], last[:] = s.q, (s.t, s.det)
         ints = self.ints
         ints[-2:] = 0
-        end, _ = self.model.plan.march(self.times, k, st, self.settings, self.X, self.figures, ints)
+        started = time.perf_counter()
+        end, why = self.model.plan.march(self.times, k, st, self.settings + (float(self.budget.left()),), self.X,
+                                         self.figures, ints)
         d = tr.data
         d.jacobian_evaluations += int(ints[-2])
         d.factorizations += int(ints[-1])
+        if why == native.Why.OUT_OF_TIME:
+            t = float(self.times[min(end, len(self.times) - 1)])
+            raise WorkLimitError(self.budget.march_out_of_time(t, end - k, len(self.times) - k,
+                                                               time.perf_counter() - started), instant=end)
         if end == len(self.times):
             return end  # every instant taken: the tracker carries nothing on
         Q, QD, QDD = self.X if self.rates else (self.X[0], None, None)

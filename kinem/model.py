@@ -397,6 +397,10 @@ def core_of(families, n: int, n_bodies: int, artificial: int) -> native.Core:
 
 def compile(case: Case) -> Model:
     """Build the immutable Model of a validated Case."""
+    if not isinstance(case, Case):
+        from .errors import InputError
+
+        raise InputError(f"compile: case {type(case).__name__}: expected a kinem.Case (kinem.load(path))")
     ctx = _Context(case, characteristic_length(case))
     groups = {}
     for c in case.constraints:

@@ -1,4 +1,35 @@
 """kinem's compiled core (kinem/core, Rust, built with the package as the
 extension kinem._core): the one place the rest of kinem imports it from."""
-from kinem._core import (DET_FLIP, JUMP, KAPPA, KINDS, MAX_STEP, NEAR_SINGULAR, NOT_CONVERGED, POLISH, REGULAR,  # noqa: F401
+from enum import IntEnum
+
+from kinem._core import (CORES, KAPPA, KINDS, MAX_STEP, POLISH, REGULAR, THREADS, WHY,  # noqa: F401
                          Core, Lu, Plan, columns, functions, jump_sizes, lagrange, outline_radius, rejected, settle)
+
+
+class Why(IntEnum):
+    """Why the core does not take a state (kinem/core/src/accept.rs, ``Why``:
+    the same codes, checked by tests/test_core.py), each with its message."""
+    ACCEPTED = 0
+    NEAR_SINGULAR = 1
+    DET_FLIP = 2
+    JUMP = 3
+    NOT_CONVERGED = 4
+    INTERRUPTED = 5
+    OUT_OF_TIME = 6
+
+    @property
+    def message(self) -> str:
+        return _MESSAGES[self]
+
+
+_MESSAGES = {
+    Why.ACCEPTED: "accepted",
+    Why.NEAR_SINGULAR: "near-singular configuration (pivot ratio below the floor, or Newton converged linearly)",
+    Why.DET_FLIP: "det(J) changed sign",
+    Why.JUMP: "jump from the predictor",
+    Why.NOT_CONVERGED: "Newton-Raphson did not converge",
+    Why.INTERRUPTED: "interrupted by a signal",
+    Why.OUT_OF_TIME: "the time limit is reached",
+}
+
+NEAR_SINGULAR, DET_FLIP, JUMP, NOT_CONVERGED = Why.NEAR_SINGULAR, Why.DET_FLIP, Why.JUMP, Why.NOT_CONVERGED

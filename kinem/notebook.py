@@ -73,6 +73,9 @@ def plot(result, columns=None, kind="time", angles="rad", at=0):
     if kind != "time":
         raise InputError(f"plot: kind {kind!r}: expected 'time' or 'path'")
     if columns is not None:
+        columns = [columns] if isinstance(columns, str) else columns
+        if not isinstance(columns, (list, tuple)):
+            raise InputError(f"plot: columns {columns!r:.60}: expected a list of column names")
         from .result import missing_column
 
         missing = [c for c in columns if c not in traj]
@@ -194,7 +197,7 @@ def animate(result, path, model=None, frames=None, progress=None):
         raise InputError(f"animate: the result has {result.q.shape[1]} coordinates, the model {model.n}")
     if frames is not None and (isinstance(frames, bool) or not isinstance(frames, int) or frames < 2):
         raise InputError(f"animate: frames = {frames!r}: expected a whole number of at least 2")
-    check_output(str(path))
+    check_output(str(path), "animate: path")
     idx = sample(len(result.q), frames or FRAMES)
     native = {"t": result.trajectory.t[idx], "q": result.q[idx]}
     import sys

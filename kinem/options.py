@@ -2,17 +2,31 @@
 separate from the Model, so that changing a tolerance never recompiles.
 The case file's [solver] section gives the defaults (``Options.of(case)``;
 docs/case-format.md); docs/solver.md explains each option."""
+import math
 from dataclasses import dataclass, field
 from typing import Callable
 
 from .errors import InputError
 
 LINEAR_SOLVERS = ("auto", "dense", "sparse")
-# Sub-steps (steps between output instants, kinem.tracking) one run may take:
-# each is a Newton solve in Python, about 3 to 6 ms with its rejected tries on
-# the slider-crank (a harmonic driver of omega 1e2 and 1e3, measured), so about
-# 5 to 10 minutes; no case in cases/ needs any.
+# Step attempts one run may make beyond one per output interval (kinem.budget):
+# accepted sub-steps, rejected attempts and least-squares steps alike, each a
+# Newton solve in Python of about 1 to 15 ms (the slider-crank with a harmonic
+# driver of omega 1e2 to 1e4, measured); no case in cases/ needs any.
 MAX_SUBSTEPS = 100_000
+# The largest limits accepted: beyond them a limit is a typo, not a wish.
+MOST_SUBSTEPS = 10**12
+MOST_SECONDS = 1e7        # about four months
+MOST_ITERATIONS = 10_000
+MOST_BLOCK = 2**31 - 1
+
+
+def _whole(name, value, low, high):
+    """value as a whole number in [low, high], else an InputError naming the option."""
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) \
+        and int(value) == value and low <= value <= high
+    if not ok:
+        raise InputError(f"solver options: {name} {value!r:.60}; expected a whole number from {low:,} to {high:,}")
 
 
 @dataclass(frozen=True)
@@ -22,22 +36,33 @@ class Options:
     linear_solver: str = "auto"    # auto: dense LU up to kinem.model.DENSE_LIMIT coordinates, else sparse
     jacobian_reuse: bool = False   # modified Newton from the last instant's factorisation
     block: int = 256               # 1: step by step in Python; more: the compiled march (kinem.march)
-    max_substeps: int = MAX_SUBSTEPS   # sub-steps a run may take: beyond, it fails naming the drivers' rates
+    # step attempts beyond one per output interval a run may make (kinem.budget): past it, it fails naming
+    # the drivers' rates or where steps keep being rejected
+    max_substeps: int = MAX_SUBSTEPS
+    max_seconds: float | None = None   # wall-clock seconds a run may take (None: no limit; kinem solve: 50)
     # on_substeps(count, t): called after each sub-step (kinem solve's progress bar)
     on_substeps: Callable | None = field(default=None, compare=False, repr=False)
+    # the time.perf_counter() max_seconds counts from (None: the solve's start; kinem.stream: the run's)
+    started: float | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self):
-        if not 0 < self.tolerance < 1:
-            raise InputError(f"solver options: tolerance {self.tolerance!r}; expected a number in (0, 1)")
-        if int(self.max_iterations) != self.max_iterations or self.max_iterations < 1:
-            raise InputError(f"solver options: max_iterations {self.max_iterations!r}; expected a whole number >= 1")
+        t = self.tolerance
+        if not (isinstance(t, (int, float)) and not isinstance(t, bool) and 0 < t < 1):
+            raise InputError(f"solver options: tolerance {t!r:.60}; expected a number in (0, 1)")
+        _whole("max_iterations", self.max_iterations, 1, MOST_ITERATIONS)
         if self.linear_solver not in LINEAR_SOLVERS:
-            raise InputError(f"solver options: linear_solver {self.linear_solver!r}; expected one of "
+            raise InputError(f"solver options: linear_solver {self.linear_solver!r:.60}; expected one of "
                              f"{', '.join(LINEAR_SOLVERS)}")
-        if int(self.max_substeps) != self.max_substeps or self.max_substeps < 0:
-            raise InputError(f"solver options: max_substeps {self.max_substeps!r}; expected a whole number >= 0")
-        if int(self.block) != self.block or self.block < 1:
-            raise InputError(f"solver options: block {self.block!r}; expected a whole number >= 1")
+        _whole("max_substeps", self.max_substeps, 0, MOST_SUBSTEPS)
+        _whole("block", self.block, 1, MOST_BLOCK)
+        s = self.max_seconds
+        if s is not None and not (isinstance(s, (int, float)) and not isinstance(s, bool) and 0 < s <= MOST_SECONDS):
+            raise InputError(f"solver options: max_seconds {s!r:.60}; expected a number of seconds in "
+                             f"(0, {MOST_SECONDS:g}], or None for no limit")
+        if not isinstance(self.jacobian_reuse, bool):
+            raise InputError(f"solver options: jacobian_reuse {self.jacobian_reuse!r:.60}; expected True or False")
+        if self.on_substeps is not None and not callable(self.on_substeps):
+            raise InputError("solver options: on_substeps: expected a function (count, t) or None")
 
     @classmethod
     def of(cls, case) -> "Options":

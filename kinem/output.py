@@ -16,6 +16,9 @@
 - a replaced file keeps its permission bits (and owner and group where the
   process may set them); it is a new file all the same, so a hard link to the
   old one is not followed: the other names keep the old content.
+- a read-only file (no write permission bit, or none for this user) is
+  refused before anything runs, as the shell's ``>`` refuses it
+  (``OutputError``: exit code 1); make it writable or remove it first.
 
 Errors name the target path: ``InputError`` (exit code 2) for a bad path
 (missing directory, a directory, no permission), ``OutputError`` (exit code 1)
@@ -155,6 +158,9 @@ class Output:
             if st is not None and not stat.S_ISREG(st.st_mode):
                 self.file = open(real, "wb", buffering=0)  # a device or socket: in place
                 return
+            if st is not None and (not st.st_mode & 0o222 or not os.access(real, os.W_OK)):
+                raise OutputError(f"{self.path}: cannot write: the file is read-only (permission denied); "
+                                  "make it writable or remove it first")
             directory = os.path.dirname(real)
             if not os.path.isdir(directory):
                 where = (f"{directory} (where the symbolic link points)" if os.path.islink(self.path)

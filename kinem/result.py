@@ -64,7 +64,9 @@ class Trajectory:
         try:
             return self.data[:, self._index[name]]
         except KeyError:
-            raise KeyError(missing_column(name, self.columns)) from None
+            from .errors import UnknownColumn
+
+            raise UnknownColumn(missing_column(name, self.columns)) from None
 
     def __contains__(self, name) -> bool:
         return name in self._index
@@ -124,6 +126,7 @@ class SolveResult:
     wall_time: float                 # seconds in the analysis loop
     t_fail: float | None = None
     failed_constraint: str | None = None
+    attempts: int = 0                # step attempts counted against Options.max_substeps (kinem.budget)
     model: object = field(default=None, repr=False)   # the Model solved (kept alive: kinem.animate draws it)
 
     def _repr_html_(self):

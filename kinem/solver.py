@@ -10,23 +10,26 @@ import numpy as np
 from .analysis import Data
 from .branches import violation
 from .diagnose import contact_hint, explain_assembly
-from .errors import AnalysisError, InputError, SingularError
+from .errors import AnalysisError, InputError, SingularError, WorkLimitError
 from .linalg import choose
 from .march import March, usable
 from .options import Options
 from .result import OUTPUTS, SolveResult, Status, trajectory
 from .tracking import Tracker
 
+def _floats(name, value, expected):
+    """value as a float array (InputError naming ``name`` otherwise)."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"solve: {name} {value!r:.80}: expected {expected}") from None
+
+
 def _checked_times(times):
     """times as a float array: one or more finite, strictly increasing instants (InputError otherwise)."""
     if times is None:
         return None
-    from .errors import InputError
-
-    try:
-        t = np.asarray(times, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"solve: times {times!r:.80}: expected a sequence of numbers") from None
+    t = _floats("times", times, "a sequence of numbers")
     if t.ndim != 1 or not len(t) or not np.isfinite(t).all():
         raise InputError(f"solve: times of shape {t.shape}: expected one or more finite instants in a 1-D sequence")
     if len(t) > 1 and not (np.diff(t) > 0).all():
@@ -34,6 +37,16 @@ def _checked_times(times):
         raise InputError(f"solve: times must increase strictly: times[{k + 1}] = {t[k + 1]:g} "
                          f"after times[{k}] = {t[k]:g}")
     return t
+
+
+def _checked_q0(model, q0):
+    """q0 as n finite floats (InputError otherwise), or None."""
+    if q0 is None:
+        return None
+    q = _floats("q0", q0, f"{model.n} numbers")
+    if q.shape != (model.n,) or not np.isfinite(q).all():
+        raise InputError(f"solve: q0 of shape {q.shape}: expected {model.n} finite numbers (the model's coordinates)")
+    return q
 
 
 def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | None = None,
@@ -47,8 +60,18 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     ``q0``: the estimate to assemble from at ``times[0]`` (default the case's
     ``model.q0``); a run continued from a solved state passes that state, so a
     long run can be solved in pieces (``kinem solve`` does: kinem.stream)."""
+    from .model import Model
+
+    if not isinstance(model, Model):
+        raise InputError(f"solve: model {type(model).__name__}: expected a kinem.Model (kinem.compile(case))")
     times = _checked_times(times)
     options = Options.of(model.case) if options is None else options
+    if not isinstance(options, Options):
+        raise InputError(f"solve: options {type(options).__name__}: expected a kinem.Options")
+    q0 = _checked_q0(model, q0)
+    outputs = (outputs,) if isinstance(outputs, str) else outputs
+    if not isinstance(outputs, (tuple, list)) or not all(isinstance(o, str) and o in OUTPUTS for o in outputs):
+        raise InputError(f"solve: outputs {outputs!r:.80}: expected a sequence of {', '.join(OUTPUTS)}")
     check_square(model)
     outputs = tuple(o for o in OUTPUTS if o in outputs)
     if "positions" not in outputs:
@@ -84,10 +107,14 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
                     QDD[k] = s.qdd
             k += 1
     except AnalysisError as e:
+        if getattr(e, "instant", None) is not None:   # the march's instants before it are solved
+            k = e.instant
         status = Status.SINGULAR if isinstance(e, SingularError) else Status.NOT_CONVERGED
-        what = "assembly at" if k == 0 else "step to"
-        why = explain_assembly(model, times[0], tolerance=options.tolerance) if k == 0 else ""  # the root cause, in the user's terms
-        if k == 0 and (hint := contact_hint(model)):
+        limit = isinstance(e, WorkLimitError)
+        what = "stopped at" if limit else "assembly at" if k == 0 else "step to"
+        # the root cause, in the user's terms (a limit names its own)
+        why = explain_assembly(model, times[0], tolerance=options.tolerance) if k == 0 and not limit else ""
+        if k == 0 and not limit and (hint := contact_hint(model)):
             why = f"{why}; {hint}" if why else hint
         message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {why + '; ' if why else ''}{e}"
     if q0 is None and k and (pin := violation(model, Q[0])):   # the branch the case pins (kinem.branches)
@@ -104,7 +131,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         conditioning=cond[:n_ok], substeps=tracker.substeps, events=tuple(tracker.events),
         trace=tuple(data.trace or ()),
         jacobian_evaluations=data.jacobian_evaluations, factorizations=data.factorizations,
-        wall_time=wall, t_fail=None if ok else float(times[n_ok]),
+        wall_time=wall, t_fail=None if ok else float(times[n_ok]), attempts=tracker.budget.attempts,
         failed_constraint=pin[0] if status == Status.WRONG_BRANCH else None if ok or status == Status.SINGULAR
         else model.row_owner[data.worst_row],
         model=model,

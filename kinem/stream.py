@@ -37,9 +37,10 @@ class Progress:
     events: tuple          # (t, text) singular configurations passed
 
 
-# A sub-step (kinem.tracking, in Python: about 3 ms with its rejected tries on the
-# slider-crank) costs about as much as SUBSTEP_WORK output instants of the compiled
-# march (about 50 us each at 12 coordinates: docs/benchmarks.md, "Long runs and output").
+# A step attempt beyond one per output interval (kinem.budget: a sub-step, a rejected
+# attempt, a least-squares step; in Python, about 1 ms on the slider-crank) costs about as
+# much as SUBSTEP_WORK output instants of the compiled march with their output (about
+# 50 us each at 12 coordinates: docs/benchmarks.md, "Long runs and output").
 SUBSTEP_WORK = 100
 
 
@@ -49,8 +50,8 @@ def work(model, instants=None) -> int:
 
 
 def substep_budget(model, limit, instants=None) -> int:
-    """The sub-steps a run may take within the work limit: each counts as
-    SUBSTEP_WORK output instants."""
+    """The step attempts a run may make within the work limit (Options.max_substeps):
+    each counts as SUBSTEP_WORK output instants."""
     return max(int((limit - work(model, instants)) // (SUBSTEP_WORK * model.n)), 0)
 
 
@@ -66,15 +67,19 @@ def run(model, outputs, on_chunk, trace=None, progress=None, size=None, options=
     """An Outcome (Run, the solver's message, Progress): solves the case's output instants chunk by chunk: on_chunk(result) for
     each chunk's SolveResult (overlapping instant removed), trace(records) for
     each chunk's trace when given, progress(instants done, t) after each.
-    ``options`` (default the case's): its max_substeps holds for the whole
-    run, each chunk gets what the ones before left."""
+    ``options`` (default the case's): its max_substeps and max_seconds hold
+    for the whole run, each chunk gets what the ones before left."""
     from dataclasses import replace
 
     from .options import Options
     from .solver import solve
 
+    import time
+
     case = model.case
     options = Options.of(case) if options is None else options
+    if options.started is None:   # the time limit holds for the whole run
+        options = replace(options, started=time.perf_counter())
     left = options.max_substeps
     nt, h = case.steps + 1, case.end / case.steps
     size = size or chunk_size(model, outputs, nt)
@@ -84,7 +89,7 @@ def run(model, outputs, on_chunk, trace=None, progress=None, size=None, options=
         times = np.arange(first, min(k + size, nt)) * h   # the same values as case.times
         r = solve(model, outputs, times=times, trace=trace is not None, q0=q0,
                   options=replace(options, max_substeps=left))
-        left -= r.substeps
+        left -= r.attempts
         skip = k - first
         t0 = times[0] if skip else -np.inf
         if trace is not None:
@@ -96,14 +101,32 @@ def run(model, outputs, on_chunk, trace=None, progress=None, size=None, options=
         if not r.success:
             message = re.sub(r"\(instant (\d+) of \d+\)",
                              lambda m: f"(instant {int(m.group(1)) + first} of {nt - 1})", r.message, count=1)
-            message = message.replace(f"limit of {max(left + r.substeps, 0):,} sub-steps",
-                                      f"limit of {options.max_substeps:,} sub-steps", 1)
+            message = message.replace(f"limit of {max(left + r.attempts, 0):,} step attempts",
+                                      f"limit of {options.max_substeps:,} step attempts", 1)
+            message = _run_pace(message, options, k + max(done, 0), nt)
             return Outcome(Run.STOPPED, message, Progress(k + max(done, 0), tuple(events)))
         k += done
         q0 = r.q[-1]
         if progress is not None:
             progress(k, float(times[-1]))
     return Outcome(Run.SOLVED, value=Progress(nt, tuple(events)))
+
+
+def _run_pace(message, options, solved, nt):
+    """A march stopped by the run's time limit: the whole run's pace (with
+    its output) instead of the last chunk's."""
+    import time
+
+    if options.max_seconds is None:
+        return message
+    elapsed = time.perf_counter() - options.started
+    if elapsed < options.max_seconds:
+        return message
+    pace = elapsed / max(solved, 1)
+    run = (f"the run solved {solved:,} of {nt:,} instants in {elapsed:.3g} s ({pace * 1e6:.3g} us each, with their "
+           f"output); all of them need about {pace * nt:.3g} s")
+    return re.sub(r"(is reached at t = \S+?)(: the march took .*)?$", lambda m: f"{m.group(1)}: {run}", message,
+                  count=1)
 
 
 def _tail(r, skip):

@@ -20,6 +20,7 @@ import numpy as np
 from . import analysis
 from . import native
 from .diagnose import diagnose
+from .budget import Budget
 from .errors import AnalysisError, ConvergenceError, SingularError, WorkLimitError
 from .linalg import det_sign, monitor_rows
 from .options import Options
@@ -83,8 +84,8 @@ def rejected(pivot, correction, det, previous_det, corr, move, judge_jump, floor
     KAPPA times the predicted motion plus ten times the tolerance for
     round-off (``jump_sizes``; judged when ``judge_jump``: the predictor
     had a slope), else 0."""
-    return native.rejected(float(pivot), float(correction), int(det), int(previous_det), float(corr), float(move),
-                          bool(judge_jump), float(floor), float(tolerance), bool(allow_flip))
+    return native.Why(native.rejected(float(pivot), float(correction), int(det), int(previous_det), float(corr),
+                                      float(move), bool(judge_jump), float(floor), float(tolerance), bool(allow_flip)))
 
 
 def over_steps(step, limit):
@@ -124,6 +125,8 @@ class Tracker:
         self.events = []        # (t, text): singular configurations passed
         self.substeps = 0       # steps taken beyond one per output interval
         self.pivot_floor = singular_pivot(o.tolerance)
+        # every attempt beyond one per output interval, and the time, count (kinem.budget)
+        self.budget = data.budget = Budget(model, o)
 
     # -- one configuration -------------------------------------------------
     def settle(self, t, q_start) -> State:
@@ -175,18 +178,20 @@ class Tracker:
         why = rejected(s.pivot, s.correction, s.det, last.det, corr, move, order >= 1, self.pivot_floor, self.tol,
                        allow_flip)
         if why == NEAR_SINGULAR:
-            raise Rejected(f"near-singular configuration (pivot ratio {s.pivot:.1e}, last Newton correction "
+            raise Rejected(f"{NEAR_SINGULAR.message} (pivot ratio {s.pivot:.1e}, last Newton correction "
                            f"{s.correction:.1e})")
         if why == DET_FLIP:
-            raise Rejected("det(J) changed sign")
+            raise Rejected(DET_FLIP.message)
         if why == JUMP:
-            raise Rejected(f"jump of {corr:.2e} from the predictor (predicted motion {move:.2e})")
+            raise Rejected(f"{JUMP.message} of {corr:.2e} (predicted motion {move:.2e})")
         return s
 
     # -- the march ---------------------------------------------------------------
     def start(self, t, q0=None) -> State:
         try:
             s = self.settle(t, (self.model.q0 if q0 is None else q0).copy())
+        except WorkLimitError:
+            raise
         except AnalysisError as e:
             raise type(e)(f"{e}{self.count_problem(self.data.q, t)}") from None
         if s.det == 0:
@@ -227,7 +232,8 @@ class Tracker:
     def advance(self, target) -> State:
         """The state at the output instant ``target``."""
         h_out = self.h_out = target - self.history[-1].t
-        h, first = h_out, self.substeps
+        h, budget = h_out, self.budget
+        budget.begin(self.history[-1].t, h_out)
         while self.history[-1].t < target:
             last = self.history[-1]
             t1 = last.t + h
@@ -235,7 +241,10 @@ class Tracker:
                 t1 = target
             try:
                 s = self.attempt(t1)
+            except WorkLimitError:
+                raise
             except (AnalysisError, Rejected) as why:
+                budget.spend(t1, rejected=True)
                 if self.data.trace is not None:
                     self.data.trace.append((t1, "rejected", self.data.iterations, self.data.residual, str(why)))
                 h = (t1 - last.t) / 2
@@ -247,15 +256,9 @@ class Tracker:
                 continue
             if t1 != target:
                 self.substeps += 1
-                o = self.options
-                if self.substeps > o.max_substeps:
-                    from .rates import too_many_substeps
-
-                    start = target - h_out
-                    raise WorkLimitError(too_many_substeps(self.model, start, t1, self.substeps - first,
-                                                           h_out, o.max_substeps))
-                if o.on_substeps is not None:
-                    o.on_substeps(self.substeps, t1)
+                budget.spend(t1, step=t1 - last.t)
+                if self.options.on_substeps is not None:
+                    self.options.on_substeps(self.substeps, t1)
             self.accept(s)
             h = min(2 * h, h_out)
         return self.history[-1]
@@ -282,8 +285,12 @@ class Tracker:
                 return self.land_on_singular(last, target, d)
             try:
                 s = self.attempt(t1, allow_flip=True)
+            except WorkLimitError:
+                raise
             except (AnalysisError, Rejected):
+                self.budget.spend(t1, rejected=True)
                 continue
+            self.budget.spend(t1)
             self.events.append((last.t, "stepped over a singular configuration on the smooth branch: " + d.message()))
             self.substeps += 1
             self.accept(s)
@@ -300,7 +307,10 @@ class Tracker:
             try:
                 after = self.attempt(target + size, allow_flip=True)
                 break
+            except WorkLimitError:
+                raise
             except (AnalysisError, Rejected):
+                self.budget.spend(target + size, rejected=True)
                 continue
         else:
             raise SingularError(d.message())
@@ -338,8 +348,12 @@ class Tracker:
             if s.det != before.det:
                 return None
             corr = np.max(np.abs(d.factor.solve(-m.phi(s.q, t))) / m.col_scale)  # the factorisation at s.q
+        except WorkLimitError:
+            raise
         except AnalysisError:
             return None
+        finally:
+            self.budget.spend(t)
         # the acceptance test on one more correction, with a pivot floor REGULAR times lower
         why = rejected(s.pivot, corr, s.det, before.det, *jump_sizes(s.q, q_pred, before.q, m.col_scale), True,
                        REGULAR * self.pivot_floor, self.tol, False)
@@ -358,7 +372,8 @@ class Tracker:
 
     def polish(self, q, t):
         """Minimum-norm Gauss-Newton steps: Newton without a regular Jacobian."""
-        q, self.data.residual = self.a.gauss_newton(self.model, q, t, self.options.max_iterations, self.tol)
+        q, self.data.residual = self.a.gauss_newton(self.model, q, t, self.options.max_iterations, self.tol,
+                                                    self.budget)
         if not self.data.residual <= self.tol:
             raise ConvergenceError(f"no convergence at the singular configuration t = {t:.6g}")
         return q

@@ -80,17 +80,75 @@ def budget(n):
     return settings(max_examples=EXAMPLES or n)
 
 
-def mutate(doc, choose):
+KINDS = ("delete", "rename", "invalid", "odd", "swap-bodies")
+# Mutations for the long run (benchmarks/fault_matrix.py; issue 33): drivers up to 1e6 times
+# faster than the output step, tables of up to 1e5 rows, outline splines cut short. A fast
+# driver takes up to kinem solve's time limit (--max-seconds): too slow for the CI budget.
+SLOW_KINDS = ("fast-driver", "long-table", "cut-spline")
+
+
+def _drivers(d):
+    return [c for c in d.get("constraints", []) if isinstance(c, dict) and isinstance(c.get("d"), dict)]
+
+
+def _splines(d):
+    return [c["outline"]["spline"] for c in d.get("constraints", []) if isinstance(c, dict)
+            and isinstance(c.get("outline"), dict) and isinstance(c["outline"].get("spline"), dict)]
+
+
+def _offset_and_rate(f):
+    """The value at 0 and the slope of a driver's function, as far as its poly tells."""
+    poly = f.get("poly") if isinstance(f.get("poly"), list) else [0.0]
+    nums = [v for v in poly if isinstance(v, (int, float)) and not isinstance(v, bool)] + [0.0, 0.0]
+    return float(nums[0]), float(nums[1])
+
+
+def slow_mutation(d, kind, choose) -> bool:
+    """A SLOW_KINDS mutation of d in place; False when d has nothing it applies to."""
+    if kind == "cut-spline":
+        found = _splines(d)
+        if not found:
+            return False
+        spline = choose(found)
+        key = choose(["theta", "s", "both"])
+        keep = choose([0, 1, 2, 3, -1])
+        for k in (("theta", "s") if key == "both" else (key,)):
+            if isinstance(spline.get(k), list):
+                spline[k] = spline[k][:keep] if keep >= 0 else spline[k][:-1]
+        return True
+    found = _drivers(d)
+    if not found:
+        return False
+    c = choose(found)
+    offset, rate = _offset_and_rate(c["d"])
+    if kind == "fast-driver":
+        c["d"] = {"harmonic": {"amplitude": choose([0.01, 0.1, 1.0, 10.0]), "omega": choose([1e2, 1e3, 1e4, 1e5, 1e6]),
+                               "phase": 0.0, "offset": offset}}
+        return True
+    time = d.get("time") if isinstance(d.get("time"), dict) else {}
+    end = time.get("end", 1.0)
+    end = float(end) if isinstance(end, (int, float)) and not isinstance(end, bool) and 0 < end < 1e6 else 1.0
+    rows = choose([1_000, 10_000, 100_000])
+    wiggle, omega = choose([0.0, 1e-3, 0.1]), choose([1.0, 50.0, 5e3])
+    t = [end * 1.01 * k / (rows - 1) for k in range(rows)]
+    c["d"] = {"table": {"t": t, "value": [offset + rate * x + wiggle * math.sin(omega * x) for x in t]}}
+    return True
+
+
+def mutate(doc, choose, kinds=KINDS):
     """One mutation of a parsed case file (a deep copy of ``doc``), each
     choice made by ``choose(sequence)`` (hypothesis's draw here, a seeded
-    random.choice in benchmarks/fault_matrix.py): (TOML text, whether it
+    random.choice in benchmarks/fault_matrix.py), of one of ``kinds``
+    (KINDS, and SLOW_KINDS for the long run): (TOML text, whether it
     must be invalid)."""
     d = json.loads(json.dumps(doc))  # deep copy
     path = choose(paths(d))
     parent, key = get(d, path[:-1]), path[-1]
-    kind = choose(["delete", "rename", "invalid", "odd", "swap-bodies"])
+    kind = choose(list(kinds))
     invalid = False
-    if kind == "delete":
+    if kind in SLOW_KINDS and slow_mutation(d, kind, choose):
+        pass
+    elif kind == "delete":
         if isinstance(parent, list):
             parent.pop(key)
         else:

@@ -118,7 +118,7 @@ def _run(model, state, k=1):
     tol = options.tolerance
     q, qd, qdd, last, H, T = state
     packed = np.concatenate([q, qd, qdd, last, H.ravel(), T])
-    settings = (tol, options.max_iterations, kinem.native.MAX_STEP, singular_pivot(tol), True)
+    settings = (tol, options.max_iterations, kinem.native.MAX_STEP, singular_pivot(tol), True, np.inf)
     return tuple(model.plan.march(t, k, packed, settings, np.zeros((3, K, n)), np.zeros((2, K)),
                                   np.zeros(K + 2, np.int64)))
 

@@ -22,16 +22,17 @@ from .runs import FRAMES, PATH_INSTANTS, sample
 FORMATS = (".svg", ".gif", ".mp4")
 
 
-def check_output(out):
-    """Input errors about --out, before anything runs."""
+def check_output(out, what="--out"):
+    """Input errors about the output path, before anything runs, naming it
+    as ``what`` (the command line's --out; the API's parameter)."""
     ext = Path(out).suffix.lower()
     if ext not in FORMATS:
-        raise InputError(f"--out {out}: expected a file ending in {', '.join(FORMATS)}")
+        raise InputError(f"{what} {out}: expected a file ending in {', '.join(FORMATS)}")
     if ext == ".mp4" and not ffmpeg():
-            raise InputError(f"--out {out}: mp4 needs ffmpeg, which is not installed; write .svg or .gif instead")
+        raise InputError(f"{what} {out}: mp4 needs ffmpeg, which is not installed; write .svg or .gif instead")
     parent = Path(out).parent
     if not parent.is_dir():
-        raise InputError(f"--out {out}: directory {parent} does not exist")
+        raise InputError(f"{what} {out}: directory {parent} does not exist")
     return ext
 
 

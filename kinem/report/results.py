@@ -1,5 +1,5 @@
 """results.json: every figure of a report, the engines' versions and
-settings, the machine and the git revision. Its layout is
+settings, the machine and the git revision of the cases' repository. Its layout is
 kinem/report/schema.json (documented in docs/report.md); SCHEMA_VERSION
 changes whenever a field changes meaning or goes away."""
 import json
@@ -55,7 +55,7 @@ def build(cases, runs, options, duration):
     doc = {
         "schema_version": SCHEMA_VERSION, "tool": "kinem report",
         "created": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"), "duration": duration,
-        "git": git_revision(), "machine": machine(), "options": options, "engines": engines,
+        "git": git_revision([path for path, _, _ in cases]), "machine": machine(), "options": options, "engines": engines,
         "cases": out, "equivalence": groups, "gate": None,
     }
     return clean(doc), series
@@ -237,19 +237,29 @@ def cpu_model() -> str:
     return platform.processor() or platform.machine() or "unknown"
 
 
-def git_revision() -> dict:
-    """HEAD of the checkout holding this package, and whether tracked files
-    differ from it; nulls outside a git checkout."""
-    root = Path(__file__).resolve().parents[2]
+def git_revision(paths) -> dict:
+    """The revision of the git repository holding the cases (the first
+    path's folder): its top folder, HEAD (None before the first commit) and
+    whether tracked files differ from it; nulls outside a repository. Git
+    runs there only, never in kinem's own install, and takes no lock
+    (--no-optional-locks: nothing is written under .git)."""
+    none = {"repository": None, "revision": None, "dirty": None}
+    if not paths:
+        return none
+    folder = Path(paths[0]).resolve().parent
 
     def git(*args):
-        p = subprocess.run(["git", "-C", str(root), *args], capture_output=True, text=True, timeout=20)
+        p = subprocess.run(["git", "--no-optional-locks", "-C", str(folder), *args], capture_output=True, text=True,
+                           timeout=20, stdin=subprocess.DEVNULL)
         return p.stdout.strip() if p.returncode == 0 else None
 
     try:
-        rev = git("rev-parse", "HEAD")
+        top = git("rev-parse", "--show-toplevel")
+        if not top:
+            return none
+        rev = git("rev-parse", "--verify", "--quiet", "HEAD^{commit}")
         dirty = git("status", "--porcelain", "--untracked-files=no") if rev else None
     except (OSError, subprocess.SubprocessError):
-        rev = dirty = None
-    return {"revision": rev, "dirty": None if dirty is None else bool(dirty)}
+        return none
+    return {"repository": top, "revision": rev or None, "dirty": None if dirty is None else bool(dirty)}
 

@@ -187,8 +187,15 @@ def headline(doc) -> str:
 
 
 def provenance(doc) -> str:
-    git = doc["git"]["revision"]
-    rev = "no git revision" if not git else git[:10] + (" (dirty)" if doc["git"]["dirty"] else "")
+    g = doc["git"]
+    if not g.get("repository") and not g["revision"]:
+        rev = "cases' repository: none"
+    elif not g["revision"]:
+        rev = "cases' repository: no commits yet"
+    else:
+        rev = "cases' repository: " + g["revision"][:10] + (" (dirty)" if g["dirty"] else "")
+    version = doc.get("machine", {}).get("packages", {}).get("kinem")
+    rev += f"; kinem {version}" if version else ""
     m = doc["machine"]
     return (f"{rev}; {m['cpu']}, {m['cores']} cores; {doc['duration']:.0f} s"
             + (" (--quick)" if doc["options"]["quick"] else ""))

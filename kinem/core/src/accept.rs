@@ -8,12 +8,52 @@ pub const KAPPA: f64 = 0.5;
 /// (dimensionless) converged linearly, to a singular root.
 pub const REGULAR: f64 = 1e-2;
 
-/// Why `rejected` turns a state down (0: accepted).
-pub const NEAR_SINGULAR: u8 = 1;
-pub const DET_FLIP: u8 = 2;
-pub const JUMP: u8 = 3;
-/// The march's code for a position solve that did not converge.
-pub const NOT_CONVERGED: u8 = 4;
+/// Why a state is not taken: the acceptance test's verdicts and the
+/// march's own stops. Its codes cross to Python (kinem.native.Why mirrors
+/// them, each with its message; tests/test_core.py checks they agree).
+#[repr(u8)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Why {
+    Accepted = 0,
+    /// the pivot ratio below the floor, or Newton converged linearly
+    NearSingular = 1,
+    /// det(J_s) changed sign
+    DetFlip = 2,
+    /// the correction from the predictor is a jump
+    Jump = 3,
+    /// the march's position solve did not converge
+    NotConverged = 4,
+    /// the march stopped for a signal (Ctrl-C): Python raises it
+    Interrupted = 5,
+    /// the march reached its time limit (Options.max_seconds)
+    OutOfTime = 6,
+}
+
+impl Why {
+    /// Every code, in order (the Python mirror is checked against it).
+    pub const ALL: [Why; 7] = [
+        Why::Accepted,
+        Why::NearSingular,
+        Why::DetFlip,
+        Why::Jump,
+        Why::NotConverged,
+        Why::Interrupted,
+        Why::OutOfTime,
+    ];
+
+    /// The code's name as the Python mirror spells it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Why::Accepted => "ACCEPTED",
+            Why::NearSingular => "NEAR_SINGULAR",
+            Why::DetFlip => "DET_FLIP",
+            Why::Jump => "JUMP",
+            Why::NotConverged => "NOT_CONVERGED",
+            Why::Interrupted => "INTERRUPTED",
+            Why::OutOfTime => "OUT_OF_TIME",
+        }
+    }
+}
 
 /// The acceptance test: NEAR_SINGULAR when the pivot ratio is below the
 /// floor (or not a number) or the last Newton correction is above REGULAR
@@ -21,7 +61,7 @@ pub const NOT_CONVERGED: u8 = 4;
 /// `allow_flip`: a step over a bifurcation); JUMP when the correction from
 /// the predictor is above KAPPA times the predicted motion plus ten times
 /// the tolerance for round-off (judged when `judge_jump`: the predictor had
-/// a slope); else 0.
+/// a slope); else Accepted.
 #[allow(clippy::too_many_arguments)]
 pub fn rejected(
     pivot: f64,
@@ -34,17 +74,17 @@ pub fn rejected(
     floor: f64,
     tolerance: f64,
     allow_flip: bool,
-) -> u8 {
+) -> Why {
     if !(pivot >= floor) || !(correction <= REGULAR * tolerance.sqrt()) {
-        return NEAR_SINGULAR;
+        return Why::NearSingular;
     }
     if det != previous_det && !allow_flip {
-        return DET_FLIP;
+        return Why::DetFlip;
     }
     if judge_jump && corr > KAPPA * motion + 10.0 * tolerance {
-        return JUMP;
+        return Why::Jump;
     }
-    0
+    Why::Accepted
 }
 
 /// (correction, motion): the largest dimensionless |q - q_pred| and
@@ -111,13 +151,13 @@ mod tests {
 
     #[test]
     fn the_test_rejects_each_way() {
-        assert_eq!(rejected(1e-3, 0.0, 1, 1, 0.0, 0.0, true, 1e-5, 1e-12, false), 0);
-        assert_eq!(rejected(1e-7, 0.0, 1, 1, 0.0, 0.0, true, 1e-5, 1e-12, false), NEAR_SINGULAR);
-        assert_eq!(rejected(f64::NAN, 0.0, 1, 1, 0.0, 0.0, true, 1e-5, 1e-12, false), NEAR_SINGULAR);
-        assert_eq!(rejected(1e-3, 1e-7, 1, 1, 0.0, 0.0, true, 1e-5, 1e-12, false), NEAR_SINGULAR);
-        assert_eq!(rejected(1e-3, 0.0, -1, 1, 0.0, 0.0, true, 1e-5, 1e-12, false), DET_FLIP);
-        assert_eq!(rejected(1e-3, 0.0, -1, 1, 0.0, 0.0, true, 1e-5, 1e-12, true), 0);
-        assert_eq!(rejected(1e-3, 0.0, 1, 1, 1.0, 1.0, true, 1e-5, 1e-12, false), JUMP);
-        assert_eq!(rejected(1e-3, 0.0, 1, 1, 1.0, 1.0, false, 1e-5, 1e-12, false), 0);
+        assert_eq!(rejected(1e-3, 0.0, 1, 1, 0.0, 0.0, true, 1e-5, 1e-12, false), Why::Accepted);
+        assert_eq!(rejected(1e-7, 0.0, 1, 1, 0.0, 0.0, true, 1e-5, 1e-12, false), Why::NearSingular);
+        assert_eq!(rejected(f64::NAN, 0.0, 1, 1, 0.0, 0.0, true, 1e-5, 1e-12, false), Why::NearSingular);
+        assert_eq!(rejected(1e-3, 1e-7, 1, 1, 0.0, 0.0, true, 1e-5, 1e-12, false), Why::NearSingular);
+        assert_eq!(rejected(1e-3, 0.0, -1, 1, 0.0, 0.0, true, 1e-5, 1e-12, false), Why::DetFlip);
+        assert_eq!(rejected(1e-3, 0.0, -1, 1, 0.0, 0.0, true, 1e-5, 1e-12, true), Why::Accepted);
+        assert_eq!(rejected(1e-3, 0.0, 1, 1, 1.0, 1.0, true, 1e-5, 1e-12, false), Why::Jump);
+        assert_eq!(rejected(1e-3, 0.0, 1, 1, 1.0, 1.0, false, 1e-5, 1e-12, false), Why::Accepted);
     }
 }

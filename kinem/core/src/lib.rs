@@ -21,6 +21,7 @@ pub mod outline;
 pub mod parts;
 pub mod plan;
 pub mod table;
+pub mod watch;
 
 #[cfg(feature = "python")]
 mod py;

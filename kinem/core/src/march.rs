@@ -4,13 +4,18 @@
 //! acceptance test and the velocity and acceleration solves from that LU.
 //! It stops at the first instant not accepted and hands it to the tracker
 //! (kinem/tracking.py), which sub-steps, diagnoses and steps over.
-use crate::accept::{jump_sizes, lagrange, rejected, taylor, NOT_CONVERGED};
+use crate::accept::{jump_sizes, lagrange, rejected, taylor, Why};
 use crate::families::At;
 use crate::lu::{Factors, Layout};
 use crate::model::Kin;
 use crate::newton::{settle, Ops};
+use crate::watch::Watch;
 use num_complex::Complex64 as C64;
 use std::convert::Infallible;
+use std::time::Instant;
+
+/// The march looks at its watch (a deadline, a signal) every this many instants.
+const WATCH_EVERY: u32 = 4;
 
 pub struct Settings {
     pub tolerance: f64,
@@ -154,18 +159,39 @@ impl Ops for Native<'_> {
 }
 
 /// March from the accepted `state` over times[k..] until an instant is not
-/// accepted; returns (the first instant not taken, or times.len(), and why:
-/// 0, NOT_CONVERGED or the acceptance test's code). From k = 0 it first
+/// accepted or `watch` stops it (a deadline, a signal: polled here when
+/// `caller`, the thread that owns the watch); returns (the first instant
+/// not taken, or times.len(), and why: Accepted when all were taken). From k = 0 it first
 /// assembles from the estimates in state.q (accepted when its pivot ratio is
 /// above the floor; not tested for a jump or a det flip: no state before it).
-pub fn run(kin: &Kin, layout: &Layout, times: &[f64], mut k: usize, st: State, s: &Settings, out: Out) -> (usize, u8) {
+#[allow(clippy::too_many_arguments)]
+pub fn run(
+    kin: &Kin,
+    layout: &Layout,
+    times: &[f64],
+    mut k: usize,
+    st: State,
+    s: &Settings,
+    out: Out,
+    watch: &Watch,
+    caller: bool,
+) -> (usize, Why) {
     let n = kin.n;
     let mut ops = Native::new(kin, layout);
     let mut qp = vec![0.0; n];
     let mut nu = vec![0.0; kin.m];
     let mut gamma = vec![0.0; kin.m];
-    let mut result = (times.len(), 0u8);
+    let mut result = (times.len(), Why::Accepted);
+    let (mut next, mut tick) = (Instant::now(), 0u32);
     while k < times.len() {
+        // the clock every WATCH_EVERY instants: a few ns per instant, a stop within a few
+        if tick % WATCH_EVERY == 0 {
+            if let Some(why) = watch.check(caller, &mut next) {
+                result = (k, why);
+                break;
+            }
+        }
+        tick = tick.wrapping_add(1);
         let t = times[k];
         let h = t - st.last[0];
         let mut judge = k > 0;
@@ -180,14 +206,14 @@ pub fn run(kin: &Kin, layout: &Layout, times: &[f64], mut k: usize, st: State, s
         ops.start(&qp, t);
         let Ok(settled) = settle(&mut ops, s.tolerance, s.max_iterations, s.max_step, true);
         if !settled.converged {
-            result = (k, NOT_CONVERGED);
+            result = (k, Why::NotConverged);
             break;
         }
         let (ratio, det) = layout.stats(&ops.f);
         let (corr, motion) = jump_sizes(&ops.q, &qp, st.q, &layout.col_scale);
         let previous = if k == 0 { det } else { st.last[1] as i32 };
         let why = rejected(ratio, settled.last_step, det, previous, corr, motion, judge, s.floor, s.tolerance, false);
-        if why != 0 {
+        if why != Why::Accepted {
             result = (k, why);
             break;
         }

@@ -6,11 +6,13 @@
 //! not iterate again because another needs three; the march of the whole
 //! ends where the first part stops, and the tracker (kinem/tracking.py)
 //! takes that instant for the whole model as before.
+use crate::accept::Why;
 use crate::families::At;
 use crate::lu::Layout;
 use crate::march::{run, Native, Out, Settings, State};
 use crate::model::Kin;
 use crate::newton::Ops;
+use crate::watch::Watch;
 use rayon::prelude::*;
 
 /// One diagonal block as a model of its own: its evaluation and layout over
@@ -104,7 +106,7 @@ struct Marched {
     det: Vec<i8>,
     counts: [i64; 2],
     end: usize,
-    why: u8,
+    why: Why,
 }
 
 /// The first window's instants; each window without a stop doubles it. A
@@ -122,6 +124,7 @@ const WINDOW: usize = 4;
 /// the parts', its pivot ratio the smallest, its det sign `sign` times the
 /// parts' product; the counts are the busiest part's. The state is left at
 /// the last instant taken.
+#[allow(clippy::too_many_arguments)]
 pub fn run_parts(
     parts: &[Part],
     sign: i32,
@@ -130,7 +133,8 @@ pub fn run_parts(
     st: State,
     s: &Settings,
     mut out: Out,
-) -> (usize, u8) {
+    watch: &Watch,
+) -> (usize, Why) {
     let kk = times.len();
     let n = st.q.len();
     let mut states: Vec<PartState> = parts
@@ -157,16 +161,23 @@ pub fn run_parts(
             }
         })
         .collect();
-    let (mut from, mut window, mut end, mut why) = (k, WINDOW, k, 0u8);
+    let (mut from, mut window, mut end, mut why) = (k, WINDOW, k, Why::Accepted);
     while from < kk {
         let stop = (from + window).min(kk);
-        let marched: Vec<Marched> = parts
-            .par_iter()
-            .zip(states.par_iter_mut())
-            .map(|(p, ps)| window_of(p, ps, &times[..stop], from, s))
-            .collect();
+        // the parts march on the pool while this thread polls for signals
+        let marched: Vec<Marched> = watch.around(|| {
+            parts
+                .par_iter()
+                .zip(states.par_iter_mut())
+                .map(|(p, ps)| window_of(p, ps, &times[..stop], from, s, watch))
+                .collect()
+        });
         // the first part to stop, with why (a part that reached the window's end has why 0)
-        (end, why) = marched.iter().map(|m| (m.end, m.why)).min_by_key(|&(e, w)| (e, w == 0)).unwrap_or((stop, 0));
+        (end, why) = marched
+            .iter()
+            .map(|m| (m.end, m.why))
+            .min_by_key(|&(e, w)| (e, w == Why::Accepted))
+            .unwrap_or((stop, Why::Accepted));
         gather(parts, &marched, n, from, end, s.rates, sign, &mut out);
         if end < stop {
             break;
@@ -195,7 +206,7 @@ pub fn run_parts(
 
 /// Part p's march over times[from..] (a window: `times` ends where it
 /// does), from and into its state ps.
-fn window_of(p: &Part, ps: &mut PartState, times: &[f64], from: usize, s: &Settings) -> Marched {
+fn window_of(p: &Part, ps: &mut PartState, times: &[f64], from: usize, s: &Settings, watch: &Watch) -> Marched {
     let (nb, rows) = (p.cols.len(), times.len() - from);
     let mut m = Marched {
         q: vec![0.0; rows * nb],
@@ -207,7 +218,7 @@ fn window_of(p: &Part, ps: &mut PartState, times: &[f64], from: usize, s: &Setti
         det: vec![0; rows],
         counts: [0, 0],
         end: from,
-        why: 0,
+        why: Why::Accepted,
     };
     let state =
         State { q: &mut ps.q, qd: &mut ps.qd, qdd: &mut ps.qdd, last: &mut ps.last, h: &mut ps.h, tt: &mut ps.tt };
@@ -222,7 +233,7 @@ fn window_of(p: &Part, ps: &mut PartState, times: &[f64], from: usize, s: &Setti
         counts: &mut m.counts,
         first: from,
     };
-    (m.end, m.why) = run(&p.kin, &p.layout, times, from, state, s, o);
+    (m.end, m.why) = run(&p.kin, &p.layout, times, from, state, s, o, watch, false);
     m
 }
 

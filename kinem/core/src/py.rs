@@ -1,16 +1,29 @@
 //! The Python bindings (module kinem._core): a model's tables in, arrays
-//! out. Every call runs without the GIL, and a panic inside the core comes
-//! back as kinem.errors.CoreError (a KinemError) with a one-line message,
-//! never an abort.
+//! out. Every call runs without the GIL (the march re-acquires it briefly to
+//! poll for signals), and a panic inside the core comes back as
+//! kinem.errors.CoreError (a KinemError: exit code 3) with a one-line
+//! message, never an abort nor PyO3's PanicException. Sizes computed from
+//! inputs are checked (an error, never an overflow); 2-d inputs are read in
+//! C order whatever their layout (copied when Fortran-ordered or strided);
+//! outputs must be C-contiguous and writable.
 use crate::families::At;
 use crate::model::Kin;
 use crate::table::Table;
 use num_complex::Complex64 as C64;
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{
+    PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadwriteArray,
+    PyUntypedArrayMethods,
+};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyType};
+use std::borrow::Cow;
+use std::cell::Cell;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Arc;
+
+fn value_error(msg: impl Into<String>) -> PyErr {
+    pyo3::exceptions::PyValueError::new_err(msg.into())
+}
 
 /// kinem.errors.CoreError with `msg`.
 pub fn core_error(py: Python<'_>, msg: String) -> PyErr {
@@ -32,13 +45,75 @@ fn panic_text(p: Box<dyn std::any::Any + Send>) -> String {
     format!("internal error in kinem's compiled core: {}", what.replace('\n', " "))
 }
 
+thread_local! {
+    /// This thread runs a guarded call: its panic's message goes into the CoreError, not to standard error.
+    static GUARDED: Cell<u32> = const { Cell::new(0) };
+}
+
+/// f() with panics caught (not printed: the message reaches the CoreError).
+fn shielded<T>(f: impl FnOnce() -> T) -> std::thread::Result<T> {
+    GUARDED.with(|g| g.set(g.get() + 1));
+    let r = catch_unwind(AssertUnwindSafe(f));
+    GUARDED.with(|g| g.set(g.get() - 1));
+    r
+}
+
+/// The panic hook, once: quiet for a panic of a guarded call or on the
+/// core's thread pool (its message reaches Python in the CoreError), the
+/// hook that was there before for any other (this process's other Rust
+/// code keeps its messages).
+fn quiet_guarded_panics() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let before = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if GUARDED.with(|g| g.get()) == 0 && rayon::current_thread_index().is_none() {
+                before(info);
+            }
+        }));
+    });
+}
+
 /// Runs `f` without the GIL; a panic or an Err becomes a CoreError.
 pub fn guard<T: Send>(py: Python<'_>, f: impl FnOnce() -> Result<T, String> + Send) -> PyResult<T> {
-    match py.detach(|| catch_unwind(AssertUnwindSafe(f))) {
+    match py.detach(|| shielded(f)) {
         Ok(Ok(v)) => Ok(v),
         Ok(Err(e)) => Err(core_error(py, e)),
         Err(p) => Err(core_error(py, panic_text(p))),
     }
+}
+
+/// Runs `f` with the GIL held (it calls Python, or is too short to let go
+/// of it); a panic becomes a CoreError.
+fn guard_held<T>(py: Python<'_>, f: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
+    shielded(f).unwrap_or_else(|p| Err(core_error(py, panic_text(p))))
+}
+
+/// A 1-d array's values in order (copied when strided).
+fn vec1<'a>(a: &'a PyReadonlyArray1<'_, f64>) -> Cow<'a, [f64]> {
+    match a.as_slice() {
+        Ok(s) => Cow::Borrowed(s),
+        Err(_) => Cow::Owned(a.as_array().iter().copied().collect()),
+    }
+}
+
+/// A 2-d array's values in C order (copied when Fortran-ordered or strided).
+fn vec2<'a>(a: &'a PyReadonlyArray2<'_, f64>) -> Cow<'a, [f64]> {
+    match a.as_slice() {
+        Ok(s) if a.is_c_contiguous() => Cow::Borrowed(s),
+        _ => Cow::Owned(a.as_array().iter().copied().collect()),
+    }
+}
+
+/// An output array, written in place: C-contiguous and writable, else a ValueError.
+fn writable<'py, T: numpy::Element, D: numpy::ndarray::Dimension>(
+    a: &Bound<'py, numpy::PyArray<T, D>>,
+    what: &str,
+) -> PyResult<PyReadwriteArray<'py, T, D>> {
+    if !a.is_c_contiguous() {
+        return Err(value_error(format!("{what}: expected a C-contiguous array")));
+    }
+    a.try_readwrite().map_err(|e| value_error(format!("{what}: not writable ({e})")))
 }
 
 /// A dict of numpy arrays (int64, float64, complex128) as a Table.
@@ -61,15 +136,13 @@ pub fn table(d: &Bound<'_, PyDict>) -> PyResult<Table> {
     Ok(t)
 }
 
-fn rows<'a>(a: &'a PyReadonlyArray2<'a, f64>, width: usize, what: &str) -> PyResult<(&'a [f64], usize)> {
+/// A (K, width) array's values in C order, and K.
+fn rows<'a>(a: &'a PyReadonlyArray2<'_, f64>, width: usize, what: &str) -> PyResult<(Cow<'a, [f64]>, usize)> {
     let shape = a.shape();
     if shape[1] != width {
-        return Err(pyo3::exceptions::PyValueError::new_err(format!("{what}: {} columns, expected {width}", shape[1])));
+        return Err(value_error(format!("{what}: {} columns, expected {width}", shape[1])));
     }
-    Ok((
-        a.as_slice().map_err(|_| pyo3::exceptions::PyValueError::new_err(format!("{what}: not C-contiguous")))?,
-        shape[0],
-    ))
+    Ok((vec2(a), shape[0]))
 }
 
 fn out2<'py>(py: Python<'py>, v: Vec<f64>, k: usize, w: usize) -> PyResult<Bound<'py, PyAny>> {
@@ -135,10 +208,11 @@ impl Core {
     /// nu at T (K,): (K, m).
     fn nu<'py>(&self, py: Python<'py>, t: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyAny>> {
         let kin = self.kin.clone();
-        let t = t.as_slice()?;
+        let t = vec1(&t);
         let (k, m) = (t.len(), kin.m);
+        let size = k.checked_mul(m).ok_or_else(|| value_error("nu: too many instants"))?;
         let v = guard(py, || {
-            let mut out = vec![0.0; k * m];
+            let mut out = vec![0.0; size];
             for i in 0..k {
                 kin.nu(t[i], &mut out[i * m..(i + 1) * m]);
             }
@@ -159,8 +233,10 @@ impl Core {
         let n = kin.n;
         let (q, k) = rows(&q, n, "q")?;
         let (qd, k2) = rows(&qd, n, "qd")?;
-        let t = t.as_slice()?;
+        let t = vec1(&t);
         let m = kin.m;
+        k.checked_mul(m.max(n)).ok_or_else(|| value_error("gamma: too many configurations"))?;
+        let (q, qd, t): (&[f64], &[f64], &[f64]) = (&q, &qd, &t);
         let v = guard(py, || {
             check(t.len(), k)?;
             check(k2, k)?;
@@ -181,8 +257,10 @@ impl Core {
     ) -> PyResult<Bound<'py, PyAny>> {
         let kin = self.kin.clone();
         let (q, k) = rows(&q, kin.n, "q")?;
-        let t = t.as_slice()?;
+        let t = vec1(&t);
         let w = if jac { kin.nnz } else { kin.m };
+        k.checked_mul(w.max(kin.n)).ok_or_else(|| value_error("too many configurations"))?;
+        let (q, t): (&[f64], &[f64]) = (&q, &t);
         let v = guard(py, || {
             check(t.len(), k)?;
             Ok(batch(&kin, q, k, w, |i, q, e, o| {
@@ -222,23 +300,35 @@ fn batch(kin: &Kin, q: &[f64], k: usize, w: usize, f: impl Fn(usize, &[f64], &[C
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    // a panic's message reaches Python in the CoreError; nothing is printed
-    std::panic::set_hook(Box::new(|_| {}));
+    quiet_guarded_panics();
+    let (threads, cores) = pool();
+    m.add("THREADS", threads)?;
+    m.add("CORES", cores)?;
     m.add_class::<Core>()?;
     register(m)?;
     m.add("KINDS", crate::families::KINDS.to_vec())?;
     Ok(())
 }
 
+/// The core's thread pool, sized once: RAYON_NUM_THREADS when set, at most
+/// the machine's cores (more threads than cores only wait on each other);
+/// (threads, cores).
+fn pool() -> (usize, usize) {
+    let cores = std::thread::available_parallelism().map(|c| c.get()).unwrap_or(1);
+    let asked = std::env::var("RAYON_NUM_THREADS").ok().and_then(|v| v.trim().parse::<usize>().ok()).filter(|&v| v > 0);
+    let threads = asked.unwrap_or(cores).min(cores);
+    // already built (a second import in one process): rayon keeps the first
+    let _ = rayon::ThreadPoolBuilder::new().num_threads(threads).build_global();
+    (rayon::current_num_threads(), cores)
+}
+
 // ---- the march's linear structure, the march, and the step-by-step kernels ----
 
-use crate::accept;
+use crate::accept::{self, Why};
 use crate::lu::{Factors, Layout, Shape};
 use crate::march;
 use crate::newton::{self, Ops};
-use numpy::PyReadwriteArray1;
-use numpy::PyReadwriteArray2;
-use numpy::PyReadwriteArray3;
+use crate::watch::Watch;
 
 fn positions(t: &Table, key: &str, bound: usize) -> PyResult<Vec<usize>> {
     t.index(key, bound).map_err(pyo3::exceptions::PyValueError::new_err)
@@ -285,13 +375,27 @@ impl Plan {
         let kin = core.kin.clone();
         let t = table(&columns)?;
         let (n, m, nnz) = (kin.n, kin.m, kin.nnz);
+        // every size below from these, checked: a layout larger than the model is refused, never allocated
+        let big = n.max(m).max(nnz).max(1);
+        let count = if band { 1 } else { count };
+        if count > big || size > big || height > 3 * big + 3 || width > big || kl > big || ku > big {
+            return Err(value_error("plan: dimensions larger than the model"));
+        }
+        let stored_blocks = count.checked_mul(size).ok_or_else(|| value_error("plan: count x size overflows"))?;
+        let factors = count.checked_mul(height).and_then(|v| v.checked_mul(width));
+        if factors.is_none_or(|v| v > 4 * big * big + 16) {
+            return Err(value_error("plan: count x height x width larger than the model"));
+        }
         t.same_length(nnz, &["block", "row", "col", "entry_scale"]).map_err(pyo3::exceptions::PyValueError::new_err)?;
         let block = positions(&t, "block", count.max(1))?;
         let row = positions(&t, "row", height.max(1))?;
         let col = positions(&t, "col", width.max(1))?;
-        let stored = if band { n.max(size) } else { count * size };
+        let stored = if band { n.max(size) } else { stored_blocks };
         let shape = if band {
-            if 2 * kl + ku + 3 != height || size > n || width < size.max(n - size) {
+            if kl.checked_mul(2).and_then(|v| v.checked_add(ku)).and_then(|v| v.checked_add(3)) != Some(height)
+                || size > n
+                || width < size.max(n - size)
+            {
                 return Err(pyo3::exceptions::PyValueError::new_err("plan: band dimensions do not fit"));
             }
             let couple_row = positions(&t, "couple_row", size.max(1))?;
@@ -301,14 +405,14 @@ impl Plan {
             }
             Shape::Band { kl, ku, size, singles: n - size, couple_row, couple_col }
         } else {
-            if height != size || width != size || count * size < n.max(m) || size > 4096 {
+            if height != size || width != size || stored_blocks < n.max(m) || size > 4096 {
                 return Err(pyo3::exceptions::PyValueError::new_err("plan: block dimensions do not fit"));
             }
-            let pad = positions(&t, "pad", count * size)?;
+            let pad = positions(&t, "pad", stored_blocks)?;
             let rm = t.int("rows_mask").map_err(pyo3::exceptions::PyValueError::new_err)?;
             let cm = t.int("cols_mask").map_err(pyo3::exceptions::PyValueError::new_err)?;
             let patterns = if size <= crate::lu::MASK {
-                if rm.len() != count * size || cm.len() != count * size {
+                if rm.len() != stored_blocks || cm.len() != stored_blocks {
                     return Err(pyo3::exceptions::PyValueError::new_err("plan: masks do not fit"));
                 }
                 rm.iter().zip(&cm).map(|(&a, &b)| (a as u64, b as u64)).collect()
@@ -346,9 +450,9 @@ impl Plan {
         {
             return Err(pyo3::exceptions::PyValueError::new_err("plan: positions or scales have the wrong length"));
         }
-        layout.group();
         let kin2 = kin.clone();
         let layout = guard(py, move || {
+            layout.group();
             crate::plan::order_blocks(&kin2, &mut layout);
             Ok(layout)
         })?;
@@ -357,7 +461,8 @@ impl Plan {
 
     /// The LU of J_s at these Jacobian values (nnz).
     fn factor(&self, py: Python<'_>, values: PyReadonlyArray1<'_, f64>) -> PyResult<Lu> {
-        let v = values.as_slice()?;
+        let v = vec1(&values);
+        let v: &[f64] = &v;
         if v.len() != self.kin.nnz {
             return Err(pyo3::exceptions::PyValueError::new_err("factor: wrong number of values"));
         }
@@ -382,36 +487,42 @@ impl Plan {
     /// state (6 n + 5): q, qd, qdd (n each), last (2: time and det sign),
     /// H (3 n: the last three q, oldest first), T (3: their times), left at
     /// the last instant taken; settings: (tolerance, max_iterations,
-    /// max_step, floor, rates); out (3, K, n): Q, QD, QDD ((1, K, n): Q
-    /// without rates); figures (2, K):
+    /// max_step, floor, rates, seconds: the time left, inf for no limit);
+    /// out (3, K, n): Q, QD, QDD ((1, K, n): Q without rates); figures (2, K):
     /// residual and pivot ratio; ints (K + 2): Newton iterations per instant,
-    /// then the Jacobian evaluations and factorisations, added to. Returns
-    /// (the first instant not taken, or K; why: 0 or the acceptance code).
+    /// then the Jacobian evaluations and factorisations, added to. Every
+    /// output C-contiguous and writable. Returns (the first instant not
+    /// taken, or K; why: the code of accept::Why, kinem.native.Why). A signal
+    /// (Ctrl-C) polled every few milliseconds stops it: its exception
+    /// (KeyboardInterrupt) is raised, the state left at the last instant taken.
     #[allow(clippy::too_many_arguments)]
     fn march(
         &self,
         py: Python<'_>,
         times: PyReadonlyArray1<'_, f64>,
         k: usize,
-        mut state: PyReadwriteArray1<'_, f64>,
-        settings: (f64, usize, f64, f64, bool),
-        mut out: PyReadwriteArray3<'_, f64>,
-        mut figures: PyReadwriteArray2<'_, f64>,
-        mut ints: PyReadwriteArray1<'_, i64>,
+        state: Bound<'_, PyArray1<f64>>,
+        settings: (f64, usize, f64, f64, bool, f64),
+        out: Bound<'_, PyArray3<f64>>,
+        figures: Bound<'_, PyArray2<f64>>,
+        ints: Bound<'_, PyArray1<i64>>,
     ) -> PyResult<(usize, u8)> {
         let (n, kk) = (self.kin.n, times.len());
-        let bad = |what: &str| pyo3::exceptions::PyValueError::new_err(format!("march: {what} has the wrong shape"));
-        let times = times.as_slice()?;
+        let bad = |what: &str| value_error(format!("march: {what} has the wrong shape"));
+        let times = vec1(&times);
+        let times: &[f64] = &times;
         let stages = if settings.4 { 3 } else { 1 };
-        if state.len() != 6 * n + 5
+        let (mut state, mut out) = (writable(&state, "march: state")?, writable(&out, "march: out")?);
+        let (mut figures, mut ints) = (writable(&figures, "march: figures")?, writable(&ints, "march: ints")?);
+        if Some(state.len()) != n.checked_mul(6).and_then(|v| v.checked_add(5))
             || out.shape() != [stages, kk, n]
             || figures.shape() != [2, kk]
-            || ints.len() != kk + 2
+            || Some(ints.len()) != kk.checked_add(2)
             || k > kk
         {
             return Err(bad("state, out, figures, ints or k"));
         }
-        let (tolerance, max_iterations, max_step, floor, rates) = settings;
+        let (tolerance, max_iterations, max_step, floor, rates, seconds) = settings;
         let settings = march::Settings { tolerance, max_iterations, max_step, floor, rates };
         let (kin, layout) = (self.kin.clone(), self.layout.clone());
         let (q, rest) = state.as_slice_mut().map_err(|_| bad("state"))?.split_at_mut(n);
@@ -428,13 +539,30 @@ impl Plan {
         let out =
             march::Out { q: oq, qd: oqd, qdd: oqdd, iterations, residual, pivot, det: &mut det, counts, first: 0 };
         let parts = &self.parts;
-        guard(py, move || {
+        // the signal's exception, from the poll (the GIL re-acquired for it)
+        let signal: std::sync::Mutex<Option<PyErr>> = std::sync::Mutex::new(None);
+        let poll = || match Python::attach(|py| py.check_signals()) {
+            Ok(()) => false,
+            Err(e) => {
+                if let Ok(mut s) = signal.lock() {
+                    *s = Some(e);
+                }
+                true
+            }
+        };
+        let (end, why) = guard(py, move || {
+            let watch = Watch::new(seconds, Some(&poll));
             if layout.count < 2 || !matches!(layout.shape, Shape::Blocks { .. }) {
-                return Ok(march::run(&kin, &layout, times, k, st, &settings, out));
+                return Ok(march::run(&kin, &layout, times, k, st, &settings, out, &watch, true));
             }
             let parts = parts.get_or_init(|| crate::parts::split(&kin, &layout)).as_ref()?;
-            Ok(crate::parts::run_parts(parts, layout.sign, times, k, st, &settings, out))
-        })
+            Ok(crate::parts::run_parts(parts, layout.sign, times, k, st, &settings, out, &watch))
+        })?;
+        if why == Why::Interrupted {
+            let e = signal.lock().ok().and_then(|mut s| s.take());
+            return Err(e.unwrap_or_else(|| pyo3::exceptions::PyKeyboardInterrupt::new_err("")));
+        }
+        Ok((end, why as u8))
     }
 }
 
@@ -456,7 +584,8 @@ pub struct Lu {
 impl Lu {
     /// x with Phi_q x = b (b: m rows).
     fn solve<'py>(&self, py: Python<'py>, b: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let b = b.as_slice()?;
+        let b = vec1(&b);
+        let b: &[f64] = &b;
         if b.len() != self.layout.m {
             return Err(pyo3::exceptions::PyValueError::new_err("solve: wrong number of rows"));
         }
@@ -503,7 +632,7 @@ fn settle(
     finish: bool,
 ) -> PyResult<(usize, f64, bool, f64)> {
     let mut o = PyOps { ops };
-    let s = newton::settle(&mut o, tolerance, max_iterations, max_step, finish)?;
+    let s = guard_held(ops.py(), || newton::settle(&mut o, tolerance, max_iterations, max_step, finish))?;
     Ok((s.iterations, s.residual, s.converged, s.last_step))
 }
 
@@ -511,6 +640,7 @@ fn settle(
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
 fn rejected(
+    py: Python<'_>,
     pivot: f64,
     correction: f64,
     det: i32,
@@ -521,23 +651,37 @@ fn rejected(
     floor: f64,
     tolerance: f64,
     allow_flip: bool,
-) -> u8 {
-    accept::rejected(pivot, correction, det, previous_det, corr, motion, judge_jump, floor, tolerance, allow_flip)
+) -> PyResult<u8> {
+    guard_held(py, || {
+        Ok(accept::rejected(
+            pivot,
+            correction,
+            det,
+            previous_det,
+            corr,
+            motion,
+            judge_jump,
+            floor,
+            tolerance,
+            allow_flip,
+        ) as u8)
+    })
 }
 
 /// (correction from the predictor, predicted motion), dimensionless.
 #[pyfunction]
 fn jump_sizes(
+    py: Python<'_>,
     q: PyReadonlyArray1<'_, f64>,
     q_pred: PyReadonlyArray1<'_, f64>,
     q_last: PyReadonlyArray1<'_, f64>,
     col_scale: PyReadonlyArray1<'_, f64>,
 ) -> PyResult<(f64, f64)> {
-    let (a, b, c, d) = (q.as_slice()?, q_pred.as_slice()?, q_last.as_slice()?, col_scale.as_slice()?);
+    let (a, b, c, d) = (vec1(&q), vec1(&q_pred), vec1(&q_last), vec1(&col_scale));
     if b.len() != a.len() || c.len() != a.len() || d.len() != a.len() {
-        return Err(pyo3::exceptions::PyValueError::new_err("jump_sizes: lengths differ"));
+        return Err(value_error("jump_sizes: lengths differ"));
     }
-    Ok(accept::jump_sizes(a, b, c, d))
+    guard_held(py, || Ok(accept::jump_sizes(&a, &b, &c, &d)))
 }
 
 /// q at t extrapolated through the states H (3, n) at T (3) (accept::lagrange):
@@ -549,13 +693,14 @@ fn lagrange<'py>(
     tt: PyReadonlyArray1<'py, f64>,
     h: PyReadonlyArray2<'py, f64>,
 ) -> PyResult<(Bound<'py, PyArray1<f64>>, i32)> {
-    let tt = tt.as_slice()?;
+    let tt = vec1(&tt);
     let shape = h.shape();
     if tt.len() != 3 || shape[0] != 3 {
-        return Err(pyo3::exceptions::PyValueError::new_err("lagrange: T (3,) and H (3, n)"));
+        return Err(value_error("lagrange: T (3,) and H (3, n)"));
     }
+    let h = vec2(&h);
     let mut q = vec![0.0; shape[1]];
-    let order = accept::lagrange(t, &[tt[0], tt[1], tt[2]], h.as_slice()?, &mut q);
+    let order = guard_held(py, || Ok(accept::lagrange(t, &[tt[0], tt[1], tt[2]], &h, &mut q)))?;
     Ok((PyArray1::from_vec(py, q), order))
 }
 
@@ -570,14 +715,15 @@ fn functions<'py>(
     order: u8,
 ) -> PyResult<Bound<'py, PyAny>> {
     let tb = self::table(&table)?;
-    let t = t.as_slice()?;
+    let t = vec1(&t);
+    let t: &[f64] = &t;
     if order > 2 {
         return Err(pyo3::exceptions::PyValueError::new_err("functions: order 0, 1 or 2"));
     }
     let (v, w) = guard(py, || {
         let f = crate::functions::Functions::from_table(&tb)?;
         let w = f.len();
-        let mut out = vec![0.0; t.len() * w];
+        let mut out = vec![0.0; t.len().checked_mul(w).ok_or("functions: too many values")?];
         for (k, &tk) in t.iter().enumerate() {
             for j in 0..w {
                 out[k * w + j] = f.eval(j, tk, order);
@@ -598,14 +744,15 @@ fn outline_radius<'py>(
     theta: PyReadonlyArray1<'py, f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let tb = self::table(&table)?;
-    let (which, theta) = (which.as_slice()?, theta.as_slice()?);
+    let (which, theta) = (which.as_array().to_vec(), vec1(&theta));
+    let theta: &[f64] = &theta;
     let n = theta.len();
     let v = guard(py, || {
         let o = crate::outline::Outlines::from_table(&tb)?;
         if which.len() != n || which.iter().any(|&w| w < 0 || w as usize >= o.len()) {
             return Err("outline_radius: which out of range or of another length than theta".to_string());
         }
-        let mut out = vec![0.0; 4 * n];
+        let mut out = vec![0.0; n.checked_mul(4).ok_or("outline_radius: too many values")?];
         for j in 0..n {
             let r = o.radius(which[j] as usize, theta[j]);
             for d in 0..4 {
@@ -617,10 +764,15 @@ fn outline_radius<'py>(
     out2(py, v, 4, n)
 }
 
-/// Panics inside the core with `message` (tests/test_core.py: a panic
-/// reaches Python as kinem.errors.CoreError, never an abort).
+/// Panics inside the core with `message`, without the GIL or (`held`) with
+/// it (tests/test_core.py: a panic reaches Python as
+/// kinem.errors.CoreError, never an abort nor a PanicException).
 #[pyfunction]
-fn _panic(py: Python<'_>, message: String) -> PyResult<()> {
+#[pyo3(signature = (message, held = false))]
+fn _panic(py: Python<'_>, message: String, held: bool) -> PyResult<()> {
+    if held {
+        return guard_held(py, || -> PyResult<()> { panic!("{message}") });
+    }
     guard(py, move || -> Result<(), String> { panic!("{message}") })
 }
 
@@ -639,10 +791,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("POLISH", newton::POLISH)?;
     m.add("KAPPA", accept::KAPPA)?;
     m.add("REGULAR", accept::REGULAR)?;
-    m.add("NEAR_SINGULAR", accept::NEAR_SINGULAR)?;
-    m.add("DET_FLIP", accept::DET_FLIP)?;
-    m.add("JUMP", accept::JUMP)?;
-    m.add("NOT_CONVERGED", accept::NOT_CONVERGED)?;
+    // the codes of accept::Why, (name, code) in order: kinem.native.Why mirrors them
+    m.add("WHY", Why::ALL.iter().map(|&w| (w.name(), w as u8)).collect::<Vec<_>>())?;
     Ok(())
 }
 
@@ -662,16 +812,19 @@ fn columns<'py>(
     }
     let shape = x[0].shape().to_vec();
     let (k, n) = (shape[0], shape[1]);
-    let stages: Vec<&[f64]> = x.iter().map(|a| a.as_slice()).collect::<Result<_, _>>()?;
+    let stages: Vec<Cow<[f64]>> = x.iter().map(vec2).collect();
+    let stages: Vec<&[f64]> = stages.iter().map(|s| &**s).collect();
     if x.iter().any(|a| a.shape() != [k, n]) {
         return Err(bad("stages differ in shape"));
     }
-    let (pc, local) = (pc.as_slice()?, local.as_slice()?);
+    let (pc, local) = (pc.as_array().to_vec(), local.as_array().to_vec());
     if pc.len() != local.len() || pc.iter().any(|&c| c < 0 || c as usize + 2 >= n.max(1)) {
         return Err(bad("point columns out of range"));
     }
-    let limit = (stages.len() * (n + 2 * pc.len())) as i64;
-    let src = src.as_slice()?;
+    let limit = pc.len().checked_mul(2).and_then(|v| v.checked_add(n)).and_then(|v| v.checked_mul(stages.len()));
+    let limit = limit.and_then(|v| i64::try_from(v).ok()).ok_or_else(|| bad("too many columns"))?;
+    let src = src.as_array().to_vec();
+    k.checked_mul(src.len()).ok_or_else(|| bad("too many values"))?;
     if src.iter().any(|&j| j < 0 || j >= limit) {
         return Err(bad("a source out of range"));
     }
@@ -680,7 +833,7 @@ fn columns<'py>(
     let w = src.len();
     let v = guard(py, || {
         let mut out = vec![0.0; k * w];
-        crate::columns::columns(&stages, n, &src, &pc, local, &mut out);
+        crate::columns::columns(&stages, n, &src, &pc, &local, &mut out);
         Ok(out)
     })?;
     out2(py, v, k, w)
