@@ -386,7 +386,7 @@ def cmd_compare(a):
                           "engines": {r.engine: r.as_dict() for r in rows}}, indent=2, default=float))
     else:
         print(table(model.case.name, model.length, model.case.length_unit, rows))
-    return 0 if all(r.within_tolerance is not False for r in rows) else 1
+    return 1 if any(r.verdict.fails for r in rows) else 0   # adapters.compare.Verdict: the report's rule too
 
 
 def cmd_report(a):
@@ -406,11 +406,10 @@ def cmd_report(a):
         baseline = str(found) if found.is_file() else None
     elif baseline == "none":
         baseline = None
-    whole_set = bool(whole) and {Path(p).resolve() for p in paths} == {Path(p).resolve() for p in whole}
     outcome = run(Options(cases=tuple(paths), engines=engines, out=a.out,
                           baseline=baseline, update_baseline=a.update_baseline, quick=a.quick, junit=a.junit,
                           fail_on_slowdown=a.fail_on_slowdown, workers=a.jobs, scheduler=a.scheduler,
-                          stress=True if a.stress else False if a.no_stress else None, whole_set=whole_set,
+                          stress=True if a.stress else False if a.no_stress else None,
                           work_precision=a.work_precision,
                           baseline_default=a.baseline is None))
     print(outcome.detail)

@@ -29,7 +29,7 @@ class Options:
     scheduler: str | None = None  # a Dask scheduler address: the runs go to its workers
     progress: bool | None = None  # None: when standard error is a terminal
     stress: bool | None = None   # the quick stress suite as a section: only when True (--stress)
-    whole_set: bool = False      # the cases are the repository's whole case set (not narrowed)
+    whole_set: bool | None = None  # the cases are the whole case set (not narrowed); None: they cover the baseline's
     baseline_default: bool = False  # no --baseline given: OUT/baseline.json is used when it exists
     work_precision: bool = False  # every case gets work-precision diagrams (else: [report] work_precision)
 
@@ -70,6 +70,9 @@ def run(o: Options) -> Outcome:
     target = Path(o.baseline or out / "baseline.json")
     if o.update_baseline and not (target.parent.is_dir() or target.parent == out):
         raise InputError(f"--baseline {target}: directory {target.parent} does not exist")
+    # a whole-set run: the case files given cover the baseline's cases, whatever their folder
+    whole = o.whole_set if o.whole_set is not None else (
+        old is not None and {c.name for _, c, _ in cases} >= {c["name"] for c in old["cases"]})
     sweep = QUICK if o.quick else FULL
     stress = bool(o.stress)   # only when asked: a user's cases are not followed by kinem's own scenarios
     bar = Progress(0, enabled=o.progress)
@@ -82,7 +85,7 @@ def run(o: Options) -> Outcome:
                    "reference_tolerance": REFERENCE_TOLERANCE, "native_tolerances": list(sweep.tolerances),
                    "dt_factors": list(sweep.dt_factors),
                    "family_factors": list(sweep.family_factors), "native_repeats": sweep.native_repeats,
-                   "whole_set": o.whole_set,
+                   "whole_set": bool(whole),
                    "stress": "--stress" if stress else None}
         doc, series = results.build(cases, runs, options, time.perf_counter() - start)
         if stress:
@@ -210,9 +213,13 @@ def _exit_code(doc, o) -> int:
         return 1
     if doc.get("stress") and doc["stress"]["native_misses"]:
         return 1
+    from adapters.compare import Verdict
+
     g = doc["gate"]
     for c in doc["cases"]:
         for r in c["runs"]:
+            if not g and not lost(r) and Verdict(r["verdict"]).fails:   # the one verdict rule, without a baseline
+                return 1
             if not lost(r):
                 continue
             known = g and r["engine"] != "native" and g["kinds"].get(f"{c['name']}/{r['engine']}") != "new"

@@ -26,6 +26,7 @@ without that engine, --quick for sweep points); either way it is listed in
 ``not_compared``. A case or run new in this run is "new": fatal in a run of
 the whole case set (the baseline should hold all of it), else only listed.
 """
+import dataclasses
 import enum
 import math
 from dataclasses import asdict, dataclass
@@ -52,6 +53,15 @@ STATUS_RANK = {"ok": 0, "unsupported": 1}   # outcomes; every failure kind ranks
 # move by this much (of L, or rad) between runs; anything more is a change
 # of formulation even where no closed form exists.
 NATIVE_MOVE = 1e-12
+# Its velocities and accelerations (a linear solve on those positions, and
+# the quadratic velocity terms): to this much of V, V / L, V^2 / L, ...
+NATIVE_RATE_MOVE = 1e-9
+# A case edit of the native solver's settings alone: its answers may move by
+# this many times the baseline's Newton tolerance (a scaled residual, ~ / L).
+SETTINGS_SLACK = 10.0
+# A known failing state of the baseline (outside tolerance, native off the
+# consensus) fails again only when a figure is worse than this factor of its.
+WORSE = 1.01
 GATED = ("position_error_rel", "angle_error", "velocity_error_rel", "angular_velocity_error_rel",
          "constraint_residual")
 
@@ -159,31 +169,42 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
             for r in case["runs"]:
                 set_(f"{name}/{r['engine']}", Verdict.REGRESSED, "REGRESSED: case changed: baseline stale")
             continue
+        settings = _settings_changed(oc, case) if oc else None
+        if settings:
+            not_compared.append(f"{name}/native: cost counts (solver settings changed: {settings}; its answers are "
+                                f"compared at the baseline's tolerance)")
+        start = len(findings)
         for run in case["runs"]:
             e = run["engine"]
-            before = len(findings)
             o = old_runs.get(e)
             if o is None:
                 if whole:   # the whole set ran: the baseline should hold every run of it
                     findings.append(Finding(name, e, "main", "new", "run", None, run["status"], True,
                                             f"{name}/{e} is not in the baseline (--update-baseline records it)"))
-                    set_(f"{name}/{e}", Verdict.REGRESSED, "REGRESSED: not in the baseline")
                 else:
-                    set_(f"{name}/{e}", Verdict.NEW, "new")
+                    _judged(name, None, run, findings)   # one verdict rule: outside its tolerance fails, new or not
                 continue
+            counts = ({}, {}) if settings and e == "native" else (o["counts"], run["counts"])
             _compare(name, e, "main",
-                     {"status": o["status"], "outcome": o["outcome"], "figures": _figures(o), "counts": o["counts"]},
+                     {"status": o["status"], "outcome": o["outcome"], "figures": _figures(o), "counts": counts[0]},
                      {"status": run["status"], "outcome": run["outcome"], "figures": _figures(run),
-                      "counts": run["counts"]},
+                      "counts": counts[1]},
                      findings)
-            _trajectory(name, case["length"], o, run, findings)
+            _trajectory(path, case, o, run, findings, settings and oc["solver"]["tolerance"])
             skipped = _sweep(name, e, oc, case, findings, scope)
             if skipped:
                 why = "--quick" if scope.sweeps else "not in this run's sweep: a regression"
                 not_compared.append(f"{name}/{e}: {skipped} work-precision point(s) of the baseline ({why})")
-            _tolerance(name, o, run, findings)
+            _judged(name, o, run, findings)
             _slower(name, o, run, typical_old, typical_new, fail_on_slowdown, findings)
-            set_(f"{name}/{e}", *verdict(findings[before:]))
+        _attribute(case, findings, start)
+        for run in case["runs"]:
+            e = run["engine"]
+            mine = [f for f in findings[start:] if f.engine == e]
+            if e not in old_runs and not whole:
+                set_(f"{name}/{e}", *(verdict(mine) if any(f.fatal for f in mine) else (Verdict.NEW, "new")))
+            else:
+                set_(f"{name}/{e}", *verdict(mine))
     _equivalence(current, baseline, findings, set_, not_compared)
     for f in findings:   # a run the baseline has and this one lacks (fatal) marks its case/engine
         if f.kind == "missing" and f.fatal and f.where == "main":
@@ -246,37 +267,119 @@ def _slower(name, old, new, typical_old, typical_new, fail_on_slowdown, findings
                                 f"x{rb / ra:.1f} ({ra:.3g} -> {rb:.3g}, same run)"))
 
 
-def _tolerance(name, old, new, findings):
-    """A run within its tolerance in the baseline and outside it now: each
-    figure over its limit, named."""
-    if old.get("within_tolerance") is not True or new.get("within_tolerance") is not False:
+def _settings_changed(old_case, case) -> str:
+    """'tolerance 1e-12 -> 1e-10, ...': the native solver's settings that
+    differ from the baseline's (an edit of these alone is compared, not stale)."""
+    a, b = old_case.get("solver") or {}, case.get("solver") or {}
+    return ", ".join(f"{k} {a.get(k)} -> {b.get(k)}" for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k))
+
+
+def _judged(name, old, new, findings):
+    """One verdict rule (adapters.compare.Verdict.fails, as ``kinem compare``,
+    the cells and JUnit): a run whose verdict fails (outside its tolerance,
+    at the cost cap, native disagreeing with the engines' consensus) is a
+    regression, unless the baseline records the same verdict (a known
+    state): then only a figure worse than the baseline's fails."""
+    from adapters.compare import Verdict as Judged
+
+    try:
+        v = Judged(new.get("verdict"))
+    except ValueError:
+        return
+    if not v.fails or v is Judged.FAILED:   # a failed run is judged by its status (_compare, report._exit_code)
+        return
+    known = old is not None and old.get("verdict") == new.get("verdict")
+    if v is Judged.DISAGREES:
+        c = new["attributed"]
+        was = (old or {}).get("attributed") or {}
+        if known and was.get("figure") == c["figure"] and c["value"] <= WORSE * was["value"]:
+            findings.append(Finding(name, "native", "main", "known", c["figure"], was["value"], c["value"], False,
+                                    "known in the baseline: " + _consensus_text(c)))
+            return
+        findings.append(Finding(name, "native", "main", "consensus", c["figure"], was.get("value"), c["value"], True,
+                                _consensus_text(c)))
         return
     tol = new.get("tolerance") or {}
     for k, limit in tol.items():
-        v = new.get(k)
-        if v is not None and v > limit:
-            findings.append(Finding(name, new["engine"], "main", "tolerance", k, limit, v, True,
-                                    f"{k} {v:.2e} above its limit {limit:.0e} (within it in the baseline)"))
+        b = new.get(k)
+        if b is None or b <= limit:
+            continue
+        a = (old or {}).get(k)
+        if known and a is not None and a > limit and b <= WORSE * a:
+            findings.append(Finding(name, new["engine"], "main", "known", k, a, b, False,
+                                    f"{k} {b:.2e} above its limit {limit:.0e}: known in the baseline ({a:.2e})"))
+            continue
+        was = ("within it in the baseline" if old is not None and a is not None and a <= limit
+               else f"{a:.2e} in the baseline" if a is not None else "not in the baseline")
+        findings.append(Finding(name, new["engine"], "main", "tolerance", k, limit, b, True,
+                                f"{new['verdict']}: {k} {b:.2e} above its limit {limit:.0e} ({was})"))
 
 
-def _trajectory(name, length, old, new, findings):
-    """Every body coordinate and named point of the compact trajectories of
-    two ok runs: native may move by NATIVE_MOVE (of L, or rad), an engine by
-    its tolerance (position_error_rel, angle_error)."""
+def _consensus_text(c) -> str:
+    when = "" if c.get("t") is None else f" at t = {c['t']:.6g} s"
+    return (f"native disagrees with the engines' consensus: {c['figure']} {c['value']:.2e} in {c['column']}{when} "
+            f"against {', '.join(c['engines'])} (which agree within {c['spread']:.1e})")
+
+
+def _attribute(case, findings, start):
+    """Engines' findings that native explains: when native moved (its
+    trajectory, or it disagrees with the engines' consensus) and an engine's
+    own trajectory did not, the engine's figures against native and its
+    cost counts (its first step follows native's rates) changed because
+    native did. Those findings stay listed, not fatal ("attributed")."""
+    mine = findings[start:]
+    moved_native = [f for f in mine if f.engine == "native" and f.fatal and f.kind in ("trajectory", "consensus")]
+    if not moved_native:
+        return
+    engines_moved = {f.engine for f in mine if f.kind == "trajectory" and f.engine != "native"}
+    cause = moved_native[0]
+    for k in range(start, len(findings)):
+        f = findings[k]
+        if f.engine in ("native", "all") or f.engine in engines_moved or f.kind not in ("error", "tolerance", "count"):
+            continue
+        findings[k] = dataclasses.replace(
+            f, kind="attributed", fatal=False,
+            message=f"{f.message}: consistent (its own trajectory did not move; native's {cause.metric} did)")
+
+
+def _trajectory(path, case, old, new, findings, settings_tolerance=None):
+    """Every column of the compact trajectories of two ok runs, scale-free:
+    native may move by NATIVE_MOVE (positions, angles) and NATIVE_RATE_MOVE
+    (velocities, accelerations), or, when only its solver settings changed,
+    by SETTINGS_SLACK x the baseline's tolerance; an engine by its
+    tolerance on each figure. A column or instant the baseline lacks is an
+    edited baseline: InputError naming the file, the case and the key."""
+    from adapters.compare import FIGURE_OF
+
+    from ..errors import InputError
+    from .fingerprint import UNITS
+
     a, b = old.get("trajectory"), new.get("trajectory")
     if a is None or b is None or rank(old) or rank(new):
         return
-    tol = new.get("tolerance") or {}
-    limits = ({"L": NATIVE_MOVE, "rad": NATIVE_MOVE} if new["engine"] == "native" else
-              {"L": tol.get("position_error_rel", NATIVE_MOVE), "rad": tol.get("angle_error", NATIVE_MOVE)})
-    m = moved(a, b, length, limits)
+    name, e = case["name"], new["engine"]
+    where = f"baseline {path}: cases.{name}.runs.{e}.trajectory"
+    if a["t"] != b["t"]:
+        raise InputError(f"{where}.t: instants {a['t'][:3]}…; expected this run's {b['t'][:3]}… (re-timed)")
+    lost = sorted(set(b["columns"]) - set(a["columns"]))
+    if lost:
+        raise InputError(f"{where}.columns: no column '{lost[0]}'" + (f" (+{len(lost) - 1} more)" if len(lost) > 1 else "")
+                         + "; expected every column of the run")
+    if e == "native":
+        limits = {k: NATIVE_MOVE if k in ("position", "angle") else NATIVE_RATE_MOVE for k in UNITS}
+        if settings_tolerance:
+            limits = {k: max(v, SETTINGS_SLACK * settings_tolerance) for k, v in limits.items()}
+    else:
+        tol = new.get("tolerance") or {}
+        limits = {k: tol[f] for k, f in FIGURE_OF.items() if f in tol}
+    m = moved(a, b, case["length"], case["speed"], limits)
     if m is None:
         return
     column, d, unit, t, limit = m
     when = "" if t is None else f" at t = {t:.6g} s"
-    findings.append(Finding(name, new["engine"], "main", "trajectory", column, limit, d, True,
-                            f"{name}: {new['engine']}'s {column} moved by {d:.2e} {unit}{when} "
-                            f"(limit {limit:.0e} {unit})"))
+    who = "native (a regression of native)" if e == "native" else e
+    findings.append(Finding(name, e, "main", "trajectory", column, limit, d, True,
+                            f"{who}: {column} moved by {d:.2e} {unit}{when} (limit {limit:.0e} {unit})"))
 
 
 def _equivalence(current, baseline, findings, set_, not_compared):
