@@ -416,6 +416,17 @@ def cmd_report(a):
     return outcome.exit_code
 
 
+def cmd_diff(a):
+    from .report.diff import diff
+
+    lines, regressions = diff(a.a, a.b)
+    for line in lines:
+        print(line)
+    print(f"kinem diff: {a.b} against {a.a}: {regressions} regression(s), {len(lines) - regressions} other line(s)"
+          if lines else f"kinem diff: {a.b} against {a.a}: nothing moved")
+    return 1 if regressions else 0
+
+
 def cmd_animate(a):
     from .report.animate import check_output, write
 
@@ -525,6 +536,13 @@ def parser():
     an.add_argument("--engines", default="native,pymunk,mujoco,exudyn",
                     help="engines drawn as ghosts over the native solution")
     an.set_defaults(run=cmd_animate)
+
+    d = sub.add_parser("diff", help="what moved between two results.json files of kinem report (B against A, "
+                                    "judged as the gate judges a run against its baseline)")
+    d.add_argument("a", metavar="A.json", help="the earlier results.json (or baseline)")
+    d.add_argument("b", metavar="B.json", help="the later results.json")
+    _errors_option(d)
+    d.set_defaults(run=cmd_diff)
 
     co = sub.add_parser("completion", help="print the shell's tab-completion script (needs shtab): "
                                            "eval \"$(kinem completion bash)\"")

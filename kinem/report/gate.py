@@ -294,10 +294,10 @@ def _judged(name, old, new, findings):
         was = (old or {}).get("attributed") or {}
         if known and was.get("figure") == c["figure"] and c["value"] <= WORSE * was["value"]:
             findings.append(Finding(name, "native", "main", "known", c["figure"], was["value"], c["value"], False,
-                                    "known in the baseline: " + _consensus_text(c)))
+                                    "known in the baseline: " + _consensus_text(dict(c, case=name))))
             return
         findings.append(Finding(name, "native", "main", "consensus", c["figure"], was.get("value"), c["value"], True,
-                                _consensus_text(c)))
+                                _consensus_text(dict(c, case=name))))
         return
     tol = new.get("tolerance") or {}
     for k, limit in tol.items():
@@ -307,17 +307,17 @@ def _judged(name, old, new, findings):
         a = (old or {}).get(k)
         if known and a is not None and a > limit and b <= WORSE * a:
             findings.append(Finding(name, new["engine"], "main", "known", k, a, b, False,
-                                    f"{k} {b:.2e} above its limit {limit:.0e}: known in the baseline ({a:.2e})"))
+                                    f"{name}/{new['engine']}: {k} {b:.2e} above its limit {limit:.0e}: known in the baseline ({a:.2e})"))
             continue
         was = ("within it in the baseline" if old is not None and a is not None and a <= limit
                else f"{a:.2e} in the baseline" if a is not None else "not in the baseline")
         findings.append(Finding(name, new["engine"], "main", "tolerance", k, limit, b, True,
-                                f"{new['verdict']}: {k} {b:.2e} above its limit {limit:.0e} ({was})"))
+                                f"{name}/{new['engine']} {new['verdict']}: {k} {b:.2e} above its limit {limit:.0e} ({was})"))
 
 
 def _consensus_text(c) -> str:
     when = "" if c.get("t") is None else f" at t = {c['t']:.6g} s"
-    return (f"native disagrees with the engines' consensus: {c['figure']} {c['value']:.2e} in {c['column']}{when} "
+    return (f"{c['case']}: native disagrees with the engines' consensus: {c['figure']} {c['value']:.2e} in {c['column']}{when} "
             f"against {', '.join(c['engines'])} (which agree within {c['spread']:.1e})")
 
 
@@ -379,7 +379,7 @@ def _trajectory(path, case, old, new, findings, settings_tolerance=None):
     when = "" if t is None else f" at t = {t:.6g} s"
     who = "native (a regression of native)" if e == "native" else e
     findings.append(Finding(name, e, "main", "trajectory", column, limit, d, True,
-                            f"{who}: {column} moved by {d:.2e} {unit}{when} (limit {limit:.0e} {unit})"))
+                            f"{name}: {who}: {column} moved by {d:.2e} {unit}{when} (limit {limit:.0e} {unit})"))
 
 
 def _equivalence(current, baseline, findings, set_, not_compared):
