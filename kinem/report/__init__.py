@@ -93,6 +93,7 @@ def run(o: Options) -> Outcome:
 
             doc["stress"] = stress_section.run(o.engines, o.workers, o.scheduler, bar)
         if old is not None:
+            confirm(doc, old, cases)
             doc["gate"] = gate.gate(doc, old, o.baseline, o.fail_on_slowdown, default=o.baseline_default)
         bad = results.problems(doc, results.SCHEMA)
         if bad:  # a bug here, not the user's input
@@ -114,6 +115,36 @@ def run(o: Options) -> Outcome:
     if refused:
         line += f"; baseline NOT written: {refused[0]}"
     return Outcome(Report.FAILED if code else Report.OK, line, Written(doc, tuple(written)))
+
+
+REPEATS = 3   # a suspected slowdown is timed again this many times, in turn with a reference case
+
+
+def confirm(doc, old, cases):
+    """Times each engine run the gate suspects of a slowdown (gate.suspects)
+    again, REPEATS times in this process in turn with the engine's reference
+    case (gate.reference_case), and records the fastest of each as the run's
+    ``retimed``: the gate judges the ratio of the two, so that the load of
+    the run's other work cancels and reruns of identical code flag nothing."""
+    from .gate import reference_case, suspects
+    from .runs import Task, run_task
+
+    paths = {c.name: p for p, c, _ in cases}
+    by_name = {c["name"]: c for c in doc["cases"]}
+    for name, engine in suspects(doc, old):
+        ref = reference_case(doc, engine, name)
+        if ref is None:
+            continue
+        mine, theirs = [], []
+        for _ in range(REPEATS):
+            for path, into in ((paths[name], mine), (paths[ref], theirs)):
+                r = run_task(Task(path, engine))
+                if r["outcome"] == "ok" and r.get("time_per_step"):
+                    into.append(r["time_per_step"])
+        if mine and theirs:
+            run = next(r for r in by_name[name]["runs"] if r["engine"] == engine)
+            run["retimed"] = {"reference_case": ref, "time_per_step": min(mine),
+                              "reference_time_per_step": min(theirs), "repeats": len(mine)}
 
 
 def stress_tasks(engines) -> int:

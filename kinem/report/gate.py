@@ -57,8 +57,9 @@ NATIVE_MOVE = 1e-12
 # the quadratic velocity terms): to this much of V, V / L, V^2 / L, ...
 NATIVE_RATE_MOVE = 1e-9
 # A case edit of the native solver's settings alone: its answers may move by
-# this many times the baseline's Newton tolerance (a scaled residual, ~ / L).
-SETTINGS_SLACK = 10.0
+# this many times the baseline's Newton tolerance (a scaled residual, ~ / L):
+# they are checked against the baseline's at the baseline's tolerance.
+SETTINGS_SLACK = 1.0
 # A known failing state of the baseline (outside tolerance, native off the
 # consensus) fails again only when a figure is worse than this factor of its.
 WORSE = 1.01
@@ -171,8 +172,8 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
             continue
         settings = _settings_changed(oc, case) if oc else None
         if settings:
-            not_compared.append(f"{name}/native: cost counts (solver settings changed: {settings}; its answers are "
-                                f"compared at the baseline's tolerance)")
+            not_compared.append(f"{name}/native: cost counts and figures against the reference (solver settings "
+                                f"changed: {settings}; its answers are compared at the baseline's tolerance)")
         start = len(findings)
         for run in case["runs"]:
             e = run["engine"]
@@ -184,11 +185,12 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
                 else:
                     _judged(name, None, run, findings)   # one verdict rule: outside its tolerance fails, new or not
                 continue
-            counts = ({}, {}) if settings and e == "native" else (o["counts"], run["counts"])
+            same = not (settings and e == "native")   # else its trajectory is what is compared
             _compare(name, e, "main",
-                     {"status": o["status"], "outcome": o["outcome"], "figures": _figures(o), "counts": counts[0]},
+                     {"status": o["status"], "outcome": o["outcome"], "figures": _figures(o) if same else {},
+                      "counts": o["counts"] if same else {}},
                      {"status": run["status"], "outcome": run["outcome"], "figures": _figures(run),
-                      "counts": counts[1]},
+                      "counts": run["counts"]},
                      findings)
             _trajectory(path, case, o, run, findings, settings and oc["solver"]["tolerance"])
             skipped = _sweep(name, e, oc, case, findings, scope)
@@ -240,13 +242,59 @@ def _others(typical, engine, case):
     return statistics.median(rest) if rest else None
 
 
+def _ratios(name, old, new, typical_old, typical_new):
+    """(baseline ratio, this run's ratio, reference) of an engine run's time
+    per step to the engine's median over the run's other cases; the
+    reference is this run's confirming repeat (``confirm``) when it has one:
+    its ratio to a reference case timed alternately with it in one process."""
+    a, b = old.get("time_per_step"), new.get("time_per_step")
+    if not (a and b) or (old.get("wall_time") or 0) < WALL_FLOOR:
+        return None
+    e = new["engine"]
+    na, nb = _others(typical_old, e, name), _others(typical_new, e, name)
+    if not (na and nb):
+        return None
+    rep = new.get("retimed")
+    if rep:   # the repeats: both min over alternating runs; the baseline's ratio to the same reference case
+        ref_old = typical_old.get(e, {}).get(rep["reference_case"])
+        if ref_old:
+            return a / ref_old, rep["time_per_step"] / rep["reference_time_per_step"], rep
+    return a / na, b / nb, None
+
+
+def suspects(current, baseline) -> list:
+    """(case, engine) of the engine runs a first look flags as slower (their
+    ratio to the engine's median grew beyond SLOWDOWN_FACTOR): the report
+    times each again against a reference case before the gate judges it."""
+    old = {(c["name"], r["engine"]): r for c in baseline["cases"] for r in c["runs"]}
+    typical_old, typical_new = _typical(baseline), _typical(current)
+    out = []
+    for c in current["cases"]:
+        for r in c["runs"]:
+            o = old.get((c["name"], r["engine"]))
+            if r["engine"] == "native" or o is None or r["outcome"] != "ok":
+                continue
+            got = _ratios(c["name"], o, r, typical_old, typical_new)
+            if got and got[1] > SLOWDOWN_FACTOR * got[0]:
+                out.append((c["name"], r["engine"]))
+    return out
+
+
+def reference_case(current, engine, case):
+    """The engine's case whose time per step is the median of the others' (the same-run reference)."""
+    per = sorted((v, k) for k, v in _typical(current).get(engine, {}).items() if k != case)
+    return per[len(per) // 2][1] if per else None
+
+
 def _slower(name, old, new, typical_old, typical_new, fail_on_slowdown, findings):
     """A slowdown, measured so that machine load cancels: an engine's time
     per step on this case relative to its median over the run's other cases
     (the same run, the same machine load), against the same ratio in the
-    baseline. (Native's time is no reference for the engines: it moves
-    10-20x between runs, whether its compiled march is loaded or not.)
-    Native's own time is compared as it is, only with --fail-on-slowdown."""
+    baseline; confirmed by repeats (the report times a suspect again, in
+    turn with a reference case, and keeps the fastest of each), so that
+    reruns of identical code flag nothing. (Native's time is no reference
+    for the engines: it moves 10-20x between runs.) Native's own time is
+    compared as it is, only with --fail-on-slowdown."""
     a, b = old.get("time_per_step"), new.get("time_per_step")
     if not (a and b) or (old.get("wall_time") or 0) < WALL_FLOOR:
         return
@@ -256,15 +304,16 @@ def _slower(name, old, new, typical_old, typical_new, fail_on_slowdown, findings
             findings.append(Finding(name, "native", "main", "slower", "time_per_step", a, b, True,
                                     f"time per step x{b / a:.1f} ({1e6 * a:.3g} -> {1e6 * b:.3g} us)"))
         return
-    na, nb = _others(typical_old, e, name), _others(typical_new, e, name)
-    if not (na and nb):
+    got = _ratios(name, old, new, typical_old, typical_new)
+    if not got:
         return
-    ra, rb = a / na, b / nb
+    ra, rb, rep = got
     if rb > SLOWDOWN_FACTOR * ra:
+        against = (f"{rep['reference_case']} timed in turn with it, fastest of {rep['repeats']}" if rep
+                   else f"{e}'s median over the run's other cases")
         findings.append(Finding(name, e, "main", "slower", "time_per_step / the engine's median", ra, rb,
                                 bool(fail_on_slowdown),
-                                f"time per step relative to {e}'s median over the run's other cases "
-                                f"x{rb / ra:.1f} ({ra:.3g} -> {rb:.3g}, same run)"))
+                                f"time per step relative to {against} x{rb / ra:.1f} ({ra:.3g} -> {rb:.3g}, same run)"))
 
 
 def _settings_changed(old_case, case) -> str:
