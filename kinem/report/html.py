@@ -88,7 +88,8 @@ def _matrix_cell(cell, notes, case):
         tags += f"<br><small>{escape(tag)} <sup>{len(notes)}</sup></small>"
     if failed(r):
         return f'<td class=c-bad title="{tip}">{escape(short(r["status"], 40))}{tags}</td>'
-    mark = {Reference.CLOSED_FORM: "ᶜ", Reference.GROUP: "ᵍ"}.get(Reference(r["reference_kind"]), "")
+    mark = "" if r.get("attributed") else {Reference.CLOSED_FORM: "ᶜ", Reference.GROUP: "ᵍ"}.get(
+        Reference(r["reference_kind"]), "")
     value, what = figure(r)
     shown = (f"<i>{escape(what)}</i>" if value is None
              else f"{fmt(value)}{mark} <small>{escape(what)}</small>")
