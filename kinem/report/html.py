@@ -164,8 +164,7 @@ def case_section(case, model, series):
            f"<p>{escape(case['description'])}<br>{escape(case['path'])}: L = {case['length']:.4g} "
            f"{escape(case['unit'])}, t = 0 … {case['end']:g} s in {case['steps']} steps, "
            f"{case['coordinates']} coordinates. References: engines' errors and the plots against native at "
-           f"tolerance {fmt(case['reference_tolerance'], '.0e')}; native's position error against "
-           f"{escape(_native_reference(case))}.</p>"]
+           f"tolerance {fmt(case['reference_tolerance'], '.0e')}; native: {escape(_native_reference(case))}.</p>"]
     native = series.get("native")
     if native and "frames" in native:
         out += motion_section(model, series)
@@ -197,8 +196,15 @@ def case_section(case, model, series):
 
 
 def _native_reference(case):
+    """What native's figures are against: its closed form or equivalence
+    group, or no independent reference (the engines' consensus, when it
+    disagrees with it, is in its verdict)."""
     native = next((r for r in case["runs"] if r["engine"] == "native"), None)
-    return native["reference"] if native else "–"
+    if native is None:
+        return "–"
+    if Reference(native["reference_kind"]) is Reference.NATIVE:
+        return f"{SELF} (its figures against native at the reference tolerance are the same solver's)"
+    return f"position error against {native['reference']}"
 
 
 def motion_section(model, series):
