@@ -243,3 +243,55 @@ def test_a_solver_settings_edit_is_compared_not_stale(repo, tmp_path):
         assert "stale" not in kinds
         assert (out.exit_code == 1) is fails and (("trajectory" in kinds) is fails), out.value.doc["gate"]
         assert any("solver settings changed" in x for x in out.value.doc["gate"]["not_compared"])
+
+
+def test_kinem_diff_names_what_moved(repo, tmp_path, capsys):
+    _, base, clean, tmp = repo
+    assert cli.main(["diff", str(base), str(base)]) == 0
+    assert "nothing moved" in capsys.readouterr().out
+    doc = copy.deepcopy(results.load(base))
+    native = doc["cases"][0]["runs"][0]
+    native["trajectory"]["columns"]["coupler.vx"][4] *= 1.01
+    doc["cases"][0]["runs"][1]["counts"]["steps"] += 1
+    moved = tmp_path / "moved.json"
+    moved.write_text(results.dumps(doc))
+    assert cli.main(["diff", str(base), str(moved)]) == 1
+    out = capsys.readouterr().out
+    assert "REGRESSED: four_bar/native (main): four_bar: native (a regression of native): coupler.vx moved" in out
+    assert "four_bar/pymunk" in out and "steps" in out
+
+
+def test_summary_figure_is_the_worst_of_positions_angles_and_rates():
+    from kinem.report.text import figure
+
+    run = {"engine": "exudyn", "outcome": "ok", "position_error_rel": 1e-9, "angle_error": 2e-9,
+           "velocity_error_rel": 7e-8, "angular_velocity_error_rel": 3e-8}
+    assert figure(run) == (7e-8, "velocity / V")
+    assert figure(dict(run, angular_velocity_error_rel=9e-8)) == (9e-8, "angular velocity / (V/L)")
+
+
+def test_a_slowdown_needs_its_repeats(repo):
+    """A first look flags a ratio x2.6 (the baseline's reference case paid an
+    engine's warm-up); the repeats, fastest of 3 in turn with the reference
+    case, are no slower than the baseline's own time: nothing is flagged.
+    Repeats slower than both: flagged."""
+    from kinem.report.gate import gate
+
+    base = results.load(repo[1])
+    doc = copy.deepcopy(base)
+    rack = next(c for c in doc["cases"] if c["name"] == "rack_pinion")
+    four = next(c for c in base["cases"] if c["name"] == "four_bar")
+    run = next(r for r in rack["runs"] if r["engine"] == "exudyn")
+    ref = next(r for r in four["runs"] if r["engine"] == "exudyn")["time_per_step"]
+    a = run["time_per_step"]
+    run["time_per_step"] = 3 * a
+    run["wall_time"] = max(run["wall_time"], 0.02)
+    next(r for r in next(c for c in base["cases"] if c["name"] == "rack_pinion")["runs"]
+         if r["engine"] == "exudyn")["wall_time"] = 0.02
+    run["retimed"] = {"reference_case": "four_bar", "time_per_step": a, "reference_time_per_step": ref / 2.6,
+                      "repeats": 3}
+    slow = [f for f in gate(doc, base, "b")["findings"] if f["kind"] == "slower"]
+    assert slow == []
+    run["retimed"].update(time_per_step=2.5 * a, reference_time_per_step=ref)
+    slow = [f for f in gate(doc, base, "b")["findings"] if f["kind"] == "slower"]
+    assert [(f["case"], f["engine"]) for f in slow] == [("rack_pinion", "exudyn")] and "fastest of 3" in slow[0]["message"]
