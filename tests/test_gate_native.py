@@ -87,6 +87,7 @@ def test_a_native_error_is_a_regression_of_native_on_every_case(repo, tmp_path, 
     out = report(paths, tmp_path / "o", str(base))
     doc, g = out.value.doc, out.value.doc["gate"]
     assert out.exit_code == 1
+    assert f"{g['regressions']} regressions ({g['regressions']} of native)" in out.detail
     for name in CASES:
         mine = [f for f in g["findings"] if f["case"] == name and f["fatal"]]
         assert mine and all(f["engine"] == "native" for f in mine), (name, mine)

@@ -261,6 +261,13 @@ def _exit_code(doc, o) -> int:
     return 0
 
 
+def _of_native(g) -> str:
+    """' (N of native)': how many regressions are native's own (its answer moved, or it
+    disagrees with the engines' consensus), so that a formulation change is named as one."""
+    n = sum(f["fatal"] and f["kind"] != "slower" and f["engine"] == "native" for f in g["findings"])
+    return f" ({n} of native)" if n else ""
+
+
 def _line(doc, out, code, o) -> str:
     runs = [r for c in doc["cases"] for r in c["runs"]]
     from .text import failed as lost
@@ -271,7 +278,7 @@ def _line(doc, out, code, o) -> str:
         gate = "no baseline" + (f" (none at {out / 'baseline.json'}; --update-baseline writes one)"
                                 if o.baseline_default and not o.baseline else "")
     else:
-        gate = (f"{g['regressions']} regressions, {g['slowdowns']} slowdowns vs {g['baseline']}"
+        gate = (f"{g['regressions']} regressions{_of_native(g)}, {g['slowdowns']} slowdowns vs {g['baseline']}"
                 + (" (default; --baseline none to skip)" if o.baseline_default else ""))
         if g["not_compared"]:
             gate += f"; {len(g['not_compared'])} thing(s) not compared (listed in summary.md and index.html)"

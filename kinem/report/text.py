@@ -217,7 +217,9 @@ def headline(doc) -> str:
     what = (f"{len(doc['cases'])} case(s) on {', '.join(engines_of(doc))}: {ok} of {n} runs ok, {n_failed} failed, "
             f"{n_unsupported} unsupported")
     if g:
-        base = (f"{regressions} regression(s), {g['slowdowns']} slowdown(s) against {g['baseline']}"
+        mine = sum(f["fatal"] and f["kind"] != "slower" and f["engine"] == "native" for f in g["findings"])
+        base = (f"{regressions} regression(s)" + (f" ({mine} of native)" if mine else "")
+                + f", {g['slowdowns']} slowdown(s) against {g['baseline']}"
                 + (" (found by default; --baseline none skips it)" if g.get("default") else ""))
         if g.get("not_compared"):
             base += f"; {len(g['not_compared'])} thing(s) not compared (listed below)"
