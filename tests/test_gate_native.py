@@ -296,3 +296,24 @@ def test_a_slowdown_needs_its_repeats(repo):
     run["retimed"].update(time_per_step=2.5 * a, reference_time_per_step=ref)
     slow = [f for f in gate(doc, base, "b")["findings"] if f["kind"] == "slower"]
     assert [(f["case"], f["engine"]) for f in slow] == [("rack_pinion", "exudyn")] and "fastest of 3" in slow[0]["message"]
+
+
+def test_a_known_disagreement_passes_and_a_worse_one_fails(repo):
+    """A baseline may record native disagreeing with the engines' consensus
+    as a known state: the same figure passes (listed as known), a worse one
+    fails as a regression of native."""
+    from kinem.report.gate import gate
+
+    base = copy.deepcopy(results.load(repo[1]))
+    native = base["cases"][0]["runs"][0]
+    said = {"figure": "velocity_error_rel", "value": 1e-3, "column": "coupler.vx", "t": 0.25,
+            "engines": ["pymunk", "mujoco"], "spread": 1e-7}
+    native.update(verdict="native disagrees with the engines' consensus", attributed=said)
+    doc = copy.deepcopy(base)
+    g = gate(doc, base, "b")
+    assert g["regressions"] == 0 and [f["kind"] for f in g["findings"] if f["engine"] == "native"] == ["known"]
+    doc["cases"][0]["runs"][0]["attributed"] = dict(said, value=2e-3)
+    g = gate(doc, base, "b")
+    bad = [f for f in g["findings"] if f["fatal"]]
+    assert [(f["engine"], f["kind"]) for f in bad] == [("native", "consensus")]
+    assert "four_bar: native disagrees with the engines' consensus: velocity_error_rel 2.00e-03" in bad[0]["message"]
