@@ -6,18 +6,26 @@ A regression (exit code 1) is, for a case and engine present in both:
   what lies above ERROR_FLOOR (new > ERROR_FACTOR * max(old, ERROR_FLOOR));
 - a deterministic cost count that grew at all (Newton iterations, Jacobian
   evaluations, factorisations; engine steps and substeps).
-- a compact trajectory (every body coordinate and named point at fixed
-  instants) that moved: native by more than NATIVE_MOVE of L (or rad), an
-  engine by more than its tolerance; this sees a formulation change where
-  no closed form exists;
+- a compact trajectory (positions, velocities and accelerations of every
+  body coordinate and named point at fixed instants, scale-free) that
+  moved: native by more than NATIVE_MOVE (positions, angles) or
+  NATIVE_RATE_MOVE (rates), a regression of native naming the case, column,
+  instant, size and limit; an engine by its tolerance. This sees a
+  formulation change where no closed form exists;
+- native disagreeing with the engines' consensus (adapters.compare.consensus);
+- one verdict rule (adapters.compare.Verdict.fails): a run outside its
+  tolerance (or at the cost cap) fails unless the baseline records the same
+  verdict (a known state), and then only a worse figure (WORSE) fails;
 - a case whose fingerprint changed: "case changed: baseline stale" (its
-  runs are then not compared).
+  runs are then not compared); an edit of the native solver's settings
+  alone is compared instead, at the baseline's tolerance (SETTINGS_SLACK).
+When native moved and an engine's own trajectory did not, the engine's
+findings against native are "attributed" (listed, not fatal).
 The same rules apply to every work-precision point both runs have (its
 position and velocity errors and its counts). Wall time is only flagged: time per step more than
 SLOWDOWN_FACTOR times the baseline's, each relative to the engine's median
-over the run's cases (native itself: only with --fail-on-slowdown), is a slowdown, fatal only with
---fail-on-slowdown. A run within its tolerance in the baseline and outside it
-now is a regression naming each figure, its value and its limit.
+over the run's cases (native itself: only with --fail-on-slowdown), confirmed by repeats
+(report.confirm), is a slowdown, fatal only with --fail-on-slowdown.
 
 No blind spots: a case, engine run or sweep point the baseline has and this
 run lacks is a "missing" finding, fatal unless the run was narrowed on
