@@ -3,6 +3,7 @@ work-precision sweeps, and the baseline gate (docs/report.md).
 
     execute.py  which runs, where (kinem.parallel)  runs.py   one run (in a worker)
     results.py  results.json and its schema         gate.py   the baseline gate
+    slowdown.py the gate's confirmed wall-time flag  diff.py   kinem diff A.json B.json
     html.py, plots.py, text.py: index.html, summary.md, junit.xml
 """
 import dataclasses
@@ -93,6 +94,8 @@ def run(o: Options) -> Outcome:
 
             doc["stress"] = stress_section.run(o.engines, o.workers, o.scheduler, bar)
         if old is not None:
+            from .slowdown import confirm
+
             confirm(doc, old, cases)
             doc["gate"] = gate.gate(doc, old, o.baseline, o.fail_on_slowdown, default=o.baseline_default)
         bad = results.problems(doc, results.SCHEMA)
@@ -115,36 +118,6 @@ def run(o: Options) -> Outcome:
     if refused:
         line += f"; baseline NOT written: {refused[0]}"
     return Outcome(Report.FAILED if code else Report.OK, line, Written(doc, tuple(written)))
-
-
-REPEATS = 3   # a suspected slowdown is timed again this many times, in turn with a reference case
-
-
-def confirm(doc, old, cases):
-    """Times each engine run the gate suspects of a slowdown (gate.suspects)
-    again, REPEATS times in this process in turn with the engine's reference
-    case (gate.reference_case), and records the fastest of each as the run's
-    ``retimed``: the gate judges the ratio of the two, so that the load of
-    the run's other work cancels and reruns of identical code flag nothing."""
-    from .gate import reference_case, suspects
-    from .runs import Task, run_task
-
-    paths = {c.name: p for p, c, _ in cases}
-    by_name = {c["name"]: c for c in doc["cases"]}
-    for name, engine in suspects(doc, old):
-        ref = reference_case(doc, engine, name)
-        if ref is None:
-            continue
-        mine, theirs = [], []
-        for _ in range(REPEATS):
-            for path, into in ((paths[name], mine), (paths[ref], theirs)):
-                r = run_task(Task(path, engine))
-                if r["outcome"] == "ok" and r.get("time_per_step"):
-                    into.append(r["time_per_step"])
-        if mine and theirs:
-            run = next(r for r in by_name[name]["runs"] if r["engine"] == engine)
-            run["retimed"] = {"reference_case": ref, "time_per_step": min(mine),
-                              "reference_time_per_step": min(theirs), "repeats": len(mine)}
 
 
 def stress_tasks(engines) -> int:

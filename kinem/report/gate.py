@@ -25,7 +25,7 @@ The same rules apply to every work-precision point both runs have (its
 position and velocity errors and its counts). Wall time is only flagged: time per step more than
 SLOWDOWN_FACTOR times the baseline's, each relative to the engine's median
 over the run's cases (native itself: only with --fail-on-slowdown), confirmed by repeats
-(report.confirm), is a slowdown, fatal only with --fail-on-slowdown.
+(slowdown.confirm), is a slowdown, fatal only with --fail-on-slowdown.
 
 No blind spots: a case, engine run or sweep point the baseline has and this
 run lacks is a "missing" finding, fatal unless the run was narrowed on
@@ -40,6 +40,7 @@ import math
 from dataclasses import asdict, dataclass
 
 from .fingerprint import moved
+from .slowdown import SLOWDOWN_FACTOR, WALL_FLOOR, slower, typical  # noqa: F401 (the gate's constants)
 
 # Errors and residuals are relative to L (or radians, rad/s, scaled residual
 # units); below 1e-12 they are rounding noise (the reference itself is only
@@ -50,12 +51,6 @@ ERROR_FLOOR = 1e-12
 # rounding while catching a formulation or adapter change (those move errors
 # by orders of magnitude).
 ERROR_FACTOR = 2.0
-# Shared CI machines vary by up to about 1.5x from run to run, and load
-# moves every case alike: a case's time relative to the run's median is
-# steadier (the flag compares that ratio, see _slower).
-SLOWDOWN_FACTOR = 2.0
-# Baseline runs shorter than this are dominated by timer and scheduler noise.
-WALL_FLOOR = 0.01
 STATUS_RANK = {"ok": 0, "unsupported": 1}   # outcomes; every failure kind ranks 2
 # Native's answers are deterministic to rounding: its compact trajectory may
 # move by this much (of L, or rad) between runs; anything more is a change
@@ -165,7 +160,7 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
     old_cases = {c["name"]: c for c in baseline["cases"]}
     not_compared = _missing(current, baseline, scope, findings)
     whole = current["options"]["whole_set"]
-    typical_old, typical_new = _typical(baseline), _typical(current)
+    typical_old, typical_new = typical(baseline), typical(current)
     for case in current["cases"]:
         name = case["name"]
         oc = old_cases.get(name)
@@ -206,7 +201,7 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
                 why = "--quick" if scope.sweeps else "not in this run's sweep: a regression"
                 not_compared.append(f"{name}/{e}: {skipped} work-precision point(s) of the baseline ({why})")
             _judged(name, o, run, findings)
-            _slower(name, o, run, typical_old, typical_new, fail_on_slowdown, findings)
+            slower(name, o, run, typical_old, typical_new, fail_on_slowdown, findings)
         _attribute(case, findings, start)
         for run in case["runs"]:
             e = run["engine"]
@@ -225,106 +220,6 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
             "findings": [asdict(f) for f in findings], "verdicts": verdicts,
             "kinds": {k: v.value for k, v in kinds.items()}, "not_compared": not_compared,
             "default": bool(default)}
-
-
-def _per_interval(r):
-    return r.get("time_per_interval") or r.get("time_per_step")
-
-
-def _typical(doc) -> dict:
-    """{engine: {case: time per engine step}} of the run's ok main runs: the
-    same-run reference a case's time is measured against."""
-    per = {}
-    for c in doc["cases"]:
-        for r in c["runs"]:
-            if r.get("time_per_step") and r["outcome"] == "ok":
-                per.setdefault(r["engine"], {})[c["name"]] = r["time_per_step"]
-    return per
-
-
-def _others(typical, engine, case):
-    """The engine's median time per step over the run's other cases (None without any)."""
-    import statistics
-
-    rest = [v for k, v in typical.get(engine, {}).items() if k != case]
-    return statistics.median(rest) if rest else None
-
-
-def _ratios(name, old, new, typical_old, typical_new):
-    """(baseline ratio, this run's ratio, reference) of an engine run's time
-    per step to the engine's median over the run's other cases; the
-    reference is this run's confirming repeat (``confirm``) when it has one:
-    its ratio to a reference case timed alternately with it in one process."""
-    a, b = old.get("time_per_step"), new.get("time_per_step")
-    if not (a and b) or (old.get("wall_time") or 0) < WALL_FLOOR:
-        return None
-    e = new["engine"]
-    na, nb = _others(typical_old, e, name), _others(typical_new, e, name)
-    if not (na and nb):
-        return None
-    rep = new.get("retimed")
-    if rep:   # the repeats: both min over alternating runs; the baseline's ratio to the same reference case
-        ref_old = typical_old.get(e, {}).get(rep["reference_case"])
-        if ref_old:
-            return a / ref_old, rep["time_per_step"] / rep["reference_time_per_step"], rep
-    return a / na, b / nb, None
-
-
-def suspects(current, baseline) -> list:
-    """(case, engine) of the engine runs a first look flags as slower (their
-    ratio to the engine's median grew beyond SLOWDOWN_FACTOR): the report
-    times each again against a reference case before the gate judges it."""
-    old = {(c["name"], r["engine"]): r for c in baseline["cases"] for r in c["runs"]}
-    typical_old, typical_new = _typical(baseline), _typical(current)
-    out = []
-    for c in current["cases"]:
-        for r in c["runs"]:
-            o = old.get((c["name"], r["engine"]))
-            if r["engine"] == "native" or o is None or r["outcome"] != "ok":
-                continue
-            got = _ratios(c["name"], o, r, typical_old, typical_new)
-            if got and got[1] > SLOWDOWN_FACTOR * got[0]:
-                out.append((c["name"], r["engine"]))
-    return out
-
-
-def reference_case(current, engine, case):
-    """The engine's case whose time per step is the median of the others' (the same-run reference)."""
-    per = sorted((v, k) for k, v in _typical(current).get(engine, {}).items() if k != case)
-    return per[len(per) // 2][1] if per else None
-
-
-def _slower(name, old, new, typical_old, typical_new, fail_on_slowdown, findings):
-    """A slowdown, measured so that machine load cancels: an engine's time
-    per step on this case relative to its median over the run's other cases
-    (the same run, the same machine load), against the same ratio in the
-    baseline; confirmed by repeats (the report times a suspect again, in
-    turn with a reference case, and keeps the fastest of each; the fastest
-    must also be slower than the baseline's own time), so that reruns of
-    identical code flag nothing. (Native's time is no reference
-    for the engines: it moves 10-20x between runs.) Native's own time is
-    compared as it is, only with --fail-on-slowdown."""
-    a, b = old.get("time_per_step"), new.get("time_per_step")
-    if not (a and b) or (old.get("wall_time") or 0) < WALL_FLOOR:
-        return
-    e = new["engine"]
-    if e == "native":
-        if fail_on_slowdown and b > SLOWDOWN_FACTOR * a:
-            findings.append(Finding(name, "native", "main", "slower", "time_per_step", a, b, True,
-                                    f"time per step x{b / a:.1f} ({1e6 * a:.3g} -> {1e6 * b:.3g} us)"))
-        return
-    got = _ratios(name, old, new, typical_old, typical_new)
-    if not got:
-        return
-    ra, rb, rep = got
-    # a repeat must also be slower than the baseline's own time: the baseline's times are single runs (the
-    # first run of an engine in a process pays its warm-up), so its ratio alone can flag identical code
-    if rb > SLOWDOWN_FACTOR * ra and (not rep or rep["time_per_step"] > SLOWDOWN_FACTOR * a):
-        against = (f"{rep['reference_case']} timed in turn with it, fastest of {rep['repeats']}" if rep
-                   else f"{e}'s median over the run's other cases")
-        findings.append(Finding(name, e, "main", "slower", "time_per_step / the engine's median", ra, rb,
-                                bool(fail_on_slowdown),
-                                f"time per step relative to {against} x{rb / ra:.1f} ({ra:.3g} -> {rb:.3g}, same run)"))
 
 
 def _settings_changed(old_case, case) -> str:
