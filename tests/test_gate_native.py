@@ -105,6 +105,11 @@ def test_a_native_error_is_a_regression_of_native_on_every_case(repo, tmp_path, 
     assert all(now[k] <= 1.05 * before[k] for k in now), (now, before)
     assert not any(r["verdict"] == "cannot reach the tolerance within the cost cap"
                    for c in doc["cases"] for r in c["runs"])
+    html = (tmp_path / "o" / "index.html").read_text()   # regression text below the summary table, not in its cells
+    table = html[html.index("<table class=matrix>"):html.index("</table>", html.index("<table class=matrix>"))]
+    table = re.sub(r' title="[^"]*"', "", table)   # the hover text may say it all
+    notes = html[html.index("<ol class=notes>"):]
+    assert "moved by" not in table and "regressed <sup>" in table and "regression of native" in notes[:5000]
     suites = ET.parse(tmp_path / "o" / "junit.xml").getroot()
     failed = {(t.get("classname").rsplit(".", 1)[1], t.get("name")) for t in suites.iter("testcase")
               if t.find("failure") is not None}

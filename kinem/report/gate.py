@@ -450,7 +450,8 @@ def _point_figures(p):
 
 def verdict(findings) -> tuple:
     """(Verdict, sentence) of one case/engine's findings."""
-    fatal = [f for f in findings if f.fatal]
+    # the finding that says most first: a moved trajectory or the consensus names the column and instant
+    fatal = sorted((f for f in findings if f.fatal), key=lambda f: f.kind not in ("trajectory", "consensus"))
     if fatal:
         f = fatal[0]
         more = f" (+{len(fatal) - 1} more)" if len(fatal) > 1 else ""
