@@ -272,11 +272,15 @@ def step(r):
 
 def _knobs(adapter, requested, used):
     """A run's full knob setting: the requested step dt and the values of the
-    adapter's other accuracy knobs (adapters.tune.families) it ran with."""
+    adapter's other accuracy knobs (adapters.tune.families) it ran with, or
+    "auto" where it was asked to choose."""
     from adapters.tune import STEP_KNOB
 
     out = {"dt": requested.get("dt")}
-    out.update({k: used.get(k) for k in adapter.knobs if k != STEP_KNOB})
+    # a knob asked as "auto" stays "auto": the value it resolved to (after a retry, say pymunk's 100
+    # iterations) would make the point look like the explicit family of that value, and the gate would
+    # compare a run of two attempts with a run of one
+    out.update({k: "auto" if requested.get(k) == "auto" else used.get(k) for k in adapter.knobs if k != STEP_KNOB})
     return _plain(out)
 
 
