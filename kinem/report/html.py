@@ -66,6 +66,9 @@ def summary_matrix(doc):
 
 # a cell's short tag (its note below the table says the rest)
 TAGS = {"regressed": "regressed", "new": "new", "slower": "slower"}
+SHORT = {"native disagrees with the engines' consensus": "off the engines' consensus",
+         "consistent with the engines' consensus": "consistent with the engines",
+         "cannot reach the tolerance within the cost cap": "at the cost cap"}
 
 
 def _matrix_cell(cell, notes, case):
@@ -81,7 +84,7 @@ def _matrix_cell(cell, notes, case):
     if v[0] in TAGS:
         said.append((TAGS[v[0]], v[1]))
     if r["outcome"] == "ok" and (verdict(r).fails or r.get("attributed")):
-        said.append((short(verdict(r).value, 40), judgement(r)))
+        said.append((SHORT.get(verdict(r).value, verdict(r).value), judgement(r)))
     tags = ""
     for tag, text in said:
         notes.append(f"{case} / {r['engine']}: {text}")
