@@ -482,7 +482,7 @@ def cmd_compare(a):
                           "engines": {r.engine: r.as_dict() for r in rows}}, indent=2, default=float))
     else:
         print(table(model.case.name, model.length, model.case.length_unit, rows))
-    return 0 if all(r.within_tolerance is not False for r in rows) else 1
+    return 1 if any(r.verdict.fails for r in rows) else 0   # adapters.compare.Verdict: the report's rule too
 
 
 def cmd_report(a):
@@ -502,15 +502,25 @@ def cmd_report(a):
         baseline = str(found) if found.is_file() else None
     elif baseline == "none":
         baseline = None
-    whole_set = bool(whole) and {Path(p).resolve() for p in paths} == {Path(p).resolve() for p in whole}
     outcome = run(Options(cases=tuple(paths), engines=engines, out=a.out,
                           baseline=baseline, update_baseline=a.update_baseline, quick=a.quick, junit=a.junit,
                           fail_on_slowdown=a.fail_on_slowdown, workers=a.jobs, scheduler=a.scheduler,
-                          stress=True if a.stress else False if a.no_stress else None, whole_set=whole_set,
+                          stress=True if a.stress else False if a.no_stress else None,
                           work_precision=a.work_precision,
                           baseline_default=a.baseline is None))
     print(outcome.detail)
     return outcome.exit_code
+
+
+def cmd_diff(a):
+    from .report.diff import diff
+
+    lines, regressions = diff(a.a, a.b)
+    for line in lines:
+        print(line)
+    print(f"kinem diff: {a.b} against {a.a}: {regressions} regression(s), {len(lines) - regressions} other line(s)"
+          if lines else f"kinem diff: {a.b} against {a.a}: nothing moved")
+    return 1 if regressions else 0
 
 
 def cmd_animate(a):
@@ -644,6 +654,13 @@ def parser():
     an.add_argument("--engines", default="native,pymunk,mujoco,exudyn",
                     help="engines drawn as ghosts over the native solution")
     an.set_defaults(run=cmd_animate)
+
+    d = sub.add_parser("diff", help="what moved between two results.json files of kinem report (B against A, "
+                                    "judged as the gate judges a run against its baseline)")
+    d.add_argument("a", metavar="A.json", help="the earlier results.json (or baseline)")
+    d.add_argument("b", metavar="B.json", help="the later results.json")
+    _errors_option(d)
+    d.set_defaults(run=cmd_diff)
 
     co = sub.add_parser("completion", help="print the shell's tab-completion script (needs shtab): "
                                            "eval \"$(kinem completion bash)\"")
