@@ -365,7 +365,7 @@ def test_the_rejection_codes_are_mirrored_with_messages():
     assert all(w.message for w in native.Why)
 
 
-def test_a_guarded_panic_prints_nothing_and_an_unguarded_hook_is_kept():
+def test_a_guarded_panic_prints_nothing_and_is_a_core_error():
     code = textwrap.dedent("""
         import kinem
         from kinem import _core
