@@ -241,6 +241,14 @@ class _Trace:
 def cmd_info(a):
     from .info import describe, info
 
+    if a.parameters:
+        from .case import load
+        from .info import describe_parameters
+        from .parameters import parameters
+
+        listed = parameters(load(a.case))
+        print(json.dumps([p.as_dict() for p in listed], indent=2) if a.json else describe_parameters(listed))
+        return 0
     i = info(_load(a.case))
     print(json.dumps(i.as_dict(), indent=2) if a.json else describe(i))
     if not i.assembled:  # the figures above are of the closest configuration found
@@ -460,6 +468,8 @@ def parser():
     i = sub.add_parser("info", help="coordinates, equations, Jacobian non-zeros, degrees of freedom")
     i.add_argument("case", help="the case file (TOML; docs/case-format.md)")
     i.add_argument("--json", action="store_true", help="the same figures as JSON")
+    i.add_argument("--parameters", action="store_true",
+                   help="list the case's design parameters instead: path, value, unit, what it is")
     _errors_option(i)
     i.set_defaults(run=cmd_info)
 

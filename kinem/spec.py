@@ -33,6 +33,7 @@ class Constraint:
     name: str
     index: int  # 1-based position in the file's [[constraints]]
     fields: Mapping[str, Any] = field(default_factory=frozen_map)
+    refs: Mapping[str, str] = field(default_factory=frozen_map)  # key -> the named point it gave (fields hold its at)
 
     def __getitem__(self, key):
         return self.fields[key]

@@ -72,7 +72,7 @@ TYPES = [
         BodyKey("follower", doc="the follower j"),
         LocalKey("sj", of="follower", doc="Q_j: the roller's centre"),
         PositiveKey("radius", doc="rho: the roller's radius"),
-        NumberKey("theta", doc="estimate of the contact angle theta on the outline (rad)"),
+        NumberKey("theta", quantity=None, doc="estimate of the contact angle theta on the outline (rad)"),
         WordKey("side", required=False, words=("outside", "inside"),
                 doc="the branch the assembly must reach: the roller's centre outside or inside the outline "
                     "at the first instant; else the analysis fails (kinem/branches.py)"),
@@ -84,7 +84,7 @@ TYPES = [
         BodyKey("follower", doc="the follower j"),
         LocalKey("sj", of="follower", doc="Q_j: a point of the flat face"),
         DirectionKey("normal", doc="n'_j: the face's normal (local; normalised)"),
-        NumberKey("theta", doc="estimate of the contact angle theta on the outline (rad)"),
+        NumberKey("theta", quantity=None, doc="estimate of the contact angle theta on the outline (rad)"),
     ), CamFlat, check=check_theta, rows=2,
         doc="Disk cam and flat-faced follower: the follower's face is tangent to the outline."),
 ]
