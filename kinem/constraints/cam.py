@@ -31,7 +31,7 @@ class CamRoller(_CamFollower):
     def __init__(self, cons, ctx):
         self.setup(cons, ctx)
         rho = np.array([c["radius"] for c in cons], dtype=float)
-        self.rho2 = rho**2
+        self.rho = rho
         self.n_rows = 2 * len(cons)
         self.labels, self.owner, self.driving = row_info(cons, ("normal", "distance"))
         # residuals of a displacement L: |g| L (|g| ~ the outline's s) and 2 rho L
@@ -41,7 +41,7 @@ class CamRoller(_CamFollower):
         self.rows, self.cols = pattern(np.concatenate([cols, cols], axis=1), [0] * 7 + [1] * 7, 2)
 
     def table(self, functions, outlines):
-        return "cam-roller", dict(self.columns(outlines), rho2=reals(self.rho2))
+        return "cam-roller", dict(self.columns(outlines), rho=reals(self.rho))   # the core squares it
 
 
 class CamFlat(_CamFollower):
@@ -52,7 +52,7 @@ class CamFlat(_CamFollower):
     def __init__(self, cons, ctx):
         self.setup(cons, ctx)
         n = local_points([c["normal"] for c in cons])
-        self.n = n / np.abs(n)
+        self.normal, self.n = n, n / np.abs(n)
         self.n_rows = 2 * len(cons)
         self.labels, self.owner, self.driving = row_info(cons, ("tangent", "contact"))
         # residuals of a rotation by 1 rad (|g| ~ the outline's s) and of a displacement L
@@ -62,7 +62,7 @@ class CamFlat(_CamFollower):
         self.rows, self.cols = pattern(cols, [0] * 3 + [1] * 7, 2)
 
     def table(self, functions, outlines):
-        return "cam-flat", dict(self.columns(outlines), n=points(self.n))
+        return "cam-flat", dict(self.columns(outlines), n=points(self.normal))   # the core normalises it
 
 
 TYPES = [

@@ -62,7 +62,7 @@ class RackPinion(Family):
         self.c = local_points([c["center"] for c in cons])
         self.s = local_points([c["sj"] for c in cons])
         u = local_points([c["u"] for c in cons])
-        self.u = u / np.abs(u)
+        self.direction, self.u = u, u / np.abs(u)
         self.rho = np.array([c["radius"] for c in cons], dtype=float)
         self.phi0 = np.array([c["phi0"] for c in cons], dtype=float)
         self.n_rows = len(cons)
@@ -74,7 +74,7 @@ class RackPinion(Family):
 
     def table(self, functions, outlines):
         return "rack-pinion", {"ci": ints(self.ci), "cj": ints(self.cj), "c": points(self.c), "s": points(self.s),
-                               "u": points(self.u), "rho": reals(self.rho), "phi0": reals(self.phi0)}
+                               "u": points(self.direction), "rho": reals(self.rho), "phi0": reals(self.phi0)}
 
 
 def _angle(bodies, name):
