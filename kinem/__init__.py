@@ -16,12 +16,14 @@ from .errors import AnalysisError, ConvergenceError, InputError, KinemError, Sin
 from .model import Model, compile
 from .notebook import animate, plot
 from .options import Options
+from .parameters import Parameter, parameters
 from .result import OUTPUTS, SolveResult, Status, Trajectory
+from .sensitivity import Sensitivity, sensitivity
 from .solver import solve
 from .spec import Body, Case, Constraint, Point
 
 __all__ = [
     "__version__", "load", "loads", "load_dict", "compile", "solve", "position", "velocity", "acceleration",
     "factorize", "Data", "Options", "Model", "Case", "Body", "Point", "Constraint", "SolveResult", "Trajectory",
-    "Status", "OUTPUTS", "plot", "animate", "KinemError", "InputError", "AnalysisError", "ConvergenceError", "SingularError",
+    "Status", "OUTPUTS", "plot", "animate", "parameters", "Parameter", "sensitivity", "Sensitivity", "KinemError", "InputError", "AnalysisError", "ConvergenceError", "SingularError",
 ]

@@ -259,6 +259,20 @@ def cmd_info(a):
     return 0
 
 
+def cmd_sensitivity(a):
+    from .output import write_trajectory
+    from .sensitivity import sensitivity
+
+    fmt = _format(a.out, a.format)
+    model = _load(a.case, a.end, a.steps)
+    paths = [p.strip() for p in a.parameters.split(",") if p.strip()]
+    s = sensitivity(model, paths, outputs=_outputs(a.outputs))
+    if s.singular.any():
+        print(f"kinem: warning: {a.case}: {s.message}", file=sys.stderr)
+    write_trajectory(s.derivatives, "-" if a.out is None else a.out, fmt)
+    return 0
+
+
 def _settings(items, dt, engines=None):
     """--set engine.key=value (repeatable) and --dt into engine -> overrides,
     checked by each engine named (or in ``engines``) with a one-line error."""
@@ -472,6 +486,17 @@ def parser():
                    help="list the case's design parameters instead: path, value, unit, what it is")
     _errors_option(i)
     i.set_defaults(run=cmd_info)
+
+    se = sub.add_parser("sensitivity", help="exact d/dp of every output column for design parameters p")
+    se.add_argument("case", help="the case file (TOML; docs/case-format.md)")
+    se.add_argument("--parameters", required=True, metavar="P,...",
+                    help="comma-separated parameter paths (kinem info CASE --parameters lists them)")
+    se.add_argument("--out", help="output file (default: CSV to standard output)")
+    se.add_argument("--format", choices=("csv", "npz"), help="csv (default) or npz (needs --out)")
+    se.add_argument("--outputs", default=",".join(OUTPUTS), help="any of positions,velocities,accelerations")
+    se.add_argument("--end", help="end time (overrides the case)")
+    se.add_argument("--steps", help="number of output intervals (overrides the case)")
+    se.set_defaults(run=cmd_sensitivity)
 
     st = sub.add_parser("stress", help="the stress suite on native and the engines, each outcome classified")
     st.add_argument("--engines", help="comma-separated: native and engines (default: all)")

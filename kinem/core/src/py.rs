@@ -711,13 +711,17 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 
 /// A trajectory's columns (columns::columns): X a list of 1 to 3 arrays (K,
 /// n) (positions, velocities, accelerations), src (C,), pc (P,), local (P,).
+/// With tangents (dx: as X, dlocal: as local): the columns' tangents along
+/// them (over dual numbers), not the columns.
 #[pyfunction]
+#[pyo3(signature = (x, src, pc, local, tangents=None))]
 fn columns<'py>(
     py: Python<'py>,
     x: Vec<PyReadonlyArray2<'py, f64>>,
     src: PyReadonlyArray1<'py, i64>,
     pc: PyReadonlyArray1<'py, i64>,
     local: PyReadonlyArray1<'py, C64>,
+    tangents: Option<(Vec<PyReadonlyArray2<'py, f64>>, PyReadonlyArray1<'py, C64>)>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let bad = |w: &str| pyo3::exceptions::PyValueError::new_err(format!("columns: {w}"));
     if x.is_empty() || x.len() > 3 {
@@ -741,6 +745,27 @@ fn columns<'py>(
     let src: Vec<usize> = src.iter().map(|&j| j as usize).collect();
     let pc: Vec<usize> = pc.iter().map(|&c| c as usize).collect();
     let w = src.len();
+    if let Some((dx, dlocal)) = &tangents {
+        let dstages: Vec<&[f64]> = dx.iter().map(|a| a.as_slice()).collect::<Result<_, _>>()?;
+        let dlocal = dlocal.as_slice()?;
+        if dx.len() != x.len() || dx.iter().any(|a| a.shape() != [k, n]) || dlocal.len() != local.len() {
+            return Err(bad("tangents differ in shape from the coordinates"));
+        }
+        let v = guard(py, || {
+            use crate::real::{lift_c, Dual};
+            let xs: Vec<Vec<Dual>> = stages
+                .iter()
+                .zip(&dstages)
+                .map(|(a, b)| a.iter().zip(b.iter()).map(|(&v, &d)| Dual { v, d }).collect())
+                .collect();
+            let xs: Vec<&[Dual]> = xs.iter().map(|v| v.as_slice()).collect();
+            let loc: Vec<_> = local.iter().zip(dlocal).map(|(&v, &d)| lift_c::<Dual>(v, d)).collect();
+            let mut out = vec![Dual::default(); k * w];
+            crate::columns::columns(&xs, n, &src, &pc, &loc, &mut out);
+            Ok(out.iter().map(|d| d.d).collect::<Vec<f64>>())
+        })?;
+        return out2(py, v, k, w);
+    }
     let v = guard(py, || {
         let mut out = vec![0.0; k * w];
         crate::columns::columns(&stages, n, &src, &pc, local, &mut out);
