@@ -32,11 +32,11 @@ def _load(path, end=None, steps=None):
     return compile(case)
 
 
-def _outputs(text):
+def _outputs(text, extra=()):
     items = [s.strip() for s in text.split(",") if s.strip()]
-    bad = [s for s in items if s not in OUTPUTS]
+    bad = [s for s in items if s not in OUTPUTS + extra]
     if bad or not items:
-        raise InputError(f"--outputs: got {text!r}; expected a comma-separated list of {', '.join(OUTPUTS)}")
+        raise InputError(f"--outputs: got {text!r}; expected a comma-separated list of {', '.join(OUTPUTS + extra)}")
     return tuple(items)
 
 
@@ -108,8 +108,10 @@ def cmd_solve(a):
     from . import stream
     from .output import Output, TrajectoryWriter
 
+    from .margins import MARGINS
+
     fmt = _format(a.out, a.format)
-    outputs = _outputs(a.outputs)
+    outputs = _outputs(a.outputs, (MARGINS,))
     model = _load(a.case, a.end, a.steps)
     limit = MAX_WORK if a.max_work is None else a.max_work
     nt = model.case.steps + 1
@@ -465,7 +467,9 @@ def parser():
     s.add_argument("--format", choices=("csv", "npz"),
                    help="csv (default; to standard output without --out) or npz (needs --out); must agree with "
                         "--out's suffix")
-    s.add_argument("--outputs", default=",".join(OUTPUTS), help="any of positions,velocities,accelerations")
+    s.add_argument("--outputs", default=",".join(OUTPUTS),
+                   help="any of positions,velocities,accelerations,margins (margins: the smallest singular value "
+                        "of the dimensionless Jacobian and the transmission angles, docs/design.md)")
     s.add_argument("--end", help="end time (overrides the case; the case file's range)")
     s.add_argument("--steps", help="number of output intervals (overrides the case; the case file's range)")
     s.add_argument("--diagnostics", nargs="?", const="-", metavar="FILE",

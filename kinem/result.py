@@ -99,6 +99,7 @@ class SolveResult:
     wall_time: float                 # seconds in the analysis loop
     t_fail: float | None = None
     failed_constraint: str | None = None
+    margin_moves: tuple = ()         # outputs "margins": per instant, the coordinates the smallest singular vector moves
 
     def __repr__(self) -> str:
         return (f"SolveResult(success={self.success}, status={self.status.name}, message={self.message!r}, "

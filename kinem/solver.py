@@ -13,8 +13,9 @@ from .diagnose import explain_assembly
 from .errors import AnalysisError, InputError, SingularError
 from .linalg import choose
 from .march import March, usable
+from .margins import MARGINS, margins
 from .options import Options
-from .result import OUTPUTS, SolveResult, Status, trajectory
+from .result import OUTPUTS, SolveResult, Status, Trajectory, trajectory
 from .tracking import Tracker
 
 def _checked_times(times):
@@ -50,6 +51,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     times = _checked_times(times)
     options = Options.of(model.case) if options is None else options
     check_square(model)
+    want_margins = MARGINS in outputs
     outputs = tuple(o for o in OUTPUTS if o in outputs)
     if "positions" not in outputs:
         outputs = ("positions",) + outputs
@@ -95,6 +97,10 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     ok = status == Status.SUCCESS
     traj = trajectory(model, times[:n_ok], Q[:n_ok], None if QD is None else QD[:n_ok],
                       None if QDD is None else QDD[:n_ok])
+    moves = ()
+    if want_margins:   # kinem.margins: columns after the trajectory's own
+        names, values, moves = margins(model, Q[:n_ok], times[:n_ok])
+        traj = Trajectory(traj.t, traj.columns + names, np.hstack([traj.data, values]))
     return SolveResult(
         success=ok, status=status, message=message or "all instants solved",
         trajectory=traj, q=Q[:n_ok], qd=None if QD is None else QD[:n_ok],
@@ -103,6 +109,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         trace=tuple(data.trace or ()),
         jacobian_evaluations=data.jacobian_evaluations, factorizations=data.factorizations,
         wall_time=wall, t_fail=None if ok else float(times[n_ok]),
+        margin_moves=moves,
         failed_constraint=pin[0] if status == Status.WRONG_BRANCH else None if ok or status == Status.SINGULAR
         else model.row_owner[data.worst_row],
     )
