@@ -79,9 +79,7 @@ pub fn sensitivities(
         for (p, tan) in tangents.iter().enumerate() {
             let at = |level: usize| (level * np + p) * kk * n + k * n;
             // S1: Phi_p, the tangent of Phi with q' = 0
-            for j in 0..n {
-                qdual[j] = Dual::c(q[j]);
-            }
+            lift(q, None, &mut qdual);
             tan.rotate(&qdual, &mut ed);
             tan.phi(&At { q: &qdual, e: &ed, t }, &mut rd);
             for r in 0..m {
@@ -93,40 +91,44 @@ pub fn sensitivities(
                 continue;
             }
             // S2: q' = dq/dp
-            for j in 0..n {
-                qdual[j] = Dual::lift(q[j], sol[j]);
-            }
+            lift(q, Some(&sol), &mut qdual);
             tan.rotate(&qdual, &mut ed);
             let atd = At { q: &qdual, e: &ed, t };
             tan.jac(&atd, &mut jd);
             tan.nu(t, &mut rd);
             let qd = &x[1][k * n..(k + 1) * n];
-            for r in 0..m {
-                rhs[r] = rd[r].d;
-            }
-            for e in 0..nnz {
-                rhs[rows[e]] -= jd[e].d * qd[cols[e]];
-            }
+            difference(&rd, &jd, qd, rows, cols, &mut rhs);
             layout.solve(&mut f, &rhs, &mut sol);
             out[at(1)..at(1) + n].copy_from_slice(&sol);
             if levels == 2 {
                 continue;
             }
             // S3: q' = dq/dp (as in S2), qd' = dqd/dp
-            for j in 0..n {
-                qddual[j] = Dual::lift(qd[j], sol[j]);
-            }
+            lift(qd, Some(&sol), &mut qddual);
             tan.gamma(&atd, &qddual, &mut rd);
-            let qdd = &x[2][k * n..(k + 1) * n];
-            for r in 0..m {
-                rhs[r] = rd[r].d;
-            }
-            for e in 0..nnz {
-                rhs[rows[e]] -= jd[e].d * qdd[cols[e]];
-            }
+            difference(&rd, &jd, &x[2][k * n..(k + 1) * n], rows, cols, &mut rhs);
             layout.solve(&mut f, &rhs, &mut sol);
             out[at(2)..at(2) + n].copy_from_slice(&sol);
         }
     }
     Ok(())
+}
+
+/// rhs = D(b) - D(Phi_q) v: the right-hand side of S2 (b = nu, v = qd) and
+/// S3 (b = gamma, v = qdd), from the tangents of b and of the Jacobian's
+/// values (pattern rows, cols).
+fn difference(b: &[Dual], jac: &[Dual], v: &[f64], rows: &[usize], cols: &[usize], rhs: &mut [f64]) {
+    for (r, x) in rhs.iter_mut().zip(b) {
+        *r = x.d;
+    }
+    for e in 0..jac.len() {
+        rhs[rows[e]] -= jac[e].d * v[cols[e]];
+    }
+}
+
+/// out = v + d eps (d = 0 when None).
+fn lift(v: &[f64], d: Option<&[f64]>, out: &mut [Dual]) {
+    for (j, o) in out.iter_mut().enumerate() {
+        *o = Dual::lift(v[j], d.map_or(0.0, |d| d[j]));
+    }
 }
