@@ -20,7 +20,7 @@ from .spec import Case, frozen_map
 
 MAX_FILE_BYTES = 16 * 2**20
 TOP_KEYS = ("name", "description", "units", "time", "solver", "bodies", "points", "constraints", "engines",
-            "equivalent", "report")
+            "equivalent", "report", "tolerances")
 
 
 def load(path) -> Case:
@@ -83,11 +83,17 @@ def load_dict(data, source: str = "<dict>") -> Case:
     engines = sections.engines(ck, data.get("engines", {}))
     equivalent = sections.equivalent(ck, data["equivalent"], points) if "equivalent" in data else None
     report = sections.report(ck, data.get("report", {}), points)
+    tolerances = sections.tolerances(ck, data.get("tolerances", {}))
     ck.raise_if_any()
-    return Case(name=name, bodies=tuple(bodies.values()), points=tuple(points.values()),
+    case = Case(name=name, bodies=tuple(bodies.values()), points=tuple(points.values()),
                 constraints=tuple(cons), end=end or 1.0, steps=steps, description=description,
                 units=frozen_map(units), engines=frozen_map(engines), source=source,
-                equivalent=equivalent, report=frozen_map(report), **solver)
+                equivalent=equivalent, report=frozen_map(report), tolerances=frozen_map(tolerances), **solver)
+    if tolerances:   # their paths and sizes need the whole case (kinem.tolerance)
+        from .tolerance import tolerances_of
+
+        tolerances_of(case)
+    return case
 
 
 def check_time(case: Case) -> Case:

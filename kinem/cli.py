@@ -275,6 +275,33 @@ def cmd_sensitivity(a):
     return 0
 
 
+def cmd_tolerance(a):
+    from .output import write_trajectory
+    from .tolerance import tolerance
+
+    fmt = _format(a.out, a.format)
+    model = _load(a.case, a.end, a.steps)
+    outputs = [c.strip() for c in a.outputs.split(",") if c.strip()] if a.outputs else None
+    progress = None
+    if sys.stderr.isatty():
+        from .report.progress import Progress
+
+        bar = Progress(a.samples)
+
+        def progress(done, total):
+            bar.done = done
+            bar.show(f"sample {done:,} of {total:,}")
+    b = tolerance(model, samples=a.samples, outputs=outputs, seed=a.seed, progress=progress)
+    write_trajectory(b.table, "-" if a.out is None else a.out, fmt)
+    for c, amount, t in b.excess:
+        print(f"{c}: the Monte Carlo band leaves the worst-case linear band by at most {amount:.3g} (t = {t:.6g})",
+              file=sys.stderr)
+    if b.rejected:
+        print(f"kinem: {len(b.rejected)} of {b.samples} samples not on the nominal's branch, left out; first: "
+              f"{b.rejected[0][1]}", file=sys.stderr)
+    return 0
+
+
 def _settings(items, dt, engines=None):
     """--set engine.key=value (repeatable) and --dt into engine -> overrides,
     checked by each engine named (or in ``engines``) with a one-line error."""
@@ -501,6 +528,17 @@ def parser():
     se.add_argument("--end", help="end time (overrides the case)")
     se.add_argument("--steps", help="number of output intervals (overrides the case)")
     se.set_defaults(run=cmd_sensitivity)
+
+    tl = sub.add_parser("tolerance", help="tolerance bands: linear worst case, root-sum-square, Monte Carlo")
+    tl.add_argument("case", help="the case file, with a [tolerances] section")
+    tl.add_argument("--samples", type=int, default=1000, help="Monte Carlo samples (default 1000)")
+    tl.add_argument("--outputs", help="comma-separated output columns (default: every named point's x and y)")
+    tl.add_argument("--seed", type=int, default=0, help="the samples' seed (default 0)")
+    tl.add_argument("--out", help="output file (default: CSV to standard output)")
+    tl.add_argument("--format", choices=("csv", "npz"), help="csv (default) or npz (needs --out)")
+    tl.add_argument("--end", help="end time (overrides the case)")
+    tl.add_argument("--steps", help="number of output intervals (overrides the case)")
+    tl.set_defaults(run=cmd_tolerance)
 
     st = sub.add_parser("stress", help="the stress suite on native and the engines, each outcome classified")
     st.add_argument("--engines", help="comma-separated: native and engines (default: all)")

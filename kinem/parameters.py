@@ -75,14 +75,31 @@ def resolve(case: Case, paths) -> tuple[Parameter, ...]:
 def apply(case: Case, values, source: str | None = None) -> Case:
     """A new Case with ``values`` ({path: number}) set, validated as a case
     file is (a value out of its key's range is that key's InputError)."""
+    variant = apply_many(case, [values], source)[0]
+    if isinstance(variant, InputError):
+        raise variant
+    return variant
+
+
+def apply_many(case: Case, designs, source: str | None = None) -> list:
+    """``apply`` for many designs ({path: number} each) of one case, paths
+    resolved once: per design its Case, or the InputError that refuses it."""
+    import copy
+
     from .case import load_dict
 
-    values = dict(values)
-    resolve(case, values)
-    data = case_dict(case)
-    for path, v in values.items():
-        _assign(data, case, path, v)
-    return load_dict(data, source=source or case.source)
+    designs = [dict(v) for v in designs]
+    resolve(case, {path for v in designs for path in v})
+    data, out = case_dict(case), []
+    for values in designs:
+        d = copy.deepcopy(data)
+        for path, v in values.items():
+            _assign(d, case, path, v)
+        try:
+            out.append(load_dict(d, source=source or case.source))
+        except InputError as e:
+            out.append(e)
+    return out
 
 
 def _listing(case):
@@ -188,6 +205,8 @@ def case_dict(case: Case) -> dict:
          "report": {k: list(v) if isinstance(v, tuple) else v for k, v in case.report.items()}}
     if case.equivalent is not None:
         d["equivalent"] = {"group": case.equivalent.group, "points": list(case.equivalent.points)}
+    if case.tolerances:
+        d["tolerances"] = {k: dict(v) if hasattr(v, "items") else v for k, v in case.tolerances.items()}
     return d
 
 
@@ -224,4 +243,4 @@ def _value(v):
     return v
 
 
-__all__ = ["Parameter", "parameters", "resolve", "apply", "case_dict", "constraint_id", "ROOTS"]
+__all__ = ["Parameter", "parameters", "resolve", "apply", "apply_many", "case_dict", "constraint_id", "ROOTS"]

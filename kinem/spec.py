@@ -73,6 +73,7 @@ class Case:
     report: Mapping = field(default_factory=frozen_map)   # [report]: points (names the report draws)
     source: str = "<memory>"
     equivalent: Equivalence | None = None  # [equivalent]: the group of equivalent models it belongs to
+    tolerances: Mapping = field(default_factory=frozen_map)  # [tolerances]: parameter path -> pm or {pm, sigma}
 
     def __repr__(self) -> str:   # a summary: the whole case is kinem.load's input, and thousands of characters
         return (f"Case({self.name!r}: {len(self.bodies)} bodies, {len(self.points)} points, "

@@ -230,3 +230,24 @@ def report(ck, r, points):
         if ck.choice("[report]", "points", n, points, "point") is None:
             return out
     return dict(out, points=tuple(dict.fromkeys(listed)))
+
+
+def tolerances(ck, t, prefix=""):
+    """[tolerances]: design parameter path -> pm or { pm = ..., sigma = ... },
+    kept as given (a dotted key written bare nests: it is flattened back);
+    kinem.tolerance checks the paths and the values against the case."""
+    where = "[tolerances]"
+    if not isinstance(t, dict):
+        ck.bad(where, None, f"got {show(t)}", 'a table such as { "constraints.A.si.0" = 0.0001 }')
+        return {}
+    out = {}
+    for k, v in t.items():
+        path = f"{prefix}{k}"
+        if isinstance(v, dict) and "pm" not in v:
+            out.update(tolerances(ck, v, path + "."))
+        elif isinstance(v, dict):
+            if ck.keys(f"{where}: key '{path}'", v, ("pm", "sigma"), ("pm",)):
+                out[path] = frozen_map(v)
+        else:
+            out[path] = v
+    return out
