@@ -193,10 +193,13 @@ def case_dict(case: Case) -> dict:
     """The case as the dict of its case file (kinem.load_dict's input): every
     value the loader filled in written out, a key that named a point names it
     again. load_dict(case_dict(case)) equals case (but for its source)."""
+    from .casefile.sections import SOLVER_KEYS
+    from .options import Options
+
+    solver = Options.of(case)   # the [solver] section as the case gives it
     d = {"name": case.name, "description": case.description, "units": dict(case.units),
          "time": {"end": case.end, "steps": case.steps},
-         "solver": {"tolerance": case.tolerance, "max_iterations": case.max_iterations,
-                    "linear_solver": case.linear_solver, "jacobian_reuse": case.jacobian_reuse, "block": case.block},
+         "solver": {k: getattr(solver, k) for k in SOLVER_KEYS},
          "bodies": {b.name: _drop_none({"q": list(b.q), "mass": b.mass, "inertia": b.inertia}) for b in case.bodies},
          "points": {p.name: {"body": p.body, "at": list(p.at)} for p in case.points},
          "constraints": [_constraint_dict(c) for c in case.constraints],
