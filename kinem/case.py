@@ -93,6 +93,10 @@ def load_dict(data, source: str = "<dict>") -> Case:
         from .tolerance import tolerances_of
 
         tolerances_of(case)
+    if "sensitivity" in case.report:   # paths of design parameters (kinem.parameters)
+        from .parameters import resolve
+
+        resolve(case, case.report["sensitivity"])
     return case
 
 

@@ -80,3 +80,21 @@ def test_case_file_section_and_cli(tmp_path):
     r = subprocess.run([sys.executable, "-m", "kinem", "tolerance", str(bad)], capture_output=True, text=True)
     assert r.returncode == 2 and "points.A.at.9" in r.stderr and str(bad) in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1
+
+
+def test_report_design_section_and_its_key():
+    """The four-bar's [report] sensitivity and [tolerances] give the report
+    a design section: a table whose native-difference column is below 1e-6
+    and two plots; a bad path in [report] sensitivity is the file's InputError."""
+    import re
+
+    from kinem.report.design import section
+
+    parts = section(kinem.compile(kinem.load(ROOT / "cases" / "four_bar.toml").with_time(steps=40)))
+    assert len(parts) == 4 and "Design sensitivities" in parts[0] and "Tolerance bands" in parts[2]
+    rows = re.findall(r"<tr><td class=l><code>([^<]+)</code>.*?<td>([0-9.e+-]+)</td></tr>", parts[0])
+    assert [r[0] for r in rows] == ["points.A.at.0", "constraints.B.si.0", "points.O4.at.0"]
+    assert all(float(r[1]) < 1e-6 for r in rows)
+    text = (ROOT / "cases" / "four_bar.toml").read_text().replace('"points.O4.at.0"]', '"points.O4.at.5"]')
+    with pytest.raises(kinem.InputError, match="points.O4.at.5"):
+        kinem.loads(text, source="fb.toml")
