@@ -9,14 +9,16 @@ from collections.abc import Mapping
 import numpy as np
 
 TRAJECTORY_INSTANTS = 11     # first and last included, spread evenly
-NOT_HASHED = ("source", "description", "report")   # where the file is, its prose, what the page draws
+NOT_HASHED = ("source", "description", "report",    # where the file is, its prose, what the page draws,
+              "tolerances",                           # what kinem tolerance samples (the runs are the nominal's)
+              "refs")                                 # a constraint's point names: their values are in its fields
 
 
 def _canonical(x):
     """JSON-ready and exact: floats as their hex form, dataclasses by field."""
     if dataclasses.is_dataclass(x) and not isinstance(x, type):
         return {"__type__": type(x).__name__,
-                **{f.name: _canonical(getattr(x, f.name)) for f in dataclasses.fields(x)}}
+                **{f.name: _canonical(getattr(x, f.name)) for f in dataclasses.fields(x) if f.name not in NOT_HASHED}}
     if isinstance(x, Mapping):
         return {str(k): _canonical(v) for k, v in sorted(x.items(), key=lambda kv: str(kv[0]))}
     if isinstance(x, (list, tuple)):
@@ -35,7 +37,8 @@ def _canonical(x):
 def fingerprint(case) -> str:
     """SHA-256 (hex, first 16 digits) of the loaded case: everything that
     changes the runs (bodies, points, constraints, time, solver, engine
-    settings, equivalence); not its file path, description or [report] table."""
+    settings, equivalence); not its file path, description, [report] table
+    or [tolerances]."""
     fields = {f.name: getattr(case, f.name) for f in dataclasses.fields(case) if f.name not in NOT_HASHED}
     text = json.dumps(_canonical(fields), sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:16]
