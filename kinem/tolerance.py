@@ -90,10 +90,12 @@ def tolerances_of(case, given=None) -> tuple:
     return tuple(out)
 
 
-def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progress=None) -> Bands:
+def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progress=None, chunk=None) -> Bands:
     """The linear, root-sum-square and Monte Carlo bands of ``outputs``
     (columns; default every named point's x and y) for the tolerances
-    (default the case's [tolerances] section)."""
+    (default the case's [tolerances] section). ``chunk``: samples solved as
+    one merged batch (default CHUNK; 1: one by one, no threads: for a
+    forked worker process, where the batch's thread pool cannot run)."""
     case = model.case
     tols = tolerances_of(case, tolerances)
     sens = sensitivity(model, [t.path for t in tols], outputs=("positions", "velocities", "accelerations"))
@@ -107,7 +109,7 @@ def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progre
     d = np.stack([np.stack([sens.of(c, t.path) for t in tols], axis=1) for c in outputs])   # (C, K, P)
     worst = np.abs(d) @ pm
     rss = np.sqrt((d * pm) ** 2 @ np.ones(len(tols)))
-    lo, hi, rejected = _monte_carlo(model, tols, outputs, nominal, samples, seed, progress)
+    lo, hi, rejected = _monte_carlo(model, tols, outputs, nominal, samples, seed, progress, chunk or CHUNK)
     cols, data = [], []
     excess = []
     for k, c in enumerate(outputs):
@@ -121,7 +123,7 @@ def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progre
     return Bands(outputs, table, samples, tuple(rejected), tuple(excess), seed)
 
 
-def _monte_carlo(model, tols, outputs, nominal, samples, seed, progress):
+def _monte_carlo(model, tols, outputs, nominal, samples, seed, progress, chunk):
     """(min, max) of every output over the samples on the nominal's branch
     (each (C, K), nan without samples), and the rejected samples."""
     from .solver import solve
@@ -149,22 +151,22 @@ def _monte_carlo(model, tols, outputs, nominal, samples, seed, progress):
             lo[k] = np.minimum(lo[k], traj[c])
             hi[k] = np.maximum(hi[k], traj[c])
 
-    for start in range(0, samples, CHUNK):
-        chunk = []
+    for start in range(0, samples, chunk):
+        batch = []
         designs = [{t.path: base[t.path] + draws[s, j] for j, t in enumerate(tols)}
-                   for s in range(start, min(samples, start + CHUNK))]
+                   for s in range(start, min(samples, start + chunk))]
         for values, variant in zip(designs, apply_many(pinned, designs)):
             if isinstance(variant, InputError):
                 rejected.append((values, f"not a valid case: {variant}"))
             else:
-                chunk.append((values, variant))
-        for values, traj, why in _solve_chunk(model, chunk, nominal.t, q0, nominal_branch, outputs):
+                batch.append((values, variant))
+        for values, traj, why in _solve_chunk(model, batch, nominal.t, q0, nominal_branch, outputs):
             if why is None:
                 take(traj)
             else:
                 rejected.append((values, why))
         if progress is not None:
-            progress(min(samples, start + CHUNK), samples)
+            progress(min(samples, start + chunk), samples)
     if not accepted:
         lo[:] = np.nan
         hi[:] = np.nan
@@ -183,8 +185,8 @@ def _solve_chunk(model, chunk, times, q0, branch, outputs):
     from .model import compile
     from .solver import solve
 
-    if not chunk:
-        return []
+    if len(chunk) <= 1:   # one sample: its own model, no batch
+        return _one_by_one(model, chunk, times, q0, branch, outputs)
     index = {name: j for j, name in enumerate(model.coordinate_names)}
     merged = compile(merge([v for _, v in chunk]))
     start = np.array([q0[index[name.split("-", 1)[1]]] for name in merged.coordinate_names])
@@ -197,6 +199,13 @@ def _solve_chunk(model, chunk, times, q0, branch, outputs):
             out.append((values, {c: r.trajectory[p + c] for c in outputs}, None) if _branch(model, q) == branch
                        else (values, None, "assembled on another branch"))
         return out
+    return _one_by_one(model, chunk, times, q0, branch, outputs)
+
+
+def _one_by_one(model, chunk, times, q0, branch, outputs):
+    from .model import compile
+    from .solver import solve
+
     out = []
     for values, variant in chunk:
         r = solve(compile(variant), times=times, q0=q0)
@@ -205,7 +214,7 @@ def _solve_chunk(model, chunk, times, q0, branch, outputs):
         elif _branch(model, r.q[0]) != branch:
             out.append((values, None, "assembled on another branch"))
         else:
-            out.append((values, r.trajectory, None))
+            out.append((values, {c: r.trajectory[c] for c in outputs}, None))
     return out
 
 

@@ -87,7 +87,7 @@ def _bands(model, outputs):
     from ..tolerance import tolerance
     from .html import _img
 
-    b = tolerance(model, samples=SAMPLES, outputs=outputs, seed=0)
+    b = tolerance(model, samples=SAMPLES, outputs=outputs, seed=0, chunk=1)   # sections run in forked workers
     plt = _plt()
     t = b.table.t
     fig, axes = plt.subplots(1, len(outputs) + 1, figsize=(4.2 * (len(outputs) + 1), 3.0))
