@@ -32,11 +32,11 @@ def _load(path, end=None, steps=None, values=None):
     return compile(case)
 
 
-def _outputs(text):
+def _outputs(text, extra=()):
     items = [s.strip() for s in text.split(",") if s.strip()]
-    bad = [s for s in items if s not in OUTPUTS]
+    bad = [s for s in items if s not in OUTPUTS + extra]
     if bad or not items:
-        raise InputError(f"--outputs: got {text!r}; expected a comma-separated list of {', '.join(OUTPUTS)}")
+        raise InputError(f"--outputs: got {text!r}; expected a comma-separated list of {', '.join(OUTPUTS + extra)}")
     return tuple(items)
 
 
@@ -115,11 +115,12 @@ def cmd_solve(a):
 
     import time
 
+    from .margins import MARGINS
     from .options import MOST_SECONDS
 
     started = time.perf_counter()
     fmt = _format(a.out, a.format)
-    outputs = _outputs(a.outputs)
+    outputs = _outputs(a.outputs, (MARGINS,))
     limit = MAX_WORK if a.max_work is None else a.max_work
     if not 1 <= limit <= MOST_WORK:   # NaN too
         raise InputError(f"--max-work: got {limit:g}; expected a number of output instants x coordinates "
@@ -336,6 +337,13 @@ def cmd_sweep(a):
 def cmd_info(a):
     from .info import describe, info
 
+    if a.parameters:
+        from .info import describe_parameters
+        from .parameters import parameters
+
+        listed = parameters(_load(a.case, values=a.set).case)
+        print(json.dumps([p.as_dict() for p in listed], indent=2) if a.json else describe_parameters(listed))
+        return 0
     i = info(_load(a.case, values=a.set))
     print(json.dumps(i.as_dict(), indent=2) if a.json else describe(i))
     if not i.assembled:  # the figures above are of the closest configuration found
@@ -343,6 +351,47 @@ def cmd_info(a):
 
         what = "assembles on a branch it excludes" if i.status is Status.WRONG_BRANCH else "does not assemble at t = 0"
         raise AnalysisError(f"{a.case}: {what}: {i.diagnosis}")
+    return 0
+
+
+def cmd_sensitivity(a):
+    from .output import write_trajectory
+    from .sensitivity import sensitivity
+
+    fmt = _format(a.out, a.format)
+    model = _load(a.case, a.end, a.steps)
+    paths = [p.strip() for p in a.parameters.split(",") if p.strip()]
+    s = sensitivity(model, paths, outputs=_outputs(a.outputs))
+    if s.singular.any():
+        print(f"kinem: warning: {a.case}: {s.message}", file=sys.stderr)
+    write_trajectory(s.derivatives, "-" if a.out is None else a.out, fmt)
+    return 0
+
+
+def cmd_tolerance(a):
+    from .output import write_trajectory
+    from .tolerance import tolerance
+
+    fmt = _format(a.out, a.format)
+    model = _load(a.case, a.end, a.steps)
+    outputs = [c.strip() for c in a.outputs.split(",") if c.strip()] if a.outputs else None
+    progress = None
+    if sys.stderr.isatty():
+        from .report.progress import Progress
+
+        bar = Progress(a.samples)
+
+        def progress(done, total):
+            bar.done = done
+            bar.show(f"sample {done:,} of {total:,}")
+    b = tolerance(model, samples=a.samples, outputs=outputs, seed=a.seed, progress=progress)
+    write_trajectory(b.table, "-" if a.out is None else a.out, fmt)
+    for c, amount, t in b.excess:
+        print(f"{c}: the Monte Carlo band leaves the worst-case linear band by at most {amount:.3g} (t = {t:.6g})",
+              file=sys.stderr)
+    if b.rejected:
+        print(f"kinem: {len(b.rejected)} of {b.samples} samples not on the nominal's branch, left out; first: "
+              f"{b.rejected[0][1]}", file=sys.stderr)
     return 0
 
 
@@ -555,7 +604,9 @@ def parser():
     s.add_argument("--format", choices=("csv", "npz"),
                    help="csv (default; to standard output without --out) or npz (needs --out); must agree with "
                         "--out's suffix")
-    s.add_argument("--outputs", default=",".join(OUTPUTS), help="any of positions,velocities,accelerations")
+    s.add_argument("--outputs", default=",".join(OUTPUTS),
+                   help="any of positions,velocities,accelerations,margins (margins: the smallest singular value "
+                        "of the dimensionless Jacobian and the transmission angles, docs/design.md)")
     s.add_argument("--end", help="end time (overrides the case; the case file's range)")
     s.add_argument("--steps", help="number of output intervals (overrides the case; the case file's range)")
     s.add_argument("--diagnostics", nargs="?", const="-", metavar="FILE",
@@ -576,6 +627,8 @@ def parser():
     i = sub.add_parser("info", help="coordinates, equations, Jacobian non-zeros, degrees of freedom")
     i.add_argument("case", help="the case file (TOML; docs/case-format.md)")
     i.add_argument("--json", action="store_true", help="the same figures as JSON")
+    i.add_argument("--parameters", action="store_true",
+                   help="list the case's design parameters instead: path, value, unit, what it is")
     _set_option(i)
     _errors_option(i)
     i.set_defaults(run=cmd_info)
@@ -590,6 +643,29 @@ def parser():
     sw.add_argument("--out", help="output CSV file (default: standard output)")
     _errors_option(sw)
     sw.set_defaults(run=cmd_sweep)
+
+
+    se = sub.add_parser("sensitivity", help="exact d/dp of every output column for design parameters p")
+    se.add_argument("case", help="the case file (TOML; docs/case-format.md)")
+    se.add_argument("--parameters", required=True, metavar="P,...",
+                    help="comma-separated parameter paths (kinem info CASE --parameters lists them)")
+    se.add_argument("--out", help="output file (default: CSV to standard output)")
+    se.add_argument("--format", choices=("csv", "npz"), help="csv (default) or npz (needs --out)")
+    se.add_argument("--outputs", default=",".join(OUTPUTS), help="any of positions,velocities,accelerations")
+    se.add_argument("--end", help="end time (overrides the case)")
+    se.add_argument("--steps", help="number of output intervals (overrides the case)")
+    se.set_defaults(run=cmd_sensitivity)
+
+    tl = sub.add_parser("tolerance", help="tolerance bands: linear worst case, root-sum-square, Monte Carlo")
+    tl.add_argument("case", help="the case file, with a [tolerances] section")
+    tl.add_argument("--samples", type=int, default=1000, help="Monte Carlo samples (default 1000)")
+    tl.add_argument("--outputs", help="comma-separated output columns (default: every named point's x and y)")
+    tl.add_argument("--seed", type=int, default=0, help="the samples' seed (default 0)")
+    tl.add_argument("--out", help="output file (default: CSV to standard output)")
+    tl.add_argument("--format", choices=("csv", "npz"), help="csv (default) or npz (needs --out)")
+    tl.add_argument("--end", help="end time (overrides the case)")
+    tl.add_argument("--steps", help="number of output intervals (overrides the case)")
+    tl.set_defaults(run=cmd_tolerance)
 
     st = sub.add_parser("stress", help="the stress suite on native and the engines, each outcome classified")
     st.add_argument("--engines", help="comma-separated: native and engines (default: all)")

@@ -13,8 +13,9 @@ from .diagnose import contact_hint, explain_assembly
 from .errors import AnalysisError, InputError, SingularError, WorkLimitError
 from .linalg import choose
 from .march import March, usable
+from .margins import MARGINS, margins
 from .options import Options
-from .result import OUTPUTS, SolveResult, Status, trajectory
+from .result import OUTPUTS, SolveResult, Status, Trajectory, trajectory
 from .tracking import Tracker
 
 def _floats(name, value, expected):
@@ -70,9 +71,10 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         raise InputError(f"solve: options {type(options).__name__}: expected a kinem.Options")
     q0 = _checked_q0(model, q0)
     outputs = (outputs,) if isinstance(outputs, str) else outputs
-    if not isinstance(outputs, (tuple, list)) or not all(isinstance(o, str) and o in OUTPUTS for o in outputs):
-        raise InputError(f"solve: outputs {outputs!r:.80}: expected a sequence of {', '.join(OUTPUTS)}")
+    if not isinstance(outputs, (tuple, list)) or not all(isinstance(o, str) and o in OUTPUTS + (MARGINS,) for o in outputs):
+        raise InputError(f"solve: outputs {outputs!r:.80}: expected a sequence of {', '.join(OUTPUTS + (MARGINS,))}")
     check_square(model)
+    want_margins = MARGINS in outputs
     outputs = tuple(o for o in OUTPUTS if o in outputs)
     if "positions" not in outputs:
         outputs = ("positions",) + outputs
@@ -124,6 +126,10 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     ok = status == Status.SUCCESS
     traj = trajectory(model, times[:n_ok], Q[:n_ok], None if QD is None else QD[:n_ok],
                       None if QDD is None else QDD[:n_ok])
+    moves = ()
+    if want_margins:   # kinem.margins: columns after the trajectory's own
+        names, values, moves = margins(model, Q[:n_ok], times[:n_ok])
+        traj = Trajectory(traj.t, traj.columns + names, np.hstack([traj.data, values]))
     return SolveResult(
         success=ok, status=status, message=message or "all instants solved",
         trajectory=traj, q=Q[:n_ok], qd=None if QD is None else QD[:n_ok],
@@ -132,6 +138,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         trace=tuple(data.trace or ()),
         jacobian_evaluations=data.jacobian_evaluations, factorizations=data.factorizations,
         wall_time=wall, t_fail=None if ok else float(times[n_ok]), attempts=tracker.budget.attempts,
+        margin_moves=moves,
         failed_constraint=pin[0] if status == Status.WRONG_BRANCH else None if ok or status == Status.SINGULAR
         else model.row_owner[data.worst_row],
         model=model,

@@ -14,8 +14,10 @@ import numpy as np
 
 TRAJECTORY_INSTANTS = 11     # first and last included, spread evenly
 NOT_HASHED = ("source", "description", "report",    # where the file is, its prose, what the page draws
-              "parameters")   # the named dimensions' values are hashed where they are used
-DERIVED = ("carries",)   # a body's drawn points: hashed in the constraints and points that use them
+              "parameters",   # the named dimensions' values are hashed where they are used
+              "tolerances")   # what kinem tolerance samples (the runs are the nominal's)
+DERIVED = ("carries",   # a body's drawn points: hashed in the constraints and points that use them
+           "refs")      # a constraint's point names: their values are in its fields
 # The native solver's settings: an edit of these alone is compared (at the
 # baseline's tolerance), not called stale.
 SOLVER = ("tolerance", "max_iterations", "linear_solver", "jacobian_reuse", "block")
@@ -50,7 +52,7 @@ def fingerprint(case) -> str:
     """SHA-256 (hex, first 16 digits) of the loaded case: everything that
     changes the runs (bodies, points, constraints, time, solver, engine
     settings, equivalence); not its file path, description or [report] table,
-    nor the native solver's settings (``solver_settings``)."""
+    [tolerances], nor the native solver's settings (``solver_settings``)."""
     fields = {f.name: getattr(case, f.name) for f in dataclasses.fields(case)
               if f.name not in NOT_HASHED + SOLVER}
     text = json.dumps(_canonical(fields), sort_keys=True, separators=(",", ":"))

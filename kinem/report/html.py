@@ -186,6 +186,9 @@ def case_section(case, model, series):
         else:
             out.append(_img(plots.errors(series), f"{name} errors"))
     out.append("<h3>Comparison</h3>" + case_table(case))
+    from .design import section
+
+    out += section(model)   # [report] sensitivity, [tolerances]: docs/design.md
     wp = case["work_precision"]
     if wp:
         out.append("<h3>Work-precision</h3><p>Each point is one run, labelled with its native Newton tolerance "
