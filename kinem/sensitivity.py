@@ -26,7 +26,7 @@ from . import native
 from .errors import AnalysisError, InputError, KinemError
 from .model import core_tables, families_of
 from .options import Options
-from .parameters import apply, resolve
+from .parameters import apply_many, resolve
 from .result import OUTPUTS, Trajectory, _layout
 from .solver import solve
 from .tracking import singular_pivot
@@ -87,7 +87,7 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     if plan is None:
         raise KinemError(f"{case.source}: sensitivities need the compiled march's layout, which this model has not")
     base = _tables(case, model.length)
-    tangents = [_tangent(case, model.length, base, p) for p in listed]
+    tangents = [_tangent(case, model.length, base, p, moved, h) for p, (moved, h) in zip(listed, _moved(case, listed))]
     X = [np.ascontiguousarray(x) for x in (result.q, result.qd, result.qdd) if x is not None]
     t = np.ascontiguousarray(result.trajectory.t)
     out, ratio = plan.sensitivity([tg for tg, _ in tangents], t, X, model.jac_rows.astype(np.int64),
@@ -117,20 +117,25 @@ def _tables(case, length):
     return core_tables(families, share=False)
 
 
-def _tangent(case, length, base, p):
+def _moved(case, listed):
+    """(the case with p moved by h, h) for each parameter p: h a power of
+    two near |p| / 2 (-h where +h is not a valid case)."""
+    steps = [2.0 ** (np.floor(np.log2(abs(p.value))) - 1) if p.value else 0.5 for p in listed]
+    out = list(zip(apply_many(case, [{p.path: p.value + h} for p, h in zip(listed, steps)]), steps))
+    for k, (moved, h) in enumerate(out):
+        if isinstance(moved, InputError):
+            p = listed[k]
+            out[k] = (apply_many(case, [{p.path: p.value - h}])[0], -h)
+            if isinstance(out[k][0], InputError):
+                raise InputError(f"{case.source}: parameter '{p.path}': no valid case within {h:g} of its value")
+    return out
+
+
+def _tangent(case, length, base, p, moved, step):
     """The tangent of the tables along parameter p (their linear part: the
-    tables are affine in the case's numbers) and of the named points' local
-    coordinates: ((families, (functions, tangent), (outlines, tangent)), dlocal)."""
-    h = 2.0 ** (np.floor(np.log2(abs(p.value))) - 1) if p.value else 0.5
-    moved = None
-    for step in (h, -h):
-        try:
-            moved = apply(case, {p.path: p.value + step})
-            break
-        except InputError:
-            continue
-    if moved is None:
-        raise InputError(f"{case.source}: parameter '{p.path}': no valid case within {h:g} of its value")
+    tables are affine in the case's numbers; ``moved``: the case with p
+    moved by ``step``) and of the named points' local coordinates:
+    ((families, (functions, tangent), (outlines, tangent)), dlocal)."""
     tables, functions, outlines = _tables(moved, length)
     families = []
     for (kind, t0), (_, t1) in zip(base[0], tables):
