@@ -1,6 +1,6 @@
 """Issue 29: when kinem itself moves, the gate says so. On a small user
-repository (a four-bar, a rack-and-pinion and a cam, copied from cases/
-into a folder not named cases/), an error injected into native's answer (a
+repository (a Watt II six-bar from tests/data, a rack-and-pinion and a cam
+from cases/, copied into a folder not named cases/), an error injected into native's answer (a
 patched solver in this process: the report runs with one job, in-process)
 fails the gate as a regression of native on every case, the cam included,
 naming native and the column, with the engines' cells consistent; one
@@ -22,19 +22,20 @@ from kinem.report import Options, results, run, runs
 from kinem.result import Trajectory
 
 ROOT = Path(__file__).resolve().parents[1]
-CASES = ("four_bar", "rack_pinion", "cam_roller_circle")
+CASES = ("watt2", "rack_pinion", "cam_roller_circle")
 ENGINES = ("pymunk", "mujoco", "exudyn")
 SUFFIXES = {"velocities": (".vx", ".vy", ".omega"), "accelerations": (".ax", ".ay", ".alpha"),
             "positions": (".x", ".y", ".phi")}
 
 
 def user_repo(tmp, end=0.5, steps=50):
-    """The three cases, shortened, in tmp/mech (not a folder named cases/)."""
+    """The three cases (a six-bar, a rack-and-pinion, a cam), shortened, in tmp/mech (not a folder named cases/)."""
     folder = tmp / "mech"
     folder.mkdir(exist_ok=True)
     paths = []
     for name in CASES:
-        text = (ROOT / "cases" / f"{name}.toml").read_text()
+        source = ROOT / "cases" / f"{name}.toml"
+        text = (source if source.exists() else ROOT / "tests" / "data" / f"{name}.toml").read_text()
         text = re.sub(r"\[time\][^\[]*", f"[time]\nend = {end}\nsteps = {steps}\n\n", text, count=1)
         path = folder / f"{name}.toml"
         path.write_text(text)
@@ -122,7 +123,7 @@ def test_velocities_off_native_disagrees_with_the_engines_consensus(repo, tmp_pa
     inject(monkeypatch, "velocities", 1.001)
     out = report(paths, tmp_path / "o", None)
     assert out.exit_code == 1
-    four = next(c for c in out.value.doc["cases"] if c["name"] == "four_bar")
+    four = next(c for c in out.value.doc["cases"] if c["name"] == "watt2")
     native = four["runs"][0]
     assert native["verdict"] == "native disagrees with the engines' consensus"
     assert native["attributed"]["figure"] in ("velocity_error_rel", "angular_velocity_error_rel")
@@ -162,7 +163,7 @@ def test_report_and_compare_agree_on_a_coarse_engine(repo, tmp_path):
     fails compare, the report and JUnit; recorded in a baseline it is a
     known state that passes, and only a worse figure fails."""
     path = Path(repo[0][0])
-    coarse = tmp_path / "four_bar.toml"
+    coarse = tmp_path / "watt2.toml"
     coarse.write_text(path.read_text() + "\n[engines.pymunk]\ndt = 5e-3\n")
     assert cli.main(["compare", str(coarse), "--engines", "native,pymunk"]) == 1
     out = run(Options(cases=(str(coarse),), engines=("pymunk",), out=str(tmp_path / "o"), quick=True,
@@ -223,7 +224,7 @@ def test_every_baseline_edit_exits_2_in_one_line(repo, tmp_path, capsys, edit):
     err = capsys.readouterr().err.strip()
     assert code == 2, err
     assert len(err.splitlines()) == 1 and str(bad) in err
-    case = {"null trajectory": "cam_roller_circle", "re-timed": "rack_pinion"}.get(edit, "four_bar")
+    case = {"null trajectory": "cam_roller_circle", "re-timed": "rack_pinion"}.get(edit, "watt2")
     assert f"cases.{case}" in err, err
     assert not (tmp_path / "o" / "results.json").exists()
 
@@ -262,8 +263,8 @@ def test_kinem_diff_names_what_moved(repo, tmp_path, capsys):
     moved.write_text(results.dumps(doc))
     assert cli.main(["diff", str(base), str(moved)]) == 1
     out = capsys.readouterr().out
-    assert "REGRESSED: four_bar/native (main): four_bar: native (a regression of native): coupler.vx moved" in out
-    assert "four_bar/pymunk" in out and "steps" in out
+    assert "REGRESSED: watt2/native (main): watt2: native (a regression of native): coupler.vx moved" in out
+    assert "watt2/pymunk" in out and "steps" in out
 
 
 def test_summary_figure_is_the_worst_of_positions_angles_and_rates():
@@ -285,7 +286,7 @@ def test_a_slowdown_needs_its_repeats(repo):
     base = results.load(repo[1])
     doc = copy.deepcopy(base)
     rack = next(c for c in doc["cases"] if c["name"] == "rack_pinion")
-    four = next(c for c in base["cases"] if c["name"] == "four_bar")
+    four = next(c for c in base["cases"] if c["name"] == "watt2")
     run = next(r for r in rack["runs"] if r["engine"] == "exudyn")
     ref = next(r for r in four["runs"] if r["engine"] == "exudyn")["time_per_step"]
     a = run["time_per_step"]
@@ -293,7 +294,7 @@ def test_a_slowdown_needs_its_repeats(repo):
     run["wall_time"] = max(run["wall_time"], 0.02)
     next(r for r in next(c for c in base["cases"] if c["name"] == "rack_pinion")["runs"]
          if r["engine"] == "exudyn")["wall_time"] = 0.02
-    run["retimed"] = {"reference_case": "four_bar", "time_per_step": a, "reference_time_per_step": ref / 2.6,
+    run["retimed"] = {"reference_case": "watt2", "time_per_step": a, "reference_time_per_step": ref / 2.6,
                       "repeats": 3}
     slow = [f for f in gate(doc, base, "b")["findings"] if f["kind"] == "slower"]
     assert slow == []
@@ -320,4 +321,4 @@ def test_a_known_disagreement_passes_and_a_worse_one_fails(repo):
     g = gate(doc, base, "b")
     bad = [f for f in g["findings"] if f["fatal"]]
     assert [(f["engine"], f["kind"]) for f in bad] == [("native", "consensus")]
-    assert "four_bar: native disagrees with the engines' consensus: velocity_error_rel 2.00e-03" in bad[0]["message"]
+    assert "watt2: native disagrees with the engines' consensus: velocity_error_rel 2.00e-03" in bad[0]["message"]
