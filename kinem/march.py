@@ -52,15 +52,17 @@ class March:
                          singular_pivot(options.tolerance), self.rates)
         self.budget = tracker.budget
         self.X, self.figures, self.ints = X, figures, ints
-        self.state = np.zeros(6 * model.n + 5)
+        n = model.n
+        self.state = st = np.zeros(6 * n + 5)
+        # the state's parts (views, made once): q, qd, qdd, (time, det sign), H (3 n), T (3)
+        self.parts = st[:n], st[n:2 * n], st[2 * n:3 * n], st[3 * n:3 * n + 2], st[3 * n + 2:6 * n + 2], st[6 * n + 2:]
 
     def advance(self, k: int, q0=None) -> int:
         """Output instants from k on, from the tracker's last state (k = 0:
         assembled from q0), until one is not accepted; returns the first
         instant not taken (len(times): all)."""
-        tr, n, st = self.tracker, self.model.n, self.state
-        # the state's parts (views): q, qd, qdd, (time, det sign), H (3 n), T (3)
-        q, qd, qdd, last, H, T = np.split(st, np.cumsum((n, n, n, 2, 3 * n)))
+        tr, st = self.tracker, self.state
+        q, qd, qdd, last, H, T = self.parts
         if k == 0:
             q[:] = self.model.q0 if q0 is None else q0
             qd[:] = qdd[:] = H[:] = 0.0

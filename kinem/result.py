@@ -45,20 +45,38 @@ def missing_column(name, columns) -> str:
     return f"no column {name!r}; columns: {head}"
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, init=False)
 class Trajectory:
     """Output instants ``t`` (n,) and ``data`` (n, columns), time-major; a
-    column by name: ``traj["crank.phi"]``, ``traj.get("crank", "phi")``."""
+    column by name: ``traj["crank.phi"]``, ``traj.get("crank", "phi")``.
+    ``data`` may be given as a function that makes it (``make``): it is
+    then made at its first use, once (a solve's columns cost nothing until
+    read)."""
     t: np.ndarray
     columns: tuple
-    data: np.ndarray
     _index: dict | None = field(default=None, repr=False)  # column -> position (None: made here)
 
-    def __post_init__(self):
-        if self._index is None:
-            object.__setattr__(self, "_index", {c: k for k, c in enumerate(self.columns)})
-        self.t.flags.writeable = False
-        self.data.flags.writeable = False
+    def __init__(self, t, columns, data=None, _index=None, *, make=None):
+        set_ = object.__setattr__
+        set_(self, "t", t)
+        set_(self, "columns", columns)
+        set_(self, "_index", {c: k for k, c in enumerate(columns)} if _index is None else _index)
+        set_(self, "_make", make)
+        set_(self, "_data", None)
+        t.flags.writeable = False
+        if make is None:
+            data.flags.writeable = False
+            set_(self, "_data", data)
+
+    @property
+    def data(self) -> np.ndarray:
+        """The table (instants, columns), read-only."""
+        if self._data is None:
+            d = self._make()
+            d.flags.writeable = False
+            object.__setattr__(self, "_data", d)
+            object.__setattr__(self, "_make", None)
+        return self._data
 
     def __getitem__(self, name: str) -> np.ndarray:
         try:
@@ -174,8 +192,8 @@ def trajectory(model, t, Q, QD=None, QDD=None) -> Trajectory:
     coordinates, in one compiled pass."""
     X = [x for x in (Q, QD, QDD) if x is not None]
     names, src, index = _layout(model, len(X))
-    if len(t):
-        data = native.columns([np.ascontiguousarray(x, float) for x in X], src, model.point_cols, model.point_local)
-    else:
-        data = np.empty((0, len(names)))
-    return Trajectory(np.array(t, dtype=float), names, data, index)
+    if not len(t):
+        return Trajectory(np.array(t, dtype=float), names, np.empty((0, len(names))), index)
+    X = [np.ascontiguousarray(x, float) for x in X]
+    return Trajectory(np.array(t, dtype=float), names, None, index,
+                      make=lambda: native.columns(X, src, model.point_cols, model.point_local))

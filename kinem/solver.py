@@ -3,6 +3,7 @@
 (kinem.tracking) and the march (kinem.march, the compiled core's loop); nothing below imports
 it. Its options (kinem.options.Options) are passed to it, not compiled into
 the Model: changing a tolerance never recompiles."""
+import math
 import time
 
 import numpy as np
@@ -13,6 +14,7 @@ from .diagnose import contact_hint, explain_assembly
 from .errors import AnalysisError, InputError, SingularError, WorkLimitError
 from .linalg import choose
 from .march import March, usable
+from .model import Model
 from .options import Options
 from .result import OUTPUTS, SolveResult, Status, trajectory
 from .tracking import Tracker
@@ -30,9 +32,12 @@ def _checked_times(times):
     if times is None:
         return None
     t = _floats("times", times, "a sequence of numbers")
+    # increasing strictly between finite ends: every instant finite (a NaN fails the comparison)
+    if t.ndim == 1 and len(t) and math.isfinite(t[0]) and math.isfinite(t[-1]) and (t[1:] > t[:-1]).all():
+        return t
     if t.ndim != 1 or not len(t) or not np.isfinite(t).all():
         raise InputError(f"solve: times of shape {t.shape}: expected one or more finite instants in a 1-D sequence")
-    if len(t) > 1 and not (np.diff(t) > 0).all():
+    if len(t) > 1 and not (t[1:] > t[:-1]).all():
         k = int(np.flatnonzero(np.diff(t) <= 0)[0])
         raise InputError(f"solve: times must increase strictly: times[{k + 1}] = {t[k + 1]:g} "
                          f"after times[{k}] = {t[k]:g}")
@@ -60,22 +65,21 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     ``q0``: the estimate to assemble from at ``times[0]`` (default the case's
     ``model.q0``); a run continued from a solved state passes that state, so a
     long run can be solved in pieces (``kinem solve`` does: kinem.stream)."""
-    from .model import Model
-
     if not isinstance(model, Model):
         raise InputError(f"solve: model {type(model).__name__}: expected a kinem.Model (kinem.compile(case))")
     times = _checked_times(times)
-    options = Options.of(model.case) if options is None else options
+    options = model.options if options is None else options
     if not isinstance(options, Options):
         raise InputError(f"solve: options {type(options).__name__}: expected a kinem.Options")
     q0 = _checked_q0(model, q0)
-    outputs = (outputs,) if isinstance(outputs, str) else outputs
-    if not isinstance(outputs, (tuple, list)) or not all(isinstance(o, str) and o in OUTPUTS for o in outputs):
-        raise InputError(f"solve: outputs {outputs!r:.80}: expected a sequence of {', '.join(OUTPUTS)}")
+    if not (type(outputs) is tuple and outputs == OUTPUTS):   # all of them (the default) needs no check
+        outputs = (outputs,) if isinstance(outputs, str) else outputs
+        if not isinstance(outputs, (tuple, list)) or not all(isinstance(o, str) and o in OUTPUTS for o in outputs):
+            raise InputError(f"solve: outputs {outputs!r:.80}: expected a sequence of {', '.join(OUTPUTS)}")
+        outputs = tuple(o for o in OUTPUTS if o in outputs)
+        if "positions" not in outputs:
+            outputs = ("positions",) + outputs
     check_square(model)
-    outputs = tuple(o for o in OUTPUTS if o in outputs)
-    if "positions" not in outputs:
-        outputs = ("positions",) + outputs
     need_a = "accelerations" in outputs
     need_v = need_a or "velocities" in outputs
     times = model.times if times is None else np.asarray(times, dtype=float)
@@ -145,10 +149,10 @@ def check_square(model) -> None:
     the mobility (kinem.diagnose.driver_count). More equations than
     coordinates are accepted when they are consistent (redundant
     constraints, solved in the least-squares sense)."""
-    from .diagnose import driver_count
-
     if model.m == model.n:
         return
+    from .diagnose import driver_count
+
     # fewer: the ranks where the equations settle; more: as estimated (redundant constraints that
     # hold only in the configuration drawn, a parallelogram's third crank, keep their mobility there)
     counted = driver_count(model, float(model.times[0]), settle=model.m < model.n)
