@@ -56,6 +56,8 @@ class March:
         self.state = st = np.zeros(6 * n + 5)
         # the state's parts (views, made once): q, qd, qdd, (time, det sign), H (3 n), T (3)
         self.parts = st[:n], st[n:2 * n], st[2 * n:3 * n], st[3 * n:3 * n + 2], st[3 * n + 2:6 * n + 2], st[6 * n + 2:]
+        self.fresh = True   # the state as advance(0) starts it, but for q
+        self.parts[3][0], self.parts[5][:] = self.times[0], np.nan
 
     def advance(self, k: int, q0=None) -> int:
         """Output instants from k on, from the tracker's last state (k = 0:
@@ -65,9 +67,10 @@ class March:
         q, qd, qdd, last, H, T = self.parts
         if k == 0:
             q[:] = self.model.q0 if q0 is None else q0
-            qd[:] = qdd[:] = H[:] = 0.0
-            last[:] = self.times[0], 0.0
-            T[:] = np.nan
+            if not self.fresh:
+                qd[:] = qdd[:] = H[:] = 0.0
+                last[:] = self.times[0], 0.0
+                T[:] = np.nan
         else:
             s = tr.history[-1]
             if self.rates:
@@ -77,6 +80,7 @@ class March:
             times, states = tr.recent()
             T[:], H[:] = times, states.ravel()
             q[:], last[:] = s.q, (s.t, s.det)
+        self.fresh = False
         ints = self.ints
         ints[-2:] = 0
         started = time.perf_counter()

@@ -126,16 +126,18 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     wall = time.perf_counter() - start
     n_ok = k
     ok = status == Status.SUCCESS
-    traj = trajectory(model, times[:n_ok], Q[:n_ok], None if QD is None else QD[:n_ok],
-                      None if QDD is None else QDD[:n_ok])
-    return SolveResult(
+    t_fail = None if ok else float(times[n_ok])
+    if n_ok < nt:   # the instants solved
+        times, Q, iters, resid, cond = times[:n_ok], Q[:n_ok], iters[:n_ok], resid[:n_ok], cond[:n_ok]
+        QD, QDD = None if QD is None else QD[:n_ok], None if QDD is None else QDD[:n_ok]
+    traj = trajectory(model, times, Q, QD, QDD)
+    return SolveResult.of(
         success=ok, status=status, message=message or "all instants solved",
-        trajectory=traj, q=Q[:n_ok], qd=None if QD is None else QD[:n_ok],
-        qdd=None if QDD is None else QDD[:n_ok], iterations=iters[:n_ok], residual=resid[:n_ok],
-        conditioning=cond[:n_ok], substeps=tracker.substeps, events=tuple(tracker.events),
+        trajectory=traj, q=Q, qd=QD, qdd=QDD, iterations=iters, residual=resid,
+        conditioning=cond, substeps=tracker.substeps, events=tuple(tracker.events),
         trace=tuple(data.trace or ()),
         jacobian_evaluations=data.jacobian_evaluations, factorizations=data.factorizations,
-        wall_time=wall, t_fail=None if ok else float(times[n_ok]), attempts=tracker.budget.attempts,
+        wall_time=wall, t_fail=t_fail, attempts=tracker.budget.attempts,
         failed_constraint=pin[0] if status == Status.WRONG_BRANCH else None if ok or status == Status.SINGULAR
         else model.row_owner[data.worst_row],
         model=model,
