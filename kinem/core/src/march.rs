@@ -1,7 +1,10 @@
 //! The march over output instants (docs/solver.md, "The march"): at each
-//! instant the predictor, Newton-Raphson with the final correction and the
-//! LU at the corrected q (newton::settle on the core's own operations), the
-//! acceptance test and the velocity and acceleration solves from that LU.
+//! instant the predictor, the chord from the Hermite start with the last
+//! instant's LU to rounding and the LU there (newton::chord), or, at the
+//! march's first instant and where the chord contracts too slowly,
+//! Newton-Raphson with the final correction and the LU at the corrected q
+//! (newton::settle), both on the core's own operations; the acceptance test
+//! and the velocity and acceleration solves from that one LU.
 //! It stops at the first instant not accepted and hands it to the tracker
 //! (kinem/tracking.py), which sub-steps, diagnoses and steps over.
 use crate::accept::{hermite, jump_sizes, lagrange, rejected, taylor, Why};
