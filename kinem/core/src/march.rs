@@ -11,7 +11,7 @@ use crate::accept::{hermite, jump_sizes, lagrange, rejected, taylor, Why};
 use crate::families::At;
 use crate::lu::{Factors, Layout};
 use crate::model::Kin;
-use crate::newton::{chord, settle, Ops};
+use crate::newton::{chord, settle, Ops, RECENT};
 use crate::watch::Watch;
 use num_complex::Complex64 as C64;
 use std::convert::Infallible;
@@ -188,6 +188,8 @@ pub fn run(
     let (mut next, mut tick) = (Instant::now(), 0u32);
     // ops.f holds the factorisation at the last accepted q (none before the first)
     let mut held = false;
+    // the chord's last measured contraction and the instants since (newton::chord's `known`)
+    let (mut theta, mut age) = (f64::INFINITY, RECENT + 1);
     // the state before the last accepted one (q, qd, qdd) and its time (NaN: none in this march)
     let (mut prev, mut before, mut start) = (vec![0.0; 3 * n], f64::NAN, vec![0.0; n]);
     while k < times.len() {
@@ -219,10 +221,19 @@ pub fn run(
         } else {
             ops.start(&qp, t);
         }
-        let Ok(chorded) = if held { chord(&mut ops, s.tolerance, s.max_step) } else { Ok(None) };
+        let known = if age <= RECENT { theta } else { f64::INFINITY };
+        let Ok(chorded) = if held { chord(&mut ops, s.tolerance, s.max_step, known) } else { Ok(None) };
         let settled = match chorded {
-            Some(c) => c,
+            Some((c, measured)) => {
+                if measured.is_nan() {
+                    age += 1;
+                } else {
+                    (theta, age) = (measured, 0);
+                }
+                c
+            }
             None => {
+                (theta, age) = (f64::INFINITY, RECENT + 1);
                 ops.start(&qp, t);
                 let Ok(c) = settle(&mut ops, s.tolerance, s.max_iterations, s.max_step, true);
                 c
