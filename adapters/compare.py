@@ -30,13 +30,22 @@ from .base import Status
 
 
 class Verdict(enum.Enum):
-    """A comparison's judgement; ``value`` is what the CLI, JSON and HTML show."""
+    """A comparison's judgement; ``value`` is what the CLI, JSON and HTML
+    show. One rule everywhere (``kinem compare``, the report's cells, JUnit
+    and the gate): the members with ``fails`` fail the run."""
     WITHIN = "within tolerance"
     OUTSIDE = "outside tolerance"
     CAPPED = "cannot reach the tolerance within the cost cap"
     UNSUPPORTED = "unsupported"
     FAILED = "failed"
     NONE = ""                     # no tolerance given
+    SELF = "no independent reference"                     # native checked only against itself
+    CONSISTENT = "consistent with the engines' consensus"  # outside against native, but native is the one off
+    DISAGREES = "native disagrees with the engines' consensus"
+
+    @property
+    def fails(self) -> bool:
+        return self in (Verdict.OUTSIDE, Verdict.CAPPED, Verdict.FAILED, Verdict.DISAGREES)
 
 
 @dataclass(frozen=True)
@@ -66,6 +75,10 @@ class Comparison:
     notes: tuple = ()                      # what the adapter decided on its own (EngineRun.notes)
     estimate: dict = field(default_factory=dict)   # the engine's own error figures (EngineRun.estimate)
     capped: bool = False                   # its self-check still missed the tolerance at the cost cap
+    attributed: "Consensus | None" = None  # engines agree, native disagrees (``consensus``)
+    independent: bool = True               # native: checked against something else than itself
+    intervals: int = 0                     # output intervals simulated
+    compact: dict | None = field(default=None, repr=False, compare=False)   # kinem.report.fingerprint.compact
 
     @property
     def verdict(self) -> Verdict:
@@ -73,11 +86,28 @@ class Comparison:
             return Verdict.UNSUPPORTED
         if self.status is not Status.OK:
             return Verdict.FAILED
+        if self.engine == "native":
+            if self.attributed is not None:
+                return Verdict.DISAGREES
+            return Verdict.WITHIN if self.independent else Verdict.SELF
         if self.within_tolerance is None:
             return Verdict.NONE
         if self.within_tolerance:
             return Verdict.WITHIN
+        if self.attributed is not None:
+            return Verdict.CONSISTENT
         return Verdict.CAPPED if self.capped else Verdict.OUTSIDE
+
+    @property
+    def steps_per_interval(self) -> float:
+        """Engine steps per output interval, every attempt counted (refinements included)."""
+        return self.steps / self.intervals if self.intervals else float(self.substeps)
+
+    @property
+    def cost_per_interval(self) -> float:
+        """The whole run's wall time per output interval: stepping and the adapter's own Python."""
+        return self.time_per_interval + (self.overhead_per_interval if np.isfinite(self.overhead_per_interval)
+                                         else 0.0)
 
     @property
     def verdict_text(self) -> str:
@@ -88,8 +118,10 @@ class Comparison:
             over = "; ".join(f"{k} {x:.2e} > {limit:.0e}" for k, x, limit in self.exceeded)
             cost = f" ({self.substeps} steps per interval, {1e6 * self.time_per_interval:.3g} us per interval)"
             return f"{v.value}: {over}" + (cost if v is Verdict.CAPPED else "")
-        if v is Verdict.WITHIN:
-            return f"{v.value} at {self.substeps} steps per interval"
+        if v is Verdict.WITHIN and self.engine != "native":
+            return f"{v.value} at {self.steps_per_interval:.3g} steps per interval (every attempt)"
+        if v in (Verdict.DISAGREES, Verdict.CONSISTENT):
+            return f"{v.value}: {self.attributed.text}"
         return v.value
 
     @property
@@ -107,9 +139,12 @@ class Comparison:
 
     def as_dict(self) -> dict:
         """JSON-ready: ``status`` the one-string label, ``outcome`` its kind."""
-        d = asdict(self)
-        del d["detail"]
+        d = {k: v for k, v in asdict(self).items() if k not in ("detail", "compact")}
+        d = {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in d.items()}
+        d["attributed"] = None if self.attributed is None else asdict(self.attributed)
         return dict(d, status=self.label, outcome=self.status.value, verdict=self.verdict.value,
+                    verdict_text=self.verdict_text, steps_per_interval=self.steps_per_interval,
+                    cost_per_interval=self.cost_per_interval,
                     exceeded=[{"figure": k, "value": x, "limit": limit} for k, x, limit in self.exceeded])
 
 
@@ -123,6 +158,15 @@ def _xy(traj, names):
 
 def _vxy(traj, names):
     return np.stack([traj[f"{n}.vx"] + 1j * traj[f"{n}.vy"] for n in names], axis=1)
+
+
+def speed(model, traj) -> float:
+    """The run's peak speed V = max(L max|omega|, max|v|) over bodies and
+    named points (the scale of velocities; V / L of angular velocities)."""
+    items = list(model.body_names) + list(model.point_names)
+    v = np.abs(_vxy(traj, items)).max()
+    w = max(float(np.abs(traj[f"{b}.omega"]).max()) for b in model.body_names)
+    return max(model.length * w, float(v), 1e-300)
 
 
 def errors(model, native, q, traj) -> dict:
@@ -140,19 +184,89 @@ def errors(model, native, q, traj) -> dict:
         v_ref = _vxy(ref, items)[:nt]
         out["velocity_error"] = float(np.abs(_vxy(traj, items)[:nt] - v_ref).max())
         w_ref = np.stack([ref[f"{b}.omega"][:nt] for b in bodies])
-        speed = max(model.length * float(np.abs(w_ref).max()), float(np.abs(v_ref).max()), 1e-300)
-        out["velocity_error_rel"] = out["velocity_error"] / speed
+        v = speed(model, ref)
+        out["velocity_error_rel"] = out["velocity_error"] / v
         dw = np.stack([traj[f"{b}.omega"][:nt] for b in bodies]) - w_ref
         out["angular_velocity_error"] = float(np.abs(dw).max())
-        out["angular_velocity_error_rel"] = out["angular_velocity_error"] * model.length / speed
+        out["angular_velocity_error_rel"] = out["angular_velocity_error"] * model.length / v
     out["constraint_residual"] = model.kinematic_residual(q[:nt], ref.t[:nt])
     return out
+
+
+FIGURE_OF = {"position": "position_error_rel", "angle": "angle_error", "velocity": "velocity_error_rel",
+             "angular_velocity": "angular_velocity_error_rel"}   # a column's kind -> its judged figure
+
+
+@dataclass(frozen=True)
+class Consensus:
+    """Two or more engines agree with each other within their tolerances and
+    all disagree with native the same way: native is the one off."""
+    figure: str          # the judged figure (FIGURE_OF), e.g. velocity_error_rel
+    value: float         # native against the engines' mean, scale-free
+    column: str          # where it is largest
+    t: float | None
+    engines: tuple       # the engines that agree
+    spread: float        # their largest disagreement with each other, same unit
+
+    @property
+    def text(self) -> str:
+        when = "" if self.t is None else f" at t = {self.t:.6g} s"
+        return (f"{self.figure} {self.value:.2e} ({self.column}{when}) against {', '.join(self.engines)}, "
+                f"which agree within {self.spread:.1e}")
+
+
+def consensus(trajectories, tolerances, figures, length, v) -> Consensus | None:
+    """Whether native disagrees with the engines' consensus, from the runs'
+    trajectories at the same instants (``{engine: {"t": [...], "columns":
+    {name: values}}}``, native's included), their tolerances and their
+    figures against native. For one judged figure, it holds when at least
+    two engines (those with a tolerance on it and a trajectory) agree with
+    each other within the sum of their tolerances at every instant and
+    column, each is outside its own tolerance against native, and native
+    lies further from their mean than any of them. The figure returned is
+    the one native is furthest off, relative to the tightest limit."""
+    from kinem.report.fingerprint import kind, scaled
+
+    native = trajectories.get("native")
+    if native is None:
+        return None
+    best, ratio = None, 0.0
+    for k, fig in FIGURE_OF.items():
+        names = [e for e in trajectories if e != "native" and fig in (tolerances.get(e) or {})
+                 and (figures.get(e) or {}).get(fig) is not None]
+        if len(names) < 2 or any(figures[e][fig] <= tolerances[e][fig] for e in names):
+            continue
+        cols = [c for c in native["columns"] if kind(c) == k and all(c in trajectories[e]["columns"] for e in names)]
+        if not cols:
+            continue
+        runs = {e: {c: np.asarray(trajectories[e]["columns"][c], float) for c in cols} for e in names}
+        spread, agree = 0.0, True
+        for i, a in enumerate(names):
+            for b in names[i + 1:]:
+                d = max(float(scaled(c, runs[a][c] - runs[b][c], length, v).max()) for c in cols)
+                spread = max(spread, d)
+                agree &= d <= tolerances[a][fig] + tolerances[b][fig]
+        if not agree:
+            continue
+        mean = {c: np.mean([runs[e][c] for e in names], axis=0) for c in cols}
+        off = {c: scaled(c, np.asarray(native["columns"][c], float) - mean[c], length, v) for c in cols}
+        column = max(cols, key=lambda c: off[c].max())
+        value = float(off[column].max())
+        cloud = max(float(scaled(c, runs[e][c] - mean[c], length, v).max()) for e in names for c in cols)
+        limit = min(tolerances[e][fig] for e in names)
+        if value <= max(cloud, limit) or value / limit <= ratio:
+            continue
+        at = int(np.argmax(off[column]))
+        t = native.get("t")
+        best, ratio = Consensus(fig, value, column, None if t is None else float(t[at]), tuple(names), spread), \
+            value / limit
+    return best
 
 
 def costs(run, end) -> dict:
     """An EngineRun's cost figures: per engine step, per output interval, per simulated second."""
     n = max(run.intervals, 1)
-    return dict(wall_time=run.wall_time, steps=run.steps, substeps=run.substeps,
+    return dict(wall_time=run.wall_time, steps=run.steps, substeps=run.substeps, intervals=run.intervals,
                 time_per_step=run.wall_time / max(run.steps, 1), time_per_interval=run.wall_time / n,
                 overhead_per_interval=run.overhead / n,
                 time_per_sim_second=run.wall_time / end if end else float("nan"))
@@ -177,7 +291,26 @@ def compare(model, native, run, tolerance=None) -> Comparison:
         return Comparison(**dict(base, status=Status.NONFINITE, detail="non-finite trajectory"),
                           within_tolerance=False)
     within = all(e.get(k, 0.0) <= v for k, v in (tolerance or {}).items())
-    return Comparison(**base, **e, within_tolerance=within)
+    from kinem.report.fingerprint import compact
+
+    return Comparison(**base, **e, within_tolerance=within, compact=compact(model, run.trajectory))
+
+
+def attribute(model, native, rows) -> list:
+    """rows with the engines' consensus applied (``consensus``): when it
+    holds, native's row DISAGREES and the agreeing engines' rows are
+    CONSISTENT (both carry the Consensus). native: the native SolveResult."""
+    from dataclasses import replace
+
+    from kinem.report.fingerprint import compact
+
+    ok = [r for r in rows if r.engine != "native" and r.ok and r.compact is not None]
+    trajs = {"native": compact(model, native.trajectory), **{r.engine: r.compact for r in ok}}
+    c = consensus(trajs, {r.engine: r.tolerance for r in ok}, {r.engine: asdict(r) for r in ok},
+                  model.length, speed(model, native.trajectory))
+    if c is None:
+        return list(rows)
+    return [replace(r, attributed=c) if r.engine == "native" or r.engine in c.engines else r for r in rows]
 
 
 def native_row(model, native, options=None) -> Comparison:
@@ -191,10 +324,10 @@ def native_row(model, native, options=None) -> Comparison:
     res = model.kinematic_residual(native.q, native.trajectory.t)
     steps = len(native.iterations)
     n = max(steps - 1, 1)
+    # no figure against itself: nothing independent checked it (Verdict.SELF), never a zero
     return Comparison(engine="native", status=Status.OK if native.success else Status.FAILED,
-                      detail="" if native.success else native.message, position_error=0.0, position_error_rel=0.0,
-                      angle_error=0.0, velocity_error=0.0, velocity_error_rel=0.0, angular_velocity_error=0.0,
-                      angular_velocity_error_rel=0.0, constraint_residual=res, wall_time=native.wall_time, steps=steps, substeps=1,
+                      detail="" if native.success else native.message, independent=False, intervals=n,
+                      constraint_residual=res, wall_time=native.wall_time, steps=steps, substeps=1,
                       time_per_step=native.wall_time / max(steps, 1), time_per_interval=native.wall_time / n,
                       overhead_per_interval=0.0, time_per_sim_second=native.wall_time / model.case.end,
                       within_tolerance=native.success,
@@ -246,26 +379,30 @@ def run_case(model, engines, overrides=None, scheduler=None, options=None):
             rows.append(Comparison(engine=name, status=Status.FAILED, detail=f"no native reference ({native.message})"))
         else:
             rows.append(next(done))
-    return native, rows
+    return native, attribute(model, native, rows) if native.success else rows
 
 
 def table(case_name, length, unit, rows) -> str:
     head = (f"case {case_name} (L = {length:.4g} {unit})".rstrip() + "\n"
             f"{'engine':8s} {'status':10s} {'pos err':>9s} {'pos/L':>9s} {'angle':>9s} {'vel/V':>9s} "
-            f"{'omega/W':>9s} {'resid':>9s} {'steps/out':>9s} {'us/out':>8s} {'+adapter':>8s}  verdict")
+            f"{'omega/W':>9s} {'resid':>9s} {'steps/out':>9s} {'us/out':>8s} {'stepping':>8s}  verdict")
     lines = [head]
     for r in rows:
         if r.status is not Status.OK:
             lines.append(f"{r.engine:8s} {r.label}")
             continue
-        verdict = r.verdict_text if r.engine != "native" else r.verdict.value
-        lines.append(f"{r.engine:8s} {r.label:10s} {r.position_error:9.2e} {r.position_error_rel:9.2e} "
-                     f"{r.angle_error:9.2e} {r.velocity_error_rel:9.2e} {r.angular_velocity_error_rel:9.2e} "
-                     f"{r.constraint_residual:9.2e} {r.substeps:9d} {1e6 * r.time_per_interval:8.1f} "
-                     f"{1e6 * r.overhead_per_interval:8.1f}  {verdict}")
+        figures = [r.position_error, r.position_error_rel, r.angle_error, r.velocity_error_rel,
+                   r.angular_velocity_error_rel]
+        shown = (" ".join(f"{x:9.2e}" for x in figures) if r.engine != "native"
+                 else f"{'(' + Verdict.SELF.value + ')':49s}")
+        lines.append(f"{r.engine:8s} {r.label:10s} {shown} "
+                     f"{r.constraint_residual:9.2e} {r.steps_per_interval:9.3g} {1e6 * r.cost_per_interval:8.1f} "
+                     f"{1e6 * r.time_per_interval:8.1f}  {r.verdict_text}")
         lines += [f"{'':8s} note: {n}" for n in r.notes]
     lines.append("vel/V, omega/W: velocity and angular-velocity errors over the run's peak speed V and peak "
-                 "angular speed W (docs/engines.md, Tolerances); us/out: seconds of stepping per output interval "
-                 "(native: one solve per output instant); +adapter: the adapter's own Python per interval "
-                 "(build, driving, sampling)")
+                 "angular speed W (docs/engines.md, Tolerances); native is checked here only against itself: "
+                 "no independent reference (kinem report uses closed forms, equivalence groups and the engines' "
+                 "consensus); steps/out: engine steps per output interval, every attempt counted; us/out: the "
+                 "whole run's wall time per output interval (the adapter's Python included; native: one solve "
+                 "per output instant); stepping: the engine's stepping calls alone")
     return "\n".join(lines)

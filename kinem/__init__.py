@@ -16,7 +16,9 @@ from .errors import AnalysisError, ConvergenceError, InputError, KinemError, Kin
 from .model import Model, compile
 from .notebook import animate, plot
 from .options import Options
+from .parameters import Parameter, parameters
 from .result import OUTPUTS, SolveResult, Status, Trajectory
+from .sensitivity import Sensitivity, sensitivity
 from .solver import solve
 from .spec import Body, Case, Constraint, Point
 from .sweep import Sweep, sweep
@@ -24,5 +26,6 @@ from .sweep import Sweep, sweep
 __all__ = [
     "__version__", "load", "loads", "load_dict", "compile", "solve", "position", "velocity", "acceleration",
     "factorize", "Data", "Options", "Model", "Case", "Body", "Point", "Constraint", "SolveResult", "Trajectory",
-    "Status", "OUTPUTS", "sweep", "Sweep", "plot", "animate", "KinemError", "KinemWarning", "InputError", "AnalysisError", "ConvergenceError", "SingularError",
+    "Status", "OUTPUTS", "sweep", "Sweep", "plot", "animate", "parameters", "Parameter", "sensitivity", "Sensitivity",
+    "KinemError", "KinemWarning", "InputError", "AnalysisError", "ConvergenceError", "SingularError",
 ]

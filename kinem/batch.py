@@ -46,7 +46,8 @@ def merge(cases, name="batch") -> Case:
         for con in c.constraints:
             keys = {key.name for key in REGISTRY[con.type].keys if isinstance(key, BodyKey)}
             fields = {f: (p + v if f in keys else v) for f, v in con.fields.items()}
-            constraints.append(replace(con, name=p + con.name, index=len(constraints) + 1, fields=frozen_map(fields)))
+            constraints.append(replace(con, name=p + con.name, index=len(constraints) + 1, fields=frozen_map(fields),
+                                       refs=frozen_map({k: p + v for k, v in con.refs.items()})))
     return Case(name=name, bodies=tuple(bodies), points=tuple(points), constraints=tuple(constraints), end=end,
                 steps=steps, tolerance=min(c.tolerance for c in cases),
                 max_iterations=max(c.max_iterations for c in cases), linear_solver="auto",

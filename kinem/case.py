@@ -21,7 +21,7 @@ from .spec import Case, frozen_map
 
 MAX_FILE_BYTES = 16 * 2**20
 TOP_KEYS = ("name", "description", "parameters", "units", "time", "solver", "bodies", "points", "constraints", "engines",
-            "equivalent", "report")
+            "equivalent", "report", "tolerances")
 
 
 def load(path, parameters=None) -> Case:
@@ -100,11 +100,21 @@ def load_dict(data, source: str = "<dict>", parameters=None) -> Case:
     engines = sections.engines(ck, data.get("engines", {}))
     equivalent = sections.equivalent(ck, data["equivalent"], points) if "equivalent" in data else None
     report = sections.report(ck, data.get("report", {}), points)
+    tolerances = sections.tolerances(ck, data.get("tolerances", {}))
     ck.raise_if_any()
     case = Case(name=name, bodies=tuple(bodies.values()), points=tuple(points.values()),
                 constraints=tuple(cons), end=end or 1.0, steps=steps, description=description,
                 units=frozen_map(units), engines=frozen_map(engines), source=source,
-                equivalent=equivalent, report=frozen_map(report), parameters=frozen_map(params), **solver)
+                equivalent=equivalent, report=frozen_map(report), parameters=frozen_map(params),
+                tolerances=frozen_map(tolerances), **solver)
+    if tolerances:   # their paths and sizes need the whole case (kinem.tolerance)
+        from .tolerance import tolerances_of
+
+        tolerances_of(case)
+    if "sensitivity" in case.report:   # paths of design parameters (kinem.parameters)
+        from .parameters import resolve
+
+        resolve(case, case.report["sensitivity"])
     for text in fast_drivers(case):
         import warnings
 

@@ -32,11 +32,11 @@ def _load(path, end=None, steps=None, values=None):
     return compile(case)
 
 
-def _outputs(text):
+def _outputs(text, extra=()):
     items = [s.strip() for s in text.split(",") if s.strip()]
-    bad = [s for s in items if s not in OUTPUTS]
+    bad = [s for s in items if s not in OUTPUTS + extra]
     if bad or not items:
-        raise InputError(f"--outputs: got {text!r}; expected a comma-separated list of {', '.join(OUTPUTS)}")
+        raise InputError(f"--outputs: got {text!r}; expected a comma-separated list of {', '.join(OUTPUTS + extra)}")
     return tuple(items)
 
 
@@ -115,11 +115,12 @@ def cmd_solve(a):
 
     import time
 
+    from .margins import MARGINS
     from .options import MOST_SECONDS
 
     started = time.perf_counter()
     fmt = _format(a.out, a.format)
-    outputs = _outputs(a.outputs)
+    outputs = _outputs(a.outputs, (MARGINS,))
     limit = MAX_WORK if a.max_work is None else a.max_work
     if not 1 <= limit <= MOST_WORK:   # NaN too
         raise InputError(f"--max-work: got {limit:g}; expected a number of output instants x coordinates "
@@ -336,6 +337,13 @@ def cmd_sweep(a):
 def cmd_info(a):
     from .info import describe, info
 
+    if a.parameters:
+        from .info import describe_parameters
+        from .parameters import parameters
+
+        listed = parameters(_load(a.case, values=a.set).case)
+        print(json.dumps([p.as_dict() for p in listed], indent=2) if a.json else describe_parameters(listed))
+        return 0
     i = info(_load(a.case, values=a.set))
     print(json.dumps(i.as_dict(), indent=2) if a.json else describe(i))
     if not i.assembled:  # the figures above are of the closest configuration found
@@ -343,6 +351,47 @@ def cmd_info(a):
 
         what = "assembles on a branch it excludes" if i.status is Status.WRONG_BRANCH else "does not assemble at t = 0"
         raise AnalysisError(f"{a.case}: {what}: {i.diagnosis}")
+    return 0
+
+
+def cmd_sensitivity(a):
+    from .output import write_trajectory
+    from .sensitivity import sensitivity
+
+    fmt = _format(a.out, a.format)
+    model = _load(a.case, a.end, a.steps)
+    paths = [p.strip() for p in a.parameters.split(",") if p.strip()]
+    s = sensitivity(model, paths, outputs=_outputs(a.outputs))
+    if s.singular.any():
+        print(f"kinem: warning: {a.case}: {s.message}", file=sys.stderr)
+    write_trajectory(s.derivatives, "-" if a.out is None else a.out, fmt)
+    return 0
+
+
+def cmd_tolerance(a):
+    from .output import write_trajectory
+    from .tolerance import tolerance
+
+    fmt = _format(a.out, a.format)
+    model = _load(a.case, a.end, a.steps)
+    outputs = [c.strip() for c in a.outputs.split(",") if c.strip()] if a.outputs else None
+    progress = None
+    if sys.stderr.isatty():
+        from .report.progress import Progress
+
+        bar = Progress(a.samples)
+
+        def progress(done, total):
+            bar.done = done
+            bar.show(f"sample {done:,} of {total:,}")
+    b = tolerance(model, samples=a.samples, outputs=outputs, seed=a.seed, progress=progress)
+    write_trajectory(b.table, "-" if a.out is None else a.out, fmt)
+    for c, amount, t in b.excess:
+        print(f"{c}: the Monte Carlo band leaves the worst-case linear band by at most {amount:.3g} (t = {t:.6g})",
+              file=sys.stderr)
+    if b.rejected:
+        print(f"kinem: {len(b.rejected)} of {b.samples} samples not on the nominal's branch, left out; first: "
+              f"{b.rejected[0][1]}", file=sys.stderr)
     return 0
 
 
@@ -482,7 +531,7 @@ def cmd_compare(a):
                           "engines": {r.engine: r.as_dict() for r in rows}}, indent=2, default=float))
     else:
         print(table(model.case.name, model.length, model.case.length_unit, rows))
-    return 0 if all(r.within_tolerance is not False for r in rows) else 1
+    return 1 if any(r.verdict.fails for r in rows) else 0   # adapters.compare.Verdict: the report's rule too
 
 
 def cmd_report(a):
@@ -502,15 +551,25 @@ def cmd_report(a):
         baseline = str(found) if found.is_file() else None
     elif baseline == "none":
         baseline = None
-    whole_set = bool(whole) and {Path(p).resolve() for p in paths} == {Path(p).resolve() for p in whole}
     outcome = run(Options(cases=tuple(paths), engines=engines, out=a.out,
                           baseline=baseline, update_baseline=a.update_baseline, quick=a.quick, junit=a.junit,
                           fail_on_slowdown=a.fail_on_slowdown, workers=a.jobs, scheduler=a.scheduler,
-                          stress=True if a.stress else False if a.no_stress else None, whole_set=whole_set,
+                          stress=True if a.stress else False if a.no_stress else None,
                           work_precision=a.work_precision,
                           baseline_default=a.baseline is None))
     print(outcome.detail)
     return outcome.exit_code
+
+
+def cmd_diff(a):
+    from .report.diff import diff
+
+    lines, regressions = diff(a.a, a.b)
+    for line in lines:
+        print(line)
+    print(f"kinem diff: {a.b} against {a.a}: {regressions} regression(s), {len(lines) - regressions} other line(s)"
+          if lines else f"kinem diff: {a.b} against {a.a}: nothing moved")
+    return 1 if regressions else 0
 
 
 def cmd_animate(a):
@@ -545,7 +604,9 @@ def parser():
     s.add_argument("--format", choices=("csv", "npz"),
                    help="csv (default; to standard output without --out) or npz (needs --out); must agree with "
                         "--out's suffix")
-    s.add_argument("--outputs", default=",".join(OUTPUTS), help="any of positions,velocities,accelerations")
+    s.add_argument("--outputs", default=",".join(OUTPUTS),
+                   help="any of positions,velocities,accelerations,margins (margins: the smallest singular value "
+                        "of the dimensionless Jacobian and the transmission angles, docs/design.md)")
     s.add_argument("--end", help="end time (overrides the case; the case file's range)")
     s.add_argument("--steps", help="number of output intervals (overrides the case; the case file's range)")
     s.add_argument("--diagnostics", nargs="?", const="-", metavar="FILE",
@@ -566,6 +627,8 @@ def parser():
     i = sub.add_parser("info", help="coordinates, equations, Jacobian non-zeros, degrees of freedom")
     i.add_argument("case", help="the case file (TOML; docs/case-format.md)")
     i.add_argument("--json", action="store_true", help="the same figures as JSON")
+    i.add_argument("--parameters", action="store_true",
+                   help="list the case's design parameters instead: path, value, unit, what it is")
     _set_option(i)
     _errors_option(i)
     i.set_defaults(run=cmd_info)
@@ -580,6 +643,29 @@ def parser():
     sw.add_argument("--out", help="output CSV file (default: standard output)")
     _errors_option(sw)
     sw.set_defaults(run=cmd_sweep)
+
+
+    se = sub.add_parser("sensitivity", help="exact d/dp of every output column for design parameters p")
+    se.add_argument("case", help="the case file (TOML; docs/case-format.md)")
+    se.add_argument("--parameters", required=True, metavar="P,...",
+                    help="comma-separated parameter paths (kinem info CASE --parameters lists them)")
+    se.add_argument("--out", help="output file (default: CSV to standard output)")
+    se.add_argument("--format", choices=("csv", "npz"), help="csv (default) or npz (needs --out)")
+    se.add_argument("--outputs", default=",".join(OUTPUTS), help="any of positions,velocities,accelerations")
+    se.add_argument("--end", help="end time (overrides the case)")
+    se.add_argument("--steps", help="number of output intervals (overrides the case)")
+    se.set_defaults(run=cmd_sensitivity)
+
+    tl = sub.add_parser("tolerance", help="tolerance bands: linear worst case, root-sum-square, Monte Carlo")
+    tl.add_argument("case", help="the case file, with a [tolerances] section")
+    tl.add_argument("--samples", type=int, default=1000, help="Monte Carlo samples (default 1000)")
+    tl.add_argument("--outputs", help="comma-separated output columns (default: every named point's x and y)")
+    tl.add_argument("--seed", type=int, default=0, help="the samples' seed (default 0)")
+    tl.add_argument("--out", help="output file (default: CSV to standard output)")
+    tl.add_argument("--format", choices=("csv", "npz"), help="csv (default) or npz (needs --out)")
+    tl.add_argument("--end", help="end time (overrides the case)")
+    tl.add_argument("--steps", help="number of output intervals (overrides the case)")
+    tl.set_defaults(run=cmd_tolerance)
 
     st = sub.add_parser("stress", help="the stress suite on native and the engines, each outcome classified")
     st.add_argument("--engines", help="comma-separated: native and engines (default: all)")
@@ -644,6 +730,13 @@ def parser():
     an.add_argument("--engines", default="native,pymunk,mujoco,exudyn",
                     help="engines drawn as ghosts over the native solution")
     an.set_defaults(run=cmd_animate)
+
+    d = sub.add_parser("diff", help="what moved between two results.json files of kinem report (B against A, "
+                                    "judged as the gate judges a run against its baseline)")
+    d.add_argument("a", metavar="A.json", help="the earlier results.json (or baseline)")
+    d.add_argument("b", metavar="B.json", help="the later results.json")
+    _errors_option(d)
+    d.set_defaults(run=cmd_diff)
 
     co = sub.add_parser("completion", help="print the shell's tab-completion script (needs shtab): "
                                            "eval \"$(kinem completion bash)\"")

@@ -97,12 +97,13 @@ class FunctionTable:
     phase, offset, PIECES k, the k + 1 breakpoints and the 4 k coefficients
     piece by piece, highest power first."""
 
-    def __init__(self):
+    def __init__(self, share: bool = True):
         self.functions = []
         self._number = {}
+        self.share = share   # False: every function its own number (kinem.sensitivity's tables line up)
 
     def index(self, f) -> int:
-        key = identity(f)
+        key = identity(f) if self.share else len(self.functions)
         k = self._number.get(key)
         if k is None:
             k = self._number[key] = len(self.functions)

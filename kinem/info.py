@@ -152,3 +152,11 @@ def describe(i: Info) -> str:
     if i.equations != i.coordinates:
         lines.append(f"  warning: {i.equations} equations for {i.coordinates} coordinates")
     return "\n".join(lines)
+
+
+def describe_parameters(listed) -> str:
+    """kinem info CASE --parameters: one line per design parameter (kinem.parameters)."""
+    width = max([len(p.path) for p in listed] + [4])
+    lines = [f"{'path':<{width}}  {'value':>14}  {'unit':<8}  what"]
+    lines += [f"{p.path:<{width}}  {p.value:>14.10g}  {p.unit:<8}  {p.what}" for p in listed]
+    return "\n".join(lines)

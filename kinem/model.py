@@ -392,15 +392,30 @@ class Model:
                    default=0.0)
 
 
-def core_of(families, n: int, n_bodies: int, artificial: int) -> native.Core:
-    """The compiled core of the families: their tables (Family.table), the
-    model's driving functions and outlines, and its angle columns (every
-    body's phi, every artificial coordinate: e^{i q} of those is computed
-    once per configuration)."""
-    functions, outlines = FunctionTable(), OutlineTable()
+def core_tables(families, share: bool = True) -> tuple:
+    """The families' tables (Family.table), the model's driving functions
+    and outlines (equal ones share a number unless ``share`` is False)."""
+    functions, outlines = FunctionTable(share), OutlineTable(share)
     tables = [f.table(functions, outlines) for f in families]
+    return tables, functions.arrays(), outlines.arrays()
+
+
+def core_of(families, n: int, n_bodies: int, artificial: int) -> native.Core:
+    """The compiled core of the families: their tables, and the model's
+    angle columns (every body's phi, every artificial coordinate: e^{i q} of
+    those is computed once per configuration)."""
     angles = np.concatenate([3 * np.arange(n_bodies) + 2, 3 * n_bodies + np.arange(artificial)]).astype(np.int64)
-    return native.Core(n, tables, functions.arrays(), outlines.arrays(), angles)
+    return native.Core(n, *core_tables(families), angles)
+
+
+def families_of(case: Case, length: float) -> tuple:
+    """The case's constraint families (each over all its constraints, in
+    order of first appearance) and the compiling context."""
+    ctx = _Context(case, length)
+    groups = {}
+    for c in case.constraints:
+        groups.setdefault(REGISTRY[c.type].family, []).append(c)
+    return tuple(cls(cons, ctx) for cls, cons in groups.items()), ctx
 
 
 def compile(case: Case) -> Model:
@@ -409,11 +424,7 @@ def compile(case: Case) -> Model:
         from .errors import InputError
 
         raise InputError(f"compile: case {type(case).__name__}: expected a kinem.Case (kinem.load(path))")
-    ctx = _Context(case, characteristic_length(case))
-    groups = {}
-    for c in case.constraints:
-        groups.setdefault(REGISTRY[c.type].family, []).append(c)
-    families = tuple(cls(cons, ctx) for cls, cons in groups.items())
+    families, ctx = families_of(case, characteristic_length(case))
 
     offsets, rows, cols, r = [], [], [], 0
     for f in families:

@@ -119,12 +119,13 @@ class OutlineTable:
     length in theta (a periodic outline's period), center Q. A circle is
     one constant piece over [0, 2 pi), periodic (Outline.pieces)."""
 
-    def __init__(self):
+    def __init__(self, share: bool = True):
         self.outlines = []
         self._number = {}
+        self.share = share   # False: every outline its own number (kinem.sensitivity's tables line up)
 
     def index(self, o: Outline) -> int:
-        key = identity(o)
+        key = identity(o) if self.share else len(self.outlines)
         k = self._number.get(key)
         if k is None:
             k = self._number[key] = len(self.outlines)

@@ -144,6 +144,7 @@ class SolveResult:
     wall_time: float                 # seconds in the analysis loop
     t_fail: float | None = None
     failed_constraint: str | None = None
+    margin_moves: tuple = ()         # outputs "margins": per instant, the coordinates the smallest singular vector moves
     attempts: int = 0                # step attempts counted against Options.max_substeps (kinem.budget)
     model: object = field(default=None, repr=False)   # the Model solved (kept alive: kinem.animate draws it)
 

@@ -14,9 +14,10 @@ from .diagnose import contact_hint, explain_assembly
 from .errors import AnalysisError, InputError, SingularError, WorkLimitError
 from .linalg import choose
 from .march import March, usable
+from .margins import MARGINS, margins
 from .model import Model
 from .options import Options
-from .result import OUTPUTS, SolveResult, Status, trajectory
+from .result import OUTPUTS, SolveResult, Status, Trajectory, trajectory
 from .tracking import Tracker
 
 def _floats(name, value, expected):
@@ -72,10 +73,13 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     if not isinstance(options, Options):
         raise InputError(f"solve: options {type(options).__name__}: expected a kinem.Options")
     q0 = _checked_q0(model, q0)
+    want_margins = False
     if not (type(outputs) is tuple and outputs == OUTPUTS):   # all of them (the default) needs no check
         outputs = (outputs,) if isinstance(outputs, str) else outputs
-        if not isinstance(outputs, (tuple, list)) or not all(isinstance(o, str) and o in OUTPUTS for o in outputs):
-            raise InputError(f"solve: outputs {outputs!r:.80}: expected a sequence of {', '.join(OUTPUTS)}")
+        if not isinstance(outputs, (tuple, list)) or \
+                not all(isinstance(o, str) and o in OUTPUTS + (MARGINS,) for o in outputs):
+            raise InputError(f"solve: outputs {outputs!r:.80}: expected a sequence of {', '.join(OUTPUTS + (MARGINS,))}")
+        want_margins = MARGINS in outputs
         outputs = tuple(o for o in OUTPUTS if o in outputs)
         if "positions" not in outputs:
             outputs = ("positions",) + outputs
@@ -131,13 +135,17 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         times, Q, iters, resid, cond = times[:n_ok], Q[:n_ok], iters[:n_ok], resid[:n_ok], cond[:n_ok]
         QD, QDD = None if QD is None else QD[:n_ok], None if QDD is None else QDD[:n_ok]
     traj = trajectory(model, times, Q, QD, QDD)
+    moves = ()
+    if want_margins:   # kinem.margins: columns after the trajectory's own
+        names, values, moves = margins(model, Q, times)
+        traj = Trajectory(traj.t, traj.columns + names, np.hstack([traj.data, values]))
     return SolveResult.of(
         success=ok, status=status, message=message or "all instants solved",
         trajectory=traj, q=Q, qd=QD, qdd=QDD, iterations=iters, residual=resid,
         conditioning=cond, substeps=tracker.substeps, events=tuple(tracker.events),
         trace=tuple(data.trace or ()),
         jacobian_evaluations=data.jacobian_evaluations, factorizations=data.factorizations,
-        wall_time=wall, t_fail=t_fail, attempts=tracker.budget.attempts,
+        wall_time=wall, t_fail=t_fail, attempts=tracker.budget.attempts, margin_moves=moves,
         failed_constraint=pin[0] if status == Status.WRONG_BRANCH else None if ok or status == Status.SINGULAR
         else model.row_owner[data.worst_row],
         model=model,

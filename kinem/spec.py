@@ -34,6 +34,7 @@ class Constraint:
     name: str
     index: int  # 1-based position in the file's [[constraints]]
     fields: Mapping[str, Any] = field(default_factory=frozen_map)
+    refs: Mapping[str, str] = field(default_factory=frozen_map)  # key -> the named point it gave (fields hold its at)
 
     def __getitem__(self, key):
         return self.fields[key]
@@ -74,6 +75,7 @@ class Case:
     source: str = "<memory>"
     equivalent: Equivalence | None = None  # [equivalent]: the group of equivalent models it belongs to
     parameters: Mapping = field(default_factory=frozen_map)   # [parameters]: name -> the value used
+    tolerances: Mapping = field(default_factory=frozen_map)  # [tolerances]: parameter path -> pm or {pm, sigma}
 
     def __repr__(self) -> str:   # a summary: the whole case is kinem.load's input, and thousands of characters
         return (f"Case({self.name!r}: {len(self.bodies)} bodies, {len(self.points)} points, "

@@ -84,7 +84,7 @@ def test_a_long_run_out_of_time_names_its_pace():
 def test_non_finite_or_absurd_limits_are_bad_input(flag, value):
     code, out, err = kinem_cli("solve", SLIDER, flag, value)
     assert code == 2 and len(err.strip().splitlines()) == 1 and flag in err and "internal" not in err, err
-    assert out == ""
+    assert "expected" in err and "unrecognized" not in err and out == ""
 
 
 @pytest.mark.parametrize("bad", [float("inf"), float("nan"), 1e400, 10**30, "5", True])
@@ -150,8 +150,11 @@ PLAN_OVERFLOW = textwrap.dedent("""
     model.plan
     native.Plan = real
     core, band, count, size, height, width, kl, ku, sign, columns = seen[0]
+    # a count whose product with size wraps to the model's own count x size: every table fits it
+    wrapped = count + 2**64 // (size & -size)
+    assert (wrapped * size) % 2**64 == count * size
     try:
-        native.Plan(core, band, 2**62, 8, height, width, kl, ku, sign, columns)
+        native.Plan(core, band, wrapped, size, height, width, kl, ku, sign, columns)
     except ValueError as e:
         print("refused:", e)
 """)
@@ -362,7 +365,7 @@ def test_the_rejection_codes_are_mirrored_with_messages():
     assert all(w.message for w in native.Why)
 
 
-def test_a_guarded_panic_prints_nothing_and_an_unguarded_hook_is_kept():
+def test_a_guarded_panic_prints_nothing_and_is_a_core_error():
     code = textwrap.dedent("""
         import kinem
         from kinem import _core

@@ -58,7 +58,8 @@ def test_compare_on_cluster_equals_local(scheduler, capsys):
     local = json.loads(capsys.readouterr().out)["engines"]
     assert main(args + ["--scheduler", scheduler]) == 0
     remote = json.loads(capsys.readouterr().out)["engines"]
-    timing = {"wall_time", "time_per_step", "time_per_interval", "overhead_per_interval", "time_per_sim_second"}
+    timing = {"wall_time", "time_per_step", "time_per_interval", "overhead_per_interval", "time_per_sim_second",
+              "cost_per_interval"}
     assert list(remote) == ["native", "pymunk"] and remote["pymunk"]["status"] == "ok"
     for e in local:
         assert {k: v for k, v in remote[e].items() if k not in timing} == \

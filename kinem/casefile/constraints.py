@@ -2,7 +2,7 @@
 from ..constraints import REGISTRY, implemented_types
 from ..spec import Constraint, frozen_map
 from .checks import IDENT_RE, IDENT_TEXT, show, suggest
-from .keys import BodyKey, Scope
+from .keys import BodyKey, LocalKey, Scope
 from .sections import MAX_ITEMS
 
 
@@ -75,4 +75,5 @@ def constraint(ck, index, c, bodies, points, end):
             ck.bad(where, key, problem, expected)
         if ck.failures > n_before:
             return None
-    return Constraint(ctype, name, index, frozen_map(fields))
+    refs = {k.name: c[k.name] for k in decl.keys if isinstance(k, LocalKey) and isinstance(c.get(k.name), str)}
+    return Constraint(ctype, name, index, frozen_map(fields), frozen_map(refs))

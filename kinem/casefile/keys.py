@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import functions as fn
 from .checks import show
 from .curves import function, outline
 
@@ -49,6 +50,17 @@ class Key:
         """The length this value contributes to the mechanism's size (kinem.model), if any."""
         return None
 
+    def numbers(self, v) -> tuple:
+        """The design parameters in value v: (sub-path, number, quantity) each,
+        sub-path "" for a scalar key, "0", "1" for a vector's entries, "poly.1"
+        inside a table; quantity what it measures, which kinem.parameters
+        turns into a unit: "length", "angle", "direction" (a component of a
+        direction, normalised), "coordinate" (a length or an angle after the
+        constraint's coord), "frequency" (rad/s), "rateK" (a driving
+        function's quantity per s^K). None here: the key holds no number
+        that shapes the mechanism."""
+        return ()
+
 
 @dataclass(frozen=True)
 class BodyKey(Key):
@@ -82,11 +94,20 @@ class LocalKey(Key):
     def size(self, v):
         return float(np.hypot(*v))
 
+    def numbers(self, v):
+        return (("0", v[0], "length"), ("1", v[1], "length"))
+
 
 @dataclass(frozen=True)
 class NumberKey(Key):
+    """A number; ``quantity`` what it measures (kinem.parameters), None for an
+    estimate that does not shape the mechanism (a contact angle's starting value)."""
+    quantity: str | None = "length"
     accepts = "a number"
     phi_angle: bool = False   # an angle where the table's coord is phi (an absolute constraint's value)
+
+    def numbers(self, v):
+        return () if self.quantity is None else (("", v, self.quantity),)
 
     def parse(self, ck, where, v, scope):
         return ck.number(where, self.name, v)
@@ -106,6 +127,9 @@ class PositiveKey(Key):
     def size(self, v):
         return float(v)
 
+    def numbers(self, v):
+        return (("", v, "length"),)
+
 
 @dataclass(frozen=True)
 class DirectionKey(Key):
@@ -118,6 +142,9 @@ class DirectionKey(Key):
             return None
         return d
 
+    def numbers(self, v):
+        return (("0", v[0], "direction"), ("1", v[1], "direction"))
+
 
 @dataclass(frozen=True)
 class Vector3Key(Key):
@@ -128,6 +155,9 @@ class Vector3Key(Key):
 
     def radians(self, v, table):
         return (v[0], v[1], v[2] * DEGREE)
+
+    def numbers(self, v):
+        return (("0", v[0], "length"), ("1", v[1], "length"), ("2", v[2], "angle"))
 
 
 @dataclass(frozen=True)
@@ -187,6 +217,15 @@ class FunctionKey(Key):
             return fn.Poly(tuple(c * k for c in v.coeffs))
         return fn.Table(v.t, tuple(x * k for x in v.value)) if k != 1.0 else v
 
+    def numbers(self, v):
+        """poly.k (rate k: driven quantity per s^k), harmonic.* and table.value.k."""
+        if isinstance(v, fn.Poly):
+            return tuple((f"poly.{k}", c, f"rate{k}") for k, c in enumerate(v.coeffs))
+        if isinstance(v, fn.Harmonic):
+            return (("harmonic.amplitude", v.amplitude, "rate0"), ("harmonic.omega", v.omega, "frequency"),
+                    ("harmonic.phase", v.phase, "angle"), ("harmonic.offset", v.offset, "rate0"))
+        return tuple((f"table.value.{k}", y, "rate0") for k, y in enumerate(v.value))
+
 
 @dataclass(frozen=True)
 class OutlineKey(Key):
@@ -197,3 +236,11 @@ class OutlineKey(Key):
 
     def size(self, v):
         return float(np.hypot(*v.center)) + max([abs(x) for x in v.s] + [v.radius])
+
+    def numbers(self, v):
+        """circle.radius or spline.s.k (a periodic table's last radius is its first: not listed), center.0, .1."""
+        if v.kind == "circle":
+            out = [("circle.radius", v.radius, "length")]
+        else:
+            out = [(f"spline.s.{k}", r, "length") for k, r in enumerate(v.s[:-1] if v.periodic else v.s)]
+        return tuple(out) + (("center.0", v.center[0], "length"), ("center.1", v.center[1], "length"))

@@ -264,12 +264,19 @@ def equivalent(ck, e, points):
 def report(ck, r, points):
     """[report]: points = the named points the report draws and plots (default:
     all); work_precision = true: the report sweeps the case's work-precision
-    diagram (default false)."""
+    diagram (default false); sensitivity = [design parameter paths]: the
+    report's design section (docs/design.md)."""
     if not isinstance(r, dict):
         ck.bad("[report]", None, f"got {show(r)}", "a table such as { points = [\"B\"] }")
         return {}
-    ck.keys("[report]", r, ("points", "work_precision"))
+    ck.keys("[report]", r, ("points", "work_precision", "sensitivity"))
     out = {}
+    sens = r.get("sensitivity")
+    if sens is not None:   # design parameter paths: checked against the whole case (kinem.case)
+        if isinstance(sens, list) and sens and len(sens) <= 8 and all(isinstance(x, str) for x in sens):
+            out["sensitivity"] = tuple(dict.fromkeys(sens))
+        else:
+            ck.bad("[report]", "sensitivity", f"got {show(sens)}", "a list of 1 to 8 design parameter paths")
     wp = r.get("work_precision")
     if wp is not None:
         if isinstance(wp, bool):
@@ -287,3 +294,24 @@ def report(ck, r, points):
         if ck.choice("[report]", "points", n, points, "point") is None:
             return out
     return dict(out, points=tuple(dict.fromkeys(listed)))
+
+
+def tolerances(ck, t, prefix=""):
+    """[tolerances]: design parameter path -> pm or { pm = ..., sigma = ... },
+    kept as given (a dotted key written bare nests: it is flattened back);
+    kinem.tolerance checks the paths and the values against the case."""
+    where = "[tolerances]"
+    if not isinstance(t, dict):
+        ck.bad(where, None, f"got {show(t)}", 'a table such as { "constraints.A.si.0" = 0.0001 }')
+        return {}
+    out = {}
+    for k, v in t.items():
+        path = f"{prefix}{k}"
+        if isinstance(v, dict) and "pm" not in v:
+            out.update(tolerances(ck, v, path + "."))
+        elif isinstance(v, dict):
+            if ck.keys(f"{where}: key '{path}'", v, ("pm", "sigma"), ("pm",)):
+                out[path] = frozen_map(v)
+        else:
+            out[path] = v
+    return out

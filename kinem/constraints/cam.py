@@ -31,7 +31,7 @@ class CamRoller(_CamFollower):
     def __init__(self, cons, ctx):
         self.setup(cons, ctx)
         rho = np.array([c["radius"] for c in cons], dtype=float)
-        self.rho2 = rho**2
+        self.rho = rho
         self.n_rows = 2 * len(cons)
         self.labels, self.owner, self.driving = row_info(cons, ("normal", "distance"))
         # residuals of a displacement L: |g| L (|g| ~ the outline's s) and 2 rho L
@@ -41,7 +41,7 @@ class CamRoller(_CamFollower):
         self.rows, self.cols = pattern(np.concatenate([cols, cols], axis=1), [0] * 7 + [1] * 7, 2)
 
     def table(self, functions, outlines):
-        return "cam-roller", dict(self.columns(outlines), rho2=reals(self.rho2))
+        return "cam-roller", dict(self.columns(outlines), rho=reals(self.rho))   # the core squares it
 
 
 class CamFlat(_CamFollower):
@@ -52,7 +52,7 @@ class CamFlat(_CamFollower):
     def __init__(self, cons, ctx):
         self.setup(cons, ctx)
         n = local_points([c["normal"] for c in cons])
-        self.n = n / np.abs(n)
+        self.normal, self.n = n, n / np.abs(n)
         self.n_rows = 2 * len(cons)
         self.labels, self.owner, self.driving = row_info(cons, ("tangent", "contact"))
         # residuals of a rotation by 1 rad (|g| ~ the outline's s) and of a displacement L
@@ -62,7 +62,7 @@ class CamFlat(_CamFollower):
         self.rows, self.cols = pattern(cols, [0] * 3 + [1] * 7, 2)
 
     def table(self, functions, outlines):
-        return "cam-flat", dict(self.columns(outlines), n=points(self.n))
+        return "cam-flat", dict(self.columns(outlines), n=points(self.normal))   # the core normalises it
 
 
 TYPES = [
@@ -72,7 +72,7 @@ TYPES = [
         BodyKey("follower", doc="the follower j"),
         LocalKey("sj", of="follower", doc="Q_j: the roller's centre"),
         PositiveKey("radius", doc="rho: the roller's radius"),
-        NumberKey("theta", angle=True, doc="estimate of the contact angle theta on the outline (rad)"),
+        NumberKey("theta", angle=True, quantity=None, doc="estimate of the contact angle theta on the outline (rad)"),
         WordKey("side", required=False, words=("outside", "inside"),
                 doc="the branch the assembly must reach: the roller's centre outside or inside the outline "
                     "at the first instant; else the analysis fails (kinem/branches.py)"),
@@ -84,7 +84,7 @@ TYPES = [
         BodyKey("follower", doc="the follower j"),
         LocalKey("sj", of="follower", doc="Q_j: a point of the flat face"),
         DirectionKey("normal", doc="n'_j: the face's normal (local; normalised)"),
-        NumberKey("theta", angle=True, doc="estimate of the contact angle theta on the outline (rad)"),
+        NumberKey("theta", angle=True, quantity=None, doc="estimate of the contact angle theta on the outline (rad)"),
     ), CamFlat, check=check_theta, rows=2,
         doc="Disk cam and flat-faced follower: the follower's face is tangent to the outline."),
 ]

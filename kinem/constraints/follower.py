@@ -38,7 +38,7 @@ TYPES = [
         OutlineKey("outline", doc="the cam's outline"),
         BodyKey("follower", doc="the follower j"),
         LocalKey("sj", of="follower", doc="its contact point P_j"),
-        NumberKey("theta", angle=True, doc="estimate of the contact angle theta on the outline (rad)"),
+        NumberKey("theta", angle=True, quantity=None, doc="estimate of the contact angle theta on the outline (rad)"),
     ), PointOnCurve, check=check_theta, rows=2,
         doc="Disk cam and point follower: point P_j of the follower lies on the cam's outline."),
     TypeDecl("point-follower", "4.30", (
@@ -46,7 +46,7 @@ TYPES = [
         LocalKey("si", of="i", doc="the pin P"),
         BodyKey("j", doc="the slotted body j"),
         OutlineKey("outline", doc="the slot's centre line on body j"),
-        NumberKey("theta", angle=True, doc="estimate of the pin's angle theta on the outline (rad)"),
+        NumberKey("theta", angle=True, quantity=None, doc="estimate of the pin's angle theta on the outline (rad)"),
     ), PointOnCurve, check=check_theta, rows=2,
         doc="Point-follower: pin P of body i slides in a slot (an outline) of body j."),
 ]

@@ -62,7 +62,7 @@ class RackPinion(Family):
         self.c = local_points([c["center"] for c in cons])
         self.s = local_points([c["sj"] for c in cons])
         u = local_points([c["u"] for c in cons])
-        self.u = u / np.abs(u)
+        self.direction, self.u = u, u / np.abs(u)
         self.rho = np.array([c["radius"] for c in cons], dtype=float)
         self.phi0 = np.array([c["phi0"] for c in cons], dtype=float)
         self.n_rows = len(cons)
@@ -74,7 +74,7 @@ class RackPinion(Family):
 
     def table(self, functions, outlines):
         return "rack-pinion", {"ci": ints(self.ci), "cj": ints(self.cj), "c": points(self.c), "s": points(self.s),
-                               "u": points(self.u), "rho": reals(self.rho), "phi0": reals(self.phi0)}
+                               "u": points(self.direction), "rho": reals(self.rho), "phi0": reals(self.phi0)}
 
 
 def _angle(bodies, name):
@@ -109,7 +109,7 @@ TYPES = [
         PositiveKey("rj", doc="rho_j: pitch radius of gear j"),
         BodyKey("carrier", required=False, doc="body k that carries both gear centres (Eq. 4.18)"),
         BoolKey("internal", required=False, doc="one gear is an internal (ring) gear: both turn the same way"),
-        NumberKey("phi0", required=False, angle=True, doc="phi_j - phi_k when phi_i - phi_k = 0; default from the estimates"),
+        NumberKey("phi0", required=False, angle=True, quantity="angle", doc="phi_j - phi_k when phi_i - phi_k = 0; default from the estimates"),
     ), Gear, check=_check_gear,
         doc="Spur gears: the pitch circles of gears i and j roll on each other without slip."),
     TypeDecl("rack-pinion", "4.19, 4.20, Problem 4.15", (
@@ -119,7 +119,7 @@ TYPES = [
         BodyKey("rack", doc="the rack j"),
         LocalKey("sj", of="rack", doc="a point of the rack's pitch line"),
         DirectionKey("u", required=False, doc="the pitch line's local direction, default [1, 0]"),
-        NumberKey("phi0", required=False, angle=True,
+        NumberKey("phi0", required=False, angle=True, quantity="angle",
             doc="phi_i - phi_j when the centre is on the normal to the line through sj; default from the estimates"),
     ), RackPinion, check=_check_rack,
         doc="Rack and pinion: the pitch circle rolls on the pitch line without slip, on the side of u turned +90 deg."),

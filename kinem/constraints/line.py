@@ -93,7 +93,7 @@ TYPES = [
         LocalKey("qi", of="i", doc="Q_i, a second point of the line on body i"),
         BodyKey("j"),
         LocalKey("sj", of="j", doc="P_j, on the line, on body j"),
-        NumberKey("phi0", required=False, angle=True, doc="phi_i^0 - phi_j^0; default from the estimates"),
+        NumberKey("phi0", required=False, angle=True, quantity="angle", doc="phi_i^0 - phi_j^0; default from the estimates"),
     ), Translational, check=_check_translational, rows=2,
         doc="Translational joint: bodies i and j slide along a common line without relative rotation."),
     TypeDecl("revolute-translational", "4.16", (

@@ -92,7 +92,7 @@ TYPES = [
         BodyKey("body"),
         CoordKey("coord", doc="x, y or phi"),
         LocalKey("point", required=False, of="body", doc="for x/y: a point of the body (Eq. 4.34)"),
-        NumberKey("value", required=False, phi_angle=True, doc="the constant; default from the estimates"),
+        NumberKey("value", required=False, phi_angle=True, quantity="coordinate", doc="the constant; default from the estimates"),
     ), Simple, check=_check_coord, doc="Holds one coordinate of a body, or of a point of it, constant."),
     TypeDecl("driver", "4.36-4.40", (
         BodyKey("body"),

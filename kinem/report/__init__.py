@@ -3,6 +3,7 @@ work-precision sweeps, and the baseline gate (docs/report.md).
 
     execute.py  which runs, where (kinem.parallel)  runs.py   one run (in a worker)
     results.py  results.json and its schema         gate.py   the baseline gate
+    slowdown.py the gate's confirmed wall-time flag  diff.py   kinem diff A.json B.json
     html.py, plots.py, text.py: index.html, summary.md, junit.xml
 """
 import dataclasses
@@ -29,7 +30,7 @@ class Options:
     scheduler: str | None = None  # a Dask scheduler address: the runs go to its workers
     progress: bool | None = None  # None: when standard error is a terminal
     stress: bool | None = None   # the quick stress suite as a section: only when True (--stress)
-    whole_set: bool = False      # the cases are the repository's whole case set (not narrowed)
+    whole_set: bool | None = None  # the cases are the whole case set (not narrowed); None: they cover the baseline's
     baseline_default: bool = False  # no --baseline given: OUT/baseline.json is used when it exists
     work_precision: bool = False  # every case gets work-precision diagrams (else: [report] work_precision)
 
@@ -70,6 +71,9 @@ def run(o: Options) -> Outcome:
     target = Path(o.baseline or out / "baseline.json")
     if o.update_baseline and not (target.parent.is_dir() or target.parent == out):
         raise InputError(f"--baseline {target}: directory {target.parent} does not exist")
+    # a whole-set run: the case files given cover the baseline's cases, whatever their folder
+    whole = o.whole_set if o.whole_set is not None else (
+        old is not None and {c.name for _, c, _ in cases} >= {c["name"] for c in old["cases"]})
     sweep = QUICK if o.quick else FULL
     stress = bool(o.stress)   # only when asked: a user's cases are not followed by kinem's own scenarios
     bar = Progress(0, enabled=o.progress)
@@ -82,7 +86,7 @@ def run(o: Options) -> Outcome:
                    "reference_tolerance": REFERENCE_TOLERANCE, "native_tolerances": list(sweep.tolerances),
                    "dt_factors": list(sweep.dt_factors),
                    "family_factors": list(sweep.family_factors), "native_repeats": sweep.native_repeats,
-                   "whole_set": o.whole_set,
+                   "whole_set": bool(whole),
                    "stress": "--stress" if stress else None}
         doc, series = results.build(cases, runs, options, time.perf_counter() - start)
         if stress:
@@ -90,6 +94,9 @@ def run(o: Options) -> Outcome:
 
             doc["stress"] = stress_section.run(o.engines, o.workers, o.scheduler, bar)
         if old is not None:
+            from .slowdown import confirm
+
+            confirm(doc, old, cases)
             doc["gate"] = gate.gate(doc, old, o.baseline, o.fail_on_slowdown, default=o.baseline_default)
         bad = results.problems(doc, results.SCHEMA)
         if bad:  # a bug here, not the user's input
@@ -210,9 +217,13 @@ def _exit_code(doc, o) -> int:
         return 1
     if doc.get("stress") and doc["stress"]["native_misses"]:
         return 1
+    from adapters.compare import Verdict
+
     g = doc["gate"]
     for c in doc["cases"]:
         for r in c["runs"]:
+            if not g and not lost(r) and Verdict(r["verdict"]).fails:   # the one verdict rule, without a baseline
+                return 1
             if not lost(r):
                 continue
             known = g and r["engine"] != "native" and g["kinds"].get(f"{c['name']}/{r['engine']}") != "new"
@@ -221,6 +232,13 @@ def _exit_code(doc, o) -> int:
     if not o.update_baseline and failed(g):
         return 1
     return 0
+
+
+def _of_native(g) -> str:
+    """' (N of native)': how many regressions are native's own (its answer moved, or it
+    disagrees with the engines' consensus), so that a formulation change is named as one."""
+    n = sum(f["fatal"] and f["kind"] != "slower" and f["engine"] == "native" for f in g["findings"])
+    return f" ({n} of native)" if n else ""
 
 
 def _line(doc, out, code, o) -> str:
@@ -233,7 +251,7 @@ def _line(doc, out, code, o) -> str:
         gate = "no baseline" + (f" (none at {out / 'baseline.json'}; --update-baseline writes one)"
                                 if o.baseline_default and not o.baseline else "")
     else:
-        gate = (f"{g['regressions']} regressions, {g['slowdowns']} slowdowns vs {g['baseline']}"
+        gate = (f"{g['regressions']} regressions{_of_native(g)}, {g['slowdowns']} slowdowns vs {g['baseline']}"
                 + (" (default; --baseline none to skip)" if o.baseline_default else ""))
         if g["not_compared"]:
             gate += f"; {len(g['not_compared'])} thing(s) not compared (listed in summary.md and index.html)"

@@ -6,18 +6,26 @@ A regression (exit code 1) is, for a case and engine present in both:
   what lies above ERROR_FLOOR (new > ERROR_FACTOR * max(old, ERROR_FLOOR));
 - a deterministic cost count that grew at all (Newton iterations, Jacobian
   evaluations, factorisations; engine steps and substeps).
-- a compact trajectory (every body coordinate and named point at fixed
-  instants) that moved: native by more than NATIVE_MOVE of L (or rad), an
-  engine by more than its tolerance; this sees a formulation change where
-  no closed form exists;
+- a compact trajectory (positions, velocities and accelerations of every
+  body coordinate and named point at fixed instants, scale-free) that
+  moved: native by more than NATIVE_MOVE (positions, angles) or
+  NATIVE_RATE_MOVE (rates), a regression of native naming the case, column,
+  instant, size and limit; an engine by its tolerance. This sees a
+  formulation change where no closed form exists;
+- native disagreeing with the engines' consensus (adapters.compare.consensus);
+- one verdict rule (adapters.compare.Verdict.fails): a run outside its
+  tolerance (or at the cost cap) fails unless the baseline records the same
+  verdict (a known state), and then only a worse figure (WORSE) fails;
 - a case whose fingerprint changed: "case changed: baseline stale" (its
-  runs are then not compared).
+  runs are then not compared); an edit of the native solver's settings
+  alone is compared instead, at the baseline's tolerance (SETTINGS_SLACK).
+When native moved and an engine's own trajectory did not, the engine's
+findings against native are "attributed" (listed, not fatal).
 The same rules apply to every work-precision point both runs have (its
 position and velocity errors and its counts). Wall time is only flagged: time per step more than
 SLOWDOWN_FACTOR times the baseline's, each relative to the engine's median
-over the run's cases (native itself: only with --fail-on-slowdown), is a slowdown, fatal only with
---fail-on-slowdown. A run within its tolerance in the baseline and outside it
-now is a regression naming each figure, its value and its limit.
+over the run's cases (native itself: only with --fail-on-slowdown), confirmed by repeats
+(slowdown.confirm), is a slowdown, fatal only with --fail-on-slowdown.
 
 No blind spots: a case, engine run or sweep point the baseline has and this
 run lacks is a "missing" finding, fatal unless the run was narrowed on
@@ -26,11 +34,13 @@ without that engine, --quick for sweep points); either way it is listed in
 ``not_compared``. A case or run new in this run is "new": fatal in a run of
 the whole case set (the baseline should hold all of it), else only listed.
 """
+import dataclasses
 import enum
 import math
 from dataclasses import asdict, dataclass
 
 from .fingerprint import moved
+from .slowdown import SLOWDOWN_FACTOR, WALL_FLOOR, slower, typical  # noqa: F401 (the gate's constants)
 
 # Errors and residuals are relative to L (or radians, rad/s, scaled residual
 # units); below 1e-12 they are rounding noise (the reference itself is only
@@ -41,17 +51,21 @@ ERROR_FLOOR = 1e-12
 # rounding while catching a formulation or adapter change (those move errors
 # by orders of magnitude).
 ERROR_FACTOR = 2.0
-# Shared CI machines vary by up to about 1.5x from run to run, and load
-# moves every case alike: a case's time relative to the run's median is
-# steadier (the flag compares that ratio, see _slower).
-SLOWDOWN_FACTOR = 2.0
-# Baseline runs shorter than this are dominated by timer and scheduler noise.
-WALL_FLOOR = 0.01
 STATUS_RANK = {"ok": 0, "unsupported": 1}   # outcomes; every failure kind ranks 2
 # Native's answers are deterministic to rounding: its compact trajectory may
 # move by this much (of L, or rad) between runs; anything more is a change
 # of formulation even where no closed form exists.
 NATIVE_MOVE = 1e-12
+# Its velocities and accelerations (a linear solve on those positions, and
+# the quadratic velocity terms): to this much of V, V / L, V^2 / L, ...
+NATIVE_RATE_MOVE = 1e-9
+# A case edit of the native solver's settings alone: its answers may move by
+# this many times the baseline's Newton tolerance (a scaled residual, ~ / L):
+# they are checked against the baseline's at the baseline's tolerance.
+SETTINGS_SLACK = 1.0
+# A known failing state of the baseline (outside tolerance, native off the
+# consensus) fails again only when a figure is worse than this factor of its.
+WORSE = 1.01
 GATED = ("position_error_rel", "angle_error", "velocity_error_rel", "angular_velocity_error_rel",
          "constraint_residual")
 
@@ -146,7 +160,7 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
     old_cases = {c["name"]: c for c in baseline["cases"]}
     not_compared = _missing(current, baseline, scope, findings)
     whole = current["options"]["whole_set"]
-    typical_old, typical_new = _typical(baseline), _typical(current)
+    typical_old, typical_new = typical(baseline), typical(current)
     for case in current["cases"]:
         name = case["name"]
         oc = old_cases.get(name)
@@ -159,31 +173,43 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
             for r in case["runs"]:
                 set_(f"{name}/{r['engine']}", Verdict.REGRESSED, "REGRESSED: case changed: baseline stale")
             continue
+        settings = _settings_changed(oc, case) if oc else None
+        if settings:
+            not_compared.append(f"{name}/native: cost counts and figures against the reference (solver settings "
+                                f"changed: {settings}; its answers are compared at the baseline's tolerance)")
+        start = len(findings)
         for run in case["runs"]:
             e = run["engine"]
-            before = len(findings)
             o = old_runs.get(e)
             if o is None:
                 if whole:   # the whole set ran: the baseline should hold every run of it
                     findings.append(Finding(name, e, "main", "new", "run", None, run["status"], True,
                                             f"{name}/{e} is not in the baseline (--update-baseline records it)"))
-                    set_(f"{name}/{e}", Verdict.REGRESSED, "REGRESSED: not in the baseline")
                 else:
-                    set_(f"{name}/{e}", Verdict.NEW, "new")
+                    _judged(name, None, run, findings)   # one verdict rule: outside its tolerance fails, new or not
                 continue
+            same = not (settings and e == "native")   # else its trajectory is what is compared
             _compare(name, e, "main",
-                     {"status": o["status"], "outcome": o["outcome"], "figures": _figures(o), "counts": o["counts"]},
+                     {"status": o["status"], "outcome": o["outcome"], "figures": _figures(o) if same else {},
+                      "counts": o["counts"] if same else {}},
                      {"status": run["status"], "outcome": run["outcome"], "figures": _figures(run),
                       "counts": run["counts"]},
                      findings)
-            _trajectory(name, case["length"], o, run, findings)
+            _trajectory(path, case, o, run, findings, settings and oc["solver"]["tolerance"])
             skipped = _sweep(name, e, oc, case, findings, scope)
             if skipped:
                 why = "--quick" if scope.sweeps else "not in this run's sweep: a regression"
                 not_compared.append(f"{name}/{e}: {skipped} work-precision point(s) of the baseline ({why})")
-            _tolerance(name, o, run, findings)
-            _slower(name, o, run, typical_old, typical_new, fail_on_slowdown, findings)
-            set_(f"{name}/{e}", *verdict(findings[before:]))
+            _judged(name, o, run, findings)
+            slower(name, o, run, typical_old, typical_new, fail_on_slowdown, findings)
+        _attribute(case, findings, start)
+        for run in case["runs"]:
+            e = run["engine"]
+            mine = [f for f in findings[start:] if f.engine == e]
+            if e not in old_runs and not whole:
+                set_(f"{name}/{e}", *(verdict(mine) if any(f.fatal for f in mine) else (Verdict.NEW, "new")))
+            else:
+                set_(f"{name}/{e}", *verdict(mine))
     _equivalence(current, baseline, findings, set_, not_compared)
     for f in findings:   # a run the baseline has and this one lacks (fatal) marks its case/engine
         if f.kind == "missing" and f.fatal and f.where == "main":
@@ -196,87 +222,119 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
             "default": bool(default)}
 
 
-def _per_interval(r):
-    return r.get("time_per_interval") or r.get("time_per_step")
+def _settings_changed(old_case, case) -> str:
+    """'tolerance 1e-12 -> 1e-10, ...': the native solver's settings that
+    differ from the baseline's (an edit of these alone is compared, not stale)."""
+    a, b = old_case.get("solver") or {}, case.get("solver") or {}
+    return ", ".join(f"{k} {a.get(k)} -> {b.get(k)}" for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k))
 
 
-def _typical(doc) -> dict:
-    """{engine: {case: time per engine step}} of the run's ok main runs: the
-    same-run reference a case's time is measured against."""
-    per = {}
-    for c in doc["cases"]:
-        for r in c["runs"]:
-            if r.get("time_per_step") and r["outcome"] == "ok":
-                per.setdefault(r["engine"], {})[c["name"]] = r["time_per_step"]
-    return per
+def _judged(name, old, new, findings):
+    """One verdict rule (adapters.compare.Verdict.fails, as ``kinem compare``,
+    the cells and JUnit): a run whose verdict fails (outside its tolerance,
+    at the cost cap, native disagreeing with the engines' consensus) is a
+    regression, unless the baseline records the same verdict (a known
+    state): then only a figure worse than the baseline's fails."""
+    from adapters.compare import Verdict as Judged
 
-
-def _others(typical, engine, case):
-    """The engine's median time per step over the run's other cases (None without any)."""
-    import statistics
-
-    rest = [v for k, v in typical.get(engine, {}).items() if k != case]
-    return statistics.median(rest) if rest else None
-
-
-def _slower(name, old, new, typical_old, typical_new, fail_on_slowdown, findings):
-    """A slowdown, measured so that machine load cancels: an engine's time
-    per step on this case relative to its median over the run's other cases
-    (the same run, the same machine load), against the same ratio in the
-    baseline. (Native's time is no reference for the engines: it moves
-    10-20x between runs, whether its compiled march is loaded or not.)
-    Native's own time is compared as it is, only with --fail-on-slowdown."""
-    a, b = old.get("time_per_step"), new.get("time_per_step")
-    if not (a and b) or (old.get("wall_time") or 0) < WALL_FLOOR:
+    try:
+        v = Judged(new.get("verdict"))
+    except ValueError:
         return
-    e = new["engine"]
-    if e == "native":
-        if fail_on_slowdown and b > SLOWDOWN_FACTOR * a:
-            findings.append(Finding(name, "native", "main", "slower", "time_per_step", a, b, True,
-                                    f"time per step x{b / a:.1f} ({1e6 * a:.3g} -> {1e6 * b:.3g} us)"))
+    if not v.fails or v is Judged.FAILED:   # a failed run is judged by its status (_compare, report._exit_code)
         return
-    na, nb = _others(typical_old, e, name), _others(typical_new, e, name)
-    if not (na and nb):
-        return
-    ra, rb = a / na, b / nb
-    if rb > SLOWDOWN_FACTOR * ra:
-        findings.append(Finding(name, e, "main", "slower", "time_per_step / the engine's median", ra, rb,
-                                bool(fail_on_slowdown),
-                                f"time per step relative to {e}'s median over the run's other cases "
-                                f"x{rb / ra:.1f} ({ra:.3g} -> {rb:.3g}, same run)"))
-
-
-def _tolerance(name, old, new, findings):
-    """A run within its tolerance in the baseline and outside it now: each
-    figure over its limit, named."""
-    if old.get("within_tolerance") is not True or new.get("within_tolerance") is not False:
+    known = old is not None and old.get("verdict") == new.get("verdict")
+    if v is Judged.DISAGREES:
+        c = new["attributed"]
+        was = (old or {}).get("attributed") or {}
+        if known and was.get("figure") == c["figure"] and c["value"] <= WORSE * was["value"]:
+            findings.append(Finding(name, "native", "main", "known", c["figure"], was["value"], c["value"], False,
+                                    "known in the baseline: " + _consensus_text(dict(c, case=name))))
+            return
+        findings.append(Finding(name, "native", "main", "consensus", c["figure"], was.get("value"), c["value"], True,
+                                _consensus_text(dict(c, case=name))))
         return
     tol = new.get("tolerance") or {}
     for k, limit in tol.items():
-        v = new.get(k)
-        if v is not None and v > limit:
-            findings.append(Finding(name, new["engine"], "main", "tolerance", k, limit, v, True,
-                                    f"{k} {v:.2e} above its limit {limit:.0e} (within it in the baseline)"))
+        b = new.get(k)
+        if b is None or b <= limit:
+            continue
+        a = (old or {}).get(k)
+        if known and a is not None and a > limit and b <= WORSE * a:
+            findings.append(Finding(name, new["engine"], "main", "known", k, a, b, False,
+                                    f"{name}/{new['engine']}: {k} {b:.2e} above its limit {limit:.0e}: known in the baseline ({a:.2e})"))
+            continue
+        was = ("within it in the baseline" if old is not None and a is not None and a <= limit
+               else f"{a:.2e} in the baseline" if a is not None else "not in the baseline")
+        findings.append(Finding(name, new["engine"], "main", "tolerance", k, limit, b, True,
+                                f"{name}/{new['engine']} {new['verdict']}: {k} {b:.2e} above its limit {limit:.0e} ({was})"))
 
 
-def _trajectory(name, length, old, new, findings):
-    """Every body coordinate and named point of the compact trajectories of
-    two ok runs: native may move by NATIVE_MOVE (of L, or rad), an engine by
-    its tolerance (position_error_rel, angle_error)."""
+def _consensus_text(c) -> str:
+    when = "" if c.get("t") is None else f" at t = {c['t']:.6g} s"
+    return (f"{c['case']}: native disagrees with the engines' consensus: {c['figure']} {c['value']:.2e} in {c['column']}{when} "
+            f"against {', '.join(c['engines'])} (which agree within {c['spread']:.1e})")
+
+
+def _attribute(case, findings, start):
+    """Engines' findings that native explains: when native moved (its
+    trajectory, or it disagrees with the engines' consensus) and an engine's
+    own trajectory did not, the engine's figures against native and its
+    cost counts (its first step follows native's rates) changed because
+    native did. Those findings stay listed, not fatal ("attributed")."""
+    mine = findings[start:]
+    moved_native = [f for f in mine if f.engine == "native" and f.fatal and f.kind in ("trajectory", "consensus")]
+    if not moved_native:
+        return
+    engines_moved = {f.engine for f in mine if f.kind == "trajectory" and f.engine != "native"}
+    cause = moved_native[0]
+    for k in range(start, len(findings)):
+        f = findings[k]
+        if f.engine in ("native", "all") or f.engine in engines_moved or f.kind not in ("error", "tolerance", "count"):
+            continue
+        findings[k] = dataclasses.replace(
+            f, kind="attributed", fatal=False,
+            message=f"{f.message}: consistent (its own trajectory did not move; native's {cause.metric} did)")
+
+
+def _trajectory(path, case, old, new, findings, settings_tolerance=None):
+    """Every column of the compact trajectories of two ok runs, scale-free:
+    native may move by NATIVE_MOVE (positions, angles) and NATIVE_RATE_MOVE
+    (velocities, accelerations), or, when only its solver settings changed,
+    by SETTINGS_SLACK x the baseline's tolerance; an engine by its
+    tolerance on each figure. A column or instant the baseline lacks is an
+    edited baseline: InputError naming the file, the case and the key."""
+    from adapters.compare import FIGURE_OF
+
+    from ..errors import InputError
+    from .fingerprint import UNITS
+
     a, b = old.get("trajectory"), new.get("trajectory")
     if a is None or b is None or rank(old) or rank(new):
         return
-    tol = new.get("tolerance") or {}
-    limits = ({"L": NATIVE_MOVE, "rad": NATIVE_MOVE} if new["engine"] == "native" else
-              {"L": tol.get("position_error_rel", NATIVE_MOVE), "rad": tol.get("angle_error", NATIVE_MOVE)})
-    m = moved(a, b, length, limits)
+    name, e = case["name"], new["engine"]
+    where = f"baseline {path}: cases.{name}.runs.{e}.trajectory"
+    if a["t"] != b["t"]:
+        raise InputError(f"{where}.t: instants {a['t'][:3]}…; expected this run's {b['t'][:3]}… (re-timed)")
+    lost = sorted(set(b["columns"]) - set(a["columns"]))
+    if lost:
+        raise InputError(f"{where}.columns: no column '{lost[0]}'" + (f" (+{len(lost) - 1} more)" if len(lost) > 1 else "")
+                         + "; expected every column of the run")
+    if e == "native":
+        limits = {k: NATIVE_MOVE if k in ("position", "angle") else NATIVE_RATE_MOVE for k in UNITS}
+        if settings_tolerance:
+            limits = {k: max(v, SETTINGS_SLACK * settings_tolerance) for k, v in limits.items()}
+    else:
+        tol = new.get("tolerance") or {}
+        limits = {k: tol[f] for k, f in FIGURE_OF.items() if f in tol}
+    m = moved(a, b, case["length"], case["speed"], limits)
     if m is None:
         return
     column, d, unit, t, limit = m
     when = "" if t is None else f" at t = {t:.6g} s"
-    findings.append(Finding(name, new["engine"], "main", "trajectory", column, limit, d, True,
-                            f"{name}: {new['engine']}'s {column} moved by {d:.2e} {unit}{when} "
-                            f"(limit {limit:.0e} {unit})"))
+    who = "native (a regression of native)" if e == "native" else e
+    findings.append(Finding(name, e, "main", "trajectory", column, limit, d, True,
+                            f"{name}: {who}: {column} moved by {d:.2e} {unit}{when} (limit {limit:.0e} {unit})"))
 
 
 def _equivalence(current, baseline, findings, set_, not_compared):
@@ -392,7 +450,8 @@ def _point_figures(p):
 
 def verdict(findings) -> tuple:
     """(Verdict, sentence) of one case/engine's findings."""
-    fatal = [f for f in findings if f.fatal]
+    # the finding that says most first: a moved trajectory or the consensus names the column and instant
+    fatal = sorted((f for f in findings if f.fatal), key=lambda f: f.kind not in ("trajectory", "consensus"))
     if fatal:
         f = fatal[0]
         more = f" (+{len(fatal) - 1} more)" if len(fatal) > 1 else ""

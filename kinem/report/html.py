@@ -7,19 +7,20 @@ from html import escape
 
 from . import plots
 from .runs import Reference, sample
-from .text import (cost, exceeded_text, failed, figure, fmt, headline, matrix, passed, provenance, reason, short, unsupported,
-                   unsupported_lines, us)
+from .text import (SELF, cost, failed, figure, fmt, headline, judgement, matrix, passed, provenance, reason, seconds,
+                   short, unsupported, unsupported_lines, verdict)
 
 SNAPSHOTS = 4   # instants of the static mechanism drawings
 CSS = """body{font:14px/1.4 system-ui,sans-serif;margin:1.5em auto;max-width:1250px;padding:0 1em;color:#222}
 table{border-collapse:collapse;margin:.5em 0 1em}td,th{border:1px solid #ccc;padding:2px 6px;text-align:right}
-td:not(.l){white-space:nowrap}
+td:not(.l){white-space:nowrap}table.matrix td{white-space:normal}
 td.l,th.l{text-align:left}th{background:#f3f3f3}.ok{color:#176b1a}.bad{color:#b00020;font-weight:bold}
 .skip{color:#777}img{max-width:100%;display:block;margin:.3em 0}section{border-top:2px solid #ddd;margin-top:2em}
 code,pre{font-size:12px}pre{background:#f7f7f7;padding:.5em;overflow-x:auto;white-space:pre-wrap}
 p.head{font-size:17px;padding:.4em .6em;border-left:6px solid #176b1a;background:#eef7ee}
 p.head.bad{border-color:#b00020;background:#fbeaea;color:#222;font-weight:normal}
-table.matrix td{text-align:left;min-width:9em;vertical-align:top}table.matrix td.c-ok{background:#e3f4e3}
+table.matrix{table-layout:fixed;width:100%}table.matrix td{text-align:left;vertical-align:top;white-space:normal}
+table.matrix th:first-child{width:11em}ol.notes{font-size:13px}table.matrix td.c-ok{background:#e3f4e3}
 table.matrix td.c-warn{background:#fff3cd}table.matrix td.c-slow{background:#e3ecf8}
 table.matrix td.c-self{background:#fff;color:#555}table.matrix td.c-bad{background:#f8d7da;font-weight:bold}
 table.matrix td.c-skip{background:#f4f4f4;color:#999;text-align:center}td small{color:#555}
@@ -42,40 +43,60 @@ def _img(uri, alt):
 
 def summary_matrix(doc):
     """One row per case (failed or regressed first), one column per engine:
-    each cell coloured by its verdict, with position error / L and µs/step;
-    unsupported engines collapsed below into one line per engine."""
+    each cell coloured by its verdict, with the summary figure and the cost;
+    what a cell's verdict rests on (a regression, the figures over their
+    limits, the engines' consensus) is a numbered note below the table, so
+    the table keeps to the page's width; unsupported engines collapsed
+    below into one line per engine."""
     engines, table, skipped = matrix(doc)
+    notes = []
     out = ["<table class=matrix><tr><th class=l>case</th>" + "".join(f"<th class=l>{escape(e)}</th>" for e in engines)
            + "</tr>"]
     for c, cells in table:
         out.append(f'<tr><th class=l><a href="#case-{escape(c["name"])}">{escape(c["name"])}</a></th>'
-                   + "".join(_matrix_cell(cells.get(e)) for e in engines) + "</tr>")
+                   + "".join(_matrix_cell(cells.get(e), notes, c["name"]) for e in engines) + "</tr>")
     out.append("</table>")
+    if notes:
+        out.append("<ol class=notes>" + "".join(f"<li>{escape(n)}</li>" for n in notes) + "</ol>")
     if skipped:
         items = "".join(f"<li><b>{escape(e)}</b>: {escape(text)}</li>" for e, text in unsupported_lines(skipped).items())
         out.append(f"<p>Not supported (grey cells):</p><ul>{items}</ul>")
     return "\n".join(out)
 
 
-def _matrix_cell(cell):
+# a cell's short tag (its note below the table says the rest)
+TAGS = {"regressed": "regressed", "new": "new", "slower": "slower"}
+SHORT = {"native disagrees with the engines' consensus": "off the engines' consensus",
+         "consistent with the engines' consensus": "consistent with the engines",
+         "cannot reach the tolerance within the cost cap": "at the cost cap"}
+
+
+def _matrix_cell(cell, notes, case):
     if cell is None:
         return "<td class=c-bad>not run</td>"
     r, v, g = cell
     if g == "skip":
         return f'<td class=c-skip title="{escape(": ".join(x for x in reason(r) if x))}">–</td>'
     tip = escape(f"{r['status']}; position error / L {fmt(r['position_error_rel'])}; angle error "
-                 f"{fmt(r['angle_error'])} rad; residual {fmt(r['constraint_residual'])}; "
-                 f"verdict: {v[1]}; position error against {r['reference']}")
+                 f"{fmt(r['angle_error'])} rad; velocity error / V {fmt(r['velocity_error_rel'])}; residual "
+                 f"{fmt(r['constraint_residual'])}; verdict: {v[1]}; position error against {r['reference']}")
+    said = []
+    if v[0] in TAGS:
+        said.append((TAGS[v[0]], v[1]))
+    if r["outcome"] == "ok" and (verdict(r).fails or r.get("attributed")):
+        said.append((SHORT.get(verdict(r).value, verdict(r).value), judgement(r)))
+    tags = ""
+    for tag, text in said:
+        notes.append(f"{case} / {r['engine']}: {text}")
+        tags += f"<br><small>{escape(tag)} <sup>{len(notes)}</sup></small>"
     if failed(r):
-        return f'<td class=c-bad title="{tip}">{escape(short(r["status"], 60))}</td>'
-    note = "" if v[0] in ("pass", "no baseline") else f"<br><small>{escape(short(v[1], 90))}</small>"
-    if r["within_tolerance"] is False:
-        note += f"<br><small>{escape(r['verdict'])}: {escape(exceeded_text(r))}</small>"
-    mark = {Reference.CLOSED_FORM: "ᶜ", Reference.GROUP: "ᵍ"}.get(Reference(r["reference_kind"]), "")
+        return f'<td class=c-bad title="{tip}">{escape(short(r["status"], 40))}{tags}</td>'
+    mark = "" if r.get("attributed") else {Reference.CLOSED_FORM: "ᶜ", Reference.GROUP: "ᵍ"}.get(
+        Reference(r["reference_kind"]), "")
     value, what = figure(r)
     shown = (f"<i>{escape(what)}</i>" if value is None
              else f"{fmt(value)}{mark} <small>{escape(what)}</small>")
-    return f'<td class=c-{g} title="{tip}">{shown}<br>{escape(cost(r))}{note}</td>'
+    return f'<td class=c-{g} title="{tip}">{shown}<br>{escape(cost(r))}{tags}</td>'
 
 
 
@@ -93,22 +114,30 @@ def _per_step(r):
 
 
 def case_table(case):
-    head = ["engine", "status", "pos. error", "pos. / L", "pos. error against", "angle (rad)", "velocity (rel.)",
-            "omega (rel.)", "residual", "wall (s)", "µs/interval", "cost (native per instant)", "within tol."]
+    head = ["engine", "status", "pos. error", "pos. / L", "pos. error against", "angle (rad)", "velocity / V",
+            "omega / (V/L)", "residual", "wall (s)", "cost / interval", "stepping / interval", "steps / interval",
+            "counts (native per instant)", "verdict"]
     out = ["<div class=wrap><table><tr>" + "".join(f"<th class=l>{h}</th>" for h in head) + "</tr>"]
     for r in case["runs"]:
         if unsupported(r):   # one cell: the reason, no row of dashes
             out.append("<tr>" + _td(r["engine"], left=True)
                        + f'<td class="l skip" colspan={len(head) - 1}>{escape(r["status"])}</td></tr>')
             continue
-        wt = {True: "yes", False: "NO", None: "–"}[r["within_tolerance"]]
-        out.append("<tr>" + _td(r["engine"], left=True) + _td(short(r["status"], 60), _cls(r), True)
-                   + "".join(_td(fmt(r[k])) for k in ("position_error", "position_error_rel"))
-                   + _td(r["reference"], left=True)
-                   + "".join(_td(fmt(r[k])) for k in ("angle_error", "velocity_error_rel", "angular_velocity_error_rel",
-                                                        "constraint_residual"))
-                   + _td(fmt(r["wall_time"], ".3g")) + _td(us(r["time_per_interval"])) + _td(_per_step(r), left=True)
-                   + _td(wt) + "</tr>")
+        if r["outcome"] == "ok" and figure(r)[1] == SELF:   # native against itself: no figure, never a zero
+            figures = (f'<td class=l colspan=6><i>{SELF}</i> (native at the reference tolerance is the same '
+                       f'solver)</td>')
+        else:
+            figures = ("".join(_td(fmt(r[k])) for k in ("position_error", "position_error_rel"))
+                       + _td(r["reference"], left=True)
+                       + "".join(_td(fmt(r[k])) for k in ("angle_error", "velocity_error_rel",
+                                                            "angular_velocity_error_rel")))
+        steps = r.get("steps_per_interval")
+        out.append("<tr>" + _td(r["engine"], left=True) + _td(short(r["status"], 60), _cls(r), True) + figures
+                   + _td(fmt(r["constraint_residual"]))
+                   + _td(fmt(r["wall_time"], ".3g")) + _td(seconds(r.get("cost_per_interval")))
+                   + _td(seconds(r["time_per_interval"])) + _td(fmt(steps, ".3g"))
+                   + _td(_per_step(r), left=True) + _td(judgement(r) if r["outcome"] == "ok" else "–", left=True)
+                   + "</tr>")
     out.append("</table></div>")
     settings = "".join(f"<li><b>{escape(r['engine'])}</b> {escape(r['version'])}: "
                        f"<code>{escape(json.dumps(r['settings'], separators=(', ', ': ')))}</code></li>"
@@ -138,8 +167,7 @@ def case_section(case, model, series):
            f"<p>{escape(case['description'])}<br>{escape(case['path'])}: L = {case['length']:.4g} "
            f"{escape(case['unit'])}, t = 0 … {case['end']:g} s in {case['steps']} steps, "
            f"{case['coordinates']} coordinates. References: engines' errors and the plots against native at "
-           f"tolerance {fmt(case['reference_tolerance'], '.0e')}; native's position error against "
-           f"{escape(_native_reference(case))}.</p>"]
+           f"tolerance {fmt(case['reference_tolerance'], '.0e')}; native: {escape(_native_reference(case))}.</p>"]
     native = series.get("native")
     if native and "frames" in native:
         out += motion_section(model, series)
@@ -158,6 +186,9 @@ def case_section(case, model, series):
         else:
             out.append(_img(plots.errors(series), f"{name} errors"))
     out.append("<h3>Comparison</h3>" + case_table(case))
+    from .design import section
+
+    out += section(model)   # [report] sensitivity, [tolerances]: docs/design.md
     wp = case["work_precision"]
     if wp:
         out.append("<h3>Work-precision</h3><p>Each point is one run, labelled with its native Newton tolerance "
@@ -171,8 +202,15 @@ def case_section(case, model, series):
 
 
 def _native_reference(case):
+    """What native's figures are against: its closed form or equivalence
+    group, or no independent reference (the engines' consensus, when it
+    disagrees with it, is in its verdict)."""
     native = next((r for r in case["runs"] if r["engine"] == "native"), None)
-    return native["reference"] if native else "–"
+    if native is None:
+        return "–"
+    if Reference(native["reference_kind"]) is Reference.NATIVE:
+        return f"{SELF} (its figures against native at the reference tolerance are the same solver's)"
+    return f"position error against {native['reference']}"
 
 
 def motion_section(model, series):
@@ -228,10 +266,12 @@ def index_html(doc, sections, curves=None) -> str:
         items = "".join(f"<li>{escape(x)}</li>" for x in g["not_compared"])
         parts.append(f"<h3>Not compared (in the baseline {escape(g['baseline'])}, not in this run)</h3><ul>{items}</ul>")
     parts.append("<h2>Summary</h2>" + summary_matrix(doc))
-    parts.append("<p><small>Each cell: the worst error over instants and every coordinate that moves (positions of "
-                 "bodies and named points / L, bodies' angles in rad; which one is named), then the wall time per "
-                 "output interval and the engine steps per interval (native: one solve per instant), the same unit "
-                 "in every column; hover for the other figures and the verdict. References: engines against the "
+    parts.append("<p><small>Each cell: the worst scale-free error over instants and every coordinate that moves "
+                 "(positions of bodies and named points / L, bodies' angles in rad, velocities / V, angular "
+                 "velocities / (V/L); which one is named), then the whole run's wall time per output interval "
+                 "(the adapter's own Python included; the stepping alone is in each case's table) and the engine "
+                 "steps per interval counting every attempt (native: one solve per instant), the same unit in "
+                 "every column; a numbered note below the table says what a tagged cell's verdict rests on; hover for the other figures and the verdict. References: engines against the "
                  "native solution at tolerance 1e-13; native against the case's closed form (ᶜ, kinem.reference) "
                  "or its equivalence group (ᵍ) where it has one, else \"no independent reference\" (white). Green: ok and "
                  "no regression; yellow: new, or outside the engine's documented tolerance (the metric, its value "

@@ -11,10 +11,10 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from ..errors import InputError
-from .fingerprint import fingerprint
+from .fingerprint import fingerprint, instants, solver_settings
 from .schema import SCHEMA, problems
 
-SCHEMA_VERSION = 4
+SCHEMA_VERSION = 5
 PACKAGES = ("kinem", "numpy", "scipy", "matplotlib", "pymunk", "mujoco", "exudyn")
 WP_ERROR = "position_error_rel"      # the work-precision diagram's error
 WP_COST = "wall_per_sim_second"      # and its cost
@@ -33,6 +33,7 @@ def build(cases, runs, options, duration):
         main.sort(key=lambda r: order.index(r["engine"]))
         series[case.name] = {r["engine"]: r["series"] for r in main if r.get("series")}
         ref_tol = next((r.get("reference_tolerance") for r in main if r["engine"] == "native"), None)
+        speed = next((r.get("speed") for r in main if r["engine"] == "native"), None)
         for r in main:
             if r["engine"] != "native":
                 e = engines.setdefault(r["engine"], {"version": r["version"], "status": "ok", "outcome": "ok",
@@ -45,9 +46,11 @@ def build(cases, runs, options, duration):
             "coordinates": model.n, "reference_tolerance": ref_tol,
             "equivalent": None if case.equivalent is None else {"group": case.equivalent.group,
                                                                 "points": list(case.equivalent.points)},
+            "speed": speed, "solver": solver_settings(case),
             "runs": [_strip(r) for r in main],
             "work_precision": _work_precision(rs, options["engines"]),
         })
+        attribute(out[-1])
     from . import equivalence
 
     groups, curves = equivalence.build(out, series)
@@ -62,7 +65,29 @@ def build(cases, runs, options, duration):
 
 
 def _strip(r):
-    return {k: v for k, v in r.items() if k not in PLOT_ONLY and k not in ("import_failed", "reference_tolerance")}
+    return {k: v for k, v in r.items()
+            if k not in PLOT_ONLY and k not in ("import_failed", "reference_tolerance", "speed")}
+
+
+def attribute(case):
+    """The engines' consensus (adapters.compare.consensus) on a case's main
+    runs: native's run DISAGREES, the agreeing engines' runs are CONSISTENT,
+    each carrying it as ``attributed``."""
+    from dataclasses import asdict
+
+    from adapters.compare import Verdict, consensus
+
+    runs = {r["engine"]: r for r in case["runs"] if r["outcome"] == "ok" and r.get("trajectory")}
+    if "native" not in runs or case.get("speed") is None:
+        return
+    engines = {e: r for e, r in runs.items() if e != "native"}
+    c = consensus({e: r["trajectory"] for e, r in runs.items()}, {e: r["tolerance"] for e, r in engines.items()},
+                  engines, case["length"], case["speed"])
+    if c is None:
+        return
+    runs["native"].update(attributed=asdict(c), verdict=Verdict.DISAGREES.value)
+    for e in c.engines:
+        runs[e].update(attributed=asdict(c), verdict=Verdict.CONSISTENT.value)
 
 
 def _point(r):
@@ -147,7 +172,7 @@ def load(path, what="baseline"):
     if version != SCHEMA_VERSION:
         raise InputError(f"{what} {path}: schema_version {version!r}; expected {SCHEMA_VERSION} "
                          "(rewrite it with --update-baseline)")
-    bad = problems(doc, SCHEMA) or untyped(doc) or missing_figures(doc)
+    bad = problems(doc, SCHEMA) or non_finite(doc) or untyped(doc) or missing_figures(doc) or trajectories(doc)
     if bad:
         raise InputError(f"{what} {path}: {bad[0]}" + (f" (+{len(bad) - 1} more)" if len(bad) > 1 else ""))
     return doc
@@ -187,6 +212,74 @@ def untyped(doc) -> list:
     for name, e in doc["engines"].items():
         label(f"engines.{name}", e["status"], e["outcome"], e["detail"])
     return out
+
+
+def non_finite(x, where="$") -> list:
+    """Numbers that are not finite (JSON's 1e999 reads as inf): 'where: problem' lines."""
+    if isinstance(x, float) and not math.isfinite(x):
+        return [f"{where}: {x} is not finite; expected a finite number"]
+    out = []
+    if isinstance(x, dict):
+        for k, v in x.items():
+            out += non_finite(v, f"{where}.{k}")
+    elif isinstance(x, list):
+        for k, v in enumerate(x):
+            name = v.get("name") or v.get("engine") if isinstance(v, dict) else None
+            out += non_finite(v, f"{where}.{name if isinstance(name, str) else k}")
+    return out
+
+
+def expected_instants(case) -> list:
+    """The instants a case's compact trajectories are kept at (fingerprint.instants of its time grid)."""
+    return [k * (case["end"] / case["steps"]) for k in instants(case["steps"] + 1)]
+
+
+def trajectories(doc) -> list:
+    """Every ok main run must carry its compact trajectory at the case's
+    instants, every column one value per instant, and each body or named
+    point all of its columns (native: positions, velocities and
+    accelerations; an engine: what it has); the case its peak speed. A
+    null, truncated or re-timed trajectory would switch the gate's check of
+    the run off: 'where: problem' lines."""
+    from .fingerprint import KINDS
+
+    out = []
+    for c in doc["cases"]:
+        ok = [r for r in c["runs"] if r["outcome"] == "ok"]
+        if any(r["engine"] == "native" for r in ok) and not (c.get("speed") or 0) > 0:
+            out.append(f"cases.{c['name']}.speed: {c.get('speed')!r}; expected the native run's peak speed (> 0)")
+        want = expected_instants(c)
+        for r in ok:
+            where = f"cases.{c['name']}.runs.{r['engine']}.trajectory"
+            tr = r.get("trajectory")
+            if tr is None:
+                out.append(f"{where}: null in an ok run; expected its compact trajectory")
+                continue
+            t = tr["t"]
+            if len(t) != len(want) or any(abs(a - b) > 1e-9 * max(c["end"], 1e-300) for a, b in zip(t, want)):
+                out.append(f"{where}.t: {len(t)} instants {_span(t)}; expected {len(want)} at {_span(want)} "
+                           f"(the case's t = 0 … {c['end']:g} s in {c['steps']} steps)")
+                continue
+            items = {}
+            for name, values in tr["columns"].items():
+                item, _, suffix = name.rpartition(".")
+                if suffix not in KINDS:
+                    out.append(f"{where}.columns.{name}: not a known column; expected ITEM.x, .y, .phi, .vx, ...")
+                elif len(values) != len(t):
+                    out.append(f"{where}.columns.{name}: {len(values)} values; expected {len(t)}, one per instant")
+                items.setdefault(item, set()).add(suffix)
+            if not items:
+                out.append(f"{where}.columns: empty; expected every body's and named point's columns")
+            full = set.union(*items.values()) if items else set()
+            for item, have in items.items():
+                need = full if "phi" in have else full - {"phi", "omega", "alpha"}
+                for k in sorted(need - have):
+                    out.append(f"{where}.columns: no column '{item}.{k}'; expected it beside {item}'s other columns")
+    return out
+
+
+def _span(t):
+    return f"{t[0]:g} … {t[-1]:g} s" if t else "(none)"
 
 
 def _no_constant(name):

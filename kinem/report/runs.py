@@ -79,10 +79,11 @@ def _blank(task, outcome, detail="", **extra):
            "outcome": outcome.value, "detail": detail,
            "requested": {}, "settings": {}, "version": "", "within_tolerance": None, "tolerance": {},
            "wall_time": None, "time_per_step": None, "time_per_interval": None, "overhead_per_interval": None,
+           "cost_per_interval": None, "steps_per_interval": None,
            "wall_per_sim_second": None, "counts": {}, "reference": REFERENCE_LABEL,
            "reference_kind": Reference.NATIVE.value,
            "knobs": dict(task.point) or ({task.knob: task.value} if task.knob else {}), "trajectory": None,
-           "verdict": _verdict_of(outcome), "estimate": {}, "reason": reason}
+           "verdict": _verdict_of(outcome), "estimate": {}, "reason": reason, "attributed": None}
     out.update({k: None for k in ERROR_KEYS})
     out.update(extra)
     return out
@@ -147,7 +148,7 @@ def _series(model, ref, traj, q, with_reference=False):
 
 
 def run_native(task):
-    from adapters.compare import errors
+    from adapters.compare import Verdict, errors, speed
     from kinem.solver import solve
 
     from ..linalg import choose
@@ -172,18 +173,22 @@ def run_native(task):
     base = dict(requested=settings, settings=settings, version=_version("kinem"), counts=counts, wall_time=wall,
                 knobs={"tolerance": options.tolerance},
                 repeats=len(walls), time_per_step=wall / max(steps, 1), time_per_interval=wall / max(steps - 1, 1),
-                overhead_per_interval=0.0, wall_per_sim_second=wall / model.case.end)
+                overhead_per_interval=0.0, cost_per_interval=wall / max(steps - 1, 1), steps_per_interval=1.0,
+                wall_per_sim_second=wall / model.case.end)
     if not r.success:
         return _blank(task, Status.FAILED, r.message, **base)
     e = errors(model, ref, r.q, r.trajectory)
     out = _blank(task, Status.OK, **base, **{k: _finite(e.get(k)) for k in ERROR_KEYS})
     out["within_tolerance"] = True
-    out["verdict"] = "within tolerance"
+    out["verdict"] = Verdict.WITHIN.value if task.knob is not None else Verdict.SELF.value
     if task.knob is None:
         out["trajectory"] = compact(model, r.trajectory)
+        out["speed"] = speed(model, ref.trajectory)
         out["series"] = _series(model, ref, r.trajectory, r.q, with_reference=True)
         out["reference_tolerance"] = ref_tol
         _independent(model, ref, r.trajectory, out)
+        if out["reference_kind"] != Reference.NATIVE.value:
+            out["verdict"] = Verdict.WITHIN.value
     return out
 
 
@@ -238,6 +243,8 @@ def run_engine(task):
     out["time_per_step"] = _finite(run.wall_time / run.steps) if run.steps else None
     out["time_per_interval"] = _finite(c.time_per_interval)
     out["overhead_per_interval"] = _finite(c.overhead_per_interval)
+    out["cost_per_interval"] = _finite(c.cost_per_interval)
+    out["steps_per_interval"] = _finite(c.steps_per_interval)
     out["wall_per_sim_second"] = _finite(run.wall_time / model.case.end)
     out["knobs"] = _knobs(adapter, settings, run.settings or settings)
     out["verdict"] = c.verdict.value
@@ -249,7 +256,7 @@ def run_engine(task):
     if c.status is Status.OK:
         out.update({k: _finite(getattr(c, k)) for k in ERROR_KEYS})
         if task.knob is None:
-            out["trajectory"] = compact(model, run.trajectory)
+            out["trajectory"] = c.compact
             out["series"] = _series(model, ref, run.trajectory, run.q)
     return out
 
@@ -265,11 +272,15 @@ def step(r):
 
 def _knobs(adapter, requested, used):
     """A run's full knob setting: the requested step dt and the values of the
-    adapter's other accuracy knobs (adapters.tune.families) it ran with."""
+    adapter's other accuracy knobs (adapters.tune.families) it ran with, or
+    "auto" where it was asked to choose."""
     from adapters.tune import STEP_KNOB
 
     out = {"dt": requested.get("dt")}
-    out.update({k: used.get(k) for k in adapter.knobs if k != STEP_KNOB})
+    # a knob asked as "auto" stays "auto": the value it resolved to (after a retry, say pymunk's 100
+    # iterations) would make the point look like the explicit family of that value, and the gate would
+    # compare a run of two attempts with a run of one
+    out.update({k: "auto" if requested.get(k) == "auto" else used.get(k) for k in adapter.knobs if k != STEP_KNOB})
     return _plain(out)
 
 

@@ -52,26 +52,39 @@ def engines_of(doc):
 
 
 SELF = "no independent reference"
+CONSENSUS = "native disagrees with the engines' consensus"
+# The summary figure's candidates, scale-free (docs/engines.md), and how a cell names them.
+SUMMARY = {"position_error_rel": "position / L", "angle_error": "angle, rad", "velocity_error_rel": "velocity / V",
+           "angular_velocity_error_rel": "angular velocity / (V/L)"}
+
+
+def verdict(run):
+    """A run's adapters.compare.Verdict (the one verdict rule)."""
+    from adapters.compare import Verdict
+
+    return Verdict(run["verdict"])
 
 
 def figure(run) -> tuple:
-    """A run's summary figure: (value, what) with the worst error over every
-    coordinate that moves, positions / L and bodies' angles in rad alike.
-    Native's figures are against native itself unless the case has a closed
-    form or an equivalence group: then (None, SELF), never a green 0; with
-    one, its positions against it (what the independent reference gives)."""
+    """A run's summary figure: (value, what) with the worst scale-free error
+    over positions / L, angles (rad), velocities / V and angular velocities
+    / (V / L), naming which. Native's figures are against native itself
+    unless the case has a closed form or an equivalence group: then (None,
+    SELF), never a green 0; with one, its positions against it; when it
+    disagrees with the engines' consensus, that figure."""
     from .runs import Reference
 
     if run["outcome"] != "ok":
         return None, ""
     if run["engine"] == "native":
+        if run.get("attributed"):
+            a = run["attributed"]
+            return a["value"], f"{SUMMARY.get(a['figure'], a['figure'])} against the engines"
         if Reference(run["reference_kind"]) is Reference.NATIVE:
             return None, SELF
         return run["position_error_rel"], "position / L"
-    pos, angle = run["position_error_rel"], run["angle_error"]
-    if angle is not None and (pos is None or angle > pos):
-        return angle, "angle, rad"
-    return pos, "position / L"
+    shown = [(run.get(k), what) for k, what in SUMMARY.items() if run.get(k) is not None]
+    return max(shown, key=lambda x: x[0]) if shown else (None, "")
 
 
 def exceeded(run) -> list:
@@ -84,31 +97,61 @@ def exceeded_text(run) -> str:
     return "; ".join(f"{k} {v:.2e} > {limit:.0e}" for k, v, limit in exceeded(run))
 
 
+def seconds(per) -> str:
+    return "–" if per is None else f"{1e3 * per:.3g} ms" if per >= 1e-3 else f"{us(per)} µs"
+
+
 def cost(run) -> str:
-    """Like for like: seconds per output interval, and engine steps per interval."""
-    per = run.get("time_per_interval")
+    """What the user paid, like for like: the whole run's wall time per output
+    interval (the adapter's own Python included), and the engine steps per
+    interval counting every attempt (refinements included)."""
+    per = run.get("cost_per_interval", run.get("time_per_interval"))
     if per is None:
         return "–"
-    steps = (run.get("counts") or {}).get("substeps", 1)
-    shown = f"{1e3 * per:.3g} ms" if per >= 1e-3 else f"{us(per)} µs"
-    return f"{shown}/interval ({steps} step{'s' if steps != 1 else ''})"
+    steps = run.get("steps_per_interval") or (run.get("counts") or {}).get("substeps", 1)
+    return f"{seconds(per)}/interval ({steps:.3g} step{'s' if steps != 1 else ''})"
+
+
+def fails(run, kind) -> bool:
+    """Whether a run fails the report: a failed run or a gate regression; and
+    without a baseline, a run whose verdict fails (outside its tolerance,
+    at the cost cap, native off the engines' consensus): the same rule as
+    ``kinem compare`` and the gate (adapters.compare.Verdict.fails)."""
+    if failed(run) or kind == "regressed":
+        return True
+    return kind in (NO_BASELINE, UNCOMPARED) and verdict(run).fails
 
 
 def grade(run, kind) -> str:
-    """A cell's class: bad (failed, regressed), skip (unsupported), warn
-    (new, outside the adapter's tolerance), slow (slower than the baseline,
-    not failing), ok."""
-    if failed(run) or kind == "regressed":
+    """A cell's class: bad (fails), skip (unsupported), warn (new, or a
+    known failing state the baseline records), slow (slower than the
+    baseline, not failing), self (native without an independent
+    reference), ok (consistent with the engines' consensus included)."""
+    if fails(run, kind):
         return "bad"
     if unsupported(run):
         return "skip"
-    if kind == "new" or run["within_tolerance"] is False:   # outside, or capped
+    if kind == "new" or verdict(run).fails:
         return "warn"
     if kind == "slower":
         return "slow"
     if figure(run)[1] == SELF:   # nothing independent checked it: neither green nor a warning
         return "self"
     return "ok"
+
+
+def judgement(run) -> str:
+    """The run's verdict with what it rests on: the figures over their
+    limits, or the engines' consensus."""
+    v = verdict(run)
+    if run.get("attributed") and v.value in (CONSENSUS, "consistent with the engines' consensus"):
+        a = run["attributed"]
+        when = "" if a.get("t") is None else f" at t = {a['t']:.6g} s"
+        return (f"{v.value}: {a['figure']} {a['value']:.2e} ({a['column']}{when}) against "
+                f"{', '.join(a['engines'])}")
+    if exceeded(run):
+        return f"{v.value}: {exceeded_text(run)}"
+    return v.value
 
 
 def matrix(doc):
@@ -160,7 +203,8 @@ def passed(doc) -> bool:
     import, nor native stress miss."""
     g = doc.get("gate")
     return not (counts(doc)[2] or (g and g["regressions"]) or (doc.get("stress") or {}).get("native_misses")
-                or any(e["outcome"] != "ok" for e in doc["engines"].values()))
+                or any(e["outcome"] != "ok" for e in doc["engines"].values())
+                or any(fails(r, v[0]) for _, r, v in rows(doc)))
 
 
 def headline(doc) -> str:
@@ -173,7 +217,9 @@ def headline(doc) -> str:
     what = (f"{len(doc['cases'])} case(s) on {', '.join(engines_of(doc))}: {ok} of {n} runs ok, {n_failed} failed, "
             f"{n_unsupported} unsupported")
     if g:
-        base = (f"{regressions} regression(s), {g['slowdowns']} slowdown(s) against {g['baseline']}"
+        mine = sum(f["fatal"] and f["kind"] != "slower" and f["engine"] == "native" for f in g["findings"])
+        base = (f"{regressions} regression(s)" + (f" ({mine} of native)" if mine else "")
+                + f", {g['slowdowns']} slowdown(s) against {g['baseline']}"
                 + (" (found by default; --baseline none skips it)" if g.get("default") else ""))
         if g.get("not_compared"):
             base += f"; {len(g['not_compared'])} thing(s) not compared (listed below)"
@@ -241,9 +287,10 @@ def summary_md(doc) -> str:
         out += ["", "Not supported (–):"]
         out += [f"- **{e}**: {text}" for e, text in unsupported_lines(skipped).items()]
     out += ["", "Cells: the worst error over every coordinate that moves (positions / L, bodies' angles in rad; "
-            "engines against native at tolerance 1e-13; native against the closed form or equivalence group where "
-            "the case has one, else \"no independent reference\"), then the cost per output interval and the "
-            "engine steps per interval; ◦ native without an independent reference, ✅ pass or ok, ⚠️ new or "
+            "velocities / V, angular velocities / (V/L): the worst named; engines against native at tolerance "
+            "1e-13; native against the closed form or equivalence group where the case has one, or the engines' "
+            "consensus when it disagrees with it, else \"no independent reference\"), then the whole run's wall "
+            "time per output interval and the engine steps per interval (every attempt); ◦ native without an independent reference, ✅ pass or ok, ⚠️ new or "
             "outside the engine's tolerance (the metric, value and limit named), 🐢 slower than the baseline (not failing), ❌ failed or regressed. "
             "Details, plots and work-precision diagrams: index.html."]
     return "\n".join(out) + "\n"
@@ -262,8 +309,8 @@ def _md_cell(cell) -> str:
         return f"❌ {short(r['status'], 40)}".replace("|", "\\|")
     value, what = figure(r)
     text = f"{MARK[g]} " + (what if value is None else f"{fmt(value)} ({what})") + f", {cost(r)}"
-    if r["within_tolerance"] is False:
-        text += f" ({r['verdict']}: {exceeded_text(r)})"
+    if verdict(r).fails or r.get("attributed"):
+        text += f" ({short(judgement(r), 120)})"
     kind, sentence = v
     if kind == "regressed":
         text += f" ({short(sentence, 80)})"
@@ -273,21 +320,22 @@ def _md_cell(cell) -> str:
 
 
 def junit_xml(doc) -> str:
-    cases, fails, skips = [], 0, 0
+    cases, n_failed, skips = [], 0, 0
     for c, r, v in rows(doc):
         body = ""
-        if failed(r) or v[0] == "regressed":
-            fails += 1
-            msg = r["status"] if failed(r) else v[1]
+        if fails(r, v[0]):
+            n_failed += 1
+            msg = r["status"] if failed(r) else v[1] if v[0] == "regressed" else judgement(r)
             body = f"<failure message={quoteattr(msg)}/>"
-        elif r["within_tolerance"] is False:   # shown, not failing the job: the message names what
-            body = f"<system-out>{escape(r['verdict'] + ': ' + exceeded_text(r))}</system-out>"
+        elif r["outcome"] == "ok" and (verdict(r).fails or r.get("attributed") or figure(r)[1] == SELF):
+            # a known state of the baseline, consistent with the consensus, or native checked only by itself
+            body = f"<system-out>{escape(judgement(r))}</system-out>"
         elif unsupported(r):
             skips += 1
             body = f"<skipped message={quoteattr(r['status'])}/>"
         cases.append(f'  <testcase classname={quoteattr("kinem.report." + c["name"])} name={quoteattr(r["engine"])} '
                      f'time="{r["wall_time"] or 0:.6f}">{body}</testcase>')
-    head = (f'<testsuite name="kinem report" tests="{len(cases)}" failures="{fails}" skipped="{skips}" '
+    head = (f'<testsuite name="kinem report" tests="{len(cases)}" failures="{n_failed}" skipped="{skips}" '
             f'errors="0" time="{doc["duration"]:.3f}">')
     return "\n".join(['<?xml version="1.0" encoding="UTF-8"?>', "<testsuites>", head, *cases,
                       "</testsuite>", "</testsuites>"]) + "\n"

@@ -2,39 +2,42 @@
 //! coordinates, in one pass: each column is a coordinate of a stage
 //! (positions, velocities, accelerations) or a named point's x or y there
 //! (r + A s', its first and second derivatives, Eqs. 4.43-4.45).
-use num_complex::Complex64 as C64;
+//! Over S = Dual (crate::real) it gives the columns' tangents along a
+//! design parameter (kinem.sensitivity) from the coordinates' tangents.
+use crate::real::{cis, i, Real};
+use num_complex::Complex;
 
 /// out (K, C): column c of instant k is coordinate src[c] of stage
 /// src[c] / n when src[c] < stages n, else entry src[c] - stages n of the
 /// points' values [x_0 .., y_0 .., vx_0 .., vy_0 .., ax_0 .., ay_0 ..], point
 /// p on the body whose x column is pc[p], at s'_p = local[p]. x[s] holds
 /// stage s (K n each).
-pub fn columns(x: &[&[f64]], n: usize, src: &[usize], pc: &[usize], local: &[C64], out: &mut [f64]) {
+pub fn columns<S: Real>(x: &[&[S]], n: usize, src: &[usize], pc: &[usize], local: &[Complex<S>], out: &mut [S]) {
     let stages = x.len();
     let (p, w) = (pc.len(), src.len());
     let k_count = x[0].len().checked_div(n).unwrap_or(0);
-    let mut pts = vec![0.0; 2 * stages * p];
+    let mut pts = vec![S::zero(); 2 * stages * p];
     // each column's stage and index there (stage `stages`: a point's value in pts)
     let from: Vec<(usize, usize)> =
         src.iter().map(|&j| if j < stages * n { (j / n, j % n) } else { (stages, j - stages * n) }).collect();
-    let i = C64::new(0.0, 1.0);
+    let i = i::<S>();
     for k in 0..k_count {
         let row = |s: usize| &x[s][k * n..(k + 1) * n];
         for (j, (&c, &s)) in pc.iter().zip(local).enumerate() {
             let q = row(0);
-            let e = s * C64::from_polar(1.0, q[c + 2]);
-            let v = C64::new(q[c], q[c + 1]) + e;
+            let e = s * cis(q[c + 2]);
+            let v = Complex::new(q[c], q[c + 1]) + e;
             pts[j] = v.re;
             pts[p + j] = v.im;
             if stages > 1 {
                 let qd = row(1);
                 let om = qd[c + 2];
-                let v = C64::new(qd[c], qd[c + 1]) + i * e * om;
+                let v = Complex::new(qd[c], qd[c + 1]) + i * e * om;
                 pts[2 * p + j] = v.re;
                 pts[3 * p + j] = v.im;
                 if stages > 2 {
                     let qdd = row(2);
-                    let v = C64::new(qdd[c], qdd[c + 1]) + i * e * qdd[c + 2] - e * (om * om);
+                    let v = Complex::new(qdd[c], qdd[c + 1]) + i * e * qdd[c + 2] - e * (om * om);
                     pts[4 * p + j] = v.re;
                     pts[5 * p + j] = v.im;
                 }

@@ -3,6 +3,7 @@
 //! and tables as piecewise cubics (the not-a-knot spline's pieces, made by
 //! scipy in kinem.functions when the model is compiled; extended beyond the
 //! table by its end cubics, as scipy's PPoly).
+use crate::real::Real;
 use crate::table::Table;
 
 pub const POLY: i64 = 0;
@@ -13,20 +14,22 @@ pub const PIECES: i64 = 2;
 /// POLY: c_0 .. c_d; HARMONIC: amplitude, omega, phase, offset;
 /// PIECES: k, then k + 1 breakpoints, then 4 k coefficients (piece-major,
 /// highest power first: s = c0 h^3 + c1 h^2 + c2 h + c3, h = t - x_i).
+/// Over S = Dual (crate::real), the parameters carry their tangents along
+/// a design parameter (breakpoints never do: they are abscissae).
 #[derive(Default, Clone, Debug)]
-pub struct Functions {
+pub struct Functions<S = f64> {
     kind: Vec<i64>,
     start: Vec<usize>,
-    data: Vec<f64>,
+    data: Vec<S>,
     /// per function: its value when it is a constant (a ground's, an
     /// absolute constraint's), evaluated without the general path
-    value: Vec<Option<f64>>,
+    value: Vec<Option<S>>,
 }
 
-impl Functions {
+impl<S: Real> Functions<S> {
     pub fn from_table(t: &Table) -> Result<Self, String> {
         let kind = t.int("kind")?;
-        let data = t.real("data")?;
+        let data: Vec<S> = t.real_s("data")?;
         let start = t.index("start", data.len() + 1)?;
         if start.len() != kind.len() + 1 {
             return Err("functions: start needs one entry more than kind".into());
@@ -40,7 +43,7 @@ impl Functions {
                 POLY => b > a,
                 HARMONIC => b - a == 4,
                 PIECES => {
-                    let k = if b > a { data[a] } else { -1.0 };
+                    let k = if b > a { data[a].re() } else { -1.0 };
                     k >= 1.0 && k.fract() == 0.0 && b - a == 1 + (k as usize + 1) + 4 * k as usize
                 }
                 _ => false,
@@ -70,20 +73,20 @@ impl Functions {
 
     /// d(t) (order 0), d'(t) (1) or d''(t) (2) of function f.
     #[inline]
-    pub fn eval(&self, f: usize, t: f64, order: u8) -> f64 {
+    pub fn eval(&self, f: usize, t: f64, order: u8) -> S {
         if let Some(v) = self.value[f] {
-            return if order == 0 { v } else { 0.0 };
+            return if order == 0 { v } else { S::zero() };
         }
         let p = &self.data[self.start[f]..self.start[f + 1]];
         match self.kind[f] {
             POLY => {
                 // Horner on the order-th derivative's coefficients
                 let d = p.len();
-                let mut v = 0.0;
+                let mut v = S::zero();
                 for j in (order as usize..d).rev() {
                     let mut c = p[j];
                     for r in 0..order as usize {
-                        c *= (j - r) as f64;
+                        c = c * (j - r) as f64;
                     }
                     v = v * t + c;
                 }
@@ -91,27 +94,28 @@ impl Functions {
             }
             HARMONIC => {
                 let (a, w, ph, c) = (p[0], p[1], p[2], p[3]);
+                let x = w * t + ph;
                 match order {
-                    0 => c + a * (w * t + ph).sin(),
-                    1 => a * w * (w * t + ph).cos(),
-                    _ => -a * w * w * (w * t + ph).sin(),
+                    0 => c + a * x.sin(),
+                    1 => a * w * x.cos(),
+                    _ => -a * w * w * x.sin(),
                 }
             }
             _ => {
-                let k = p[0] as usize;
+                let k = p[0].re() as usize;
                 let x = &p[1..k + 2];
                 let c = &p[k + 2..];
                 // the piece: the last breakpoint at or before t, clamped to the table's pieces
-                let i = match x[..k].partition_point(|&b| b <= t) {
+                let i = match x[..k].partition_point(|&b| b.re() <= t) {
                     0 => 0,
                     j => j - 1,
                 };
-                let h = t - x[i];
+                let h = t - x[i].re();
                 let (c0, c1, c2, c3) = (c[4 * i], c[4 * i + 1], c[4 * i + 2], c[4 * i + 3]);
                 match order {
                     0 => ((c0 * h + c1) * h + c2) * h + c3,
-                    1 => (3.0 * c0 * h + 2.0 * c1) * h + c2,
-                    _ => 6.0 * c0 * h + 2.0 * c1,
+                    1 => (c0 * 3.0 * h + c1 * 2.0) * h + c2,
+                    _ => c0 * 6.0 * h + c1 * 2.0,
                 }
             }
         }
@@ -132,7 +136,7 @@ mod tests {
 
     #[test]
     fn poly_and_harmonic_derivatives() {
-        let f =
+        let f: Functions =
             Functions::from_table(&table(vec![POLY, HARMONIC], vec![0, 3, 7], vec![1.0, 2.0, 3.0, 2.0, 3.0, 0.5, 1.0]))
                 .unwrap();
         let t = 0.7;
@@ -144,7 +148,7 @@ mod tests {
 
     #[test]
     fn malformed_tables_are_refused() {
-        assert!(Functions::from_table(&table(vec![HARMONIC], vec![0, 3], vec![1.0, 2.0, 3.0])).is_err());
-        assert!(Functions::from_table(&table(vec![POLY], vec![0, 9], vec![1.0])).is_err());
+        assert!(Functions::<f64>::from_table(&table(vec![HARMONIC], vec![0, 3], vec![1.0, 2.0, 3.0])).is_err());
+        assert!(Functions::<f64>::from_table(&table(vec![POLY], vec![0, 9], vec![1.0])).is_err());
     }
 }

@@ -20,6 +20,8 @@ pub mod order;
 pub mod outline;
 pub mod parts;
 pub mod plan;
+pub mod real;
+pub mod sensitivity;
 pub mod table;
 pub mod watch;
 

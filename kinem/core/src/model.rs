@@ -5,19 +5,22 @@
 use crate::families::{coordinate_columns, At, Family, Shared};
 use crate::functions::Functions;
 use crate::outline::Outlines;
+use crate::real::{cis, Real};
 use crate::table::Table;
-use num_complex::Complex64 as C64;
+use num_complex::{Complex, Complex64 as C64};
 
-pub struct Kin {
+/// Over S = Dual (crate::real): the same model with its tables' tangents
+/// along one design parameter (crate::sensitivity).
+pub struct Kin<S = f64> {
     pub n: usize,
     pub m: usize,
     pub nnz: usize,
-    pub families: Vec<Family>,
+    pub families: Vec<Family<S>>,
     pub row_off: Vec<usize>,   // first row of each family (and m at the end)
     pub entry_off: Vec<usize>, // first Jacobian entry of each family (and nnz)
     pub angles: Vec<usize>,    // the angle columns (bodies' phi, outlines' theta)
-    pub functions: Functions,
-    pub outlines: Outlines,
+    pub functions: Functions<S>,
+    pub outlines: Outlines<S>,
     pub time_dependent: Vec<usize>, // families whose nu may be non-zero
     /// the tables it was built from (Kin::split builds its parts from them)
     tables: Vec<(String, Table)>,
@@ -25,14 +28,14 @@ pub struct Kin {
     outline_table: Table,
 }
 
-impl Kin {
+impl<S: Real> Kin<S> {
     pub fn new(
         n: usize,
         families: Vec<(String, Table)>,
         functions_table: &Table,
         outlines_table: &Table,
         angles: Vec<i64>,
-    ) -> Result<Kin, String> {
+    ) -> Result<Kin<S>, String> {
         let functions = Functions::from_table(functions_table)?;
         let outlines = if outlines_table.ints.is_empty() && outlines_table.reals.is_empty() {
             Outlines::default()
@@ -78,6 +81,49 @@ impl Kin {
         })
     }
 
+    fn shared(&self) -> Shared<'_, S> {
+        Shared { functions: &self.functions, outlines: &self.outlines }
+    }
+
+    /// e[j] = e^{i q[j]} at the angle columns: once per configuration.
+    #[inline]
+    pub fn rotate(&self, q: &[S], e: &mut [Complex<S>]) {
+        for &j in &self.angles {
+            e[j] = cis(q[j]);
+        }
+    }
+
+    pub fn phi(&self, at: &At<S>, out: &mut [S]) {
+        let s = self.shared();
+        for (k, f) in self.families.iter().enumerate() {
+            f.phi(at, &s, &mut out[self.row_off[k]..self.row_off[k + 1]]);
+        }
+    }
+
+    pub fn jac(&self, at: &At<S>, out: &mut [S]) {
+        let s = self.shared();
+        for (k, f) in self.families.iter().enumerate() {
+            f.jac(at, &s, &mut out[self.entry_off[k]..self.entry_off[k + 1]]);
+        }
+    }
+
+    pub fn nu(&self, t: f64, out: &mut [S]) {
+        out.fill(S::zero());
+        let s = self.shared();
+        for &k in &self.time_dependent {
+            self.families[k].nu(t, &s, &mut out[self.row_off[k]..self.row_off[k + 1]]);
+        }
+    }
+
+    pub fn gamma(&self, at: &At<S>, qd: &[S], out: &mut [S]) {
+        let s = self.shared();
+        for (k, f) in self.families.iter().enumerate() {
+            f.gamma(at, qd, &s, &mut out[self.row_off[k]..self.row_off[k + 1]]);
+        }
+    }
+}
+
+impl Kin {
     /// The model's independent parts, one per diagonal block (cols[b]: the
     /// block's coordinates, ascending): each a Kin over its own coordinates
     /// (numbered in the same order) with the constraints whose first
@@ -144,19 +190,6 @@ impl Kin {
             .collect()
     }
 
-    fn shared(&self) -> Shared<'_> {
-        Shared { functions: &self.functions, outlines: &self.outlines }
-    }
-
-    /// e[j] = e^{i q[j]} at the angle columns: once per configuration.
-    #[inline]
-    pub fn rotate(&self, q: &[f64], e: &mut [C64]) {
-        for &j in &self.angles {
-            let (s, c) = q[j].sin_cos();
-            e[j] = C64::new(c, s);
-        }
-    }
-
     /// `rotate` where q[j] has changed since `seen` (the angles e holds), as
     /// in a march: a grounded or sliding body's angle keeps its sin and cos.
     #[inline]
@@ -167,35 +200,6 @@ impl Kin {
                 e[j] = C64::new(c, s);
                 seen[j] = q[j];
             }
-        }
-    }
-
-    pub fn phi(&self, at: &At, out: &mut [f64]) {
-        let s = self.shared();
-        for (k, f) in self.families.iter().enumerate() {
-            f.phi(at, &s, &mut out[self.row_off[k]..self.row_off[k + 1]]);
-        }
-    }
-
-    pub fn jac(&self, at: &At, out: &mut [f64]) {
-        let s = self.shared();
-        for (k, f) in self.families.iter().enumerate() {
-            f.jac(at, &s, &mut out[self.entry_off[k]..self.entry_off[k + 1]]);
-        }
-    }
-
-    pub fn nu(&self, t: f64, out: &mut [f64]) {
-        out.fill(0.0);
-        let s = self.shared();
-        for &k in &self.time_dependent {
-            self.families[k].nu(t, &s, &mut out[self.row_off[k]..self.row_off[k + 1]]);
-        }
-    }
-
-    pub fn gamma(&self, at: &At, qd: &[f64], out: &mut [f64]) {
-        let s = self.shared();
-        for (k, f) in self.families.iter().enumerate() {
-            f.gamma(at, qd, &s, &mut out[self.row_off[k]..self.row_off[k + 1]]);
         }
     }
 }

@@ -459,6 +459,69 @@ impl Plan {
         Ok(Plan { kin, layout: Arc::new(layout), parts: std::sync::OnceLock::new() })
     }
 
+    /// Design sensitivities (crate::sensitivity): tangents, one per
+    /// parameter: (families [(kind, table, tangent)], (functions, tangent),
+    /// (outlines, tangent)), the model's tables with their tangents along
+    /// the parameter; x: 1 to 3 arrays (K, n) (q, qd, qdd at times); rows,
+    /// cols: the Jacobian's pattern. Returns (out (levels, P, K, n), pivot
+    /// ratio (K)).
+    #[allow(clippy::type_complexity)]
+    fn sensitivity<'py>(
+        &self,
+        py: Python<'py>,
+        tangents: Vec<(
+            Vec<(String, Bound<'py, PyDict>, Bound<'py, PyDict>)>,
+            (Bound<'py, PyDict>, Bound<'py, PyDict>),
+            (Bound<'py, PyDict>, Bound<'py, PyDict>),
+        )>,
+        times: PyReadonlyArray1<'py, f64>,
+        x: Vec<PyReadonlyArray2<'py, f64>>,
+        jac_rows: PyReadonlyArray1<'py, i64>,
+        jac_cols: PyReadonlyArray1<'py, i64>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyArray1<f64>>)> {
+        let with = |d: &Bound<'py, PyDict>, dd: &Bound<'py, PyDict>| -> PyResult<Table> {
+            let mut t = table(d)?;
+            let tan = table(dd)?;
+            t.d_reals = tan.reals;
+            t.d_complex = tan.complex;
+            Ok(t)
+        };
+        let mut parts = Vec::new();
+        for (fams, (fd, fdd), (od, odd)) in &tangents {
+            let fams = fams.iter().map(|(k, d, dd)| Ok((k.clone(), with(d, dd)?))).collect::<PyResult<Vec<_>>>()?;
+            parts.push((fams, with(fd, fdd)?, with(od, odd)?));
+        }
+        let times = times.as_slice()?.to_vec();
+        let (n, kk, levels, np) = (self.kin.n, times.len(), x.len(), parts.len());
+        let mut xs = Vec::new();
+        for (k, a) in x.iter().enumerate() {
+            let (v, r) = rows(a, n, &format!("sensitivity: x[{k}]"))?;
+            if r != kk {
+                return Err(pyo3::exceptions::PyValueError::new_err("sensitivity: one row per instant expected"));
+            }
+            xs.push(v.to_vec());
+        }
+        let to_usize = |a: PyReadonlyArray1<'py, i64>| -> Vec<usize> {
+            a.as_array().iter().map(|&v| if v < 0 { usize::MAX } else { v as usize }).collect()
+        };
+        let (r, c) = (to_usize(jac_rows), to_usize(jac_cols));
+        let (kin, layout) = (self.kin.clone(), self.layout.clone());
+        let (out, ratio) = guard(py, move || {
+            let angles: Vec<i64> = kin.angles.iter().map(|&a| a as i64).collect();
+            let mut tans = Vec::new();
+            for (fams, f, o) in parts {
+                tans.push(Kin::<crate::real::Dual>::new(kin.n, fams, &f, &o, angles.clone())?);
+            }
+            let mut out = vec![0.0; levels * np * kk * n];
+            let mut ratio = vec![0.0; kk];
+            let x: Vec<&[f64]> = xs.iter().map(|v| v.as_slice()).collect();
+            crate::sensitivity::sensitivities(&kin, &layout, &tans, &r, &c, &times, &x, &mut out, &mut ratio)?;
+            Ok((out, ratio))
+        })?;
+        let out = PyArray1::from_vec(py, out).reshape([levels, np, kk, n])?.into_any();
+        Ok((out, PyArray1::from_vec(py, ratio)))
+    }
+
     /// The LU of J_s at these Jacobian values (nnz).
     fn factor(&self, py: Python<'_>, values: PyReadonlyArray1<'_, f64>) -> PyResult<Lu> {
         let v = vec1(&values);
@@ -798,13 +861,17 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 
 /// A trajectory's columns (columns::columns): X a list of 1 to 3 arrays (K,
 /// n) (positions, velocities, accelerations), src (C,), pc (P,), local (P,).
+/// With tangents (dx: as X, dlocal: as local): the columns' tangents along
+/// them (over dual numbers), not the columns.
 #[pyfunction]
+#[pyo3(signature = (x, src, pc, local, tangents=None))]
 fn columns<'py>(
     py: Python<'py>,
     x: Vec<PyReadonlyArray2<'py, f64>>,
     src: PyReadonlyArray1<'py, i64>,
     pc: PyReadonlyArray1<'py, i64>,
     local: PyReadonlyArray1<'py, C64>,
+    tangents: Option<(Vec<PyReadonlyArray2<'py, f64>>, PyReadonlyArray1<'py, C64>)>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let bad = |w: &str| pyo3::exceptions::PyValueError::new_err(format!("columns: {w}"));
     if x.is_empty() || x.len() > 3 {
@@ -831,6 +898,27 @@ fn columns<'py>(
     let src: Vec<usize> = src.iter().map(|&j| j as usize).collect();
     let pc: Vec<usize> = pc.iter().map(|&c| c as usize).collect();
     let w = src.len();
+    if let Some((dx, dlocal)) = &tangents {
+        let dstages: Vec<&[f64]> = dx.iter().map(|a| a.as_slice()).collect::<Result<_, _>>()?;
+        let dlocal = dlocal.as_slice()?;
+        if dx.len() != x.len() || dx.iter().any(|a| a.shape() != [k, n]) || dlocal.len() != local.len() {
+            return Err(bad("tangents differ in shape from the coordinates"));
+        }
+        let v = guard(py, || {
+            use crate::real::{lift_c, Dual};
+            let xs: Vec<Vec<Dual>> = stages
+                .iter()
+                .zip(&dstages)
+                .map(|(a, b)| a.iter().zip(b.iter()).map(|(&v, &d)| Dual { v, d }).collect())
+                .collect();
+            let xs: Vec<&[Dual]> = xs.iter().map(|v| v.as_slice()).collect();
+            let loc: Vec<_> = local.iter().zip(dlocal).map(|(&v, &d)| lift_c::<Dual>(v, d)).collect();
+            let mut out = vec![Dual::default(); k * w];
+            crate::columns::columns(&xs, n, &src, &pc, &loc, &mut out);
+            Ok(out.iter().map(|d| d.d).collect::<Vec<f64>>())
+        })?;
+        return out2(py, v, k, w);
+    }
     let v = guard(py, || {
         let mut out = vec![0.0; k * w];
         crate::columns::columns(&stages, n, &src, &pc, &local, &mut out);

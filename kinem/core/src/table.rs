@@ -2,7 +2,8 @@
 //! (kinem.model.compile): every family's struct-of-arrays table, the driving
 //! functions and the outlines. Every index is validated here, once, so that
 //! the kernels may index without further checks.
-use num_complex::Complex64 as C64;
+use crate::real::{lift_c, Real};
+use num_complex::{Complex, Complex64 as C64};
 use std::collections::HashMap;
 
 /// A table's columns by name; each column one value per constraint (or per row).
@@ -11,6 +12,10 @@ pub struct Table {
     pub ints: HashMap<String, Vec<i64>>,
     pub reals: HashMap<String, Vec<f64>>,
     pub complex: HashMap<String, Vec<C64>>,
+    /// Tangents of real and complex columns along one design parameter
+    /// (crate::sensitivity); a column without one has tangent zero.
+    pub d_reals: HashMap<String, Vec<f64>>,
+    pub d_complex: HashMap<String, Vec<C64>>,
 }
 
 impl Table {
@@ -47,6 +52,24 @@ impl Table {
 
     pub fn cplx(&self, key: &str) -> Result<Vec<C64>, String> {
         self.complex.get(key).cloned().ok_or_else(|| Self::missing(key))
+    }
+
+    /// A real column as S: with Dual, its values carry their tangents.
+    pub fn real_s<S: Real>(&self, key: &str) -> Result<Vec<S>, String> {
+        let v = self.reals.get(key).ok_or_else(|| Self::missing(key))?;
+        Ok(match self.d_reals.get(key).filter(|d| d.len() == v.len()) {
+            Some(d) => v.iter().zip(d).map(|(&x, &dx)| S::lift(x, dx)).collect(),
+            None => v.iter().map(|&x| S::c(x)).collect(),
+        })
+    }
+
+    /// A complex column as Complex<S>: with Dual, its values carry their tangents.
+    pub fn cplx_s<S: Real>(&self, key: &str) -> Result<Vec<Complex<S>>, String> {
+        let v = self.complex.get(key).ok_or_else(|| Self::missing(key))?;
+        Ok(match self.d_complex.get(key).filter(|d| d.len() == v.len()) {
+            Some(d) => v.iter().zip(d).map(|(&x, &dx)| lift_c(x, dx)).collect(),
+            None => v.iter().map(|&x| lift_c(x, C64::new(0.0, 0.0))).collect(),
+        })
     }
 
     /// Checks that every listed column has `len` entries.

@@ -3,39 +3,42 @@
 //! theta of the contact point P_i on the cam's outline (curve.rs):
 //! a = A_i p(theta), g = A_i g'(theta) the tangent there, h its derivative.
 use super::curve::Outline;
-use super::{dot, rd, At, Shared, I};
+use super::rack::unit;
+use super::{dot, i, rd, At, Shared};
+use crate::real::Real;
 use crate::table::Table;
-use num_complex::Complex64 as C64;
+use num_complex::Complex;
 
 /// The cam i (columns cc, ct, outline), the follower j (x column cj) and
 /// its point Q_j (sj).
-struct Pair {
+struct Pair<S> {
     curve: Outline,
     cj: Vec<usize>,
-    sj: Vec<C64>,
+    sj: Vec<Complex<S>>,
 }
 
-impl Pair {
+impl<S: Real> Pair<S> {
     fn new(t: &Table, n: usize, outlines: usize, extra: &[&str]) -> Result<Self, String> {
         let curve = Outline::new(t, n, outlines)?;
         t.same_length(curve.len(), &["cj", "sj"])?;
         t.same_length(curve.len(), extra)?;
-        Ok(Pair { cj: t.index("cj", n.saturating_sub(2))?, sj: t.cplx("sj")?, curve })
+        Ok(Pair { cj: t.index("cj", n.saturating_sub(2))?, sj: t.cplx_s("sj")?, curve })
     }
 }
 
 /// Phi = [g . d, d . d - rho^2] with d = r_j + A_j s'_j^Q - r_i - a, from
 /// the contact point P_i to the roller centre Q_j (Eq. 4.28): d is normal
 /// to the outline and as long as the roller's radius. Columns: cc, ct,
-/// outline, cj, sj, rho2 (rho^2).
-pub struct Roller {
-    p: Pair,
-    rho2: Vec<f64>,
+/// outline, cj, sj, rho (squared here).
+pub struct Roller<S = f64> {
+    p: Pair<S>,
+    rho2: Vec<S>,
 }
 
-impl Roller {
+impl<S: Real> Roller<S> {
     pub fn new(t: &Table, n: usize, outlines: usize) -> Result<Self, String> {
-        Ok(Roller { p: Pair::new(t, n, outlines, &["rho2"])?, rho2: t.real("rho2")? })
+        let rho: Vec<S> = t.real_s("rho")?;
+        Ok(Roller { p: Pair::new(t, n, outlines, &["rho"])?, rho2: rho.iter().map(|&r| r * r).collect() })
     }
 
     pub fn rows(&self) -> usize {
@@ -48,14 +51,14 @@ impl Roller {
 
     /// d = r_j + A_j s'_j - r_i - a, and A_j s'_j.
     #[inline(always)]
-    fn d(&self, at: &At, c: usize, a: C64) -> (C64, C64) {
+    fn d(&self, at: &At<S>, c: usize, a: Complex<S>) -> (Complex<S>, Complex<S>) {
         let (x, y) = (self.p.curve.cc[c], self.p.cj[c]);
         let b = self.p.sj[c] * at.rot(y);
         (at.r(y) + b - at.r(x) - a, b)
     }
 
     /// Eq. 4.28: [g . d, d . d - rho^2].
-    pub fn phi(&self, at: &At, s: &Shared, out: &mut [f64]) {
+    pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
         for c in 0..self.rho2.len() {
             let k = self.p.curve.at(at, s, c);
             let (d, _) = self.d(at, c, k.a);
@@ -65,7 +68,8 @@ impl Roller {
     }
 
     /// Columns [r_i, phi_i, theta, r_j, phi_j] of both rows.
-    pub fn jac(&self, at: &At, s: &Shared, out: &mut [f64]) {
+    pub fn jac(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
+        let i = i::<S>();
         for c in 0..self.rho2.len() {
             let k = self.p.curve.at(at, s, c);
             let (a, g) = (k.a, k.g);
@@ -73,33 +77,34 @@ impl Roller {
             out[14 * c..14 * c + 14].copy_from_slice(&[
                 -g.re,
                 -g.im,
-                dot(I * g, d) - dot(g, I * a),
+                dot(i * g, d) - dot(g, i * a),
                 dot(k.h, d) - dot(g, g),
                 g.re,
                 g.im,
-                dot(g, I * b),
-                -2.0 * d.re,
-                -2.0 * d.im,
-                -2.0 * dot(d, I * a),
-                -2.0 * dot(d, g),
-                2.0 * d.re,
-                2.0 * d.im,
-                2.0 * dot(d, I * b),
+                dot(g, i * b),
+                d.re * -2.0,
+                d.im * -2.0,
+                dot(d, i * a) * -2.0,
+                dot(d, g) * -2.0,
+                d.re * 2.0,
+                d.im * 2.0,
+                dot(d, i * b) * 2.0,
             ]);
         }
     }
 
     /// -(d/dt)^2 Phi without the acceleration terms: (g.d)'' = g''.d + 2 g'.d' + g.d''.
-    pub fn gamma(&self, at: &At, qd: &[f64], s: &Shared, out: &mut [f64]) {
+    pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
+        let i = i::<S>();
         for c in 0..self.rho2.len() {
             let (x, y) = (self.p.curve.cc[c], self.p.cj[c]);
             let (k, r) = self.p.curve.moving(at, qd, s, c);
             let (d, b) = self.d(at, c, k.a);
             let wj = qd[y + 2];
-            let d1 = rd(qd, y) + I * wj * b - rd(qd, x) - r.a1;
-            let d2 = -wj * wj * b - r.a2;
-            out[2 * c] = -(dot(r.g2, d) + 2.0 * dot(r.g1, d1) + dot(k.g, d2));
-            out[2 * c + 1] = -2.0 * (dot(d1, d1) + dot(d, d2));
+            let d1 = rd(qd, y) + i * b * wj - rd(qd, x) - r.a1;
+            let d2 = -b * (wj * wj) - r.a2;
+            out[2 * c] = -(dot(r.g2, d) + dot(r.g1, d1) * 2.0 + dot(k.g, d2));
+            out[2 * c + 1] = (dot(d1, d1) + dot(d, d2)) * -2.0;
         }
     }
 }
@@ -107,15 +112,15 @@ impl Roller {
 /// Phi = [g . n, d . n] with n = A_j n'_j the unit normal of the follower's
 /// face and d = r_i + a - r_j - A_j s'_j^Q, from a point Q_j of the face
 /// to the contact point P_i (Eq. 4.29): the face is tangent to the outline
-/// at P_i. Columns: cc, ct, outline, cj, sj, n (n'_j, unit).
-pub struct Flat {
-    p: Pair,
-    n: Vec<C64>,
+/// at P_i. Columns: cc, ct, outline, cj, sj, n (n'_j, any length: normalised here).
+pub struct Flat<S = f64> {
+    p: Pair<S>,
+    n: Vec<Complex<S>>,
 }
 
-impl Flat {
+impl<S: Real> Flat<S> {
     pub fn new(t: &Table, n: usize, outlines: usize) -> Result<Self, String> {
-        Ok(Flat { p: Pair::new(t, n, outlines, &["n"])?, n: t.cplx("n")? })
+        Ok(Flat { p: Pair::new(t, n, outlines, &["n"])?, n: t.cplx_s("n")?.into_iter().map(unit).collect() })
     }
 
     pub fn rows(&self) -> usize {
@@ -128,7 +133,7 @@ impl Flat {
 
     /// d = r_i + a - r_j - A_j s'_j, A_j s'_j and n = A_j n'_j.
     #[inline(always)]
-    fn parts(&self, at: &At, c: usize, a: C64) -> (C64, C64, C64) {
+    fn parts(&self, at: &At<S>, c: usize, a: Complex<S>) -> (Complex<S>, Complex<S>, Complex<S>) {
         let (x, y) = (self.p.curve.cc[c], self.p.cj[c]);
         let e = at.rot(y);
         let b = self.p.sj[c] * e;
@@ -136,7 +141,7 @@ impl Flat {
     }
 
     /// Eq. 4.29: [g . n, d . n].
-    pub fn phi(&self, at: &At, s: &Shared, out: &mut [f64]) {
+    pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
         for c in 0..self.n.len() {
             let k = self.p.curve.at(at, s, c);
             let (d, _, n) = self.parts(at, c, k.a);
@@ -146,38 +151,40 @@ impl Flat {
     }
 
     /// Row 1 in [phi_i, theta, phi_j], row 2 in [r_i, phi_i, theta, r_j, phi_j].
-    pub fn jac(&self, at: &At, s: &Shared, out: &mut [f64]) {
+    pub fn jac(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
+        let i = i::<S>();
         for c in 0..self.n.len() {
             let k = self.p.curve.at(at, s, c);
             let (a, g) = (k.a, k.g);
             let (d, b, n) = self.parts(at, c, a);
             out[10 * c..10 * c + 10].copy_from_slice(&[
-                dot(I * g, n),
+                dot(i * g, n),
                 dot(k.h, n),
-                dot(g, I * n),
+                dot(g, i * n),
                 n.re,
                 n.im,
-                dot(I * a, n),
+                dot(i * a, n),
                 dot(g, n),
                 -n.re,
                 -n.im,
-                dot(d, I * n) - dot(I * b, n),
+                dot(d, i * n) - dot(i * b, n),
             ]);
         }
     }
 
     /// -(g . n)'' and -(d . n)'' without the acceleration terms.
-    pub fn gamma(&self, at: &At, qd: &[f64], s: &Shared, out: &mut [f64]) {
+    pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
+        let i = i::<S>();
         for c in 0..self.n.len() {
             let (x, y) = (self.p.curve.cc[c], self.p.cj[c]);
             let (k, r) = self.p.curve.moving(at, qd, s, c);
             let (d, b, n) = self.parts(at, c, k.a);
             let wj = qd[y + 2];
-            let (n1, n2) = (I * wj * n, -wj * wj * n);
-            let d1 = rd(qd, x) + r.a1 - rd(qd, y) - I * wj * b;
-            let d2 = r.a2 + wj * wj * b;
-            out[2 * c] = -(dot(r.g2, n) + 2.0 * dot(r.g1, n1) + dot(k.g, n2));
-            out[2 * c + 1] = -(dot(d2, n) + 2.0 * dot(d1, n1) + dot(d, n2));
+            let (n1, n2) = (i * n * wj, -n * (wj * wj));
+            let d1 = rd(qd, x) + r.a1 - rd(qd, y) - i * b * wj;
+            let d2 = r.a2 + b * (wj * wj);
+            out[2 * c] = -(dot(r.g2, n) + dot(r.g1, n1) * 2.0 + dot(k.g, n2));
+            out[2 * c + 1] = -(dot(d2, n) + dot(d1, n1) * 2.0 + dot(d, n2));
         }
     }
 }

@@ -11,34 +11,36 @@
 //! and along a motion, without the terms in the accelerations,
 //!     a'  = i w a + g th',   a''  = -w^2 a + 2 i w th' g + th'^2 h,
 //!     g'  = i w g + h th',   g''  = -w^2 g + 2 i w th' h + th'^2 k.
-use super::{At, Shared, I};
+use super::{i, At, Shared};
 use crate::outline::Curve;
+use crate::real::Real;
 use crate::table::Table;
-use num_complex::Complex64 as C64;
+use num_complex::Complex;
 
 /// The outline o of body cc at theta = q[ct]: e^{i theta} is in `At::e`
 /// (the artificial columns are angle columns).
 #[inline(always)]
-pub fn curve(at: &At, s: &Shared, o: usize, cc: usize, ct: usize) -> Curve {
+pub fn curve<S: Real>(at: &At<S>, s: &Shared<S>, o: usize, cc: usize, ct: usize) -> Curve<S> {
     s.outlines.curve(o, at.q[ct], at.e[ct], at.rot(cc))
 }
 
 /// a', a'', g', g'' along a motion with w = phi_c', th = theta' (the
 /// module's formulas).
-pub struct Rates {
-    pub a1: C64,
-    pub a2: C64,
-    pub g1: C64,
-    pub g2: C64,
+pub struct Rates<S> {
+    pub a1: Complex<S>,
+    pub a2: Complex<S>,
+    pub g1: Complex<S>,
+    pub g2: Complex<S>,
 }
 
 #[inline(always)]
-pub fn rates(p: &Curve, w: f64, th: f64) -> Rates {
+pub fn rates<S: Real>(p: &Curve<S>, w: S, th: S) -> Rates<S> {
+    let i = i::<S>();
     Rates {
-        a1: I * w * p.a + p.g * th,
-        a2: -w * w * p.a + 2.0 * I * w * th * p.g + th * th * p.h,
-        g1: I * w * p.g + p.h * th,
-        g2: -w * w * p.g + 2.0 * I * w * th * p.h + th * th * p.k,
+        a1: i * p.a * w + p.g * th,
+        a2: -p.a * (w * w) + i * p.g * (w * th * 2.0) + p.h * (th * th),
+        g1: i * p.g * w + p.h * th,
+        g2: -p.g * (w * w) + i * p.h * (w * th * 2.0) + p.k * (th * th),
     }
 }
 
@@ -66,13 +68,13 @@ impl Outline {
     }
 
     #[inline(always)]
-    pub fn at(&self, at: &At, s: &Shared, c: usize) -> Curve {
+    pub fn at<S: Real>(&self, at: &At<S>, s: &Shared<S>, c: usize) -> Curve<S> {
         curve(at, s, self.o[c], self.cc[c], self.ct[c])
     }
 
     /// The curve and its rates at constraint c.
     #[inline(always)]
-    pub fn moving(&self, at: &At, qd: &[f64], s: &Shared, c: usize) -> (Curve, Rates) {
+    pub fn moving<S: Real>(&self, at: &At<S>, qd: &[S], s: &Shared<S>, c: usize) -> (Curve<S>, Rates<S>) {
         let p = self.at(at, s, c);
         let r = rates(&p, qd[self.cc[c] + 2], qd[self.ct[c]]);
         (p, r)
@@ -83,18 +85,18 @@ impl Outline {
 /// cam-point: c = cam i, b = follower j, sigma = +1 (Eq. 4.26);
 /// point-follower: c = slotted body j, b = pin body i, sigma = -1 (Eq. 4.30).
 /// Columns: cc, ct, outline (Outline), cb (b's x column), sb (s'_b), sign.
-pub struct PointOnCurve {
+pub struct PointOnCurve<S = f64> {
     curve: Outline,
     cb: Vec<usize>,
-    sb: Vec<C64>,
+    sb: Vec<Complex<S>>,
     sign: Vec<f64>,
 }
 
-impl PointOnCurve {
+impl<S: Real> PointOnCurve<S> {
     pub fn new(t: &Table, n: usize, outlines: usize) -> Result<Self, String> {
         let curve = Outline::new(t, n, outlines)?;
         t.same_length(curve.len(), &["cb", "sb", "sign"])?;
-        Ok(PointOnCurve { cb: t.index("cb", n.saturating_sub(2))?, sb: t.cplx("sb")?, sign: t.real("sign")?, curve })
+        Ok(PointOnCurve { cb: t.index("cb", n.saturating_sub(2))?, sb: t.cplx_s("sb")?, sign: t.real("sign")?, curve })
     }
 
     pub fn rows(&self) -> usize {
@@ -106,11 +108,11 @@ impl PointOnCurve {
     }
 
     /// sigma (r_c + a - r_b - A_b s'_b), rows x and y (Eqs. 4.26, 4.30).
-    pub fn phi(&self, at: &At, s: &Shared, out: &mut [f64]) {
+    pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
         for c in 0..self.cb.len() {
             let (x, y) = (self.curve.cc[c], self.cb[c]);
             let a = self.curve.at(at, s, c).a;
-            let d = self.sign[c] * (at.r(x) + a - at.r(y) - self.sb[c] * at.rot(y));
+            let d = (at.r(x) + a - at.r(y) - self.sb[c] * at.rot(y)) * S::c(self.sign[c]);
             out[2 * c] = d.re;
             out[2 * c + 1] = d.im;
         }
@@ -118,33 +120,33 @@ impl PointOnCurve {
 
     /// sigma [I, i a, g, -I, -B_b s'_b] in columns [r_c, phi_c, theta, r_b, phi_b]
     /// (Eq. 4.27's Jacobian; pattern per constraint: row x then row y).
-    pub fn jac(&self, at: &At, s: &Shared, out: &mut [f64]) {
+    pub fn jac(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
         for c in 0..self.cb.len() {
             let p = self.curve.at(at, s, c);
             let b = self.sb[c] * at.rot(self.cb[c]);
             let (k, a, g) = (self.sign[c], p.a, p.g);
             out[10 * c..10 * c + 10].copy_from_slice(&[
-                k,
-                -k * a.im,
-                k * g.re,
-                -k,
-                k * b.im,
-                k,
-                k * a.re,
-                k * g.im,
-                -k,
-                -k * b.re,
+                S::c(k),
+                a.im * -k,
+                g.re * k,
+                S::c(-k),
+                b.im * k,
+                S::c(k),
+                a.re * k,
+                g.im * k,
+                S::c(-k),
+                b.re * -k,
             ]);
         }
     }
 
     /// -sigma (a'' + A_b s'_b w_b^2).
-    pub fn gamma(&self, at: &At, qd: &[f64], s: &Shared, out: &mut [f64]) {
+    pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
         for c in 0..self.cb.len() {
             let y = self.cb[c];
             let (_, r) = self.curve.moving(at, qd, s, c);
             let w = qd[y + 2];
-            let g = -self.sign[c] * (r.a2 + self.sb[c] * at.rot(y) * (w * w));
+            let g = (r.a2 + self.sb[c] * at.rot(y) * (w * w)) * S::c(-self.sign[c]);
             out[2 * c] = g.re;
             out[2 * c + 1] = g.im;
         }

@@ -1,30 +1,31 @@
 //! Revolute-revolute composite joint (Eq. 4.13; Jacobian Table 4.2; gamma
 //! Table 4.3) and the distance driver, its extension with a length l(t)
 //! that follows a function (a linear actuator between two points).
-use super::{dot, rd, At, Shared, I};
+use super::{dot, i, rd, At, Shared};
+use crate::real::Real;
 use crate::table::Table;
-use num_complex::Complex64 as C64;
+use num_complex::Complex;
 
 /// Phi = d . d - l(t)^2 with d = r_j^P - r_i^P (Eq. 4.13): one row.
 /// Columns: ci, cj the bodies' x columns; si, sj the points P on each;
 /// f the length's function (a constant for revolute-revolute), an index
 /// into the model's functions.
-pub struct Distance {
+pub struct Distance<S = f64> {
     ci: Vec<usize>,
     cj: Vec<usize>,
-    si: Vec<C64>,
-    sj: Vec<C64>,
+    si: Vec<Complex<S>>,
+    sj: Vec<Complex<S>>,
     f: Vec<usize>,
 }
 
-impl Distance {
+impl<S: Real> Distance<S> {
     pub fn new(t: &Table, n: usize, functions: usize) -> Result<Self, String> {
         let ci = t.index("ci", n.saturating_sub(2))?;
         t.same_length(ci.len(), &["cj", "si", "sj", "f"])?;
         Ok(Distance {
             cj: t.index("cj", n.saturating_sub(2))?,
-            si: t.cplx("si")?,
-            sj: t.cplx("sj")?,
+            si: t.cplx_s("si")?,
+            sj: t.cplx_s("sj")?,
             f: t.index("f", functions)?,
             ci,
         })
@@ -39,20 +40,20 @@ impl Distance {
     }
 
     /// Whether any length is not a constant (a distance driver).
-    pub fn time_dependent(&self, s: &Shared) -> bool {
+    pub fn time_dependent(&self, s: &Shared<S>) -> bool {
         self.f.iter().any(|&f| !s.functions.constant(f))
     }
 
     /// d = r_j + A_j s'_j - r_i - A_i s'_i, A_i s'_i, A_j s'_j.
     #[inline(always)]
-    fn parts(&self, at: &At, c: usize) -> (C64, C64, C64) {
+    fn parts(&self, at: &At<S>, c: usize) -> (Complex<S>, Complex<S>, Complex<S>) {
         let (a, b) = (self.ci[c], self.cj[c]);
         let (sa, sb) = (self.si[c] * at.rot(a), self.sj[c] * at.rot(b));
         (at.r(b) + sb - at.r(a) - sa, sa, sb)
     }
 
     /// Eq. 4.13: d . d - l(t)^2.
-    pub fn phi(&self, at: &At, s: &Shared, out: &mut [f64]) {
+    pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
         for (c, o) in out.iter_mut().enumerate() {
             let (d, _, _) = self.parts(at, c);
             let l = s.functions.eval(self.f[c], at.t, 0);
@@ -61,45 +62,45 @@ impl Distance {
     }
 
     /// 2 [-d^T, -d^T B_i s'_i, d^T, d^T B_j s'_j] (Table 4.2).
-    pub fn jac(&self, at: &At, _: &Shared, out: &mut [f64]) {
+    pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         for c in 0..self.ci.len() {
             let (d, a, b) = self.parts(at, c);
             out[6 * c..6 * c + 6].copy_from_slice(&[
-                -2.0 * d.re,
-                -2.0 * d.im,
-                -2.0 * (d.im * a.re - d.re * a.im),
-                2.0 * d.re,
-                2.0 * d.im,
-                2.0 * (d.im * b.re - d.re * b.im),
+                d.re * -2.0,
+                d.im * -2.0,
+                (d.im * a.re - d.re * a.im) * -2.0,
+                d.re * 2.0,
+                d.im * 2.0,
+                (d.im * b.re - d.re * b.im) * 2.0,
             ]);
         }
     }
 
     /// nu = -Phi_t = (l^2)' = 2 l l'.
-    pub fn nu(&self, t: f64, s: &Shared, out: &mut [f64]) {
+    pub fn nu(&self, t: f64, s: &Shared<S>, out: &mut [S]) {
         for (c, o) in out.iter_mut().enumerate() {
-            *o = 2.0 * s.functions.eval(self.f[c], t, 0) * s.functions.eval(self.f[c], t, 1);
+            *o = s.functions.eval(self.f[c], t, 0) * s.functions.eval(self.f[c], t, 1) * 2.0;
         }
     }
 
     /// -2 d'.d' - 2 d.(A_i s'_i w_i^2 - A_j s'_j w_j^2) (Table 4.3), plus
     /// (l^2)'' = 2 (l'^2 + l l'') for a distance driver.
-    pub fn gamma(&self, at: &At, qd: &[f64], s: &Shared, out: &mut [f64]) {
+    pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
         for (c, o) in out.iter_mut().enumerate() {
             let (x, y) = (self.ci[c], self.cj[c]);
             let (d, a, b) = self.parts(at, c);
             let (wi, wj) = (qd[x + 2], qd[y + 2]);
-            let dd = rd(qd, y) + I * b * wj - rd(qd, x) - I * a * wi;
+            let dd = rd(qd, y) + i::<S>() * b * wj - rd(qd, x) - i::<S>() * a * wi;
             let e = a * (wi * wi) - b * (wj * wj);
             let f = self.f[c];
             let second = if s.functions.constant(f) {
-                0.0
+                S::zero()
             } else {
                 let (l, l1, l2) =
                     (s.functions.eval(f, at.t, 0), s.functions.eval(f, at.t, 1), s.functions.eval(f, at.t, 2));
-                2.0 * (l1 * l1 + l * l2)
+                (l1 * l1 + l * l2) * 2.0
             };
-            *o = -2.0 * (dd.re * dd.re + dd.im * dd.im) - 2.0 * dot(d, e) + second;
+            *o = (dd.re * dd.re + dd.im * dd.im) * -2.0 - dot(d, e) * 2.0 + second;
         }
     }
 }

@@ -1,6 +1,7 @@
 //! Spur gears (Eqs. 4.17, 4.18), Sec. 4.2.3: the integrated no-slip
 //! condition of the pitch circles, with angles accumulated.
 use super::{At, Shared};
+use crate::real::Real;
 use crate::table::Table;
 
 /// Phi = rho_i (phi_i - phi_k) + rho_j (phi_j - phi_k - phi0) (Eq. 4.18;
@@ -8,23 +9,23 @@ use crate::table::Table;
 /// (negative when one gear is internal). Columns: ai, aj, ak the angle
 /// columns of gears i, j and carrier k (any valid column without one),
 /// carrier (flag), ri, rj (signed), phi0.
-pub struct Gear {
+pub struct Gear<S = f64> {
     ai: Vec<usize>,
     aj: Vec<usize>,
     ak: Vec<usize>,
     w: Vec<f64>, // 1.0 with a carrier, 0.0 without
-    ri: Vec<f64>,
-    rj: Vec<f64>,
-    phi0: Vec<f64>,
-    values: Vec<f64>, // the constant Jacobian values
+    ri: Vec<S>,
+    rj: Vec<S>,
+    phi0: Vec<S>,
+    values: Vec<S>, // the constant Jacobian values
 }
 
-impl Gear {
+impl<S: Real> Gear<S> {
     pub fn new(t: &Table, n: usize) -> Result<Self, String> {
         let ai = t.index("ai", n)?;
         t.same_length(ai.len(), &["aj", "ak", "carrier", "ri", "rj", "phi0"])?;
         let carrier = t.flags("carrier")?;
-        let (ri, rj) = (t.real("ri")?, t.real("rj")?);
+        let (ri, rj): (Vec<S>, Vec<S>) = (t.real_s("ri")?, t.real_s("rj")?);
         let mut values = Vec::new();
         for c in 0..ai.len() {
             values.push(ri[c]);
@@ -37,7 +38,7 @@ impl Gear {
             aj: t.index("aj", n)?,
             ak: t.index("ak", n)?,
             w: carrier.iter().map(|&k| if k { 1.0 } else { 0.0 }).collect(),
-            phi0: t.real("phi0")?,
+            phi0: t.real_s("phi0")?,
             ai,
             ri,
             rj,
@@ -54,21 +55,21 @@ impl Gear {
     }
 
     /// Eq. 4.18 (Eq. 4.17 with w = 0).
-    pub fn phi(&self, at: &At, _: &Shared, out: &mut [f64]) {
+    pub fn phi(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         for (c, o) in out.iter_mut().enumerate() {
-            let pk = self.w[c] * at.q[self.ak[c]];
+            let pk = at.q[self.ak[c]] * self.w[c];
             *o = self.ri[c] * (at.q[self.ai[c]] - pk) + self.rj[c] * (at.q[self.aj[c]] - pk - self.phi0[c]);
         }
     }
 
     /// Constant: [rho_i, rho_j, -(rho_i + rho_j)] in [phi_i, phi_j, phi_k]
     /// (the last only with a carrier).
-    pub fn jac(&self, _: &At, _: &Shared, out: &mut [f64]) {
+    pub fn jac(&self, _: &At<S>, _: &Shared<S>, out: &mut [S]) {
         out.copy_from_slice(&self.values);
     }
 
     /// gamma = 0: the rows are linear in q.
-    pub fn gamma(&self, _: &At, _: &[f64], _: &Shared, out: &mut [f64]) {
-        out.fill(0.0);
+    pub fn gamma(&self, _: &At<S>, _: &[S], _: &Shared<S>, out: &mut [S]) {
+        out.fill(S::zero());
     }
 }

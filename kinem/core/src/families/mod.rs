@@ -9,10 +9,15 @@
 //! and the scalar cross product a x b = Im(conj(a) b). e^{i phi} of every
 //! angle column is computed once per configuration (`At::e`) and shared by
 //! every family.
+//!
+//! Every kernel is written over a scalar S (crate::real): f64 in the
+//! analysis, Dual for design sensitivities, where the same code carries the
+//! tangents of the tables and of q, qd through Phi, the Jacobian, nu and gamma.
 use crate::functions::Functions;
 use crate::outline::Outlines;
+use crate::real::Real;
 use crate::table::Table;
-use num_complex::Complex64 as C64;
+use num_complex::{Complex, Complex64 as C64};
 
 pub mod cam;
 pub mod curve;
@@ -27,61 +32,62 @@ pub mod simple;
 mod tests;
 
 pub const I: C64 = C64 { re: 0.0, im: 1.0 };
+pub use crate::real::i;
 
 /// One configuration: coordinates q (n), e[j] = e^{i q[j]} at the angle
 /// columns (other entries unspecified), and the time t.
-pub struct At<'a> {
-    pub q: &'a [f64],
-    pub e: &'a [C64],
+pub struct At<'a, S = f64> {
+    pub q: &'a [S],
+    pub e: &'a [Complex<S>],
     pub t: f64,
 }
 
-impl At<'_> {
+impl<S: Real> At<'_, S> {
     /// r = x + iy of the body whose x column is c.
     #[inline(always)]
-    pub fn r(&self, c: usize) -> C64 {
-        C64::new(self.q[c], self.q[c + 1])
+    pub fn r(&self, c: usize) -> Complex<S> {
+        Complex::new(self.q[c], self.q[c + 1])
     }
     /// e^{i phi} of the body whose x column is c.
     #[inline(always)]
-    pub fn rot(&self, c: usize) -> C64 {
+    pub fn rot(&self, c: usize) -> Complex<S> {
         self.e[c + 2]
     }
 }
 
 /// r' = xd + i yd of the body whose x column is c.
 #[inline(always)]
-pub fn rd(qd: &[f64], c: usize) -> C64 {
-    C64::new(qd[c], qd[c + 1])
+pub fn rd<S: Real>(qd: &[S], c: usize) -> Complex<S> {
+    Complex::new(qd[c], qd[c + 1])
 }
 
 #[inline(always)]
-pub fn dot(a: C64, b: C64) -> f64 {
+pub fn dot<S: Real>(a: Complex<S>, b: Complex<S>) -> S {
     a.re * b.re + a.im * b.im
 }
 
 #[inline(always)]
-pub fn cross(a: C64, b: C64) -> f64 {
+pub fn cross<S: Real>(a: Complex<S>, b: Complex<S>) -> S {
     a.re * b.im - a.im * b.re
 }
 
 /// What the families read besides their own tables.
-pub struct Shared<'a> {
-    pub functions: &'a Functions,
-    pub outlines: &'a Outlines,
+pub struct Shared<'a, S = f64> {
+    pub functions: &'a Functions<S>,
+    pub outlines: &'a Outlines<S>,
 }
 
 /// The type switch: one variant per family, each holding its table.
-pub enum Family {
-    Simple(simple::Simple),
-    Revolute(revolute::Revolute),
-    Line(line::Line),
-    Distance(distance::Distance),
-    Gear(gear::Gear),
-    Rack(rack::Rack),
-    PointOnCurve(curve::PointOnCurve),
-    CamRoller(cam::Roller),
-    CamFlat(cam::Flat),
+pub enum Family<S = f64> {
+    Simple(simple::Simple<S>),
+    Revolute(revolute::Revolute<S>),
+    Line(line::Line<S>),
+    Distance(distance::Distance<S>),
+    Gear(gear::Gear<S>),
+    Rack(rack::Rack<S>),
+    PointOnCurve(curve::PointOnCurve<S>),
+    CamRoller(cam::Roller<S>),
+    CamFlat(cam::Flat<S>),
 }
 
 /// The `kind` names Python's families hand over (kinem/constraints/*.py).
@@ -120,11 +126,11 @@ macro_rules! each {
     };
 }
 
-impl Family {
+impl<S: Real> Family<S> {
     /// The family of `kind` from its table; n: the model's coordinates (every
     /// column index is checked against it), functions and outlines: how many
     /// there are (every reference to one is checked).
-    pub fn new(kind: &str, t: &Table, n: usize, functions: usize, outlines: usize) -> Result<Family, String> {
+    pub fn new(kind: &str, t: &Table, n: usize, functions: usize, outlines: usize) -> Result<Family<S>, String> {
         let r = match kind {
             "simple" => Family::Simple(simple::Simple::new(t, n, functions)?),
             "revolute" => Family::Revolute(revolute::Revolute::new(t, n)?),
@@ -149,7 +155,7 @@ impl Family {
     }
 
     /// Whether nu can be non-zero (a driver).
-    pub fn time_dependent(&self, s: &Shared) -> bool {
+    pub fn time_dependent(&self, s: &Shared<S>) -> bool {
         match self {
             Family::Simple(f) => f.time_dependent(s),
             Family::Distance(f) => f.time_dependent(s),
@@ -157,24 +163,24 @@ impl Family {
         }
     }
 
-    pub fn phi(&self, at: &At, s: &Shared, out: &mut [f64]) {
+    pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
         each!(self, f => f.phi(at, s, out))
     }
 
-    pub fn jac(&self, at: &At, s: &Shared, out: &mut [f64]) {
+    pub fn jac(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
         each!(self, f => f.jac(at, s, out))
     }
 
     /// nu = -Phi_t (zero for families without drivers).
-    pub fn nu(&self, t: f64, s: &Shared, out: &mut [f64]) {
+    pub fn nu(&self, t: f64, s: &Shared<S>, out: &mut [S]) {
         match self {
             Family::Simple(f) => f.nu(t, s, out),
             Family::Distance(f) => f.nu(t, s, out),
-            _ => out.fill(0.0),
+            _ => out.fill(S::zero()),
         }
     }
 
-    pub fn gamma(&self, at: &At, qd: &[f64], s: &Shared, out: &mut [f64]) {
+    pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
         each!(self, f => f.gamma(at, qd, s, out))
     }
 }

@@ -1,44 +1,52 @@
 //! Rack and pinion (Eqs. 4.19, 4.20 and their general form, Problem 4.15),
 //! Sec. 4.2.3: the integrated no-slip condition of the pitch circle on the
 //! pitch line.
-use super::{dot, rd, At, Shared, I};
+use super::{dot, i, rd, At, Shared};
+use crate::real::Real;
 use crate::table::Table;
-use num_complex::Complex64 as C64;
+use num_complex::Complex;
 
 /// Phi = u . (C - P) + rho (phi_i - phi_j - phi0): pinion i with pitch
 /// radius rho and centre C = r_i + A_i c'; rack j with pitch line through
 /// P = r_j + A_j s'_j along the unit vector u = A_j u'. Rack fixed along x:
 /// Eq. 4.20; pinion centre fixed too: Eq. 4.19. Columns: ci (pinion), cj
-/// (rack) x columns; c (c'), s (s'_j), u (u', unit), rho, phi0.
-pub struct Rack {
+/// (rack) x columns; c (c'), s (s'_j), u (u', any length: normalised
+/// here), rho, phi0.
+pub struct Rack<S = f64> {
     ci: Vec<usize>,
     cj: Vec<usize>,
-    cc: Vec<C64>,
-    s: Vec<C64>,
-    u: Vec<C64>,
-    rho: Vec<f64>,
-    phi0: Vec<f64>,
+    cc: Vec<Complex<S>>,
+    s: Vec<Complex<S>>,
+    u: Vec<Complex<S>>,
+    rho: Vec<S>,
+    phi0: Vec<S>,
 }
 
 /// u = A_j u', d = C - P = r_i + A_i c' - r_j - A_j s'_j, A_i c', A_j s'_j.
-struct Parts {
-    u: C64,
-    d: C64,
-    a: C64,
-    b: C64,
+struct Parts<S> {
+    u: Complex<S>,
+    d: Complex<S>,
+    a: Complex<S>,
+    b: Complex<S>,
 }
 
-impl Rack {
+/// u / |u|.
+pub fn unit<S: Real>(u: Complex<S>) -> Complex<S> {
+    let r = (u.re * u.re + u.im * u.im).sqrt();
+    Complex::new(u.re / r, u.im / r)
+}
+
+impl<S: Real> Rack<S> {
     pub fn new(t: &Table, n: usize) -> Result<Self, String> {
         let ci = t.index("ci", n.saturating_sub(2))?;
         t.same_length(ci.len(), &["cj", "c", "s", "u", "rho", "phi0"])?;
         Ok(Rack {
             cj: t.index("cj", n.saturating_sub(2))?,
-            cc: t.cplx("c")?,
-            s: t.cplx("s")?,
-            u: t.cplx("u")?,
-            rho: t.real("rho")?,
-            phi0: t.real("phi0")?,
+            cc: t.cplx_s("c")?,
+            s: t.cplx_s("s")?,
+            u: t.cplx_s("u")?.into_iter().map(unit).collect(),
+            rho: t.real_s("rho")?,
+            phi0: t.real_s("phi0")?,
             ci,
         })
     }
@@ -52,7 +60,7 @@ impl Rack {
     }
 
     #[inline(always)]
-    fn parts(&self, at: &At, c: usize) -> Parts {
+    fn parts(&self, at: &At<S>, c: usize) -> Parts<S> {
         let (x, y) = (self.ci[c], self.cj[c]);
         let (ei, ej) = (at.rot(x), at.rot(y));
         let (a, b) = (self.cc[c] * ei, self.s[c] * ej);
@@ -60,7 +68,7 @@ impl Rack {
     }
 
     /// u . d + rho (phi_i - phi_j - phi0) (Eqs. 4.19, 4.20, Problem 4.15).
-    pub fn phi(&self, at: &At, _: &Shared, out: &mut [f64]) {
+    pub fn phi(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         for (c, o) in out.iter_mut().enumerate() {
             let p = self.parts(at, c);
             *o = dot(p.u, p.d) + self.rho[c] * (at.q[self.ci[c] + 2] - at.q[self.cj[c] + 2] - self.phi0[c]);
@@ -68,7 +76,7 @@ impl Rack {
     }
 
     /// [u^T, u . (i A_i c') + rho, -u^T, (i u) . d - u . (i A_j s'_j) - rho].
-    pub fn jac(&self, at: &At, _: &Shared, out: &mut [f64]) {
+    pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         for c in 0..self.ci.len() {
             let Parts { u, d, a, b } = self.parts(at, c);
             out[6 * c..6 * c + 6].copy_from_slice(&[
@@ -83,14 +91,15 @@ impl Rack {
     }
 
     /// -(u . d)'' without the acceleration terms.
-    pub fn gamma(&self, at: &At, qd: &[f64], _: &Shared, out: &mut [f64]) {
+    pub fn gamma(&self, at: &At<S>, qd: &[S], _: &Shared<S>, out: &mut [S]) {
+        let i = i::<S>();
         for (c, o) in out.iter_mut().enumerate() {
             let (x, y) = (self.ci[c], self.cj[c]);
             let Parts { u, d, a, b } = self.parts(at, c);
             let (wi, wj) = (qd[x + 2], qd[y + 2]);
-            let dd = rd(qd, x) + I * wi * a - rd(qd, y) - I * wj * b;
-            let iu = I * u;
-            *o = wj * wj * dot(u, d) - 2.0 * wj * dot(iu, dd) + wi * wi * dot(u, a) - wj * wj * dot(u, b);
+            let dd = rd(qd, x) + i * a * wi - rd(qd, y) - i * b * wj;
+            let iu = i * u;
+            *o = wj * wj * dot(u, d) - wj * dot(iu, dd) * 2.0 + wi * wi * dot(u, a) - wj * wj * dot(u, b);
         }
     }
 }

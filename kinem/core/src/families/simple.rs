@@ -7,8 +7,9 @@
 //! the relative term for a motor between two moving bodies. ground,
 //! absolute and driver rows all come here, one row each (ground: three).
 use super::{At, Shared};
+use crate::real::Real;
 use crate::table::Table;
-use num_complex::Complex64 as C64;
+use num_complex::Complex;
 
 /// Columns, one entry per row: a (the coordinate q_a), angle (phi_i's
 /// column), k (phi_k's column when relative, else any valid column),
@@ -16,12 +17,12 @@ use num_complex::Complex64 as C64;
 /// component, else 0.0), point and relative (flags: which Jacobian entries
 /// the row has besides its 1 in column a), f (the driving function, an
 /// index into the model's functions; a constant for ground and absolute).
-pub struct Simple {
+pub struct Simple<S = f64> {
     a: Vec<usize>,
     angle: Vec<usize>,
     k: Vec<usize>,
     w: Vec<f64>, // 1.0 for a relative row, 0.0 otherwise
-    local: Vec<C64>,
+    local: Vec<Complex<S>>,
     mx: Vec<f64>,
     my: Vec<f64>,
     point: Vec<bool>,
@@ -30,7 +31,7 @@ pub struct Simple {
     entries: usize,
 }
 
-impl Simple {
+impl<S: Real> Simple<S> {
     pub fn new(t: &Table, n: usize, functions: usize) -> Result<Self, String> {
         let a = t.index("a", n)?;
         t.same_length(a.len(), &["angle", "k", "local", "mx", "my", "point", "relative", "f"])?;
@@ -41,7 +42,7 @@ impl Simple {
             angle: t.index("angle", n)?,
             k: t.index("k", n)?,
             w: relative.iter().map(|&r| if r { 1.0 } else { 0.0 }).collect(),
-            local: t.cplx("local")?,
+            local: t.cplx_s("local")?,
             mx: t.real("mx")?,
             my: t.real("my")?,
             f: t.index("f", functions)?,
@@ -61,27 +62,27 @@ impl Simple {
     }
 
     /// Whether any row's function is not a constant (a driver: nu, gamma terms).
-    pub fn time_dependent(&self, s: &Shared) -> bool {
+    pub fn time_dependent(&self, s: &Shared<S>) -> bool {
         self.f.iter().any(|&f| !s.functions.constant(f))
     }
 
     /// The point term of row r: mx Re(A_i s') + my Im(A_i s'), if the row has one.
     #[inline(always)]
-    fn point_term(&self, r: usize, at: &At) -> Option<f64> {
+    fn point_term(&self, r: usize, at: &At<S>) -> Option<S> {
         if self.mx[r] != 0.0 || self.my[r] != 0.0 {
             let s = self.local[r] * at.e[self.angle[r]];
-            Some(self.mx[r] * s.re + self.my[r] * s.im)
+            Some(s.re * self.mx[r] + s.im * self.my[r])
         } else {
             None
         }
     }
 
     /// Eqs. 4.31-4.40: q_a - w q_k + point term - f(t).
-    pub fn phi(&self, at: &At, s: &Shared, out: &mut [f64]) {
+    pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
         for (r, o) in out.iter_mut().enumerate() {
-            let mut v = at.q[self.a[r]] - self.w[r] * at.q[self.k[r]] - s.functions.eval(self.f[r], at.t, 0);
+            let mut v = at.q[self.a[r]] - at.q[self.k[r]] * self.w[r] - s.functions.eval(self.f[r], at.t, 0);
             if let Some(p) = self.point_term(r, at) {
-                v += p;
+                v = v + p;
             }
             *o = v;
         }
@@ -89,37 +90,37 @@ impl Simple {
 
     /// 1 in column a; d(point term)/dphi_i = (B_i s')_c if a point; -1 in
     /// phi_k if relative (the pattern's order: a, angle, k, kept entries only).
-    pub fn jac(&self, at: &At, _: &Shared, out: &mut [f64]) {
+    pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         let mut e = 0;
         for r in 0..self.a.len() {
-            out[e] = 1.0;
+            out[e] = S::one();
             e += 1;
             if self.point[r] {
                 let s = self.local[r] * at.e[self.angle[r]];
-                out[e] = -self.mx[r] * s.im + self.my[r] * s.re;
+                out[e] = s.re * self.my[r] - s.im * self.mx[r];
                 e += 1;
             }
             if self.relative[r] {
-                out[e] = -self.w[r];
+                out[e] = S::c(-self.w[r]);
                 e += 1;
             }
         }
     }
 
     /// nu = -Phi_t = f'(t) per row (Eq. 4.37).
-    pub fn nu(&self, t: f64, s: &Shared, out: &mut [f64]) {
+    pub fn nu(&self, t: f64, s: &Shared<S>, out: &mut [S]) {
         for (r, o) in out.iter_mut().enumerate() {
             *o = s.functions.eval(self.f[r], t, 1);
         }
     }
 
     /// Eq. 4.38 and the point forms: f''(t) + (A_i s')_c w_i^2.
-    pub fn gamma(&self, at: &At, qd: &[f64], s: &Shared, out: &mut [f64]) {
+    pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
         for (r, o) in out.iter_mut().enumerate() {
             let mut v = s.functions.eval(self.f[r], at.t, 2);
             if let Some(p) = self.point_term(r, at) {
                 let w = qd[self.angle[r]];
-                v += p * (w * w);
+                v = v + p * (w * w);
             }
             *o = v;
         }

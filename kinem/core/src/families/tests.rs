@@ -6,8 +6,9 @@
 use crate::functions::{HARMONIC, POLY};
 use crate::model::Kin;
 use crate::outline::Outlines;
+use crate::real::{Dual, Real};
 use crate::table::Table;
-use num_complex::Complex64 as C64;
+use num_complex::{Complex, Complex64 as C64};
 use std::f64::consts::PI;
 
 const H: f64 = 1e-3;
@@ -108,17 +109,126 @@ fn outline_curve_derivatives_match_finite_differences() {
 fn malformed_outlines_are_refused() {
     let mut t = outlines();
     t.ints.insert("last".into(), vec![0, 2, 9]);
-    assert!(Outlines::from_table(&t).is_err());
+    assert!(Outlines::<f64>::from_table(&t).is_err());
     let mut t = outlines();
     t.reals.get_mut("coef").unwrap().pop();
-    assert!(Outlines::from_table(&t).is_err());
+    assert!(Outlines::<f64>::from_table(&t).is_err());
 }
 
 /// Three bodies (columns 0..9) and `art` artificial coordinates after them.
 fn kin(kind: &str, t: Table, art: usize) -> Kin {
+    kin_with(kind, t, art, &functions(), &outlines())
+}
+
+fn kin_with<S: Real>(kind: &str, t: Table, art: usize, f: &Table, o: &Table) -> Kin<S> {
     let n = 9 + art;
     let angles = [2, 5, 8].into_iter().chain(9..n as i64).collect();
-    Kin::new(n, vec![(kind.to_string(), t)], &functions(), &outlines(), angles).unwrap()
+    Kin::new(n, vec![(kind.to_string(), t)], f, o, angles).unwrap()
+}
+
+/// Phi, Jacobian values, nu and gamma over dual numbers: their tangents.
+fn tangents(k: &Kin<Dual>, q: &[Dual], qd: &[Dual], t: f64) -> [Vec<f64>; 4] {
+    use crate::families::At;
+    let mut e = vec![Complex::new(Dual::c(1.0), Dual::c(0.0)); k.n];
+    k.rotate(q, &mut e);
+    let at = At { q, e: &e, t };
+    let (mut phi, mut jac, mut nu, mut gamma) =
+        (vec![Dual::c(0.0); k.m], vec![Dual::c(0.0); k.nnz], vec![Dual::c(0.0); k.m], vec![Dual::c(0.0); k.m]);
+    k.phi(&at, &mut phi);
+    k.jac(&at, &mut jac);
+    k.nu(t, &mut nu);
+    k.gamma(&at, qd, &mut gamma);
+    [phi, jac, nu, gamma].map(|v| v.iter().map(|x| x.d).collect())
+}
+
+fn all_f64(k: &Kin, q: &[f64], qd: &[f64], t: f64) -> [Vec<f64>; 4] {
+    [eval(k, q, t, 0, qd), eval(k, q, t, 1, qd), eval(k, q, t, 2, qd), eval(k, q, t, 3, qd)]
+}
+
+fn fourth(f: &dyn Fn(f64) -> [Vec<f64>; 4]) -> [Vec<f64>; 4] {
+    let (a, b, c, d) = (f(2.0 * H), f(H), f(-H), f(-2.0 * H));
+    std::array::from_fn(|w| {
+        (0..a[w].len()).map(|r| (-a[w][r] + 8.0 * b[w][r] - 8.0 * c[w][r] + d[w][r]) / (12.0 * H)).collect()
+    })
+}
+
+fn close(what: &str, exact: &[Vec<f64>; 4], fd: &[Vec<f64>; 4]) {
+    for (w, name) in ["Phi", "Jacobian", "nu", "gamma"].iter().enumerate() {
+        for (r, (x, y)) in exact[w].iter().zip(&fd[w]).enumerate() {
+            assert!((x - y).abs() / y.abs().max(1.0) < 1e-7, "{what}: d{name}[{r}] {x} != {y} (finite differences)");
+        }
+    }
+}
+
+/// Columns that select (a row's component, a sign) or place (abscissae):
+/// no design parameter moves them.
+const STRUCTURAL: [&str; 6] = ["mx", "my", "sign", "starts", "t0", "span"];
+
+/// The design-parameter derivatives of a family (crate::sensitivity): the
+/// dual kernels' tangents of Phi, the Jacobian values, nu and gamma along
+/// every number of its table, of the functions' and of the outlines'
+/// tables, and along a direction in q and qd, against fourth-order central
+/// differences of the f64 kernels.
+fn check_parameters(kind: &str, t: &Table, art: usize, q: &[f64], qd: &[f64], time: f64) {
+    let (f, o) = (functions(), outlines());
+    let lift = |v: &[f64], d: &[f64]| -> Vec<Dual> { v.iter().zip(d).map(|(&a, &b)| Dual::lift(a, b)).collect() };
+    let zeros = vec![0.0; q.len()];
+    // every real and complex number of the three tables
+    let mut seeds: Vec<(usize, String, usize, bool)> = Vec::new(); // (table, column, entry, imaginary)
+    for (w, tab) in [t, &f, &o].iter().enumerate() {
+        for (key, v) in &tab.reals {
+            seeds.extend((0..v.len()).map(|e| (w, key.clone(), e, false)));
+        }
+        for (key, v) in &tab.complex {
+            seeds.extend((0..v.len()).flat_map(|e| [(w, key.clone(), e, false), (w, key.clone(), e, true)]));
+        }
+    }
+    for (w, key, e, im) in seeds {
+        if (w == 1 && key == "data" && e == 0) || STRUCTURAL.contains(&key.as_str()) {
+            continue; // the constant 1.3 is evaluated without its data (Functions::value); selectors and abscissae
+        }
+        let moved = |h: f64| -> [Table; 3] {
+            let mut tabs = [t.clone(), f.clone(), o.clone()];
+            let tab = &mut tabs[w];
+            if let Some(v) = tab.reals.get_mut(&key) {
+                v[e] += h;
+            } else {
+                let v = tab.complex.get_mut(&key).unwrap();
+                v[e] += if im { C64::new(0.0, h) } else { C64::new(h, 0.0) };
+            }
+            tabs
+        };
+        let [s0, s1, s2] = moved(0.0);
+        let mut seeded = [s0, s1, s2];
+        let tab = &mut seeded[w];
+        if let Some(v) = tab.reals.get(&key) {
+            let mut d = vec![0.0; v.len()];
+            d[e] = 1.0;
+            tab.d_reals.insert(key.clone(), d);
+        } else {
+            let mut d = vec![C64::new(0.0, 0.0); tab.complex[&key].len()];
+            d[e] = if im { C64::new(0.0, 1.0) } else { C64::new(1.0, 0.0) };
+            tab.d_complex.insert(key.clone(), d);
+        }
+        let [a, b, c] = seeded;
+        let exact = tangents(&kin_with(kind, a, art, &b, &c), &lift(q, &zeros), &lift(qd, &zeros), time);
+        let fd = fourth(&|h| {
+            let [a, b, c] = moved(h);
+            all_f64(&kin_with(kind, a, art, &b, &c), q, qd, time)
+        });
+        close(&format!("{kind}: table {w} column {key}[{e}]{}", if im { ".im" } else { "" }), &exact, &fd);
+    }
+    // along q and qd (the tangents of S2 and S3)
+    let dq: Vec<f64> = (0..q.len()).map(|j| (j as f64 * 0.7).cos()).collect();
+    let dqd: Vec<f64> = (0..q.len()).map(|j| (j as f64 * 1.1).sin()).collect();
+    let exact = tangents(&kin_with(kind, t.clone(), art, &f, &o), &lift(q, &dq), &lift(qd, &dqd), time);
+    let k = kin(kind, t.clone(), art);
+    let fd = fourth(&|h| {
+        let qs: Vec<f64> = q.iter().zip(&dq).map(|(a, b)| a + h * b).collect();
+        let qds: Vec<f64> = qd.iter().zip(&dqd).map(|(a, b)| a + h * b).collect();
+        all_f64(&k, &qs, &qds, time)
+    });
+    close(&format!("{kind}: along q and qd"), &exact, &fd);
 }
 
 fn eval(k: &Kin, q: &[f64], t: f64, what: u8, qd: &[f64]) -> Vec<f64> {
@@ -221,13 +331,14 @@ fn distance_derivatives_match_finite_differences() {
         &[],
         &[("si", vec![c(0.4, 0.1), c(-0.3, 0.2)]), ("sj", vec![c(0.0, -0.5), c(0.6, 0.6)])],
     );
-    let k = kin("distance", t, 0);
+    let k = kin("distance", t.clone(), 0);
     let (rows, cols) = pattern(
         1,
         &[&[(0, 0), (0, 1), (0, 2), (0, 3), (0, 4), (0, 5)], &[(0, 3), (0, 4), (0, 5), (0, 6), (0, 7), (0, 8)]],
     );
     let (q, qd) = state(&[]);
     check(&k, &rows, &cols, &q, &qd, 0.8);
+    check_parameters("distance", &t, 0, &q, &qd, 0.8);
 }
 
 #[test]
@@ -245,10 +356,11 @@ fn simple_derivatives_match_finite_differences() {
         &[("mx", vec![1.0, 0.0, 0.0]), ("my", vec![0.0, 0.0, 0.0])],
         &[("local", vec![c(0.7, -0.2), c(0.0, 0.0), c(0.0, 0.0)])],
     );
-    let k = kin("simple", t, 0);
+    let k = kin("simple", t.clone(), 0);
     let (rows, cols) = (vec![0, 0, 1, 1, 2], vec![3, 5, 8, 2, 1]);
     let (q, qd) = state(&[]);
     check(&k, &rows, &cols, &q, &qd, 0.8);
+    check_parameters("simple", &t, 0, &q, &qd, 0.8);
 }
 
 #[test]
@@ -260,27 +372,30 @@ fn line_and_rack_derivatives_match_finite_differences() {
         &[("phi0", vec![0.3])],
         &[("pa", vec![c(0.2, 0.1)]), ("ua", vec![c(-0.5, 0.8)]), ("ob", vec![c(0.4, -0.3)])],
     );
-    let k = kin("line", t, 0);
+    let k = kin("line", t.clone(), 0);
     let (rows, cols) = pattern(2, &[&[(0, 0), (0, 1), (0, 2), (0, 3), (0, 4), (0, 5), (1, 2), (1, 5)]]);
     check(&k, &rows, &cols, &q, &qd, 0.8);
+    check_parameters("line", &t, 0, &q, &qd, 0.8);
     // revolute-translational: no angle row
     let t = table(
         &[("ca", vec![6]), ("cb", vec![0]), ("ai", vec![]), ("aj", vec![])],
         &[("phi0", vec![])],
         &[("pa", vec![c(0.2, 0.1)]), ("ua", vec![c(-0.5, 0.8)]), ("ob", vec![c(0.4, -0.3)])],
     );
-    let k = kin("line", t, 0);
+    let k = kin("line", t.clone(), 0);
     let (rows, cols) = pattern(1, &[&[(0, 6), (0, 7), (0, 8), (0, 0), (0, 1), (0, 2)]]);
     check(&k, &rows, &cols, &q, &qd, 0.8);
+    check_parameters("line", &t, 0, &q, &qd, 0.8);
     // rack and pinion: pinion 1, rack 2
     let t = table(
         &[("ci", vec![3]), ("cj", vec![6])],
         &[("rho", vec![0.4]), ("phi0", vec![0.2])],
         &[("c", vec![c(0.1, 0.05)]), ("s", vec![c(-0.3, 0.2)]), ("u", vec![C64::from_polar(1.0, 0.6)])],
     );
-    let k = kin("rack-pinion", t, 0);
+    let k = kin("rack-pinion", t.clone(), 0);
     let (rows, cols) = pattern(1, &[&[(0, 3), (0, 4), (0, 5), (0, 6), (0, 7), (0, 8)]]);
     check(&k, &rows, &cols, &q, &qd, 0.8);
+    check_parameters("rack-pinion", &t, 0, &q, &qd, 0.8);
 }
 
 #[test]
@@ -297,7 +412,7 @@ fn curve_derivatives_match_finite_differences() {
     let mut t = curve("cb");
     t.complex.insert("sb".into(), vec![c(0.3, -0.1), c(-0.2, 0.4), c(0.5, 0.5)]);
     t.reals.insert("sign".into(), vec![1.0, -1.0, 1.0]);
-    let k = kin("point-on-curve", t, 3);
+    let k = kin("point-on-curve", t.clone(), 3);
     let per = |cc: usize, ct: usize, cb: usize| {
         [
             (0, cc),
@@ -315,12 +430,13 @@ fn curve_derivatives_match_finite_differences() {
     let (a, b, d) = (per(0, 9, 3), per(3, 10, 6), per(6, 11, 0));
     let (rows, cols) = pattern(2, &[&a, &b, &d]);
     check(&k, &rows, &cols, &q, &qd, 0.8);
+    check_parameters("point-on-curve", &t, 3, &q, &qd, 0.8);
 
     let body = |cc: usize, ct: usize, cj: usize| [cc, cc + 1, cc + 2, ct, cj, cj + 1, cj + 2];
     let mut t = curve("cj");
     t.complex.insert("sj".into(), vec![c(2.3, -0.1), c(-0.2, 2.4), c(0.5, 1.5)]);
-    t.reals.insert("rho2".into(), vec![0.25, 0.16, 0.5]);
-    let k = kin("cam-roller", t, 3);
+    t.reals.insert("rho".into(), vec![0.5, 0.4, 0.5f64.sqrt()]);
+    let k = kin("cam-roller", t.clone(), 3);
     let per = |cc, ct, cj| -> Vec<(usize, usize)> {
         let b = body(cc, ct, cj);
         b.iter().map(|&x| (0, x)).chain(b.iter().map(|&x| (1, x))).collect()
@@ -328,18 +444,20 @@ fn curve_derivatives_match_finite_differences() {
     let (a, b, d) = (per(0, 9, 3), per(3, 10, 6), per(6, 11, 0));
     let (rows, cols) = pattern(2, &[&a, &b, &d]);
     check(&k, &rows, &cols, &q, &qd, 0.8);
+    check_parameters("cam-roller", &t, 3, &q, &qd, 0.8);
 
     let mut t = curve("cj");
     t.complex.insert("sj".into(), vec![c(2.3, -0.1), c(-0.2, 2.4), c(0.5, 1.5)]);
     t.complex
         .insert("n".into(), vec![C64::from_polar(1.0, 0.3), C64::from_polar(1.0, -2.0), C64::from_polar(1.0, 1.0)]);
-    let k = kin("cam-flat", t, 3);
+    let k = kin("cam-flat", t.clone(), 3);
     let per = |cc: usize, ct: usize, cj: usize| -> Vec<(usize, usize)> {
         [(0, cc + 2), (0, ct), (0, cj + 2)].into_iter().chain(body(cc, ct, cj).iter().map(|&x| (1, x))).collect()
     };
     let (a, b, d) = (per(0, 9, 3), per(3, 10, 6), per(6, 11, 0));
     let (rows, cols) = pattern(2, &[&a, &b, &d]);
     check(&k, &rows, &cols, &q, &qd, 0.8);
+    check_parameters("cam-flat", &t, 3, &q, &qd, 0.8);
 }
 
 #[test]
@@ -349,10 +467,11 @@ fn gear_jacobian_is_constant_and_matches_finite_differences() {
         &[("ri", vec![0.5, 0.3]), ("rj", vec![0.8, -1.1]), ("phi0", vec![0.1, -0.4])],
         &[],
     );
-    let k = kin("gear", t, 0);
+    let k = kin("gear", t.clone(), 0);
     let (rows, cols) = (vec![0, 0, 1, 1, 1], vec![2, 5, 2, 8, 5]);
     let (q, qd) = state(&[]);
     check(&k, &rows, &cols, &q, &qd, 0.8);
+    check_parameters("gear", &t, 0, &q, &qd, 0.8);
 }
 
 #[test]
@@ -364,7 +483,8 @@ fn malformed_family_tables_are_refused() {
             &[("si", vec![c(0.4, 0.1), c(-0.3, 0.2)]), ("sj", vec![c(0.0, -0.5), c(0.6, 0.6)])],
         )
     };
-    let build = |t: Table| Kin::new(9, vec![("distance".to_string(), t)], &functions(), &outlines(), vec![2, 5, 8]);
+    let build =
+        |t: Table| Kin::<f64>::new(9, vec![("distance".to_string(), t)], &functions(), &outlines(), vec![2, 5, 8]);
     assert!(build(ok()).is_ok());
     let mut t = ok();
     t.ints.insert("cj".into(), vec![3, 7]); // 7 + 2 = 9: outside the coordinates

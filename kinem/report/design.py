@@ -1,0 +1,122 @@
+"""The report's design section of a case that asks for it (docs/design.md):
+``[report] sensitivity = [paths]`` gives a table and a plot of the exact
+sensitivities of the named points, each checked against central
+differences of native's own solves; a ``[tolerances]`` section gives the
+tolerance bands against time and along the first point's path."""
+from html import escape
+
+import numpy as np
+
+from .plots import _plt, _png
+
+SAMPLES = 200      # Monte Carlo samples of the report's bands
+STEP = 5e-4        # central differences' step, of the parameter's scale (as tests/test_sensitivity.py)
+
+
+def section(model) -> list:
+    """HTML pieces: empty for a case that asks for neither."""
+    out = []
+    paths = model.case.report.get("sensitivity", ())
+    fixed = {c["body"] for c in model.case.constraints if c.type == "ground"}
+    body = {p.name: p.body for p in model.case.points}
+    points = [p for p in model.case.report.get("points") or body if body[p] not in fixed]   # the moving ones
+    columns = [f"{p}.{k}" for p in points for k in ("x", "y")]
+    if paths and columns:
+        out += _sensitivity(model, paths, columns)
+    if model.case.tolerances and columns:
+        out += _bands(model, columns[-2:])   # the last moving point: its path and its band
+    return out
+
+
+def _sensitivity(model, paths, columns):
+    from ..model import compile
+    from ..parameters import apply, resolve
+    from ..sensitivity import sensitivity
+    from ..solver import solve
+
+    case = model.case
+    sens = sensitivity(model, paths)
+    rows, fig_cols = [], []
+    for p in resolve(case, paths):
+        scale = max(abs(p.value), model.length) if p.unit == case.length_unit else max(abs(p.value), 1.0)
+        h = STEP * scale
+        runs = [solve(compile(apply(case, {p.path: p.value + s * h})), outputs=("positions",)).trajectory
+                for s in (1, -1, 2, -2)]
+        worst, peaks = 0.0, []
+        for c in columns:
+            fd = (4 * (runs[0][c] - runs[1][c]) / (2 * h) - (runs[2][c] - runs[3][c]) / (4 * h)) / 3
+            exact = sens.of(c, p.path)
+            peak = float(np.max(np.abs(exact)))
+            peaks.append(peak)
+            worst = max(worst, float(np.max(np.abs(exact - fd))) / max(peak, 1e-300))
+            fig_cols.append((p.path, c, exact, fd))
+        rows.append((p, peaks, worst))
+    unit = escape(case.length_unit)
+    head = "".join(f"<th>max |d({escape(c)})/dp|</th>" for c in columns)
+    body = "".join(
+        f"<tr><td class=l><code>{escape(p.path)}</code></td><td>{p.value:.6g} {escape(p.unit)}</td>"
+        + "".join(f"<td>{v:.4g}</td>" for v in peaks) + f"<td>{w:.1e}</td></tr>" for p, peaks, w in rows)
+    text = (f"<h3>Design sensitivities</h3><p>Exact derivatives of the named points' positions ({unit} per unit "
+            "of the parameter) by direct differentiation (docs/design.md, Eqs. S1-S3); the last column is the "
+            "largest difference from native's own extrapolated central differences, relative to the peak. "
+            f"{'Phi_q is singular at some instants: ' + escape(sens.message) if sens.singular.any() else ''}</p>"
+            f"<table><tr><th class=l>parameter</th><th>value</th>{head}<th>native differences</th></tr>{body}"
+            "</table>")
+    return [text, _sensitivity_plot(sens.trajectory.t, paths, columns, fig_cols)]
+
+
+def _sensitivity_plot(t, paths, columns, curves):
+    from .html import _img
+
+    plt = _plt()
+    fig, axes = plt.subplots(1, len(paths), figsize=(4.2 * len(paths), 3.0), squeeze=False)
+    every = max(1, len(t) // 25)
+    for ax, path in zip(axes[0], paths):
+        for (p, c, exact, fd) in curves:
+            if p == path:
+                line, = ax.plot(t, exact, lw=1.2, label=f"d({c})")
+                ax.plot(t[::every], fd[::every], "o", ms=3, mfc="none", color=line.get_color())
+        ax.set_title(path, fontsize=9)
+        ax.set_xlabel("t [s]")
+    axes[0][0].legend(fontsize=7, title="lines exact, circles differences", title_fontsize=7)
+    fig.tight_layout()
+    return _img(_png(fig), "design sensitivities")
+
+
+def _bands(model, outputs):
+    from ..tolerance import tolerance
+    from .html import _img
+
+    b = tolerance(model, samples=SAMPLES, outputs=outputs, seed=0, chunk=1)   # sections run in forked workers
+    plt = _plt()
+    t = b.table.t
+    fig, axes = plt.subplots(1, len(outputs) + 1, figsize=(4.2 * (len(outputs) + 1), 3.0))
+    for ax, c in zip(axes, outputs):
+        v = b[c]
+        ax.fill_between(t, b[f"{c}.worst-"] - v, b[f"{c}.worst+"] - v, color="0.85", label="worst case")
+        ax.plot(t, b[f"{c}.rss+"] - v, "b--", lw=1, label="root-sum-square")
+        ax.plot(t, b[f"{c}.rss-"] - v, "b--", lw=1)
+        ax.plot(t, b[f"{c}.mc+"] - v, "r-", lw=1, label=f"Monte Carlo ({SAMPLES})")
+        ax.plot(t, b[f"{c}.mc-"] - v, "r-", lw=1)
+        ax.set_title(f"{c} - nominal", fontsize=9)
+        ax.set_xlabel("t [s]")
+    axes[0].legend(fontsize=7)
+    x, y = outputs[0], outputs[1] if len(outputs) > 1 else outputs[0]
+    ax = axes[-1]
+    ax.plot(b[x], b[y], "k-", lw=1)
+    k = slice(None, None, max(1, len(t) // 24))
+    ex, ey = (b[f"{x}.worst+"] - b[x])[k], (b[f"{y}.worst+"] - b[y])[k]
+    extent = max(np.ptp(b[x]), np.ptp(b[y]), 1e-300)
+    big = max(float(np.max(ex)), float(np.max(ey)), 1e-300)
+    zoom = 10.0 ** max(0, round(np.log10(0.04 * extent / big)))   # bars drawn magnified to be seen
+    ax.errorbar(b[x][k], b[y][k], xerr=zoom * ex, yerr=zoom * ey, fmt="none", ecolor="tab:red", lw=0.8)
+    ax.set_title(f"{x[:-2]}'s path, worst-case band x{zoom:g}", fontsize=9)
+    ax.set_aspect("equal", adjustable="datalim")
+    fig.tight_layout()
+    left = (f"{len(b.rejected)} of {b.samples} samples left the nominal's branch or could not assemble and are "
+            "not in the band. " if b.rejected else "")
+    excess = "; ".join(f"{escape(c)}: {a:.2g} at t = {s:.3g}" for c, a, s in b.excess)
+    return ["<h3>Tolerance bands</h3><p>The case's [tolerances]: worst-case linear band (grey), root-sum-square "
+            f"(dashed), Monte Carlo over {SAMPLES} seeded samples on the nominal's branch (red); {left}"
+            f"Largest excess of the Monte Carlo band over the linear one: {excess}.</p>",
+            _img(_png(fig), "tolerance bands")]

@@ -1,0 +1,162 @@
+"""Exact design sensitivities of a whole trajectory (docs/design.md,
+"Design sensitivities"): d/dp of every output column (bodies, named points,
+artificial coordinates; positions, velocities, accelerations) at every
+output instant, for design parameters p named by their paths
+(kinem.parameters).
+
+The core differentiates the kinematic equations directly (Eqs. S1-S3,
+kinem/core/src/sensitivity.rs), through one factorisation of Phi_q per
+instant, evaluating the families' own kernels over dual numbers; the named
+points' columns come from the same kernel as the trajectory's
+(kinem/core/src/columns.rs) over dual numbers. What it needs from here is
+each parameter's tangent of the model's tables: the tables are affine in the
+case's numbers (unit directions and the roller's squared radius are taken in
+the core), so the tangent is their exact linear part, (B(x + h e_p) - B(x)) / h
+with h a power of two (no truncation error, rounding only: relative 1e-16).
+
+At an instant where Phi_q is singular (its pivot ratio below the solver's
+floor, kinem.tracking.singular_pivot) the derivatives are infinite: they are
+reported as inf, flagged in ``singular`` and named in ``message``.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import native
+from .errors import AnalysisError, InputError, KinemError
+from .model import core_tables, families_of
+from .options import Options
+from .parameters import apply_many, resolve
+from .result import OUTPUTS, Trajectory, _layout
+from .solver import solve
+from .tracking import singular_pivot
+
+
+@dataclass(frozen=True, eq=False)
+class Sensitivity:
+    """d(column)/d(parameter) at every output instant: ``derivatives`` has
+    the columns ``d(COLUMN)/d(PARAMETER)`` (every trajectory column for the
+    first parameter, then the second, ...); ``sens["d(B.x)/d(points.A.at.0)"]``.
+    ``singular`` flags the instants where Phi_q is singular (derivatives
+    inf), ``conditioning`` is Phi_q's pivot ratio there."""
+    parameters: tuple               # kinem.parameters.Parameter, in the order asked
+    trajectory: Trajectory          # the nominal solution
+    derivatives: Trajectory
+    singular: np.ndarray
+    conditioning: np.ndarray
+    message: str
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.derivatives[name]
+
+    def __contains__(self, name) -> bool:
+        return name in self.derivatives
+
+    def of(self, column: str, parameter: str) -> np.ndarray:
+        return self.derivatives[name(column, parameter)]
+
+    def to_pandas(self):
+        return self.derivatives.to_pandas()
+
+    def __repr__(self) -> str:
+        return (f"Sensitivity({len(self.parameters)} parameters, {self.derivatives!r}, "
+                f"{int(self.singular.sum())} singular instants)")
+
+
+def name(column: str, parameter: str) -> str:
+    return f"d({column})/d({parameter})"
+
+
+def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options | None = None) -> Sensitivity:
+    """Exact d/dp of every output column at every output instant, for each
+    design parameter path in ``parameters`` (a path or a list of paths).
+    Raises InputError for an unknown path, AnalysisError when the nominal
+    solve fails."""
+    case = model.case
+    paths = [parameters] if isinstance(parameters, str) else list(parameters)
+    if not paths:
+        raise InputError(f"{case.source}: sensitivity: no parameters; expected one or more parameter paths")
+    listed = resolve(case, paths)
+    if model.m != model.n:
+        raise KinemError(f"{case.source}: sensitivities need as many equations as coordinates "
+                         f"({model.m} equations, {model.n} coordinates: redundant constraints)")
+    result = solve(model, outputs, times, options=options)
+    if not result.success:
+        raise AnalysisError(f"{case.source}: the nominal solve failed: {result.message}")
+    plan = model.plan
+    if plan is None:
+        raise KinemError(f"{case.source}: sensitivities need the compiled march's layout, which this model has not")
+    base = _tables(case, model.length)
+    tangents = [_tangent(case, model.length, base, p, moved, h) for p, (moved, h) in zip(listed, _moved(case, listed))]
+    X = [np.ascontiguousarray(x) for x in (result.q, result.qd, result.qdd) if x is not None]
+    t = np.ascontiguousarray(result.trajectory.t)
+    out, ratio = plan.sensitivity([tg for tg, _ in tangents], t, X, model.jac_rows.astype(np.int64),
+                                  model.jac_cols.astype(np.int64))
+    columns, src, _ = _layout(model, len(X))
+    blocks = []
+    for k, (_, dlocal) in enumerate(tangents):
+        dx = [np.ascontiguousarray(out[s, k]) for s in range(len(X))]
+        blocks.append(native.columns(X, src, model.point_cols, model.point_local, (dx, dlocal)))
+    data = np.concatenate(blocks, axis=1) if blocks else np.zeros((len(t), 0))
+    floor = singular_pivot((options or Options.of(case)).tolerance)
+    singular = ~(ratio >= floor)
+    message = "exact at every instant"
+    if singular.any():
+        data[singular] = np.inf
+        at = ", ".join(f"{x:.6g}" for x in t[singular][:5]) + (" ..." if singular.sum() > 5 else "")
+        message = (f"Phi_q singular (pivot ratio below {floor:.2g}) at {int(singular.sum())} instant(s), t = {at}: "
+                   "the derivatives there are infinite")
+    names = tuple(name(c, p.path) for p in listed for c in columns)
+    return Sensitivity(listed, result.trajectory, Trajectory(t.copy(), names, data), singular, ratio, message)
+
+
+def _tables(case, length):
+    """The model's tables, every function and outline its own number (so
+    that a moved one keeps its place)."""
+    families, _ = families_of(case, length)
+    return core_tables(families, share=False)
+
+
+def _moved(case, listed):
+    """(the case with p moved by h, h) for each parameter p: h a power of
+    two near |p| / 2 (-h where +h is not a valid case)."""
+    steps = [2.0 ** (np.floor(np.log2(abs(p.value))) - 1) if p.value else 0.5 for p in listed]
+    out = list(zip(apply_many(case, [{p.path: p.value + h} for p, h in zip(listed, steps)]), steps))
+    for k, (moved, h) in enumerate(out):
+        if isinstance(moved, InputError):
+            p = listed[k]
+            out[k] = (apply_many(case, [{p.path: p.value - h}])[0], -h)
+            if isinstance(out[k][0], InputError):
+                raise InputError(f"{case.source}: parameter '{p.path}': no valid case within {h:g} of its value")
+    return out
+
+
+def _tangent(case, length, base, p, moved, step):
+    """The tangent of the tables along parameter p (their linear part: the
+    tables are affine in the case's numbers; ``moved``: the case with p
+    moved by ``step``) and of the named points' local coordinates:
+    ((families, (functions, tangent), (outlines, tangent)), dlocal)."""
+    tables, functions, outlines = _tables(moved, length)
+    families = []
+    for (kind, t0), (_, t1) in zip(base[0], tables):
+        families.append((kind, t0, _difference(t0, t1, step, p.path)))
+    dlocal = np.zeros(len(case.points), complex)
+    parts = p.path.split(".")
+    if parts[0] == "points":
+        dlocal[[q.name for q in case.points].index(parts[1])] = 1.0 if parts[3] == "0" else 1j
+    return (families, (base[1], _difference(base[1], functions, step, p.path)),
+            (base[2], _difference(base[2], outlines, step, p.path))), dlocal
+
+
+def _difference(a: dict, b: dict, step: float, path: str) -> dict:
+    """The linear part (b - a) / step of every real and complex column; the
+    integer columns (indices, flags) must not move."""
+    out = {}
+    for key, v in a.items():
+        w = b[key]
+        if v.dtype.kind in "iu":
+            if not np.array_equal(v, w):
+                raise KinemError(f"sensitivity: parameter '{path}' changes the model's structure (column {key})")
+            continue
+        out[key] = np.ascontiguousarray((w - v) / step)
+    return out

@@ -1,0 +1,251 @@
+"""Tolerance bands (docs/design.md, "Tolerance bands"): how far the outputs
+wander when every part is made within its tolerance.
+
+For each chosen output column C at every instant:
+
+- the worst-case linear band  C +- sum_p |dC/dp| pm_p                      (S6)
+- the root-sum-square band    C +- sqrt(sum_p (dC/dp pm_p)^2)
+- the Monte Carlo band: the minimum and maximum of C over N sampled designs
+  (uniform in +-pm, or normal with sigma clipped to +-pm), each solved on
+  the nominal's branch: the nominal's relative angle sign at every revolute
+  joint between moving bodies and side of every cam roller pinned
+  (kinem.branches), assembled from the nominal's configuration. A sample
+  that cannot assemble, leaves that branch or fails on the way is counted
+  and listed with its values, never taken into the band.
+
+The derivatives are kinem.sensitivity's (exact). Seeded: the same seed gives
+the same samples.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import InputError
+from .parameters import apply_many, resolve
+from .result import Trajectory
+from .sensitivity import sensitivity
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """One parameter's tolerance: plus/minus ``pm``; ``sigma`` for a normal
+    distribution in Monte Carlo (None: uniform in +-pm)."""
+    path: str
+    pm: float
+    sigma: float | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Bands:
+    """The bands of ``outputs`` (columns) over ``t``: ``table`` has t, then
+    per output C: C, C.worst-, C.worst+, C.rss-, C.rss+, C.mc-, C.mc+.
+    ``excess``: per output, the largest amount by which the Monte Carlo band
+    leaves the worst-case linear band and where (t), 0 where linearisation
+    holds. ``rejected``: (values {path: value}, why) of the samples not in
+    the Monte Carlo band."""
+    outputs: tuple
+    table: Trajectory
+    samples: int
+    rejected: tuple
+    excess: tuple     # (output, amount, t)
+    seed: int
+
+    def __getitem__(self, name):
+        return self.table[name]
+
+    def to_pandas(self):
+        return self.table.to_pandas()
+
+
+def tolerances_of(case, given=None) -> tuple:
+    """The Tolerances of a case's [tolerances] section (or ``given``: {path:
+    pm or {pm, sigma}}), checked: known paths, pm > 0, 0 < sigma, a length
+    tolerance below the mechanism's size."""
+    raw = dict(case.tolerances if given is None else given)
+    if not raw:
+        raise InputError(f"{case.source}: no tolerances; expected a [tolerances] section "
+                         '(e.g. "constraints.A.si.0" = 0.0001) or tolerances={path: pm}')
+    listed = {p.path: p for p in resolve(case, raw)}
+    from .model import characteristic_length
+
+    size = characteristic_length(case)
+    out, problems = [], []
+    for path, v in raw.items():
+        pm, sigma = (v.get("pm"), v.get("sigma")) if hasattr(v, "items") else (v, None)
+        where = f"{case.source}: [tolerances]: key '{path}'"
+        if not isinstance(pm, (int, float)) or isinstance(pm, bool) or not 0 < pm < float("inf"):
+            problems.append(f"{where}: got {v!r}; expected a positive number or {{ pm = ..., sigma = ... }}")
+            continue
+        if sigma is not None and (not isinstance(sigma, (int, float)) or isinstance(sigma, bool) or not sigma > 0):
+            problems.append(f"{where}: sigma {sigma!r}; expected a positive number")
+            continue
+        p = listed[path]
+        if p.unit == case.length_unit and pm >= size:
+            problems.append(f"{where}: +-{pm:g} {p.unit} is not smaller than the mechanism "
+                            f"(its size {size:g} {p.unit}); expected a manufacturing tolerance, far below a link")
+            continue
+        out.append(Tolerance(path, float(pm), None if sigma is None else float(sigma)))
+    if problems:
+        raise InputError(problems)
+    return tuple(out)
+
+
+def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progress=None, chunk=None) -> Bands:
+    """The linear, root-sum-square and Monte Carlo bands of ``outputs``
+    (columns; default every named point's x and y) for the tolerances
+    (default the case's [tolerances] section). ``chunk``: samples solved as
+    one merged batch (default CHUNK; 1: one by one, no threads: for a
+    forked worker process, where the batch's thread pool cannot run)."""
+    case = model.case
+    tols = tolerances_of(case, tolerances)
+    sens = sensitivity(model, [t.path for t in tols], outputs=("positions", "velocities", "accelerations"))
+    nominal = sens.trajectory
+    outputs = tuple(outputs) if outputs else tuple(c for p in case.points for c in (f"{p.name}.x", f"{p.name}.y"))
+    unknown = [c for c in outputs if c not in nominal]
+    if unknown:
+        raise InputError(f"{case.source}: --outputs: unknown column {unknown[0]!r}; expected columns of the "
+                         f"trajectory such as {', '.join(nominal.columns[:6])}")
+    pm = np.array([t.pm for t in tols])
+    d = np.stack([np.stack([sens.of(c, t.path) for t in tols], axis=1) for c in outputs])   # (C, K, P)
+    worst = np.abs(d) @ pm
+    rss = np.sqrt((d * pm) ** 2 @ np.ones(len(tols)))
+    lo, hi, rejected = _monte_carlo(model, tols, outputs, nominal, samples, seed, progress, chunk or CHUNK)
+    cols, data = [], []
+    excess = []
+    for k, c in enumerate(outputs):
+        v = nominal[c]
+        cols += [c, f"{c}.worst-", f"{c}.worst+", f"{c}.rss-", f"{c}.rss+", f"{c}.mc-", f"{c}.mc+"]
+        data += [v, v - worst[k], v + worst[k], v - rss[k], v + rss[k], lo[k], hi[k]]
+        out = np.maximum(hi[k] - (v + worst[k]), (v - worst[k]) - lo[k])
+        at = int(np.nanargmax(out)) if np.isfinite(out).any() else 0
+        excess.append((c, float(max(np.nan_to_num(out[at], nan=0.0), 0.0)), float(nominal.t[at])))
+    table = Trajectory(np.array(nominal.t), tuple(cols), np.column_stack(data))
+    return Bands(outputs, table, samples, tuple(rejected), tuple(excess), seed)
+
+
+def _monte_carlo(model, tols, outputs, nominal, samples, seed, progress, chunk):
+    """(min, max) of every output over the samples on the nominal's branch
+    (each (C, K), nan without samples), and the rejected samples."""
+    from .solver import solve
+
+    case = model.case
+    K = len(nominal.t)
+    lo = np.full((len(outputs), K), np.inf)
+    hi = np.full((len(outputs), K), -np.inf)
+    rng = np.random.default_rng(seed)
+    pm = np.array([t.pm for t in tols])
+    draws = rng.uniform(-1.0, 1.0, (samples, len(tols))) * pm
+    for j, t in enumerate(tols):
+        if t.sigma is not None:
+            draws[:, j] = np.clip(rng.normal(0.0, t.sigma, samples), -t.pm, t.pm)
+    base = {p.path: p.value for p in resolve(case, [t.path for t in tols])}
+    q0 = _first(nominal, model)
+    pinned = _pin(case, model, q0)
+    nominal_branch = _branch(model, q0)
+    rejected, accepted = [], 0
+
+    def take(traj):
+        nonlocal accepted
+        accepted += 1
+        for k, c in enumerate(outputs):
+            lo[k] = np.minimum(lo[k], traj[c])
+            hi[k] = np.maximum(hi[k], traj[c])
+
+    for start in range(0, samples, chunk):
+        batch = []
+        designs = [{t.path: base[t.path] + draws[s, j] for j, t in enumerate(tols)}
+                   for s in range(start, min(samples, start + chunk))]
+        for values, variant in zip(designs, apply_many(pinned, designs)):
+            if isinstance(variant, InputError):
+                rejected.append((values, f"not a valid case: {variant}"))
+            else:
+                batch.append((values, variant))
+        for values, traj, why in _solve_chunk(model, batch, nominal.t, q0, nominal_branch, outputs):
+            if why is None:
+                take(traj)
+            else:
+                rejected.append((values, why))
+        if progress is not None:
+            progress(min(samples, start + chunk), samples)
+    if not accepted:
+        lo[:] = np.nan
+        hi[:] = np.nan
+    return lo, hi, rejected
+
+
+CHUNK = 128   # samples solved as one merged batch (kinem.batch)
+
+
+def _solve_chunk(model, chunk, times, q0, branch, outputs):
+    """(values, {output: values over times}, None) or (values, None, why)
+    for every sample of the chunk: solved as one batch of merged variants;
+    when that fails (a sample cannot assemble or leaves the branch), sample
+    by sample."""
+    from .batch import merge, prefix
+    from .model import compile
+    from .solver import solve
+
+    if len(chunk) <= 1:   # one sample: its own model, no batch
+        return _one_by_one(model, chunk, times, q0, branch, outputs)
+    index = {name: j for j, name in enumerate(model.coordinate_names)}
+    merged = compile(merge([v for _, v in chunk]))
+    start = np.array([q0[index[name.split("-", 1)[1]]] for name in merged.coordinate_names])
+    r = solve(merged, times=times, q0=start)
+    if r.success:
+        out = []
+        for k, (values, _) in enumerate(chunk):
+            p = prefix(k)
+            q = np.array([r.trajectory[p + name][0] for name in model.coordinate_names])
+            out.append((values, {c: r.trajectory[p + c] for c in outputs}, None) if _branch(model, q) == branch
+                       else (values, None, "assembled on another branch"))
+        return out
+    return _one_by_one(model, chunk, times, q0, branch, outputs)
+
+
+def _one_by_one(model, chunk, times, q0, branch, outputs):
+    from .model import compile
+    from .solver import solve
+
+    out = []
+    for values, variant in chunk:
+        r = solve(compile(variant), times=times, q0=q0)
+        if not r.success:
+            out.append((values, None, r.message))
+        elif _branch(model, r.q[0]) != branch:
+            out.append((values, None, "assembled on another branch"))
+        else:
+            out.append((values, {c: r.trajectory[c] for c in outputs}, None))
+    return out
+
+
+def _first(nominal, model):
+    """The nominal's coordinates at its first instant."""
+    return np.array([nominal[name][0] for name in model.coordinate_names])
+
+
+def _branch(model, q) -> tuple:
+    """The branch of configuration q: the sign of every revolute joint's
+    relative angle between moving bodies, every cam roller's side."""
+    from .branches import sides
+    from .info import configuration
+
+    return tuple(np.sign(a) for _, a in configuration(model, q)) + tuple(s.side for s in sides(model, q))
+
+
+def _pin(case, model, q):
+    """The case with the nominal's branch pinned (kinem.branches' sign and side keys)."""
+    from .branches import sides
+    from .case import load_dict
+    from .info import configuration
+    from .parameters import case_dict
+
+    data = case_dict(case)
+    data.pop("tolerances", None)   # the samples' own: checked once, on the case
+    signs = dict(configuration(model, q))
+    sided = {s.constraint: s.side for s in sides(model, q)}
+    for c, table in zip(case.constraints, data["constraints"]):
+        if c.name in signs and signs[c.name] != 0:
+            table["sign"] = "positive" if signs[c.name] > 0 else "negative"
+        if c.name in sided:
+            table["side"] = sided[c.name]
+    return load_dict(data, source=case.source)

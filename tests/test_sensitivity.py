@@ -1,0 +1,215 @@
+"""Issue 30 item 2: exact design sensitivities (kinem.sensitivity) against
+Richardson-extrapolated central differences of kinem's own solves, against
+differentiated closed forms, and at a singular position."""
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import kinem
+from kinem.parameters import apply, parameters
+from kinem.sensitivity import sensitivity
+
+ROOT = Path(__file__).resolve().parents[1]
+CASES = sorted((ROOT / "cases").glob("*.toml"))
+TIGHT = kinem.Options(tolerance=1e-14, max_iterations=50)
+STEPS = 23
+H = 5e-4
+
+
+def times(case):
+    """STEPS + 1 instants off the case's grid: a cam's contact exactly on a
+    knot of its outline's spline (where the third derivative of s jumps, so
+    the acceleration is not differentiable) at an instant is avoided."""
+    return case.end * (np.arange(STEPS + 1) + 0.37) / (STEPS + 1)
+
+
+def richardson(case, p, h):
+    """Central differences D(h) of kinem's solves at p +- h (tight
+    tolerance), extrapolated twice: R(h) = (4 D(h) - D(2h)) / 3, then
+    (16 R(h) - R(2h)) / 15; error O(h^6)."""
+    def traj(v):
+        r = kinem.solve(kinem.compile(apply(case, {p.path: v})), times=times(case), options=TIGHT)
+        assert r.success, r.message
+        return r.trajectory
+
+    runs = {k: traj(p.value + k * h) for k in (1, -1, 2, -2, 4, -4)}
+    runs[0] = traj(p.value)
+
+    def d(k, col):
+        return (runs[k][col] - runs[-k][col]) / (2 * k * h)
+
+    def r(k, col):
+        return (4 * d(k, col) - d(2 * k, col)) / 3
+
+    return {col: (16 * r(1, col) - r(2, col)) / 15 for col in runs[1].columns}, same_pieces(case, runs)
+
+
+def same_pieces(case, runs):
+    """Instants where every run has each contact on the same piece of its
+    outline's spline as the nominal: across a knot the third derivative of
+    s jumps and the acceleration is differentiable only one-sidedly, so a
+    difference across it is no reference."""
+    ok = np.ones(len(runs[0].t), bool)
+    for c in case.constraints:
+        o = c.get("outline")
+        if o is None or o.kind != "spline":
+            continue
+        knots = np.array(o.theta)
+
+        def piece(theta):
+            if o.periodic:
+                theta = knots[0] + np.mod(theta - knots[0], knots[-1] - knots[0])
+            return np.searchsorted(knots, theta)
+
+        nominal = piece(runs[0][f"{c.name}.theta"])
+        for run in runs.values():
+            ok &= piece(run[f"{c.name}.theta"]) == nominal
+    return ok
+
+
+def step(model, p):
+    """A difference step of H of the parameter's own scale (a length: the mechanism's size)."""
+    return H * (max(abs(p.value), model.length) if p.unit == model.case.length_unit else max(abs(p.value), 1.0))
+
+
+STAGES = {"x": 0, "y": 0, "phi": 0, "theta": 0, "vx": 1, "vy": 1, "omega": 1, "dtheta": 1,
+          "ax": 2, "ay": 2, "alpha": 2, "ddtheta": 2}
+
+
+def worst(model, sens, p, fd, ok):
+    """The largest error of any column's derivative along p, relative to the
+    larger of that derivative's peak and its stage's size per unit of p (the
+    largest column of the stage over the parameter's scale): a derivative
+    that vanishes (a ground moved rigidly leaves every velocity alone) is
+    measured against the motion's own size."""
+    scale = max(abs(p.value), model.length) if p.unit == model.case.length_unit else 1.0
+    stage = [0.0, 0.0, 0.0]
+    for c in fd:
+        k = STAGES[c.rsplit(".", 1)[1]]
+        stage[k] = max(stage[k], float(np.max(np.abs(sens.trajectory[c]))) / scale)
+    out = 0.0
+    for col, approx in fd.items():
+        exact = sens.of(col, p.path)
+        peak = max(float(np.max(np.abs(exact))), stage[STAGES[col.rsplit(".", 1)[1]]], 1e-300)
+        out = max(out, float(np.max(np.abs(exact - approx)[ok], initial=0.0)) / peak)
+    return out
+
+
+@pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
+def test_every_parameter_matches_extrapolated_differences(path):
+    """Every design parameter of every case, every output column, 1e-8 of the peak."""
+    case = kinem.load(path).with_time(steps=STEPS)
+    model = kinem.compile(case)
+    listed = parameters(case)
+    sens = sensitivity(model, [p.path for p in listed], times=times(case), options=TIGHT)
+    assert not sens.singular.any(), sens.message
+    bad = {}
+    for p in listed:
+        fd, ok = richardson(case, p, step(model, p))
+        assert ok.sum() >= len(ok) // 2, f"{p.path}: most differences cross a knot"
+        e = worst(model, sens, p, fd, ok)
+        if not e <= 1e-8:
+            bad[p.path] = e
+    assert not bad, f"{path.stem}: derivatives off extrapolated differences (relative to peak): {bad}"
+
+
+def test_four_bar_output_angle_matches_freudenstein():
+    """d(rocker angle)/d(each link length) from Freudenstein's equation
+    F = K1 cos th4 - K2 cos th2 + K3 - cos(th2 - th4) = 0, K1 = d/a,
+    K2 = d/c, K3 = (a^2 - b^2 + c^2 + d^2)/(2 a c), differentiated
+    implicitly (dth4/dp = -F_p / F_th4): crank a (points.A.at.0), coupler b
+    (constraints.B.si.0), rocker c (points.B.at.0), ground d
+    (points.O4.at.0); 1e-11 of the peak."""
+    case = kinem.load(ROOT / "cases" / "four_bar.toml")
+    paths = ["points.A.at.0", "constraints.B.si.0", "points.B.at.0", "points.O4.at.0"]
+    sens = sensitivity(kinem.compile(case), paths)
+    a, b, c, d = 0.1, 0.3, 0.22, 0.2            # the case's links
+    th2, th4 = sens.trajectory["crank.phi"], sens.trajectory["rocker.phi"]
+    F = d / a * np.cos(th4) - d / c * np.cos(th2) + (a * a - b * b + c * c + d * d) / (2 * a * c) - np.cos(th2 - th4)
+    assert np.max(np.abs(F)) < 1e-12            # the solution obeys the closed form
+    F_th4 = -d / a * np.sin(th4) - np.sin(th2 - th4)
+    F_p = {"points.A.at.0": -d / a**2 * np.cos(th4) + (a * a + b * b - c * c - d * d) / (2 * a * a * c),
+           "constraints.B.si.0": -b / (a * c) + 0 * th2,
+           "points.B.at.0": d / c**2 * np.cos(th2) + (c * c + b * b - a * a - d * d) / (2 * a * c * c),
+           "points.O4.at.0": np.cos(th4) / a - np.cos(th2) / c + d / (a * c)}
+    for path in paths:
+        want = -F_p[path] / F_th4
+        got = sens.of("rocker.phi", path)
+        assert np.max(np.abs(got - want)) <= 1e-11 * np.max(np.abs(want)), path
+
+
+def test_slider_crank_piston_matches_the_closed_form():
+    """Piston x = r cos th - sqrt(l^2 - r^2 sin^2 th) (crank r = 200, rod
+    l = 500, th the crank's direction, the piston left of the pivot): dx/dr
+    (constraints.B.sj.0: r = 100 - it), dx/dl (constraints.B.si.0: l = it +
+    200) and the piston velocity's d/dl, 1e-11 of the peak."""
+    case = kinem.load(ROOT / "cases" / "slider_crank.toml")
+    sens = sensitivity(kinem.compile(case), ["constraints.B.sj.0", "constraints.B.si.0"])
+    tr = sens.trajectory
+    r, l = 200.0, 500.0
+    th, w = tr["crank.phi"] + np.pi, tr["crank.omega"]   # O -> B is the crank's -x direction
+    root = np.sqrt(l * l - (r * np.sin(th)) ** 2)
+    assert np.max(np.abs(tr["A.x"] - (r * np.cos(th) - root))) < 1e-9 * l
+    want = {("A.x", "constraints.B.sj.0"): -(np.cos(th) + r * np.sin(th) ** 2 / root),
+            ("A.x", "constraints.B.si.0"): -l / root,
+            ("A.vx", "constraints.B.si.0"): -r * r * w * np.sin(th) * np.cos(th) * l / root**3}
+    for (column, path), v in want.items():
+        got = sens.of(column, path)
+        assert np.max(np.abs(got - v)) <= 1e-11 * np.max(np.abs(v)), (column, path)
+
+
+def test_singular_position_is_infinite_and_said():
+    """The stress suite's four-bar through its change point (solved, with
+    Phi_q singular at the change point): there every derivative is inf, the
+    instant is flagged and the message names it; elsewhere they are finite."""
+    case = kinem.load(ROOT / "cases" / "stress" / "change_point.toml")
+    model = kinem.compile(case)
+    sens = sensitivity(model, [parameters(case)[-1].path])
+    assert sens.singular.any() and not sens.singular.all()
+    assert np.isinf(sens.derivatives.data[sens.singular]).all()
+    assert "singular" in sens.message and f"{sens.derivatives.t[sens.singular][0]:.6g}" in sens.message
+    assert np.isfinite(sens.derivatives.data[~sens.singular]).all()
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.sampled_from(CASES), st.data())
+def test_random_parameter_and_configuration(path, data):
+    """A random parameter, moved to a random nearby design: the derivative
+    there matches extrapolated differences (hypothesis over configurations)."""
+    case = kinem.load(path)
+    p = data.draw(st.sampled_from(parameters(case)))
+    model0 = kinem.compile(case)
+    shift = data.draw(st.floats(-0.02, 0.02)) * step(model0, p) * 1e3 * 0.05
+    try:
+        moved = apply(case, {p.path: p.value + shift})
+    except kinem.InputError:
+        return
+    model = kinem.compile(moved)
+    if not kinem.solve(model, times=times(moved), options=TIGHT).success:
+        return
+    q = next(x for x in parameters(moved) if x.path == p.path)
+    sens = sensitivity(model, [p.path], times=times(moved), options=TIGHT)
+    fd, ok = richardson(moved, q, step(model, q))
+    assert worst(model, sens, q, fd, ok) <= 1e-8
+
+
+def test_cli_writes_every_column_derivative(tmp_path):
+    out = tmp_path / "s.csv"
+    run = [sys.executable, "-m", "kinem", "sensitivity", str(ROOT / "cases" / "slider_crank.toml"),
+           "--parameters", "constraints.A.si.0,constraints.B.si.0", "--out", str(out)]
+    subprocess.run(run, check=True, capture_output=True, text=True)
+    head = out.read_text().splitlines()[0].split(",")
+    assert head[0] == "t" and "d(slider.x)/d(constraints.A.si.0)" in head and "d(B.vx)/d(constraints.B.si.0)" in head
+    table = np.loadtxt(out, delimiter=",", skiprows=1)
+    model = kinem.compile(kinem.load(ROOT / "cases" / "slider_crank.toml"))
+    sens = sensitivity(model, ["constraints.A.si.0", "constraints.B.si.0"])
+    k = head.index("d(slider.x)/d(constraints.A.si.0)")
+    assert np.array_equal(table[:, k], sens["d(slider.x)/d(constraints.A.si.0)"])
+    bad = subprocess.run(run[:-4] + ["--parameters", "constraints.A.si.9", "--out", str(out)],
+                         capture_output=True, text=True)
+    assert bad.returncode == 2 and "did you mean" in bad.stderr and len(bad.stderr.splitlines()) == 1
