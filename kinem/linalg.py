@@ -20,6 +20,7 @@ guarded as its twin's is (dense models; a sparse one reports +1 and is
 guarded by the jump test alone).
 """
 from dataclasses import dataclass
+import weakref
 
 import numpy as np
 
@@ -89,10 +90,16 @@ def choose(model, options) -> Solver:
     LAPACK for ``dense`` where there is no plan."""
 
     kind = options.linear_solver
-    least_squares = model.m > model.n
-    core = not least_squares and kind != "sparse" and model.plan is not None
-    sparse = not core and (model.n > DENSE_LIMIT if kind == "auto" else kind == "sparse")
-    return Solver(sparse, least_squares, core=core)
+    per = _CHOSEN.setdefault(model, {})   # a solve asks at every call: chosen once per model and kind
+    if kind not in per:
+        least_squares = model.m > model.n
+        core = not least_squares and kind != "sparse" and model.plan is not None
+        sparse = not core and (model.n > DENSE_LIMIT if kind == "auto" else kind == "sparse")
+        per[kind] = Solver(sparse, least_squares, core=core)
+    return per[kind]
+
+
+_CHOSEN = weakref.WeakKeyDictionary()   # model -> {linear_solver: Solver}
 
 
 class Factor:

@@ -9,6 +9,7 @@ KeyboardInterrupt at once, whatever the number of instants) and stops at the
 run's time limit (kinem.budget).
 """
 import time
+from functools import cached_property
 
 import numpy as np
 
@@ -16,7 +17,7 @@ from . import native
 from .errors import WorkLimitError
 from .model import BLOCK_LIMIT
 from .options import Options
-from .tracking import State, singular_pivot
+from .tracking import State
 
 
 def usable(model, trace: bool, instants: int, options: Options) -> bool:
@@ -49,24 +50,35 @@ class March:
         self.times = np.ascontiguousarray(times, float)
         self.rates = tracker.need_v
         self.settings = (float(options.tolerance), int(options.max_iterations), float(native.MAX_STEP),
-                         singular_pivot(options.tolerance), self.rates)
+                         tracker.pivot_floor, self.rates)
         self.budget = tracker.budget
         self.X, self.figures, self.ints = X, figures, ints
-        self.state = np.zeros(6 * model.n + 5)
+        n = model.n
+        self.state = st = np.zeros(6 * n + 5)
+        # the state: q, qd, qdd, (time, det sign), H (3 n), T (3); as advance(0) starts it, but for q
+        st[3 * n], st[6 * n + 2:] = self.times[0], np.nan
+        self.fresh = True
+
+    @cached_property
+    def parts(self) -> tuple:
+        """The state's parts (views): q, qd, qdd, (time, det sign), H (3 n), T (3)."""
+        st, n = self.state, self.model.n
+        return st[:n], st[n:2 * n], st[2 * n:3 * n], st[3 * n:3 * n + 2], st[3 * n + 2:6 * n + 2], st[6 * n + 2:]
 
     def advance(self, k: int, q0=None) -> int:
         """Output instants from k on, from the tracker's last state (k = 0:
         assembled from q0), until one is not accepted; returns the first
         instant not taken (len(times): all)."""
-        tr, n, st = self.tracker, self.model.n, self.state
-        # the state's parts (views): q, qd, qdd, (time, det sign), H (3 n), T (3)
-        q, qd, qdd, last, H, T = np.split(st, np.cumsum((n, n, n, 2, 3 * n)))
+        tr, st = self.tracker, self.state
         if k == 0:
-            q[:] = self.model.q0 if q0 is None else q0
-            qd[:] = qdd[:] = H[:] = 0.0
-            last[:] = self.times[0], 0.0
-            T[:] = np.nan
+            st[:self.model.n] = self.model.q0 if q0 is None else q0
+            if not self.fresh:
+                _, qd, qdd, last, H, T = self.parts
+                qd[:] = qdd[:] = H[:] = 0.0
+                last[:] = self.times[0], 0.0
+                T[:] = np.nan
         else:
+            q, qd, qdd, last, H, T = self.parts
             s = tr.history[-1]
             if self.rates:
                 qd[:], qdd[:] = (s.qd, s.qdd) if s.qdd is not None else tr.rates(s)
@@ -75,6 +87,7 @@ class March:
             times, states = tr.recent()
             T[:], H[:] = times, states.ravel()
             q[:], last[:] = s.q, (s.t, s.det)
+        self.fresh = False
         ints = self.ints
         ints[-2:] = 0
         started = time.perf_counter()
@@ -91,6 +104,7 @@ class March:
             return end  # every instant taken: the tracker carries nothing on
         Q, QD, QDD = self.X if self.rates else (self.X[0], None, None)
         residual, pivot = self.figures
+        last = self.parts[3]
         for j in range(max(k, end - 3), end):
             # the loop accepts no det flip: every instant it took has the last one's sign
             tr.accept(State(float(self.times[j]), Q[j].copy(), QD[j].copy() if self.rates else None,

@@ -181,6 +181,14 @@ class Model:
         return len(self.jac_rows)
 
     @cached_property
+    def options(self):
+        """The case file's [solver] section as Options (``Options.of(case)``,
+        made once: ``solve``'s default)."""
+        from .options import Options
+
+        return Options.of(self.case)
+
+    @cached_property
     def times(self) -> np.ndarray:
         """The case's output instants (read-only)."""
         t = self.case.times

@@ -3,6 +3,7 @@
 (kinem.tracking) and the march (kinem.march, the compiled core's loop); nothing below imports
 it. Its options (kinem.options.Options) are passed to it, not compiled into
 the Model: changing a tolerance never recompiles."""
+import math
 import time
 
 import numpy as np
@@ -14,6 +15,7 @@ from .errors import AnalysisError, InputError, SingularError, WorkLimitError
 from .linalg import choose
 from .march import March, usable
 from .margins import MARGINS, margins
+from .model import Model
 from .options import Options
 from .result import OUTPUTS, SolveResult, Status, Trajectory, trajectory
 from .tracking import Tracker
@@ -31,9 +33,12 @@ def _checked_times(times):
     if times is None:
         return None
     t = _floats("times", times, "a sequence of numbers")
+    # increasing strictly between finite ends: every instant finite (a NaN fails the comparison)
+    if t.ndim == 1 and len(t) and math.isfinite(t[0]) and math.isfinite(t[-1]) and (t[1:] > t[:-1]).all():
+        return t
     if t.ndim != 1 or not len(t) or not np.isfinite(t).all():
         raise InputError(f"solve: times of shape {t.shape}: expected one or more finite instants in a 1-D sequence")
-    if len(t) > 1 and not (np.diff(t) > 0).all():
+    if len(t) > 1 and not (t[1:] > t[:-1]).all():
         k = int(np.flatnonzero(np.diff(t) <= 0)[0])
         raise InputError(f"solve: times must increase strictly: times[{k + 1}] = {t[k + 1]:g} "
                          f"after times[{k}] = {t[k]:g}")
@@ -61,23 +66,24 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     ``q0``: the estimate to assemble from at ``times[0]`` (default the case's
     ``model.q0``); a run continued from a solved state passes that state, so a
     long run can be solved in pieces (``kinem solve`` does: kinem.stream)."""
-    from .model import Model
-
     if not isinstance(model, Model):
         raise InputError(f"solve: model {type(model).__name__}: expected a kinem.Model (kinem.compile(case))")
     times = _checked_times(times)
-    options = Options.of(model.case) if options is None else options
+    options = model.options if options is None else options
     if not isinstance(options, Options):
         raise InputError(f"solve: options {type(options).__name__}: expected a kinem.Options")
     q0 = _checked_q0(model, q0)
-    outputs = (outputs,) if isinstance(outputs, str) else outputs
-    if not isinstance(outputs, (tuple, list)) or not all(isinstance(o, str) and o in OUTPUTS + (MARGINS,) for o in outputs):
-        raise InputError(f"solve: outputs {outputs!r:.80}: expected a sequence of {', '.join(OUTPUTS + (MARGINS,))}")
+    want_margins = False
+    if not (type(outputs) is tuple and outputs == OUTPUTS):   # all of them (the default) needs no check
+        outputs = (outputs,) if isinstance(outputs, str) else outputs
+        if not isinstance(outputs, (tuple, list)) or \
+                not all(isinstance(o, str) and o in OUTPUTS + (MARGINS,) for o in outputs):
+            raise InputError(f"solve: outputs {outputs!r:.80}: expected a sequence of {', '.join(OUTPUTS + (MARGINS,))}")
+        want_margins = MARGINS in outputs
+        outputs = tuple(o for o in OUTPUTS if o in outputs)
+        if "positions" not in outputs:
+            outputs = ("positions",) + outputs
     check_square(model)
-    want_margins = MARGINS in outputs
-    outputs = tuple(o for o in OUTPUTS if o in outputs)
-    if "positions" not in outputs:
-        outputs = ("positions",) + outputs
     need_a = "accelerations" in outputs
     need_v = need_a or "velocities" in outputs
     times = model.times if times is None else np.asarray(times, dtype=float)
@@ -124,21 +130,22 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     wall = time.perf_counter() - start
     n_ok = k
     ok = status == Status.SUCCESS
-    traj = trajectory(model, times[:n_ok], Q[:n_ok], None if QD is None else QD[:n_ok],
-                      None if QDD is None else QDD[:n_ok])
+    t_fail = None if ok else float(times[n_ok])
+    if n_ok < nt:   # the instants solved
+        times, Q, iters, resid, cond = times[:n_ok], Q[:n_ok], iters[:n_ok], resid[:n_ok], cond[:n_ok]
+        QD, QDD = None if QD is None else QD[:n_ok], None if QDD is None else QDD[:n_ok]
+    traj = trajectory(model, times, Q, QD, QDD)
     moves = ()
     if want_margins:   # kinem.margins: columns after the trajectory's own
-        names, values, moves = margins(model, Q[:n_ok], times[:n_ok])
+        names, values, moves = margins(model, Q, times)
         traj = Trajectory(traj.t, traj.columns + names, np.hstack([traj.data, values]))
-    return SolveResult(
+    return SolveResult.of(
         success=ok, status=status, message=message or "all instants solved",
-        trajectory=traj, q=Q[:n_ok], qd=None if QD is None else QD[:n_ok],
-        qdd=None if QDD is None else QDD[:n_ok], iterations=iters[:n_ok], residual=resid[:n_ok],
-        conditioning=cond[:n_ok], substeps=tracker.substeps, events=tuple(tracker.events),
+        trajectory=traj, q=Q, qd=QD, qdd=QDD, iterations=iters, residual=resid,
+        conditioning=cond, substeps=tracker.substeps, events=tuple(tracker.events),
         trace=tuple(data.trace or ()),
         jacobian_evaluations=data.jacobian_evaluations, factorizations=data.factorizations,
-        wall_time=wall, t_fail=None if ok else float(times[n_ok]), attempts=tracker.budget.attempts,
-        margin_moves=moves,
+        wall_time=wall, t_fail=t_fail, attempts=tracker.budget.attempts, margin_moves=moves,
         failed_constraint=pin[0] if status == Status.WRONG_BRANCH else None if ok or status == Status.SINGULAR
         else model.row_owner[data.worst_row],
         model=model,
@@ -152,10 +159,10 @@ def check_square(model) -> None:
     the mobility (kinem.diagnose.driver_count). More equations than
     coordinates are accepted when they are consistent (redundant
     constraints, solved in the least-squares sense)."""
-    from .diagnose import driver_count
-
     if model.m == model.n:
         return
+    from .diagnose import driver_count
+
     # fewer: the ranks where the equations settle; more: as estimated (redundant constraints that
     # hold only in the configuration drawn, a parallelogram's third crank, keep their mobility there)
     counted = driver_count(model, float(model.times[0]), settle=model.m < model.n)

@@ -69,6 +69,36 @@ def test_short_repr_of_results():
                                   "ground.phi, ground.vx, ...)")
 
 
+def test_a_results_columns_are_made_once_at_first_use_and_equal_its_coordinates():
+    """solve's trajectory makes its columns when first read (issue 31 item
+    6): the same array at every read, read-only, each body's columns its
+    coordinates, velocities and accelerations exactly; a failed solve's
+    columns hold only the instants solved; SolveResult.of takes every
+    field, no fewer."""
+    import numpy as np
+
+    from kinem.result import SolveResult
+
+    model = kinem.compile(kinem.load(ROOT / "cases" / "slider_crank.toml"))
+    r = kinem.solve(model)
+    traj = r.trajectory
+    assert traj.data is traj.data and not traj.data.flags.writeable
+    assert traj.data.shape == (501, 48)
+    for k, name in enumerate(("x", "y", "phi")):
+        assert np.array_equal(traj[f"crank.{name}"], r.q[:, 3 + k])
+        assert np.array_equal(traj[f"crank.{('vx', 'vy', 'omega')[k]}"], r.qd[:, 3 + k])
+        assert np.array_equal(traj[f"crank.{('ax', 'ay', 'alpha')[k]}"], r.qdd[:, 3 + k])
+    short = kinem.solve(model, options=kinem.Options(max_iterations=1), q0=model.q0 + 5.0)
+    assert not short.success and short.trajectory.data.shape == (len(short.q), 48) == (0, 48)
+    assert short.t_fail == 0.0
+    values = {f: getattr(r, f) for f in r.__dataclass_fields__}
+    again = SolveResult.of(**values)
+    assert all(getattr(again, f) is getattr(r, f) for f in values)
+    values.pop("model")
+    with pytest.raises(TypeError, match="model"):
+        SolveResult.of(**values)
+
+
 def test_dev_py_passes_kinem_commands_through(monkeypatch):
     spec = importlib.util.spec_from_file_location("dev", ROOT / "dev.py")
     dev = importlib.util.module_from_spec(spec)

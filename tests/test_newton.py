@@ -1,7 +1,8 @@
 """The core's settle (kinem/core/src/newton.rs), the one Newton loop: the
-march and the step-by-step analysis run it on their own operations and take the same
-iterations and factorisations; its last correction tells a singular root
-(linear convergence) from a regular one."""
+step-by-step analysis runs it on its operations, the march on its own after
+a chord from the last instant's factorisation that did not contract fast
+enough (newton::chord); both agree to rounding; its last correction tells a
+singular root (linear convergence) from a regular one."""
 from dataclasses import replace
 from pathlib import Path
 
@@ -20,18 +21,25 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.mark.parametrize("name", ["slider_crank", "four_bar", "quick_return_1"])
 @pytest.mark.parametrize("outputs", [kinem.OUTPUTS, ("positions",)])
-def test_the_march_and_the_step_by_step_analysis_take_the_same_steps(name, outputs):
-    """Same Newton, same final correction, same factorisation at the
-    corrected q: the same iteration and factorisation counts, and positions
-    and rates equal to rounding (LAPACK's blocked getrf and the march's
-    unblocked LU round differently, and the conditioning amplifies that:
-    1e-12 of the size or of the rates' peak is 1e4 times rounding)."""
+def test_the_march_and_the_step_by_step_analysis_agree_to_rounding(name, outputs):
+    """The step-by-step analysis runs Newton with its final correction and
+    the factorisation at the corrected q (two per instant); the march runs
+    the chord with the last instant's factorisation to rounding and
+    factorises once per instant at the final q (newton::chord). Both end at
+    the root to rounding: positions and rates equal to 1e-12 of the size or
+    of the rates' peak (LAPACK's blocked getrf and the march's unblocked LU
+    round differently, and the conditioning amplifies that: 1e-12 is 1e4
+    times rounding); the march never factorises more often, and once per
+    instant with rates where the chord contracts fast (the slider-crank's
+    and the four-bar's 501 and 251 instants)."""
     model = kinem.compile(kinem.load(ROOT / "cases" / f"{name}.toml"))
     step = kinem.solve(model, outputs, options=replace(kinem.Options.of(model.case), block=1))
     march = kinem.solve(model, outputs)
     assert step.success and march.success
-    assert np.array_equal(step.iterations, march.iterations)
-    assert (step.jacobian_evaluations, step.factorizations) == (march.jacobian_evaluations, march.factorizations)
+    assert step.factorizations >= 2 * len(step.q) - 1
+    assert march.jacobian_evaluations == march.factorizations <= step.factorizations
+    if name != "quick_return_1" and "velocities" in outputs:   # the Hermite start: the chord at every instant
+        assert march.factorizations <= len(march.q) + 4   # the assembly and the first instant: Newton
     assert np.abs(step.q - march.q).max() / model.length < 1e-12
     for a, b in [(step.qd, march.qd), (step.qdd, march.qdd)]:
         if a is not None:

@@ -52,7 +52,10 @@ def test_floor_and_kinem_solve_the_same_slider_crank():
     for got, quantities in ((QD, ("vx", "vy", "omega")), (QDD, ("ax", "ay", "alpha"))):
         want = _columns(tr, quantities)
         assert np.abs(got - want).max() <= 1e-10 * np.abs(want).max()
-    assert iterations == r.iterations.sum()
+    # the floor: one Newton iteration and two factorisations per instant; kinem's march: its chord
+    # from the last instant's factorisation, no more iterations and one factorisation per instant
+    assert r.iterations.sum() <= iterations
+    assert r.factorizations <= peers.INSTANTS + 4
 
 
 def test_floor_pivot_order_is_the_greedy_markowitz_order_of_its_structure():

@@ -1,14 +1,17 @@
 //! The march over output instants (docs/solver.md, "The march"): at each
-//! instant the predictor, Newton-Raphson with the final correction and the
-//! LU at the corrected q (newton::settle on the core's own operations), the
-//! acceptance test and the velocity and acceleration solves from that LU.
+//! instant the predictor, the chord from the Hermite start with the last
+//! instant's LU to rounding and the LU there (newton::chord), or, at the
+//! march's first instant and where the chord contracts too slowly,
+//! Newton-Raphson with the final correction and the LU at the corrected q
+//! (newton::settle), both on the core's own operations; the acceptance test
+//! and the velocity and acceleration solves from that one LU.
 //! It stops at the first instant not accepted and hands it to the tracker
 //! (kinem/tracking.py), which sub-steps, diagnoses and steps over.
-use crate::accept::{jump_sizes, lagrange, rejected, taylor, Why};
+use crate::accept::{hermite, jump_sizes, lagrange, rejected, taylor, Why};
 use crate::families::At;
 use crate::lu::{Factors, Layout};
 use crate::model::Kin;
-use crate::newton::{settle, Ops};
+use crate::newton::{chord, settle, Ops, RECENT};
 use crate::watch::Watch;
 use num_complex::Complex64 as C64;
 use std::convert::Infallible;
@@ -183,6 +186,12 @@ pub fn run(
     let mut gamma = vec![0.0; kin.m];
     let mut result = (times.len(), Why::Accepted);
     let (mut next, mut tick) = (Instant::now(), 0u32);
+    // ops.f holds the factorisation at the last accepted q (none before the first)
+    let mut held = false;
+    // the chord's last measured contraction and the instants since (newton::chord's `known`)
+    let (mut theta, mut age) = (f64::INFINITY, RECENT + 1);
+    // the state before the last accepted one (q, qd, qdd) and its time (NaN: none in this march)
+    let (mut prev, mut before, mut start) = (vec![0.0; 3 * n], f64::NAN, vec![0.0; n]);
     while k < times.len() {
         // the clock every WATCH_EVERY instants: a few ns per instant, a stop within a few
         if tick % WATCH_EVERY == 0 {
@@ -203,8 +212,33 @@ pub fn run(
             let tt = [st.tt[0], st.tt[1], st.tt[2]];
             judge = lagrange(t, &tt, st.h, &mut qp) >= 1;
         }
-        ops.start(&qp, t);
-        let Ok(settled) = settle(&mut ops, s.tolerance, s.max_iterations, s.max_step, true);
+        // the chord with the last instant's factorisation, from the Hermite start when the last two
+        // instants are at hand, else (or when it contracts too slowly) Newton from the predictor
+        if held && before.is_finite() && h <= 2.0 * (st.last[0] - before) {
+            let (p, c) = ([&prev[..n], &prev[n..2 * n], &prev[2 * n..]], [&st.q[..], &st.qd[..], &st.qdd[..]]);
+            hermite(p, c, st.last[0] - before, h, &mut start);
+            ops.start(&start, t);
+        } else {
+            ops.start(&qp, t);
+        }
+        let known = if age <= RECENT { theta } else { f64::INFINITY };
+        let Ok(chorded) = if held { chord(&mut ops, s.tolerance, s.max_step, known) } else { Ok(None) };
+        let settled = match chorded {
+            Some((c, measured)) => {
+                if measured.is_nan() {
+                    age += 1;
+                } else {
+                    (theta, age) = (measured, 0);
+                }
+                c
+            }
+            None => {
+                (theta, age) = (f64::INFINITY, RECENT + 1);
+                ops.start(&qp, t);
+                let Ok(c) = settle(&mut ops, s.tolerance, s.max_iterations, s.max_step, true);
+                c
+            }
+        };
         if !settled.converged {
             result = (k, Why::NotConverged);
             break;
@@ -213,9 +247,18 @@ pub fn run(
         let (corr, motion) = jump_sizes(&ops.q, &qp, st.q, &layout.col_scale);
         let previous = if k == 0 { det } else { st.last[1] as i32 };
         let why = rejected(ratio, settled.last_step, det, previous, corr, motion, judge, s.floor, s.tolerance, false);
+        // the factorisation at the accepted q serves the rates and the next instant's chord
+        held = why == Why::Accepted;
         if why != Why::Accepted {
             result = (k, why);
             break;
+        }
+        if s.rates {
+            // the last state becomes the earlier one of the Hermite start
+            prev[..n].copy_from_slice(st.q);
+            prev[n..2 * n].copy_from_slice(st.qd);
+            prev[2 * n..].copy_from_slice(st.qdd);
+            before = if k == 0 { f64::NAN } else { st.last[0] };
         }
         st.q.copy_from_slice(&ops.q);
         if s.rates {

@@ -100,6 +100,77 @@ pub fn settle<O: Ops>(
     }
 }
 
+/// A chord correction (with a factorisation from another configuration:
+/// the previous instant's) that shrinks the last one by less than this
+/// factor calls for fresh factorisations: Newton's corrections then cost
+/// less than the chord's remaining ones.
+pub const CONTRACTION: f64 = 0.03;
+/// The chord stops when its error estimate (the last correction times
+/// theta / (1 - theta), theta the contraction; the correction itself when
+/// it is this small) is at or below this (dimensionless): rounding of the
+/// positions, so that the factorisation at the final q, the instant's only
+/// one, gives the rates to rounding.
+pub const ROUNDING: f64 = 2e-15;
+/// At most this many chord corrections, then Newton.
+pub const CHORD_STEPS: usize = 5;
+/// A contraction measured this many instants ago or less may stand for the
+/// current one (doubled): the chord then stops after its first correction
+/// when that times the contraction is at rounding.
+pub const RECENT: u32 = 4;
+
+/// The book's modified Newton-Raphson with the factorisation the
+/// operations already hold (the previous instant's, at its corrected q):
+/// from q, chord corrections until the residual is at or below the
+/// tolerance and the error estimate at rounding (`ROUNDING`), then the
+/// factorisation at that q, the instant's only one: the pivot ratio, the
+/// det sign, the rates and the next instant's chord. Returns None (q has
+/// moved: the caller starts `settle` again from its predictor) when a
+/// correction contracts by less than `CONTRACTION`, is not finite, or after
+/// `CHORD_STEPS`. The iterations counted are the corrections made before
+/// the residual met the tolerance (the others are the final correction, as
+/// in `settle`); the last step is the last correction. `known`: a recent
+/// contraction (the march's, at most `RECENT` instants old; infinite: none),
+/// which, doubled, stands for this one's at the first correction; returned
+/// with the contraction measured here (NaN: none, one correction).
+pub fn chord<O: Ops>(
+    ops: &mut O,
+    tolerance: f64,
+    max_step: f64,
+    known: f64,
+) -> Result<Option<(Settled, f64)>, O::Error> {
+    let (mut previous, mut iterations, mut residual) = (f64::INFINITY, 0usize, f64::INFINITY);
+    let assumed = 2.0 * known;
+    for step in 0..CHORD_STEPS {
+        let r = ops.evaluate(if residual <= tolerance { -1 } else { step as i64 })?;
+        if !(r < f64::INFINITY) {
+            return Ok(None);
+        }
+        if residual > tolerance {
+            residual = r;
+            iterations = step;
+        }
+        let size = ops.correct(max_step)?;
+        if !(size < f64::INFINITY) {
+            return Ok(None);
+        }
+        let theta = size / previous;
+        previous = size;
+        // a correction at rounding leaves at most itself; else the estimate from the contraction,
+        // measured, or at the first correction the recent one doubled
+        let estimate = |theta: f64| theta < 0.5 && size * theta / (1.0 - theta) <= ROUNDING;
+        let done = size <= ROUNDING || if step == 0 { estimate(assumed) } else { estimate(theta) };
+        if residual <= tolerance && done {
+            ops.factor(true)?;
+            let measured = if step == 0 { f64::NAN } else { theta };
+            return Ok(Some((Settled { iterations, residual, converged: true, last_step: size }, measured)));
+        }
+        if theta > CONTRACTION && size > ROUNDING {
+            return Ok(None);
+        }
+    }
+    Ok(None)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -139,6 +210,24 @@ mod tests {
         assert!((s.x - 2f64.sqrt()).abs() <= 2.0 * f64::EPSILON);
         // the last factorisation is at the corrected x
         assert_eq!(s.slope, 2.0 * s.x);
+    }
+
+    #[test]
+    fn the_chord_converges_to_rounding_with_an_old_slope_and_gives_up_on_a_poor_one() {
+        // the slope at 1.41 (a previous instant's): contraction about 3e-3, one factorisation at the end
+        let mut s = Sqrt2 { x: 1.4143, slope: 2.0 * 1.41, evaluations: 0, factorizations: 0 };
+        let (r, theta) = chord(&mut s, 1e-12, 0.5, f64::INFINITY).unwrap().unwrap();
+        assert!(r.converged && s.factorizations == 1);
+        assert!((s.x - 2f64.sqrt()).abs() <= 2.0 * f64::EPSILON);
+        assert_eq!(s.slope, 2.0 * s.x);
+        assert!(theta > 1e-4 && theta < 1e-2);
+        // a recent contraction at hand: one correction when it makes the estimate rounding
+        let mut s = Sqrt2 { x: 2f64.sqrt() + 1e-14, slope: 2.0 * 1.41, evaluations: 0, factorizations: 0 };
+        let (_, theta) = chord(&mut s, 1e-12, 0.5, 3e-3).unwrap().unwrap();
+        assert!(theta.is_nan() && s.evaluations == 1 && (s.x - 2f64.sqrt()).abs() <= 4.0 * f64::EPSILON);
+        // the slope at 1.0: contraction about 0.3, no convergence claimed
+        let mut s = Sqrt2 { x: 1.4, slope: 2.0, evaluations: 0, factorizations: 0 };
+        assert!(chord(&mut s, 1e-12, 0.5, f64::INFINITY).unwrap().is_none() && s.factorizations == 0);
     }
 
     #[test]

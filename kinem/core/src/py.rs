@@ -207,7 +207,7 @@ impl Core {
 
     /// nu at T (K,): (K, m).
     fn nu<'py>(&self, py: Python<'py>, t: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyAny>> {
-        let kin = self.kin.clone();
+        let kin = &self.kin;
         let t = vec1(&t);
         let (k, m) = (t.len(), kin.m);
         let size = k.checked_mul(m).ok_or_else(|| value_error("nu: too many instants"))?;
@@ -229,7 +229,7 @@ impl Core {
         qd: PyReadonlyArray2<'py, f64>,
         t: PyReadonlyArray1<'py, f64>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let kin = self.kin.clone();
+        let kin = &self.kin;
         let n = kin.n;
         let (q, k) = rows(&q, n, "q")?;
         let (qd, k2) = rows(&qd, n, "qd")?;
@@ -240,7 +240,7 @@ impl Core {
         let v = guard(py, || {
             check(t.len(), k)?;
             check(k2, k)?;
-            Ok(batch(&kin, q, k, m, |i, q, e, o| kin.gamma(&At { q, e, t: t[i] }, &qd[i * n..(i + 1) * n], o)))
+            Ok(batch(kin, q, k, m, |i, q, e, o| kin.gamma(&At { q, e, t: t[i] }, &qd[i * n..(i + 1) * n], o)))
         })?;
         out2(py, v, k, m)
     }
@@ -255,7 +255,7 @@ impl Core {
         t: PyReadonlyArray1<'py, f64>,
         jac: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let kin = self.kin.clone();
+        let kin = &self.kin;
         let (q, k) = rows(&q, kin.n, "q")?;
         let t = vec1(&t);
         let w = if jac { kin.nnz } else { kin.m };
@@ -263,7 +263,7 @@ impl Core {
         let (q, t): (&[f64], &[f64]) = (&q, &t);
         let v = guard(py, || {
             check(t.len(), k)?;
-            Ok(batch(&kin, q, k, w, |i, q, e, o| {
+            Ok(batch(kin, q, k, w, |i, q, e, o| {
                 let at = At { q, e, t: t[i] };
                 if jac {
                     kin.jac(&at, o)
@@ -529,7 +529,7 @@ impl Plan {
         if v.len() != self.kin.nnz {
             return Err(pyo3::exceptions::PyValueError::new_err("factor: wrong number of values"));
         }
-        let layout = self.layout.clone();
+        let layout = &self.layout;
         let (f, stats) = guard(py, move || {
             let mut f = layout.factors();
             layout.factor(v, &mut f);
@@ -587,7 +587,7 @@ impl Plan {
         }
         let (tolerance, max_iterations, max_step, floor, rates, seconds) = settings;
         let settings = march::Settings { tolerance, max_iterations, max_step, floor, rates };
-        let (kin, layout) = (self.kin.clone(), self.layout.clone());
+        let (kin, layout) = (&self.kin, &self.layout);
         let (q, rest) = state.as_slice_mut().map_err(|_| bad("state"))?.split_at_mut(n);
         let (qd, rest) = rest.split_at_mut(n);
         let (qdd, rest) = rest.split_at_mut(n);
@@ -616,9 +616,9 @@ impl Plan {
         let (end, why) = guard(py, move || {
             let watch = Watch::new(seconds, Some(&poll));
             if layout.count < 2 || !matches!(layout.shape, Shape::Blocks { .. }) {
-                return Ok(march::run(&kin, &layout, times, k, st, &settings, out, &watch, true));
+                return Ok(march::run(kin, layout, times, k, st, &settings, out, &watch, true));
             }
-            let parts = parts.get_or_init(|| crate::parts::split(&kin, &layout)).as_ref()?;
+            let parts = parts.get_or_init(|| crate::parts::split(kin, layout)).as_ref()?;
             Ok(crate::parts::run_parts(parts, layout.sign, times, k, st, &settings, out, &watch))
         })?;
         if why == Why::Interrupted {
@@ -652,7 +652,7 @@ impl Lu {
         if b.len() != self.layout.m {
             return Err(pyo3::exceptions::PyValueError::new_err("solve: wrong number of rows"));
         }
-        let layout = self.layout.clone();
+        let layout = &self.layout;
         let f = &self.f;
         let x = guard(py, move || {
             let mut x = vec![0.0; layout.n];
