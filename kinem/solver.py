@@ -134,6 +134,9 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     if n_ok < nt:   # the instants solved
         times, Q, iters, resid, cond = times[:n_ok], Q[:n_ok], iters[:n_ok], resid[:n_ok], cond[:n_ok]
         QD, QDD = None if QD is None else QD[:n_ok], None if QDD is None else QDD[:n_ok]
+    for x in (Q, QD, QDD):   # the trajectory's columns are made from them on first use: frozen alike
+        if x is not None:
+            x.flags.writeable = False
     traj = trajectory(model, times, Q, QD, QDD)
     moves = ()
     if want_margins:   # kinem.margins: columns after the trajectory's own

@@ -111,3 +111,13 @@ def test_dev_py_passes_kinem_commands_through(monkeypatch):
     args, kw = calls[0]
     assert args[1:] == ["-m", "kinem", "solve", "x.toml", "--out", "y.csv"] and "cwd" not in kw
     assert args[0] == str(dev.PYTHON) and os.path.basename(args[0]).startswith("python")
+
+
+def test_a_results_arrays_are_frozen_like_its_columns():
+    """The trajectory's columns are made from result.q/qd/qdd on first use:
+    those arrays are read-only, so an edit cannot reach the columns later."""
+    r = kinem.solve(kinem.compile(kinem.load(ROOT / "cases" / "slider_crank.toml")))
+    for x in (r.q, r.qd, r.qdd):
+        with pytest.raises(ValueError):
+            x[0, 0] = 1.0
+    assert r.trajectory["crank.phi"][0] == r.q[0, 5]
