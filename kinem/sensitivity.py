@@ -26,7 +26,7 @@ from . import native
 from .errors import AnalysisError, InputError, KinemError
 from .model import core_tables, families_of
 from .options import Options
-from .parameters import apply_many, resolve
+from .parameters import apply_many, local_tangent, resolve
 from .result import OUTPUTS, Trajectory, _layout
 from .solver import solve
 from .tracking import singular_pivot
@@ -121,11 +121,11 @@ def _moved(case, listed):
     """(the case with p moved by h, h) for each parameter p: h a power of
     two near |p| / 2 (-h where +h is not a valid case)."""
     steps = [2.0 ** (np.floor(np.log2(abs(p.value))) - 1) if p.value else 0.5 for p in listed]
-    out = list(zip(apply_many(case, [{p.path: p.value + h} for p, h in zip(listed, steps)]), steps))
+    out = list(zip(apply_many(case, [{p.path: p.value + h} for p, h in zip(listed, steps)], pinned=True), steps))
     for k, (moved, h) in enumerate(out):
         if isinstance(moved, InputError):
             p = listed[k]
-            out[k] = (apply_many(case, [{p.path: p.value - h}])[0], -h)
+            out[k] = (apply_many(case, [{p.path: p.value - h}], pinned=True)[0], -h)
             if isinstance(out[k][0], InputError):
                 raise InputError(f"{case.source}: parameter '{p.path}': no valid case within {h:g} of its value")
     return out
@@ -141,9 +141,9 @@ def _tangent(case, length, base, p, moved, step):
     for (kind, t0), (_, t1) in zip(base[0], tables):
         families.append((kind, t0, _difference(t0, t1, step, p.path)))
     dlocal = np.zeros(len(case.points), complex)
-    parts = p.path.split(".")
-    if parts[0] == "points":
-        dlocal[[q.name for q in case.points].index(parts[1])] = 1.0 if parts[3] == "0" else 1j
+    names = [q.name for q in case.points]
+    for point, d in local_tangent(case, p.path).items():
+        dlocal[names.index(point)] += d
     return (families, (base[1], _difference(base[1], functions, step, p.path)),
             (base[2], _difference(base[2], outlines, step, p.path))), dlocal
 
