@@ -381,7 +381,7 @@ def _value(v):
     if hasattr(v, "kind") and hasattr(v, "center"):   # an Outline
         if v.kind == "circle":
             return {"circle": {"radius": v.radius}, "center": list(v.center)}
-        spline = {"theta": list(v.theta), "s": list(v.s), "periodic": v.periodic}
+        spline = {"theta": list(v.theta), "s": list(v.s), "periodic": v.periodic, "degrees": False}   # radians
         if not v.periodic:
             spline["bc"] = v.bc
         return {"spline": spline, "center": list(v.center)}

@@ -158,3 +158,20 @@ def test_set_and_sweep_take_paths(tmp_path, capsys):
     s = kinem.sweep(NAMED, {"constraints.B.si.0": [0.3, 0.31]}, outputs=("B.y",))
     np.testing.assert_allclose(s.data[1, :, 0], by_name["By"], rtol=0, atol=1e-12)
     assert s.names == ("constraints.B.si.0",) and s.success
+
+
+def test_sensitivity_in_degrees():
+    """A case in degrees: d/d(an angle parameter) is per degree, matching
+    central differences of solves with the value set (1e-6 of the peak)."""
+    text = degrees_slider_crank()
+    case = kinem.loads(text)
+    p = "constraints.crank-drive.d.poly.0"
+    s = kinem.sensitivity(kinem.compile(case), [p])
+    value = {q.path: q.value for q in parameters(case)}[p]
+    h = 1e-4
+    plus, minus = (kinem.solve(kinem.compile(apply(case, {p: value + k * h}))).trajectory["B.x"] for k in (1, -1))
+    fd = (plus - minus) / (2 * h)
+    assert np.abs(s.of("B.x", p) - fd).max() <= 1e-6 * np.abs(fd).max()
+    rad = kinem.sensitivity(kinem.compile(kinem.load(ROOT / "cases" / "slider_crank.toml")), [p])
+    np.testing.assert_allclose(s.of("B.x", p), rad.of("B.x", p) * math.pi / 180, rtol=0,
+                               atol=1e-9 * np.abs(fd).max())
