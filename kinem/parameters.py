@@ -163,6 +163,79 @@ def local_tangent(case, path) -> dict:
     return {p.name: complex(c, -s) if parts[3] == "0" else complex(s, c)}
 
 
+def frame_tangent(case, path) -> dict:
+    """body -> (ds0, dalpha): how the frame a body derives from its drawn
+    points (no q: origin at its first point, x axis towards the next one
+    drawn elsewhere; kinem.casefile.drawn) moves in the body along the
+    parameter at ``path``: its origin's local coordinates ds0 (xi + i eta,
+    in the nominal frame) and its angle dalpha. Bodies whose frame does not
+    move are left out."""
+    moved = _drawn_tangent(case, path)
+    if not moved:
+        return {}
+    drawn = {p.name: p.drawn for p in case.points if p.drawn is not None}
+    out = {}
+    for b in case.bodies:
+        names = [n for n, _ in b.carries if n in drawn]
+        if not b.derived or not names:
+            continue
+        c, s = math.cos(b.q[2]), math.sin(b.q[2])
+
+        def local(d):   # A(phi0)^T d, d = dx + i dy
+            return complex(c * d.real + s * d.imag, -s * d.real + c * d.imag)
+
+        d0 = local(moved.get(names[0], 0j))
+        axis = next((n for n in names[1:] if drawn[n] != drawn[names[0]]), None)
+        dalpha = 0.0
+        if axis is not None:
+            length = math.hypot(drawn[axis][0] - drawn[names[0]][0], drawn[axis][1] - drawn[names[0]][1])
+            dalpha = (local(moved.get(axis, 0j)).imag - d0.imag) / length
+        if d0 or dalpha:
+            out[b.name] = (d0, dalpha)
+    return out
+
+
+def driver_tangent(case, path) -> dict:
+    """design parameter path -> its rate along the parameter at ``path``:
+    a driver (or absolute constraint) of the angle of a body whose derived
+    frame turns with the parameter (frame_tangent) drives that frame's
+    direction, so its values turn with it: with the frames held, its
+    values move by -dalpha (in the file's angle unit)."""
+    turns = {b: da for b, (_, da) in frame_tangent(case, path).items() if da}
+    scale = 1 / DEGREE if case.units.get("angle") == "deg" else 1.0
+    out = {}
+    for c in case.constraints:
+        if c.get("coord") != "phi" or c.get("body") not in turns or c.type not in ("driver", "absolute"):
+            continue
+        cid, rate = constraint_id(c), -turns[c["body"]] * scale
+        if c.type == "absolute":
+            out[f"constraints.{cid}.value"] = rate
+        elif isinstance(c["d"], fn.Poly):
+            out[f"constraints.{cid}.d.poly.0"] = rate
+        elif isinstance(c["d"], fn.Harmonic):
+            out[f"constraints.{cid}.d.harmonic.offset"] = rate
+        else:
+            out.update({f"constraints.{cid}.d.table.value.{k}": rate for k in range(len(c["d"].value))})
+    return out
+
+
+def _drawn_tangent(case, path) -> dict:
+    """drawn point -> d(its drawn x + i y)/d(parameter at ``path``)."""
+    parts = path.split(".")
+    if parts[0] == "parameters":
+        out = {}
+        for use in case.uses.get(parts[1], ()):
+            for n, d in _drawn_tangent(case, use).items():
+                out[n] = out.get(n, 0j) + d
+        return out
+    if parts[0] != "points" or len(parts) != 4:
+        return {}
+    p = next((q for q in case.points if q.name == parts[1]), None)
+    if p is None or p.drawn is None:
+        return {}
+    return {p.name: 1 + 0j if parts[3] == "0" else 1j}
+
+
 def _listing(case):
     """(Parameter, None) of every design parameter."""
     read = {}   # point -> the constraints that read it
@@ -391,4 +464,4 @@ def _value(v):
 
 
 __all__ = ["Parameter", "parameters", "resolve", "apply", "apply_many", "case_dict", "constraint_id", "local_tangent",
-           "to_path", "ROOTS"]
+           "frame_tangent", "driver_tangent", "to_path", "ROOTS"]
