@@ -200,14 +200,21 @@ def driver_tangent(case, path) -> dict:
     a driver (or absolute constraint) of the angle of a body whose derived
     frame turns with the parameter (frame_tangent) drives that frame's
     direction, so its values turn with it: with the frames held, its
-    values move by -dalpha (in the file's angle unit)."""
+    values move by -dalpha (in the file's angle unit); so does a
+    translational joint's phi0 that the file gives (one the loader filled
+    in from the drawn frames follows them already). A gear's phi0 is not
+    followed."""
     turns = {b: da for b, (_, da) in frame_tangent(case, path).items() if da}
     scale = 1 / DEGREE if case.units.get("angle") == "deg" else 1.0
     out = {}
     for c in case.constraints:
+        if c.type == "translational" and "phi0" not in c.filled and {c["i"], c["j"]} & set(turns):
+            out[f"constraints.{constraint_id(c)}.phi0"] = -(turns.get(c["i"], 0.0) - turns.get(c["j"], 0.0)) * scale
         if c.get("coord") != "phi" or c.get("body") not in turns or c.type not in ("driver", "absolute"):
             continue
         cid, rate = constraint_id(c), -turns[c["body"]] * scale
+        if c.type == "absolute" and "value" in c.filled:   # the frame's own estimate: held as the frame turns
+            continue
         if c.type == "absolute":
             out[f"constraints.{cid}.value"] = rate
         elif isinstance(c["d"], fn.Poly):
@@ -362,7 +369,8 @@ def case_dict(case: Case, pinned: bool = False) -> dict:
     where units = { angle = "deg" }), a key that named a point names it
     again, a point drawn in the global frame drawn again (its bodies with
     their points lists; q only where the file gave it, or every body's with
-    ``pinned``), a number that named a [parameters] entry names it again.
+    ``pinned``; a value the loader filled in from a drawn frame left to be
+    filled in again), a number that named a [parameters] entry names it again.
     load_dict(case_dict(case)) equals case (but for its source, and to
     rounding for angles in degrees)."""
     from .casefile.sections import SOLVER_KEYS
@@ -370,13 +378,14 @@ def case_dict(case: Case, pinned: bool = False) -> dict:
 
     solver = Options.of(case)   # the [solver] section as the case gives it
     degrees = case.units.get("angle") == "deg"
+    derived = {b.name for b in case.bodies if b.derived}
     d = {"name": case.name, "description": case.description, "units": dict(case.units),
          "time": {"end": case.end, "steps": case.steps},
          "solver": {k: getattr(solver, k) for k in SOLVER_KEYS},
          "bodies": {b.name: _body_dict(b, degrees, pinned) for b in case.bodies},
          "points": {p.name: {"body": p.body, "at": list(p.at)} if p.drawn is None
                     else {"body": p.body, "at": list(p.drawn), "frame": "global"} for p in case.points},
-         "constraints": [_constraint_dict(case, c) for c in case.constraints],
+         "constraints": [_constraint_dict(case, c, set() if pinned else derived) for c in case.constraints],
          "engines": {name: {k: list(v) if isinstance(v, tuple) else v for k, v in s.items()}
                      for name, s in case.engines.items()},
          "report": {k: list(v) if isinstance(v, tuple) else v for k, v in case.report.items()}}
@@ -421,15 +430,22 @@ def _drop_none(d):
     return {k: v for k, v in d.items() if v is not None}
 
 
-def _constraint_dict(case, c) -> dict:
+def _constraint_dict(case, c, derived) -> dict:
+    """Constraint c as the file writes it; a value the loader filled in from
+    the estimates is left out where it reads a ``derived`` frame (the
+    frames of a moved drawing fill it in again, as the file edited would)."""
     out = {"type": c.type}
     if constraint_id(c) == c.name:
         out["name"] = c.name
+    refill = bool(c.filled) and any(c.fields.get(k.name) in derived for k in REGISTRY[c.type].keys
+                                    if type(k).__name__ == "BodyKey")
     for k, v in c.fields.items():
+        if refill and k in c.filled:
+            continue
         out[k] = c.refs[k] if k in c.refs else _value(v)
     if case.units.get("angle") == "deg":   # the file's degrees again
         for key in REGISTRY[c.type].keys:
-            if key.name not in c.fields or key.name in c.refs:
+            if key.name not in out or key.name in c.refs:
                 continue
             if not key.numbers(c.fields[key.name]) and key.angle:   # an estimate (theta)
                 out[key.name] = c.fields[key.name] / DEGREE

@@ -37,6 +37,7 @@ class Constraint:
     index: int  # 1-based position in the file's [[constraints]]
     fields: Mapping[str, Any] = field(default_factory=frozen_map)
     refs: Mapping[str, str] = field(default_factory=frozen_map)  # key -> the named point it gave (fields hold its at)
+    filled: tuple = field(default=(), compare=False)   # keys the loader filled in from the estimates (phi0, value)
 
     def __getitem__(self, key):
         return self.fields[key]

@@ -80,6 +80,20 @@ def test_a_drawn_point_is_its_drawn_coordinates():
     assert kinem.load(path, parameters={"points.B.at.0": "0.36"}) == edited
 
 
+def test_a_moved_drawing_fills_its_defaults_again():
+    """Moving C turns the drawn slider's frame: the translational joint's
+    phi0, filled in from the drawing, is filled in again as the file edited
+    would be (not held at the old drawing's relative angle)."""
+    path = ROOT / "tests" / "data" / "drawn" / "slider_crank.toml"
+    case = kinem.load(path)
+    data = tomllib.loads(path.read_text())
+    data["points"]["C"]["at"][1] = 5.0
+    moved = apply(case, {"points.C.at.1": 5.0})
+    assert moved == kinem.load_dict(data, source=case.source)
+    (joint,) = [c for c in moved.constraints if c.name == "T"]
+    assert abs(joint["phi0"] - math.atan2(5.0, 100.0)) <= 1e-15 and "phi0" in joint.filled
+
+
 def test_named_dimensions_are_parameters():
     """parameters.<name> is listed with its value and its uses; setting it
     is the file's [parameters] edited; a use set by its own path detaches."""
@@ -117,6 +131,8 @@ def central(path, name, column, h):
      ("B.x", "B.y", "A.vx", "coupler.phi", "coupler.omega", "rocker.phi", "rocker.alpha", "rocker.x")),
     (ROOT / "tests" / "data" / "drawn" / "slider_crank.toml", "points.B.at.1",
      ("A.x", "crank.x", "crank.y", "crank.phi", "crank.vx", "crank.ay", "rod.phi", "rod.ax")),
+    (ROOT / "tests" / "data" / "drawn" / "slider_crank.toml", "points.C.at.1",
+     ("A.x", "A.y", "B.vy", "slider.phi", "slider.x", "rod.phi", "rod.alpha")),
 ])
 def test_sensitivity_to_a_named_dimension_is_the_total_derivative(path, name, columns):
     """d/d(parameters.NAME) is the sum over its uses (chain rule), and
@@ -136,7 +152,7 @@ def test_sensitivity_to_a_named_dimension_is_the_total_derivative(path, name, co
             np.testing.assert_allclose(s.of(c, p), total, rtol=0, atol=1e-12 * np.abs(total).max())
     value = {q.path: q.value for q in parameters(case)}[p]
     for c in columns:
-        fd = central(path, name, c, 1e-5 * abs(value))
+        fd = central(path, name, c, 1e-5 * abs(value) or 1e-3)   # a zero coordinate: 1e-3 of a 100-mm drawing
         exact = s.of(c, p)
         assert np.abs(exact - fd).max() <= 1e-6 * np.abs(exact).max() + 1e-12, (c, np.abs(exact - fd).max())
 
