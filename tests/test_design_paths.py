@@ -164,6 +164,14 @@ def test_tolerances_name_a_named_dimension():
     bands = tolerance(kinem.compile(case), {"parameters.coupler": 1e-4, "constraints.A.sj.0": 1e-4},
                             samples=16, outputs=["B.y"])
     assert np.all(bands["B.y.worst+"] >= bands["B.y"]) and bands.samples == 16
+    data = tomllib.loads(NAMED.read_text())
+    data["tolerances"] = {"parameters.coupler": 1e-4}        # [tolerances] by a named dimension's path
+    from_file = tolerance(kinem.compile(kinem.load_dict(data)), samples=16, outputs=["B.y"])
+    alone = tolerance(kinem.compile(case), {"parameters.coupler": 1e-4}, samples=16, outputs=["B.y"])
+    np.testing.assert_array_equal(from_file["B.y.worst+"], alone["B.y.worst+"])
+    data["tolerances"] = {"parameters.couplr": 1e-4}
+    with pytest.raises(InputError, match="did you mean 'parameters.coupler'"):
+        kinem.load_dict(data)
 
 
 def test_set_and_sweep_take_paths(tmp_path, capsys):
