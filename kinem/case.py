@@ -25,8 +25,9 @@ TOP_KEYS = ("name", "description", "parameters", "units", "time", "solver", "bod
 
 
 def load(path, parameters=None) -> Case:
-    """Read and validate a case file; ``parameters``: values of its named
-    dimensions ({"crank": 55} or {"parameters.crank": 55}) instead of the file's."""
+    """Read and validate a case file; ``parameters``: values instead of the
+    file's, of its named dimensions ({"crank": 55} or {"parameters.crank": 55})
+    or of any design parameter ({"constraints.B.si.0": 0.31}: kinem.parameters.apply)."""
     return load_dict(read(path), source=str(path), parameters=parameters)
 
 
@@ -76,14 +77,22 @@ def _toml(text, source) -> dict:
                          f"{MAX_MAGNITUDE:g}") from None
 
 
-def load_dict(data, source: str = "<dict>", parameters=None) -> Case:
+def load_dict(data, source: str = "<dict>", parameters=None, stacklevel: int = 2) -> Case:
     """Validate a case given as a dict with the case file's structure
-    (``parameters`` as for ``load``)."""
+    (``parameters`` as for ``load``: {name or design parameter path: value})."""
     ck = Checker(source)
     if not isinstance(data, dict):
         raise InputError(f"{source}: expected a table at the top level")
-    if parameters:
-        data = set_values(data, parameters, source)
+    if parameters:   # the file's case, then the values set (kinem.parameters.apply: named dimensions and paths)
+        import warnings
+
+        from .errors import KinemWarning
+        from .parameters import apply
+
+        with warnings.catch_warnings():   # given once, by the case with the values set
+            warnings.simplefilter("ignore", KinemWarning)
+            case = load_dict(data, source)
+        return apply(case, parameters, source)
     ck.keys("top level", data, TOP_KEYS, ("name", "time", "bodies", "constraints"))
     name = ck.string("top level", "name", data.get("name", "case"), NAME_RE,
                      f"an identifier of 1 to {MAX_NAME} characters a-z, 0-9, '_' and '-'")
@@ -106,7 +115,7 @@ def load_dict(data, source: str = "<dict>", parameters=None) -> Case:
                 constraints=tuple(cons), end=end or 1.0, steps=steps, description=description,
                 units=frozen_map(units), engines=frozen_map(engines), source=source,
                 equivalent=equivalent, report=frozen_map(report), parameters=frozen_map(params),
-                tolerances=frozen_map(tolerances), **solver)
+                tolerances=frozen_map(tolerances), uses=frozen_map(uses(data, params, cons)), **solver)
     if tolerances:   # their paths and sizes need the whole case (kinem.tolerance)
         from .tolerance import tolerances_of
 
@@ -120,8 +129,48 @@ def load_dict(data, source: str = "<dict>", parameters=None) -> Case:
 
         from .errors import KinemWarning
 
-        warnings.warn(text, KinemWarning, stacklevel=2)
+        warnings.warn(text, KinemWarning, stacklevel=stacklevel)
     return case
+
+
+def uses(data, params, cons) -> dict:
+    """name -> the paths (kinem.parameters' words: points.A.at.0,
+    constraints.B.si.1, bodies.crank.q.2, time.end) of the numbers of the
+    file that name a [parameters] entry."""
+    from .constraints import REGISTRY
+    from .parameters import constraint_id
+
+    out = {}
+
+    def walk(path, v):
+        if isinstance(v, str) and v in params:
+            out.setdefault(v, []).append(".".join(path))
+        elif isinstance(v, dict):
+            for k, x in v.items():
+                walk(path + [str(k)], x)
+        elif isinstance(v, list):
+            for k, x in enumerate(v):
+                walk(path + [str(k)], x)
+
+    if not params:
+        return {}
+    for section, keys in (("time", ("end", "dt")), ("bodies", ("q", "mass", "inertia")), ("points", ("at",))):
+        table = data.get(section)
+        items = [(None, table)] if section == "time" else list(table.items()) if isinstance(table, dict) else []
+        for name, t in items:
+            for k in keys if isinstance(t, dict) else ():
+                if k in t:
+                    walk([section] + ([name] if name else []) + [k], t[k])
+    by_index = {c.index: c for c in cons}
+    for index, table in enumerate(data.get("constraints") or [], 1):
+        if index not in by_index or not isinstance(table, dict):
+            continue
+        c = by_index[index]
+        numeric = {k.name for k in REGISTRY[c.type].keys if type(k).__name__ in ("NumberKey", "PositiveKey")}
+        for k, v in table.items():
+            if k not in ("type", "name") and (not isinstance(v, str) or k in numeric) and k not in c.refs:
+                walk(["constraints", constraint_id(c), k], v)
+    return {k: tuple(v) for k, v in out.items()}
 
 
 FAST_TURNS = 50        # turns a second: a crank faster than this looks like degrees per second given as rad/s
@@ -153,31 +202,6 @@ def fast_drivers(case) -> list:
                        f"d(t) is in degrees, that is {math.radians(speed):.4g} rad/s: convert it, or set "
                        "units = { angle = \"deg\" } for the case's angles")
     return out
-
-
-def set_values(data: dict, values, source: str = "command line") -> dict:
-    """The case file's dict with ``values`` (name -> number, or its text)
-    set: the one place a design parameter's name is resolved (``--set``,
-    sweeps, ``load(parameters=...)``). Names: ``NAME`` or ``parameters.NAME``
-    for a named dimension of [parameters]. Returns a new dict (``data`` is
-    not changed); an unknown name or a value that is not a number is an
-    InputError naming it."""
-    declared = data.get("parameters")
-    declared = declared if isinstance(declared, dict) else {}
-    out = dict(declared)
-    for name, value in values.items():
-        key = name.removeprefix("parameters.") if isinstance(name, str) else name
-        if key not in declared:
-            from .casefile.checks import names, suggest
-
-            guess = suggest(key, declared)
-            raise InputError(f"{source}: unknown parameter {name!r}" + (f"; did you mean '{guess}'?" if guess else
-                             f"; expected a name of the case's [parameters]: {names(declared) or '(none defined)'}"))
-        value = _number(value.item() if hasattr(value, "item") and hasattr(value, "dtype") else value)
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise InputError(f"{source}: parameter {name!r}: got {value!r}; expected a number")
-        out[key] = value
-    return dict(data, parameters=out)
 
 
 def check_time(case: Case) -> Case:

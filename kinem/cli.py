@@ -232,20 +232,21 @@ def _frame_bar():
 
 def _values(items) -> dict:
     """--set NAME=VALUE (repeatable) of solve and info: name -> value text
-    (kinem.case.set_values resolves the name and checks the value)."""
+    (kinem.parameters.apply resolves the name and checks the value)."""
     out = {}
     for item in items or ():
         name, sep, value = item.partition("=")
         if not sep or not name.strip() or not value.strip():
-            raise InputError(f"--set: got {item!r}; expected NAME=VALUE with NAME a parameter of the case "
-                             "(its [parameters] section)")
+            raise InputError(f"--set: got {item!r}; expected NAME=VALUE with NAME a named dimension of the "
+                             "case's [parameters] or a design parameter path (kinem info CASE --parameters)")
         out[name.strip()] = value.strip()
     return out
 
 
 def _set_option(p):
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
-                   help="a named dimension of the case's [parameters] (repeatable): --set crank=55")
+                   help="a named dimension of the case's [parameters] or a design parameter path (repeatable): "
+                        "--set crank=55, --set constraints.B.si.0=0.31")
 
 
 def _format(out, fmt):
@@ -633,12 +634,12 @@ def parser():
     _errors_option(i)
     i.set_defaults(run=cmd_info)
 
-    sw = sub.add_parser("sweep", help="solve a case over a grid of its named parameters; one table "
+    sw = sub.add_parser("sweep", help="solve a case over a grid of its design parameters; one table "
                                       "(variant, parameters, t, outputs)")
-    sw.add_argument("case", help="the case file (TOML; docs/case-format.md) with a [parameters] section")
+    sw.add_argument("case", help="the case file (TOML; docs/case-format.md)")
     sw.add_argument("--set", action="append", metavar="NAME=START:STOP:COUNT",
-                    help="a parameter's values (repeatable: every combination): COUNT values from START to STOP, "
-                         "or A,B,C")
+                    help="a named dimension's or design parameter path's values (repeatable: every combination): "
+                         "COUNT values from START to STOP, or A,B,C")
     sw.add_argument("--outputs", metavar="COLUMNS", help="comma-separated trajectory columns (default: all)")
     sw.add_argument("--out", help="output CSV file (default: standard output)")
     _errors_option(sw)

@@ -2,7 +2,9 @@
 named by a dot path in the case file's own words (docs/case-format.md,
 "Design parameters"):
 
-    points.<point>.at.<k>                     a named point's local coordinate
+    parameters.<name>                         a named dimension of [parameters]
+    points.<point>.at.<k>                     a named point's coordinate: local, or
+                                              as drawn in the global frame (frame = "global")
     constraints.<name>.<key>                  a scalar key (a radius, a length, phi0)
     constraints.<name>.<key>.<k>              an entry of a vector key (si, qi, value, u)
     constraints.<name>.<key>.<sub>[.<k>]      inside a function or outline table
@@ -11,18 +13,26 @@ named by a dot path in the case file's own words (docs/case-format.md,
 A constraint is addressed by its name, an unnamed one by ``#<index>``
 (1-based, its place in the file). A constraint key that names a point
 (``si = "A"``) is that point's coordinate: ``points.A.at.<k>``, which moves
-every constraint that reads it. A named point that no constraint reads, body
+every constraint that reads it; a point drawn in the global frame moves on
+every body that carries it. A named point that no constraint reads, body
 estimates, masses and contact-angle estimates (``theta``) are not design
 parameters. A default a case file leaves out and the loader fills in (a
 joint's ``phi0``, a ground's ``value``) is a parameter of its own, held at
-its nominal value when another moves.
+its nominal value when another moves. Values are in the file's units: with
+``units = { angle = "deg" }`` an angle is in degrees.
+
+A named dimension ``parameters.<name>`` moves every number of the file
+that names it (``Case.uses``, recorded by the loader); setting one of those
+numbers by its own path detaches it from the name.
 
 ``parameters(case)`` lists them; ``resolve(case, paths)`` checks paths
 (unknown: a did-you-mean; read by no constraint: refused, naming it);
 ``apply(case, {path: value})`` returns a new Case, validated as a case file
-is. A later ``parameters.<name>`` (a named dimension) is one more root here:
-``ROOTS``, ``_listing`` and ``_assign``.
+is: the one place where ``--set``, sweeps, ``load(parameters=...)``,
+sensitivities and tolerance bands set values (a bare ``NAME`` is
+``parameters.NAME``).
 """
+import math
 from dataclasses import dataclass
 
 from . import functions as fn
@@ -31,7 +41,8 @@ from .constraints import REGISTRY
 from .errors import InputError
 from .spec import Case
 
-ROOTS = ("points", "constraints")
+ROOTS = ("parameters", "points", "constraints")
+DEGREE = math.pi / 180
 
 
 @dataclass(frozen=True)
@@ -52,7 +63,7 @@ def constraint_id(c) -> str:
 
 
 def parameters(case: Case) -> tuple[Parameter, ...]:
-    """Every design parameter of the case, points first, then constraints in file order."""
+    """Every design parameter of the case: named dimensions, points, then constraints in file order."""
     return tuple(p for p, _ in _listing(case))
 
 
@@ -73,56 +84,216 @@ def resolve(case: Case, paths) -> tuple[Parameter, ...]:
 
 
 def apply(case: Case, values, source: str | None = None) -> Case:
-    """A new Case with ``values`` ({path: number}) set, validated as a case
-    file is (a value out of its key's range is that key's InputError)."""
+    """A new Case with ``values`` ({path or named dimension: number, or its
+    text}) set, validated as a case file is (a value out of its key's range
+    is that key's InputError)."""
     variant = apply_many(case, [values], source)[0]
     if isinstance(variant, InputError):
         raise variant
     return variant
 
 
-def apply_many(case: Case, designs, source: str | None = None) -> list:
+def apply_many(case: Case, designs, source: str | None = None, pinned: bool = False) -> list:
     """``apply`` for many designs ({path: number} each) of one case, paths
-    resolved once: per design its Case, or the InputError that refuses it."""
+    resolved once: per design its Case, or the InputError that refuses it.
+    ``pinned``: every body keeps its frame (a drawn body too: the moved
+    drawing's local coordinates are then affine in the drawn ones)."""
     import copy
 
     from .case import load_dict
 
-    designs = [dict(v) for v in designs]
+    source = source or case.source
+    designs = [{to_path(case, k, source): _number(k, v, source) for k, v in dict(values).items()} for values in designs]
     resolve(case, {path for v in designs for path in v})
-    data, out = case_dict(case), []
+    data, out = case_dict(case, pinned), []
     for values in designs:
         d = copy.deepcopy(data)
         for path, v in values.items():
             _assign(d, case, path, v)
         try:
-            out.append(load_dict(d, source=source or case.source))
+            out.append(load_dict(d, source=source))
         except InputError as e:
             out.append(e)
     return out
 
 
+def to_path(case, key, source) -> str:
+    """A design parameter path; a bare name of [parameters] is parameters.NAME."""
+    if not isinstance(key, str):
+        raise InputError(f"{source}: parameter {key!r}: expected a name or a design parameter path")
+    if "." in key:
+        return key
+    if key in case.parameters:
+        return f"parameters.{key}"
+    guess = suggest(key, list(case.parameters) + [p.path for p in parameters(case)])
+    raise InputError(f"{source}: unknown parameter {key!r}" + (f"; did you mean '{guess}'?" if guess else
+                     "; expected a name of the case's [parameters] or a design parameter path "
+                     "(kinem info CASE --parameters lists them)"))
+
+
+def _number(key, value, source):
+    """A value as TOML would read it (command-line text converted), checked to be a number."""
+    from .case import _number as number
+
+    value = number(value.item() if hasattr(value, "item") and hasattr(value, "dtype") else value)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"{source}: parameter {key!r}: got {value!r}; expected a number")
+    return value
+
+
+def local_tangent(case, path) -> dict:
+    """point -> d(its local coordinates xi + i eta)/d(parameter at ``path``):
+    a point's own coordinate, a drawn point's through its body's frame
+    (pinned), a named dimension's through every point that uses it."""
+    parts = path.split(".")
+    if parts[0] == "parameters":
+        out = {}
+        for use in case.uses.get(parts[1], ()):
+            if use.startswith("points."):
+                for n, d in local_tangent(case, use).items():
+                    out[n] = out.get(n, 0) + d
+        return out
+    if parts[0] != "points":
+        return {}
+    p = next(q for q in case.points if q.name == parts[1])
+    if p.drawn is None:
+        return {p.name: 1.0 if parts[3] == "0" else 1j}
+    phi = next(b.q[2] for b in case.bodies if b.name == p.body)
+    c, s = math.cos(phi), math.sin(phi)
+    return {p.name: complex(c, -s) if parts[3] == "0" else complex(s, c)}
+
+
+def frame_tangent(case, path) -> dict:
+    """body -> (ds0, dalpha): how the frame a body derives from its drawn
+    points (no q: origin at its first point, x axis towards the next one
+    drawn elsewhere; kinem.casefile.drawn) moves in the body along the
+    parameter at ``path``: its origin's local coordinates ds0 (xi + i eta,
+    in the nominal frame) and its angle dalpha. Bodies whose frame does not
+    move are left out."""
+    moved = _drawn_tangent(case, path)
+    if not moved:
+        return {}
+    drawn = {p.name: p.drawn for p in case.points if p.drawn is not None}
+    out = {}
+    for b in case.bodies:
+        names = [n for n, _ in b.carries if n in drawn]
+        if not b.derived or not names:
+            continue
+        c, s = math.cos(b.q[2]), math.sin(b.q[2])
+
+        def local(d):   # A(phi0)^T d, d = dx + i dy
+            return complex(c * d.real + s * d.imag, -s * d.real + c * d.imag)
+
+        d0 = local(moved.get(names[0], 0j))
+        axis = next((n for n in names[1:] if drawn[n] != drawn[names[0]]), None)
+        dalpha = 0.0
+        if axis is not None:
+            length = math.hypot(drawn[axis][0] - drawn[names[0]][0], drawn[axis][1] - drawn[names[0]][1])
+            dalpha = (local(moved.get(axis, 0j)).imag - d0.imag) / length
+        if d0 or dalpha:
+            out[b.name] = (d0, dalpha)
+    return out
+
+
+def driver_tangent(case, path) -> dict:
+    """design parameter path -> its rate along the parameter at ``path``:
+    a driver (or absolute constraint) of the angle of a body whose derived
+    frame turns with the parameter (frame_tangent) drives that frame's
+    direction, so its values turn with it: with the frames held, its
+    values move by -dalpha (in the file's angle unit); so does a
+    translational joint's phi0 that the file gives (one the loader filled
+    in from the drawn frames follows them already). A gear's phi0 is not
+    followed."""
+    turns = {b: da for b, (_, da) in frame_tangent(case, path).items() if da}
+    scale = 1 / DEGREE if case.units.get("angle") == "deg" else 1.0
+    out = {}
+    for c in case.constraints:
+        if c.type == "translational" and "phi0" not in c.filled and {c["i"], c["j"]} & set(turns):
+            out[f"constraints.{constraint_id(c)}.phi0"] = -(turns.get(c["i"], 0.0) - turns.get(c["j"], 0.0)) * scale
+        if c.get("coord") != "phi" or c.get("body") not in turns or c.type not in ("driver", "absolute"):
+            continue
+        cid, rate = constraint_id(c), -turns[c["body"]] * scale
+        if c.type == "absolute" and "value" in c.filled:   # the frame's own estimate: held as the frame turns
+            continue
+        if c.type == "absolute":
+            out[f"constraints.{cid}.value"] = rate
+        elif isinstance(c["d"], fn.Poly):
+            out[f"constraints.{cid}.d.poly.0"] = rate
+        elif isinstance(c["d"], fn.Harmonic):
+            out[f"constraints.{cid}.d.harmonic.offset"] = rate
+        else:
+            out.update({f"constraints.{cid}.d.table.value.{k}": rate for k in range(len(c["d"].value))})
+    return out
+
+
+def _drawn_tangent(case, path) -> dict:
+    """drawn point -> d(its drawn x + i y)/d(parameter at ``path``)."""
+    parts = path.split(".")
+    if parts[0] == "parameters":
+        out = {}
+        for use in case.uses.get(parts[1], ()):
+            for n, d in _drawn_tangent(case, use).items():
+                out[n] = out.get(n, 0j) + d
+        return out
+    if parts[0] != "points" or len(parts) != 4:
+        return {}
+    p = next((q for q in case.points if q.name == parts[1]), None)
+    if p is None or p.drawn is None:
+        return {}
+    return {p.name: 1 + 0j if parts[3] == "0" else 1j}
+
+
 def _listing(case):
-    """(Parameter, where): where says how to set it (_assign)."""
+    """(Parameter, None) of every design parameter."""
     read = {}   # point -> the constraints that read it
     for c in case.constraints:
         for point in c.refs.values():
-            read.setdefault(point, []).append(constraint_id(c))
+            read.setdefault(point, {})[constraint_id(c)] = None
     length = case.length_unit
+    points = []
     for p in case.points:
-        if p.name in read:
-            for k, axis in enumerate(("xi", "eta")):
-                yield Parameter(f"points.{p.name}.at.{k}", float(p.at[k]), length,
-                                f"{axis} of point {p.name} on body {p.body} (read by {', '.join(read[p.name])})"), None
+        if p.name not in read:
+            continue
+        for k, axis in enumerate(("x", "y") if p.drawn else ("xi", "eta")):
+            if p.drawn:
+                on = [b.name for b in case.bodies if p.name in dict(b.carries)]
+                what = (f"{axis} of point {p.name} drawn in the global frame, on {', '.join(on)} "
+                        f"(read by {', '.join(read[p.name])})")
+                points.append(Parameter(f"points.{p.name}.at.{k}", float(p.drawn[k]), length, what))
+            else:
+                points.append(Parameter(f"points.{p.name}.at.{k}", float(p.at[k]), length,
+                                        f"{axis} of point {p.name} on body {p.body} (read by {', '.join(read[p.name])})"))
+    cons = []
     for c in case.constraints:
         cid = constraint_id(c)
         for key in REGISTRY[c.type].keys:
             if key.name not in c.fields or key.name in c.refs:
                 continue
-            for sub, value, quantity in key.numbers(c.fields[key.name]):
+            for sub, value, unit in _numbers(case, c, key):
                 path = ".".join(x for x in ("constraints", cid, key.name, sub) if x)
                 what = f"{c.type} {cid}: {key.name}" + (f".{sub}" if sub else "") + (f" ({key.doc})" if key.doc else "")
-                yield Parameter(path, float(value), _unit(quantity, c, length), what), None
+                cons.append(Parameter(path, value, unit, what))
+    known = {p.path: p for p in points + cons}
+    for name, value in case.parameters.items():
+        used = case.uses.get(name, ())
+        shaped = [u for u in used if u in known]
+        unit = known[shaped[0]].unit if shaped else ""
+        what = (f"named dimension {name} of [parameters], used by {', '.join(used)}" if used
+                else f"named dimension {name} of [parameters], used by no number of the case")
+        yield Parameter(f"parameters.{name}", float(value), unit, what), None
+    for p in points + cons:
+        yield p, None
+
+
+def _numbers(case, c, key):
+    """(sub-path, value, unit) of key's numbers in constraint c, in the file's
+    units: an angle of a case in degrees is in degrees."""
+    degrees = case.units.get("angle") == "deg"
+    for sub, value, quantity in key.numbers(c.fields[key.name]):
+        unit = _unit(quantity, c, case.length_unit)
+        if degrees and unit.startswith("rad"):
+            value, unit = value / DEGREE, "deg" + unit[3:]
+        yield sub, float(value), unit
 
 
 def _unit(quantity, c, length) -> str:
@@ -169,6 +340,9 @@ def _constraint(case, cid):
 def _assign(data, case, path, value):
     """Set the number at ``path`` (a resolved parameter) in case_dict's ``data``."""
     parts = path.split(".")
+    if parts[0] == "parameters":
+        data["parameters"][parts[1]] = value
+        return
     if parts[0] == "points":
         data["points"][parts[1]]["at"][int(parts[3])] = value
         return
@@ -189,20 +363,29 @@ def _dig(table, keys):
     return table
 
 
-def case_dict(case: Case) -> dict:
+def case_dict(case: Case, pinned: bool = False) -> dict:
     """The case as the dict of its case file (kinem.load_dict's input): every
-    value the loader filled in written out, a key that named a point names it
-    again. load_dict(case_dict(case)) equals case (but for its source)."""
+    value the loader filled in written out, in the file's units (degrees
+    where units = { angle = "deg" }), a key that named a point names it
+    again, a point drawn in the global frame drawn again (its bodies with
+    their points lists; q only where the file gave it, or every body's with
+    ``pinned``; a value the loader filled in from a drawn frame left to be
+    filled in again), a number that named a [parameters] entry names it again.
+    load_dict(case_dict(case)) equals case (but for its source, and to
+    rounding for angles in degrees)."""
     from .casefile.sections import SOLVER_KEYS
     from .options import Options
 
     solver = Options.of(case)   # the [solver] section as the case gives it
+    degrees = case.units.get("angle") == "deg"
+    derived = {b.name for b in case.bodies if b.derived}
     d = {"name": case.name, "description": case.description, "units": dict(case.units),
          "time": {"end": case.end, "steps": case.steps},
          "solver": {k: getattr(solver, k) for k in SOLVER_KEYS},
-         "bodies": {b.name: _drop_none({"q": list(b.q), "mass": b.mass, "inertia": b.inertia}) for b in case.bodies},
-         "points": {p.name: {"body": p.body, "at": list(p.at)} for p in case.points},
-         "constraints": [_constraint_dict(c) for c in case.constraints],
+         "bodies": {b.name: _body_dict(b, degrees, pinned) for b in case.bodies},
+         "points": {p.name: {"body": p.body, "at": list(p.at)} if p.drawn is None
+                    else {"body": p.body, "at": list(p.drawn), "frame": "global"} for p in case.points},
+         "constraints": [_constraint_dict(case, c, set() if pinned else derived) for c in case.constraints],
          "engines": {name: {k: list(v) if isinstance(v, tuple) else v for k, v in s.items()}
                      for name, s in case.engines.items()},
          "report": {k: list(v) if isinstance(v, tuple) else v for k, v in case.report.items()}}
@@ -210,19 +393,69 @@ def case_dict(case: Case) -> dict:
         d["equivalent"] = {"group": case.equivalent.group, "points": list(case.equivalent.points)}
     if case.tolerances:
         d["tolerances"] = {k: dict(v) if hasattr(v, "items") else v for k, v in case.tolerances.items()}
+    if case.parameters:
+        d["parameters"] = dict(case.parameters)
+        for name, paths in case.uses.items():
+            for path in paths:
+                _name_at(d, case, path, name)
     return d
+
+
+def _body_dict(b, degrees, pinned):
+    q = list(b.q[:2]) + [b.q[2] / DEGREE if degrees else b.q[2]]
+    out = {"q": q, "mass": b.mass, "inertia": b.inertia,
+           "points": [n for n, _ in b.carries] if b.carries else None}
+    if b.derived and not pinned:
+        del out["q"]
+    return _drop_none(out)
+
+
+def _name_at(d, case, path, name):
+    """Write ``name`` at ``path`` of case_dict's ``d`` (a number that named it in the file)."""
+    parts = path.split(".")
+    if path == "time.dt":
+        return   # written as its steps
+    if parts[0] == "constraints":
+        holder = d["constraints"][_constraint(case, parts[1]).index - 1]
+        parts = parts[2:]
+    else:
+        holder = d
+    if parts[:1] == ["bodies"] and "q" not in d["bodies"].get(parts[1], {}):
+        return   # a derived frame's estimate: not written
+    holder = _dig(holder, parts[:-1])
+    holder[int(parts[-1]) if isinstance(holder, list) else parts[-1]] = name
 
 
 def _drop_none(d):
     return {k: v for k, v in d.items() if v is not None}
 
 
-def _constraint_dict(c) -> dict:
+def _constraint_dict(case, c, derived) -> dict:
+    """Constraint c as the file writes it; a value the loader filled in from
+    the estimates is left out where it reads a ``derived`` frame (the
+    frames of a moved drawing fill it in again, as the file edited would)."""
     out = {"type": c.type}
     if constraint_id(c) == c.name:
         out["name"] = c.name
+    refill = bool(c.filled) and any(c.fields.get(k.name) in derived for k in REGISTRY[c.type].keys
+                                    if type(k).__name__ == "BodyKey")
     for k, v in c.fields.items():
+        if refill and k in c.filled:
+            continue
         out[k] = c.refs[k] if k in c.refs else _value(v)
+    if case.units.get("angle") == "deg":   # the file's degrees again
+        for key in REGISTRY[c.type].keys:
+            if key.name not in out or key.name in c.refs:
+                continue
+            if not key.numbers(c.fields[key.name]) and key.angle:   # an estimate (theta)
+                out[key.name] = c.fields[key.name] / DEGREE
+            for sub, value, _ in _numbers(case, c, key):
+                if sub == "":
+                    out[key.name] = value
+                else:
+                    keys = sub.split(".")
+                    holder = _dig(out[key.name], keys[:-1])
+                    holder[int(keys[-1]) if isinstance(holder, list) else keys[-1]] = value
     return out
 
 
@@ -237,7 +470,7 @@ def _value(v):
     if hasattr(v, "kind") and hasattr(v, "center"):   # an Outline
         if v.kind == "circle":
             return {"circle": {"radius": v.radius}, "center": list(v.center)}
-        spline = {"theta": list(v.theta), "s": list(v.s), "periodic": v.periodic}
+        spline = {"theta": list(v.theta), "s": list(v.s), "periodic": v.periodic, "degrees": False}   # radians
         if not v.periodic:
             spline["bc"] = v.bc
         return {"spline": spline, "center": list(v.center)}
@@ -246,4 +479,5 @@ def _value(v):
     return v
 
 
-__all__ = ["Parameter", "parameters", "resolve", "apply", "apply_many", "case_dict", "constraint_id", "ROOTS"]
+__all__ = ["Parameter", "parameters", "resolve", "apply", "apply_many", "case_dict", "constraint_id", "local_tangent",
+           "frame_tangent", "driver_tangent", "to_path", "ROOTS"]

@@ -26,7 +26,7 @@ from . import native
 from .errors import AnalysisError, InputError, KinemError
 from .model import core_tables, families_of
 from .options import Options
-from .parameters import apply_many, resolve
+from .parameters import apply_many, driver_tangent, frame_tangent, local_tangent, resolve
 from .result import OUTPUTS, Trajectory, _layout
 from .solver import solve
 from .tracking import singular_pivot
@@ -97,6 +97,8 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     for k, (_, dlocal) in enumerate(tangents):
         dx = [np.ascontiguousarray(out[s, k]) for s in range(len(X))]
         blocks.append(native.columns(X, src, model.point_cols, model.point_local, (dx, dlocal)))
+    for p, block in zip(listed, blocks):
+        _derived_frames(case, p.path, columns, block, result.trajectory)
     data = np.concatenate(blocks, axis=1) if blocks else np.zeros((len(t), 0))
     floor = singular_pivot((options or Options.of(case)).tolerance)
     singular = ~(ratio >= floor)
@@ -110,6 +112,27 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     return Sensitivity(listed, result.trajectory, Trajectory(t.copy(), names, data), singular, ratio, message)
 
 
+def _derived_frames(case, path, columns, block, traj):
+    """The columns of a body whose frame derives from drawn points that p
+    moves (kinem.parameters.frame_tangent): the tangent, taken with the
+    frames held, plus the frame's own move, r' = r + A(phi) s0 and
+    phi' = phi + alpha, differentiated at s0 = 0, alpha = 0 (with their
+    velocities and accelerations): the columns of the moved drawing."""
+    index = {c: k for k, c in enumerate(columns)}
+    for body, (ds0, dalpha) in frame_tangent(case, path).items():
+        turn = np.exp(1j * traj[f"{body}.phi"]) * ds0
+        terms = {"x": turn.real, "y": turn.imag, "phi": dalpha}
+        if f"{body}.omega" in traj:
+            w = traj[f"{body}.omega"]
+            terms.update(vx=(1j * w * turn).real, vy=(1j * w * turn).imag)
+            if f"{body}.alpha" in traj:
+                a = (1j * traj[f"{body}.alpha"] - w ** 2) * turn
+                terms.update(ax=a.real, ay=a.imag)
+        for key, v in terms.items():
+            if f"{body}.{key}" in index:
+                block[:, index[f"{body}.{key}"]] += v
+
+
 def _tables(case, length):
     """The model's tables, every function and outline its own number (so
     that a moved one keeps its place)."""
@@ -121,11 +144,17 @@ def _moved(case, listed):
     """(the case with p moved by h, h) for each parameter p: h a power of
     two near |p| / 2 (-h where +h is not a valid case)."""
     steps = [2.0 ** (np.floor(np.log2(abs(p.value))) - 1) if p.value else 0.5 for p in listed]
-    out = list(zip(apply_many(case, [{p.path: p.value + h} for p, h in zip(listed, steps)]), steps))
+    turned = [driver_tangent(case, p.path) for p in listed]   # drivers of drawn frames that p turns
+    values = {q.path: q.value for q in resolve(case, {q for t in turned for q in t})}
+
+    def design(p, h, turn):
+        return {p.path: p.value + h, **{q: values[q] + h * rate for q, rate in turn.items()}}
+
+    out = list(zip(apply_many(case, [design(p, h, t) for p, h, t in zip(listed, steps, turned)], pinned=True), steps))
     for k, (moved, h) in enumerate(out):
         if isinstance(moved, InputError):
             p = listed[k]
-            out[k] = (apply_many(case, [{p.path: p.value - h}])[0], -h)
+            out[k] = (apply_many(case, [design(p, -h, turned[k])], pinned=True)[0], -h)
             if isinstance(out[k][0], InputError):
                 raise InputError(f"{case.source}: parameter '{p.path}': no valid case within {h:g} of its value")
     return out
@@ -141,9 +170,9 @@ def _tangent(case, length, base, p, moved, step):
     for (kind, t0), (_, t1) in zip(base[0], tables):
         families.append((kind, t0, _difference(t0, t1, step, p.path)))
     dlocal = np.zeros(len(case.points), complex)
-    parts = p.path.split(".")
-    if parts[0] == "points":
-        dlocal[[q.name for q in case.points].index(parts[1])] = 1.0 if parts[3] == "0" else 1j
+    names = [q.name for q in case.points]
+    for point, d in local_tangent(case, p.path).items():
+        dlocal[names.index(point)] += d
     return (families, (base[1], _difference(base[1], functions, step, p.path)),
             (base[2], _difference(base[2], outlines, step, p.path))), dlocal
 

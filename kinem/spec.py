@@ -19,6 +19,7 @@ class Body:
     mass: float | None = None
     inertia: float | None = None
     carries: tuple = ()   # (point name, (xi, eta)): the drawn points it carries, in its own frame
+    derived: bool = False  # q derived from its drawn points (the file gave none)
 
 
 @dataclass(frozen=True)
@@ -26,6 +27,7 @@ class Point:
     name: str
     body: str
     at: tuple  # local coordinates (xi, eta)
+    drawn: tuple | None = None   # (x, y) as drawn in the global frame (frame = "global"), else None
 
 
 @dataclass(frozen=True)
@@ -35,6 +37,7 @@ class Constraint:
     index: int  # 1-based position in the file's [[constraints]]
     fields: Mapping[str, Any] = field(default_factory=frozen_map)
     refs: Mapping[str, str] = field(default_factory=frozen_map)  # key -> the named point it gave (fields hold its at)
+    filled: tuple = field(default=(), compare=False)   # keys the loader filled in from the estimates (phi0, value)
 
     def __getitem__(self, key):
         return self.fields[key]
@@ -76,6 +79,7 @@ class Case:
     equivalent: Equivalence | None = None  # [equivalent]: the group of equivalent models it belongs to
     parameters: Mapping = field(default_factory=frozen_map)   # [parameters]: name -> the value used
     tolerances: Mapping = field(default_factory=frozen_map)  # [tolerances]: parameter path -> pm or {pm, sigma}
+    uses: Mapping = field(default_factory=frozen_map)   # [parameters] name -> the paths of the numbers it gave
 
     def __repr__(self) -> str:   # a summary: the whole case is kinem.load's input, and thousands of characters
         return (f"Case({self.name!r}: {len(self.bodies)} bodies, {len(self.points)} points, "

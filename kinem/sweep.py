@@ -1,8 +1,9 @@
-"""Sweeps: a case solved over a grid of its named parameters' values.
+"""Sweeps: a case solved over a grid of its design parameters' values.
 
 ``sweep(case, {"coupler": np.linspace(0.28, 0.32, 201)}, outputs=["B.x"])``
 loads one variant per point of the grid (the product of the values given
-for each parameter; kinem.case.set_values resolves each name), solves them
+for each parameter: a named dimension of [parameters] or any design
+parameter path, set by kinem.parameters.apply_many), solves them
 all as one batch (kinem.batch: one merged case, its variants marched side
 by side) and returns a Sweep: one table of variant, parameters, t and the
 outputs. A batch that fails is halved until each failing variant is solved
@@ -18,6 +19,7 @@ import numpy as np
 from .errors import InputError, KinemError
 
 MAX_VARIANTS = 100_000
+LOAD_CHUNK = 64   # variants loaded by one kinem.parameters.apply_many
 STAGE_OF = {"x": 0, "y": 0, "phi": 0, "theta": 0, "vx": 1, "vy": 1, "omega": 1, "dtheta": 1,
             "ax": 2, "ay": 2, "alpha": 2, "ddtheta": 2}
 
@@ -109,16 +111,18 @@ def grid(values: dict):
 
 def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
     """Solves ``case`` (a case file's path, or its dict) for every combination
-    of ``values`` (parameter name -> numbers); ``outputs``: trajectory column
+    of ``values`` (named dimension or design parameter path -> numbers); ``outputs``: trajectory column
     names (default all); ``progress``: a kinem.report.progress.Progress."""
-    from .case import load_dict, read, set_values
+    from .case import load_dict, read
     from .model import compile
+    from .parameters import apply_many, resolve, to_path
 
     source = str(case) if isinstance(case, (str, Path)) else "<dict>"
     data = case if isinstance(case, dict) else read(case)
     names, grid_values = grid(values)
-    set_values(data, dict.fromkeys(names, 0.0), source)   # the names resolve (else one InputError for all)
-    base = compile(load_dict(data, source))
+    nominal = load_dict(data, source)
+    resolve(nominal, [to_path(nominal, n, source) for n in names])   # the names resolve (else one InputError for all)
+    base = compile(nominal)
     columns = _columns(base, outputs)
     stages = 1 + max(STAGE_OF[c.rsplit(".", 1)[1]] for c in columns)
     cases, errors = [], [""] * len(grid_values)
@@ -128,16 +132,19 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
 
     from .errors import KinemWarning
 
-    for k, row in enumerate(grid_values):
-        try:
-            with warnings.catch_warnings():   # the case's own warnings are the base's, given once
-                warnings.simplefilter("ignore", KinemWarning)
-                cases.append(load_dict(data, f"{source} (variant {k})", dict(zip(names, row.tolist()))))
-        except InputError as e:
-            cases.append(None)
-            errors[k] = f"bad input: {e.summary()}"
-        if progress:
-            progress.step(f"variant {k + 1} loaded")
+    for start in range(0, len(grid_values), LOAD_CHUNK):
+        rows = grid_values[start:start + LOAD_CHUNK]
+        with warnings.catch_warnings():   # the case's own warnings are the base's, given once
+            warnings.simplefilter("ignore", KinemWarning)
+            loaded = apply_many(nominal, [dict(zip(names, row.tolist())) for row in rows])
+        for k, variant in enumerate(loaded, start):
+            if isinstance(variant, InputError):
+                cases.append(None)
+                errors[k] = f"bad input: {variant.summary()}"
+            else:
+                cases.append(variant)
+            if progress:
+                progress.step(f"variant {k + 1} loaded")
     out = np.full((len(grid_values), len(base.times), len(columns)), np.nan)
     from .result import OUTPUTS
 

@@ -76,4 +76,5 @@ def constraint(ck, index, c, bodies, points, end):
         if ck.failures > n_before:
             return None
     refs = {k.name: c[k.name] for k in decl.keys if isinstance(k, LocalKey) and isinstance(c.get(k.name), str)}
-    return Constraint(ctype, name, index, frozen_map(fields), frozen_map(refs))
+    filled = tuple(k for k in fields if k not in c)
+    return Constraint(ctype, name, index, frozen_map(fields), frozen_map(refs), filled)

@@ -63,7 +63,7 @@ def place(ck, bodies, points, drawn, order):
             elif b.q is None and abs(math.atan2(dy, dx) - q[2]) == 0 and (dx or dy):
                 at = (math.hypot(dx, dy), 0.0)   # the point that gave the axis: on it exactly
             local.append((n, at))
-        placed[name] = replace(b, q=tuple(q), carries=tuple(local))
+        placed[name] = replace(b, q=tuple(q), carries=tuple(local), derived=b.q is None)
     out = {}
     for n in order:
         if n in points:
@@ -78,7 +78,7 @@ def place(ck, bodies, points, drawn, order):
                        'a body key, or the point in a body\'s points = [...]')
                 ck.rejected.add(n)
             elif owner in placed:
-                out[n] = Point(n, owner, dict(placed[owner].carries)[n])
+                out[n] = Point(n, owner, dict(placed[owner].carries)[n], tuple(drawn[n][1]))
     return placed, out
 
 
