@@ -65,11 +65,12 @@ def split(traj: Trajectory, k: int) -> Trajectory:
     (InputError for a k that is not one of its variants)."""
     if not isinstance(traj, Trajectory):
         raise InputError(f"split: traj {type(traj).__name__}: expected the Trajectory of a merged case")
-    count = variants(traj)
-    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < count:
+    whole = not isinstance(k, bool) and isinstance(k, (int, np.integer)) and k >= 0
+    p = prefix(k) if whole else ""
+    idx = [i for i, c in enumerate(traj.columns) if c.startswith(p)] if whole else []
+    if not idx:   # the variants counted only to say what was expected (a pass over every column)
+        count = variants(traj)
         raise InputError(f"split: k {k!r:.40}: expected a variant index, a whole number from 0 to {count - 1}"
                          if count else f"split: k {k!r:.40}: the trajectory has no variants (not of a merged case)")
-    p = prefix(k)
-    idx = [i for i, c in enumerate(traj.columns) if c.startswith(p)]
     return Trajectory(np.array(traj.t), tuple(traj.columns[i][len(p):] for i in idx),
                       np.ascontiguousarray(traj.data[:, idx]))

@@ -172,7 +172,7 @@ def _columns(model, outputs) -> tuple:
 
 def _solve(ks, cases, stages, columns, out, errors, progress):
     """Solves variants ``ks`` as one batch; halves a batch that fails."""
-    from .batch import merge, split
+    from .batch import merge, prefix
     from .model import compile
     from .solver import solve
 
@@ -187,9 +187,10 @@ def _solve(ks, cases, stages, columns, out, errors, progress):
         errors[ks[0]] = f"bad input: {e.summary()}"
         result = None
     if result is not None and result.success:
-        for j, k in enumerate(ks):
-            traj = split(result.trajectory, j) if len(ks) > 1 else result.trajectory
-            out[k] = np.column_stack([traj[c] for c in columns])
+        traj = result.trajectory
+        for j, k in enumerate(ks):   # variant j's columns by their merged names (kinem.batch)
+            p = prefix(j) if len(ks) > 1 else ""
+            out[k] = np.column_stack([traj[p + c] for c in columns])
         if progress:
             progress.done += len(ks)
             progress.show(f"{len(ks)} variants solved")
