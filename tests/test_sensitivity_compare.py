@@ -65,3 +65,18 @@ def test_no_parameters_is_an_input_error():
     assert code == 2 and "[report] sensitivity" in err and not out
     code, _, err = run("compare", ROOT / "cases/four_bar.toml", "--sensitivity", "points.Q.at.0", "--engines", "native")
     assert code == 2 and "points.Q.at.0" in err
+
+
+def test_report_design_section_shows_the_engines_differences():
+    """The report's design section gets a column per engine: its largest
+    ratio to (X1) for every parameter, within 1 on the four-bar."""
+    import re
+
+    from kinem.report.design import section
+
+    model = kinem.compile(kinem.load(ROOT / "cases/four_bar.toml").with_time(end=0.5, steps=20))
+    table = section(model, ["pymunk"])[0]
+    assert "<th>pymunk differences</th>" in table
+    ratios = re.findall(r'<td title="within: d\([^)]+\)/d\(([^)]+)\)[^"]*">([0-9.e+-]+)</td></tr>', table)
+    assert [p for p, _ in ratios] == ["points.A.at.0", "constraints.B.si.0", "points.O4.at.0"]
+    assert all(0 <= float(r) <= 1 for _, r in ratios)
