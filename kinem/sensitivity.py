@@ -18,7 +18,7 @@ At an instant where Phi_q is singular (its pivot ratio below the solver's
 floor, kinem.tracking.singular_pivot) the derivatives are infinite: they are
 reported as inf, flagged in ``singular`` and named in ``message``.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -26,9 +26,10 @@ from . import native
 from .errors import AnalysisError, InputError, KinemError
 from .model import core_tables, families_of
 from .options import Options
-from .parameters import apply_many, resolve
+from .parameters import apply_many, constraint_id, resolve
 from .result import OUTPUTS, Trajectory, _layout
 from .solver import solve
+from .spec import frozen_map
 from .tracking import singular_pivot
 
 
@@ -119,9 +120,14 @@ def _tables(case, length):
 
 def _moved(case, listed):
     """(the case with p moved by h, h) for each parameter p: h a power of
-    two near |p| / 2 (-h where +h is not a valid case)."""
+    two near |p| / 2 (-h where +h is not a valid case). A coordinate of a
+    point or of a constraint's vector key is set in place (``_replaced``);
+    the others through kinem.parameters.apply_many (a validated case each)."""
     steps = [2.0 ** (np.floor(np.log2(abs(p.value))) - 1) if p.value else 0.5 for p in listed]
-    out = list(zip(apply_many(case, [{p.path: p.value + h} for p, h in zip(listed, steps)]), steps))
+    fast = [_replaced(case, p.path, p.value + h) for p, h in zip(listed, steps)]
+    slow = [k for k, moved in enumerate(fast) if moved is None]
+    applied = iter(apply_many(case, [{listed[k].path: listed[k].value + steps[k]} for k in slow]) if slow else ())
+    out = [(moved if moved is not None else next(applied), h) for moved, h in zip(fast, steps)]
     for k, (moved, h) in enumerate(out):
         if isinstance(moved, InputError):
             p = listed[k]
@@ -129,6 +135,47 @@ def _moved(case, listed):
             if isinstance(out[k][0], InputError):
                 raise InputError(f"{case.source}: parameter '{p.path}': no valid case within {h:g} of its value")
     return out
+
+
+def _replaced(case, path, value):
+    """The case with the coordinate at ``path`` set to ``value`` without
+    re-validating it, or None for any other path: ``points.P.at.k`` (the
+    point and every constraint key that names it) or
+    ``constraints.C.KEY.k`` of a vector key that names no point, in a case
+    of no drawn bodies. The tables read these numbers as given and are
+    affine in them (a moved coordinate is never invalid), so the tangent is
+    the one a validated case gives (tests/test_sensitivity.py compares them)."""
+    parts = path.split(".")
+    if len(parts) != 4 or not parts[3].isdigit() or any(b.carries for b in case.bodies):
+        return None
+    k = int(parts[3])
+
+    def moved(v):
+        v = list(v)
+        v[k] = value
+        return tuple(v)
+
+    if parts[0] == "points":
+        at = {q.name: q for q in case.points}[parts[1]].at
+        if len(at) <= k:
+            return None
+        at = moved(at)
+        points = tuple(replace(q, at=at) if q.name == parts[1] else q for q in case.points)
+        constraints = tuple(
+            replace(c, fields=frozen_map({**c.fields, **{key: at for key, q in c.refs.items() if q == parts[1]}}))
+            if parts[1] in c.refs.values() else c for c in case.constraints)
+        return replace(case, points=points, constraints=constraints)
+    if parts[0] != "constraints":
+        return None
+    out = list(case.constraints)
+    for i, c in enumerate(out):
+        if constraint_id(c) == parts[1]:
+            v = c.fields.get(parts[2])
+            if parts[2] in c.refs or not isinstance(v, tuple) or len(v) <= k:
+                return None
+            out[i] = replace(c, fields=frozen_map({**c.fields, parts[2]: moved(v)}))
+            return replace(case, constraints=tuple(out))
+    return None
 
 
 def _tangent(case, length, base, p, moved, step):

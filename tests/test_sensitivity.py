@@ -213,3 +213,31 @@ def test_cli_writes_every_column_derivative(tmp_path):
     bad = subprocess.run(run[:-4] + ["--parameters", "constraints.A.si.9", "--out", str(out)],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and "did you mean" in bad.stderr and len(bad.stderr.splitlines()) == 1
+
+
+@pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
+def test_coordinates_moved_in_place_give_the_validated_tables(path):
+    """kinem.sensitivity moves a point's or a vector key's coordinate in
+    place (no validated case per parameter): the model's tables from that
+    case equal, to 1e-15 relative, those of the validated case that
+    kinem.parameters.apply gives."""
+    import importlib
+
+    S = importlib.import_module("kinem.sensitivity")
+    case = kinem.load(path)
+    length = kinem.compile(case).length
+    fast = 0
+    for p in parameters(case):
+        value = p.value + 0.25 * max(abs(p.value), 1e-3)
+        moved = S._replaced(case, p.path, value)
+        if moved is None:
+            continue
+        fast += 1
+        a, b = S._tables(moved, length), S._tables(apply(case, {p.path: value}), length)
+        pairs = [(x[1], y[1]) for x, y in zip(a[0], b[0])] + [(a[1], b[1]), (a[2], b[2])]
+        assert len(a[0]) == len(b[0])
+        for x, y in pairs:
+            assert x.keys() == y.keys(), p.path
+            for key in x:
+                assert np.allclose(x[key], y[key], rtol=1e-15, atol=0), (p.path, key)
+    assert fast > 0 or not any(p.path.startswith("points.") for p in parameters(case))
