@@ -24,7 +24,10 @@ import numpy as np
 
 from . import native
 from .errors import AnalysisError, InputError, KinemError
-from .model import core_tables, families_of
+from .constraints import REGISTRY
+from .functions import FunctionTable
+from .model import _Context, core_tables, families_of
+from .outline import OutlineTable
 from .options import Options
 from .parameters import apply_many, constraint_id, resolve
 from .result import OUTPUTS, Trajectory, _layout
@@ -183,16 +186,62 @@ def _tangent(case, length, base, p, moved, step):
     tables are affine in the case's numbers; ``moved``: the case with p
     moved by ``step``) and of the named points' local coordinates:
     ((families, (functions, tangent), (outlines, tangent)), dlocal)."""
+    reached = _reached(case, moved, length, base[0])
+    if reached is not None:   # only the families of the constraints moved in place (_replaced)
+        families = [(kind, t0, _difference(t0, reached[k], step, p.path) if k in reached else _zero(t0))
+                    for k, (kind, t0) in enumerate(base[0])]
+        return (families, (base[1], _zero(base[1])), (base[2], _zero(base[2]))), _dlocal(case, p)
     tables, functions, outlines = _tables(moved, length)
     families = []
     for (kind, t0), (_, t1) in zip(base[0], tables):
         families.append((kind, t0, _difference(t0, t1, step, p.path)))
+    return (families, (base[1], _difference(base[1], functions, step, p.path)),
+            (base[2], _difference(base[2], outlines, step, p.path))), _dlocal(case, p)
+
+
+def _reached(case, moved, length, base):
+    """{family number: its table} of the families holding a constraint that
+    ``moved`` (a case from _replaced) changed, each built alone; None when
+    moved is not such a case, or one of them numbers functions or outlines
+    or columns otherwise than in the model's ``base`` tables (families_of
+    builds them in order, one numbering)."""
+    if len(moved.constraints) != len(case.constraints) or moved.bodies is not case.bodies:
+        return None
+    groups, changed = {}, set()
+    for c0, c1 in zip(case.constraints, moved.constraints):
+        family = REGISTRY[c1.type].family
+        groups.setdefault(family, []).append(c1)
+        if c0 is not c1:
+            changed.add(family)
+    out = {}
+    for k, (family, cons) in enumerate(groups.items()):
+        if family in changed:
+            functions, outlines = FunctionTable(False), OutlineTable(False)
+            table = family(cons, _Context(moved, length)).table(functions, outlines)[1]
+            if not _empty(functions, FunctionTable(False)) or not _empty(outlines, OutlineTable(False)) or any(
+                    v.dtype.kind in "iu" and not np.array_equal(v, table[key]) for key, v in base[k][1].items()):
+                return None
+            out[k] = table
+    return out
+
+
+def _empty(table, fresh) -> bool:
+    """Nothing numbered in ``table`` (its arrays as a fresh table's)."""
+    a, b = table.arrays(), fresh.arrays()
+    return all(len(a[key]) == len(b[key]) for key in b)
+
+
+def _zero(table: dict) -> dict:
+    return {key: np.zeros_like(v) for key, v in table.items() if v.dtype.kind not in "iu"}
+
+
+def _dlocal(case, p):
+    """The tangent of the named points' local coordinates along p."""
     dlocal = np.zeros(len(case.points), complex)
     parts = p.path.split(".")
     if parts[0] == "points":
         dlocal[[q.name for q in case.points].index(parts[1])] = 1.0 if parts[3] == "0" else 1j
-    return (families, (base[1], _difference(base[1], functions, step, p.path)),
-            (base[2], _difference(base[2], outlines, step, p.path))), dlocal
+    return dlocal
 
 
 def _difference(a: dict, b: dict, step: float, path: str) -> dict:
