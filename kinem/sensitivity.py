@@ -141,15 +141,26 @@ def _moved(case, listed):
 
 
 def _replaced(case, path, value):
-    """The case with the coordinate at ``path`` set to ``value`` without
+    """The case with the number at ``path`` set to ``value`` without
     re-validating it, or None for any other path: ``points.P.at.k`` (the
-    point and every constraint key that names it) or
-    ``constraints.C.KEY.k`` of a vector key that names no point, in a case
-    of no drawn bodies. The tables read these numbers as given and are
-    affine in them (a moved coordinate is never invalid), so the tangent is
-    the one a validated case gives (tests/test_sensitivity.py compares them)."""
+    point and every constraint key that names it), ``constraints.C.KEY.k``
+    of a vector key that names no point or ``constraints.C.KEY`` of a
+    scalar key, in a case of no drawn bodies. The tables read these numbers
+    as given and are affine in them (h keeps the number's sign), so the
+    tangent is the one a validated case gives (tests/test_sensitivity.py
+    compares them)."""
     parts = path.split(".")
-    if len(parts) != 4 or not parts[3].isdigit() or any(b.carries for b in case.bodies):
+    if any(b.carries for b in case.bodies):
+        return None
+    if len(parts) == 3 and parts[0] == "constraints":
+        for i, c in enumerate(case.constraints):
+            v = c.fields.get(parts[2])
+            if constraint_id(c) == parts[1] and isinstance(v, float) and parts[2] not in c.refs:
+                out = list(case.constraints)
+                out[i] = replace(c, fields=frozen_map({**c.fields, parts[2]: float(value)}))
+                return replace(case, constraints=tuple(out))
+        return None
+    if len(parts) != 4 or not parts[3].isdigit():
         return None
     k = int(parts[3])
 
