@@ -525,7 +525,9 @@ def cmd_compare(a):
     from adapters.compare import run_case, table
 
     engines = _engines(a.engines)
-    model = _load(a.case)
+    model = _load(a.case, a.end, a.steps)
+    if a.sensitivity is not None:
+        return _compare_sensitivity(a, model, engines)
     native, rows = run_case(model, engines, _settings(a.set, a.dt, engines), a.scheduler)
     if a.json:
         print(json.dumps({"case": model.case.name, "length": model.length, "unit": model.case.length_unit,
@@ -533,6 +535,28 @@ def cmd_compare(a):
     else:
         print(table(model.case.name, model.length, model.case.length_unit, rows))
     return 1 if any(r.verdict.fails for r in rows) else 0   # adapters.compare.Verdict: the report's rule too
+
+
+def _compare_sensitivity(a, model, engines):
+    """kinem compare --sensitivity: exact sensitivities against every source's
+    central differences (adapters.sensitivity); exit 1 when one is outside."""
+    from adapters import check_case
+    from adapters.sensitivity import check, table
+
+    check_case(model.case)
+    paths = [p.strip() for p in a.sensitivity.split(",") if p.strip()] or list(model.case.report.get("sensitivity", ()))
+    if not paths:
+        raise InputError(f"{a.case}: --sensitivity: no parameters given and the case has no [report] sensitivity; "
+                         "expected --sensitivity P[,P...]")
+    _, checks = check(model, paths, engines, _settings(a.set, a.dt, engines))
+    if a.json:
+        print(json.dumps({"case": model.case.name, "sensitivity": [
+            {"engine": c.engine, "parameter": c.parameter, "status": c.status.value, "detail": c.detail, "h": c.h,
+             "figure": c.figure, "error": c.error, "limit": c.limit, "at": c.at, "ratio": c.ratio,
+             "within": c.within} for c in checks]}, indent=2, default=float))
+    else:
+        print(table(model.case.name, checks))
+    return 1 if any(c.within is False for c in checks) else 0
 
 
 def cmd_report(a):
@@ -699,6 +723,11 @@ def parser():
     c.add_argument("--set", action="append", metavar="ENGINE.KEY=VALUE", help="an engine setting (repeatable)")
     _scheduler_option(c)
     c.add_argument("--json", action="store_true", help="the error figures as JSON instead of the table")
+    c.add_argument("--end", help="end time (overrides the case)")
+    c.add_argument("--steps", help="number of output intervals (overrides the case)")
+    c.add_argument("--sensitivity", nargs="?", const="", metavar="P[,P...]",
+                   help="check the exact sensitivities to these parameter paths (default: the case's [report] "
+                        "sensitivity) against native's and the engines' central differences")
     _errors_option(c)
     c.set_defaults(run=cmd_compare)
 

@@ -18,17 +18,21 @@ At an instant where Phi_q is singular (its pivot ratio below the solver's
 floor, kinem.tracking.singular_pivot) the derivatives are infinite: they are
 reported as inf, flagged in ``singular`` and named in ``message``.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from . import native
 from .errors import AnalysisError, InputError, KinemError
-from .model import core_tables, families_of
+from .constraints import REGISTRY
+from .functions import FunctionTable
+from .model import _Context, core_tables, families_of
+from .outline import OutlineTable
 from .options import Options
-from .parameters import apply_many, driver_tangent, frame_tangent, local_tangent, resolve
+from .parameters import apply_many, constraint_id, driver_tangent, frame_tangent, local_tangent, resolve
 from .result import OUTPUTS, Trajectory, _layout
 from .solver import solve
+from .spec import frozen_map
 from .tracking import singular_pivot
 
 
@@ -142,7 +146,9 @@ def _tables(case, length):
 
 def _moved(case, listed):
     """(the case with p moved by h, h) for each parameter p: h a power of
-    two near |p| / 2 (-h where +h is not a valid case)."""
+    two near |p| / 2 (-h where +h is not a valid case). A coordinate of a
+    point or of a constraint's vector key is set in place (``_replaced``);
+    the others through kinem.parameters.apply_many (a validated case each)."""
     steps = [2.0 ** (np.floor(np.log2(abs(p.value))) - 1) if p.value else 0.5 for p in listed]
     turned = [driver_tangent(case, p.path) for p in listed]   # drivers of drawn frames that p turns
     values = {q.path: q.value for q in resolve(case, {q for t in turned for q in t})}
@@ -150,7 +156,12 @@ def _moved(case, listed):
     def design(p, h, turn):
         return {p.path: p.value + h, **{q: values[q] + h * rate for q, rate in turn.items()}}
 
-    out = list(zip(apply_many(case, [design(p, h, t) for p, h, t in zip(listed, steps, turned)], pinned=True), steps))
+    degrees = case.units.get("angle") == "deg"   # paths' angles in degrees: set through apply_many
+    fast = [None if t or degrees else _replaced(case, p.path, p.value + h) for p, h, t in zip(listed, steps, turned)]
+    slow = [k for k, moved in enumerate(fast) if moved is None]
+    applied = iter(apply_many(case, [design(listed[k], steps[k], turned[k]) for k in slow], pinned=True)
+                   if slow else ())
+    out = [(moved if moved is not None else next(applied), h) for moved, h in zip(fast, steps)]
     for k, (moved, h) in enumerate(out):
         if isinstance(moved, InputError):
             p = listed[k]
@@ -160,21 +171,119 @@ def _moved(case, listed):
     return out
 
 
+def _replaced(case, path, value):
+    """The case with the number at ``path`` set to ``value`` without
+    re-validating it, or None for any other path: ``points.P.at.k`` (the
+    point and every constraint key that names it), ``constraints.C.KEY.k``
+    of a vector key that names no point or ``constraints.C.KEY`` of a
+    scalar key, in a case of no drawn bodies. The tables read these numbers
+    as given and are affine in them (h keeps the number's sign), so the
+    tangent is the one a validated case gives (tests/test_sensitivity.py
+    compares them)."""
+    parts = path.split(".")
+    if any(b.carries for b in case.bodies):
+        return None
+    if len(parts) == 3 and parts[0] == "constraints":
+        for i, c in enumerate(case.constraints):
+            v = c.fields.get(parts[2])
+            if constraint_id(c) == parts[1] and isinstance(v, float) and parts[2] not in c.refs:
+                out = list(case.constraints)
+                out[i] = replace(c, fields=frozen_map({**c.fields, parts[2]: float(value)}))
+                return replace(case, constraints=tuple(out))
+        return None
+    if len(parts) != 4 or not parts[3].isdigit():
+        return None
+    k = int(parts[3])
+
+    def moved(v):
+        v = list(v)
+        v[k] = value
+        return tuple(v)
+
+    if parts[0] == "points":
+        at = {q.name: q for q in case.points}[parts[1]].at
+        if len(at) <= k:
+            return None
+        at = moved(at)
+        points = tuple(replace(q, at=at) if q.name == parts[1] else q for q in case.points)
+        constraints = tuple(
+            replace(c, fields=frozen_map({**c.fields, **{key: at for key, q in c.refs.items() if q == parts[1]}}))
+            if parts[1] in c.refs.values() else c for c in case.constraints)
+        return replace(case, points=points, constraints=constraints)
+    if parts[0] != "constraints":
+        return None
+    out = list(case.constraints)
+    for i, c in enumerate(out):
+        if constraint_id(c) == parts[1]:
+            v = c.fields.get(parts[2])
+            if parts[2] in c.refs or not isinstance(v, tuple) or len(v) <= k:
+                return None
+            out[i] = replace(c, fields=frozen_map({**c.fields, parts[2]: moved(v)}))
+            return replace(case, constraints=tuple(out))
+    return None
+
+
 def _tangent(case, length, base, p, moved, step):
     """The tangent of the tables along parameter p (their linear part: the
     tables are affine in the case's numbers; ``moved``: the case with p
     moved by ``step``) and of the named points' local coordinates:
     ((families, (functions, tangent), (outlines, tangent)), dlocal)."""
+    reached = _reached(case, moved, length, base[0])
+    if reached is not None:   # only the families of the constraints moved in place (_replaced)
+        families = [(kind, t0, _difference(t0, reached[k], step, p.path) if k in reached else _zero(t0))
+                    for k, (kind, t0) in enumerate(base[0])]
+        return (families, (base[1], _zero(base[1])), (base[2], _zero(base[2]))), _dlocal(case, p)
     tables, functions, outlines = _tables(moved, length)
     families = []
     for (kind, t0), (_, t1) in zip(base[0], tables):
         families.append((kind, t0, _difference(t0, t1, step, p.path)))
+    return (families, (base[1], _difference(base[1], functions, step, p.path)),
+            (base[2], _difference(base[2], outlines, step, p.path))), _dlocal(case, p)
+
+
+def _reached(case, moved, length, base):
+    """{family number: its table} of the families holding a constraint that
+    ``moved`` (a case from _replaced) changed, each built alone; None when
+    moved is not such a case, or one of them numbers functions or outlines
+    or columns otherwise than in the model's ``base`` tables (families_of
+    builds them in order, one numbering)."""
+    if len(moved.constraints) != len(case.constraints) or moved.bodies is not case.bodies:
+        return None
+    groups, changed = {}, set()
+    for c0, c1 in zip(case.constraints, moved.constraints):
+        family = REGISTRY[c1.type].family
+        groups.setdefault(family, []).append(c1)
+        if c0 is not c1:
+            changed.add(family)
+    out = {}
+    for k, (family, cons) in enumerate(groups.items()):
+        if family in changed:
+            functions, outlines = FunctionTable(False), OutlineTable(False)
+            table = family(cons, _Context(moved, length)).table(functions, outlines)[1]
+            if not _empty(functions, FunctionTable(False)) or not _empty(outlines, OutlineTable(False)) or any(
+                    v.dtype.kind in "iu" and not np.array_equal(v, table[key]) for key, v in base[k][1].items()):
+                return None
+            out[k] = table
+    return out
+
+
+def _empty(table, fresh) -> bool:
+    """Nothing numbered in ``table`` (its arrays as a fresh table's)."""
+    a, b = table.arrays(), fresh.arrays()
+    return all(len(a[key]) == len(b[key]) for key in b)
+
+
+def _zero(table: dict) -> dict:
+    return {key: np.zeros_like(v) for key, v in table.items() if v.dtype.kind not in "iu"}
+
+
+def _dlocal(case, p):
+    """The tangent of the named points' local coordinates along p."""
     dlocal = np.zeros(len(case.points), complex)
     names = [q.name for q in case.points]
     for point, d in local_tangent(case, p.path).items():
         dlocal[names.index(point)] += d
-    return (families, (base[1], _difference(base[1], functions, step, p.path)),
-            (base[2], _difference(base[2], outlines, step, p.path))), dlocal
+    return dlocal
 
 
 def _difference(a: dict, b: dict, step: float, path: str) -> dict:

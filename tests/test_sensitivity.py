@@ -213,3 +213,46 @@ def test_cli_writes_every_column_derivative(tmp_path):
     bad = subprocess.run(run[:-4] + ["--parameters", "constraints.A.si.9", "--out", str(out)],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and "did you mean" in bad.stderr and len(bad.stderr.splitlines()) == 1
+
+
+@pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
+def test_coordinates_moved_in_place_give_the_validated_tables(path):
+    """kinem.sensitivity moves a point's or a vector key's coordinate in
+    place (no validated case per parameter): the model's tables from that
+    case equal, to 1e-15 relative, those of the validated case that
+    kinem.parameters.apply gives."""
+    import importlib
+
+    S = importlib.import_module("kinem.sensitivity")
+    case = kinem.load(path)
+    length = kinem.compile(case).length
+    fast = 0
+    for p in parameters(case):
+        value = p.value + 0.25 * max(abs(p.value), 1e-3)
+        moved = S._replaced(case, p.path, value)
+        if moved is None:
+            continue
+        fast += 1
+        a, b = S._tables(moved, length), S._tables(apply(case, {p.path: value}), length)
+        pairs = [(x[1], y[1]) for x, y in zip(a[0], b[0])] + [(a[1], b[1]), (a[2], b[2])]
+        assert len(a[0]) == len(b[0])
+        for x, y in pairs:
+            assert x.keys() == y.keys(), p.path
+            for key in x:
+                assert np.allclose(x[key], y[key], rtol=1e-15, atol=0), (p.path, key)
+    assert fast > 0 or not any(p.path.startswith("points.") for p in parameters(case))
+    # and the tangents built from the reached families alone equal those of every table rebuilt
+    base = S._tables(case, length)
+    for p in parameters(case):
+        h = 0.125 * max(abs(p.value), 1.0)
+        moved = S._replaced(case, p.path, p.value + h)
+        if moved is None or S._reached(case, moved, length, base[0]) is None:
+            continue
+        (families, functions, outlines), _ = S._tangent(case, length, base, p, moved, h)
+        tables, f1, o1 = S._tables(moved, length)
+        for (_, t0, d), (_, t1) in zip(families, tables):
+            full = S._difference(t0, t1, h, p.path)
+            assert full.keys() == d.keys() and all(np.array_equal(full[k], d[k]) for k in full), p.path
+        for (t0, d), t1 in ((functions, f1), (outlines, o1)):
+            assert not any(np.any(v) for v in S._difference(t0, t1, h, p.path).values()) and \
+                not any(np.any(v) for v in d.values()), p.path

@@ -13,8 +13,10 @@ SAMPLES = 200      # Monte Carlo samples of the report's bands
 STEP = 5e-4        # central differences' step, of the parameter's scale (as tests/test_sensitivity.py)
 
 
-def section(model) -> list:
-    """HTML pieces: empty for a case that asks for neither."""
+def section(model, engines=()) -> list:
+    """HTML pieces: empty for a case that asks for neither. ``engines``: the
+    engines whose run of the case was ok; their central differences are
+    judged beside native's (adapters.sensitivity, docs/design.md (X1))."""
     out = []
     paths = model.case.report.get("sensitivity", ())
     fixed = {c["body"] for c in model.case.constraints if c.type == "ground"}
@@ -22,13 +24,13 @@ def section(model) -> list:
     points = [p for p in model.case.report.get("points") or body if body[p] not in fixed]   # the moving ones
     columns = [f"{p}.{k}" for p in points for k in ("x", "y")]
     if paths and columns:
-        out += _sensitivity(model, paths, columns)
+        out += _sensitivity(model, paths, columns, engines)
     if model.case.tolerances and columns:
         out += _bands(model, columns[-2:])   # the last moving point: its path and its band
     return out
 
 
-def _sensitivity(model, paths, columns):
+def _sensitivity(model, paths, columns, engines=()):
     from ..model import compile
     from ..parameters import apply, resolve
     from ..sensitivity import sensitivity
@@ -51,21 +53,48 @@ def _sensitivity(model, paths, columns):
             worst = max(worst, float(np.max(np.abs(exact - fd))) / max(peak, 1e-300))
             fig_cols.append((p.path, c, exact, fd))
         rows.append((p, peaks, worst))
+    checks = _engines(model, paths, engines)
     unit = escape(case.length_unit)
     head = "".join(f"<th>max |d({escape(c)})/dp|</th>" for c in columns)
     body = "".join(
         f"<tr><td class=l><code>{escape(p.path)}</code></td><td>{p.value:.6g} {escape(p.unit)}</td>"
-        + "".join(f"<td>{v:.4g}</td>" for v in peaks) + f"<td>{w:.1e}</td></tr>" for p, peaks, w in rows)
+        + "".join(f"<td>{v:.4g}</td>" for v in peaks) + f"<td>{w:.1e}</td>"
+        + "".join(_cell(checks.get((e, p.path))) for e in engines) + "</tr>" for p, peaks, w in rows)
+    head_e = "".join(f"<th>{escape(e)} differences</th>" for e in engines)
+    said = ("Each engine's column: its central differences at p +- h (the step settings it chose on the nominal "
+            "case) against the exact ones, the largest ratio to the limit eps L/h + (2/3) max|D_n(2h) - D_n(h)| "
+            "(docs/design.md, X1; above 1 is outside, the figure named); in the plot, crosses. "
+            if engines else "")
     text = (f"<h3>Design sensitivities</h3><p>Exact derivatives of the named points' positions ({unit} per unit "
             "of the parameter) by direct differentiation (docs/design.md, Eqs. S1-S3); the last column is the "
             "largest difference from native's own extrapolated central differences, relative to the peak. "
+            f"{said}"
             f"{'Phi_q is singular at some instants: ' + escape(sens.message) if sens.singular.any() else ''}</p>"
-            f"<table><tr><th class=l>parameter</th><th>value</th>{head}<th>native differences</th></tr>{body}"
+            f"<table><tr><th class=l>parameter</th><th>value</th>{head}<th>native differences</th>{head_e}</tr>{body}"
             "</table>")
-    return [text, _sensitivity_plot(sens.trajectory.t, paths, columns, fig_cols)]
+    return [text, _sensitivity_plot(sens.trajectory.t, paths, columns, fig_cols, checks)]
 
 
-def _sensitivity_plot(t, paths, columns, curves):
+def _engines(model, paths, engines) -> dict:
+    """(engine, path) -> adapters.sensitivity.Check of each engine's differences."""
+    if not engines:
+        return {}
+    from adapters.sensitivity import check
+
+    _, checks = check(model, paths, list(engines))
+    return {(c.engine, c.parameter): c for c in checks}
+
+
+def _cell(c) -> str:
+    if c is None:
+        return "<td>–</td>"
+    if c.within is None or c.status.value != "ok":
+        return f"<td>{escape(c.text)}</td>"
+    text = f"{c.ratio:.2g}" if c.within else f"<b>{c.ratio:.2g}: {escape(c.figure)}</b>"
+    return f"<td title=\"{escape(c.text)}\">{text}</td>"
+
+
+def _sensitivity_plot(t, paths, columns, curves, checks=None):
     from .html import _img
 
     plt = _plt()
@@ -76,9 +105,12 @@ def _sensitivity_plot(t, paths, columns, curves):
             if p == path:
                 line, = ax.plot(t, exact, lw=1.2, label=f"d({c})")
                 ax.plot(t[::every], fd[::every], "o", ms=3, mfc="none", color=line.get_color())
+                for (e, q), k in (checks or {}).items():
+                    if q == path and c in k.curves:
+                        ax.plot(t[::every], k.curves[c][::every], "x", ms=3, color=line.get_color())
         ax.set_title(path, fontsize=9)
         ax.set_xlabel("t [s]")
-    axes[0][0].legend(fontsize=7, title="lines exact, circles differences", title_fontsize=7)
+    axes[0][0].legend(fontsize=7, title="lines exact, circles native's differences, crosses engines'", title_fontsize=7)
     fig.tight_layout()
     return _img(_png(fig), "design sensitivities")
 

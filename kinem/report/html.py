@@ -188,7 +188,8 @@ def case_section(case, model, series):
     out.append("<h3>Comparison</h3>" + case_table(case))
     from .design import section
 
-    out += section(model)   # [report] sensitivity, [tolerances]: docs/design.md
+    engines = [r["engine"] for r in case["runs"] if r["engine"] != "native" and r.get("outcome") == "ok"]
+    out += section(model, engines)   # [report] sensitivity, [tolerances]: docs/design.md
     wp = case["work_precision"]
     if wp:
         out.append("<h3>Work-precision</h3><p>Each point is one run, labelled with its native Newton tolerance "
