@@ -98,7 +98,8 @@ def test_a_native_error_is_a_regression_of_native_on_every_case(repo, tmp_path, 
         assert moved[0]["metric"] in moved[0]["message"]
         assert g["kinds"][f"{name}/native"] == "regressed"
         for e in ENGINES:   # the engines' cells: consistent (pass), the cam's: unsupported, not failing
-            assert g["kinds"][f"{name}/{e}"] == "pass", (name, e, g["verdicts"][f"{name}/{e}"])
+            # pass; "slower" is a pass too (a wall-time flag a loaded machine can raise, never a regression)
+            assert g["kinds"][f"{name}/{e}"] in ("pass", "slower"), (name, e, g["verdicts"][f"{name}/{e}"])
     # the engines' cost: not refined towards a wrong native answer (each engine starts from the model's own
     # assembly and chooses its steps from its own figures: exactly the clean run's steps)
     now, before = steps(doc), steps(clean)
