@@ -18,7 +18,7 @@ At an instant where Phi_q is singular (its pivot ratio below the solver's
 floor, kinem.tracking.singular_pivot) the derivatives are infinite: they are
 reported as inf, flagged in ``singular`` and named in ``message``.
 """
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, is_dataclass, replace
 
 import numpy as np
 
@@ -139,9 +139,16 @@ def _derived_frames(case, path, columns, block, traj):
 
 def _tables(case, length):
     """The model's tables, every function and outline its own number (so
-    that a moved one keeps its place)."""
+    that a moved one keeps its place), and which functions and outlines
+    each family numbered: (tables, functions, outlines, numbered)."""
     families, _ = families_of(case, length)
-    return core_tables(families, share=False)
+    functions, outlines = FunctionTable(False), OutlineTable(False)
+    tables, numbered = [], []
+    for f in families:
+        before = len(functions.functions), len(outlines.outlines)
+        tables.append(f.table(functions, outlines))
+        numbered.append((functions.functions[before[0]:], outlines.outlines[before[1]:]))
+    return tables, functions.arrays(), outlines.arrays(), numbered
 
 
 def _moved(case, listed):
@@ -191,6 +198,8 @@ def _replaced(case, path, value):
                 out[i] = replace(c, fields=frozen_map({**c.fields, parts[2]: float(value)}))
                 return replace(case, constraints=tuple(out))
         return None
+    if len(parts) >= 5 and parts[0] == "constraints":
+        return _replaced_entry(case, parts, value)
     if len(parts) != 4 or not parts[3].isdigit():
         return None
     k = int(parts[3])
@@ -223,30 +232,67 @@ def _replaced(case, path, value):
     return None
 
 
+# the field of a function's or an outline's number (kinem.casefile.keys: numbers): sub-path head -> field
+_ENTRIES = {"poly": "coeffs", "table": "value", "spline": "s", "center": "center"}
+
+
+def _replaced_entry(case, parts, value):
+    """_replaced for a number inside a function or an outline table:
+    ``constraints.C.KEY.poly.k``, ``.harmonic.NAME``, ``.table.value.k``,
+    ``.circle.radius``, ``.spline.s.k``, ``.center.k`` (a periodic
+    outline's first radius is its last too), or None."""
+    sub = parts[3:]
+    for i, c in enumerate(case.constraints):
+        if constraint_id(c) != parts[1]:
+            continue
+        v = c.fields.get(parts[2])
+        if parts[2] in c.refs or not is_dataclass(v):
+            return None
+        if sub[0] in ("harmonic", "circle") and len(sub) == 2 and isinstance(getattr(v, sub[1], None), float):
+            moved = replace(v, **{sub[1]: float(value)})
+        else:
+            key = _ENTRIES.get(sub[0])
+            if (sub[0], sub[1:2]) in (("table", ["value"]), ("spline", ["s"])):
+                sub = sub[1:]
+            if key is None or len(sub) != 2 or not sub[1].isdigit() or not isinstance(getattr(v, key, None), tuple):
+                return None
+            k, entries = int(sub[1]), list(getattr(v, key))
+            if k >= len(entries):
+                return None
+            entries[k] = float(value)
+            if key == "s" and k == 0 and getattr(v, "periodic", False):
+                entries[-1] = float(value)
+            moved = replace(v, **{key: tuple(entries)})
+        out = list(case.constraints)
+        out[i] = replace(c, fields=frozen_map({**c.fields, parts[2]: moved}))
+        return replace(case, constraints=tuple(out))
+    return None
+
+
 def _tangent(case, length, base, p, moved, step):
     """The tangent of the tables along parameter p (their linear part: the
     tables are affine in the case's numbers; ``moved``: the case with p
     moved by ``step``) and of the named points' local coordinates:
     ((families, (functions, tangent), (outlines, tangent)), dlocal)."""
-    reached = _reached(case, moved, length, base[0])
+    reached = _reached(case, moved, length, base)
     if reached is not None:   # only the families of the constraints moved in place (_replaced)
-        families = [(kind, t0, _difference(t0, reached[k], step, p.path) if k in reached else _zero(t0))
+        tables, functions, outlines = reached
+        families = [(kind, t0, _difference(t0, tables[k], step, p.path) if k in tables else _zero(t0))
                     for k, (kind, t0) in enumerate(base[0])]
-        return (families, (base[1], _zero(base[1])), (base[2], _zero(base[2]))), _dlocal(case, p)
-    tables, functions, outlines = _tables(moved, length)
-    families = []
-    for (kind, t0), (_, t1) in zip(base[0], tables):
-        families.append((kind, t0, _difference(t0, t1, step, p.path)))
+    else:
+        tables, functions, outlines, _ = _tables(moved, length)
+        families = [(kind, t0, _difference(t0, t1, step, p.path)) for (kind, t0), (_, t1) in zip(base[0], tables)]
     return (families, (base[1], _difference(base[1], functions, step, p.path)),
             (base[2], _difference(base[2], outlines, step, p.path))), _dlocal(case, p)
 
 
 def _reached(case, moved, length, base):
-    """{family number: its table} of the families holding a constraint that
-    ``moved`` (a case from _replaced) changed, each built alone; None when
-    moved is not such a case, or one of them numbers functions or outlines
-    or columns otherwise than in the model's ``base`` tables (families_of
-    builds them in order, one numbering)."""
+    """({family number: its table}, functions, outlines) of the families
+    holding a constraint that ``moved`` (a case from _replaced) changed,
+    each built alone, its functions and outlines numbered where the model's
+    ``base`` tables (_tables) number them, the others' kept; None when moved
+    is not such a case, or a rebuilt family numbers functions, outlines or
+    columns otherwise than in ``base``."""
     if len(moved.constraints) != len(case.constraints) or moved.bodies is not case.bodies:
         return None
     groups, changed = {}, set()
@@ -255,22 +301,26 @@ def _reached(case, moved, length, base):
         groups.setdefault(family, []).append(c1)
         if c0 is not c1:
             changed.add(family)
+    functions, outlines = FunctionTable(False), OutlineTable(False)
     out = {}
     for k, (family, cons) in enumerate(groups.items()):
-        if family in changed:
-            functions, outlines = FunctionTable(False), OutlineTable(False)
-            table = family(cons, _Context(moved, length)).table(functions, outlines)[1]
-            if not _empty(functions, FunctionTable(False)) or not _empty(outlines, OutlineTable(False)) or any(
-                    v.dtype.kind in "iu" and not np.array_equal(v, table[key]) for key, v in base[k][1].items()):
-                return None
-            out[k] = table
-    return out
-
-
-def _empty(table, fresh) -> bool:
-    """Nothing numbered in ``table`` (its arrays as a fresh table's)."""
-    a, b = table.arrays(), fresh.arrays()
-    return all(len(a[key]) == len(b[key]) for key in b)
+        kept_functions, kept_outlines = base[3][k]
+        if family not in changed:
+            for f in kept_functions:
+                functions.index(f)
+            for o in kept_outlines:
+                outlines.index(o)
+            continue
+        before = len(functions.functions), len(outlines.outlines)
+        table = family(cons, _Context(moved, length)).table(functions, outlines)[1]
+        if (len(functions.functions) - before[0], len(outlines.outlines) - before[1]) != (
+                len(kept_functions), len(kept_outlines)) or any(
+                v.dtype.kind in "iu" and not np.array_equal(v, table[key]) for key, v in base[0][k][1].items()):
+            return None
+        out[k] = table
+    numbered = [x for k in out for x in base[3][k]]   # unmoved otherwise: the model's own arrays
+    return (out, functions.arrays() if any(numbered[0::2]) else base[1],
+            outlines.arrays() if any(numbered[1::2]) else base[2])
 
 
 def _zero(table: dict) -> dict:
