@@ -302,7 +302,7 @@ def _reached(case, moved, length, base):
         if c0 is not c1:
             changed.add(family)
     functions, outlines = FunctionTable(False), OutlineTable(False)
-    out = {}
+    out, moved_functions, moved_outlines = {}, False, False
     for k, (family, cons) in enumerate(groups.items()):
         kept_functions, kept_outlines = base[3][k]
         if family not in changed:
@@ -318,9 +318,10 @@ def _reached(case, moved, length, base):
                 v.dtype.kind in "iu" and not np.array_equal(v, table[key]) for key, v in base[0][k][1].items()):
             return None
         out[k] = table
-    numbered = [x for k in out for x in base[3][k]]   # unmoved otherwise: the model's own arrays
-    return (out, functions.arrays() if any(numbered[0::2]) else base[1],
-            outlines.arrays() if any(numbered[1::2]) else base[2])
+        moved_functions |= functions.functions[before[0]:] != kept_functions
+        moved_outlines |= outlines.outlines[before[1]:] != kept_outlines
+    return (out, functions.arrays() if moved_functions else base[1],   # unmoved: the model's own arrays
+            outlines.arrays() if moved_outlines else base[2])
 
 
 def _zero(table: dict) -> dict:
