@@ -156,8 +156,7 @@ def _moved(case, listed):
     def design(p, h, turn):
         return {p.path: p.value + h, **{q: values[q] + h * rate for q, rate in turn.items()}}
 
-    degrees = case.units.get("angle") == "deg"   # paths' angles in degrees: set through apply_many
-    fast = [None if t or degrees else _replaced(case, p.path, p.value + h) for p, h, t in zip(listed, steps, turned)]
+    fast = [None if t else in_place(case, {p.path: p.value + h}) for p, h, t in zip(listed, steps, turned)]
     slow = [k for k, moved in enumerate(fast) if moved is None]
     applied = iter(apply_many(case, [design(listed[k], steps[k], turned[k]) for k in slow], pinned=True)
                    if slow else ())
@@ -169,6 +168,20 @@ def _moved(case, listed):
             if isinstance(out[k][0], InputError):
                 raise InputError(f"{case.source}: parameter '{p.path}': no valid case within {h:g} of its value")
     return out
+
+
+def in_place(case, values):
+    """The case with every number {path: value} set in place (``_replaced``,
+    no validation), or None where one cannot be: angles in degrees (the
+    paths' values are then converted on loading) or a path ``_replaced``
+    does not take; then kinem.parameters.apply_many builds it."""
+    if case.units.get("angle") == "deg":
+        return None
+    for path, value in values.items():
+        case = _replaced(case, path, value)
+        if case is None:
+            return None
+    return case
 
 
 def _replaced(case, path, value):

@@ -23,7 +23,7 @@ import numpy as np
 from .errors import InputError
 from .parameters import apply_many, resolve
 from .result import Trajectory
-from .sensitivity import sensitivity
+from .sensitivity import in_place, sensitivity
 
 
 @dataclass(frozen=True)
@@ -155,7 +155,10 @@ def _monte_carlo(model, tols, outputs, nominal, samples, seed, progress, chunk):
         batch = []
         designs = [{t.path: base[t.path] + draws[s, j] for j, t in enumerate(tols)}
                    for s in range(start, min(samples, start + chunk))]
-        for values, variant in zip(designs, apply_many(pinned, designs)):
+        moved = [in_place(pinned, values) for values in designs]   # set in place where the paths allow
+        slow = [values for values, case in zip(designs, moved) if case is None]
+        built = iter(apply_many(pinned, slow) if slow else ())
+        for values, variant in zip(designs, [case if case is not None else next(built) for case in moved]):
             if isinstance(variant, InputError):
                 rejected.append((values, f"not a valid case: {variant}"))
             else:
