@@ -193,16 +193,25 @@ def _solve_chunk(model, chunk, times, q0, branch, outputs):
     index = {name: j for j, name in enumerate(model.coordinate_names)}
     merged = compile(merge([v for _, v in chunk]))
     start = np.array([q0[index[name.split("-", 1)[1]]] for name in merged.coordinate_names])
-    r = solve(merged, times=times, q0=start)
+    r = solve(merged, outputs=_stages(model, outputs), times=times, q0=start)
     if r.success:
+        at = {name: j for j, name in enumerate(merged.coordinate_names)}
         out = []
         for k, (values, _) in enumerate(chunk):
             p = prefix(k)
-            q = np.array([r.trajectory[p + name][0] for name in model.coordinate_names])
+            q = r.q[0, [at[p + name] for name in model.coordinate_names]]
             out.append((values, {c: r.trajectory[p + c] for c in outputs}, None) if _branch(model, q) == branch
                        else (values, None, "assembled on another branch"))
         return out
     return _one_by_one(model, chunk, times, q0, branch, outputs)
+
+
+def _stages(model, outputs) -> tuple:
+    """The fewest stages (positions, then velocities, accelerations) whose
+    columns hold every one of ``outputs``."""
+    from .result import OUTPUTS, _layout
+
+    return next(OUTPUTS[:s] for s in (1, 2, 3) if all(c in _layout(model, s)[2] for c in outputs))
 
 
 def _one_by_one(model, chunk, times, q0, branch, outputs):
@@ -211,7 +220,7 @@ def _one_by_one(model, chunk, times, q0, branch, outputs):
 
     out = []
     for values, variant in chunk:
-        r = solve(compile(variant), times=times, q0=q0)
+        r = solve(compile(variant), outputs=_stages(model, outputs), times=times, q0=q0)
         if not r.success:
             out.append((values, None, r.message))
         elif _branch(model, r.q[0]) != branch:
