@@ -22,7 +22,7 @@ import numpy as np
 
 from .errors import InputError
 from .parameters import apply_many, resolve
-from .result import Trajectory
+from .result import Trajectory, stages_for
 from .sensitivity import in_place, sensitivity
 
 
@@ -193,7 +193,7 @@ def _solve_chunk(model, chunk, times, q0, branch, outputs):
     index = {name: j for j, name in enumerate(model.coordinate_names)}
     merged = compile(merge([v for _, v in chunk]))
     start = np.array([q0[index[name.split("-", 1)[1]]] for name in merged.coordinate_names])
-    r = solve(merged, outputs=_stages(model, outputs), times=times, q0=start)
+    r = solve(merged, outputs=stages_for(outputs), times=times, q0=start)
     if r.success:
         at = {name: j for j, name in enumerate(merged.coordinate_names)}
         out = []
@@ -206,21 +206,13 @@ def _solve_chunk(model, chunk, times, q0, branch, outputs):
     return _one_by_one(model, chunk, times, q0, branch, outputs)
 
 
-def _stages(model, outputs) -> tuple:
-    """The fewest stages (positions, then velocities, accelerations) whose
-    columns hold every one of ``outputs``."""
-    from .result import OUTPUTS, _layout
-
-    return next(OUTPUTS[:s] for s in (1, 2, 3) if all(c in _layout(model, s)[2] for c in outputs))
-
-
 def _one_by_one(model, chunk, times, q0, branch, outputs):
     from .model import compile
     from .solver import solve
 
     out = []
     for values, variant in chunk:
-        r = solve(compile(variant), outputs=_stages(model, outputs), times=times, q0=q0)
+        r = solve(compile(variant), outputs=stages_for(outputs), times=times, q0=q0)
         if not r.success:
             out.append((values, None, r.message))
         elif _branch(model, r.q[0]) != branch:
