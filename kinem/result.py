@@ -16,6 +16,13 @@ POINT_COLUMNS = {"positions": ("x", "y"), "velocities": ("vx", "vy"), "accelerat
 ARTIFICIAL_COLUMNS = {"positions": "theta", "velocities": "dtheta", "accelerations": "ddtheta"}
 
 
+def stages_for(columns) -> tuple:
+    """The fewest of OUTPUTS (positions, then velocities, accelerations)
+    whose columns hold every one of ``columns`` (trajectory column names)."""
+    stage = {q: s for s, o in enumerate(OUTPUTS) for q in (*BODY_COLUMNS[o], *POINT_COLUMNS[o], ARTIFICIAL_COLUMNS[o])}
+    return OUTPUTS[:1 + max(stage[c.rsplit(".", 1)[1]] for c in columns)]
+
+
 class Status(IntEnum):
     SUCCESS = 0
     NOT_CONVERGED = 1

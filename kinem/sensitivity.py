@@ -154,7 +154,7 @@ def _tables(case, length):
 def _moved(case, listed):
     """(the case with p moved by h, h) for each parameter p: h a power of
     two near |p| / 2 (-h where +h is not a valid case). A coordinate of a
-    point or of a constraint's vector key is set in place (``_replaced``);
+    point or of a constraint's vector key is set in place (``in_place``);
     the others through kinem.parameters.apply_many (a validated case each)."""
     steps = [2.0 ** (np.floor(np.log2(abs(p.value))) - 1) if p.value else 0.5 for p in listed]
     turned = [driver_tangent(case, p.path) for p in listed]   # drivers of drawn frames that p turns
@@ -163,8 +163,7 @@ def _moved(case, listed):
     def design(p, h, turn):
         return {p.path: p.value + h, **{q: values[q] + h * rate for q, rate in turn.items()}}
 
-    degrees = case.units.get("angle") == "deg"   # paths' angles in degrees: set through apply_many
-    fast = [None if t or degrees else _replaced(case, p.path, p.value + h) for p, h, t in zip(listed, steps, turned)]
+    fast = [None if t else in_place(case, {p.path: p.value + h}) for p, h, t in zip(listed, steps, turned)]
     slow = [k for k, moved in enumerate(fast) if moved is None]
     applied = iter(apply_many(case, [design(listed[k], steps[k], turned[k]) for k in slow], pinned=True)
                    if slow else ())
@@ -178,30 +177,50 @@ def _moved(case, listed):
     return out
 
 
+def in_place(case, values):
+    """The case with every number {path: value} set in place (no
+    validation; see ``_set``), or None where one cannot be: angles in
+    degrees (the paths' values are then converted on loading), drawn
+    bodies, or a path ``_set`` does not take; then
+    kinem.parameters.apply_many builds it."""
+    return None if case.units.get("angle") == "deg" else _all_set(case, values)
+
+
 def _replaced(case, path, value):
-    """The case with the number at ``path`` set to ``value`` without
-    re-validating it, or None for any other path: ``points.P.at.k`` (the
-    point and every constraint key that names it), ``constraints.C.KEY.k``
-    of a vector key that names no point or ``constraints.C.KEY`` of a
-    scalar key, in a case of no drawn bodies. The tables read these numbers
-    as given and are affine in them (h keeps the number's sign), so the
-    tangent is the one a validated case gives (tests/test_sensitivity.py
-    compares them)."""
-    parts = path.split(".")
+    """The case with the number at ``path`` set to ``value`` in place, or None."""
+    return _all_set(case, {path: value})
+
+
+def _all_set(case, values):
     if any(b.carries for b in case.bodies):
         return None
+    points, constraints = list(case.points), list(case.constraints)
+    if not all(_set(points, constraints, path, value) for path, value in values.items()):
+        return None
+    return replace(case, points=tuple(points), constraints=tuple(constraints))
+
+
+def _set(points, constraints, path, value) -> bool:
+    """Sets the number at ``path`` to ``value`` in the lists of a case's
+    points and constraints without re-validating it; False (lists
+    untouched) for any other path: ``points.P.at.k`` (the point and every
+    constraint key that names it), ``constraints.C.KEY.k`` of a vector key
+    that names no point or ``constraints.C.KEY`` of a scalar key. The
+    tables read these numbers as given and are affine in them (h keeps the
+    number's sign), so the tangent is the one a validated case gives
+    (tests/test_sensitivity.py compares them)."""
+    parts = path.split(".")
     if len(parts) == 3 and parts[0] == "constraints":
-        for i, c in enumerate(case.constraints):
+        for i, c in enumerate(constraints):
             v = c.fields.get(parts[2])
             if constraint_id(c) == parts[1] and isinstance(v, float) and parts[2] not in c.refs:
-                out = list(case.constraints)
-                out[i] = replace(c, fields=frozen_map({**c.fields, parts[2]: float(value)}))
-                return replace(case, constraints=tuple(out))
-        return None
+                constraints[i] = replace(c, fields=frozen_map({**c.fields, parts[2]: float(value)}))
+                return True
+        return False
     if len(parts) >= 5 and parts[0] == "constraints":
-        return _replaced_entry(case, parts, value)
+        return _set_entry(constraints, parts, value)
     if len(parts) != 4 or not parts[3].isdigit():
-        return None
+        return False
     k = int(parts[3])
 
     def moved(v):
@@ -210,44 +229,44 @@ def _replaced(case, path, value):
         return tuple(v)
 
     if parts[0] == "points":
-        at = {q.name: q for q in case.points}[parts[1]].at
-        if len(at) <= k:
-            return None
-        at = moved(at)
-        points = tuple(replace(q, at=at) if q.name == parts[1] else q for q in case.points)
-        constraints = tuple(
-            replace(c, fields=frozen_map({**c.fields, **{key: at for key, q in c.refs.items() if q == parts[1]}}))
-            if parts[1] in c.refs.values() else c for c in case.constraints)
-        return replace(case, points=points, constraints=constraints)
+        j = next(j for j, q in enumerate(points) if q.name == parts[1])
+        if len(points[j].at) <= k:
+            return False
+        at = moved(points[j].at)
+        points[j] = replace(points[j], at=at)
+        for i, c in enumerate(constraints):
+            if parts[1] in c.refs.values():
+                constraints[i] = replace(c, fields=frozen_map(
+                    {**c.fields, **{key: at for key, q in c.refs.items() if q == parts[1]}}))
+        return True
     if parts[0] != "constraints":
-        return None
-    out = list(case.constraints)
-    for i, c in enumerate(out):
+        return False
+    for i, c in enumerate(constraints):
         if constraint_id(c) == parts[1]:
             v = c.fields.get(parts[2])
             if parts[2] in c.refs or not isinstance(v, tuple) or len(v) <= k:
-                return None
-            out[i] = replace(c, fields=frozen_map({**c.fields, parts[2]: moved(v)}))
-            return replace(case, constraints=tuple(out))
-    return None
+                return False
+            constraints[i] = replace(c, fields=frozen_map({**c.fields, parts[2]: moved(v)}))
+            return True
+    return False
 
 
 # the field of a function's or an outline's number (kinem.casefile.keys: numbers): sub-path head -> field
 _ENTRIES = {"poly": "coeffs", "table": "value", "spline": "s", "center": "center"}
 
 
-def _replaced_entry(case, parts, value):
-    """_replaced for a number inside a function or an outline table:
+def _set_entry(constraints, parts, value) -> bool:
+    """_set for a number inside a function or an outline table:
     ``constraints.C.KEY.poly.k``, ``.harmonic.NAME``, ``.table.value.k``,
     ``.circle.radius``, ``.spline.s.k``, ``.center.k`` (a periodic
-    outline's first radius is its last too), or None."""
+    outline's first radius is its last too), or False."""
     sub = parts[3:]
-    for i, c in enumerate(case.constraints):
+    for i, c in enumerate(constraints):
         if constraint_id(c) != parts[1]:
             continue
         v = c.fields.get(parts[2])
         if parts[2] in c.refs or not is_dataclass(v):
-            return None
+            return False
         if sub[0] in ("harmonic", "circle") and len(sub) == 2 and isinstance(getattr(v, sub[1], None), float):
             moved = replace(v, **{sub[1]: float(value)})
         else:
@@ -255,18 +274,17 @@ def _replaced_entry(case, parts, value):
             if (sub[0], sub[1:2]) in (("table", ["value"]), ("spline", ["s"])):
                 sub = sub[1:]
             if key is None or len(sub) != 2 or not sub[1].isdigit() or not isinstance(getattr(v, key, None), tuple):
-                return None
+                return False
             k, entries = int(sub[1]), list(getattr(v, key))
             if k >= len(entries):
-                return None
+                return False
             entries[k] = float(value)
             if key == "s" and k == 0 and getattr(v, "periodic", False):
                 entries[-1] = float(value)
             moved = replace(v, **{key: tuple(entries)})
-        out = list(case.constraints)
-        out[i] = replace(c, fields=frozen_map({**c.fields, parts[2]: moved}))
-        return replace(case, constraints=tuple(out))
-    return None
+        constraints[i] = replace(c, fields=frozen_map({**c.fields, parts[2]: moved}))
+        return True
+    return False
 
 
 def _tangent(case, length, base, p, moved, step):

@@ -20,8 +20,6 @@ from .errors import InputError, KinemError
 
 MAX_VARIANTS = 100_000
 LOAD_CHUNK = 64   # variants loaded by one kinem.parameters.apply_many
-STAGE_OF = {"x": 0, "y": 0, "phi": 0, "theta": 0, "vx": 1, "vy": 1, "omega": 1, "dtheta": 1,
-            "ax": 2, "ay": 2, "alpha": 2, "ddtheta": 2}
 
 
 @dataclass(frozen=True, eq=False)
@@ -116,6 +114,7 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
     from .case import load_dict, read
     from .model import compile
     from .parameters import apply_many, resolve, to_path
+    from .result import stages_for
 
     source = str(case) if isinstance(case, (str, Path)) else "<dict>"
     data = case if isinstance(case, dict) else read(case)
@@ -124,7 +123,7 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
     resolve(nominal, [to_path(nominal, n, source) for n in names])   # the names resolve (else one InputError for all)
     base = compile(nominal)
     columns = _columns(base, outputs)
-    stages = 1 + max(STAGE_OF[c.rsplit(".", 1)[1]] for c in columns)
+    stages = stages_for(columns)
     cases, errors = [], [""] * len(grid_values)
     if progress:
         progress.total = 2 * len(grid_values)
@@ -146,9 +145,8 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
             if progress:
                 progress.step(f"variant {k + 1} loaded")
     out = np.full((len(grid_values), len(base.times), len(columns)), np.nan)
-    from .result import OUTPUTS
 
-    _solve([k for k, c in enumerate(cases) if c is not None], cases, OUTPUTS[:stages], columns, out, errors, progress)
+    _solve([k for k, c in enumerate(cases) if c is not None], cases, stages, columns, out, errors, progress)
     return Sweep(names, grid_values, columns, np.array(base.times), out, tuple(errors))
 
 

@@ -22,8 +22,8 @@ import numpy as np
 
 from .errors import InputError
 from .parameters import apply_many, resolve
-from .result import Trajectory
-from .sensitivity import sensitivity
+from .result import Trajectory, stages_for
+from .sensitivity import in_place, sensitivity
 
 
 @dataclass(frozen=True)
@@ -155,7 +155,10 @@ def _monte_carlo(model, tols, outputs, nominal, samples, seed, progress, chunk):
         batch = []
         designs = [{t.path: base[t.path] + draws[s, j] for j, t in enumerate(tols)}
                    for s in range(start, min(samples, start + chunk))]
-        for values, variant in zip(designs, apply_many(pinned, designs)):
+        moved = [in_place(pinned, values) for values in designs]   # set in place where the paths allow
+        slow = [values for values, case in zip(designs, moved) if case is None]
+        built = iter(apply_many(pinned, slow) if slow else ())
+        for values, variant in zip(designs, [case if case is not None else next(built) for case in moved]):
             if isinstance(variant, InputError):
                 rejected.append((values, f"not a valid case: {variant}"))
             else:
@@ -190,12 +193,13 @@ def _solve_chunk(model, chunk, times, q0, branch, outputs):
     index = {name: j for j, name in enumerate(model.coordinate_names)}
     merged = compile(merge([v for _, v in chunk]))
     start = np.array([q0[index[name.split("-", 1)[1]]] for name in merged.coordinate_names])
-    r = solve(merged, times=times, q0=start)
+    r = solve(merged, outputs=stages_for(outputs), times=times, q0=start)
     if r.success:
+        at = {name: j for j, name in enumerate(merged.coordinate_names)}
         out = []
         for k, (values, _) in enumerate(chunk):
             p = prefix(k)
-            q = np.array([r.trajectory[p + name][0] for name in model.coordinate_names])
+            q = r.q[0, [at[p + name] for name in model.coordinate_names]]
             out.append((values, {c: r.trajectory[p + c] for c in outputs}, None) if _branch(model, q) == branch
                        else (values, None, "assembled on another branch"))
         return out
@@ -208,7 +212,7 @@ def _one_by_one(model, chunk, times, q0, branch, outputs):
 
     out = []
     for values, variant in chunk:
-        r = solve(compile(variant), times=times, q0=q0)
+        r = solve(compile(variant), outputs=stages_for(outputs), times=times, q0=q0)
         if not r.success:
             out.append((values, None, r.message))
         elif _branch(model, r.q[0]) != branch:
