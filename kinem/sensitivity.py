@@ -153,9 +153,8 @@ def _tables(case, length):
 
 def _moved(case, listed):
     """(the case with p moved by h, h) for each parameter p: h a power of
-    two near |p| / 2 (-h where +h is not a valid case). A coordinate of a
-    point or of a constraint's vector key is set in place (``in_place``);
-    the others through kinem.parameters.apply_many (a validated case each)."""
+    two near |p| / 2 (-h where +h is not a valid case), each case set in
+    place where it can be, else validated (``cases_of``)."""
     steps = [2.0 ** (np.floor(np.log2(abs(p.value))) - 1) if p.value else 0.5 for p in listed]
     turned = [driver_tangent(case, p.path) for p in listed]   # drivers of drawn frames that p turns
     values = {q.path: q.value for q in resolve(case, {q for t in turned for q in t})}
@@ -163,11 +162,7 @@ def _moved(case, listed):
     def design(p, h, turn):
         return {p.path: p.value + h, **{q: values[q] + h * rate for q, rate in turn.items()}}
 
-    fast = [None if t else in_place(case, {p.path: p.value + h}) for p, h, t in zip(listed, steps, turned)]
-    slow = [k for k, moved in enumerate(fast) if moved is None]
-    applied = iter(apply_many(case, [design(listed[k], steps[k], turned[k]) for k in slow], pinned=True)
-                   if slow else ())
-    out = [(moved if moved is not None else next(applied), h) for moved, h in zip(fast, steps)]
+    out = list(zip(cases_of(case, [design(p, h, t) for p, h, t in zip(listed, steps, turned)], pinned=True), steps))
     for k, (moved, h) in enumerate(out):
         if isinstance(moved, InputError):
             p = listed[k]
@@ -175,6 +170,16 @@ def _moved(case, listed):
             if isinstance(out[k][0], InputError):
                 raise InputError(f"{case.source}: parameter '{p.path}': no valid case within {h:g} of its value")
     return out
+
+
+def cases_of(case, designs, pinned=False) -> list:
+    """Per design ({path: value}) its Case: set in place where ``in_place``
+    can, else built and validated by kinem.parameters.apply_many (``pinned``
+    as there); or the InputError that refuses it."""
+    moved = [in_place(case, values) for values in designs]
+    slow = [values for values, m in zip(designs, moved) if m is None]
+    built = iter(apply_many(case, slow, pinned=pinned) if slow else ())
+    return [m if m is not None else next(built) for m in moved]
 
 
 def in_place(case, values):

@@ -43,12 +43,11 @@ class Sweep:
 
     def __getitem__(self, column) -> np.ndarray:
         """A column over (variants, instants)."""
-        if column not in self.columns:
-            from .casefile.checks import suggest
+        if column not in self.columns:   # a KeyError, worded as a Trajectory's
+            from .errors import UnknownColumn
+            from .result import missing_column
 
-            guess = suggest(column, self.columns)
-            raise KeyError(f"no column {column!r}" + (f"; did you mean '{guess}'?" if guess else
-                                                       f"; columns: {', '.join(self.columns)}"))
+            raise UnknownColumn(missing_column(column, self.columns))
         return self.data[:, :, self.columns.index(column)]
 
     def csv(self) -> bytes:

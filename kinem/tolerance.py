@@ -21,9 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InputError
-from .parameters import apply_many, resolve
+from .parameters import resolve
 from .result import Trajectory, stages_for
-from .sensitivity import in_place, sensitivity
+from .sensitivity import cases_of, sensitivity
 
 
 @dataclass(frozen=True)
@@ -155,10 +155,7 @@ def _monte_carlo(model, tols, outputs, nominal, samples, seed, progress, chunk):
         batch = []
         designs = [{t.path: base[t.path] + draws[s, j] for j, t in enumerate(tols)}
                    for s in range(start, min(samples, start + chunk))]
-        moved = [in_place(pinned, values) for values in designs]   # set in place where the paths allow
-        slow = [values for values, case in zip(designs, moved) if case is None]
-        built = iter(apply_many(pinned, slow) if slow else ())
-        for values, variant in zip(designs, [case if case is not None else next(built) for case in moved]):
+        for values, variant in zip(designs, cases_of(pinned, designs)):   # set in place where the paths allow
             if isinstance(variant, InputError):
                 rejected.append((values, f"not a valid case: {variant}"))
             else:
