@@ -56,7 +56,7 @@ def _checked_q0(model, q0):
 
 
 def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | None = None,
-          q0=None) -> SolveResult:
+          q0=None, parameters=None) -> SolveResult:
     """Position (and, when asked, velocity and acceleration) analysis at every
     output instant (``times``, default the case's), on the branch the
     assembly found (kinem.tracking), with ``options`` (default: the case's
@@ -65,9 +65,16 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
 
     ``q0``: the estimate to assemble from at ``times[0]`` (default the case's
     ``model.q0``); a run continued from a solved state passes that state, so a
-    long run can be solved in pieces (``kinem solve`` does: kinem.stream)."""
+    long run can be solved in pieces (``kinem solve`` does: kinem.stream).
+
+    ``parameters``: {design parameter path: N values}: N variants solved
+    together, a kinem.variants.Variants (``outputs`` stages or column names)."""
     if not isinstance(model, Model):
         raise InputError(f"solve: model {type(model).__name__}: expected a kinem.Model (kinem.compile(case))")
+    if parameters is not None:
+        from .variants import solve_variants
+
+        return solve_variants(model, parameters, outputs, times, options)
     times = _checked_times(times)
     options = model.options if options is None else options
     if not isinstance(options, Options):

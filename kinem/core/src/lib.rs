@@ -23,6 +23,7 @@ pub mod plan;
 pub mod real;
 pub mod sensitivity;
 pub mod table;
+pub mod variants;
 pub mod watch;
 
 #[cfg(feature = "python")]

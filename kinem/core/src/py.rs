@@ -627,6 +627,130 @@ impl Plan {
         }
         Ok((end, why as u8))
     }
+
+    /// Variants of this model marched together (crate::variants): the
+    /// model's tables (families [(kind, table)], functions, outlines: every
+    /// function and outline its own number) and per parameter their
+    /// tangents ([family tangents], functions', outlines'); asked: (stages,
+    /// src (C,), pc (P,), local (P,), dlocal (parameters, P)); values (N,
+    /// parameters): each variant's moves from the nominal; q0 (n): the
+    /// nominal's first state; settings: (tolerance, max_iterations,
+    /// max_step, floor, seconds). Writes out (N, K, C), start (N, n), end
+    /// (N), why (N), det (N) (crate::variants::Written). A signal stops
+    /// every variant and raises its exception.
+    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
+    fn variants<'py>(
+        &self,
+        py: Python<'py>,
+        families: Vec<(String, Bound<'py, PyDict>)>,
+        functions: Bound<'py, PyDict>,
+        outlines: Bound<'py, PyDict>,
+        tangents: Vec<(Vec<Bound<'py, PyDict>>, Bound<'py, PyDict>, Bound<'py, PyDict>)>,
+        asked: (
+            usize,
+            PyReadonlyArray1<'py, i64>,
+            PyReadonlyArray1<'py, i64>,
+            PyReadonlyArray1<'py, C64>,
+            PyReadonlyArray2<'py, C64>,
+        ),
+        values: PyReadonlyArray2<'py, f64>,
+        times: PyReadonlyArray1<'py, f64>,
+        q0: PyReadonlyArray1<'py, f64>,
+        settings: (f64, usize, f64, f64, f64),
+        out: (
+            Bound<'py, PyArray3<f64>>,
+            Bound<'py, PyArray2<f64>>,
+            Bound<'py, PyArray1<i64>>,
+            Bound<'py, PyArray1<u8>>,
+            Bound<'py, PyArray1<i8>>,
+        ),
+    ) -> PyResult<()> {
+        let bad = |what: &str| value_error(format!("variants: {what}"));
+        let fams = families.iter().map(|(k, d)| Ok((k.clone(), table(d)?))).collect::<PyResult<Vec<_>>>()?;
+        let mut tans = Vec::new();
+        for (f, fd, od) in &tangents {
+            if f.len() != fams.len() {
+                return Err(bad("one tangent per family expected"));
+            }
+            tans.push((f.iter().map(table).collect::<PyResult<Vec<_>>>()?, table(fd)?, table(od)?));
+        }
+        let (n, p) = (self.kin.n, tans.len());
+        let tables = crate::variants::Tables {
+            n,
+            angles: self.kin.angles.iter().map(|&a| a as i64).collect(),
+            families: fams,
+            functions: table(&functions)?,
+            outlines: table(&outlines)?,
+            tangents: tans,
+        };
+        let (stages, src, pc, local, dlocal) = asked;
+        let points = local.len();
+        let (pc, local) = (pc.as_array().to_vec(), local.as_array().to_vec());
+        let dlocal: Vec<C64> = dlocal.as_array().iter().copied().collect();
+        if !(1..=3).contains(&stages) || pc.len() != points || dlocal.len() != p * points {
+            return Err(bad("stages 1 to 3, one body column and local point per point, dlocal (parameters, points)"));
+        }
+        if pc.iter().any(|&c| c < 0 || c as usize + 2 >= n) {
+            return Err(bad("point columns out of range"));
+        }
+        let limit = (stages * (n + 2 * points)) as i64;
+        let src = src.as_array().to_vec();
+        if src.iter().any(|&j| j < 0 || j >= limit) {
+            return Err(bad("a source out of range"));
+        }
+        let src: Vec<usize> = src.iter().map(|&j| j as usize).collect();
+        let pc: Vec<usize> = pc.iter().map(|&c| c as usize).collect();
+        let (values, count) = rows(&values, p, "variants: values")?;
+        let (times, q0) = (vec1(&times), vec1(&q0));
+        let (times, q0, values): (&[f64], &[f64], &[f64]) = (&times, &q0, &values);
+        let kk = times.len();
+        let (mut data, mut start) = (writable(&out.0, "variants: out")?, writable(&out.1, "variants: start")?);
+        let (mut end, mut why) = (writable(&out.2, "variants: end")?, writable(&out.3, "variants: why")?);
+        let mut det = writable(&out.4, "variants: det")?;
+        if data.shape() != [count, kk, src.len()]
+            || start.shape() != [count, n]
+            || end.len() != count
+            || why.len() != count
+            || det.len() != count
+        {
+            return Err(bad("outputs of the wrong shape"));
+        }
+        let (tolerance, max_iterations, max_step, floor, seconds) = settings;
+        let s = march::Settings { tolerance, max_iterations, max_step, floor, rates: stages > 1 };
+        let written = crate::variants::Written {
+            data: data.as_slice_mut().map_err(|_| bad("out"))?,
+            start: start.as_slice_mut().map_err(|_| bad("start"))?,
+            end: end.as_slice_mut().map_err(|_| bad("end"))?,
+            why: why.as_slice_mut().map_err(|_| bad("why"))?,
+            det: det.as_slice_mut().map_err(|_| bad("det"))?,
+        };
+        let asked = crate::variants::Asked { stages, src: &src, pc: &pc, local: &local, dlocal: &dlocal };
+        let (kin, layout) = (&self.kin, &self.layout);
+        let signal: std::sync::Mutex<Option<PyErr>> = std::sync::Mutex::new(None);
+        let poll = || match Python::attach(|py| py.check_signals()) {
+            Ok(()) => false,
+            Err(e) => {
+                if let Ok(mut s) = signal.lock() {
+                    *s = Some(e);
+                }
+                true
+            }
+        };
+        let stopped = guard(py, move || {
+            let nominal = tables.kin(&vec![0.0; p])?;
+            if (nominal.n, nominal.m, nominal.nnz) != (kin.n, kin.m, kin.nnz) {
+                return Err("variants: the tables do not make this model".to_string());
+            }
+            let watch = Watch::new(seconds, Some(&poll));
+            crate::variants::run(&tables, layout, times, q0, &s, &asked, values, written, &watch)
+        });
+        stopped?;
+        if why.as_slice().map_err(|_| bad("why"))?.contains(&(Why::Interrupted as u8)) {
+            let e = signal.lock().ok().and_then(|mut s| s.take());
+            return Err(e.unwrap_or_else(|| pyo3::exceptions::PyKeyboardInterrupt::new_err("")));
+        }
+        Ok(())
+    }
 }
 
 /// LU factors of J_s (Plan.factor): solve, pivot ratio and det sign.

@@ -1,0 +1,209 @@
+//! Many variants of one mechanism marched together (issue 31, "Variants as
+//! lanes"; docs/solver.md, "Variants"). The model's tables are affine in the
+//! case's numbers (kinem.sensitivity), so a variant's tables are the base
+//! tables plus sum_p dv_p tangent_p over its design parameters' moves dv:
+//! each variant's model is formed here from the base and the tangents,
+//! marched by the one march (crate::march, through `march_one`) from the
+//! nominal's first state on the nominal's linear structure, and only the
+//! asked columns (crate::columns) written into one (variants, instants,
+//! columns) array. Variants run on the thread pool, each converging and
+//! failing on its own; a deadline or a signal (crate::watch) stops them all.
+use crate::accept::Why;
+use crate::columns::columns;
+use crate::lu::Layout;
+use crate::march::{self, Out, Settings, State};
+use crate::model::Kin;
+use crate::table::Table;
+use crate::watch::Watch;
+use num_complex::Complex64 as C64;
+use rayon::prelude::*;
+
+/// A model's tables (every function and outline its own number:
+/// kinem.sensitivity._tables) and their tangents along each design parameter.
+pub struct Tables {
+    pub n: usize,
+    pub angles: Vec<i64>,
+    pub families: Vec<(String, Table)>,
+    pub functions: Table,
+    pub outlines: Table,
+    /// per parameter: the families' tangents (in the families' order), the functions', the outlines'
+    pub tangents: Vec<(Vec<Table>, Table, Table)>,
+}
+
+/// base + sum_p dv_p tangent_p over the real and complex columns (a column
+/// without a tangent keeps its values).
+fn moved<'a>(base: &Table, tangents: impl Iterator<Item = (&'a Table, f64)>) -> Result<Table, String> {
+    let mut out = base.clone();
+    for (t, dv) in tangents {
+        if dv == 0.0 {
+            continue;
+        }
+        for (key, d) in &t.reals {
+            let v = out.reals.get_mut(key).filter(|v| v.len() == d.len());
+            let v = v.ok_or_else(|| format!("variants: tangent column '{key}' fits no table column"))?;
+            v.iter_mut().zip(d).for_each(|(x, dx)| *x += dv * dx);
+        }
+        for (key, d) in &t.complex {
+            let v = out.complex.get_mut(key).filter(|v| v.len() == d.len());
+            let v = v.ok_or_else(|| format!("variants: tangent column '{key}' fits no table column"))?;
+            v.iter_mut().zip(d).for_each(|(x, dx)| *x += dx * dv);
+        }
+    }
+    Ok(out)
+}
+
+impl Tables {
+    /// The model of the variant whose parameters moved by dv from the nominal.
+    pub fn kin(&self, dv: &[f64]) -> Result<Kin, String> {
+        let tangents = &self.tangents;
+        let families = self
+            .families
+            .iter()
+            .enumerate()
+            .map(|(k, (kind, t))| {
+                Ok((kind.clone(), moved(t, tangents.iter().map(|p| &p.0[k]).zip(dv.iter().copied()))?))
+            })
+            .collect::<Result<Vec<_>, String>>()?;
+        let functions = moved(&self.functions, tangents.iter().map(|p| &p.1).zip(dv.iter().copied()))?;
+        let outlines = moved(&self.outlines, tangents.iter().map(|p| &p.2).zip(dv.iter().copied()))?;
+        Kin::new(self.n, families, &functions, &outlines, self.angles.clone())
+    }
+
+    pub fn count(&self) -> usize {
+        self.tangents.len()
+    }
+}
+
+/// The asked columns: sources `src` as crate::columns reads them from
+/// `stages` stages (1: positions; 2, 3: with velocities, accelerations),
+/// the named points' body columns `pc`, local coordinates `local` and
+/// their tangents `dlocal` (per parameter, one per point).
+pub struct Asked<'a> {
+    pub stages: usize,
+    pub src: &'a [usize],
+    pub pc: &'a [usize],
+    pub local: &'a [C64],
+    pub dlocal: &'a [C64],
+}
+
+/// Per variant, written: its columns (instants, columns; NaN from its
+/// first instant not taken on), its first state (n; NaN when it did not
+/// assemble), the first instant not taken (instants: none), why (the code
+/// of accept::Why) and the det sign of its first state (0: none).
+pub struct Written<'a> {
+    pub data: &'a mut [f64],
+    pub start: &'a mut [f64],
+    pub end: &'a mut [i64],
+    pub why: &'a mut [u8],
+    pub det: &'a mut [i8],
+}
+
+/// Marches every variant (values: N rows of the parameters' moves from the
+/// nominal) over `times` from the nominal's first state `q0`.
+#[allow(clippy::too_many_arguments)]
+pub fn run(
+    tables: &Tables,
+    layout: &Layout,
+    times: &[f64],
+    q0: &[f64],
+    s: &Settings,
+    asked: &Asked,
+    values: &[f64],
+    out: Written,
+    watch: &Watch,
+) -> Result<(), String> {
+    let (n, kk, p, w) = (tables.n, times.len(), tables.count(), asked.src.len());
+    let count = out.end.len();
+    if kk == 0 || w == 0 || n == 0 || q0.len() != n || values.len() != count * p {
+        return Err("variants: sizes do not fit".into());
+    }
+    if out.data.len() != count * kk * w
+        || out.start.len() != count * n
+        || out.why.len() != count
+        || out.det.len() != count
+    {
+        return Err("variants: outputs of the wrong size".into());
+    }
+    let results: Vec<Result<(usize, Why, i8), String>> = watch.around(|| {
+        out.data
+            .par_chunks_mut(kk * w)
+            .zip(out.start.par_chunks_mut(n))
+            .enumerate()
+            .map(|(v, (data, start))| {
+                let dv = &values[v * p..(v + 1) * p];
+                one(tables, layout, times, q0, s, asked, dv, data, start, watch)
+            })
+            .collect()
+    });
+    for (v, r) in results.into_iter().enumerate() {
+        let (end, why, det) = r?;
+        out.end[v] = end as i64;
+        out.why[v] = why as u8;
+        out.det[v] = det;
+    }
+    Ok(())
+}
+
+/// One variant: (the first instant not taken, why, det sign at its first state).
+#[allow(clippy::too_many_arguments)]
+fn one(
+    tables: &Tables,
+    layout: &Layout,
+    times: &[f64],
+    q0: &[f64],
+    s: &Settings,
+    asked: &Asked,
+    dv: &[f64],
+    data: &mut [f64],
+    start: &mut [f64],
+    watch: &Watch,
+) -> Result<(usize, Why, i8), String> {
+    let kin = tables.kin(dv)?;
+    let (n, kk, stages) = (tables.n, times.len(), asked.stages);
+    let rates = stages > 1;
+    let mut x = vec![0.0; if rates { 3 } else { 1 } * kk * n];
+    let (oq, rest) = x.split_at_mut(kk * n);
+    let (oqd, oqdd) = rest.split_at_mut(rest.len() / 2);
+    let (mut q, mut qd, mut qdd) = (q0.to_vec(), vec![0.0; n], vec![0.0; n]);
+    let (mut last, mut h, mut tt) = ([times[0], 0.0], vec![0.0; 3 * n], [f64::NAN; 3]);
+    let st = State { q: &mut q, qd: &mut qd, qdd: &mut qdd, last: &mut last, h: &mut h, tt: &mut tt };
+    let (mut iterations, mut residual, mut pivot) = (vec![0i64; kk], vec![0.0; kk], vec![0.0; kk]);
+    let (mut det, mut counts) = (vec![0i8; kk], [0i64; 2]);
+    let o = Out {
+        q: oq,
+        qd: oqd,
+        qdd: oqdd,
+        iterations: &mut iterations,
+        residual: &mut residual,
+        pivot: &mut pivot,
+        det: &mut det,
+        counts: &mut counts,
+        first: 0,
+    };
+    let (end, why) = march_one(&kin, layout, times, st, s, o, watch);
+    let local: Vec<C64> = (0..asked.local.len())
+        .map(|j| asked.local[j] + (0..dv.len()).map(|k| asked.dlocal[k * asked.local.len() + j] * dv[k]).sum::<C64>())
+        .collect();
+    let x: Vec<&[f64]> = x.chunks(kk * n).take(stages).collect();
+    columns(&x, n, asked.src, asked.pc, &local, data);
+    data[end * asked.src.len()..].fill(f64::NAN);
+    if end > 0 {
+        start.copy_from_slice(&x[0][..n]);
+    } else {
+        start.fill(f64::NAN);
+    }
+    Ok((end, why, if end > 0 { det[0] } else { 0 }))
+}
+
+/// The one call of the march (k = 0: the variant assembles from the state's q).
+fn march_one(
+    kin: &Kin,
+    layout: &Layout,
+    times: &[f64],
+    st: State,
+    s: &Settings,
+    out: Out,
+    watch: &Watch,
+) -> (usize, Why) {
+    march::run(kin, layout, times, 0, st, s, out, watch, false)
+}

@@ -1,0 +1,266 @@
+"""Many variants of one mechanism solved together (issue 31, "Variants as
+lanes"; docs/solver.md, "Variants"):
+``kinem.solve(model, parameters={"constraints.A.si.0": values, ...})``.
+
+The model's tables are affine in the case's numbers (kinem.sensitivity), so
+a variant's are the nominal's plus sum_p (v_p - nominal_p) tangent_p: the
+tables and their tangents go to the core once (kinem.native.Plan.variants),
+which forms each variant's model itself, marches the variants on its thread
+pool, each from the nominal's state at the first instant (so that it stays
+on the nominal's branch) and converging, failing and stopping on its own,
+and writes only the asked columns into one (variants, instants, columns)
+array. Values are not validated as a case file is (a value that makes a
+link length negative is solved as given).
+
+A variant the march does not take to the end (an instant that needs
+sub-steps, a limit position) is solved again alone by the ordinary
+``solve`` of its own case (kinem.tracking sub-steps it), from the same
+state: ``resolved`` marks it, ``status`` keeps the march's verdict. A
+variant whose det(Phi_q) sign at the first instant differs from the
+nominal's is flagged in ``flipped``.
+
+Parameters whose tables are not affine in them (a drawn body's frame that
+moves with the parameter, and the drivers that turn with it) are solved
+through the merged path instead (kinem.batch: chunks of merged cases, a
+chunk that fails solved variant by variant); ``merged`` says so.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import native
+from .errors import AnalysisError, InputError
+from .options import Options
+from .result import OUTPUTS, _layout, stages_for
+
+MAX_VARIANTS = 1_000_000
+CHUNK = 128   # variants solved as one merged case on the merged path
+
+
+@dataclass(frozen=True, eq=False)
+class Variants:
+    """The variants' solutions: ``data`` (variants, instants, columns), NaN
+    from a variant's first instant not solved on; per variant ``success``,
+    ``status`` (kinem.native.Why: the march's verdict), ``failed_at`` (the
+    first instant the march did not take; len(t): none), ``resolved`` (solved
+    alone after the march stopped), ``flipped`` (det sign at the first
+    instant not the nominal's), ``start`` (its state at the first instant)
+    and ``messages`` ("" when solved)."""
+    parameters: tuple
+    values: np.ndarray
+    t: np.ndarray
+    columns: tuple
+    data: np.ndarray
+    success: np.ndarray
+    status: tuple
+    failed_at: np.ndarray
+    resolved: np.ndarray
+    flipped: np.ndarray
+    start: np.ndarray
+    messages: tuple
+    merged: bool
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+    def __getitem__(self, column) -> np.ndarray:
+        """A column over (variants, instants)."""
+        if column not in self.columns:
+            from .errors import UnknownColumn
+            from .result import missing_column
+
+            raise UnknownColumn(missing_column(column, self.columns))
+        return self.data[:, :, self.columns.index(column)]
+
+    def __repr__(self) -> str:
+        return (f"Variants({len(self)} variants of {', '.join(self.parameters)}, {len(self.t)} instants, "
+                f"{len(self.columns)} columns, {int((~self.success).sum())} failed)")
+
+
+def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options: Options | None = None) -> Variants:
+    """The variants {path or [parameters] name: N values} of ``model``
+    solved together; ``outputs``: stages (as ``solve``'s) or column names."""
+    from .parameters import resolve, to_path
+    from .solver import _checked_times, solve
+
+    case = model.case
+    paths, values = _values(case, parameters, to_path)
+    listed = resolve(case, paths)
+    nominal = np.array([p.value for p in listed])
+    times = model.times if times is None else _checked_times(times)
+    options = model.options if options is None else options
+    columns, stages = _asked(model, outputs)
+    stage_names = OUTPUTS[:stages]
+    first = solve(model, outputs=stage_names, times=times[:1], options=options)
+    if not first.success:
+        raise AnalysisError(f"{case.source}: variants: the nominal does not assemble: {first.message}")
+    q0 = np.ascontiguousarray(first.q[0])
+    if not all(affine(case, p.path) for p in listed) or model.plan is None:
+        return _merged(model, listed, values, columns, stage_names, times, q0, options)
+    K, N = len(times), len(values)
+    data, start = np.empty((N, K, len(columns))), np.empty((N, model.n))
+    end, why, det = np.empty(N, np.int64), np.empty(N, np.uint8), np.empty(N, np.int8)
+    names, src, _ = _layout(model, stages)
+    at = {c: j for j, c in enumerate(names)}
+    base, tangents = _tangents(model, listed)
+    dlocal = np.array([d for _, d in tangents], complex).reshape(len(listed), len(model.point_names))
+    from .budget import Budget
+    from .tracking import singular_pivot
+
+    settings = (float(options.tolerance), int(options.max_iterations), float(native.MAX_STEP),
+                singular_pivot(options.tolerance), float(Budget(model, options).left()))
+    asked = (stages, src[[at[c] for c in columns]], model.point_cols.astype(np.int64),
+             np.ascontiguousarray(model.point_local, complex), dlocal)
+    model.plan.variants([(kind, t) for kind, t in base[0]], base[1], base[2],
+                        [([d for _, _, d in fams], f[1], o[1]) for (fams, f, o), _ in tangents],
+                        asked, np.ascontiguousarray(values - nominal), np.ascontiguousarray(times, float), q0,
+                        settings, (data, start, end, why, det))
+    status = tuple(native.Why(int(w)) for w in why)
+    d0 = _det(model, q0, times[0])
+    flipped = (det != 0) & (det != d0)
+    success, resolved, messages = end == K, np.zeros(N, bool), [""] * N
+    again = [k for k in np.flatnonzero(~success) if status[k] not in (native.Why.OUT_OF_TIME, native.Why.INTERRUPTED)]
+    for k, case_k in zip(again, _cases(case, listed, values[again])):
+        row, message, q = _alone(case_k, columns, stage_names, times, q0, options)
+        if row is not None:
+            data[k], start[k], success[k], resolved[k] = row, q, True, True
+        else:
+            messages[k] = message
+    for k in np.flatnonzero(~success):
+        messages[k] = messages[k] or f"stopped at t = {times[end[k]]:.6g} (instant {end[k]}): {status[k].message}"
+    return Variants(tuple(p.path for p in listed), values, np.array(times, float), columns, data, success, status,
+                    end, resolved, flipped, start, tuple(messages), False)
+
+
+def affine(case, path) -> bool:
+    """Whether the model's tables are affine in the parameter at ``path``
+    with the nominal's body frames: not when it moves a drawn body's frame
+    (kinem.parameters.frame_tangent), which the merged path then solves."""
+    from .parameters import frame_tangent
+
+    return not frame_tangent(case, path)
+
+
+def _tangents(model, listed):
+    """(the model's tables (kinem.sensitivity._tables), per parameter its
+    tangents ((families [(kind, table, tangent)], (functions, tangent),
+    (outlines, tangent)), named points' local tangent)): the one place this
+    module reads kinem.sensitivity's tangents."""
+    from .sensitivity import _moved, _tables, _tangent
+
+    case = model.case
+    base = _tables(case, model.length)
+    return base, [_tangent(case, model.length, base, p, moved, h) for p, (moved, h) in zip(listed, _moved(case, listed))]
+
+
+def _values(case, parameters, to_path):
+    """(paths, values (N, P)) from {path or name: N numbers}, or InputError."""
+    if not isinstance(parameters, dict) or not parameters:
+        raise InputError(f"{case.source}: solve: parameters {parameters!r:.80}: expected a dict {{path: values}} "
+                         "with one or more design parameter paths (kinem.parameters(case) lists them)")
+    paths, columns = [], []
+    for key, v in parameters.items():
+        paths.append(to_path(case, key, case.source))
+        try:
+            a = np.asarray(v, dtype=float)
+        except (TypeError, ValueError):
+            a = None
+        if a is None or a.ndim != 1 or not len(a) or not np.isfinite(a).all():
+            raise InputError(f"{case.source}: solve: parameter {key!r}: expected a 1-D sequence of one or more "
+                             "finite numbers")
+        columns.append(a)
+    lengths = {len(a) for a in columns}
+    if len(lengths) > 1:
+        given = ", ".join(f"{k!r}: {len(a)}" for k, a in zip(parameters, columns))
+        raise InputError(f"{case.source}: solve: parameters of different lengths ({given}); expected one value "
+                         "per variant for every parameter")
+    if len(columns[0]) > MAX_VARIANTS:
+        raise InputError(f"{case.source}: solve: {len(columns[0])} variants; expected at most {MAX_VARIANTS}")
+    return paths, np.ascontiguousarray(np.column_stack(columns))
+
+
+def _asked(model, outputs):
+    """(the asked column names, the stages they need): ``outputs`` stages
+    (every column of them) or column names."""
+    from .casefile.checks import suggest
+
+    outputs = (outputs,) if isinstance(outputs, str) else tuple(outputs)
+    if outputs and all(o in OUTPUTS for o in outputs):
+        stages = max(OUTPUTS.index(o) for o in outputs) + 1
+        return _layout(model, stages)[0], stages
+    names = _layout(model, 3)[0]
+    for c in outputs:
+        if not isinstance(c, str) or c not in names:
+            guess = suggest(c, names) if isinstance(c, str) else None
+            raise InputError(f"{model.case.source}: solve: outputs: no column {c!r}" + (
+                f"; did you mean '{guess}'?" if guess else "; expected stages (positions, velocities, "
+                "accelerations) or trajectory column names such as B.x"))
+    if not outputs:
+        raise InputError(f"{model.case.source}: solve: outputs: none given; expected stages or column names")
+    columns = tuple(dict.fromkeys(outputs))
+    return columns, OUTPUTS.index(stages_for(columns)[-1]) + 1
+
+
+def _cases(case, listed, values):
+    """Each variant's own Case (kinem.sensitivity.cases_of), or the InputError that refuses it."""
+    from .sensitivity import cases_of
+
+    return cases_of(case, [{p.path: float(v) for p, v in zip(listed, row)} for row in values])
+
+
+def _alone(variant, columns, stages, times, q0, options):
+    """(its columns (K, C), None, first state) for a variant solved by
+    ``solve`` of its own case from q0, or (None, why, None)."""
+    from .model import compile
+    from .solver import solve
+
+    if isinstance(variant, InputError):
+        return None, f"bad input: {variant.summary()}", None
+    r = solve(compile(variant), outputs=stages, times=times, options=options, q0=q0)
+    if not r.success:
+        return None, f"{r.status.name}: {r.message}", None
+    return np.column_stack([r.trajectory[c] for c in columns]), "", r.q[0]
+
+
+def _merged(model, listed, values, columns, stages, times, q0, options) -> Variants:
+    """The variants solved as merged cases (kinem.batch), CHUNK at a time; a
+    chunk that fails, variant by variant (``_alone``)."""
+    from .batch import merge, prefix
+    from .model import compile
+    from .solver import solve
+
+    N, K = len(values), len(times)
+    data, start = np.full((N, K, len(columns)), np.nan), np.full((N, model.n), np.nan)
+    success, messages = np.zeros(N, bool), [""] * N
+    cases = _cases(model.case, listed, values)
+    index = {name: j for j, name in enumerate(model.coordinate_names)}
+    for first in range(0, N, CHUNK):
+        ks = [k for k in range(first, min(N, first + CHUNK)) if not isinstance(cases[k], InputError)]
+        r = None
+        if len(ks) > 1:
+            merged = compile(merge([cases[k] for k in ks]))
+            q = np.array([q0[index[name.split("-", 1)[1]]] for name in merged.coordinate_names])
+            r = solve(merged, outputs=stages, times=times, options=options, q0=q)
+        if r is not None and r.success:
+            at = {name: j for j, name in enumerate(merged.coordinate_names)}
+            for j, k in enumerate(ks):
+                p = prefix(j)
+                data[k] = np.column_stack([r.trajectory[p + c] for c in columns])
+                start[k] = r.q[0, [at[p + name] for name in model.coordinate_names]]
+                success[k] = True
+            continue
+        for k in range(first, min(N, first + CHUNK)):
+            row, messages[k], q = _alone(cases[k], columns, stages, times, q0, options)
+            if row is not None:
+                data[k], start[k], success[k] = row, q, True
+    d0 = _det(model, q0, times[0])
+    flipped = np.array([bool(success[k] and d0 and _det(compile(cases[k]), start[k], times[0]) != d0)
+                        for k in range(N)], bool)
+    status = tuple(native.Why.ACCEPTED if ok else native.Why.NOT_CONVERGED for ok in success)
+    return Variants(tuple(p.path for p in listed), values, np.array(times, float), columns, data, success, status,
+                    np.where(success, K, 0), np.zeros(N, bool), flipped, start, tuple(messages), True)
+
+
+def _det(model, q, t) -> int:
+    """det(Phi_q)'s sign at (q, t) (0: the model has no compiled plan)."""
+    return model.plan.factor(model.jac_values(q, float(t))).det_sign if model.plan is not None else 0
