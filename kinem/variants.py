@@ -24,7 +24,8 @@ moves with the parameter, and the drivers that turn with it) are solved
 through the merged path instead (kinem.batch: chunks of merged cases, a
 chunk that fails solved variant by variant); ``merged`` says so.
 """
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -89,9 +90,11 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
     nominal = np.array([p.value for p in listed])
     times = model.times if times is None else _checked_times(times)
     options = model.options if options is None else options
+    if options.started is None:   # the time limit counts for the whole batch
+        options = replace(options, started=time.perf_counter())
     columns, stages = _asked(model, outputs)
     stage_names = OUTPUTS[:stages]
-    first = solve(model, outputs=stage_names, times=times[:1], options=options)
+    first = solve(model, outputs=stage_names, times=times[:1], options=replace(options, max_seconds=None))
     if not first.success:
         raise AnalysisError(f"{case.source}: variants: the nominal does not assemble: {first.message}")
     q0 = np.ascontiguousarray(first.q[0])
