@@ -2,6 +2,11 @@
 (kinem.solve(model, parameters=...), kinem.variants) against separate
 solves of each variant's own case, the affine tables against validated
 cases', and per-variant failure, input errors and limits."""
+import signal
+import subprocess
+import sys
+import textwrap
+import time
 from pathlib import Path
 
 import numpy as np
@@ -169,3 +174,43 @@ def test_the_time_limit_stops_every_variant():
                     options=kinem.Options(max_seconds=1e-9))
     assert not r.success.any() and all(s == native.Why.OUT_OF_TIME for s in r.status)
     assert all("time limit" in m for m in r.messages)
+
+
+SIGINT_BATCH = textwrap.dedent("""
+    import numpy as np
+    import kinem
+    d = {"name": "crank", "time": {"end": 1.0, "steps": 10},
+         "bodies": {"ground": {"q": [0, 0, 0]}, "crank": {"q": [0.0, 0.0, 0.1]}},
+         "constraints": [{"type": "ground", "body": "ground", "value": [0.0, 0.0, 0.0]},
+                         {"type": "revolute", "name": "O", "i": "crank", "si": [0.0, 0.0], "j": "ground",
+                          "sj": [0.0, 0.0]},
+                         {"type": "driver", "name": "drive", "body": "crank", "coord": "phi",
+                          "d": {"poly": [0.1, 1.0]}}]}
+    model = kinem.compile(kinem.load_dict(d))
+    times = np.linspace(0.0, 1.0, 200_000)
+    rates = {"constraints.drive.d.poly.1": np.linspace(0.9, 1.1, 64)}
+    kinem.solve(model, outputs=["crank.phi"], times=times[:100], parameters=rates)   # warm
+    print("ready", flush=True)
+    try:
+        kinem.solve(model, outputs=["crank.phi"], times=times, parameters=rates)
+        print("finished", flush=True)
+    except KeyboardInterrupt:
+        print("interrupted", flush=True)
+""")
+
+
+def test_sigint_stops_a_batch():
+    """SIGINT while the core marches 64 variants of 2e5 instants (seconds of
+    work): KeyboardInterrupt comes at once."""
+    p = subprocess.Popen([sys.executable, "-c", SIGINT_BATCH], stdout=subprocess.PIPE, text=True, cwd=ROOT)
+    try:
+        assert p.stdout.readline().strip() == "ready"
+        time.sleep(0.3)
+        sent = time.perf_counter()
+        p.send_signal(signal.SIGINT)
+        line = p.stdout.readline().strip()
+        assert line == "interrupted"
+        assert time.perf_counter() - sent < 2.0   # generous: the core polls every 2 ms
+    finally:
+        p.kill()
+        p.wait()
