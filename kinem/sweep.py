@@ -3,12 +3,15 @@
 ``sweep(case, {"coupler": np.linspace(0.28, 0.32, 201)}, outputs=["B.x"])``
 loads one variant per point of the grid (the product of the values given
 for each parameter: a named dimension of [parameters] or any design
-parameter path, set by kinem.parameters.apply_many), solves them
-all as one batch (kinem.batch: one merged case, its variants marched side
-by side) and returns a Sweep: one table of variant, parameters, t and the
-outputs. A batch that fails is halved until each failing variant is solved
-alone, so one variant's failure (or bad input: a value that makes a radius
-negative) is that variant's row and not the others'.
+parameter path, validated by kinem.parameters.apply_many), solves them
+all as one batch and returns a Sweep: one table of variant, parameters, t
+and the outputs. The batch is kinem.variants' (each variant from the
+nominal's first state, failing on its own) where the model's tables are
+affine in the swept parameters; else merged cases (kinem.batch, its
+variants marched side by side), a batch that fails halved until each
+failing variant is solved alone. Either way one variant's failure (or bad
+input: a value that makes a radius negative) is that variant's row and not
+the others'.
 """
 import itertools
 from dataclasses import dataclass
@@ -144,9 +147,33 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
             if progress:
                 progress.step(f"variant {k + 1} loaded")
     out = np.full((len(grid_values), len(base.times), len(columns)), np.nan)
-
-    _solve([k for k, c in enumerate(cases) if c is not None], cases, stages, columns, out, errors, progress)
+    valid = [k for k, c in enumerate(cases) if c is not None]
+    paths = [to_path(nominal, n, source) for n in names]
+    if not (valid and _variants(base, paths, grid_values, valid, columns, out, errors, progress)):
+        _solve(valid, cases, stages, columns, out, errors, progress)
     return Sweep(names, grid_values, columns, np.array(base.times), out, tuple(errors))
+
+
+def _variants(model, paths, grid_values, ks, columns, out, errors, progress) -> bool:
+    """Solves variants ``ks`` as variants of the nominal model (kinem.variants)
+    when its tables are affine in every path; False when they are not, or
+    the nominal does not assemble (the merged path then solves them)."""
+    from .errors import AnalysisError
+    from .variants import affine, solve_variants
+
+    if len(set(paths)) < len(paths) or not all(affine(model.case, p) for p in paths):
+        return False
+    try:
+        r = solve_variants(model, {p: grid_values[ks, j] for j, p in enumerate(paths)}, outputs=columns)
+    except AnalysisError:
+        return False
+    out[ks] = r.data
+    for j, k in enumerate(ks):
+        errors[k] = r.messages[j]
+    if progress:
+        progress.done += len(ks)
+        progress.show(f"{len(ks)} variants solved")
+    return True
 
 
 def _columns(model, outputs) -> tuple:

@@ -24,6 +24,7 @@ from .errors import InputError
 from .parameters import resolve
 from .result import Trajectory, stages_for
 from .sensitivity import cases_of, sensitivity
+from .variants import affine
 
 
 @dataclass(frozen=True)
@@ -93,9 +94,11 @@ def tolerances_of(case, given=None) -> tuple:
 def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progress=None, chunk=None) -> Bands:
     """The linear, root-sum-square and Monte Carlo bands of ``outputs``
     (columns; default every named point's x and y) for the tolerances
-    (default the case's [tolerances] section). ``chunk``: samples solved as
-    one merged batch (default CHUNK; 1: one by one, no threads: for a
-    forked worker process, where the batch's thread pool cannot run)."""
+    (default the case's [tolerances] section). The Monte Carlo samples are
+    solved as variants of the model (kinem.variants, BATCH at a time) when
+    its tables are affine in every toleranced parameter, else as merged
+    cases, ``chunk`` at a time (default CHUNK). ``chunk`` 1: one by one, no
+    threads: for a forked worker process, where a thread pool cannot run."""
     case = model.case
     tols = tolerances_of(case, tolerances)
     sens = sensitivity(model, [t.path for t in tols], outputs=("positions", "velocities", "accelerations"))
@@ -151,6 +154,18 @@ def _monte_carlo(model, tols, outputs, nominal, samples, seed, progress, chunk):
             lo[k] = np.minimum(lo[k], traj[c])
             hi[k] = np.maximum(hi[k], traj[c])
 
+    if chunk > 1 and all(affine(case, t.path) for t in tols):   # the variants' batch solve (kinem.variants)
+        for start in range(0, samples, BATCH):
+            stop = min(samples, start + BATCH)
+            for values, traj, why in _solve_variants(model, tols, base, draws[start:stop], nominal.t, nominal_branch,
+                                                     outputs):
+                if why is None:
+                    take(traj)
+                else:
+                    rejected.append((values, why))
+            if progress is not None:
+                progress(stop, samples)
+        return _bands(lo, hi, accepted, rejected)
     for start in range(0, samples, chunk):
         batch = []
         designs = [{t.path: base[t.path] + draws[s, j] for j, t in enumerate(tols)}
@@ -167,6 +182,10 @@ def _monte_carlo(model, tols, outputs, nominal, samples, seed, progress, chunk):
                 rejected.append((values, why))
         if progress is not None:
             progress(min(samples, start + chunk), samples)
+    return _bands(lo, hi, accepted, rejected)
+
+
+def _bands(lo, hi, accepted, rejected):
     if not accepted:
         lo[:] = np.nan
         hi[:] = np.nan
@@ -174,6 +193,27 @@ def _monte_carlo(model, tols, outputs, nominal, samples, seed, progress, chunk):
 
 
 CHUNK = 128   # samples solved as one merged batch (kinem.batch)
+BATCH = 4096  # samples solved as one batch of variants (kinem.variants)
+
+
+def _solve_variants(model, tols, base, draws, times, branch, outputs):
+    """(values, {output: values over times}, None) or (values, None, why)
+    for every sample (a row of ``draws``), solved as variants of the model
+    (kinem.variants: each from the nominal's first state)."""
+    from .variants import solve_variants
+
+    r = solve_variants(model, {t.path: base[t.path] + draws[:, j] for j, t in enumerate(tols)},
+                       outputs=list(outputs), times=times)
+    out = []
+    for s in range(len(draws)):
+        values = {t.path: base[t.path] + draws[s, j] for j, t in enumerate(tols)}
+        if not r.success[s]:
+            out.append((values, None, r.messages[s]))
+        elif _branch(model, r.start[s]) != branch:
+            out.append((values, None, "assembled on another branch"))
+        else:
+            out.append((values, {c: r.data[s, :, k] for k, c in enumerate(r.columns)}, None))
+    return out
 
 
 def _solve_chunk(model, chunk, times, q0, branch, outputs):
