@@ -604,15 +604,7 @@ impl Plan {
         let parts = &self.parts;
         // the signal's exception, from the poll (the GIL re-acquired for it)
         let signal: std::sync::Mutex<Option<PyErr>> = std::sync::Mutex::new(None);
-        let poll = || match Python::attach(|py| py.check_signals()) {
-            Ok(()) => false,
-            Err(e) => {
-                if let Ok(mut s) = signal.lock() {
-                    *s = Some(e);
-                }
-                true
-            }
-        };
+        let poll = || signalled(&signal);
         let (end, why) = guard(py, move || {
             let watch = Watch::new(seconds, Some(&poll));
             if layout.count < 2 || !matches!(layout.shape, Shape::Blocks { .. }) {
@@ -622,8 +614,7 @@ impl Plan {
             Ok(crate::parts::run_parts(parts, layout.sign, times, k, st, &settings, out, &watch))
         })?;
         if why == Why::Interrupted {
-            let e = signal.lock().ok().and_then(|mut s| s.take());
-            return Err(e.unwrap_or_else(|| pyo3::exceptions::PyKeyboardInterrupt::new_err("")));
+            return Err(raised(&signal));
         }
         Ok((end, why as u8))
     }
@@ -727,30 +718,50 @@ impl Plan {
         let asked = crate::variants::Asked { stages, src: &src, pc: &pc, local: &local, dlocal: &dlocal };
         let (kin, layout) = (&self.kin, &self.layout);
         let signal: std::sync::Mutex<Option<PyErr>> = std::sync::Mutex::new(None);
-        let poll = || match Python::attach(|py| py.check_signals()) {
-            Ok(()) => false,
-            Err(e) => {
-                if let Ok(mut s) = signal.lock() {
-                    *s = Some(e);
-                }
-                true
-            }
-        };
+        let poll = || signalled(&signal);
         let stopped = guard(py, move || {
             let nominal = tables.kin(&vec![0.0; p])?;
             if (nominal.n, nominal.m, nominal.nnz) != (kin.n, kin.m, kin.nnz) {
                 return Err("variants: the tables do not make this model".to_string());
             }
             let watch = Watch::new(seconds, Some(&poll));
-            crate::variants::run(&tables, layout, times, q0, &s, &asked, values, written, &watch)
+            let batch = crate::variants::Batch {
+                tables: &tables,
+                layout,
+                times,
+                q0,
+                settings: &s,
+                asked: &asked,
+                watch: &watch,
+            };
+            crate::variants::run(&batch, values, written)
         });
         stopped?;
         if why.as_slice().map_err(|_| bad("why"))?.contains(&(Why::Interrupted as u8)) {
-            let e = signal.lock().ok().and_then(|mut s| s.take());
-            return Err(e.unwrap_or_else(|| pyo3::exceptions::PyKeyboardInterrupt::new_err("")));
+            return Err(raised(&signal));
         }
         Ok(())
     }
+}
+
+/// Polls for a signal with the GIL re-acquired: true when one arrived, its
+/// exception (KeyboardInterrupt for Ctrl-C) kept in `signal`.
+fn signalled(signal: &std::sync::Mutex<Option<PyErr>>) -> bool {
+    match Python::attach(|py| py.check_signals()) {
+        Ok(()) => false,
+        Err(e) => {
+            if let Ok(mut s) = signal.lock() {
+                *s = Some(e);
+            }
+            true
+        }
+    }
+}
+
+/// The signal's exception kept by `signalled` (KeyboardInterrupt without one).
+fn raised(signal: &std::sync::Mutex<Option<PyErr>>) -> PyErr {
+    let e = signal.lock().ok().and_then(|mut s| s.take());
+    e.unwrap_or_else(|| pyo3::exceptions::PyKeyboardInterrupt::new_err(""))
 }
 
 /// LU factors of J_s (Plan.factor): solve, pivot ratio and det sign.

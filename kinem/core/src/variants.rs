@@ -98,23 +98,25 @@ pub struct Written<'a> {
     pub det: &'a mut [i8],
 }
 
+/// What every variant shares: the tables, the nominal's linear structure,
+/// the output instants, the nominal's first state, the march's settings,
+/// the asked columns and the watch.
+pub struct Batch<'a> {
+    pub tables: &'a Tables,
+    pub layout: &'a Layout,
+    pub times: &'a [f64],
+    pub q0: &'a [f64],
+    pub settings: &'a Settings,
+    pub asked: &'a Asked<'a>,
+    pub watch: &'a Watch<'a>,
+}
+
 /// Marches every variant (values: N rows of the parameters' moves from the
-/// nominal) over `times` from the nominal's first state `q0`.
-#[allow(clippy::too_many_arguments)]
-pub fn run(
-    tables: &Tables,
-    layout: &Layout,
-    times: &[f64],
-    q0: &[f64],
-    s: &Settings,
-    asked: &Asked,
-    values: &[f64],
-    out: Written,
-    watch: &Watch,
-) -> Result<(), String> {
-    let (n, kk, p, w) = (tables.n, times.len(), tables.count(), asked.src.len());
+/// nominal) over the batch's instants from the nominal's first state.
+pub fn run(b: &Batch, values: &[f64], out: Written) -> Result<(), String> {
+    let (n, kk, p, w) = (b.tables.n, b.times.len(), b.tables.count(), b.asked.src.len());
     let count = out.end.len();
-    if kk == 0 || w == 0 || n == 0 || q0.len() != n || values.len() != count * p {
+    if kk == 0 || w == 0 || n == 0 || b.q0.len() != n || values.len() != count * p {
         return Err("variants: sizes do not fit".into());
     }
     if out.data.len() != count * kk * w
@@ -124,15 +126,12 @@ pub fn run(
     {
         return Err("variants: outputs of the wrong size".into());
     }
-    let results: Vec<Result<(usize, Why, i8), String>> = watch.around(|| {
+    let results: Vec<Result<(usize, Why, i8), String>> = b.watch.around(|| {
         out.data
             .par_chunks_mut(kk * w)
             .zip(out.start.par_chunks_mut(n))
             .enumerate()
-            .map(|(v, (data, start))| {
-                let dv = &values[v * p..(v + 1) * p];
-                one(tables, layout, times, q0, s, asked, dv, data, start, watch)
-            })
+            .map(|(v, (data, start))| one(b, &values[v * p..(v + 1) * p], data, start))
             .collect()
     });
     for (v, r) in results.into_iter().enumerate() {
@@ -145,26 +144,15 @@ pub fn run(
 }
 
 /// One variant: (the first instant not taken, why, det sign at its first state).
-#[allow(clippy::too_many_arguments)]
-fn one(
-    tables: &Tables,
-    layout: &Layout,
-    times: &[f64],
-    q0: &[f64],
-    s: &Settings,
-    asked: &Asked,
-    dv: &[f64],
-    data: &mut [f64],
-    start: &mut [f64],
-    watch: &Watch,
-) -> Result<(usize, Why, i8), String> {
-    let kin = tables.kin(dv)?;
-    let (n, kk, stages) = (tables.n, times.len(), asked.stages);
+fn one(b: &Batch, dv: &[f64], data: &mut [f64], start: &mut [f64]) -> Result<(usize, Why, i8), String> {
+    let kin = b.tables.kin(dv)?;
+    let (times, asked) = (b.times, b.asked);
+    let (n, kk, stages) = (b.tables.n, times.len(), asked.stages);
     let rates = stages > 1;
     let mut x = vec![0.0; if rates { 3 } else { 1 } * kk * n];
     let (oq, rest) = x.split_at_mut(kk * n);
     let (oqd, oqdd) = rest.split_at_mut(rest.len() / 2);
-    let (mut q, mut qd, mut qdd) = (q0.to_vec(), vec![0.0; n], vec![0.0; n]);
+    let (mut q, mut qd, mut qdd) = (b.q0.to_vec(), vec![0.0; n], vec![0.0; n]);
     let (mut last, mut h, mut tt) = ([times[0], 0.0], vec![0.0; 3 * n], [f64::NAN; 3]);
     let st = State { q: &mut q, qd: &mut qd, qdd: &mut qdd, last: &mut last, h: &mut h, tt: &mut tt };
     let (mut iterations, mut residual, mut pivot) = (vec![0i64; kk], vec![0.0; kk], vec![0.0; kk]);
@@ -180,7 +168,7 @@ fn one(
         counts: &mut counts,
         first: 0,
     };
-    let (end, why) = march_one(&kin, layout, times, st, s, o, watch);
+    let (end, why) = march_one(&kin, b, st, o);
     let local: Vec<C64> = (0..asked.local.len())
         .map(|j| asked.local[j] + (0..dv.len()).map(|k| asked.dlocal[k * asked.local.len() + j] * dv[k]).sum::<C64>())
         .collect();
@@ -196,14 +184,6 @@ fn one(
 }
 
 /// The one call of the march (k = 0: the variant assembles from the state's q).
-fn march_one(
-    kin: &Kin,
-    layout: &Layout,
-    times: &[f64],
-    st: State,
-    s: &Settings,
-    out: Out,
-    watch: &Watch,
-) -> (usize, Why) {
-    march::run(kin, layout, times, 0, st, s, out, watch, false)
+fn march_one(kin: &Kin, b: &Batch, st: State, out: Out) -> (usize, Why) {
+    march::run(kin, b.layout, b.times, 0, st, b.settings, out, b.watch, false)
 }
