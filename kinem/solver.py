@@ -74,7 +74,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     if parameters is not None:
         from .variants import solve_variants
 
-        return solve_variants(model, parameters, outputs, times, options)
+        return solve_variants(model, parameters, outputs, times, options, trace, q0)
     times = _checked_times(times)
     options = model.options if options is None else options
     if not isinstance(options, Options):

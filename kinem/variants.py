@@ -20,8 +20,10 @@ variant whose det(Phi_q) sign at the first instant differs from the
 nominal's is flagged in ``flipped``.
 
 Parameters whose tables are not affine in them (a drawn body's frame that
-moves with the parameter, and the drivers that turn with it) are solved
-through the merged path instead (kinem.batch: chunks of merged cases, a
+moves with the parameter, and the drivers that turn with it), and models or
+options the march does not take (kinem.march.usable: redundant equations,
+Jacobian reuse, an explicit sparse LU), are solved through the merged path
+instead (kinem.batch: chunks of merged cases, a
 chunk that fails solved variant by variant); ``merged`` says so.
 """
 import time
@@ -78,13 +80,20 @@ class Variants:
                 f"{len(self.columns)} columns, {int((~self.success).sum())} failed)")
 
 
-def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options: Options | None = None) -> Variants:
+def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options: Options | None = None,
+                   trace=False, q0=None) -> Variants:
     """The variants {path or [parameters] name: N values} of ``model``
-    solved together; ``outputs``: stages (as ``solve``'s) or column names."""
+    solved together; ``outputs``: stages (as ``solve``'s) or column names.
+    A trace and q0 are refused (every variant starts from the nominal's
+    assembly)."""
+    from .march import usable
     from .parameters import resolve, to_path
     from .solver import _checked_times, solve
 
     case = model.case
+    if trace or q0 is not None:
+        raise InputError(f"{case.source}: solve: parameters= with trace or q0; expected neither (every variant "
+                         "starts from the nominal's assembly)")
     paths, values = _values(case, parameters, to_path)
     listed = resolve(case, paths)
     nominal = np.array([p.value for p in listed])
@@ -98,7 +107,7 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
     if not first.success:
         raise AnalysisError(f"{case.source}: variants: the nominal does not assemble: {first.message}")
     q0 = np.ascontiguousarray(first.q[0])
-    if not all(affine(case, p.path) for p in listed) or model.plan is None:
+    if not all(affine(case, p.path) for p in listed) or not usable(model, False, len(times), options):
         return _merged(model, listed, values, columns, stage_names, times, q0, options)
     K, N = len(times), len(values)
     data, start = np.empty((N, K, len(columns))), np.empty((N, model.n))

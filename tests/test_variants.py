@@ -208,3 +208,34 @@ def test_sigint_stops_a_batch():
     finally:
         p.kill()
         p.wait()
+
+
+def test_a_variant_the_march_stops_is_solved_alone():
+    """Six instants over the four-bar's 2.5 s: the march stops every variant
+    at a jump, and each is solved again by solve (sub-steps): resolved,
+    successful, with the march's verdict kept, equal to its own solve."""
+    case = kinem.load(ROOT / "cases" / "four_bar.toml")
+    model = kinem.compile(case)
+    coarse = np.linspace(0.0, 2.5, 6)
+    values = 0.11 + np.array([-1e-3, 1e-3])
+    r = kinem.solve(model, parameters={"points.B.at.0": values}, times=coarse, outputs=["B.x", "B.y"])
+    assert r.success.all() and r.resolved.all()
+    assert all(s == native.Why.JUMP for s in r.status) and (r.failed_at < len(coarse)).all()
+    q0 = nominal_start(model, coarse)
+    for k, v in enumerate(values):
+        ref = alone(case, {"points.B.at.0": v}, q0, ("B.x", "B.y"), times=coarse)
+        np.testing.assert_allclose(r.data[k], ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+
+
+def test_options_the_march_does_not_take_use_the_merged_path():
+    """Jacobian reuse (modified Newton, step by step) takes the merged path,
+    to the same numbers as the batch within the tolerance; a trace or q0 is refused."""
+    model = kinem.compile(kinem.load(ROOT / "cases" / "slider_crank.toml"))
+    values = {"constraints.B.si.0": [295.0, 305.0]}
+    r = kinem.solve(model, parameters=values, times=TIMES, outputs=["B.x"],
+                    options=kinem.Options(jacobian_reuse=True))
+    ref = kinem.solve(model, parameters=values, times=TIMES, outputs=["B.x"])
+    assert r.merged and not ref.merged and r.success.all()
+    np.testing.assert_allclose(r.data, ref.data, rtol=0, atol=1e-8 * np.abs(ref.data).max())
+    with pytest.raises(InputError, match="trace or q0"):
+        kinem.solve(model, parameters=values, trace=True)
