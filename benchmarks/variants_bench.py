@@ -3,11 +3,13 @@
 variants of the slider-crank at <= 0.5 us per variant-step on 2 cores, and
 10,000 four-bar variants over its 250 steps in under 2 s. Prints the load
 average, the medians of REPEATS runs (round-robin, each warm), the
-per-variant-step cost, and the same work once through the merged path
+per-variant-step cost, the processor time per variant-step (what 2 idle
+cores would take: a shared machine's wall clock is not), and the same work once through the merged path
 (kinem.batch: merged cases, 128 variants a case) for comparison.
 
     python benchmarks/variants_bench.py [REPEATS]
 """
+import resource
 import sys
 
 from common import load, rounds, say, timed
@@ -28,6 +30,12 @@ WORK = (
 )
 
 
+def processor() -> float:
+    """This process's processor seconds (every thread, user and system)."""
+    u = resource.getrusage(resource.RUSAGE_SELF)
+    return u.ru_utime + u.ru_stime
+
+
 def designs(model, spread, count, seed=0):
     rng = np.random.default_rng(seed)
     listed = resolve(model.case, list(spread))
@@ -40,8 +48,10 @@ def main(repeats=3):
         model = kinem.compile(kinem.load(f"cases/{name}.toml"))
         values = designs(model, spread, count)
         steps = count * len(model.times)
+        cpu = processor()
         r = rounds({"variants": timed(lambda: kinem.solve(model, outputs=outputs, parameters=values))}, repeats,
                    warm=True)
+        cpu = (processor() - cpu) / (2 * repeats)   # warm: two solves a round
         seconds, every, v = r["variants"]
         assert v.success.all(), [m for m in v.messages if m][:3]
         verdict = []
@@ -53,6 +63,8 @@ def main(repeats=3):
         say(f"{name:13s} {count:6d} variants x {len(model.times)} instants ({shown}): {seconds:7.3f} s "
             f"({', '.join(f'{s:.3f}' for s in every)}), {seconds / steps * 1e6:.3f} us per variant-step; "
             f"{'; '.join(verdict)}; load {load()}")
+        say(f"{'':13s} processor time {cpu:.3f} s a run: {cpu / steps * 1e6:.3f} us per variant-step on one core, "
+            f"{cpu / kinem.native.THREADS / steps * 1e6:.3f} us on {kinem.native.THREADS} idle cores")
         # the same work through the merged path, once
         listed = resolve(model.case, list(values))
         columns, stages = _asked(model, outputs)
