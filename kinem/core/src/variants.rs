@@ -187,3 +187,37 @@ fn one(b: &Batch, dv: &[f64], data: &mut [f64], start: &mut [f64]) -> Result<(us
 fn march_one(kin: &Kin, b: &Batch, st: State, out: Out) -> (usize, Why) {
     march::run(kin, b.layout, b.times, 0, st, b.settings, out, b.watch, false)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table(reals: &[(&str, Vec<f64>)], complex: &[(&str, Vec<C64>)]) -> Table {
+        let mut t = Table::default();
+        t.ints.insert("i".into(), vec![1, 2]);
+        for (k, v) in reals {
+            t.reals.insert(k.to_string(), v.clone());
+        }
+        for (k, v) in complex {
+            t.complex.insert(k.to_string(), v.clone());
+        }
+        t
+    }
+
+    #[test]
+    fn a_variants_table_is_the_base_plus_the_moves_along_the_tangents() {
+        let base = table(&[("l", vec![1.0, 2.0]), ("r", vec![5.0, 6.0])], &[("s", vec![C64::new(1.0, -1.0); 2])]);
+        let t1 = table(&[("l", vec![0.5, 0.0])], &[("s", vec![C64::new(0.0, 2.0); 2])]);
+        let t2 = table(&[("l", vec![0.0, 1.0])], &[]);
+        let m = moved(&base, [(&t1, 2.0), (&t2, -3.0)].into_iter()).unwrap();
+        assert_eq!(m.reals["l"], vec![2.0, -1.0]);
+        assert_eq!(m.reals["r"], base.reals["r"]);
+        assert_eq!(m.complex["s"], vec![C64::new(1.0, 3.0); 2]);
+        assert_eq!(m.ints["i"], base.ints["i"]);
+        // a tangent column the table has not, or of another length: refused
+        let stray = table(&[("x", vec![1.0, 1.0])], &[]);
+        assert!(moved(&base, [(&stray, 1.0)].into_iter()).is_err());
+        let short = table(&[("l", vec![1.0])], &[]);
+        assert!(moved(&base, [(&short, 1.0)].into_iter()).is_err());
+    }
+}
