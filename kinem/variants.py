@@ -9,8 +9,9 @@ which forms each variant's model itself, marches the variants on its thread
 pool, each from the nominal's state at the first instant (so that it stays
 on the nominal's branch) and converging, failing and stopping on its own,
 and writes only the asked columns into one (variants, instants, columns)
-array. Values are not validated as a case file is (a value that makes a
-link length negative is solved as given).
+array. Values are checked only where a case file needs a positive number
+(a link's length, a gear's or a roller's radius: the variant is refused as
+bad input), not otherwise validated as a case file is.
 
 A variant the march does not take to the end (an instant that needs
 sub-steps, a limit position) is solved again alone by the ordinary
@@ -138,10 +139,31 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
             data[k], start[k], success[k], resolved[k] = row, q, True, True
         else:
             messages[k] = message
+    for k, why in _refused(case, listed, values).items():
+        data[k], success[k], resolved[k], messages[k] = np.nan, False, False, why
     for k in np.flatnonzero(~success):
         messages[k] = messages[k] or f"stopped at t = {times[end[k]]:.6g} (instant {end[k]}): {status[k].message}"
     return Variants(tuple(p.path for p in listed), values, np.array(times, float), columns, data, success, status,
                     end, resolved, flipped, start, tuple(messages), False)
+
+
+def _refused(case, listed, values) -> dict:
+    """{variant: why} for the variants that set a positive length or radius
+    (a PositiveKey: a link's length, a gear's or a roller's radius) to zero
+    or less: bad input, as a case file with it would be."""
+    from .casefile.keys import PositiveKey
+    from .constraints import REGISTRY
+    from .parameters import constraint_id
+
+    out = {}
+    for j, p in enumerate(listed):
+        parts = p.path.split(".")
+        c = next((c for c in case.constraints if constraint_id(c) == parts[1]), None) if len(parts) == 3 else None
+        if c is None or not any(isinstance(k, PositiveKey) and k.name == parts[2] for k in REGISTRY[c.type].keys):
+            continue
+        for k in np.flatnonzero(~(values[:, j] > 0)):
+            out.setdefault(int(k), f"bad input: {case.source}: {p.path} = {values[k, j]:g}: expected a positive number")
+    return out
 
 
 def affine(case, path) -> bool:

@@ -239,3 +239,13 @@ def test_options_the_march_does_not_take_use_the_merged_path():
     np.testing.assert_allclose(r.data, ref.data, rtol=0, atol=1e-8 * np.abs(ref.data).max())
     with pytest.raises(InputError, match="trace or q0"):
         kinem.solve(model, parameters=values, trace=True)
+
+
+def test_a_radius_of_zero_or_less_is_bad_input_for_that_variant():
+    """A gear's pitch radius must be positive: a variant setting it to 0 is
+    refused as bad input (success False, its rows NaN), the others solved."""
+    case = kinem.load(ROOT / "cases" / "gear_pair.toml")
+    r0 = next(p.value for p in parameters(case) if p.path == "constraints.mesh.ri")
+    r = kinem.solve(kinem.compile(case), parameters={"constraints.mesh.ri": [r0, 0.0, 1.01 * r0]}, times=TIMES)
+    assert r.success.tolist() == [True, False, True]
+    assert "bad input" in r.messages[1] and "positive" in r.messages[1] and np.isnan(r.data[1]).all()
