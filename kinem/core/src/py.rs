@@ -681,16 +681,7 @@ impl Plan {
         if !(1..=3).contains(&stages) || pc.len() != points || dlocal.len() != p * points {
             return Err(bad("stages 1 to 3, one body column and local point per point, dlocal (parameters, points)"));
         }
-        if pc.iter().any(|&c| c < 0 || c as usize + 2 >= n) {
-            return Err(bad("point columns out of range"));
-        }
-        let limit = (stages * (n + 2 * points)) as i64;
-        let src = src.as_array().to_vec();
-        if src.iter().any(|&j| j < 0 || j >= limit) {
-            return Err(bad("a source out of range"));
-        }
-        let src: Vec<usize> = src.iter().map(|&j| j as usize).collect();
-        let pc: Vec<usize> = pc.iter().map(|&c| c as usize).collect();
+        let (src, pc) = sources(&src.as_array().to_vec(), &pc, n, stages).map_err(&bad)?;
         let (values, count) = rows(&values, p, "variants: values")?;
         let (times, q0) = (vec1(&times), vec1(&q0));
         let (times, q0, values): (&[f64], &[f64], &[f64]) = (&times, &q0, &values);
@@ -994,6 +985,21 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     Ok(())
 }
 
+/// A trajectory's column sources and its points' body columns (columns::columns)
+/// checked: every point on a body's x column (x, y, phi inside n), every
+/// source inside the `stages` stages' coordinates and points' values.
+fn sources(src: &[i64], pc: &[i64], n: usize, stages: usize) -> Result<(Vec<usize>, Vec<usize>), &'static str> {
+    if pc.iter().any(|&c| c < 0 || c as usize + 2 >= n.max(1)) {
+        return Err("point columns out of range");
+    }
+    let limit = pc.len().checked_mul(2).and_then(|v| v.checked_add(n)).and_then(|v| v.checked_mul(stages));
+    let limit = limit.and_then(|v| i64::try_from(v).ok()).ok_or("too many columns")?;
+    if src.iter().any(|&j| j < 0 || j >= limit) {
+        return Err("a source out of range");
+    }
+    Ok((src.iter().map(|&j| j as usize).collect(), pc.iter().map(|&c| c as usize).collect()))
+}
+
 /// A trajectory's columns (columns::columns): X a list of 1 to 3 arrays (K,
 /// n) (positions, velocities, accelerations), src (C,), pc (P,), local (P,).
 /// With tangents (dx: as X, dlocal: as local): the columns' tangents along
@@ -1020,18 +1026,12 @@ fn columns<'py>(
         return Err(bad("stages differ in shape"));
     }
     let (pc, local) = (pc.as_array().to_vec(), local.as_array().to_vec());
-    if pc.len() != local.len() || pc.iter().any(|&c| c < 0 || c as usize + 2 >= n.max(1)) {
+    if pc.len() != local.len() {
         return Err(bad("point columns out of range"));
     }
-    let limit = pc.len().checked_mul(2).and_then(|v| v.checked_add(n)).and_then(|v| v.checked_mul(stages.len()));
-    let limit = limit.and_then(|v| i64::try_from(v).ok()).ok_or_else(|| bad("too many columns"))?;
     let src = src.as_array().to_vec();
     k.checked_mul(src.len()).ok_or_else(|| bad("too many values"))?;
-    if src.iter().any(|&j| j < 0 || j >= limit) {
-        return Err(bad("a source out of range"));
-    }
-    let src: Vec<usize> = src.iter().map(|&j| j as usize).collect();
-    let pc: Vec<usize> = pc.iter().map(|&c| c as usize).collect();
+    let (src, pc) = sources(&src, &pc, n, stages.len()).map_err(&bad)?;
     let w = src.len();
     if let Some((dx, dlocal)) = &tangents {
         let dstages: Vec<&[f64]> = dx.iter().map(|a| a.as_slice()).collect::<Result<_, _>>()?;
