@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
 import kinem
 from kinem import native
@@ -22,6 +23,8 @@ from kinem.variants import _tangents, affine
 ROOT = Path(__file__).resolve().parents[1]
 CASES = sorted((ROOT / "cases").glob("*.toml"))
 TIMES = np.linspace(0.0, 0.6, 13)
+SLIDER_CASE = kinem.load(ROOT / "cases" / "slider_crank.toml")
+SLIDER = SLIDER_CASE, kinem.compile(SLIDER_CASE)
 
 
 def alone(case, values, q0, outputs, times=TIMES, options=None):
@@ -249,3 +252,32 @@ def test_a_radius_of_zero_or_less_is_bad_input_for_that_variant():
     r = kinem.solve(kinem.compile(case), parameters={"constraints.mesh.ri": [r0, 0.0, 1.01 * r0]}, times=TIMES)
     assert r.success.tolist() == [True, False, True]
     assert "bad input" in r.messages[1] and "positive" in r.messages[1] and np.isnan(r.data[1]).all()
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.lists(st.floats(-20.0, 20.0), min_size=1, max_size=3), st.floats(-5.0, 5.0))
+def test_any_rod_and_offset_equals_its_own_solve(rods, offset):
+    """Hypothesis: slider-cranks of any rod length within +-20 mm and slider
+    line offset within +-5 mm, batched, equal their own solves to 1e-12."""
+    case, model = SLIDER
+    values = {"constraints.B.si.0": 300.0 + np.array(rods), "constraints.T.qi.1": np.full(len(rods), offset)}
+    r = kinem.solve(model, parameters=values, times=TIMES, outputs=["B.x", "B.vy", "slider.ax"])
+    assert r.success.all()
+    q0 = nominal_start(model)
+    for k in range(len(rods)):
+        ref = alone(case, {p: v[k] for p, v in values.items()}, q0, r.columns)
+        assert (np.abs(r.data[k] - ref) <= 1e-12 * np.abs(ref).max(axis=0)).all()
+
+
+def test_the_monte_carlo_through_variants_equals_sample_by_sample():
+    """kinem.tolerance's Monte Carlo band through the variants' batch equals
+    the one solved sample by sample (chunk=1, each its own case) to 1e-12 of
+    the band's size."""
+    from kinem.tolerance import tolerance
+
+    model = kinem.compile(kinem.load(ROOT / "cases" / "four_bar.toml"))
+    batch = tolerance(model, samples=24, outputs=["B.x", "B.y"])
+    alone_ = tolerance(model, samples=24, outputs=["B.x", "B.y"], chunk=1)
+    assert len(batch.rejected) == len(alone_.rejected) == 0
+    for c in ("B.x.mc-", "B.x.mc+", "B.y.mc-", "B.y.mc+"):
+        assert np.abs(batch[c] - alone_[c]).max() <= 1e-12 * np.abs(alone_[c]).max()
