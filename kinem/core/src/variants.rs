@@ -131,7 +131,10 @@ pub fn run(b: &Batch, values: &[f64], out: Written) -> Result<(), String> {
             .par_chunks_mut(kk * w)
             .zip(out.start.par_chunks_mut(n))
             .enumerate()
-            .map(|(v, (data, start))| one(b, &values[v * p..(v + 1) * p], data, start))
+            .map_init(
+                || Scratch::new(n, kk, b.asked.stages),
+                |scratch, (v, (data, start))| one(b, scratch, &values[v * p..(v + 1) * p], data, start),
+            )
             .collect()
     });
     for (v, r) in results.into_iter().enumerate() {
@@ -143,28 +146,61 @@ pub fn run(b: &Batch, values: &[f64], out: Written) -> Result<(), String> {
     Ok(())
 }
 
+/// A thread's buffers for the march of one variant after another: the
+/// coordinates at every instant (Q, and QD, QDD with rates), the march's
+/// per-instant figures and its state.
+struct Scratch {
+    x: Vec<f64>,
+    iterations: Vec<i64>,
+    residual: Vec<f64>,
+    pivot: Vec<f64>,
+    det: Vec<i8>,
+    state: Vec<f64>,
+}
+
+impl Scratch {
+    fn new(n: usize, kk: usize, stages: usize) -> Scratch {
+        Scratch {
+            x: vec![0.0; if stages > 1 { 3 } else { 1 } * kk * n],
+            iterations: vec![0; kk],
+            residual: vec![0.0; kk],
+            pivot: vec![0.0; kk],
+            det: vec![0; kk],
+            state: vec![0.0; 6 * n],
+        }
+    }
+}
+
 /// One variant: (the first instant not taken, why, det sign at its first state).
-fn one(b: &Batch, dv: &[f64], data: &mut [f64], start: &mut [f64]) -> Result<(usize, Why, i8), String> {
+fn one(
+    b: &Batch,
+    s: &mut Scratch,
+    dv: &[f64],
+    data: &mut [f64],
+    start: &mut [f64],
+) -> Result<(usize, Why, i8), String> {
     let kin = b.tables.kin(dv)?;
     let (times, asked) = (b.times, b.asked);
     let (n, kk, stages) = (b.tables.n, times.len(), asked.stages);
-    let rates = stages > 1;
-    let mut x = vec![0.0; if rates { 3 } else { 1 } * kk * n];
-    let (oq, rest) = x.split_at_mut(kk * n);
+    let (oq, rest) = s.x.split_at_mut(kk * n);
     let (oqd, oqdd) = rest.split_at_mut(rest.len() / 2);
-    let (mut q, mut qd, mut qdd) = (b.q0.to_vec(), vec![0.0; n], vec![0.0; n]);
-    let (mut last, mut h, mut tt) = ([times[0], 0.0], vec![0.0; 3 * n], [f64::NAN; 3]);
-    let st = State { q: &mut q, qd: &mut qd, qdd: &mut qdd, last: &mut last, h: &mut h, tt: &mut tt };
-    let (mut iterations, mut residual, mut pivot) = (vec![0i64; kk], vec![0.0; kk], vec![0.0; kk]);
-    let (mut det, mut counts) = (vec![0i8; kk], [0i64; 2]);
+    // the state the march starts from: q0, no rates, no history (q, qd, qdd, H: 6 n)
+    s.state.fill(0.0);
+    s.state[..n].copy_from_slice(b.q0);
+    let (q, rest) = s.state.split_at_mut(n);
+    let (qd, rest) = rest.split_at_mut(n);
+    let (qdd, h) = rest.split_at_mut(n);
+    let (mut last, mut tt) = ([times[0], 0.0], [f64::NAN; 3]);
+    let st = State { q, qd, qdd, last: &mut last, h, tt: &mut tt };
+    let mut counts = [0i64; 2];
     let o = Out {
         q: oq,
         qd: oqd,
         qdd: oqdd,
-        iterations: &mut iterations,
-        residual: &mut residual,
-        pivot: &mut pivot,
-        det: &mut det,
+        iterations: &mut s.iterations,
+        residual: &mut s.residual,
+        pivot: &mut s.pivot,
+        det: &mut s.det,
         counts: &mut counts,
         first: 0,
     };
@@ -172,7 +208,8 @@ fn one(b: &Batch, dv: &[f64], data: &mut [f64], start: &mut [f64]) -> Result<(us
     let local: Vec<C64> = (0..asked.local.len())
         .map(|j| asked.local[j] + (0..dv.len()).map(|k| asked.dlocal[k * asked.local.len() + j] * dv[k]).sum::<C64>())
         .collect();
-    let x: Vec<&[f64]> = x.chunks(kk * n).take(stages).collect();
+    let x: Vec<&[f64]> = s.x.chunks(kk * n).take(stages).collect();
+    // rows from `end` on hold an earlier variant's values or none: NaN
     columns(&x, n, asked.src, asked.pc, &local, data);
     data[end * asked.src.len()..].fill(f64::NAN);
     if end > 0 {
@@ -180,7 +217,7 @@ fn one(b: &Batch, dv: &[f64], data: &mut [f64], start: &mut [f64]) -> Result<(us
     } else {
         start.fill(f64::NAN);
     }
-    Ok((end, why, if end > 0 { det[0] } else { 0 }))
+    Ok((end, why, if end > 0 { s.det[0] } else { 0 }))
 }
 
 /// The one call of the march (k = 0: the variant assembles from the state's q).
