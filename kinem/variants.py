@@ -1,5 +1,5 @@
 """Many variants of one mechanism solved together (issue 31, "Variants as
-lanes"; docs/solver.md, "Variants"):
+lanes"; docs/solver.md, "Variants of one mechanism"):
 ``kinem.solve(model, parameters={"constraints.A.si.0": values, ...})``.
 
 The model's tables are affine in the case's numbers (kinem.sensitivity), so
@@ -63,6 +63,11 @@ class Variants:
     start: np.ndarray
     messages: tuple
     merged: bool
+
+    def __post_init__(self):
+        for v in vars(self).values():   # frozen arrays too
+            if isinstance(v, np.ndarray):
+                v.flags.writeable = False
 
     def __len__(self) -> int:
         return len(self.values)

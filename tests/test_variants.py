@@ -56,6 +56,8 @@ def test_batch_equals_separate_solves(name, moves):
     assert r.data.shape == (N, len(TIMES), len(r.columns)) and r.success.all() and not r.merged
     assert not r.resolved.any() and not r.flipped.any()
     assert all(s == native.Why.ACCEPTED for s in r.status) and (r.failed_at == len(TIMES)).all()
+    with pytest.raises(ValueError):
+        r.data[0, 0, 0] = 1.0   # a frozen result
     q0 = nominal_start(model)
     for k in range(N):
         ref = alone(case, {p: v[k] for p, v in values.items()}, q0, r.columns)
