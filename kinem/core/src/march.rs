@@ -1,17 +1,23 @@
-//! The march over output instants (docs/solver.md, "The march"): at each
-//! instant the predictor, the chord from the Hermite start with the last
-//! instant's LU to rounding and the LU there (newton::chord), or, at the
-//! march's first instant and where the chord contracts too slowly,
-//! Newton-Raphson with the final correction and the LU at the corrected q
-//! (newton::settle), both on the core's own operations; the acceptance test
-//! and the velocity and acceleration solves from that one LU.
-//! It stops at the first instant not accepted and hands it to the tracker
-//! (kinem/tracking.py), which sub-steps, diagnoses and steps over.
+//! The step and the march over output instants (docs/solver.md, "The
+//! march"). `step` takes one instant from the accepted `MarchState`: the
+//! predictor (Taylor, or Lagrange without rates), the chord from the Hermite
+//! start with the last instant's LU to rounding and the LU there
+//! (newton::chord), or, at a march's first instant and where the chord
+//! contracts too slowly, Newton-Raphson with the final correction and the LU
+//! at the corrected q (newton::settle); the acceptance test
+//! (accept::rejected) and the velocity and acceleration solves from that one
+//! LU; it updates the state when it accepts. It runs on any `Step`
+//! operations: the core's own (`Native`: kinem's LU) and, through the
+//! bindings, Python's (another linear solver: LAPACK, SuperLU, least
+//! squares; a trace; modified Newton). `run` steps over output instants
+//! until one is not accepted and hands it to the tracker
+//! (kinem/tracking.py), whose policy (halving, stepping over a limit
+//! position, landing on an output instant) calls `step` again.
 use crate::accept::{hermite, jump_sizes, lagrange, rejected, taylor, Why};
 use crate::families::At;
 use crate::lu::{Factors, Layout};
 use crate::model::Kin;
-use crate::newton::{chord, settle, Ops, RECENT};
+use crate::newton::{chord, settle, Ops, Settled, RECENT};
 use crate::watch::Watch;
 use num_complex::Complex64 as C64;
 use std::convert::Infallible;
@@ -19,6 +25,47 @@ use std::time::Instant;
 
 /// The march looks at its watch (a deadline, a signal) every this many instants.
 const WATCH_EVERY: u32 = 4;
+
+/// A pivot ratio below this is a singular factorisation: pivot ratio 0 and
+/// det sign 0 (kinem.linalg.PIVOT_RATIO, the other solvers' bound: about 1e3
+/// machine epsilon; a Jacobian that has really lost rank gives pivots of
+/// order epsilon).
+pub const SINGULAR: f64 = 1e-13;
+
+/// What a step does (kinem.native.Mode mirrors the codes).
+#[repr(u8)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// the next instant from the last accepted one (from the estimates in
+    /// q when none is: the march's assembly, judged by the pivot floor)
+    Track = 0,
+    /// a step over a bifurcation: a det flip is accepted
+    Over = 1,
+    /// an output instant near a singular configuration solved directly:
+    /// Taylor's predictor (the state's rates solved first when it has
+    /// none), the same det sign, and the acceptance test on one more
+    /// correction at the final q (`Step::probe`), not the last one
+    Direct = 2,
+    /// the tracker's assembly from the estimates in q: any converged state
+    /// (its rates when its LU is regular); Python diagnoses a singular one
+    Assemble = 3,
+    /// the state's own rates at its q and t, nothing else
+    Rates = 4,
+}
+
+impl Mode {
+    pub const ALL: [Mode; 5] = [Mode::Track, Mode::Over, Mode::Direct, Mode::Assemble, Mode::Rates];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Track => "TRACK",
+            Mode::Over => "OVER",
+            Mode::Direct => "DIRECT",
+            Mode::Assemble => "ASSEMBLE",
+            Mode::Rates => "RATES",
+        }
+    }
+}
 
 pub struct Settings {
     pub tolerance: f64,
@@ -30,16 +77,247 @@ pub struct Settings {
     pub rates: bool,
 }
 
-/// The accepted state the march starts from and leaves at its last instant.
-pub struct State<'a> {
-    pub q: &'a mut [f64],
-    pub qd: &'a mut [f64],
-    pub qdd: &'a mut [f64],
-    /// (time, det sign) of the last accepted state
-    pub last: &'a mut [f64],
-    /// the last three states' q (3 n) and times (3), oldest first, NaN for none
-    pub h: &'a mut [f64],
-    pub tt: &'a mut [f64],
+/// The accepted state a step or a march starts from and leaves at its
+/// last accepted instant (kinem.native.MarchState).
+#[derive(Clone, Debug)]
+pub struct MarchState {
+    pub q: Vec<f64>,
+    pub qd: Vec<f64>,
+    pub qdd: Vec<f64>,
+    /// qd and qdd hold the rates at q
+    pub rates: bool,
+    /// the time of the accepted state (NaN: none yet, q holds estimates)
+    pub t: f64,
+    /// the det sign of its factorisation
+    pub det: i32,
+    /// the last three accepted q (3 n) and their times, oldest first (NaN:
+    /// none), when the steps solve no rates (Lagrange's predictor)
+    pub h: Vec<f64>,
+    pub tt: [f64; 3],
+    /// the accepted state before this one (q, qd, qdd: 3 n) and its time
+    /// (NaN: none), when the steps solve rates (the chord's Hermite start)
+    pub prev: Vec<f64>,
+    pub before: f64,
+}
+
+impl MarchState {
+    /// The estimates q, no accepted state yet.
+    pub fn new(q: &[f64]) -> Self {
+        let n = q.len();
+        MarchState {
+            q: q.to_vec(),
+            qd: vec![0.0; n],
+            qdd: vec![0.0; n],
+            rates: false,
+            t: f64::NAN,
+            det: 0,
+            h: vec![0.0; 3 * n],
+            tt: [f64::NAN; 3],
+            prev: vec![0.0; 3 * n],
+            before: f64::NAN,
+        }
+    }
+
+    /// Back to the estimates in q: nothing accepted.
+    pub fn restart(&mut self) {
+        *self = MarchState::new(&self.q);
+    }
+
+    /// Takes the state q (into which `Step::q` has settled) at t, det sign
+    /// `det`, as the last accepted one; `rates`: the steps solve rates (the
+    /// caller then puts them in qd, qdd), else the Lagrange history moves on.
+    pub fn take(&mut self, q: &[f64], t: f64, det: i32, rates: bool) {
+        let n = q.len();
+        if rates {
+            // the last state becomes the earlier one of the Hermite start
+            self.prev[..n].copy_from_slice(&self.q);
+            self.prev[n..2 * n].copy_from_slice(&self.qd);
+            self.prev[2 * n..].copy_from_slice(&self.qdd);
+            self.before = self.t;
+        }
+        self.q.copy_from_slice(q);
+        if !rates {
+            self.tt.copy_within(1..3, 0);
+            self.h.copy_within(n..3 * n, 0);
+            self.tt[2] = t;
+            self.h[2 * n..3 * n].copy_from_slice(q);
+        }
+        self.rates = false;
+        self.t = t;
+        self.det = det;
+    }
+}
+
+/// How a step ended: why (Accepted: the state moved to it), the Newton
+/// iterations and residual, the pivot ratio and det sign of the final
+/// factorisation (0 and 0 where it is singular), the last Newton correction
+/// (Direct: one more), and the correction from the predictor and the
+/// predicted motion (dimensionless).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Outcome {
+    pub why: Why,
+    pub iterations: usize,
+    pub residual: f64,
+    pub pivot: f64,
+    pub det: i32,
+    pub correction: f64,
+    pub corr: f64,
+    pub motion: f64,
+}
+
+impl Outcome {
+    fn of(why: Why, s: &Settled) -> Self {
+        Outcome {
+            why,
+            iterations: s.iterations,
+            residual: s.residual,
+            pivot: 0.0,
+            det: 0,
+            correction: s.last_step,
+            corr: 0.0,
+            motion: 0.0,
+        }
+    }
+}
+
+/// The operations of a step beyond Newton's (`Ops`), on the configuration
+/// the implementor holds.
+pub trait Step: Ops {
+    /// Starts a solve at (q, t).
+    fn start(&mut self, q: &[f64], t: f64) -> Result<(), Self::Error>;
+    /// Brings q from where the operations keep it (after a solve), for `q`.
+    fn fetch(&mut self) -> Result<(), Self::Error> {
+        Ok(())
+    }
+    /// The configuration q (as of the last `fetch`).
+    fn q(&self) -> &[f64];
+    /// The pivot ratio and det sign of the factorisation at q.
+    fn stats(&mut self) -> Result<(f64, i32), Self::Error>;
+    /// qd and qdd at q, t from the factorisation at q (Phi_q qd = nu,
+    /// Phi_q qdd = gamma: Eqs. 3.13, 3.15).
+    fn rates(&mut self, qd: &mut [f64], qdd: &mut [f64]) -> Result<(), Self::Error>;
+    /// The size of one more Newton correction at q with the factorisation
+    /// there (dimensionless), q unchanged.
+    fn probe(&mut self) -> Result<f64, Self::Error>;
+    /// The columns' scales (the dimensionless sizes' units).
+    fn col_scale(&self) -> &[f64];
+}
+
+/// A step's working room across the instants of a march: the operations
+/// hold the factorisation at the last accepted q (`held`), the chord's last
+/// measured contraction and the instants since (newton::chord's `known`),
+/// and room for the predictor and the Hermite start (n each).
+pub struct Work {
+    pub held: bool,
+    theta: f64,
+    age: u32,
+    qp: Vec<f64>,
+    start: Vec<f64>,
+}
+
+impl Work {
+    /// No factorisation held: the first step starts with Newton.
+    pub fn new(n: usize) -> Self {
+        Work { held: false, theta: f64::INFINITY, age: RECENT + 1, qp: vec![0.0; n], start: vec![0.0; n] }
+    }
+}
+
+/// One instant t from the accepted state `st` (or, with none, the assembly
+/// from its estimates) by `mode`; the state moves to it when accepted.
+pub fn step<O: Step>(
+    ops: &mut O,
+    st: &mut MarchState,
+    t: f64,
+    s: &Settings,
+    mode: Mode,
+    c: &mut Work,
+) -> Result<Outcome, O::Error> {
+    let n = st.q.len();
+    let Work { qp, start, .. } = c;
+    let (qp, start) = (&mut qp[..], &mut start[..]);
+    let first = st.t.is_nan();
+    let taylor_from = (s.rates || mode == Mode::Direct) && !first;
+    if (taylor_from && !st.rates) || mode == Mode::Rates {
+        ops.start(&st.q, st.t)?;
+        ops.factor(true)?;
+        ops.rates(&mut st.qd, &mut st.qdd)?;
+        st.rates = true;
+        c.held = false;
+        let settled = Settled { iterations: 0, residual: 0.0, converged: true, last_step: 0.0 };
+        if mode == Mode::Rates {
+            return Ok(Outcome::of(Why::Accepted, &settled));
+        }
+    }
+    let h = t - st.t;
+    let mut judge = !first;
+    if first {
+        qp.copy_from_slice(&st.q);
+    } else if taylor_from {
+        taylor(&st.q, &st.qd, &st.qdd, h, qp);
+    } else {
+        judge = lagrange(t, &st.tt, &st.h, qp) >= 1;
+    }
+    // the chord with the last instant's factorisation, from the Hermite start when the last two
+    // instants are at hand, else (or when it contracts too slowly) Newton from the predictor
+    if c.held && st.before.is_finite() && h <= 2.0 * (st.t - st.before) {
+        let p = [&st.prev[..n], &st.prev[n..2 * n], &st.prev[2 * n..]];
+        hermite(p, [&st.q[..], &st.qd[..], &st.qdd[..]], st.t - st.before, h, start);
+        ops.start(start, t)?;
+    } else {
+        ops.start(qp, t)?;
+    }
+    let known = if c.age <= RECENT { c.theta } else { f64::INFINITY };
+    let chorded = if c.held { chord(ops, s.tolerance, s.max_step, known)? } else { None };
+    c.held = false;
+    let settled = match chorded {
+        Some((settled, measured)) => {
+            if measured.is_nan() {
+                c.age += 1;
+            } else {
+                (c.theta, c.age) = (measured, 0);
+            }
+            settled
+        }
+        None => {
+            (c.theta, c.age) = (f64::INFINITY, RECENT + 1);
+            ops.start(qp, t)?;
+            settle(ops, s.tolerance, s.max_iterations, s.max_step, true)?
+        }
+    };
+    if !settled.converged {
+        return Ok(Outcome::of(Why::NotConverged, &settled));
+    }
+    let mut out = Outcome::of(Why::Accepted, &settled);
+    let (ratio, det) = ops.stats()?;
+    (out.pivot, out.det) = if ratio >= SINGULAR { (ratio, det) } else { (0.0, 0) };
+    let previous = if first { out.det } else { st.det };
+    ops.fetch()?;
+    (out.corr, out.motion) = jump_sizes(ops.q(), qp, &st.q, ops.col_scale());
+    out.why = match mode {
+        Mode::Assemble => Why::Accepted,
+        Mode::Direct if out.det != previous => Why::DetFlip,
+        Mode::Direct => {
+            out.correction = ops.probe()?;
+            let (a, b) = (out.corr, out.motion);
+            rejected(out.pivot, out.correction, out.det, previous, a, b, true, s.floor, s.tolerance, false)
+        }
+        _ => {
+            let flip = mode == Mode::Over;
+            let (a, b) = (out.corr, out.motion);
+            rejected(out.pivot, out.correction, out.det, previous, a, b, judge, s.floor, s.tolerance, flip)
+        }
+    };
+    if out.why != Why::Accepted {
+        return Ok(out);
+    }
+    // the factorisation at the accepted q serves the rates and the next instant's chord
+    c.held = true;
+    st.take(ops.q(), t, out.det, s.rates);
+    if s.rates && out.pivot > 0.0 {
+        ops.rates(&mut st.qd, &mut st.qdd)?;
+        st.rates = true;
+    }
+    Ok(out)
 }
 
 /// Per instant: Q, QD, QDD (K n), Newton iterations, residual, pivot ratio,
@@ -58,7 +336,7 @@ pub struct Out<'a> {
     pub first: usize,
 }
 
-/// settle's operations on the core's own model and LU: q lives in `q`.
+/// A step's operations on the core's own model and LU: q lives in `q`.
 pub struct Native<'a> {
     pub kin: &'a Kin,
     pub layout: &'a Layout,
@@ -109,6 +387,30 @@ pub fn residual(phi: &[f64], scale: &[f64]) -> f64 {
     r
 }
 
+/// The largest |dq_j| / col_scale_j.
+fn size(dq: &[f64], col_scale: &[f64]) -> f64 {
+    dq.iter().zip(col_scale).fold(0.0f64, |a, (d, c)| a.max(d.abs() / c))
+}
+
+/// qd, qdd at (q, t) (e: e^{i q}) with `solve` (x with Phi_q x = b, the
+/// factorisation at q): Phi_q qd = nu, Phi_q qdd = gamma (Eqs. 3.13, 3.15).
+/// nu and gamma: room for m values each. Every step's rates, whatever its solver.
+#[allow(clippy::too_many_arguments)]
+pub fn rates_with<E>(
+    kin: &Kin,
+    at: &At,
+    nu: &mut [f64],
+    gamma: &mut [f64],
+    qd: &mut [f64],
+    qdd: &mut [f64],
+    mut solve: impl FnMut(&[f64], &mut [f64]) -> Result<(), E>,
+) -> Result<(), E> {
+    kin.nu(at.t, nu);
+    solve(nu, qd)?;
+    kin.gamma(at, qd, gamma);
+    solve(gamma, qdd)
+}
+
 impl Native<'_> {
     /// e = e^{i q} at the angle columns, once per configuration.
     fn rotate(&mut self) {
@@ -116,13 +418,6 @@ impl Native<'_> {
             self.kin.rotate_changed(&self.q, &mut self.e, &mut self.seen);
             self.rotated = true;
         }
-    }
-
-    /// Starts a solve at (q, t).
-    pub fn start(&mut self, q: &[f64], t: f64) {
-        self.q.copy_from_slice(q);
-        self.t = t;
-        self.rotated = false;
     }
 }
 
@@ -150,8 +445,7 @@ impl Ops for Native<'_> {
             self.b[i] = -self.phi[i];
         }
         self.layout.solve(&mut self.f, &self.b, &mut self.dq);
-        let cs = &self.layout.col_scale;
-        let big = self.dq.iter().zip(cs).fold(0.0f64, |a, (d, c)| a.max(d.abs() / c));
+        let big = size(&self.dq, &self.layout.col_scale);
         let f = if big > 0.0 { (limit / big).min(1.0) } else { 1.0 };
         for j in 0..self.q.len() {
             self.q[j] += f * self.dq[j];
@@ -161,19 +455,62 @@ impl Ops for Native<'_> {
     }
 }
 
-/// March from the accepted `state` over times[k..] until an instant is not
+impl Step for Native<'_> {
+    fn start(&mut self, q: &[f64], t: f64) -> Result<(), Infallible> {
+        self.q.copy_from_slice(q);
+        self.t = t;
+        self.rotated = false;
+        Ok(())
+    }
+
+    fn q(&self) -> &[f64] {
+        &self.q
+    }
+
+    fn stats(&mut self) -> Result<(f64, i32), Infallible> {
+        Ok(self.layout.stats(&self.f))
+    }
+
+    /// The factorisation and e^{i q} are at q: settle's and the chord's last operation.
+    fn rates(&mut self, qd: &mut [f64], qdd: &mut [f64]) -> Result<(), Infallible> {
+        self.rotate();
+        let Native { kin, layout, f, q, e, t, phi, b, .. } = self;
+        let at = At { q: &q[..], e: &e[..], t: *t };
+        rates_with(kin, &at, phi, b, qd, qdd, |rhs, x| {
+            layout.solve(f, rhs, x);
+            Ok(())
+        })
+    }
+
+    fn probe(&mut self) -> Result<f64, Infallible> {
+        self.evaluate(-1)?;
+        for i in 0..self.b.len() {
+            self.b[i] = -self.phi[i];
+        }
+        self.layout.solve(&mut self.f, &self.b, &mut self.dq);
+        Ok(size(&self.dq, &self.layout.col_scale))
+    }
+
+    fn col_scale(&self) -> &[f64] {
+        &self.layout.col_scale
+    }
+}
+
+/// March from the accepted `st` over times[k..] until an instant is not
 /// accepted or `watch` stops it (a deadline, a signal: polled here when
-/// `caller`, the thread that owns the watch); returns (the first instant
-/// not taken, or times.len(), and why: Accepted when all were taken). From k = 0 it first
-/// assembles from the estimates in state.q (accepted when its pivot ratio is
-/// above the floor; not tested for a jump or a det flip: no state before it).
+/// `caller`, the thread that owns the watch): `step` at each instant, its
+/// figures into `out`; returns (the first instant not taken, or
+/// times.len(), and why: Accepted when all were taken). From k = 0 it
+/// first assembles from the estimates in st.q (accepted when its pivot
+/// ratio is above the floor; not tested for a jump or a det flip: no state
+/// before it).
 #[allow(clippy::too_many_arguments)]
 pub fn run(
     kin: &Kin,
     layout: &Layout,
     times: &[f64],
     mut k: usize,
-    st: State,
+    st: &mut MarchState,
     s: &Settings,
     out: Out,
     watch: &Watch,
@@ -181,17 +518,13 @@ pub fn run(
 ) -> (usize, Why) {
     let n = kin.n;
     let mut ops = Native::new(kin, layout);
-    let mut qp = vec![0.0; n];
-    let mut nu = vec![0.0; kin.m];
-    let mut gamma = vec![0.0; kin.m];
     let mut result = (times.len(), Why::Accepted);
     let (mut next, mut tick) = (Instant::now(), 0u32);
     // ops.f holds the factorisation at the last accepted q (none before the first)
-    let mut held = false;
-    // the chord's last measured contraction and the instants since (newton::chord's `known`)
-    let (mut theta, mut age) = (f64::INFINITY, RECENT + 1);
-    // the state before the last accepted one (q, qd, qdd) and its time (NaN: none in this march)
-    let (mut prev, mut before, mut start) = (vec![0.0; 3 * n], f64::NAN, vec![0.0; n]);
+    let mut c = Work::new(n);
+    if k == 0 {
+        st.restart();
+    }
     while k < times.len() {
         // the clock every WATCH_EVERY instants: a few ns per instant, a stop within a few
         if tick % WATCH_EVERY == 0 {
@@ -201,89 +534,21 @@ pub fn run(
             }
         }
         tick = tick.wrapping_add(1);
-        let t = times[k];
-        let h = t - st.last[0];
-        let mut judge = k > 0;
-        if k == 0 {
-            qp.copy_from_slice(st.q);
-        } else if s.rates {
-            taylor(st.q, st.qd, st.qdd, h, &mut qp);
-        } else {
-            let tt = [st.tt[0], st.tt[1], st.tt[2]];
-            judge = lagrange(t, &tt, st.h, &mut qp) >= 1;
-        }
-        // the chord with the last instant's factorisation, from the Hermite start when the last two
-        // instants are at hand, else (or when it contracts too slowly) Newton from the predictor
-        if held && before.is_finite() && h <= 2.0 * (st.last[0] - before) {
-            let (p, c) = ([&prev[..n], &prev[n..2 * n], &prev[2 * n..]], [&st.q[..], &st.qd[..], &st.qdd[..]]);
-            hermite(p, c, st.last[0] - before, h, &mut start);
-            ops.start(&start, t);
-        } else {
-            ops.start(&qp, t);
-        }
-        let known = if age <= RECENT { theta } else { f64::INFINITY };
-        let Ok(chorded) = if held { chord(&mut ops, s.tolerance, s.max_step, known) } else { Ok(None) };
-        let settled = match chorded {
-            Some((c, measured)) => {
-                if measured.is_nan() {
-                    age += 1;
-                } else {
-                    (theta, age) = (measured, 0);
-                }
-                c
-            }
-            None => {
-                (theta, age) = (f64::INFINITY, RECENT + 1);
-                ops.start(&qp, t);
-                let Ok(c) = settle(&mut ops, s.tolerance, s.max_iterations, s.max_step, true);
-                c
-            }
-        };
-        if !settled.converged {
-            result = (k, Why::NotConverged);
+        let Ok(o) = step(&mut ops, st, times[k], s, Mode::Track, &mut c);
+        if o.why != Why::Accepted {
+            result = (k, o.why);
             break;
         }
-        let (ratio, det) = layout.stats(&ops.f);
-        let (corr, motion) = jump_sizes(&ops.q, &qp, st.q, &layout.col_scale);
-        let previous = if k == 0 { det } else { st.last[1] as i32 };
-        let why = rejected(ratio, settled.last_step, det, previous, corr, motion, judge, s.floor, s.tolerance, false);
-        // the factorisation at the accepted q serves the rates and the next instant's chord
-        held = why == Why::Accepted;
-        if why != Why::Accepted {
-            result = (k, why);
-            break;
-        }
-        if s.rates {
-            // the last state becomes the earlier one of the Hermite start
-            prev[..n].copy_from_slice(st.q);
-            prev[n..2 * n].copy_from_slice(st.qd);
-            prev[2 * n..].copy_from_slice(st.qdd);
-            before = if k == 0 { f64::NAN } else { st.last[0] };
-        }
-        st.q.copy_from_slice(&ops.q);
-        if s.rates {
-            // the factorisation and e^{i q} are at the corrected q: settle's last operation
-            kin.nu(t, &mut nu);
-            layout.solve(&mut ops.f, &nu, st.qd);
-            kin.gamma(&At { q: &ops.q, e: &ops.e, t }, st.qd, &mut gamma);
-            layout.solve(&mut ops.f, &gamma, st.qdd);
-            let r = k - out.first;
-            out.qd[r * n..(r + 1) * n].copy_from_slice(st.qd);
-            out.qdd[r * n..(r + 1) * n].copy_from_slice(st.qdd);
-        } else {
-            st.tt.copy_within(1..3, 0);
-            st.h.copy_within(n..3 * n, 0);
-            st.tt[2] = t;
-            st.h[2 * n..3 * n].copy_from_slice(st.q);
-        }
-        st.last[0] = t;
-        st.last[1] = det as f64;
         let r = k - out.first;
-        out.q[r * n..(r + 1) * n].copy_from_slice(st.q);
-        out.iterations[r] = settled.iterations as i64;
-        out.residual[r] = settled.residual;
-        out.pivot[r] = ratio;
-        out.det[r] = det as i8;
+        out.q[r * n..(r + 1) * n].copy_from_slice(&st.q);
+        if s.rates {
+            out.qd[r * n..(r + 1) * n].copy_from_slice(&st.qd);
+            out.qdd[r * n..(r + 1) * n].copy_from_slice(&st.qdd);
+        }
+        out.iterations[r] = o.iterations as i64;
+        out.residual[r] = o.residual;
+        out.pivot[r] = o.pivot;
+        out.det[r] = o.det as i8;
         k += 1;
     }
     out.counts[0] += ops.counts[0];
