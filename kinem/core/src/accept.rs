@@ -89,6 +89,7 @@ pub fn rejected(
 
 /// (correction, motion): the largest dimensionless |q - q_pred| and
 /// |q_pred - q_last|.
+#[inline]
 pub fn jump_sizes(q: &[f64], q_pred: &[f64], q_last: &[f64], col_scale: &[f64]) -> (f64, f64) {
     let (mut corr, mut motion) = (0.0f64, 0.0f64);
     for j in 0..q.len() {
@@ -139,6 +140,7 @@ pub fn taylor(q: &[f64], qd: &[f64], qdd: &[f64], h: f64, out: &mut [f64]) {
 /// (u = h / a). Its error is of order h^6 (1.3e-13 of the size on the
 /// slider-crank's 501 instants, Taylor's 1.4e-7): a start for the chord
 /// (crate::newton::chord), not the acceptance test's predictor.
+#[inline(always)]
 pub fn hermite(p: [&[f64]; 3], c: [&[f64]; 3], a: f64, h: f64, out: &mut [f64]) {
     let u = h / a;
     let (u3, aa) = (u * u * u, a * a);

@@ -126,6 +126,7 @@ impl MarchState {
     /// Takes the state q (into which `Step::q` has settled) at t, det sign
     /// `det`, as the last accepted one; `rates`: the steps solve rates (the
     /// caller then puts them in qd, qdd), else the Lagrange history moves on.
+    #[inline(always)]
     pub fn take(&mut self, q: &[f64], t: f64, det: i32, rates: bool) {
         let n = q.len();
         if rates {
@@ -413,6 +414,7 @@ pub fn rates_with<E>(
 
 impl Native<'_> {
     /// e = e^{i q} at the angle columns, once per configuration.
+    #[inline]
     fn rotate(&mut self) {
         if !self.rotated {
             self.kin.rotate_changed(&self.q, &mut self.e, &mut self.seen);
@@ -431,6 +433,7 @@ impl Ops for Native<'_> {
     }
 
     /// Always at q; it leaves `e` at q too (the rates read it).
+    #[inline(always)]
     fn factor(&mut self, _: bool) -> Result<(), Infallible> {
         self.rotate();
         self.kin.jac(&At { q: &self.q, e: &self.e, t: self.t }, &mut self.values);
@@ -472,6 +475,7 @@ impl Step for Native<'_> {
     }
 
     /// The factorisation and e^{i q} are at q: settle's and the chord's last operation.
+    #[inline(always)]
     fn rates(&mut self, qd: &mut [f64], qdd: &mut [f64]) -> Result<(), Infallible> {
         self.rotate();
         let Native { kin, layout, f, q, e, t, phi, b, .. } = self;
