@@ -8,7 +8,7 @@ from kinem._core import (CORES, KAPPA, KINDS, MAX_STEP, MODES, POLISH, REGULAR, 
 
 class Why(IntEnum):
     """Why the core does not take a state (kinem/core/src/accept.rs, ``Why``:
-    the same codes, checked by tests/test_core.py), each with its message."""
+    the same codes, checked by tests/test_bounds.py), each with its message."""
     ACCEPTED = 0
     NEAR_SINGULAR = 1
     DET_FLIP = 2
@@ -24,7 +24,7 @@ class Why(IntEnum):
 
 class Mode(IntEnum):
     """What a step does (kinem/core/src/march.rs, ``Mode``: the same codes,
-    checked by tests/test_core.py): TRACK the next instant from the last
+    checked by tests/test_bounds.py): TRACK the next instant from the last
     accepted state (the march's; from the estimates when there is none),
     OVER a step over a bifurcation (a det flip accepted), DIRECT an output
     instant near a singular configuration solved directly (Taylor, the same

@@ -8,50 +8,50 @@ pub const KAPPA: f64 = 0.5;
 /// (dimensionless) converged linearly, to a singular root.
 pub const REGULAR: f64 = 1e-2;
 
-/// Why a state is not taken: the acceptance test's verdicts and the
-/// march's own stops. Its codes cross to Python (kinem.native.Why mirrors
-/// them, each with its message; tests/test_core.py checks they agree).
-#[repr(u8)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub enum Why {
-    Accepted = 0,
-    /// the pivot ratio below the floor, or Newton converged linearly
-    NearSingular = 1,
-    /// det(J_s) changed sign
-    DetFlip = 2,
-    /// the correction from the predictor is a jump
-    Jump = 3,
-    /// the march's position solve did not converge
-    NotConverged = 4,
-    /// the march stopped for a signal (Ctrl-C): Python raises it
-    Interrupted = 5,
-    /// the march reached its time limit (Options.max_seconds)
-    OutOfTime = 6,
-}
-
-impl Why {
-    /// Every code, in order (the Python mirror is checked against it).
-    pub const ALL: [Why; 7] = [
-        Why::Accepted,
-        Why::NearSingular,
-        Why::DetFlip,
-        Why::Jump,
-        Why::NotConverged,
-        Why::Interrupted,
-        Why::OutOfTime,
-    ];
-
-    /// The code's name as the Python mirror spells it.
-    pub fn name(self) -> &'static str {
-        match self {
-            Why::Accepted => "ACCEPTED",
-            Why::NearSingular => "NEAR_SINGULAR",
-            Why::DetFlip => "DET_FLIP",
-            Why::Jump => "JUMP",
-            Why::NotConverged => "NOT_CONVERGED",
-            Why::Interrupted => "INTERRUPTED",
-            Why::OutOfTime => "OUT_OF_TIME",
+/// An enum of codes that cross to Python (a kinem.native IntEnum mirrors
+/// them; tests/test_bounds.py checks they agree): its members, `ALL` in
+/// order and each one's `name` as the mirror spells it.
+macro_rules! codes {
+    ($(#[$m:meta])* pub enum $name:ident { $($(#[$vm:meta])* $v:ident = $code:literal => $text:literal,)* }) => {
+        $(#[$m])*
+        #[repr(u8)]
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+        pub enum $name {
+            $($(#[$vm])* $v = $code,)*
         }
+
+        impl $name {
+            /// Every code, in order.
+            pub const ALL: &'static [$name] = &[$($name::$v,)*];
+
+            /// The code's name as the Python mirror spells it.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $($name::$v => $text,)*
+                }
+            }
+        }
+    };
+}
+pub(crate) use codes;
+
+codes! {
+    /// Why a state is not taken: the acceptance test's verdicts and the
+    /// march's own stops (kinem.native.Why, each with its message).
+    pub enum Why {
+        Accepted = 0 => "ACCEPTED",
+        /// the pivot ratio below the floor, or Newton converged linearly
+        NearSingular = 1 => "NEAR_SINGULAR",
+        /// det(J_s) changed sign
+        DetFlip = 2 => "DET_FLIP",
+        /// the correction from the predictor is a jump
+        Jump = 3 => "JUMP",
+        /// the march's position solve did not converge
+        NotConverged = 4 => "NOT_CONVERGED",
+        /// the march stopped for a signal (Ctrl-C): Python raises it
+        Interrupted = 5 => "INTERRUPTED",
+        /// the march reached its time limit (Options.max_seconds)
+        OutOfTime = 6 => "OUT_OF_TIME",
     }
 }
 

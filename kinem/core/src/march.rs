@@ -13,7 +13,7 @@
 //! until one is not accepted and hands it to the tracker
 //! (kinem/tracking.py), whose policy (halving, stepping over a limit
 //! position, landing on an output instant) calls `step` again.
-use crate::accept::{hermite, jump_sizes, lagrange, rejected, taylor, Why};
+use crate::accept::{codes, hermite, jump_sizes, lagrange, rejected, taylor, Why};
 use crate::families::At;
 use crate::lu::{Factors, Layout};
 use crate::model::Kin;
@@ -32,38 +32,24 @@ const WATCH_EVERY: u32 = 4;
 /// order epsilon).
 pub const SINGULAR: f64 = 1e-13;
 
-/// What a step does (kinem.native.Mode mirrors the codes).
-#[repr(u8)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Mode {
-    /// the next instant from the last accepted one (from the estimates in
-    /// q when none is: the march's assembly, judged by the pivot floor)
-    Track = 0,
-    /// a step over a bifurcation: a det flip is accepted
-    Over = 1,
-    /// an output instant near a singular configuration solved directly:
-    /// Taylor's predictor (the state's rates solved first when it has
-    /// none), the same det sign, and the acceptance test on one more
-    /// correction at the final q (`Step::probe`), not the last one
-    Direct = 2,
-    /// the tracker's assembly from the estimates in q: any converged state
-    /// (its rates when its LU is regular); Python diagnoses a singular one
-    Assemble = 3,
-    /// the state's own rates at its q and t, nothing else
-    Rates = 4,
-}
-
-impl Mode {
-    pub const ALL: [Mode; 5] = [Mode::Track, Mode::Over, Mode::Direct, Mode::Assemble, Mode::Rates];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Mode::Track => "TRACK",
-            Mode::Over => "OVER",
-            Mode::Direct => "DIRECT",
-            Mode::Assemble => "ASSEMBLE",
-            Mode::Rates => "RATES",
-        }
+codes! {
+    /// What a step does (kinem.native.Mode).
+    pub enum Mode {
+        /// the next instant from the last accepted one (from the estimates in
+        /// q when none is: the march's assembly, judged by the pivot floor)
+        Track = 0 => "TRACK",
+        /// a step over a bifurcation: a det flip is accepted
+        Over = 1 => "OVER",
+        /// an output instant near a singular configuration solved directly:
+        /// Taylor's predictor (the state's rates solved first when it has
+        /// none), the same det sign, and the acceptance test on one more
+        /// correction at the final q (`Step::probe`), not the last one
+        Direct = 2 => "DIRECT",
+        /// the tracker's assembly from the estimates in q: any converged state
+        /// (its rates when its LU is regular); Python diagnoses a singular one
+        Assemble = 3 => "ASSEMBLE",
+        /// the state's own rates at its q and t, nothing else
+        Rates = 4 => "RATES",
     }
 }
 
