@@ -7,6 +7,11 @@ every scaled residual |Phi_k| / scale_k <= tolerance (docs/solver.md): the
 one Newton of kinem (the compiled core's ``settle``, kinem/core/src/newton.rs)
 on this module's operations (``Steps``), for any linear solver. Velocity: Phi_q qd = nu. Acceleration: Phi_q qdd = gamma.
 The Jacobian at the corrected q is factorised once and serves both solves.
+
+These are the step-by-step stages of the public API (kinem.position,
+velocity, acceleration) and the tracker's diagnosis of a failed assembly;
+a solve's steps are the core's (kinem/core/src/march.rs, ``step``), which
+runs on ``Steps`` where the linear solver is not the core's own LU.
 """
 from dataclasses import dataclass
 
