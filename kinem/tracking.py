@@ -180,15 +180,13 @@ class Tracker:
                 # the step-by-step analysis's diagnosis: the worst constraint, or the singular coordinate
                 d.q = q0.copy()
                 analysis.position(m, d, t, self.tol, self.options.max_iterations)
-                raise analysis.not_converged(m, d, self.tol)
         except WorkLimitError:
             raise
         except AnalysisError as e:
             raise type(e)(f"{e}{self.count_problem(d.q, t)}") from None
+        if o.why != Why.ACCEPTED:   # converged, with Phi_q singular there
+            raise SingularError("assembled in a " + diagnose(m, d.q, t).message())
         s = self.record(o)
-        if s.det == 0:
-            diag = diagnose(m, s.q, t)
-            raise SingularError("assembled in a " + diag.message())
         solver = d.solver
         if solver is not None and solver.least_squares and not solver.sparse:
             # redundant equations: monitor the det sign of a square subsystem of independent rows
@@ -302,13 +300,12 @@ class Tracker:
                 continue
         else:
             raise SingularError(d.message())
-        after = self.state
-        iterations = self.data.iterations
-        if not self.need_v:
-            # velocities for the interpolation, none having been asked for: the core's rates at each state
-            after = after.copy()
-            for s in (before, after):
-                self.step(s.t, Mode.RATES, state=s)
+        after, iterations = self.state.copy(), self.data.iterations
+        for s in (before, after):
+            if s.qd is None:
+                # velocities for the interpolation, none having been asked for: the core's rates at the state
+                if self.step(s.t, Mode.RATES, state=s).why != Why.ACCEPTED:
+                    raise SingularError(d.message())
         h = after.t - before.t
         w = (target - before.t) / h
         v0, v1 = before.qd, after.qd

@@ -139,3 +139,21 @@ def test_the_state_and_a_mode_are_checked(four_bar):
     copy = state.copy()
     state.restart(m.q0)
     assert np.isnan(state.t) and copy.t == 0.0 and copy.qd is not None
+
+
+def test_no_assembly_and_no_rates_where_the_factorisation_is_singular():
+    """At the change point of a four-bar (Phi_q singular there) the core's
+    assembly is not accepted (the tracker then diagnoses it: "assembled in
+    a singular configuration") and Mode.RATES gives NEAR_SINGULAR with
+    pivot ratio 0, the state's rates left as they were."""
+    from test_newton import change_point
+
+    model, exact = change_point()
+    state = MarchState(exact)
+    o = model.plan.step(state, 1.5, settings(model), int(Mode.ASSEMBLE))
+    assert o.why == Why.NEAR_SINGULAR and o.pivot == 0.0 and np.isnan(state.t)
+    r = kinem.solve(model, times=[1.5], q0=exact)
+    assert r.status == kinem.Status.SINGULAR and "singular" in r.message, r.message
+    state = MarchState.of(1.5, exact, np.ones(model.n), np.ones(model.n), 1)
+    o = model.plan.step(state, 1.5, settings(model), int(Mode.RATES))
+    assert o.why == Why.NEAR_SINGULAR and o.pivot == 0.0 and np.array_equal(state.qd, np.ones(model.n))

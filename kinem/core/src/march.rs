@@ -46,9 +46,11 @@ codes! {
         /// correction at the final q (`Step::probe`), not the last one
         Direct = 2 => "DIRECT",
         /// the tracker's assembly from the estimates in q: any converged state
-        /// (its rates when its LU is regular); Python diagnoses a singular one
+        /// whose factorisation is regular (NearSingular otherwise: Python
+        /// diagnoses it)
         Assemble = 3 => "ASSEMBLE",
-        /// the state's own rates at its q and t, nothing else
+        /// the state's own rates at its q and t, nothing else (NearSingular
+        /// where its factorisation is singular)
         Rates = 4 => "RATES",
     }
 }
@@ -225,14 +227,21 @@ pub fn step<O: Step>(
     let first = st.t.is_nan();
     let taylor_from = (s.rates || mode == Mode::Direct) && !first;
     if (taylor_from && !st.rates) || mode == Mode::Rates {
+        // the state's own rates, from the factorisation at its q (none where it is singular)
         ops.start(&st.q, st.t)?;
         ops.factor(true)?;
+        c.held = false;
+        let mut out =
+            Outcome::of(Why::NearSingular, &Settled { iterations: 0, residual: 0.0, converged: true, last_step: 0.0 });
+        let (ratio, det) = ops.stats()?;
+        if !(ratio >= SINGULAR) {
+            return Ok(out);
+        }
         ops.rates(&mut st.qd, &mut st.qdd)?;
         st.rates = true;
-        c.held = false;
-        let settled = Settled { iterations: 0, residual: 0.0, converged: true, last_step: 0.0 };
         if mode == Mode::Rates {
-            return Ok(Outcome::of(Why::Accepted, &settled));
+            (out.why, out.pivot, out.det) = (Why::Accepted, ratio, det);
+            return Ok(out);
         }
     }
     let h = t - st.t;
@@ -281,7 +290,8 @@ pub fn step<O: Step>(
     ops.fetch()?;
     (out.corr, out.motion) = jump_sizes(ops.q(), qp, &st.q, ops.col_scale());
     out.why = match mode {
-        Mode::Assemble => Why::Accepted,
+        Mode::Assemble if out.pivot > 0.0 && ops.q().iter().all(|v| v.is_finite()) => Why::Accepted,
+        Mode::Assemble => Why::NearSingular,
         Mode::Direct if out.det != previous => Why::DetFlip,
         Mode::Direct => {
             out.correction = ops.probe()?;
