@@ -92,7 +92,9 @@ pub fn rejected(
 #[inline]
 pub fn jump_sizes(q: &[f64], q_pred: &[f64], q_last: &[f64], col_scale: &[f64]) -> (f64, f64) {
     let (mut corr, mut motion) = (0.0f64, 0.0f64);
-    for j in 0..q.len() {
+    let n = q.len();
+    let (q_pred, q_last, col_scale) = (&q_pred[..n], &q_last[..n], &col_scale[..n]);
+    for j in 0..n {
         corr = corr.max((q[j] - q_pred[j]).abs() / col_scale[j]);
         motion = motion.max((q_pred[j] - q_last[j]).abs() / col_scale[j]);
     }
@@ -129,7 +131,9 @@ pub fn lagrange(t: f64, tt: &[f64; 3], h: &[f64], q: &mut [f64]) -> i32 {
 
 /// The Taylor predictor q + h qd + h^2/2 qdd.
 pub fn taylor(q: &[f64], qd: &[f64], qdd: &[f64], h: f64, out: &mut [f64]) {
-    for j in 0..q.len() {
+    let n = out.len();
+    let (q, qd, qdd) = (&q[..n], &qd[..n], &qdd[..n]);
+    for j in 0..n {
         out[j] = q[j] + h * qd[j] + 0.5 * h * h * qdd[j];
     }
 }
@@ -151,7 +155,9 @@ pub fn hermite(p: [&[f64]; 3], c: [&[f64]; 3], a: f64, h: f64, out: &mut [f64]) 
         -0.5 * aa * (1.0 + u) * (1.0 + u),
         0.5 * aa * (3.0 + 3.0 * u + u * u),
     ];
-    for j in 0..out.len() {
+    let n = out.len();
+    let (p, c) = ([&p[0][..n], &p[1][..n], &p[2][..n]], [&c[0][..n], &c[1][..n], &c[2][..n]]);
+    for j in 0..n {
         let d = w[0] * (c[0][j] - p[0][j]) + w[1] * p[1][j] + w[2] * c[1][j] + w[3] * p[2][j] + w[4] * c[2][j];
         out[j] = c[0][j] + h * c[1][j] + 0.5 * h * h * c[2][j] + u3 * d;
     }
