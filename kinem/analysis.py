@@ -10,7 +10,7 @@ The Jacobian at the corrected q is factorised once and serves both solves.
 
 These are the step-by-step stages of the public API (kinem.position,
 velocity, acceleration) and the tracker's diagnosis of a failed assembly;
-a solve's steps are the core's (kinem/core/src/march.rs, ``step``), which
+a solve's steps are the core's (kinem/core/src/step.rs), which
 runs on ``Steps`` where the linear solver is not the core's own LU.
 """
 from dataclasses import dataclass

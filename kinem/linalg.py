@@ -12,7 +12,7 @@ det(J_s), which flips when the configuration passes through a singular one.
 
 These figures of LAPACK's, SuperLU's and QR's factors are computed here;
 those of kinem's own LU (``Solver.core``) come from the core (kinem.native.Lu),
-as every step's do (kinem/core/src/march.rs).
+as every step's do (kinem/core/src/step.rs).
 
 A model with more equations than coordinates (redundant but consistent
 constraints) is solved in the least-squares sense: dense QR of J_s, or the
@@ -36,7 +36,7 @@ from .options import Options
 # A pivot below this fraction of the largest one is taken as zero: about
 # 1e3 x machine epsilon, so rounding alone cannot trigger it, while a
 # Jacobian that has really lost rank gives pivots of order epsilon (the
-# core's step takes it too: kinem/core/src/march.rs, SINGULAR).
+# core's step takes it too: kinem/core/src/step.rs, SINGULAR).
 PIVOT_RATIO = native.SINGULAR
 
 

@@ -26,8 +26,9 @@ def usable(model, trace: bool, instants: int, options: Options) -> bool:
     block for a small model, one per variant for merged variants), or of one
     block whose rows and columns order into a narrow band (``banded``). A
     trace, modified Newton, an explicit sparse LU or ``block = 1`` ask for
-    the step-by-step march (the same Newton and acceptance test, on any
-    linear solver: kinem.analysis)."""
+    the step-by-step march (kinem.tracking: the same step, one call per
+    instant, on Python's operations where another linear solver, a trace or
+    modified Newton needs them: kinem.analysis.Steps)."""
     c = options
     if c.block <= 1 or trace or c.jacobian_reuse or c.linear_solver == "sparse" or model.m != model.n:
         return False

@@ -23,7 +23,7 @@ class Why(IntEnum):
 
 
 class Mode(IntEnum):
-    """What a step does (kinem/core/src/march.rs, ``Mode``: the same codes,
+    """What a step does (kinem/core/src/step.rs, ``Mode``: the same codes,
     checked by tests/test_bounds.py): TRACK the next instant from the last
     accepted state (the march's; from the estimates when there is none),
     OVER a step over a bifurcation (a det flip accepted), DIRECT an output

@@ -1,4 +1,4 @@
-"""The core's step (kinem/core/src/march.rs, ``step``): one instant from a
+"""The core's step (kinem/core/src/step.rs): one instant from a
 typed MarchState (predict, settle, accept, rates), run by the march, by
 Plan.step and, on Python's operations (kinem.analysis.Steps: any linear
 solver), by native.step; the tracker's policy calls it for every attempt."""

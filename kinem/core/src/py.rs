@@ -624,10 +624,10 @@ impl Plan {
         Ok((end, why as u8))
     }
 
-    /// One instant t from `state` (march::step on the core's operations),
+    /// One instant t from `state` (step::step on the core's operations),
     /// the state moved to it when accepted; settings: (tolerance,
     /// max_iterations, max_step, floor, rates); mode: the code of
-    /// march::Mode (kinem.native.Mode). Returns its Outcome.
+    /// step::Mode (kinem.native.Mode). Returns its Outcome.
     #[pyo3(signature = (state, t, settings, mode = 0))]
     fn step(
         &self,
@@ -794,7 +794,7 @@ impl march::Step for PySteps<'_, '_> {
     }
 }
 
-/// One instant t from `state` (march::step) on the Python operations `ops`
+/// One instant t from `state` (step::step) on the Python operations `ops`
 /// (kinem.analysis.Steps) of the model evaluated by `core`; settings and
 /// mode as Plan.step's. Returns its Outcome (q: the operations' last).
 #[pyfunction]
@@ -841,7 +841,7 @@ fn march_settings(s: (f64, usize, f64, f64, bool)) -> march::Settings {
     march::Settings { tolerance: s.0, max_iterations: s.1, max_step: s.2, floor: s.3, rates: s.4 }
 }
 
-/// The accepted state of a march and its steps (march::MarchState):
+/// The accepted state of a march and its steps (step::MarchState):
 /// MarchState(q) holds the estimates q, nothing accepted yet; a step or a
 /// march moves it to each instant it accepts.
 #[pyclass(module = "kinem._core")]
@@ -924,7 +924,7 @@ impl MarchState {
     }
 }
 
-/// How a step ended (march::Outcome): why (the code of accept::Why), its
+/// How a step ended (step::Outcome): why (the code of accept::Why), its
 /// Newton iterations and residual, pivot ratio and det sign, last Newton
 /// correction, correction from the predictor and predicted motion, the
 /// final q (the state's when accepted) and the Jacobian evaluations and
@@ -1059,7 +1059,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("REGULAR", accept::REGULAR)?;
     // the codes of accept::Why, (name, code) in order: kinem.native.Why mirrors them
     m.add("WHY", Why::ALL.iter().map(|&w| (w.name(), w as u8)).collect::<Vec<_>>())?;
-    // the codes of march::Mode: kinem.native.Mode mirrors them
+    // the codes of step::Mode: kinem.native.Mode mirrors them
     m.add("MODES", march::Mode::ALL.iter().map(|&w| (w.name(), w as u8)).collect::<Vec<_>>())?;
     m.add("SINGULAR", march::SINGULAR)?;
     Ok(())
