@@ -130,7 +130,7 @@ class Tracker:
             o = self.plan.step(st, float(t), settings, int(mode))
             d.jacobian_evaluations += o.counts[0]
             d.factorizations += o.counts[1]
-            if o.why == Why.NOT_CONVERGED:
+            if o.why != Why.ACCEPTED:   # the worst constraint where it stopped, for a failure's message
                 r = m.scaled_residual(m.phi(o.q, t))
                 d.worst_row = int(np.argmax(r)) if r.size else 0
         else:
