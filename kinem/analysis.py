@@ -7,6 +7,11 @@ every scaled residual |Phi_k| / scale_k <= tolerance (docs/solver.md): the
 one Newton of kinem (the compiled core's ``settle``, kinem/core/src/newton.rs)
 on this module's operations (``Steps``), for any linear solver. Velocity: Phi_q qd = nu. Acceleration: Phi_q qdd = gamma.
 The Jacobian at the corrected q is factorised once and serves both solves.
+
+These are the step-by-step stages of the public API (kinem.position,
+velocity, acceleration) and the tracker's diagnosis of a failed assembly;
+a solve's steps are the core's (kinem/core/src/step.rs), which
+runs on ``Steps`` where the linear solver is not the core's own LU.
 """
 from dataclasses import dataclass
 
@@ -95,7 +100,10 @@ class Steps:
     place): Phi and the factorisation at q with the analysis's linear
     solver, Jacobian reuse (modified Newton: ``reuse``, a factorisation from
     a nearby configuration, kept while it shrinks the residual by REUSE_RATE
-    per iteration, at most REUSE_ITERATIONS times) and the trace."""
+    per iteration, at most REUSE_ITERATIONS times) and the trace. The core's
+    step (kinem.native.step: predictor, acceptance test, rates) runs on them
+    too, through ``start``, ``stats``, ``solve`` and ``probe``: what a
+    linear solver other than the core's own LU answers."""
 
     def __init__(self, model, data, q, t, reuse, minimum_norm):
         self.model, self.data, self.q, self.t = model, data, q, t
@@ -103,6 +111,29 @@ class Steps:
         self.phi = self.f = None
         self.r = self.previous = np.inf
         self.reused = 0
+
+    @property
+    def col_scale(self):
+        return self.model.col_scale
+
+    def start(self, q, t):
+        """A solve from q at t (the core's step)."""
+        self.q, self.t = np.array(q, dtype=float), t
+        self.r = self.previous = np.inf
+        self.reused = 0
+
+    def stats(self):
+        """(pivot ratio, det sign) of the factorisation at hand (0, 0 where singular)."""
+        return float(self.f.pivot_ratio), int(self.f.det_sign)
+
+    def solve(self, b):
+        """x with Phi_q x = b by the factorisation at hand."""
+        return np.ascontiguousarray(self.f.solve(b), dtype=float)
+
+    def probe(self):
+        """The size of one more Newton correction at q with the factorisation at hand (q unchanged)."""
+        dq = self.f.solve(-self.model.phi(self.q, self.t))
+        return float(np.max(np.abs(dq) / self.model.col_scale)) if dq.size else 0.0
 
     def evaluate(self, it):
         """Phi at q and its max scaled residual; a Newton iteration's (it >= 0)
@@ -196,11 +227,17 @@ def position(model, data: Data, t: float, tolerance=None, max_iterations=None, f
     finally:
         data.q = q
     if not converged:
-        raise ConvergenceError(f"no convergence after {data.iterations} iterations: scaled residual "
-                               f"{data.residual:.2e} (tolerance {tol:.1e}), largest in constraint "
-                               f"'{model.row_owner[data.worst_row]}' ({model.row_labels[data.worst_row]})")
+        raise not_converged(model, data, tol)
     if finish:
         data.factor = steps.f
+
+
+def not_converged(model, data: Data, tolerance) -> ConvergenceError:
+    """The error of a position solve that did not converge (data: its
+    iterations, residual and worst row)."""
+    return ConvergenceError(f"no convergence after {data.iterations} iterations: scaled residual "
+                            f"{data.residual:.2e} (tolerance {tolerance:.1e}), largest in constraint "
+                            f"'{model.row_owner[data.worst_row]}' ({model.row_labels[data.worst_row]})")
 
 
 def gauss_newton(model, q, t, max_iterations=None, tolerance=None, budget=None):

@@ -10,6 +10,10 @@ units: ``pivot_ratio`` (smallest over largest |U_kk|) is the cheap
 conditioning figure recorded at every instant, and ``det_sign`` the sign of
 det(J_s), which flips when the configuration passes through a singular one.
 
+These figures of LAPACK's, SuperLU's and QR's factors are computed here;
+those of kinem's own LU (``Solver.core``) come from the core (kinem.native.Lu),
+as every step's do (kinem/core/src/step.rs).
+
 A model with more equations than coordinates (redundant but consistent
 constraints) is solved in the least-squares sense: dense QR of J_s, or the
 normal equations J_s^T J_s with sparse LU. Its pivots are those of R (their
@@ -24,14 +28,16 @@ import weakref
 
 import numpy as np
 
+from . import native
 from .errors import SingularError
 from .model import DENSE_LIMIT, parity
 from .options import Options
 
 # A pivot below this fraction of the largest one is taken as zero: about
 # 1e3 x machine epsilon, so rounding alone cannot trigger it, while a
-# Jacobian that has really lost rank gives pivots of order epsilon.
-PIVOT_RATIO = 1e-13
+# Jacobian that has really lost rank gives pivots of order epsilon (the
+# core's step takes it too: kinem/core/src/step.rs, SINGULAR).
+PIVOT_RATIO = native.SINGULAR
 
 
 def pivot_ratio(diag) -> np.ndarray:

@@ -2,13 +2,13 @@
 extension kinem._core): the one place the rest of kinem imports it from."""
 from enum import IntEnum
 
-from kinem._core import (CORES, KAPPA, KINDS, MAX_STEP, POLISH, REGULAR, THREADS, WHY,  # noqa: F401
-                         Core, Lu, Plan, columns, functions, jump_sizes, lagrange, outline_radius, rejected, settle)
+from kinem._core import (CORES, KAPPA, KINDS, MAX_STEP, MODES, POLISH, REGULAR, SINGULAR, THREADS,  # noqa: F401
+                         WHY, Core, Lu, MarchState, Outcome, Plan, columns, functions, outline_radius, settle, step)
 
 
 class Why(IntEnum):
     """Why the core does not take a state (kinem/core/src/accept.rs, ``Why``:
-    the same codes, checked by tests/test_core.py), each with its message."""
+    the same codes, checked by tests/test_bounds.py), each with its message."""
     ACCEPTED = 0
     NEAR_SINGULAR = 1
     DET_FLIP = 2
@@ -20,6 +20,21 @@ class Why(IntEnum):
     @property
     def message(self) -> str:
         return _MESSAGES[self]
+
+
+class Mode(IntEnum):
+    """What a step does (kinem/core/src/step.rs, ``Mode``: the same codes,
+    checked by tests/test_bounds.py): TRACK the next instant from the last
+    accepted state (the march's; from the estimates when there is none),
+    OVER a step over a bifurcation (a det flip accepted), DIRECT an output
+    instant near a singular configuration solved directly (Taylor, the same
+    det sign, judged on one more correction), ASSEMBLE the tracker's assembly
+    (any converged state), RATES the state's own rates."""
+    TRACK = 0
+    OVER = 1
+    DIRECT = 2
+    ASSEMBLE = 3
+    RATES = 4
 
 
 _MESSAGES = {

@@ -1,17 +1,31 @@
 """Carrying the solution from one output instant to the next without ever
 changing assembly branch silently (docs/solver.md, "Branches and
-singular configurations").
+singular configurations"): the tracker's policy around the core's step.
 
 Each output interval is crossed in one step when that is safe, else in
-adaptive sub-steps. A step is rejected, and halved, when Newton fails, when
-its correction from the predictor exceeds KAPPA times the predicted motion
-(a jump towards another solution), when det(J_s) changes sign (the path
-crossed a singular configuration, or another branch was reached), or when
-the configuration is near-singular. A step that must be smaller than
-MIN_STEP of the output interval means the path is stuck at a singular
-configuration: ``kinem.diagnose`` then tells a limit position (the analysis
-stops with the diagnosis) from a bifurcation the drivers' motion fits, which
-is stepped over on the smooth continuation and recorded as an event.
+adaptive sub-steps. The step is the compiled core's (kinem.native: the
+model's ``Plan.step`` on kinem's own LU, or ``native.step`` on this
+analysis's operations, kinem.analysis.Steps, for another linear solver, a
+trace or modified Newton): the predictor, Newton, the acceptance test and
+the rates, on the one ``MarchState`` the march (kinem.march) carries on too.
+A step is rejected, and halved, when Newton fails, when its correction from
+the predictor exceeds KAPPA times the predicted motion (a jump towards
+another solution), when det(J_s) changes sign (the path crossed a singular
+configuration, or another branch was reached), or when the configuration is
+near-singular. A step that must be smaller than MIN_STEP of the output
+interval means the path is stuck at a singular configuration:
+``kinem.diagnose`` then tells a limit position (the analysis stops with the
+diagnosis) from a bifurcation the drivers' motion fits, which is stepped
+over on the smooth continuation and recorded as an event.
+
+What stays here: the policy (halving, stepping over, landing on an output
+instant); the assembly's diagnosis when the core's assembly fails (the
+step-by-step kinem.analysis.position, whose error names the worst
+constraint or the singular coordinate); the det sign of a least-squares
+model's monitored rows (kinem.linalg.monitor_rows: the core has no QR); the
+interpolation onto an output instant that sits on a bifurcation and the
+minimum-norm Gauss-Newton that polishes it (kinem.analysis.gauss_newton:
+Phi_q is singular there, the core's LU has no minimum-norm solve).
 """
 from dataclasses import dataclass, replace
 
@@ -23,6 +37,7 @@ from .diagnose import diagnose
 from .budget import Budget
 from .errors import AnalysisError, ConvergenceError, SingularError, WorkLimitError
 from .linalg import det_sign, monitor_rows
+from .native import Mode, Why
 from .options import Options
 
 KAPPA = native.KAPPA    # a correction above half the predicted motion is a jump, not a refinement
@@ -50,42 +65,8 @@ def singular_pivot(tolerance: float) -> float:
     return min(1e-3, 1.5 * tolerance**0.5)
 
 
-def lagrange(t, T, H, q):
-    """q at t (into q) extrapolated through the states H (3, n) at times T
-    (3,), oldest first (NaN: none): Lagrange through those within four steps
-    of t (the compiled core's, kinem/core/src/accept.rs). Returns the order:
-    the points used - 1 (0: no slope to judge a jump by)."""
-    q[:], order = native.lagrange(float(t), np.ascontiguousarray(T, float), np.ascontiguousarray(H, float))
-    return order
-
-
-def jump_sizes(q, q_pred, q_last, col_scale):
-    """(correction, motion): the largest dimensionless |q - q_pred| and
-    |q_pred - q_last| (the compiled core's)."""
-    c = np.ascontiguousarray
-    return native.jump_sizes(c(q, float), c(q_pred, float), c(q_last, float), c(col_scale, float))
-
-
-# Why ``rejected`` turns a state down (0: accepted).
-NEAR_SINGULAR, DET_FLIP, JUMP = native.NEAR_SINGULAR, native.DET_FLIP, native.JUMP
-
-
-def rejected(pivot, correction, det, previous_det, corr, move, judge_jump, floor, tolerance, allow_flip):
-    """The acceptance test of a tracked state reached in one step from the
-    one before it, the one test of the tracker and of the march (the
-    compiled core's, kinem/core/src/accept.rs): NEAR_SINGULAR when its pivot
-    ratio is below the floor (singular_pivot) or not a number, or when its
-    last Newton correction is above REGULAR x sqrt(tolerance): Newton
-    converged linearly, to a singular root, where a correction with the
-    nearly singular LU can throw q to a configuration that passes the floor
-    (docs/solver.md, "Branches and singular configurations"); DET_FLIP
-    when det(J_s) changed sign (unless ``allow_flip``: a step over a
-    bifurcation), JUMP when its correction from the predictor is above
-    KAPPA times the predicted motion plus ten times the tolerance for
-    round-off (``jump_sizes``; judged when ``judge_jump``: the predictor
-    had a slope), else 0."""
-    return native.Why(native.rejected(float(pivot), float(correction), int(det), int(previous_det), float(corr),
-                                      float(move), bool(judge_jump), float(floor), float(tolerance), bool(allow_flip)))
+# Why the core's step turns a state down (kinem.native.Why; 0: accepted).
+NEAR_SINGULAR, DET_FLIP, JUMP = Why.NEAR_SINGULAR, Why.DET_FLIP, Why.JUMP
 
 
 def over_steps(step, limit):
@@ -99,6 +80,7 @@ def over_steps(step, limit):
 
 @dataclass
 class State:
+    """What an output instant records: the accepted state and its step's figures."""
     t: float
     q: np.ndarray
     qd: np.ndarray | None
@@ -116,95 +98,101 @@ class Rejected(Exception):
 
 class Tracker:
     def __init__(self, model, data, need_v, need_a, options: Options):
-        self.a = analysis
         self.model, self.data = model, data
         self.need_v, self.need_a = need_v, need_a
         self.options = o = options
         self.tol = o.tolerance
-        self.history = []       # accepted states, last three kept
         self.events = []        # (t, text): singular configurations passed
         self.substeps = 0       # steps taken beyond one per output interval
         self.pivot_floor = singular_pivot(o.tolerance)
+        # the last accepted state, the march's too (kinem.march), and what the core's step is given
+        self.state = native.MarchState(np.asarray(model.q0, dtype=float))
+        self.last = None        # the record of the last accepted state (State)
+        self.settings = (float(o.tolerance), int(o.max_iterations), float(native.MAX_STEP), self.pivot_floor, need_v)
+        solver = data.solver
+        # the core's operations where its LU is the solver and no trace or modified Newton asks for Python's
+        core = solver is not None and solver.core and data.trace is None and not o.jacobian_reuse
+        self.plan = model.plan if core else None
         # every attempt beyond one per output interval, and the time, count (kinem.budget)
         self.budget = data.budget = Budget(model, o)
 
-    # -- one configuration -------------------------------------------------
-    def settle(self, t, q_start) -> State:
-        """Newton from q_start at t to the corrected q and the factorisation
-        there (kinem.analysis.position), its pivot ratio and det sign, and the
-        velocity and acceleration when asked (none where Phi_q is singular)."""
+    # -- one step, by the core ---------------------------------------------
+    def step(self, t, mode=Mode.TRACK, state=None, floor=None):
+        """The core's step to t from ``state`` (the tracker's), by ``mode``
+        (kinem.native.Mode), pivot floor ``floor`` (default singular_pivot):
+        its Outcome, the state moved to t when accepted. The data records
+        the solve (q, iterations, residual, last correction, counts)."""
         m, d = self.model, self.data
-        # modified Newton from the last solve's factorisation (none after a failed one), when the case asks for it
-        f = d.factor
-        reuse = f if self.options.jacobian_reuse and self.history and f is not None and f.pivot_ratio > 0 else None
-        d.q = q_start
-        self.a.position(m, d, t, self.tol, self.options.max_iterations, factor=reuse)
-        f = d.factor
-        qd = qdd = None
-        if self.need_v and f.pivot_ratio > 0:
-            # rates from the factorisation at the corrected position: to rounding, not to the tolerance
-            self.a.velocity(m, d)
-            qd = d.qd
-            if self.need_a:
-                self.a.acceleration(m, d)
-                qdd = d.qdd
-        return State(t, d.q.copy(), qd, qdd, f.pivot_ratio, f.det_sign, d.iterations, d.residual, d.correction)
+        st = self.state if state is None else state
+        settings = self.settings if floor is None else self.settings[:3] + (floor,) + self.settings[4:]
+        if self.plan is not None:
+            self.budget.check(t)
+            o = self.plan.step(st, float(t), settings, int(mode))
+            d.jacobian_evaluations += o.counts[0]
+            d.factorizations += o.counts[1]
+            if o.why != Why.ACCEPTED:   # the worst constraint where it stopped, for a failure's message
+                r = m.scaled_residual(m.phi(o.q, t))
+                d.worst_row = int(np.argmax(r)) if r.size else 0
+        else:
+            # modified Newton from the last solve's factorisation (none after a failed one), when asked for
+            f = d.factor
+            reuse = f if self.options.jacobian_reuse and np.isfinite(st.t) and f is not None and f.pivot_ratio > 0 \
+                else None
+            ops = analysis.Steps(m, d, None, t, reuse, False)
+            d.factor = None
+            o = native.step(ops, m.core, st, float(t), settings, int(mode))
+            if o.why != Why.NOT_CONVERGED:
+                d.factor = ops.f
+        d.q, d.t = o.q, t
+        d.iterations, d.residual, d.correction = o.iterations, o.residual, o.correction
+        return o
 
-    def recent(self):
-        """(T (3,), H (3, n)): the last three accepted states' times and q,
-        oldest first, NaN times where there are fewer (``lagrange``)."""
-        h = self.history[-3:]
-        T, H = np.full(3, np.nan), np.zeros((3, self.model.n))
-        for i, s in enumerate(h):
-            T[3 - len(h) + i], H[3 - len(h) + i] = s.t, s.q
-        return T, H
-
-    def predict(self, t):
-        """(start, order) at t from the accepted states: Taylor from the last
-        one when its rates are known (order 2), else ``lagrange``."""
-        last = self.history[-1]
-        h = t - last.t
-        if last.qd is not None:
-            q = last.q + h * last.qd
-            return (q if last.qdd is None else q + 0.5 * h * h * last.qdd), 2
-        q = np.empty(self.model.n)
-        return q, int(lagrange(t, *self.recent(), q))
+    def record(self, o) -> State:
+        """The record of the state the step ``o`` was accepted into."""
+        st = self.state
+        qd = st.qd if self.need_v else None
+        self.last = State(st.t, st.q, qd, st.qdd if qd is not None and self.need_a else None, o.pivot, o.det,
+                          o.iterations, o.residual, o.correction)
+        return self.last
 
     def attempt(self, t, allow_flip=False) -> State:
-        q_pred, order = self.predict(t)
-        s = self.settle(t, q_pred)
-        last = self.history[-1]
-        corr, move = jump_sizes(s.q, q_pred, last.q, self.model.col_scale)
-        why = rejected(s.pivot, s.correction, s.det, last.det, corr, move, order >= 1, self.pivot_floor, self.tol,
-                       allow_flip)
+        """One step to t (over a bifurcation: ``allow_flip``): its record, or Rejected / an AnalysisError."""
+        o = self.step(t, Mode.OVER if allow_flip else Mode.TRACK)
+        why = Why(o.why)
+        if why == Why.ACCEPTED:
+            return self.record(o)
+        if why == Why.NOT_CONVERGED:
+            raise analysis.not_converged(self.model, self.data, self.tol)
         if why == NEAR_SINGULAR:
-            raise Rejected(f"{NEAR_SINGULAR.message} (pivot ratio {s.pivot:.1e}, last Newton correction "
-                           f"{s.correction:.1e})")
-        if why == DET_FLIP:
-            raise Rejected(DET_FLIP.message)
+            raise Rejected(f"{why.message} (pivot ratio {o.pivot:.1e}, last Newton correction {o.correction:.1e})")
         if why == JUMP:
-            raise Rejected(f"{JUMP.message} of {corr:.2e} (predicted motion {move:.2e})")
-        return s
+            raise Rejected(f"{why.message} of {o.corr:.2e} (predicted motion {o.motion:.2e})")
+        raise Rejected(why.message)
 
     # -- the march ---------------------------------------------------------------
     def start(self, t, q0=None) -> State:
+        m, d = self.model, self.data
+        q0 = np.asarray(m.q0 if q0 is None else q0, dtype=float)
+        self.state.restart(q0)
         try:
-            s = self.settle(t, (self.model.q0 if q0 is None else q0).copy())
+            o = self.step(t, Mode.ASSEMBLE)
+            if o.why != Why.ACCEPTED:
+                # the step-by-step analysis's diagnosis: the worst constraint, or the singular coordinate
+                d.q = q0.copy()
+                analysis.position(m, d, t, self.tol, self.options.max_iterations)
         except WorkLimitError:
             raise
         except AnalysisError as e:
-            raise type(e)(f"{e}{self.count_problem(self.data.q, t)}") from None
-        if s.det == 0:
-            d = diagnose(self.model, s.q, t)
-            raise SingularError("assembled in a " + d.message())
-        m = self.model
-        solver = self.data.solver
+            raise type(e)(f"{e}{self.count_problem(d.q, t)}") from None
+        if o.why != Why.ACCEPTED:   # converged, with Phi_q singular there
+            raise SingularError("assembled in a " + diagnose(m, d.q, t).message())
+        s = self.record(o)
+        solver = d.solver
         if solver is not None and solver.least_squares and not solver.sparse:
             # redundant equations: monitor the det sign of a square subsystem of independent rows
             J = m.assemble(m.jac_values(s.q, t) * m.entry_scale, False)
-            self.data.solver = replace(solver, rows=monitor_rows(J))
-            s.det = det_sign(J[self.data.solver.rows])
-        self.history = [s]
+            d.solver = replace(solver, rows=monitor_rows(J))
+            s.det = self.state.det = det_sign(J[d.solver.rows])
         return s
 
     def count_problem(self, q, t) -> str:
@@ -226,17 +214,16 @@ class Tracker:
             text += f"; {m.m} equations for {m.n} coordinates: {m.m - m.n} redundant, and not consistent here"
         return text
 
-    def accept(self, s):
-        self.history = (self.history + [s])[-3:]
-
     def advance(self, target) -> State:
         """The state at the output instant ``target``."""
-        h_out = self.h_out = target - self.history[-1].t
+        st = self.state
+        h_out = self.h_out = target - st.t
         h, budget = h_out, self.budget
-        budget.begin(self.history[-1].t, h_out)
-        while self.history[-1].t < target:
-            last = self.history[-1]
-            t1 = last.t + h
+        budget.begin(st.t, h_out)
+        s = self.last
+        while st.t < target:
+            t0 = st.t
+            t1 = t0 + h
             if t1 >= target - 1e-9 * h_out:
                 t1 = target
             try:
@@ -247,24 +234,24 @@ class Tracker:
                 budget.spend(t1, rejected=True)
                 if self.data.trace is not None:
                     self.data.trace.append((t1, "rejected", self.data.iterations, self.data.residual, str(why)))
-                h = (t1 - last.t) / 2
+                h = (t1 - t0) / 2
                 if h < MIN_STEP * h_out:
-                    out = self.stuck(last, target, t1 - last.t, why)
+                    out = self.stuck(target, t1 - t0, why)
                     if out is not None:
                         return out
                     h = max(h_out * MIN_STEP, 1e-300)
                 continue
             if t1 != target:
                 self.substeps += 1
-                budget.spend(t1, step=t1 - last.t)
+                budget.spend(t1, step=t1 - t0)
                 if self.options.on_substeps is not None:
                     self.options.on_substeps(self.substeps, t1)
-            self.accept(s)
             h = min(2 * h, h_out)
-        return self.history[-1]
+        return s
 
-    def stuck(self, last, target, step, why):
-        """No step from ``last`` is accepted: diagnose, then stop or step over."""
+    def stuck(self, target, step, why):
+        """No step from the last accepted state is accepted: diagnose, then stop or step over."""
+        last = self.state.copy()
         d = diagnose(self.model, last.q, last.t)
         if not d.singular:
             raise ConvergenceError(f"cannot continue beyond t = {last.t:.6g} without a jump: {why}")
@@ -272,11 +259,10 @@ class Tracker:
             raise SingularError(d.message())
         # near a bifurcation the drivers' motion fits: the output instant itself may be
         # regular, on this side of it (the drivers reverse just short of it)
-        s = self.direct(last, target)
+        s = self.direct(target)
         if s is not None:
             self.events.append((target, "output instant near a singular configuration, solved directly "
                                         f"(pivot ratio {s.pivot:.1e}): " + d.message()))
-            self.accept(s)
             return s
         # else continue on the smooth branch
         for size in over_steps(step, 2 * (target - last.t) + step):
@@ -284,7 +270,7 @@ class Tracker:
             if t1 >= target:
                 return self.land_on_singular(last, target, d)
             try:
-                s = self.attempt(t1, allow_flip=True)
+                self.attempt(t1, allow_flip=True)
             except WorkLimitError:
                 raise
             except (AnalysisError, Rejected):
@@ -293,19 +279,19 @@ class Tracker:
             self.budget.spend(t1)
             self.events.append((last.t, "stepped over a singular configuration on the smooth branch: " + d.message()))
             self.substeps += 1
-            self.accept(s)
             return None
         raise SingularError(d.message())
 
     def land_on_singular(self, before, target, d):
         """The output instant sits on the bifurcation: take the state just
-        after it and interpolate between the two neighbours (cubic Hermite
-        where rates are known: errors of order (distance)^4 in positions,
-        (distance)^2 in accelerations)."""
+        after it (``before``: the state before it, a kinem.native.MarchState)
+        and interpolate between the two neighbours (cubic Hermite where rates
+        are known: errors of order (distance)^4 in positions, (distance)^2 in
+        accelerations)."""
         step = target - before.t
         for size in over_steps(step / 2, self.h_out):
             try:
-                after = self.attempt(target + size, allow_flip=True)
+                self.attempt(target + size, allow_flip=True)
                 break
             except WorkLimitError:
                 raise
@@ -314,66 +300,51 @@ class Tracker:
                 continue
         else:
             raise SingularError(d.message())
+        after, iterations = self.state.copy(), self.data.iterations
+        for s in (before, after):
+            if s.qd is None:
+                # velocities for the interpolation, none having been asked for: the core's rates at the state
+                if self.step(s.t, Mode.RATES, state=s).why != Why.ACCEPTED:
+                    raise SingularError(d.message())
         h = after.t - before.t
         w = (target - before.t) / h
-        lerp = lambda a, b: None if a is None else (1 - w) * a + w * b
-        v0, v1 = (before.qd, after.qd) if self.need_v else (self.rate(before), self.rate(after))
+        v0, v1 = before.qd, after.qd
         h00, h10, h01, h11 = 2 * w**3 - 3 * w**2 + 1, w**3 - 2 * w**2 + w, -2 * w**3 + 3 * w**2, w**3 - w**2
         q = h00 * before.q + h10 * h * v0 + h01 * after.q + h11 * h * v1
-        qd = None
+        qd = qdd = None
         if self.need_v:
             d00, d10, d01, d11 = (6 * w**2 - 6 * w) / h, 3 * w**2 - 4 * w + 1, (-6 * w**2 + 6 * w) / h, 3 * w**2 - 2 * w
             qd = d00 * before.q + d10 * v0 + d01 * after.q + d11 * v1
-        s = State(target, self.polish(q, target), qd, lerp(before.qdd, after.qdd), 0.0, after.det,
-                  self.data.iterations, self.data.residual)
+            if self.need_a:
+                qdd = (1 - w) * before.qdd + w * after.qdd
+        s = State(target, self.polish(q, target), qd, qdd, 0.0, after.det, iterations, self.data.residual)
         self.events.append((target, "output instant on a singular configuration, interpolated between "
                                     f"t = {before.t:.9g} and {after.t:.9g}: " + d.message()))
-        self.accept(after)
         return s
 
-    def direct(self, before, t):
-        """The state at t solved by Newton from the Taylor predictor at
-        ``before``, the last accepted state, when its root is regular (REGULAR: Newton
-        converges there quadratically and the pivot ratio is that of a
-        configuration, not of a singular one), on the same side of the
-        singular configuration as ``before`` (the same sign of det) and no
-        jump from the predictor. None otherwise: the instant is then
-        interpolated."""
-        m, d = self.model, self.data
+    def direct(self, t):
+        """The state at t solved by the core's step from the Taylor
+        predictor at the last accepted state (Mode.DIRECT), when its root is
+        regular (REGULAR: one more Newton correction below REGULAR
+        sqrt(tolerance), and a pivot ratio above REGULAR times the floor,
+        that of a configuration, not of a singular one), on the same side of
+        the singular configuration (the same sign of det) and no jump from
+        the predictor: its record, the state moved to it. None otherwise:
+        the instant is then interpolated."""
         try:
-            qd, qdd = (before.qd, before.qdd) if self.need_a else self.rates(before)
-            h = t - before.t
-            q_pred = before.q + h * qd + 0.5 * h * h * qdd
-            s = self.settle(t, q_pred)
-            if s.det != before.det:
-                return None
-            corr = np.max(np.abs(d.factor.solve(-m.phi(s.q, t))) / m.col_scale)  # the factorisation at s.q
+            o = self.step(t, Mode.DIRECT, floor=REGULAR * self.pivot_floor)
         except WorkLimitError:
             raise
         except AnalysisError:
             return None
         finally:
             self.budget.spend(t)
-        # the acceptance test on one more correction, with a pivot floor REGULAR times lower
-        why = rejected(s.pivot, corr, s.det, before.det, *jump_sizes(s.q, q_pred, before.q, m.col_scale), True,
-                       REGULAR * self.pivot_floor, self.tol, False)
-        return s if why == 0 else None
-
-    def rates(self, state):
-        """Velocity and acceleration of a (regular) state."""
-        m = self.model
-        f = self.a._factor(m, self.data, state.q, state.t)
-        qd = f.solve(m.nu(state.t))
-        return qd, f.solve(m.gamma(state.q, qd, state.t))
-
-    def rate(self, state):
-        """Velocity of a (regular) state, for interpolation when none was asked for."""
-        return self.a._factor(self.model, self.data, state.q, state.t).solve(self.model.nu(state.t))
+        return self.record(o) if o.why == Why.ACCEPTED else None
 
     def polish(self, q, t):
         """Minimum-norm Gauss-Newton steps: Newton without a regular Jacobian."""
-        q, self.data.residual = self.a.gauss_newton(self.model, q, t, self.options.max_iterations, self.tol,
-                                                    self.budget)
+        q, self.data.residual = analysis.gauss_newton(self.model, q, t, self.options.max_iterations, self.tol,
+                                                      self.budget)
         if not self.data.residual <= self.tol:
             raise ConvergenceError(f"no convergence at the singular configuration t = {t:.6g}")
         return q

@@ -62,8 +62,9 @@ def test_max_seconds_stops_the_march_and_keeps_its_instants(slider):
 
 
 def test_kinem_solve_max_seconds_answers_in_one_line(tmp_path):
-    case = case_file(tmp_path, 1e4)
-    code, out, err = kinem_cli("solve", case, "--max-seconds", 1, "--out", tmp_path / "o.csv")
+    case = case_file(tmp_path, 1e5)
+    # a work limit far above what a second of the core's steps makes (about 50,000): the time is up first
+    code, out, err = kinem_cli("solve", case, "--max-seconds", 1, "--max-work", 1e9, "--out", tmp_path / "o.csv")
     lines = err.strip().splitlines()
     assert code == 1 and len(lines) == 1 and "Traceback" not in err, err
     assert "the time limit of 1 s" in lines[0] and "'crank-drive'" in lines[0]
@@ -175,8 +176,6 @@ def test_fortran_ordered_arrays_are_read_in_c_order(slider):
         fortran = tuple(np.asfortranarray(a) if a.ndim == 2 else a for a in args)
         strided = tuple(np.repeat(a, 2, axis=0)[::2] if a.ndim == 2 else a for a in args)
         assert np.array_equal(f(*fortran), f(*args)) and np.array_equal(f(*strided), f(*args))
-    T, H = np.array([0.0, 0.1, 0.2]), rng.standard_normal((3, slider.n))
-    assert np.array_equal(native.lagrange(0.3, T, np.asfortranarray(H))[0], native.lagrange(0.3, T, H)[0])
 
 
 def _march_args(model, out):
@@ -185,7 +184,7 @@ def _march_args(model, out):
     t = model.times
     n, K = model.n, len(t)
     o = kinem.Options.of(model.case)
-    state = np.concatenate([model.q0, np.zeros(2 * n + 2), np.zeros(3 * n), np.full(3, np.nan)])
+    state = native.MarchState(model.q0)
     settings = (o.tolerance, o.max_iterations, native.MAX_STEP, singular_pivot(o.tolerance), True, np.inf)
     return (t, 0, state, settings, out, np.zeros((2, K)), np.zeros(K + 2, np.int64))
 
@@ -362,6 +361,7 @@ def test_a_core_fault_is_exit_3_internal_error(monkeypatch, capsys):
 
 def test_the_rejection_codes_are_mirrored_with_messages():
     assert [(w.name, w.value) for w in native.Why] == [tuple(x) for x in native.WHY]
+    assert [(w.name, w.value) for w in native.Mode] == [tuple(x) for x in native.MODES]
     assert all(w.message for w in native.Why)
 
 

@@ -117,7 +117,7 @@ def _run(model, state, k=1):
     options = kinem.Options.of(model.case)
     tol = options.tolerance
     q, qd, qdd, last, H, T = state
-    packed = np.concatenate([q, qd, qdd, last, H.ravel(), T])
+    packed = kinem.native.MarchState.of(float(last[0]), q, qd, qdd, int(last[1]))
     settings = (tol, options.max_iterations, kinem.native.MAX_STEP, singular_pivot(tol), True, np.inf)
     return tuple(model.plan.march(t, k, packed, settings, np.zeros((3, K, n)), np.zeros((2, K)),
                                   np.zeros(K + 2, np.int64)))
@@ -177,7 +177,7 @@ def test_the_cores_pivot_ratio_and_det_sign_are_lapacks():
 @pytest.mark.parametrize("name", ["slider_crank", "four_bar", "quick_return_1"])
 def test_positions_only_solves_no_rates_and_lands_where_the_full_run_does(name):
     """A positions-only run predicts by extrapolating through the last three
-    states (kinem.tracking.lagrange) and solves no rate; its positions are those
+    states (the core's accept::lagrange) and solves no rate; its positions are those
     of the full run within what the Newton tolerance allows (``agreement``)."""
     model = kinem.compile(kinem.load(ROOT / "cases" / f"{name}.toml"))
     full, positions = kinem.solve(model), kinem.solve(model, ("positions",))

@@ -14,7 +14,8 @@ import pytest
 import kinem
 from kinem import analysis
 from kinem.reference import four_bar, rel_error
-from kinem.tracking import NEAR_SINGULAR, REGULAR, rejected, singular_pivot
+from kinem.native import MAX_STEP, MarchState, Mode, Why
+from kinem.tracking import NEAR_SINGULAR, REGULAR, singular_pivot
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -76,13 +77,13 @@ def test_a_singular_root_leaves_a_large_last_correction_and_is_rejected():
     analysis.position(model, data, 1.5)
     assert data.iterations == 0 and data.residual <= tol
     assert data.correction > REGULAR * tol**0.5
-    # the pivot ratio is small here too; the correction alone rejects it
-    assert rejected(1.0, data.correction, 1, 1, 0.0, 1.0, True, singular_pivot(tol), tol, False) == NEAR_SINGULAR
-    regular = kinem.Data(q=start)
-    analysis.position(model, regular, 1.2)
-    assert regular.correction <= 1e-10 and regular.factor.pivot_ratio > 1e-3
-    assert rejected(regular.factor.pivot_ratio, regular.correction, 1, 1, 0.0, 1.0, True, singular_pivot(tol),
-                    tol, False) == 0
+    # the pivot ratio is small here too; the correction alone rejects it: the core's step (the march's
+    # assembly from these estimates, the acceptance test) with no pivot floor
+    settings = (tol, 25, MAX_STEP, 0.0, True)
+    o = model.plan.step(MarchState(start), 1.5, settings, Mode.TRACK)
+    assert o.why == NEAR_SINGULAR and o.correction > REGULAR * tol**0.5
+    o = model.plan.step(MarchState(start), 1.2, settings[:3] + (singular_pivot(tol), True), Mode.TRACK)
+    assert o.why == Why.ACCEPTED and o.correction <= 1e-10 and o.pivot > 1e-3
 
 
 @pytest.mark.parametrize("block", [64, 1])

@@ -8,50 +8,50 @@ pub const KAPPA: f64 = 0.5;
 /// (dimensionless) converged linearly, to a singular root.
 pub const REGULAR: f64 = 1e-2;
 
-/// Why a state is not taken: the acceptance test's verdicts and the
-/// march's own stops. Its codes cross to Python (kinem.native.Why mirrors
-/// them, each with its message; tests/test_core.py checks they agree).
-#[repr(u8)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub enum Why {
-    Accepted = 0,
-    /// the pivot ratio below the floor, or Newton converged linearly
-    NearSingular = 1,
-    /// det(J_s) changed sign
-    DetFlip = 2,
-    /// the correction from the predictor is a jump
-    Jump = 3,
-    /// the march's position solve did not converge
-    NotConverged = 4,
-    /// the march stopped for a signal (Ctrl-C): Python raises it
-    Interrupted = 5,
-    /// the march reached its time limit (Options.max_seconds)
-    OutOfTime = 6,
-}
-
-impl Why {
-    /// Every code, in order (the Python mirror is checked against it).
-    pub const ALL: [Why; 7] = [
-        Why::Accepted,
-        Why::NearSingular,
-        Why::DetFlip,
-        Why::Jump,
-        Why::NotConverged,
-        Why::Interrupted,
-        Why::OutOfTime,
-    ];
-
-    /// The code's name as the Python mirror spells it.
-    pub fn name(self) -> &'static str {
-        match self {
-            Why::Accepted => "ACCEPTED",
-            Why::NearSingular => "NEAR_SINGULAR",
-            Why::DetFlip => "DET_FLIP",
-            Why::Jump => "JUMP",
-            Why::NotConverged => "NOT_CONVERGED",
-            Why::Interrupted => "INTERRUPTED",
-            Why::OutOfTime => "OUT_OF_TIME",
+/// An enum of codes that cross to Python (a kinem.native IntEnum mirrors
+/// them; tests/test_bounds.py checks they agree): its members, `ALL` in
+/// order and each one's `name` as the mirror spells it.
+macro_rules! codes {
+    ($(#[$m:meta])* pub enum $name:ident { $($(#[$vm:meta])* $v:ident = $code:literal => $text:literal,)* }) => {
+        $(#[$m])*
+        #[repr(u8)]
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+        pub enum $name {
+            $($(#[$vm])* $v = $code,)*
         }
+
+        impl $name {
+            /// Every code, in order.
+            pub const ALL: &'static [$name] = &[$($name::$v,)*];
+
+            /// The code's name as the Python mirror spells it.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $($name::$v => $text,)*
+                }
+            }
+        }
+    };
+}
+pub(crate) use codes;
+
+codes! {
+    /// Why a state is not taken: the acceptance test's verdicts and the
+    /// march's own stops (kinem.native.Why, each with its message).
+    pub enum Why {
+        Accepted = 0 => "ACCEPTED",
+        /// the pivot ratio below the floor, or Newton converged linearly
+        NearSingular = 1 => "NEAR_SINGULAR",
+        /// det(J_s) changed sign
+        DetFlip = 2 => "DET_FLIP",
+        /// the correction from the predictor is a jump
+        Jump = 3 => "JUMP",
+        /// the march's position solve did not converge
+        NotConverged = 4 => "NOT_CONVERGED",
+        /// the march stopped for a signal (Ctrl-C): Python raises it
+        Interrupted = 5 => "INTERRUPTED",
+        /// the march reached its time limit (Options.max_seconds)
+        OutOfTime = 6 => "OUT_OF_TIME",
     }
 }
 
@@ -89,9 +89,12 @@ pub fn rejected(
 
 /// (correction, motion): the largest dimensionless |q - q_pred| and
 /// |q_pred - q_last|.
+#[inline]
 pub fn jump_sizes(q: &[f64], q_pred: &[f64], q_last: &[f64], col_scale: &[f64]) -> (f64, f64) {
     let (mut corr, mut motion) = (0.0f64, 0.0f64);
-    for j in 0..q.len() {
+    let n = q.len();
+    let (q_pred, q_last, col_scale) = (&q_pred[..n], &q_last[..n], &col_scale[..n]);
+    for j in 0..n {
         corr = corr.max((q[j] - q_pred[j]).abs() / col_scale[j]);
         motion = motion.max((q_pred[j] - q_last[j]).abs() / col_scale[j]);
     }
@@ -128,7 +131,9 @@ pub fn lagrange(t: f64, tt: &[f64; 3], h: &[f64], q: &mut [f64]) -> i32 {
 
 /// The Taylor predictor q + h qd + h^2/2 qdd.
 pub fn taylor(q: &[f64], qd: &[f64], qdd: &[f64], h: f64, out: &mut [f64]) {
-    for j in 0..q.len() {
+    let n = out.len();
+    let (q, qd, qdd) = (&q[..n], &qd[..n], &qdd[..n]);
+    for j in 0..n {
         out[j] = q[j] + h * qd[j] + 0.5 * h * h * qdd[j];
     }
 }
@@ -139,6 +144,7 @@ pub fn taylor(q: &[f64], qd: &[f64], qdd: &[f64], h: f64, out: &mut [f64]) {
 /// (u = h / a). Its error is of order h^6 (1.3e-13 of the size on the
 /// slider-crank's 501 instants, Taylor's 1.4e-7): a start for the chord
 /// (crate::newton::chord), not the acceptance test's predictor.
+#[inline(always)]
 pub fn hermite(p: [&[f64]; 3], c: [&[f64]; 3], a: f64, h: f64, out: &mut [f64]) {
     let u = h / a;
     let (u3, aa) = (u * u * u, a * a);
@@ -149,7 +155,9 @@ pub fn hermite(p: [&[f64]; 3], c: [&[f64]; 3], a: f64, h: f64, out: &mut [f64]) 
         -0.5 * aa * (1.0 + u) * (1.0 + u),
         0.5 * aa * (3.0 + 3.0 * u + u * u),
     ];
-    for j in 0..out.len() {
+    let n = out.len();
+    let (p, c) = ([&p[0][..n], &p[1][..n], &p[2][..n]], [&c[0][..n], &c[1][..n], &c[2][..n]]);
+    for j in 0..n {
         let d = w[0] * (c[0][j] - p[0][j]) + w[1] * p[1][j] + w[2] * c[1][j] + w[3] * p[2][j] + w[4] * c[2][j];
         out[j] = c[0][j] + h * c[1][j] + 0.5 * h * h * c[2][j] + u3 * d;
     }

@@ -22,6 +22,7 @@ pub mod parts;
 pub mod plan;
 pub mod real;
 pub mod sensitivity;
+pub mod step;
 pub mod table;
 pub mod variants;
 pub mod watch;

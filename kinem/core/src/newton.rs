@@ -2,7 +2,7 @@
 //! "Residual scaling and convergence"), with the final correction and the
 //! factorisation at the corrected configuration that the conditioning
 //! monitor and the rate solves use. It runs on three operations (`Ops`):
-//! the march's own (kinem's LU, kinem/core/src/march.rs) and, for the
+//! the step's own (kinem's LU, kinem/core/src/step.rs and march.rs) and, for the
 //! step-by-step analysis, Python's (any linear solver: LAPACK, SuperLU,
 //! least squares, minimum-norm steps; kinem.analysis).
 

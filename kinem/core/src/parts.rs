@@ -9,7 +9,7 @@
 use crate::accept::Why;
 use crate::families::At;
 use crate::lu::Layout;
-use crate::march::{run, Native, Out, Settings, State};
+use crate::march::{run, MarchState, Native, Out, Settings, Step};
 use crate::model::Kin;
 use crate::newton::Ops;
 use crate::watch::Watch;
@@ -83,17 +83,6 @@ fn evaluate(kin: &Kin, q: &[f64], t: f64) -> (Vec<f64>, Vec<f64>) {
 /// One stage's outputs of a part's march (q, qd or qdd).
 type Stage = fn(&Marched) -> &[f64];
 
-/// A part's march state between windows: q, qd, qdd, (time, det sign), H, T
-/// at its coordinates (crate::march::State's parts).
-struct PartState {
-    q: Vec<f64>,
-    qd: Vec<f64>,
-    qdd: Vec<f64>,
-    last: Vec<f64>,
-    h: Vec<f64>,
-    tt: Vec<f64>,
-}
-
 /// What one part's march over a window left: its outputs from the window's
 /// first instant k (row i - k for instant i), where it stopped and why.
 struct Marched {
@@ -130,35 +119,32 @@ pub fn run_parts(
     sign: i32,
     times: &[f64],
     k: usize,
-    st: State,
+    st: &mut MarchState,
     s: &Settings,
     mut out: Out,
     watch: &Watch,
 ) -> (usize, Why) {
     let kk = times.len();
     let n = st.q.len();
-    let mut states: Vec<PartState> = parts
+    let whole: &MarchState = st;
+    let mut states: Vec<MarchState> = parts
         .par_iter()
         .map(|p| {
             let gather = |v: &[f64]| p.cols.iter().map(|&j| v[j]).collect::<Vec<f64>>();
-            let q = gather(st.q);
-            // the part's own det sign at the state it starts from (none at k = 0: the assembly sets it)
-            let det = if k == 0 {
-                0
-            } else {
-                let mut ops = Native::new(&p.kin, &p.layout);
-                ops.start(&q, st.last[0]);
-                let Ok(()) = ops.factor(true);
-                p.layout.stats(&ops.f).1
-            };
-            PartState {
-                qd: gather(st.qd),
-                qdd: gather(st.qdd),
-                last: vec![st.last[0], det as f64],
-                h: (0..3).flat_map(|r| p.cols.iter().map(move |&j| r * n + j)).map(|i| st.h[i]).collect(),
-                tt: st.tt.to_vec(),
-                q,
+            let rows = |v: &[f64], r: usize| p.cols.iter().map(move |&j| v[r * n + j]).collect::<Vec<f64>>();
+            let mut ps = MarchState::new(&gather(&whole.q));
+            if k == 0 || whole.t.is_nan() {
+                return ps;
             }
+            // the part's own det sign at the state it starts from (the assembly sets it at k = 0)
+            let mut ops = Native::new(&p.kin, &p.layout);
+            let Ok(()) = ops.start(&ps.q, whole.t);
+            let Ok(()) = ops.factor(true);
+            ps.det = p.layout.stats(&ops.f).1;
+            (ps.qd, ps.qdd, ps.rates, ps.t) = (gather(&whole.qd), gather(&whole.qdd), whole.rates, whole.t);
+            (ps.h, ps.tt, ps.before) = ((0..3).flat_map(|r| rows(&whole.h, r)).collect(), whole.tt, whole.before);
+            ps.prev = (0..3).flat_map(|r| rows(&whole.prev, r)).collect();
+            ps
         })
         .collect();
     let (mut from, mut window, mut end, mut why) = (k, WINDOW, k, Why::Accepted);
@@ -184,29 +170,24 @@ pub fn run_parts(
         }
         (from, window) = (stop, 2 * window);
     }
-    if end > k {
-        let i = end - 1;
-        st.q.copy_from_slice(&out.q[i * n..(i + 1) * n]);
+    if k == 0 && end > k {
+        st.restart();
+    }
+    // the whole state at the last instant taken, through the instants that make its history
+    for j in end.saturating_sub(3).max(k)..end {
+        st.take(&out.q[j * n..(j + 1) * n], times[j], out.det[j] as i32, s.rates);
         if s.rates {
-            st.qd.copy_from_slice(&out.qd[i * n..(i + 1) * n]);
-            st.qdd.copy_from_slice(&out.qdd[i * n..(i + 1) * n]);
-        } else {
-            for j in end.saturating_sub(3).max(k)..end {
-                st.tt.copy_within(1..3, 0);
-                st.h.copy_within(n..3 * n, 0);
-                st.tt[2] = times[j];
-                st.h[2 * n..3 * n].copy_from_slice(&out.q[j * n..(j + 1) * n]);
-            }
+            st.qd.copy_from_slice(&out.qd[j * n..(j + 1) * n]);
+            st.qdd.copy_from_slice(&out.qdd[j * n..(j + 1) * n]);
+            st.rates = true;
         }
-        st.last[0] = times[i];
-        st.last[1] = out.det[i] as f64;
     }
     (end, why)
 }
 
 /// Part p's march over times[from..] (a window: `times` ends where it
 /// does), from and into its state ps.
-fn window_of(p: &Part, ps: &mut PartState, times: &[f64], from: usize, s: &Settings, watch: &Watch) -> Marched {
+fn window_of(p: &Part, ps: &mut MarchState, times: &[f64], from: usize, s: &Settings, watch: &Watch) -> Marched {
     let (nb, rows) = (p.cols.len(), times.len() - from);
     let mut m = Marched {
         q: vec![0.0; rows * nb],
@@ -220,8 +201,6 @@ fn window_of(p: &Part, ps: &mut PartState, times: &[f64], from: usize, s: &Setti
         end: from,
         why: Why::Accepted,
     };
-    let state =
-        State { q: &mut ps.q, qd: &mut ps.qd, qdd: &mut ps.qdd, last: &mut ps.last, h: &mut ps.h, tt: &mut ps.tt };
     let o = Out {
         q: &mut m.q,
         qd: &mut m.qd,
@@ -233,7 +212,7 @@ fn window_of(p: &Part, ps: &mut PartState, times: &[f64], from: usize, s: &Setti
         counts: &mut m.counts,
         first: from,
     };
-    (m.end, m.why) = run(&p.kin, &p.layout, times, from, state, s, o, watch, false);
+    (m.end, m.why) = run(&p.kin, &p.layout, times, from, ps, s, o, watch, false);
     m
 }
 

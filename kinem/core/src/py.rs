@@ -546,25 +546,25 @@ impl Plan {
         })
     }
 
-    /// March from `state` over times[k:], until an instant is not accepted.
-    /// state (6 n + 5): q, qd, qdd (n each), last (2: time and det sign),
-    /// H (3 n: the last three q, oldest first), T (3: their times), left at
-    /// the last instant taken; settings: (tolerance, max_iterations,
-    /// max_step, floor, rates, seconds: the time left, inf for no limit);
-    /// out (3, K, n): Q, QD, QDD ((1, K, n): Q without rates); figures (2, K):
-    /// residual and pivot ratio; ints (K + 2): Newton iterations per instant,
-    /// then the Jacobian evaluations and factorisations, added to. Every
-    /// output C-contiguous and writable. Returns (the first instant not
-    /// taken, or K; why: the code of accept::Why, kinem.native.Why). A signal
-    /// (Ctrl-C) polled every few milliseconds stops it: its exception
-    /// (KeyboardInterrupt) is raised, the state left at the last instant taken.
+    /// March from `state` (a MarchState, left at the last instant taken)
+    /// over times[k:], until an instant is not accepted (k = 0: it assembles
+    /// from the estimates in state.q first); settings: (tolerance,
+    /// max_iterations, max_step, floor, rates, seconds: the time left, inf
+    /// for no limit); out (3, K, n): Q, QD, QDD ((1, K, n): Q without
+    /// rates); figures (2, K): residual and pivot ratio; ints (K + 2): Newton
+    /// iterations per instant, then the Jacobian evaluations and
+    /// factorisations, added to. Every output C-contiguous and writable.
+    /// Returns (the first instant not taken, or K; why: the code of
+    /// accept::Why, kinem.native.Why). A signal (Ctrl-C) polled every few
+    /// milliseconds stops it: its exception (KeyboardInterrupt) is raised,
+    /// the state left at the last instant taken.
     #[allow(clippy::too_many_arguments)]
     fn march(
         &self,
         py: Python<'_>,
         times: PyReadonlyArray1<'_, f64>,
         k: usize,
-        state: Bound<'_, PyArray1<f64>>,
+        state: &Bound<'_, MarchState>,
         settings: (f64, usize, f64, f64, bool, f64),
         out: Bound<'_, PyArray3<f64>>,
         figures: Bound<'_, PyArray2<f64>>,
@@ -575,9 +575,10 @@ impl Plan {
         let times = vec1(&times);
         let times: &[f64] = &times;
         let stages = if settings.4 { 3 } else { 1 };
-        let (mut state, mut out) = (writable(&state, "march: state")?, writable(&out, "march: out")?);
-        let (mut figures, mut ints) = (writable(&figures, "march: figures")?, writable(&ints, "march: ints")?);
-        if Some(state.len()) != n.checked_mul(6).and_then(|v| v.checked_add(5))
+        let mut state = state.try_borrow_mut()?;
+        let (mut out, mut figures) = (writable(&out, "march: out")?, writable(&figures, "march: figures")?);
+        let mut ints = writable(&ints, "march: ints")?;
+        if state.0.q.len() != n
             || out.shape() != [stages, kk, n]
             || figures.shape() != [2, kk]
             || Some(ints.len()) != kk.checked_add(2)
@@ -588,12 +589,7 @@ impl Plan {
         let (tolerance, max_iterations, max_step, floor, rates, seconds) = settings;
         let settings = march::Settings { tolerance, max_iterations, max_step, floor, rates };
         let (kin, layout) = (&self.kin, &self.layout);
-        let (q, rest) = state.as_slice_mut().map_err(|_| bad("state"))?.split_at_mut(n);
-        let (qd, rest) = rest.split_at_mut(n);
-        let (qdd, rest) = rest.split_at_mut(n);
-        let (last, rest) = rest.split_at_mut(2);
-        let (h, tt) = rest.split_at_mut(3 * n);
-        let st = march::State { q, qd, qdd, last, h, tt };
+        let st = &mut state.0;
         let (oq, rest) = out.as_slice_mut().map_err(|_| bad("out"))?.split_at_mut(kk * n);
         let (oqd, oqdd) = rest.split_at_mut(rest.len() / 2);
         let (residual, pivot) = figures.as_slice_mut().map_err(|_| bad("figures"))?.split_at_mut(kk);
@@ -733,6 +729,34 @@ impl Plan {
         }
         Ok(())
     }
+
+    /// One instant t from `state` (step::step on the core's operations),
+    /// the state moved to it when accepted; settings: (tolerance,
+    /// max_iterations, max_step, floor, rates); mode: the code of
+    /// step::Mode (kinem.native.Mode). Returns its Outcome.
+    #[pyo3(signature = (state, t, settings, mode = 0))]
+    fn step(
+        &self,
+        py: Python<'_>,
+        state: &Bound<'_, MarchState>,
+        t: f64,
+        settings: (f64, usize, f64, f64, bool),
+        mode: u8,
+    ) -> PyResult<Outcome> {
+        let mode = mode_of(mode)?;
+        let mut state = state.try_borrow_mut()?;
+        if state.0.q.len() != self.kin.n {
+            return Err(value_error("step: the state has the wrong size"));
+        }
+        let s = march_settings(settings);
+        let (kin, layout, st) = (&*self.kin, &*self.layout, &mut state.0);
+        let (o, q, counts) = guard(py, move || {
+            let mut ops = march::Native::new(kin, layout);
+            let Ok(o) = march::step(&mut ops, st, t, &s, mode, &mut march::Work::new(kin.n));
+            Ok((o, ops.q, ops.counts))
+        })?;
+        Ok(Outcome::new(py, o, q, counts))
+    }
 }
 
 /// Polls for a signal with the GIL re-acquired: true when one arrived, its
@@ -825,72 +849,251 @@ fn settle(
     Ok((s.iterations, s.residual, s.converged, s.last_step))
 }
 
-/// The acceptance test (accept::rejected).
-#[pyfunction]
-#[allow(clippy::too_many_arguments)]
-fn rejected(
-    py: Python<'_>,
-    pivot: f64,
-    correction: f64,
-    det: i32,
-    previous_det: i32,
-    corr: f64,
-    motion: f64,
-    judge_jump: bool,
-    floor: f64,
-    tolerance: f64,
-    allow_flip: bool,
-) -> PyResult<u8> {
-    guard_held(py, || {
-        Ok(accept::rejected(
-            pivot,
-            correction,
-            det,
-            previous_det,
-            corr,
-            motion,
-            judge_jump,
-            floor,
-            tolerance,
-            allow_flip,
-        ) as u8)
-    })
-}
-
-/// (correction from the predictor, predicted motion), dimensionless.
-#[pyfunction]
-fn jump_sizes(
-    py: Python<'_>,
-    q: PyReadonlyArray1<'_, f64>,
-    q_pred: PyReadonlyArray1<'_, f64>,
-    q_last: PyReadonlyArray1<'_, f64>,
-    col_scale: PyReadonlyArray1<'_, f64>,
-) -> PyResult<(f64, f64)> {
-    let (a, b, c, d) = (vec1(&q), vec1(&q_pred), vec1(&q_last), vec1(&col_scale));
-    if b.len() != a.len() || c.len() != a.len() || d.len() != a.len() {
-        return Err(value_error("jump_sizes: lengths differ"));
-    }
-    guard_held(py, || Ok(accept::jump_sizes(&a, &b, &c, &d)))
-}
-
-/// q at t extrapolated through the states H (3, n) at T (3) (accept::lagrange):
-/// (q, order).
-#[pyfunction]
-fn lagrange<'py>(
-    py: Python<'py>,
+/// A step's operations as a Python object's (kinem.analysis.Steps: any
+/// linear solver): its settle operations and start(q, t), q, stats() ->
+/// (pivot ratio, det sign), solve(b) -> x, probe() -> size, col_scale; the
+/// rates from its solve with the model's own nu and gamma.
+struct PySteps<'a, 'py> {
+    ops: PyOps<'a, 'py>,
+    kin: &'a Kin,
+    col_scale: Vec<f64>,
+    q: Vec<f64>,
+    e: Vec<C64>,
     t: f64,
-    tt: PyReadonlyArray1<'py, f64>,
-    h: PyReadonlyArray2<'py, f64>,
-) -> PyResult<(Bound<'py, PyArray1<f64>>, i32)> {
-    let tt = vec1(&tt);
-    let shape = h.shape();
-    if tt.len() != 3 || shape[0] != 3 {
-        return Err(value_error("lagrange: T (3,) and H (3, n)"));
+    nu: Vec<f64>,
+    gamma: Vec<f64>,
+}
+
+impl Ops for PySteps<'_, '_> {
+    type Error = PyErr;
+    fn evaluate(&mut self, it: i64) -> PyResult<f64> {
+        self.ops.evaluate(it)
     }
-    let h = vec2(&h);
-    let mut q = vec![0.0; shape[1]];
-    let order = guard_held(py, || Ok(accept::lagrange(t, &[tt[0], tt[1], tt[2]], &h, &mut q)))?;
-    Ok((PyArray1::from_vec(py, q), order))
+    fn factor(&mut self, last: bool) -> PyResult<()> {
+        self.ops.factor(last)
+    }
+    fn correct(&mut self, limit: f64) -> PyResult<f64> {
+        self.ops.correct(limit)
+    }
+}
+
+impl march::Step for PySteps<'_, '_> {
+    fn start(&mut self, q: &[f64], t: f64) -> PyResult<()> {
+        self.t = t;
+        let py = self.ops.ops.py();
+        self.ops.ops.call_method1("start", (PyArray1::from_slice(py, q), t)).map(|_| ())
+    }
+    fn fetch(&mut self) -> PyResult<()> {
+        let q: PyReadonlyArray1<f64> = self.ops.ops.getattr("q")?.extract()?;
+        if q.len() != self.q.len() {
+            return Err(value_error("step: the operations' q has the wrong size"));
+        }
+        self.q.copy_from_slice(&vec1(&q));
+        Ok(())
+    }
+    fn q(&self) -> &[f64] {
+        &self.q
+    }
+    fn stats(&mut self) -> PyResult<(f64, i32)> {
+        self.ops.ops.call_method0("stats")?.extract()
+    }
+    fn rates(&mut self, qd: &mut [f64], qdd: &mut [f64]) -> PyResult<()> {
+        self.fetch()?;
+        self.kin.rotate(&self.q, &mut self.e);
+        let PySteps { ops, kin, q, e, t, nu, gamma, .. } = self;
+        let at = At { q: &q[..], e: &e[..], t: *t };
+        march::rates_with(kin, &at, nu, gamma, qd, qdd, |b, x| {
+            let py = ops.ops.py();
+            let r: PyReadonlyArray1<f64> = ops.ops.call_method1("solve", (PyArray1::from_slice(py, b),))?.extract()?;
+            if r.len() != x.len() {
+                return Err(value_error("step: solve gave the wrong size"));
+            }
+            x.copy_from_slice(&vec1(&r));
+            Ok(())
+        })
+    }
+    fn probe(&mut self) -> PyResult<f64> {
+        self.ops.ops.call_method0("probe")?.extract()
+    }
+    fn col_scale(&self) -> &[f64] {
+        &self.col_scale
+    }
+}
+
+/// One instant t from `state` (step::step) on the Python operations `ops`
+/// (kinem.analysis.Steps) of the model evaluated by `core`; settings and
+/// mode as Plan.step's. Returns its Outcome (q: the operations' last).
+#[pyfunction]
+#[pyo3(signature = (ops, core, state, t, settings, mode = 0))]
+fn step<'py>(
+    ops: &Bound<'py, PyAny>,
+    core: &Core,
+    state: &Bound<'py, MarchState>,
+    t: f64,
+    settings: (f64, usize, f64, f64, bool),
+    mode: u8,
+) -> PyResult<Outcome> {
+    let py = ops.py();
+    let mode = mode_of(mode)?;
+    let kin = &*core.kin;
+    let mut state = state.try_borrow_mut()?;
+    let col_scale: Vec<f64> = ops.getattr("col_scale")?.extract()?;
+    if state.0.q.len() != kin.n || col_scale.len() != kin.n {
+        return Err(value_error("step: the state or col_scale has the wrong size"));
+    }
+    let s = march_settings(settings);
+    let (n, m) = (kin.n, kin.m);
+    let mut o = PySteps {
+        ops: PyOps { ops },
+        kin,
+        col_scale,
+        q: vec![0.0; n],
+        e: vec![C64::new(1.0, 0.0); n],
+        t,
+        nu: vec![0.0; m],
+        gamma: vec![0.0; m],
+    };
+    let st = &mut state.0;
+    let outcome = guard_held(py, || march::step(&mut o, st, t, &s, mode, &mut march::Work::new(n)))?;
+    let q = o.q.clone();
+    Ok(Outcome::new(py, outcome, q, [0, 0]))
+}
+
+fn mode_of(code: u8) -> PyResult<march::Mode> {
+    march::Mode::ALL.get(code as usize).copied().ok_or_else(|| value_error(format!("step: no mode {code}")))
+}
+
+fn march_settings(s: (f64, usize, f64, f64, bool)) -> march::Settings {
+    march::Settings { tolerance: s.0, max_iterations: s.1, max_step: s.2, floor: s.3, rates: s.4 }
+}
+
+/// The accepted state of a march and its steps (step::MarchState):
+/// MarchState(q) holds the estimates q, nothing accepted yet; a step or a
+/// march moves it to each instant it accepts.
+#[pyclass(module = "kinem._core")]
+pub struct MarchState(march::MarchState);
+
+#[pymethods]
+impl MarchState {
+    #[new]
+    fn new(q: PyReadonlyArray1<'_, f64>) -> Self {
+        MarchState(march::MarchState::new(&vec1(&q)))
+    }
+
+    /// Back to the estimates q (None: the state's q), nothing accepted.
+    #[pyo3(signature = (q = None))]
+    fn restart(&mut self, q: Option<PyReadonlyArray1<'_, f64>>) -> PyResult<()> {
+        if let Some(q) = q {
+            if q.len() != self.0.q.len() {
+                return Err(value_error("restart: q has the wrong size"));
+            }
+            self.0.q.copy_from_slice(&vec1(&q));
+        }
+        self.0.restart();
+        Ok(())
+    }
+
+    /// An accepted state at t (tests: a state made by hand): q, its rates, det sign.
+    #[staticmethod]
+    fn of(
+        t: f64,
+        q: PyReadonlyArray1<'_, f64>,
+        qd: PyReadonlyArray1<'_, f64>,
+        qdd: PyReadonlyArray1<'_, f64>,
+        det: i32,
+    ) -> PyResult<Self> {
+        let mut s = march::MarchState::new(&vec1(&q));
+        if qd.len() != s.q.len() || qdd.len() != s.q.len() {
+            return Err(value_error("MarchState.of: q, qd and qdd differ in size"));
+        }
+        s.qd.copy_from_slice(&vec1(&qd));
+        s.qdd.copy_from_slice(&vec1(&qdd));
+        (s.rates, s.t, s.det) = (true, t, det);
+        Ok(MarchState(s))
+    }
+
+    fn copy(&self) -> Self {
+        MarchState(self.0.clone())
+    }
+
+    #[getter]
+    fn q<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.0.q)
+    }
+
+    /// The velocities at q (None when the state holds no rates).
+    #[getter]
+    fn qd<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
+        self.0.rates.then(|| PyArray1::from_slice(py, &self.0.qd))
+    }
+
+    #[getter]
+    fn qdd<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
+        self.0.rates.then(|| PyArray1::from_slice(py, &self.0.qdd))
+    }
+
+    /// The accepted state's time (NaN: none yet).
+    #[getter]
+    fn t(&self) -> f64 {
+        self.0.t
+    }
+
+    #[getter]
+    fn det(&self) -> i32 {
+        self.0.det
+    }
+
+    /// The det sign a least-squares model monitors (kinem.linalg.monitor_rows), set after its assembly.
+    #[setter]
+    fn set_det(&mut self, det: i32) {
+        self.0.det = det;
+    }
+}
+
+/// How a step ended (step::Outcome): why (the code of accept::Why), its
+/// Newton iterations and residual, pivot ratio and det sign, last Newton
+/// correction, correction from the predictor and predicted motion, the
+/// final q (the state's when accepted) and the Jacobian evaluations and
+/// factorisations it made (the core's operations; 0 for Python's).
+#[pyclass(frozen, module = "kinem._core")]
+pub struct Outcome {
+    #[pyo3(get)]
+    why: u8,
+    #[pyo3(get)]
+    iterations: usize,
+    #[pyo3(get)]
+    residual: f64,
+    #[pyo3(get)]
+    pivot: f64,
+    #[pyo3(get)]
+    det: i32,
+    #[pyo3(get)]
+    correction: f64,
+    #[pyo3(get)]
+    corr: f64,
+    #[pyo3(get)]
+    motion: f64,
+    #[pyo3(get)]
+    q: Py<PyArray1<f64>>,
+    #[pyo3(get)]
+    counts: (i64, i64),
+}
+
+impl Outcome {
+    fn new(py: Python<'_>, o: march::Outcome, q: Vec<f64>, counts: [i64; 2]) -> Self {
+        Outcome {
+            why: o.why as u8,
+            iterations: o.iterations,
+            residual: o.residual,
+            pivot: o.pivot,
+            det: o.det,
+            correction: o.correction,
+            corr: o.corr,
+            motion: o.motion,
+            q: PyArray1::from_vec(py, q).unbind(),
+            counts: (counts[0], counts[1]),
+        }
+    }
 }
 
 /// The functions of a table {kind, start, data} (kinem.functions.FunctionTable)
@@ -973,15 +1176,18 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Lu>()?;
     m.add_function(wrap_pyfunction!(settle, m)?)?;
     m.add_function(wrap_pyfunction!(columns, m)?)?;
-    m.add_function(wrap_pyfunction!(rejected, m)?)?;
-    m.add_function(wrap_pyfunction!(jump_sizes, m)?)?;
-    m.add_function(wrap_pyfunction!(lagrange, m)?)?;
+    m.add_function(wrap_pyfunction!(step, m)?)?;
+    m.add_class::<MarchState>()?;
+    m.add_class::<Outcome>()?;
     m.add("MAX_STEP", newton::MAX_STEP)?;
     m.add("POLISH", newton::POLISH)?;
     m.add("KAPPA", accept::KAPPA)?;
     m.add("REGULAR", accept::REGULAR)?;
     // the codes of accept::Why, (name, code) in order: kinem.native.Why mirrors them
     m.add("WHY", Why::ALL.iter().map(|&w| (w.name(), w as u8)).collect::<Vec<_>>())?;
+    // the codes of step::Mode: kinem.native.Mode mirrors them
+    m.add("MODES", march::Mode::ALL.iter().map(|&w| (w.name(), w as u8)).collect::<Vec<_>>())?;
+    m.add("SINGULAR", march::SINGULAR)?;
     Ok(())
 }
 

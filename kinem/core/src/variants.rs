@@ -11,7 +11,7 @@
 use crate::accept::Why;
 use crate::columns::columns;
 use crate::lu::Layout;
-use crate::march::{self, Out, Settings, State};
+use crate::march::{self, MarchState, Out, Settings};
 use crate::model::Kin;
 use crate::table::Table;
 use crate::watch::Watch;
@@ -155,7 +155,7 @@ struct Scratch {
     residual: Vec<f64>,
     pivot: Vec<f64>,
     det: Vec<i8>,
-    state: Vec<f64>,
+    state: MarchState,
 }
 
 impl Scratch {
@@ -166,7 +166,7 @@ impl Scratch {
             residual: vec![0.0; kk],
             pivot: vec![0.0; kk],
             det: vec![0; kk],
-            state: vec![0.0; 6 * n],
+            state: MarchState::new(&vec![0.0; n]),
         }
     }
 }
@@ -184,14 +184,8 @@ fn one(
     let (n, kk, stages) = (b.tables.n, times.len(), asked.stages);
     let (oq, rest) = s.x.split_at_mut(kk * n);
     let (oqd, oqdd) = rest.split_at_mut(rest.len() / 2);
-    // the state the march starts from: q0, no rates, no history (q, qd, qdd, H: 6 n)
-    s.state.fill(0.0);
-    s.state[..n].copy_from_slice(b.q0);
-    let (q, rest) = s.state.split_at_mut(n);
-    let (qd, rest) = rest.split_at_mut(n);
-    let (qdd, h) = rest.split_at_mut(n);
-    let (mut last, mut tt) = ([times[0], 0.0], [f64::NAN; 3]);
-    let st = State { q, qd, qdd, last: &mut last, h, tt: &mut tt };
+    // the state the march starts from: the estimates q0, no rates, no history
+    s.state.q.copy_from_slice(b.q0);
     let mut counts = [0i64; 2];
     let o = Out {
         q: oq,
@@ -204,7 +198,7 @@ fn one(
         counts: &mut counts,
         first: 0,
     };
-    let (end, why) = march_one(&kin, b, st, o);
+    let (end, why) = march_one(&kin, b, &mut s.state, o);
     let local: Vec<C64> = (0..asked.local.len())
         .map(|j| asked.local[j] + (0..dv.len()).map(|k| asked.dlocal[k * asked.local.len() + j] * dv[k]).sum::<C64>())
         .collect();
@@ -221,7 +215,7 @@ fn one(
 }
 
 /// The one call of the march (k = 0: the variant assembles from the state's q).
-fn march_one(kin: &Kin, b: &Batch, st: State, out: Out) -> (usize, Why) {
+fn march_one(kin: &Kin, b: &Batch, st: &mut MarchState, out: Out) -> (usize, Why) {
     march::run(kin, b.layout, b.times, 0, st, b.settings, out, b.watch, false)
 }
 

@@ -1,0 +1,328 @@
+//! The step (docs/solver.md, "The march"): one instant from the accepted
+//! `MarchState`: the predictor (Taylor, or Lagrange without rates), the
+//! chord from the Hermite start with the last instant's LU to rounding and
+//! the LU there (newton::chord), or, at a march's first instant and where
+//! the chord contracts too slowly, Newton-Raphson with the final correction
+//! and the LU at the corrected q (newton::settle); the acceptance test
+//! (accept::rejected) and the velocity and acceleration solves from that one
+//! LU (Eqs. 3.13, 3.15); the state moves to the instant when it is accepted.
+//! It runs on any `Step` operations: the core's own (crate::march::Native:
+//! kinem's LU, for the march and Plan.step) and, through the bindings,
+//! Python's (another linear solver: LAPACK, SuperLU, least squares; a
+//! trace; modified Newton). The tracker (kinem/tracking.py) keeps the
+//! policy around it: halving, stepping over a limit position, landing on an
+//! output instant.
+use crate::accept::{codes, hermite, jump_sizes, lagrange, rejected, taylor, Why};
+use crate::families::At;
+use crate::model::Kin;
+use crate::newton::{chord, settle, Ops, Settled, RECENT};
+
+/// A pivot ratio below this is a singular factorisation: pivot ratio 0 and
+/// det sign 0 (kinem.linalg.PIVOT_RATIO, the other solvers' bound: about 1e3
+/// machine epsilon; a Jacobian that has really lost rank gives pivots of
+/// order epsilon).
+pub const SINGULAR: f64 = 1e-13;
+
+codes! {
+    /// What a step does (kinem.native.Mode).
+    pub enum Mode {
+        /// the next instant from the last accepted one (from the estimates in
+        /// q when none is: the march's assembly, judged by the pivot floor)
+        Track = 0 => "TRACK",
+        /// a step over a bifurcation: a det flip is accepted
+        Over = 1 => "OVER",
+        /// an output instant near a singular configuration solved directly:
+        /// Taylor's predictor (the state's rates solved first when it has
+        /// none), the same det sign, and the acceptance test on one more
+        /// correction at the final q (`Step::probe`), not the last one
+        Direct = 2 => "DIRECT",
+        /// the tracker's assembly from the estimates in q: any converged state
+        /// whose factorisation is regular (NearSingular otherwise: Python
+        /// diagnoses it)
+        Assemble = 3 => "ASSEMBLE",
+        /// the state's own rates at its q and t, nothing else (NearSingular
+        /// where its factorisation is singular)
+        Rates = 4 => "RATES",
+    }
+}
+
+pub struct Settings {
+    pub tolerance: f64,
+    pub max_iterations: usize,
+    pub max_step: f64,
+    /// the pivot ratio below which a state is near-singular (kinem.tracking.singular_pivot)
+    pub floor: f64,
+    /// solve velocities and accelerations (and predict by Taylor from them)
+    pub rates: bool,
+}
+
+/// The accepted state a step or a march starts from and leaves at its
+/// last accepted instant (kinem.native.MarchState).
+#[derive(Clone, Debug)]
+pub struct MarchState {
+    pub q: Vec<f64>,
+    pub qd: Vec<f64>,
+    pub qdd: Vec<f64>,
+    /// qd and qdd hold the rates at q
+    pub rates: bool,
+    /// the time of the accepted state (NaN: none yet, q holds estimates)
+    pub t: f64,
+    /// the det sign of its factorisation
+    pub det: i32,
+    /// the last three accepted q (3 n) and their times, oldest first (NaN:
+    /// none), when the steps solve no rates (Lagrange's predictor)
+    pub h: Vec<f64>,
+    pub tt: [f64; 3],
+    /// the accepted state before this one (q, qd, qdd: 3 n) and its time
+    /// (NaN: none), when the steps solve rates (the chord's Hermite start)
+    pub prev: Vec<f64>,
+    pub before: f64,
+}
+
+impl MarchState {
+    /// The estimates q, no accepted state yet.
+    pub fn new(q: &[f64]) -> Self {
+        let n = q.len();
+        MarchState {
+            q: q.to_vec(),
+            qd: vec![0.0; n],
+            qdd: vec![0.0; n],
+            rates: false,
+            t: f64::NAN,
+            det: 0,
+            h: vec![0.0; 3 * n],
+            tt: [f64::NAN; 3],
+            prev: vec![0.0; 3 * n],
+            before: f64::NAN,
+        }
+    }
+
+    /// Back to the estimates in q: nothing accepted.
+    pub fn restart(&mut self) {
+        *self = MarchState::new(&self.q);
+    }
+
+    /// Takes the state q (into which `Step::q` has settled) at t, det sign
+    /// `det`, as the last accepted one; `rates`: the steps solve rates (the
+    /// caller then puts them in qd, qdd), else the Lagrange history moves on.
+    #[inline(always)]
+    pub fn take(&mut self, q: &[f64], t: f64, det: i32, rates: bool) {
+        let n = q.len();
+        if rates {
+            // the last state becomes the earlier one of the Hermite start
+            self.prev[..n].copy_from_slice(&self.q);
+            self.prev[n..2 * n].copy_from_slice(&self.qd);
+            self.prev[2 * n..].copy_from_slice(&self.qdd);
+            self.before = self.t;
+        }
+        self.q.copy_from_slice(q);
+        if !rates {
+            self.tt.copy_within(1..3, 0);
+            self.h.copy_within(n..3 * n, 0);
+            self.tt[2] = t;
+            self.h[2 * n..3 * n].copy_from_slice(q);
+        }
+        self.rates = false;
+        self.t = t;
+        self.det = det;
+    }
+}
+
+/// How a step ended: why (Accepted: the state moved to it), the Newton
+/// iterations and residual, the pivot ratio and det sign of the final
+/// factorisation (0 and 0 where it is singular), the last Newton correction
+/// (Direct: one more), and the correction from the predictor and the
+/// predicted motion (dimensionless).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Outcome {
+    pub why: Why,
+    pub iterations: usize,
+    pub residual: f64,
+    pub pivot: f64,
+    pub det: i32,
+    pub correction: f64,
+    pub corr: f64,
+    pub motion: f64,
+}
+
+impl Outcome {
+    fn of(why: Why, s: &Settled) -> Self {
+        Outcome {
+            why,
+            iterations: s.iterations,
+            residual: s.residual,
+            pivot: 0.0,
+            det: 0,
+            correction: s.last_step,
+            corr: 0.0,
+            motion: 0.0,
+        }
+    }
+}
+
+/// The operations of a step beyond Newton's (`Ops`), on the configuration
+/// the implementor holds.
+pub trait Step: Ops {
+    /// Starts a solve at (q, t).
+    fn start(&mut self, q: &[f64], t: f64) -> Result<(), Self::Error>;
+    /// Brings q from where the operations keep it (after a solve), for `q`.
+    fn fetch(&mut self) -> Result<(), Self::Error> {
+        Ok(())
+    }
+    /// The configuration q (as of the last `fetch`).
+    fn q(&self) -> &[f64];
+    /// The pivot ratio and det sign of the factorisation at q.
+    fn stats(&mut self) -> Result<(f64, i32), Self::Error>;
+    /// qd and qdd at q, t from the factorisation at q (Phi_q qd = nu,
+    /// Phi_q qdd = gamma: Eqs. 3.13, 3.15).
+    fn rates(&mut self, qd: &mut [f64], qdd: &mut [f64]) -> Result<(), Self::Error>;
+    /// The size of one more Newton correction at q with the factorisation
+    /// there (dimensionless), q unchanged.
+    fn probe(&mut self) -> Result<f64, Self::Error>;
+    /// The columns' scales (the dimensionless sizes' units).
+    fn col_scale(&self) -> &[f64];
+}
+
+/// A step's working room across the instants of a march: the operations
+/// hold the factorisation at the last accepted q (`held`), the chord's last
+/// measured contraction and the instants since (newton::chord's `known`),
+/// and room for the predictor and the Hermite start (n each).
+pub struct Work {
+    pub held: bool,
+    theta: f64,
+    age: u32,
+    qp: Vec<f64>,
+    start: Vec<f64>,
+}
+
+impl Work {
+    /// No factorisation held: the first step starts with Newton.
+    pub fn new(n: usize) -> Self {
+        Work { held: false, theta: f64::INFINITY, age: RECENT + 1, qp: vec![0.0; n], start: vec![0.0; n] }
+    }
+}
+
+/// One instant t from the accepted state `st` (or, with none, the assembly
+/// from its estimates) by `mode`; the state moves to it when accepted.
+pub fn step<O: Step>(
+    ops: &mut O,
+    st: &mut MarchState,
+    t: f64,
+    s: &Settings,
+    mode: Mode,
+    c: &mut Work,
+) -> Result<Outcome, O::Error> {
+    let n = st.q.len();
+    let Work { qp, start, .. } = c;
+    let (qp, start) = (&mut qp[..], &mut start[..]);
+    let first = st.t.is_nan();
+    let taylor_from = (s.rates || mode == Mode::Direct) && !first;
+    if (taylor_from && !st.rates) || mode == Mode::Rates {
+        // the state's own rates, from the factorisation at its q (none where it is singular)
+        ops.start(&st.q, st.t)?;
+        ops.factor(true)?;
+        c.held = false;
+        let mut out =
+            Outcome::of(Why::NearSingular, &Settled { iterations: 0, residual: 0.0, converged: true, last_step: 0.0 });
+        let (ratio, det) = ops.stats()?;
+        if !(ratio >= SINGULAR) {
+            return Ok(out);
+        }
+        ops.rates(&mut st.qd, &mut st.qdd)?;
+        st.rates = true;
+        if mode == Mode::Rates {
+            (out.why, out.pivot, out.det) = (Why::Accepted, ratio, det);
+            return Ok(out);
+        }
+    }
+    let h = t - st.t;
+    let mut judge = !first;
+    if first {
+        qp.copy_from_slice(&st.q);
+    } else if taylor_from {
+        taylor(&st.q, &st.qd, &st.qdd, h, qp);
+    } else {
+        judge = lagrange(t, &st.tt, &st.h, qp) >= 1;
+    }
+    // the chord with the last instant's factorisation, from the Hermite start when the last two
+    // instants are at hand, else (or when it contracts too slowly) Newton from the predictor
+    if c.held && st.before.is_finite() && h <= 2.0 * (st.t - st.before) {
+        let p = [&st.prev[..n], &st.prev[n..2 * n], &st.prev[2 * n..]];
+        hermite(p, [&st.q[..], &st.qd[..], &st.qdd[..]], st.t - st.before, h, start);
+        ops.start(start, t)?;
+    } else {
+        ops.start(qp, t)?;
+    }
+    let known = if c.age <= RECENT { c.theta } else { f64::INFINITY };
+    let chorded = if c.held { chord(ops, s.tolerance, s.max_step, known)? } else { None };
+    c.held = false;
+    let settled = match chorded {
+        Some((settled, measured)) => {
+            if measured.is_nan() {
+                c.age += 1;
+            } else {
+                (c.theta, c.age) = (measured, 0);
+            }
+            settled
+        }
+        None => {
+            (c.theta, c.age) = (f64::INFINITY, RECENT + 1);
+            ops.start(qp, t)?;
+            settle(ops, s.tolerance, s.max_iterations, s.max_step, true)?
+        }
+    };
+    if !settled.converged {
+        return Ok(Outcome::of(Why::NotConverged, &settled));
+    }
+    let mut out = Outcome::of(Why::Accepted, &settled);
+    let (ratio, det) = ops.stats()?;
+    (out.pivot, out.det) = if ratio >= SINGULAR { (ratio, det) } else { (0.0, 0) };
+    let previous = if first { out.det } else { st.det };
+    ops.fetch()?;
+    (out.corr, out.motion) = jump_sizes(ops.q(), qp, &st.q, ops.col_scale());
+    out.why = match mode {
+        Mode::Assemble if out.pivot > 0.0 && ops.q().iter().all(|v| v.is_finite()) => Why::Accepted,
+        Mode::Assemble => Why::NearSingular,
+        Mode::Direct if out.det != previous => Why::DetFlip,
+        Mode::Direct => {
+            out.correction = ops.probe()?;
+            let (a, b) = (out.corr, out.motion);
+            rejected(out.pivot, out.correction, out.det, previous, a, b, true, s.floor, s.tolerance, false)
+        }
+        _ => {
+            let flip = mode == Mode::Over;
+            let (a, b) = (out.corr, out.motion);
+            rejected(out.pivot, out.correction, out.det, previous, a, b, judge, s.floor, s.tolerance, flip)
+        }
+    };
+    if out.why != Why::Accepted {
+        return Ok(out);
+    }
+    // the factorisation at the accepted q serves the rates and the next instant's chord
+    c.held = true;
+    st.take(ops.q(), t, out.det, s.rates);
+    if s.rates && out.pivot > 0.0 {
+        ops.rates(&mut st.qd, &mut st.qdd)?;
+        st.rates = true;
+    }
+    Ok(out)
+}
+
+/// qd, qdd at (q, t) (e: e^{i q}) with `solve` (x with Phi_q x = b, the
+/// factorisation at q): Phi_q qd = nu, Phi_q qdd = gamma (Eqs. 3.13, 3.15).
+/// nu and gamma: room for m values each. Every step's rates, whatever its solver.
+#[allow(clippy::too_many_arguments)]
+pub fn rates_with<E>(
+    kin: &Kin,
+    at: &At,
+    nu: &mut [f64],
+    gamma: &mut [f64],
+    qd: &mut [f64],
+    qdd: &mut [f64],
+    mut solve: impl FnMut(&[f64], &mut [f64]) -> Result<(), E>,
+) -> Result<(), E> {
+    kin.nu(at.t, nu);
+    solve(nu, qd)?;
+    kin.gamma(at, qd, gamma);
+    solve(gamma, qdd)
+}
