@@ -22,7 +22,6 @@ from dataclasses import dataclass, is_dataclass, replace
 
 import numpy as np
 
-from . import native
 from .errors import AnalysisError, InputError, KinemError
 from .constraints import REGISTRY
 from .functions import FunctionTable
@@ -91,19 +90,17 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     if plan is None:
         raise KinemError(f"{case.source}: sensitivities need the compiled march's layout, which this model has not")
     base = _tables(case, model.length)
-    tangents = [_tangent(case, model.length, base, p, moved, h) for p, (moved, h) in zip(listed, _moved(case, listed))]
+    parts = [_moved_tangent(case, model.length, base, p, moved, h) for p, (moved, h) in zip(listed, _moved(case, listed))]
     X = [np.ascontiguousarray(x) for x in (result.q, result.qd, result.qdd) if x is not None]
     t = np.ascontiguousarray(result.trajectory.t)
-    out, ratio = plan.sensitivity([tg for tg, _ in tangents], t, X, model.jac_rows.astype(np.int64),
-                                  model.jac_cols.astype(np.int64))
     columns, src, _ = _layout(model, len(X))
-    blocks = []
-    for k, (_, dlocal) in enumerate(tangents):
-        dx = [np.ascontiguousarray(out[s, k]) for s in range(len(X))]
-        blocks.append(native.columns(X, src, model.point_cols, model.point_local, (dx, dlocal)))
-    for p, block in zip(listed, blocks):
-        _derived_frames(case, p.path, columns, block, result.trajectory)
-    data = np.concatenate(blocks, axis=1) if blocks else np.zeros((len(t), 0))
+    dlocal = np.array([d for _, d in parts], complex).reshape(len(parts), len(model.point_names))
+    data, ratio = plan.sensitivity([core for core, _ in parts], t, X, model.jac_rows.astype(np.int64),
+                                   model.jac_cols.astype(np.int64), src, model.point_cols.astype(np.int64),
+                                   model.point_local, dlocal)
+    width = len(columns)
+    for k, p in enumerate(listed):
+        _derived_frames(case, p.path, columns, data[:, k * width:(k + 1) * width], result.trajectory)
     floor = singular_pivot((options or Options.of(case)).tolerance)
     singular = ~(ratio >= floor)
     message = "exact at every instant"
@@ -112,7 +109,8 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
         at = ", ".join(f"{x:.6g}" for x in t[singular][:5]) + (" ..." if singular.sum() > 5 else "")
         message = (f"Phi_q singular (pivot ratio below {floor:.2g}) at {int(singular.sum())} instant(s), t = {at}: "
                    "the derivatives there are infinite")
-    names = tuple(name(c, p.path) for p in listed for c in columns)
+    heads = [f"d({c})/d(" for c in columns]
+    names = tuple(h + path for path in [p.path + ")" for p in listed] for h in heads)
     return Sensitivity(listed, result.trajectory, Trajectory(t.copy(), names, data), singular, ratio, message)
 
 
@@ -296,17 +294,44 @@ def _tangent(case, length, base, p, moved, step):
     """The tangent of the tables along parameter p (their linear part: the
     tables are affine in the case's numbers; ``moved``: the case with p
     moved by ``step``) and of the named points' local coordinates:
-    ((families, (functions, tangent), (outlines, tangent)), dlocal)."""
+    ((families [(kind, table, tangent)], (functions, tangent), (outlines,
+    tangent)), dlocal), every family and every column (zero where p does
+    not move it)."""
+    (families, functions, outlines), dlocal = _moved_tangent(case, length, base, p, moved, step)
+    tangent = {k: d for k, _, _, d in families}
+    return ([(kind, t0, tangent[k] if k in tangent else _zero(t0)) for k, (kind, t0) in enumerate(base[0])],
+            (functions[0], functions[1] or _zero(functions[0])), (outlines[0], outlines[1] or _zero(outlines[0]))), dlocal
+
+
+def tangents(model, paths) -> list:
+    """Per design parameter path, the tangent of the model's tables along it
+    in the format of ``_tangent`` (the tables are affine in the case's
+    numbers: a design's tables are the nominal ones plus the sum over p of
+    (value - nominal) x tangent_p)."""
+    case = model.case
+    listed = resolve(case, list(paths))
+    base = _tables(case, model.length)
+    return [_tangent(case, model.length, base, p, moved, h) for p, (moved, h) in zip(listed, _moved(case, listed))]
+
+
+def _moved_tangent(case, length, base, p, moved, step):
+    """``_tangent`` as the core takes it: only the families p moves, each
+    with its place, ((families [(place, kind, table, tangent)], (functions,
+    tangent), (outlines, tangent)), dlocal); an unmoved function or outline
+    table has the tangent {}."""
     reached = _reached(case, moved, length, base)
-    if reached is not None:   # only the families of the constraints moved in place (_replaced)
-        tables, functions, outlines = reached
-        families = [(kind, t0, _difference(t0, tables[k], step, p.path) if k in tables else _zero(t0))
-                    for k, (kind, t0) in enumerate(base[0])]
-    else:
+    if reached is None:
         tables, functions, outlines, _ = _tables(moved, length)
-        families = [(kind, t0, _difference(t0, t1, step, p.path)) for (kind, t0), (_, t1) in zip(base[0], tables)]
-    return (families, (base[1], _difference(base[1], functions, step, p.path)),
-            (base[2], _difference(base[2], outlines, step, p.path))), _dlocal(case, p)
+        families = [(k, kind, t0, _difference(t0, t1, step, p.path))
+                    for k, ((kind, t0), (_, t1)) in enumerate(zip(base[0], tables))]
+        df, do = _difference(base[1], functions, step, p.path), _difference(base[2], outlines, step, p.path)
+        if not any(v.any() for v in (*df.values(), *do.values())):   # no function or outline moved
+            families = [f for f in families if any(v.any() for v in f[3].values())]
+        return (families, (base[1], df), (base[2], do)), _dlocal(case, p)
+    tables, functions, outlines = reached   # only the families of the constraints moved in place (_replaced)
+    families = [(k, *base[0][k], _linear(base[0][k][1], tables[k], step)) for k in sorted(tables)]
+    return (families, (base[1], {} if functions is base[1] else _difference(base[1], functions, step, p.path)),
+            (base[2], {} if outlines is base[2] else _difference(base[2], outlines, step, p.path))), _dlocal(case, p)
 
 
 def _reached(case, moved, length, base):
@@ -338,13 +363,24 @@ def _reached(case, moved, length, base):
         table = family(cons, _Context(moved, length)).table(functions, outlines)[1]
         if (len(functions.functions) - before[0], len(outlines.outlines) - before[1]) != (
                 len(kept_functions), len(kept_outlines)) or any(
-                v.dtype.kind in "iu" and not np.array_equal(v, table[key]) for key, v in base[0][k][1].items()):
+                v.dtype.kind in "iu" and not _same(v, table[key]) for key, v in base[0][k][1].items()):
             return None
         out[k] = table
         moved_functions |= functions.functions[before[0]:] != kept_functions
         moved_outlines |= outlines.outlines[before[1]:] != kept_outlines
     return (out, functions.arrays() if moved_functions else base[1],   # unmoved: the model's own arrays
             outlines.arrays() if moved_outlines else base[2])
+
+
+def _same(a, b) -> bool:
+    """Two integer columns equal (their bytes: the same code built both)."""
+    return a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+def _linear(a: dict, b: dict, step: float) -> dict:
+    """The linear part (b - a) / step of every real and complex column of
+    a family whose integer columns ``_reached`` found unmoved."""
+    return {key: (b[key] - v) / step for key, v in a.items() if v.dtype.kind not in "iu"}
 
 
 def _zero(table: dict) -> dict:

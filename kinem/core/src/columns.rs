@@ -49,3 +49,17 @@ pub fn columns<S: Real>(x: &[&[S]], n: usize, src: &[usize], pc: &[usize], local
         }
     }
 }
+
+/// Checks the sources of `columns` against n coordinates, `stages` stages
+/// and `points` named points: every point column's x, y, phi a coordinate,
+/// every source a stage's coordinate or a point's value.
+pub fn check(n: usize, stages: usize, src: &[usize], pc: &[usize], points: usize) -> Result<(), String> {
+    if stages == 0 || stages > 3 || pc.len() != points || pc.iter().any(|&c| c.saturating_add(2) >= n.max(1)) {
+        return Err("columns: one to three stages, and every point on a body, expected".into());
+    }
+    let limit = stages * (n + 2 * points);
+    if src.iter().any(|&j| j >= limit) {
+        return Err("columns: a source out of range".into());
+    }
+    Ok(())
+}

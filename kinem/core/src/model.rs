@@ -124,6 +124,13 @@ impl<S: Real> Kin<S> {
 }
 
 impl Kin {
+    /// The same model over another scalar S (Dual: its tables' tangents
+    /// zero, for the tangents along q and qd alone; crate::sensitivity).
+    pub fn over<S: Real>(&self) -> Result<Kin<S>, String> {
+        let angles = self.angles.iter().map(|&a| a as i64).collect();
+        Kin::new(self.n, self.tables.clone(), &self.function_table, &self.outline_table, angles)
+    }
+
     /// The model's independent parts, one per diagonal block (cols[b]: the
     /// block's coordinates, ascending): each a Kin over its own coordinates
     /// (numbered in the same order) with the constraints whose first

@@ -460,17 +460,22 @@ impl Plan {
     }
 
     /// Design sensitivities (crate::sensitivity): tangents, one per
-    /// parameter: (families [(kind, table, tangent)], (functions, tangent),
-    /// (outlines, tangent)), the model's tables with their tangents along
-    /// the parameter; x: 1 to 3 arrays (K, n) (q, qd, qdd at times); rows,
-    /// cols: the Jacobian's pattern. Returns (out (levels, P, K, n), pivot
+    /// parameter: (families [(place, kind, table, tangent)], (functions,
+    /// tangent), (outlines, tangent)), the families the parameter moves
+    /// (their places among the model's, ascending) with their tables'
+    /// tangents, and the model's functions and outlines with theirs; x: 1
+    /// to 3 arrays (K, n) (q, qd, qdd at times); rows, cols: the Jacobian's
+    /// pattern; src, pc, local: the trajectory's columns (as `columns`),
+    /// dlocal (P, points): each parameter's tangent of the named points'
+    /// local coordinates. Returns (the columns' tangents (K, P W), every
+    /// column of the first parameter then of the second ..., the pivot
     /// ratio (K)).
-    #[allow(clippy::type_complexity)]
+    #[allow(clippy::type_complexity, clippy::too_many_arguments)]
     fn sensitivity<'py>(
         &self,
         py: Python<'py>,
         tangents: Vec<(
-            Vec<(String, Bound<'py, PyDict>, Bound<'py, PyDict>)>,
+            Vec<(usize, String, Bound<'py, PyDict>, Bound<'py, PyDict>)>,
             (Bound<'py, PyDict>, Bound<'py, PyDict>),
             (Bound<'py, PyDict>, Bound<'py, PyDict>),
         )>,
@@ -478,6 +483,10 @@ impl Plan {
         x: Vec<PyReadonlyArray2<'py, f64>>,
         jac_rows: PyReadonlyArray1<'py, i64>,
         jac_cols: PyReadonlyArray1<'py, i64>,
+        src: PyReadonlyArray1<'py, i64>,
+        pc: PyReadonlyArray1<'py, i64>,
+        local: PyReadonlyArray1<'py, C64>,
+        dlocal: numpy::PyReadonlyArray2<'py, C64>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyArray1<f64>>)> {
         let with = |d: &Bound<'py, PyDict>, dd: &Bound<'py, PyDict>| -> PyResult<Table> {
             let mut t = table(d)?;
@@ -488,8 +497,9 @@ impl Plan {
         };
         let mut parts = Vec::new();
         for (fams, (fd, fdd), (od, odd)) in &tangents {
-            let fams = fams.iter().map(|(k, d, dd)| Ok((k.clone(), with(d, dd)?))).collect::<PyResult<Vec<_>>>()?;
-            parts.push((fams, with(fd, fdd)?, with(od, odd)?));
+            let places = fams.iter().map(|f| f.0).collect::<Vec<_>>();
+            let fams = fams.iter().map(|(_, k, d, dd)| Ok((k.clone(), with(d, dd)?))).collect::<PyResult<Vec<_>>>()?;
+            parts.push((places, fams, with(fd, fdd)?, with(od, odd)?));
         }
         let times = times.as_slice()?.to_vec();
         let (n, kk, levels, np) = (self.kin.n, times.len(), x.len(), parts.len());
@@ -505,21 +515,34 @@ impl Plan {
             a.as_array().iter().map(|&v| if v < 0 { usize::MAX } else { v as usize }).collect()
         };
         let (r, c) = (to_usize(jac_rows), to_usize(jac_cols));
+        let (src, pc) = (to_usize(src), to_usize(pc));
+        let local = local.as_array().to_vec();
+        if dlocal.shape() != [np, local.len()] {
+            return Err(value_error("sensitivity: dlocal must have one row per parameter, one entry per point"));
+        }
+        let dlocal = dlocal.as_array().iter().copied().collect::<Vec<_>>();
+        let w = src.len();
         let (kin, layout) = (self.kin.clone(), self.layout.clone());
-        let (out, ratio) = guard(py, move || {
+        let (data, ratio) = guard(py, move || {
+            use crate::sensitivity::{sensitivities, tangent_columns, Tangent};
+            crate::columns::check(n, levels, &src, &pc, local.len())?;
             let angles: Vec<i64> = kin.angles.iter().map(|&a| a as i64).collect();
             let mut tans = Vec::new();
-            for (fams, f, o) in parts {
-                tans.push(Kin::<crate::real::Dual>::new(kin.n, fams, &f, &o, angles.clone())?);
+            for (families, fams, f, o) in parts {
+                if families.windows(2).any(|w| w[0] >= w[1]) {
+                    return Err("sensitivity: a tangent's families out of order".to_string());
+                }
+                tans.push(Tangent { kin: Kin::new(kin.n, fams, &f, &o, angles.clone())?, families });
             }
             let mut out = vec![0.0; levels * np * kk * n];
             let mut ratio = vec![0.0; kk];
             let x: Vec<&[f64]> = xs.iter().map(|v| v.as_slice()).collect();
-            crate::sensitivity::sensitivities(&kin, &layout, &tans, &r, &c, &times, &x, &mut out, &mut ratio)?;
-            Ok((out, ratio))
+            sensitivities(&kin, &layout, &tans, &r, &c, &times, &x, &mut out, &mut ratio)?;
+            let mut data = vec![0.0; kk * np * w];
+            tangent_columns(&x, n, &out, (&src, &pc, &local, &dlocal), &mut data);
+            Ok((data, ratio))
         })?;
-        let out = PyArray1::from_vec(py, out).reshape([levels, np, kk, n])?.into_any();
-        Ok((out, PyArray1::from_vec(py, ratio)))
+        Ok((out2(py, data, kk, np * w)?, PyArray1::from_vec(py, ratio)))
     }
 
     /// The LU of J_s at these Jacobian values (nnz).
