@@ -95,7 +95,9 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     t = np.ascontiguousarray(result.trajectory.t)
     columns, src, _ = _layout(model, len(X))
     dlocal = np.array([d for _, d in parts], complex).reshape(len(parts), len(model.point_names))
-    data, ratio = plan.sensitivity([core for core, _ in parts], t, X, model.jac_rows.astype(np.int64),
+    core = [([(k, d) for k, _, _, d in families], functions[1], outlines[1])
+            for (families, functions, outlines), _ in parts]
+    data, ratio = plan.sensitivity(base[:3], core, t, X, model.jac_rows.astype(np.int64),
                                    model.jac_cols.astype(np.int64), src, model.point_cols.astype(np.int64),
                                    model.point_local, dlocal)
     width = len(columns)

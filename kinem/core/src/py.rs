@@ -459,11 +459,14 @@ impl Plan {
         Ok(Plan { kin, layout: Arc::new(layout), parts: std::sync::OnceLock::new() })
     }
 
-    /// Design sensitivities (crate::sensitivity): tangents, one per
-    /// parameter: (families [(place, kind, table, tangent)], (functions,
-    /// tangent), (outlines, tangent)), the families the parameter moves
-    /// (their places among the model's, ascending) with their tables'
-    /// tangents, and the model's functions and outlines with theirs; x: 1
+    /// Design sensitivities (crate::sensitivity): tables, the model's
+    /// (families [(kind, table)], functions, outlines) with every function
+    /// and outline its own number (kinem.sensitivity._tables); tangents, one per
+    /// parameter: (families [(place, tangent)], functions' tangent,
+    /// outlines' tangent), the families the parameter moves (their places
+    /// among the model's) with the tangents of their tables' real and
+    /// complex columns, and those of the functions and outlines ({} where
+    /// it moves none); x: 1
     /// to 3 arrays (K, n) (q, qd, qdd at times); rows, cols: the Jacobian's
     /// pattern; src, pc, local: the trajectory's columns (as `columns`),
     /// dlocal (P, points): each parameter's tangent of the named points'
@@ -474,11 +477,8 @@ impl Plan {
     fn sensitivity<'py>(
         &self,
         py: Python<'py>,
-        tangents: Vec<(
-            Vec<(usize, String, Bound<'py, PyDict>, Bound<'py, PyDict>)>,
-            (Bound<'py, PyDict>, Bound<'py, PyDict>),
-            (Bound<'py, PyDict>, Bound<'py, PyDict>),
-        )>,
+        tables: (Vec<(String, Bound<'py, PyDict>)>, Bound<'py, PyDict>, Bound<'py, PyDict>),
+        tangents: Vec<(Vec<(usize, Bound<'py, PyDict>)>, Bound<'py, PyDict>, Bound<'py, PyDict>)>,
         times: PyReadonlyArray1<'py, f64>,
         x: Vec<PyReadonlyArray2<'py, f64>>,
         jac_rows: PyReadonlyArray1<'py, i64>,
@@ -488,18 +488,12 @@ impl Plan {
         local: PyReadonlyArray1<'py, C64>,
         dlocal: numpy::PyReadonlyArray2<'py, C64>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyArray1<f64>>)> {
-        let with = |d: &Bound<'py, PyDict>, dd: &Bound<'py, PyDict>| -> PyResult<Table> {
-            let mut t = table(d)?;
-            let tan = table(dd)?;
-            t.d_reals = tan.reals;
-            t.d_complex = tan.complex;
-            Ok(t)
-        };
+        let families = tables.0.iter().map(|(k, d)| Ok((k.clone(), table(d)?))).collect::<PyResult<Vec<_>>>()?;
+        let (functions, outlines) = (table(&tables.1)?, table(&tables.2)?);
         let mut parts = Vec::new();
-        for (fams, (fd, fdd), (od, odd)) in &tangents {
-            let places = fams.iter().map(|f| f.0).collect::<Vec<_>>();
-            let fams = fams.iter().map(|(_, k, d, dd)| Ok((k.clone(), with(d, dd)?))).collect::<PyResult<Vec<_>>>()?;
-            parts.push((places, fams, with(fd, fdd)?, with(od, odd)?));
+        for (fams, fd, od) in &tangents {
+            let families = fams.iter().map(|(k, d)| Ok((*k, table(d)?))).collect::<PyResult<Vec<_>>>()?;
+            parts.push(crate::sensitivity::Tangent { families, functions: table(fd)?, outlines: table(od)? });
         }
         let times = times.as_slice()?.to_vec();
         let (n, kk, levels, np) = (self.kin.n, times.len(), x.len(), parts.len());
@@ -524,20 +518,17 @@ impl Plan {
         let w = src.len();
         let (kin, layout) = (self.kin.clone(), self.layout.clone());
         let (data, ratio) = guard(py, move || {
-            use crate::sensitivity::{sensitivities, tangent_columns, Tangent};
+            use crate::sensitivity::{sensitivities, tangent_columns};
             crate::columns::check(n, levels, &src, &pc, local.len())?;
-            let angles: Vec<i64> = kin.angles.iter().map(|&a| a as i64).collect();
-            let mut tans = Vec::new();
-            for (families, fams, f, o) in parts {
-                if families.windows(2).any(|w| w[0] >= w[1]) {
-                    return Err("sensitivity: a tangent's families out of order".to_string());
-                }
-                tans.push(Tangent { kin: Kin::new(kin.n, fams, &f, &o, angles.clone())?, families });
+            let angles = kin.angles.iter().map(|&a| a as i64).collect();
+            let own = Kin::new(n, families, &functions, &outlines, angles)?;
+            if (own.m, own.nnz) != (kin.m, kin.nnz) {
+                return Err("sensitivity: the tables are not the model's".to_string());
             }
             let mut out = vec![0.0; levels * np * kk * n];
             let mut ratio = vec![0.0; kk];
             let x: Vec<&[f64]> = xs.iter().map(|v| v.as_slice()).collect();
-            sensitivities(&kin, &layout, &tans, &r, &c, &times, &x, &mut out, &mut ratio)?;
+            sensitivities(&own, &layout, &parts, &r, &c, &times, &x, &mut out, &mut ratio)?;
             let mut data = vec![0.0; kk * np * w];
             tangent_columns(&x, n, &out, (&src, &pc, &local, &dlocal), &mut data);
             Ok((data, ratio))

@@ -34,6 +34,13 @@ pub trait Real:
     fn c(v: f64) -> Self {
         Self::lift(v, 0.0)
     }
+    /// How many tangents it carries (Lanes<N>: N; f64 drops its one).
+    const WIDTH: usize = 1;
+    /// v with the tangents d (WIDTH of them).
+    #[inline(always)]
+    fn of_lanes(v: f64, d: &[f64]) -> Self {
+        Self::lift(v, d.first().copied().unwrap_or(0.0))
+    }
     /// The value v, every tangent kept (a constant shift).
     #[inline(always)]
     fn with_value(self, v: f64) -> Self {
@@ -242,6 +249,13 @@ impl<const N: usize> Default for Lanes<N> {
 }
 
 impl<const N: usize> Real for Lanes<N> {
+    const WIDTH: usize = N;
+    #[inline(always)]
+    fn of_lanes(v: f64, d: &[f64]) -> Self {
+        let mut x = [0.0; N];
+        x.copy_from_slice(&d[..N]);
+        Lanes { v, d: x }
+    }
     /// v with every tangent d.
     #[inline(always)]
     fn lift(v: f64, d: f64) -> Self {

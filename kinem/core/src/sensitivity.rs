@@ -1,6 +1,6 @@
 //! Design sensitivities of a trajectory by direct differentiation of the
-//! kinematic equations (docs/design.md, Eqs. S1-S3): at each solved instant
-//! (q, qd, qdd at t), for a design parameter p, with J = Phi_q,
+//! kinematic equations (docs/design.md, Eqs. S1-S3, S6): at each solved
+//! instant (q, qd, qdd at t), for a design parameter p, with J = Phi_q,
 //! s = dq/dp, sd = dqd/dp,
 //!
 //! ```text
@@ -12,67 +12,78 @@
 //! D(Phi_q) v = Phi_qq[s, v] + J_p v, and Phi_qq is symmetric in its two q
 //! slots, so Phi_qq[s, v] = (D_v J) s: A = D_qd(J) and B = D_qdd(J), the
 //! Jacobian's tangents along q' = qd and q' = qdd, are the same for every
-//! parameter and taken once per instant (S6). Phi_p, J_p and nu_p are
-//! nonzero only on the rows and entries of the families whose tables (or
-//! functions, outlines) p moves: each parameter's `Tangent` holds only those
-//! families, evaluated over dual numbers (crate::real::Dual) with their
-//! tables' tangents. D(gamma), gamma's tangent along q' = s, qd' = sd and
-//! the tables', is one dual evaluation per parameter: the model's gamma for
-//! the families p does not move, the tangent's for those it does. All three
+//! parameter and taken once per instant (S6, one evaluation over
+//! Lanes<2>). Phi_p, J_p, nu_p are the tangents of Phi, J, nu at q' = 0
+//! along the tables' tangents, and D(gamma) gamma's tangent along q' = s,
+//! qd' = sd and the tables': each one evaluation of the model over
+//! Lanes<LANES> (crate::real) for LANES parameters at once, each lane
+//! seeded with one parameter's tables' tangents (Kin::seeded). All three
 //! share one factorisation of J at the instant (the march's layout,
 //! crate::lu): no finite differences anywhere.
 use crate::families::At;
 use crate::lu::Layout;
 use crate::model::Kin;
-use crate::real::{lift_c, Dual, Lanes, Real};
+use crate::real::{Lanes, Real};
+use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
 
-/// A design parameter's tangent of the model: the families it moves
-/// (`kin`: over dual numbers, their tables' tangents seeded, with the
-/// model's functions and outlines and their tangents) and their places
-/// among the model's families (`families`, ascending).
-pub struct Tangent {
-    pub kin: Kin<Dual>,
-    pub families: Vec<usize>,
-}
-
-impl Tangent {
-    /// Checks that every family has the rows and Jacobian entries of the
-    /// model's family in its place; returns its (rows, entries) spans there:
-    /// (first row in kin, first row in the model, count) and the same for
-    /// entries.
-    fn spans(&self, model: &Kin) -> Result<Spans, String> {
-        let k = &self.kin;
-        if k.n != model.n || self.families.len() != k.families.len() {
-            return Err("sensitivity: a parameter's tangent does not fit the model".into());
-        }
-        let (mut rows, mut entries) = (Vec::new(), Vec::new());
-        for (j, &g) in self.families.iter().enumerate() {
-            let ok = g < model.families.len()
-                && k.families[j].rows() == model.families[g].rows()
-                && k.families[j].entries() == model.families[g].entries();
-            if !ok {
-                return Err(format!(
-                    "sensitivity: a parameter's tangent family {j} does not fit the model's family {g}"
-                ));
-            }
-            rows.push((k.row_off[j], model.row_off[g], k.families[j].rows()));
-            entries.push((k.entry_off[j], model.entry_off[g], k.families[j].entries()));
-        }
-        Ok(Spans { rows, entries })
-    }
-}
-
-/// Where a tangent's rows and entries sit in the model's.
-struct Spans {
-    rows: Vec<(usize, usize, usize)>,
-    entries: Vec<(usize, usize, usize)>,
-}
-
-/// How many parameters share one evaluation of gamma and of the named
+/// How many parameters share one evaluation of the model and of the named
 /// points' columns (crate::real::Lanes).
 pub const LANES: usize = 4;
 type L = Lanes<LANES>;
+
+/// A design parameter's tangent of the model's tables: the families it
+/// moves [(place among the model's families, the tangents of some of its
+/// real and complex columns)], and the tangents of the functions' and the
+/// outlines' tables (empty where it moves none).
+pub struct Tangent {
+    pub families: Vec<(usize, Table)>,
+    pub functions: Table,
+    pub outlines: Table,
+}
+
+/// The model over LANES with the tangents of `group` (at most LANES
+/// parameters) in its lanes, a lane without a parameter zero.
+fn seeded(kin: &Kin, group: &[Tangent]) -> Result<Kin<L>, String> {
+    let lanes = |tables: Vec<(usize, &Table)>| -> Table {
+        let mut out = Table::default();
+        for (lane, t) in tables {
+            for (key, d) in &t.reals {
+                let v = out.reals.entry(key.clone()).or_insert_with(|| vec![0.0; d.len() * LANES]);
+                for (i, &x) in d.iter().enumerate() {
+                    if let Some(o) = v.get_mut(i * LANES + lane) {
+                        *o = x;
+                    }
+                }
+            }
+            for (key, d) in &t.complex {
+                let v = out.complex.entry(key.clone()).or_insert_with(|| vec![C64::new(0.0, 0.0); d.len() * LANES]);
+                for (i, &x) in d.iter().enumerate() {
+                    if let Some(o) = v.get_mut(i * LANES + lane) {
+                        *o = x;
+                    }
+                }
+            }
+        }
+        out
+    };
+    let mut places: Vec<usize> = group.iter().flat_map(|t| t.families.iter().map(|f| f.0)).collect();
+    places.sort_unstable();
+    places.dedup();
+    let families = places
+        .iter()
+        .map(|&k| {
+            let of = group
+                .iter()
+                .enumerate()
+                .flat_map(|(l, t)| t.families.iter().filter(|f| f.0 == k).map(move |f| (l, &f.1)));
+            (k, lanes(of.collect()))
+        })
+        .collect::<Vec<_>>();
+    let functions = lanes(group.iter().enumerate().map(|(l, t)| (l, &t.functions)).collect());
+    let outlines = lanes(group.iter().enumerate().map(|(l, t)| (l, &t.outlines)).collect());
+    kin.seeded(&families, &functions, &outlines)
+}
 
 /// x[0] (K, n): q at `times`; x[1], x[2]: qd, qdd (as many levels as
 /// given); rows, cols: the Jacobian's pattern. Fills out (levels, P, K, n)
@@ -100,23 +111,23 @@ pub fn sensitivities(
     if out.len() != levels * np * kk * n || ratio.len() != kk {
         return Err("sensitivity: output arrays of the wrong size".into());
     }
-    let spans = tangents.iter().map(|t| t.spans(kin)).collect::<Result<Vec<_>, _>>()?;
-    // the model over two directions (A and B, S6) and over LANES (D(gamma)), its tables' tangents zero
-    let (two, lanes): (Kin<Lanes<2>>, Kin<L>) = (kin.over()?, kin.over()?);
+    let groups = tangents.chunks(LANES).map(|g| seeded(kin, g)).collect::<Result<Vec<_>, _>>()?;
+    let two: Kin<Lanes<2>> = kin.over()?; // A and B (S6), the tables' tangents zero
+    let csr = Csr::of(rows, cols, m);
     let mut f = layout.factors();
     let mut e = vec![C64::new(1.0, 0.0); n];
     let mut values = vec![0.0; nnz];
-    let mut e0 = vec![Complex::new(Dual::c(0.0), Dual::c(0.0)); n];
-    let (mut q0, mut qd0) = (vec![Dual::c(0.0); n], vec![Dual::c(0.0); n]);
     let mut q2 = vec![Lanes::<2>::c(0.0); n];
     let (mut e2, mut j2) = (vec![Complex::new(Lanes::c(0.0), Lanes::c(0.0)); n], vec![Lanes::<2>::c(0.0); nnz]);
-    let (mut ql, mut qdl, mut gl) = (vec![L::c(0.0); n], vec![L::c(0.0); n], vec![L::c(0.0); m]);
-    let mut el = vec![Complex::new(L::c(0.0), L::c(0.0)); n];
-    let (mut rd, mut jd) = (vec![Dual::c(0.0); m], vec![vec![Dual::c(0.0); nnz]; LANES]);
+    let (mut q0, mut e0) = (vec![L::c(0.0); n], vec![Complex::new(L::c(0.0), L::c(0.0)); n]);
+    let (mut ql, mut qdl, mut el) =
+        (vec![L::c(0.0); n], vec![L::c(0.0); n], vec![Complex::new(L::c(0.0), L::c(0.0)); n]);
+    let (mut rl, mut jl) = (vec![L::c(0.0); m], vec![L::c(0.0); nnz]);
     let (mut a, mut b) = (vec![0.0; nnz], vec![0.0; nnz]);
     let (mut rhs, mut sol) = (vec![0.0; m], vec![0.0; n]);
-    let (mut s, mut by) = (vec![[0.0; LANES]; n], vec![[0.0; LANES]; m]); // s (lanes), A s or B s
-    let csr = Csr::of(rows, cols, m);
+    // s, sd (lanes); M s, J_p v (lanes)
+    let (mut s, mut sd) = (vec![[0.0; LANES]; n], vec![[0.0; LANES]; n]);
+    let (mut by, mut jp) = (vec![[0.0; LANES]; m], vec![[0.0; LANES]; m]);
     for k in 0..kk {
         let (t, q) = (times[k], &x[0][k * n..(k + 1) * n]);
         let row = |level: usize| &x[level][k * n..(k + 1) * n];
@@ -124,9 +135,9 @@ pub fn sensitivities(
         kin.jac(&At { q, e: &e, t }, &mut values);
         layout.factor(&values, &mut f);
         ratio[k] = layout.pivots(&f).0;
-        lift(q, None, &mut q0);
-        for &j in &kin.angles {
-            e0[j] = lift_c(e[j], C64::new(0.0, 0.0));
+        for j in 0..n {
+            q0[j] = L::c(q[j]);
+            e0[j] = Complex::new(L::c(e[j].re), L::c(e[j].im));
         }
         let at0 = At { q: &q0, e: &e0, t };
         // A = D_qd(J), B = D_qdd(J) (S6): once per instant, one evaluation
@@ -140,22 +151,19 @@ pub fn sensitivities(
             for ((x, y), v) in a.iter_mut().zip(b.iter_mut()).zip(&j2) {
                 (*x, *y) = (v.d[0], v.d[1]);
             }
-            lift(qd, None, &mut qd0);
         }
-        for first in (0..np).step_by(LANES) {
-            let group = first..(first + LANES).min(np);
+        for (g, model) in groups.iter().enumerate() {
+            let group = g * LANES..(g * LANES + LANES).min(np);
+            let at = |level: usize, p: usize| (level * np + p) * kk * n + k * n;
+            // S1: Phi_p, Phi's tangent at q' = 0
+            model.phi(&at0, &mut rl);
             for p in group.clone() {
-                let (tk, sp, lane) = (&tangents[p].kin, &spans[p], p - first);
-                let at = |level: usize| (level * np + p) * kk * n + k * n;
-                // S1: Phi_p, the tangent of the moved families' Phi at q' = 0
-                tk.phi(&at0, &mut rd);
-                rhs.fill(0.0);
-                place(&rd, &sp.rows, -1.0, &mut rhs);
-                layout.solve(&mut f, &rhs, &mut sol);
-                out[at(0)..at(0) + n].copy_from_slice(&sol);
-                if levels == 1 {
-                    continue;
+                let lane = p - g * LANES;
+                for (r, x) in rhs.iter_mut().zip(&rl) {
+                    *r = -x.d[lane];
                 }
+                layout.solve(&mut f, &rhs, &mut sol);
+                out[at(0, p)..at(0, p) + n].copy_from_slice(&sol);
                 for (x, &v) in s.iter_mut().zip(&sol) {
                     x[lane] = v;
                 }
@@ -163,74 +171,47 @@ pub fn sensitivities(
             if levels == 1 {
                 continue;
             }
+            // S2: nu_p - A s - J_p qd, J_p: the Jacobian's tangent at q' = 0
+            model.jac(&at0, &mut jl);
+            model.nu(t, &mut rl);
             csr.product(&a, &s, &mut by);
+            csr.lanes_product(&jl, row(1), &mut jp);
             for p in group.clone() {
-                let (tk, sp, lane) = (&tangents[p].kin, &spans[p], p - first);
-                let at = (np + p) * kk * n + k * n;
-                // S2: nu_p - A s - J_p qd
-                tk.jac(&at0, &mut jd[lane]);
-                tk.nu(t, &mut rd);
-                for (r, x) in rhs.iter_mut().zip(&by) {
-                    *r = -x[lane];
+                let lane = p - g * LANES;
+                for (((r, x), y), z) in rhs.iter_mut().zip(&rl).zip(&by).zip(&jp) {
+                    *r = x.d[lane] - y[lane] - z[lane];
                 }
-                add(&rd, &sp.rows, &mut rhs);
-                moved_product(&jd[lane], row(1), &sp.entries, rows, cols, &mut rhs);
                 layout.solve(&mut f, &rhs, &mut sol);
-                out[at..at + n].copy_from_slice(&sol);
+                out[at(1, p)..at(1, p) + n].copy_from_slice(&sol);
+                for (x, &v) in sd.iter_mut().zip(&sol) {
+                    x[lane] = v;
+                }
             }
             if levels < 3 {
                 continue;
             }
-            // S3: D(gamma) = gamma's tangent along q' = s, qd' = sd (the
-            // group's lanes, one evaluation) + gamma_p (the moved families at
-            // q' = 0, qd' = 0); minus B s and J_p qdd
-            let (q, qd) = (row(0), row(1));
+            // S3: D(gamma) (gamma's tangent along q' = s, qd' = sd and the
+            // tables'), minus B s and J_p qdd
+            let qd = row(1);
             for j in 0..n {
-                let (mut dq, mut dqd) = ([0.0; LANES], [0.0; LANES]);
-                for p in group.clone() {
-                    dq[p - first] = s[j][p - first];
-                    dqd[p - first] = out[(np + p) * kk * n + k * n + j];
-                }
-                ql[j] = Lanes::of(q[j], dq);
-                qdl[j] = Lanes::of(qd[j], dqd);
+                ql[j] = Lanes::of(q[j], s[j]);
+                qdl[j] = Lanes::of(qd[j], sd[j]);
             }
-            lanes.rotate(&ql, &mut el);
-            lanes.gamma(&At { q: &ql, e: &el, t }, &qdl, &mut gl);
+            model.rotate(&ql, &mut el);
+            model.gamma(&At { q: &ql, e: &el, t }, &qdl, &mut rl);
             csr.product(&b, &s, &mut by);
+            csr.lanes_product(&jl, row(2), &mut jp);
             for p in group.clone() {
-                let (tk, sp, lane) = (&tangents[p].kin, &spans[p], p - first);
-                let at = (2 * np + p) * kk * n + k * n;
-                for ((r, g), x) in rhs.iter_mut().zip(&gl).zip(&by) {
-                    *r = g.d[lane] - x[lane];
+                let lane = p - g * LANES;
+                for (((r, x), y), z) in rhs.iter_mut().zip(&rl).zip(&by).zip(&jp) {
+                    *r = x.d[lane] - y[lane] - z[lane];
                 }
-                tk.gamma(&at0, &qd0, &mut rd);
-                add(&rd, &sp.rows, &mut rhs);
-                moved_product(&jd[lane], row(2), &sp.entries, rows, cols, &mut rhs);
                 layout.solve(&mut f, &rhs, &mut sol);
-                out[at..at + n].copy_from_slice(&sol);
+                out[at(2, p)..at(2, p) + n].copy_from_slice(&sol);
             }
         }
     }
     Ok(())
-}
-
-/// rhs = sign x the tangents of a tangent model's rows, in their places
-/// (spans: first row in rd, first in the model, count).
-fn place(rd: &[Dual], spans: &[(usize, usize, usize)], sign: f64, rhs: &mut [f64]) {
-    for &(from, to, len) in spans {
-        for r in 0..len {
-            rhs[to + r] = sign * rd[from + r].d;
-        }
-    }
-}
-
-/// rhs += the tangents of a tangent model's rows, in their places.
-fn add(rd: &[Dual], spans: &[(usize, usize, usize)], rhs: &mut [f64]) {
-    for &(from, to, len) in spans {
-        for r in 0..len {
-            rhs[to + r] += rd[from + r].d;
-        }
-    }
 }
 
 /// The Jacobian's pattern by rows: entry order[i] of row r for i in
@@ -268,29 +249,20 @@ impl Csr {
             *o = acc;
         }
     }
-}
 
-/// rhs -= J_p v, J_p's values the tangents `jd` of the moved families'
-/// entries (spans: first entry in jd, first in the model's pattern, count).
-fn moved_product(
-    jd: &[Dual],
-    v: &[f64],
-    spans: &[(usize, usize, usize)],
-    rows: &[usize],
-    cols: &[usize],
-    rhs: &mut [f64],
-) {
-    for &(from, to, len) in spans {
-        for e in 0..len {
-            rhs[rows[to + e]] -= jd[from + e].d * v[cols[to + e]];
+    /// out = M v for a matrix of LANES lanes (each lane's values on the
+    /// pattern) and one vector v.
+    fn lanes_product(&self, mat: &[L], v: &[f64], out: &mut [[f64; LANES]]) {
+        for (r, o) in out.iter_mut().enumerate() {
+            let mut acc = [0.0; LANES];
+            for i in self.start[r]..self.start[r + 1] {
+                let (a, x) = (&mat[self.order[i]].d, v[self.cols[i]]);
+                for l in 0..LANES {
+                    acc[l] += a[l] * x;
+                }
+            }
+            *o = acc;
         }
-    }
-}
-
-/// out = v + d eps (d = 0 when None).
-fn lift(v: &[f64], d: Option<&[f64]>, out: &mut [Dual]) {
-    for (j, o) in out.iter_mut().enumerate() {
-        *o = Dual::lift(v[j], d.map_or(0.0, |d| d[j]));
     }
 }
 
