@@ -518,19 +518,18 @@ impl Plan {
         let w = src.len();
         let (kin, layout) = (self.kin.clone(), self.layout.clone());
         let (data, ratio) = guard(py, move || {
-            use crate::sensitivity::{sensitivities, tangent_columns};
+            use crate::sensitivity::sensitivities;
             crate::columns::check(n, levels, &src, &pc, local.len())?;
             let angles = kin.angles.iter().map(|&a| a as i64).collect();
             let own = Kin::new(n, families, &functions, &outlines, angles)?;
             if (own.m, own.nnz) != (kin.m, kin.nnz) {
                 return Err("sensitivity: the tables are not the model's".to_string());
             }
-            let mut out = vec![0.0; levels * np * kk * n];
             let mut ratio = vec![0.0; kk];
             let x: Vec<&[f64]> = xs.iter().map(|v| v.as_slice()).collect();
-            sensitivities(&own, &layout, &parts, &r, &c, &times, &x, &mut out, &mut ratio)?;
             let mut data = vec![0.0; kk * np * w];
-            tangent_columns(&x, n, &out, (&src, &pc, &local, &dlocal), &mut data);
+            let columns = (src.as_slice(), pc.as_slice(), local.as_slice(), dlocal.as_slice());
+            sensitivities(&own, &layout, &parts, &r, &c, &times, &x, columns, &mut data, &mut ratio)?;
             Ok((data, ratio))
         })?;
         Ok((out2(py, data, kk, np * w)?, PyArray1::from_vec(py, ratio)))

@@ -86,9 +86,13 @@ fn seeded(kin: &Kin, group: &[Tangent]) -> Result<Kin<L>, String> {
 }
 
 /// x[0] (K, n): q at `times`; x[1], x[2]: qd, qdd (as many levels as
-/// given); rows, cols: the Jacobian's pattern. Fills out (levels, P, K, n)
-/// with dq/dp, dqd/dp, dqdd/dp for every tangent p, and ratio (K) with the
-/// pivot ratio of Phi_q (the caller flags singular instants).
+/// given); rows, cols: the Jacobian's pattern; columns: the trajectory's
+/// column sources, the named points' body columns, local coordinates and
+/// (P rows of) their tangents (crate::columns, checked by
+/// crate::columns::check). Fills data (K, P W), row k the W columns'
+/// tangents along the first parameter, then the second, ... (from dq/dp,
+/// dqd/dp, dqdd/dp, over Lanes: crate::columns::Columns::row), and ratio
+/// (K) with the pivot ratio of Phi_q (the caller flags singular instants).
 #[allow(clippy::too_many_arguments)]
 pub fn sensitivities(
     kin: &Kin,
@@ -98,9 +102,12 @@ pub fn sensitivities(
     cols: &[usize],
     times: &[f64],
     x: &[&[f64]],
-    out: &mut [f64],
+    columns: Cols,
+    data: &mut [f64],
     ratio: &mut [f64],
 ) -> Result<(), String> {
+    let (src, pc, local, dlocal) = columns;
+    let (w, points) = (src.len(), local.len());
     let (n, m, nnz, kk, levels, np) = (kin.n, kin.m, kin.nnz, times.len(), x.len(), tangents.len());
     if levels == 0 || levels > 3 || x.iter().any(|a| a.len() != kk * n) {
         return Err("sensitivity: 1 to 3 arrays of K x n coordinates expected".into());
@@ -108,12 +115,29 @@ pub fn sensitivities(
     if rows.len() != nnz || cols.len() != nnz || rows.iter().any(|&r| r >= m) || cols.iter().any(|&c| c >= n) {
         return Err("sensitivity: the Jacobian's pattern does not fit the model".into());
     }
-    if out.len() != levels * np * kk * n || ratio.len() != kk {
+    if data.len() != kk * np * w || ratio.len() != kk || dlocal.len() != np * points {
         return Err("sensitivity: output arrays of the wrong size".into());
     }
     let groups = tangents.chunks(LANES).map(|g| seeded(kin, g)).collect::<Result<Vec<_>, _>>()?;
     let two: Kin<Lanes<2>> = kin.over()?; // A and B (S6), the tables' tangents zero
     let csr = Csr::of(rows, cols, m);
+    let layout_columns = crate::columns::Columns::new(n, levels, src, pc);
+    // the named points' local coordinates with the group's tangents in the lanes
+    let locs: Vec<Vec<Complex<L>>> = (0..groups.len())
+        .map(|g| {
+            (0..points)
+                .map(|j| {
+                    let (mut re, mut im) = ([0.0; LANES], [0.0; LANES]);
+                    for p in g * LANES..(g * LANES + LANES).min(np) {
+                        (re[p - g * LANES], im[p - g * LANES]) = (dlocal[p * points + j].re, dlocal[p * points + j].im);
+                    }
+                    Complex::new(Lanes::of(local[j].re, re), Lanes::of(local[j].im, im))
+                })
+                .collect()
+        })
+        .collect();
+    let (mut pts, mut buf) = (vec![L::c(0.0); 2 * levels * points], vec![L::c(0.0); w]);
+    let mut qddl = vec![L::c(0.0); n];
     let mut f = layout.factors();
     let mut e = vec![C64::new(1.0, 0.0); n];
     let mut values = vec![0.0; nnz];
@@ -126,7 +150,7 @@ pub fn sensitivities(
     let (mut a, mut b) = (vec![0.0; nnz], vec![0.0; nnz]);
     let (mut rhs, mut sol) = (vec![0.0; m], vec![0.0; n]);
     // s, sd (lanes); M s, J_p v (lanes)
-    let (mut s, mut sd) = (vec![[0.0; LANES]; n], vec![[0.0; LANES]; n]);
+    let (mut s, mut sd, mut sdd) = (vec![[0.0; LANES]; n], vec![[0.0; LANES]; n], vec![[0.0; LANES]; n]);
     let (mut by, mut jp) = (vec![[0.0; LANES]; m], vec![[0.0; LANES]; m]);
     for k in 0..kk {
         let (t, q) = (times[k], &x[0][k * n..(k + 1) * n]);
@@ -154,7 +178,6 @@ pub fn sensitivities(
         }
         for (g, model) in groups.iter().enumerate() {
             let group = g * LANES..(g * LANES + LANES).min(np);
-            let at = |level: usize, p: usize| (level * np + p) * kk * n + k * n;
             // S1: Phi_p, Phi's tangent at q' = 0
             model.phi(&at0, &mut rl);
             for p in group.clone() {
@@ -163,51 +186,65 @@ pub fn sensitivities(
                     *r = -x.d[lane];
                 }
                 layout.solve(&mut f, &rhs, &mut sol);
-                out[at(0, p)..at(0, p) + n].copy_from_slice(&sol);
                 for (x, &v) in s.iter_mut().zip(&sol) {
                     x[lane] = v;
                 }
             }
-            if levels == 1 {
-                continue;
-            }
-            // S2: nu_p - A s - J_p qd, J_p: the Jacobian's tangent at q' = 0
-            model.jac(&at0, &mut jl);
-            model.nu(t, &mut rl);
-            csr.product(&a, &s, &mut by);
-            csr.lanes_product(&jl, row(1), &mut jp);
-            for p in group.clone() {
-                let lane = p - g * LANES;
-                for (((r, x), y), z) in rhs.iter_mut().zip(&rl).zip(&by).zip(&jp) {
-                    *r = x.d[lane] - y[lane] - z[lane];
-                }
-                layout.solve(&mut f, &rhs, &mut sol);
-                out[at(1, p)..at(1, p) + n].copy_from_slice(&sol);
-                for (x, &v) in sd.iter_mut().zip(&sol) {
-                    x[lane] = v;
-                }
-            }
-            if levels < 3 {
-                continue;
-            }
-            // S3: D(gamma) (gamma's tangent along q' = s, qd' = sd and the
-            // tables'), minus B s and J_p qdd
-            let qd = row(1);
             for j in 0..n {
                 ql[j] = Lanes::of(q[j], s[j]);
-                qdl[j] = Lanes::of(qd[j], sd[j]);
             }
-            model.rotate(&ql, &mut el);
-            model.gamma(&At { q: &ql, e: &el, t }, &qdl, &mut rl);
-            csr.product(&b, &s, &mut by);
-            csr.lanes_product(&jl, row(2), &mut jp);
+            if levels > 1 {
+                // S2: nu_p - A s - J_p qd, J_p: the Jacobian's tangent at q' = 0
+                model.jac(&at0, &mut jl);
+                model.nu(t, &mut rl);
+                csr.product(&a, &s, &mut by);
+                csr.lanes_product(&jl, row(1), &mut jp);
+                for p in group.clone() {
+                    let lane = p - g * LANES;
+                    for (((r, x), y), z) in rhs.iter_mut().zip(&rl).zip(&by).zip(&jp) {
+                        *r = x.d[lane] - y[lane] - z[lane];
+                    }
+                    layout.solve(&mut f, &rhs, &mut sol);
+                    for (x, &v) in sd.iter_mut().zip(&sol) {
+                        x[lane] = v;
+                    }
+                }
+                let qd = row(1);
+                for j in 0..n {
+                    qdl[j] = Lanes::of(qd[j], sd[j]);
+                }
+            }
+            if levels > 2 {
+                // S3: D(gamma) (gamma's tangent along q' = s, qd' = sd and the
+                // tables'), minus B s and J_p qdd
+                model.rotate(&ql, &mut el);
+                model.gamma(&At { q: &ql, e: &el, t }, &qdl, &mut rl);
+                csr.product(&b, &s, &mut by);
+                csr.lanes_product(&jl, row(2), &mut jp);
+                for p in group.clone() {
+                    let lane = p - g * LANES;
+                    for (((r, x), y), z) in rhs.iter_mut().zip(&rl).zip(&by).zip(&jp) {
+                        *r = x.d[lane] - y[lane] - z[lane];
+                    }
+                    layout.solve(&mut f, &rhs, &mut sol);
+                    for (x, &v) in sdd.iter_mut().zip(&sol) {
+                        x[lane] = v;
+                    }
+                }
+                let qdd = row(2);
+                for j in 0..n {
+                    qddl[j] = Lanes::of(qdd[j], sdd[j]);
+                }
+            }
+            // the named points' and every column's tangents, from the lanes
+            let stages: [&[L]; 3] = [&ql, &qdl, &qddl];
+            layout_columns.row(&stages[..levels], &locs[g], &mut pts, &mut buf);
             for p in group.clone() {
                 let lane = p - g * LANES;
-                for (((r, x), y), z) in rhs.iter_mut().zip(&rl).zip(&by).zip(&jp) {
-                    *r = x.d[lane] - y[lane] - z[lane];
+                let to = &mut data[(k * np + p) * w..(k * np + p + 1) * w];
+                for (o, b) in to.iter_mut().zip(&buf) {
+                    *o = b.d[lane];
                 }
-                layout.solve(&mut f, &rhs, &mut sol);
-                out[at(2, p)..at(2, p) + n].copy_from_slice(&sol);
             }
         }
     }
@@ -266,51 +303,6 @@ impl Csr {
     }
 }
 
-/// The trajectory's columns' tangents (crate::columns over LANES
-/// parameters' tangents at once) for every parameter from the coordinates'
-/// (`out` of `sensitivities`, (levels, P, K, n)) and the named points'
-/// local tangents (dlocal: P rows of as many as `local`): data (K, P W),
-/// row k the W columns' tangents along the first parameter, then the
-/// second, ... (`cols`: src, pc, local as crate::columns::columns, checked
-/// by crate::columns::check).
-pub fn tangent_columns(x: &[&[f64]], n: usize, out: &[f64], cols: Cols, data: &mut [f64]) {
-    let (src, pc, local, dlocal) = cols;
-    let (levels, w, points) = (x.len(), src.len(), local.len());
-    let kk = x[0].len().checked_div(n).unwrap_or(0);
-    let np = out.len().checked_div(levels * kk * n).unwrap_or(0);
-    let mut xs = vec![vec![L::default(); kk * n]; levels];
-    let mut buf = vec![L::default(); kk * w];
-    let mut loc = vec![Complex::new(L::default(), L::default()); points];
-    for first in (0..np).step_by(LANES) {
-        let group = first..(first + LANES).min(np);
-        for (l, xl) in xs.iter_mut().enumerate() {
-            for (j, o) in xl.iter_mut().enumerate() {
-                o.v = x[l][j];
-                for p in group.clone() {
-                    o.d[p - first] = out[(l * np + p) * kk * n + j];
-                }
-            }
-        }
-        for (j, o) in loc.iter_mut().enumerate() {
-            let (mut re, mut im) = ([0.0; LANES], [0.0; LANES]);
-            for p in group.clone() {
-                (re[p - first], im[p - first]) = (dlocal[p * points + j].re, dlocal[p * points + j].im);
-            }
-            *o = Complex::new(Lanes::of(local[j].re, re), Lanes::of(local[j].im, im));
-        }
-        let stages: Vec<&[L]> = xs.iter().map(|v| v.as_slice()).collect();
-        crate::columns::columns(&stages, n, src, pc, &loc, &mut buf);
-        for k in 0..kk {
-            for p in group.clone() {
-                let row = &mut data[(k * np + p) * w..(k * np + p + 1) * w];
-                for (o, b) in row.iter_mut().zip(&buf[k * w..(k + 1) * w]) {
-                    *o = b.d[p - first];
-                }
-            }
-        }
-    }
-}
-
 /// The trajectory's column sources, points' body columns, their local
-/// coordinates and (P rows of) tangents: see `tangent_columns`.
+/// coordinates and (P rows of) tangents: see `sensitivities`.
 pub type Cols<'a> = (&'a [usize], &'a [usize], &'a [C64], &'a [C64]);
