@@ -321,6 +321,11 @@ def _moved_tangent(case, length, base, p, moved, step):
     with its place, ((families [(place, kind, table, tangent)], (functions,
     tangent), (outlines, tangent)), dlocal); an unmoved function or outline
     table has the tangent {}."""
+    entries = _entries(case, moved, base)
+    if entries is not None:   # only numbers inside functions or outlines: no family's table moves
+        (functions, df), (outlines, do) = entries
+        return ([], (base[1], _difference(base[1], functions, step, p.path) if df else {}),
+                (base[2], _difference(base[2], outlines, step, p.path) if do else {})), _dlocal(case, p)
     reached = _reached(case, moved, length, base)
     if reached is None:
         tables, functions, outlines, _ = _tables(moved, length)
@@ -334,6 +339,41 @@ def _moved_tangent(case, length, base, p, moved, step):
     families = [(k, *base[0][k], _linear(base[0][k][1], tables[k], step)) for k in sorted(tables)]
     return (families, (base[1], {} if functions is base[1] else _difference(base[1], functions, step, p.path)),
             (base[2], {} if outlines is base[2] else _difference(base[2], outlines, step, p.path))), _dlocal(case, p)
+
+
+def _entries(case, moved, base):
+    """((functions, moved), (outlines, moved)): the model's function and
+    outline tables (``base``, _tables) with the functions and outlines that
+    ``moved`` (a case from _replaced) changed in their places, ``moved``
+    whether any did (else the table is base's), when moved changes nothing
+    but fields of constraints that are functions or outlines (_set_entry):
+    the families' tables hold only their numbers, so none of them moves
+    (tests/test_sensitivity.py compares with every table rebuilt). None
+    otherwise, or when a changed function or outline is not in the tables
+    as the constraint holds it."""
+    if (len(moved.constraints) != len(case.constraints) or moved.bodies is not case.bodies
+            or any(a is not b for a, b in zip(case.points, moved.points))):
+        return None
+    swap = {}
+    for c0, c1 in zip(case.constraints, moved.constraints):
+        if c0 is c1:
+            continue
+        for key, v in c1.fields.items():
+            old = c0.fields.get(key)
+            if old is not v:
+                if not (is_dataclass(v) and is_dataclass(old)) or isinstance(v, type):
+                    return None
+                swap[id(old)] = v
+    out, found = [], set()
+    for k, table in ((0, FunctionTable(False)), (1, OutlineTable(False))):
+        listed = [x for numbered in base[3] for x in numbered[k]]
+        hit = {id(x) for x in listed} & swap.keys()
+        found |= hit
+        if hit:
+            for x in listed:
+                table.index(swap.get(id(x), x))
+        out.append((table.arrays() if hit else base[1 + k], bool(hit)))
+    return tuple(out) if swap and found == swap.keys() else None
 
 
 def _reached(case, moved, length, base):
