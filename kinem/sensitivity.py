@@ -26,7 +26,7 @@ from .errors import AnalysisError, InputError, KinemError
 from .constraints import REGISTRY
 from .functions import FunctionTable
 from .model import _Context, core_tables, families_of
-from .outline import OutlineTable
+from .outline import Outline, OutlineTable
 from .options import Options
 from .parameters import apply_many, constraint_id, driver_tangent, frame_tangent, local_tangent, resolve
 from .result import OUTPUTS, Trajectory, _layout
@@ -90,7 +90,11 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     if plan is None:
         raise KinemError(f"{case.source}: sensitivities need the compiled march's layout, which this model has not")
     base = _tables(case, model.length)
-    parts = [_moved_tangent(case, model.length, base, p, moved, h) for p, (moved, h) in zip(listed, _moved(case, listed))]
+    parts = _spline_tangents(case, listed, base)
+    rest = [p for k, p in enumerate(listed) if k not in parts]
+    parts.update(zip((k for k in range(len(listed)) if k not in parts),
+                     (_moved_tangent(case, model.length, base, p, moved, h) for p, (moved, h) in zip(rest, _moved(case, rest)))))
+    parts = [parts[k] for k in range(len(listed))]
     X = [np.ascontiguousarray(x) for x in (result.q, result.qd, result.qdd) if x is not None]
     t = np.ascontiguousarray(result.trajectory.t)
     columns, src, _ = _layout(model, len(X))
@@ -339,6 +343,45 @@ def _moved_tangent(case, length, base, p, moved, step):
     families = [(k, *base[0][k], _linear(base[0][k][1], tables[k], step)) for k in sorted(tables)]
     return (families, (base[1], {} if functions is base[1] else _difference(base[1], functions, step, p.path)),
             (base[2], {} if outlines is base[2] else _difference(base[2], outlines, step, p.path))), _dlocal(case, p)
+
+
+def _spline_tangents(case, listed, base) -> dict:
+    """{k: ``_moved_tangent``} for the parameters listed[k] that are a value
+    s_j of a spline outline (``constraints.C.KEY.spline.s.j``; not the
+    last of a periodic one, which the first sets): the outline's pieces are
+    linear in s, so the tangent is the pieces of the spline through the
+    unit vector e_j (e_0 + e_last for a periodic outline's first) in that
+    outline's coefficients (OutlineTable's layout: pieces first[o] ..
+    last[o], 4 coefficients each), every j of one outline from one
+    CubicSpline. No family's table moves (as ``_entries``)."""
+    from scipy.interpolate import CubicSpline
+
+    numbered = [o for f in base[3] for o in f[1]]
+    first, last = base[2]["first"], base[2]["last"]
+    by_outline = {}
+    for k, p in enumerate(listed):
+        parts = p.path.split(".")
+        if len(parts) != 6 or parts[0] != "constraints" or parts[3:5] != ["spline", "s"] or not parts[5].isdigit():
+            continue
+        c = next((c for c in case.constraints if constraint_id(c) == parts[1]), None)
+        o, j = c.fields.get(parts[2]) if c is not None else None, int(parts[5])
+        if (isinstance(o, Outline) and o.kind == "spline" and j < len(o.s) - o.periodic
+                and any(x is o for x in numbered)):
+            by_outline.setdefault(id(o), (o, []))[1].append((k, j))
+    out = {}
+    for o, ks in by_outline.values():
+        unit = np.zeros((len(o.s), len(ks)))
+        for col, (_, j) in enumerate(ks):
+            unit[j, col] = 1.0
+            if o.periodic and j == 0:
+                unit[-1, col] = 1.0
+        c = CubicSpline(np.array(o.theta), unit, bc_type=o.bc).c    # (4, pieces, len(ks))
+        for col, (k, _) in enumerate(ks):
+            tangent = _zero(base[2])
+            for place in (i for i, x in enumerate(numbered) if x is o):
+                tangent["coef"][4 * first[place]:4 * (last[place] + 1)] = c[:, :, col].T.ravel()
+            out[k] = ([], (base[1], {}), (base[2], tangent)), _dlocal(case, listed[k])
+    return out
 
 
 def _entries(case, moved, base):

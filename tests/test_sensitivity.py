@@ -256,3 +256,33 @@ def test_coordinates_moved_in_place_give_the_validated_tables(path):
         for (t0, d), t1 in ((functions, f1), (outlines, o1)):
             full = S._difference(t0, t1, h, p.path)
             assert full.keys() == d.keys() and all(np.array_equal(full[k], d[k]) for k in full), p.path
+
+
+def test_spline_values_tangents_in_one_spline_equal_their_differences():
+    """kinem.sensitivity takes every spline.s.j of an outline from one
+    spline through unit vectors (_spline_tangents): the outline table's
+    tangents equal those of the case moved by h (_tangent, S5), to 1e-12 of
+    the largest, on the cam of Table 4.1 (periodic) and every other case
+    with a spline outline."""
+    import importlib
+
+    S = importlib.import_module("kinem.sensitivity")
+    checked = 0
+    for path in CASES:
+        case = kinem.load(path)
+        listed = [p for p in parameters(case) if ".spline.s." in p.path]
+        if not listed:
+            continue
+        model = kinem.compile(case)
+        base = S._tables(case, model.length)
+        fast = S._spline_tangents(case, listed, base)
+        slow = {k: S._tangent(case, model.length, base, p, moved, h)
+                for k, (p, (moved, h)) in enumerate(zip(listed, S._moved(case, listed)))}
+        for k, ((families, functions, (_, d)), dlocal) in fast.items():
+            (_, _, (_, want)), want_local = slow[k]
+            assert families == [] and functions[1] == {} and np.array_equal(dlocal, want_local), listed[k].path
+            for key in want:
+                scale = max(float(np.max(np.abs(want[key]), initial=0.0)), 1e-300)
+                assert np.max(np.abs(d[key] - want[key]), initial=0.0) <= 1e-12 * scale, (listed[k].path, key)
+            checked += 1
+    assert checked >= 10
