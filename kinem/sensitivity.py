@@ -91,9 +91,12 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
         raise KinemError(f"{case.source}: sensitivities need the compiled march's layout, which this model has not")
     base = _tables(case, model.length)
     parts = _spline_tangents(case, listed, base)
-    rest = [p for k, p in enumerate(listed) if k not in parts]
-    parts.update(zip((k for k in range(len(listed)) if k not in parts),
-                     (_moved_tangent(case, model.length, base, p, moved, h) for p, (moved, h) in zip(rest, _moved(case, rest)))))
+    rest = [k for k in range(len(listed)) if k not in parts]
+    items = [(k, listed[k], moved, h) for k, (moved, h) in zip(rest, _moved(case, [listed[k] for k in rest]))]
+    parts.update(_stacked(case, model.length, base, items))
+    for k, p, moved, h in items:
+        if k not in parts:
+            parts[k] = _moved_tangent(case, model.length, base, p, moved, h)
     parts = [parts[k] for k in range(len(listed))]
     X = [np.ascontiguousarray(x) for x in (result.q, result.qd, result.qdd) if x is not None]
     t = np.ascontiguousarray(result.trajectory.t)
@@ -382,6 +385,49 @@ def _spline_tangents(case, listed, base) -> dict:
                 tangent["coef"][4 * first[place]:4 * (last[place] + 1)] = c[:, :, col].T.ravel()
             out[k] = ([], (base[1], {}), (base[2], tangent)), _dlocal(case, listed[k])
     return out
+
+
+def _stacked(case, length, base, items) -> dict:
+    """{k: ``_moved_tangent``} for the parameters of items [(k, p, moved
+    case, h)] whose moved case (set in place) changes only constraints of
+    families that number no function or outline: each such family built
+    once, over its constraints followed by every moved case's (its table
+    then holds their tables end to end, one row per constraint in order,
+    which its integer columns, the nominal's repeated, and the nominal's
+    own rows confirm; else it is left to ``_moved_tangent``), a parameter's
+    tangent the difference of its rows and the nominal's over h."""
+    order = {}
+    for c in case.constraints:
+        order.setdefault(REGISTRY[c.type].family, len(order))
+    wanted, changed = {}, {}   # family -> [(k, h, its constraints moved)]; k -> families
+    for k, p, moved, h in items:
+        if (isinstance(moved, InputError) or len(moved.constraints) != len(case.constraints)
+                or moved.bodies is not case.bodies):
+            continue
+        families = {REGISTRY[c1.type].family for c0, c1 in zip(case.constraints, moved.constraints) if c0 is not c1}
+        if not families or any(base[3][order[f]] != ([], []) for f in families):
+            continue
+        changed[k] = families
+        for f in families:
+            wanted.setdefault(f, []).append((k, h, [c for c in moved.constraints if REGISTRY[c.type].family is f]))
+    tangents = {}
+    for family, moved_lists in wanted.items():
+        place = order[family]
+        t0, copies = base[0][place][1], len(moved_lists) + 1
+        nominal = [c for c in case.constraints if REGISTRY[c.type].family is family]
+        functions, outlines, ctx = FunctionTable(False), OutlineTable(False), _Context(case, length)
+        table = family(nominal + [c for _, _, cons in moved_lists for c in cons], ctx).table(functions, outlines)[1]
+        if functions.functions or outlines.outlines or ctx.artificial or table.keys() != t0.keys() or not all(
+                len(table[key]) == copies * len(v) and _same(table[key][:len(v)], v)
+                and (v.dtype.kind not in "iu" or _same(table[key], np.concatenate([v] * copies)))
+                for key, v in t0.items()):
+            continue
+        for i, (k, h, _) in enumerate(moved_lists, 1):
+            tangents.setdefault(k, {})[place] = {key: (table[key][i * len(v):(i + 1) * len(v)] - v) / h
+                                                 for key, v in t0.items() if v.dtype.kind not in "iu"}
+    return {k: (([(place, *base[0][place], d) for place, d in sorted(tangents[k].items())], (base[1], {}),
+                 (base[2], {})), _dlocal(case, p))
+            for k, p, _, _ in items if k in changed and len(tangents.get(k, ())) == len(changed[k])}
 
 
 def _entries(case, moved, base):

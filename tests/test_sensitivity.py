@@ -286,3 +286,27 @@ def test_spline_values_tangents_in_one_spline_equal_their_differences():
                 assert np.max(np.abs(d[key] - want[key]), initial=0.0) <= 1e-12 * scale, (listed[k].path, key)
             checked += 1
     assert checked >= 10
+
+
+@pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
+def test_families_built_once_for_every_parameter_give_each_ones_tangent(path):
+    """kinem.sensitivity builds a family once over its constraints and every
+    parameter's moved ones (_stacked): each parameter's tangent equals the
+    one of its own moved case (_moved_tangent) exactly."""
+    import importlib
+
+    S = importlib.import_module("kinem.sensitivity")
+    case = kinem.load(path)
+    model = kinem.compile(case)
+    listed = parameters(case)
+    base = S._tables(case, model.length)
+    items = [(k, p, moved, h) for k, (p, (moved, h)) in enumerate(zip(listed, S._moved(case, listed)))]
+    stacked = S._stacked(case, model.length, base, items)
+    assert stacked or not any(p.path.startswith("points.") for p in listed)
+    for k, ((families, functions, outlines), dlocal) in stacked.items():
+        _, p, moved, h = items[k]
+        (want, _, _), want_local = S._moved_tangent(case, model.length, base, p, moved, h)
+        assert [f[:2] for f in families] == [f[:2] for f in want] and functions[1] == outlines[1] == {}, p.path
+        assert np.array_equal(dlocal, want_local), p.path
+        for (_, _, _, d), (_, _, _, w) in zip(families, want):
+            assert d.keys() == w.keys() and all(np.array_equal(d[key], w[key]) for key in w), p.path
