@@ -21,7 +21,7 @@
 //! share one factorisation of J at the instant (the march's layout,
 //! crate::lu): no finite differences anywhere.
 use crate::families::At;
-use crate::lu::Layout;
+use crate::lu::{Factors, Layout};
 use crate::model::Kin;
 use crate::real::{Lanes, Real};
 use crate::table::Table;
@@ -148,8 +148,9 @@ pub fn sensitivities(
         (vec![L::c(0.0); n], vec![L::c(0.0); n], vec![Complex::new(L::c(0.0), L::c(0.0)); n]);
     let (mut rl, mut jl) = (vec![L::c(0.0); m], vec![L::c(0.0); nnz]);
     let (mut a, mut b) = (vec![0.0; nnz], vec![0.0; nnz]);
-    let (mut rhs, mut sol) = (vec![0.0; m], vec![0.0; n]);
-    // s, sd (lanes); M s, J_p v (lanes)
+    let mut rhs = vec![[0.0; LANES]; m];
+    let mut solver = Solver::new(n, m, 3 * np >= 2 * n && n <= INVERSE);
+    // s, sd, sdd (lanes); M s, J_p v (lanes)
     let (mut s, mut sd, mut sdd) = (vec![[0.0; LANES]; n], vec![[0.0; LANES]; n], vec![[0.0; LANES]; n]);
     let (mut by, mut jp) = (vec![[0.0; LANES]; m], vec![[0.0; LANES]; m]);
     for k in 0..kk {
@@ -176,20 +177,15 @@ pub fn sensitivities(
                 (*x, *y) = (v.d[0], v.d[1]);
             }
         }
+        solver.prepare(layout, &mut f);
         for (g, model) in groups.iter().enumerate() {
-            let group = g * LANES..(g * LANES + LANES).min(np);
+            let count = (np - g * LANES).min(LANES);
             // S1: Phi_p, Phi's tangent at q' = 0
             model.phi(&at0, &mut rl);
-            for p in group.clone() {
-                let lane = p - g * LANES;
-                for (r, x) in rhs.iter_mut().zip(&rl) {
-                    *r = -x.d[lane];
-                }
-                layout.solve(&mut f, &rhs, &mut sol);
-                for (x, &v) in s.iter_mut().zip(&sol) {
-                    x[lane] = v;
-                }
+            for (r, x) in rhs.iter_mut().zip(&rl) {
+                *r = x.d.map(|v| -v);
             }
+            solver.solve(layout, &mut f, &rhs, count, &mut s);
             for j in 0..n {
                 ql[j] = Lanes::of(q[j], s[j]);
             }
@@ -199,16 +195,8 @@ pub fn sensitivities(
                 model.nu(t, &mut rl);
                 csr.product(&a, &s, &mut by);
                 csr.lanes_product(&jl, row(1), &mut jp);
-                for p in group.clone() {
-                    let lane = p - g * LANES;
-                    for (((r, x), y), z) in rhs.iter_mut().zip(&rl).zip(&by).zip(&jp) {
-                        *r = x.d[lane] - y[lane] - z[lane];
-                    }
-                    layout.solve(&mut f, &rhs, &mut sol);
-                    for (x, &v) in sd.iter_mut().zip(&sol) {
-                        x[lane] = v;
-                    }
-                }
+                difference(&rl, &by, &jp, &mut rhs);
+                solver.solve(layout, &mut f, &rhs, count, &mut sd);
                 let qd = row(1);
                 for j in 0..n {
                     qdl[j] = Lanes::of(qd[j], sd[j]);
@@ -221,16 +209,8 @@ pub fn sensitivities(
                 model.gamma(&At { q: &ql, e: &el, t }, &qdl, &mut rl);
                 csr.product(&b, &s, &mut by);
                 csr.lanes_product(&jl, row(2), &mut jp);
-                for p in group.clone() {
-                    let lane = p - g * LANES;
-                    for (((r, x), y), z) in rhs.iter_mut().zip(&rl).zip(&by).zip(&jp) {
-                        *r = x.d[lane] - y[lane] - z[lane];
-                    }
-                    layout.solve(&mut f, &rhs, &mut sol);
-                    for (x, &v) in sdd.iter_mut().zip(&sol) {
-                        x[lane] = v;
-                    }
-                }
+                difference(&rl, &by, &jp, &mut rhs);
+                solver.solve(layout, &mut f, &rhs, count, &mut sdd);
                 let qdd = row(2);
                 for j in 0..n {
                     qddl[j] = Lanes::of(qdd[j], sdd[j]);
@@ -239,7 +219,7 @@ pub fn sensitivities(
             // the named points' and every column's tangents, from the lanes
             let stages: [&[L]; 3] = [&ql, &qdl, &qddl];
             layout_columns.row(&stages[..levels], &locs[g], &mut pts, &mut buf);
-            for p in group.clone() {
+            for p in g * LANES..g * LANES + count {
                 let lane = p - g * LANES;
                 let to = &mut data[(k * np + p) * w..(k * np + p + 1) * w];
                 for (o, b) in to.iter_mut().zip(&buf) {
@@ -249,6 +229,90 @@ pub fn sensitivities(
         }
     }
     Ok(())
+}
+
+/// rhs = b's tangents - x - y, lane by lane.
+fn difference(b: &[L], x: &[[f64; LANES]], y: &[[f64; LANES]], rhs: &mut [[f64; LANES]]) {
+    for (((r, b), x), y) in rhs.iter_mut().zip(b).zip(x).zip(y) {
+        for l in 0..LANES {
+            r[l] = b.d[l] - x[l] - y[l];
+        }
+    }
+}
+
+/// Models of at most this many coordinates solve many parameters' systems
+/// through Phi_q's inverse, formed at each instant from its factors (n
+/// solves, then a product per LANES parameters), where that takes fewer
+/// solves than one per parameter and level (3 P >= 2 n).
+pub const INVERSE: usize = 64;
+
+/// The instant's solves of LANES right-hand sides: one by one with the
+/// factors, or through the inverse (`inverse`: n x m, row-major).
+struct Solver {
+    use_inverse: bool,
+    inverse: Vec<f64>,
+    b: Vec<f64>,
+    x: Vec<f64>,
+}
+
+impl Solver {
+    fn new(n: usize, m: usize, use_inverse: bool) -> Solver {
+        Solver {
+            use_inverse,
+            inverse: vec![0.0; if use_inverse { n * m } else { 0 }],
+            b: vec![0.0; m],
+            x: vec![0.0; n],
+        }
+    }
+
+    /// The inverse from the instant's factors (when it is used).
+    fn prepare(&mut self, layout: &Layout, f: &mut Factors) {
+        if !self.use_inverse {
+            return;
+        }
+        let m = self.b.len();
+        for i in 0..m {
+            self.b.fill(0.0);
+            self.b[i] = 1.0;
+            layout.solve(f, &self.b, &mut self.x);
+            for (j, &v) in self.x.iter().enumerate() {
+                self.inverse[j * m + i] = v;
+            }
+        }
+    }
+
+    /// out = Phi_q^-1 rhs for the first `count` lanes.
+    fn solve(
+        &mut self,
+        layout: &Layout,
+        f: &mut Factors,
+        rhs: &[[f64; LANES]],
+        count: usize,
+        out: &mut [[f64; LANES]],
+    ) {
+        let m = self.b.len();
+        if self.use_inverse {
+            for (j, o) in out.iter_mut().enumerate() {
+                let mut acc = [0.0; LANES];
+                for (&a, r) in self.inverse[j * m..(j + 1) * m].iter().zip(rhs) {
+                    for l in 0..LANES {
+                        acc[l] += a * r[l];
+                    }
+                }
+                *o = acc;
+            }
+            return;
+        }
+        for l in 0..count {
+            for (b, r) in self.b.iter_mut().zip(rhs) {
+                *b = r[l];
+            }
+            layout.solve(f, &self.b, &mut self.x);
+            for (o, &v) in out.iter_mut().zip(&self.x) {
+                o[l] = v;
+            }
+        }
+    }
 }
 
 /// The Jacobian's pattern by rows: entry order[i] of row r for i in
