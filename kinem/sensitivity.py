@@ -209,7 +209,16 @@ def _all_set(case, values):
     points, constraints = list(case.points), list(case.constraints)
     if not all(_set(points, constraints, path, value) for path, value in values.items()):
         return None
-    return replace(case, points=tuple(points), constraints=tuple(constraints))
+    return _with(case, points=tuple(points), constraints=tuple(constraints))
+
+
+def _with(obj, **fields):
+    """dataclasses.replace of a frozen dataclass of kinem.spec (none has a
+    __post_init__) without its per-field work: a case has some twenty."""
+    new = object.__new__(type(obj))
+    new.__dict__.update(obj.__dict__)
+    new.__dict__.update(fields)
+    return new
 
 
 def _set(points, constraints, path, value) -> bool:
@@ -226,7 +235,7 @@ def _set(points, constraints, path, value) -> bool:
         for i, c in enumerate(constraints):
             v = c.fields.get(parts[2])
             if constraint_id(c) == parts[1] and isinstance(v, float) and parts[2] not in c.refs:
-                constraints[i] = replace(c, fields=frozen_map({**c.fields, parts[2]: float(value)}))
+                constraints[i] = _with(c, fields=frozen_map({**c.fields, parts[2]: float(value)}))
                 return True
         return False
     if len(parts) >= 5 and parts[0] == "constraints":
@@ -245,10 +254,10 @@ def _set(points, constraints, path, value) -> bool:
         if len(points[j].at) <= k:
             return False
         at = moved(points[j].at)
-        points[j] = replace(points[j], at=at)
+        points[j] = _with(points[j], at=at)
         for i, c in enumerate(constraints):
             if parts[1] in c.refs.values():
-                constraints[i] = replace(c, fields=frozen_map(
+                constraints[i] = _with(c, fields=frozen_map(
                     {**c.fields, **{key: at for key, q in c.refs.items() if q == parts[1]}}))
         return True
     if parts[0] != "constraints":
@@ -258,7 +267,7 @@ def _set(points, constraints, path, value) -> bool:
             v = c.fields.get(parts[2])
             if parts[2] in c.refs or not isinstance(v, tuple) or len(v) <= k:
                 return False
-            constraints[i] = replace(c, fields=frozen_map({**c.fields, parts[2]: moved(v)}))
+            constraints[i] = _with(c, fields=frozen_map({**c.fields, parts[2]: moved(v)}))
             return True
     return False
 
@@ -294,7 +303,7 @@ def _set_entry(constraints, parts, value) -> bool:
             if key == "s" and k == 0 and getattr(v, "periodic", False):
                 entries[-1] = float(value)
             moved = replace(v, **{key: tuple(entries)})
-        constraints[i] = replace(c, fields=frozen_map({**c.fields, parts[2]: moved}))
+        constraints[i] = _with(c, fields=frozen_map({**c.fields, parts[2]: moved}))
         return True
     return False
 
