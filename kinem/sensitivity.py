@@ -89,24 +89,10 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     plan = model.plan
     if plan is None:
         raise KinemError(f"{case.source}: sensitivities need the compiled march's layout, which this model has not")
-    base = _tables(case, model.length)
-    parts = _spline_tangents(case, listed, base)
-    rest = [k for k in range(len(listed)) if k not in parts]
-    items = [(k, listed[k], moved, h) for k, (moved, h) in zip(rest, _moved(case, [listed[k] for k in rest]))]
-    parts.update(_stacked(case, model.length, base, items))
-    for k, p, moved, h in items:
-        if k not in parts:
-            parts[k] = _moved_tangent(case, model.length, base, p, moved, h)
-    parts = [parts[k] for k in range(len(listed))]
-    X = [np.ascontiguousarray(x) for x in (result.q, result.qd, result.qdd) if x is not None]
-    t = np.ascontiguousarray(result.trajectory.t)
-    columns, src, _ = _layout(model, len(X))
-    dlocal = np.array([d for _, d in parts], complex).reshape(len(parts), len(model.point_names))
-    core = [([(k, d) for k, _, _, d in families], functions[1], outlines[1])
-            for (families, functions, outlines), _ in parts]
-    data, ratio = plan.sensitivity(base[:3], core, t, X, model.jac_rows.astype(np.int64),
-                                   model.jac_cols.astype(np.int64), src, model.point_cols.astype(np.int64),
-                                   model.point_local, dlocal)
+    args = core_inputs(model, listed, result)
+    columns = _layout(model, len(args[3]))[0]
+    data, ratio = plan.sensitivity(*args)
+    t = args[2]
     width = len(columns)
     for k, p in enumerate(listed):
         _derived_frames(case, p.path, columns, data[:, k * width:(k + 1) * width], result.trajectory)
@@ -121,6 +107,33 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     heads = [f"d({c})/d(" for c in columns]
     names = tuple(h + path for path in [p.path + ")" for p in listed] for h in heads)
     return Sensitivity(listed, result.trajectory, Trajectory(t.copy(), names, data), singular, ratio, message)
+
+
+def core_inputs(model, listed, result) -> tuple:
+    """The arguments of the core's Plan.sensitivity for the parameters
+    ``listed`` (kinem.parameters.Parameter) at the instants of ``result``
+    (the nominal solve): the model's tables, each parameter's tables'
+    tangents (only the families it moves), t, the stages, the Jacobian's
+    pattern, the trajectory's column sources and the named points' columns,
+    local coordinates and tangents. benchmarks/sensitivity_bench.py times
+    the core's part with them."""
+    case = model.case
+    base = _tables(case, model.length)
+    parts = _spline_tangents(case, listed, base)
+    rest = [k for k in range(len(listed)) if k not in parts]
+    items = [(k, listed[k], moved, h) for k, (moved, h) in zip(rest, _moved(case, [listed[k] for k in rest]))]
+    parts.update(_stacked(case, model.length, base, items))
+    for k, p, moved, h in items:
+        if k not in parts:
+            parts[k] = _moved_tangent(case, model.length, base, p, moved, h)
+    parts = [parts[k] for k in range(len(listed))]
+    X = [np.ascontiguousarray(x) for x in (result.q, result.qd, result.qdd) if x is not None]
+    dlocal = np.array([d for _, d in parts], complex).reshape(len(parts), len(model.point_names))
+    core = [([(k, d) for k, _, _, d in families], functions[1], outlines[1])
+            for (families, functions, outlines), _ in parts]
+    return (base[:3], core, np.ascontiguousarray(result.trajectory.t), X, model.jac_rows.astype(np.int64),
+            model.jac_cols.astype(np.int64), _layout(model, len(X))[1], model.point_cols.astype(np.int64),
+            model.point_local, dlocal)
 
 
 def _derived_frames(case, path, columns, block, traj):
