@@ -4,15 +4,19 @@ artificial coordinates; positions, velocities, accelerations) at every
 output instant, for design parameters p named by their paths
 (kinem.parameters).
 
-The core differentiates the kinematic equations directly (Eqs. S1-S3,
+The core differentiates the kinematic equations directly (Eqs. S1-S3, S6,
 kinem/core/src/sensitivity.rs), through one factorisation of Phi_q per
-instant, evaluating the families' own kernels over dual numbers; the named
-points' columns come from the same kernel as the trajectory's
-(kinem/core/src/columns.rs) over dual numbers. What it needs from here is
-each parameter's tangent of the model's tables: the tables are affine in the
-case's numbers (unit directions and the roller's squared radius are taken in
-the core), so the tangent is their exact linear part, (B(x + h e_p) - B(x)) / h
-with h a power of two (no truncation error, rounding only: relative 1e-16).
+instant, evaluating the families' own kernels over dual numbers, four
+parameters per evaluation; the named points' columns come from the same
+kernel as the trajectory's (kinem/core/src/columns.rs), in the same call.
+What it needs from here is each parameter's tangent of the model's tables
+(``core_inputs``): the tables are affine in the case's numbers (unit
+directions and the roller's squared radius are taken in the core), so the
+tangent is their exact linear part, (B(x + h e_p) - B(x)) / h with h a power
+of two (no truncation error, rounding only: relative 1e-16), each family
+built once for all the parameters that move it where it can be
+(``_stacked``), a spline outline's values from one spline (``_spline_tangents``).
+``tangents(model, paths)`` gives them in full.
 
 At an instant where Phi_q is singular (its pivot ratio below the solver's
 floor, kinem.tracking.singular_pivot) the derivatives are infinite: they are
