@@ -385,35 +385,28 @@ impl<const N: usize> Num for Lanes<N> {
 mod tests {
     use super::*;
 
+    /// Every operation over S, of x and y.
+    fn ops<S: Real>(x: S, y: S) -> [S; 8] {
+        [
+            x + y,
+            x - y * 2.0,
+            x * y + 1.0,
+            x / y - 0.5,
+            x % y,
+            -x.sin() * x.cos(),
+            (x * x + y * y).sqrt(),
+            x.with_value(2.0) * y,
+        ]
+    }
+
     /// Every operation of Lanes<3> gives, lane by lane, Dual's tangent.
     #[test]
     fn lanes_are_duals_side_by_side() {
         let (a, b) = (Lanes::of(0.7, [1.0, -2.0, 0.5]), Lanes::of(-1.3, [0.25, 3.0, -1.0]));
         let dual = |x: Lanes<3>, k: usize| Dual { v: x.v, d: x.d[k] };
-        let ops: [fn(Lanes<3>, Lanes<3>) -> Lanes<3>; 8] = [
-            |x, y| x + y,
-            |x, y| x - y * 2.0,
-            |x, y| x * y + 1.0,
-            |x, y| x / y - 0.5,
-            |x, y| x % y,
-            |x, _| -x.sin() * x.cos(),
-            |x, y| (x * x + y * y).sqrt(),
-            |x, y| x.with_value(2.0) * y,
-        ];
-        let duals: [fn(Dual, Dual) -> Dual; 8] = [
-            |x, y| x + y,
-            |x, y| x - y * 2.0,
-            |x, y| x * y + 1.0,
-            |x, y| x / y - 0.5,
-            |x, y| x % y,
-            |x, _| -x.sin() * x.cos(),
-            |x, y| (x * x + y * y).sqrt(),
-            |x, y| x.with_value(2.0) * y,
-        ];
-        for (f, g) in ops.iter().zip(&duals) {
-            let r = f(a, b);
-            for k in 0..3 {
-                let d = g(dual(a, k), dual(b, k));
+        let lanes = ops(a, b);
+        for k in 0..3 {
+            for (r, d) in lanes.iter().zip(ops(dual(a, k), dual(b, k))) {
                 assert!(
                     (r.v - d.v).abs() <= 1e-15 * d.v.abs().max(1.0)
                         && (r.d[k] - d.d).abs() <= 1e-15 * d.d.abs().max(1.0)

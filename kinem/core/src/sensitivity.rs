@@ -193,9 +193,8 @@ pub fn sensitivities(
                 // S2: nu_p - A s - J_p qd, J_p: the Jacobian's tangent at q' = 0
                 model.jac(&at0, &mut jl);
                 model.nu(t, &mut rl);
-                csr.product(&a, &s, &mut by);
-                csr.lanes_product(&jl, row(1), &mut jp);
-                difference(&rl, &by, &jp, &mut rhs);
+                let parts = (&rl[..], &jl[..], &s[..], row(1));
+                right_side(&csr, &a, parts, (&mut by, &mut jp), &mut rhs);
                 solver.solve(layout, &mut f, &rhs, count, &mut sd);
                 let qd = row(1);
                 for j in 0..n {
@@ -207,9 +206,8 @@ pub fn sensitivities(
                 // tables'), minus B s and J_p qdd
                 model.rotate(&ql, &mut el);
                 model.gamma(&At { q: &ql, e: &el, t }, &qdl, &mut rl);
-                csr.product(&b, &s, &mut by);
-                csr.lanes_product(&jl, row(2), &mut jp);
-                difference(&rl, &by, &jp, &mut rhs);
+                let parts = (&rl[..], &jl[..], &s[..], row(2));
+                right_side(&csr, &b, parts, (&mut by, &mut jp), &mut rhs);
                 solver.solve(layout, &mut f, &rhs, count, &mut sdd);
                 let qdd = row(2);
                 for j in 0..n {
@@ -231,11 +229,23 @@ pub fn sensitivities(
     Ok(())
 }
 
-/// rhs = b's tangents - x - y, lane by lane.
-fn difference(b: &[L], x: &[[f64; LANES]], y: &[[f64; LANES]], rhs: &mut [[f64; LANES]]) {
-    for (((r, b), x), y) in rhs.iter_mut().zip(b).zip(x).zip(y) {
+/// rhs = D(c) - M s - J_p v, lane by lane, for (S2) (c = nu, M = A,
+/// v = qd) and (S3) (c = gamma, M = B, v = qdd): parts (c, J_p, s, v),
+/// scratch for M s and J_p v.
+#[allow(clippy::type_complexity)]
+fn right_side(
+    csr: &Csr,
+    mat: &[f64],
+    parts: (&[L], &[L], &[[f64; LANES]], &[f64]),
+    scratch: (&mut [[f64; LANES]], &mut [[f64; LANES]]),
+    rhs: &mut [[f64; LANES]],
+) {
+    let ((c, jp, s, v), (by, jv)) = (parts, scratch);
+    csr.product(mat, s, by);
+    csr.lanes_product(jp, v, jv);
+    for (((r, c), x), y) in rhs.iter_mut().zip(c).zip(by.iter()).zip(jv.iter()) {
         for l in 0..LANES {
-            r[l] = b.d[l] - x[l] - y[l];
+            r[l] = c.d[l] - x[l] - y[l];
         }
     }
 }
