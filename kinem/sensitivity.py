@@ -127,6 +127,7 @@ def core_inputs(model, listed, result) -> tuple:
     rest = [k for k in range(len(listed)) if k not in parts]
     items = [(k, listed[k], moved, h) for k, (moved, h) in zip(rest, _moved(case, [listed[k] for k in rest]))]
     parts.update(_stacked(case, model.length, base, items))
+    parts.update(_function_tangents(case, base, [i for i in items if i[0] not in parts]))
     for k, p, moved, h in items:
         if k not in parts:
             parts[k] = _moved_tangent(case, model.length, base, p, moved, h)
@@ -456,18 +457,12 @@ def _stacked(case, length, base, items) -> dict:
             for k, p, _, _ in items if k in changed and len(tangents.get(k, ())) == len(changed[k])}
 
 
-def _entries(case, moved, base):
-    """((functions, moved), (outlines, moved)): the model's function and
-    outline tables (``base``, _tables) with the functions and outlines that
-    ``moved`` (a case from _replaced) changed in their places, ``moved``
-    whether any did (else the table is base's), when moved changes nothing
-    but fields of constraints that are functions or outlines (_set_entry):
-    the families' tables hold only their numbers, so none of them moves
-    (tests/test_sensitivity.py compares with every table rebuilt). None
-    otherwise, or when a changed function or outline is not in the tables
-    as the constraint holds it."""
-    if (len(moved.constraints) != len(case.constraints) or moved.bodies is not case.bodies
-            or any(a is not b for a, b in zip(case.points, moved.points))):
+def _swap(case, moved):
+    """{id(old): new} of the functions and outlines that ``moved`` (a case
+    from _replaced) holds in place of the case's, when it changes nothing
+    else (_set_entry); else None."""
+    if (isinstance(moved, InputError) or len(moved.constraints) != len(case.constraints)
+            or moved.bodies is not case.bodies or any(a is not b for a, b in zip(case.points, moved.points))):
         return None
     swap = {}
     for c0, c1 in zip(case.constraints, moved.constraints):
@@ -479,6 +474,56 @@ def _entries(case, moved, base):
                 if not (is_dataclass(v) and is_dataclass(old)) or isinstance(v, type):
                     return None
                 swap[id(old)] = v
+    return swap
+
+
+def _function_tangents(case, base, items) -> dict:
+    """{k: ``_moved_tangent``} for the items [(k, p, moved case, h)] whose
+    moved case changes only driving functions (as ``_entries``): every
+    moved function numbered once after the model's in one FunctionTable
+    (function f's numbers are data[start[f]:start[f + 1]],
+    kinem/core/src/functions.rs), a parameter's tangent the difference of
+    its functions' numbers and theirs over h."""
+    listed = [x for numbered in base[3] for x in numbered[0]]
+    where = {}
+    for i, x in enumerate(listed):
+        where.setdefault(id(x), []).append(i)
+    table, picked = FunctionTable(False), []
+    for x in listed:
+        table.index(x)
+    for k, p, moved, h in items:
+        swap = _swap(case, moved)
+        if swap and swap.keys() <= where.keys():
+            picked.append((k, p, h, [(i, table.index(new)) for old, new in swap.items() for i in where[old]]))
+    if not picked:
+        return {}
+    arrays, data0 = table.arrays(), base[1]["data"]
+    kind, start, data = arrays["kind"], arrays["start"], arrays["data"]
+    if not _same(data[:len(data0)], data0):
+        return {}
+    out = {}
+    for k, p, h, numbers in picked:
+        d = np.zeros_like(data0)
+        if all(kind[i] == kind[j] and start[i + 1] - start[i] == start[j + 1] - start[j] for i, j in numbers):
+            for i, j in numbers:
+                d[start[i]:start[i + 1]] = (data[start[j]:start[j + 1]] - data0[start[i]:start[i + 1]]) / h
+            out[k] = (([], (base[1], {"data": d}), (base[2], {})), _dlocal(case, p))
+    return out
+
+
+def _entries(case, moved, base):
+    """((functions, moved), (outlines, moved)): the model's function and
+    outline tables (``base``, _tables) with the functions and outlines that
+    ``moved`` (a case from _replaced) changed in their places, ``moved``
+    whether any did (else the table is base's), when moved changes nothing
+    but fields of constraints that are functions or outlines (_set_entry):
+    the families' tables hold only their numbers, so none of them moves
+    (tests/test_sensitivity.py compares with every table rebuilt). None
+    otherwise, or when a changed function or outline is not in the tables
+    as the constraint holds it."""
+    swap = _swap(case, moved)
+    if swap is None:
+        return None
     out, found = [], set()
     for k, table in ((0, FunctionTable(False)), (1, OutlineTable(False))):
         listed = [x for numbered in base[3] for x in numbered[k]]

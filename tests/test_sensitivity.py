@@ -310,3 +310,25 @@ def test_families_built_once_for_every_parameter_give_each_ones_tangent(path):
         assert np.array_equal(dlocal, want_local), p.path
         for (_, _, _, d), (_, _, _, w) in zip(families, want):
             assert d.keys() == w.keys() and all(np.array_equal(d[key], w[key]) for key in w), p.path
+
+
+@pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
+def test_functions_numbered_once_for_every_parameter_give_each_ones_tangent(path):
+    """kinem.sensitivity numbers every parameter's moved driving function
+    once after the model's (_function_tangents): each parameter's tangent
+    equals the one of its own moved case (_moved_tangent) exactly."""
+    import importlib
+
+    S = importlib.import_module("kinem.sensitivity")
+    case = kinem.load(path)
+    model = kinem.compile(case)
+    listed = parameters(case)
+    base = S._tables(case, model.length)
+    items = [(k, p, moved, h) for k, (p, (moved, h)) in enumerate(zip(listed, S._moved(case, listed)))]
+    got = S._function_tangents(case, base, items)
+    assert got or not any(".poly." in p.path for p in listed)
+    for k, ((families, (_, d), (_, o)), dlocal) in got.items():
+        _, p, moved, h = items[k]
+        (want, (_, w), (_, wo)), want_local = S._moved_tangent(case, model.length, base, p, moved, h)
+        assert families == want == [] and o == wo == {} and np.array_equal(dlocal, want_local), p.path
+        assert d.keys() == w.keys() and all(np.array_equal(d[key], w[key]) for key in w), p.path
