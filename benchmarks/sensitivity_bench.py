@@ -1,39 +1,67 @@
 """Issue 30: the cost of exact design sensitivities (kinem.sensitivity)
 against the plain solve: every listed parameter's d/dp of positions,
 velocities and accelerations at every output instant should cost at most
-(1 + 0.5 P) plain solves (P parameters). Prints medians of round-robin runs;
-then the four-bar's tolerance bands (kinem.tolerance, its [tolerances]):
-N Monte Carlo samples over its 251 instants, median of min(REPEATS, 3) runs
-(the target: 10,000 in 5 s).
+(1 + 0.5 P) plain solves (P parameters). Round-robin runs (solve,
+sensitivity, the core's part alone), each warm (right after an untimed call
+of the same); medians of the process's CPU time (the machine is shared:
+CPU time is what the call itself spends, the same measure on both sides)
+and of wall time. Per case: the core's part (Plan.sensitivity with
+kinem.sensitivity.core_inputs) per instant and parameter against the plain
+solve per instant. Then the four-bar's tolerance bands (kinem.tolerance,
+its [tolerances]): N Monte Carlo samples over its 251 instants, median of
+min(REPEATS, 3) runs (the target: 10,000 in 5 s).
 
     python benchmarks/sensitivity_bench.py [REPEATS [SAMPLES]]
 """
+import gc
+import statistics
 import sys
+import time
 
 from common import load, rounds, say, timed
 
 import kinem
-from kinem.parameters import parameters
-from kinem.sensitivity import sensitivity
+from kinem.parameters import parameters, resolve
+from kinem.sensitivity import core_inputs, sensitivity
 from kinem.tolerance import tolerance
 
 CASES = ("slider_crank", "four_bar", "quick_return_1", "cam_table41")
 
 
+def medians(fns: dict, repeats: int) -> dict:
+    """name -> (median CPU seconds, median wall seconds), round-robin, each
+    timed call right after an untimed one of the same callable."""
+    cpu, wall = {k: [] for k in fns}, {k: [] for k in fns}
+    for _ in range(max(1, repeats)):
+        for k, fn in fns.items():
+            gc.collect()
+            fn()
+            c, w = time.process_time(), time.perf_counter()
+            fn()
+            cpu[k].append(time.process_time() - c)
+            wall[k].append(time.perf_counter() - w)
+    return {k: (statistics.median(cpu[k]), statistics.median(wall[k])) for k in fns}
+
+
 def main(repeats=7, samples=2000):
-    say(f"load {load()}; median of {repeats} (seconds); bound: (1 + 0.5 P) x the solve")
+    say(f"load {load()}; medians of {repeats}, CPU time (wall time); bound: (1 + 0.5 P) x the solve")
     for name in CASES:
         model = kinem.compile(kinem.load(f"cases/{name}.toml"))
         every = [p.path for p in parameters(model.case)]
+        result = kinem.solve(model)
+        instants = len(result.trajectory.t)
         for count in (1, 4, len(every)):
             paths = every[:count]
-            r = rounds({"solve": timed(lambda: kinem.solve(model)),
-                        "sensitivity": timed(lambda: sensitivity(model, paths))}, repeats, warm=True)
-            solve, sens = r["solve"][0], r["sensitivity"][0]
-            ratio = sens / solve
-            bound = 1 + 0.5 * count
-            say(f"{name:16s} P={count:3d}  solve {solve * 1e3:8.2f} ms  sensitivity {sens * 1e3:8.2f} ms  "
-                f"ratio {ratio:6.2f}  bound {bound:6.1f}  {'ok' if ratio <= bound else 'OVER'}")
+            args = core_inputs(model, resolve(model.case, paths), result)
+            r = medians({"solve": lambda: kinem.solve(model), "sensitivity": lambda: sensitivity(model, paths),
+                         "core": lambda: model.plan.sensitivity(*args)}, repeats)
+            (solve, solve_wall), (sens, sens_wall), (core, _) = r["solve"], r["sensitivity"], r["core"]
+            ratio, bound = sens / solve, 1 + 0.5 * count
+            say(f"{name:15s} P={count:3d}  solve {solve * 1e3:6.2f} ms ({solve_wall * 1e3:6.2f})  "
+                f"sensitivity {sens * 1e3:7.2f} ms ({sens_wall * 1e3:7.2f})  ratio {ratio:6.2f} "
+                f"({sens_wall / solve_wall:6.2f})  bound {bound:5.1f}  {'ok' if ratio <= bound else 'OVER'}  "
+                f"core {core * 1e3:6.2f} ms: {1e6 * core / (instants * count):5.2f} us per instant and parameter, "
+                f"the solve {1e6 * solve / instants:5.2f} us per instant ({instants} instants)")
     model = kinem.compile(kinem.load("cases/four_bar.toml"))
     runs = min(repeats, 3)
     seconds, every, b = rounds({"tolerance": timed(lambda: tolerance(model, samples=samples, outputs=["B.x", "B.y"]))},

@@ -4,15 +4,19 @@ artificial coordinates; positions, velocities, accelerations) at every
 output instant, for design parameters p named by their paths
 (kinem.parameters).
 
-The core differentiates the kinematic equations directly (Eqs. S1-S3,
+The core differentiates the kinematic equations directly (Eqs. S1-S3, S6,
 kinem/core/src/sensitivity.rs), through one factorisation of Phi_q per
-instant, evaluating the families' own kernels over dual numbers; the named
-points' columns come from the same kernel as the trajectory's
-(kinem/core/src/columns.rs) over dual numbers. What it needs from here is
-each parameter's tangent of the model's tables: the tables are affine in the
-case's numbers (unit directions and the roller's squared radius are taken in
-the core), so the tangent is their exact linear part, (B(x + h e_p) - B(x)) / h
-with h a power of two (no truncation error, rounding only: relative 1e-16).
+instant, evaluating the families' own kernels over dual numbers, four
+parameters per evaluation; the named points' columns come from the same
+kernel as the trajectory's (kinem/core/src/columns.rs), in the same call.
+What it needs from here is each parameter's tangent of the model's tables
+(``core_inputs``): the tables are affine in the case's numbers (unit
+directions and the roller's squared radius are taken in the core), so the
+tangent is their exact linear part, (B(x + h e_p) - B(x)) / h with h a power
+of two (no truncation error, rounding only: relative 1e-16), each family
+built once for all the parameters that move it where it can be
+(``_stacked``), a spline outline's values from one spline (``_spline_tangents``).
+``tangents(model, paths)`` gives them in full.
 
 At an instant where Phi_q is singular (its pivot ratio below the solver's
 floor, kinem.tracking.singular_pivot) the derivatives are infinite: they are
@@ -22,12 +26,11 @@ from dataclasses import dataclass, is_dataclass, replace
 
 import numpy as np
 
-from . import native
 from .errors import AnalysisError, InputError, KinemError
 from .constraints import REGISTRY
 from .functions import FunctionTable
 from .model import _Context, core_tables, families_of
-from .outline import OutlineTable
+from .outline import Outline, OutlineTable
 from .options import Options
 from .parameters import apply_many, constraint_id, driver_tangent, frame_tangent, local_tangent, resolve
 from .result import OUTPUTS, Trajectory, _layout
@@ -90,20 +93,13 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     plan = model.plan
     if plan is None:
         raise KinemError(f"{case.source}: sensitivities need the compiled march's layout, which this model has not")
-    base = _tables(case, model.length)
-    tangents = [_tangent(case, model.length, base, p, moved, h) for p, (moved, h) in zip(listed, _moved(case, listed))]
-    X = [np.ascontiguousarray(x) for x in (result.q, result.qd, result.qdd) if x is not None]
-    t = np.ascontiguousarray(result.trajectory.t)
-    out, ratio = plan.sensitivity([tg for tg, _ in tangents], t, X, model.jac_rows.astype(np.int64),
-                                  model.jac_cols.astype(np.int64))
-    columns, src, _ = _layout(model, len(X))
-    blocks = []
-    for k, (_, dlocal) in enumerate(tangents):
-        dx = [np.ascontiguousarray(out[s, k]) for s in range(len(X))]
-        blocks.append(native.columns(X, src, model.point_cols, model.point_local, (dx, dlocal)))
-    for p, block in zip(listed, blocks):
-        _derived_frames(case, p.path, columns, block, result.trajectory)
-    data = np.concatenate(blocks, axis=1) if blocks else np.zeros((len(t), 0))
+    args = core_inputs(model, listed, result)
+    columns = _layout(model, len(args[3]))[0]
+    data, ratio = plan.sensitivity(*args)
+    t = args[2]
+    width = len(columns)
+    for k, p in enumerate(listed):
+        _derived_frames(case, p.path, columns, data[:, k * width:(k + 1) * width], result.trajectory)
     floor = singular_pivot((options or Options.of(case)).tolerance)
     singular = ~(ratio >= floor)
     message = "exact at every instant"
@@ -112,8 +108,37 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
         at = ", ".join(f"{x:.6g}" for x in t[singular][:5]) + (" ..." if singular.sum() > 5 else "")
         message = (f"Phi_q singular (pivot ratio below {floor:.2g}) at {int(singular.sum())} instant(s), t = {at}: "
                    "the derivatives there are infinite")
-    names = tuple(name(c, p.path) for p in listed for c in columns)
+    heads = [f"d({c})/d(" for c in columns]
+    names = tuple(h + path for path in [p.path + ")" for p in listed] for h in heads)
     return Sensitivity(listed, result.trajectory, Trajectory(t.copy(), names, data), singular, ratio, message)
+
+
+def core_inputs(model, listed, result) -> tuple:
+    """The arguments of the core's Plan.sensitivity for the parameters
+    ``listed`` (kinem.parameters.Parameter) at the instants of ``result``
+    (the nominal solve): the model's tables, each parameter's tables'
+    tangents (only the families it moves), t, the stages, the Jacobian's
+    pattern, the trajectory's column sources and the named points' columns,
+    local coordinates and tangents. benchmarks/sensitivity_bench.py times
+    the core's part with them."""
+    case = model.case
+    base = _tables(case, model.length)
+    parts = _spline_tangents(case, listed, base)
+    rest = [k for k in range(len(listed)) if k not in parts]
+    items = [(k, listed[k], moved, h) for k, (moved, h) in zip(rest, _moved(case, [listed[k] for k in rest]))]
+    parts.update(_stacked(case, model.length, base, items))
+    parts.update(_function_tangents(case, base, [i for i in items if i[0] not in parts]))
+    for k, p, moved, h in items:
+        if k not in parts:
+            parts[k] = _moved_tangent(case, model.length, base, p, moved, h)
+    parts = [parts[k] for k in range(len(listed))]
+    X = [np.ascontiguousarray(x) for x in (result.q, result.qd, result.qdd) if x is not None]
+    dlocal = np.array([d for _, d in parts], complex).reshape(len(parts), len(model.point_names))
+    core = [([(k, d) for k, _, _, d in families], functions[1], outlines[1])
+            for (families, functions, outlines), _ in parts]
+    return (base[:3], core, np.ascontiguousarray(result.trajectory.t), X, model.jac_rows.astype(np.int64),
+            model.jac_cols.astype(np.int64), _layout(model, len(X))[1], model.point_cols.astype(np.int64),
+            model.point_local, dlocal)
 
 
 def _derived_frames(case, path, columns, block, traj):
@@ -202,7 +227,16 @@ def _all_set(case, values):
     points, constraints = list(case.points), list(case.constraints)
     if not all(_set(points, constraints, path, value) for path, value in values.items()):
         return None
-    return replace(case, points=tuple(points), constraints=tuple(constraints))
+    return _with(case, points=tuple(points), constraints=tuple(constraints))
+
+
+def _with(obj, **fields):
+    """dataclasses.replace of a frozen dataclass of kinem.spec (none has a
+    __post_init__) without its per-field work: a case has some twenty."""
+    new = object.__new__(type(obj))
+    new.__dict__.update(obj.__dict__)
+    new.__dict__.update(fields)
+    return new
 
 
 def _set(points, constraints, path, value) -> bool:
@@ -219,7 +253,7 @@ def _set(points, constraints, path, value) -> bool:
         for i, c in enumerate(constraints):
             v = c.fields.get(parts[2])
             if constraint_id(c) == parts[1] and isinstance(v, float) and parts[2] not in c.refs:
-                constraints[i] = replace(c, fields=frozen_map({**c.fields, parts[2]: float(value)}))
+                constraints[i] = _with(c, fields=frozen_map({**c.fields, parts[2]: float(value)}))
                 return True
         return False
     if len(parts) >= 5 and parts[0] == "constraints":
@@ -238,10 +272,10 @@ def _set(points, constraints, path, value) -> bool:
         if len(points[j].at) <= k:
             return False
         at = moved(points[j].at)
-        points[j] = replace(points[j], at=at)
+        points[j] = _with(points[j], at=at)
         for i, c in enumerate(constraints):
             if parts[1] in c.refs.values():
-                constraints[i] = replace(c, fields=frozen_map(
+                constraints[i] = _with(c, fields=frozen_map(
                     {**c.fields, **{key: at for key, q in c.refs.items() if q == parts[1]}}))
         return True
     if parts[0] != "constraints":
@@ -251,7 +285,7 @@ def _set(points, constraints, path, value) -> bool:
             v = c.fields.get(parts[2])
             if parts[2] in c.refs or not isinstance(v, tuple) or len(v) <= k:
                 return False
-            constraints[i] = replace(c, fields=frozen_map({**c.fields, parts[2]: moved(v)}))
+            constraints[i] = _with(c, fields=frozen_map({**c.fields, parts[2]: moved(v)}))
             return True
     return False
 
@@ -287,7 +321,7 @@ def _set_entry(constraints, parts, value) -> bool:
             if key == "s" and k == 0 and getattr(v, "periodic", False):
                 entries[-1] = float(value)
             moved = replace(v, **{key: tuple(entries)})
-        constraints[i] = replace(c, fields=frozen_map({**c.fields, parts[2]: moved}))
+        constraints[i] = _with(c, fields=frozen_map({**c.fields, parts[2]: moved}))
         return True
     return False
 
@@ -296,17 +330,210 @@ def _tangent(case, length, base, p, moved, step):
     """The tangent of the tables along parameter p (their linear part: the
     tables are affine in the case's numbers; ``moved``: the case with p
     moved by ``step``) and of the named points' local coordinates:
-    ((families, (functions, tangent), (outlines, tangent)), dlocal)."""
+    ((families [(kind, table, tangent)], (functions, tangent), (outlines,
+    tangent)), dlocal), every family and every column (zero where p does
+    not move it)."""
+    (families, functions, outlines), dlocal = _moved_tangent(case, length, base, p, moved, step)
+    tangent = {k: d for k, _, _, d in families}
+    return ([(kind, t0, tangent[k] if k in tangent else _zero(t0)) for k, (kind, t0) in enumerate(base[0])],
+            (functions[0], functions[1] or _zero(functions[0])), (outlines[0], outlines[1] or _zero(outlines[0]))), dlocal
+
+
+def tangents(model, paths) -> list:
+    """Per design parameter path, the tangent of the model's tables along it
+    in the format of ``_tangent`` (the tables are affine in the case's
+    numbers: a design's tables are the nominal ones plus the sum over p of
+    (value - nominal) x tangent_p)."""
+    case = model.case
+    listed = resolve(case, list(paths))
+    base = _tables(case, model.length)
+    return [_tangent(case, model.length, base, p, moved, h) for p, (moved, h) in zip(listed, _moved(case, listed))]
+
+
+def _moved_tangent(case, length, base, p, moved, step):
+    """``_tangent`` as the core takes it: only the families p moves, each
+    with its place, ((families [(place, kind, table, tangent)], (functions,
+    tangent), (outlines, tangent)), dlocal); an unmoved function or outline
+    table has the tangent {}."""
+    entries = _entries(case, moved, base)
+    if entries is not None:   # only numbers inside functions or outlines: no family's table moves
+        (functions, df), (outlines, do) = entries
+        return ([], (base[1], _difference(base[1], functions, step, p.path) if df else {}),
+                (base[2], _difference(base[2], outlines, step, p.path) if do else {})), _dlocal(case, p)
     reached = _reached(case, moved, length, base)
-    if reached is not None:   # only the families of the constraints moved in place (_replaced)
-        tables, functions, outlines = reached
-        families = [(kind, t0, _difference(t0, tables[k], step, p.path) if k in tables else _zero(t0))
-                    for k, (kind, t0) in enumerate(base[0])]
-    else:
+    if reached is None:
         tables, functions, outlines, _ = _tables(moved, length)
-        families = [(kind, t0, _difference(t0, t1, step, p.path)) for (kind, t0), (_, t1) in zip(base[0], tables)]
-    return (families, (base[1], _difference(base[1], functions, step, p.path)),
-            (base[2], _difference(base[2], outlines, step, p.path))), _dlocal(case, p)
+        families = [(k, kind, t0, _difference(t0, t1, step, p.path))
+                    for k, ((kind, t0), (_, t1)) in enumerate(zip(base[0], tables))]
+        df, do = _difference(base[1], functions, step, p.path), _difference(base[2], outlines, step, p.path)
+        if not any(v.any() for v in (*df.values(), *do.values())):   # no function or outline moved
+            families = [f for f in families if any(v.any() for v in f[3].values())]
+        return (families, (base[1], df), (base[2], do)), _dlocal(case, p)
+    tables, functions, outlines = reached   # only the families of the constraints moved in place (_replaced)
+    families = [(k, *base[0][k], _linear(base[0][k][1], tables[k], step)) for k in sorted(tables)]
+    return (families, (base[1], {} if functions is base[1] else _difference(base[1], functions, step, p.path)),
+            (base[2], {} if outlines is base[2] else _difference(base[2], outlines, step, p.path))), _dlocal(case, p)
+
+
+def _spline_tangents(case, listed, base) -> dict:
+    """{k: ``_moved_tangent``} for the parameters listed[k] that are a value
+    s_j of a spline outline (``constraints.C.KEY.spline.s.j``; not the
+    last of a periodic one, which the first sets): the outline's pieces are
+    linear in s, so the tangent is the pieces of the spline through the
+    unit vector e_j (e_0 + e_last for a periodic outline's first) in that
+    outline's coefficients (OutlineTable's layout: pieces first[o] ..
+    last[o], 4 coefficients each), every j of one outline from one
+    CubicSpline. No family's table moves (as ``_entries``)."""
+    from scipy.interpolate import CubicSpline
+
+    numbered = [o for f in base[3] for o in f[1]]
+    first, last = base[2]["first"], base[2]["last"]
+    by_outline = {}
+    for k, p in enumerate(listed):
+        parts = p.path.split(".")
+        if len(parts) != 6 or parts[0] != "constraints" or parts[3:5] != ["spline", "s"] or not parts[5].isdigit():
+            continue
+        c = next((c for c in case.constraints if constraint_id(c) == parts[1]), None)
+        o, j = c.fields.get(parts[2]) if c is not None else None, int(parts[5])
+        if (isinstance(o, Outline) and o.kind == "spline" and j < len(o.s) - o.periodic
+                and any(x is o for x in numbered)):
+            by_outline.setdefault(id(o), (o, []))[1].append((k, j))
+    out = {}
+    for o, ks in by_outline.values():
+        unit = np.zeros((len(o.s), len(ks)))
+        for col, (_, j) in enumerate(ks):
+            unit[j, col] = 1.0
+            if o.periodic and j == 0:
+                unit[-1, col] = 1.0
+        c = CubicSpline(np.array(o.theta), unit, bc_type=o.bc).c    # (4, pieces, len(ks))
+        for col, (k, _) in enumerate(ks):
+            tangent = _zero(base[2])
+            for place in (i for i, x in enumerate(numbered) if x is o):
+                tangent["coef"][4 * first[place]:4 * (last[place] + 1)] = c[:, :, col].T.ravel()
+            out[k] = ([], (base[1], {}), (base[2], tangent)), _dlocal(case, listed[k])
+    return out
+
+
+def _stacked(case, length, base, items) -> dict:
+    """{k: ``_moved_tangent``} for the parameters of items [(k, p, moved
+    case, h)] whose moved case (set in place) changes only constraints of
+    families that number no function or outline: each such family built
+    once, over its constraints followed by every moved case's (its table
+    then holds their tables end to end, one row per constraint in order,
+    which its integer columns, the nominal's repeated, and the nominal's
+    own rows confirm; else it is left to ``_moved_tangent``), a parameter's
+    tangent the difference of its rows and the nominal's over h."""
+    order = {}
+    for c in case.constraints:
+        order.setdefault(REGISTRY[c.type].family, len(order))
+    wanted, changed = {}, {}   # family -> [(k, h, its constraints moved)]; k -> families
+    for k, p, moved, h in items:
+        if (isinstance(moved, InputError) or len(moved.constraints) != len(case.constraints)
+                or moved.bodies is not case.bodies):
+            continue
+        families = {REGISTRY[c1.type].family for c0, c1 in zip(case.constraints, moved.constraints) if c0 is not c1}
+        if not families or any(base[3][order[f]] != ([], []) for f in families):
+            continue
+        changed[k] = families
+        for f in families:
+            wanted.setdefault(f, []).append((k, h, [c for c in moved.constraints if REGISTRY[c.type].family is f]))
+    tangents = {}
+    for family, moved_lists in wanted.items():
+        place = order[family]
+        t0, copies = base[0][place][1], len(moved_lists) + 1
+        nominal = [c for c in case.constraints if REGISTRY[c.type].family is family]
+        functions, outlines, ctx = FunctionTable(False), OutlineTable(False), _Context(case, length)
+        table = family(nominal + [c for _, _, cons in moved_lists for c in cons], ctx).table(functions, outlines)[1]
+        if functions.functions or outlines.outlines or ctx.artificial or table.keys() != t0.keys() or not all(
+                len(table[key]) == copies * len(v) and _same(table[key][:len(v)], v)
+                and (v.dtype.kind not in "iu" or _same(table[key], np.concatenate([v] * copies)))
+                for key, v in t0.items()):
+            continue
+        for i, (k, h, _) in enumerate(moved_lists, 1):
+            tangents.setdefault(k, {})[place] = {key: (table[key][i * len(v):(i + 1) * len(v)] - v) / h
+                                                 for key, v in t0.items() if v.dtype.kind not in "iu"}
+    return {k: (([(place, *base[0][place], d) for place, d in sorted(tangents[k].items())], (base[1], {}),
+                 (base[2], {})), _dlocal(case, p))
+            for k, p, _, _ in items if k in changed and len(tangents.get(k, ())) == len(changed[k])}
+
+
+def _swap(case, moved):
+    """{id(old): new} of the functions and outlines that ``moved`` (a case
+    from _replaced) holds in place of the case's, when it changes nothing
+    else (_set_entry); else None."""
+    if (isinstance(moved, InputError) or len(moved.constraints) != len(case.constraints)
+            or moved.bodies is not case.bodies or any(a is not b for a, b in zip(case.points, moved.points))):
+        return None
+    swap = {}
+    for c0, c1 in zip(case.constraints, moved.constraints):
+        if c0 is c1:
+            continue
+        for key, v in c1.fields.items():
+            old = c0.fields.get(key)
+            if old is not v:
+                if not (is_dataclass(v) and is_dataclass(old)) or isinstance(v, type):
+                    return None
+                swap[id(old)] = v
+    return swap
+
+
+def _function_tangents(case, base, items) -> dict:
+    """{k: ``_moved_tangent``} for the items [(k, p, moved case, h)] whose
+    moved case changes only driving functions (as ``_entries``): every
+    moved function numbered once after the model's in one FunctionTable
+    (function f's numbers are data[start[f]:start[f + 1]],
+    kinem/core/src/functions.rs), a parameter's tangent the difference of
+    its functions' numbers and theirs over h."""
+    listed = [x for numbered in base[3] for x in numbered[0]]
+    where = {}
+    for i, x in enumerate(listed):
+        where.setdefault(id(x), []).append(i)
+    table, picked = FunctionTable(False), []
+    for x in listed:
+        table.index(x)
+    for k, p, moved, h in items:
+        swap = _swap(case, moved)
+        if swap and swap.keys() <= where.keys():
+            picked.append((k, p, h, [(i, table.index(new)) for old, new in swap.items() for i in where[old]]))
+    if not picked:
+        return {}
+    arrays, data0 = table.arrays(), base[1]["data"]
+    kind, start, data = arrays["kind"], arrays["start"], arrays["data"]
+    if not _same(data[:len(data0)], data0):
+        return {}
+    out = {}
+    for k, p, h, numbers in picked:
+        d = np.zeros_like(data0)
+        if all(kind[i] == kind[j] and start[i + 1] - start[i] == start[j + 1] - start[j] for i, j in numbers):
+            for i, j in numbers:
+                d[start[i]:start[i + 1]] = (data[start[j]:start[j + 1]] - data0[start[i]:start[i + 1]]) / h
+            out[k] = (([], (base[1], {"data": d}), (base[2], {})), _dlocal(case, p))
+    return out
+
+
+def _entries(case, moved, base):
+    """((functions, moved), (outlines, moved)): the model's function and
+    outline tables (``base``, _tables) with the functions and outlines that
+    ``moved`` (a case from _replaced) changed in their places, ``moved``
+    whether any did (else the table is base's), when moved changes nothing
+    but fields of constraints that are functions or outlines (_set_entry):
+    the families' tables hold only their numbers, so none of them moves
+    (tests/test_sensitivity.py compares with every table rebuilt). None
+    otherwise, or when a changed function or outline is not in the tables
+    as the constraint holds it."""
+    swap = _swap(case, moved)
+    if swap is None:
+        return None
+    out, found = [], set()
+    for k, table in ((0, FunctionTable(False)), (1, OutlineTable(False))):
+        listed = [x for numbered in base[3] for x in numbered[k]]
+        hit = {id(x) for x in listed} & swap.keys()
+        found |= hit
+        if hit:
+            for x in listed:
+                table.index(swap.get(id(x), x))
+        out.append((table.arrays() if hit else base[1 + k], bool(hit)))
+    return tuple(out) if swap and found == swap.keys() else None
 
 
 def _reached(case, moved, length, base):
@@ -338,13 +565,24 @@ def _reached(case, moved, length, base):
         table = family(cons, _Context(moved, length)).table(functions, outlines)[1]
         if (len(functions.functions) - before[0], len(outlines.outlines) - before[1]) != (
                 len(kept_functions), len(kept_outlines)) or any(
-                v.dtype.kind in "iu" and not np.array_equal(v, table[key]) for key, v in base[0][k][1].items()):
+                v.dtype.kind in "iu" and not _same(v, table[key]) for key, v in base[0][k][1].items()):
             return None
         out[k] = table
         moved_functions |= functions.functions[before[0]:] != kept_functions
         moved_outlines |= outlines.outlines[before[1]:] != kept_outlines
     return (out, functions.arrays() if moved_functions else base[1],   # unmoved: the model's own arrays
             outlines.arrays() if moved_outlines else base[2])
+
+
+def _same(a, b) -> bool:
+    """Two integer columns equal (their bytes: the same code built both)."""
+    return a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+def _linear(a: dict, b: dict, step: float) -> dict:
+    """The linear part (b - a) / step of every real and complex column of
+    a family whose integer columns ``_reached`` found unmoved."""
+    return {key: (b[key] - v) / step for key, v in a.items() if v.dtype.kind not in "iu"}
 
 
 def _zero(table: dict) -> dict:

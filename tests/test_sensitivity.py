@@ -256,3 +256,109 @@ def test_coordinates_moved_in_place_give_the_validated_tables(path):
         for (t0, d), t1 in ((functions, f1), (outlines, o1)):
             full = S._difference(t0, t1, h, p.path)
             assert full.keys() == d.keys() and all(np.array_equal(full[k], d[k]) for k in full), p.path
+
+
+def test_spline_values_tangents_in_one_spline_equal_their_differences():
+    """kinem.sensitivity takes every spline.s.j of an outline from one
+    spline through unit vectors (_spline_tangents): the outline table's
+    tangents equal those of the case moved by h (_tangent, S5), to 1e-12 of
+    the largest, on the cam of Table 4.1 (periodic) and every other case
+    with a spline outline."""
+    import importlib
+
+    S = importlib.import_module("kinem.sensitivity")
+    checked = 0
+    for path in CASES:
+        case = kinem.load(path)
+        listed = [p for p in parameters(case) if ".spline.s." in p.path]
+        if not listed:
+            continue
+        model = kinem.compile(case)
+        base = S._tables(case, model.length)
+        fast = S._spline_tangents(case, listed, base)
+        slow = {k: S._tangent(case, model.length, base, p, moved, h)
+                for k, (p, (moved, h)) in enumerate(zip(listed, S._moved(case, listed)))}
+        for k, ((families, functions, (_, d)), dlocal) in fast.items():
+            (_, _, (_, want)), want_local = slow[k]
+            assert families == [] and functions[1] == {} and np.array_equal(dlocal, want_local), listed[k].path
+            for key in want:
+                scale = max(float(np.max(np.abs(want[key]), initial=0.0)), 1e-300)
+                assert np.max(np.abs(d[key] - want[key]), initial=0.0) <= 1e-12 * scale, (listed[k].path, key)
+            checked += 1
+    assert checked >= 10
+
+
+@pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
+def test_families_built_once_for_every_parameter_give_each_ones_tangent(path):
+    """kinem.sensitivity builds a family once over its constraints and every
+    parameter's moved ones (_stacked): each parameter's tangent equals the
+    one of its own moved case (_moved_tangent) exactly."""
+    import importlib
+
+    S = importlib.import_module("kinem.sensitivity")
+    case = kinem.load(path)
+    model = kinem.compile(case)
+    listed = parameters(case)
+    base = S._tables(case, model.length)
+    items = [(k, p, moved, h) for k, (p, (moved, h)) in enumerate(zip(listed, S._moved(case, listed)))]
+    stacked = S._stacked(case, model.length, base, items)
+    assert stacked or not any(p.path.startswith("points.") for p in listed)
+    for k, ((families, functions, outlines), dlocal) in stacked.items():
+        _, p, moved, h = items[k]
+        (want, _, _), want_local = S._moved_tangent(case, model.length, base, p, moved, h)
+        assert [f[:2] for f in families] == [f[:2] for f in want] and functions[1] == outlines[1] == {}, p.path
+        assert np.array_equal(dlocal, want_local), p.path
+        for (_, _, _, d), (_, _, _, w) in zip(families, want):
+            assert d.keys() == w.keys() and all(np.array_equal(d[key], w[key]) for key in w), p.path
+
+
+@pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
+def test_functions_numbered_once_for_every_parameter_give_each_ones_tangent(path):
+    """kinem.sensitivity numbers every parameter's moved driving function
+    once after the model's (_function_tangents): each parameter's tangent
+    equals the one of its own moved case (_moved_tangent) exactly."""
+    import importlib
+
+    S = importlib.import_module("kinem.sensitivity")
+    case = kinem.load(path)
+    model = kinem.compile(case)
+    listed = parameters(case)
+    base = S._tables(case, model.length)
+    items = [(k, p, moved, h) for k, (p, (moved, h)) in enumerate(zip(listed, S._moved(case, listed)))]
+    got = S._function_tangents(case, base, items)
+    assert got or not any(".poly." in p.path for p in listed)
+    for k, ((families, (_, d), (_, o)), dlocal) in got.items():
+        _, p, moved, h = items[k]
+        (want, (_, w), (_, wo)), want_local = S._moved_tangent(case, model.length, base, p, moved, h)
+        assert families == want == [] and o == wo == {} and np.array_equal(dlocal, want_local), p.path
+        assert d.keys() == w.keys() and all(np.array_equal(d[key], w[key]) for key in w), p.path
+
+
+def test_public_tangents_rebuild_a_moved_design():
+    """kinem.sensitivity.tangents(model, paths): per path every family's,
+    function's and outline's tangent (kinem.sensitivity._tangent's format);
+    the nominal tables plus (value - nominal) x tangent give the tables of
+    the case with two parameters moved at once, to 1e-12 of the largest
+    (the tables are affine in the case's numbers)."""
+    import importlib
+
+    S = importlib.import_module("kinem.sensitivity")
+    case = kinem.load(ROOT / "cases" / "four_bar.toml")
+    model = kinem.compile(case)
+    paths = ["points.A.at.0", "constraints.crank-drive.d.poly.1"]
+    tangents = S.tangents(model, paths)
+    values = {q.path: q.value for q in parameters(case) if q.path in paths}
+    moved = {paths[0]: values[paths[0]] + 0.01, paths[1]: values[paths[1]] * 1.25}
+    want = S._tables(apply(case, moved), model.length)
+    base = S._tables(case, model.length)
+    assert len(tangents) == 2 and all(len(t[0][0]) == len(base[0]) for t in tangents)
+    got = [dict(t) for _, t in base[0]] + [dict(base[1]), dict(base[2])]
+    for path, ((families, (_, df), (_, do)), _) in zip(paths, tangents):
+        step = moved[path] - values[path]
+        for k, d in enumerate([f[2] for f in families] + [df, do]):
+            for key, v in d.items():
+                got[k][key] = got[k][key] + step * v
+    for g, w in zip(got, [t for _, t in want[0]] + [want[1], want[2]]):
+        for key in w:
+            scale = max(float(np.max(np.abs(w[key]), initial=0.0)), 1.0)
+            assert np.max(np.abs(np.asarray(g[key]) - w[key]), initial=0.0) <= 1e-12 * scale, key

@@ -14,38 +14,72 @@ use num_complex::Complex;
 /// stage s (K n each).
 pub fn columns<S: Real>(x: &[&[S]], n: usize, src: &[usize], pc: &[usize], local: &[Complex<S>], out: &mut [S]) {
     let stages = x.len();
-    let (p, w) = (pc.len(), src.len());
+    let w = src.len();
     let k_count = x[0].len().checked_div(n).unwrap_or(0);
-    let mut pts = vec![S::zero(); 2 * stages * p];
-    // each column's stage and index there (stage `stages`: a point's value in pts)
-    let from: Vec<(usize, usize)> =
-        src.iter().map(|&j| if j < stages * n { (j / n, j % n) } else { (stages, j - stages * n) }).collect();
-    let i = i::<S>();
+    let layout = Columns::new(n, stages, src, pc);
+    let mut pts = vec![S::zero(); 2 * stages * pc.len()];
     for k in 0..k_count {
-        let row = |s: usize| &x[s][k * n..(k + 1) * n];
-        for (j, (&c, &s)) in pc.iter().zip(local).enumerate() {
-            let q = row(0);
+        let rows: Vec<&[S]> = x.iter().map(|a| &a[k * n..(k + 1) * n]).collect();
+        layout.row(&rows, local, &mut pts, &mut out[k * w..(k + 1) * w]);
+    }
+}
+
+/// The columns' sources laid out once for `row` (see `columns`).
+pub struct Columns<'a> {
+    pc: &'a [usize],
+    /// each column's stage and index there (stage `stages`: a point's value in pts)
+    from: Vec<(usize, usize)>,
+    stages: usize,
+}
+
+impl<'a> Columns<'a> {
+    pub fn new(n: usize, stages: usize, src: &[usize], pc: &'a [usize]) -> Self {
+        let from =
+            src.iter().map(|&j| if j < stages * n { (j / n, j % n) } else { (stages, j - stages * n) }).collect();
+        Columns { pc, from, stages }
+    }
+
+    /// One instant's columns: x[s] its stage s (n each), pts scratch (2
+    /// stages points), out its W columns.
+    pub fn row<S: Real>(&self, x: &[&[S]], local: &[Complex<S>], pts: &mut [S], out: &mut [S]) {
+        let (stages, p) = (self.stages, self.pc.len());
+        let i = i::<S>();
+        for (j, (&c, &s)) in self.pc.iter().zip(local).enumerate() {
+            let q = x[0];
             let e = s * cis(q[c + 2]);
             let v = Complex::new(q[c], q[c + 1]) + e;
             pts[j] = v.re;
             pts[p + j] = v.im;
             if stages > 1 {
-                let qd = row(1);
+                let qd = x[1];
                 let om = qd[c + 2];
                 let v = Complex::new(qd[c], qd[c + 1]) + i * e * om;
                 pts[2 * p + j] = v.re;
                 pts[3 * p + j] = v.im;
                 if stages > 2 {
-                    let qdd = row(2);
+                    let qdd = x[2];
                     let v = Complex::new(qdd[c], qdd[c + 1]) + i * e * qdd[c + 2] - e * (om * om);
                     pts[4 * p + j] = v.re;
                     pts[5 * p + j] = v.im;
                 }
             }
         }
-        let o = &mut out[k * w..(k + 1) * w];
-        for (col, &(s, j)) in from.iter().enumerate() {
-            o[col] = if s < stages { x[s][k * n + j] } else { pts[j] };
+        for (o, &(s, j)) in out.iter_mut().zip(&self.from) {
+            *o = if s < stages { x[s][j] } else { pts[j] };
         }
     }
+}
+
+/// Checks the sources of `columns` against n coordinates, `stages` stages
+/// and `points` named points: every point column's x, y, phi a coordinate,
+/// every source a stage's coordinate or a point's value.
+pub fn check(n: usize, stages: usize, src: &[usize], pc: &[usize], points: usize) -> Result<(), String> {
+    if stages == 0 || stages > 3 || pc.len() != points || pc.iter().any(|&c| c.saturating_add(2) >= n.max(1)) {
+        return Err("columns: one to three stages, and every point on a body, expected".into());
+    }
+    let limit = stages * (n + 2 * points);
+    if src.iter().any(|&j| j >= limit) {
+        return Err("columns: a source out of range".into());
+    }
+    Ok(())
 }

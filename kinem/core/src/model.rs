@@ -124,6 +124,36 @@ impl<S: Real> Kin<S> {
 }
 
 impl Kin {
+    /// The same model over another scalar S (Dual: its tables' tangents
+    /// zero, for the tangents along q and qd alone; crate::sensitivity).
+    pub fn over<S: Real>(&self) -> Result<Kin<S>, String> {
+        let angles = self.angles.iter().map(|&a| a as i64).collect();
+        Kin::new(self.n, self.tables.clone(), &self.function_table, &self.outline_table, angles)
+    }
+
+    /// The same model over S with its tables' tangents seeded (design
+    /// sensitivities, crate::sensitivity): families [(place, tangent)] and
+    /// the functions' and outlines' tangents, each a table of the tangents
+    /// of some of its real and complex columns, S::WIDTH entries per entry
+    /// of the column (crate::table::Table::real_s).
+    pub fn seeded<S: Real>(
+        &self,
+        families: &[(usize, Table)],
+        functions: &Table,
+        outlines: &Table,
+    ) -> Result<Kin<S>, String> {
+        let mut tables = self.tables.clone();
+        for (k, tangent) in families {
+            let (kind, t) = tables.get_mut(*k).ok_or(format!("sensitivity: no family {k} in the model"))?;
+            seed(t, tangent, S::WIDTH).map_err(|e| format!("{kind}: {e}"))?;
+        }
+        let (mut f, mut o) = (self.function_table.clone(), self.outline_table.clone());
+        seed(&mut f, functions, S::WIDTH).map_err(|e| format!("functions: {e}"))?;
+        seed(&mut o, outlines, S::WIDTH).map_err(|e| format!("outlines: {e}"))?;
+        let angles = self.angles.iter().map(|&a| a as i64).collect();
+        Kin::new(self.n, tables, &f, &o, angles)
+    }
+
     /// The model's independent parts, one per diagonal block (cols[b]: the
     /// block's coordinates, ascending): each a Kin over its own coordinates
     /// (numbered in the same order) with the constraints whose first
@@ -202,4 +232,23 @@ impl Kin {
             }
         }
     }
+}
+
+/// Sets t's tangents from `tangent`'s real and complex columns, `width` per
+/// entry of t's column of the same name.
+fn seed(t: &mut Table, tangent: &Table, width: usize) -> Result<(), String> {
+    let bad = |key: &str| format!("tangent of column '{key}': not {width} per entry of the table's column");
+    for (key, d) in &tangent.reals {
+        if t.reals.get(key).map(|v| v.len() * width) != Some(d.len()) {
+            return Err(bad(key));
+        }
+        t.d_reals.insert(key.clone(), d.clone());
+    }
+    for (key, d) in &tangent.complex {
+        if t.complex.get(key).map(|v| v.len() * width) != Some(d.len()) {
+            return Err(bad(key));
+        }
+        t.d_complex.insert(key.clone(), d.clone());
+    }
+    Ok(())
 }

@@ -79,7 +79,7 @@ impl<S: Real> Outlines<S> {
         let mut x = theta - self.t0[o];
         let span = self.span[o];
         if self.periodic[o] {
-            x = S::lift(x.re().rem_euclid(span), x.tangent()); // the wrap is a constant shift
+            x = x.with_value(x.re().rem_euclid(span)); // the wrap is a constant shift
         }
         let key = x.re().clamp(0.0, span);
         let (a, b) = (self.first[o], self.last[o]);

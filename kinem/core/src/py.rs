@@ -459,37 +459,41 @@ impl Plan {
         Ok(Plan { kin, layout: Arc::new(layout), parts: std::sync::OnceLock::new() })
     }
 
-    /// Design sensitivities (crate::sensitivity): tangents, one per
-    /// parameter: (families [(kind, table, tangent)], (functions, tangent),
-    /// (outlines, tangent)), the model's tables with their tangents along
-    /// the parameter; x: 1 to 3 arrays (K, n) (q, qd, qdd at times); rows,
-    /// cols: the Jacobian's pattern. Returns (out (levels, P, K, n), pivot
+    /// Design sensitivities (crate::sensitivity): tables, the model's
+    /// (families [(kind, table)], functions, outlines) with every function
+    /// and outline its own number (kinem.sensitivity._tables); tangents, one per
+    /// parameter: (families [(place, tangent)], functions' tangent,
+    /// outlines' tangent), the families the parameter moves (their places
+    /// among the model's) with the tangents of their tables' real and
+    /// complex columns, and those of the functions and outlines ({} where
+    /// it moves none); x: 1
+    /// to 3 arrays (K, n) (q, qd, qdd at times); rows, cols: the Jacobian's
+    /// pattern; src, pc, local: the trajectory's columns (as `columns`),
+    /// dlocal (P, points): each parameter's tangent of the named points'
+    /// local coordinates. Returns (the columns' tangents (K, P W), every
+    /// column of the first parameter then of the second ..., the pivot
     /// ratio (K)).
-    #[allow(clippy::type_complexity)]
+    #[allow(clippy::type_complexity, clippy::too_many_arguments)]
     fn sensitivity<'py>(
         &self,
         py: Python<'py>,
-        tangents: Vec<(
-            Vec<(String, Bound<'py, PyDict>, Bound<'py, PyDict>)>,
-            (Bound<'py, PyDict>, Bound<'py, PyDict>),
-            (Bound<'py, PyDict>, Bound<'py, PyDict>),
-        )>,
+        tables: (Vec<(String, Bound<'py, PyDict>)>, Bound<'py, PyDict>, Bound<'py, PyDict>),
+        tangents: Vec<(Vec<(usize, Bound<'py, PyDict>)>, Bound<'py, PyDict>, Bound<'py, PyDict>)>,
         times: PyReadonlyArray1<'py, f64>,
         x: Vec<PyReadonlyArray2<'py, f64>>,
         jac_rows: PyReadonlyArray1<'py, i64>,
         jac_cols: PyReadonlyArray1<'py, i64>,
+        src: PyReadonlyArray1<'py, i64>,
+        pc: PyReadonlyArray1<'py, i64>,
+        local: PyReadonlyArray1<'py, C64>,
+        dlocal: numpy::PyReadonlyArray2<'py, C64>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyArray1<f64>>)> {
-        let with = |d: &Bound<'py, PyDict>, dd: &Bound<'py, PyDict>| -> PyResult<Table> {
-            let mut t = table(d)?;
-            let tan = table(dd)?;
-            t.d_reals = tan.reals;
-            t.d_complex = tan.complex;
-            Ok(t)
-        };
+        let families = tables.0.iter().map(|(k, d)| Ok((k.clone(), table(d)?))).collect::<PyResult<Vec<_>>>()?;
+        let (functions, outlines) = (table(&tables.1)?, table(&tables.2)?);
         let mut parts = Vec::new();
-        for (fams, (fd, fdd), (od, odd)) in &tangents {
-            let fams = fams.iter().map(|(k, d, dd)| Ok((k.clone(), with(d, dd)?))).collect::<PyResult<Vec<_>>>()?;
-            parts.push((fams, with(fd, fdd)?, with(od, odd)?));
+        for (fams, fd, od) in &tangents {
+            let families = fams.iter().map(|(k, d)| Ok((*k, table(d)?))).collect::<PyResult<Vec<_>>>()?;
+            parts.push(crate::sensitivity::Tangent { families, functions: table(fd)?, outlines: table(od)? });
         }
         let times = times.as_slice()?.to_vec();
         let (n, kk, levels, np) = (self.kin.n, times.len(), x.len(), parts.len());
@@ -505,21 +509,30 @@ impl Plan {
             a.as_array().iter().map(|&v| if v < 0 { usize::MAX } else { v as usize }).collect()
         };
         let (r, c) = (to_usize(jac_rows), to_usize(jac_cols));
+        let (src, pc) = (to_usize(src), to_usize(pc));
+        let local = local.as_array().to_vec();
+        if dlocal.shape() != [np, local.len()] {
+            return Err(value_error("sensitivity: dlocal must have one row per parameter, one entry per point"));
+        }
+        let dlocal = dlocal.as_array().iter().copied().collect::<Vec<_>>();
+        let w = src.len();
         let (kin, layout) = (self.kin.clone(), self.layout.clone());
-        let (out, ratio) = guard(py, move || {
-            let angles: Vec<i64> = kin.angles.iter().map(|&a| a as i64).collect();
-            let mut tans = Vec::new();
-            for (fams, f, o) in parts {
-                tans.push(Kin::<crate::real::Dual>::new(kin.n, fams, &f, &o, angles.clone())?);
+        let (data, ratio) = guard(py, move || {
+            use crate::sensitivity::sensitivities;
+            crate::columns::check(n, levels, &src, &pc, local.len())?;
+            let angles = kin.angles.iter().map(|&a| a as i64).collect();
+            let own = Kin::new(n, families, &functions, &outlines, angles)?;
+            if (own.m, own.nnz) != (kin.m, kin.nnz) {
+                return Err("sensitivity: the tables are not the model's".to_string());
             }
-            let mut out = vec![0.0; levels * np * kk * n];
             let mut ratio = vec![0.0; kk];
             let x: Vec<&[f64]> = xs.iter().map(|v| v.as_slice()).collect();
-            crate::sensitivity::sensitivities(&kin, &layout, &tans, &r, &c, &times, &x, &mut out, &mut ratio)?;
-            Ok((out, ratio))
+            let mut data = vec![0.0; kk * np * w];
+            let columns = (src.as_slice(), pc.as_slice(), local.as_slice(), dlocal.as_slice());
+            sensitivities(&own, &layout, &parts, &r, &c, &times, &x, columns, &mut data, &mut ratio)?;
+            Ok((data, ratio))
         })?;
-        let out = PyArray1::from_vec(py, out).reshape([levels, np, kk, n])?.into_any();
-        Ok((out, PyArray1::from_vec(py, ratio)))
+        Ok((out2(py, data, kk, np * w)?, PyArray1::from_vec(py, ratio)))
     }
 
     /// The LU of J_s at these Jacobian values (nnz).

@@ -1,55 +1,113 @@
 //! Design sensitivities of a trajectory by direct differentiation of the
-//! kinematic equations (docs/design.md, Eqs. S1-S3): at each solved instant
-//! (q, qd, qdd at t), for a design parameter p,
+//! kinematic equations (docs/design.md, Eqs. S1-S3, S6): at each solved
+//! instant (q, qd, qdd at t), for a design parameter p, with J = Phi_q,
+//! s = dq/dp, sd = dqd/dp,
 //!
 //! ```text
-//! Phi_q dq/dp   = -Phi_p                                   (S1)
-//! Phi_q dqd/dp  = D(nu) - D(Phi_q) qd                      (S2)
-//! Phi_q dqdd/dp = D(gamma) - D(Phi_q) qdd                  (S3)
+//! J s   = -Phi_p                                   (S1)
+//! J sd  = nu_p - A s - J_p qd                      (S2)
+//! J sdd = D(gamma) - B s - J_p qdd                 (S3)
 //! ```
 //!
-//! where D(.) is the total derivative along p: the families' own kernels
-//! evaluated over dual numbers (crate::real::Dual) with the tables' tangent
-//! along p (Kin<Dual>, built from the tables and their tangents) and the
-//! coordinates' tangents: q' = 0 for Phi_p (S1), q' = dq/dp in S2 and S3,
-//! qd' = dqd/dp in gamma (S3). All three share one factorisation of Phi_q
-//! at the instant (the march's layout, crate::lu), so the cost per
-//! parameter is one evaluation of Phi, the Jacobian, nu and gamma in dual
-//! numbers and three solves: no finite differences anywhere.
+//! D(Phi_q) v = Phi_qq[s, v] + J_p v, and Phi_qq is symmetric in its two q
+//! slots, so Phi_qq[s, v] = (D_v J) s: A = D_qd(J) and B = D_qdd(J), the
+//! Jacobian's tangents along q' = qd and q' = qdd, are the same for every
+//! parameter and taken once per instant (S6, one evaluation over
+//! Lanes<2>). Phi_p, J_p, nu_p are the tangents of Phi, J, nu at q' = 0
+//! along the tables' tangents, and D(gamma) gamma's tangent along q' = s,
+//! qd' = sd and the tables': each one evaluation of the model over
+//! Lanes<LANES> (crate::real) for LANES parameters at once, each lane
+//! seeded with one parameter's tables' tangents (Kin::seeded). All three
+//! share one factorisation of J at the instant (the march's layout,
+//! crate::lu): no finite differences anywhere.
 use crate::families::At;
-use crate::lu::Layout;
+use crate::lu::{Factors, Layout};
 use crate::model::Kin;
-use crate::real::{Dual, Real};
+use crate::real::{Lanes, Real};
+use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
 
-/// The model's tangent along one parameter: Kin<Dual> with the same rows
-/// and Jacobian entries as the model's Kin.
-pub fn check(kin: &Kin, tangent: &Kin<Dual>) -> Result<(), String> {
-    if tangent.n != kin.n || tangent.m != kin.m || tangent.nnz != kin.nnz {
-        return Err(format!(
-            "sensitivity: a parameter's tangent model has {} coordinates, {} rows, {} entries; the model {}, {}, {}",
-            tangent.n, tangent.m, tangent.nnz, kin.n, kin.m, kin.nnz
-        ));
-    }
-    Ok(())
+/// How many parameters share one evaluation of the model and of the named
+/// points' columns (crate::real::Lanes).
+pub const LANES: usize = 4;
+type L = Lanes<LANES>;
+
+/// A design parameter's tangent of the model's tables: the families it
+/// moves [(place among the model's families, the tangents of some of its
+/// real and complex columns)], and the tangents of the functions' and the
+/// outlines' tables (empty where it moves none).
+pub struct Tangent {
+    pub families: Vec<(usize, Table)>,
+    pub functions: Table,
+    pub outlines: Table,
+}
+
+/// The model over LANES with the tangents of `group` (at most LANES
+/// parameters) in its lanes, a lane without a parameter zero.
+fn seeded(kin: &Kin, group: &[Tangent]) -> Result<Kin<L>, String> {
+    let lanes = |tables: Vec<(usize, &Table)>| -> Table {
+        let mut out = Table::default();
+        for (lane, t) in tables {
+            for (key, d) in &t.reals {
+                let v = out.reals.entry(key.clone()).or_insert_with(|| vec![0.0; d.len() * LANES]);
+                for (i, &x) in d.iter().enumerate() {
+                    if let Some(o) = v.get_mut(i * LANES + lane) {
+                        *o = x;
+                    }
+                }
+            }
+            for (key, d) in &t.complex {
+                let v = out.complex.entry(key.clone()).or_insert_with(|| vec![C64::new(0.0, 0.0); d.len() * LANES]);
+                for (i, &x) in d.iter().enumerate() {
+                    if let Some(o) = v.get_mut(i * LANES + lane) {
+                        *o = x;
+                    }
+                }
+            }
+        }
+        out
+    };
+    let mut places: Vec<usize> = group.iter().flat_map(|t| t.families.iter().map(|f| f.0)).collect();
+    places.sort_unstable();
+    places.dedup();
+    let families = places
+        .iter()
+        .map(|&k| {
+            let of = group
+                .iter()
+                .enumerate()
+                .flat_map(|(l, t)| t.families.iter().filter(|f| f.0 == k).map(move |f| (l, &f.1)));
+            (k, lanes(of.collect()))
+        })
+        .collect::<Vec<_>>();
+    let functions = lanes(group.iter().enumerate().map(|(l, t)| (l, &t.functions)).collect());
+    let outlines = lanes(group.iter().enumerate().map(|(l, t)| (l, &t.outlines)).collect());
+    kin.seeded(&families, &functions, &outlines)
 }
 
 /// x[0] (K, n): q at `times`; x[1], x[2]: qd, qdd (as many levels as
-/// given); rows, cols: the Jacobian's pattern. Fills out (levels, P, K, n)
-/// with dq/dp, dqd/dp, dqdd/dp for every tangent p, and ratio (K) with the
-/// pivot ratio of Phi_q (the caller flags singular instants).
+/// given); rows, cols: the Jacobian's pattern; columns: the trajectory's
+/// column sources, the named points' body columns, local coordinates and
+/// (P rows of) their tangents (crate::columns, checked by
+/// crate::columns::check). Fills data (K, P W), row k the W columns'
+/// tangents along the first parameter, then the second, ... (from dq/dp,
+/// dqd/dp, dqdd/dp, over Lanes: crate::columns::Columns::row), and ratio
+/// (K) with the pivot ratio of Phi_q (the caller flags singular instants).
 #[allow(clippy::too_many_arguments)]
 pub fn sensitivities(
     kin: &Kin,
     layout: &Layout,
-    tangents: &[Kin<Dual>],
+    tangents: &[Tangent],
     rows: &[usize],
     cols: &[usize],
     times: &[f64],
     x: &[&[f64]],
-    out: &mut [f64],
+    columns: Cols,
+    data: &mut [f64],
     ratio: &mut [f64],
 ) -> Result<(), String> {
+    let (src, pc, local, dlocal) = columns;
+    let (w, points) = (src.len(), local.len());
     let (n, m, nnz, kk, levels, np) = (kin.n, kin.m, kin.nnz, times.len(), x.len(), tangents.len());
     if levels == 0 || levels > 3 || x.iter().any(|a| a.len() != kk * n) {
         return Err("sensitivity: 1 to 3 arrays of K x n coordinates expected".into());
@@ -57,78 +115,268 @@ pub fn sensitivities(
     if rows.len() != nnz || cols.len() != nnz || rows.iter().any(|&r| r >= m) || cols.iter().any(|&c| c >= n) {
         return Err("sensitivity: the Jacobian's pattern does not fit the model".into());
     }
-    if out.len() != levels * np * kk * n || ratio.len() != kk {
+    if data.len() != kk * np * w || ratio.len() != kk || dlocal.len() != np * points {
         return Err("sensitivity: output arrays of the wrong size".into());
     }
-    for t in tangents {
-        check(kin, t)?;
-    }
+    let groups = tangents.chunks(LANES).map(|g| seeded(kin, g)).collect::<Result<Vec<_>, _>>()?;
+    let two: Kin<Lanes<2>> = kin.over()?; // A and B (S6), the tables' tangents zero
+    let csr = Csr::of(rows, cols, m);
+    let layout_columns = crate::columns::Columns::new(n, levels, src, pc);
+    // the named points' local coordinates with the group's tangents in the lanes
+    let locs: Vec<Vec<Complex<L>>> = (0..groups.len())
+        .map(|g| {
+            (0..points)
+                .map(|j| {
+                    let (mut re, mut im) = ([0.0; LANES], [0.0; LANES]);
+                    for p in g * LANES..(g * LANES + LANES).min(np) {
+                        (re[p - g * LANES], im[p - g * LANES]) = (dlocal[p * points + j].re, dlocal[p * points + j].im);
+                    }
+                    Complex::new(Lanes::of(local[j].re, re), Lanes::of(local[j].im, im))
+                })
+                .collect()
+        })
+        .collect();
+    let (mut pts, mut buf) = (vec![L::c(0.0); 2 * levels * points], vec![L::c(0.0); w]);
+    let mut qddl = vec![L::c(0.0); n];
     let mut f = layout.factors();
     let mut e = vec![C64::new(1.0, 0.0); n];
     let mut values = vec![0.0; nnz];
-    let zero = Complex::new(Dual::c(1.0), Dual::c(0.0));
-    let (mut ed, mut qdual, mut qddual) = (vec![zero; n], vec![Dual::c(0.0); n], vec![Dual::c(0.0); n]);
-    let (mut rd, mut jd) = (vec![Dual::c(0.0); m], vec![Dual::c(0.0); nnz]);
-    let (mut rhs, mut sol) = (vec![0.0; m], vec![0.0; n]);
+    let mut q2 = vec![Lanes::<2>::c(0.0); n];
+    let (mut e2, mut j2) = (vec![Complex::new(Lanes::c(0.0), Lanes::c(0.0)); n], vec![Lanes::<2>::c(0.0); nnz]);
+    let (mut q0, mut e0) = (vec![L::c(0.0); n], vec![Complex::new(L::c(0.0), L::c(0.0)); n]);
+    let (mut ql, mut qdl, mut el) =
+        (vec![L::c(0.0); n], vec![L::c(0.0); n], vec![Complex::new(L::c(0.0), L::c(0.0)); n]);
+    let (mut rl, mut jl) = (vec![L::c(0.0); m], vec![L::c(0.0); nnz]);
+    let (mut a, mut b) = (vec![0.0; nnz], vec![0.0; nnz]);
+    let mut rhs = vec![[0.0; LANES]; m];
+    let mut solver = Solver::new(n, m, 3 * np >= 2 * n && n <= INVERSE);
+    // s, sd, sdd (lanes); M s, J_p v (lanes)
+    let (mut s, mut sd, mut sdd) = (vec![[0.0; LANES]; n], vec![[0.0; LANES]; n], vec![[0.0; LANES]; n]);
+    let (mut by, mut jp) = (vec![[0.0; LANES]; m], vec![[0.0; LANES]; m]);
     for k in 0..kk {
         let (t, q) = (times[k], &x[0][k * n..(k + 1) * n]);
+        let row = |level: usize| &x[level][k * n..(k + 1) * n];
         kin.rotate(q, &mut e);
         kin.jac(&At { q, e: &e, t }, &mut values);
         layout.factor(&values, &mut f);
         ratio[k] = layout.pivots(&f).0;
-        for (p, tan) in tangents.iter().enumerate() {
-            let at = |level: usize| (level * np + p) * kk * n + k * n;
-            // S1: Phi_p, the tangent of Phi with q' = 0
-            lift(q, None, &mut qdual);
-            tan.rotate(&qdual, &mut ed);
-            tan.phi(&At { q: &qdual, e: &ed, t }, &mut rd);
-            for r in 0..m {
-                rhs[r] = -rd[r].d;
+        for j in 0..n {
+            q0[j] = L::c(q[j]);
+            e0[j] = Complex::new(L::c(e[j].re), L::c(e[j].im));
+        }
+        let at0 = At { q: &q0, e: &e0, t };
+        // A = D_qd(J), B = D_qdd(J) (S6): once per instant, one evaluation
+        if levels > 1 {
+            let (qd, qdd) = (row(1), if levels > 2 { row(2) } else { row(1) });
+            for j in 0..n {
+                q2[j] = Lanes::of(q[j], [qd[j], qdd[j]]);
             }
-            layout.solve(&mut f, &rhs, &mut sol);
-            out[at(0)..at(0) + n].copy_from_slice(&sol);
-            if levels == 1 {
-                continue;
+            two.rotate(&q2, &mut e2);
+            two.jac(&At { q: &q2, e: &e2, t }, &mut j2);
+            for ((x, y), v) in a.iter_mut().zip(b.iter_mut()).zip(&j2) {
+                (*x, *y) = (v.d[0], v.d[1]);
             }
-            // S2: q' = dq/dp
-            lift(q, Some(&sol), &mut qdual);
-            tan.rotate(&qdual, &mut ed);
-            let atd = At { q: &qdual, e: &ed, t };
-            tan.jac(&atd, &mut jd);
-            tan.nu(t, &mut rd);
-            let qd = &x[1][k * n..(k + 1) * n];
-            difference(&rd, &jd, qd, rows, cols, &mut rhs);
-            layout.solve(&mut f, &rhs, &mut sol);
-            out[at(1)..at(1) + n].copy_from_slice(&sol);
-            if levels == 2 {
-                continue;
+        }
+        solver.prepare(layout, &mut f);
+        for (g, model) in groups.iter().enumerate() {
+            let count = (np - g * LANES).min(LANES);
+            // S1: Phi_p, Phi's tangent at q' = 0
+            model.phi(&at0, &mut rl);
+            for (r, x) in rhs.iter_mut().zip(&rl) {
+                *r = x.d.map(|v| -v);
             }
-            // S3: q' = dq/dp (as in S2), qd' = dqd/dp
-            lift(qd, Some(&sol), &mut qddual);
-            tan.gamma(&atd, &qddual, &mut rd);
-            difference(&rd, &jd, &x[2][k * n..(k + 1) * n], rows, cols, &mut rhs);
-            layout.solve(&mut f, &rhs, &mut sol);
-            out[at(2)..at(2) + n].copy_from_slice(&sol);
+            solver.solve(layout, &mut f, &rhs, count, &mut s);
+            for j in 0..n {
+                ql[j] = Lanes::of(q[j], s[j]);
+            }
+            if levels > 1 {
+                // S2: nu_p - A s - J_p qd, J_p: the Jacobian's tangent at q' = 0
+                model.jac(&at0, &mut jl);
+                model.nu(t, &mut rl);
+                let parts = (&rl[..], &jl[..], &s[..], row(1));
+                right_side(&csr, &a, parts, (&mut by, &mut jp), &mut rhs);
+                solver.solve(layout, &mut f, &rhs, count, &mut sd);
+                let qd = row(1);
+                for j in 0..n {
+                    qdl[j] = Lanes::of(qd[j], sd[j]);
+                }
+            }
+            if levels > 2 {
+                // S3: D(gamma) (gamma's tangent along q' = s, qd' = sd and the
+                // tables'), minus B s and J_p qdd
+                model.rotate(&ql, &mut el);
+                model.gamma(&At { q: &ql, e: &el, t }, &qdl, &mut rl);
+                let parts = (&rl[..], &jl[..], &s[..], row(2));
+                right_side(&csr, &b, parts, (&mut by, &mut jp), &mut rhs);
+                solver.solve(layout, &mut f, &rhs, count, &mut sdd);
+                let qdd = row(2);
+                for j in 0..n {
+                    qddl[j] = Lanes::of(qdd[j], sdd[j]);
+                }
+            }
+            // the named points' and every column's tangents, from the lanes
+            let stages: [&[L]; 3] = [&ql, &qdl, &qddl];
+            layout_columns.row(&stages[..levels], &locs[g], &mut pts, &mut buf);
+            for p in g * LANES..g * LANES + count {
+                let lane = p - g * LANES;
+                let to = &mut data[(k * np + p) * w..(k * np + p + 1) * w];
+                for (o, b) in to.iter_mut().zip(&buf) {
+                    *o = b.d[lane];
+                }
+            }
         }
     }
     Ok(())
 }
 
-/// rhs = D(b) - D(Phi_q) v: the right-hand side of S2 (b = nu, v = qd) and
-/// S3 (b = gamma, v = qdd), from the tangents of b and of the Jacobian's
-/// values (pattern rows, cols).
-fn difference(b: &[Dual], jac: &[Dual], v: &[f64], rows: &[usize], cols: &[usize], rhs: &mut [f64]) {
-    for (r, x) in rhs.iter_mut().zip(b) {
-        *r = x.d;
-    }
-    for e in 0..jac.len() {
-        rhs[rows[e]] -= jac[e].d * v[cols[e]];
+/// rhs = D(c) - M s - J_p v, lane by lane, for (S2) (c = nu, M = A,
+/// v = qd) and (S3) (c = gamma, M = B, v = qdd): parts (c, J_p, s, v),
+/// scratch for M s and J_p v.
+#[allow(clippy::type_complexity)]
+fn right_side(
+    csr: &Csr,
+    mat: &[f64],
+    parts: (&[L], &[L], &[[f64; LANES]], &[f64]),
+    scratch: (&mut [[f64; LANES]], &mut [[f64; LANES]]),
+    rhs: &mut [[f64; LANES]],
+) {
+    let ((c, jp, s, v), (by, jv)) = (parts, scratch);
+    csr.product(mat, s, by);
+    csr.lanes_product(jp, v, jv);
+    for (((r, c), x), y) in rhs.iter_mut().zip(c).zip(by.iter()).zip(jv.iter()) {
+        for l in 0..LANES {
+            r[l] = c.d[l] - x[l] - y[l];
+        }
     }
 }
 
-/// out = v + d eps (d = 0 when None).
-fn lift(v: &[f64], d: Option<&[f64]>, out: &mut [Dual]) {
-    for (j, o) in out.iter_mut().enumerate() {
-        *o = Dual::lift(v[j], d.map_or(0.0, |d| d[j]));
+/// Models of at most this many coordinates solve many parameters' systems
+/// through Phi_q's inverse, formed at each instant from its factors (n
+/// solves, then a product per LANES parameters), where that takes fewer
+/// solves than one per parameter and level (3 P >= 2 n).
+pub const INVERSE: usize = 64;
+
+/// The instant's solves of LANES right-hand sides: one by one with the
+/// factors, or through the inverse (`inverse`: n x m, row-major).
+struct Solver {
+    use_inverse: bool,
+    inverse: Vec<f64>,
+    b: Vec<f64>,
+    x: Vec<f64>,
+}
+
+impl Solver {
+    fn new(n: usize, m: usize, use_inverse: bool) -> Solver {
+        Solver {
+            use_inverse,
+            inverse: vec![0.0; if use_inverse { n * m } else { 0 }],
+            b: vec![0.0; m],
+            x: vec![0.0; n],
+        }
+    }
+
+    /// The inverse from the instant's factors (when it is used).
+    fn prepare(&mut self, layout: &Layout, f: &mut Factors) {
+        if !self.use_inverse {
+            return;
+        }
+        let m = self.b.len();
+        for i in 0..m {
+            self.b.fill(0.0);
+            self.b[i] = 1.0;
+            layout.solve(f, &self.b, &mut self.x);
+            for (j, &v) in self.x.iter().enumerate() {
+                self.inverse[j * m + i] = v;
+            }
+        }
+    }
+
+    /// out = Phi_q^-1 rhs for the first `count` lanes.
+    fn solve(
+        &mut self,
+        layout: &Layout,
+        f: &mut Factors,
+        rhs: &[[f64; LANES]],
+        count: usize,
+        out: &mut [[f64; LANES]],
+    ) {
+        let m = self.b.len();
+        if self.use_inverse {
+            for (j, o) in out.iter_mut().enumerate() {
+                let mut acc = [0.0; LANES];
+                for (&a, r) in self.inverse[j * m..(j + 1) * m].iter().zip(rhs) {
+                    for l in 0..LANES {
+                        acc[l] += a * r[l];
+                    }
+                }
+                *o = acc;
+            }
+            return;
+        }
+        for l in 0..count {
+            for (b, r) in self.b.iter_mut().zip(rhs) {
+                *b = r[l];
+            }
+            layout.solve(f, &self.b, &mut self.x);
+            for (o, &v) in out.iter_mut().zip(&self.x) {
+                o[l] = v;
+            }
+        }
     }
 }
+
+/// The Jacobian's pattern by rows: entry order[i] of row r for i in
+/// start[r]..start[r + 1].
+struct Csr {
+    order: Vec<usize>,
+    start: Vec<usize>,
+    cols: Vec<usize>,
+}
+
+impl Csr {
+    fn of(rows: &[usize], cols: &[usize], m: usize) -> Csr {
+        let mut order: Vec<usize> = (0..rows.len()).collect();
+        order.sort_by_key(|&e| rows[e]);
+        let mut start = vec![0; m + 1];
+        for &r in rows {
+            start[r + 1] += 1;
+        }
+        for r in 0..m {
+            start[r + 1] += start[r];
+        }
+        Csr { cols: order.iter().map(|&e| cols[e]).collect(), order, start }
+    }
+
+    /// out = M v for LANES vectors v at once, M's values on the pattern.
+    fn product(&self, mat: &[f64], v: &[[f64; LANES]], out: &mut [[f64; LANES]]) {
+        for (r, o) in out.iter_mut().enumerate() {
+            let mut acc = [0.0; LANES];
+            for i in self.start[r]..self.start[r + 1] {
+                let (a, x) = (mat[self.order[i]], &v[self.cols[i]]);
+                for l in 0..LANES {
+                    acc[l] += a * x[l];
+                }
+            }
+            *o = acc;
+        }
+    }
+
+    /// out = M v for a matrix of LANES lanes (each lane's values on the
+    /// pattern) and one vector v.
+    fn lanes_product(&self, mat: &[L], v: &[f64], out: &mut [[f64; LANES]]) {
+        for (r, o) in out.iter_mut().enumerate() {
+            let mut acc = [0.0; LANES];
+            for i in self.start[r]..self.start[r + 1] {
+                let (a, x) = (&mat[self.order[i]].d, v[self.cols[i]]);
+                for l in 0..LANES {
+                    acc[l] += a[l] * x;
+                }
+            }
+            *o = acc;
+        }
+    }
+}
+
+/// The trajectory's column sources, points' body columns, their local
+/// coordinates and (P rows of) tangents: see `sensitivities`.
+pub type Cols<'a> = (&'a [usize], &'a [usize], &'a [C64], &'a [C64]);

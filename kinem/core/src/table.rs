@@ -13,7 +13,8 @@ pub struct Table {
     pub reals: HashMap<String, Vec<f64>>,
     pub complex: HashMap<String, Vec<C64>>,
     /// Tangents of real and complex columns along one design parameter
-    /// (crate::sensitivity); a column without one has tangent zero.
+    /// (crate::sensitivity), or along S::WIDTH of them (Lanes: entry-major,
+    /// WIDTH per entry); a column without one has tangent zero.
     pub d_reals: HashMap<String, Vec<f64>>,
     pub d_complex: HashMap<String, Vec<C64>>,
 }
@@ -57,8 +58,8 @@ impl Table {
     /// A real column as S: with Dual, its values carry their tangents.
     pub fn real_s<S: Real>(&self, key: &str) -> Result<Vec<S>, String> {
         let v = self.reals.get(key).ok_or_else(|| Self::missing(key))?;
-        Ok(match self.d_reals.get(key).filter(|d| d.len() == v.len()) {
-            Some(d) => v.iter().zip(d).map(|(&x, &dx)| S::lift(x, dx)).collect(),
+        Ok(match self.d_reals.get(key).filter(|d| d.len() == v.len() * S::WIDTH) {
+            Some(d) => v.iter().zip(d.chunks(S::WIDTH)).map(|(&x, dx)| S::of_lanes(x, dx)).collect(),
             None => v.iter().map(|&x| S::c(x)).collect(),
         })
     }
@@ -66,8 +67,15 @@ impl Table {
     /// A complex column as Complex<S>: with Dual, its values carry their tangents.
     pub fn cplx_s<S: Real>(&self, key: &str) -> Result<Vec<Complex<S>>, String> {
         let v = self.complex.get(key).ok_or_else(|| Self::missing(key))?;
-        Ok(match self.d_complex.get(key).filter(|d| d.len() == v.len()) {
-            Some(d) => v.iter().zip(d).map(|(&x, &dx)| lift_c(x, dx)).collect(),
+        Ok(match self.d_complex.get(key).filter(|d| d.len() == v.len() * S::WIDTH) {
+            Some(d) => v
+                .iter()
+                .zip(d.chunks(S::WIDTH))
+                .map(|(&x, dx)| {
+                    let (re, im): (Vec<f64>, Vec<f64>) = dx.iter().map(|z| (z.re, z.im)).unzip();
+                    Complex::new(S::of_lanes(x.re, &re), S::of_lanes(x.im, &im))
+                })
+                .collect(),
             None => v.iter().map(|&x| lift_c(x, C64::new(0.0, 0.0))).collect(),
         })
     }
