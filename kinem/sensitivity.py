@@ -339,14 +339,15 @@ def _tangent(case, length, base, p, moved, step):
             (functions[0], functions[1] or _zero(functions[0])), (outlines[0], outlines[1] or _zero(outlines[0]))), dlocal
 
 
-def tangents(model, paths) -> list:
+def tangents(model, paths, base=None) -> list:
     """Per design parameter path, the tangent of the model's tables along it
     in the format of ``_tangent`` (the tables are affine in the case's
     numbers: a design's tables are the nominal ones plus the sum over p of
-    (value - nominal) x tangent_p)."""
+    (value - nominal) x tangent_p); ``base``: the model's ``_tables`` when
+    the caller has them."""
     case = model.case
     listed = resolve(case, list(paths))
-    base = _tables(case, model.length)
+    base = base or _tables(case, model.length)
     return [_tangent(case, model.length, base, p, moved, h) for p, (moved, h) in zip(listed, _moved(case, listed))]
 
 

@@ -181,15 +181,11 @@ def affine(case, path) -> bool:
 
 
 def _tangents(model, listed):
-    """(the model's tables (kinem.sensitivity._tables), per parameter its
-    tangents ((families [(kind, table, tangent)], (functions, tangent),
-    (outlines, tangent)), named points' local tangent)): the one place this
-    module reads kinem.sensitivity's tangents."""
-    from .sensitivity import _moved, _tables, _tangent
+    """(the model's tables, per parameter their tangent: kinem.sensitivity.tangents)."""
+    from .sensitivity import _tables, tangents
 
-    case = model.case
-    base = _tables(case, model.length)
-    return base, [_tangent(case, model.length, base, p, moved, h) for p, (moved, h) in zip(listed, _moved(case, listed))]
+    base = _tables(model.case, model.length)
+    return base, tangents(model, [p.path for p in listed], base)
 
 
 def _values(case, parameters, to_path):
