@@ -132,6 +132,21 @@ class Band:
     coupling: tuple
 
 
+@dataclass(frozen=True)
+class Structure:
+    """The structural decomposition (issue 31; kinem/core/src/decompose.rs):
+    a maximum matching of the Jacobian's rows (drivers included) to its
+    coordinates and the strongly connected components of the graph it
+    induces order the unknowns block-triangularly: each block's
+    coordinates are fixed by its rows given the earlier blocks'. ``exact``
+    False (redundant, too few equations, structurally singular): the whole
+    system is one block and ``kind`` says why."""
+    exact: bool
+    kind: str
+    rank: int             # the structural rank
+    blocks: tuple         # ((rows, coordinates), ...) in solve order, each a tuple of indices
+
+
 @dataclass(frozen=True, eq=False)
 class Model:
     case: Case
@@ -226,6 +241,14 @@ class Model:
         return Blocks(count, size, row_pos, col_pos, np.flatnonzero(~used), bool((cols_in == rows_in).all()),
                       parity(np.argsort(row_pos)) * parity(np.argsort(col_pos)),
                       (rows // size, rows % size, cols % size))
+
+    @cached_property
+    def structure(self) -> Structure:
+        """The block-triangular decomposition (``Structure``), computed by
+        the core from the pattern (drivers included)."""
+        exact, kind, rank, blocks = native.Plan.blocks(self.m, self.n, self.jac_rows.astype(np.int64),
+                                                       self.jac_cols.astype(np.int64))
+        return Structure(exact, kind, rank, tuple((tuple(r), tuple(c)) for r, c in blocks))
 
     @cached_property
     def band(self) -> Band | None:

@@ -10,6 +10,7 @@
 
 pub mod accept;
 pub mod columns;
+pub mod decompose;
 pub mod families;
 pub mod functions;
 pub mod lu;
