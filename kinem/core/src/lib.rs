@@ -24,6 +24,7 @@ pub mod plan;
 pub mod real;
 pub mod sensitivity;
 pub mod table;
+pub mod triangular;
 pub mod watch;
 
 #[cfg(feature = "python")]
