@@ -212,7 +212,7 @@ pub fn decompose(m: usize, n: usize, rows: &[usize], cols: &[usize]) -> Decompos
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     fn sizes(d: &Decomposition) -> Vec<usize> {
@@ -222,7 +222,7 @@ mod tests {
     /// the slider-crank of Sec. 4.4.1 (cases/slider_crank.toml): bodies
     /// ground 0-2, crank 3-5, rod 6-8, slider 9-11; rows: ground (3),
     /// revolute O, B, A (2 each), translational (2), driver (1)
-    fn slider_crank() -> (Vec<usize>, Vec<usize>) {
+    pub(crate) fn slider_crank() -> (Vec<usize>, Vec<usize>) {
         let mut e: Vec<(usize, usize)> = vec![(0, 0), (1, 1), (2, 2)];
         let mut row = 3;
         for (i, j) in [(1, 0), (2, 1), (3, 2)] {

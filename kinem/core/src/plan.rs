@@ -236,29 +236,11 @@ fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::decompose::tests::slider_crank;
 
     fn lcg(seed: &mut u64) -> f64 {
         *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         ((*seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    }
-
-    /// the slider-crank's pattern (crate::decompose's test): ground, revolutes O, B, A, translational, driver
-    fn slider_crank() -> (Vec<usize>, Vec<usize>) {
-        let mut e: Vec<(usize, usize)> = vec![(0, 0), (1, 1), (2, 2)];
-        let mut row = 3;
-        for (i, j) in [(1, 0), (2, 1), (3, 2)] {
-            for k in 0..2 {
-                for c in [3 * i + k, 3 * i + 2, 3 * j + k, 3 * j + 2] {
-                    e.push((row, c));
-                }
-                row += 1;
-            }
-        }
-        for c in [9, 10, 11, 0, 1, 2] {
-            e.push((row, c));
-        }
-        e.extend([(row + 1, 11), (row + 1, 2), (row + 2, 5)]);
-        e.into_iter().unzip()
     }
 
     /// One block of the whole pattern in the model's order, as kinem.model.Model.plan lays it out
