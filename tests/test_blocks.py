@@ -13,6 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import kinem
+import kinem.batch
 from kinem import native
 from kinem.info import describe_blocks
 
@@ -67,7 +68,7 @@ def test_random_patterns(n, extra, data):
     m = n + extra
     rows = np.array(data.draw(st.lists(st.integers(0, m - 1), min_size=1, max_size=4 * m)), np.int64)
     cols = np.array(data.draw(st.lists(st.integers(0, n - 1), min_size=len(rows), max_size=len(rows))), np.int64)
-    exact, kind, rank, blocks = native.Plan.blocks(m, n, rows, cols)
+    exact, kind, rank, blocks, _ = native.Plan.blocks(m, n, rows, cols)
     assert rank <= min(m, n) and exact == (m == n and rank == n), kind
     check_triangular(m, n, rows, cols, exact, blocks)
 
@@ -116,3 +117,40 @@ def test_an_assembly_that_cannot_close_names_its_block():
     r = kinem.solve(kinem.compile(kinem.load_dict(case)))
     assert not r.success
     assert "cannot close in block 8 of 8 (the loop of rod, slider, closed by B, A, T)" in r.message, r.message
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 30), st.data())
+def test_connected_components_are_scipys(n, data):
+    """Model.blocks's components come from the core (Plan.blocks' last
+    item): numbered as scipy.sparse.csgraph.connected_components numbers
+    them, so the blocks' layout is the one scipy's gave."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    m = data.draw(st.integers(1, 30))
+    rows = np.array(data.draw(st.lists(st.integers(0, m - 1), min_size=m, max_size=3 * m)), np.int64)
+    rows[:m] = np.arange(m)   # every row has an entry
+    cols = np.array(data.draw(st.lists(st.integers(0, n - 1), min_size=len(rows), max_size=len(rows))), np.int64)
+    labels = np.asarray(native.Plan.blocks(m, n, rows, cols)[4])
+    pattern = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(m, n)).tocsr()
+    count, theirs = connected_components(pattern.T @ pattern, directed=False)
+    assert labels.max() + 1 == count and (labels == theirs).all()
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.permutations(list(range(9))))
+def test_parity_counts_cycles(perm):
+    from kinem.model import parity
+
+    inversions = sum(perm[i] > perm[j] for i in range(len(perm)) for j in range(i + 1, len(perm)))
+    assert parity(perm) == (-1) ** inversions
+
+
+def test_merged_variants_are_one_block_each():
+    case = kinem.load(ROOT / "cases/slider_crank.toml")
+    model = kinem.compile(kinem.batch.merge([case] * 7))
+    b = model.blocks
+    assert (b.count, b.size, b.square, b.sign) == (7, 12, True, 1)
+    assert (b.col_pos // 12 == np.arange(model.n) // 12).all()
+    assert len(model.structure.blocks) == 7 * 8

@@ -211,6 +211,41 @@ pub fn decompose(m: usize, n: usize, rows: &[usize], cols: &[usize]) -> Decompos
     Decomposition { blocks, kind, rank }
 }
 
+/// The connected components of the pattern's coordinates (two joined when
+/// a row has entries in both): a label per coordinate, the components
+/// numbered in the order of their smallest coordinate (as
+/// scipy.sparse.csgraph.connected_components numbers them).
+pub fn connected(m: usize, n: usize, rows: &[usize], cols: &[usize]) -> Vec<usize> {
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut x: usize) -> usize {
+        while parent[x] != x {
+            parent[x] = parent[parent[x]];
+            x = parent[x];
+        }
+        x
+    }
+    let mut first = vec![NONE; m]; // each row's first coordinate
+    for (&r, &c) in rows.iter().zip(cols) {
+        if first[r] == NONE {
+            first[r] = c;
+            continue;
+        }
+        let (a, b) = (root(&mut parent, first[r]), root(&mut parent, c));
+        parent[a.max(b)] = a.min(b);
+    }
+    let mut label = vec![NONE; n];
+    let mut count = 0;
+    for c in 0..n {
+        let r = root(&mut parent, c);
+        if label[r] == NONE {
+            label[r] = count;
+            count += 1;
+        }
+        label[c] = label[r];
+    }
+    label
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
@@ -342,6 +377,29 @@ pub(crate) mod tests {
         check(12, 12, &rows, &cols, &d);
         assert_eq!(sizes(&d), vec![1, 1, 1, 1, 1, 1, 6]);
         assert_eq!(d.blocks[6].cols, vec![6, 7, 8, 9, 10, 11]);
+    }
+
+    #[test]
+    fn merged_variants_are_connected_components_in_order() {
+        // two slider-cranks side by side (the second's rows and coordinates after the first's), and a lone coordinate
+        let (rows, cols) = slider_crank();
+        let (mut r2, mut c2) = (rows.clone(), cols.clone());
+        r2.extend(rows.iter().map(|&r| r + 12));
+        c2.extend(cols.iter().map(|&c| c + 12));
+        let label = connected(24, 25, &r2, &c2);
+        assert_eq!(
+            label,
+            (0..25)
+                .map(|c| if c < 12 {
+                    0
+                } else if c < 24 {
+                    1
+                } else {
+                    2
+                })
+                .collect::<Vec<_>>()
+        );
+        assert_eq!(connected(2, 3, &[0, 0, 1], &[2, 0, 1]), vec![0, 1, 0]);
     }
 
     #[test]

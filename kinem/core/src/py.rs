@@ -525,7 +525,8 @@ impl Plan {
     /// The structural decomposition of an m x n Jacobian pattern (rows,
     /// cols; crate::decompose), any model's (a static method: models
     /// without a plan too): (exact, what the pattern allows, the structural
-    /// rank, the blocks in solve order as (rows, coordinates)).
+    /// rank, the blocks in solve order as (rows, coordinates), and the
+    /// connected component of each coordinate).
     #[staticmethod]
     #[allow(clippy::type_complexity)]
     fn blocks(
@@ -534,7 +535,7 @@ impl Plan {
         n: usize,
         rows: PyReadonlyArray1<'_, i64>,
         cols: PyReadonlyArray1<'_, i64>,
-    ) -> PyResult<(bool, &'static str, usize, Vec<(Vec<usize>, Vec<usize>)>)> {
+    ) -> PyResult<(bool, &'static str, usize, Vec<(Vec<usize>, Vec<usize>)>, Vec<usize>)> {
         let index = |a: PyReadonlyArray1<'_, i64>, bound: usize| -> PyResult<Vec<usize>> {
             let bad = || value_error("blocks: index out of range");
             a.as_array().iter().map(|&v| usize::try_from(v).ok().filter(|&v| v < bound).ok_or_else(bad)).collect()
@@ -543,9 +544,12 @@ impl Plan {
         if rows.len() != cols.len() {
             return Err(value_error("blocks: rows and cols differ in length"));
         }
-        let d = guard(py, move || Ok(crate::decompose::decompose(m, n, &rows, &cols)))?;
+        let (d, connected) = guard(py, move || {
+            Ok((crate::decompose::decompose(m, n, &rows, &cols), crate::decompose::connected(m, n, &rows, &cols)))
+        })?;
         let exact = d.kind == crate::decompose::Kind::Exact;
-        Ok((exact, d.kind.message(), d.rank, d.blocks.into_iter().map(|b| (b.rows, b.cols)).collect()))
+        let blocks = d.blocks.into_iter().map(|b| (b.rows, b.cols)).collect();
+        Ok((exact, d.kind.message(), d.rank, blocks, connected))
     }
 
     /// The LU of J_s at these Jacobian values (nnz).
