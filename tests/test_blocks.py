@@ -154,3 +154,23 @@ def test_merged_variants_are_one_block_each():
     assert (b.count, b.size, b.square, b.sign) == (7, 12, True, 1)
     assert (b.col_pos // 12 == np.arange(model.n) // 12).all()
     assert len(model.structure.blocks) == 7 * 8
+
+
+def test_a_chain_above_64_coordinates_solves_by_blocks_as_superlu_does():
+    """The N-four-bar chain of benchmarks/scaling_bench.py with 66 coordinates
+    (one block, 16 diagonal blocks of at most 6): the core's block-triangular
+    LU (was a dense 66 x 66 LU) gives the trajectory SuperLU's step-by-step
+    analysis gives, to 1e-11 of the size and of the rates' peaks (both are
+    rounding times the conditioning)."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from scaling_bench import chain_case
+
+    case, _ = chain_case(22, 40)
+    model = kinem.compile(case)
+    assert model.n == 66 and max(len(c) for _, c in model.structure.blocks) == 6
+    ours = kinem.solve(model)
+    theirs = kinem.solve(model, options=kinem.Options(linear_solver="sparse"))
+    assert ours.success and theirs.success
+    for a, b, size in ((ours.q, theirs.q, model.length), (ours.qd, theirs.qd, np.abs(theirs.qd).max()),
+                       (ours.qdd, theirs.qdd, np.abs(theirs.qdd).max())):
+        assert np.abs(a - b).max() <= 1e-11 * size

@@ -46,7 +46,7 @@ pub enum Shape {
     /// entry (their count `singles`), and the reduced rows' entries in
     /// single-entry columns (coupling: reduced row, single index).
     Band { kl: usize, ku: usize, size: usize, singles: usize, couple_row: Vec<usize>, couple_col: Vec<usize> },
-    /// One block of up to MASK coordinates in its block-triangular order
+    /// One block whose diagonal blocks have up to MASK coordinates each, in its block-triangular order
     /// (crate::decompose, crate::triangular, built by crate::plan): row_pos
     /// and col_pos are the positions in that order (the permutation's sign
     /// and the partial-pivoting fallback's own layout are the Triangular's).

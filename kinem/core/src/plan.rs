@@ -105,8 +105,8 @@ pub fn order_blocks(kin: &Kin, layout: &mut Layout) {
     }
 }
 
-/// One block of up to MASK coordinates, square, without padding, whose
-/// pattern decomposes into two blocks or more: laid out in its
+/// One block, square, without padding, whose pattern decomposes into two
+/// blocks or more, none above MASK coordinates: laid out in its
 /// block-triangular order (Shape::Triangular), each diagonal block's
 /// positions in its fixed order. False (unchanged) otherwise, and where a
 /// block has no fixed order (a greedy order can miss a structurally
@@ -114,7 +114,7 @@ pub fn order_blocks(kin: &Kin, layout: &mut Layout) {
 fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool]) -> bool {
     let Shape::Blocks { count: 1, size, pad, patterns, .. } = &layout.shape else { return false };
     let (n, m) = (layout.n, layout.m);
-    if *size > MASK || !pad.is_empty() || n != m || *size != n || patterns.len() != n {
+    if !pad.is_empty() || n != m || *size != n || (n <= MASK && patterns.len() != n) {
         return false;
     }
     let (mut row_at, mut col_at) = (vec![NONE; n], vec![NONE; n]);
@@ -127,7 +127,7 @@ fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool]) -> bool {
     let rows: Vec<usize> = layout.at.iter().map(|&(_, r, _)| row_at[r]).collect();
     let cols: Vec<usize> = layout.at.iter().map(|&(_, _, c)| col_at[c]).collect();
     let d = decompose(m, n, &rows, &cols);
-    if d.kind != Kind::Exact || d.blocks.len() < 2 {
+    if d.kind != Kind::Exact || d.blocks.len() < 2 || d.blocks.iter().any(|b| b.cols.len() > MASK) {
         return false;
     }
     // each block's fixed order over its matched local indices (i: rows[i], cols[i])

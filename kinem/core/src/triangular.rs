@@ -11,9 +11,10 @@
 //! multiplier above crate::order::MULTIPLIER) or the pivots of all the
 //! blocks span more than crate::lu::FALLBACK, the whole J_s is factorised
 //! with partial pivoting in the model's own order instead (`whole`: LAPACK
-//! getf2's pivots, as before the decomposition), so that every figure near
-//! the acceptance test's floor is partial pivoting's.
-use crate::lu::{masked_factor, masked_solve, Factors, FALLBACK};
+//! getf2's pivots, as before the decomposition; on its nonzeros up to
+//! MASK coordinates, dense above), so that every figure near the
+//! acceptance test's floor is partial pivoting's.
+use crate::lu::{dense_factor, dense_solve, masked_factor, masked_solve, Factors, FALLBACK, MASK};
 use crate::order::{Order, Pivots};
 
 /// The program's mark of a larger block's elimination.
@@ -53,7 +54,8 @@ pub struct Triangular {
     pub sign: i32,
     /// the fallback in the model's own order: positions of rows and
     /// coordinates, its entries (Jacobian entry, position r n + c, scale),
-    /// row and column patterns, and the coordinate at each position
+    /// row and column patterns (up to MASK coordinates; none above), the
+    /// sign of the model's order
     pub whole_row: Vec<usize>,
     pub whole_col: Vec<usize>,
     pub whole_entries: Vec<(u32, u32, f64)>,
@@ -82,6 +84,9 @@ impl Triangular {
         a.fill(0.0);
         for &(e, pos, scale) in &self.whole_entries {
             a[pos as usize] = values[e as usize] * scale;
+        }
+        if n > MASK {
+            return dense_factor(a, n, &mut f.piv);
         }
         for i in 0..n {
             (f.rm[i], f.cm[i]) = self.whole_patterns[i];
@@ -137,7 +142,11 @@ impl Triangular {
             for (i, &p) in self.whole_row.iter().enumerate() {
                 w[p] = b[i] / scale[i];
             }
-            masked_solve(&f.j[..n * n], n, &f.piv, &f.rm, w);
+            if n > MASK {
+                dense_solve(&f.j[..n * n], n, &f.piv, w);
+            } else {
+                masked_solve(&f.j[..n * n], n, &f.piv, &f.rm, w);
+            }
             for (j, &p) in self.whole_col.iter().enumerate() {
                 x[j] = w[p] * col_scale[j];
             }
