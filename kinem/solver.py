@@ -143,7 +143,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         status, message, k = Status.WRONG_BRANCH, f"assembly at t = {times[0]:.6g}: {pin[1]}", 0
     wall = time.perf_counter() - start
     n_ok = k
-    ok = status == Status.SUCCESS
+    ok = status is Status.SUCCESS
     t_fail = None if ok else float(times[n_ok])
     # the instants solved, read-only (views of X made after it is): the trajectory's columns are made from them
     X.flags.writeable = False
@@ -158,17 +158,18 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     evaluations, factorizations = int(ints[-2]), int(ints[-1])   # the march's
     if data is not None:
         evaluations, factorizations = evaluations + data.jacobian_evaluations, factorizations + data.factorizations
-    return SolveResult.of(
-        success=ok, status=status, message=message or "all instants solved",
-        trajectory=traj, q=Q, qd=QD, qdd=QDD, iterations=iters, residual=resid,
-        conditioning=cond, substeps=0 if tracker is None else tracker.substeps,
-        events=() if tracker is None else tuple(tracker.events), trace=tuple(data.trace or ()) if data else (),
-        jacobian_evaluations=evaluations, factorizations=factorizations,
-        wall_time=wall, t_fail=t_fail, attempts=budget.attempts, margin_moves=moves,
-        failed_constraint=pin[0] if status == Status.WRONG_BRANCH else None if ok or status == Status.SINGULAR
+    return SolveResult.of({
+        "success": ok, "status": status, "message": message or "all instants solved",
+        "trajectory": traj, "q": Q, "qd": QD, "qdd": QDD, "iterations": iters, "residual": resid,
+        "conditioning": cond, "substeps": 0 if tracker is None else tracker.substeps,
+        "events": () if tracker is None else tuple(tracker.events),
+        "trace": tuple(data.trace or ()) if data else (),
+        "jacobian_evaluations": evaluations, "factorizations": factorizations,
+        "wall_time": wall, "t_fail": t_fail, "attempts": budget.attempts, "margin_moves": moves,
+        "failed_constraint": pin[0] if status is Status.WRONG_BRANCH else None if ok or status is Status.SINGULAR
         else model.row_owner[0 if data is None else data.worst_row],
-        model=model,
-    )
+        "model": model,
+    })
 
 
 def check_square(model) -> None:
