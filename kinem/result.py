@@ -162,7 +162,10 @@ class SolveResult:
         ``SolveResult(**values)`` without the frozen dataclass's per-field
         setattr (2.5 us of a 2-instant solve's 25) nor, given a dict, the
         keywords' packing (0.9 us)."""
-        values = fields if values is None else values
+        if values is None:
+            values = fields
+        elif fields:
+            raise TypeError("SolveResult.of: a dict or keywords, not both")
         if values.keys() != _RESULT_FIELDS:
             raise TypeError(f"SolveResult.of: fields {sorted(values.keys() ^ _RESULT_FIELDS)} missing or unknown")
         r = object.__new__(cls)
