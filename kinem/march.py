@@ -19,6 +19,8 @@ from .errors import WorkLimitError
 from .model import BLOCK_LIMIT
 from .options import Options
 
+OUT_OF_TIME = int(native.Why.OUT_OF_TIME)
+
 
 def usable(model, trace: bool, instants: int, options: Options) -> bool:
     """Whether the march takes the model: square, made of independent
@@ -41,35 +43,28 @@ def banded(model) -> bool:
 
 
 class March:
-    """The march of one solve: the model's plan, the output instants and
-    the tracker whose history it carries on."""
+    """The march of one solve: the model's plan, the output instants, the
+    run's state (kinem.native.MarchState, the tracker's too) and budget
+    (kinem.budget.Budget)."""
 
-    def __init__(self, model, tracker, times, X, figures, ints, options: Options):
-        """X (3, K, n): Q, QD, QDD with rates, else (1, K, n): Q; figures (2, K): residual and pivot ratio; ints
-        (K + 2): Newton iterations, then the loop's counts (Plan.march)."""
-        self.model, self.tracker = model, tracker
-        self.times = np.ascontiguousarray(times, float)
-        self.settings = tracker.settings
-        self.budget = tracker.budget
+    def __init__(self, model, state, budget, times, X, figures, ints, options: Options, rates: bool):
+        """state: at the estimates to assemble from; X (3, K, n): Q, QD, QDD with rates (``rates``), else (1,
+        K, n): Q; figures (2, K): residual and pivot ratio; ints (K + 2): Newton iterations, then the
+        loop's counts of Jacobian evaluations and factorisations (Plan.march adds to them: zeros at first)."""
+        self.plan, self.state, self.budget = model.plan, state, budget
+        self.times = times if times.flags.c_contiguous else np.ascontiguousarray(times)
+        self.settings = options.step_settings[bool(rates)]
         self.X, self.figures, self.ints = X, figures, ints
 
-    def advance(self, k: int, q0=None) -> int:
-        """Output instants from k on, from the tracker's last state (k = 0:
-        assembled from q0), until one is not accepted; returns the first
-        instant not taken (len(times): all). The tracker's state is left at
-        the last instant taken."""
-        st = self.tracker.state
-        if k == 0:
-            st.restart(np.asarray(self.model.q0 if q0 is None else q0, dtype=float))
-        ints = self.ints
-        ints[-2:] = 0
+    def advance(self, k: int) -> int:
+        """Output instants from k on, from the state's last accepted instant
+        (k = 0: assembled from its estimates), until one is not accepted;
+        returns the first instant not taken (len(times): all). The state is
+        left at the last instant taken."""
         started = time.perf_counter()
-        end, why = self.model.plan.march(self.times, k, st, self.settings + (float(self.budget.left()),), self.X,
-                                         self.figures, ints)
-        d = self.tracker.data
-        d.jacobian_evaluations += int(ints[-2])
-        d.factorizations += int(ints[-1])
-        if why == native.Why.OUT_OF_TIME:
+        end, why = self.plan.march(self.times, k, self.state, self.settings + (self.budget.deadline - started,),
+                                   self.X, self.figures, self.ints)
+        if why == OUT_OF_TIME:
             t = float(self.times[min(end, len(self.times) - 1)])
             raise WorkLimitError(self.budget.march_out_of_time(t, end - k, len(self.times) - k,
                                                                time.perf_counter() - started), instant=end)

@@ -6,6 +6,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Callable
 
+from . import native
 from .errors import InputError
 
 LINEAR_SOLVERS = ("auto", "dense", "sparse")
@@ -19,6 +20,17 @@ MOST_SUBSTEPS = 10**12
 MOST_SECONDS = 1e7        # about four months
 MOST_ITERATIONS = 10_000
 MOST_BLOCK = 2**31 - 1
+
+
+def singular_pivot(tolerance: float) -> float:
+    """Pivot ratio of J_s below which a state is too near a singular
+    configuration to trust. Newton stops within sqrt(tolerance) of a singular
+    root, where the ratio is 0.4 to 0.6 sqrt(tolerance) (measured on the
+    change-point cases); a regular path that only passes close to one, like
+    a four-bar 1e-8 from its change point, keeps about 0.4 sqrt(margin)
+    (3.9e-5 there). 1.5 sqrt(tolerance) separates the two with a factor of
+    about 2.5 either way; normal configurations have 1e-2 to 1."""
+    return min(1e-3, 1.5 * tolerance**0.5)
 
 
 def _whole(name, value, low, high):
@@ -63,6 +75,10 @@ class Options:
             raise InputError(f"solver options: jacobian_reuse {self.jacobian_reuse!r:.60}; expected True or False")
         if self.on_substeps is not None and not callable(self.on_substeps):
             raise InputError("solver options: on_substeps: expected a function (count, t) or None")
+        # what the core's step is given (kinem.native: tolerance, max_iterations, max_step, pivot floor,
+        # rates), without rates and with them: made once with the options (they are frozen)
+        base = (float(t), int(self.max_iterations), float(native.MAX_STEP), singular_pivot(t))
+        object.__setattr__(self, "step_settings", (base + (False,), base + (True,)))
 
     @classmethod
     def of(cls, case) -> "Options":

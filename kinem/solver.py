@@ -8,7 +8,9 @@ import time
 
 import numpy as np
 
+from . import native
 from .analysis import Data
+from .budget import Budget
 from .branches import violation
 from .diagnose import contact_hint, explain_assembly
 from .errors import AnalysisError, InputError, SingularError, WorkLimitError
@@ -34,7 +36,8 @@ def _checked_times(times):
         return None
     t = _floats("times", times, "a sequence of numbers")
     # increasing strictly between finite ends: every instant finite (a NaN fails the comparison)
-    if t.ndim == 1 and len(t) and math.isfinite(t[0]) and math.isfinite(t[-1]) and (t[1:] > t[:-1]).all():
+    if t.ndim == 1 and len(t) and math.isfinite(t[0]) and math.isfinite(t[-1]) and \
+            np.count_nonzero(t[1:] > t[:-1]) == len(t) - 1:
         return t
     if t.ndim != 1 or not len(t) or not np.isfinite(t).all():
         raise InputError(f"solve: times of shape {t.shape}: expected one or more finite instants in a 1-D sequence")
@@ -75,7 +78,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         from .variants import solve_variants
 
         return solve_variants(model, parameters, outputs, times, options, trace, q0)
-    times = _checked_times(times)
+    times = _checked_times(times)   # None: the model's
     options = model.options if options is None else options
     if not isinstance(options, Options):
         raise InputError(f"solve: options {type(options).__name__}: expected a kinem.Options")
@@ -93,25 +96,29 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     check_square(model)
     need_a = "accelerations" in outputs
     need_v = need_a or "velocities" in outputs
-    times = model.times if times is None else np.asarray(times, dtype=float)
+    times = model.times if times is None else times
     nt = len(times)
     X = np.empty((3 if need_v else 1, nt, model.n))  # Q (QD, QDD): one array for the march (kinem.march)
     Q, QD, QDD = X[0], X[1] if need_v else None, X[2] if need_a else None
     figures, ints = np.zeros((2, nt)), np.zeros(nt + 2, np.int64)
     iters, resid, cond = ints[:nt], figures[0], figures[1]
-    data = Data(q=model.q0.copy(), trace=[] if trace else None, solver=choose(model, options))
-    tracker = Tracker(model, data, need_v, need_a, options)
+    budget = Budget(model, options)   # the run's work and clock (kinem.budget), from now
+    state = native.MarchState(model.q0 if q0 is None else q0)   # the estimates to assemble from
     status, message = Status.SUCCESS, ""
-    blocks = usable(model, trace, nt, options)
     start = time.perf_counter()
-    march = March(model, tracker, times, X, figures, ints, options) if blocks else None
+    march = March(model, state, budget, times, X, figures, ints, options, need_v) \
+        if usable(model, trace, nt, options) else None
+    tracker = data = None   # made for the instants the march hands back (all of them without it)
     k = 0
     try:
         while k < nt:
             if march is not None:
-                k = march.advance(k, q0)
+                k = march.advance(k)
                 if k == nt:
                     break
+            if tracker is None:
+                data = Data(q=model.q0.copy(), trace=[] if trace else None, solver=choose(model, options))
+                tracker = Tracker(model, data, need_v, need_a, options, state, budget)
             s = tracker.start(times[0], q0) if k == 0 else tracker.advance(times[k])
             iters[k], resid[k], cond[k], Q[k] = s.iterations, s.residual, s.pivot, s.q
             if trace:
@@ -136,30 +143,33 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         status, message, k = Status.WRONG_BRANCH, f"assembly at t = {times[0]:.6g}: {pin[1]}", 0
     wall = time.perf_counter() - start
     n_ok = k
-    ok = status == Status.SUCCESS
+    ok = status is Status.SUCCESS
     t_fail = None if ok else float(times[n_ok])
-    if n_ok < nt:   # the instants solved
-        times, Q, iters, resid, cond = times[:n_ok], Q[:n_ok], iters[:n_ok], resid[:n_ok], cond[:n_ok]
-        QD, QDD = None if QD is None else QD[:n_ok], None if QDD is None else QDD[:n_ok]
-    for x in (Q, QD, QDD):   # the trajectory's columns are made from them on first use: frozen alike
-        if x is not None:
-            x.flags.writeable = False
+    # the instants solved, read-only (views of X made after it is): the trajectory's columns are made from them
+    X.flags.writeable = False
+    Q, QD, QDD = X[0, :n_ok], X[1, :n_ok] if need_v else None, X[2, :n_ok] if need_a else None
+    if n_ok < nt:
+        times, iters, resid, cond = times[:n_ok], iters[:n_ok], resid[:n_ok], cond[:n_ok]
     traj = trajectory(model, times, Q, QD, QDD)
     moves = ()
     if want_margins:   # kinem.margins: columns after the trajectory's own
         names, values, moves = margins(model, Q, times)
         traj = Trajectory(traj.t, traj.columns + names, np.hstack([traj.data, values]))
-    return SolveResult.of(
-        success=ok, status=status, message=message or "all instants solved",
-        trajectory=traj, q=Q, qd=QD, qdd=QDD, iterations=iters, residual=resid,
-        conditioning=cond, substeps=tracker.substeps, events=tuple(tracker.events),
-        trace=tuple(data.trace or ()),
-        jacobian_evaluations=data.jacobian_evaluations, factorizations=data.factorizations,
-        wall_time=wall, t_fail=t_fail, attempts=tracker.budget.attempts, margin_moves=moves,
-        failed_constraint=pin[0] if status == Status.WRONG_BRANCH else None if ok or status == Status.SINGULAR
-        else model.row_owner[data.worst_row],
-        model=model,
-    )
+    evaluations, factorizations = int(ints[-2]), int(ints[-1])   # the march's
+    if data is not None:
+        evaluations, factorizations = evaluations + data.jacobian_evaluations, factorizations + data.factorizations
+    return SolveResult.of({
+        "success": ok, "status": status, "message": message or "all instants solved",
+        "trajectory": traj, "q": Q, "qd": QD, "qdd": QDD, "iterations": iters, "residual": resid,
+        "conditioning": cond, "substeps": 0 if tracker is None else tracker.substeps,
+        "events": () if tracker is None else tuple(tracker.events),
+        "trace": tuple(data.trace or ()) if data else (),
+        "jacobian_evaluations": evaluations, "factorizations": factorizations,
+        "wall_time": wall, "t_fail": t_fail, "attempts": budget.attempts, "margin_moves": moves,
+        "failed_constraint": pin[0] if status is Status.WRONG_BRANCH else None if ok or status is Status.SINGULAR
+        else model.row_owner[0 if data is None else data.worst_row],
+        "model": model,
+    })
 
 
 def check_square(model) -> None:

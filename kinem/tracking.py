@@ -38,7 +38,7 @@ from .budget import Budget
 from .errors import AnalysisError, ConvergenceError, SingularError, WorkLimitError
 from .linalg import det_sign, monitor_rows
 from .native import Mode, Why
-from .options import Options
+from .options import Options, singular_pivot  # noqa: F401 (kinem.tracking.singular_pivot)
 
 KAPPA = native.KAPPA    # a correction above half the predicted motion is a jump, not a refinement
 MIN_STEP = 1e-5        # of the output interval: below it the path is stuck at a singular point
@@ -52,17 +52,6 @@ MIN_STEP = 1e-5        # of the output interval: below it the path is stuck at a
 # and the pivot ratio that of the configuration: 1e-10 and 3.8e-7 for a four-bar 1e-6 (in
 # crank angle) from its change point.
 REGULAR = native.REGULAR
-
-
-def singular_pivot(tolerance: float) -> float:
-    """Pivot ratio of J_s below which a state is too near a singular
-    configuration to trust. Newton stops within sqrt(tolerance) of a singular
-    root, where the ratio is 0.4 to 0.6 sqrt(tolerance) (measured on the
-    change-point cases); a regular path that only passes close to one, like
-    a four-bar 1e-8 from its change point, keeps about 0.4 sqrt(margin)
-    (3.9e-5 there). 1.5 sqrt(tolerance) separates the two with a factor of
-    about 2.5 either way; normal configurations have 1e-2 to 1."""
-    return min(1e-3, 1.5 * tolerance**0.5)
 
 
 # Why the core's step turns a state down (kinem.native.Why; 0: accepted).
@@ -97,24 +86,27 @@ class Rejected(Exception):
 
 
 class Tracker:
-    def __init__(self, model, data, need_v, need_a, options: Options):
+    def __init__(self, model, data, need_v, need_a, options: Options, state=None, budget=None):
+        """``state``: the run's kinem.native.MarchState (default: a new one at
+        the model's estimates); ``budget``: its kinem.budget.Budget (default:
+        a new one, its clock started now)."""
         self.model, self.data = model, data
         self.need_v, self.need_a = need_v, need_a
         self.options = o = options
         self.tol = o.tolerance
         self.events = []        # (t, text): singular configurations passed
         self.substeps = 0       # steps taken beyond one per output interval
-        self.pivot_floor = singular_pivot(o.tolerance)
         # the last accepted state, the march's too (kinem.march), and what the core's step is given
-        self.state = native.MarchState(np.asarray(model.q0, dtype=float))
+        self.state = native.MarchState(model.q0) if state is None else state
         self.last = None        # the record of the last accepted state (State)
-        self.settings = (float(o.tolerance), int(o.max_iterations), float(native.MAX_STEP), self.pivot_floor, need_v)
+        self.settings = o.step_settings[bool(need_v)]
+        self.pivot_floor = self.settings[3]
         solver = data.solver
         # the core's operations where its LU is the solver and no trace or modified Newton asks for Python's
         core = solver is not None and solver.core and data.trace is None and not o.jacobian_reuse
         self.plan = model.plan if core else None
         # every attempt beyond one per output interval, and the time, count (kinem.budget)
-        self.budget = data.budget = Budget(model, o)
+        self.budget = data.budget = Budget(model, o) if budget is None else budget
 
     # -- one step, by the core ---------------------------------------------
     def step(self, t, mode=Mode.TRACK, state=None, floor=None):

@@ -33,9 +33,10 @@ def watched(model, outputs=kinem.OUTPUTS):
     call's own Jacobian evaluations)])."""
     calls, original = [], march.March.advance
 
-    def advance(self, k, q0=None):
-        end = original(self, k, q0)
-        calls.append((k, end, int(self.ints[-2])))
+    def advance(self, k):
+        before = int(self.ints[-2])   # the march's counts are added to, call after call
+        end = original(self, k)
+        calls.append((k, end, int(self.ints[-2]) - before))
         return end
 
     march.March.advance = advance

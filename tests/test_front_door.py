@@ -94,6 +94,10 @@ def test_a_results_columns_are_made_once_at_first_use_and_equal_its_coordinates(
     values = {f: getattr(r, f) for f in r.__dataclass_fields__}
     again = SolveResult.of(**values)
     assert all(getattr(again, f) is getattr(r, f) for f in values)
+    given = dict(values)   # or as a dict, taken as the result's own (solve's way)
+    assert SolveResult.of(given).__dict__ is given and SolveResult.of(given).q is r.q
+    with pytest.raises(TypeError, match="not both"):
+        SolveResult.of(dict(values), model=None)
     values.pop("model")
     with pytest.raises(TypeError, match="model"):
         SolveResult.of(**values)
