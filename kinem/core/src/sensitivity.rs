@@ -93,6 +93,9 @@ fn seeded(kin: &Kin, group: &[Tangent]) -> Result<Kin<L>, String> {
 /// tangents along the first parameter, then the second, ... (from dq/dp,
 /// dqd/dp, dqdd/dp, over Lanes: crate::columns::Columns::row), and ratio
 /// (K) with the pivot ratio of Phi_q (the caller flags singular instants).
+/// Phi_q is evaluated and factorised here at every instant: the march's
+/// own factorisation serves instead where it runs (`Instants::at` from
+/// its hook, crate::march::run_hooked).
 #[allow(clippy::too_many_arguments)]
 pub fn sensitivities(
     kin: &Kin,
@@ -106,127 +109,226 @@ pub fn sensitivities(
     data: &mut [f64],
     ratio: &mut [f64],
 ) -> Result<(), String> {
-    let (src, pc, local, dlocal) = columns;
-    let (w, points) = (src.len(), local.len());
-    let (n, m, nnz, kk, levels, np) = (kin.n, kin.m, kin.nnz, times.len(), x.len(), tangents.len());
+    let (n, kk, levels) = (kin.n, times.len(), x.len());
     if levels == 0 || levels > 3 || x.iter().any(|a| a.len() != kk * n) {
         return Err("sensitivity: 1 to 3 arrays of K x n coordinates expected".into());
     }
-    if rows.len() != nnz || cols.len() != nnz || rows.iter().any(|&r| r >= m) || cols.iter().any(|&c| c >= n) {
-        return Err("sensitivity: the Jacobian's pattern does not fit the model".into());
-    }
-    if data.len() != kk * np * w || ratio.len() != kk || dlocal.len() != np * points {
+    let mut at = Instants::new(kin, layout, tangents, rows, cols, levels, columns)?;
+    if data.len() != kk * at.width() || ratio.len() != kk {
         return Err("sensitivity: output arrays of the wrong size".into());
     }
-    let groups = tangents.chunks(LANES).map(|g| seeded(kin, g)).collect::<Result<Vec<_>, _>>()?;
-    let two: Kin<Lanes<2>> = kin.over()?; // A and B (S6), the tables' tangents zero
-    let csr = Csr::of(rows, cols, m);
-    let layout_columns = crate::columns::Columns::new(n, levels, src, pc);
-    // the named points' local coordinates with the group's tangents in the lanes
-    let locs: Vec<Vec<Complex<L>>> = (0..groups.len())
-        .map(|g| {
-            (0..points)
-                .map(|j| {
-                    let (mut re, mut im) = ([0.0; LANES], [0.0; LANES]);
-                    for p in g * LANES..(g * LANES + LANES).min(np) {
-                        (re[p - g * LANES], im[p - g * LANES]) = (dlocal[p * points + j].re, dlocal[p * points + j].im);
-                    }
-                    Complex::new(Lanes::of(local[j].re, re), Lanes::of(local[j].im, im))
-                })
-                .collect()
-        })
-        .collect();
-    let (mut pts, mut buf) = (vec![L::c(0.0); 2 * levels * points], vec![L::c(0.0); w]);
-    let mut qddl = vec![L::c(0.0); n];
     let mut f = layout.factors();
     let mut e = vec![C64::new(1.0, 0.0); n];
-    let mut values = vec![0.0; nnz];
-    let mut q2 = vec![Lanes::<2>::c(0.0); n];
-    let (mut e2, mut j2) = (vec![Complex::new(Lanes::c(0.0), Lanes::c(0.0)); n], vec![Lanes::<2>::c(0.0); nnz]);
-    let (mut q0, mut e0) = (vec![L::c(0.0); n], vec![Complex::new(L::c(0.0), L::c(0.0)); n]);
-    let (mut ql, mut qdl, mut el) =
-        (vec![L::c(0.0); n], vec![L::c(0.0); n], vec![Complex::new(L::c(0.0), L::c(0.0)); n]);
-    let (mut rl, mut jl) = (vec![L::c(0.0); m], vec![L::c(0.0); nnz]);
-    let (mut a, mut b) = (vec![0.0; nnz], vec![0.0; nnz]);
-    let mut rhs = vec![[0.0; LANES]; m];
-    let mut solver = Solver::new(n, m, 3 * np >= 2 * n && n <= INVERSE);
-    // s, sd, sdd (lanes); M s, J_p v (lanes)
-    let (mut s, mut sd, mut sdd) = (vec![[0.0; LANES]; n], vec![[0.0; LANES]; n], vec![[0.0; LANES]; n]);
-    let (mut by, mut jp) = (vec![[0.0; LANES]; m], vec![[0.0; LANES]; m]);
+    let mut values = vec![0.0; kin.nnz];
+    let w = at.width();
     for k in 0..kk {
         let (t, q) = (times[k], &x[0][k * n..(k + 1) * n]);
-        let row = |level: usize| &x[level][k * n..(k + 1) * n];
         kin.rotate(q, &mut e);
         kin.jac(&At { q, e: &e, t }, &mut values);
         layout.factor(&values, &mut f);
-        ratio[k] = layout.pivots(&f).0;
-        for j in 0..n {
-            q0[j] = L::c(q[j]);
-            e0[j] = Complex::new(L::c(e[j].re), L::c(e[j].im));
+        let stages: Vec<&[f64]> = x.iter().map(|a| &a[k * n..(k + 1) * n]).collect();
+        ratio[k] = at.at(t, &stages, &mut f, &mut data[k * w..(k + 1) * w]);
+    }
+    Ok(())
+}
+
+/// The sensitivities of one instant after another (Eqs. S1-S3, S6) from
+/// the factorisation of Phi_q at each instant's q: the seeded models, the
+/// column layout and every scratch array, set up once.
+pub struct Instants<'a> {
+    kin: &'a Kin,
+    layout: &'a Layout,
+    np: usize,
+    levels: usize,
+    groups: Vec<Kin<L>>,
+    two: Kin<Lanes<2>>,
+    csr: Csr,
+    columns: crate::columns::Columns<'a>,
+    w: usize,
+    locs: Vec<Vec<Complex<L>>>,
+    pts: Vec<L>,
+    buf: Vec<L>,
+    q2: Vec<Lanes<2>>,
+    e2: Vec<Complex<Lanes<2>>>,
+    j2: Vec<Lanes<2>>,
+    e: Vec<C64>,
+    q0: Vec<L>,
+    e0: Vec<Complex<L>>,
+    ql: Vec<L>,
+    qdl: Vec<L>,
+    qddl: Vec<L>,
+    el: Vec<Complex<L>>,
+    rl: Vec<L>,
+    jl: Vec<L>,
+    a: Vec<f64>,
+    b: Vec<f64>,
+    rhs: Vec<[f64; LANES]>,
+    solver: Solver,
+    s: Vec<[f64; LANES]>,
+    sd: Vec<[f64; LANES]>,
+    sdd: Vec<[f64; LANES]>,
+    by: Vec<[f64; LANES]>,
+    jp: Vec<[f64; LANES]>,
+}
+
+impl<'a> Instants<'a> {
+    /// `levels` stages (1 to 3) per instant; the other arguments as
+    /// `sensitivities`'.
+    pub fn new(
+        kin: &'a Kin,
+        layout: &'a Layout,
+        tangents: &[Tangent],
+        rows: &[usize],
+        cols: &[usize],
+        levels: usize,
+        columns: Cols<'a>,
+    ) -> Result<Self, String> {
+        let (src, pc, local, dlocal) = columns;
+        let (w, points) = (src.len(), local.len());
+        let (n, m, nnz, np) = (kin.n, kin.m, kin.nnz, tangents.len());
+        if levels == 0 || levels > 3 {
+            return Err("sensitivity: 1 to 3 levels expected".into());
         }
-        let at0 = At { q: &q0, e: &e0, t };
+        if rows.len() != nnz || cols.len() != nnz || rows.iter().any(|&r| r >= m) || cols.iter().any(|&c| c >= n) {
+            return Err("sensitivity: the Jacobian's pattern does not fit the model".into());
+        }
+        if dlocal.len() != np * points {
+            return Err("sensitivity: output arrays of the wrong size".into());
+        }
+        let groups = tangents.chunks(LANES).map(|g| seeded(kin, g)).collect::<Result<Vec<_>, _>>()?;
+        // the named points' local coordinates with the group's tangents in the lanes
+        let locs: Vec<Vec<Complex<L>>> = (0..groups.len())
+            .map(|g| {
+                (0..points)
+                    .map(|j| {
+                        let (mut re, mut im) = ([0.0; LANES], [0.0; LANES]);
+                        for p in g * LANES..(g * LANES + LANES).min(np) {
+                            (re[p - g * LANES], im[p - g * LANES]) =
+                                (dlocal[p * points + j].re, dlocal[p * points + j].im);
+                        }
+                        Complex::new(Lanes::of(local[j].re, re), Lanes::of(local[j].im, im))
+                    })
+                    .collect()
+            })
+            .collect();
+        let zl = || vec![L::c(0.0); n];
+        let cl = || vec![Complex::new(L::c(0.0), L::c(0.0)); n];
+        Ok(Instants {
+            kin,
+            layout,
+            np,
+            levels,
+            groups,
+            two: kin.over()?, // A and B (S6), the tables' tangents zero
+            csr: Csr::of(rows, cols, m),
+            columns: crate::columns::Columns::new(n, levels, src, pc),
+            w,
+            locs,
+            pts: vec![L::c(0.0); 2 * levels * points],
+            buf: vec![L::c(0.0); w],
+            q2: vec![Lanes::<2>::c(0.0); n],
+            e2: vec![Complex::new(Lanes::c(0.0), Lanes::c(0.0)); n],
+            j2: vec![Lanes::<2>::c(0.0); nnz],
+            e: vec![C64::new(1.0, 0.0); n],
+            q0: zl(),
+            e0: cl(),
+            ql: zl(),
+            qdl: zl(),
+            qddl: zl(),
+            el: cl(),
+            rl: vec![L::c(0.0); m],
+            jl: vec![L::c(0.0); nnz],
+            a: vec![0.0; nnz],
+            b: vec![0.0; nnz],
+            rhs: vec![[0.0; LANES]; m],
+            solver: Solver::new(n, m, 3 * np >= 2 * n && n <= INVERSE),
+            s: vec![[0.0; LANES]; n],
+            sd: vec![[0.0; LANES]; n],
+            sdd: vec![[0.0; LANES]; n],
+            by: vec![[0.0; LANES]; m],
+            jp: vec![[0.0; LANES]; m],
+        })
+    }
+
+    /// The columns per instant and parameter (P W: an instant's row of data).
+    pub fn width(&self) -> usize {
+        self.np * self.w
+    }
+
+    /// One instant: x its stages (q, qd, qdd: `levels` of n), f the
+    /// factorisation of Phi_q at (q, t) (its solves leave it as it is);
+    /// writes its row (P W) and returns Phi_q's pivot ratio.
+    pub fn at(&mut self, t: f64, x: &[&[f64]], f: &mut Factors, out: &mut [f64]) -> f64 {
+        let Instants { kin, layout, np, levels, w, .. } = *self;
+        let n = kin.n;
+        let q = x[0];
+        let ratio = layout.pivots(f).0;
+        kin.rotate(q, &mut self.e);
+        for j in 0..n {
+            self.q0[j] = L::c(q[j]);
+            self.e0[j] = Complex::new(L::c(self.e[j].re), L::c(self.e[j].im));
+        }
+        let at0 = At { q: &self.q0, e: &self.e0, t };
         // A = D_qd(J), B = D_qdd(J) (S6): once per instant, one evaluation
         if levels > 1 {
-            let (qd, qdd) = (row(1), if levels > 2 { row(2) } else { row(1) });
+            let (qd, qdd) = (x[1], if levels > 2 { x[2] } else { x[1] });
             for j in 0..n {
-                q2[j] = Lanes::of(q[j], [qd[j], qdd[j]]);
+                self.q2[j] = Lanes::of(q[j], [qd[j], qdd[j]]);
             }
-            two.rotate(&q2, &mut e2);
-            two.jac(&At { q: &q2, e: &e2, t }, &mut j2);
-            for ((x, y), v) in a.iter_mut().zip(b.iter_mut()).zip(&j2) {
+            self.two.rotate(&self.q2, &mut self.e2);
+            self.two.jac(&At { q: &self.q2, e: &self.e2, t }, &mut self.j2);
+            for ((x, y), v) in self.a.iter_mut().zip(self.b.iter_mut()).zip(&self.j2) {
                 (*x, *y) = (v.d[0], v.d[1]);
             }
         }
-        solver.prepare(layout, &mut f);
-        for (g, model) in groups.iter().enumerate() {
+        self.solver.prepare(layout, f);
+        for (g, model) in self.groups.iter().enumerate() {
             let count = (np - g * LANES).min(LANES);
             // S1: Phi_p, Phi's tangent at q' = 0
-            model.phi(&at0, &mut rl);
-            for (r, x) in rhs.iter_mut().zip(&rl) {
+            model.phi(&at0, &mut self.rl);
+            for (r, x) in self.rhs.iter_mut().zip(&self.rl) {
                 *r = x.d.map(|v| -v);
             }
-            solver.solve(layout, &mut f, &rhs, count, &mut s);
+            self.solver.solve(layout, f, &self.rhs, count, &mut self.s);
             for j in 0..n {
-                ql[j] = Lanes::of(q[j], s[j]);
+                self.ql[j] = Lanes::of(q[j], self.s[j]);
             }
             if levels > 1 {
                 // S2: nu_p - A s - J_p qd, J_p: the Jacobian's tangent at q' = 0
-                model.jac(&at0, &mut jl);
-                model.nu(t, &mut rl);
-                let parts = (&rl[..], &jl[..], &s[..], row(1));
-                right_side(&csr, &a, parts, (&mut by, &mut jp), &mut rhs);
-                solver.solve(layout, &mut f, &rhs, count, &mut sd);
-                let qd = row(1);
+                model.jac(&at0, &mut self.jl);
+                model.nu(t, &mut self.rl);
+                let parts = (&self.rl[..], &self.jl[..], &self.s[..], x[1]);
+                right_side(&self.csr, &self.a, parts, (&mut self.by, &mut self.jp), &mut self.rhs);
+                self.solver.solve(layout, f, &self.rhs, count, &mut self.sd);
                 for j in 0..n {
-                    qdl[j] = Lanes::of(qd[j], sd[j]);
+                    self.qdl[j] = Lanes::of(x[1][j], self.sd[j]);
                 }
             }
             if levels > 2 {
                 // S3: D(gamma) (gamma's tangent along q' = s, qd' = sd and the
                 // tables'), minus B s and J_p qdd
-                model.rotate(&ql, &mut el);
-                model.gamma(&At { q: &ql, e: &el, t }, &qdl, &mut rl);
-                let parts = (&rl[..], &jl[..], &s[..], row(2));
-                right_side(&csr, &b, parts, (&mut by, &mut jp), &mut rhs);
-                solver.solve(layout, &mut f, &rhs, count, &mut sdd);
-                let qdd = row(2);
+                model.rotate(&self.ql, &mut self.el);
+                model.gamma(&At { q: &self.ql, e: &self.el, t }, &self.qdl, &mut self.rl);
+                let parts = (&self.rl[..], &self.jl[..], &self.s[..], x[2]);
+                right_side(&self.csr, &self.b, parts, (&mut self.by, &mut self.jp), &mut self.rhs);
+                self.solver.solve(layout, f, &self.rhs, count, &mut self.sdd);
                 for j in 0..n {
-                    qddl[j] = Lanes::of(qdd[j], sdd[j]);
+                    self.qddl[j] = Lanes::of(x[2][j], self.sdd[j]);
                 }
             }
             // the named points' and every column's tangents, from the lanes
-            let stages: [&[L]; 3] = [&ql, &qdl, &qddl];
-            layout_columns.row(&stages[..levels], &locs[g], &mut pts, &mut buf);
+            let stages: [&[L]; 3] = [&self.ql, &self.qdl, &self.qddl];
+            self.columns.row(&stages[..levels], &self.locs[g], &mut self.pts, &mut self.buf);
             for p in g * LANES..g * LANES + count {
                 let lane = p - g * LANES;
-                let to = &mut data[(k * np + p) * w..(k * np + p + 1) * w];
-                for (o, b) in to.iter_mut().zip(&buf) {
+                let to = &mut out[p * w..(p + 1) * w];
+                for (o, b) in to.iter_mut().zip(&self.buf) {
                     *o = b.d[lane];
                 }
             }
         }
+        ratio
     }
-    Ok(())
 }
 
 /// rhs = D(c) - M s - J_p v, lane by lane, for (S2) (c = nu, M = A,
