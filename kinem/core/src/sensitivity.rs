@@ -142,7 +142,7 @@ pub struct Instants<'a> {
     levels: usize,
     groups: Vec<Kin<L>>,
     two: Kin<Lanes<2>>,
-    csr: Csr,
+    pattern: Vec<(usize, usize)>,
     columns: crate::columns::Columns<'a>,
     w: usize,
     locs: Vec<Vec<Complex<L>>>,
@@ -167,8 +167,6 @@ pub struct Instants<'a> {
     s: Vec<[f64; LANES]>,
     sd: Vec<[f64; LANES]>,
     sdd: Vec<[f64; LANES]>,
-    by: Vec<[f64; LANES]>,
-    jp: Vec<[f64; LANES]>,
 }
 
 impl<'a> Instants<'a> {
@@ -220,7 +218,7 @@ impl<'a> Instants<'a> {
             levels,
             groups,
             two: kin.over()?, // A and B (S6), the tables' tangents zero
-            csr: Csr::of(rows, cols, m),
+            pattern: rows.iter().copied().zip(cols.iter().copied()).collect(),
             columns: crate::columns::Columns::new(n, levels, src, pc),
             w,
             locs,
@@ -245,8 +243,6 @@ impl<'a> Instants<'a> {
             s: vec![[0.0; LANES]; n],
             sd: vec![[0.0; LANES]; n],
             sdd: vec![[0.0; LANES]; n],
-            by: vec![[0.0; LANES]; m],
-            jp: vec![[0.0; LANES]; m],
         })
     }
 
@@ -298,7 +294,7 @@ impl<'a> Instants<'a> {
                 model.jac(&at0, &mut self.jl);
                 model.nu(t, &mut self.rl);
                 let parts = (&self.rl[..], &self.jl[..], &self.s[..], x[1]);
-                right_side(&self.csr, &self.a, parts, (&mut self.by, &mut self.jp), &mut self.rhs);
+                right_side(&self.pattern, &self.a, parts, &mut self.rhs);
                 self.solver.solve(layout, f, &self.rhs, count, &mut self.sd);
                 for j in 0..n {
                     self.qdl[j] = Lanes::of(x[1][j], self.sd[j]);
@@ -310,7 +306,7 @@ impl<'a> Instants<'a> {
                 model.rotate(&self.ql, &mut self.el);
                 model.gamma(&At { q: &self.ql, e: &self.el, t }, &self.qdl, &mut self.rl);
                 let parts = (&self.rl[..], &self.jl[..], &self.s[..], x[2]);
-                right_side(&self.csr, &self.b, parts, (&mut self.by, &mut self.jp), &mut self.rhs);
+                right_side(&self.pattern, &self.b, parts, &mut self.rhs);
                 self.solver.solve(layout, f, &self.rhs, count, &mut self.sdd);
                 for j in 0..n {
                     self.qddl[j] = Lanes::of(x[2][j], self.sdd[j]);
@@ -332,22 +328,23 @@ impl<'a> Instants<'a> {
 }
 
 /// rhs = D(c) - M s - J_p v, lane by lane, for (S2) (c = nu, M = A,
-/// v = qd) and (S3) (c = gamma, M = B, v = qdd): parts (c, J_p, s, v),
-/// scratch for M s and J_p v.
-#[allow(clippy::type_complexity)]
+/// v = qd) and (S3) (c = gamma, M = B, v = qdd): parts (c, J_p, s, v), M
+/// and J_p on the Jacobian's pattern (row, column of each entry), in one
+/// pass over it.
 fn right_side(
-    csr: &Csr,
+    pattern: &[(usize, usize)],
     mat: &[f64],
     parts: (&[L], &[L], &[[f64; LANES]], &[f64]),
-    scratch: (&mut [[f64; LANES]], &mut [[f64; LANES]]),
     rhs: &mut [[f64; LANES]],
 ) {
-    let ((c, jp, s, v), (by, jv)) = (parts, scratch);
-    csr.product(mat, s, by);
-    csr.lanes_product(jp, v, jv);
-    for (((r, c), x), y) in rhs.iter_mut().zip(c).zip(by.iter()).zip(jv.iter()) {
+    let (c, jp, s, v) = parts;
+    for (r, c) in rhs.iter_mut().zip(c) {
+        *r = c.d;
+    }
+    for ((&(i, j), &a), p) in pattern.iter().zip(mat).zip(jp) {
+        let (x, y, r) = (&s[j], v[j], &mut rhs[i]);
         for l in 0..LANES {
-            r[l] = c.d[l] - x[l] - y[l];
+            r[l] -= a * x[l] + p.d[l] * y;
         }
     }
 }
@@ -423,58 +420,6 @@ impl Solver {
             for (o, &v) in out.iter_mut().zip(&self.x) {
                 o[l] = v;
             }
-        }
-    }
-}
-
-/// The Jacobian's pattern by rows: entry order[i] of row r for i in
-/// start[r]..start[r + 1].
-struct Csr {
-    order: Vec<usize>,
-    start: Vec<usize>,
-    cols: Vec<usize>,
-}
-
-impl Csr {
-    fn of(rows: &[usize], cols: &[usize], m: usize) -> Csr {
-        let mut order: Vec<usize> = (0..rows.len()).collect();
-        order.sort_by_key(|&e| rows[e]);
-        let mut start = vec![0; m + 1];
-        for &r in rows {
-            start[r + 1] += 1;
-        }
-        for r in 0..m {
-            start[r + 1] += start[r];
-        }
-        Csr { cols: order.iter().map(|&e| cols[e]).collect(), order, start }
-    }
-
-    /// out = M v for LANES vectors v at once, M's values on the pattern.
-    fn product(&self, mat: &[f64], v: &[[f64; LANES]], out: &mut [[f64; LANES]]) {
-        for (r, o) in out.iter_mut().enumerate() {
-            let mut acc = [0.0; LANES];
-            for i in self.start[r]..self.start[r + 1] {
-                let (a, x) = (mat[self.order[i]], &v[self.cols[i]]);
-                for l in 0..LANES {
-                    acc[l] += a * x[l];
-                }
-            }
-            *o = acc;
-        }
-    }
-
-    /// out = M v for a matrix of LANES lanes (each lane's values on the
-    /// pattern) and one vector v.
-    fn lanes_product(&self, mat: &[L], v: &[f64], out: &mut [[f64; LANES]]) {
-        for (r, o) in out.iter_mut().enumerate() {
-            let mut acc = [0.0; LANES];
-            for i in self.start[r]..self.start[r + 1] {
-                let (a, x) = (&mat[self.order[i]].d, v[self.cols[i]]);
-                for l in 0..LANES {
-                    acc[l] += a[l] * x;
-                }
-            }
-            *o = acc;
         }
     }
 }
