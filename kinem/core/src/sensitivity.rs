@@ -16,7 +16,7 @@
 //! Lanes<2>). Phi_p, J_p, nu_p are the tangents of Phi, J, nu at q' = 0
 //! along the tables' tangents, and D(gamma) gamma's tangent along q' = s,
 //! qd' = sd and the tables': each one evaluation of the model over
-//! Lanes<LANES> (crate::real) for LANES parameters at once, each lane
+//! Lanes<N> (crate::real) for N = 4 or 8 (LANES) parameters at once, each lane
 //! seeded with one parameter's tables' tangents (Kin::seeded). All three
 //! share one factorisation of J at the instant (the march's layout,
 //! crate::lu): no finite differences anywhere.
@@ -28,9 +28,10 @@ use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
 
 /// How many parameters share one evaluation of the model and of the named
-/// points' columns (crate::real::Lanes).
-pub const LANES: usize = 4;
-type L = Lanes<LANES>;
+/// points' columns (crate::real::Lanes): 4, or 8 for more than 4
+/// parameters (fewer evaluations per parameter; with few parameters the
+/// empty lanes would cost).
+pub const LANES: [usize; 2] = [4, 8];
 
 /// A design parameter's tangent of the model's tables: the families it
 /// moves [(place among the model's families, the tangents of some of its
@@ -42,24 +43,24 @@ pub struct Tangent {
     pub outlines: Table,
 }
 
-/// The model over LANES with the tangents of `group` (at most LANES
+/// The model over Lanes<N> with the tangents of `group` (at most N
 /// parameters) in its lanes, a lane without a parameter zero.
-fn seeded(kin: &Kin, group: &[Tangent]) -> Result<Kin<L>, String> {
+fn seeded<const N: usize>(kin: &Kin, group: &[Tangent]) -> Result<Kin<Lanes<N>>, String> {
     let lanes = |tables: Vec<(usize, &Table)>| -> Table {
         let mut out = Table::default();
         for (lane, t) in tables {
             for (key, d) in &t.reals {
-                let v = out.reals.entry(key.clone()).or_insert_with(|| vec![0.0; d.len() * LANES]);
+                let v = out.reals.entry(key.clone()).or_insert_with(|| vec![0.0; d.len() * N]);
                 for (i, &x) in d.iter().enumerate() {
-                    if let Some(o) = v.get_mut(i * LANES + lane) {
+                    if let Some(o) = v.get_mut(i * N + lane) {
                         *o = x;
                     }
                 }
             }
             for (key, d) in &t.complex {
-                let v = out.complex.entry(key.clone()).or_insert_with(|| vec![C64::new(0.0, 0.0); d.len() * LANES]);
+                let v = out.complex.entry(key.clone()).or_insert_with(|| vec![C64::new(0.0, 0.0); d.len() * N]);
                 for (i, &x) in d.iter().enumerate() {
-                    if let Some(o) = v.get_mut(i * LANES + lane) {
+                    if let Some(o) = v.get_mut(i * N + lane) {
                         *o = x;
                     }
                 }
@@ -132,44 +133,86 @@ pub fn sensitivities(
     Ok(())
 }
 
-/// The sensitivities of one instant after another (Eqs. S1-S3, S6) from
+/// The sensitivities of one instant after another over Lanes<4> or
+/// Lanes<8> (LANES, by the number of parameters): see `Lanewise`.
+pub enum Instants<'a> {
+    Four(Lanewise<'a, 4>),
+    Eight(Lanewise<'a, 8>),
+}
+
+impl<'a> Instants<'a> {
+    /// As `Lanewise::new`, its lanes by the number of parameters.
+    pub fn new(
+        kin: &'a Kin,
+        layout: &'a Layout,
+        tangents: &[Tangent],
+        rows: &[usize],
+        cols: &[usize],
+        levels: usize,
+        columns: Cols<'a>,
+    ) -> Result<Self, String> {
+        Ok(if tangents.len() > LANES[0] {
+            Instants::Eight(Lanewise::new(kin, layout, tangents, rows, cols, levels, columns)?)
+        } else {
+            Instants::Four(Lanewise::new(kin, layout, tangents, rows, cols, levels, columns)?)
+        })
+    }
+
+    /// The columns per instant and parameter (P W: an instant's row of data).
+    pub fn width(&self) -> usize {
+        match self {
+            Instants::Four(x) => x.width(),
+            Instants::Eight(x) => x.width(),
+        }
+    }
+
+    /// Lanewise::at.
+    pub fn at(&mut self, t: f64, x: &[&[f64]], f: &mut Factors, out: &mut [f64]) -> f64 {
+        match self {
+            Instants::Four(a) => a.at(t, x, f, out),
+            Instants::Eight(a) => a.at(t, x, f, out),
+        }
+    }
+}
+
+/// The sensitivities of one instant after another, N parameters per evaluation (Eqs. S1-S3, S6) from
 /// the factorisation of Phi_q at each instant's q: the seeded models, the
 /// column layout and every scratch array, set up once.
-pub struct Instants<'a> {
+pub struct Lanewise<'a, const N: usize> {
     kin: &'a Kin,
     layout: &'a Layout,
     np: usize,
     levels: usize,
-    groups: Vec<Kin<L>>,
+    groups: Vec<Kin<Lanes<N>>>,
     two: Kin<Lanes<2>>,
     pattern: Vec<(usize, usize)>,
     columns: crate::columns::Columns<'a>,
     w: usize,
-    locs: Vec<Vec<Complex<L>>>,
-    pts: Vec<L>,
-    buf: Vec<L>,
+    locs: Vec<Vec<Complex<Lanes<N>>>>,
+    pts: Vec<Lanes<N>>,
+    buf: Vec<Lanes<N>>,
     q2: Vec<Lanes<2>>,
     e2: Vec<Complex<Lanes<2>>>,
     j2: Vec<Lanes<2>>,
     e: Vec<C64>,
-    q0: Vec<L>,
-    e0: Vec<Complex<L>>,
-    ql: Vec<L>,
-    qdl: Vec<L>,
-    qddl: Vec<L>,
-    el: Vec<Complex<L>>,
-    rl: Vec<L>,
-    jl: Vec<L>,
+    q0: Vec<Lanes<N>>,
+    e0: Vec<Complex<Lanes<N>>>,
+    ql: Vec<Lanes<N>>,
+    qdl: Vec<Lanes<N>>,
+    qddl: Vec<Lanes<N>>,
+    el: Vec<Complex<Lanes<N>>>,
+    rl: Vec<Lanes<N>>,
+    jl: Vec<Lanes<N>>,
     a: Vec<f64>,
     b: Vec<f64>,
-    rhs: Vec<[f64; LANES]>,
+    rhs: Vec<[f64; N]>,
     solver: Solver,
-    s: Vec<[f64; LANES]>,
-    sd: Vec<[f64; LANES]>,
-    sdd: Vec<[f64; LANES]>,
+    s: Vec<[f64; N]>,
+    sd: Vec<[f64; N]>,
+    sdd: Vec<[f64; N]>,
 }
 
-impl<'a> Instants<'a> {
+impl<'a, const N: usize> Lanewise<'a, N> {
     /// `levels` stages (1 to 3) per instant; the other arguments as
     /// `sensitivities`'.
     pub fn new(
@@ -193,25 +236,24 @@ impl<'a> Instants<'a> {
         if dlocal.len() != np * points {
             return Err("sensitivity: output arrays of the wrong size".into());
         }
-        let groups = tangents.chunks(LANES).map(|g| seeded(kin, g)).collect::<Result<Vec<_>, _>>()?;
+        let groups = tangents.chunks(N).map(|g| seeded(kin, g)).collect::<Result<Vec<_>, _>>()?;
         // the named points' local coordinates with the group's tangents in the lanes
-        let locs: Vec<Vec<Complex<L>>> = (0..groups.len())
+        let locs: Vec<Vec<Complex<Lanes<N>>>> = (0..groups.len())
             .map(|g| {
                 (0..points)
                     .map(|j| {
-                        let (mut re, mut im) = ([0.0; LANES], [0.0; LANES]);
-                        for p in g * LANES..(g * LANES + LANES).min(np) {
-                            (re[p - g * LANES], im[p - g * LANES]) =
-                                (dlocal[p * points + j].re, dlocal[p * points + j].im);
+                        let (mut re, mut im) = ([0.0; N], [0.0; N]);
+                        for p in g * N..(g * N + N).min(np) {
+                            (re[p - g * N], im[p - g * N]) = (dlocal[p * points + j].re, dlocal[p * points + j].im);
                         }
                         Complex::new(Lanes::of(local[j].re, re), Lanes::of(local[j].im, im))
                     })
                     .collect()
             })
             .collect();
-        let zl = || vec![L::c(0.0); n];
-        let cl = || vec![Complex::new(L::c(0.0), L::c(0.0)); n];
-        Ok(Instants {
+        let zl = || vec![Lanes::<N>::c(0.0); n];
+        let cl = || vec![Complex::new(Lanes::<N>::c(0.0), Lanes::<N>::c(0.0)); n];
+        Ok(Lanewise {
             kin,
             layout,
             np,
@@ -222,8 +264,8 @@ impl<'a> Instants<'a> {
             columns: crate::columns::Columns::new(n, levels, src, pc),
             w,
             locs,
-            pts: vec![L::c(0.0); 2 * levels * points],
-            buf: vec![L::c(0.0); w],
+            pts: vec![Lanes::<N>::c(0.0); 2 * levels * points],
+            buf: vec![Lanes::<N>::c(0.0); w],
             q2: vec![Lanes::<2>::c(0.0); n],
             e2: vec![Complex::new(Lanes::c(0.0), Lanes::c(0.0)); n],
             j2: vec![Lanes::<2>::c(0.0); nnz],
@@ -234,15 +276,15 @@ impl<'a> Instants<'a> {
             qdl: zl(),
             qddl: zl(),
             el: cl(),
-            rl: vec![L::c(0.0); m],
-            jl: vec![L::c(0.0); nnz],
+            rl: vec![Lanes::<N>::c(0.0); m],
+            jl: vec![Lanes::<N>::c(0.0); nnz],
             a: vec![0.0; nnz],
             b: vec![0.0; nnz],
-            rhs: vec![[0.0; LANES]; m],
+            rhs: vec![[0.0; N]; m],
             solver: Solver::new(n, m, 3 * np >= 2 * n && n <= INVERSE),
-            s: vec![[0.0; LANES]; n],
-            sd: vec![[0.0; LANES]; n],
-            sdd: vec![[0.0; LANES]; n],
+            s: vec![[0.0; N]; n],
+            sd: vec![[0.0; N]; n],
+            sdd: vec![[0.0; N]; n],
         })
     }
 
@@ -255,14 +297,14 @@ impl<'a> Instants<'a> {
     /// factorisation of Phi_q at (q, t) (its solves leave it as it is);
     /// writes its row (P W) and returns Phi_q's pivot ratio.
     pub fn at(&mut self, t: f64, x: &[&[f64]], f: &mut Factors, out: &mut [f64]) -> f64 {
-        let Instants { kin, layout, np, levels, w, .. } = *self;
+        let Lanewise { kin, layout, np, levels, w, .. } = *self;
         let n = kin.n;
         let q = x[0];
         let ratio = layout.pivots(f).0;
         kin.rotate(q, &mut self.e);
         for j in 0..n {
-            self.q0[j] = L::c(q[j]);
-            self.e0[j] = Complex::new(L::c(self.e[j].re), L::c(self.e[j].im));
+            self.q0[j] = Lanes::<N>::c(q[j]);
+            self.e0[j] = Complex::new(Lanes::<N>::c(self.e[j].re), Lanes::<N>::c(self.e[j].im));
         }
         let at0 = At { q: &self.q0, e: &self.e0, t };
         // A = D_qd(J), B = D_qdd(J) (S6): once per instant, one evaluation
@@ -279,7 +321,7 @@ impl<'a> Instants<'a> {
         }
         self.solver.prepare(layout, f);
         for (g, model) in self.groups.iter().enumerate() {
-            let count = (np - g * LANES).min(LANES);
+            let count = (np - g * N).min(N);
             // S1: Phi_p, Phi's tangent at q' = 0
             model.phi(&at0, &mut self.rl);
             for (r, x) in self.rhs.iter_mut().zip(&self.rl) {
@@ -313,10 +355,10 @@ impl<'a> Instants<'a> {
                 }
             }
             // the named points' and every column's tangents, from the lanes
-            let stages: [&[L]; 3] = [&self.ql, &self.qdl, &self.qddl];
+            let stages: [&[Lanes<N>]; 3] = [&self.ql, &self.qdl, &self.qddl];
             self.columns.row(&stages[..levels], &self.locs[g], &mut self.pts, &mut self.buf);
-            for p in g * LANES..g * LANES + count {
-                let lane = p - g * LANES;
+            for p in g * N..g * N + count {
+                let lane = p - g * N;
                 let to = &mut out[p * w..(p + 1) * w];
                 for (o, b) in to.iter_mut().zip(&self.buf) {
                     *o = b.d[lane];
@@ -331,11 +373,11 @@ impl<'a> Instants<'a> {
 /// v = qd) and (S3) (c = gamma, M = B, v = qdd): parts (c, J_p, s, v), M
 /// and J_p on the Jacobian's pattern (row, column of each entry), in one
 /// pass over it.
-fn right_side(
+fn right_side<const N: usize>(
     pattern: &[(usize, usize)],
     mat: &[f64],
-    parts: (&[L], &[L], &[[f64; LANES]], &[f64]),
-    rhs: &mut [[f64; LANES]],
+    parts: (&[Lanes<N>], &[Lanes<N>], &[[f64; N]], &[f64]),
+    rhs: &mut [[f64; N]],
 ) {
     let (c, jp, s, v) = parts;
     for (r, c) in rhs.iter_mut().zip(c) {
@@ -343,7 +385,7 @@ fn right_side(
     }
     for ((&(i, j), &a), p) in pattern.iter().zip(mat).zip(jp) {
         let (x, y, r) = (&s[j], v[j], &mut rhs[i]);
-        for l in 0..LANES {
+        for l in 0..N {
             r[l] -= a * x[l] + p.d[l] * y;
         }
     }
@@ -351,11 +393,11 @@ fn right_side(
 
 /// Models of at most this many coordinates solve many parameters' systems
 /// through Phi_q's inverse, formed at each instant from its factors (n
-/// solves, then a product per LANES parameters), where that takes fewer
+/// solves, then a product per N parameters), where that takes fewer
 /// solves than one per parameter and level (3 P >= 2 n).
 pub const INVERSE: usize = 64;
 
-/// The instant's solves of LANES right-hand sides: one by one with the
+/// The instant's solves of N right-hand sides: one by one with the
 /// factors, or through the inverse (`inverse`: n x m, row-major).
 struct Solver {
     use_inverse: bool,
@@ -391,20 +433,20 @@ impl Solver {
     }
 
     /// out = Phi_q^-1 rhs for the first `count` lanes.
-    fn solve(
+    fn solve<const N: usize>(
         &mut self,
         layout: &Layout,
         f: &mut Factors,
-        rhs: &[[f64; LANES]],
+        rhs: &[[f64; N]],
         count: usize,
-        out: &mut [[f64; LANES]],
+        out: &mut [[f64; N]],
     ) {
         let m = self.b.len();
         if self.use_inverse {
             for (j, o) in out.iter_mut().enumerate() {
-                let mut acc = [0.0; LANES];
+                let mut acc = [0.0; N];
                 for (&a, r) in self.inverse[j * m..(j + 1) * m].iter().zip(rhs) {
-                    for l in 0..LANES {
+                    for l in 0..N {
                         acc[l] += a * r[l];
                     }
                 }
