@@ -96,7 +96,7 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     plan = model.plan
     if plan is None:
         raise KinemError(f"{case.source}: sensitivities need the compiled march's layout, which this model has not")
-    tangents = _tangent_inputs(model, listed)
+    tangents = tangent_inputs(model, listed)
     fused = _fused(model, tangents, outputs, times, options)
     if fused is None:   # the march does not take the model or every instant: solve, then Plan.sensitivity
         result = solve(model, outputs, times, options=options)
@@ -132,10 +132,10 @@ def core_inputs(model, listed, result) -> tuple:
     pattern, the trajectory's column sources and the named points' columns,
     local coordinates and tangents. benchmarks/sensitivity_bench.py times
     the core's part with them."""
-    return _instant_inputs(model, _tangent_inputs(model, listed), result)
+    return _instant_inputs(model, tangent_inputs(model, listed), result)
 
 
-def _tangent_inputs(model, listed) -> tuple:
+def tangent_inputs(model, listed) -> tuple:
     """What the core's sensitivities take beside the instants: (the model's
     tables, each parameter's tangents, the Jacobian's pattern (rows, cols),
     the named points' columns, local coordinates and tangents)."""
@@ -158,7 +158,7 @@ def _tangent_inputs(model, listed) -> tuple:
 
 
 def _instant_inputs(model, tangents, result) -> tuple:
-    """Plan.sensitivity's arguments from ``_tangent_inputs`` and the nominal solve."""
+    """Plan.sensitivity's arguments from ``tangent_inputs`` and the nominal solve."""
     tables, core, (rows, cols), (pc, local, dlocal) = tangents
     X = [np.ascontiguousarray(x) for x in (result.q, result.qd, result.qdd) if x is not None]
     return (tables, core, np.ascontiguousarray(result.trajectory.t), X, rows, cols, _layout(model, len(X))[1],

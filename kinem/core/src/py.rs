@@ -1054,10 +1054,6 @@ fn march_settings(s: (f64, usize, f64, f64, bool)) -> march::Settings {
     march::Settings { tolerance: s.0, max_iterations: s.1, max_step: s.2, floor: s.3, rates: s.4 }
 }
 
-/// The accepted state of a march and its steps (step::MarchState):
-/// MarchState(q) holds the estimates q, nothing accepted yet; a step or a
-/// march moves it to each instant it accepts.
-
 /// Plan.sensitivity's tables: (families [(kind, table)], functions, outlines).
 type SensTables<'py> = (Vec<(String, Bound<'py, PyDict>)>, Bound<'py, PyDict>, Bound<'py, PyDict>);
 /// Per parameter: (families [(place, tangent)], functions', outlines').
@@ -1144,6 +1140,9 @@ impl SensInputs {
     }
 }
 
+/// The accepted state of a march and its steps (step::MarchState):
+/// MarchState(q) holds the estimates q, nothing accepted yet; a step or a
+/// march moves it to each instant it accepts.
 #[pyclass(module = "kinem._core")]
 pub struct MarchState(march::MarchState);
 

@@ -373,6 +373,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
 /// v = qd) and (S3) (c = gamma, M = B, v = qdd): parts (c, J_p, s, v), M
 /// and J_p on the Jacobian's pattern (row, column of each entry), in one
 /// pass over it.
+#[allow(clippy::type_complexity)]
 fn right_side<const N: usize>(
     pattern: &[(usize, usize)],
     mat: &[f64],
