@@ -237,7 +237,8 @@ def _moved(case, listed):
     place where it can be, else validated (``cases_of``)."""
     steps = [2.0 ** (np.floor(np.log2(abs(p.value))) - 1) if p.value else 0.5 for p in listed]
     turned = [driver_tangent(case, p.path) for p in listed]   # drivers of drawn frames that p turns
-    values = {q.path: q.value for q in resolve(case, {q for t in turned for q in t})}
+    wanted = {q for t in turned for q in t}
+    values = {q.path: q.value for q in resolve(case, wanted)} if wanted else {}
 
     def design(p, h, turn):
         return {p.path: p.value + h, **{q: values[q] + h * rate for q, rate in turn.items()}}
