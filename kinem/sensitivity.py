@@ -5,8 +5,10 @@ output instant, for design parameters p named by their paths
 (kinem.parameters).
 
 The core differentiates the kinematic equations directly (Eqs. S1-S3, S6,
-kinem/core/src/sensitivity.rs), through one factorisation of Phi_q per
-instant, evaluating the families' own kernels over dual numbers, four
+kinem/core/src/sensitivity.rs), in the march's own pass (``_fused``:
+each accepted instant's sensitivities from the factorisation of Phi_q its
+rates use; else a solve, then Plan.sensitivity factorising again),
+evaluating the families' own kernels over dual numbers, four or eight
 parameters per evaluation; the named points' columns come from the same
 kernel as the trajectory's (kinem/core/src/columns.rs), in the same call.
 What it needs from here is each parameter's tangent of the model's tables
