@@ -563,39 +563,33 @@ impl Plan {
         let times: &[f64] = &times;
         let stages = if settings.4 { 3 } else { 1 };
         let mut state = state.try_borrow_mut()?;
-        let (mut out, mut figures) = (writable(&out, "march: out")?, writable(&figures, "march: figures")?);
-        let mut ints = writable(&ints, "march: ints")?;
+        let mut outputs = MarchOutputs::of(&out, &figures, &ints, kk)?;
         let (mut data, mut ratio) = (writable(&data, "data")?, writable(&ratio, "ratio")?);
         let width = inputs.parts.len() * inputs.src.len();
-        if state.0.q.len() != n
-            || out.shape() != [stages, kk, n]
-            || figures.shape() != [2, kk]
-            || Some(ints.len()) != kk.checked_add(2)
-            || data.shape() != [kk, width]
-            || ratio.len() != kk
-        {
-            return Err(bad("state, out, figures, ints, data or ratio"));
+        if state.0.q.len() != n || data.shape() != [kk, width] || ratio.len() != kk {
+            return Err(bad("state, data or ratio"));
         }
-        let (tolerance, max_iterations, max_step, floor, rates, seconds) = settings;
-        let settings = march::Settings { tolerance, max_iterations, max_step, floor, rates };
+        let (settings, seconds) =
+            (march_settings((settings.0, settings.1, settings.2, settings.3, settings.4)), settings.5);
         let (kin, layout) = (&self.kin, &self.layout);
         let st = &mut state.0;
-        let (oq, rest) = out.as_slice_mut().map_err(|_| bad("out"))?.split_at_mut(kk * n);
-        let (oqd, oqdd) = rest.split_at_mut(rest.len() / 2);
-        let (residual, pivot) = figures.as_slice_mut().map_err(|_| bad("figures"))?.split_at_mut(kk);
-        let (iterations, counts) = ints.as_slice_mut().map_err(|_| bad("ints"))?.split_at_mut(kk);
         let (data, ratio) =
             (data.as_slice_mut().map_err(|_| bad("data"))?, ratio.as_slice_mut().map_err(|_| bad("ratio"))?);
-        let mut det = vec![0i8; kk];
-        let out =
-            march::Out { q: oq, qd: oqd, qdd: oqdd, iterations, residual, pivot, det: &mut det, counts, first: 0 };
+        let out = outputs.out(n, stages, "march_sensitivity")?;
         let signal: std::sync::Mutex<Option<PyErr>> = std::sync::Mutex::new(None);
         let poll = || signalled(&signal);
         let (end, why) = guard(py, move || {
             let own = inputs.kin(stages)?;
-            let r = (&inputs.rows[..], &inputs.cols[..]);
-            let mut at =
-                crate::sensitivity::Instants::new(&own, layout, &inputs.parts, r.0, r.1, stages, inputs.columns())?;
+            let setup = crate::sensitivity::Setup {
+                kin: &own,
+                layout,
+                tangents: &inputs.parts,
+                rows: &inputs.rows,
+                cols: &inputs.cols,
+                levels: stages,
+                columns: inputs.columns(),
+            };
+            let mut at = crate::sensitivity::Instants::new(setup)?;
             let mut hook = |k: usize, s: &march::MarchState, f: &mut Factors| {
                 let x: [&[f64]; 3] = [&s.q, &s.qd, &s.qdd];
                 ratio[k] = at.at(times[k], &x[..stages], f, &mut data[k * width..(k + 1) * width]);
@@ -658,32 +652,19 @@ impl Plan {
         ints: Bound<'_, PyArray1<i64>>,
     ) -> PyResult<(usize, u8)> {
         let (n, kk) = (self.kin.n, times.len());
-        let bad = |what: &str| value_error(format!("march: {what} has the wrong shape"));
         let times = vec1(&times);
         let times: &[f64] = &times;
         let stages = if settings.4 { 3 } else { 1 };
         let mut state = state.try_borrow_mut()?;
-        let (mut out, mut figures) = (writable(&out, "march: out")?, writable(&figures, "march: figures")?);
-        let mut ints = writable(&ints, "march: ints")?;
-        if state.0.q.len() != n
-            || out.shape() != [stages, kk, n]
-            || figures.shape() != [2, kk]
-            || Some(ints.len()) != kk.checked_add(2)
-            || k > kk
-        {
-            return Err(bad("state, out, figures, ints or k"));
+        let mut outputs = MarchOutputs::of(&out, &figures, &ints, kk)?;
+        if state.0.q.len() != n || k > kk {
+            return Err(value_error("march: state or k has the wrong shape"));
         }
-        let (tolerance, max_iterations, max_step, floor, rates, seconds) = settings;
-        let settings = march::Settings { tolerance, max_iterations, max_step, floor, rates };
+        let (settings, seconds) =
+            (march_settings((settings.0, settings.1, settings.2, settings.3, settings.4)), settings.5);
         let (kin, layout) = (&self.kin, &self.layout);
         let st = &mut state.0;
-        let (oq, rest) = out.as_slice_mut().map_err(|_| bad("out"))?.split_at_mut(kk * n);
-        let (oqd, oqdd) = rest.split_at_mut(rest.len() / 2);
-        let (residual, pivot) = figures.as_slice_mut().map_err(|_| bad("figures"))?.split_at_mut(kk);
-        let (iterations, counts) = ints.as_slice_mut().map_err(|_| bad("ints"))?.split_at_mut(kk);
-        let mut det = vec![0i8; kk];
-        let out =
-            march::Out { q: oq, qd: oqd, qdd: oqdd, iterations, residual, pivot, det: &mut det, counts, first: 0 };
+        let out = outputs.out(n, stages, "march")?;
         let parts = &self.parts;
         // the signal's exception, from the poll (the GIL re-acquired for it)
         let signal: std::sync::Mutex<Option<PyErr>> = std::sync::Mutex::new(None);
@@ -1052,6 +1033,45 @@ fn mode_of(code: u8) -> PyResult<march::Mode> {
 
 fn march_settings(s: (f64, usize, f64, f64, bool)) -> march::Settings {
     march::Settings { tolerance: s.0, max_iterations: s.1, max_step: s.2, floor: s.3, rates: s.4 }
+}
+
+/// Plan.march's outputs (out, figures, ints, as it documents) for K
+/// instants, and room for the det signs.
+struct MarchOutputs<'py> {
+    out: PyReadwriteArray<'py, f64, numpy::Ix3>,
+    figures: PyReadwriteArray<'py, f64, numpy::Ix2>,
+    ints: PyReadwriteArray<'py, i64, numpy::Ix1>,
+    det: Vec<i8>,
+    kk: usize,
+}
+
+impl<'py> MarchOutputs<'py> {
+    fn of(
+        out: &Bound<'py, PyArray3<f64>>,
+        figures: &Bound<'py, PyArray2<f64>>,
+        ints: &Bound<'py, PyArray1<i64>>,
+        kk: usize,
+    ) -> PyResult<Self> {
+        let (out, figures) = (writable(out, "march: out")?, writable(figures, "march: figures")?);
+        Ok(MarchOutputs { out, figures, ints: writable(ints, "march: ints")?, det: vec![0i8; kk], kk })
+    }
+
+    /// The outputs as march::Out, checked against n coordinates and `stages`.
+    fn out(&mut self, n: usize, stages: usize, what: &str) -> PyResult<march::Out<'_>> {
+        let kk = self.kk;
+        let bad = |part: &str| value_error(format!("{what}: {part} has the wrong shape"));
+        if self.out.shape() != [stages, kk, n]
+            || self.figures.shape() != [2, kk]
+            || Some(self.ints.len()) != kk.checked_add(2)
+        {
+            return Err(bad("out, figures or ints"));
+        }
+        let (oq, rest) = self.out.as_slice_mut().map_err(|_| bad("out"))?.split_at_mut(kk * n);
+        let (qd, qdd) = rest.split_at_mut(rest.len() / 2);
+        let (residual, pivot) = self.figures.as_slice_mut().map_err(|_| bad("figures"))?.split_at_mut(kk);
+        let (iterations, counts) = self.ints.as_slice_mut().map_err(|_| bad("ints"))?.split_at_mut(kk);
+        Ok(march::Out { q: oq, qd, qdd, iterations, residual, pivot, det: &mut self.det, counts, first: 0 })
+    }
 }
 
 /// Plan.sensitivity's tables: (families [(kind, table)], functions, outlines).

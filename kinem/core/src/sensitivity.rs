@@ -114,7 +114,7 @@ pub fn sensitivities(
     if levels == 0 || levels > 3 || x.iter().any(|a| a.len() != kk * n) {
         return Err("sensitivity: 1 to 3 arrays of K x n coordinates expected".into());
     }
-    let mut at = Instants::new(kin, layout, tangents, rows, cols, levels, columns)?;
+    let mut at = Instants::new(Setup { kin, layout, tangents, rows, cols, levels, columns })?;
     if data.len() != kk * at.width() || ratio.len() != kk {
         return Err("sensitivity: output arrays of the wrong size".into());
     }
@@ -140,21 +140,27 @@ pub enum Instants<'a> {
     Eight(Lanewise<'a, 8>),
 }
 
+/// What the sensitivities of a run of instants are set up from: the
+/// model, the march's layout, the parameters' tangents, the Jacobian's
+/// pattern (rows, cols), the stages per instant (1 to 3) and the columns
+/// (as `sensitivities`').
+pub struct Setup<'a, 'b> {
+    pub kin: &'a Kin,
+    pub layout: &'a Layout,
+    pub tangents: &'b [Tangent],
+    pub rows: &'b [usize],
+    pub cols: &'b [usize],
+    pub levels: usize,
+    pub columns: Cols<'a>,
+}
+
 impl<'a> Instants<'a> {
     /// As `Lanewise::new`, its lanes by the number of parameters.
-    pub fn new(
-        kin: &'a Kin,
-        layout: &'a Layout,
-        tangents: &[Tangent],
-        rows: &[usize],
-        cols: &[usize],
-        levels: usize,
-        columns: Cols<'a>,
-    ) -> Result<Self, String> {
-        Ok(if tangents.len() > LANES[0] {
-            Instants::Eight(Lanewise::new(kin, layout, tangents, rows, cols, levels, columns)?)
+    pub fn new(setup: Setup<'a, '_>) -> Result<Self, String> {
+        Ok(if setup.tangents.len() > LANES[0] {
+            Instants::Eight(Lanewise::new(setup)?)
         } else {
-            Instants::Four(Lanewise::new(kin, layout, tangents, rows, cols, levels, columns)?)
+            Instants::Four(Lanewise::new(setup)?)
         })
     }
 
@@ -213,17 +219,9 @@ pub struct Lanewise<'a, const N: usize> {
 }
 
 impl<'a, const N: usize> Lanewise<'a, N> {
-    /// `levels` stages (1 to 3) per instant; the other arguments as
-    /// `sensitivities`'.
-    pub fn new(
-        kin: &'a Kin,
-        layout: &'a Layout,
-        tangents: &[Tangent],
-        rows: &[usize],
-        cols: &[usize],
-        levels: usize,
-        columns: Cols<'a>,
-    ) -> Result<Self, String> {
+    /// The set-up of a run of instants.
+    pub fn new(setup: Setup<'a, '_>) -> Result<Self, String> {
+        let Setup { kin, layout, tangents, rows, cols, levels, columns } = setup;
         let (src, pc, local, dlocal) = columns;
         let (w, points) = (src.len(), local.len());
         let (n, m, nnz, np) = (kin.n, kin.m, kin.nnz, tangents.len());
