@@ -345,6 +345,12 @@ def cmd_info(a):
         listed = parameters(_load(a.case, values=a.set).case)
         print(json.dumps([p.as_dict() for p in listed], indent=2) if a.json else describe_parameters(listed))
         return 0
+    if a.blocks:
+        from .info import blocks_as_dict, describe_blocks
+
+        model = _load(a.case, values=a.set)
+        print(json.dumps(blocks_as_dict(model), indent=2) if a.json else describe_blocks(model))
+        return 0
     i = info(_load(a.case, values=a.set))
     print(json.dumps(i.as_dict(), indent=2) if a.json else describe(i))
     if not i.assembled:  # the figures above are of the closest configuration found
@@ -654,6 +660,9 @@ def parser():
     i.add_argument("--json", action="store_true", help="the same figures as JSON")
     i.add_argument("--parameters", action="store_true",
                    help="list the case's design parameters instead: path, value, unit, what it is")
+    i.add_argument("--blocks", action="store_true",
+                   help="the structural decomposition instead: the blocks solved in order, each its coordinates "
+                        "and the constraints that close it (docs/solver.md)")
     _set_option(i)
     _errors_option(i)
     i.set_defaults(run=cmd_info)

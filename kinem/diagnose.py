@@ -22,12 +22,67 @@ DENSE_LIMIT = 3000
 
 
 @dataclass(frozen=True)
+class Block:
+    """One block of the structural decomposition (kinem.model.Structure) in
+    the case's words: its coordinates, the bodies (and artificial
+    coordinates) they belong to, and the constraints whose rows close it."""
+    number: int           # 1-based, in solve order
+    count: int            # blocks in all
+    coordinates: tuple    # "rod.x", ...
+    owners: tuple         # "rod", "slider", ... (a body, or the constraint of an artificial coordinate)
+    constraints: tuple    # constraint names of its rows
+
+    @property
+    def what(self) -> str:
+        """'the loop of rod, slider' (several coordinates), else the coordinate."""
+        if len(self.coordinates) == 1:
+            return self.coordinates[0]
+        return f"the loop of {', '.join(self.owners)}" if len(self.owners) > 1 else f"the body {self.owners[0]}"
+
+    def words(self) -> str:
+        """'block 8 of 8 (the loop of rod, slider, closed by B, A, T)'."""
+        return f"block {self.number} of {self.count} ({self.what}, closed by {', '.join(self.constraints)})"
+
+
+def blocks(model) -> tuple:
+    """The model's blocks in solve order, in the case's words (``Block``)."""
+    names, owner = model.coordinate_names, model.row_owner
+    listed = model.structure.blocks
+    return tuple(Block(k + 1, len(listed), tuple(names[c] for c in cols),
+                       tuple(dict.fromkeys(names[c].rsplit(".", 1)[0] for c in cols)),
+                       tuple(dict.fromkeys(owner[r] for r in sorted(rows))))
+                 for k, (rows, cols) in enumerate(listed))
+
+
+def failing_block(model, J) -> Block | None:
+    """The block whose diagonal block of the dimensionless Jacobian J is
+    the nearest singular (its smallest singular value the least): det J is
+    the product of the blocks' dets, so a singular J has a singular block.
+    None where the decomposition is not exact (one block: nothing to add)."""
+    s = model.structure
+    if not s.exact or len(s.blocks) < 2:
+        return None
+    smallest = [np.linalg.svd(J[np.ix_(rows, cols)], compute_uv=False)[-1] for rows, cols in s.blocks]
+    return blocks(model)[int(np.argmin(smallest))]
+
+
+def block_of_row(model, row) -> Block | None:
+    """The block that holds a row (None where the decomposition is not
+    exact or is one block)."""
+    s = model.structure
+    if not s.exact or len(s.blocks) < 2:
+        return None
+    return next(b for b, (rows, _) in zip(blocks(model), s.blocks) if row in rows)
+
+
+@dataclass(frozen=True)
 class Diagnosis:
     t: float
     conditioning: float
     consistent: bool
     constraints: tuple
     coordinates: tuple
+    block: Block | None = None   # the block that is singular (structural decomposition), when it tells more
 
     @property
     def singular(self) -> bool:
@@ -36,7 +91,8 @@ class Diagnosis:
     def message(self) -> str:
         kind = ("the drivers' motion fits it (a bifurcation: the branch cannot be told)" if self.consistent
                 else "the drivers ask for a motion the mechanism cannot make here (a limit position)")
-        return (f"singular configuration at t = {self.t:.6g}: conditioning {self.conditioning:.1e} "
+        where = f"in {self.block.words()}, " if self.block is not None else ""
+        return (f"singular configuration at t = {self.t:.6g}: {where}conditioning {self.conditioning:.1e} "
                 f"(smallest/largest singular value of the dimensionless Jacobian); {kind}; "
                 f"constraints involved: {', '.join(self.constraints)}; free coordinates: {', '.join(self.coordinates)}")
 
@@ -57,7 +113,8 @@ def diagnose(model, q, t) -> Diagnosis:
     rows = np.flatnonzero(np.abs(u) >= INVOLVED * np.abs(u).max())
     cols = np.flatnonzero(np.abs(v) >= INVOLVED * np.abs(v).max())
     owners = tuple(dict.fromkeys(model.row_owner[r] for r in rows))
-    return Diagnosis(float(t), cond, consistent, owners, tuple(model.coordinate_names[c] for c in cols))
+    return Diagnosis(float(t), cond, consistent, owners, tuple(model.coordinate_names[c] for c in cols),
+                     failing_block(model, J))
 
 
 def _diagnose_sparse(model, q, t) -> Diagnosis:
@@ -245,13 +302,17 @@ def explain_assembly(model, t=0.0, q=None, tolerance=1e-12) -> str:
         return far
     owners = np.asarray(model.row_owner, dtype=object)
     kinematic = np.where(nd, r, 0.0)
-    worst = owners[int(np.argmax(kinematic if kinematic.max() > 0 else r))]
+    worst_row = int(np.argmax(kinematic if kinematic.max() > 0 else r))
+    worst = owners[worst_row]
     loop = [worst] + cycle(model, worst)
     if len(loop) == 1:  # no kinematic loop through it: the constraints left with a residual
         loop = list(dict.fromkeys(owners[r >= LOOP_SHARE * r.max()]))
     mine = owners == worst
     q_open = _open(model, q_ls, t, np.where(mine, 1.0, HOLD))
     text = f"the loop of constraints {', '.join(loop)} cannot close"
+    block = block_of_row(model, worst_row)
+    if block is not None:
+        text += f" in {block.words()}"
     rest = np.abs(model.phi(q_open, t)[~mine]) / model.scale[~mine]
     if rest.max(initial=0.0) > 1e-6:  # the rest does not close (to 1e-6 of its scale): no single gap to give
         return text

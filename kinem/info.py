@@ -160,3 +160,31 @@ def describe_parameters(listed) -> str:
     lines = [f"{'path':<{width}}  {'value':>14}  {'unit':<8}  what"]
     lines += [f"{p.path:<{width}}  {p.value:>14.10g}  {p.unit:<8}  {p.what}" for p in listed]
     return "\n".join(lines)
+
+
+def describe_blocks(model) -> str:
+    """kinem info CASE --blocks: the structural decomposition (issue 31,
+    docs/solver.md "Structural decomposition") as a table, one line per
+    block in solve order: its coordinates and the constraints that close it."""
+    from .diagnose import blocks
+
+    s = model.structure
+    listed = blocks(model)
+    rows = [(str(b.number), str(len(b.coordinates)), ", ".join(b.coordinates), ", ".join(b.constraints))
+            for b in listed]
+    head = ("block", "size", "coordinates", "closed by")
+    width = [max(len(r[k]) for r in rows + [head]) for k in range(3)]
+    lines = [f"case {model.case.name}: {len(listed)} block{'s' * (len(listed) != 1)} in solve order "
+             f"({s.kind}; structural rank {s.rank} of {model.n} coordinates)"]
+    lines += ["  ".join(r[k].ljust(width[k]) for k in range(3)) + "  " + r[3] for r in [head] + rows]
+    return "\n".join(line.rstrip() for line in lines)
+
+
+def blocks_as_dict(model) -> dict:
+    """--blocks --json: the same as describe_blocks."""
+    from .diagnose import blocks
+
+    s = model.structure
+    return {"case": model.case.name, "exact": s.exact, "kind": s.kind, "rank": s.rank,
+            "blocks": [{"block": b.number, "coordinates": list(b.coordinates), "constraints": list(b.constraints)}
+                       for b in blocks(model)]}

@@ -22,8 +22,8 @@ from .outline import OutlineTable
 from .spec import Case
 
 DENSE_LIMIT = 200  # coordinates; above this 'auto' uses the sparse LU
-# Coordinates up to which a model is one diagonal block (Model.blocks): finding
-# the blocks imports scipy.sparse.csgraph, 0.27 s, more than such a run costs.
+# Coordinates up to which a model is one diagonal block (Model.blocks), without
+# looking for its connected components (the core's, Model._pattern).
 ONE_BLOCK = 64
 # The march (kinem.native.Plan) takes diagonal blocks of up to BLOCK_LIMIT
 # coordinates (a dense LU each; up to 64 on their nonzeros), or one block
@@ -35,14 +35,16 @@ MASK = 64  # blocks of up to this many coordinates are factorised on their nonze
 
 
 def parity(perm) -> int:
-    """+1 for an even permutation, -1 for an odd one: (-1)^(n - cycles), the
-    cycles counted as connected components of the graph k -> perm[k]."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    n = len(perm)
-    graph = coo_matrix((np.ones(n), (np.arange(n), np.asarray(perm))), shape=(n, n))
-    cycles = connected_components(graph, directed=True, connection="weak", return_labels=False)
+    """+1 for an even permutation, -1 for an odd one: (-1)^(n - cycles). Each
+    cycle is counted at its smallest index: after k doublings, label[i] is
+    the least of the 2^k indices i, perm[i], perm[perm[i]], ..."""
+    p = np.asarray(perm, np.intp)
+    n = len(p)
+    label = np.arange(n)
+    for _ in range(max(1, n.bit_length())):
+        label = np.minimum(label, label[p])
+        p = p[p]
+    cycles = int(np.count_nonzero(label == np.arange(n)))
     return -1 if (n - cycles) % 2 else 1
 
 
@@ -132,6 +134,21 @@ class Band:
     coupling: tuple
 
 
+@dataclass(frozen=True)
+class Structure:
+    """The structural decomposition (issue 31; kinem/core/src/decompose.rs):
+    a maximum matching of the Jacobian's rows (drivers included) to its
+    coordinates and the strongly connected components of the graph it
+    induces order the unknowns block-triangularly: each block's
+    coordinates are fixed by its rows given the earlier blocks'. ``exact``
+    False (redundant, too few equations, structurally singular): the whole
+    system is one block and ``kind`` says why."""
+    exact: bool
+    kind: str
+    rank: int             # the structural rank
+    blocks: tuple         # ((rows, coordinates), ...) in solve order, each a tuple of indices
+
+
 @dataclass(frozen=True, eq=False)
 class Model:
     case: Case
@@ -202,11 +219,8 @@ class Model:
         if self.n <= ONE_BLOCK:
             return Blocks(1, max(self.m, self.n), np.arange(self.m), np.arange(self.n), np.empty(0, np.intp),
                           self.m == self.n, 1, (self._zero, self.jac_rows, self.jac_cols))
-        from scipy.sparse import coo_matrix
-        from scipy.sparse.csgraph import connected_components
-
-        pattern = coo_matrix((np.ones(self.nnz), (self.jac_rows, self.jac_cols)), shape=(self.m, self.n)).tocsr()
-        count, col_block = connected_components(pattern.T @ pattern, directed=False)
+        col_block = self._pattern[4]
+        count = int(col_block.max(initial=-1)) + 1
         row_block = col_block[self.jac_cols[np.unique(self.jac_rows, return_index=True)[1]]]
         cols_in = np.bincount(col_block, minlength=count)
         rows_in = np.bincount(row_block, minlength=count)
@@ -226,6 +240,21 @@ class Model:
         return Blocks(count, size, row_pos, col_pos, np.flatnonzero(~used), bool((cols_in == rows_in).all()),
                       parity(np.argsort(row_pos)) * parity(np.argsort(col_pos)),
                       (rows // size, rows % size, cols % size))
+
+    @cached_property
+    def structure(self) -> Structure:
+        """The block-triangular decomposition (``Structure``), computed by
+        the core from the pattern (drivers included)."""
+        exact, kind, rank, blocks, _ = self._pattern
+        return Structure(exact, kind, rank, tuple((tuple(r), tuple(c)) for r, c in blocks))
+
+    @cached_property
+    def _pattern(self) -> tuple:
+        """The core's look at the Jacobian's pattern (native.Plan.blocks):
+        its decomposition and the connected component of each coordinate."""
+        *found, connected = native.Plan.blocks(self.m, self.n, self.jac_rows.astype(np.int64),
+                                               self.jac_cols.astype(np.int64))
+        return (*found, np.asarray(connected, np.intp))
 
     @cached_property
     def band(self) -> Band | None:

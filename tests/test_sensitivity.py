@@ -288,11 +288,9 @@ def test_spline_values_tangents_in_one_spline_equal_their_differences():
     assert checked >= 10
 
 
-@pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
-def test_families_built_once_for_every_parameter_give_each_ones_tangent(path):
-    """kinem.sensitivity builds a family once over its constraints and every
-    parameter's moved ones (_stacked): each parameter's tangent equals the
-    one of its own moved case (_moved_tangent) exactly."""
+def _every_parameter_moved(path):
+    """(kinem.sensitivity, case, model, its parameters, the model's tables,
+    [(k, parameter, moved case, step)]) for the tangent-building tests."""
     import importlib
 
     S = importlib.import_module("kinem.sensitivity")
@@ -300,7 +298,16 @@ def test_families_built_once_for_every_parameter_give_each_ones_tangent(path):
     model = kinem.compile(case)
     listed = parameters(case)
     base = S._tables(case, model.length)
-    items = [(k, p, moved, h) for k, (p, (moved, h)) in enumerate(zip(listed, S._moved(case, listed)))]
+    return S, case, model, listed, base, [(k, p, moved, h) for k, (p, (moved, h))
+                                          in enumerate(zip(listed, S._moved(case, listed)))]
+
+
+@pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
+def test_families_built_once_for_every_parameter_give_each_ones_tangent(path):
+    """kinem.sensitivity builds a family once over its constraints and every
+    parameter's moved ones (_stacked): each parameter's tangent equals the
+    one of its own moved case (_moved_tangent) exactly."""
+    S, case, model, listed, base, items = _every_parameter_moved(path)
     stacked = S._stacked(case, model.length, base, items)
     assert stacked or not any(p.path.startswith("points.") for p in listed)
     for k, ((families, functions, outlines), dlocal) in stacked.items():
@@ -317,14 +324,7 @@ def test_functions_numbered_once_for_every_parameter_give_each_ones_tangent(path
     """kinem.sensitivity numbers every parameter's moved driving function
     once after the model's (_function_tangents): each parameter's tangent
     equals the one of its own moved case (_moved_tangent) exactly."""
-    import importlib
-
-    S = importlib.import_module("kinem.sensitivity")
-    case = kinem.load(path)
-    model = kinem.compile(case)
-    listed = parameters(case)
-    base = S._tables(case, model.length)
-    items = [(k, p, moved, h) for k, (p, (moved, h)) in enumerate(zip(listed, S._moved(case, listed)))]
+    S, case, model, listed, base, items = _every_parameter_moved(path)
     got = S._function_tangents(case, base, items)
     assert got or not any(".poly." in p.path for p in listed)
     for k, ((families, (_, d), (_, o)), dlocal) in got.items():

@@ -10,6 +10,7 @@
 
 pub mod accept;
 pub mod columns;
+pub mod decompose;
 pub mod families;
 pub mod functions;
 pub mod lu;
@@ -24,6 +25,7 @@ pub mod real;
 pub mod sensitivity;
 pub mod step;
 pub mod table;
+pub mod triangular;
 pub mod variants;
 pub mod watch;
 

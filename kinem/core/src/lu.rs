@@ -10,8 +10,11 @@
 //! interchanges, so the pivots (and the conditioning figure and det sign)
 //! are LAPACK's. Band: a large chain's J_s in LAPACK gbtrf storage after its
 //! single-entry rows (grounds, drivers) are taken out (gbtf2's elimination).
+//! Triangular: one block that decomposes, in its block-triangular order
+//! (crate::triangular).
 
 use crate::order::{Order, Pivots};
+use crate::triangular::Triangular;
 use rayon::prelude::*;
 
 /// Models of at least this many diagonal blocks (merged variants)
@@ -43,6 +46,11 @@ pub enum Shape {
     /// entry (their count `singles`), and the reduced rows' entries in
     /// single-entry columns (coupling: reduced row, single index).
     Band { kl: usize, ku: usize, size: usize, singles: usize, couple_row: Vec<usize>, couple_col: Vec<usize> },
+    /// One block whose diagonal blocks have up to MASK coordinates each, in its block-triangular order
+    /// (crate::decompose, crate::triangular, built by crate::plan): row_pos
+    /// and col_pos are the positions in that order (the permutation's sign
+    /// and the partial-pivoting fallback's own layout are the Triangular's).
+    Triangular(Box<Triangular>),
 }
 
 /// Where each Jacobian entry goes and how it is scaled.
@@ -80,6 +88,8 @@ pub struct Factors {
     /// (None: with partial pivoting)
     pub fixed: Vec<Option<Pivots>>,
     y: Vec<f64>,
+    /// the off-diagonal values of a Triangular shape (J_s's, in its off_entries order)
+    pub off: Vec<f64>,
 }
 
 impl Layout {
@@ -87,6 +97,18 @@ impl Layout {
         let per = match &self.shape {
             Shape::Blocks { size, .. } => *size,
             Shape::Band { size, .. } => *size,
+            Shape::Triangular(t) => {
+                return Factors {
+                    j: vec![0.0; t.stored()],
+                    piv: vec![0; self.n.max(1)],
+                    rm: vec![0; self.n.max(1)],
+                    cm: vec![0; self.n.max(1)],
+                    w: vec![0.0; self.n.max(1)],
+                    fixed: vec![None],
+                    y: Vec::new(),
+                    off: vec![0.0; t.off_entries.len()],
+                };
+            }
         };
         Factors {
             j: vec![0.0; self.count * self.height * self.width],
@@ -96,6 +118,7 @@ impl Layout {
             w: vec![0.0; (self.count * per).max(self.n).max(self.width)],
             fixed: vec![None; self.count],
             y: vec![0.0; per.max(1)],
+            off: Vec::new(),
         }
     }
 
@@ -211,6 +234,7 @@ impl Layout {
                 }
                 band_factor(&mut f.j, w, *size, &mut f.piv, *kl, *ku)
             }
+            Shape::Triangular(t) => t.factor(values, f),
         }
     }
 
@@ -249,6 +273,9 @@ impl Layout {
 
     /// x = Phi_q^-1 b from the factors (b: m rows, x: n coordinates).
     pub fn solve(&self, f: &mut Factors, b: &[f64], x: &mut [f64]) {
+        if let Shape::Triangular(t) = &self.shape {
+            return t.solve(f, b, x, &self.scale, &self.col_scale);
+        }
         if let Shape::Blocks { count, size, orders, .. } = &self.shape {
             if f.fixed.iter().all(|x| x.is_some()) {
                 // every block in its fixed order: straight from b to x
@@ -294,6 +321,7 @@ impl Layout {
                 }
                 band_solve(&f.j, wd, *size, &f.piv, *kl, *ku, &mut w[..*size]);
             }
+            Shape::Triangular(_) => {} // solved above
         }
         for j in 0..self.n {
             x[j] = w[self.col_pos[j]] * self.col_scale[j];
@@ -344,6 +372,7 @@ impl Layout {
                     }
                 }
             }
+            Shape::Triangular(t) => return t.pivots(f),
         }
         (acc.ratio(), acc.det, acc.at)
     }
@@ -351,7 +380,7 @@ impl Layout {
 
 impl Pivots {
     /// |pivot| x at position `at`, if the smallest so far.
-    fn take(&mut self, x: f64, at: usize) {
+    pub(crate) fn take(&mut self, x: f64, at: usize) {
         if x < self.small {
             self.small = x;
             self.at = at;
@@ -360,7 +389,7 @@ impl Pivots {
 
     /// One pivot d of a partial-pivoting factorisation (swapped: its row was
     /// interchanged); false when a real one is not finite.
-    fn visit(&mut self, d: f64, swapped: bool, real: bool, pos: usize) -> bool {
+    pub(crate) fn visit(&mut self, d: f64, swapped: bool, real: bool, pos: usize) -> bool {
         if swapped {
             self.det = -self.det;
         }

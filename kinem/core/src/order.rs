@@ -95,7 +95,7 @@ fn flatten(lists: Vec<Vec<usize>>) -> (Vec<usize>, Vec<usize>) {
     (flat, start)
 }
 
-fn parity(perm: &[usize]) -> i32 {
+pub(crate) fn parity(perm: &[usize]) -> i32 {
     let mut seen = vec![false; perm.len()];
     let mut sign = 1;
     for i in 0..perm.len() {
@@ -287,7 +287,7 @@ impl Order {
 
     /// y <- U^-1 L^-1 y (permuted order).
     #[inline]
-    fn eliminate(&self, a: &[f64], y: &mut [f64]) {
+    pub fn eliminate(&self, a: &[f64], y: &mut [f64]) {
         for &(k, lo, hi) in &self.steps {
             let yk = y[k as usize];
             if yk != 0.0 {

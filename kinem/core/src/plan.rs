@@ -1,10 +1,15 @@
 //! What a model's plan computes once: the fixed pivot order of each small
 //! block of J_s (crate::order), from the Jacobian's pattern and the entries
-//! that are constant whatever the configuration.
+//! that are constant whatever the configuration; for one block of up to
+//! MASK coordinates whose pattern decomposes (crate::decompose), its
+//! block-triangular form (crate::triangular), each diagonal block with its
+//! own fixed order.
+use crate::decompose::{decompose, Kind};
 use crate::families::At;
 use crate::lu::{Layout, Shape, MASK};
 use crate::model::Kin;
-use crate::order::Order;
+use crate::order::{Order, NONE};
+use crate::triangular::{Diagonal, Triangular, BLOCK};
 use num_complex::Complex64 as C64;
 
 /// The Jacobian's values at a few arbitrary configurations and times:
@@ -36,9 +41,13 @@ pub fn constant_entries(kin: &Kin, entry_scale: &[f64]) -> (Vec<bool>, Vec<bool>
 }
 
 /// Gives every block of up to MASK coordinates its fixed order (none where
-/// the pattern is structurally singular: that block keeps partial pivoting).
+/// the pattern is structurally singular: that block keeps partial pivoting);
+/// one block that decomposes is laid out block-triangularly instead.
 pub fn order_blocks(kin: &Kin, layout: &mut Layout) {
     let (constant, unit) = constant_entries(kin, &layout.entry_scale);
+    if triangulate(layout, &constant, &unit) {
+        return;
+    }
     let Shape::Blocks { count, size, pad, patterns, .. } = &layout.shape else { return };
     let (count, s) = (*count, *size);
     if s > MASK || patterns.len() != count * s {
@@ -93,5 +102,245 @@ pub fn order_blocks(kin: &Kin, layout: &mut Layout) {
     }
     if let Shape::Blocks { orders: o, .. } = &mut layout.shape {
         *o = orders;
+    }
+}
+
+/// One block, square, without padding, whose pattern decomposes into two
+/// blocks or more, none above MASK coordinates: laid out in its
+/// block-triangular order (Shape::Triangular), each diagonal block's
+/// positions in its fixed order. False (unchanged) otherwise, and where a
+/// block has no fixed order (a greedy order can miss a structurally
+/// nonsingular block's pivots).
+fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool]) -> bool {
+    let Shape::Blocks { count: 1, size, pad, patterns, .. } = &layout.shape else { return false };
+    let (n, m) = (layout.n, layout.m);
+    if !pad.is_empty() || n != m || *size != n || (n <= MASK && patterns.len() != n) {
+        return false;
+    }
+    let (mut row_at, mut col_at) = (vec![NONE; n], vec![NONE; n]);
+    for (i, &p) in layout.row_pos.iter().enumerate() {
+        row_at[p] = i;
+    }
+    for (j, &p) in layout.col_pos.iter().enumerate() {
+        col_at[p] = j;
+    }
+    let rows: Vec<usize> = layout.at.iter().map(|&(_, r, _)| row_at[r]).collect();
+    let cols: Vec<usize> = layout.at.iter().map(|&(_, _, c)| col_at[c]).collect();
+    let d = decompose(m, n, &rows, &cols);
+    if d.kind != Kind::Exact || d.blocks.len() < 2 || d.blocks.iter().any(|b| b.cols.len() > MASK) {
+        return false;
+    }
+    // each block's fixed order over its matched local indices (i: rows[i], cols[i])
+    let (mut local_row, mut local_col) = (vec![0; m], vec![0; n]);
+    let (mut block_of_row, mut block_of_col) = (vec![0; m], vec![0; n]);
+    for (k, b) in d.blocks.iter().enumerate() {
+        for (i, (&r, &c)) in b.rows.iter().zip(&b.cols).enumerate() {
+            (local_row[r], local_col[c], block_of_row[r], block_of_col[c]) = (i, i, k, k);
+        }
+    }
+    let mut inner: Vec<Vec<usize>> = vec![Vec::new(); d.blocks.len()]; // the entries inside each block
+    for e in 0..rows.len() {
+        if block_of_row[rows[e]] == block_of_col[cols[e]] {
+            inner[block_of_col[cols[e]]].push(e);
+        }
+    }
+    let mut orders = Vec::with_capacity(d.blocks.len());
+    for (k, b) in d.blocks.iter().enumerate() {
+        let s = b.cols.len();
+        if s == 1 {
+            orders.push(None);
+            continue;
+        }
+        let (mut pr, mut u, mut kk) = (vec![0u64; s], vec![0u64; s], vec![0u64; s]);
+        for &e in &inner[k] {
+            let (r, c) = (local_row[rows[e]], local_col[cols[e]]);
+            pr[r] |= 1 << c;
+            if constant[e] {
+                kk[r] |= 1 << c;
+                if unit[e] {
+                    u[r] |= 1 << c;
+                }
+            }
+        }
+        let Some(mut o) = Order::new(s, &pr, &u, &kk) else { return false };
+        let same: Vec<usize> = (0..s).collect();
+        let local: Vec<(usize, usize)> = inner[k].iter().map(|&e| (local_row[rows[e]], local_col[cols[e]])).collect();
+        o.fuse(&same, &same, &vec![1.0; s], &vec![1.0; s], &local, &[], &vec![true; s]);
+        o.place =
+            inner[k].iter().zip(&o.entry_at).map(|(&e, &at)| (e as u32, at as u32, layout.entry_scale[e])).collect();
+        orders.push(Some(o));
+    }
+    // positions: block k's from start[k], in its order's steps (a 1x1 block: its pair)
+    let (mut row_pos, mut col_pos) = (vec![0; m], vec![0; n]);
+    let (mut blocks, mut at, mut store) = (Vec::new(), 0, n * n);
+    for (k, (b, order)) in d.blocks.iter().zip(orders).enumerate() {
+        let s = b.cols.len();
+        for step in 0..s {
+            let (i, j) = order.as_ref().map_or((step, step), |o| (o.row[step], o.col[step]));
+            row_pos[b.rows[i]] = at + step;
+            col_pos[b.cols[j]] = at + step;
+        }
+        let entries =
+            if s == 1 { inner[k].iter().map(|&e| (e as u32, layout.entry_scale[e])).collect() } else { Vec::new() };
+        blocks.push(Diagonal { at, s, store, order, entries });
+        at += s;
+        store += s * s;
+    }
+    // the entries below the diagonal blocks, by the block of their row
+    let mut off: Vec<(usize, u32, u32, u32, f64)> = (0..rows.len())
+        .filter(|&e| block_of_row[rows[e]] != block_of_col[cols[e]])
+        .map(|e| {
+            (block_of_row[rows[e]], row_pos[rows[e]] as u32, col_pos[cols[e]] as u32, e as u32, layout.entry_scale[e])
+        })
+        .collect();
+    off.sort_by_key(|x| x.0);
+    let mut program = Vec::with_capacity(off.len() + blocks.len());
+    let mut next = 0;
+    for (k, d) in blocks.iter().enumerate() {
+        while next < off.len() && off[next].0 == k {
+            program.push((off[next].1, off[next].2, next as u32));
+            next += 1;
+        }
+        let at = d.at as u32;
+        program.push(if d.s == 1 { (at, at, d.store as u32) } else { (BLOCK, k as u32, 0) });
+    }
+    let (mut gather, mut scatter) = (vec![0; n], vec![0; n]);
+    for i in 0..n {
+        gather[row_pos[i]] = i;
+        scatter[col_pos[i]] = i;
+    }
+    let t = Triangular {
+        blocks,
+        off_entries: off.iter().map(|x| (x.3, x.4)).collect(),
+        program,
+        gscale: gather.iter().map(|&i| 1.0 / layout.scale[i]).collect(),
+        sscale: scatter.iter().map(|&j| layout.col_scale[j]).collect(),
+        sign: crate::order::parity(&gather) * crate::order::parity(&scatter),
+        gather,
+        scatter,
+        whole_row: layout.row_pos.clone(),
+        whole_col: layout.col_pos.clone(),
+        whole_entries: (layout.at.iter().enumerate())
+            .map(|(e, &(_, r, c))| (e as u32, (r * n + c) as u32, layout.entry_scale[e]))
+            .collect(),
+        whole_patterns: patterns.clone(),
+        whole_sign: layout.sign,
+        whole_to_pos: (0..n).map(|p| col_pos[col_at[p]]).collect(),
+    };
+    layout.row_pos = row_pos;
+    layout.col_pos = col_pos;
+    layout.shape = Shape::Triangular(Box::new(t));
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::decompose::tests::slider_crank;
+
+    fn lcg(seed: &mut u64) -> f64 {
+        *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((*seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    }
+
+    /// One block of the whole pattern in the model's order, as kinem.model.Model.plan lays it out
+    fn one_block(n: usize, rows: &[usize], cols: &[usize]) -> Layout {
+        let mut patterns = vec![(0u64, 0u64); n];
+        for (&r, &c) in rows.iter().zip(cols) {
+            patterns[r].0 |= 1 << c;
+            patterns[c].1 |= 1 << r;
+        }
+        let mut l = Layout {
+            shape: Shape::Blocks { count: 1, size: n, pad: Vec::new(), patterns, orders: Vec::new() },
+            n,
+            m: n,
+            height: n,
+            width: n,
+            count: 1,
+            at: rows.iter().zip(cols).map(|(&r, &c)| (0, r, c)).collect(),
+            entry_scale: Vec::new(),
+            row_pos: (0..n).collect(),
+            col_pos: (0..n).collect(),
+            real: vec![true; n],
+            sign: 1,
+            scale: (0..n).map(|i| 1.0 + 0.1 * i as f64).collect(),
+            col_scale: (0..n).map(|j| 2.0 - 0.05 * j as f64).collect(),
+            by_block: Vec::new(),
+            block_start: Vec::new(),
+        };
+        l.entry_scale = rows.iter().zip(cols).map(|(&r, &c)| l.col_scale[c] / l.scale[r]).collect();
+        l.group();
+        l
+    }
+
+    fn dense(n: usize, rows: &[usize], cols: &[usize], values: &[f64]) -> Vec<f64> {
+        let mut a = vec![0.0; n * n];
+        for e in 0..values.len() {
+            a[rows[e] * n + cols[e]] = values[e];
+        }
+        a
+    }
+
+    #[test]
+    fn the_block_triangular_layout_solves_and_falls_back_to_partial_pivoting() {
+        let (rows, cols) = slider_crank();
+        let n = 12;
+        let plain = one_block(n, &rows, &cols);
+        let mut tri = plain.clone();
+        let constant: Vec<bool> = rows.iter().map(|&r| r < 3).collect();
+        assert!(triangulate(&mut tri, &constant, &constant), "the slider-crank decomposes");
+        let Shape::Triangular(t) = &tri.shape else { panic!("not triangular") };
+        let sizes: Vec<usize> = t.blocks.iter().map(|d| d.s).collect();
+        assert_eq!(sizes, vec![1, 1, 1, 1, 1, 1, 1, 5]);
+        let mut seed = 3u64;
+        let (mut fell, mut fixed) = (0, 0);
+        for trial in 0..200 {
+            let mut values: Vec<f64> = rows.iter().map(|_| lcg(&mut seed)).collect();
+            for (e, v) in values.iter_mut().enumerate() {
+                if rows[e] < 3 || rows[e] == 11 {
+                    *v = 1.0; // ground and driver rows: unit entries
+                }
+            }
+            if trial % 4 == 0 {
+                // a nearly singular loop: the blocks' pivots span more than FALLBACK
+                for (e, v) in values.iter_mut().enumerate() {
+                    if rows[e] == 9 {
+                        *v *= 1e-5;
+                    }
+                }
+            }
+            let a = dense(n, &rows, &cols, &values);
+            let x0: Vec<f64> = (0..n).map(|_| lcg(&mut seed)).collect();
+            let b: Vec<f64> = (0..n).map(|i| (0..n).map(|j| a[i * n + j] * x0[j]).sum()).collect();
+            let (mut ft, mut fp) = (tri.factors(), plain.factors());
+            tri.factor(&values, &mut ft);
+            plain.factor(&values, &mut fp);
+            let (mut xt, mut xp) = (vec![0.0; n], vec![0.0; n]);
+            tri.solve(&mut ft, &b, &mut xt);
+            plain.solve(&mut fp, &b, &mut xp);
+            let (st, sp) = (tri.stats(&ft), plain.stats(&fp));
+            let mut d = a.clone();
+            let mut piv = vec![0; n];
+            crate::lu::dense_factor(&mut d, n, &mut piv);
+            let swaps = (0..n).filter(|&j| piv[j] != j).count() as i32;
+            let det = (0..n).map(|k| d[k * n + k]).product::<f64>() * if swaps % 2 == 1 { -1.0 } else { 1.0 };
+            if det.abs() < 1e-12 {
+                continue;
+            }
+            assert_eq!(st.1 as f64, det.signum(), "trial {trial}: det sign");
+            let ratio = sp.0.min(st.0);
+            let err = xt.iter().zip(&x0).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
+            assert!(err < 1e-9 / ratio.max(1e-6), "trial {trial}: error {err}");
+            if ft.fixed[0].is_none() {
+                // the fallback is the whole matrix's partial pivoting in the model's order: the same figures and solve
+                assert_eq!((st.0.to_bits(), st.1), (sp.0.to_bits(), sp.1), "trial {trial}");
+                assert!(xt.iter().zip(&xp).all(|(u, v)| u.to_bits() == v.to_bits()), "trial {trial}");
+                fell += 1;
+            } else {
+                assert!(st.0 >= crate::lu::FALLBACK && trial % 4 != 0, "trial {trial}: {}", st.0);
+                fixed += 1;
+            }
+        }
+        assert!(fell >= 40 && fixed >= 40, "both paths taken: {fell} fallbacks, {fixed} in the blocks' orders");
     }
 }

@@ -603,6 +603,36 @@ impl Plan {
         Ok((end, why as u8))
     }
 
+    /// The structural decomposition of an m x n Jacobian pattern (rows,
+    /// cols; crate::decompose), any model's (a static method: models
+    /// without a plan too): (exact, what the pattern allows, the structural
+    /// rank, the blocks in solve order as (rows, coordinates), and the
+    /// connected component of each coordinate).
+    #[staticmethod]
+    #[allow(clippy::type_complexity)]
+    fn blocks(
+        py: Python<'_>,
+        m: usize,
+        n: usize,
+        rows: PyReadonlyArray1<'_, i64>,
+        cols: PyReadonlyArray1<'_, i64>,
+    ) -> PyResult<(bool, &'static str, usize, Vec<(Vec<usize>, Vec<usize>)>, Vec<usize>)> {
+        let index = |a: PyReadonlyArray1<'_, i64>, bound: usize| -> PyResult<Vec<usize>> {
+            let bad = || value_error("blocks: index out of range");
+            a.as_array().iter().map(|&v| usize::try_from(v).ok().filter(|&v| v < bound).ok_or_else(bad)).collect()
+        };
+        let (rows, cols) = (index(rows, m)?, index(cols, n)?);
+        if rows.len() != cols.len() {
+            return Err(value_error("blocks: rows and cols differ in length"));
+        }
+        let (d, connected) = guard(py, move || {
+            Ok((crate::decompose::decompose(m, n, &rows, &cols), crate::decompose::connected(m, n, &rows, &cols)))
+        })?;
+        let exact = d.kind == crate::decompose::Kind::Exact;
+        let blocks = d.blocks.into_iter().map(|b| (b.rows, b.cols)).collect();
+        Ok((exact, d.kind.message(), d.rank, blocks, connected))
+    }
+
     /// The LU of J_s at these Jacobian values (nnz).
     fn factor(&self, py: Python<'_>, values: PyReadonlyArray1<'_, f64>) -> PyResult<Lu> {
         let v = vec1(&values);
