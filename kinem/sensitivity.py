@@ -204,8 +204,9 @@ def _derived_frames(case, path, columns, block, traj):
     frames held, plus the frame's own move, r' = r + A(phi) s0 and
     phi' = phi + alpha, differentiated at s0 = 0, alpha = 0 (with their
     velocities and accelerations): the columns of the moved drawing."""
-    index = {c: k for k, c in enumerate(columns)}
-    for body, (ds0, dalpha) in frame_tangent(case, path).items():
+    moved = frame_tangent(case, path)
+    index = {c: k for k, c in enumerate(columns)} if moved else {}
+    for body, (ds0, dalpha) in moved.items():
         turn = np.exp(1j * traj[f"{body}.phi"]) * ds0
         terms = {"x": turn.real, "y": turn.imag, "phi": dalpha}
         if f"{body}.omega" in traj:
@@ -238,7 +239,8 @@ def _moved(case, listed):
     two near |p| / 2 (-h where +h is not a valid case), each case set in
     place where it can be, else validated (``cases_of``)."""
     steps = [2.0 ** (np.floor(np.log2(abs(p.value))) - 1) if p.value else 0.5 for p in listed]
-    turned = [driver_tangent(case, p.path) for p in listed]   # drivers of drawn frames that p turns
+    # drivers of drawn frames that p turns (none where p moves no frame: kinem.parameters.driver_tangent)
+    turned = [driver_tangent(case, p.path) if frame_tangent(case, p.path) else {} for p in listed]
     wanted = {q for t in turned for q in t}
     values = {q.path: q.value for q in resolve(case, wanted)} if wanted else {}
 
