@@ -400,7 +400,12 @@ pub const INVERSE: usize = 64;
 /// factors, or through the inverse (`inverse`: n x m, row-major).
 struct Solver {
     use_inverse: bool,
-    inverse: Vec<f64>,
+    /// the inverse's entries that are not exactly zero (a block-triangular
+    /// Phi_q has a block-triangular inverse), row by row: (column, value)
+    /// for row j at start[j]..start[j + 1]
+    inverse: Vec<(usize, f64)>,
+    start: Vec<usize>,
+    dense: Vec<f64>,
     b: Vec<f64>,
     x: Vec<f64>,
 }
@@ -409,13 +414,16 @@ impl Solver {
     fn new(n: usize, m: usize, use_inverse: bool) -> Solver {
         Solver {
             use_inverse,
-            inverse: vec![0.0; if use_inverse { n * m } else { 0 }],
+            inverse: Vec::with_capacity(if use_inverse { n * m } else { 0 }),
+            start: vec![0; n + 1],
+            dense: vec![0.0; if use_inverse { n * m } else { 0 }],
             b: vec![0.0; m],
             x: vec![0.0; n],
         }
     }
 
-    /// The inverse from the instant's factors (when it is used).
+    /// The inverse from the instant's factors (when it is used); its zeros
+    /// are left out of the products (adding them changes no sum).
     fn prepare(&mut self, layout: &Layout, f: &mut Factors) {
         if !self.use_inverse {
             return;
@@ -426,8 +434,13 @@ impl Solver {
             self.b[i] = 1.0;
             layout.solve(f, &self.b, &mut self.x);
             for (j, &v) in self.x.iter().enumerate() {
-                self.inverse[j * m + i] = v;
+                self.dense[j * m + i] = v;
             }
+        }
+        self.inverse.clear();
+        for (j, row) in self.dense.chunks(m).enumerate() {
+            self.inverse.extend(row.iter().enumerate().filter(|e| *e.1 != 0.0).map(|(i, &v)| (i, v)));
+            self.start[j + 1] = self.inverse.len();
         }
     }
 
@@ -440,11 +453,11 @@ impl Solver {
         count: usize,
         out: &mut [[f64; N]],
     ) {
-        let m = self.b.len();
         if self.use_inverse {
             for (j, o) in out.iter_mut().enumerate() {
                 let mut acc = [0.0; N];
-                for (&a, r) in self.inverse[j * m..(j + 1) * m].iter().zip(rhs) {
+                for &(i, a) in &self.inverse[self.start[j]..self.start[j + 1]] {
+                    let r = &rhs[i];
                     for l in 0..N {
                         acc[l] += a * r[l];
                     }
