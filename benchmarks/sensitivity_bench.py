@@ -7,7 +7,10 @@ of the same); medians of the process's CPU time (the machine is shared:
 CPU time is what the call itself spends, the same measure on both sides)
 and of wall time. Per case: the core's part (Plan.sensitivity with
 kinem.sensitivity.core_inputs) per instant and parameter against the plain
-solve per instant. Then the four-bar's tolerance bands (kinem.tolerance,
+solve per instant (the core's part with its own factorisation at every
+instant: kinem.sensitivity uses the march's, Plan.march_sensitivity), and
+the tables' tangents built in Python (kinem.sensitivity.tangent_inputs).
+Then the four-bar's tolerance bands (kinem.tolerance,
 its [tolerances]): N Monte Carlo samples over its 251 instants, median of
 min(REPEATS, 3) runs (the target: 10,000 in 5 s).
 
@@ -22,7 +25,7 @@ from common import load, rounds, say, timed
 
 import kinem
 from kinem.parameters import parameters, resolve
-from kinem.sensitivity import core_inputs, sensitivity
+from kinem.sensitivity import core_inputs, sensitivity, tangent_inputs
 from kinem.tolerance import tolerance
 
 CASES = ("slider_crank", "four_bar", "quick_return_1", "cam_table41")
@@ -52,16 +55,20 @@ def main(repeats=7, samples=2000):
         instants = len(result.trajectory.t)
         for count in (1, 4, len(every)):
             paths = every[:count]
-            args = core_inputs(model, resolve(model.case, paths), result)
+            listed = resolve(model.case, paths)
+            args = core_inputs(model, listed, result)
             r = medians({"solve": lambda: kinem.solve(model), "sensitivity": lambda: sensitivity(model, paths),
-                         "core": lambda: model.plan.sensitivity(*args)}, repeats)
+                         "core": lambda: model.plan.sensitivity(*args),
+                         "tangents": lambda: tangent_inputs(model, listed)}, repeats)
             (solve, solve_wall), (sens, sens_wall), (core, _) = r["solve"], r["sensitivity"], r["core"]
+            tangents = r["tangents"][0]
             ratio, bound = sens / solve, 1 + 0.5 * count
             say(f"{name:15s} P={count:3d}  solve {solve * 1e3:6.2f} ms ({solve_wall * 1e3:6.2f})  "
                 f"sensitivity {sens * 1e3:7.2f} ms ({sens_wall * 1e3:7.2f})  ratio {ratio:6.2f} "
                 f"({sens_wall / solve_wall:6.2f})  bound {bound:5.1f}  {'ok' if ratio <= bound else 'OVER'}  "
                 f"core {core * 1e3:6.2f} ms: {1e6 * core / (instants * count):5.2f} us per instant and parameter, "
-                f"the solve {1e6 * solve / instants:5.2f} us per instant ({instants} instants)")
+                f"the solve {1e6 * solve / instants:5.2f} us per instant ({instants} instants); "
+                f"tangents (Python) {tangents * 1e3:5.2f} ms")
     model = kinem.compile(kinem.load("cases/four_bar.toml"))
     runs = min(repeats, 3)
     seconds, every, b = rounds({"tolerance": timed(lambda: tolerance(model, samples=samples, outputs=["B.x", "B.y"]))},

@@ -5,8 +5,10 @@ output instant, for design parameters p named by their paths
 (kinem.parameters).
 
 The core differentiates the kinematic equations directly (Eqs. S1-S3, S6,
-kinem/core/src/sensitivity.rs), through one factorisation of Phi_q per
-instant, evaluating the families' own kernels over dual numbers, four
+kinem/core/src/sensitivity.rs), in the march's own pass (``_fused``:
+each accepted instant's sensitivities from the factorisation of Phi_q its
+rates use; else a solve, then Plan.sensitivity factorising again),
+evaluating the families' own kernels over dual numbers, four or eight
 parameters per evaluation; the named points' columns come from the same
 kernel as the trajectory's (kinem/core/src/columns.rs), in the same call.
 What it needs from here is each parameter's tangent of the model's tables
@@ -34,7 +36,13 @@ from .outline import Outline, OutlineTable
 from .options import Options
 from .parameters import apply_many, constraint_id, driver_tangent, frame_tangent, local_tangent, resolve
 from .result import OUTPUTS, Trajectory, _layout
-from .solver import solve
+from .analysis import Data
+from .branches import violation
+from .linalg import choose
+from .march import banded, usable
+from .result import trajectory
+from .solver import _checked_times, check_square, solve
+from .tracking import Tracker
 from .spec import frozen_map
 from .tracking import singular_pivot
 
@@ -87,19 +95,24 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     if model.m != model.n:
         raise KinemError(f"{case.source}: sensitivities need as many equations as coordinates "
                          f"({model.m} equations, {model.n} coordinates: redundant constraints)")
-    result = solve(model, outputs, times, options=options)
-    if not result.success:
-        raise AnalysisError(f"{case.source}: the nominal solve failed: {result.message}")
     plan = model.plan
     if plan is None:
         raise KinemError(f"{case.source}: sensitivities need the compiled march's layout, which this model has not")
-    args = core_inputs(model, listed, result)
-    columns = _layout(model, len(args[3]))[0]
-    data, ratio = plan.sensitivity(*args)
-    t = args[2]
+    tangents = tangent_inputs(model, listed)
+    fused = _fused(model, tangents, outputs, times, options)
+    if fused is None:   # the march does not take the model or every instant: solve, then Plan.sensitivity
+        result = solve(model, outputs, times, options=options)
+        if not result.success:
+            raise AnalysisError(f"{case.source}: the nominal solve failed: {result.message}")
+        args = _instant_inputs(model, tangents, result)
+        (data, ratio), traj, levels = plan.sensitivity(*args), result.trajectory, len(args[3])
+    else:
+        traj, data, ratio, levels = fused
+    t = traj.t
+    columns = _layout(model, levels)[0]
     width = len(columns)
     for k, p in enumerate(listed):
-        _derived_frames(case, p.path, columns, data[:, k * width:(k + 1) * width], result.trajectory)
+        _derived_frames(case, p.path, columns, data[:, k * width:(k + 1) * width], traj)
     floor = singular_pivot((options or Options.of(case)).tolerance)
     singular = ~(ratio >= floor)
     message = "exact at every instant"
@@ -110,7 +123,7 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
                    "the derivatives there are infinite")
     heads = [f"d({c})/d(" for c in columns]
     names = tuple(h + path for path in [p.path + ")" for p in listed] for h in heads)
-    return Sensitivity(listed, result.trajectory, Trajectory(t.copy(), names, data), singular, ratio, message)
+    return Sensitivity(listed, traj, Trajectory(t.copy(), names, data), singular, ratio, message)
 
 
 def core_inputs(model, listed, result) -> tuple:
@@ -121,6 +134,13 @@ def core_inputs(model, listed, result) -> tuple:
     pattern, the trajectory's column sources and the named points' columns,
     local coordinates and tangents. benchmarks/sensitivity_bench.py times
     the core's part with them."""
+    return _instant_inputs(model, tangent_inputs(model, listed), result)
+
+
+def tangent_inputs(model, listed) -> tuple:
+    """What the core's sensitivities take beside the instants: (the model's
+    tables, each parameter's tangents, the Jacobian's pattern (rows, cols),
+    the named points' columns, local coordinates and tangents)."""
     case = model.case
     base = _tables(case, model.length)
     parts = _spline_tangents(case, listed, base)
@@ -132,13 +152,50 @@ def core_inputs(model, listed, result) -> tuple:
         if k not in parts:
             parts[k] = _moved_tangent(case, model.length, base, p, moved, h)
     parts = [parts[k] for k in range(len(listed))]
-    X = [np.ascontiguousarray(x) for x in (result.q, result.qd, result.qdd) if x is not None]
     dlocal = np.array([d for _, d in parts], complex).reshape(len(parts), len(model.point_names))
     core = [([(k, d) for k, _, _, d in families], functions[1], outlines[1])
             for (families, functions, outlines), _ in parts]
-    return (base[:3], core, np.ascontiguousarray(result.trajectory.t), X, model.jac_rows.astype(np.int64),
-            model.jac_cols.astype(np.int64), _layout(model, len(X))[1], model.point_cols.astype(np.int64),
-            model.point_local, dlocal)
+    return (base[:3], core, (model.jac_rows.astype(np.int64), model.jac_cols.astype(np.int64)),
+            (model.point_cols.astype(np.int64), model.point_local, dlocal))
+
+
+def _instant_inputs(model, tangents, result) -> tuple:
+    """Plan.sensitivity's arguments from ``tangent_inputs`` and the nominal solve."""
+    tables, core, (rows, cols), (pc, local, dlocal) = tangents
+    X = [np.ascontiguousarray(x) for x in (result.q, result.qd, result.qdd) if x is not None]
+    return (tables, core, np.ascontiguousarray(result.trajectory.t), X, rows, cols, _layout(model, len(X))[1],
+            pc, local, dlocal)
+
+
+def _fused(model, tangents, outputs, times, options):
+    """(trajectory, data, ratio, levels): the march and the sensitivities of
+    every instant from its own factorisation (Plan.march_sensitivity), for
+    every output (the default) when the march takes the model (kinem.march)
+    and every instant, its trajectory then solve's to the bit; None
+    otherwise (the caller solves, then runs Plan.sensitivity)."""
+    options = model.options if options is None else options
+    if not (type(outputs) is tuple and outputs == OUTPUTS) or not isinstance(options, Options):
+        return None
+    times = model.times if times is None else _checked_times(times)
+    nt = len(times)
+    if not usable(model, False, nt, options) or (model.blocks.count > 1 and not banded(model)):
+        return None
+    check_square(model)
+    tracker = Tracker(model, Data(q=model.q0.copy(), solver=choose(model, options)), True, True, options)
+    st = tracker.state
+    st.restart(np.asarray(model.q0, dtype=float))
+    tables, core, pattern, (pc, local, dlocal) = tangents
+    src = _layout(model, 3)[1]
+    X, figures, ints = np.empty((3, nt, model.n)), np.zeros((2, nt)), np.zeros(nt + 2, np.int64)
+    data, ratio = np.empty((nt, len(core) * len(src))), np.empty(nt)
+    times = np.ascontiguousarray(times, float)
+    end, _ = model.plan.march_sensitivity(times, st, tracker.settings + (float(tracker.budget.left()),), X, figures,
+                                          ints, tables, core, pattern, (src, pc, local, dlocal), data, ratio)
+    if end < nt or violation(model, X[0, 0]):
+        return None
+    for x in X:
+        x.flags.writeable = False
+    return trajectory(model, times, X[0], X[1], X[2]), data, ratio, 3
 
 
 def _derived_frames(case, path, columns, block, traj):
@@ -147,8 +204,9 @@ def _derived_frames(case, path, columns, block, traj):
     frames held, plus the frame's own move, r' = r + A(phi) s0 and
     phi' = phi + alpha, differentiated at s0 = 0, alpha = 0 (with their
     velocities and accelerations): the columns of the moved drawing."""
-    index = {c: k for k, c in enumerate(columns)}
-    for body, (ds0, dalpha) in frame_tangent(case, path).items():
+    moved = frame_tangent(case, path)
+    index = {c: k for k, c in enumerate(columns)} if moved else {}
+    for body, (ds0, dalpha) in moved.items():
         turn = np.exp(1j * traj[f"{body}.phi"]) * ds0
         terms = {"x": turn.real, "y": turn.imag, "phi": dalpha}
         if f"{body}.omega" in traj:
@@ -181,8 +239,10 @@ def _moved(case, listed):
     two near |p| / 2 (-h where +h is not a valid case), each case set in
     place where it can be, else validated (``cases_of``)."""
     steps = [2.0 ** (np.floor(np.log2(abs(p.value))) - 1) if p.value else 0.5 for p in listed]
-    turned = [driver_tangent(case, p.path) for p in listed]   # drivers of drawn frames that p turns
-    values = {q.path: q.value for q in resolve(case, {q for t in turned for q in t})}
+    # drivers of drawn frames that p turns (none where p moves no frame: kinem.parameters.driver_tangent)
+    turned = [driver_tangent(case, p.path) if frame_tangent(case, p.path) else {} for p in listed]
+    wanted = {q for t in turned for q in t}
+    values = {q.path: q.value for q in resolve(case, wanted)} if wanted else {}
 
     def design(p, h, turn):
         return {p.path: p.value + h, **{q: values[q] + h * rate for q, rate in turn.items()}}

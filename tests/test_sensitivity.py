@@ -362,3 +362,37 @@ def test_public_tangents_rebuild_a_moved_design():
         for key in w:
             scale = max(float(np.max(np.abs(w[key]), initial=0.0)), 1.0)
             assert np.max(np.abs(np.asarray(g[key]) - w[key]), initial=0.0) <= 1e-12 * scale, key
+
+
+@pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
+def test_one_pass_equals_the_solve_and_the_separate_sensitivities(path):
+    """kinem.sensitivity's one pass (the march's own factorisation at each
+    instant, Plan.march_sensitivity) gives solve's trajectory to the bit and
+    the derivatives of the separate pass (a solve, then Plan.sensitivity
+    factorising again) to 1e-13 of the largest: the same Phi_q, factorised
+    the same way, at the same q."""
+    from kinem.parameters import resolve
+    from kinem.sensitivity import _derived_frames, _fused, _layout, core_inputs, tangent_inputs
+
+    model = kinem.compile(kinem.load(path))
+    paths = [p.path for p in parameters(model.case)]
+    if not paths or model.m != model.n:
+        pytest.skip("no design parameters, or not square")
+    listed = resolve(model.case, paths)
+    fused = _fused(model, tangent_inputs(model, listed), kinem.result.OUTPUTS, None, None)
+    result = kinem.solve(model)
+    if fused is None:
+        pytest.skip("the march does not take this model or every instant: the separate pass serves it")
+    traj, data, ratio, levels = fused
+    assert levels == 3
+    assert np.array_equal(traj.data, result.trajectory.data) and traj.columns == result.trajectory.columns
+    separate, ratio2 = model.plan.sensitivity(*core_inputs(model, listed, result))
+    columns = _layout(model, 3)[0]
+    w = len(columns)
+    for k, p in enumerate(listed):
+        _derived_frames(model.case, p.path, columns, separate[:, k * w:(k + 1) * w], result.trajectory)
+    np.testing.assert_array_equal(ratio, ratio2)
+    whole = sensitivity(model, paths)
+    regular = ratio >= 1e-6
+    scale = np.abs(separate[regular]).max()
+    assert np.abs(whole.derivatives.data[regular] - separate[regular]).max() <= 1e-13 * scale

@@ -190,12 +190,34 @@ pub fn run(
     kin: &Kin,
     layout: &Layout,
     times: &[f64],
+    k: usize,
+    st: &mut MarchState,
+    s: &Settings,
+    out: Out,
+    watch: &Watch,
+    caller: bool,
+) -> (usize, Why) {
+    run_hooked(kin, layout, times, k, st, s, out, watch, caller, None)
+}
+
+/// At each accepted instant k, after its rates: (k, the state there, the
+/// factorisation of Phi_q at its q, which the rates used).
+pub type Hook<'h> = &'h mut dyn FnMut(usize, &MarchState, &mut Factors);
+
+/// `run`, calling `hook` at every accepted instant (kinem.sensitivity:
+/// the design sensitivities from the march's own factorisation).
+#[allow(clippy::too_many_arguments)]
+pub fn run_hooked(
+    kin: &Kin,
+    layout: &Layout,
+    times: &[f64],
     mut k: usize,
     st: &mut MarchState,
     s: &Settings,
     out: Out,
     watch: &Watch,
     caller: bool,
+    mut hook: Option<Hook>,
 ) -> (usize, Why) {
     let n = kin.n;
     let mut ops = Native::new(kin, layout);
@@ -230,6 +252,9 @@ pub fn run(
         out.residual[r] = o.residual;
         out.pivot[r] = o.pivot;
         out.det[r] = o.det as i8;
+        if let Some(h) = hook.as_mut() {
+            h(k, st, &mut ops.f);
+        }
         k += 1;
     }
     out.counts[0] += ops.counts[0];

@@ -472,13 +472,14 @@ impl Plan {
     /// dlocal (P, points): each parameter's tangent of the named points'
     /// local coordinates. Returns (the columns' tangents (K, P W), every
     /// column of the first parameter then of the second ..., the pivot
-    /// ratio (K)).
+    /// ratio (K)). Phi_q is factorised again at every instant
+    /// (`march_sensitivity` uses the march's own factorisation).
     #[allow(clippy::type_complexity, clippy::too_many_arguments)]
     fn sensitivity<'py>(
         &self,
         py: Python<'py>,
-        tables: (Vec<(String, Bound<'py, PyDict>)>, Bound<'py, PyDict>, Bound<'py, PyDict>),
-        tangents: Vec<(Vec<(usize, Bound<'py, PyDict>)>, Bound<'py, PyDict>, Bound<'py, PyDict>)>,
+        tables: SensTables<'py>,
+        tangents: SensTangents<'py>,
         times: PyReadonlyArray1<'py, f64>,
         x: Vec<PyReadonlyArray2<'py, f64>>,
         jac_rows: PyReadonlyArray1<'py, i64>,
@@ -488,15 +489,9 @@ impl Plan {
         local: PyReadonlyArray1<'py, C64>,
         dlocal: numpy::PyReadonlyArray2<'py, C64>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyArray1<f64>>)> {
-        let families = tables.0.iter().map(|(k, d)| Ok((k.clone(), table(d)?))).collect::<PyResult<Vec<_>>>()?;
-        let (functions, outlines) = (table(&tables.1)?, table(&tables.2)?);
-        let mut parts = Vec::new();
-        for (fams, fd, od) in &tangents {
-            let families = fams.iter().map(|(k, d)| Ok((*k, table(d)?))).collect::<PyResult<Vec<_>>>()?;
-            parts.push(crate::sensitivity::Tangent { families, functions: table(fd)?, outlines: table(od)? });
-        }
         let times = times.as_slice()?.to_vec();
-        let (n, kk, levels, np) = (self.kin.n, times.len(), x.len(), parts.len());
+        let (n, kk, levels) = (self.kin.n, times.len(), x.len());
+        let inputs = SensInputs::of(&self.kin, tables, tangents, (jac_rows, jac_cols), (src, pc, local, dlocal))?;
         let mut xs = Vec::new();
         for (k, a) in x.iter().enumerate() {
             let (v, r) = rows(a, n, &format!("sensitivity: x[{k}]"))?;
@@ -505,34 +500,107 @@ impl Plan {
             }
             xs.push(v.to_vec());
         }
-        let to_usize = |a: PyReadonlyArray1<'py, i64>| -> Vec<usize> {
-            a.as_array().iter().map(|&v| if v < 0 { usize::MAX } else { v as usize }).collect()
-        };
-        let (r, c) = (to_usize(jac_rows), to_usize(jac_cols));
-        let (src, pc) = (to_usize(src), to_usize(pc));
-        let local = local.as_array().to_vec();
-        if dlocal.shape() != [np, local.len()] {
-            return Err(value_error("sensitivity: dlocal must have one row per parameter, one entry per point"));
-        }
-        let dlocal = dlocal.as_array().iter().copied().collect::<Vec<_>>();
-        let w = src.len();
-        let (kin, layout) = (self.kin.clone(), self.layout.clone());
+        let width = inputs.parts.len() * inputs.src.len();
+        let layout = self.layout.clone();
         let (data, ratio) = guard(py, move || {
-            use crate::sensitivity::sensitivities;
-            crate::columns::check(n, levels, &src, &pc, local.len())?;
-            let angles = kin.angles.iter().map(|&a| a as i64).collect();
-            let own = Kin::new(n, families, &functions, &outlines, angles)?;
-            if (own.m, own.nnz) != (kin.m, kin.nnz) {
-                return Err("sensitivity: the tables are not the model's".to_string());
-            }
+            let own = inputs.kin(levels)?;
             let mut ratio = vec![0.0; kk];
             let x: Vec<&[f64]> = xs.iter().map(|v| v.as_slice()).collect();
-            let mut data = vec![0.0; kk * np * w];
-            let columns = (src.as_slice(), pc.as_slice(), local.as_slice(), dlocal.as_slice());
-            sensitivities(&own, &layout, &parts, &r, &c, &times, &x, columns, &mut data, &mut ratio)?;
+            let mut data = vec![0.0; kk * width];
+            let (r, c) = (&inputs.rows, &inputs.cols);
+            let columns = inputs.columns();
+            crate::sensitivity::sensitivities(
+                &own,
+                &layout,
+                &inputs.parts,
+                r,
+                c,
+                &times,
+                &x,
+                columns,
+                &mut data,
+                &mut ratio,
+            )?;
             Ok((data, ratio))
         })?;
-        Ok((out2(py, data, kk, np * w)?, PyArray1::from_vec(py, ratio)))
+        Ok((out2(py, data, kk, width)?, PyArray1::from_vec(py, ratio)))
+    }
+
+    /// The march (`march`, from k = 0: assembled from the estimates in
+    /// state.q) with the design sensitivities of every instant it takes from
+    /// its own factorisation of Phi_q there, the one its rates use
+    /// (crate::march::run_hooked, crate::sensitivity::Instants); a model
+    /// the march splits into parts is refused (Plan.sensitivity serves it).
+    /// times, state, settings, out, figures, ints: as `march`; tables,
+    /// tangents, jac_rows, jac_cols, src, pc, local, dlocal: as
+    /// `sensitivity`, its levels out's. Writes data (K, P W) and ratio (K)
+    /// for the instants taken; returns (the first instant not taken, or K;
+    /// why).
+    #[allow(clippy::type_complexity, clippy::too_many_arguments)]
+    fn march_sensitivity<'py>(
+        &self,
+        py: Python<'py>,
+        times: PyReadonlyArray1<'py, f64>,
+        state: &Bound<'py, MarchState>,
+        settings: (f64, usize, f64, f64, bool, f64),
+        out: Bound<'py, PyArray3<f64>>,
+        figures: Bound<'py, PyArray2<f64>>,
+        ints: Bound<'py, PyArray1<i64>>,
+        tables: SensTables<'py>,
+        tangents: SensTangents<'py>,
+        pattern: (PyReadonlyArray1<'py, i64>, PyReadonlyArray1<'py, i64>),
+        columns: SensColumns<'py>,
+        data: Bound<'py, PyArray2<f64>>,
+        ratio: Bound<'py, PyArray1<f64>>,
+    ) -> PyResult<(usize, u8)> {
+        let (n, kk) = (self.kin.n, times.len());
+        let bad = |what: &str| value_error(format!("march_sensitivity: {what} has the wrong shape"));
+        if self.layout.count >= 2 && matches!(self.layout.shape, Shape::Blocks { .. }) {
+            return Err(value_error("march_sensitivity: a model marched in parts (Plan.sensitivity serves it)"));
+        }
+        let inputs = SensInputs::of(&self.kin, tables, tangents, pattern, columns)?;
+        let times = vec1(&times);
+        let times: &[f64] = &times;
+        let stages = if settings.4 { 3 } else { 1 };
+        let mut state = state.try_borrow_mut()?;
+        let mut outputs = MarchOutputs::of(&out, &figures, &ints, kk)?;
+        let (mut data, mut ratio) = (writable(&data, "data")?, writable(&ratio, "ratio")?);
+        let width = inputs.parts.len() * inputs.src.len();
+        if state.0.q.len() != n || data.shape() != [kk, width] || ratio.len() != kk {
+            return Err(bad("state, data or ratio"));
+        }
+        let (settings, seconds) =
+            (march_settings((settings.0, settings.1, settings.2, settings.3, settings.4)), settings.5);
+        let (kin, layout) = (&self.kin, &self.layout);
+        let st = &mut state.0;
+        let (data, ratio) =
+            (data.as_slice_mut().map_err(|_| bad("data"))?, ratio.as_slice_mut().map_err(|_| bad("ratio"))?);
+        let out = outputs.out(n, stages, "march_sensitivity")?;
+        let signal: std::sync::Mutex<Option<PyErr>> = std::sync::Mutex::new(None);
+        let poll = || signalled(&signal);
+        let (end, why) = guard(py, move || {
+            let own = inputs.kin(stages)?;
+            let setup = crate::sensitivity::Setup {
+                kin: &own,
+                layout,
+                tangents: &inputs.parts,
+                rows: &inputs.rows,
+                cols: &inputs.cols,
+                levels: stages,
+                columns: inputs.columns(),
+            };
+            let mut at = crate::sensitivity::Instants::new(setup)?;
+            let mut hook = |k: usize, s: &march::MarchState, f: &mut Factors| {
+                let x: [&[f64]; 3] = [&s.q, &s.qd, &s.qdd];
+                ratio[k] = at.at(times[k], &x[..stages], f, &mut data[k * width..(k + 1) * width]);
+            };
+            let watch = Watch::new(seconds, Some(&poll));
+            Ok(march::run_hooked(kin, layout, times, 0, st, &settings, out, &watch, true, Some(&mut hook)))
+        })?;
+        if why == Why::Interrupted {
+            return Err(raised(&signal));
+        }
+        Ok((end, why as u8))
     }
 
     /// The structural decomposition of an m x n Jacobian pattern (rows,
@@ -614,32 +682,19 @@ impl Plan {
         ints: Bound<'_, PyArray1<i64>>,
     ) -> PyResult<(usize, u8)> {
         let (n, kk) = (self.kin.n, times.len());
-        let bad = |what: &str| value_error(format!("march: {what} has the wrong shape"));
         let times = vec1(&times);
         let times: &[f64] = &times;
         let stages = if settings.4 { 3 } else { 1 };
         let mut state = state.try_borrow_mut()?;
-        let (mut out, mut figures) = (writable(&out, "march: out")?, writable(&figures, "march: figures")?);
-        let mut ints = writable(&ints, "march: ints")?;
-        if state.0.q.len() != n
-            || out.shape() != [stages, kk, n]
-            || figures.shape() != [2, kk]
-            || Some(ints.len()) != kk.checked_add(2)
-            || k > kk
-        {
-            return Err(bad("state, out, figures, ints or k"));
+        let mut outputs = MarchOutputs::of(&out, &figures, &ints, kk)?;
+        if state.0.q.len() != n || k > kk {
+            return Err(value_error("march: state or k has the wrong shape"));
         }
-        let (tolerance, max_iterations, max_step, floor, rates, seconds) = settings;
-        let settings = march::Settings { tolerance, max_iterations, max_step, floor, rates };
+        let (settings, seconds) =
+            (march_settings((settings.0, settings.1, settings.2, settings.3, settings.4)), settings.5);
         let (kin, layout) = (&self.kin, &self.layout);
         let st = &mut state.0;
-        let (oq, rest) = out.as_slice_mut().map_err(|_| bad("out"))?.split_at_mut(kk * n);
-        let (oqd, oqdd) = rest.split_at_mut(rest.len() / 2);
-        let (residual, pivot) = figures.as_slice_mut().map_err(|_| bad("figures"))?.split_at_mut(kk);
-        let (iterations, counts) = ints.as_slice_mut().map_err(|_| bad("ints"))?.split_at_mut(kk);
-        let mut det = vec![0i8; kk];
-        let out =
-            march::Out { q: oq, qd: oqd, qdd: oqdd, iterations, residual, pivot, det: &mut det, counts, first: 0 };
+        let out = outputs.out(n, stages, "march")?;
         let parts = &self.parts;
         // the signal's exception, from the poll (the GIL re-acquired for it)
         let signal: std::sync::Mutex<Option<PyErr>> = std::sync::Mutex::new(None);
@@ -1008,6 +1063,131 @@ fn mode_of(code: u8) -> PyResult<march::Mode> {
 
 fn march_settings(s: (f64, usize, f64, f64, bool)) -> march::Settings {
     march::Settings { tolerance: s.0, max_iterations: s.1, max_step: s.2, floor: s.3, rates: s.4 }
+}
+
+/// Plan.march's outputs (out, figures, ints, as it documents) for K
+/// instants, and room for the det signs.
+struct MarchOutputs<'py> {
+    out: PyReadwriteArray<'py, f64, numpy::Ix3>,
+    figures: PyReadwriteArray<'py, f64, numpy::Ix2>,
+    ints: PyReadwriteArray<'py, i64, numpy::Ix1>,
+    det: Vec<i8>,
+    kk: usize,
+}
+
+impl<'py> MarchOutputs<'py> {
+    fn of(
+        out: &Bound<'py, PyArray3<f64>>,
+        figures: &Bound<'py, PyArray2<f64>>,
+        ints: &Bound<'py, PyArray1<i64>>,
+        kk: usize,
+    ) -> PyResult<Self> {
+        let (out, figures) = (writable(out, "march: out")?, writable(figures, "march: figures")?);
+        Ok(MarchOutputs { out, figures, ints: writable(ints, "march: ints")?, det: vec![0i8; kk], kk })
+    }
+
+    /// The outputs as march::Out, checked against n coordinates and `stages`.
+    fn out(&mut self, n: usize, stages: usize, what: &str) -> PyResult<march::Out<'_>> {
+        let kk = self.kk;
+        let bad = |part: &str| value_error(format!("{what}: {part} has the wrong shape"));
+        if self.out.shape() != [stages, kk, n]
+            || self.figures.shape() != [2, kk]
+            || Some(self.ints.len()) != kk.checked_add(2)
+        {
+            return Err(bad("out, figures or ints"));
+        }
+        let (oq, rest) = self.out.as_slice_mut().map_err(|_| bad("out"))?.split_at_mut(kk * n);
+        let (qd, qdd) = rest.split_at_mut(rest.len() / 2);
+        let (residual, pivot) = self.figures.as_slice_mut().map_err(|_| bad("figures"))?.split_at_mut(kk);
+        let (iterations, counts) = self.ints.as_slice_mut().map_err(|_| bad("ints"))?.split_at_mut(kk);
+        Ok(march::Out { q: oq, qd, qdd, iterations, residual, pivot, det: &mut self.det, counts, first: 0 })
+    }
+}
+
+/// Plan.sensitivity's tables: (families [(kind, table)], functions, outlines).
+type SensTables<'py> = (Vec<(String, Bound<'py, PyDict>)>, Bound<'py, PyDict>, Bound<'py, PyDict>);
+/// Per parameter: (families [(place, tangent)], functions', outlines').
+type SensTangents<'py> = Vec<(Vec<(usize, Bound<'py, PyDict>)>, Bound<'py, PyDict>, Bound<'py, PyDict>)>;
+/// The trajectory's column sources, points' body columns, local coordinates, dlocal (P, points).
+type SensColumns<'py> = (
+    PyReadonlyArray1<'py, i64>,
+    PyReadonlyArray1<'py, i64>,
+    PyReadonlyArray1<'py, C64>,
+    numpy::PyReadonlyArray2<'py, C64>,
+);
+
+/// The inputs of the sensitivities (Plan.sensitivity, Plan.march_sensitivity) read from Python.
+struct SensInputs {
+    n: usize,
+    angles: Vec<i64>,
+    m_nnz: (usize, usize),
+    families: Vec<(String, Table)>,
+    functions: Table,
+    outlines: Table,
+    parts: Vec<crate::sensitivity::Tangent>,
+    rows: Vec<usize>,
+    cols: Vec<usize>,
+    src: Vec<usize>,
+    pc: Vec<usize>,
+    local: Vec<C64>,
+    dlocal: Vec<C64>,
+}
+
+impl SensInputs {
+    fn of<'py>(
+        kin: &Kin,
+        tables: SensTables<'py>,
+        tangents: SensTangents<'py>,
+        pattern: (PyReadonlyArray1<'py, i64>, PyReadonlyArray1<'py, i64>),
+        columns: SensColumns<'py>,
+    ) -> PyResult<SensInputs> {
+        let families = tables.0.iter().map(|(k, d)| Ok((k.clone(), table(d)?))).collect::<PyResult<Vec<_>>>()?;
+        let (functions, outlines) = (table(&tables.1)?, table(&tables.2)?);
+        let mut parts = Vec::new();
+        for (fams, fd, od) in &tangents {
+            let families = fams.iter().map(|(k, d)| Ok((*k, table(d)?))).collect::<PyResult<Vec<_>>>()?;
+            parts.push(crate::sensitivity::Tangent { families, functions: table(fd)?, outlines: table(od)? });
+        }
+        let to_usize = |a: PyReadonlyArray1<'py, i64>| -> Vec<usize> {
+            a.as_array().iter().map(|&v| if v < 0 { usize::MAX } else { v as usize }).collect()
+        };
+        let (src, pc, local, dlocal) = columns;
+        let local = local.as_array().to_vec();
+        if dlocal.shape() != [parts.len(), local.len()] {
+            return Err(value_error("sensitivity: dlocal must have one row per parameter, one entry per point"));
+        }
+        Ok(SensInputs {
+            n: kin.n,
+            angles: kin.angles.iter().map(|&a| a as i64).collect(),
+            m_nnz: (kin.m, kin.nnz),
+            families,
+            functions,
+            outlines,
+            parts,
+            rows: to_usize(pattern.0),
+            cols: to_usize(pattern.1),
+            src: to_usize(src),
+            pc: to_usize(pc),
+            local,
+            dlocal: dlocal.as_array().iter().copied().collect(),
+        })
+    }
+
+    /// The model from the tables (every function and outline its own
+    /// number), checked against the plan's and the columns against `levels`.
+    fn kin(&self, levels: usize) -> Result<Kin, String> {
+        crate::columns::check(self.n, levels, &self.src, &self.pc, self.local.len())?;
+        let families = self.families.clone();
+        let own = Kin::new(self.n, families, &self.functions, &self.outlines, self.angles.clone())?;
+        if (own.m, own.nnz) != self.m_nnz {
+            return Err("sensitivity: the tables are not the model's".to_string());
+        }
+        Ok(own)
+    }
+
+    fn columns(&self) -> crate::sensitivity::Cols<'_> {
+        (&self.src, &self.pc, &self.local, &self.dlocal)
+    }
 }
 
 /// The accepted state of a march and its steps (step::MarchState):

@@ -16,7 +16,7 @@
 //! Lanes<2>). Phi_p, J_p, nu_p are the tangents of Phi, J, nu at q' = 0
 //! along the tables' tangents, and D(gamma) gamma's tangent along q' = s,
 //! qd' = sd and the tables': each one evaluation of the model over
-//! Lanes<LANES> (crate::real) for LANES parameters at once, each lane
+//! Lanes<N> (crate::real) for N = 4 or 8 (LANES) parameters at once, each lane
 //! seeded with one parameter's tables' tangents (Kin::seeded). All three
 //! share one factorisation of J at the instant (the march's layout,
 //! crate::lu): no finite differences anywhere.
@@ -28,9 +28,10 @@ use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
 
 /// How many parameters share one evaluation of the model and of the named
-/// points' columns (crate::real::Lanes).
-pub const LANES: usize = 4;
-type L = Lanes<LANES>;
+/// points' columns (crate::real::Lanes): 4, or 8 for more than 4
+/// parameters (fewer evaluations per parameter; with few parameters the
+/// empty lanes would cost).
+pub const LANES: [usize; 2] = [4, 8];
 
 /// A design parameter's tangent of the model's tables: the families it
 /// moves [(place among the model's families, the tangents of some of its
@@ -42,24 +43,24 @@ pub struct Tangent {
     pub outlines: Table,
 }
 
-/// The model over LANES with the tangents of `group` (at most LANES
+/// The model over Lanes<N> with the tangents of `group` (at most N
 /// parameters) in its lanes, a lane without a parameter zero.
-fn seeded(kin: &Kin, group: &[Tangent]) -> Result<Kin<L>, String> {
+fn seeded<const N: usize>(kin: &Kin, group: &[Tangent]) -> Result<Kin<Lanes<N>>, String> {
     let lanes = |tables: Vec<(usize, &Table)>| -> Table {
         let mut out = Table::default();
         for (lane, t) in tables {
             for (key, d) in &t.reals {
-                let v = out.reals.entry(key.clone()).or_insert_with(|| vec![0.0; d.len() * LANES]);
+                let v = out.reals.entry(key.clone()).or_insert_with(|| vec![0.0; d.len() * N]);
                 for (i, &x) in d.iter().enumerate() {
-                    if let Some(o) = v.get_mut(i * LANES + lane) {
+                    if let Some(o) = v.get_mut(i * N + lane) {
                         *o = x;
                     }
                 }
             }
             for (key, d) in &t.complex {
-                let v = out.complex.entry(key.clone()).or_insert_with(|| vec![C64::new(0.0, 0.0); d.len() * LANES]);
+                let v = out.complex.entry(key.clone()).or_insert_with(|| vec![C64::new(0.0, 0.0); d.len() * N]);
                 for (i, &x) in d.iter().enumerate() {
-                    if let Some(o) = v.get_mut(i * LANES + lane) {
+                    if let Some(o) = v.get_mut(i * N + lane) {
                         *o = x;
                     }
                 }
@@ -93,6 +94,9 @@ fn seeded(kin: &Kin, group: &[Tangent]) -> Result<Kin<L>, String> {
 /// tangents along the first parameter, then the second, ... (from dq/dp,
 /// dqd/dp, dqdd/dp, over Lanes: crate::columns::Columns::row), and ratio
 /// (K) with the pivot ratio of Phi_q (the caller flags singular instants).
+/// Phi_q is evaluated and factorised here at every instant: the march's
+/// own factorisation serves instead where it runs (`Instants::at` from
+/// its hook, crate::march::run_hooked).
 #[allow(clippy::too_many_arguments)]
 pub fn sensitivities(
     kin: &Kin,
@@ -106,161 +110,302 @@ pub fn sensitivities(
     data: &mut [f64],
     ratio: &mut [f64],
 ) -> Result<(), String> {
-    let (src, pc, local, dlocal) = columns;
-    let (w, points) = (src.len(), local.len());
-    let (n, m, nnz, kk, levels, np) = (kin.n, kin.m, kin.nnz, times.len(), x.len(), tangents.len());
+    let (n, kk, levels) = (kin.n, times.len(), x.len());
     if levels == 0 || levels > 3 || x.iter().any(|a| a.len() != kk * n) {
         return Err("sensitivity: 1 to 3 arrays of K x n coordinates expected".into());
     }
-    if rows.len() != nnz || cols.len() != nnz || rows.iter().any(|&r| r >= m) || cols.iter().any(|&c| c >= n) {
-        return Err("sensitivity: the Jacobian's pattern does not fit the model".into());
-    }
-    if data.len() != kk * np * w || ratio.len() != kk || dlocal.len() != np * points {
+    let mut at = Instants::new(Setup { kin, layout, tangents, rows, cols, levels, columns })?;
+    if data.len() != kk * at.width() || ratio.len() != kk {
         return Err("sensitivity: output arrays of the wrong size".into());
     }
-    let groups = tangents.chunks(LANES).map(|g| seeded(kin, g)).collect::<Result<Vec<_>, _>>()?;
-    let two: Kin<Lanes<2>> = kin.over()?; // A and B (S6), the tables' tangents zero
-    let csr = Csr::of(rows, cols, m);
-    let layout_columns = crate::columns::Columns::new(n, levels, src, pc);
-    // the named points' local coordinates with the group's tangents in the lanes
-    let locs: Vec<Vec<Complex<L>>> = (0..groups.len())
-        .map(|g| {
-            (0..points)
-                .map(|j| {
-                    let (mut re, mut im) = ([0.0; LANES], [0.0; LANES]);
-                    for p in g * LANES..(g * LANES + LANES).min(np) {
-                        (re[p - g * LANES], im[p - g * LANES]) = (dlocal[p * points + j].re, dlocal[p * points + j].im);
-                    }
-                    Complex::new(Lanes::of(local[j].re, re), Lanes::of(local[j].im, im))
-                })
-                .collect()
-        })
-        .collect();
-    let (mut pts, mut buf) = (vec![L::c(0.0); 2 * levels * points], vec![L::c(0.0); w]);
-    let mut qddl = vec![L::c(0.0); n];
     let mut f = layout.factors();
     let mut e = vec![C64::new(1.0, 0.0); n];
-    let mut values = vec![0.0; nnz];
-    let mut q2 = vec![Lanes::<2>::c(0.0); n];
-    let (mut e2, mut j2) = (vec![Complex::new(Lanes::c(0.0), Lanes::c(0.0)); n], vec![Lanes::<2>::c(0.0); nnz]);
-    let (mut q0, mut e0) = (vec![L::c(0.0); n], vec![Complex::new(L::c(0.0), L::c(0.0)); n]);
-    let (mut ql, mut qdl, mut el) =
-        (vec![L::c(0.0); n], vec![L::c(0.0); n], vec![Complex::new(L::c(0.0), L::c(0.0)); n]);
-    let (mut rl, mut jl) = (vec![L::c(0.0); m], vec![L::c(0.0); nnz]);
-    let (mut a, mut b) = (vec![0.0; nnz], vec![0.0; nnz]);
-    let mut rhs = vec![[0.0; LANES]; m];
-    let mut solver = Solver::new(n, m, 3 * np >= 2 * n && n <= INVERSE);
-    // s, sd, sdd (lanes); M s, J_p v (lanes)
-    let (mut s, mut sd, mut sdd) = (vec![[0.0; LANES]; n], vec![[0.0; LANES]; n], vec![[0.0; LANES]; n]);
-    let (mut by, mut jp) = (vec![[0.0; LANES]; m], vec![[0.0; LANES]; m]);
+    let mut values = vec![0.0; kin.nnz];
+    let w = at.width();
     for k in 0..kk {
         let (t, q) = (times[k], &x[0][k * n..(k + 1) * n]);
-        let row = |level: usize| &x[level][k * n..(k + 1) * n];
         kin.rotate(q, &mut e);
         kin.jac(&At { q, e: &e, t }, &mut values);
         layout.factor(&values, &mut f);
-        ratio[k] = layout.pivots(&f).0;
-        for j in 0..n {
-            q0[j] = L::c(q[j]);
-            e0[j] = Complex::new(L::c(e[j].re), L::c(e[j].im));
+        let stages: Vec<&[f64]> = x.iter().map(|a| &a[k * n..(k + 1) * n]).collect();
+        ratio[k] = at.at(t, &stages, &mut f, &mut data[k * w..(k + 1) * w]);
+    }
+    Ok(())
+}
+
+/// The sensitivities of one instant after another over Lanes<4> or
+/// Lanes<8> (LANES, by the number of parameters): see `Lanewise`.
+pub enum Instants<'a> {
+    Four(Lanewise<'a, 4>),
+    Eight(Lanewise<'a, 8>),
+}
+
+/// What the sensitivities of a run of instants are set up from: the
+/// model, the march's layout, the parameters' tangents, the Jacobian's
+/// pattern (rows, cols), the stages per instant (1 to 3) and the columns
+/// (as `sensitivities`').
+pub struct Setup<'a, 'b> {
+    pub kin: &'a Kin,
+    pub layout: &'a Layout,
+    pub tangents: &'b [Tangent],
+    pub rows: &'b [usize],
+    pub cols: &'b [usize],
+    pub levels: usize,
+    pub columns: Cols<'a>,
+}
+
+impl<'a> Instants<'a> {
+    /// As `Lanewise::new`, its lanes by the number of parameters.
+    pub fn new(setup: Setup<'a, '_>) -> Result<Self, String> {
+        Ok(if setup.tangents.len() > LANES[0] {
+            Instants::Eight(Lanewise::new(setup)?)
+        } else {
+            Instants::Four(Lanewise::new(setup)?)
+        })
+    }
+
+    /// The columns per instant and parameter (P W: an instant's row of data).
+    pub fn width(&self) -> usize {
+        match self {
+            Instants::Four(x) => x.width(),
+            Instants::Eight(x) => x.width(),
         }
-        let at0 = At { q: &q0, e: &e0, t };
+    }
+
+    /// Lanewise::at.
+    pub fn at(&mut self, t: f64, x: &[&[f64]], f: &mut Factors, out: &mut [f64]) -> f64 {
+        match self {
+            Instants::Four(a) => a.at(t, x, f, out),
+            Instants::Eight(a) => a.at(t, x, f, out),
+        }
+    }
+}
+
+/// The sensitivities of one instant after another, N parameters per evaluation (Eqs. S1-S3, S6) from
+/// the factorisation of Phi_q at each instant's q: the seeded models, the
+/// column layout and every scratch array, set up once.
+pub struct Lanewise<'a, const N: usize> {
+    kin: &'a Kin,
+    layout: &'a Layout,
+    np: usize,
+    levels: usize,
+    groups: Vec<Kin<Lanes<N>>>,
+    two: Kin<Lanes<2>>,
+    pattern: Vec<(usize, usize)>,
+    columns: crate::columns::Columns<'a>,
+    w: usize,
+    locs: Vec<Vec<Complex<Lanes<N>>>>,
+    pts: Vec<Lanes<N>>,
+    buf: Vec<Lanes<N>>,
+    q2: Vec<Lanes<2>>,
+    e2: Vec<Complex<Lanes<2>>>,
+    j2: Vec<Lanes<2>>,
+    e: Vec<C64>,
+    q0: Vec<Lanes<N>>,
+    e0: Vec<Complex<Lanes<N>>>,
+    ql: Vec<Lanes<N>>,
+    qdl: Vec<Lanes<N>>,
+    qddl: Vec<Lanes<N>>,
+    el: Vec<Complex<Lanes<N>>>,
+    rl: Vec<Lanes<N>>,
+    jl: Vec<Lanes<N>>,
+    a: Vec<f64>,
+    b: Vec<f64>,
+    rhs: Vec<[f64; N]>,
+    solver: Solver,
+    s: Vec<[f64; N]>,
+    sd: Vec<[f64; N]>,
+    sdd: Vec<[f64; N]>,
+}
+
+impl<'a, const N: usize> Lanewise<'a, N> {
+    /// The set-up of a run of instants.
+    pub fn new(setup: Setup<'a, '_>) -> Result<Self, String> {
+        let Setup { kin, layout, tangents, rows, cols, levels, columns } = setup;
+        let (src, pc, local, dlocal) = columns;
+        let (w, points) = (src.len(), local.len());
+        let (n, m, nnz, np) = (kin.n, kin.m, kin.nnz, tangents.len());
+        if levels == 0 || levels > 3 {
+            return Err("sensitivity: 1 to 3 levels expected".into());
+        }
+        if rows.len() != nnz || cols.len() != nnz || rows.iter().any(|&r| r >= m) || cols.iter().any(|&c| c >= n) {
+            return Err("sensitivity: the Jacobian's pattern does not fit the model".into());
+        }
+        if dlocal.len() != np * points {
+            return Err("sensitivity: output arrays of the wrong size".into());
+        }
+        let groups = tangents.chunks(N).map(|g| seeded(kin, g)).collect::<Result<Vec<_>, _>>()?;
+        // the named points' local coordinates with the group's tangents in the lanes
+        let locs: Vec<Vec<Complex<Lanes<N>>>> = (0..groups.len())
+            .map(|g| {
+                (0..points)
+                    .map(|j| {
+                        let (mut re, mut im) = ([0.0; N], [0.0; N]);
+                        for p in g * N..(g * N + N).min(np) {
+                            (re[p - g * N], im[p - g * N]) = (dlocal[p * points + j].re, dlocal[p * points + j].im);
+                        }
+                        Complex::new(Lanes::of(local[j].re, re), Lanes::of(local[j].im, im))
+                    })
+                    .collect()
+            })
+            .collect();
+        let zl = || vec![Lanes::<N>::c(0.0); n];
+        let cl = || vec![Complex::new(Lanes::<N>::c(0.0), Lanes::<N>::c(0.0)); n];
+        Ok(Lanewise {
+            kin,
+            layout,
+            np,
+            levels,
+            groups,
+            two: kin.over()?, // A and B (S6), the tables' tangents zero
+            pattern: rows.iter().copied().zip(cols.iter().copied()).collect(),
+            columns: crate::columns::Columns::new(n, levels, src, pc),
+            w,
+            locs,
+            pts: vec![Lanes::<N>::c(0.0); 2 * levels * points],
+            buf: vec![Lanes::<N>::c(0.0); w],
+            q2: vec![Lanes::<2>::c(0.0); n],
+            e2: vec![Complex::new(Lanes::c(0.0), Lanes::c(0.0)); n],
+            j2: vec![Lanes::<2>::c(0.0); nnz],
+            e: vec![C64::new(1.0, 0.0); n],
+            q0: zl(),
+            e0: cl(),
+            ql: zl(),
+            qdl: zl(),
+            qddl: zl(),
+            el: cl(),
+            rl: vec![Lanes::<N>::c(0.0); m],
+            jl: vec![Lanes::<N>::c(0.0); nnz],
+            a: vec![0.0; nnz],
+            b: vec![0.0; nnz],
+            rhs: vec![[0.0; N]; m],
+            solver: Solver::new(n, m, 3 * np >= 2 * n && n <= INVERSE),
+            s: vec![[0.0; N]; n],
+            sd: vec![[0.0; N]; n],
+            sdd: vec![[0.0; N]; n],
+        })
+    }
+
+    /// The columns per instant and parameter (P W: an instant's row of data).
+    pub fn width(&self) -> usize {
+        self.np * self.w
+    }
+
+    /// One instant: x its stages (q, qd, qdd: `levels` of n), f the
+    /// factorisation of Phi_q at (q, t) (its solves leave it as it is);
+    /// writes its row (P W) and returns Phi_q's pivot ratio.
+    pub fn at(&mut self, t: f64, x: &[&[f64]], f: &mut Factors, out: &mut [f64]) -> f64 {
+        let Lanewise { kin, layout, np, levels, w, .. } = *self;
+        let n = kin.n;
+        let q = x[0];
+        let ratio = layout.pivots(f).0;
+        kin.rotate(q, &mut self.e);
+        for j in 0..n {
+            self.q0[j] = Lanes::<N>::c(q[j]);
+            self.e0[j] = Complex::new(Lanes::<N>::c(self.e[j].re), Lanes::<N>::c(self.e[j].im));
+        }
+        let at0 = At { q: &self.q0, e: &self.e0, t };
         // A = D_qd(J), B = D_qdd(J) (S6): once per instant, one evaluation
         if levels > 1 {
-            let (qd, qdd) = (row(1), if levels > 2 { row(2) } else { row(1) });
+            let (qd, qdd) = (x[1], if levels > 2 { x[2] } else { x[1] });
             for j in 0..n {
-                q2[j] = Lanes::of(q[j], [qd[j], qdd[j]]);
+                self.q2[j] = Lanes::of(q[j], [qd[j], qdd[j]]);
             }
-            two.rotate(&q2, &mut e2);
-            two.jac(&At { q: &q2, e: &e2, t }, &mut j2);
-            for ((x, y), v) in a.iter_mut().zip(b.iter_mut()).zip(&j2) {
+            self.two.rotate(&self.q2, &mut self.e2);
+            self.two.jac(&At { q: &self.q2, e: &self.e2, t }, &mut self.j2);
+            for ((x, y), v) in self.a.iter_mut().zip(self.b.iter_mut()).zip(&self.j2) {
                 (*x, *y) = (v.d[0], v.d[1]);
             }
         }
-        solver.prepare(layout, &mut f);
-        for (g, model) in groups.iter().enumerate() {
-            let count = (np - g * LANES).min(LANES);
+        self.solver.prepare(layout, f);
+        for (g, model) in self.groups.iter().enumerate() {
+            let count = (np - g * N).min(N);
             // S1: Phi_p, Phi's tangent at q' = 0
-            model.phi(&at0, &mut rl);
-            for (r, x) in rhs.iter_mut().zip(&rl) {
+            model.phi(&at0, &mut self.rl);
+            for (r, x) in self.rhs.iter_mut().zip(&self.rl) {
                 *r = x.d.map(|v| -v);
             }
-            solver.solve(layout, &mut f, &rhs, count, &mut s);
+            self.solver.solve(layout, f, &self.rhs, count, &mut self.s);
             for j in 0..n {
-                ql[j] = Lanes::of(q[j], s[j]);
+                self.ql[j] = Lanes::of(q[j], self.s[j]);
             }
             if levels > 1 {
                 // S2: nu_p - A s - J_p qd, J_p: the Jacobian's tangent at q' = 0
-                model.jac(&at0, &mut jl);
-                model.nu(t, &mut rl);
-                let parts = (&rl[..], &jl[..], &s[..], row(1));
-                right_side(&csr, &a, parts, (&mut by, &mut jp), &mut rhs);
-                solver.solve(layout, &mut f, &rhs, count, &mut sd);
-                let qd = row(1);
+                model.jac(&at0, &mut self.jl);
+                model.nu(t, &mut self.rl);
+                let parts = (&self.rl[..], &self.jl[..], &self.s[..], x[1]);
+                right_side(&self.pattern, &self.a, parts, &mut self.rhs);
+                self.solver.solve(layout, f, &self.rhs, count, &mut self.sd);
                 for j in 0..n {
-                    qdl[j] = Lanes::of(qd[j], sd[j]);
+                    self.qdl[j] = Lanes::of(x[1][j], self.sd[j]);
                 }
             }
             if levels > 2 {
                 // S3: D(gamma) (gamma's tangent along q' = s, qd' = sd and the
                 // tables'), minus B s and J_p qdd
-                model.rotate(&ql, &mut el);
-                model.gamma(&At { q: &ql, e: &el, t }, &qdl, &mut rl);
-                let parts = (&rl[..], &jl[..], &s[..], row(2));
-                right_side(&csr, &b, parts, (&mut by, &mut jp), &mut rhs);
-                solver.solve(layout, &mut f, &rhs, count, &mut sdd);
-                let qdd = row(2);
+                model.rotate(&self.ql, &mut self.el);
+                model.gamma(&At { q: &self.ql, e: &self.el, t }, &self.qdl, &mut self.rl);
+                let parts = (&self.rl[..], &self.jl[..], &self.s[..], x[2]);
+                right_side(&self.pattern, &self.b, parts, &mut self.rhs);
+                self.solver.solve(layout, f, &self.rhs, count, &mut self.sdd);
                 for j in 0..n {
-                    qddl[j] = Lanes::of(qdd[j], sdd[j]);
+                    self.qddl[j] = Lanes::of(x[2][j], self.sdd[j]);
                 }
             }
             // the named points' and every column's tangents, from the lanes
-            let stages: [&[L]; 3] = [&ql, &qdl, &qddl];
-            layout_columns.row(&stages[..levels], &locs[g], &mut pts, &mut buf);
-            for p in g * LANES..g * LANES + count {
-                let lane = p - g * LANES;
-                let to = &mut data[(k * np + p) * w..(k * np + p + 1) * w];
-                for (o, b) in to.iter_mut().zip(&buf) {
+            let stages: [&[Lanes<N>]; 3] = [&self.ql, &self.qdl, &self.qddl];
+            self.columns.row(&stages[..levels], &self.locs[g], &mut self.pts, &mut self.buf);
+            for p in g * N..g * N + count {
+                let lane = p - g * N;
+                let to = &mut out[p * w..(p + 1) * w];
+                for (o, b) in to.iter_mut().zip(&self.buf) {
                     *o = b.d[lane];
                 }
             }
         }
+        ratio
     }
-    Ok(())
 }
 
 /// rhs = D(c) - M s - J_p v, lane by lane, for (S2) (c = nu, M = A,
-/// v = qd) and (S3) (c = gamma, M = B, v = qdd): parts (c, J_p, s, v),
-/// scratch for M s and J_p v.
+/// v = qd) and (S3) (c = gamma, M = B, v = qdd): parts (c, J_p, s, v), M
+/// and J_p on the Jacobian's pattern (row, column of each entry), in one
+/// pass over it.
 #[allow(clippy::type_complexity)]
-fn right_side(
-    csr: &Csr,
+fn right_side<const N: usize>(
+    pattern: &[(usize, usize)],
     mat: &[f64],
-    parts: (&[L], &[L], &[[f64; LANES]], &[f64]),
-    scratch: (&mut [[f64; LANES]], &mut [[f64; LANES]]),
-    rhs: &mut [[f64; LANES]],
+    parts: (&[Lanes<N>], &[Lanes<N>], &[[f64; N]], &[f64]),
+    rhs: &mut [[f64; N]],
 ) {
-    let ((c, jp, s, v), (by, jv)) = (parts, scratch);
-    csr.product(mat, s, by);
-    csr.lanes_product(jp, v, jv);
-    for (((r, c), x), y) in rhs.iter_mut().zip(c).zip(by.iter()).zip(jv.iter()) {
-        for l in 0..LANES {
-            r[l] = c.d[l] - x[l] - y[l];
+    let (c, jp, s, v) = parts;
+    for (r, c) in rhs.iter_mut().zip(c) {
+        *r = c.d;
+    }
+    for ((&(i, j), &a), p) in pattern.iter().zip(mat).zip(jp) {
+        let (x, y, r) = (&s[j], v[j], &mut rhs[i]);
+        for l in 0..N {
+            r[l] -= a * x[l] + p.d[l] * y;
         }
     }
 }
 
 /// Models of at most this many coordinates solve many parameters' systems
 /// through Phi_q's inverse, formed at each instant from its factors (n
-/// solves, then a product per LANES parameters), where that takes fewer
+/// solves, then a product per N parameters), where that takes fewer
 /// solves than one per parameter and level (3 P >= 2 n).
 pub const INVERSE: usize = 64;
 
-/// The instant's solves of LANES right-hand sides: one by one with the
+/// The instant's solves of N right-hand sides: one by one with the
 /// factors, or through the inverse (`inverse`: n x m, row-major).
 struct Solver {
     use_inverse: bool,
-    inverse: Vec<f64>,
+    /// the inverse's entries that are not exactly zero (a block-triangular
+    /// Phi_q has a block-triangular inverse), row by row: (column, value)
+    /// for row j at start[j]..start[j + 1]
+    inverse: Vec<(usize, f64)>,
+    start: Vec<usize>,
+    dense: Vec<f64>,
     b: Vec<f64>,
     x: Vec<f64>,
 }
@@ -269,13 +414,16 @@ impl Solver {
     fn new(n: usize, m: usize, use_inverse: bool) -> Solver {
         Solver {
             use_inverse,
-            inverse: vec![0.0; if use_inverse { n * m } else { 0 }],
+            inverse: Vec::with_capacity(if use_inverse { n * m } else { 0 }),
+            start: vec![0; n + 1],
+            dense: vec![0.0; if use_inverse { n * m } else { 0 }],
             b: vec![0.0; m],
             x: vec![0.0; n],
         }
     }
 
-    /// The inverse from the instant's factors (when it is used).
+    /// The inverse from the instant's factors (when it is used); its zeros
+    /// are left out of the products (adding them changes no sum).
     fn prepare(&mut self, layout: &Layout, f: &mut Factors) {
         if !self.use_inverse {
             return;
@@ -286,26 +434,31 @@ impl Solver {
             self.b[i] = 1.0;
             layout.solve(f, &self.b, &mut self.x);
             for (j, &v) in self.x.iter().enumerate() {
-                self.inverse[j * m + i] = v;
+                self.dense[j * m + i] = v;
             }
+        }
+        self.inverse.clear();
+        for (j, row) in self.dense.chunks(m).enumerate() {
+            self.inverse.extend(row.iter().enumerate().filter(|e| *e.1 != 0.0).map(|(i, &v)| (i, v)));
+            self.start[j + 1] = self.inverse.len();
         }
     }
 
     /// out = Phi_q^-1 rhs for the first `count` lanes.
-    fn solve(
+    fn solve<const N: usize>(
         &mut self,
         layout: &Layout,
         f: &mut Factors,
-        rhs: &[[f64; LANES]],
+        rhs: &[[f64; N]],
         count: usize,
-        out: &mut [[f64; LANES]],
+        out: &mut [[f64; N]],
     ) {
-        let m = self.b.len();
         if self.use_inverse {
             for (j, o) in out.iter_mut().enumerate() {
-                let mut acc = [0.0; LANES];
-                for (&a, r) in self.inverse[j * m..(j + 1) * m].iter().zip(rhs) {
-                    for l in 0..LANES {
+                let mut acc = [0.0; N];
+                for &(i, a) in &self.inverse[self.start[j]..self.start[j + 1]] {
+                    let r = &rhs[i];
+                    for l in 0..N {
                         acc[l] += a * r[l];
                     }
                 }
@@ -321,58 +474,6 @@ impl Solver {
             for (o, &v) in out.iter_mut().zip(&self.x) {
                 o[l] = v;
             }
-        }
-    }
-}
-
-/// The Jacobian's pattern by rows: entry order[i] of row r for i in
-/// start[r]..start[r + 1].
-struct Csr {
-    order: Vec<usize>,
-    start: Vec<usize>,
-    cols: Vec<usize>,
-}
-
-impl Csr {
-    fn of(rows: &[usize], cols: &[usize], m: usize) -> Csr {
-        let mut order: Vec<usize> = (0..rows.len()).collect();
-        order.sort_by_key(|&e| rows[e]);
-        let mut start = vec![0; m + 1];
-        for &r in rows {
-            start[r + 1] += 1;
-        }
-        for r in 0..m {
-            start[r + 1] += start[r];
-        }
-        Csr { cols: order.iter().map(|&e| cols[e]).collect(), order, start }
-    }
-
-    /// out = M v for LANES vectors v at once, M's values on the pattern.
-    fn product(&self, mat: &[f64], v: &[[f64; LANES]], out: &mut [[f64; LANES]]) {
-        for (r, o) in out.iter_mut().enumerate() {
-            let mut acc = [0.0; LANES];
-            for i in self.start[r]..self.start[r + 1] {
-                let (a, x) = (mat[self.order[i]], &v[self.cols[i]]);
-                for l in 0..LANES {
-                    acc[l] += a * x[l];
-                }
-            }
-            *o = acc;
-        }
-    }
-
-    /// out = M v for a matrix of LANES lanes (each lane's values on the
-    /// pattern) and one vector v.
-    fn lanes_product(&self, mat: &[L], v: &[f64], out: &mut [[f64; LANES]]) {
-        for (r, o) in out.iter_mut().enumerate() {
-            let mut acc = [0.0; LANES];
-            for i in self.start[r]..self.start[r + 1] {
-                let (a, x) = (&mat[self.order[i]].d, v[self.cols[i]]);
-                for l in 0..LANES {
-                    acc[l] += a[l] * x;
-                }
-            }
-            *o = acc;
         }
     }
 }
