@@ -21,30 +21,27 @@ built once for all the parameters that move it where it can be
 ``tangents(model, paths)`` gives them in full.
 
 At an instant where Phi_q is singular (its pivot ratio below the solver's
-floor, kinem.tracking.singular_pivot) the derivatives are infinite: they are
+floor, kinem.options.singular_pivot) the derivatives are infinite: they are
 reported as inf, flagged in ``singular`` and named in ``message``.
 """
 from dataclasses import dataclass, is_dataclass, replace
 
 import numpy as np
 
+from . import native
 from .errors import AnalysisError, InputError, KinemError
 from .constraints import REGISTRY
 from .functions import FunctionTable
-from .model import _Context, core_tables, families_of
+from .model import _Context, families_of
 from .outline import Outline, OutlineTable
-from .options import Options
+from .options import Options, singular_pivot
 from .parameters import apply_many, constraint_id, driver_tangent, frame_tangent, local_tangent, resolve
-from .result import OUTPUTS, Trajectory, _layout
-from .analysis import Data
+from .result import OUTPUTS, Trajectory, _layout, trajectory
 from .branches import violation
-from .linalg import choose
+from .budget import Budget
 from .march import banded, usable
-from .result import trajectory
 from .solver import _checked_times, check_square, solve
-from .tracking import Tracker
 from .spec import frozen_map
-from .tracking import singular_pivot
 
 
 @dataclass(frozen=True, eq=False)
@@ -181,16 +178,15 @@ def _fused(model, tangents, outputs, times, options):
     if not usable(model, False, nt, options) or (model.blocks.count > 1 and not banded(model)):
         return None
     check_square(model)
-    tracker = Tracker(model, Data(q=model.q0.copy(), solver=choose(model, options)), True, True, options)
-    st = tracker.state
-    st.restart(np.asarray(model.q0, dtype=float))
+    st = native.MarchState(model.q0)   # the estimates to assemble from, as solve's
     tables, core, pattern, (pc, local, dlocal) = tangents
     src = _layout(model, 3)[1]
     X, figures, ints = np.empty((3, nt, model.n)), np.zeros((2, nt)), np.zeros(nt + 2, np.int64)
     data, ratio = np.empty((nt, len(core) * len(src))), np.empty(nt)
     times = np.ascontiguousarray(times, float)
-    end, _ = model.plan.march_sensitivity(times, st, tracker.settings + (float(tracker.budget.left()),), X, figures,
-                                          ints, tables, core, pattern, (src, pc, local, dlocal), data, ratio)
+    settings = options.step_settings[True] + (float(Budget(model, options).left()),)
+    end, _ = model.plan.march_sensitivity(times, st, settings, X, figures, ints, tables, core, pattern,
+                                          (src, pc, local, dlocal), data, ratio)
     if end < nt or violation(model, X[0, 0]):
         return None
     for x in X:

@@ -129,8 +129,6 @@ def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progre
 def _monte_carlo(model, tols, outputs, nominal, samples, seed, progress, chunk):
     """(min, max) of every output over the samples on the nominal's branch
     (each (C, K), nan without samples), and the rejected samples."""
-    from .solver import solve
-
     case = model.case
     K = len(nominal.t)
     lo = np.full((len(outputs), K), np.inf)

@@ -123,10 +123,9 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
     base, tangents = _tangents(model, listed)
     dlocal = np.array([d for _, d in tangents], complex).reshape(len(listed), len(model.point_names))
     from .budget import Budget
-    from .tracking import singular_pivot
 
-    settings = (float(options.tolerance), int(options.max_iterations), float(native.MAX_STEP),
-                singular_pivot(options.tolerance), float(Budget(model, options).left()))
+    # the core's step settings without the rates flag (Plan.variants takes the stages), then the time left
+    settings = options.step_settings[False][:4] + (float(Budget(model, options).left()),)
     asked = (stages, src[[at[c] for c in columns]], model.point_cols.astype(np.int64),
              np.ascontiguousarray(model.point_local, complex), dlocal)
     model.plan.variants([(kind, t) for kind, t in base[0]], base[1], base[2],

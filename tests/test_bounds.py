@@ -182,7 +182,7 @@ def _march_args(model, out):
     from kinem.tracking import singular_pivot
 
     t = model.times
-    n, K = model.n, len(t)
+    K = len(t)
     o = kinem.Options.of(model.case)
     state = native.MarchState(model.q0)
     settings = (o.tolerance, o.max_iterations, native.MAX_STEP, singular_pivot(o.tolerance), True, np.inf)
