@@ -127,8 +127,8 @@ pub fn sensitivities(
         kin.rotate(q, &mut e);
         kin.jac(&At { q, e: &e, t }, &mut values);
         layout.factor(&values, &mut f);
-        let stages: Vec<&[f64]> = x.iter().map(|a| &a[k * n..(k + 1) * n]).collect();
-        ratio[k] = at.at(t, &stages, &mut f, &mut data[k * w..(k + 1) * w]);
+        let stages: [&[f64]; 3] = std::array::from_fn(|s| x.get(s).map_or(&[][..], |a| &a[k * n..(k + 1) * n]));
+        ratio[k] = at.at(t, &stages[..levels], &mut f, &mut data[k * w..(k + 1) * w]);
     }
     Ok(())
 }
