@@ -87,11 +87,12 @@ class Variants:
 
 
 def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options: Options | None = None,
-                   trace=False, q0=None) -> Variants:
+                   trace=False, q0=None, lanes=True) -> Variants:
     """The variants {path or [parameters] name: N values} of ``model``
     solved together; ``outputs``: stages (as ``solve``'s) or column names.
     A trace and q0 are refused (every variant starts from the nominal's
-    assembly)."""
+    assembly). ``lanes``: the core marches 4 variants at a time as lanes
+    where the model suits (False: one by one; the same figures)."""
     from .march import usable
     from .parameters import resolve, to_path
     from .solver import _checked_times, solve
@@ -131,7 +132,7 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
     model.plan.variants([(kind, t) for kind, t in base[0]], base[1], base[2],
                         [([d for _, _, d in fams], f[1], o[1]) for (fams, f, o), _ in tangents],
                         asked, np.ascontiguousarray(values - nominal), np.ascontiguousarray(times, float), q0,
-                        settings, (data, start, end, why, det))
+                        settings, (data, start, end, why, det), lanes)
     status = tuple(native.Why(int(w)) for w in why)
     d0 = _det(model, q0, times[0])
     flipped = (det != 0) & (det != d0)

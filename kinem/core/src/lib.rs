@@ -13,6 +13,7 @@ pub mod columns;
 pub mod decompose;
 pub mod families;
 pub mod functions;
+pub mod lanes;
 pub mod lu;
 pub mod march;
 pub mod model;
@@ -28,6 +29,7 @@ pub mod table;
 pub mod triangular;
 pub mod variants;
 pub mod watch;
+pub mod wide;
 
 #[cfg(feature = "python")]
 mod py;

@@ -722,8 +722,10 @@ impl Plan {
     /// nominal's first state; settings: (tolerance, max_iterations,
     /// max_step, floor, seconds). Writes out (N, K, C), start (N, n), end
     /// (N), why (N), det (N) (crate::variants::Written). A signal stops
-    /// every variant and raises its exception.
+    /// every variant and raises its exception. lanes: march them 4 at a
+    /// time as lanes where the model suits (crate::lanes), else one by one.
     #[allow(clippy::too_many_arguments, clippy::type_complexity)]
+    #[pyo3(signature = (families, functions, outlines, tangents, asked, values, times, q0, settings, out, lanes = true))]
     fn variants<'py>(
         &self,
         py: Python<'py>,
@@ -749,6 +751,7 @@ impl Plan {
             Bound<'py, PyArray1<u8>>,
             Bound<'py, PyArray1<i8>>,
         ),
+        lanes: bool,
     ) -> PyResult<()> {
         let bad = |what: &str| value_error(format!("variants: {what}"));
         let fams = families.iter().map(|(k, d)| Ok((k.clone(), table(d)?))).collect::<PyResult<Vec<_>>>()?;
@@ -818,6 +821,7 @@ impl Plan {
                 settings: &s,
                 asked: &asked,
                 watch: &watch,
+                lanes,
             };
             crate::variants::run(&batch, values, written)
         });

@@ -10,6 +10,7 @@
 //! failing on its own; a deadline or a signal (crate::watch) stops them all.
 use crate::accept::Why;
 use crate::columns::columns;
+use crate::lanes::{self, WIDTH};
 use crate::lu::Layout;
 use crate::march::{self, MarchState, Out, Settings};
 use crate::model::Kin;
@@ -53,8 +54,8 @@ fn moved<'a>(base: &Table, tangents: impl Iterator<Item = (&'a Table, f64)>) -> 
 }
 
 impl Tables {
-    /// The model of the variant whose parameters moved by dv from the nominal.
-    pub fn kin(&self, dv: &[f64]) -> Result<Kin, String> {
+    /// The tables of the variant whose parameters moved by dv from the nominal.
+    pub fn moved(&self, dv: &[f64]) -> Result<crate::lanes::Tables, String> {
         let tangents = &self.tangents;
         let families = self
             .families
@@ -66,6 +67,12 @@ impl Tables {
             .collect::<Result<Vec<_>, String>>()?;
         let functions = moved(&self.functions, tangents.iter().map(|p| &p.1).zip(dv.iter().copied()))?;
         let outlines = moved(&self.outlines, tangents.iter().map(|p| &p.2).zip(dv.iter().copied()))?;
+        Ok((families, functions, outlines))
+    }
+
+    /// The model of the variant whose parameters moved by dv from the nominal.
+    pub fn kin(&self, dv: &[f64]) -> Result<Kin, String> {
+        let (families, functions, outlines) = self.moved(dv)?;
         Kin::new(self.n, families, &functions, &outlines, self.angles.clone())
     }
 
@@ -109,6 +116,8 @@ pub struct Batch<'a> {
     pub settings: &'a Settings,
     pub asked: &'a Asked<'a>,
     pub watch: &'a Watch<'a>,
+    /// march WIDTH variants at a time as lanes (crate::lanes) where the model suits
+    pub lanes: bool,
 }
 
 /// Marches every variant (values: N rows of the parameters' moves from the
@@ -126,18 +135,28 @@ pub fn run(b: &Batch, values: &[f64], out: Written) -> Result<(), String> {
     {
         return Err("variants: outputs of the wrong size".into());
     }
-    let results: Vec<Result<(usize, Why, i8), String>> = b.watch.around(|| {
+    // groups of WIDTH variants as lanes, or of one (and the last, short, group) each alone
+    let width = if b.lanes && lanes::suits(&b.tables.outlines) { WIDTH } else { 1 };
+    let results: Vec<Vec<Verdict>> = b.watch.around(|| {
         out.data
-            .par_chunks_mut(kk * w)
-            .zip(out.start.par_chunks_mut(n))
+            .par_chunks_mut(width * kk * w)
+            .zip(out.start.par_chunks_mut(width * n))
             .enumerate()
             .map_init(
                 || Scratch::new(n, kk, b.asked.stages),
-                |scratch, (v, (data, start))| one(b, scratch, &values[v * p..(v + 1) * p], data, start),
+                |scratch, (g, (data, start))| {
+                    let (first, count) = (g * width, start.len() / n);
+                    let dv = |i: usize| &values[(first + i) * p..(first + i + 1) * p];
+                    if count == WIDTH && width == WIDTH {
+                        return group(b, scratch, &dv, data, start);
+                    }
+                    let parts = data.chunks_mut(kk * w).zip(start.chunks_mut(n)).enumerate();
+                    parts.map(|(i, (data, start))| one(b, scratch, dv(i), data, start)).collect()
+                },
             )
             .collect()
     });
-    for (v, r) in results.into_iter().enumerate() {
+    for (v, r) in results.into_iter().flatten().enumerate() {
         let (end, why, det) = r?;
         out.end[v] = end as i64;
         out.why[v] = why as u8;
@@ -145,6 +164,41 @@ pub fn run(b: &Batch, values: &[f64], out: Written) -> Result<(), String> {
     }
     Ok(())
 }
+
+/// WIDTH variants marched as lanes (crate::lanes); a lane that needs it alone marches alone.
+fn group<'v>(
+    b: &Batch,
+    s: &mut Scratch,
+    dv: &dyn Fn(usize) -> &'v [f64],
+    data: &mut [f64],
+    start: &mut [f64],
+) -> Vec<Verdict> {
+    let (n, kk, w) = (b.tables.n, b.times.len(), b.asked.src.len());
+    let tables = match (0..WIDTH).map(|i| b.tables.moved(dv(i))).collect::<Result<Vec<_>, String>>() {
+        Ok(t) => t,
+        Err(e) => return vec![Err(e)],
+    };
+    let built = tables
+        .iter()
+        .map(|(f, fu, o)| Kin::new(n, f.clone(), fu, o, b.tables.angles.clone()))
+        .collect::<Result<Vec<Kin>, String>>()
+        .and_then(|kins| Ok((lanes::wide_kin(n, &b.tables.angles, &tables)?, kins)));
+    let (wide, kins) = match built {
+        Ok(x) => x,
+        Err(e) => return vec![Err(e)],
+    };
+    let marched = lanes::march(&wide, &kins, b.layout, b.times, b.q0, b.settings, b.watch, &mut s.lanes);
+    let parts = data.chunks_mut(kk * w).zip(start.chunks_mut(n)).enumerate();
+    parts
+        .map(|(i, (data, start))| match marched[i] {
+            Some((end, why, det)) => Ok(write(b, dv(i), &s.lanes[i], end, why, det, data, start)),
+            None => one(b, s, dv(i), data, start),
+        })
+        .collect()
+}
+
+/// A variant's (first instant not taken, why, det sign at its first state).
+type Verdict = Result<(usize, Why, i8), String>;
 
 /// A thread's buffers for the march of one variant after another: the
 /// coordinates at every instant (Q, and QD, QDD with rates), the march's
@@ -156,12 +210,16 @@ struct Scratch {
     pivot: Vec<f64>,
     det: Vec<i8>,
     state: MarchState,
+    /// each lane's coordinates at every instant, as x
+    lanes: Vec<Vec<f64>>,
 }
 
 impl Scratch {
     fn new(n: usize, kk: usize, stages: usize) -> Scratch {
+        let x = vec![0.0; if stages > 1 { 3 } else { 1 } * kk * n];
         Scratch {
-            x: vec![0.0; if stages > 1 { 3 } else { 1 } * kk * n],
+            lanes: vec![x.clone(); WIDTH],
+            x,
             iterations: vec![0; kk],
             residual: vec![0.0; kk],
             pivot: vec![0.0; kk],
@@ -180,8 +238,8 @@ fn one(
     start: &mut [f64],
 ) -> Result<(usize, Why, i8), String> {
     let kin = b.tables.kin(dv)?;
-    let (times, asked) = (b.times, b.asked);
-    let (n, kk, stages) = (b.tables.n, times.len(), asked.stages);
+    let times = b.times;
+    let (n, kk) = (b.tables.n, times.len());
     let (oq, rest) = s.x.split_at_mut(kk * n);
     let (oqd, oqdd) = rest.split_at_mut(rest.len() / 2);
     // the state the march starts from: the estimates q0, no rates, no history
@@ -199,10 +257,29 @@ fn one(
         first: 0,
     };
     let (end, why) = march_one(&kin, b, &mut s.state, o);
+    Ok(write(b, dv, &s.x, end, why, if end > 0 { s.det[0] } else { 0 }, data, start))
+}
+
+/// A variant's asked columns from its coordinates x (Q, and QD, QDD with
+/// rates, at every instant) up to `end`, NaN after; its first state (NaN
+/// when it did not assemble); (end, why, det sign at its first state).
+#[allow(clippy::too_many_arguments)]
+fn write(
+    b: &Batch,
+    dv: &[f64],
+    x: &[f64],
+    end: usize,
+    why: Why,
+    det: i8,
+    data: &mut [f64],
+    start: &mut [f64],
+) -> (usize, Why, i8) {
+    let asked = b.asked;
+    let (n, kk, stages) = (b.tables.n, b.times.len(), asked.stages);
     let local: Vec<C64> = (0..asked.local.len())
         .map(|j| asked.local[j] + (0..dv.len()).map(|k| asked.dlocal[k * asked.local.len() + j] * dv[k]).sum::<C64>())
         .collect();
-    let x: Vec<&[f64]> = s.x.chunks(kk * n).take(stages).collect();
+    let x: Vec<&[f64]> = x.chunks(kk * n).take(stages).collect();
     // rows from `end` on hold an earlier variant's values or none: NaN
     columns(&x, n, asked.src, asked.pc, &local, data);
     data[end * asked.src.len()..].fill(f64::NAN);
@@ -211,7 +288,7 @@ fn one(
     } else {
         start.fill(f64::NAN);
     }
-    Ok((end, why, if end > 0 { s.det[0] } else { 0 }))
+    (end, why, if end > 0 { det } else { 0 })
 }
 
 /// The one call of the march (k = 0: the variant assembles from the state's q).

@@ -1,0 +1,402 @@
+//! WIDTH variants of one mechanism marched together (issue 31 item 5;
+//! docs/solver.md, "Variants of one mechanism"): the same program over the
+//! WIDTH variants per instruction where it costs most, the families' Phi,
+//! Jacobian, nu and gamma (one `Kin<Wide<WIDTH>>` whose tables hold the
+//! lanes' numbers, crate::wide), and the step around it lane by lane with
+//! each lane's own decisions, as crate::step takes them in Mode::Track:
+//! Taylor's (or Lagrange's) prediction, the chord from the Hermite start
+//! with the lane's last factorisation, corrections in lockstep (a lane whose
+//! chord is done waits, masked, while the others correct), Newton
+//! (newton::settle on the lane's own scalar operations, march::Native) where
+//! a lane has no factorisation yet or its chord contracts too slowly, the
+//! acceptance test and the rates. Each lane's LU, solves, pivot ratio and
+//! det sign are the scalar march's own (Layout::factor, solve, stats on the
+//! lane's Factors: the fixed pivot order, or partial pivoting where that
+//! order does not suit the lane's values), so each lane's figures are the
+//! scalar march's to the bit. A lane stops on its own at its first instant
+//! not accepted, with its reason (the caller solves it again alone, as it
+//! does a scalar march's); the others go on.
+use crate::accept::{hermite, jump_sizes, lagrange, rejected, taylor, Why};
+use crate::families::At;
+use crate::lu::Layout;
+use crate::march::{residual, MarchState, Native, Settings, Step, SINGULAR};
+use crate::model::Kin;
+use crate::newton::{settle, Settled, CHORD_STEPS, CONTRACTION, RECENT, ROUNDING};
+use crate::real::cis;
+use crate::table::Table;
+use crate::watch::Watch;
+use crate::wide::Wide;
+use num_complex::Complex;
+use num_traits::{One, Zero};
+use std::time::Instant;
+
+/// Variants per group (4: the four f64 of a 256-bit vector; 8 measured
+/// slower on this machine: docs/solver.md).
+pub const WIDTH: usize = 4;
+pub type W = Wide<WIDTH>;
+/// The group looks at its watch every this many instants (as the march).
+const WATCH_EVERY: usize = 4;
+
+/// Whether a model's variants can march as lanes: not with outlines (a
+/// cam's segment is chosen by each lane's own angle).
+pub fn suits(outlines: &Table) -> bool {
+    outlines.ints.is_empty() && outlines.reals.is_empty()
+}
+
+/// One table whose real and complex columns hold the lanes' values (as
+/// tangents: WIDTH per entry, read by Wide::of_lanes).
+fn stack(lanes: &[&Table]) -> Result<Table, String> {
+    let mut t = lanes[0].clone();
+    let bad = |key: &str| format!("lanes: column '{key}' differs in length between variants");
+    for (key, v) in &lanes[0].reals {
+        let mut d = Vec::with_capacity(v.len() * WIDTH);
+        for i in 0..v.len() {
+            for l in lanes {
+                d.push(*l.reals.get(key).and_then(|x| x.get(i)).ok_or_else(|| bad(key))?);
+            }
+        }
+        t.d_reals.insert(key.clone(), d);
+    }
+    for (key, v) in &lanes[0].complex {
+        let mut d = Vec::with_capacity(v.len() * WIDTH);
+        for i in 0..v.len() {
+            for l in lanes {
+                d.push(*l.complex.get(key).and_then(|x| x.get(i)).ok_or_else(|| bad(key))?);
+            }
+        }
+        t.d_complex.insert(key.clone(), d);
+    }
+    Ok(t)
+}
+
+/// A variant's tables: its families', functions' and outlines'.
+pub type Tables = (Vec<(String, Table)>, Table, Table);
+
+/// The model over lanes from WIDTH variants' tables.
+pub fn wide_kin(n: usize, angles: &[i64], lanes: &[Tables]) -> Result<Kin<W>, String> {
+    if lanes.len() != WIDTH {
+        return Err(format!("lanes: {WIDTH} variants expected, got {}", lanes.len()));
+    }
+    let families = (0..lanes[0].0.len())
+        .map(|k| {
+            let kind = &lanes[0].0[k].0;
+            let tables: Vec<&Table> = lanes.iter().map(|l| &l.0[k].1).collect();
+            Ok((kind.clone(), stack(&tables)?))
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    let functions = stack(&lanes.iter().map(|l| &l.1).collect::<Vec<_>>())?;
+    let outlines = stack(&lanes.iter().map(|l| &l.2).collect::<Vec<_>>())?;
+    Kin::new(n, families, &functions, &outlines, angles.to_vec())
+}
+
+/// How a lane's chord stands within an instant.
+#[derive(Clone, Copy)]
+enum Chord {
+    /// no chord at this instant (no factorisation held): Newton
+    Off,
+    On {
+        previous: f64,
+        iterations: usize,
+        residual: f64,
+        assumed: f64,
+    },
+    Done(Settled, f64),
+    /// it gave up: Newton from the predictor
+    Failed,
+}
+
+/// One lane: its scalar operations (its model, LU and solves), its state,
+/// the chord's memory (crate::step::Work's), the predictor, its rows.
+struct Lane<'a> {
+    ops: Native<'a>,
+    st: MarchState,
+    held: bool,
+    theta: f64,
+    age: u32,
+    qp: Vec<f64>,
+    start: Vec<f64>,
+    judge: bool,
+    chord: Chord,
+    settled: Option<Settled>,
+    det0: i8,
+    /// its rates are solved at this instant
+    rate: bool,
+    /// (first instant not taken, why) once it stopped
+    end: Option<(usize, Why)>,
+    /// it needs the scalar march alone (a state without rates to predict from)
+    again: bool,
+}
+
+/// The group's numbers over lanes and one lane's scalar room.
+struct Room {
+    q: Vec<W>,
+    e: Vec<Complex<W>>,
+    phi: Vec<W>,
+    values: Vec<W>,
+    qd: Vec<W>,
+    rhs: Vec<W>,
+    one: Vec<f64>,
+    b: Vec<f64>,
+    dq: Vec<f64>,
+}
+
+impl Room {
+    /// Lane l of v into out.
+    fn lane(v: &[W], l: usize, out: &mut [f64]) {
+        for (o, x) in out.iter_mut().zip(v) {
+            *o = x.0[l];
+        }
+    }
+
+    fn rotate(&mut self, kin: &Kin<W>) {
+        for &j in &kin.angles {
+            self.e[j] = cis(self.q[j]);
+        }
+    }
+}
+
+/// The largest |dq_j| / col_scale_j (the march's correction size).
+fn size(dq: &[f64], col_scale: &[f64]) -> f64 {
+    dq.iter().zip(col_scale).fold(0.0f64, |a, (d, c)| a.max(d.abs() / c))
+}
+
+/// Per lane: (first instant not taken, why, det sign at its first
+/// instant), or None for a lane to march alone; `xs[l]`: its Q (and QD,
+/// QDD with rates) at every instant taken, as crate::variants lays them.
+#[allow(clippy::too_many_arguments)]
+pub fn march(
+    wide: &Kin<W>,
+    kins: &[Kin],
+    layout: &Layout,
+    times: &[f64],
+    q0: &[f64],
+    s: &Settings,
+    watch: &Watch,
+    xs: &mut [Vec<f64>],
+) -> Vec<Option<(usize, Why, i8)>> {
+    let (n, m, kk) = (wide.n, wide.m, times.len());
+    let mut lanes: Vec<Lane> = kins
+        .iter()
+        .map(|kin| Lane {
+            ops: Native::new(kin, layout),
+            st: MarchState::new(q0),
+            held: false,
+            theta: f64::INFINITY,
+            age: RECENT + 1,
+            qp: vec![0.0; n],
+            start: vec![0.0; n],
+            judge: false,
+            chord: Chord::Off,
+            settled: None,
+            det0: 0,
+            rate: false,
+            end: None,
+            again: false,
+        })
+        .collect();
+    let mut r = Room {
+        q: vec![W::zero(); n],
+        e: vec![Complex::new(W::one(), W::zero()); n],
+        phi: vec![W::zero(); m],
+        values: vec![W::zero(); wide.nnz],
+        qd: vec![W::zero(); n],
+        rhs: vec![W::zero(); m],
+        one: vec![0.0; m.max(wide.nnz)],
+        b: vec![0.0; m],
+        dq: vec![0.0; n],
+    };
+    let (scale, col_scale) = (&layout.scale, &layout.col_scale);
+    let mut next = Instant::now();
+    for k in 0..kk {
+        let t = times[k];
+        let live = |x: &Lane| x.end.is_none() && !x.again;
+        if !lanes.iter().any(live) {
+            break;
+        }
+        if k % WATCH_EVERY == 0 {
+            if let Some(why) = watch.check(false, &mut next) {
+                lanes.iter_mut().filter(|x| live(x)).for_each(|x| x.end = Some((k, why)));
+                break;
+            }
+        }
+        // the predictor and the chord's start, per lane (crate::step::step)
+        for x in lanes.iter_mut() {
+            (x.chord, x.rate) = (Chord::Off, false);
+        }
+        for (l, x) in lanes.iter_mut().enumerate().filter(|(_, x)| live(x)) {
+            let st = &x.st;
+            let first = st.t.is_nan();
+            let taylor_from = s.rates && !first;
+            if taylor_from && !st.rates {
+                x.again = true;
+                continue;
+            }
+            let h = t - st.t;
+            x.judge = !first;
+            if first {
+                x.qp.copy_from_slice(&st.q);
+            } else if taylor_from {
+                taylor(&st.q, &st.qd, &st.qdd, h, &mut x.qp);
+            } else {
+                x.judge = lagrange(t, &st.tt, &st.h, &mut x.qp) >= 1;
+            }
+            if x.held {
+                let from = if st.before.is_finite() && h <= 2.0 * (st.t - st.before) {
+                    let p = [&st.prev[..n], &st.prev[n..2 * n], &st.prev[2 * n..]];
+                    hermite(p, [&st.q[..], &st.qd[..], &st.qdd[..]], st.t - st.before, h, &mut x.start);
+                    &x.start
+                } else {
+                    &x.qp
+                };
+                for j in 0..n {
+                    r.q[j].0[l] = from[j];
+                }
+                let known = if x.age <= RECENT { x.theta } else { f64::INFINITY };
+                x.chord =
+                    Chord::On { previous: f64::INFINITY, iterations: 0, residual: f64::INFINITY, assumed: 2.0 * known };
+            }
+            x.held = false;
+        }
+        // the chord (newton::chord) in lockstep: one Phi over the lanes a correction
+        for step in 0..CHORD_STEPS {
+            if !lanes.iter().any(|x| matches!(x.chord, Chord::On { .. })) {
+                break;
+            }
+            r.rotate(wide);
+            wide.phi(&At { q: &r.q, e: &r.e, t }, &mut r.phi);
+            for (l, x) in lanes.iter_mut().enumerate() {
+                let Chord::On { previous, iterations, residual: res, assumed } = &mut x.chord else { continue };
+                Room::lane(&r.phi, l, &mut r.one[..m]);
+                let v = residual(&r.one[..m], scale);
+                if !(v < f64::INFINITY) {
+                    x.chord = Chord::Failed;
+                    continue;
+                }
+                if *res > s.tolerance {
+                    (*res, *iterations) = (v, step);
+                }
+                // correct(max_step) as march::Native's
+                for i in 0..m {
+                    r.b[i] = -r.one[i];
+                }
+                layout.solve(&mut x.ops.f, &r.b, &mut r.dq);
+                let big = size(&r.dq, col_scale);
+                let f = if big > 0.0 { (s.max_step / big).min(1.0) } else { 1.0 };
+                for j in 0..n {
+                    r.q[j].0[l] += f * r.dq[j];
+                }
+                if !(big < f64::INFINITY) {
+                    x.chord = Chord::Failed;
+                    continue;
+                }
+                let theta = big / *previous;
+                *previous = big;
+                let estimate = |theta: f64| theta < 0.5 && big * theta / (1.0 - theta) <= ROUNDING;
+                let done = big <= ROUNDING || if step == 0 { estimate(*assumed) } else { estimate(theta) };
+                if *res <= s.tolerance && done {
+                    let settled = Settled { iterations: *iterations, residual: *res, converged: true, last_step: big };
+                    x.chord = Chord::Done(settled, if step == 0 { f64::NAN } else { theta });
+                } else if theta > CONTRACTION && big > ROUNDING {
+                    x.chord = Chord::Failed;
+                }
+            }
+        }
+        // Newton where there was no chord or it gave up; the chord's memory (crate::step::step)
+        for (l, x) in lanes.iter_mut().enumerate().filter(|(_, x)| live(x)) {
+            x.settled = match x.chord {
+                Chord::Done(settled, measured) => {
+                    if measured.is_nan() {
+                        x.age += 1;
+                    } else {
+                        (x.theta, x.age) = (measured, 0);
+                    }
+                    Some(settled)
+                }
+                _ => {
+                    (x.theta, x.age) = (f64::INFINITY, RECENT + 1);
+                    let Ok(()) = x.ops.start(&x.qp, t);
+                    let Ok(settled) = settle(&mut x.ops, s.tolerance, s.max_iterations, s.max_step, true);
+                    for j in 0..n {
+                        r.q[j].0[l] = x.ops.q[j];
+                    }
+                    Some(settled)
+                }
+            };
+        }
+        // the factorisation at each chord's final q, from one Jacobian over the lanes
+        r.rotate(wide);
+        if lanes.iter().any(|x| live(x) && matches!(x.chord, Chord::Done(..))) {
+            wide.jac(&At { q: &r.q, e: &r.e, t }, &mut r.values);
+            for (l, x) in lanes.iter_mut().enumerate().filter(|(_, x)| live(x)) {
+                if matches!(x.chord, Chord::Done(..)) {
+                    Room::lane(&r.values, l, &mut r.one[..wide.nnz]);
+                    layout.factor(&r.one[..wide.nnz], &mut x.ops.f);
+                }
+            }
+        }
+        // the acceptance test (crate::step::step, Mode::Track)
+        let mut rates = false;
+        for (l, x) in lanes.iter_mut().enumerate().filter(|(_, x)| live(x)) {
+            let settled =
+                x.settled.take().unwrap_or(Settled { iterations: 0, residual: 0.0, converged: false, last_step: 0.0 });
+            if !settled.converged {
+                x.end = Some((k, Why::NotConverged));
+                continue;
+            }
+            let (ratio, det) = layout.stats(&x.ops.f);
+            let (pivot, det) = if ratio >= SINGULAR { (ratio, det) } else { (0.0, 0) };
+            let first = x.st.t.is_nan();
+            let previous = if first { det } else { x.st.det };
+            Room::lane(&r.q, l, &mut r.dq);
+            let (corr, motion) = jump_sizes(&r.dq, &x.qp, &x.st.q, col_scale);
+            let why =
+                rejected(pivot, settled.last_step, det, previous, corr, motion, x.judge, s.floor, s.tolerance, false);
+            if why != Why::Accepted {
+                x.end = Some((k, why));
+                continue;
+            }
+            x.held = true;
+            x.st.take(&r.dq, t, det, s.rates);
+            if k == 0 {
+                x.det0 = det as i8;
+            }
+            x.rate = s.rates && pivot > 0.0;
+            rates |= x.rate;
+        }
+        // the rates (crate::step::rates_with): nu and gamma over the lanes, each lane's solves
+        if rates {
+            let taking = |x: &Lane| live(x) && x.rate;
+            wide.nu(t, &mut r.rhs);
+            for (l, x) in lanes.iter_mut().enumerate().filter(|(_, x)| taking(x)) {
+                Room::lane(&r.rhs, l, &mut r.b);
+                layout.solve(&mut x.ops.f, &r.b, &mut x.st.qd);
+                for j in 0..n {
+                    r.qd[j].0[l] = x.st.qd[j];
+                }
+            }
+            wide.gamma(&At { q: &r.q, e: &r.e, t }, &r.qd, &mut r.rhs);
+            for (l, x) in lanes.iter_mut().enumerate().filter(|(_, x)| taking(x)) {
+                Room::lane(&r.rhs, l, &mut r.b);
+                layout.solve(&mut x.ops.f, &r.b, &mut x.st.qdd);
+                x.st.rates = true;
+            }
+        }
+        for (x, out) in lanes.iter().zip(xs.iter_mut()).filter(|(x, _)| live(x)) {
+            out[k * n..(k + 1) * n].copy_from_slice(&x.st.q);
+            if s.rates {
+                out[(kk + k) * n..(kk + k + 1) * n].copy_from_slice(&x.st.qd);
+                out[(2 * kk + k) * n..(2 * kk + k + 1) * n].copy_from_slice(&x.st.qdd);
+            }
+        }
+    }
+    lanes
+        .iter()
+        .map(|x| {
+            if x.again {
+                None
+            } else {
+                Some((x.end.map_or(kk, |e| e.0), x.end.map_or(Why::Accepted, |e| e.1), x.det0))
+            }
+        })
+        .collect()
+}
