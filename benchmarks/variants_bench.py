@@ -4,8 +4,10 @@ variants of the slider-crank at <= 0.5 us per variant-step on 2 cores, and
 10,000 four-bar variants over its 250 steps in under 2 s. Prints the load
 average, the medians of REPEATS runs (round-robin, each warm), the
 per-variant-step cost, the processor time per variant-step (what 2 idle
-cores would take: a shared machine's wall clock is not), and the same work once through the merged path
-(kinem.batch: merged cases, 128 variants a case) for comparison.
+cores would take: a shared machine's wall clock is not), the same work with
+the variants marched one by one instead of 4 at a time as lanes (the same
+figures: checked), and once through the merged path (kinem.batch: merged
+cases, 128 variants a case) for comparison.
 
     python benchmarks/variants_bench.py [REPEATS]
 """
@@ -19,7 +21,7 @@ import numpy as np
 import kinem
 from kinem.parameters import resolve
 from kinem.result import OUTPUTS
-from kinem.variants import _asked, _merged
+from kinem.variants import _asked, _merged, solve_variants
 
 # (case, variants, {path: +- spread}, outputs, target seconds per variant-step or None, target seconds or None)
 WORK = (
@@ -49,11 +51,14 @@ def main(repeats=3):
         values = designs(model, spread, count)
         steps = count * len(model.times)
         cpu = processor()
-        r = rounds({"variants": timed(lambda: kinem.solve(model, outputs=outputs, parameters=values))}, repeats,
-                   warm=True)
-        cpu = (processor() - cpu) / (2 * repeats)   # warm: two solves a round
+        r = rounds({"variants": timed(lambda: kinem.solve(model, outputs=outputs, parameters=values)),
+                    "one by one": timed(lambda: solve_variants(model, values, outputs=outputs, lanes=False))},
+                   repeats, warm=True)
+        cpu = (processor() - cpu) / (4 * repeats)   # warm: two solves a round each
         seconds, every, v = r["variants"]
         assert v.success.all(), [m for m in v.messages if m][:3]
+        alone, alone_every, a = r["one by one"]
+        assert np.array_equal(a.data, v.data, equal_nan=True), "lanes and one by one differ"
         verdict = []
         if per_step is not None:
             verdict.append(f"target <= {per_step * 1e6:.2f} us: {'ok' if seconds / steps <= per_step else 'OVER'}")
@@ -63,7 +68,9 @@ def main(repeats=3):
         say(f"{name:13s} {count:6d} variants x {len(model.times)} instants ({shown}): {seconds:7.3f} s "
             f"({', '.join(f'{s:.3f}' for s in every)}), {seconds / steps * 1e6:.3f} us per variant-step; "
             f"{'; '.join(verdict)}; load {load()}")
-        say(f"{'':13s} processor time {cpu:.3f} s a run: {cpu / steps * 1e6:.3f} us per variant-step on one core, "
+        say(f"{'':13s} one by one (no lanes): {alone:7.3f} s ({', '.join(f'{s:.3f}' for s in alone_every)}), "
+            f"{alone / steps * 1e6:.3f} us per variant-step; lanes x{alone / seconds:.2f}; the same data")
+        say(f"{'':13s} processor time {cpu:.3f} s a run (lanes and one by one): {cpu / steps * 1e6:.3f} us per variant-step on one core, "
             f"{cpu / kinem.native.THREADS / steps * 1e6:.3f} us on {kinem.native.THREADS} idle cores")
         # the same work through the merged path, once
         listed = resolve(model.case, list(values))

@@ -22,7 +22,7 @@ use crate::lu::Layout;
 use crate::march::{residual, MarchState, Native, Settings, Step, SINGULAR};
 use crate::model::Kin;
 use crate::newton::{settle, Settled, CHORD_STEPS, CONTRACTION, RECENT, ROUNDING};
-use crate::real::cis;
+use crate::real::{cis, Real};
 use crate::table::Table;
 use crate::watch::Watch;
 use crate::wide::Wide;
@@ -40,7 +40,7 @@ const WATCH_EVERY: usize = 4;
 /// Whether a model's variants can march as lanes: not with outlines (a
 /// cam's segment is chosen by each lane's own angle).
 pub fn suits(outlines: &Table) -> bool {
-    outlines.ints.is_empty() && outlines.reals.is_empty()
+    outlines.ints.values().all(|v| v.is_empty()) && outlines.reals.values().all(|v| v.is_empty())
 }
 
 /// One table whose real and complex columns hold the lanes' values (as
@@ -131,6 +131,8 @@ struct Lane<'a> {
 struct Room {
     q: Vec<W>,
     e: Vec<Complex<W>>,
+    /// the angles e holds (NaN: none yet)
+    seen: Vec<W>,
     phi: Vec<W>,
     values: Vec<W>,
     qd: Vec<W>,
@@ -148,9 +150,15 @@ impl Room {
         }
     }
 
+    /// e = e^{i q} at the angle columns whose q moved in some lane (as
+    /// Kin::rotate_changed: a grounded or sliding body's angle keeps its sin and cos).
     fn rotate(&mut self, kin: &Kin<W>) {
         for &j in &kin.angles {
-            self.e[j] = cis(self.q[j]);
+            let (q, seen) = (self.q[j].0, self.seen[j].0);
+            if (0..WIDTH).any(|l| q[l].to_bits() != seen[l].to_bits() || q[l].is_nan()) {
+                self.e[j] = cis(self.q[j]);
+                self.seen[j] = self.q[j];
+            }
         }
     }
 }
@@ -197,6 +205,7 @@ pub fn march(
     let mut r = Room {
         q: vec![W::zero(); n],
         e: vec![Complex::new(W::one(), W::zero()); n],
+        seen: vec![W::c(f64::NAN); n],
         phi: vec![W::zero(); m],
         values: vec![W::zero(); wide.nnz],
         qd: vec![W::zero(); n],
