@@ -18,6 +18,7 @@
 //! does a scalar march's); the others go on.
 use crate::accept::{hermite, jump_sizes, lagrange, rejected, taylor, Why};
 use crate::families::At;
+use crate::lane_lu::LaneLu;
 use crate::lu::Layout;
 use crate::march::{residual, MarchState, Native, Settings, Step, SINGULAR};
 use crate::model::Kin;
@@ -215,6 +216,10 @@ pub fn march(
         dq: vec![0.0; n],
     };
     let (scale, col_scale) = (&layout.scale, &layout.col_scale);
+    // the LU over lanes where the layout is block-triangular, else each lane's own
+    let mut lu = LaneLu::new(layout);
+    let fixed = |lu: &Option<LaneLu>, l: usize| lu.as_ref().is_some_and(|u| u.fixed[l]);
+    let mut dq = vec![W::zero(); n];
     let mut next = Instant::now();
     for k in 0..kk {
         let t = times[k];
@@ -273,6 +278,12 @@ pub fn march(
             }
             r.rotate(wide);
             wide.phi(&At { q: &r.q, e: &r.e, t }, &mut r.phi);
+            if let Some(u) = lu.as_mut().filter(|u| u.fixed.iter().any(|&f| f)) {
+                for (b, &p) in r.rhs.iter_mut().zip(&r.phi) {
+                    *b = -p;
+                }
+                u.solve(&r.rhs, &mut dq);
+            }
             for (l, x) in lanes.iter_mut().enumerate() {
                 let Chord::On { previous, iterations, residual: res, assumed } = &mut x.chord else { continue };
                 Room::lane(&r.phi, l, &mut r.one[..m]);
@@ -285,10 +296,14 @@ pub fn march(
                     (*res, *iterations) = (v, step);
                 }
                 // correct(max_step) as march::Native's
-                for i in 0..m {
-                    r.b[i] = -r.one[i];
+                if fixed(&lu, l) {
+                    Room::lane(&dq, l, &mut r.dq);
+                } else {
+                    for i in 0..m {
+                        r.b[i] = -r.one[i];
+                    }
+                    layout.solve(&mut x.ops.f, &r.b, &mut r.dq);
                 }
-                layout.solve(&mut x.ops.f, &r.b, &mut r.dq);
                 let big = size(&r.dq, col_scale);
                 let f = if big > 0.0 { (s.max_step / big).min(1.0) } else { 1.0 };
                 for j in 0..n {
@@ -332,15 +347,18 @@ pub fn march(
                 }
             };
         }
-        // the factorisation at each chord's final q, from one Jacobian over the lanes
+        // the factorisation at each lane's final q (the chord's last step; Newton's, again), from
+        // one Jacobian over the lanes: over lanes where the fixed order suits, else the lane's own
         r.rotate(wide);
-        if lanes.iter().any(|x| live(x) && matches!(x.chord, Chord::Done(..))) {
-            wide.jac(&At { q: &r.q, e: &r.e, t }, &mut r.values);
-            for (l, x) in lanes.iter_mut().enumerate().filter(|(_, x)| live(x)) {
-                if matches!(x.chord, Chord::Done(..)) {
-                    Room::lane(&r.values, l, &mut r.one[..wide.nnz]);
-                    layout.factor(&r.one[..wide.nnz], &mut x.ops.f);
-                }
+        wide.jac(&At { q: &r.q, e: &r.e, t }, &mut r.values);
+        if let Some(u) = lu.as_mut() {
+            u.factor(&r.values);
+        }
+        for (l, x) in lanes.iter_mut().enumerate().filter(|(_, x)| live(x)) {
+            let newton = !matches!(x.chord, Chord::Done(..));
+            if !fixed(&lu, l) && !newton {
+                Room::lane(&r.values, l, &mut r.one[..wide.nnz]);
+                layout.factor(&r.one[..wide.nnz], &mut x.ops.f);
             }
         }
         // the acceptance test (crate::step::step, Mode::Track)
@@ -352,7 +370,10 @@ pub fn march(
                 x.end = Some((k, Why::NotConverged));
                 continue;
             }
-            let (ratio, det) = layout.stats(&x.ops.f);
+            let (ratio, det) = match &lu {
+                Some(u) if u.fixed[l] => u.stats[l],
+                _ => layout.stats(&x.ops.f),
+            };
             let (pivot, det) = if ratio >= SINGULAR { (ratio, det) } else { (0.0, 0) };
             let first = x.st.t.is_nan();
             let previous = if first { det } else { x.st.det };
@@ -376,19 +397,10 @@ pub fn march(
         if rates {
             let taking = |x: &Lane| live(x) && x.rate;
             wide.nu(t, &mut r.rhs);
-            for (l, x) in lanes.iter_mut().enumerate().filter(|(_, x)| taking(x)) {
-                Room::lane(&r.rhs, l, &mut r.b);
-                layout.solve(&mut x.ops.f, &r.b, &mut x.st.qd);
-                for j in 0..n {
-                    r.qd[j].0[l] = x.st.qd[j];
-                }
-            }
+            solve(&mut lu, &mut lanes, layout, &taking, &r.rhs, &mut r.qd, &mut r.b, false);
             wide.gamma(&At { q: &r.q, e: &r.e, t }, &r.qd, &mut r.rhs);
-            for (l, x) in lanes.iter_mut().enumerate().filter(|(_, x)| taking(x)) {
-                Room::lane(&r.rhs, l, &mut r.b);
-                layout.solve(&mut x.ops.f, &r.b, &mut x.st.qdd);
-                x.st.rates = true;
-            }
+            solve(&mut lu, &mut lanes, layout, &taking, &r.rhs, &mut dq, &mut r.b, true);
+            lanes.iter_mut().filter(|x| taking(x)).for_each(|x| x.st.rates = true);
         }
         for (x, out) in lanes.iter().zip(xs.iter_mut()).filter(|(x, _)| live(x)) {
             out[k * n..(k + 1) * n].copy_from_slice(&x.st.q);
@@ -408,4 +420,44 @@ pub fn march(
             }
         })
         .collect()
+}
+
+/// x = Phi_q^-1 b for the lanes `taking`: over lanes where their
+/// factorisation is, else each alone; into each lane's qd (`second`: qdd) and xw's lane.
+#[allow(clippy::too_many_arguments)]
+fn solve(
+    lu: &mut Option<LaneLu>,
+    lanes: &mut [Lane],
+    layout: &Layout,
+    taking: &dyn Fn(&Lane) -> bool,
+    b: &[W],
+    xw: &mut [W],
+    room: &mut [f64],
+    second: bool,
+) {
+    fn into<'x>(x: &'x mut Lane, second: bool) -> &'x mut Vec<f64> {
+        if second {
+            &mut x.st.qdd
+        } else {
+            &mut x.st.qd
+        }
+    }
+    let fixed: [bool; WIDTH] = std::array::from_fn(|l| lu.as_ref().is_some_and(|u| u.fixed[l]) && taking(&lanes[l]));
+    if let Some(u) = lu.as_mut().filter(|_| fixed.iter().any(|&f| f)) {
+        u.solve(b, xw);
+    }
+    for (l, x) in lanes.iter_mut().enumerate().filter(|(_, x)| taking(x)) {
+        if fixed[l] {
+            let out = into(x, second);
+            Room::lane(xw, l, out);
+        } else {
+            Room::lane(b, l, room);
+            let mut out = std::mem::take(into(x, second));
+            layout.solve(&mut x.ops.f, room, &mut out);
+            for (w, &v) in xw.iter_mut().zip(&out) {
+                w.0[l] = v;
+            }
+            *into(x, second) = out;
+        }
+    }
 }

@@ -13,6 +13,7 @@ pub mod columns;
 pub mod decompose;
 pub mod families;
 pub mod functions;
+pub mod lane_lu;
 pub mod lanes;
 pub mod lu;
 pub mod march;
