@@ -91,7 +91,7 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
     """The variants {path or [parameters] name: N values} of ``model``
     solved together; ``outputs``: stages (as ``solve``'s) or column names.
     A trace and q0 are refused (every variant starts from the nominal's
-    assembly). ``lanes``: the core marches 4 variants at a time as lanes
+    assembly). ``lanes``: the core marches 8 variants at a time as lanes
     where the model suits (False: one by one; the same figures)."""
     from .march import usable
     from .parameters import resolve, to_path

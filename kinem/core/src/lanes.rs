@@ -1,4 +1,4 @@
-//! WIDTH variants of one mechanism marched together (issue 31 item 5;
+//! WIDTH (8) variants of one mechanism marched together (issue 31 item 5;
 //! docs/solver.md, "Variants of one mechanism"): the same program over the
 //! WIDTH variants per instruction where it costs most, the families' Phi,
 //! Jacobian, nu and gamma (one `Kin<Wide<WIDTH>>` whose tables hold the
@@ -31,9 +31,9 @@ use num_complex::Complex;
 use num_traits::{One, Zero};
 use std::time::Instant;
 
-/// Variants per group (4: the four f64 of a 256-bit vector; 8 measured
-/// slower on this machine: docs/solver.md).
-pub const WIDTH: usize = 4;
+/// Variants per group: 8 measured about 5 % faster than 4 (docs/solver.md,
+/// "Variants of one mechanism").
+pub const WIDTH: usize = 8;
 pub type W = Wide<WIDTH>;
 /// The group looks at its watch every this many instants (as the march).
 const WATCH_EVERY: usize = 4;

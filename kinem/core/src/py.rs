@@ -722,7 +722,7 @@ impl Plan {
     /// nominal's first state; settings: (tolerance, max_iterations,
     /// max_step, floor, seconds). Writes out (N, K, C), start (N, n), end
     /// (N), why (N), det (N) (crate::variants::Written). A signal stops
-    /// every variant and raises its exception. lanes: march them 4 at a
+    /// every variant and raises its exception. lanes: march them 8 at a
     /// time as lanes where the model suits (crate::lanes), else one by one.
     #[allow(clippy::too_many_arguments, clippy::type_complexity)]
     #[pyo3(signature = (families, functions, outlines, tangents, asked, values, times, q0, settings, out, lanes = true))]
