@@ -12,6 +12,7 @@ cases, 128 variants a case) for comparison.
     python benchmarks/variants_bench.py [REPEATS]
 """
 import resource
+import statistics
 import sys
 
 from common import load, rounds, say, timed
@@ -38,6 +39,16 @@ def processor() -> float:
     return u.ru_utime + u.ru_stime
 
 
+def charged(fn, into):
+    """fn, appending each call's processor seconds to ``into``."""
+    def run():
+        start = processor()
+        out = fn()
+        into.append(processor() - start)
+        return out
+    return run
+
+
 def designs(model, spread, count, seed=0):
     rng = np.random.default_rng(seed)
     listed = resolve(model.case, list(spread))
@@ -50,28 +61,30 @@ def main(repeats=3):
         model = kinem.compile(kinem.load(f"cases/{name}.toml"))
         values = designs(model, spread, count)
         steps = count * len(model.times)
-        cpu = processor()
-        r = rounds({"variants": timed(lambda: kinem.solve(model, outputs=outputs, parameters=values)),
-                    "one by one": timed(lambda: solve_variants(model, values, outputs=outputs, lanes=False))},
-                   repeats, warm=True)
-        cpu = (processor() - cpu) / (4 * repeats)   # warm: two solves a round each
-        seconds, every, v = r["variants"]
+        cpu = {"lanes": [], "one by one": []}
+        lanes = lambda: kinem.solve(model, outputs=outputs, parameters=values)
+        alone = lambda: solve_variants(model, values, outputs=outputs, lanes=False)
+        r = rounds({"lanes": timed(charged(lanes, cpu["lanes"])),
+                    "one by one": timed(charged(alone, cpu["one by one"]))}, repeats, warm=True)
+        seconds, every, v = r["lanes"]
         assert v.success.all(), [m for m in v.messages if m][:3]
-        alone, alone_every, a = r["one by one"]
-        assert np.array_equal(a.data, v.data, equal_nan=True), "lanes and one by one differ"
+        assert np.array_equal(r["one by one"][2].data, v.data, equal_nan=True), "lanes and one by one differ"
         verdict = []
         if per_step is not None:
             verdict.append(f"target <= {per_step * 1e6:.2f} us: {'ok' if seconds / steps <= per_step else 'OVER'}")
         if whole is not None:
             verdict.append(f"target < {whole:g} s: {'ok' if seconds < whole else 'OVER'}")
         shown = ",".join(outputs) if len(outputs) < 4 else "all stages"
-        say(f"{name:13s} {count:6d} variants x {len(model.times)} instants ({shown}): {seconds:7.3f} s "
-            f"({', '.join(f'{s:.3f}' for s in every)}), {seconds / steps * 1e6:.3f} us per variant-step; "
-            f"{'; '.join(verdict)}; load {load()}")
-        say(f"{'':13s} one by one (no lanes): {alone:7.3f} s ({', '.join(f'{s:.3f}' for s in alone_every)}), "
-            f"{alone / steps * 1e6:.3f} us per variant-step; lanes x{alone / seconds:.2f}; the same data")
-        say(f"{'':13s} processor time {cpu:.3f} s a run (lanes and one by one): {cpu / steps * 1e6:.3f} us per variant-step on one core, "
-            f"{cpu / kinem.native.THREADS / steps * 1e6:.3f} us on {kinem.native.THREADS} idle cores")
+        say(f"{name:13s} {count:6d} variants x {len(model.times)} instants ({shown}), load {load()}:")
+        for mode in ("lanes", "one by one"):
+            seconds, every, _ = r[mode]
+            c = statistics.median(cpu[mode])
+            say(f"{'':13s} {mode:10s} {seconds:7.3f} s ({', '.join(f'{s:.3f}' for s in every)}), "
+                f"{seconds / steps * 1e6:.3f} us per variant-step{'; ' + '; '.join(verdict) if mode == 'lanes' else ''}; "
+                f"processor {c:.3f} s: {c / steps * 1e6:.3f} us per variant-step on one core, "
+                f"{c / kinem.native.THREADS / steps * 1e6:.3f} us on {kinem.native.THREADS} idle cores")
+        say(f"{'':13s} lanes x{r['one by one'][0] / r['lanes'][0]:.2f} wall, "
+            f"x{statistics.median(cpu['one by one']) / statistics.median(cpu['lanes']):.2f} processor; the same data")
         # the same work through the merged path, once
         listed = resolve(model.case, list(values))
         columns, stages = _asked(model, outputs)

@@ -29,6 +29,7 @@ use crate::watch::Watch;
 use crate::wide::Wide;
 use num_complex::Complex;
 use num_traits::{One, Zero};
+use std::collections::HashMap;
 use std::time::Instant;
 
 /// Variants per group: 8 measured about 5 % faster than 4 (docs/solver.md,
@@ -48,26 +49,28 @@ pub fn suits(outlines: &Table) -> bool {
 /// tangents: WIDTH per entry, read by Wide::of_lanes).
 fn stack(lanes: &[&Table]) -> Result<Table, String> {
     let mut t = lanes[0].clone();
-    let bad = |key: &str| format!("lanes: column '{key}' differs in length between variants");
-    for (key, v) in &lanes[0].reals {
-        let mut d = Vec::with_capacity(v.len() * WIDTH);
-        for i in 0..v.len() {
-            for l in lanes {
-                d.push(*l.reals.get(key).and_then(|x| x.get(i)).ok_or_else(|| bad(key))?);
-            }
-        }
-        t.d_reals.insert(key.clone(), d);
-    }
-    for (key, v) in &lanes[0].complex {
-        let mut d = Vec::with_capacity(v.len() * WIDTH);
-        for i in 0..v.len() {
-            for l in lanes {
-                d.push(*l.complex.get(key).and_then(|x| x.get(i)).ok_or_else(|| bad(key))?);
-            }
-        }
-        t.d_complex.insert(key.clone(), d);
-    }
+    t.d_reals = interleave(lanes, |t| &t.reals)?;
+    t.d_complex = interleave(lanes, |t| &t.complex)?;
     Ok(t)
+}
+
+/// Per column of the first lane's: every lane's entry i, for i in order.
+fn interleave<T: Copy>(
+    lanes: &[&Table],
+    columns: impl Fn(&Table) -> &HashMap<String, Vec<T>>,
+) -> Result<HashMap<String, Vec<T>>, String> {
+    let mut out = HashMap::new();
+    for (key, v) in columns(lanes[0]) {
+        let mut d = Vec::with_capacity(v.len() * WIDTH);
+        for i in 0..v.len() {
+            for l in lanes {
+                let x = columns(l).get(key).and_then(|x| x.get(i));
+                d.push(*x.ok_or_else(|| format!("lanes: column '{key}' differs in length between variants"))?);
+            }
+        }
+        out.insert(key.clone(), d);
+    }
+    Ok(out)
 }
 
 /// A variant's tables: its families', functions' and outlines'.
