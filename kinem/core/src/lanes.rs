@@ -464,3 +464,74 @@ fn solve(
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::functions::POLY;
+    use num_complex::Complex64 as C64;
+
+    /// Variant l: a revolute and a distance driver (a cubic) over three
+    /// bodies, its numbers moved by l.
+    fn variant(l: usize) -> Tables {
+        let d = 0.01 * l as f64;
+        let mut rev = Table::default();
+        rev.ints.insert("ci".into(), vec![0]);
+        rev.ints.insert("cj".into(), vec![3]);
+        rev.complex.insert("si".into(), vec![C64::new(0.4 + d, 0.1)]);
+        rev.complex.insert("sj".into(), vec![C64::new(0.0, -0.5 - d)]);
+        let mut dist = Table::default();
+        dist.ints.insert("ci".into(), vec![3]);
+        dist.ints.insert("cj".into(), vec![6]);
+        dist.ints.insert("f".into(), vec![0]);
+        dist.complex.insert("si".into(), vec![C64::new(-0.3, 0.2 * (1.0 + d))]);
+        dist.complex.insert("sj".into(), vec![C64::new(0.6, 0.6)]);
+        let mut f = Table::default();
+        f.ints.insert("kind".into(), vec![POLY]);
+        f.ints.insert("start".into(), vec![0, 4]);
+        f.reals.insert("data".into(), vec![0.9 + d, 0.5, -0.2 * d, 0.1]);
+        (vec![("revolute".into(), rev), ("distance".into(), dist)], f, Table::default())
+    }
+
+    /// The model over lanes gives, lane by lane and to the bit, each
+    /// variant's own Phi, Jacobian, nu and gamma.
+    #[test]
+    fn the_model_over_lanes_is_each_variants_model() {
+        let (n, angles) = (9, vec![2, 5, 8]);
+        let lanes: Vec<Tables> = (0..WIDTH).map(variant).collect();
+        let wide = wide_kin(n, &angles, &lanes).unwrap();
+        let kins: Vec<Kin> =
+            lanes.iter().map(|(f, fu, o)| Kin::new(n, f.clone(), fu, o, angles.clone()).unwrap()).collect();
+        let q: Vec<W> =
+            (0..n).map(|j| Wide(std::array::from_fn(|l| (0.3 * j as f64 + 0.1 * l as f64).sin()))).collect();
+        let qd: Vec<W> = (0..n).map(|j| Wide(std::array::from_fn(|l| 0.2 * j as f64 - 0.05 * l as f64))).collect();
+        let mut e = vec![Complex::new(W::one(), W::zero()); n];
+        wide.rotate(&q, &mut e);
+        let (t, m, nnz) = (0.7, wide.m, wide.nnz);
+        let (mut phi, mut jac, mut nu, mut gamma) =
+            (vec![W::zero(); m], vec![W::zero(); nnz], vec![W::zero(); m], vec![W::zero(); m]);
+        let at = At { q: &q, e: &e, t };
+        wide.phi(&at, &mut phi);
+        wide.jac(&at, &mut jac);
+        wide.nu(t, &mut nu);
+        wide.gamma(&at, &qd, &mut gamma);
+        for (l, kin) in kins.iter().enumerate() {
+            let (ql, qdl): (Vec<f64>, Vec<f64>) =
+                (q.iter().map(|x| x.0[l]).collect(), qd.iter().map(|x| x.0[l]).collect());
+            let mut el = vec![C64::new(1.0, 0.0); n];
+            kin.rotate(&ql, &mut el);
+            let (mut p, mut j, mut v, mut g) = (vec![0.0; m], vec![0.0; nnz], vec![0.0; m], vec![0.0; m]);
+            let at = At { q: &ql, e: &el, t };
+            kin.phi(&at, &mut p);
+            kin.jac(&at, &mut j);
+            kin.nu(t, &mut v);
+            kin.gamma(&at, &qdl, &mut g);
+            for (wide, one) in [(&phi, &p), (&jac, &j), (&nu, &v), (&gamma, &g)] {
+                assert!(wide.iter().zip(one.iter()).all(|(w, s)| w.0[l].to_bits() == s.to_bits()), "lane {l}");
+            }
+        }
+        // the lanes differ: the variants' numbers reached them
+        assert!(phi.iter().any(|x| x.0[0] != x.0[WIDTH - 1]) && nu.iter().any(|x| x.0[0] != x.0[1]));
+        assert!(suits(&Table::default()) && !suits(&lanes[0].1));
+    }
+}
