@@ -175,6 +175,8 @@ class Model:
     _csc: tuple = field(repr=False, default=None)
     _zero: np.ndarray = field(repr=False, default=None)  # zeros (nnz,), intp
     core: native.Core = field(repr=False, default=None)  # the compiled evaluation (kinem._core)
+    # separate_tables (read-only): the tables the tangents of kinem.sensitivity and kinem.variants move
+    tables: tuple = field(repr=False, default=None)
 
     def __repr__(self) -> str:
         """One line: the case, its size and its families (not the case's whole text)."""
@@ -429,6 +431,28 @@ def core_tables(families, share: bool = True) -> tuple:
     return tables, functions.arrays(), outlines.arrays()
 
 
+def separate_tables(families) -> tuple:
+    """The families' tables with every function and outline its own number
+    (so that a moved one keeps its place: kinem.sensitivity's tangents are
+    taken against them), and which functions and outlines each family
+    numbered: (tables, functions, outlines, numbered)."""
+    functions, outlines = FunctionTable(False), OutlineTable(False)
+    tables, numbered = [], []
+    for f in families:
+        before = len(functions.functions), len(outlines.outlines)
+        tables.append(f.table(functions, outlines))
+        numbered.append((tuple(functions.functions[before[0]:]), tuple(outlines.outlines[before[1]:])))
+    return tuple(tables), functions.arrays(), outlines.arrays(), tuple(numbered)
+
+
+def _frozen_tables(tables) -> tuple:
+    """``separate_tables``' result with its arrays read-only."""
+    for d in [t for _, t in tables[0]] + [tables[1], tables[2]]:
+        for v in d.values():
+            v.flags.writeable = False
+    return tables
+
+
 def core_of(families, n: int, n_bodies: int, artificial: int) -> native.Core:
     """The compiled core of the families: their tables, and the model's
     angle columns (every body's phi, every artificial coordinate: e^{i q} of
@@ -491,6 +515,7 @@ def compile(case: Case) -> Model:
         artificial=tuple(label for label, _ in ctx.artificial),
         _csc=csc, _zero=np.zeros(len(jac_rows), np.intp),
         core=core_of(families, n, len(case.bodies), len(ctx.artificial)),
+        tables=_frozen_tables(separate_tables(families)),
     )
     for a in (model.q0, model.driving, model.scale, model.jac_rows, model.jac_cols,
               model.point_cols, model.point_local, model.col_scale, model.entry_scale):

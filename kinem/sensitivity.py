@@ -32,7 +32,7 @@ from . import native
 from .errors import AnalysisError, InputError, KinemError
 from .constraints import REGISTRY
 from .functions import FunctionTable
-from .model import _Context, families_of
+from .model import _Context, families_of, separate_tables
 from .outline import Outline, OutlineTable
 from .options import Options, singular_pivot
 from .parameters import apply_many, constraint_id, driver_tangent, frame_tangent, local_tangent, resolve
@@ -139,7 +139,7 @@ def tangent_inputs(model, listed) -> tuple:
     tables, each parameter's tangents, the Jacobian's pattern (rows, cols),
     the named points' columns, local coordinates and tangents)."""
     case = model.case
-    base = _tables(case, model.length)
+    base = model.tables
     parts = _spline_tangents(case, listed, base)
     rest = [k for k in range(len(listed)) if k not in parts]
     items = [(k, listed[k], moved, h) for k, (moved, h) in zip(rest, _moved(case, [listed[k] for k in rest]))]
@@ -217,17 +217,8 @@ def _derived_frames(case, path, columns, block, traj):
 
 
 def _tables(case, length):
-    """The model's tables, every function and outline its own number (so
-    that a moved one keeps its place), and which functions and outlines
-    each family numbered: (tables, functions, outlines, numbered)."""
-    families, _ = families_of(case, length)
-    functions, outlines = FunctionTable(False), OutlineTable(False)
-    tables, numbered = [], []
-    for f in families:
-        before = len(functions.functions), len(outlines.outlines)
-        tables.append(f.table(functions, outlines))
-        numbered.append((functions.functions[before[0]:], outlines.outlines[before[1]:]))
-    return tables, functions.arrays(), outlines.arrays(), numbered
+    """The tables of ``case`` as the Model keeps them (kinem.model.separate_tables)."""
+    return separate_tables(families_of(case, length)[0])
 
 
 def _moved(case, listed):
@@ -403,7 +394,7 @@ def tangents(model, paths, base=None) -> list:
     the caller has them."""
     case = model.case
     listed = resolve(case, list(paths))
-    base = base or _tables(case, model.length)
+    base = base or model.tables
     return [_tangent(case, model.length, base, p, moved, h) for p, (moved, h) in zip(listed, _moved(case, listed))]
 
 
@@ -489,7 +480,7 @@ def _stacked(case, length, base, items) -> dict:
                 or moved.bodies is not case.bodies):
             continue
         families = {REGISTRY[c1.type].family for c0, c1 in zip(case.constraints, moved.constraints) if c0 is not c1}
-        if not families or any(base[3][order[f]] != ([], []) for f in families):
+        if not families or any(base[3][order[f]] != ((), ()) for f in families):
             continue
         changed[k] = families
         for f in families:
@@ -625,8 +616,8 @@ def _reached(case, moved, length, base):
                 v.dtype.kind in "iu" and not _same(v, table[key]) for key, v in base[0][k][1].items()):
             return None
         out[k] = table
-        moved_functions |= functions.functions[before[0]:] != kept_functions
-        moved_outlines |= outlines.outlines[before[1]:] != kept_outlines
+        moved_functions |= tuple(functions.functions[before[0]:]) != kept_functions
+        moved_outlines |= tuple(outlines.outlines[before[1]:]) != kept_outlines
     return (out, functions.arrays() if moved_functions else base[1],   # unmoved: the model's own arrays
             outlines.arrays() if moved_outlines else base[2])
 
