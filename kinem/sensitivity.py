@@ -24,6 +24,7 @@ At an instant where Phi_q is singular (its pivot ratio below the solver's
 floor, kinem.options.singular_pivot) the derivatives are infinite: they are
 reported as inf, flagged in ``singular`` and named in ``message``.
 """
+import time
 from dataclasses import dataclass, is_dataclass, replace
 
 import numpy as np
@@ -85,6 +86,9 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     Raises InputError for an unknown path, AnalysisError when the nominal
     solve fails."""
     case = model.case
+    options = model.options if options is None else options
+    if isinstance(options, Options) and options.max_seconds is not None and options.started is None:
+        options = replace(options, started=time.perf_counter())   # the time limit holds for the whole call
     paths = [parameters] if isinstance(parameters, str) else list(parameters)
     if not paths:
         raise InputError(f"{case.source}: sensitivity: no parameters; expected one or more parameter paths")
@@ -110,7 +114,7 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     width = len(columns)
     for k, p in enumerate(listed):
         _derived_frames(case, p.path, columns, data[:, k * width:(k + 1) * width], traj)
-    floor = singular_pivot((options or Options.of(case)).tolerance)
+    floor = singular_pivot(options.tolerance)
     singular = ~(ratio >= floor)
     message = "exact at every instant"
     if singular.any():

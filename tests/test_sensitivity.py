@@ -396,3 +396,29 @@ def test_one_pass_equals_the_solve_and_the_separate_sensitivities(path):
     regular = ratio >= 1e-6
     scale = np.abs(separate[regular]).max()
     assert np.abs(whole.derivatives.data[regular] - separate[regular]).max() <= 1e-13 * scale
+
+
+def test_the_time_limit_holds_for_the_whole_call(monkeypatch):
+    """Under Options.max_seconds a sensitivity counts the whole call against
+    the limit: the solve it falls back to when the one pass does not serve
+    it (here a pass made to spend 0.3 s of a 0.2 s limit, then decline)
+    gets what is left, not a fresh limit, and stops at the time limit; the
+    same call without the spent time succeeds."""
+    import importlib
+    import time
+
+    from kinem.errors import AnalysisError
+
+    S = importlib.import_module("kinem.sensitivity")
+    model = kinem.compile(kinem.load(ROOT / "cases" / "four_bar.toml"))
+    path, options = parameters(model.case)[0].path, kinem.Options(max_seconds=0.2)
+    sensitivity(model, path)   # the lazy imports and the model's march layout, outside the limit
+    assert sensitivity(model, path, options=options).derivatives.data.shape[0] == len(model.times)
+
+    def spent(*args):
+        time.sleep(0.3)
+        return None
+
+    monkeypatch.setattr(S, "_fused", spent)
+    with pytest.raises(AnalysisError, match="time limit"):
+        sensitivity(model, path, options=options)
