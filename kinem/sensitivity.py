@@ -145,6 +145,7 @@ def tangent_inputs(model, listed) -> tuple:
     case = model.case
     base = model.tables
     parts = _spline_tangents(case, listed, base)
+    parts.update(_direct(model, [(k, p) for k, p in enumerate(listed) if k not in parts]))
     rest = [k for k in range(len(listed)) if k not in parts]
     items = [(k, listed[k], moved, h) for k, (moved, h) in zip(rest, _moved(case, [listed[k] for k in rest]))]
     parts.update(_stacked(case, model.length, base, items))
@@ -463,6 +464,59 @@ def _spline_tangents(case, listed, base) -> dict:
             for place in (i for i, x in enumerate(numbered) if x is o):
                 tangent["coef"][4 * first[place]:4 * (last[place] + 1)] = c[:, :, col].T.ravel()
             out[k] = ([], (base[1], {}), (base[2], tangent)), _dlocal(case, listed[k])
+    return out
+
+
+def _direct(model, items) -> dict:
+    """{k: ``_moved_tangent``} for the parameters of items [(k, p)] whose
+    tangent is one number of the function or outline tables, taken as it
+    is (S5's difference is a unit there, nothing else moves): a ground's
+    ``value.k`` or an absolute constraint's ``value`` (the constant
+    function Poly((value,)) its row numbered), an outline's ``center.k``
+    (its centre: 1 or i) and a circle's ``circle.radius`` (its one piece's
+    constant coefficient), where the tables hold the nominal value there.
+    Not in a case in degrees (its angles' values are converted)."""
+    case, base = model.case, model.tables
+    if case.units.get("angle") == "deg":
+        return {}
+    functions, outlines = base[1], base[2]
+    numbered = [o for f in base[3] for o in f[1]]
+    kinds = [type(f) for f in model.families]
+    out = {}
+    for k, p in items:
+        parts = p.path.split(".")
+        c = next((c for c in case.constraints if constraint_id(c) == parts[1]), None) if len(parts) > 2 else None
+        if c is None or parts[0] != "constraints":
+            continue
+        if (c.type, parts[2:3], len(parts)) in (("ground", ["value"], 4), ("absolute", ["value"], 3)):
+            place = kinds.index(REGISTRY[c.type].family)
+            first = model.offsets[place]
+            rows = [r - first for r in range(first, first + model.families[place].n_rows) if model.row_owner[r] == c.name]
+            f = base[0][place][1]["f"][rows[int(parts[3]) if len(parts) == 4 else 0]]
+            start = functions["start"][f]
+            if functions["start"][f + 1] - start != 1 or functions["data"][start] != p.value:
+                continue
+            d = np.zeros_like(functions["data"])
+            d[start] = 1.0
+            out[k] = ([], (functions, {"data": d}), (outlines, {})), _dlocal(case, p)
+            continue
+        o = c.fields.get(parts[2])
+        places = [i for i, x in enumerate(numbered) if x is o]
+        if not isinstance(o, Outline) or not places:
+            continue
+        tangent = _zero(outlines)
+        if parts[3:5] in (["center", "0"], ["center", "1"]) and len(parts) == 5:
+            if any(outlines["center"][i] != complex(*o.center) for i in places):
+                continue
+            tangent["center"][places] = 1.0 if parts[4] == "0" else 1j
+        elif parts[3:] == ["circle", "radius"] and o.kind == "circle":
+            at = [4 * outlines["first"][i] + 3 for i in places]
+            if any(outlines["coef"][j] != o.radius for j in at):
+                continue
+            tangent["coef"][at] = 1.0
+        else:
+            continue
+        out[k] = ([], (functions, {}), (outlines, tangent)), _dlocal(case, p)
     return out
 
 

@@ -334,6 +334,26 @@ def test_functions_numbered_once_for_every_parameter_give_each_ones_tangent(path
         assert d.keys() == w.keys() and all(np.array_equal(d[key], w[key]) for key in w), p.path
 
 
+@pytest.mark.parametrize("path", CASES + [ROOT / "tests" / "data" / "four_bar_named.toml"], ids=lambda p: p.stem)
+def test_numbers_taken_directly_equal_the_rebuilt_tangents(path):
+    """kinem.sensitivity takes a ground's or an absolute constraint's value,
+    an outline's centre and a circle's radius directly as a unit of the
+    function or outline table (_direct): each parameter's tangent equals
+    the one of its own moved case with every family rebuilt
+    (_moved_tangent) exactly, and moves no family."""
+    S, case, model, listed, base, items = _every_parameter_moved(path)
+    got = S._direct(model, [(k, p) for k, p, _, _ in items])
+    assert got or not any(p.path.endswith((".value.0", ".center.0", ".radius")) for p in listed)
+    for k, ((families, (_, df), (_, do)), dlocal) in got.items():
+        _, p, moved, h = items[k]
+        (want, (_, wf), (_, wo)), want_local = S._moved_tangent(case, model.length, base, p, moved, h)
+        assert families == [] and all(not v.any() for _, _, _, d in want for v in d.values()), p.path
+        assert np.array_equal(dlocal, want_local), p.path
+        for d, w in ((df, wf), (do, wo)):
+            assert all(np.array_equal(d[key], w[key]) for key in w) and all(not v.any() for key, v in d.items()
+                                                                            if key not in w), p.path
+
+
 def test_public_tangents_rebuild_a_moved_design():
     """kinem.sensitivity.tangents(model, paths): per path every family's,
     function's and outline's tangent (kinem.sensitivity._tangent's format);
