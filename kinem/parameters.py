@@ -265,27 +265,29 @@ def _find(case, path, near=None):
     """The parameter at ``path`` from the one point, constraint key or named
     dimension it names (as ``_listing`` lists it), without listing the
     others; None when it is none. ``near``: a dict keeping, for one call's
-    paths, the parameters of each point and key already listed."""
+    paths, the parameters of each point and key already listed (and under
+    "#", the constraints by their ids)."""
+    near = {} if near is None else near
     parts = path.split(".") if isinstance(path, str) else []
     if parts[:1] == ["parameters"] and len(parts) == 2 and parts[1] in case.parameters:
         return _named(case, parts[1], lambda use: _find(case, use, near))
     head = tuple(parts[:3])
-    found = near.get(head) if near is not None else None
+    found = near.get(head)
     if found is None:
-        found = {q.path: q for q in _near(case, parts)}
-        if near is not None:
-            near[head] = found
+        found = near[head] = {q.path: q for q in _near(case, parts, near)}
     return found.get(path)
 
 
-def _near(case, parts) -> list:
+def _near(case, parts, near) -> list:
     """The parameters of the point or constraint key that ``parts`` (a path split) names."""
     if parts[:1] == ["points"] and len(parts) == 4:
         p = next((q for q in case.points if q.name == parts[1]), None)
         read = dict.fromkeys(constraint_id(c) for c in case.constraints if parts[1] in c.refs.values())
         return _of_point(case, p, read) if p is not None and read else []
     if parts[:1] == ["constraints"] and len(parts) >= 3:
-        c = next((c for c in case.constraints if constraint_id(c) == parts[1]), None)
+        if "#" not in near:
+            near["#"] = {constraint_id(c): c for c in case.constraints}
+        c = near["#"].get(parts[1])
         key = next((k for k in REGISTRY[c.type].keys if k.name == parts[2]), None) if c is not None else None
         return _of_key(case, c, key) if key is not None else []
     return []
@@ -310,12 +312,11 @@ def _of_key(case, c, key) -> list:
     """The parameters of constraint c's key (none for a key naming a point or not given)."""
     if key.name not in c.fields or key.name in c.refs:
         return []
-    cid, out = constraint_id(c), []
-    for sub, value, unit in _numbers(case, c, key):
-        path = ".".join(x for x in ("constraints", cid, key.name, sub) if x)
-        what = f"{c.type} {cid}: {key.name}" + (f".{sub}" if sub else "") + (f" ({key.doc})" if key.doc else "")
-        out.append(Parameter(path, value, unit, what))
-    return out
+    cid, doc = constraint_id(c), f" ({key.doc})" if key.doc else ""
+    head = f"constraints.{cid}.{key.name}"
+    return [Parameter(f"{head}.{sub}" if sub else head, value, unit,
+                      f"{c.type} {cid}: {key.name}.{sub}{doc}" if sub else f"{c.type} {cid}: {key.name}{doc}")
+            for sub, value, unit in _numbers(case, c, key)]
 
 
 def _named(case, name, known) -> Parameter:
@@ -330,9 +331,9 @@ def _named(case, name, known) -> Parameter:
 def _numbers(case, c, key):
     """(sub-path, value, unit) of key's numbers in constraint c, in the file's
     units: an angle of a case in degrees is in degrees."""
-    degrees = case.units.get("angle") == "deg"
+    degrees, length = case.units.get("angle") == "deg", case.length_unit
     for sub, value, quantity in key.numbers(c.fields[key.name]):
-        unit = _unit(quantity, c, case.length_unit)
+        unit = _unit(quantity, c, length)
         if degrees and unit.startswith("rad"):
             value, unit = value / DEGREE, "deg" + unit[3:]
         yield sub, float(value), unit

@@ -123,8 +123,9 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
         message = (f"Phi_q singular (pivot ratio below {floor:.2g}) at {int(singular.sum())} instant(s), t = {at}: "
                    "the derivatives there are infinite")
     heads = [f"d({c})/d(" for c in columns]
-    names = tuple(h + path for path in [p.path + ")" for p in listed] for h in heads)
-    return Sensitivity(listed, traj, Trajectory(t.copy(), names, data), singular, ratio, message)
+    names = tuple([h + path for path in [p.path + ")" for p in listed] for h in heads])
+    derivatives = Trajectory(t.copy(), names, data, dict(zip(names, range(len(names)))))
+    return Sensitivity(listed, traj, derivatives, singular, ratio, message)
 
 
 def core_inputs(model, listed, result) -> tuple:
@@ -157,8 +158,8 @@ def tangent_inputs(model, listed) -> tuple:
     dlocal = np.array([d for _, d in parts], complex).reshape(len(parts), len(model.point_names))
     core = [([(k, d) for k, _, _, d in families], functions[1], outlines[1])
             for (families, functions, outlines), _ in parts]
-    return (base[:3], core, (model.jac_rows.astype(np.int64), model.jac_cols.astype(np.int64)),
-            (model.point_cols.astype(np.int64), model.point_local, dlocal))
+    return (base[:3], core, (np.asarray(model.jac_rows, np.int64), np.asarray(model.jac_cols, np.int64)),
+            (np.asarray(model.point_cols, np.int64), model.point_local, dlocal))
 
 
 def _instant_inputs(model, tangents, result) -> tuple:
@@ -230,6 +231,8 @@ def _moved(case, listed):
     """(the case with p moved by h, h) for each parameter p: h a power of
     two near |p| / 2 (-h where +h is not a valid case), each case set in
     place where it can be, else validated (``cases_of``)."""
+    if not listed:
+        return []
     steps = [2.0 ** (np.floor(np.log2(abs(p.value))) - 1) if p.value else 0.5 for p in listed]
     # drivers of drawn frames that p turns (none where p moves no frame: kinem.parameters.driver_tangent)
     turned = [driver_tangent(case, p.path) if frame_tangent(case, p.path) else {} for p in listed]
@@ -437,6 +440,8 @@ def _spline_tangents(case, listed, base) -> dict:
     outline's coefficients (OutlineTable's layout: pieces first[o] ..
     last[o], 4 coefficients each), every j of one outline from one
     CubicSpline. No family's table moves (as ``_entries``)."""
+    if not any(".spline.s." in p.path for p in listed):
+        return {}
     from scipy.interpolate import CubicSpline
 
     numbered = [o for f in base[3] for o in f[1]]
@@ -529,6 +534,8 @@ def _stacked(case, length, base, items) -> dict:
     which its integer columns, the nominal's repeated, and the nominal's
     own rows confirm; else it is left to ``_moved_tangent``), a parameter's
     tangent the difference of its rows and the nominal's over h."""
+    if not items:
+        return {}
     order = {}
     for c in case.constraints:
         order.setdefault(REGISTRY[c.type].family, len(order))
@@ -590,6 +597,8 @@ def _function_tangents(case, base, items) -> dict:
     (function f's numbers are data[start[f]:start[f + 1]],
     kinem/core/src/functions.rs), a parameter's tangent the difference of
     its functions' numbers and theirs over h."""
+    if not items:
+        return {}
     listed = [x for numbered in base[3] for x in numbered[0]]
     where = {}
     for i, x in enumerate(listed):
