@@ -562,9 +562,11 @@ def _stacked(case, length, base, items) -> dict:
                 and (v.dtype.kind not in "iu" or _same(table[key], np.concatenate([v] * copies)))
                 for key, v in t0.items()):
             continue
-        for i, (k, h, _) in enumerate(moved_lists, 1):
-            tangents.setdefault(k, {})[place] = {key: (table[key][i * len(v):(i + 1) * len(v)] - v) / h
-                                                 for key, v in t0.items() if v.dtype.kind not in "iu"}
+        steps = np.array([h for _, h, _ in moved_lists])   # every copy's rows at once: (copy, *row) - nominal
+        moves = {key: (table[key][len(v):].reshape(copies - 1, *v.shape) - v) / steps.reshape(-1, *[1] * v.ndim)
+                 for key, v in t0.items() if v.dtype.kind not in "iu"}
+        for i, (k, _, _) in enumerate(moved_lists):
+            tangents.setdefault(k, {})[place] = {key: d[i] for key, d in moves.items()}
     return {k: (([(place, *base[0][place], d) for place, d in sorted(tangents[k].items())], (base[1], {}),
                  (base[2], {})), _dlocal(case, p))
             for k, p, _, _ in items if k in changed and len(tangents.get(k, ())) == len(changed[k])}
@@ -707,9 +709,11 @@ def _zero(table: dict) -> dict:
 def _dlocal(case, p):
     """The tangent of the named points' local coordinates along p."""
     dlocal = np.zeros(len(case.points), complex)
-    names = [q.name for q in case.points]
-    for point, d in local_tangent(case, p.path).items():
-        dlocal[names.index(point)] += d
+    moved = local_tangent(case, p.path) if p.path.startswith(("points.", "parameters.")) else {}
+    if moved:
+        names = [q.name for q in case.points]
+        for point, d in moved.items():
+            dlocal[names.index(point)] += d
     return dlocal
 
 
