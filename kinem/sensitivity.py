@@ -529,44 +529,68 @@ def _stacked(case, length, base, items) -> dict:
     """{k: ``_moved_tangent``} for the parameters of items [(k, p, moved
     case, h)] whose moved case (set in place) changes only constraints of
     families that number no function or outline: each such family built
-    once, over its constraints followed by every moved case's (its table
-    then holds their tables end to end, one row per constraint in order,
-    which its integer columns, the nominal's repeated, and the nominal's
-    own rows confirm; else it is left to ``_moved_tangent``), a parameter's
-    tangent the difference of its rows and the nominal's over h."""
+    once, over its constraints followed by every parameter's changed ones
+    (each column then holds the nominal's rows, r per constraint, and after
+    them the changed constraints' rows in turn, which the nominal's own
+    rows and the changed ones' integer columns, those of the constraints
+    they replace, confirm; else it is left to ``_moved_tangent``), a
+    parameter's tangent the difference of its constraints' rows and the
+    nominal's over h, zero in the others'."""
     if not items:
         return {}
-    order = {}
+    order, where, count = {}, [], {}   # family -> its place; per constraint (family, index in it)
     for c in case.constraints:
-        order.setdefault(REGISTRY[c.type].family, len(order))
-    wanted, changed = {}, {}   # family -> [(k, h, its constraints moved)]; k -> families
+        family = REGISTRY[c.type].family
+        order.setdefault(family, len(order))
+        where.append((family, count.get(family, 0)))
+        count[family] = count.get(family, 0) + 1
+    wanted, changed = {}, {}   # family -> [(k, h, [(index in it, moved constraint)])]; k -> families
     for k, p, moved, h in items:
         if (isinstance(moved, InputError) or len(moved.constraints) != len(case.constraints)
                 or moved.bodies is not case.bodies):
             continue
-        families = {REGISTRY[c1.type].family for c0, c1 in zip(case.constraints, moved.constraints) if c0 is not c1}
-        if not families or any(base[3][order[f]] != ((), ()) for f in families):
+        moves = {}
+        for (family, j), c0, c1 in zip(where, case.constraints, moved.constraints):
+            if c0 is not c1:
+                moves.setdefault(family, []).append((j, c1))
+        if not moves or any(base[3][order[f]] != ((), ()) for f in moves):
             continue
-        changed[k] = families
-        for f in families:
-            wanted.setdefault(f, []).append((k, h, [c for c in moved.constraints if REGISTRY[c.type].family is f]))
+        changed[k] = set(moves)
+        for family, cons in moves.items():
+            wanted.setdefault(family, []).append((k, h, cons))
     tangents = {}
     for family, moved_lists in wanted.items():
         place = order[family]
-        t0, copies = base[0][place][1], len(moved_lists) + 1
-        nominal = [c for c in case.constraints if REGISTRY[c.type].family is family]
+        t0, n = base[0][place][1], count[family]
+        nominal = [c for c, (f, _) in zip(case.constraints, where) if f is family]
+        ks, hs, indices = [k for k, _, _ in moved_lists], [h for _, h, _ in moved_lists], [
+            [j for j, _ in cons] for _, _, cons in moved_lists]
         functions, outlines, ctx = FunctionTable(False), OutlineTable(False), _Context(case, length)
-        table = family(nominal + [c for _, _, cons in moved_lists for c in cons], ctx).table(functions, outlines)[1]
+        table = family(nominal + [c for _, _, cons in moved_lists for _, c in cons], ctx).table(functions, outlines)[1]
+        rows = {key: len(v) // n for key, v in t0.items()}   # per constraint
         if functions.functions or outlines.outlines or ctx.artificial or table.keys() != t0.keys() or not all(
-                len(table[key]) == copies * len(v) and _same(table[key][:len(v)], v)
-                and (v.dtype.kind not in "iu" or _same(table[key], np.concatenate([v] * copies)))
-                for key, v in t0.items()):
+                len(v) == rows[key] * n and len(table[key]) == len(v) + rows[key] * sum(map(len, indices))
+                and _same(table[key][:len(v)], v) for key, v in t0.items()):
             continue
-        steps = np.array([h for _, h, _ in moved_lists])   # every copy's rows at once: (copy, *row) - nominal
-        moves = {key: (table[key][len(v):].reshape(copies - 1, *v.shape) - v) / steps.reshape(-1, *[1] * v.ndim)
-                 for key, v in t0.items() if v.dtype.kind not in "iu"}
-        for i, (k, _, _) in enumerate(moved_lists):
-            tangents.setdefault(k, {})[place] = {key: d[i] for key, d in moves.items()}
+        which = np.array([j for js in indices for j in js])   # each changed constraint's index in the family
+        owner = np.repeat(np.arange(len(indices)), list(map(len, indices)))   # its parameter
+        steps = np.array([h for h, js in zip(hs, indices) for _ in js])
+        moves, spread = {}, {1: (which, owner, steps)}   # rows per constraint -> (rows, their parameter, its h)
+        for key, v in t0.items():
+            r = rows[key]
+            if r not in spread:
+                spread[r] = ((which[:, None] * r + np.arange(r)).ravel(), np.repeat(owner, r), np.repeat(steps, r))
+            nominal_rows, of, h = spread[r]
+            new = table[key][len(v):]
+            if v.dtype.kind in "iu":
+                if not _same(new, v[nominal_rows]):
+                    break
+                continue
+            moves[key] = np.zeros((len(indices),) + v.shape, v.dtype)
+            moves[key][of, nominal_rows] = (new - v[nominal_rows]) / (h if v.ndim == 1 else h.reshape(-1, *[1] * (v.ndim - 1)))
+        else:
+            for i, k in enumerate(ks):
+                tangents.setdefault(k, {})[place] = {key: d[i] for key, d in moves.items()}
     return {k: (([(place, *base[0][place], d) for place, d in sorted(tangents[k].items())], (base[1], {}),
                  (base[2], {})), _dlocal(case, p))
             for k, p, _, _ in items if k in changed and len(tangents.get(k, ())) == len(changed[k])}
