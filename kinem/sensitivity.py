@@ -256,7 +256,8 @@ def cases_of(case, designs, pinned=False) -> list:
     """Per design ({path: value}) its Case: set in place where ``in_place``
     can, else built and validated by kinem.parameters.apply_many (``pinned``
     as there); or the InputError that refuses it."""
-    moved = [in_place(case, values) for values in designs]
+    lookup = _lookup(case) if case.units.get("angle") != "deg" and not any(b.carries for b in case.bodies) else None
+    moved = [_all_set(case, values, lookup) if lookup else None for values in designs]
     slow = [values for values, m in zip(designs, moved) if m is None]
     built = iter(apply_many(case, slow, pinned=pinned) if slow else ())
     return [m if m is not None else next(built) for m in moved]
@@ -276,11 +277,12 @@ def _replaced(case, path, value):
     return _all_set(case, {path: value})
 
 
-def _all_set(case, values):
-    if any(b.carries for b in case.bodies):
+def _all_set(case, values, lookup=None):
+    if lookup is None and any(b.carries for b in case.bodies):
         return None
+    lookup = lookup or _lookup(case)
     points, constraints = list(case.points), list(case.constraints)
-    if not all(_set(points, constraints, path, value) for path, value in values.items()):
+    if not all(_set(points, constraints, path, value, lookup) for path, value in values.items()):
         return None
     return _with(case, points=tuple(points), constraints=tuple(constraints))
 
@@ -294,7 +296,18 @@ def _with(obj, **fields):
     return new
 
 
-def _set(points, constraints, path, value) -> bool:
+def _lookup(case) -> tuple:
+    """What ``_set`` looks up in a case's lists: (constraint id -> its place,
+    point -> its place, point -> the places of the constraints that read it)."""
+    ids, readers = {}, {}
+    for i, c in enumerate(case.constraints):
+        ids.setdefault(constraint_id(c), i)
+        for point in dict.fromkeys(c.refs.values()):
+            readers.setdefault(point, []).append(i)
+    return ids, {q.name: j for j, q in enumerate(case.points)}, readers
+
+
+def _set(points, constraints, path, value, lookup) -> bool:
     """Sets the number at ``path`` to ``value`` in the lists of a case's
     points and constraints without re-validating it; False (lists
     untouched) for any other path: ``points.P.at.k`` (the point and every
@@ -302,17 +315,18 @@ def _set(points, constraints, path, value) -> bool:
     that names no point or ``constraints.C.KEY`` of a scalar key. The
     tables read these numbers as given and are affine in them (h keeps the
     number's sign), so the tangent is the one a validated case gives
-    (tests/test_sensitivity.py compares them)."""
+    (tests/test_sensitivity.py compares them). ``lookup``: the case's ``_lookup``."""
+    ids, at, readers = lookup
     parts = path.split(".")
-    if len(parts) == 3 and parts[0] == "constraints":
-        for i, c in enumerate(constraints):
-            v = c.fields.get(parts[2])
-            if constraint_id(c) == parts[1] and isinstance(v, float) and parts[2] not in c.refs:
-                constraints[i] = _with(c, fields=frozen_map({**c.fields, parts[2]: float(value)}))
-                return True
+    i = ids.get(parts[1]) if parts[0] == "constraints" and len(parts) >= 3 else None
+    if len(parts) == 3 and i is not None:
+        c = constraints[i]
+        if isinstance(c.fields.get(parts[2]), float) and parts[2] not in c.refs:
+            constraints[i] = _with(c, fields=frozen_map({**c.fields, parts[2]: float(value)}))
+            return True
         return False
-    if len(parts) >= 5 and parts[0] == "constraints":
-        return _set_entry(constraints, parts, value)
+    if len(parts) >= 5 and i is not None:
+        return _set_entry(constraints, i, parts, value)
     if len(parts) != 4 or not parts[3].isdigit():
         return False
     k = int(parts[3])
@@ -322,42 +336,38 @@ def _set(points, constraints, path, value) -> bool:
         v[k] = value
         return tuple(v)
 
-    if parts[0] == "points":
-        j = next(j for j, q in enumerate(points) if q.name == parts[1])
+    if parts[0] == "points" and parts[1] in at:
+        j = at[parts[1]]
         if len(points[j].at) <= k:
             return False
-        at = moved(points[j].at)
-        points[j] = _with(points[j], at=at)
-        for i, c in enumerate(constraints):
-            if parts[1] in c.refs.values():
-                constraints[i] = _with(c, fields=frozen_map(
-                    {**c.fields, **{key: at for key, q in c.refs.items() if q == parts[1]}}))
+        moved_at = moved(points[j].at)
+        points[j] = _with(points[j], at=moved_at)
+        for i in readers.get(parts[1], ()):
+            c = constraints[i]
+            constraints[i] = _with(c, fields=frozen_map(
+                {**c.fields, **{key: moved_at for key, q in c.refs.items() if q == parts[1]}}))
         return True
-    if parts[0] != "constraints":
+    if i is None:
         return False
-    for i, c in enumerate(constraints):
-        if constraint_id(c) == parts[1]:
-            v = c.fields.get(parts[2])
-            if parts[2] in c.refs or not isinstance(v, tuple) or len(v) <= k:
-                return False
-            constraints[i] = _with(c, fields=frozen_map({**c.fields, parts[2]: moved(v)}))
-            return True
-    return False
+    c = constraints[i]
+    v = c.fields.get(parts[2])
+    if parts[2] in c.refs or not isinstance(v, tuple) or len(v) <= k:
+        return False
+    constraints[i] = _with(c, fields=frozen_map({**c.fields, parts[2]: moved(v)}))
+    return True
 
 
 # the field of a function's or an outline's number (kinem.casefile.keys: numbers): sub-path head -> field
 _ENTRIES = {"poly": "coeffs", "table": "value", "spline": "s", "center": "center"}
 
 
-def _set_entry(constraints, parts, value) -> bool:
-    """_set for a number inside a function or an outline table:
-    ``constraints.C.KEY.poly.k``, ``.harmonic.NAME``, ``.table.value.k``,
-    ``.circle.radius``, ``.spline.s.k``, ``.center.k`` (a periodic
-    outline's first radius is its last too), or False."""
+def _set_entry(constraints, i, parts, value) -> bool:
+    """_set for a number inside a function or an outline table of
+    constraints[i]: ``constraints.C.KEY.poly.k``, ``.harmonic.NAME``,
+    ``.table.value.k``, ``.circle.radius``, ``.spline.s.k``, ``.center.k``
+    (a periodic outline's first radius is its last too), or False."""
     sub = parts[3:]
-    for i, c in enumerate(constraints):
-        if constraint_id(c) != parts[1]:
-            continue
+    for c in constraints[i:i + 1]:
         v = c.fields.get(parts[2])
         if parts[2] in c.refs or not is_dataclass(v):
             return False
