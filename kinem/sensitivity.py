@@ -143,8 +143,22 @@ def tangent_inputs(model, listed) -> tuple:
     """What the core's sensitivities take beside the instants: (the model's
     tables, each parameter's tangents, the Jacobian's pattern (rows, cols),
     the named points' columns, local coordinates and tangents)."""
-    case = model.case
-    base = model.tables
+    base, parts = model.tables, _parts(model, listed)
+    dlocal = np.array([d for _, d in parts], complex).reshape(len(parts), len(model.point_names))
+    core = [([(k, d) for k, _, _, d in families], functions[1], outlines[1])
+            for (families, functions, outlines), _ in parts]
+    return (base[:3], core, (np.asarray(model.jac_rows, np.int64), np.asarray(model.jac_cols, np.int64)),
+            (np.asarray(model.point_cols, np.int64), model.point_local, dlocal))
+
+
+def _parts(model, listed) -> list:
+    """Per parameter of ``listed`` its tangent as ``_moved_tangent`` gives
+    it (only the families it moves), each the cheapest exact way: a spline
+    outline's values from one spline, a unit of the function or outline
+    table taken directly, a family built once for all the parameters that
+    move it, the moved driving functions numbered once; else its own moved
+    case's families rebuilt."""
+    case, base = model.case, model.tables
     parts = _spline_tangents(case, listed, base)
     parts.update(_direct(model, [(k, p) for k, p in enumerate(listed) if k not in parts]))
     rest = [k for k in range(len(listed)) if k not in parts]
@@ -154,12 +168,7 @@ def tangent_inputs(model, listed) -> tuple:
     for k, p, moved, h in items:
         if k not in parts:
             parts[k] = _moved_tangent(case, model.length, base, p, moved, h)
-    parts = [parts[k] for k in range(len(listed))]
-    dlocal = np.array([d for _, d in parts], complex).reshape(len(parts), len(model.point_names))
-    core = [([(k, d) for k, _, _, d in families], functions[1], outlines[1])
-            for (families, functions, outlines), _ in parts]
-    return (base[:3], core, (np.asarray(model.jac_rows, np.int64), np.asarray(model.jac_cols, np.int64)),
-            (np.asarray(model.point_cols, np.int64), model.point_local, dlocal))
+    return [parts[k] for k in range(len(listed))]
 
 
 def _instant_inputs(model, tangents, result) -> tuple:
@@ -398,7 +407,12 @@ def _tangent(case, length, base, p, moved, step):
     ((families [(kind, table, tangent)], (functions, tangent), (outlines,
     tangent)), dlocal), every family and every column (zero where p does
     not move it)."""
-    (families, functions, outlines), dlocal = _moved_tangent(case, length, base, p, moved, step)
+    return _full(base, _moved_tangent(case, length, base, p, moved, step))
+
+
+def _full(base, part):
+    """A ``_moved_tangent`` in ``_tangent``'s format: every family, function and outline column, zero where unmoved."""
+    (families, functions, outlines), dlocal = part
     tangent = {k: d for k, _, _, d in families}
     return ([(kind, t0, tangent[k] if k in tangent else _zero(t0)) for k, (kind, t0) in enumerate(base[0])],
             (functions[0], functions[1] or _zero(functions[0])), (outlines[0], outlines[1] or _zero(outlines[0]))), dlocal
@@ -408,12 +422,9 @@ def tangents(model, paths, base=None) -> list:
     """Per design parameter path, the tangent of the model's tables along it
     in the format of ``_tangent`` (the tables are affine in the case's
     numbers: a design's tables are the nominal ones plus the sum over p of
-    (value - nominal) x tangent_p); ``base``: the model's ``_tables`` when
-    the caller has them."""
-    case = model.case
-    listed = resolve(case, list(paths))
-    base = base or model.tables
-    return [_tangent(case, model.length, base, p, moved, h) for p, (moved, h) in zip(listed, _moved(case, listed))]
+    (value - nominal) x tangent_p), built as the sensitivities' (``_parts``);
+    ``base``: the model's tables (Model.tables), as the tangents take them."""
+    return [_full(base or model.tables, part) for part in _parts(model, resolve(model.case, list(paths)))]
 
 
 def _moved_tangent(case, length, base, p, moved, step):
