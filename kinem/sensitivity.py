@@ -25,6 +25,7 @@ floor, kinem.options.singular_pivot) the derivatives are infinite: they are
 reported as inf, flagged in ``singular`` and named in ``message``.
 """
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, is_dataclass, replace
 
 import numpy as np
@@ -124,8 +125,42 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
                    "the derivatives there are infinite")
     heads = [f"d({c})/d(" for c in columns]
     names = tuple([h + path for path in [p.path + ")" for p in listed] for h in heads])
-    derivatives = Trajectory(t.copy(), names, data, dict(zip(names, range(len(names)))))
+    derivatives = Trajectory(t.copy(), names, data, _Places(columns, [p.path for p in listed]))
     return Sensitivity(listed, traj, derivatives, singular, ratio, message)
+
+
+class _Places(Mapping):
+    """The derivatives' column index (Trajectory._index): ``d(C)/d(P)`` ->
+    its place, k * width + j for parameter k and column j, from the
+    columns' and the parameters' own places (not a dict of every name)."""
+
+    def __init__(self, columns, paths):
+        self.columns, self.paths = columns, paths
+        self.column = {c: j for j, c in enumerate(columns)}
+        self.parameter = {p: k for k, p in enumerate(paths)}
+
+    def __getitem__(self, name):
+        if isinstance(name, str) and name.startswith("d(") and name.endswith(")"):
+            at = name.find(")/d(")
+            while at >= 0:   # a column or a path holding ")/d(" itself: every split tried
+                j, k = self.column.get(name[2:at]), self.parameter.get(name[at + 4:-1])
+                if j is not None and k is not None:
+                    return k * len(self.columns) + j
+                at = name.find(")/d(", at + 1)
+        raise KeyError(name)
+
+    def __contains__(self, name) -> bool:
+        try:
+            self[name]
+        except KeyError:
+            return False
+        return True
+
+    def __iter__(self):
+        return (f"d({c})/d({p})" for p in self.paths for c in self.columns)
+
+    def __len__(self) -> int:
+        return len(self.columns) * len(self.paths)
 
 
 def core_inputs(model, listed, result) -> tuple:

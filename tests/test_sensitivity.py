@@ -442,3 +442,23 @@ def test_the_time_limit_holds_for_the_whole_call(monkeypatch):
     monkeypatch.setattr(S, "_fused", spent)
     with pytest.raises(AnalysisError, match="time limit"):
         sensitivity(model, path, options=options)
+
+
+def test_derivative_columns_are_found_by_name():
+    """The derivatives' column index is computed from the columns' and the
+    parameters' places (kinem.sensitivity._Places), not stored per name:
+    every name finds its own column, in the columns' order, and a name
+    that is none is not found (an UnknownColumn with a suggestion)."""
+    from kinem.errors import UnknownColumn
+
+    model = kinem.compile(kinem.load(ROOT / "cases" / "four_bar.toml"))
+    paths = [p.path for p in parameters(model.case)][:3]
+    d = sensitivity(model, paths).derivatives
+    assert list(d._index) == list(d.columns) and len(d._index) == len(d.columns) == 3 * len(d.columns) // 3
+    for k, name in enumerate(d.columns):
+        assert d._index[name] == k and name in d
+        assert np.array_equal(d[name], d.data[:, k], equal_nan=True)
+    for bad in ("B.x", f"d(B.x)/d({paths[0]}", f"d(nothing)/d({paths[0]})", "d(B.x)/d(points.nowhere.at.0)", 3):
+        assert bad not in d
+    with pytest.raises(UnknownColumn, match="did you mean"):
+        d[f"d(B.x)/d({paths[0]}.0)"]
