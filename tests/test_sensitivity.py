@@ -462,3 +462,23 @@ def test_derivative_columns_are_found_by_name():
         assert bad not in d
     with pytest.raises(UnknownColumn, match="did you mean"):
         d[f"d(B.x)/d({paths[0]}.0)"]
+
+
+@pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
+def test_compile_keeps_the_tables_the_tangents_move(path):
+    """compile keeps the families' tables with every function and outline
+    its own number (Model.tables, what the tangents move), read-only: the
+    same as those built again from the case (kinem.sensitivity._tables),
+    column by column to the bit, with the same functions and outlines
+    numbered by each family."""
+    import importlib
+
+    S = importlib.import_module("kinem.sensitivity")
+    model = kinem.compile(kinem.load(path))
+    kept, again = model.tables, S._tables(model.case, model.length)
+    assert [k for k, _ in kept[0]] == [k for k, _ in again[0]] and kept[3] == again[3]
+    for a, b in [(x[1], y[1]) for x, y in zip(kept[0], again[0])] + [(kept[1], again[1]), (kept[2], again[2])]:
+        assert a.keys() == b.keys()
+        for key in a:
+            assert a[key].dtype == b[key].dtype and S._same(a[key], b[key]), key
+            assert not a[key].flags.writeable, key
