@@ -482,3 +482,21 @@ def test_compile_keeps_the_tables_the_tangents_move(path):
         for key in a:
             assert a[key].dtype == b[key].dtype and S._same(a[key], b[key]), key
             assert not a[key].flags.writeable, key
+
+
+@pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
+def test_the_cores_tables_taken_from_the_kept_ones_are_those_made_again(path):
+    """compile gives the core its tables, equal functions and outlines
+    sharing a number, with their arrays taken from the tables it keeps
+    (kinem.model.core_tables(..., separate)), no spline fitted twice: the
+    same, to the bit, as the shared tables made again from the families."""
+    from kinem.model import core_tables
+
+    model = kinem.compile(kinem.load(path))
+    taken, made = core_tables(model.families, separate=model.tables), core_tables(model.families)
+    assert [k for k, _ in taken[0]] == [k for k, _ in made[0]]
+    for a, b in [(x[1], y[1]) for x, y in zip(taken[0], made[0])] + [(taken[1], made[1]), (taken[2], made[2])]:
+        assert a.keys() == b.keys()
+        for key in a:
+            assert a[key].dtype == b[key].dtype and a[key].shape == b[key].shape, key
+            assert a[key].tobytes() == b[key].tobytes(), key
