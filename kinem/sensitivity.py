@@ -542,12 +542,15 @@ def _direct(model, items) -> dict:
         return {}
     functions, outlines = base[1], base[2]
     numbered = [o for f in base[3] for o in f[1]]
-    kinds = [type(f) for f in model.families]
+    kinds, by_id = [type(f) for f in model.families], None
     out = {}
     for k, p in items:
         parts = p.path.split(".")
-        c = next((c for c in case.constraints if constraint_id(c) == parts[1]), None) if len(parts) > 2 else None
-        if c is None or parts[0] != "constraints":
+        if parts[0] != "constraints" or len(parts) < 3:
+            continue
+        by_id = by_id or {constraint_id(c): c for c in reversed(case.constraints)}   # the first of an id
+        c = by_id.get(parts[1])
+        if c is None:
             continue
         if (c.type, parts[2:3], len(parts)) in (("ground", ["value"], 4), ("absolute", ["value"], 3)):
             place = kinds.index(REGISTRY[c.type].family)
