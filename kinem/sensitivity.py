@@ -536,9 +536,10 @@ def _direct(model, items) -> dict:
     function Poly((value,)) its row numbered), an outline's ``center.k``
     (its centre: 1 or i) and a circle's ``circle.radius`` (its one piece's
     constant coefficient), where the tables hold the nominal value there.
-    Not in a case in degrees (its angles' values are converted)."""
+    Not in a case in degrees (its angles' values are converted) nor one
+    with drawn bodies (the ground's value places a drawn frame too)."""
     case, base = model.case, model.tables
-    if case.units.get("angle") == "deg":
+    if case.units.get("angle") == "deg" or any(b.carries for b in case.bodies):
         return {}
     functions, outlines = base[1], base[2]
     numbered = [o for f in base[3] for o in f[1]]
