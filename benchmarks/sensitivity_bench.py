@@ -9,8 +9,9 @@ and of wall time. Per case: the core's part (Plan.sensitivity with
 kinem.sensitivity.core_inputs) per instant and parameter against the plain
 solve per instant (the core's part with its own factorisation at every
 instant: kinem.sensitivity uses the march's, Plan.march_sensitivity), and
-the tables' tangents built in Python (kinem.sensitivity.tangent_inputs).
-Then the four-bar's tolerance bands (kinem.tolerance,
+the tables' tangents built in Python (kinem.sensitivity.tangent_inputs),
+and the Python part of a call: its CPU time less the core's fused pass in
+it (Plan.march_sensitivity, timed inside the call: ``Split``). Then the four-bar's tolerance bands (kinem.tolerance,
 its [tolerances]): N Monte Carlo samples over its 251 instants, median of
 min(REPEATS, 3) runs (the target: 10,000 in 5 s).
 
@@ -31,17 +32,50 @@ from kinem.tolerance import tolerance
 CASES = ("slider_crank", "four_bar", "quick_return_1", "cam_table41")
 
 
+class Split:
+    """A model's Plan with its fused pass (march_sensitivity) timed: ``core``
+    accumulates the CPU seconds spent in it."""
+
+    def __init__(self, plan):
+        self.plan, self.core = plan, 0.0
+
+    def __getattr__(self, name):
+        return getattr(self.plan, name)
+
+    def march_sensitivity(self, *args):
+        c = time.process_time()
+        try:
+            return self.plan.march_sensitivity(*args)
+        finally:
+            self.core += time.process_time() - c
+
+
+def python_part(name, paths):
+    """() -> the CPU seconds of one kinem.sensitivity call outside the core's
+    fused pass, on its own compiled model (its plan a ``Split``)."""
+    model = kinem.compile(kinem.load(f"cases/{name}.toml"))
+    split = model.__dict__["plan"] = Split(model.plan)   # the cached Plan, wrapped
+
+    def run():
+        split.core = 0.0
+        c = time.process_time()
+        sensitivity(model, paths)
+        return time.process_time() - c - split.core
+    return run
+
+
 def medians(fns: dict, repeats: int) -> dict:
     """name -> (median CPU seconds, median wall seconds), round-robin, each
-    timed call right after an untimed one of the same callable."""
+    timed call right after an untimed one of the same callable (a callable
+    that returns a number: that is its CPU seconds)."""
     cpu, wall = {k: [] for k in fns}, {k: [] for k in fns}
     for _ in range(max(1, repeats)):
         for k, fn in fns.items():
             gc.collect()
             fn()
             c, w = time.process_time(), time.perf_counter()
-            fn()
-            cpu[k].append(time.process_time() - c)
+            own = fn()
+            cpu[k].append(own if isinstance(own, float) else time.process_time() - c)
             wall[k].append(time.perf_counter() - w)
     return {k: (statistics.median(cpu[k]), statistics.median(wall[k])) for k in fns}
 
@@ -59,16 +93,18 @@ def main(repeats=7, samples=2000):
             args = core_inputs(model, listed, result)
             r = medians({"solve": lambda: kinem.solve(model), "sensitivity": lambda: sensitivity(model, paths),
                          "core": lambda: model.plan.sensitivity(*args),
-                         "tangents": lambda: tangent_inputs(model, listed)}, repeats)
+                         "tangents": lambda: tangent_inputs(model, listed),
+                         "python": python_part(name, paths)}, repeats)
             (solve, solve_wall), (sens, sens_wall), (core, _) = r["solve"], r["sensitivity"], r["core"]
-            tangents = r["tangents"][0]
+            tangents, python = r["tangents"][0], r["python"][0]
             ratio, bound = sens / solve, 1 + 0.5 * count
             say(f"{name:15s} P={count:3d}  solve {solve * 1e3:6.2f} ms ({solve_wall * 1e3:6.2f})  "
                 f"sensitivity {sens * 1e3:7.2f} ms ({sens_wall * 1e3:7.2f})  ratio {ratio:6.2f} "
                 f"({sens_wall / solve_wall:6.2f})  bound {bound:5.1f}  {'ok' if ratio <= bound else 'OVER'}  "
                 f"core {core * 1e3:6.2f} ms: {1e6 * core / (instants * count):5.2f} us per instant and parameter, "
                 f"the solve {1e6 * solve / instants:5.2f} us per instant ({instants} instants); "
-                f"tangents (Python) {tangents * 1e3:5.2f} ms")
+                f"tangents (Python) {tangents * 1e3:5.2f} ms; "
+                f"Python part of a call {python * 1e3:5.2f} ms ({python / solve:4.2f} solves)")
     model = kinem.compile(kinem.load("cases/four_bar.toml"))
     runs = min(repeats, 3)
     seconds, every, b = rounds({"tolerance": timed(lambda: tolerance(model, samples=samples, outputs=["B.x", "B.y"]))},

@@ -175,6 +175,8 @@ class Model:
     _csc: tuple = field(repr=False, default=None)
     _zero: np.ndarray = field(repr=False, default=None)  # zeros (nnz,), intp
     core: native.Core = field(repr=False, default=None)  # the compiled evaluation (kinem._core)
+    # separate_tables (read-only): the tables the tangents of kinem.sensitivity and kinem.variants move
+    tables: tuple = field(repr=False, default=None)
 
     def __repr__(self) -> str:
         """One line: the case, its size and its families (not the case's whole text)."""
@@ -421,20 +423,84 @@ class Model:
                    default=0.0)
 
 
-def core_tables(families, share: bool = True) -> tuple:
+def core_tables(families, share: bool = True, separate=None) -> tuple:
     """The families' tables (Family.table), the model's driving functions
-    and outlines (equal ones share a number unless ``share`` is False)."""
+    and outlines (equal ones share a number unless ``share`` is False);
+    their arrays taken from ``separate`` (the same families'
+    ``separate_tables``) when given, not made again."""
     functions, outlines = FunctionTable(share), OutlineTable(share)
     tables = [f.table(functions, outlines) for f in families]
-    return tables, functions.arrays(), outlines.arrays()
+    if separate is None:
+        return tables, functions.arrays(), outlines.arrays()
+    return (tables, _taken_functions(functions.functions, separate),
+            _taken_outlines(outlines.outlines, separate))
 
 
-def core_of(families, n: int, n_bodies: int, artificial: int) -> native.Core:
-    """The compiled core of the families: their tables, and the model's
-    angle columns (every body's phi, every artificial coordinate: e^{i q} of
-    those is computed once per configuration)."""
+def _first_places(items, listed) -> np.ndarray:
+    """Where each of ``items`` is first in ``listed`` (by identity)."""
+    first = {}
+    for k, x in enumerate(listed):
+        first.setdefault(id(x), k)
+    return np.array([first[id(x)] for x in items], np.intp)
+
+
+def _runs(lo, hi) -> np.ndarray:
+    """The indices lo[0] .. hi[0] - 1, lo[1] .. hi[1] - 1, ... end to end."""
+    return np.concatenate([np.arange(a, b) for a, b in zip(lo, hi)]) if len(lo) else np.zeros(0, np.intp)
+
+
+def _taken_functions(functions, separate) -> dict:
+    """FunctionTable.arrays of ``functions`` (each numbered by the separate
+    tables too) from the separate tables' arrays: the same numbers."""
+    u = _first_places(functions, [x for f, _ in separate[3] for x in f])
+    f = separate[1]
+    lo, hi = f["start"][u], f["start"][u + 1]
+    return {"kind": f["kind"][u], "start": np.concatenate([[0], np.cumsum(hi - lo)]).astype(np.int64),
+            "data": f["data"][_runs(lo, hi)]}
+
+
+def _taken_outlines(outlines, separate) -> dict:
+    """OutlineTable.arrays of ``outlines`` from the separate tables' arrays
+    (no spline fitted again): the same numbers."""
+    u = _first_places(outlines, [x for _, o in separate[3] for x in o])
+    o = separate[2]
+    lo, hi = o["first"][u], o["last"][u] + 1
+    first = np.cumsum(hi - lo) - (hi - lo)
+    pieces = _runs(lo, hi)
+    return {"first": first, "last": first + (hi - lo) - 1, "t0": o["t0"][u], "span": o["span"][u],
+            "periodic": o["periodic"][u], "center": o["center"][u], "starts": o["starts"][pieces],
+            "coef": o["coef"].reshape(-1, 4)[pieces].ravel()}
+
+
+def separate_tables(families) -> tuple:
+    """The families' tables with every function and outline its own number
+    (so that a moved one keeps its place: kinem.sensitivity's tangents are
+    taken against them), and which functions and outlines each family
+    numbered: (tables, functions, outlines, numbered)."""
+    functions, outlines = FunctionTable(False), OutlineTable(False)
+    tables, numbered = [], []
+    for f in families:
+        before = len(functions.functions), len(outlines.outlines)
+        tables.append(f.table(functions, outlines))
+        numbered.append((tuple(functions.functions[before[0]:]), tuple(outlines.outlines[before[1]:])))
+    return tuple(tables), functions.arrays(), outlines.arrays(), tuple(numbered)
+
+
+def _frozen_tables(tables) -> tuple:
+    """``separate_tables``' result with its arrays read-only."""
+    for d in [t for _, t in tables[0]] + [tables[1], tables[2]]:
+        for v in d.values():
+            v.flags.writeable = False
+    return tables
+
+
+def core_of(families, n: int, n_bodies: int, artificial: int, separate=None) -> native.Core:
+    """The compiled core of the families: their tables (functions and
+    outlines from ``separate`` when given: ``core_tables``), and the
+    model's angle columns (every body's phi, every artificial coordinate:
+    e^{i q} of those is computed once per configuration)."""
     angles = np.concatenate([3 * np.arange(n_bodies) + 2, 3 * n_bodies + np.arange(artificial)]).astype(np.int64)
-    return native.Core(n, *core_tables(families), angles)
+    return native.Core(n, *core_tables(families, separate=separate), angles)
 
 
 def families_of(case: Case, length: float) -> tuple:
@@ -478,6 +544,7 @@ def compile(case: Case) -> Model:
     col_scale[: ctx.n] = np.tile([ctx.length, ctx.length, 1.0], len(case.bodies))
     scale = np.concatenate([np.asarray(f.scale, float) for f in families])
 
+    separate = _frozen_tables(separate_tables(families))
     model = Model(
         case=case, families=families, n=n, m=r, coordinate_names=tuple(names), q0=q0,
         row_labels=tuple(x for f in families for x in f.labels),
@@ -490,7 +557,8 @@ def compile(case: Case) -> Model:
         point_local=local_points([p.at for p in case.points]),
         artificial=tuple(label for label, _ in ctx.artificial),
         _csc=csc, _zero=np.zeros(len(jac_rows), np.intp),
-        core=core_of(families, n, len(case.bodies), len(ctx.artificial)),
+        core=core_of(families, n, len(case.bodies), len(ctx.artificial), separate),
+        tables=separate,
     )
     for a in (model.q0, model.driving, model.scale, model.jac_rows, model.jac_cols,
               model.point_cols, model.point_local, model.col_scale, model.entry_scale):

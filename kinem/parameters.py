@@ -70,10 +70,13 @@ def parameters(case: Case) -> tuple[Parameter, ...]:
 def resolve(case: Case, paths) -> tuple[Parameter, ...]:
     """The parameters named by ``paths`` (in order, each once), or one
     InputError naming the case file and every bad path."""
-    known = dict(_listing(case))
-    by_path = {p.path: p for p in known}
+    paths, near = list(dict.fromkeys(paths)), {}
+    found = [_find(case, path, near) for path in paths]
+    if None not in found:
+        return tuple(found)
+    by_path = {p.path: p for p, _ in _listing(case)}
     problems, out = [], []
-    for path in dict.fromkeys(paths):
+    for path in paths:
         if path in by_path:
             out.append(by_path[path])
         else:
@@ -249,48 +252,88 @@ def _listing(case):
     for c in case.constraints:
         for point in c.refs.values():
             read.setdefault(point, {})[constraint_id(c)] = None
-    length = case.length_unit
-    points = []
-    for p in case.points:
-        if p.name not in read:
-            continue
-        for k, axis in enumerate(("x", "y") if p.drawn else ("xi", "eta")):
-            if p.drawn:
-                on = [b.name for b in case.bodies if p.name in dict(b.carries)]
-                what = (f"{axis} of point {p.name} drawn in the global frame, on {', '.join(on)} "
-                        f"(read by {', '.join(read[p.name])})")
-                points.append(Parameter(f"points.{p.name}.at.{k}", float(p.drawn[k]), length, what))
-            else:
-                points.append(Parameter(f"points.{p.name}.at.{k}", float(p.at[k]), length,
-                                        f"{axis} of point {p.name} on body {p.body} (read by {', '.join(read[p.name])})"))
-    cons = []
-    for c in case.constraints:
-        cid = constraint_id(c)
-        for key in REGISTRY[c.type].keys:
-            if key.name not in c.fields or key.name in c.refs:
-                continue
-            for sub, value, unit in _numbers(case, c, key):
-                path = ".".join(x for x in ("constraints", cid, key.name, sub) if x)
-                what = f"{c.type} {cid}: {key.name}" + (f".{sub}" if sub else "") + (f" ({key.doc})" if key.doc else "")
-                cons.append(Parameter(path, value, unit, what))
+    points = [q for p in case.points if p.name in read for q in _of_point(case, p, read[p.name])]
+    cons = [q for c in case.constraints for key in REGISTRY[c.type].keys for q in _of_key(case, c, key)]
     known = {p.path: p for p in points + cons}
-    for name, value in case.parameters.items():
-        used = case.uses.get(name, ())
-        shaped = [u for u in used if u in known]
-        unit = known[shaped[0]].unit if shaped else ""
-        what = (f"named dimension {name} of [parameters], used by {', '.join(used)}" if used
-                else f"named dimension {name} of [parameters], used by no number of the case")
-        yield Parameter(f"parameters.{name}", float(value), unit, what), None
+    for name in case.parameters:
+        yield _named(case, name, known.get), None
     for p in points + cons:
         yield p, None
+
+
+def _find(case, path, near=None):
+    """The parameter at ``path`` from the one point, constraint key or named
+    dimension it names (as ``_listing`` lists it), without listing the
+    others; None when it is none. ``near``: a dict keeping, for one call's
+    paths, the parameters of each point and key already listed (and under
+    "#", the constraints by their ids)."""
+    near = {} if near is None else near
+    parts = path.split(".") if isinstance(path, str) else []
+    if parts[:1] == ["parameters"] and len(parts) == 2 and parts[1] in case.parameters:
+        return _named(case, parts[1], lambda use: _find(case, use, near))
+    head = tuple(parts[:3])
+    found = near.get(head)
+    if found is None:
+        found = near[head] = {q.path: q for q in _near(case, parts, near)}
+    return found.get(path)
+
+
+def _near(case, parts, near) -> list:
+    """The parameters of the point or constraint key that ``parts`` (a path split) names."""
+    if parts[:1] == ["points"] and len(parts) == 4:
+        p = next((q for q in case.points if q.name == parts[1]), None)
+        read = dict.fromkeys(constraint_id(c) for c in case.constraints if parts[1] in c.refs.values())
+        return _of_point(case, p, read) if p is not None and read else []
+    if parts[:1] == ["constraints"] and len(parts) >= 3:
+        if "#" not in near:
+            near["#"] = {constraint_id(c): c for c in case.constraints}
+        c = near["#"].get(parts[1])
+        key = next((k for k in REGISTRY[c.type].keys if k.name == parts[2]), None) if c is not None else None
+        return _of_key(case, c, key) if key is not None else []
+    return []
+
+
+def _of_point(case, p, read) -> list:
+    """The parameters of point p, read by the constraints ``read`` (their ids)."""
+    out = []
+    for k, axis in enumerate(("x", "y") if p.drawn else ("xi", "eta")):
+        if p.drawn:
+            on = [b.name for b in case.bodies if p.name in dict(b.carries)]
+            what = (f"{axis} of point {p.name} drawn in the global frame, on {', '.join(on)} "
+                    f"(read by {', '.join(read)})")
+            out.append(Parameter(f"points.{p.name}.at.{k}", float(p.drawn[k]), case.length_unit, what))
+        else:
+            out.append(Parameter(f"points.{p.name}.at.{k}", float(p.at[k]), case.length_unit,
+                                 f"{axis} of point {p.name} on body {p.body} (read by {', '.join(read)})"))
+    return out
+
+
+def _of_key(case, c, key) -> list:
+    """The parameters of constraint c's key (none for a key naming a point or not given)."""
+    if key.name not in c.fields or key.name in c.refs:
+        return []
+    cid, doc = constraint_id(c), f" ({key.doc})" if key.doc else ""
+    head = f"constraints.{cid}.{key.name}"
+    return [Parameter(f"{head}.{sub}" if sub else head, value, unit,
+                      f"{c.type} {cid}: {key.name}.{sub}{doc}" if sub else f"{c.type} {cid}: {key.name}{doc}")
+            for sub, value, unit in _numbers(case, c, key)]
+
+
+def _named(case, name, known) -> Parameter:
+    """The named dimension ``parameters.<name>``; ``known``: path -> its Parameter or None."""
+    used = case.uses.get(name, ())
+    unit = next((q.unit for q in map(known, used) if q is not None), "")
+    what = (f"named dimension {name} of [parameters], used by {', '.join(used)}" if used
+            else f"named dimension {name} of [parameters], used by no number of the case")
+    return Parameter(f"parameters.{name}", float(case.parameters[name]), unit, what)
 
 
 def _numbers(case, c, key):
     """(sub-path, value, unit) of key's numbers in constraint c, in the file's
     units: an angle of a case in degrees is in degrees."""
-    degrees = case.units.get("angle") == "deg"
+    degrees, length = case.units.get("angle") == "deg", case.length_unit
     for sub, value, quantity in key.numbers(c.fields[key.name]):
-        unit = _unit(quantity, c, case.length_unit)
+        unit = _unit(quantity, c, length)
         if degrees and unit.startswith("rad"):
             value, unit = value / DEGREE, "deg" + unit[3:]
         yield sub, float(value), unit

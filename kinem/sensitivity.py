@@ -24,6 +24,8 @@ At an instant where Phi_q is singular (its pivot ratio below the solver's
 floor, kinem.options.singular_pivot) the derivatives are infinite: they are
 reported as inf, flagged in ``singular`` and named in ``message``.
 """
+import time
+from collections.abc import Mapping
 from dataclasses import dataclass, is_dataclass, replace
 
 import numpy as np
@@ -32,7 +34,7 @@ from . import native
 from .errors import AnalysisError, InputError, KinemError
 from .constraints import REGISTRY
 from .functions import FunctionTable
-from .model import _Context, families_of
+from .model import _Context, families_of, separate_tables
 from .outline import Outline, OutlineTable
 from .options import Options, singular_pivot
 from .parameters import apply_many, constraint_id, driver_tangent, frame_tangent, local_tangent, resolve
@@ -85,6 +87,9 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     Raises InputError for an unknown path, AnalysisError when the nominal
     solve fails."""
     case = model.case
+    options = model.options if options is None else options
+    if isinstance(options, Options) and options.max_seconds is not None and options.started is None:
+        options = replace(options, started=time.perf_counter())   # the time limit holds for the whole call
     paths = [parameters] if isinstance(parameters, str) else list(parameters)
     if not paths:
         raise InputError(f"{case.source}: sensitivity: no parameters; expected one or more parameter paths")
@@ -110,7 +115,7 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     width = len(columns)
     for k, p in enumerate(listed):
         _derived_frames(case, p.path, columns, data[:, k * width:(k + 1) * width], traj)
-    floor = singular_pivot((options or Options.of(case)).tolerance)
+    floor = singular_pivot(options.tolerance)
     singular = ~(ratio >= floor)
     message = "exact at every instant"
     if singular.any():
@@ -119,8 +124,43 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
         message = (f"Phi_q singular (pivot ratio below {floor:.2g}) at {int(singular.sum())} instant(s), t = {at}: "
                    "the derivatives there are infinite")
     heads = [f"d({c})/d(" for c in columns]
-    names = tuple(h + path for path in [p.path + ")" for p in listed] for h in heads)
-    return Sensitivity(listed, traj, Trajectory(t.copy(), names, data), singular, ratio, message)
+    names = tuple([h + path for path in [p.path + ")" for p in listed] for h in heads])
+    derivatives = Trajectory(t.copy(), names, data, _Places(columns, [p.path for p in listed]))
+    return Sensitivity(listed, traj, derivatives, singular, ratio, message)
+
+
+class _Places(Mapping):
+    """The derivatives' column index (Trajectory._index): ``d(C)/d(P)`` ->
+    its place, k * width + j for parameter k and column j, from the
+    columns' and the parameters' own places (not a dict of every name)."""
+
+    def __init__(self, columns, paths):
+        self.columns, self.paths = columns, paths
+        self.column = {c: j for j, c in enumerate(columns)}
+        self.parameter = {p: k for k, p in enumerate(paths)}
+
+    def __getitem__(self, name):
+        if isinstance(name, str) and name.startswith("d(") and name.endswith(")"):
+            at = name.find(")/d(")
+            while at >= 0:   # a column or a path holding ")/d(" itself: every split tried
+                j, k = self.column.get(name[2:at]), self.parameter.get(name[at + 4:-1])
+                if j is not None and k is not None:
+                    return k * len(self.columns) + j
+                at = name.find(")/d(", at + 1)
+        raise KeyError(name)
+
+    def __contains__(self, name) -> bool:
+        try:
+            self[name]
+        except KeyError:
+            return False
+        return True
+
+    def __iter__(self):
+        return (f"d({c})/d({p})" for p in self.paths for c in self.columns)
+
+    def __len__(self) -> int:
+        return len(self.columns) * len(self.paths)
 
 
 def core_inputs(model, listed, result) -> tuple:
@@ -138,9 +178,24 @@ def tangent_inputs(model, listed) -> tuple:
     """What the core's sensitivities take beside the instants: (the model's
     tables, each parameter's tangents, the Jacobian's pattern (rows, cols),
     the named points' columns, local coordinates and tangents)."""
-    case = model.case
-    base = _tables(case, model.length)
+    base, parts = model.tables, _parts(model, listed)
+    dlocal = np.array([d for _, d in parts], complex).reshape(len(parts), len(model.point_names))
+    core = [([(k, d) for k, _, _, d in families], functions[1], outlines[1])
+            for (families, functions, outlines), _ in parts]
+    return (base[:3], core, (np.asarray(model.jac_rows, np.int64), np.asarray(model.jac_cols, np.int64)),
+            (np.asarray(model.point_cols, np.int64), model.point_local, dlocal))
+
+
+def _parts(model, listed) -> list:
+    """Per parameter of ``listed`` its tangent as ``_moved_tangent`` gives
+    it (only the families it moves), each the cheapest exact way: a spline
+    outline's values from one spline, a unit of the function or outline
+    table taken directly, a family built once for all the parameters that
+    move it, the moved driving functions numbered once; else its own moved
+    case's families rebuilt."""
+    case, base = model.case, model.tables
     parts = _spline_tangents(case, listed, base)
+    parts.update(_direct(model, [(k, p) for k, p in enumerate(listed) if k not in parts]))
     rest = [k for k in range(len(listed)) if k not in parts]
     items = [(k, listed[k], moved, h) for k, (moved, h) in zip(rest, _moved(case, [listed[k] for k in rest]))]
     parts.update(_stacked(case, model.length, base, items))
@@ -148,12 +203,7 @@ def tangent_inputs(model, listed) -> tuple:
     for k, p, moved, h in items:
         if k not in parts:
             parts[k] = _moved_tangent(case, model.length, base, p, moved, h)
-    parts = [parts[k] for k in range(len(listed))]
-    dlocal = np.array([d for _, d in parts], complex).reshape(len(parts), len(model.point_names))
-    core = [([(k, d) for k, _, _, d in families], functions[1], outlines[1])
-            for (families, functions, outlines), _ in parts]
-    return (base[:3], core, (model.jac_rows.astype(np.int64), model.jac_cols.astype(np.int64)),
-            (model.point_cols.astype(np.int64), model.point_local, dlocal))
+    return [parts[k] for k in range(len(listed))]
 
 
 def _instant_inputs(model, tangents, result) -> tuple:
@@ -217,23 +267,16 @@ def _derived_frames(case, path, columns, block, traj):
 
 
 def _tables(case, length):
-    """The model's tables, every function and outline its own number (so
-    that a moved one keeps its place), and which functions and outlines
-    each family numbered: (tables, functions, outlines, numbered)."""
-    families, _ = families_of(case, length)
-    functions, outlines = FunctionTable(False), OutlineTable(False)
-    tables, numbered = [], []
-    for f in families:
-        before = len(functions.functions), len(outlines.outlines)
-        tables.append(f.table(functions, outlines))
-        numbered.append((functions.functions[before[0]:], outlines.outlines[before[1]:]))
-    return tables, functions.arrays(), outlines.arrays(), numbered
+    """The tables of ``case`` as the Model keeps them (kinem.model.separate_tables)."""
+    return separate_tables(families_of(case, length)[0])
 
 
 def _moved(case, listed):
     """(the case with p moved by h, h) for each parameter p: h a power of
     two near |p| / 2 (-h where +h is not a valid case), each case set in
     place where it can be, else validated (``cases_of``)."""
+    if not listed:
+        return []
     steps = [2.0 ** (np.floor(np.log2(abs(p.value))) - 1) if p.value else 0.5 for p in listed]
     # drivers of drawn frames that p turns (none where p moves no frame: kinem.parameters.driver_tangent)
     turned = [driver_tangent(case, p.path) if frame_tangent(case, p.path) else {} for p in listed]
@@ -257,7 +300,8 @@ def cases_of(case, designs, pinned=False) -> list:
     """Per design ({path: value}) its Case: set in place where ``in_place``
     can, else built and validated by kinem.parameters.apply_many (``pinned``
     as there); or the InputError that refuses it."""
-    moved = [in_place(case, values) for values in designs]
+    lookup = _lookup(case) if case.units.get("angle") != "deg" and not any(b.carries for b in case.bodies) else None
+    moved = [_all_set(case, values, lookup) if lookup else None for values in designs]
     slow = [values for values, m in zip(designs, moved) if m is None]
     built = iter(apply_many(case, slow, pinned=pinned) if slow else ())
     return [m if m is not None else next(built) for m in moved]
@@ -277,11 +321,12 @@ def _replaced(case, path, value):
     return _all_set(case, {path: value})
 
 
-def _all_set(case, values):
-    if any(b.carries for b in case.bodies):
+def _all_set(case, values, lookup=None):
+    if lookup is None and any(b.carries for b in case.bodies):
         return None
+    lookup = lookup or _lookup(case)
     points, constraints = list(case.points), list(case.constraints)
-    if not all(_set(points, constraints, path, value) for path, value in values.items()):
+    if not all(_set(points, constraints, path, value, lookup) for path, value in values.items()):
         return None
     return _with(case, points=tuple(points), constraints=tuple(constraints))
 
@@ -295,7 +340,18 @@ def _with(obj, **fields):
     return new
 
 
-def _set(points, constraints, path, value) -> bool:
+def _lookup(case) -> tuple:
+    """What ``_set`` looks up in a case's lists: (constraint id -> its place,
+    point -> its place, point -> the places of the constraints that read it)."""
+    ids, readers = {}, {}
+    for i, c in enumerate(case.constraints):
+        ids.setdefault(constraint_id(c), i)
+        for point in dict.fromkeys(c.refs.values()):
+            readers.setdefault(point, []).append(i)
+    return ids, {q.name: j for j, q in enumerate(case.points)}, readers
+
+
+def _set(points, constraints, path, value, lookup) -> bool:
     """Sets the number at ``path`` to ``value`` in the lists of a case's
     points and constraints without re-validating it; False (lists
     untouched) for any other path: ``points.P.at.k`` (the point and every
@@ -303,17 +359,18 @@ def _set(points, constraints, path, value) -> bool:
     that names no point or ``constraints.C.KEY`` of a scalar key. The
     tables read these numbers as given and are affine in them (h keeps the
     number's sign), so the tangent is the one a validated case gives
-    (tests/test_sensitivity.py compares them)."""
+    (tests/test_sensitivity.py compares them). ``lookup``: the case's ``_lookup``."""
+    ids, at, readers = lookup
     parts = path.split(".")
-    if len(parts) == 3 and parts[0] == "constraints":
-        for i, c in enumerate(constraints):
-            v = c.fields.get(parts[2])
-            if constraint_id(c) == parts[1] and isinstance(v, float) and parts[2] not in c.refs:
-                constraints[i] = _with(c, fields=frozen_map({**c.fields, parts[2]: float(value)}))
-                return True
+    i = ids.get(parts[1]) if parts[0] == "constraints" and len(parts) >= 3 else None
+    if len(parts) == 3 and i is not None:
+        c = constraints[i]
+        if isinstance(c.fields.get(parts[2]), float) and parts[2] not in c.refs:
+            constraints[i] = _with(c, fields=frozen_map({**c.fields, parts[2]: float(value)}))
+            return True
         return False
-    if len(parts) >= 5 and parts[0] == "constraints":
-        return _set_entry(constraints, parts, value)
+    if len(parts) >= 5 and i is not None:
+        return _set_entry(constraints, i, parts, value)
     if len(parts) != 4 or not parts[3].isdigit():
         return False
     k = int(parts[3])
@@ -323,42 +380,38 @@ def _set(points, constraints, path, value) -> bool:
         v[k] = value
         return tuple(v)
 
-    if parts[0] == "points":
-        j = next(j for j, q in enumerate(points) if q.name == parts[1])
+    if parts[0] == "points" and parts[1] in at:
+        j = at[parts[1]]
         if len(points[j].at) <= k:
             return False
-        at = moved(points[j].at)
-        points[j] = _with(points[j], at=at)
-        for i, c in enumerate(constraints):
-            if parts[1] in c.refs.values():
-                constraints[i] = _with(c, fields=frozen_map(
-                    {**c.fields, **{key: at for key, q in c.refs.items() if q == parts[1]}}))
+        moved_at = moved(points[j].at)
+        points[j] = _with(points[j], at=moved_at)
+        for i in readers.get(parts[1], ()):
+            c = constraints[i]
+            constraints[i] = _with(c, fields=frozen_map(
+                {**c.fields, **{key: moved_at for key, q in c.refs.items() if q == parts[1]}}))
         return True
-    if parts[0] != "constraints":
+    if i is None:
         return False
-    for i, c in enumerate(constraints):
-        if constraint_id(c) == parts[1]:
-            v = c.fields.get(parts[2])
-            if parts[2] in c.refs or not isinstance(v, tuple) or len(v) <= k:
-                return False
-            constraints[i] = _with(c, fields=frozen_map({**c.fields, parts[2]: moved(v)}))
-            return True
-    return False
+    c = constraints[i]
+    v = c.fields.get(parts[2])
+    if parts[2] in c.refs or not isinstance(v, tuple) or len(v) <= k:
+        return False
+    constraints[i] = _with(c, fields=frozen_map({**c.fields, parts[2]: moved(v)}))
+    return True
 
 
 # the field of a function's or an outline's number (kinem.casefile.keys: numbers): sub-path head -> field
 _ENTRIES = {"poly": "coeffs", "table": "value", "spline": "s", "center": "center"}
 
 
-def _set_entry(constraints, parts, value) -> bool:
-    """_set for a number inside a function or an outline table:
-    ``constraints.C.KEY.poly.k``, ``.harmonic.NAME``, ``.table.value.k``,
-    ``.circle.radius``, ``.spline.s.k``, ``.center.k`` (a periodic
-    outline's first radius is its last too), or False."""
+def _set_entry(constraints, i, parts, value) -> bool:
+    """_set for a number inside a function or an outline table of
+    constraints[i]: ``constraints.C.KEY.poly.k``, ``.harmonic.NAME``,
+    ``.table.value.k``, ``.circle.radius``, ``.spline.s.k``, ``.center.k``
+    (a periodic outline's first radius is its last too), or False."""
     sub = parts[3:]
-    for i, c in enumerate(constraints):
-        if constraint_id(c) != parts[1]:
-            continue
+    for c in constraints[i:i + 1]:
         v = c.fields.get(parts[2])
         if parts[2] in c.refs or not is_dataclass(v):
             return False
@@ -389,7 +442,12 @@ def _tangent(case, length, base, p, moved, step):
     ((families [(kind, table, tangent)], (functions, tangent), (outlines,
     tangent)), dlocal), every family and every column (zero where p does
     not move it)."""
-    (families, functions, outlines), dlocal = _moved_tangent(case, length, base, p, moved, step)
+    return _full(base, _moved_tangent(case, length, base, p, moved, step))
+
+
+def _full(base, part):
+    """A ``_moved_tangent`` in ``_tangent``'s format: every family, function and outline column, zero where unmoved."""
+    (families, functions, outlines), dlocal = part
     tangent = {k: d for k, _, _, d in families}
     return ([(kind, t0, tangent[k] if k in tangent else _zero(t0)) for k, (kind, t0) in enumerate(base[0])],
             (functions[0], functions[1] or _zero(functions[0])), (outlines[0], outlines[1] or _zero(outlines[0]))), dlocal
@@ -399,12 +457,9 @@ def tangents(model, paths, base=None) -> list:
     """Per design parameter path, the tangent of the model's tables along it
     in the format of ``_tangent`` (the tables are affine in the case's
     numbers: a design's tables are the nominal ones plus the sum over p of
-    (value - nominal) x tangent_p); ``base``: the model's ``_tables`` when
-    the caller has them."""
-    case = model.case
-    listed = resolve(case, list(paths))
-    base = base or _tables(case, model.length)
-    return [_tangent(case, model.length, base, p, moved, h) for p, (moved, h) in zip(listed, _moved(case, listed))]
+    (value - nominal) x tangent_p), built as the sensitivities' (``_parts``);
+    ``base``: the model's tables (Model.tables), as the tangents take them."""
+    return [_full(base or model.tables, part) for part in _parts(model, resolve(model.case, list(paths)))]
 
 
 def _moved_tangent(case, length, base, p, moved, step):
@@ -441,6 +496,8 @@ def _spline_tangents(case, listed, base) -> dict:
     outline's coefficients (OutlineTable's layout: pieces first[o] ..
     last[o], 4 coefficients each), every j of one outline from one
     CubicSpline. No family's table moves (as ``_entries``)."""
+    if not any(".spline.s." in p.path for p in listed):
+        return {}
     from scipy.interpolate import CubicSpline
 
     numbered = [o for f in base[3] for o in f[1]]
@@ -471,44 +528,129 @@ def _spline_tangents(case, listed, base) -> dict:
     return out
 
 
+def _direct(model, items) -> dict:
+    """{k: ``_moved_tangent``} for the parameters of items [(k, p)] whose
+    tangent is one number of the function or outline tables, taken as it
+    is (S5's difference is a unit there, nothing else moves): a ground's
+    ``value.k`` or an absolute constraint's ``value`` (the constant
+    function Poly((value,)) its row numbered), an outline's ``center.k``
+    (its centre: 1 or i) and a circle's ``circle.radius`` (its one piece's
+    constant coefficient), where the tables hold the nominal value there.
+    Not in a case in degrees (its angles' values are converted) nor one
+    with drawn bodies (the ground's value places a drawn frame too)."""
+    case, base = model.case, model.tables
+    if case.units.get("angle") == "deg" or any(b.carries for b in case.bodies):
+        return {}
+    functions, outlines = base[1], base[2]
+    numbered = [o for f in base[3] for o in f[1]]
+    kinds, by_id = [type(f) for f in model.families], None
+    out = {}
+    for k, p in items:
+        parts = p.path.split(".")
+        if parts[0] != "constraints" or len(parts) < 3:
+            continue
+        by_id = by_id or {constraint_id(c): c for c in reversed(case.constraints)}   # the first of an id
+        c = by_id.get(parts[1])
+        if c is None:
+            continue
+        if (c.type, parts[2:3], len(parts)) in (("ground", ["value"], 4), ("absolute", ["value"], 3)):
+            place = kinds.index(REGISTRY[c.type].family)
+            first = model.offsets[place]
+            rows = [r - first for r in range(first, first + model.families[place].n_rows) if model.row_owner[r] == c.name]
+            f = base[0][place][1]["f"][rows[int(parts[3]) if len(parts) == 4 else 0]]
+            start = functions["start"][f]
+            if functions["start"][f + 1] - start != 1 or functions["data"][start] != p.value:
+                continue
+            d = np.zeros_like(functions["data"])
+            d[start] = 1.0
+            out[k] = ([], (functions, {"data": d}), (outlines, {})), _dlocal(case, p)
+            continue
+        o = c.fields.get(parts[2])
+        places = [i for i, x in enumerate(numbered) if x is o]
+        if not isinstance(o, Outline) or not places:
+            continue
+        tangent = _zero(outlines)
+        if parts[3:5] in (["center", "0"], ["center", "1"]) and len(parts) == 5:
+            if any(outlines["center"][i] != complex(*o.center) for i in places):
+                continue
+            tangent["center"][places] = 1.0 if parts[4] == "0" else 1j
+        elif parts[3:] == ["circle", "radius"] and o.kind == "circle":
+            at = [4 * outlines["first"][i] + 3 for i in places]
+            if any(outlines["coef"][j] != o.radius for j in at):
+                continue
+            tangent["coef"][at] = 1.0
+        else:
+            continue
+        out[k] = ([], (functions, {}), (outlines, tangent)), _dlocal(case, p)
+    return out
+
+
 def _stacked(case, length, base, items) -> dict:
     """{k: ``_moved_tangent``} for the parameters of items [(k, p, moved
     case, h)] whose moved case (set in place) changes only constraints of
     families that number no function or outline: each such family built
-    once, over its constraints followed by every moved case's (its table
-    then holds their tables end to end, one row per constraint in order,
-    which its integer columns, the nominal's repeated, and the nominal's
-    own rows confirm; else it is left to ``_moved_tangent``), a parameter's
-    tangent the difference of its rows and the nominal's over h."""
-    order = {}
+    once, over its constraints followed by every parameter's changed ones
+    (each column then holds the nominal's rows, r per constraint, and after
+    them the changed constraints' rows in turn, which the nominal's own
+    rows and the changed ones' integer columns, those of the constraints
+    they replace, confirm; else it is left to ``_moved_tangent``), a
+    parameter's tangent the difference of its constraints' rows and the
+    nominal's over h, zero in the others'."""
+    if not items:
+        return {}
+    order, where, count = {}, [], {}   # family -> its place; per constraint (family, index in it)
     for c in case.constraints:
-        order.setdefault(REGISTRY[c.type].family, len(order))
-    wanted, changed = {}, {}   # family -> [(k, h, its constraints moved)]; k -> families
+        family = REGISTRY[c.type].family
+        order.setdefault(family, len(order))
+        where.append((family, count.get(family, 0)))
+        count[family] = count.get(family, 0) + 1
+    wanted, changed = {}, {}   # family -> [(k, h, [(index in it, moved constraint)])]; k -> families
     for k, p, moved, h in items:
         if (isinstance(moved, InputError) or len(moved.constraints) != len(case.constraints)
                 or moved.bodies is not case.bodies):
             continue
-        families = {REGISTRY[c1.type].family for c0, c1 in zip(case.constraints, moved.constraints) if c0 is not c1}
-        if not families or any(base[3][order[f]] != ([], []) for f in families):
+        moves = {}
+        for (family, j), c0, c1 in zip(where, case.constraints, moved.constraints):
+            if c0 is not c1:
+                moves.setdefault(family, []).append((j, c1))
+        if not moves or any(base[3][order[f]] != ((), ()) for f in moves):
             continue
-        changed[k] = families
-        for f in families:
-            wanted.setdefault(f, []).append((k, h, [c for c in moved.constraints if REGISTRY[c.type].family is f]))
+        changed[k] = set(moves)
+        for family, cons in moves.items():
+            wanted.setdefault(family, []).append((k, h, cons))
     tangents = {}
     for family, moved_lists in wanted.items():
         place = order[family]
-        t0, copies = base[0][place][1], len(moved_lists) + 1
-        nominal = [c for c in case.constraints if REGISTRY[c.type].family is family]
+        t0, n = base[0][place][1], count[family]
+        nominal = [c for c, (f, _) in zip(case.constraints, where) if f is family]
+        ks, hs, indices = [k for k, _, _ in moved_lists], [h for _, h, _ in moved_lists], [
+            [j for j, _ in cons] for _, _, cons in moved_lists]
         functions, outlines, ctx = FunctionTable(False), OutlineTable(False), _Context(case, length)
-        table = family(nominal + [c for _, _, cons in moved_lists for c in cons], ctx).table(functions, outlines)[1]
+        table = family(nominal + [c for _, _, cons in moved_lists for _, c in cons], ctx).table(functions, outlines)[1]
+        rows = {key: len(v) // n for key, v in t0.items()}   # per constraint
         if functions.functions or outlines.outlines or ctx.artificial or table.keys() != t0.keys() or not all(
-                len(table[key]) == copies * len(v) and _same(table[key][:len(v)], v)
-                and (v.dtype.kind not in "iu" or _same(table[key], np.concatenate([v] * copies)))
-                for key, v in t0.items()):
+                len(v) == rows[key] * n and len(table[key]) == len(v) + rows[key] * sum(map(len, indices))
+                and _same(table[key][:len(v)], v) for key, v in t0.items()):
             continue
-        for i, (k, h, _) in enumerate(moved_lists, 1):
-            tangents.setdefault(k, {})[place] = {key: (table[key][i * len(v):(i + 1) * len(v)] - v) / h
-                                                 for key, v in t0.items() if v.dtype.kind not in "iu"}
+        which = np.array([j for js in indices for j in js])   # each changed constraint's index in the family
+        owner = np.repeat(np.arange(len(indices)), list(map(len, indices)))   # its parameter
+        steps = np.array([h for h, js in zip(hs, indices) for _ in js])
+        moves, spread = {}, {1: (which, owner, steps)}   # rows per constraint -> (rows, their parameter, its h)
+        for key, v in t0.items():
+            r = rows[key]
+            if r not in spread:
+                spread[r] = ((which[:, None] * r + np.arange(r)).ravel(), np.repeat(owner, r), np.repeat(steps, r))
+            nominal_rows, of, h = spread[r]
+            new = table[key][len(v):]
+            if v.dtype.kind in "iu":
+                if not _same(new, v[nominal_rows]):
+                    break
+                continue
+            moves[key] = np.zeros((len(indices),) + v.shape, v.dtype)
+            moves[key][of, nominal_rows] = (new - v[nominal_rows]) / (h if v.ndim == 1 else h.reshape(-1, *[1] * (v.ndim - 1)))
+        else:
+            for i, k in enumerate(ks):
+                tangents.setdefault(k, {})[place] = {key: d[i] for key, d in moves.items()}
     return {k: (([(place, *base[0][place], d) for place, d in sorted(tangents[k].items())], (base[1], {}),
                  (base[2], {})), _dlocal(case, p))
             for k, p, _, _ in items if k in changed and len(tangents.get(k, ())) == len(changed[k])}
@@ -541,6 +683,8 @@ def _function_tangents(case, base, items) -> dict:
     (function f's numbers are data[start[f]:start[f + 1]],
     kinem/core/src/functions.rs), a parameter's tangent the difference of
     its functions' numbers and theirs over h."""
+    if not items:
+        return {}
     listed = [x for numbered in base[3] for x in numbered[0]]
     where = {}
     for i, x in enumerate(listed):
@@ -625,8 +769,8 @@ def _reached(case, moved, length, base):
                 v.dtype.kind in "iu" and not _same(v, table[key]) for key, v in base[0][k][1].items()):
             return None
         out[k] = table
-        moved_functions |= functions.functions[before[0]:] != kept_functions
-        moved_outlines |= outlines.outlines[before[1]:] != kept_outlines
+        moved_functions |= tuple(functions.functions[before[0]:]) != kept_functions
+        moved_outlines |= tuple(outlines.outlines[before[1]:]) != kept_outlines
     return (out, functions.arrays() if moved_functions else base[1],   # unmoved: the model's own arrays
             outlines.arrays() if moved_outlines else base[2])
 
@@ -649,9 +793,11 @@ def _zero(table: dict) -> dict:
 def _dlocal(case, p):
     """The tangent of the named points' local coordinates along p."""
     dlocal = np.zeros(len(case.points), complex)
-    names = [q.name for q in case.points]
-    for point, d in local_tangent(case, p.path).items():
-        dlocal[names.index(point)] += d
+    moved = local_tangent(case, p.path) if p.path.startswith(("points.", "parameters.")) else {}
+    if moved:
+        names = [q.name for q in case.points]
+        for point, d in moved.items():
+            dlocal[names.index(point)] += d
     return dlocal
 
 

@@ -182,10 +182,9 @@ def affine(case, path) -> bool:
 
 def _tangents(model, listed):
     """(the model's tables, per parameter their tangent: kinem.sensitivity.tangents)."""
-    from .sensitivity import _tables, tangents
+    from .sensitivity import tangents
 
-    base = _tables(model.case, model.length)
-    return base, tangents(model, [p.path for p in listed], base)
+    return model.tables, tangents(model, [p.path for p in listed], model.tables)
 
 
 def _values(case, parameters, to_path):

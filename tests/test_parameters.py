@@ -104,3 +104,25 @@ def test_cli_lists_parameters_as_text_and_json():
     rows = json.loads(subprocess.run(run + ["--json"], capture_output=True, text=True, check=True).stdout)
     assert {"path": "constraints.O.si.0", "value": 100.0, "unit": "mm"}.items() <= rows[3].items()
     assert np.isfinite([r["value"] for r in rows]).all()
+
+
+@pytest.mark.parametrize("path", CASES + sorted((ROOT / "tests" / "data").glob("**/*.toml")), ids=lambda p: p.stem)
+def test_resolve_finds_each_path_as_the_listing_does(path):
+    """resolve finds a path from the one point, constraint key or named
+    dimension it names (kinem.parameters._find), without listing the case's
+    parameters: every listed parameter found so, equal to the listing's;
+    and a path that is none of them not found (the listing then says why)."""
+    from kinem.errors import KinemError
+    from kinem.parameters import _find
+
+    try:
+        case = kinem.load(path)
+    except KinemError:
+        pytest.skip("not a loadable case")
+    listed = parameters(case)
+    assert tuple(_find(case, p.path) for p in listed) == listed
+    assert resolve(case, [p.path for p in reversed(listed)]) == tuple(reversed(listed))
+    for bad in ("points.nowhere.at.0", "bodies.x.q.0", "constraints.#999.value.0", "parameters.nothing",
+                *[p.path + ".0" for p in listed[:3]], *[p.path[:-1] + "9" for p in listed if p.path[-1] in "01"][:3]):
+        if bad not in {p.path for p in listed}:
+            assert _find(case, bad) is None, bad

@@ -19,6 +19,8 @@ CASES = sorted((ROOT / "cases").glob("*.toml"))
 TIGHT = kinem.Options(tolerance=1e-14, max_iterations=50)
 STEPS = 23
 H = 5e-4
+# a named dimension's case and the drawn ones (frames from drawn points): the tangents' shortcuts checked there too
+DRAWN = [ROOT / "tests" / "data" / "four_bar_named.toml"] + sorted((ROOT / "tests" / "data" / "drawn").glob("*.toml"))
 
 
 def times(case):
@@ -302,14 +304,15 @@ def _every_parameter_moved(path):
                                           in enumerate(zip(listed, S._moved(case, listed)))]
 
 
-@pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", CASES + DRAWN, ids=lambda p: f"{p.parent.name}/{p.stem}")
 def test_families_built_once_for_every_parameter_give_each_ones_tangent(path):
     """kinem.sensitivity builds a family once over its constraints and every
     parameter's moved ones (_stacked): each parameter's tangent equals the
     one of its own moved case (_moved_tangent) exactly."""
     S, case, model, listed, base, items = _every_parameter_moved(path)
     stacked = S._stacked(case, model.length, base, items)
-    assert stacked or not any(p.path.startswith("points.") for p in listed)
+    # a drawn case's moved cases are validated ones (kinem.parameters.apply_many): left to _moved_tangent
+    assert stacked or any(b.carries for b in case.bodies) or not any(p.path.startswith("points.") for p in listed)
     for k, ((families, functions, outlines), dlocal) in stacked.items():
         _, p, moved, h = items[k]
         (want, _, _), want_local = S._moved_tangent(case, model.length, base, p, moved, h)
@@ -332,6 +335,29 @@ def test_functions_numbered_once_for_every_parameter_give_each_ones_tangent(path
         (want, (_, w), (_, wo)), want_local = S._moved_tangent(case, model.length, base, p, moved, h)
         assert families == want == [] and o == wo == {} and np.array_equal(dlocal, want_local), p.path
         assert d.keys() == w.keys() and all(np.array_equal(d[key], w[key]) for key in w), p.path
+
+
+@pytest.mark.parametrize("path", CASES + DRAWN, ids=lambda p: f"{p.parent.name}/{p.stem}")
+def test_numbers_taken_directly_equal_the_rebuilt_tangents(path):
+    """kinem.sensitivity takes a ground's or an absolute constraint's value,
+    an outline's centre and a circle's radius directly as a unit of the
+    function or outline table (_direct): each parameter's tangent equals
+    the one of its own moved case with every family rebuilt
+    (_moved_tangent) exactly, and moves no family; not in a drawn case,
+    where the ground's value moves a drawn frame's tables too."""
+    S, case, model, listed, base, items = _every_parameter_moved(path)
+    got = S._direct(model, [(k, p) for k, p, _, _ in items])
+    drawn = any(b.carries for b in case.bodies)   # left to the moved case: the ground's value places a frame
+    assert (got or drawn or not any(p.path.endswith((".value.0", ".center.0", ".radius")) for p in listed))
+    assert not (got and drawn)
+    for k, ((families, (_, df), (_, do)), dlocal) in got.items():
+        _, p, moved, h = items[k]
+        (want, (_, wf), (_, wo)), want_local = S._moved_tangent(case, model.length, base, p, moved, h)
+        assert families == [] and all(not v.any() for _, _, _, d in want for v in d.values()), p.path
+        assert np.array_equal(dlocal, want_local), p.path
+        for d, w in ((df, wf), (do, wo)):
+            assert all(np.array_equal(d[key], w[key]) for key in w) and all(not v.any() for key, v in d.items()
+                                                                            if key not in w), p.path
 
 
 def test_public_tangents_rebuild_a_moved_design():
@@ -396,3 +422,87 @@ def test_one_pass_equals_the_solve_and_the_separate_sensitivities(path):
     regular = ratio >= 1e-6
     scale = np.abs(separate[regular]).max()
     assert np.abs(whole.derivatives.data[regular] - separate[regular]).max() <= 1e-13 * scale
+
+
+def test_the_time_limit_holds_for_the_whole_call(monkeypatch):
+    """Under Options.max_seconds a sensitivity counts the whole call against
+    the limit: the solve it falls back to when the one pass does not serve
+    it (here a pass made to spend 0.3 s of a 0.2 s limit, then decline)
+    gets what is left, not a fresh limit, and stops at the time limit; the
+    same call without the spent time succeeds."""
+    import importlib
+    import time
+
+    from kinem.errors import AnalysisError
+
+    S = importlib.import_module("kinem.sensitivity")
+    model = kinem.compile(kinem.load(ROOT / "cases" / "four_bar.toml"))
+    path, options = parameters(model.case)[0].path, kinem.Options(max_seconds=0.2)
+    sensitivity(model, path)   # the lazy imports and the model's march layout, outside the limit
+    assert sensitivity(model, path, options=options).derivatives.data.shape[0] == len(model.times)
+
+    def spent(*args):
+        time.sleep(0.3)
+        return None
+
+    monkeypatch.setattr(S, "_fused", spent)
+    with pytest.raises(AnalysisError, match="time limit"):
+        sensitivity(model, path, options=options)
+
+
+def test_derivative_columns_are_found_by_name():
+    """The derivatives' column index is computed from the columns' and the
+    parameters' places (kinem.sensitivity._Places), not stored per name:
+    every name finds its own column, in the columns' order, and a name
+    that is none is not found (an UnknownColumn with a suggestion)."""
+    from kinem.errors import UnknownColumn
+
+    model = kinem.compile(kinem.load(ROOT / "cases" / "four_bar.toml"))
+    paths = [p.path for p in parameters(model.case)][:3]
+    d = sensitivity(model, paths).derivatives
+    assert list(d._index) == list(d.columns) and len(d._index) == len(d.columns) == 3 * len(d.columns) // 3
+    for k, name in enumerate(d.columns):
+        assert d._index[name] == k and name in d
+        assert np.array_equal(d[name], d.data[:, k], equal_nan=True)
+    for bad in ("B.x", f"d(B.x)/d({paths[0]}", f"d(nothing)/d({paths[0]})", "d(B.x)/d(points.nowhere.at.0)", 3):
+        assert bad not in d
+    with pytest.raises(UnknownColumn, match="did you mean"):
+        d[f"d(B.x)/d({paths[0]}.0)"]
+
+
+@pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
+def test_compile_keeps_the_tables_the_tangents_move(path):
+    """compile keeps the families' tables with every function and outline
+    its own number (Model.tables, what the tangents move), read-only: the
+    same as those built again from the case (kinem.sensitivity._tables),
+    column by column to the bit, with the same functions and outlines
+    numbered by each family."""
+    import importlib
+
+    S = importlib.import_module("kinem.sensitivity")
+    model = kinem.compile(kinem.load(path))
+    kept, again = model.tables, S._tables(model.case, model.length)
+    assert [k for k, _ in kept[0]] == [k for k, _ in again[0]] and kept[3] == again[3]
+    for a, b in [(x[1], y[1]) for x, y in zip(kept[0], again[0])] + [(kept[1], again[1]), (kept[2], again[2])]:
+        assert a.keys() == b.keys()
+        for key in a:
+            assert a[key].dtype == b[key].dtype and S._same(a[key], b[key]), key
+            assert not a[key].flags.writeable, key
+
+
+@pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
+def test_the_cores_tables_taken_from_the_kept_ones_are_those_made_again(path):
+    """compile gives the core its tables, equal functions and outlines
+    sharing a number, with their arrays taken from the tables it keeps
+    (kinem.model.core_tables(..., separate)), no spline fitted twice: the
+    same, to the bit, as the shared tables made again from the families."""
+    from kinem.model import core_tables
+
+    model = kinem.compile(kinem.load(path))
+    taken, made = core_tables(model.families, separate=model.tables), core_tables(model.families)
+    assert [k for k, _ in taken[0]] == [k for k, _ in made[0]]
+    for a, b in [(x[1], y[1]) for x, y in zip(taken[0], made[0])] + [(taken[1], made[1]), (taken[2], made[2])]:
+        assert a.keys() == b.keys()
+        for key in a:
+            assert a[key].dtype == b[key].dtype and a[key].shape == b[key].shape, key
+            assert a[key].tobytes() == b[key].tobytes(), key
