@@ -21,7 +21,7 @@
 //! (`lanes`), each lane seeded with one parameter's tables' tangents
 //! (Kin::seeded). All three share one factorisation of J at the instant
 //! (the march's layout, crate::lu): no finite differences anywhere.
-use crate::families::{At, Shared};
+use crate::families::{At, Family, Shared};
 use crate::lu::{Factors, Layout};
 use crate::model::Kin;
 use crate::real::{Lanes, Real};
@@ -205,10 +205,46 @@ struct Group<const N: usize> {
     moved: Vec<usize>,
     /// those of them whose nu may be non-zero
     timed: Vec<usize>,
+    /// the families whose Jacobian and gamma have a tangent: the moved and
+    /// those that depend on q or qd; the others' are zero (`left`)
+    live: Vec<usize>,
+    left: Vec<usize>,
+}
+
+/// Which families' Jacobian and gamma do not depend on q and qd (a
+/// ground's or a driver's rows; a gear's): of the kinds whose kernels are
+/// polynomial in e^{i q} and qd (simple, gear), those whose tangents along
+/// a generic q' and qd' are exactly zero (dual numbers: a term that does
+/// not read q or qd carries no tangent; one that does carries a non-zero
+/// one at a generic point).
+fn fixed(kin: &Kin) -> Result<Vec<bool>, String> {
+    let probe: Kin<Lanes<1>> = kin.over()?;
+    let n = kin.n;
+    let q: Vec<Lanes<1>> = (0..n).map(|j| Lanes::of(0.3 + 0.7 * j as f64, [1.0 + 0.1 * j as f64])).collect();
+    let qd: Vec<Lanes<1>> = (0..n).map(|j| Lanes::of(0.5 + 0.2 * j as f64, [0.9 - 0.05 * j as f64])).collect();
+    let mut e = vec![Complex::new(Lanes::c(1.0), Lanes::c(0.0)); n];
+    probe.rotate(&q, &mut e);
+    let at = At { q: &q, e: &e, t: 0.37 };
+    let shared = Shared { functions: &probe.functions, outlines: &probe.outlines };
+    let (mut j, mut g) = (vec![Lanes::c(0.0); kin.nnz], vec![Lanes::c(0.0); kin.m]);
+    Ok(probe
+        .families
+        .iter()
+        .enumerate()
+        .map(|(k, f)| {
+            if !matches!(f, Family::Simple(_) | Family::Gear(_)) {
+                return false;
+            }
+            let (jk, gk) = (probe.entry_off[k]..probe.entry_off[k + 1], probe.row_off[k]..probe.row_off[k + 1]);
+            f.jac(&at, &shared, &mut j[jk.clone()]);
+            f.gamma(&at, &qd, &shared, &mut g[gk.clone()]);
+            j[jk].iter().chain(&g[gk]).all(|x| x.d[0] == 0.0)
+        })
+        .collect())
 }
 
 impl<const N: usize> Group<N> {
-    fn new(kin: &Kin, group: &[Tangent]) -> Result<Self, String> {
+    fn new(kin: &Kin, group: &[Tangent], fixed: &[bool]) -> Result<Self, String> {
         let model = seeded::<N>(kin, group)?;
         let empty = |t: &Table| t.reals.is_empty() && t.complex.is_empty();
         let moved: Vec<usize> = if group.iter().all(|t| empty(&t.functions) && empty(&t.outlines)) {
@@ -220,7 +256,8 @@ impl<const N: usize> Group<N> {
             (0..kin.families.len()).collect()
         };
         let timed = moved.iter().copied().filter(|k| model.time_dependent.contains(k)).collect();
-        Ok(Group { model, count: group.len(), moved, timed })
+        let (live, left) = (0..kin.families.len()).partition(|k| !fixed[*k] || moved.contains(k));
+        Ok(Group { model, count: group.len(), moved, timed, live, left })
     }
 }
 
@@ -278,7 +315,8 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         if dlocal.len() != np * points {
             return Err("sensitivity: output arrays of the wrong size".into());
         }
-        let groups = tangents.chunks(N).map(|g| Group::new(kin, g)).collect::<Result<Vec<_>, _>>()?;
+        let fixed = fixed(kin)?;
+        let groups = tangents.chunks(N).map(|g| Group::new(kin, g, &fixed)).collect::<Result<Vec<_>, _>>()?;
         // the named points' local coordinates with the group's tangents in the lanes
         let locs: Vec<Vec<Complex<Lanes<N>>>> = (0..groups.len())
             .map(|g| {
@@ -372,7 +410,12 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             let at = At { q: &self.ql, e: &self.el, t };
             if levels > 1 {
                 // S2: nu_p - D(J) qd, D(J) the Jacobian's tangent at q' = s
-                model.jac(&at, &mut self.jl);
+                for &k in &group.live {
+                    model.families[k].jac(&at, &shared, &mut self.jl[model.entry_off[k]..model.entry_off[k + 1]]);
+                }
+                for &k in &group.left {
+                    self.jl[model.entry_off[k]..model.entry_off[k + 1]].fill(Lanes::c(0.0));
+                }
                 self.rhs.fill([0.0; N]);
                 for &k in &group.timed {
                     let rows = model.row_off[k]..model.row_off[k + 1];
@@ -389,7 +432,13 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             }
             if levels > 2 {
                 // S3: D(gamma) (along q' = s, qd' = sd and the tables') - D(J) qdd
-                model.gamma(&at, &self.qdl, &mut self.rl);
+                for &k in &group.live {
+                    let rows = model.row_off[k]..model.row_off[k + 1];
+                    model.families[k].gamma(&at, &self.qdl, &shared, &mut self.rl[rows]);
+                }
+                for &k in &group.left {
+                    self.rl[model.row_off[k]..model.row_off[k + 1]].fill(Lanes::c(0.0));
+                }
                 for (r, x) in self.rhs3.iter_mut().zip(&self.rl) {
                     for l in 0..N {
                         r[l] += x.d[l];
