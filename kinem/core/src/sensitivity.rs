@@ -281,7 +281,11 @@ pub struct Lanewise<'a, const N: usize> {
     w: usize,
     locs: Vec<Vec<Complex<Lanes<N>>>>,
     pts: Vec<Lanes<N>>,
-    buf: Vec<Lanes<N>>,
+    /// s, sd, sdd (n each) and the points' tangents, a row per coordinate
+    /// or point value; `gather`: each column's row there
+    flat: Vec<[f64; N]>,
+    gather: Vec<usize>,
+    buf: Vec<[f64; N]>,
     e: Vec<C64>,
     q0: Vec<Lanes<N>>,
     e0: Vec<Complex<Lanes<N>>>,
@@ -294,9 +298,6 @@ pub struct Lanewise<'a, const N: usize> {
     rhs: Vec<[f64; N]>,
     rhs3: Vec<[f64; N]>,
     solver: Solver,
-    s: Vec<[f64; N]>,
-    sd: Vec<[f64; N]>,
-    sdd: Vec<[f64; N]>,
 }
 
 impl<'a, const N: usize> Lanewise<'a, N> {
@@ -344,7 +345,9 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             w,
             locs,
             pts: vec![Lanes::<N>::c(0.0); 2 * levels * points],
-            buf: vec![Lanes::<N>::c(0.0); w],
+            flat: vec![[0.0; N]; 3 * n + 2 * levels * points],
+            buf: vec![[0.0; N]; w],
+            gather: src.iter().map(|&j| if j < levels * n { j } else { 3 * n + j - levels * n }).collect(),
             e: vec![C64::new(1.0, 0.0); n],
             q0: zl(),
             e0: cl(),
@@ -357,9 +360,6 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             rhs: vec![[0.0; N]; m],
             rhs3: vec![[0.0; N]; m],
             solver: Solver::new(n, m, 3 * np >= 2 * n && n <= INVERSE),
-            s: vec![[0.0; N]; n],
-            sd: vec![[0.0; N]; n],
-            sdd: vec![[0.0; N]; n],
         })
     }
 
@@ -398,13 +398,13 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     *r = x.d.map(|v| -v);
                 }
             }
-            self.solver.solve(layout, f, &self.rhs, count, &mut self.s);
+            self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[..n]);
             // q with tangent s, and e^{i q} with its tangent (Real::sin, cos)
             for j in 0..n {
-                self.ql[j] = Lanes::of(q[j], self.s[j]);
+                self.ql[j] = Lanes::of(q[j], self.flat[j]);
             }
             for &j in &kin.angles {
-                let (c, s, d) = (self.e[j].re, self.e[j].im, self.s[j]);
+                let (c, s, d) = (self.e[j].re, self.e[j].im, self.flat[j]);
                 self.el[j] = Complex::new(Lanes::of(c, d.map(|x| x * -s)), Lanes::of(s, d.map(|x| x * c)));
             }
             let at = At { q: &self.ql, e: &self.el, t };
@@ -425,9 +425,9 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     }
                 }
                 products(&self.pattern, &self.jl, &x[1..], &mut self.rhs, &mut self.rhs3);
-                self.solver.solve(layout, f, &self.rhs, count, &mut self.sd);
+                self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[n..2 * n]);
                 for j in 0..n {
-                    self.qdl[j] = Lanes::of(x[1][j], self.sd[j]);
+                    self.qdl[j] = Lanes::of(x[1][j], self.flat[n + j]);
                 }
             }
             if levels > 2 {
@@ -444,19 +444,32 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                         r[l] += x.d[l];
                     }
                 }
-                self.solver.solve(layout, f, &self.rhs3, count, &mut self.sdd);
+                self.solver.solve(layout, f, &self.rhs3, count, &mut self.flat[2 * n..3 * n]);
                 for j in 0..n {
-                    self.qddl[j] = Lanes::of(x[2][j], self.sdd[j]);
+                    self.qddl[j] = Lanes::of(x[2][j], self.flat[2 * n + j]);
                 }
             }
-            // the named points' and every column's tangents, from the lanes
+            // every column's tangent: a coordinate's from s, sd, sdd, a named
+            // point's from its value over the lanes (crate::columns)
             let stages: [&[Lanes<N>]; 3] = [&self.ql, &self.qdl, &self.qddl];
-            self.columns.row(&stages[..levels], &self.locs[g], &mut self.pts, &mut self.buf);
-            for p in g * N..g * N + count {
-                let lane = p - g * N;
-                let to = &mut out[p * w..(p + 1) * w];
-                for (o, b) in to.iter_mut().zip(&self.buf) {
-                    *o = b.d[lane];
+            self.columns.points(&stages[..levels], &self.locs[g], &mut self.pts);
+            for (o, p) in self.flat[3 * n..].iter_mut().zip(&self.pts) {
+                *o = p.d;
+            }
+            let to = &mut out[g * N * w..(g * N + count) * w];
+            if N == 1 {
+                for (o, &i) in to.iter_mut().zip(&self.gather) {
+                    *o = self.flat[i][0];
+                }
+            } else {
+                // gathered once, then a lane at a time (fewer index checks)
+                for (b, &i) in self.buf.iter_mut().zip(&self.gather) {
+                    *b = self.flat[i];
+                }
+                for (lane, to) in to.chunks_mut(w).enumerate() {
+                    for (o, b) in to.iter_mut().zip(&self.buf) {
+                        *o = b[lane];
+                    }
                 }
             }
         }
