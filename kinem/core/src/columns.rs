@@ -42,6 +42,14 @@ impl<'a> Columns<'a> {
     /// One instant's columns: x[s] its stage s (n each), pts scratch (2
     /// stages points), out its W columns.
     pub fn row<S: Real>(&self, x: &[&[S]], local: &[Complex<S>], pts: &mut [S], out: &mut [S]) {
+        self.points(x, local, pts);
+        for (o, &(s, j)) in out.iter_mut().zip(&self.from) {
+            *o = if s < self.stages { x[s][j] } else { pts[j] };
+        }
+    }
+
+    /// The named points' values at one instant (`row`'s pts).
+    pub fn points<S: Real>(&self, x: &[&[S]], local: &[Complex<S>], pts: &mut [S]) {
         let (stages, p) = (self.stages, self.pc.len());
         let i = i::<S>();
         for (j, (&c, &s)) in self.pc.iter().zip(local).enumerate() {
@@ -63,9 +71,6 @@ impl<'a> Columns<'a> {
                     pts[5 * p + j] = v.im;
                 }
             }
-        }
-        for (o, &(s, j)) in out.iter_mut().zip(&self.from) {
-            *o = if s < stages { x[s][j] } else { pts[j] };
         }
     }
 }

@@ -10,17 +10,18 @@
 //! ```
 //!
 //! D(Phi_q) v = Phi_qq[s, v] + J_p v, and Phi_qq is symmetric in its two q
-//! slots, so Phi_qq[s, v] = (D_v J) s: A = D_qd(J) and B = D_qdd(J), the
-//! Jacobian's tangents along q' = qd and q' = qdd, are the same for every
-//! parameter and taken once per instant (S6, one evaluation over
-//! Lanes<2>). Phi_p, J_p, nu_p are the tangents of Phi, J, nu at q' = 0
-//! along the tables' tangents, and D(gamma) gamma's tangent along q' = s,
-//! qd' = sd and the tables': each one evaluation of the model over
-//! Lanes<N> (crate::real) for N = 4 or 8 (LANES) parameters at once, each lane
-//! seeded with one parameter's tables' tangents (Kin::seeded). All three
-//! share one factorisation of J at the instant (the march's layout,
-//! crate::lu): no finite differences anywhere.
-use crate::families::At;
+//! slots, so Phi_qq[s, v] = (D_v J) s = (D_s J) v (S6): the Jacobian's
+//! tangent along q' = s and the tables' tangents, D(J) = D_s J + J_p, times
+//! qd and qdd gives A s + J_p qd and B s + J_p qdd at once, without forming
+//! A = D_qd(J) and B = D_qdd(J). Per group of parameters: Phi_p (Phi's
+//! tangent at q' = 0, over the families the parameters move), s; then one
+//! evaluation of the Jacobian at q' = s, nu_p (moved drivers), sd; then
+//! D(gamma), gamma's tangent along q' = s, qd' = sd and the tables', sdd:
+//! each over Lanes<N> (crate::real), N = 1, 2, 4 or 8 parameters at once
+//! (`lanes`), each lane seeded with one parameter's tables' tangents
+//! (Kin::seeded). All three share one factorisation of J at the instant
+//! (the march's layout, crate::lu): no finite differences anywhere.
+use crate::families::{At, Family, Shared};
 use crate::lu::{Factors, Layout};
 use crate::model::Kin;
 use crate::real::{Lanes, Real};
@@ -28,10 +29,9 @@ use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
 
 /// How many parameters share one evaluation of the model and of the named
-/// points' columns (crate::real::Lanes): 4, or 8 for more than 4
-/// parameters (fewer evaluations per parameter; with few parameters the
-/// empty lanes would cost).
-pub const LANES: [usize; 2] = [4, 8];
+/// points' columns (crate::real::Lanes): as many as there are up to 8
+/// (`lanes`: 1, 2, 4 or 8; an empty lane costs as a full one).
+pub const LANES: [usize; 4] = [1, 2, 4, 8];
 
 /// A design parameter's tangent of the model's tables: the families it
 /// moves [(place among the model's families, the tangents of some of its
@@ -133,11 +133,30 @@ pub fn sensitivities(
     Ok(())
 }
 
-/// The sensitivities of one instant after another over Lanes<4> or
-/// Lanes<8> (LANES, by the number of parameters): see `Lanewise`.
+/// The sensitivities of one instant after another over the lanes that fit
+/// the number of parameters (`lanes`): see `Lanewise`.
 pub enum Instants<'a> {
+    One(Lanewise<'a, 1>),
+    Two(Lanewise<'a, 2>),
     Four(Lanewise<'a, 4>),
     Eight(Lanewise<'a, 8>),
+}
+
+macro_rules! each_width {
+    ($self:expr, $x:ident => $e:expr) => {
+        match $self {
+            Instants::One($x) => $e,
+            Instants::Two($x) => $e,
+            Instants::Four($x) => $e,
+            Instants::Eight($x) => $e,
+        }
+    };
+}
+
+/// The lanes for P parameters: the narrowest of LANES that holds them
+/// all, else the widest (empty lanes cost as full ones).
+pub fn lanes(p: usize) -> usize {
+    LANES.iter().copied().find(|&w| w >= p).unwrap_or(LANES[LANES.len() - 1])
 }
 
 /// What the sensitivities of a run of instants are set up from: the
@@ -157,49 +176,116 @@ pub struct Setup<'a, 'b> {
 impl<'a> Instants<'a> {
     /// As `Lanewise::new`, its lanes by the number of parameters.
     pub fn new(setup: Setup<'a, '_>) -> Result<Self, String> {
-        Ok(if setup.tangents.len() > LANES[0] {
-            Instants::Eight(Lanewise::new(setup)?)
-        } else {
-            Instants::Four(Lanewise::new(setup)?)
+        Ok(match lanes(setup.tangents.len()) {
+            1 => Instants::One(Lanewise::new(setup)?),
+            2 => Instants::Two(Lanewise::new(setup)?),
+            4 => Instants::Four(Lanewise::new(setup)?),
+            _ => Instants::Eight(Lanewise::new(setup)?),
         })
     }
 
     /// The columns per instant and parameter (P W: an instant's row of data).
     pub fn width(&self) -> usize {
-        match self {
-            Instants::Four(x) => x.width(),
-            Instants::Eight(x) => x.width(),
-        }
+        each_width!(self, x => x.width())
     }
 
     /// Lanewise::at.
     pub fn at(&mut self, t: f64, x: &[&[f64]], f: &mut Factors, out: &mut [f64]) -> f64 {
-        match self {
-            Instants::Four(a) => a.at(t, x, f, out),
-            Instants::Eight(a) => a.at(t, x, f, out),
-        }
+        each_width!(self, a => a.at(t, x, f, out))
     }
 }
 
-/// The sensitivities of one instant after another, N parameters per evaluation (Eqs. S1-S3, S6) from
-/// the factorisation of Phi_q at each instant's q: the seeded models, the
-/// column layout and every scratch array, set up once.
+/// Up to N parameters' model (Kin::seeded, a lane each) and the families
+/// their tables move: only those rows carry Phi_p and nu_p.
+struct Group<const N: usize> {
+    model: Kin<Lanes<N>>,
+    count: usize,
+    /// the moved families (every family where a function's or an
+    /// outline's table moves: any family may read it)
+    moved: Vec<usize>,
+    /// those of them whose nu may be non-zero
+    timed: Vec<usize>,
+    /// the families whose Jacobian and gamma have a tangent: the moved and
+    /// those that depend on q or qd; the others' are zero (`left`)
+    live: Vec<usize>,
+    left: Vec<usize>,
+}
+
+/// Which families' Jacobian and gamma do not depend on q and qd (a
+/// ground's or a driver's rows; a gear's): of the kinds whose kernels are
+/// polynomial in e^{i q} and qd (simple, gear), those whose tangents along
+/// a generic q' and qd' are exactly zero (dual numbers: a term that does
+/// not read q or qd carries no tangent; one that does carries a non-zero
+/// one at a generic point).
+fn fixed(kin: &Kin) -> Result<Vec<bool>, String> {
+    let probe: Kin<Lanes<1>> = kin.over()?;
+    let n = kin.n;
+    let q: Vec<Lanes<1>> = (0..n).map(|j| Lanes::of(0.3 + 0.7 * j as f64, [1.0 + 0.1 * j as f64])).collect();
+    let qd: Vec<Lanes<1>> = (0..n).map(|j| Lanes::of(0.5 + 0.2 * j as f64, [0.9 - 0.05 * j as f64])).collect();
+    let mut e = vec![Complex::new(Lanes::c(1.0), Lanes::c(0.0)); n];
+    probe.rotate(&q, &mut e);
+    let at = At { q: &q, e: &e, t: 0.37 };
+    let shared = Shared { functions: &probe.functions, outlines: &probe.outlines };
+    let (mut j, mut g) = (vec![Lanes::c(0.0); kin.nnz], vec![Lanes::c(0.0); kin.m]);
+    Ok(probe
+        .families
+        .iter()
+        .enumerate()
+        .map(|(k, f)| {
+            if !matches!(f, Family::Simple(_) | Family::Gear(_)) {
+                return false;
+            }
+            let (jk, gk) = (probe.entry_off[k]..probe.entry_off[k + 1], probe.row_off[k]..probe.row_off[k + 1]);
+            f.jac(&at, &shared, &mut j[jk.clone()]);
+            f.gamma(&at, &qd, &shared, &mut g[gk.clone()]);
+            j[jk].iter().chain(&g[gk]).all(|x| x.d[0] == 0.0)
+        })
+        .collect())
+}
+
+impl<const N: usize> Group<N> {
+    fn new(kin: &Kin, group: &[Tangent], fixed: &[bool]) -> Result<Self, String> {
+        let model = seeded::<N>(kin, group)?;
+        let empty = |t: &Table| t.reals.is_empty() && t.complex.is_empty();
+        let moved: Vec<usize> = if group.iter().all(|t| empty(&t.functions) && empty(&t.outlines)) {
+            let mut places: Vec<usize> = group.iter().flat_map(|t| t.families.iter().map(|f| f.0)).collect();
+            places.sort_unstable();
+            places.dedup();
+            places
+        } else {
+            (0..kin.families.len()).collect()
+        };
+        let timed = moved.iter().copied().filter(|k| model.time_dependent.contains(k)).collect();
+        let (live, left) = (0..kin.families.len()).partition(|k| !fixed[*k] || moved.contains(k));
+        Ok(Group { model, count: group.len(), moved, timed, live, left })
+    }
+}
+
+/// The sensitivities of one instant after another, N parameters per
+/// evaluation (Eqs. S1-S3), from the factorisation of Phi_q at each
+/// instant's q: the seeded models, the column layout and every scratch
+/// array, set up once. Per group of parameters, with s = dq/dp solved
+/// from (S1), one evaluation of the Jacobian at q' = s (its tangent
+/// D(J) = Phi_qq[s, .] + J_p, so D(J) qd = A s + J_p qd of S6 without
+/// forming A) serves (S2) and (S3): the cost is the lanes' own, whatever
+/// the number of parameters; Phi_p and nu_p are taken over the moved
+/// families alone.
 pub struct Lanewise<'a, const N: usize> {
     kin: &'a Kin,
     layout: &'a Layout,
     np: usize,
     levels: usize,
-    groups: Vec<Kin<Lanes<N>>>,
-    two: Kin<Lanes<2>>,
+    groups: Vec<Group<N>>,
     pattern: Vec<(usize, usize)>,
     columns: crate::columns::Columns<'a>,
     w: usize,
     locs: Vec<Vec<Complex<Lanes<N>>>>,
     pts: Vec<Lanes<N>>,
-    buf: Vec<Lanes<N>>,
-    q2: Vec<Lanes<2>>,
-    e2: Vec<Complex<Lanes<2>>>,
-    j2: Vec<Lanes<2>>,
+    /// s, sd, sdd (n each) and the points' tangents, a row per coordinate
+    /// or point value; `gather`: each column's row there
+    flat: Vec<[f64; N]>,
+    gather: Vec<usize>,
+    buf: Vec<[f64; N]>,
     e: Vec<C64>,
     q0: Vec<Lanes<N>>,
     e0: Vec<Complex<Lanes<N>>>,
@@ -209,13 +295,9 @@ pub struct Lanewise<'a, const N: usize> {
     el: Vec<Complex<Lanes<N>>>,
     rl: Vec<Lanes<N>>,
     jl: Vec<Lanes<N>>,
-    a: Vec<f64>,
-    b: Vec<f64>,
     rhs: Vec<[f64; N]>,
+    rhs3: Vec<[f64; N]>,
     solver: Solver,
-    s: Vec<[f64; N]>,
-    sd: Vec<[f64; N]>,
-    sdd: Vec<[f64; N]>,
 }
 
 impl<'a, const N: usize> Lanewise<'a, N> {
@@ -234,7 +316,8 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         if dlocal.len() != np * points {
             return Err("sensitivity: output arrays of the wrong size".into());
         }
-        let groups = tangents.chunks(N).map(|g| seeded(kin, g)).collect::<Result<Vec<_>, _>>()?;
+        let fixed = fixed(kin)?;
+        let groups = tangents.chunks(N).map(|g| Group::new(kin, g, &fixed)).collect::<Result<Vec<_>, _>>()?;
         // the named points' local coordinates with the group's tangents in the lanes
         let locs: Vec<Vec<Complex<Lanes<N>>>> = (0..groups.len())
             .map(|g| {
@@ -257,16 +340,14 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             np,
             levels,
             groups,
-            two: kin.over()?, // A and B (S6), the tables' tangents zero
             pattern: rows.iter().copied().zip(cols.iter().copied()).collect(),
             columns: crate::columns::Columns::new(n, levels, src, pc),
             w,
             locs,
             pts: vec![Lanes::<N>::c(0.0); 2 * levels * points],
-            buf: vec![Lanes::<N>::c(0.0); w],
-            q2: vec![Lanes::<2>::c(0.0); n],
-            e2: vec![Complex::new(Lanes::c(0.0), Lanes::c(0.0)); n],
-            j2: vec![Lanes::<2>::c(0.0); nnz],
+            flat: vec![[0.0; N]; 3 * n + 2 * levels * points],
+            buf: vec![[0.0; N]; w],
+            gather: src.iter().map(|&j| if j < levels * n { j } else { 3 * n + j - levels * n }).collect(),
             e: vec![C64::new(1.0, 0.0); n],
             q0: zl(),
             e0: cl(),
@@ -276,13 +357,9 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             el: cl(),
             rl: vec![Lanes::<N>::c(0.0); m],
             jl: vec![Lanes::<N>::c(0.0); nnz],
-            a: vec![0.0; nnz],
-            b: vec![0.0; nnz],
             rhs: vec![[0.0; N]; m],
+            rhs3: vec![[0.0; N]; m],
             solver: Solver::new(n, m, 3 * np >= 2 * n && n <= INVERSE),
-            s: vec![[0.0; N]; n],
-            sd: vec![[0.0; N]; n],
-            sdd: vec![[0.0; N]; n],
         })
     }
 
@@ -295,71 +372,104 @@ impl<'a, const N: usize> Lanewise<'a, N> {
     /// factorisation of Phi_q at (q, t) (its solves leave it as it is);
     /// writes its row (P W) and returns Phi_q's pivot ratio.
     pub fn at(&mut self, t: f64, x: &[&[f64]], f: &mut Factors, out: &mut [f64]) -> f64 {
-        let Lanewise { kin, layout, np, levels, w, .. } = *self;
+        let Lanewise { kin, layout, levels, w, .. } = *self;
         let n = kin.n;
         let q = x[0];
         let ratio = layout.pivots(f).0;
-        kin.rotate(q, &mut self.e);
+        for &j in &kin.angles {
+            let (s, c) = q[j].sin_cos();
+            self.e[j] = C64::new(c, s);
+        }
         for j in 0..n {
             self.q0[j] = Lanes::<N>::c(q[j]);
             self.e0[j] = Complex::new(Lanes::<N>::c(self.e[j].re), Lanes::<N>::c(self.e[j].im));
         }
         let at0 = At { q: &self.q0, e: &self.e0, t };
-        // A = D_qd(J), B = D_qdd(J) (S6): once per instant, one evaluation
-        if levels > 1 {
-            let (qd, qdd) = (x[1], if levels > 2 { x[2] } else { x[1] });
-            for j in 0..n {
-                self.q2[j] = Lanes::of(q[j], [qd[j], qdd[j]]);
-            }
-            self.two.rotate(&self.q2, &mut self.e2);
-            self.two.jac(&At { q: &self.q2, e: &self.e2, t }, &mut self.j2);
-            for ((x, y), v) in self.a.iter_mut().zip(self.b.iter_mut()).zip(&self.j2) {
-                (*x, *y) = (v.d[0], v.d[1]);
-            }
-        }
         self.solver.prepare(layout, f);
-        for (g, model) in self.groups.iter().enumerate() {
-            let count = (np - g * N).min(N);
-            // S1: Phi_p, Phi's tangent at q' = 0
-            model.phi(&at0, &mut self.rl);
-            for (r, x) in self.rhs.iter_mut().zip(&self.rl) {
-                *r = x.d.map(|v| -v);
+        for (g, group) in self.groups.iter().enumerate() {
+            let (model, count) = (&group.model, group.count);
+            let shared = Shared { functions: &model.functions, outlines: &model.outlines };
+            // S1: -Phi_p, Phi's tangent at q' = 0, non-zero in the moved families' rows alone
+            self.rhs.fill([0.0; N]);
+            for &k in &group.moved {
+                let rows = model.row_off[k]..model.row_off[k + 1];
+                model.families[k].phi(&at0, &shared, &mut self.rl[rows.clone()]);
+                for (r, x) in self.rhs[rows.clone()].iter_mut().zip(&self.rl[rows]) {
+                    *r = x.d.map(|v| -v);
+                }
             }
-            self.solver.solve(layout, f, &self.rhs, count, &mut self.s);
+            self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[..n]);
+            // q with tangent s, and e^{i q} with its tangent (Real::sin, cos)
             for j in 0..n {
-                self.ql[j] = Lanes::of(q[j], self.s[j]);
+                self.ql[j] = Lanes::of(q[j], self.flat[j]);
             }
+            for &j in &kin.angles {
+                let (c, s, d) = (self.e[j].re, self.e[j].im, self.flat[j]);
+                self.el[j] = Complex::new(Lanes::of(c, d.map(|x| x * -s)), Lanes::of(s, d.map(|x| x * c)));
+            }
+            let at = At { q: &self.ql, e: &self.el, t };
             if levels > 1 {
-                // S2: nu_p - A s - J_p qd, J_p: the Jacobian's tangent at q' = 0
-                model.jac(&at0, &mut self.jl);
-                model.nu(t, &mut self.rl);
-                let parts = (&self.rl[..], &self.jl[..], &self.s[..], x[1]);
-                right_side(&self.pattern, &self.a, parts, &mut self.rhs);
-                self.solver.solve(layout, f, &self.rhs, count, &mut self.sd);
+                // S2: nu_p - D(J) qd, D(J) the Jacobian's tangent at q' = s
+                for &k in &group.live {
+                    model.families[k].jac(&at, &shared, &mut self.jl[model.entry_off[k]..model.entry_off[k + 1]]);
+                }
+                for &k in &group.left {
+                    self.jl[model.entry_off[k]..model.entry_off[k + 1]].fill(Lanes::c(0.0));
+                }
+                self.rhs.fill([0.0; N]);
+                for &k in &group.timed {
+                    let rows = model.row_off[k]..model.row_off[k + 1];
+                    model.families[k].nu(t, &shared, &mut self.rl[rows.clone()]);
+                    for (r, x) in self.rhs[rows.clone()].iter_mut().zip(&self.rl[rows]) {
+                        *r = x.d;
+                    }
+                }
+                products(&self.pattern, &self.jl, &x[1..], &mut self.rhs, &mut self.rhs3);
+                self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[n..2 * n]);
                 for j in 0..n {
-                    self.qdl[j] = Lanes::of(x[1][j], self.sd[j]);
+                    self.qdl[j] = Lanes::of(x[1][j], self.flat[n + j]);
                 }
             }
             if levels > 2 {
-                // S3: D(gamma) (gamma's tangent along q' = s, qd' = sd and the
-                // tables'), minus B s and J_p qdd
-                model.rotate(&self.ql, &mut self.el);
-                model.gamma(&At { q: &self.ql, e: &self.el, t }, &self.qdl, &mut self.rl);
-                let parts = (&self.rl[..], &self.jl[..], &self.s[..], x[2]);
-                right_side(&self.pattern, &self.b, parts, &mut self.rhs);
-                self.solver.solve(layout, f, &self.rhs, count, &mut self.sdd);
+                // S3: D(gamma) (along q' = s, qd' = sd and the tables') - D(J) qdd
+                for &k in &group.live {
+                    let rows = model.row_off[k]..model.row_off[k + 1];
+                    model.families[k].gamma(&at, &self.qdl, &shared, &mut self.rl[rows]);
+                }
+                for &k in &group.left {
+                    self.rl[model.row_off[k]..model.row_off[k + 1]].fill(Lanes::c(0.0));
+                }
+                for (r, x) in self.rhs3.iter_mut().zip(&self.rl) {
+                    for l in 0..N {
+                        r[l] += x.d[l];
+                    }
+                }
+                self.solver.solve(layout, f, &self.rhs3, count, &mut self.flat[2 * n..3 * n]);
                 for j in 0..n {
-                    self.qddl[j] = Lanes::of(x[2][j], self.sdd[j]);
+                    self.qddl[j] = Lanes::of(x[2][j], self.flat[2 * n + j]);
                 }
             }
-            // the named points' and every column's tangents, from the lanes
+            // every column's tangent: a coordinate's from s, sd, sdd, a named
+            // point's from its value over the lanes (crate::columns)
             let stages: [&[Lanes<N>]; 3] = [&self.ql, &self.qdl, &self.qddl];
-            self.columns.row(&stages[..levels], &self.locs[g], &mut self.pts, &mut self.buf);
-            for p in g * N..g * N + count {
-                let lane = p - g * N;
-                let to = &mut out[p * w..(p + 1) * w];
-                for (o, b) in to.iter_mut().zip(&self.buf) {
-                    *o = b.d[lane];
+            self.columns.points(&stages[..levels], &self.locs[g], &mut self.pts);
+            for (o, p) in self.flat[3 * n..].iter_mut().zip(&self.pts) {
+                *o = p.d;
+            }
+            let to = &mut out[g * N * w..(g * N + count) * w];
+            if N == 1 {
+                for (o, &i) in to.iter_mut().zip(&self.gather) {
+                    *o = self.flat[i][0];
+                }
+            } else {
+                // gathered once, then a lane at a time (fewer index checks)
+                for (b, &i) in self.buf.iter_mut().zip(&self.gather) {
+                    *b = self.flat[i];
+                }
+                for (lane, to) in to.chunks_mut(w).enumerate() {
+                    for (o, b) in to.iter_mut().zip(&self.buf) {
+                        *o = b[lane];
+                    }
                 }
             }
         }
@@ -367,25 +477,33 @@ impl<'a, const N: usize> Lanewise<'a, N> {
     }
 }
 
-/// rhs = D(c) - M s - J_p v, lane by lane, for (S2) (c = nu, M = A,
-/// v = qd) and (S3) (c = gamma, M = B, v = qdd): parts (c, J_p, s, v), M
-/// and J_p on the Jacobian's pattern (row, column of each entry), in one
-/// pass over it.
-#[allow(clippy::type_complexity)]
-fn right_side<const N: usize>(
+/// The (S2) and (S3) products with D(J) (its tangents on the Jacobian's
+/// pattern, row and column of each entry), in one pass over it:
+/// r2 -= D(J) v[0] (qd) and r3 = -D(J) v[1] (qdd, when given).
+fn products<const N: usize>(
     pattern: &[(usize, usize)],
-    mat: &[f64],
-    parts: (&[Lanes<N>], &[Lanes<N>], &[[f64; N]], &[f64]),
-    rhs: &mut [[f64; N]],
+    dj: &[Lanes<N>],
+    v: &[&[f64]],
+    r2: &mut [[f64; N]],
+    r3: &mut [[f64; N]],
 ) {
-    let (c, jp, s, v) = parts;
-    for (r, c) in rhs.iter_mut().zip(c) {
-        *r = c.d;
-    }
-    for ((&(i, j), &a), p) in pattern.iter().zip(mat).zip(jp) {
-        let (x, y, r) = (&s[j], v[j], &mut rhs[i]);
-        for l in 0..N {
-            r[l] -= a * x[l] + p.d[l] * y;
+    let qd = v[0];
+    if let Some(qdd) = v.get(1) {
+        r3.fill([0.0; N]);
+        for (&(i, j), p) in pattern.iter().zip(dj) {
+            let (a, b) = (qd[j], qdd[j]);
+            let (x, y) = (&mut r2[i], &mut r3[i]);
+            for l in 0..N {
+                x[l] -= p.d[l] * a;
+                y[l] -= p.d[l] * b;
+            }
+        }
+    } else {
+        for (&(i, j), p) in pattern.iter().zip(dj) {
+            let (a, x) = (qd[j], &mut r2[i]);
+            for l in 0..N {
+                x[l] -= p.d[l] * a;
+            }
         }
     }
 }
