@@ -16,14 +16,15 @@
 //! scalar march's to the bit. A lane stops on its own at its first instant
 //! not accepted, with its reason (the caller solves it again alone, as it
 //! does a scalar march's); the others go on.
-use crate::accept::{hermite, jump_sizes, lagrange, rejected, taylor, Why};
+use crate::accept::{jump_sizes, rejected, Why};
 use crate::families::At;
 use crate::lane_lu::LaneLu;
 use crate::lu::Layout;
-use crate::march::{residual, MarchState, Native, Settings, Step, SINGULAR};
+use crate::march::{residual, MarchState, Native, Settings, Step};
 use crate::model::Kin;
-use crate::newton::{settle, Settled, CHORD_STEPS, CONTRACTION, RECENT, ROUNDING};
+use crate::newton::{self, settle, Settled, Verdict, CHORD_STEPS};
 use crate::real::{cis, Real};
+use crate::step::{chord_start, predict, signs, Contraction};
 use crate::table::Table;
 use crate::watch::Watch;
 use crate::wide::Wide;
@@ -98,12 +99,7 @@ pub fn wide_kin(n: usize, angles: &[i64], lanes: &[Tables]) -> Result<Kin<W>, St
 enum Chord {
     /// no chord at this instant (no factorisation held): Newton
     Off,
-    On {
-        previous: f64,
-        iterations: usize,
-        residual: f64,
-        assumed: f64,
-    },
+    On(newton::Chord),
     Done(Settled, f64),
     /// it gave up: Newton from the predictor
     Failed,
@@ -115,8 +111,7 @@ struct Lane<'a> {
     ops: Native<'a>,
     st: MarchState,
     held: bool,
-    theta: f64,
-    age: u32,
+    memory: Contraction,
     qp: Vec<f64>,
     start: Vec<f64>,
     judge: bool,
@@ -193,8 +188,7 @@ pub fn march(
             ops: Native::new(kin, layout),
             st: MarchState::new(q0),
             held: false,
-            theta: f64::INFINITY,
-            age: RECENT + 1,
+            memory: Contraction::none(),
             qp: vec![0.0; n],
             start: vec![0.0; n],
             judge: false,
@@ -242,35 +236,18 @@ pub fn march(
         }
         for (l, x) in lanes.iter_mut().enumerate().filter(|(_, x)| live(x)) {
             let st = &x.st;
-            let first = st.t.is_nan();
-            let taylor_from = s.rates && !first;
+            let taylor_from = s.rates && !st.t.is_nan();
             if taylor_from && !st.rates {
                 x.again = true;
                 continue;
             }
-            let h = t - st.t;
-            x.judge = !first;
-            if first {
-                x.qp.copy_from_slice(&st.q);
-            } else if taylor_from {
-                taylor(&st.q, &st.qd, &st.qdd, h, &mut x.qp);
-            } else {
-                x.judge = lagrange(t, &st.tt, &st.h, &mut x.qp) >= 1;
-            }
+            x.judge = predict(st, t, taylor_from, &mut x.qp);
             if x.held {
-                let from = if st.before.is_finite() && h <= 2.0 * (st.t - st.before) {
-                    let p = [&st.prev[..n], &st.prev[n..2 * n], &st.prev[2 * n..]];
-                    hermite(p, [&st.q[..], &st.qd[..], &st.qdd[..]], st.t - st.before, h, &mut x.start);
-                    &x.start
-                } else {
-                    &x.qp
-                };
+                let from = if chord_start(st, t, &mut x.start) { &x.start } else { &x.qp };
                 for j in 0..n {
                     r.q[j].0[l] = from[j];
                 }
-                let known = if x.age <= RECENT { x.theta } else { f64::INFINITY };
-                x.chord =
-                    Chord::On { previous: f64::INFINITY, iterations: 0, residual: f64::INFINITY, assumed: 2.0 * known };
+                x.chord = Chord::On(newton::Chord::new(x.memory.known()));
             }
             x.held = false;
         }
@@ -288,15 +265,11 @@ pub fn march(
                 u.solve(&r.rhs, &mut dq);
             }
             for (l, x) in lanes.iter_mut().enumerate() {
-                let Chord::On { previous, iterations, residual: res, assumed } = &mut x.chord else { continue };
+                let Chord::On(c) = &mut x.chord else { continue };
                 Room::lane(&r.phi, l, &mut r.one[..m]);
-                let v = residual(&r.one[..m], scale);
-                if !(v < f64::INFINITY) {
+                if !c.residual(step, residual(&r.one[..m], scale), s.tolerance) {
                     x.chord = Chord::Failed;
                     continue;
-                }
-                if *res > s.tolerance {
-                    (*res, *iterations) = (v, step);
                 }
                 // correct(max_step) as march::Native's
                 if fixed(&lu, l) {
@@ -312,19 +285,10 @@ pub fn march(
                 for j in 0..n {
                     r.q[j].0[l] += f * r.dq[j];
                 }
-                if !(big < f64::INFINITY) {
-                    x.chord = Chord::Failed;
-                    continue;
-                }
-                let theta = big / *previous;
-                *previous = big;
-                let estimate = |theta: f64| theta < 0.5 && big * theta / (1.0 - theta) <= ROUNDING;
-                let done = big <= ROUNDING || if step == 0 { estimate(*assumed) } else { estimate(theta) };
-                if *res <= s.tolerance && done {
-                    let settled = Settled { iterations: *iterations, residual: *res, converged: true, last_step: big };
-                    x.chord = Chord::Done(settled, if step == 0 { f64::NAN } else { theta });
-                } else if theta > CONTRACTION && big > ROUNDING {
-                    x.chord = Chord::Failed;
+                match c.corrected(step, big, s.tolerance) {
+                    Verdict::Go => {}
+                    Verdict::Done(settled, measured) => x.chord = Chord::Done(settled, measured),
+                    Verdict::Stop => x.chord = Chord::Failed,
                 }
             }
         }
@@ -332,15 +296,11 @@ pub fn march(
         for (l, x) in lanes.iter_mut().enumerate().filter(|(_, x)| live(x)) {
             x.settled = match x.chord {
                 Chord::Done(settled, measured) => {
-                    if measured.is_nan() {
-                        x.age += 1;
-                    } else {
-                        (x.theta, x.age) = (measured, 0);
-                    }
+                    x.memory.chorded(measured);
                     Some(settled)
                 }
                 _ => {
-                    (x.theta, x.age) = (f64::INFINITY, RECENT + 1);
+                    x.memory = Contraction::none();
                     let Ok(()) = x.ops.start(&x.qp, t);
                     let Ok(settled) = settle(&mut x.ops, s.tolerance, s.max_iterations, s.max_step, true);
                     for j in 0..n {
@@ -373,13 +333,11 @@ pub fn march(
                 x.end = Some((k, Why::NotConverged));
                 continue;
             }
-            let (ratio, det) = match &lu {
+            let stats = match &lu {
                 Some(u) if u.fixed[l] => u.stats[l],
                 _ => layout.stats(&x.ops.f),
             };
-            let (pivot, det) = if ratio >= SINGULAR { (ratio, det) } else { (0.0, 0) };
-            let first = x.st.t.is_nan();
-            let previous = if first { det } else { x.st.det };
+            let (pivot, det, previous) = signs(stats, &x.st);
             Room::lane(&r.q, l, &mut r.dq);
             let (corr, motion) = jump_sizes(&r.dq, &x.qp, &x.st.q, col_scale);
             let why =

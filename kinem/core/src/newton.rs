@@ -138,37 +138,89 @@ pub fn chord<O: Ops>(
     max_step: f64,
     known: f64,
 ) -> Result<Option<(Settled, f64)>, O::Error> {
-    let (mut previous, mut iterations, mut residual) = (f64::INFINITY, 0usize, f64::INFINITY);
-    let assumed = 2.0 * known;
+    let mut c = Chord::new(known);
     for step in 0..CHORD_STEPS {
-        let r = ops.evaluate(if residual <= tolerance { -1 } else { step as i64 })?;
-        if !(r < f64::INFINITY) {
+        let r = ops.evaluate(c.iteration(step, tolerance))?;
+        if !c.residual(step, r, tolerance) {
             return Ok(None);
         }
-        if residual > tolerance {
-            residual = r;
-            iterations = step;
-        }
-        let size = ops.correct(max_step)?;
-        if !(size < f64::INFINITY) {
-            return Ok(None);
-        }
-        let theta = size / previous;
-        previous = size;
-        // a correction at rounding leaves at most itself; else the estimate from the contraction,
-        // measured, or at the first correction the recent one doubled
-        let estimate = |theta: f64| theta < 0.5 && size * theta / (1.0 - theta) <= ROUNDING;
-        let done = size <= ROUNDING || if step == 0 { estimate(assumed) } else { estimate(theta) };
-        if residual <= tolerance && done {
-            ops.factor(true)?;
-            let measured = if step == 0 { f64::NAN } else { theta };
-            return Ok(Some((Settled { iterations, residual, converged: true, last_step: size }, measured)));
-        }
-        if theta > CONTRACTION && size > ROUNDING {
-            return Ok(None);
+        match c.corrected(step, ops.correct(max_step)?, tolerance) {
+            Verdict::Go => {}
+            Verdict::Stop => return Ok(None),
+            Verdict::Done(settled, measured) => {
+                ops.factor(true)?;
+                return Ok(Some((settled, measured)));
+            }
         }
     }
     Ok(None)
+}
+
+/// A chord's running figures, correction by correction: `chord`'s, and
+/// each lane's in crate::lanes, whose lanes correct in lockstep.
+#[derive(Clone, Copy)]
+pub struct Chord {
+    previous: f64,
+    iterations: usize,
+    residual: f64,
+    assumed: f64,
+}
+
+/// What a chord correction leaves: more to do, done (how it settled, the
+/// contraction measured: NaN after one correction), or give up.
+pub enum Verdict {
+    Go,
+    Done(Settled, f64),
+    Stop,
+}
+
+impl Chord {
+    /// `known`: `chord`'s.
+    pub fn new(known: f64) -> Self {
+        Chord { previous: f64::INFINITY, iterations: 0, residual: f64::INFINITY, assumed: 2.0 * known }
+    }
+
+    /// Ops::evaluate's iteration at correction `step` (-1 once the residual met the tolerance).
+    pub fn iteration(&self, step: usize, tolerance: f64) -> i64 {
+        if self.residual <= tolerance {
+            -1
+        } else {
+            step as i64
+        }
+    }
+
+    /// The scaled residual r before correction `step`; false (give up) when it is not finite.
+    pub fn residual(&mut self, step: usize, r: f64, tolerance: f64) -> bool {
+        if !(r < f64::INFINITY) {
+            return false;
+        }
+        if self.residual > tolerance {
+            (self.residual, self.iterations) = (r, step);
+        }
+        true
+    }
+
+    /// After correction `step`, of dimensionless size `size`.
+    pub fn corrected(&mut self, step: usize, size: f64, tolerance: f64) -> Verdict {
+        if !(size < f64::INFINITY) {
+            return Verdict::Stop;
+        }
+        let theta = size / self.previous;
+        self.previous = size;
+        // a correction at rounding leaves at most itself; else the estimate from the contraction,
+        // measured, or at the first correction the recent one doubled
+        let estimate = |theta: f64| theta < 0.5 && size * theta / (1.0 - theta) <= ROUNDING;
+        let done = size <= ROUNDING || if step == 0 { estimate(self.assumed) } else { estimate(theta) };
+        if self.residual <= tolerance && done {
+            let settled =
+                Settled { iterations: self.iterations, residual: self.residual, converged: true, last_step: size };
+            return Verdict::Done(settled, if step == 0 { f64::NAN } else { theta });
+        }
+        if theta > CONTRACTION && size > ROUNDING {
+            return Verdict::Stop;
+        }
+        Verdict::Go
+    }
 }
 
 #[cfg(test)]

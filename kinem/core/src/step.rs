@@ -189,16 +189,84 @@ pub trait Step: Ops {
 /// and room for the predictor and the Hermite start (n each).
 pub struct Work {
     pub held: bool,
-    theta: f64,
-    age: u32,
+    memory: Contraction,
     qp: Vec<f64>,
     start: Vec<f64>,
+}
+
+/// The chord's last measured contraction and the instants since: what
+/// newton::chord takes as `known`.
+#[derive(Clone, Copy)]
+pub struct Contraction {
+    theta: f64,
+    age: u32,
+}
+
+impl Contraction {
+    pub fn none() -> Self {
+        Contraction { theta: f64::INFINITY, age: RECENT + 1 }
+    }
+
+    /// The contraction the next chord may assume (infinite: none recent enough).
+    pub fn known(&self) -> f64 {
+        if self.age <= RECENT {
+            self.theta
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// After a chord that settled, with the contraction it measured (NaN: none).
+    pub fn chorded(&mut self, measured: f64) {
+        if measured.is_nan() {
+            self.age += 1;
+        } else {
+            (self.theta, self.age) = (measured, 0);
+        }
+    }
+}
+
+/// The predictor at t into qp: at the first instant the state's q, else
+/// Taylor's from its rates (`taylor_from`) or Lagrange's from its last
+/// instants. Whether the acceptance test judges the jump from it (not at the
+/// first instant, nor from a Lagrange predictor of fewer than two instants).
+pub fn predict(st: &MarchState, t: f64, taylor_from: bool, qp: &mut [f64]) -> bool {
+    if st.t.is_nan() {
+        qp.copy_from_slice(&st.q);
+        false
+    } else if taylor_from {
+        taylor(&st.q, &st.qd, &st.qdd, t - st.t, qp);
+        true
+    } else {
+        lagrange(t, &st.tt, &st.h, qp) >= 1
+    }
+}
+
+/// The chord's start at t: Hermite's from the last two accepted instants
+/// into `start` when they are at hand and t is near (true), else none
+/// (false: the predictor).
+pub fn chord_start(st: &MarchState, t: f64, start: &mut [f64]) -> bool {
+    let (n, h) = (st.q.len(), t - st.t);
+    if !(st.before.is_finite() && h <= 2.0 * (st.t - st.before)) {
+        return false;
+    }
+    let p = [&st.prev[..n], &st.prev[n..2 * n], &st.prev[2 * n..]];
+    hermite(p, [&st.q[..], &st.qd[..], &st.qdd[..]], st.t - st.before, h, start);
+    true
+}
+
+/// The pivot ratio (0 where below SINGULAR) and det sign (0 there) of the
+/// factorisation at a settled q from `stats`, and the det sign the
+/// acceptance test compares it with: the state's, or its own at the first instant.
+pub fn signs((ratio, det): (f64, i32), st: &MarchState) -> (f64, i32, i32) {
+    let (pivot, det) = if ratio >= SINGULAR { (ratio, det) } else { (0.0, 0) };
+    (pivot, det, if st.t.is_nan() { det } else { st.det })
 }
 
 impl Work {
     /// No factorisation held: the first step starts with Newton.
     pub fn new(n: usize) -> Self {
-        Work { held: false, theta: f64::INFINITY, age: RECENT + 1, qp: vec![0.0; n], start: vec![0.0; n] }
+        Work { held: false, memory: Contraction::none(), qp: vec![0.0; n], start: vec![0.0; n] }
     }
 }
 
@@ -212,7 +280,6 @@ pub fn step<O: Step>(
     mode: Mode,
     c: &mut Work,
 ) -> Result<Outcome, O::Error> {
-    let n = st.q.len();
     let Work { qp, start, .. } = c;
     let (qp, start) = (&mut qp[..], &mut start[..]);
     let first = st.t.is_nan();
@@ -235,38 +302,19 @@ pub fn step<O: Step>(
             return Ok(out);
         }
     }
-    let h = t - st.t;
-    let mut judge = !first;
-    if first {
-        qp.copy_from_slice(&st.q);
-    } else if taylor_from {
-        taylor(&st.q, &st.qd, &st.qdd, h, qp);
-    } else {
-        judge = lagrange(t, &st.tt, &st.h, qp) >= 1;
-    }
+    let judge = predict(st, t, taylor_from, qp);
     // the chord with the last instant's factorisation, from the Hermite start when the last two
     // instants are at hand, else (or when it contracts too slowly) Newton from the predictor
-    if c.held && st.before.is_finite() && h <= 2.0 * (st.t - st.before) {
-        let p = [&st.prev[..n], &st.prev[n..2 * n], &st.prev[2 * n..]];
-        hermite(p, [&st.q[..], &st.qd[..], &st.qdd[..]], st.t - st.before, h, start);
-        ops.start(start, t)?;
-    } else {
-        ops.start(qp, t)?;
-    }
-    let known = if c.age <= RECENT { c.theta } else { f64::INFINITY };
-    let chorded = if c.held { chord(ops, s.tolerance, s.max_step, known)? } else { None };
+    ops.start(if c.held && chord_start(st, t, start) { start } else { qp }, t)?;
+    let chorded = if c.held { chord(ops, s.tolerance, s.max_step, c.memory.known())? } else { None };
     c.held = false;
     let settled = match chorded {
         Some((settled, measured)) => {
-            if measured.is_nan() {
-                c.age += 1;
-            } else {
-                (c.theta, c.age) = (measured, 0);
-            }
+            c.memory.chorded(measured);
             settled
         }
         None => {
-            (c.theta, c.age) = (f64::INFINITY, RECENT + 1);
+            c.memory = Contraction::none();
             ops.start(qp, t)?;
             settle(ops, s.tolerance, s.max_iterations, s.max_step, true)?
         }
@@ -275,9 +323,8 @@ pub fn step<O: Step>(
         return Ok(Outcome::of(Why::NotConverged, &settled));
     }
     let mut out = Outcome::of(Why::Accepted, &settled);
-    let (ratio, det) = ops.stats()?;
-    (out.pivot, out.det) = if ratio >= SINGULAR { (ratio, det) } else { (0.0, 0) };
-    let previous = if first { out.det } else { st.det };
+    let previous;
+    (out.pivot, out.det, previous) = signs(ops.stats()?, st);
     ops.fetch()?;
     (out.corr, out.motion) = jump_sizes(ops.q(), qp, &st.q, ops.col_scale());
     out.why = match mode {
