@@ -285,6 +285,24 @@ impl Order {
         }
     }
 
+    /// Appends `eliminate` (without its test for a zero right side) to a
+    /// solve's program: the block's positions from `at`, its factors in the
+    /// values from `store`.
+    pub fn program(&self, at: usize, store: usize, p: &mut crate::triangular::Program) {
+        for &(k, lo, hi) in &self.steps {
+            for &(i, a) in &self.mult[lo as usize..hi as usize] {
+                p.sub(at + i as usize, at + k as usize, store + a as usize);
+            }
+        }
+        for &(i, a, k) in &self.back {
+            if i == k {
+                p.div(at + k as usize, store + a as usize);
+            } else {
+                p.sub(at + i as usize, at + k as usize, store + a as usize);
+            }
+        }
+    }
+
     /// y <- U^-1 L^-1 y (permuted order).
     #[inline]
     pub fn eliminate(&self, a: &[f64], y: &mut [f64]) {

@@ -9,7 +9,7 @@ use crate::families::At;
 use crate::lu::{Layout, Shape, MASK};
 use crate::model::Kin;
 use crate::order::{Order, NONE};
-use crate::triangular::{Diagonal, Triangular, BLOCK};
+use crate::triangular::{Diagonal, Triangular};
 use num_complex::Complex64 as C64;
 
 /// The Jacobian's values at a few arbitrary configurations and times:
@@ -194,16 +194,8 @@ fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool]) -> bool {
         })
         .collect();
     off.sort_by_key(|x| x.0);
-    let mut program = Vec::with_capacity(off.len() + blocks.len());
-    let mut next = 0;
-    for (k, d) in blocks.iter().enumerate() {
-        while next < off.len() && off[next].0 == k {
-            program.push((off[next].1, off[next].2, next as u32));
-            next += 1;
-        }
-        let at = d.at as u32;
-        program.push(if d.s == 1 { (at, at, d.store as u32) } else { (BLOCK, k as u32, 0) });
-    }
+    let place: Vec<(usize, usize, usize)> = off.iter().map(|x| (x.0, x.1 as usize, x.2 as usize)).collect();
+    let Ok(program) = Triangular::program(&blocks, &place, store, n) else { return false };
     let (mut gather, mut scatter) = (vec![0; n], vec![0; n]);
     for i in 0..n {
         gather[row_pos[i]] = i;
@@ -212,6 +204,7 @@ fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool]) -> bool {
     let t = Triangular {
         blocks,
         off_entries: off.iter().map(|x| (x.3, x.4)).collect(),
+        off_at: store,
         program,
         gscale: gather.iter().map(|&i| 1.0 / layout.scale[i]).collect(),
         sscale: scatter.iter().map(|&j| layout.col_scale[j]).collect(),

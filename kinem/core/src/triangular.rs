@@ -17,8 +17,77 @@
 use crate::lu::{dense_factor, dense_solve, masked_factor, masked_solve, Factors, FALLBACK, MASK};
 use crate::order::{Order, Pivots};
 
-/// The program's mark of a larger block's elimination.
-pub const BLOCK: u32 = u32::MAX;
+/// A solve's forward and back substitution as one flat program over the
+/// positions w and the factors' values a (issue 31 item 4): `divs[k] = [end,
+/// r, v]` runs the subtractions `subs[..end]` not yet run (`[i, c, u]`: w[i]
+/// -= a[u] w[c]), then w[r] /= a[v]. One tight loop, no branch on the
+/// structure; the division's order and operands are the elimination's, so
+/// the figures are those of the loops it replaces, to the bit.
+///
+/// Invariants, checked once by `Program::check` when the model is built
+/// (and by debug assertions in `run`): every position i, c, r is below
+/// `positions`, every value index u, v below `values`, the ends ascend and
+/// the last one is subs.len(). `run` asserts that its slices are that long.
+#[derive(Clone, Debug, Default)]
+pub struct Program {
+    pub subs: Vec<[u32; 3]>,
+    pub divs: Vec<[u32; 3]>,
+    pub positions: usize,
+    pub values: usize,
+}
+
+impl Program {
+    pub fn sub(&mut self, i: usize, c: usize, u: usize) {
+        self.subs.push([i as u32, c as u32, u as u32]);
+    }
+
+    pub fn div(&mut self, r: usize, v: usize) {
+        self.divs.push([self.subs.len() as u32, r as u32, v as u32]);
+    }
+
+    /// The invariants `run` relies on (see `Program`).
+    pub fn check(&self) -> Result<(), String> {
+        let (p, v) = (self.positions, self.values);
+        if p >= u32::MAX as usize || v >= u32::MAX as usize {
+            return Err("program: too many positions or values".into());
+        }
+        if let Some(s) = self.subs.iter().find(|s| s[0] as usize >= p || s[1] as usize >= p || s[2] as usize >= v) {
+            return Err(format!("program: subtraction {s:?} outside {p} positions, {v} values"));
+        }
+        let mut end = 0;
+        for d in &self.divs {
+            if d[0] < end || d[0] as usize > self.subs.len() || d[1] as usize >= p || d[2] as usize >= v {
+                return Err(format!("program: division {d:?} out of order or range"));
+            }
+            end = d[0];
+        }
+        if end as usize != self.subs.len() {
+            return Err("program: subtractions after the last division".into());
+        }
+        Ok(())
+    }
+
+    /// Runs the program on w (positions) with the values a.
+    #[inline]
+    pub fn run(&self, a: &[f64], w: &mut [f64]) {
+        assert!(a.len() >= self.values && w.len() >= self.positions);
+        debug_assert!(self.check().is_ok());
+        let mut from = 0;
+        for &[end, r, v] in &self.divs {
+            let end = end as usize;
+            // SAFETY: Program::check (when built): from <= end <= subs.len(), every
+            // position below `positions` <= w.len(), every value below `values` <= a.len()
+            unsafe {
+                for &[i, c, u] in self.subs.get_unchecked(from..end) {
+                    let x = *w.get_unchecked(c as usize);
+                    *w.get_unchecked_mut(i as usize) -= *a.get_unchecked(u as usize) * x;
+                }
+                *w.get_unchecked_mut(r as usize) /= *a.get_unchecked(v as usize);
+            }
+            from = end;
+        }
+    }
+}
 
 /// One diagonal block: its first position, size, where its s x s factors
 /// start in Factors::j, and its fixed order (None for a 1x1 block).
@@ -37,13 +106,13 @@ pub struct Diagonal {
 #[derive(Clone, Debug)]
 pub struct Triangular {
     pub blocks: Vec<Diagonal>,
-    /// the off-diagonal entries (Jacobian entry, scale): Factors::off's values
+    /// the off-diagonal entries (Jacobian entry, scale): their values are
+    /// stored in Factors::j from `off_at`, in this order
     pub off_entries: Vec<(u32, f64)>,
-    /// the forward substitution as one program over the positions: (r, c,
-    /// v) is w[r] -= off[v] w[c] (an off-diagonal entry), w[r] /= j[v] when
-    /// r == c (a 1x1 block), and block c's elimination when r is BLOCK;
-    /// block k's entries come right before it
-    pub program: Vec<(u32, u32, u32)>,
+    pub off_at: usize,
+    /// the solve (`Program`) over Factors::j: block k's off-diagonal
+    /// entries, then its division (1x1) or its elimination, block after block
+    pub program: Program,
     /// per position p: the model row b[gather[p]] / its scale (gscale) goes
     /// there, and x[scatter[p]] = w[p] times the column's scale (sscale)
     pub gather: Vec<usize>,
@@ -66,10 +135,38 @@ pub struct Triangular {
 }
 
 impl Triangular {
-    /// The factors' storage: the fallback's n x n, then the blocks'.
+    /// The factors' storage: the fallback's n x n, then the blocks', then
+    /// the off-diagonal values.
     pub fn stored(&self) -> usize {
-        let n = self.gather.len();
-        n * n + self.blocks.iter().map(|d| d.s * d.s).sum::<usize>()
+        self.off_at + self.off_entries.len()
+    }
+
+    /// The program of the blocks' solve (off_at: where the off-diagonal
+    /// values are stored), checked (`Program::check`).
+    pub fn program(
+        blocks: &[Diagonal],
+        off: &[(usize, usize, usize)],
+        off_at: usize,
+        n: usize,
+    ) -> Result<Program, String> {
+        let mut p = Program { positions: n, values: off_at + off.len(), ..Program::default() };
+        let mut next = 0;
+        for (k, d) in blocks.iter().enumerate() {
+            // off: (block of the row, row position, column position), sorted by block
+            while next < off.len() && off[next].0 == k {
+                p.sub(off[next].1, off[next].2, off_at + next);
+                next += 1;
+            }
+            match &d.order {
+                None => p.div(d.at, d.store),
+                Some(o) => o.program(d.at, d.store, &mut p),
+            }
+        }
+        if next != off.len() || p.divs.len() != n {
+            return Err("program: an off-diagonal entry out of order, or a position without its pivot".into());
+        }
+        p.check()?;
+        Ok(p)
     }
 
     /// The blocks factorised in order (f.fixed[0]: their pivots' figures),
@@ -95,7 +192,7 @@ impl Triangular {
     }
 
     fn blocks_factor(&self, values: &[f64], f: &mut Factors) -> Option<Pivots> {
-        for (x, &(e, scale)) in f.off.iter_mut().zip(&self.off_entries) {
+        for (x, &(e, scale)) in f.j[self.off_at..].iter_mut().zip(&self.off_entries) {
             *x = values[e as usize] * scale;
         }
         let mut acc = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det: self.sign };
@@ -155,21 +252,7 @@ impl Triangular {
         for ((v, &i), &scale) in w.iter_mut().zip(&self.gather).zip(&self.gscale) {
             *v = b[i] * scale;
         }
-        let (j, off) = (&f.j, &f.off);
-        for &(r, c, v) in &self.program {
-            let (r, c, v) = (r as usize, c as usize, v as usize);
-            if r == c {
-                w[r] /= j[v];
-            } else if r == BLOCK as usize {
-                let d = &self.blocks[c];
-                if let Some(o) = &d.order {
-                    o.eliminate(&j[d.store..d.store + d.s * d.s], &mut w[d.at..d.at + d.s]);
-                }
-            } else {
-                let x = w[c];
-                w[r] -= off[v] * x;
-            }
-        }
+        self.program.run(&f.j, w);
         for ((&v, &j), &scale) in w.iter().zip(&self.scatter).zip(&self.sscale) {
             x[j] = v * scale;
         }
