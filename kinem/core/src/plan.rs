@@ -196,6 +196,8 @@ fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool]) -> bool {
     off.sort_by_key(|x| x.0);
     let place: Vec<(usize, usize, usize)> = off.iter().map(|x| (x.0, x.1 as usize, x.2 as usize)).collect();
     let Ok(program) = Triangular::program(&blocks, &place, store, n) else { return false };
+    let off_entries: Vec<(u32, f64)> = off.iter().map(|x| (x.3, x.4)).collect();
+    let Ok(factoring) = Triangular::factoring(&blocks, &off_entries, store, layout.at.len()) else { return false };
     let (mut gather, mut scatter) = (vec![0; n], vec![0; n]);
     for i in 0..n {
         gather[row_pos[i]] = i;
@@ -203,9 +205,10 @@ fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool]) -> bool {
     }
     let t = Triangular {
         blocks,
-        off_entries: off.iter().map(|x| (x.3, x.4)).collect(),
+        off_entries,
         off_at: store,
         program,
+        factoring,
         gscale: gather.iter().map(|&i| 1.0 / layout.scale[i]).collect(),
         sscale: scatter.iter().map(|&j| layout.col_scale[j]).collect(),
         sign: crate::order::parity(&gather) * crate::order::parity(&scatter),

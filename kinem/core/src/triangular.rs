@@ -15,7 +15,7 @@
 //! MASK coordinates, dense above), so that every figure near the
 //! acceptance test's floor is partial pivoting's.
 use crate::lu::{dense_factor, dense_solve, masked_factor, masked_solve, Factors, FALLBACK, MASK};
-use crate::order::{Order, Pivots};
+use crate::order::{Order, Pivots, MULTIPLIER};
 
 /// A solve's forward and back substitution as one flat program over the
 /// positions w and the factors' values a (issue 31 item 4): `divs[k] = [end,
@@ -89,6 +89,114 @@ impl Program {
     }
 }
 
+/// The blocks' factorisation as flat lists over Factors::j (issue 31 item
+/// 4): the fill to clear, every entry's placement (values[e] times its
+/// scale at `at`: off-diagonal, 1x1 and larger blocks alike), then each
+/// elimination step `[pivot, end]` of the larger blocks' fixed orders, its
+/// multipliers `mults[..end]` (`[at, end]`: l = a[at] / pivot, then a[dst]
+/// -= l a[src] for `pairs[..end]`), then the n pivots `diag` (position
+/// order) read for the figures. The same operations, in the same order, as
+/// Order::numeric block after block (the skip of a zero multiplier dropped;
+/// a multiplier above MULTIPLIER still rejects the order, after the loop).
+///
+/// Invariants, checked once by `Factoring::check` when the model is built:
+/// every index into the values below `values`, every entry below `entries`,
+/// the ends ascend and the last ones are mults.len() and pairs.len().
+#[derive(Clone, Debug, Default)]
+pub struct Factoring {
+    pub clear: Vec<u32>,
+    pub place: Vec<(u32, u32, f64)>,
+    pub steps: Vec<[u32; 2]>,
+    pub mults: Vec<[u32; 2]>,
+    pub pairs: Vec<[u32; 2]>,
+    pub diag: Vec<u32>,
+    pub values: usize,
+    pub entries: usize,
+}
+
+impl Factoring {
+    /// The invariants `run` relies on (see `Factoring`).
+    pub fn check(&self) -> Result<(), String> {
+        let v = self.values;
+        let bad = |x: u32| x as usize >= v;
+        if v >= u32::MAX as usize
+            || self.clear.iter().any(|&x| bad(x))
+            || self.place.iter().any(|&(e, at, _)| e as usize >= self.entries || bad(at))
+            || self.steps.iter().any(|s| bad(s[0]))
+            || self.mults.iter().any(|m| bad(m[0]))
+            || self.pairs.iter().any(|p| bad(p[0]) || bad(p[1]))
+            || self.diag.iter().any(|&x| bad(x))
+        {
+            return Err("factoring: an index out of range".into());
+        }
+        let ascending = |ends: &mut dyn Iterator<Item = u32>, len: usize| {
+            let mut last = 0;
+            for e in ends {
+                if e < last || e as usize > len {
+                    return false;
+                }
+                last = e;
+            }
+            last as usize == len
+        };
+        if !ascending(&mut self.steps.iter().map(|s| s[1]), self.mults.len())
+            || !ascending(&mut self.mults.iter().map(|m| m[1]), self.pairs.len())
+        {
+            return Err("factoring: ends out of order".into());
+        }
+        Ok(())
+    }
+
+    /// Assembles and factorises into a (Factors::j) from the Jacobian's
+    /// values; the pivots' figures (det: times `sign`), None where a pivot
+    /// is zero or not finite or a multiplier above MULTIPLIER.
+    #[inline]
+    pub fn run(&self, values: &[f64], a: &mut [f64], sign: i32) -> Option<Pivots> {
+        assert!(a.len() >= self.values && values.len() >= self.entries);
+        debug_assert!(self.check().is_ok());
+        // SAFETY (every unchecked index below): Factoring::check when built, and the lengths asserted above
+        unsafe {
+            for &at in &self.clear {
+                *a.get_unchecked_mut(at as usize) = 0.0;
+            }
+            for &(e, at, scale) in &self.place {
+                *a.get_unchecked_mut(at as usize) = *values.get_unchecked(e as usize) * scale;
+            }
+            let (mut m0, mut p0, mut ok) = (0usize, 0usize, true);
+            for &[kk, m1] in &self.steps {
+                let r = 1.0 / *a.get_unchecked(kk as usize);
+                for &[at, p1] in self.mults.get_unchecked(m0..m1 as usize) {
+                    let l = *a.get_unchecked(at as usize) * r;
+                    ok &= l.abs() <= MULTIPLIER; // false for a zero or non-finite pivot too
+                    *a.get_unchecked_mut(at as usize) = l;
+                    for &[dst, src] in self.pairs.get_unchecked(p0..p1 as usize) {
+                        let x = *a.get_unchecked(src as usize);
+                        *a.get_unchecked_mut(dst as usize) -= l * x;
+                    }
+                    p0 = p1 as usize;
+                }
+                m0 = m1 as usize;
+            }
+            if !ok {
+                return None;
+            }
+            let mut acc = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det: sign };
+            for (p, &at) in self.diag.iter().enumerate() {
+                let d = *a.get_unchecked(at as usize);
+                if d == 0.0 || !d.is_finite() {
+                    return None;
+                }
+                if d < 0.0 {
+                    acc.det = -acc.det;
+                }
+                acc.take(d.abs(), p);
+                acc.big = acc.big.max(d.abs());
+            }
+            Some(acc)
+        }
+    }
+}
+
 /// One diagonal block: its first position, size, where its s x s factors
 /// start in Factors::j, and its fixed order (None for a 1x1 block).
 #[derive(Clone, Debug)]
@@ -113,6 +221,8 @@ pub struct Triangular {
     /// the solve (`Program`) over Factors::j: block k's off-diagonal
     /// entries, then its division (1x1) or its elimination, block after block
     pub program: Program,
+    /// the blocks' factorisation (`Factoring`)
+    pub factoring: Factoring,
     /// per position p: the model row b[gather[p]] / its scale (gscale) goes
     /// there, and x[scatter[p]] = w[p] times the column's scale (sscale)
     pub gather: Vec<usize>,
@@ -169,6 +279,29 @@ impl Triangular {
         Ok(p)
     }
 
+    /// The factorisation of the blocks (see `Factoring`) over `entries`
+    /// Jacobian entries, checked (`Factoring::check`).
+    pub fn factoring(
+        blocks: &[Diagonal],
+        off: &[(u32, f64)],
+        off_at: usize,
+        entries: usize,
+    ) -> Result<Factoring, String> {
+        let mut f = Factoring { values: off_at + off.len(), entries, ..Factoring::default() };
+        f.place.extend(off.iter().enumerate().map(|(x, &(e, scale))| (e, (off_at + x) as u32, scale)));
+        for d in blocks {
+            match &d.order {
+                None => {
+                    f.place.extend(d.entries.iter().map(|&(e, scale)| (e, d.store as u32, scale)));
+                    f.diag.push(d.store as u32);
+                }
+                Some(o) => o.factoring(d.store, &mut f),
+            }
+        }
+        f.check()?;
+        Ok(f)
+    }
+
     /// The blocks factorised in order (f.fixed[0]: their pivots' figures),
     /// or the whole matrix with partial pivoting (f.fixed[0] None).
     pub fn factor(&self, values: &[f64], f: &mut Factors) {
@@ -192,41 +325,7 @@ impl Triangular {
     }
 
     fn blocks_factor(&self, values: &[f64], f: &mut Factors) -> Option<Pivots> {
-        for (x, &(e, scale)) in f.j[self.off_at..].iter_mut().zip(&self.off_entries) {
-            *x = values[e as usize] * scale;
-        }
-        let mut acc = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det: self.sign };
-        for d in &self.blocks {
-            let a = &mut f.j[d.store..d.store + d.s * d.s];
-            match &d.order {
-                None => {
-                    for &(e, scale) in &d.entries {
-                        a[0] = values[e as usize] * scale;
-                    }
-                    let x = a[0];
-                    if x == 0.0 || !x.is_finite() {
-                        return None;
-                    }
-                    acc.det *= if x < 0.0 { -1 } else { 1 };
-                    acc.take(x.abs(), d.at);
-                    acc.big = acc.big.max(x.abs());
-                }
-                Some(o) => {
-                    for &at in &o.fill_at {
-                        a[at] = 0.0;
-                    }
-                    for &(e, at, scale) in &o.place {
-                        a[at as usize] = values[e as usize] * scale;
-                    }
-                    // its det without the order's parity: the positions are in the order already
-                    let p = o.numeric(a)?;
-                    acc.det *= p.det * o.parity;
-                    acc.take(p.small, d.at + o.inv_col[p.at]);
-                    acc.big = acc.big.max(p.big);
-                }
-            }
-        }
-        Some(acc)
+        self.factoring.run(values, &mut f.j, self.sign)
     }
 
     /// x = Phi_q^-1 b (model rows in, coordinates out); scale, col_scale:
