@@ -63,6 +63,9 @@ impl<S: Real> Kin<S> {
             entry_off.push(entry_off.last().unwrap() + f.entries());
         }
         let shared = Shared { functions: &functions, outlines: &outlines };
+        for f in &mut list {
+            f.bind(&shared);
+        }
         let time_dependent = (0..list.len()).filter(|&k| list[k].time_dependent(&shared)).collect();
         Ok(Kin {
             n,

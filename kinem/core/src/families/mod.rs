@@ -146,6 +146,13 @@ impl<S: Real> Family<S> {
         Ok(r)
     }
 
+    /// Binds the family to the model's functions and outlines (once, when the model is built).
+    pub fn bind(&mut self, s: &Shared<S>) {
+        if let Family::Simple(f) = self {
+            f.bind(s);
+        }
+    }
+
     pub fn rows(&self) -> usize {
         each!(self, f => f.rows())
     }

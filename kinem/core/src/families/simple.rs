@@ -29,6 +29,10 @@ pub struct Simple<S = f64> {
     relative: Vec<bool>,
     f: Vec<usize>,
     entries: usize,
+    /// per row: its function is not a constant (`bind`; all until bound),
+    /// else its constant value
+    driven: Vec<bool>,
+    value: Vec<S>,
 }
 
 impl<S: Real> Simple<S> {
@@ -46,11 +50,34 @@ impl<S: Real> Simple<S> {
             mx: t.real("mx")?,
             my: t.real("my")?,
             f: t.index("f", functions)?,
+            driven: vec![true; a.len()],
+            value: vec![S::zero(); a.len()],
             a,
             point,
             relative,
             entries,
         })
+    }
+
+    /// Takes each constant function's value (a ground's, an absolute
+    /// constraint's) once, so that the kernels evaluate only the drivers.
+    pub fn bind(&mut self, s: &Shared<S>) {
+        for r in 0..self.a.len() {
+            self.driven[r] = !s.functions.constant(self.f[r]);
+            self.value[r] = if self.driven[r] { S::zero() } else { s.functions.eval(self.f[r], 0.0, 0) };
+        }
+    }
+
+    /// f(t) (order 0), f'(t), f''(t) of row r's function.
+    #[inline(always)]
+    fn drive(&self, r: usize, t: f64, order: u8, s: &Shared<S>) -> S {
+        if self.driven[r] {
+            s.functions.eval(self.f[r], t, order)
+        } else if order == 0 {
+            self.value[r]
+        } else {
+            S::zero()
+        }
     }
 
     pub fn rows(&self) -> usize {
@@ -80,7 +107,7 @@ impl<S: Real> Simple<S> {
     /// Eqs. 4.31-4.40: q_a - w q_k + point term - f(t).
     pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
         for (r, o) in out.iter_mut().enumerate() {
-            let mut v = at.q[self.a[r]] - at.q[self.k[r]] * self.w[r] - s.functions.eval(self.f[r], at.t, 0);
+            let mut v = at.q[self.a[r]] - at.q[self.k[r]] * self.w[r] - self.drive(r, at.t, 0, s);
             if let Some(p) = self.point_term(r, at) {
                 v = v + p;
             }
@@ -110,14 +137,14 @@ impl<S: Real> Simple<S> {
     /// nu = -Phi_t = f'(t) per row (Eq. 4.37).
     pub fn nu(&self, t: f64, s: &Shared<S>, out: &mut [S]) {
         for (r, o) in out.iter_mut().enumerate() {
-            *o = s.functions.eval(self.f[r], t, 1);
+            *o = self.drive(r, t, 1, s);
         }
     }
 
     /// Eq. 4.38 and the point forms: f''(t) + (A_i s')_c w_i^2.
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
         for (r, o) in out.iter_mut().enumerate() {
-            let mut v = s.functions.eval(self.f[r], at.t, 2);
+            let mut v = self.drive(r, at.t, 2, s);
             if let Some(p) = self.point_term(r, at) {
                 let w = qd[self.angle[r]];
                 v = v + p * (w * w);
