@@ -340,3 +340,7 @@ mod tests {
         assert!(fell >= 40 && fixed >= 40, "both paths taken: {fell} fallbacks, {fixed} in the blocks' orders");
     }
 }
+
+#[cfg(test)]
+#[path = "fuzz.rs"]
+mod fuzz;
