@@ -190,8 +190,7 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
             continue;
         }
         let Shape::Triangular(t) = &layout.shape else { panic!("trial {trial}: not triangular") };
-        t.program.check().unwrap();
-        t.factoring.check().unwrap();
+        t.check().unwrap();
         assert_eq!(t.program.divs.len(), n, "trial {trial}: one division per position");
         for _ in 0..4 {
             let values: Vec<f64> =

@@ -223,6 +223,9 @@ fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool]) -> bool {
         whole_sign: layout.sign,
         whole_to_pos: (0..n).map(|p| col_pos[col_at[p]]).collect(),
     };
+    if t.check().is_err() {
+        return false;
+    }
     layout.row_pos = row_pos;
     layout.col_pos = col_pos;
     layout.shape = Shape::Triangular(Box::new(t));

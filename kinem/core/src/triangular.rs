@@ -251,6 +251,21 @@ impl Triangular {
         self.off_at + self.off_entries.len()
     }
 
+    /// The invariants the solve relies on beyond its program's: gather and
+    /// scatter are permutations of the n positions, with a scale each.
+    pub fn check(&self) -> Result<(), String> {
+        let n = self.gather.len();
+        let perm = |p: &[usize]| {
+            let mut seen = vec![false; n];
+            p.len() == n && p.iter().all(|&i| i < n && !std::mem::replace(&mut seen[i], true))
+        };
+        if !perm(&self.gather) || !perm(&self.scatter) || self.gscale.len() != n || self.sscale.len() != n {
+            return Err("triangular: gather and scatter are not permutations of the positions".into());
+        }
+        self.program.check()?;
+        self.factoring.check()
+    }
+
     /// The program of the blocks' solve (off_at: where the off-diagonal
     /// values are stored), checked (`Program::check`).
     pub fn program(
@@ -348,12 +363,15 @@ impl Triangular {
             }
             return;
         }
+        assert!(b.len() >= n && x.len() >= n);
         for ((v, &i), &scale) in w.iter_mut().zip(&self.gather).zip(&self.gscale) {
-            *v = b[i] * scale;
+            // SAFETY: gather holds positions below n (Triangular::check, when built); b.len() >= n asserted
+            *v = unsafe { *b.get_unchecked(i) } * scale;
         }
         self.program.run(&f.j, w);
         for ((&v, &j), &scale) in w.iter().zip(&self.scatter).zip(&self.sscale) {
-            x[j] = v * scale;
+            // SAFETY: scatter holds positions below n (Triangular::check, when built); x.len() >= n asserted
+            unsafe { *x.get_unchecked_mut(j) = v * scale };
         }
     }
 
