@@ -181,20 +181,27 @@ fn random_layout(n: usize, rng: &mut Rng) -> (Layout, Vec<usize>, Vec<usize>) {
 #[test]
 fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
     let mut rng = Rng(0x2545_f491_4f6c_dd1d);
-    let (mut solved, mut corrupted) = (0, 0);
+    let (mut solved, mut corrupted, mut folds) = (0, 0, 0);
     for trial in 0..600 {
         let n = 2 + rng.below(19) as usize;
         let (mut layout, rows, cols) = random_layout(n, &mut rng);
         let constant: Vec<bool> = rows.iter().map(|_| rng.below(3) == 0).collect();
-        if !super::triangulate(&mut layout, &constant, &constant) {
+        // entries taken for +1 (a folded 1x1 pivot where one is alone in its block): set so in half the trials
+        let one: Vec<bool> = constant.iter().map(|&c| c && rng.below(2) == 0).collect();
+        let honest = trial % 2 == 0;
+        if !super::triangulate(&mut layout, &constant, &constant, &one) {
             continue;
         }
         let Shape::Triangular(t) = &layout.shape else { panic!("trial {trial}: not triangular") };
         t.check().unwrap();
-        assert_eq!(t.program.divs.len(), n, "trial {trial}: one division per position");
+        let folded = t.factoring.ones.len();
+        assert_eq!(t.program.divs.len() + folded, n, "trial {trial}: one division per position not folded");
         for _ in 0..4 {
-            let values: Vec<f64> =
+            let mut values: Vec<f64> =
                 rows.iter().map(|_| rng.unit() + if rng.below(2) == 0 { 2.0 } else { -2.0 }).collect();
+            for e in (0..values.len()).filter(|&e| honest && one[e]) {
+                values[e] = 1.0 / layout.entry_scale[e]; // its scaled value 1, or within rounding of it
+            }
             let mut a = vec![0.0; n * n];
             for e in 0..values.len() {
                 a[rows[e] * n + cols[e]] = values[e];
@@ -212,6 +219,7 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
             let err = x.iter().zip(&x0).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
             assert!(err < 1e-6 / ratio, "trial {trial}: error {err}, pivot ratio {ratio}");
             solved += 1;
+            folds += (folded > 0 && f.fixed[0].is_some()) as usize;
         }
         // any index of the program or the factoring moved out of range is refused
         let mut p = t.program.clone();
@@ -233,5 +241,8 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
         assert!(fa.check().is_err(), "trial {trial}: a corrupted factoring passed its check");
         corrupted += 1;
     }
-    assert!(solved >= 300 && corrupted >= 100, "{solved} solves, {corrupted} corruptions checked");
+    assert!(
+        solved >= 300 && corrupted >= 100 && folds >= 20,
+        "{solved} solves ({folds} with folded pivots), {corrupted} corruptions checked"
+    );
 }

@@ -15,8 +15,8 @@ use num_complex::Complex64 as C64;
 /// The Jacobian's values at a few arbitrary configurations and times:
 /// (constant, unit) per entry: the same value at every one of them (a
 /// constant of the formulation: +-1 of a joint, a gear's radii) and, for
-/// those, whether the scaled value is +-1.
-pub fn constant_entries(kin: &Kin, entry_scale: &[f64]) -> (Vec<bool>, Vec<bool>) {
+/// those, whether the scaled value is +-1, and whether it is +1.
+pub fn constant_entries(kin: &Kin, entry_scale: &[f64]) -> (Vec<bool>, Vec<bool>, Vec<bool>) {
     let n = kin.n;
     let mut first: Option<Vec<f64>> = None;
     let mut constant = vec![true; kin.nnz];
@@ -37,15 +37,16 @@ pub fn constant_entries(kin: &Kin, entry_scale: &[f64]) -> (Vec<bool>, Vec<bool>
     }
     let v = first.unwrap_or_default();
     let unit = (0..kin.nnz).map(|k| constant[k] && (v[k] * entry_scale[k]).abs() == 1.0).collect();
-    (constant, unit)
+    let one = (0..kin.nnz).map(|k| constant[k] && v[k] * entry_scale[k] == 1.0).collect();
+    (constant, unit, one)
 }
 
 /// Gives every block of up to MASK coordinates its fixed order (none where
 /// the pattern is structurally singular: that block keeps partial pivoting);
 /// one block that decomposes is laid out block-triangularly instead.
 pub fn order_blocks(kin: &Kin, layout: &mut Layout) {
-    let (constant, unit) = constant_entries(kin, &layout.entry_scale);
-    if triangulate(layout, &constant, &unit) {
+    let (constant, unit, one) = constant_entries(kin, &layout.entry_scale);
+    if triangulate(layout, &constant, &unit, &one) {
         return;
     }
     let Shape::Blocks { count, size, pad, patterns, .. } = &layout.shape else { return };
@@ -110,8 +111,10 @@ pub fn order_blocks(kin: &Kin, layout: &mut Layout) {
 /// block-triangular order (Shape::Triangular), each diagonal block's
 /// positions in its fixed order. False (unchanged) otherwise, and where a
 /// block has no fixed order (a greedy order can miss a structurally
-/// nonsingular block's pivots).
-fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool]) -> bool {
+/// nonsingular block's pivots). `one`: the entries whose scaled value
+/// looked +1 at every trial: a 1x1 block of one such entry is folded (no
+/// division; each factorisation checks that it is still 1).
+fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool], one: &[bool]) -> bool {
     let Shape::Blocks { count: 1, size, pad, patterns, .. } = &layout.shape else { return false };
     let (n, m) = (layout.n, layout.m);
     if !pad.is_empty() || n != m || *size != n || (n <= MASK && patterns.len() != n) {
@@ -195,9 +198,12 @@ fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool]) -> bool {
         .collect();
     off.sort_by_key(|x| x.0);
     let place: Vec<(usize, usize, usize)> = off.iter().map(|x| (x.0, x.1 as usize, x.2 as usize)).collect();
-    let Ok(program) = Triangular::program(&blocks, &place, store, n) else { return false };
+    let folded: Vec<bool> = blocks.iter().map(|d| d.entries.len() == 1 && one[d.entries[0].0 as usize]).collect();
+    let Ok(program) = Triangular::program(&blocks, &place, store, n, &folded) else { return false };
     let off_entries: Vec<(u32, f64)> = off.iter().map(|x| (x.3, x.4)).collect();
-    let Ok(factoring) = Triangular::factoring(&blocks, &off_entries, store, layout.at.len()) else { return false };
+    let Ok(factoring) = Triangular::factoring(&blocks, &off_entries, store, layout.at.len(), &folded) else {
+        return false;
+    };
     let (mut gather, mut scatter) = (vec![0; n], vec![0; n]);
     for i in 0..n {
         gather[row_pos[i]] = i;
@@ -287,7 +293,8 @@ mod tests {
         let plain = one_block(n, &rows, &cols);
         let mut tri = plain.clone();
         let constant: Vec<bool> = rows.iter().map(|&r| r < 3).collect();
-        assert!(triangulate(&mut tri, &constant, &constant), "the slider-crank decomposes");
+        let none = vec![false; rows.len()];
+        assert!(triangulate(&mut tri, &constant, &constant, &none), "the slider-crank decomposes");
         let Shape::Triangular(t) = &tri.shape else { panic!("not triangular") };
         let sizes: Vec<usize> = t.blocks.iter().map(|d| d.s).collect();
         assert_eq!(sizes, vec![1, 1, 1, 1, 1, 1, 1, 5]);

@@ -24,10 +24,14 @@ use crate::order::{Order, Pivots, MULTIPLIER};
 /// structure; the division's order and operands are the elimination's, so
 /// the figures are those of the loops it replaces, to the bit.
 ///
+/// A 1x1 block whose pivot is a constant +1 (a ground's or a driver's row,
+/// `Factoring::ones` checks it each factorisation) has no division: its
+/// subtractions run with the next division's, or after the last one.
+///
 /// Invariants, checked once by `Program::check` when the model is built
 /// (and by debug assertions in `run`): every position i, c, r is below
-/// `positions`, every value index u, v below `values`, the ends ascend and
-/// the last one is subs.len(). `run` asserts that its slices are that long.
+/// `positions`, every value index u, v below `values`, the ends ascend up
+/// to subs.len(). `run` asserts that its slices are that long.
 #[derive(Clone, Debug, Default)]
 pub struct Program {
     pub subs: Vec<[u32; 3]>,
@@ -61,9 +65,6 @@ impl Program {
             }
             end = d[0];
         }
-        if end as usize != self.subs.len() {
-            return Err("program: subtractions after the last division".into());
-        }
         Ok(())
     }
 
@@ -85,6 +86,13 @@ impl Program {
                 *w.get_unchecked_mut(r as usize) /= *a.get_unchecked(v as usize);
             }
             from = end;
+        }
+        // SAFETY: as above (from <= subs.len())
+        for &[i, c, u] in unsafe { self.subs.get_unchecked(from..) } {
+            unsafe {
+                let x = *w.get_unchecked(c as usize);
+                *w.get_unchecked_mut(i as usize) -= *a.get_unchecked(u as usize) * x;
+            }
         }
     }
 }
@@ -110,6 +118,9 @@ pub struct Factoring {
     pub mults: Vec<[u32; 2]>,
     pub pairs: Vec<[u32; 2]>,
     pub diag: Vec<u32>,
+    /// the folded pivots (`Program`): a factorisation where one is not
+    /// exactly 1 is refused (the fallback takes it)
+    pub ones: Vec<u32>,
     pub values: usize,
     pub entries: usize,
 }
@@ -126,6 +137,7 @@ impl Factoring {
             || self.mults.iter().any(|m| bad(m[0]))
             || self.pairs.iter().any(|p| bad(p[0]) || bad(p[1]))
             || self.diag.iter().any(|&x| bad(x))
+            || self.ones.iter().any(|&x| bad(x))
         {
             return Err("factoring: an index out of range".into());
         }
@@ -176,6 +188,9 @@ impl Factoring {
                     p0 = p1 as usize;
                 }
                 m0 = m1 as usize;
+            }
+            for &at in &self.ones {
+                ok &= *a.get_unchecked(at as usize) == 1.0;
             }
             if !ok {
                 return None;
@@ -267,12 +282,14 @@ impl Triangular {
     }
 
     /// The program of the blocks' solve (off_at: where the off-diagonal
-    /// values are stored), checked (`Program::check`).
+    /// values are stored; folded: the 1x1 blocks without a division),
+    /// checked (`Program::check`).
     pub fn program(
         blocks: &[Diagonal],
         off: &[(usize, usize, usize)],
         off_at: usize,
         n: usize,
+        folded: &[bool],
     ) -> Result<Program, String> {
         let mut p = Program { positions: n, values: off_at + off.len(), ..Program::default() };
         let mut next = 0;
@@ -283,11 +300,12 @@ impl Triangular {
                 next += 1;
             }
             match &d.order {
+                None if folded[k] => {}
                 None => p.div(d.at, d.store),
                 Some(o) => o.program(d.at, d.store, &mut p),
             }
         }
-        if next != off.len() || p.divs.len() != n {
+        if next != off.len() || p.divs.len() + folded.iter().filter(|&&f| f).count() != n {
             return Err("program: an off-diagonal entry out of order, or a position without its pivot".into());
         }
         p.check()?;
@@ -295,20 +313,25 @@ impl Triangular {
     }
 
     /// The factorisation of the blocks (see `Factoring`) over `entries`
-    /// Jacobian entries, checked (`Factoring::check`).
+    /// Jacobian entries (folded: the 1x1 blocks whose pivot must be 1),
+    /// checked (`Factoring::check`).
     pub fn factoring(
         blocks: &[Diagonal],
         off: &[(u32, f64)],
         off_at: usize,
         entries: usize,
+        folded: &[bool],
     ) -> Result<Factoring, String> {
         let mut f = Factoring { values: off_at + off.len(), entries, ..Factoring::default() };
         f.place.extend(off.iter().enumerate().map(|(x, &(e, scale))| (e, (off_at + x) as u32, scale)));
-        for d in blocks {
+        for (k, d) in blocks.iter().enumerate() {
             match &d.order {
                 None => {
                     f.place.extend(d.entries.iter().map(|&(e, scale)| (e, d.store as u32, scale)));
                     f.diag.push(d.store as u32);
+                    if folded[k] {
+                        f.ones.push(d.store as u32);
+                    }
                 }
                 Some(o) => o.factoring(d.store, &mut f),
             }
