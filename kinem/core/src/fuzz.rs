@@ -150,31 +150,9 @@ fn random_layout(n: usize, rng: &mut Rng) -> (Layout, Vec<usize>, Vec<usize>) {
             }
         }
     }
-    let mut patterns = vec![(0u64, 0u64); n];
-    for (&r, &c) in rows.iter().zip(&cols) {
-        patterns[r].0 |= 1 << c;
-        patterns[c].1 |= 1 << r;
-    }
-    let mut l = Layout {
-        shape: Shape::Blocks { count: 1, size: n, pad: Vec::new(), patterns, orders: Vec::new() },
-        n,
-        m: n,
-        height: n,
-        width: n,
-        count: 1,
-        at: rows.iter().zip(&cols).map(|(&r, &c)| (0, r, c)).collect(),
-        entry_scale: Vec::new(),
-        row_pos: (0..n).collect(),
-        col_pos: (0..n).collect(),
-        real: vec![true; n],
-        sign: 1,
-        scale: (0..n).map(|_| 1.0 + 0.5 * rng.unit().abs()).collect(),
-        col_scale: (0..n).map(|_| 1.0 + 0.5 * rng.unit().abs()).collect(),
-        by_block: Vec::new(),
-        block_start: Vec::new(),
-    };
-    l.entry_scale = rows.iter().zip(&cols).map(|(&r, &c)| l.col_scale[c] / l.scale[r]).collect();
-    l.group();
+    let scale = (0..n).map(|_| 1.0 + 0.5 * rng.unit().abs()).collect();
+    let col_scale = (0..n).map(|_| 1.0 + 0.5 * rng.unit().abs()).collect();
+    let l = super::one_block(n, &rows, &cols, scale, col_scale);
     (l, rows, cols)
 }
 

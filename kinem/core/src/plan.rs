@@ -238,6 +238,38 @@ fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool], one: &[boo
     true
 }
 
+/// One block of a square pattern (rows, cols per entry) in the model's
+/// order, as kinem.model.Model.plan lays it out (tests: plan's and the fuzz test's).
+#[cfg(test)]
+fn one_block(n: usize, rows: &[usize], cols: &[usize], scale: Vec<f64>, col_scale: Vec<f64>) -> Layout {
+    let mut patterns = vec![(0u64, 0u64); n];
+    for (&r, &c) in rows.iter().zip(cols) {
+        patterns[r].0 |= 1 << c;
+        patterns[c].1 |= 1 << r;
+    }
+    let mut l = Layout {
+        shape: Shape::Blocks { count: 1, size: n, pad: Vec::new(), patterns, orders: Vec::new() },
+        n,
+        m: n,
+        height: n,
+        width: n,
+        count: 1,
+        at: rows.iter().zip(cols).map(|(&r, &c)| (0, r, c)).collect(),
+        entry_scale: Vec::new(),
+        row_pos: (0..n).collect(),
+        col_pos: (0..n).collect(),
+        real: vec![true; n],
+        sign: 1,
+        scale,
+        col_scale,
+        by_block: Vec::new(),
+        block_start: Vec::new(),
+    };
+    l.entry_scale = rows.iter().zip(cols).map(|(&r, &c)| l.col_scale[c] / l.scale[r]).collect();
+    l.group();
+    l
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -250,32 +282,9 @@ mod tests {
 
     /// One block of the whole pattern in the model's order, as kinem.model.Model.plan lays it out
     fn one_block(n: usize, rows: &[usize], cols: &[usize]) -> Layout {
-        let mut patterns = vec![(0u64, 0u64); n];
-        for (&r, &c) in rows.iter().zip(cols) {
-            patterns[r].0 |= 1 << c;
-            patterns[c].1 |= 1 << r;
-        }
-        let mut l = Layout {
-            shape: Shape::Blocks { count: 1, size: n, pad: Vec::new(), patterns, orders: Vec::new() },
-            n,
-            m: n,
-            height: n,
-            width: n,
-            count: 1,
-            at: rows.iter().zip(cols).map(|(&r, &c)| (0, r, c)).collect(),
-            entry_scale: Vec::new(),
-            row_pos: (0..n).collect(),
-            col_pos: (0..n).collect(),
-            real: vec![true; n],
-            sign: 1,
-            scale: (0..n).map(|i| 1.0 + 0.1 * i as f64).collect(),
-            col_scale: (0..n).map(|j| 2.0 - 0.05 * j as f64).collect(),
-            by_block: Vec::new(),
-            block_start: Vec::new(),
-        };
-        l.entry_scale = rows.iter().zip(cols).map(|(&r, &c)| l.col_scale[c] / l.scale[r]).collect();
-        l.group();
-        l
+        let scale = (0..n).map(|i| 1.0 + 0.1 * i as f64).collect();
+        let col_scale = (0..n).map(|j| 2.0 - 0.05 * j as f64).collect();
+        super::one_block(n, rows, cols, scale, col_scale)
     }
 
     fn dense(n: usize, rows: &[usize], cols: &[usize], values: &[f64]) -> Vec<f64> {
