@@ -88,8 +88,6 @@ pub struct Factors {
     /// (None: with partial pivoting)
     pub fixed: Vec<Option<Pivots>>,
     y: Vec<f64>,
-    /// the off-diagonal values of a Triangular shape (J_s's, in its off_entries order)
-    pub off: Vec<f64>,
 }
 
 impl Layout {
@@ -106,7 +104,6 @@ impl Layout {
                     w: vec![0.0; self.n.max(1)],
                     fixed: vec![None],
                     y: Vec::new(),
-                    off: vec![0.0; t.off_entries.len()],
                 };
             }
         };
@@ -118,7 +115,6 @@ impl Layout {
             w: vec![0.0; (self.count * per).max(self.n).max(self.width)],
             fixed: vec![None; self.count],
             y: vec![0.0; per.max(1)],
-            off: Vec::new(),
         }
     }
 

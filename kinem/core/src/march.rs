@@ -74,14 +74,18 @@ impl<'a> Native<'a> {
 
 /// max |phi_i| / scale_i; a NaN gives NaN.
 pub fn residual(phi: &[f64], scale: &[f64]) -> f64 {
-    let mut r = 0.0f64;
-    for i in 0..phi.len() {
-        let v = phi[i].abs() / scale[i];
-        if v > r || v.is_nan() {
-            r = v;
-        }
+    assert!(scale.len() >= phi.len());
+    let (mut r, mut nan) = (0.0f64, false);
+    for (p, s) in phi.iter().zip(scale) {
+        let v = p.abs() / s;
+        r = r.max(v);
+        nan |= v.is_nan();
     }
-    r
+    if nan {
+        f64::NAN
+    } else {
+        r
+    }
 }
 
 /// The largest |dq_j| / col_scale_j.
@@ -121,14 +125,14 @@ impl Ops for Native<'_> {
     }
 
     fn correct(&mut self, limit: f64) -> Result<f64, Infallible> {
-        for i in 0..self.b.len() {
-            self.b[i] = -self.phi[i];
+        for (b, p) in self.b.iter_mut().zip(&self.phi) {
+            *b = -p;
         }
         self.layout.solve(&mut self.f, &self.b, &mut self.dq);
         let big = size(&self.dq, &self.layout.col_scale);
         let f = if big > 0.0 { (limit / big).min(1.0) } else { 1.0 };
-        for j in 0..self.q.len() {
-            self.q[j] += f * self.dq[j];
+        for (q, d) in self.q.iter_mut().zip(&self.dq) {
+            *q += f * d;
         }
         self.rotated = false;
         Ok(big)
@@ -165,8 +169,8 @@ impl Step for Native<'_> {
 
     fn probe(&mut self) -> Result<f64, Infallible> {
         self.evaluate(-1)?;
-        for i in 0..self.b.len() {
-            self.b[i] = -self.phi[i];
+        for (b, p) in self.b.iter_mut().zip(&self.phi) {
+            *b = -p;
         }
         self.layout.solve(&mut self.f, &self.b, &mut self.dq);
         Ok(size(&self.dq, &self.layout.col_scale))

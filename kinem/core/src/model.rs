@@ -63,6 +63,9 @@ impl<S: Real> Kin<S> {
             entry_off.push(entry_off.last().unwrap() + f.entries());
         }
         let shared = Shared { functions: &functions, outlines: &outlines };
+        for f in &mut list {
+            f.bind(&shared);
+        }
         let time_dependent = (0..list.len()).filter(|&k| list[k].time_dependent(&shared)).collect();
         Ok(Kin {
             n,
@@ -224,11 +227,15 @@ impl Kin {
     /// in a march: a grounded or sliding body's angle keeps its sin and cos.
     #[inline]
     pub fn rotate_changed(&self, q: &[f64], e: &mut [C64], seen: &mut [f64]) {
+        assert!(q.len() >= self.n && e.len() >= self.n && seen.len() >= self.n);
         for &j in &self.angles {
-            if q[j].to_bits() != seen[j].to_bits() || q[j].is_nan() {
-                let (s, c) = q[j].sin_cos();
-                e[j] = C64::new(c, s);
-                seen[j] = q[j];
+            // SAFETY: every angle column is below n (checked in Kin::new), the slices' lengths asserted above
+            let (x, last) = unsafe { (*q.get_unchecked(j), seen.get_unchecked_mut(j)) };
+            if x.to_bits() != last.to_bits() || x.is_nan() {
+                let (s, c) = x.sin_cos();
+                *last = x;
+                // SAFETY: as above
+                unsafe { *e.get_unchecked_mut(j) = C64::new(c, s) };
             }
         }
     }

@@ -294,6 +294,45 @@ impl Order {
         }
     }
 
+    /// Appends `eliminate` (without its test for a zero right side) to a
+    /// solve's program: the block's positions from `at`, its factors in the
+    /// values from `store`.
+    pub fn program(&self, at: usize, store: usize, p: &mut crate::triangular::Program) {
+        for &(k, lo, hi) in &self.steps {
+            for &(i, a) in &self.mult[lo as usize..hi as usize] {
+                p.sub(at + i as usize, at + k as usize, store + a as usize);
+            }
+        }
+        for &(i, a, k) in &self.back {
+            if i == k {
+                p.div(at + k as usize, store + a as usize);
+            } else {
+                p.sub(at + i as usize, at + k as usize, store + a as usize);
+            }
+        }
+    }
+
+    /// Appends `numeric` (without its skip of a zero multiplier) to a
+    /// factoring (crate::triangular::Factoring), the block's factors from
+    /// `store`: its fill to clear, its entries' placement (`place`, set by
+    /// the caller), its steps and its pivots.
+    pub fn factoring(&self, store: usize, f: &mut crate::triangular::Factoring) {
+        let (s, u) = (self.s, |x: usize| x as u32);
+        f.clear.extend(self.fill_at.iter().map(|&at| u(store + at)));
+        f.place.extend(self.place.iter().map(|&(e, at, scale)| (e, u(store + at as usize), scale)));
+        for &(k, lo, hi) in &self.steps {
+            let k = k as usize;
+            let right = &self.right[self.right_start[k] as usize..self.right_start[k + 1] as usize];
+            for &(i, at) in &self.mult[lo as usize..hi as usize] {
+                let i = i as usize * s;
+                f.pairs.extend(right.iter().map(|&j| [u(store + i + j as usize), u(store + k * s + j as usize)]));
+                f.mults.push([u(store + at as usize), u(f.pairs.len())]);
+            }
+            f.steps.push([u(store + k * s + k), u(f.mults.len())]);
+        }
+        f.diag.extend((0..s).map(|k| u(store + k * s + k)));
+    }
+
     /// y <- U^-1 L^-1 y (permuted order).
     #[inline]
     pub fn eliminate(&self, a: &[f64], y: &mut [f64]) {

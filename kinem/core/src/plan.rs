@@ -9,14 +9,14 @@ use crate::families::At;
 use crate::lu::{Layout, Shape, MASK};
 use crate::model::Kin;
 use crate::order::{Order, NONE};
-use crate::triangular::{Diagonal, Triangular, BLOCK};
+use crate::triangular::{Diagonal, Triangular};
 use num_complex::Complex64 as C64;
 
 /// The Jacobian's values at a few arbitrary configurations and times:
 /// (constant, unit) per entry: the same value at every one of them (a
 /// constant of the formulation: +-1 of a joint, a gear's radii) and, for
-/// those, whether the scaled value is +-1.
-pub fn constant_entries(kin: &Kin, entry_scale: &[f64]) -> (Vec<bool>, Vec<bool>) {
+/// those, whether the scaled value is +-1, and whether it is +1.
+pub fn constant_entries(kin: &Kin, entry_scale: &[f64]) -> (Vec<bool>, Vec<bool>, Vec<bool>) {
     let n = kin.n;
     let mut first: Option<Vec<f64>> = None;
     let mut constant = vec![true; kin.nnz];
@@ -37,15 +37,16 @@ pub fn constant_entries(kin: &Kin, entry_scale: &[f64]) -> (Vec<bool>, Vec<bool>
     }
     let v = first.unwrap_or_default();
     let unit = (0..kin.nnz).map(|k| constant[k] && (v[k] * entry_scale[k]).abs() == 1.0).collect();
-    (constant, unit)
+    let one = (0..kin.nnz).map(|k| constant[k] && v[k] * entry_scale[k] == 1.0).collect();
+    (constant, unit, one)
 }
 
 /// Gives every block of up to MASK coordinates its fixed order (none where
 /// the pattern is structurally singular: that block keeps partial pivoting);
 /// one block that decomposes is laid out block-triangularly instead.
 pub fn order_blocks(kin: &Kin, layout: &mut Layout) {
-    let (constant, unit) = constant_entries(kin, &layout.entry_scale);
-    if triangulate(layout, &constant, &unit) {
+    let (constant, unit, one) = constant_entries(kin, &layout.entry_scale);
+    if triangulate(layout, &constant, &unit, &one) {
         return;
     }
     let Shape::Blocks { count, size, pad, patterns, .. } = &layout.shape else { return };
@@ -110,8 +111,10 @@ pub fn order_blocks(kin: &Kin, layout: &mut Layout) {
 /// block-triangular order (Shape::Triangular), each diagonal block's
 /// positions in its fixed order. False (unchanged) otherwise, and where a
 /// block has no fixed order (a greedy order can miss a structurally
-/// nonsingular block's pivots).
-fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool]) -> bool {
+/// nonsingular block's pivots). `one`: the entries whose scaled value
+/// looked +1 at every trial: a 1x1 block of one such entry is folded (no
+/// division; each factorisation checks that it is still 1).
+fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool], one: &[bool]) -> bool {
     let Shape::Blocks { count: 1, size, pad, patterns, .. } = &layout.shape else { return false };
     let (n, m) = (layout.n, layout.m);
     if !pad.is_empty() || n != m || *size != n || (n <= MASK && patterns.len() != n) {
@@ -194,16 +197,13 @@ fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool]) -> bool {
         })
         .collect();
     off.sort_by_key(|x| x.0);
-    let mut program = Vec::with_capacity(off.len() + blocks.len());
-    let mut next = 0;
-    for (k, d) in blocks.iter().enumerate() {
-        while next < off.len() && off[next].0 == k {
-            program.push((off[next].1, off[next].2, next as u32));
-            next += 1;
-        }
-        let at = d.at as u32;
-        program.push(if d.s == 1 { (at, at, d.store as u32) } else { (BLOCK, k as u32, 0) });
-    }
+    let place: Vec<(usize, usize, usize)> = off.iter().map(|x| (x.0, x.1 as usize, x.2 as usize)).collect();
+    let folded: Vec<bool> = blocks.iter().map(|d| d.entries.len() == 1 && one[d.entries[0].0 as usize]).collect();
+    let Ok(program) = Triangular::program(&blocks, &place, store, n, &folded) else { return false };
+    let off_entries: Vec<(u32, f64)> = off.iter().map(|x| (x.3, x.4)).collect();
+    let Ok(factoring) = Triangular::factoring(&blocks, &off_entries, store, layout.at.len(), &folded) else {
+        return false;
+    };
     let (mut gather, mut scatter) = (vec![0; n], vec![0; n]);
     for i in 0..n {
         gather[row_pos[i]] = i;
@@ -211,8 +211,10 @@ fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool]) -> bool {
     }
     let t = Triangular {
         blocks,
-        off_entries: off.iter().map(|x| (x.3, x.4)).collect(),
+        off_entries,
+        off_at: store,
         program,
+        factoring,
         gscale: gather.iter().map(|&i| 1.0 / layout.scale[i]).collect(),
         sscale: scatter.iter().map(|&j| layout.col_scale[j]).collect(),
         sign: crate::order::parity(&gather) * crate::order::parity(&scatter),
@@ -227,10 +229,45 @@ fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool]) -> bool {
         whole_sign: layout.sign,
         whole_to_pos: (0..n).map(|p| col_pos[col_at[p]]).collect(),
     };
+    if t.check().is_err() {
+        return false;
+    }
     layout.row_pos = row_pos;
     layout.col_pos = col_pos;
     layout.shape = Shape::Triangular(Box::new(t));
     true
+}
+
+/// One block of a square pattern (rows, cols per entry) in the model's
+/// order, as kinem.model.Model.plan lays it out (tests: plan's and the fuzz test's).
+#[cfg(test)]
+fn one_block(n: usize, rows: &[usize], cols: &[usize], scale: Vec<f64>, col_scale: Vec<f64>) -> Layout {
+    let mut patterns = vec![(0u64, 0u64); n];
+    for (&r, &c) in rows.iter().zip(cols) {
+        patterns[r].0 |= 1 << c;
+        patterns[c].1 |= 1 << r;
+    }
+    let mut l = Layout {
+        shape: Shape::Blocks { count: 1, size: n, pad: Vec::new(), patterns, orders: Vec::new() },
+        n,
+        m: n,
+        height: n,
+        width: n,
+        count: 1,
+        at: rows.iter().zip(cols).map(|(&r, &c)| (0, r, c)).collect(),
+        entry_scale: Vec::new(),
+        row_pos: (0..n).collect(),
+        col_pos: (0..n).collect(),
+        real: vec![true; n],
+        sign: 1,
+        scale,
+        col_scale,
+        by_block: Vec::new(),
+        block_start: Vec::new(),
+    };
+    l.entry_scale = rows.iter().zip(cols).map(|(&r, &c)| l.col_scale[c] / l.scale[r]).collect();
+    l.group();
+    l
 }
 
 #[cfg(test)]
@@ -245,32 +282,9 @@ mod tests {
 
     /// One block of the whole pattern in the model's order, as kinem.model.Model.plan lays it out
     fn one_block(n: usize, rows: &[usize], cols: &[usize]) -> Layout {
-        let mut patterns = vec![(0u64, 0u64); n];
-        for (&r, &c) in rows.iter().zip(cols) {
-            patterns[r].0 |= 1 << c;
-            patterns[c].1 |= 1 << r;
-        }
-        let mut l = Layout {
-            shape: Shape::Blocks { count: 1, size: n, pad: Vec::new(), patterns, orders: Vec::new() },
-            n,
-            m: n,
-            height: n,
-            width: n,
-            count: 1,
-            at: rows.iter().zip(cols).map(|(&r, &c)| (0, r, c)).collect(),
-            entry_scale: Vec::new(),
-            row_pos: (0..n).collect(),
-            col_pos: (0..n).collect(),
-            real: vec![true; n],
-            sign: 1,
-            scale: (0..n).map(|i| 1.0 + 0.1 * i as f64).collect(),
-            col_scale: (0..n).map(|j| 2.0 - 0.05 * j as f64).collect(),
-            by_block: Vec::new(),
-            block_start: Vec::new(),
-        };
-        l.entry_scale = rows.iter().zip(cols).map(|(&r, &c)| l.col_scale[c] / l.scale[r]).collect();
-        l.group();
-        l
+        let scale = (0..n).map(|i| 1.0 + 0.1 * i as f64).collect();
+        let col_scale = (0..n).map(|j| 2.0 - 0.05 * j as f64).collect();
+        super::one_block(n, rows, cols, scale, col_scale)
     }
 
     fn dense(n: usize, rows: &[usize], cols: &[usize], values: &[f64]) -> Vec<f64> {
@@ -288,7 +302,8 @@ mod tests {
         let plain = one_block(n, &rows, &cols);
         let mut tri = plain.clone();
         let constant: Vec<bool> = rows.iter().map(|&r| r < 3).collect();
-        assert!(triangulate(&mut tri, &constant, &constant), "the slider-crank decomposes");
+        let none = vec![false; rows.len()];
+        assert!(triangulate(&mut tri, &constant, &constant, &none), "the slider-crank decomposes");
         let Shape::Triangular(t) = &tri.shape else { panic!("not triangular") };
         let sizes: Vec<usize> = t.blocks.iter().map(|d| d.s).collect();
         assert_eq!(sizes, vec![1, 1, 1, 1, 1, 1, 1, 5]);
@@ -344,3 +359,7 @@ mod tests {
         assert!(fell >= 40 && fixed >= 40, "both paths taken: {fell} fallbacks, {fixed} in the blocks' orders");
     }
 }
+
+#[cfg(test)]
+#[path = "fuzz.rs"]
+mod fuzz;

@@ -15,10 +15,202 @@
 //! MASK coordinates, dense above), so that every figure near the
 //! acceptance test's floor is partial pivoting's.
 use crate::lu::{dense_factor, dense_solve, masked_factor, masked_solve, Factors, FALLBACK, MASK};
-use crate::order::{Order, Pivots};
+use crate::order::{Order, Pivots, MULTIPLIER};
 
-/// The program's mark of a larger block's elimination.
-pub const BLOCK: u32 = u32::MAX;
+/// A solve's forward and back substitution as one flat program over the
+/// positions w and the factors' values a (issue 31 item 4): `divs[k] = [end,
+/// r, v]` runs the subtractions `subs[..end]` not yet run (`[i, c, u]`: w[i]
+/// -= a[u] w[c]), then w[r] /= a[v]. One tight loop, no branch on the
+/// structure; the division's order and operands are the elimination's, so
+/// the figures are those of the loops it replaces, to the bit.
+///
+/// A 1x1 block whose pivot is a constant +1 (a ground's or a driver's row,
+/// `Factoring::ones` checks it each factorisation) has no division: its
+/// subtractions run with the next division's, or after the last one.
+///
+/// Invariants, checked once by `Program::check` when the model is built
+/// (and by debug assertions in `run`): every position i, c, r is below
+/// `positions`, every value index u, v below `values`, the ends ascend up
+/// to subs.len(). `run` asserts that its slices are that long.
+#[derive(Clone, Debug, Default)]
+pub struct Program {
+    pub subs: Vec<[u32; 3]>,
+    pub divs: Vec<[u32; 3]>,
+    pub positions: usize,
+    pub values: usize,
+}
+
+impl Program {
+    pub fn sub(&mut self, i: usize, c: usize, u: usize) {
+        self.subs.push([i as u32, c as u32, u as u32]);
+    }
+
+    pub fn div(&mut self, r: usize, v: usize) {
+        self.divs.push([self.subs.len() as u32, r as u32, v as u32]);
+    }
+
+    /// The invariants `run` relies on (see `Program`).
+    pub fn check(&self) -> Result<(), String> {
+        let (p, v) = (self.positions, self.values);
+        if p >= u32::MAX as usize || v >= u32::MAX as usize {
+            return Err("program: too many positions or values".into());
+        }
+        if let Some(s) = self.subs.iter().find(|s| s[0] as usize >= p || s[1] as usize >= p || s[2] as usize >= v) {
+            return Err(format!("program: subtraction {s:?} outside {p} positions, {v} values"));
+        }
+        let mut end = 0;
+        for d in &self.divs {
+            if d[0] < end || d[0] as usize > self.subs.len() || d[1] as usize >= p || d[2] as usize >= v {
+                return Err(format!("program: division {d:?} out of order or range"));
+            }
+            end = d[0];
+        }
+        Ok(())
+    }
+
+    /// Runs the program on w (positions) with the values a.
+    #[inline]
+    pub fn run(&self, a: &[f64], w: &mut [f64]) {
+        assert!(a.len() >= self.values && w.len() >= self.positions);
+        debug_assert!(self.check().is_ok());
+        let mut from = 0;
+        for &[end, r, v] in &self.divs {
+            let end = end as usize;
+            // SAFETY: Program::check (when built): from <= end <= subs.len(), every
+            // position below `positions` <= w.len(), every value below `values` <= a.len()
+            unsafe {
+                for &[i, c, u] in self.subs.get_unchecked(from..end) {
+                    let x = *w.get_unchecked(c as usize);
+                    *w.get_unchecked_mut(i as usize) -= *a.get_unchecked(u as usize) * x;
+                }
+                *w.get_unchecked_mut(r as usize) /= *a.get_unchecked(v as usize);
+            }
+            from = end;
+        }
+        // SAFETY: as above (from <= subs.len())
+        for &[i, c, u] in unsafe { self.subs.get_unchecked(from..) } {
+            unsafe {
+                let x = *w.get_unchecked(c as usize);
+                *w.get_unchecked_mut(i as usize) -= *a.get_unchecked(u as usize) * x;
+            }
+        }
+    }
+}
+
+/// The blocks' factorisation as flat lists over Factors::j (issue 31 item
+/// 4): the fill to clear, every entry's placement (values[e] times its
+/// scale at `at`: off-diagonal, 1x1 and larger blocks alike), then each
+/// elimination step `[pivot, end]` of the larger blocks' fixed orders, its
+/// multipliers `mults[..end]` (`[at, end]`: l = a[at] / pivot, then a[dst]
+/// -= l a[src] for `pairs[..end]`), then the n pivots `diag` (position
+/// order) read for the figures. The same operations, in the same order, as
+/// Order::numeric block after block (the skip of a zero multiplier dropped;
+/// a multiplier above MULTIPLIER still rejects the order, after the loop).
+///
+/// Invariants, checked once by `Factoring::check` when the model is built:
+/// every index into the values below `values`, every entry below `entries`,
+/// the ends ascend and the last ones are mults.len() and pairs.len().
+#[derive(Clone, Debug, Default)]
+pub struct Factoring {
+    pub clear: Vec<u32>,
+    pub place: Vec<(u32, u32, f64)>,
+    pub steps: Vec<[u32; 2]>,
+    pub mults: Vec<[u32; 2]>,
+    pub pairs: Vec<[u32; 2]>,
+    pub diag: Vec<u32>,
+    /// the folded pivots (`Program`): a factorisation where one is not
+    /// exactly 1 is refused (the fallback takes it)
+    pub ones: Vec<u32>,
+    pub values: usize,
+    pub entries: usize,
+}
+
+impl Factoring {
+    /// The invariants `run` relies on (see `Factoring`).
+    pub fn check(&self) -> Result<(), String> {
+        let v = self.values;
+        let bad = |x: u32| x as usize >= v;
+        if v >= u32::MAX as usize
+            || self.clear.iter().any(|&x| bad(x))
+            || self.place.iter().any(|&(e, at, _)| e as usize >= self.entries || bad(at))
+            || self.steps.iter().any(|s| bad(s[0]))
+            || self.mults.iter().any(|m| bad(m[0]))
+            || self.pairs.iter().any(|p| bad(p[0]) || bad(p[1]))
+            || self.diag.iter().any(|&x| bad(x))
+            || self.ones.iter().any(|&x| bad(x))
+        {
+            return Err("factoring: an index out of range".into());
+        }
+        let ascending = |ends: &mut dyn Iterator<Item = u32>, len: usize| {
+            let mut last = 0;
+            for e in ends {
+                if e < last || e as usize > len {
+                    return false;
+                }
+                last = e;
+            }
+            last as usize == len
+        };
+        if !ascending(&mut self.steps.iter().map(|s| s[1]), self.mults.len())
+            || !ascending(&mut self.mults.iter().map(|m| m[1]), self.pairs.len())
+        {
+            return Err("factoring: ends out of order".into());
+        }
+        Ok(())
+    }
+
+    /// Assembles and factorises into a (Factors::j) from the Jacobian's
+    /// values; the pivots' figures (det: times `sign`), None where a pivot
+    /// is zero or not finite or a multiplier above MULTIPLIER.
+    #[inline]
+    pub fn run(&self, values: &[f64], a: &mut [f64], sign: i32) -> Option<Pivots> {
+        assert!(a.len() >= self.values && values.len() >= self.entries);
+        debug_assert!(self.check().is_ok());
+        // SAFETY (every unchecked index below): Factoring::check when built, and the lengths asserted above
+        unsafe {
+            for &at in &self.clear {
+                *a.get_unchecked_mut(at as usize) = 0.0;
+            }
+            for &(e, at, scale) in &self.place {
+                *a.get_unchecked_mut(at as usize) = *values.get_unchecked(e as usize) * scale;
+            }
+            let (mut m0, mut p0, mut ok) = (0usize, 0usize, true);
+            for &[kk, m1] in &self.steps {
+                let r = 1.0 / *a.get_unchecked(kk as usize);
+                for &[at, p1] in self.mults.get_unchecked(m0..m1 as usize) {
+                    let l = *a.get_unchecked(at as usize) * r;
+                    ok &= l.abs() <= MULTIPLIER; // false for a zero or non-finite pivot too
+                    *a.get_unchecked_mut(at as usize) = l;
+                    for &[dst, src] in self.pairs.get_unchecked(p0..p1 as usize) {
+                        let x = *a.get_unchecked(src as usize);
+                        *a.get_unchecked_mut(dst as usize) -= l * x;
+                    }
+                    p0 = p1 as usize;
+                }
+                m0 = m1 as usize;
+            }
+            for &at in &self.ones {
+                ok &= *a.get_unchecked(at as usize) == 1.0;
+            }
+            if !ok {
+                return None;
+            }
+            let mut acc = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det: sign };
+            for (p, &at) in self.diag.iter().enumerate() {
+                let d = *a.get_unchecked(at as usize);
+                if d == 0.0 || !d.is_finite() {
+                    return None;
+                }
+                if d < 0.0 {
+                    acc.det = -acc.det;
+                }
+                acc.take(d.abs(), p);
+                acc.big = acc.big.max(d.abs());
+            }
+            Some(acc)
+        }
+    }
+}
 
 /// One diagonal block: its first position, size, where its s x s factors
 /// start in Factors::j, and its fixed order (None for a 1x1 block).
@@ -37,13 +229,15 @@ pub struct Diagonal {
 #[derive(Clone, Debug)]
 pub struct Triangular {
     pub blocks: Vec<Diagonal>,
-    /// the off-diagonal entries (Jacobian entry, scale): Factors::off's values
+    /// the off-diagonal entries (Jacobian entry, scale): their values are
+    /// stored in Factors::j from `off_at`, in this order
     pub off_entries: Vec<(u32, f64)>,
-    /// the forward substitution as one program over the positions: (r, c,
-    /// v) is w[r] -= off[v] w[c] (an off-diagonal entry), w[r] /= j[v] when
-    /// r == c (a 1x1 block), and block c's elimination when r is BLOCK;
-    /// block k's entries come right before it
-    pub program: Vec<(u32, u32, u32)>,
+    pub off_at: usize,
+    /// the solve (`Program`) over Factors::j: block k's off-diagonal
+    /// entries, then its division (1x1) or its elimination, block after block
+    pub program: Program,
+    /// the blocks' factorisation (`Factoring`)
+    pub factoring: Factoring,
     /// per position p: the model row b[gather[p]] / its scale (gscale) goes
     /// there, and x[scatter[p]] = w[p] times the column's scale (sscale)
     pub gather: Vec<usize>,
@@ -66,10 +260,84 @@ pub struct Triangular {
 }
 
 impl Triangular {
-    /// The factors' storage: the fallback's n x n, then the blocks'.
+    /// The factors' storage: the fallback's n x n, then the blocks', then
+    /// the off-diagonal values.
     pub fn stored(&self) -> usize {
+        self.off_at + self.off_entries.len()
+    }
+
+    /// The invariants the solve relies on beyond its program's: gather and
+    /// scatter are permutations of the n positions, with a scale each.
+    pub fn check(&self) -> Result<(), String> {
         let n = self.gather.len();
-        n * n + self.blocks.iter().map(|d| d.s * d.s).sum::<usize>()
+        let perm = |p: &[usize]| {
+            let mut seen = vec![false; n];
+            p.len() == n && p.iter().all(|&i| i < n && !std::mem::replace(&mut seen[i], true))
+        };
+        if !perm(&self.gather) || !perm(&self.scatter) || self.gscale.len() != n || self.sscale.len() != n {
+            return Err("triangular: gather and scatter are not permutations of the positions".into());
+        }
+        self.program.check()?;
+        self.factoring.check()
+    }
+
+    /// The program of the blocks' solve (off_at: where the off-diagonal
+    /// values are stored; folded: the 1x1 blocks without a division),
+    /// checked (`Program::check`).
+    pub fn program(
+        blocks: &[Diagonal],
+        off: &[(usize, usize, usize)],
+        off_at: usize,
+        n: usize,
+        folded: &[bool],
+    ) -> Result<Program, String> {
+        let mut p = Program { positions: n, values: off_at + off.len(), ..Program::default() };
+        let mut next = 0;
+        for (k, d) in blocks.iter().enumerate() {
+            // off: (block of the row, row position, column position), sorted by block
+            while next < off.len() && off[next].0 == k {
+                p.sub(off[next].1, off[next].2, off_at + next);
+                next += 1;
+            }
+            match &d.order {
+                None if folded[k] => {}
+                None => p.div(d.at, d.store),
+                Some(o) => o.program(d.at, d.store, &mut p),
+            }
+        }
+        if next != off.len() || p.divs.len() + folded.iter().filter(|&&f| f).count() != n {
+            return Err("program: an off-diagonal entry out of order, or a position without its pivot".into());
+        }
+        p.check()?;
+        Ok(p)
+    }
+
+    /// The factorisation of the blocks (see `Factoring`) over `entries`
+    /// Jacobian entries (folded: the 1x1 blocks whose pivot must be 1),
+    /// checked (`Factoring::check`).
+    pub fn factoring(
+        blocks: &[Diagonal],
+        off: &[(u32, f64)],
+        off_at: usize,
+        entries: usize,
+        folded: &[bool],
+    ) -> Result<Factoring, String> {
+        let mut f = Factoring { values: off_at + off.len(), entries, ..Factoring::default() };
+        f.place.extend(off.iter().enumerate().map(|(x, &(e, scale))| (e, (off_at + x) as u32, scale)));
+        for (k, d) in blocks.iter().enumerate() {
+            match &d.order {
+                None => {
+                    f.place.extend(d.entries.iter().map(|&(e, scale)| (e, d.store as u32, scale)));
+                    f.diag.push(d.store as u32);
+                    if folded[k] {
+                        f.ones.push(d.store as u32);
+                    }
+                }
+                Some(o) => o.factoring(d.store, &mut f),
+            }
+        }
+        f.check()?;
+        Ok(f)
     }
 
     /// The blocks factorised in order (f.fixed[0]: their pivots' figures),
@@ -95,41 +363,7 @@ impl Triangular {
     }
 
     fn blocks_factor(&self, values: &[f64], f: &mut Factors) -> Option<Pivots> {
-        for (x, &(e, scale)) in f.off.iter_mut().zip(&self.off_entries) {
-            *x = values[e as usize] * scale;
-        }
-        let mut acc = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det: self.sign };
-        for d in &self.blocks {
-            let a = &mut f.j[d.store..d.store + d.s * d.s];
-            match &d.order {
-                None => {
-                    for &(e, scale) in &d.entries {
-                        a[0] = values[e as usize] * scale;
-                    }
-                    let x = a[0];
-                    if x == 0.0 || !x.is_finite() {
-                        return None;
-                    }
-                    acc.det *= if x < 0.0 { -1 } else { 1 };
-                    acc.take(x.abs(), d.at);
-                    acc.big = acc.big.max(x.abs());
-                }
-                Some(o) => {
-                    for &at in &o.fill_at {
-                        a[at] = 0.0;
-                    }
-                    for &(e, at, scale) in &o.place {
-                        a[at as usize] = values[e as usize] * scale;
-                    }
-                    // its det without the order's parity: the positions are in the order already
-                    let p = o.numeric(a)?;
-                    acc.det *= p.det * o.parity;
-                    acc.take(p.small, d.at + o.inv_col[p.at]);
-                    acc.big = acc.big.max(p.big);
-                }
-            }
-        }
-        Some(acc)
+        self.factoring.run(values, &mut f.j, self.sign)
     }
 
     /// x = Phi_q^-1 b (model rows in, coordinates out); scale, col_scale:
@@ -152,26 +386,15 @@ impl Triangular {
             }
             return;
         }
+        assert!(b.len() >= n && x.len() >= n);
         for ((v, &i), &scale) in w.iter_mut().zip(&self.gather).zip(&self.gscale) {
-            *v = b[i] * scale;
+            // SAFETY: gather holds positions below n (Triangular::check, when built); b.len() >= n asserted
+            *v = unsafe { *b.get_unchecked(i) } * scale;
         }
-        let (j, off) = (&f.j, &f.off);
-        for &(r, c, v) in &self.program {
-            let (r, c, v) = (r as usize, c as usize, v as usize);
-            if r == c {
-                w[r] /= j[v];
-            } else if r == BLOCK as usize {
-                let d = &self.blocks[c];
-                if let Some(o) = &d.order {
-                    o.eliminate(&j[d.store..d.store + d.s * d.s], &mut w[d.at..d.at + d.s]);
-                }
-            } else {
-                let x = w[c];
-                w[r] -= off[v] * x;
-            }
-        }
+        self.program.run(&f.j, w);
         for ((&v, &j), &scale) in w.iter().zip(&self.scatter).zip(&self.sscale) {
-            x[j] = v * scale;
+            // SAFETY: scatter holds positions below n (Triangular::check, when built); x.len() >= n asserted
+            unsafe { *x.get_unchecked_mut(j) = v * scale };
         }
     }
 

@@ -46,7 +46,8 @@ impl<S: Real> At<'_, S> {
     /// r = x + iy of the body whose x column is c.
     #[inline(always)]
     pub fn r(&self, c: usize) -> Complex<S> {
-        Complex::new(self.q[c], self.q[c + 1])
+        let p = &self.q[c..c + 2];
+        Complex::new(p[0], p[1])
     }
     /// e^{i phi} of the body whose x column is c.
     #[inline(always)]
@@ -144,6 +145,13 @@ impl<S: Real> Family<S> {
             _ => return Err(format!("unknown family kind '{kind}'; valid: {}", KINDS.join(", "))),
         };
         Ok(r)
+    }
+
+    /// Binds the family to the model's functions and outlines (once, when the model is built).
+    pub fn bind(&mut self, s: &Shared<S>) {
+        if let Family::Simple(f) = self {
+            f.bind(s);
+        }
     }
 
     pub fn rows(&self) -> usize {

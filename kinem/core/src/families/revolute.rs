@@ -30,11 +30,11 @@ impl<S: Real> Revolute<S> {
 
     /// Eq. 4.7.
     pub fn phi(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
-        for c in 0..self.ci.len() {
-            let (a, b) = (self.ci[c], self.cj[c]);
-            let d = at.r(a) + self.si[c] * at.rot(a) - at.r(b) - self.sj[c] * at.rot(b);
-            out[2 * c] = d.re;
-            out[2 * c + 1] = d.im;
+        let joints = self.ci.iter().zip(&self.cj).zip(self.si.iter().zip(&self.sj));
+        for (o, ((&a, &b), (&si, &sj))) in out.chunks_exact_mut(2).zip(joints) {
+            let d = at.r(a) + si * at.rot(a) - at.r(b) - sj * at.rot(b);
+            o[0] = d.re;
+            o[1] = d.im;
         }
     }
 
@@ -42,22 +42,21 @@ impl<S: Real> Revolute<S> {
     /// constraint: row x: x_i, phi_i, x_j, phi_j; row y: y_i, phi_i, y_j, phi_j.
     pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         let (one, minus) = (S::one(), -S::one());
-        for c in 0..self.ci.len() {
-            let a = self.si[c] * at.rot(self.ci[c]);
-            let b = self.sj[c] * at.rot(self.cj[c]);
-            let o = &mut out[8 * c..8 * c + 8];
+        let joints = self.ci.iter().zip(&self.cj).zip(self.si.iter().zip(&self.sj));
+        for (o, ((&ci, &cj), (&si, &sj))) in out.chunks_exact_mut(8).zip(joints) {
+            let (a, b) = (si * at.rot(ci), sj * at.rot(cj));
             o.copy_from_slice(&[one, -a.im, minus, b.im, one, a.re, minus, -b.re]);
         }
     }
 
     /// Eq. 4.47: A_i s'_i w_i^2 - A_j s'_j w_j^2.
     pub fn gamma(&self, at: &At<S>, qd: &[S], _: &Shared<S>, out: &mut [S]) {
-        for c in 0..self.ci.len() {
-            let (a, b) = (self.ci[c], self.cj[c]);
+        let joints = self.ci.iter().zip(&self.cj).zip(self.si.iter().zip(&self.sj));
+        for (o, ((&a, &b), (&si, &sj))) in out.chunks_exact_mut(2).zip(joints) {
             let (wi, wj) = (qd[a + 2], qd[b + 2]);
-            let g = self.si[c] * at.rot(a) * (wi * wi) - self.sj[c] * at.rot(b) * (wj * wj);
-            out[2 * c] = g.re;
-            out[2 * c + 1] = g.im;
+            let g = si * at.rot(a) * (wi * wi) - sj * at.rot(b) * (wj * wj);
+            o[0] = g.re;
+            o[1] = g.im;
         }
     }
 }

@@ -18,43 +18,91 @@ use num_complex::Complex;
 /// the row has besides its 1 in column a), f (the driving function, an
 /// index into the model's functions; a constant for ground and absolute).
 pub struct Simple<S = f64> {
-    a: Vec<usize>,
-    angle: Vec<usize>,
-    k: Vec<usize>,
-    w: Vec<f64>, // 1.0 for a relative row, 0.0 otherwise
-    local: Vec<Complex<S>>,
-    mx: Vec<f64>,
-    my: Vec<f64>,
-    point: Vec<bool>,
-    relative: Vec<bool>,
-    f: Vec<usize>,
+    rows: Vec<Row<S>>,
     entries: usize,
+}
+
+/// One row's columns (see `Simple`), with w = 1.0 for a relative row (else
+/// 0.0) and, once bound (`Simple::bind`), whether its function is not a
+/// constant, else its constant value.
+struct Row<S> {
+    a: usize,
+    angle: usize,
+    k: usize,
+    w: f64,
+    local: Complex<S>,
+    mx: f64,
+    my: f64,
+    point: bool,
+    relative: bool,
+    f: usize,
+    driven: bool,
+    value: S,
+}
+
+impl<S: Real> Row<S> {
+    /// The point term: mx Re(A_i s') + my Im(A_i s'), if the row has one.
+    #[inline(always)]
+    fn point_term(&self, at: &At<S>) -> Option<S> {
+        if self.mx != 0.0 || self.my != 0.0 {
+            let s = self.local * at.e[self.angle];
+            Some(s.re * self.mx + s.im * self.my)
+        } else {
+            None
+        }
+    }
+
+    /// f(t) (order 0), f'(t), f''(t) of its function.
+    #[inline(always)]
+    fn drive(&self, t: f64, order: u8, s: &Shared<S>) -> S {
+        if self.driven {
+            s.functions.eval(self.f, t, order)
+        } else if order == 0 {
+            self.value
+        } else {
+            S::zero()
+        }
+    }
 }
 
 impl<S: Real> Simple<S> {
     pub fn new(t: &Table, n: usize, functions: usize) -> Result<Self, String> {
         let a = t.index("a", n)?;
         t.same_length(a.len(), &["angle", "k", "local", "mx", "my", "point", "relative", "f"])?;
-        let point = t.flags("point")?;
-        let relative = t.flags("relative")?;
+        let (point, relative) = (t.flags("point")?, t.flags("relative")?);
+        let (angle, k, f) = (t.index("angle", n)?, t.index("k", n)?, t.index("f", functions)?);
+        let (local, mx, my) = (t.cplx_s("local")?, t.real("mx")?, t.real("my")?);
         let entries = a.len() + point.iter().filter(|&&p| p).count() + relative.iter().filter(|&&r| r).count();
-        Ok(Simple {
-            angle: t.index("angle", n)?,
-            k: t.index("k", n)?,
-            w: relative.iter().map(|&r| if r { 1.0 } else { 0.0 }).collect(),
-            local: t.cplx_s("local")?,
-            mx: t.real("mx")?,
-            my: t.real("my")?,
-            f: t.index("f", functions)?,
-            a,
-            point,
-            relative,
-            entries,
-        })
+        let rows = (0..a.len())
+            .map(|r| Row {
+                a: a[r],
+                angle: angle[r],
+                k: k[r],
+                w: if relative[r] { 1.0 } else { 0.0 },
+                local: local[r],
+                mx: mx[r],
+                my: my[r],
+                point: point[r],
+                relative: relative[r],
+                f: f[r],
+                driven: true,
+                value: S::zero(),
+            })
+            .collect();
+        Ok(Simple { rows, entries })
+    }
+
+    /// Takes each constant function's value (a ground's, an absolute
+    /// constraint's) once, so that the kernels evaluate only the drivers.
+    pub fn bind(&mut self, s: &Shared<S>) {
+        for row in &mut self.rows {
+            row.driven = !s.functions.constant(row.f);
+            row.value = if row.driven { S::zero() } else { s.functions.eval(row.f, 0.0, 0) };
+        }
     }
 
     pub fn rows(&self) -> usize {
-        self.a.len()
+        self.rows.len()
     }
 
     pub fn entries(&self) -> usize {
@@ -63,25 +111,14 @@ impl<S: Real> Simple<S> {
 
     /// Whether any row's function is not a constant (a driver: nu, gamma terms).
     pub fn time_dependent(&self, s: &Shared<S>) -> bool {
-        self.f.iter().any(|&f| !s.functions.constant(f))
-    }
-
-    /// The point term of row r: mx Re(A_i s') + my Im(A_i s'), if the row has one.
-    #[inline(always)]
-    fn point_term(&self, r: usize, at: &At<S>) -> Option<S> {
-        if self.mx[r] != 0.0 || self.my[r] != 0.0 {
-            let s = self.local[r] * at.e[self.angle[r]];
-            Some(s.re * self.mx[r] + s.im * self.my[r])
-        } else {
-            None
-        }
+        self.rows.iter().any(|r| !s.functions.constant(r.f))
     }
 
     /// Eqs. 4.31-4.40: q_a - w q_k + point term - f(t).
     pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
-        for (r, o) in out.iter_mut().enumerate() {
-            let mut v = at.q[self.a[r]] - at.q[self.k[r]] * self.w[r] - s.functions.eval(self.f[r], at.t, 0);
-            if let Some(p) = self.point_term(r, at) {
+        for (row, o) in self.rows.iter().zip(out) {
+            let mut v = at.q[row.a] - at.q[row.k] * row.w - row.drive(at.t, 0, s);
+            if let Some(p) = row.point_term(at) {
                 v = v + p;
             }
             *o = v;
@@ -92,16 +129,16 @@ impl<S: Real> Simple<S> {
     /// phi_k if relative (the pattern's order: a, angle, k, kept entries only).
     pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         let mut e = 0;
-        for r in 0..self.a.len() {
+        for row in &self.rows {
             out[e] = S::one();
             e += 1;
-            if self.point[r] {
-                let s = self.local[r] * at.e[self.angle[r]];
-                out[e] = s.re * self.my[r] - s.im * self.mx[r];
+            if row.point {
+                let s = row.local * at.e[row.angle];
+                out[e] = s.re * row.my - s.im * row.mx;
                 e += 1;
             }
-            if self.relative[r] {
-                out[e] = S::c(-self.w[r]);
+            if row.relative {
+                out[e] = S::c(-row.w);
                 e += 1;
             }
         }
@@ -109,17 +146,17 @@ impl<S: Real> Simple<S> {
 
     /// nu = -Phi_t = f'(t) per row (Eq. 4.37).
     pub fn nu(&self, t: f64, s: &Shared<S>, out: &mut [S]) {
-        for (r, o) in out.iter_mut().enumerate() {
-            *o = s.functions.eval(self.f[r], t, 1);
+        for (row, o) in self.rows.iter().zip(out) {
+            *o = row.drive(t, 1, s);
         }
     }
 
     /// Eq. 4.38 and the point forms: f''(t) + (A_i s')_c w_i^2.
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
-        for (r, o) in out.iter_mut().enumerate() {
-            let mut v = s.functions.eval(self.f[r], at.t, 2);
-            if let Some(p) = self.point_term(r, at) {
-                let w = qd[self.angle[r]];
+        for (row, o) in self.rows.iter().zip(out) {
+            let mut v = row.drive(at.t, 2, s);
+            if let Some(p) = row.point_term(at) {
+                let w = qd[row.angle];
                 v = v + p * (w * w);
             }
             *o = v;

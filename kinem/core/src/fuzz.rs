@@ -1,0 +1,226 @@
+//! A fuzz test of the tables validated once when a model is built (issue
+//! 31 item 4): the hot loops index without bounds checks (the blocks' solve
+//! program and factoring, crate::triangular) or trust the families' column
+//! indices, checked by their constructors. Random families (random columns,
+//! indices partly out of range) must be refused with an Err or evaluate in
+//! bounds; random patterns laid out block-triangularly must pass their
+//! checks and solve as a dense LU does, and a corrupted program must be
+//! refused. Under `cargo test` (debug) the loops' debug assertions run too.
+use crate::families::{At, Family, KINDS};
+use crate::lu::{Layout, Shape};
+use crate::model::Kin;
+use crate::table::Table;
+use num_complex::Complex64 as C64;
+
+/// xorshift64*: no crate, reproducible.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
+    }
+    fn below(&mut self, k: u64) -> u64 {
+        self.next() % k.max(1)
+    }
+    fn unit(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    }
+}
+
+/// Functions: a constant, a line in t, a harmonic (kinem.functions' layout).
+fn functions() -> Table {
+    let mut t = Table::default();
+    t.ints.insert("kind".into(), vec![0, 0, 1]);
+    t.ints.insert("start".into(), vec![0, 1, 3, 7]);
+    t.reals.insert("data".into(), vec![1.3, 0.2, 0.9, 0.5, 2.0, 0.3, 0.1]);
+    t
+}
+
+/// One outline: a circle of radius 1.2.
+fn outlines() -> Table {
+    let mut t = Table::default();
+    for (k, v) in [("first", vec![0]), ("last", vec![0]), ("periodic", vec![1])] {
+        t.ints.insert(k.into(), v);
+    }
+    for (k, v) in [("t0", vec![0.0]), ("span", vec![std::f64::consts::TAU]), ("starts", vec![0.0])] {
+        t.reals.insert(k.into(), v);
+    }
+    t.reals.insert("coef".into(), vec![0.0, 0.0, 0.0, 1.2]);
+    t.complex.insert("center".into(), vec![C64::new(0.1, -0.2)]);
+    t
+}
+
+/// A random table for `kind` over n coordinates, `rows` constraints: every
+/// column its constructor asks for (named in its "no column" error), as
+/// integers (indices mostly in 0..n, some out of range when `wild`), reals
+/// and complex values alike. None when the constructor refuses it otherwise.
+fn random_family(kind: &str, n: usize, rows: usize, wild: bool, rng: &mut Rng) -> (Table, Result<Family, String>) {
+    let mut t = Table::default();
+    loop {
+        let r = Family::<f64>::new(kind, &t, n, 3, 1);
+        let key = match &r {
+            Err(e) if e.starts_with("table has no column '") => e[21..e.len() - 1].to_string(),
+            _ => return (t, r),
+        };
+        let ints = (0..rows)
+            .map(|_| match rng.below(if wild { 12 } else { 1000 }) {
+                0 => -1 - rng.below(3) as i64,
+                1 => (n + rng.below(4) as usize) as i64,
+                _ => rng.below(n as u64 - 2) as i64, // a body's x column or any column below n - 2
+            })
+            .collect();
+        t.ints.insert(key.clone(), ints);
+        t.reals.insert(key.clone(), (0..rows).map(|_| rng.unit()).collect());
+        t.complex.insert(key, (0..rows).map(|_| C64::new(rng.unit(), rng.unit())).collect());
+    }
+}
+
+#[test]
+fn random_families_are_refused_or_evaluate_in_bounds() {
+    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    let (f, o) = (functions(), outlines());
+    let (mut refused, mut evaluated) = (0, 0);
+    for trial in 0..2000 {
+        let kind = KINDS[trial % KINDS.len()];
+        let n = 3 * (1 + rng.below(4) as usize);
+        let rows = 1 + rng.below(4) as usize;
+        let (t, family) = random_family(kind, n, rows, trial % 2 == 0, &mut rng);
+        let angles: Vec<i64> = (2..n as i64).step_by(3).collect();
+        let kin = match Kin::<f64>::new(n, vec![(kind.to_string(), t)], &f, &o, angles) {
+            Err(_) => {
+                assert!(family.is_err(), "trial {trial}: {kind} accepted alone, refused in a model");
+                refused += 1;
+                continue;
+            }
+            Ok(k) => k,
+        };
+        assert!(family.is_ok(), "trial {trial}: {kind} refused alone, accepted in a model");
+        // evaluation: every kernel at a random configuration, in bounds (a panic fails the test)
+        let q: Vec<f64> = (0..n).map(|_| rng.unit()).collect();
+        let qd: Vec<f64> = (0..n).map(|_| rng.unit()).collect();
+        let mut e = vec![C64::new(1.0, 0.0); n];
+        kin.rotate(&q, &mut e);
+        let at = At { q: &q, e: &e, t: rng.unit() };
+        let (mut phi, mut jac, mut nu, mut gamma) =
+            (vec![0.0; kin.m], vec![0.0; kin.nnz], vec![0.0; kin.m], vec![0.0; kin.m]);
+        kin.phi(&at, &mut phi);
+        kin.jac(&at, &mut jac);
+        kin.nu(at.t, &mut nu);
+        kin.gamma(&at, &qd, &mut gamma);
+        evaluated += 1;
+    }
+    assert!(refused >= 200 && evaluated >= 200, "both kinds of table: {refused} refused, {evaluated} evaluated");
+}
+
+/// One block over a random square pattern with a matching (a random
+/// permutation) and entries below a random block structure, as
+/// kinem.model.Model.plan lays it out.
+fn random_layout(n: usize, rng: &mut Rng) -> (Layout, Vec<usize>, Vec<usize>) {
+    let mut perm: Vec<usize> = (0..n).collect();
+    for i in (1..n).rev() {
+        perm.swap(i, rng.below(i as u64 + 1) as usize);
+    }
+    // groups of consecutive matched pairs: dense-ish inside, entries only towards earlier groups
+    let mut group = vec![0; n];
+    let mut g = 0;
+    for (i, x) in group.iter_mut().enumerate() {
+        if i > 0 && rng.below(3) == 0 {
+            g += 1;
+        }
+        *x = g;
+    }
+    let mut set = vec![false; n * n];
+    for i in 0..n {
+        set[i * n + perm[i]] = true;
+        for k in 0..n {
+            if group[k] <= group[i] && rng.below(4) == 0 {
+                set[i * n + perm[k]] = true;
+            }
+        }
+    }
+    let (mut rows, mut cols) = (Vec::new(), Vec::new());
+    for i in 0..n {
+        for j in 0..n {
+            if set[i * n + j] {
+                rows.push(i);
+                cols.push(j);
+            }
+        }
+    }
+    let scale = (0..n).map(|_| 1.0 + 0.5 * rng.unit().abs()).collect();
+    let col_scale = (0..n).map(|_| 1.0 + 0.5 * rng.unit().abs()).collect();
+    let l = super::one_block(n, &rows, &cols, scale, col_scale);
+    (l, rows, cols)
+}
+
+#[test]
+fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
+    let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+    let (mut solved, mut corrupted, mut folds) = (0, 0, 0);
+    for trial in 0..600 {
+        let n = 2 + rng.below(19) as usize;
+        let (mut layout, rows, cols) = random_layout(n, &mut rng);
+        let constant: Vec<bool> = rows.iter().map(|_| rng.below(3) == 0).collect();
+        // entries taken for +1 (a folded 1x1 pivot where one is alone in its block): set so in half the trials
+        let one: Vec<bool> = constant.iter().map(|&c| c && rng.below(2) == 0).collect();
+        let honest = trial % 2 == 0;
+        if !super::triangulate(&mut layout, &constant, &constant, &one) {
+            continue;
+        }
+        let Shape::Triangular(t) = &layout.shape else { panic!("trial {trial}: not triangular") };
+        t.check().unwrap();
+        let folded = t.factoring.ones.len();
+        assert_eq!(t.program.divs.len() + folded, n, "trial {trial}: one division per position not folded");
+        for _ in 0..4 {
+            let mut values: Vec<f64> =
+                rows.iter().map(|_| rng.unit() + if rng.below(2) == 0 { 2.0 } else { -2.0 }).collect();
+            for e in (0..values.len()).filter(|&e| honest && one[e]) {
+                values[e] = 1.0 / layout.entry_scale[e]; // its scaled value 1, or within rounding of it
+            }
+            let mut a = vec![0.0; n * n];
+            for e in 0..values.len() {
+                a[rows[e] * n + cols[e]] = values[e];
+            }
+            let x0: Vec<f64> = (0..n).map(|_| rng.unit()).collect();
+            let b: Vec<f64> = (0..n).map(|i| (0..n).map(|j| a[i * n + j] * x0[j]).sum()).collect();
+            let mut f = layout.factors();
+            layout.factor(&values, &mut f);
+            let (ratio, _) = layout.stats(&f);
+            if ratio < 1e-8 {
+                continue;
+            }
+            let mut x = vec![0.0; n];
+            layout.solve(&mut f, &b, &mut x);
+            let err = x.iter().zip(&x0).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
+            assert!(err < 1e-6 / ratio, "trial {trial}: error {err}, pivot ratio {ratio}");
+            solved += 1;
+            folds += (folded > 0 && f.fixed[0].is_some()) as usize;
+        }
+        // any index of the program or the factoring moved out of range is refused
+        let mut p = t.program.clone();
+        let k = rng.below(p.subs.len() as u64 + p.divs.len() as u64) as usize;
+        let far = (p.positions.max(p.values) + rng.below(5) as usize) as u32;
+        if k < p.subs.len() {
+            p.subs[k][rng.below(3) as usize] = far;
+        } else {
+            p.divs[k - p.subs.len()][1 + rng.below(2) as usize] = far;
+        }
+        assert!(p.check().is_err(), "trial {trial}: a corrupted program passed its check");
+        let mut fa = t.factoring.clone();
+        let far = (fa.values + rng.below(5) as usize) as u32;
+        match rng.below(3) {
+            0 if !fa.place.is_empty() => fa.place[0].1 = far,
+            1 if !fa.pairs.is_empty() => fa.pairs[0][1] = far,
+            _ => fa.diag[0] = far,
+        }
+        assert!(fa.check().is_err(), "trial {trial}: a corrupted factoring passed its check");
+        corrupted += 1;
+    }
+    assert!(
+        solved >= 300 && corrupted >= 100 && folds >= 20,
+        "{solved} solves ({folds} with folded pivots), {corrupted} corruptions checked"
+    );
+}
