@@ -267,15 +267,6 @@ impl Order {
         self.fill_at = self.pattern_at.iter().copied().filter(|&at| !set[at]).collect();
     }
 
-    /// The elimination's program as `numeric` and `eliminate` run it
-    /// (crate::lane_lu runs it over lanes): the steps (k, lo, hi), the
-    /// multipliers (i, at), U's right columns and their starts per step,
-    /// the back substitution (i, at, k).
-    #[allow(clippy::type_complexity)]
-    pub fn program(&self) -> (&[(u32, u32, u32)], &[(u32, u32)], &[u32], &[u32], &[(u32, u32, u32)]) {
-        (&self.steps, &self.mult, &self.right, &self.right_start, &self.back)
-    }
-
     /// x (model coordinates) from b (model rows) with `numeric`'s factors
     /// and the block's place (`fuse`); y: work (s).
     #[inline]
