@@ -193,7 +193,15 @@ class Output:
             self.close()
             raise SystemExit(128 + STOP["signal"])
         try:
-            self.file.write(data)
+            view, done = memoryview(data).cast("B"), 0
+            # a write a signal interrupts may take only part of the data and still return (Python's
+            # BufferedWriter does: a pipe's reader gone while kinem waits on it): the rest again,
+            # whose write then says what went wrong
+            while done < len(view):
+                n = self.file.write(view[done:])
+                if not n:
+                    raise OSError(errno.EIO, "no byte written")
+                done += n
         except OSError as e:
             raise self.error(e) from None
 

@@ -2,6 +2,7 @@
 when the named output is complete, 1 when what was to be printed on a closed
 standard output could not be, and a quiet 141 when standard output's reader
 goes away (``kinem solve CASE | head``)."""
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -57,6 +58,32 @@ def test_broken_pipe_on_standard_output_ends_quietly_with_141():
     p = subprocess.Popen([sys.executable, "-m", "kinem", "solve", str(SLIDER)], stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, cwd=ROOT)
     assert p.stdout.readline().startswith(b"t,")
+    p.stdout.close()
+    err = p.stderr.read().decode()
+    assert p.wait(timeout=300) == 141 and err == ""
+
+
+def test_reader_gone_while_kinem_waits_on_a_full_pipe_ends_with_141():
+    # kinem blocked in a write to a full pipe when its reader goes: that write returns having taken
+    # only part of the data (Python's BufferedWriter then returns, not raises); the rest must still
+    # be written, and fail, not be dropped with exit code 0
+    import fcntl
+    import termios
+    import time
+
+    p = subprocess.Popen([sys.executable, "-m", "kinem", "solve", str(SLIDER)], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, cwd=ROOT)
+    fd = p.stdout.fileno()
+    # F_GETPIPE_SZ: the pipe's capacity, less a page (the header's short write holds one of its pages)
+    size = fcntl.fcntl(fd, 1032) - os.sysconf("SC_PAGE_SIZE")
+    held = bytearray(4)
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline:   # until the pipe is full: kinem, with more to write, waits
+        fcntl.ioctl(fd, termios.FIONREAD, held)
+        if int.from_bytes(held, sys.byteorder) >= size or p.poll() is not None:
+            break
+        time.sleep(0.01)
+    assert int.from_bytes(held, sys.byteorder) >= size   # the 333 kB of CSV fill it
     p.stdout.close()
     err = p.stderr.read().decode()
     assert p.wait(timeout=300) == 141 and err == ""
