@@ -237,10 +237,14 @@ def _scratch(ext):
     temporary directory, removed on any error Python sees."""
     fd = None
     if hasattr(os, "O_TMPFILE"):
-        try:
-            fd = os.open(tempfile.gettempdir(), os.O_TMPFILE | os.O_RDWR | os.O_CLOEXEC, 0o600)
-        except OSError:
-            fd = None
+        # the temporary directory as tempfile.gettempdir chooses it, without its probe (a named file
+        # made and removed: SIGKILL between the two would leave it); the unnamed file is the probe
+        for folder in _temporary_folders():
+            try:
+                fd = os.open(folder, os.O_TMPFILE | os.O_RDWR | os.O_CLOEXEC, 0o600)
+                break
+            except OSError:
+                fd = None
     path = f"/proc/{os.getpid()}/fd/{fd}" if fd is not None else None
     if path is not None and os.path.exists(path):
         try:
@@ -252,6 +256,17 @@ def _scratch(ext):
         os.close(fd)
     with tempfile.TemporaryDirectory() as tmp:
         yield os.path.join(tmp, "out" + ext)
+
+
+def _temporary_folders():
+    """tempfile.gettempdir's candidates in its order: tempfile.tempdir when
+    set, TMPDIR, TEMP, TMP, then the platform's folders."""
+    if tempfile.tempdir is not None:
+        yield tempfile.tempdir
+    for name in ("TMPDIR", "TEMP", "TMP"):
+        if os.environ.get(name):
+            yield os.environ[name]
+    yield from ("/tmp", "/var/tmp", "/usr/tmp")
 
 
 def _artists(ax, it, color, ghost, Polygon):
