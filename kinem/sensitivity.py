@@ -196,6 +196,7 @@ def _parts(model, listed) -> list:
     case, base = model.case, model.tables
     parts = _spline_tangents(case, listed, base)
     parts.update(_direct(model, [(k, p) for k, p in enumerate(listed) if k not in parts]))
+    parts.update(_landed(model, [(k, p) for k, p in enumerate(listed) if k not in parts]))
     rest = [k for k in range(len(listed)) if k not in parts]
     items = [(k, listed[k], moved, h) for k, (moved, h) in zip(rest, _moved(case, [listed[k] for k in rest]))]
     parts.update(_stacked(case, model.length, base, items))
@@ -582,6 +583,62 @@ def _direct(model, items) -> dict:
         else:
             continue
         out[k] = ([], (functions, {}), (outlines, tangent)), _dlocal(case, p)
+    return out
+
+
+def _landed(model, items) -> dict:
+    """{k: ``_moved_tangent``} for the parameters of items [(k, p)] that are
+    a coordinate of a point that lands as it is in its families' tables
+    (Family.lands: a revolute joint's si, sj, a follower's point): a
+    constraint's key ``constraints.C.KEY.k`` or a point ``points.P.at.k``
+    whose every reader reads it through such a key. Its tangent is, at
+    each such constraint's entry of the column, the unit the moved case's
+    difference gives, ((v + h) - v) / h (1 or i times it) with _moved's h,
+    every other real and complex column of those families zero: the moved
+    case's families rebuilt, without building them. Not in a case in
+    degrees nor one with drawn bodies (as ``_direct``)."""
+    case, base = model.case, model.tables
+    if not items or case.units.get("angle") == "deg" or any(b.carries for b in case.bodies):
+        return {}
+    kinds = [type(f) for f in model.families]
+    where, count, ids, readers = [], {}, {}, {}   # per constraint (place, index in its family)
+    for i, c in enumerate(case.constraints):
+        place = kinds.index(REGISTRY[c.type].family)
+        where.append((place, count.get(place, 0)))
+        count[place] = count.get(place, 0) + 1
+        ids.setdefault(constraint_id(c), i)
+        for key, point in c.refs.items():
+            readers.setdefault(point, []).append((i, key))
+    out = {}
+    for k, p in items:
+        parts = p.path.split(".")
+        if len(parts) != 4 or parts[3] not in ("0", "1"):
+            continue
+        if parts[0] == "points":
+            reads = readers.get(parts[1], [])
+        elif parts[0] == "constraints" and parts[1] in ids:
+            i = ids[parts[1]]
+            reads = [] if parts[2] in case.constraints[i].refs else [(i, parts[2])]
+        else:
+            continue
+        h = 2.0 ** (np.floor(np.log2(abs(p.value))) - 1) if p.value else 0.5   # as _moved
+        unit = ((p.value + h) - p.value) / h * (1.0 if parts[3] == "0" else 1j)
+        tangent = {}
+        for i, key in reads:
+            c, (place, j) = case.constraints[i], where[i]
+            column = model.families[place].lands.get(key)
+            t0 = base[0][place][1]
+            v = c.fields.get(key)
+            if (column is None or not isinstance(v, tuple) or len(t0[column]) != count[place]
+                    or t0[column][j] != complex(*v) or v[int(parts[3])] != p.value):
+                break
+            if place not in tangent:
+                tangent[place] = _zero(t0)
+            tangent[place][column][j] = unit
+        else:
+            if tangent:
+                out[k] = ([(place, *base[0][place], d) for place, d in sorted(tangent.items())], (base[1], {}),
+                          (base[2], {})), _dlocal(case, p)
     return out
 
 

@@ -322,6 +322,28 @@ def test_families_built_once_for_every_parameter_give_each_ones_tangent(path):
             assert d.keys() == w.keys() and all(np.array_equal(d[key], w[key]) for key in w), p.path
 
 
+@pytest.mark.parametrize("path", CASES + DRAWN, ids=lambda p: f"{p.parent.name}/{p.stem}")
+def test_points_that_land_as_they_are_give_the_rebuilt_tangents(path):
+    """kinem.sensitivity takes the tangent of a point that lands as it is in
+    its families' tables (Family.lands: a revolute's, a distance's, a
+    follower's point; _landed) at its entries directly: each parameter's
+    tangent equals the one of its own moved case (_moved_tangent: its
+    families rebuilt) exactly, every column of every family, the functions
+    and outlines unmoved; not in a drawn case."""
+    S, case, model, listed, base, items = _every_parameter_moved(path)
+    got = S._landed(model, [(k, p) for k, p, _, _ in items])
+    drawn = any(b.carries for b in case.bodies)
+    assert not (got and drawn)
+    assert got or drawn or not any(c.type in ("revolute", "cam-point") for c in case.constraints), path
+    for k, ((families, functions, outlines), dlocal) in got.items():
+        _, p, moved, h = items[k]
+        (want, (_, wf), (_, wo)), want_local = S._moved_tangent(case, model.length, base, p, moved, h)
+        assert functions[1] == outlines[1] == {} and wf == wo == {}, p.path
+        assert [f[:2] for f in families] == [f[:2] for f in want] and np.array_equal(dlocal, want_local), p.path
+        for (_, _, _, d), (_, _, _, w) in zip(families, want):
+            assert d.keys() == w.keys() and all(np.array_equal(d[key], w[key]) for key in w), p.path
+
+
 @pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
 def test_functions_numbered_once_for_every_parameter_give_each_ones_tangent(path):
     """kinem.sensitivity numbers every parameter's moved driving function
