@@ -278,7 +278,7 @@ def _moved(case, listed):
     place where it can be, else validated (``cases_of``)."""
     if not listed:
         return []
-    steps = [2.0 ** (np.floor(np.log2(abs(p.value))) - 1) if p.value else 0.5 for p in listed]
+    steps = [_step(p.value) for p in listed]
     # drivers of drawn frames that p turns (none where p moves no frame: kinem.parameters.driver_tangent)
     turned = [driver_tangent(case, p.path) if frame_tangent(case, p.path) else {} for p in listed]
     wanted = {q for t in turned for q in t}
@@ -589,57 +589,67 @@ def _direct(model, items) -> dict:
 def _landed(model, items) -> dict:
     """{k: ``_moved_tangent``} for the parameters of items [(k, p)] that are
     a coordinate of a point that lands as it is in its families' tables
-    (Family.lands: a revolute joint's si, sj, a follower's point): a
-    constraint's key ``constraints.C.KEY.k`` or a point ``points.P.at.k``
-    whose every reader reads it through such a key. Its tangent is, at
-    each such constraint's entry of the column, the unit the moved case's
-    difference gives, ((v + h) - v) / h (1 or i times it) with _moved's h,
-    every other real and complex column of those families zero: the moved
-    case's families rebuilt, without building them. Not in a case in
-    degrees nor one with drawn bodies (as ``_direct``)."""
+    (Family.lands: a revolute's and a distance's si, sj, a follower's
+    point): a constraint's key ``constraints.C.KEY.k`` or a point
+    ``points.P.at.k`` whose every reader reads it through such a key. Its
+    tangent is, at each such constraint's entry of the column, the unit the
+    moved case's difference gives, ((v + h) - v) / h (times i for k = 1)
+    with _moved's h (``_step``), the family's other columns left out (zero):
+    the moved case's families rebuilt, without building them. Not in a case
+    in degrees nor one with drawn bodies (as ``_direct``)."""
     case, base = model.case, model.tables
     if not items or case.units.get("angle") == "deg" or any(b.carries for b in case.bodies):
         return {}
-    kinds = [type(f) for f in model.families]
+    place_of = {type(f): k for k, f in reversed(list(enumerate(model.families)))}
     where, count, ids, readers = [], {}, {}, {}   # per constraint (place, index in its family)
     for i, c in enumerate(case.constraints):
-        place = kinds.index(REGISTRY[c.type].family)
+        place = place_of[REGISTRY[c.type].family]
         where.append((place, count.get(place, 0)))
         count[place] = count.get(place, 0) + 1
         ids.setdefault(constraint_id(c), i)
         for key, point in c.refs.items():
             readers.setdefault(point, []).append((i, key))
+    names = {q.name: j for j, q in enumerate(case.points)}
     out = {}
     for k, p in items:
         parts = p.path.split(".")
         if len(parts) != 4 or parts[3] not in ("0", "1"):
             continue
         if parts[0] == "points":
-            reads = readers.get(parts[1], [])
+            reads = readers.get(parts[1], ())
         elif parts[0] == "constraints" and parts[1] in ids:
             i = ids[parts[1]]
-            reads = [] if parts[2] in case.constraints[i].refs else [(i, parts[2])]
+            reads = () if parts[2] in case.constraints[i].refs else ((i, parts[2]),)
         else:
             continue
-        h = 2.0 ** (np.floor(np.log2(abs(p.value))) - 1) if p.value else 0.5   # as _moved
+        h = _step(p.value)
         unit = ((p.value + h) - p.value) / h * (1.0 if parts[3] == "0" else 1j)
         tangent = {}
         for i, key in reads:
-            c, (place, j) = case.constraints[i], where[i]
+            (place, j), v = where[i], case.constraints[i].fields.get(key)
             column = model.families[place].lands.get(key)
-            t0 = base[0][place][1]
-            v = c.fields.get(key)
-            if (column is None or not isinstance(v, tuple) or len(t0[column]) != count[place]
-                    or t0[column][j] != complex(*v) or v[int(parts[3])] != p.value):
+            t0 = base[0][place][1].get(column)
+            if (column is None or t0 is None or not isinstance(v, tuple) or len(t0) != count[place]
+                    or t0[j] != complex(*v) or v[int(parts[3])] != p.value):
                 break
-            if place not in tangent:
-                tangent[place] = _zero(t0)
-            tangent[place][column][j] = unit
+            d = tangent.setdefault(place, {}).get(column)
+            if d is None:
+                d = tangent[place][column] = np.zeros_like(t0)
+            d[j] = unit
         else:
             if tangent:
+                dlocal = np.zeros(len(names), complex)
+                if parts[0] == "points":
+                    for point, d in local_tangent(case, p.path).items():
+                        dlocal[names[point]] += d
                 out[k] = ([(place, *base[0][place], d) for place, d in sorted(tangent.items())], (base[1], {}),
-                          (base[2], {})), _dlocal(case, p)
+                          (base[2], {})), dlocal
     return out
+
+
+def _step(value) -> float:
+    """The step _moved takes p by: a power of two near |p| / 2 (0.5 at 0)."""
+    return 2.0 ** (np.floor(np.log2(abs(value))) - 1) if value else 0.5
 
 
 def _stacked(case, length, base, items) -> dict:

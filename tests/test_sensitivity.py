@@ -328,8 +328,9 @@ def test_points_that_land_as_they_are_give_the_rebuilt_tangents(path):
     its families' tables (Family.lands: a revolute's, a distance's, a
     follower's point; _landed) at its entries directly: each parameter's
     tangent equals the one of its own moved case (_moved_tangent: its
-    families rebuilt) exactly, every column of every family, the functions
-    and outlines unmoved; not in a drawn case."""
+    families rebuilt) exactly, every column of every family (a column it
+    leaves out: zero), the functions and outlines unmoved; not in a drawn
+    case."""
     S, case, model, listed, base, items = _every_parameter_moved(path)
     got = S._landed(model, [(k, p) for k, p, _, _ in items])
     drawn = any(b.carries for b in case.bodies)
@@ -340,8 +341,8 @@ def test_points_that_land_as_they_are_give_the_rebuilt_tangents(path):
         (want, (_, wf), (_, wo)), want_local = S._moved_tangent(case, model.length, base, p, moved, h)
         assert functions[1] == outlines[1] == {} and wf == wo == {}, p.path
         assert [f[:2] for f in families] == [f[:2] for f in want] and np.array_equal(dlocal, want_local), p.path
-        for (_, _, _, d), (_, _, _, w) in zip(families, want):
-            assert d.keys() == w.keys() and all(np.array_equal(d[key], w[key]) for key in w), p.path
+        for (_, _, _, d), (_, _, _, w) in zip(families, want):   # a column left out is zero
+            assert d.keys() <= w.keys() and all(np.array_equal(d.get(key, 0 * w[key]), w[key]) for key in w), p.path
 
 
 @pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
