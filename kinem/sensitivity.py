@@ -33,7 +33,7 @@ import numpy as np
 from . import native
 from .errors import AnalysisError, InputError, KinemError
 from .constraints import REGISTRY
-from .functions import FunctionTable
+from .functions import FunctionTable, Harmonic, Poly
 from .model import _Context, families_of, separate_tables
 from .outline import Outline, OutlineTable
 from .options import Options, singular_pivot
@@ -534,7 +534,10 @@ def _direct(model, items) -> dict:
     tangent is one number of the function or outline tables, taken as it
     is (S5's difference is a unit there, nothing else moves): a ground's
     ``value.k`` or an absolute constraint's ``value`` (the constant
-    function Poly((value,)) its row numbered), an outline's ``center.k``
+    function Poly((value,)) its row numbered), a driving function's
+    ``poly.k`` or ``harmonic.NAME`` (the function the constraint holds, at
+    every place the table numbers it: ((v + h) - v) / h with _moved's h,
+    the moved function's difference), an outline's ``center.k``
     (its centre: 1 or i) and a circle's ``circle.radius`` (its one piece's
     constant coefficient), where the tables hold the nominal value there.
     Not in a case in degrees (its angles' values are converted) nor one
@@ -544,7 +547,7 @@ def _direct(model, items) -> dict:
         return {}
     functions, outlines = base[1], base[2]
     numbered = [o for f in base[3] for o in f[1]]
-    kinds, by_id = [type(f) for f in model.families], None
+    kinds, by_id, function_list = [type(f) for f in model.families], None, None
     out = {}
     for k, p in items:
         parts = p.path.split(".")
@@ -567,6 +570,20 @@ def _direct(model, items) -> dict:
             out[k] = ([], (functions, {"data": d}), (outlines, {})), _dlocal(case, p)
             continue
         o = c.fields.get(parts[2])
+        if len(parts) == 5 and (type(o), parts[3]) in ((Poly, "poly"), (Harmonic, "harmonic")):
+            function_list = function_list or [x for f in base[3] for x in f[0]]
+            j = (int(parts[4]) if parts[4].isdigit() else -1) if parts[3] == "poly" else _HARMONIC.get(parts[4], -1)
+            places = [i for i, x in enumerate(function_list) if x is o]
+            start, data = functions["start"], functions["data"]
+            width = len(o.coeffs) if parts[3] == "poly" else len(_HARMONIC)
+            if (not places or not 0 <= j < width or any(start[i + 1] - start[i] != width for i in places)
+                    or any(data[start[i] + j] != p.value for i in places)):
+                continue
+            h = _step(p.value)
+            d = np.zeros_like(data)
+            d[[start[i] + j for i in places]] = ((p.value + h) - p.value) / h   # the moved function's difference
+            out[k] = ([], (functions, {"data": d}), (outlines, {})), _dlocal(case, p)
+            continue
         places = [i for i, x in enumerate(numbered) if x is o]
         if not isinstance(o, Outline) or not places:
             continue
@@ -650,6 +667,10 @@ def _landed(model, items) -> dict:
 def _step(value) -> float:
     """The step _moved takes p by: a power of two near |p| / 2 (0.5 at 0)."""
     return 2.0 ** (np.floor(np.log2(abs(value))) - 1) if value else 0.5
+
+
+# a harmonic function's numbers in the function table (kinem.functions.FunctionTable.arrays)
+_HARMONIC = {"amplitude": 0, "omega": 1, "phase": 2, "offset": 3}
 
 
 def _stacked(case, length, base, items) -> dict:
