@@ -450,7 +450,7 @@ def _full(base, part):
     """A ``_moved_tangent`` in ``_tangent``'s format: every family, function and outline column, zero where unmoved."""
     (families, functions, outlines), dlocal = part
     tangent = {k: d for k, _, _, d in families}
-    return ([(kind, t0, tangent[k] if k in tangent else _zero(t0)) for k, (kind, t0) in enumerate(base[0])],
+    return ([(kind, t0, {**_zero(t0), **tangent.get(k, {})}) for k, (kind, t0) in enumerate(base[0])],
             (functions[0], functions[1] or _zero(functions[0])), (outlines[0], outlines[1] or _zero(outlines[0]))), dlocal
 
 
@@ -513,7 +513,7 @@ def _spline_tangents(case, listed, base) -> dict:
         if (isinstance(o, Outline) and o.kind == "spline" and j < len(o.s) - o.periodic
                 and any(x is o for x in numbered)):
             by_outline.setdefault(id(o), (o, []))[1].append((k, j))
-    out = {}
+    out, zero = {}, None
     for o, ks in by_outline.values():
         unit = np.zeros((len(o.s), len(ks)))
         for col, (_, j) in enumerate(ks):
@@ -521,9 +521,11 @@ def _spline_tangents(case, listed, base) -> dict:
             if o.periodic and j == 0:
                 unit[-1, col] = 1.0
         c = CubicSpline(np.array(o.theta), unit, bc_type=o.bc).c    # (4, pieces, len(ks))
+        places = [i for i, x in enumerate(numbered) if x is o]
+        zero = zero or _zero(base[2])   # the unmoved columns' zeros, shared (read only)
         for col, (k, _) in enumerate(ks):
-            tangent = _zero(base[2])
-            for place in (i for i, x in enumerate(numbered) if x is o):
+            tangent = {**zero, "coef": np.zeros_like(zero["coef"])}
+            for place in places:
                 tangent["coef"][4 * first[place]:4 * (last[place] + 1)] = c[:, :, col].T.ravel()
             out[k] = ([], (base[1], {}), (base[2], tangent)), _dlocal(case, listed[k])
     return out
