@@ -113,7 +113,7 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     t = traj.t
     columns = _layout(model, levels)[0]
     width = len(columns)
-    for k, p in enumerate(listed):
+    for k, p in enumerate(listed if any(b.derived for b in case.bodies) else ()):   # no frame moves otherwise
         _derived_frames(case, p.path, columns, data[:, k * width:(k + 1) * width], traj)
     floor = singular_pivot(options.tolerance)
     singular = ~(ratio >= floor)
