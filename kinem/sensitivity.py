@@ -609,11 +609,15 @@ def _landed(model, items) -> dict:
     """{k: ``_moved_tangent``} for the parameters of items [(k, p)] that are
     a coordinate of a point that lands as it is in its families' tables
     (Family.lands: a revolute's and a distance's si, sj, a follower's
-    point): a constraint's key ``constraints.C.KEY.k`` or a point
-    ``points.P.at.k`` whose every reader reads it through such a key. Its
-    tangent is, at each such constraint's entry of the column, the unit the
-    moved case's difference gives, ((v + h) - v) / h (times i for k = 1)
-    with _moved's h (``_step``), the family's other columns left out (zero):
+    point, a translational joint's points) or in a difference of two
+    (Family.spans: a line's direction): a constraint's key
+    ``constraints.C.KEY.k`` (or a scalar ``constraints.C.KEY`` landing in a
+    real column: a translational joint's phi0) or a point
+    ``points.P.at.k`` whose every reader
+    reads it through such keys. Its tangent is, at each such constraint's
+    entry of the columns, what the moved case's difference gives, ((v + h)
+    - v) / h, or that of a - b with a or b moved (times i for k = 1), with
+    _moved's h (``_step``), the family's other columns left out (zero):
     the moved case's families rebuilt, without building them. Not in a case
     in degrees nor one with drawn bodies (as ``_direct``)."""
     case, base = model.case, model.tables
@@ -632,6 +636,8 @@ def _landed(model, items) -> dict:
     out = {}
     for k, p in items:
         parts = p.path.split(".")
+        if len(parts) == 3 and parts[0] == "constraints" and parts[1] in ids:   # a scalar key: as a point's x
+            parts.append("0")
         if len(parts) != 4 or parts[3] not in ("0", "1"):
             continue
         if parts[0] == "points":
@@ -644,17 +650,37 @@ def _landed(model, items) -> dict:
         h = _step(p.value)
         unit = ((p.value + h) - p.value) / h * (1.0 if parts[3] == "0" else 1j)
         tangent = {}
+        axis = int(parts[3])
         for i, key in reads:
-            (place, j), v = where[i], case.constraints[i].fields.get(key)
-            column = model.families[place].lands.get(key)
-            t0 = base[0][place][1].get(column)
-            if (column is None or t0 is None or not isinstance(v, tuple) or len(t0) != count[place]
-                    or t0[j] != complex(*v) or v[int(parts[3])] != p.value):
+            (place, j), fields = where[i], case.constraints[i].fields
+            family = model.families[place]
+            moves = [(family.lands[key], None)] if key in family.lands else []
+            moves += [(column, ab) for column, ab in family.spans.items() if key in ab]
+            v = fields.get(key)
+            scalar = type(v) is float and len(p.path.split(".")) == 3
+            if scalar:
+                v = (v,)
+            if not moves or not isinstance(v, tuple) or v[axis] != p.value or (scalar and any(ab for _, ab in moves)):
                 break
-            d = tangent.setdefault(place, {}).get(column)
-            if d is None:
-                d = tangent[place][column] = np.zeros_like(t0)
-            d[j] = unit
+            for column, ab in moves:
+                t0 = base[0][place][1].get(column)
+                a, b = (v, None) if ab is None else (fields.get(ab[0]), fields.get(ab[1]))
+                if t0 is None or len(t0) != count[place] or not isinstance(a, tuple) or not (
+                        t0[j] == (a[0] if scalar else complex(*a) if ab is None else complex(a[0] - b[0], a[1] - b[1]))):
+                    break
+                if ab is None:
+                    x = unit
+                else:   # the moved difference's, as the family forms it: a - b with a or b moved by h
+                    nominal = a[axis] - b[axis]
+                    moved = (a[axis] + h if ab[0] == key else a[axis]) - (b[axis] + h if ab[1] == key else b[axis])
+                    x = (moved - nominal) / h * (1.0 if axis == 0 else 1j)
+                d = tangent.setdefault(place, {}).get(column)
+                if d is None:
+                    d = tangent[place][column] = np.zeros_like(t0)
+                d[j] = x
+            else:
+                continue
+            break
         else:
             if tangent:
                 dlocal = np.zeros(len(names), complex)
