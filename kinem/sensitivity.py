@@ -24,6 +24,7 @@ At an instant where Phi_q is singular (its pivot ratio below the solver's
 floor, kinem.options.singular_pivot) the derivatives are infinite: they are
 reported as inf, flagged in ``singular`` and named in ``message``.
 """
+import math
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, is_dataclass, replace
@@ -633,7 +634,7 @@ def _landed(model, items) -> dict:
         for key, point in c.refs.items():
             readers.setdefault(point, []).append((i, key))
     names = {q.name: j for j, q in enumerate(case.points)}
-    out = {}
+    out, nominal_columns = {}, {}   # (place, column) -> the nominal column as a list (read once)
     for k, p in items:
         parts = p.path.split(".")
         if len(parts) == 3 and parts[0] == "constraints" and parts[1] in ids:   # a scalar key: as a point's x
@@ -663,7 +664,9 @@ def _landed(model, items) -> dict:
             if not moves or not isinstance(v, tuple) or v[axis] != p.value or (scalar and any(ab for _, ab in moves)):
                 break
             for column, ab in moves:
-                t0 = base[0][place][1].get(column)
+                t0 = nominal_columns.get((place, column))
+                if t0 is None and column in base[0][place][1]:
+                    t0 = nominal_columns[place, column] = base[0][place][1][column].tolist()
                 a, b = (v, None) if ab is None else (fields.get(ab[0]), fields.get(ab[1]))
                 if t0 is None or len(t0) != count[place] or not isinstance(a, tuple) or not (
                         t0[j] == (a[0] if scalar else complex(*a) if ab is None else complex(a[0] - b[0], a[1] - b[1]))):
@@ -676,7 +679,7 @@ def _landed(model, items) -> dict:
                     x = (moved - nominal) / h * (1.0 if axis == 0 else 1j)
                 d = tangent.setdefault(place, {}).get(column)
                 if d is None:
-                    d = tangent[place][column] = np.zeros_like(t0)
+                    d = tangent[place][column] = np.zeros_like(base[0][place][1][column])
                 d[j] = x
             else:
                 continue
@@ -693,8 +696,9 @@ def _landed(model, items) -> dict:
 
 
 def _step(value) -> float:
-    """The step _moved takes p by: a power of two near |p| / 2 (0.5 at 0)."""
-    return 2.0 ** (np.floor(np.log2(abs(value))) - 1) if value else 0.5
+    """The step _moved takes p by: a power of two near |p| / 2 (0.5 at 0),
+    2^(floor(log2 |p|) - 1) with the exponent read exactly (math.frexp)."""
+    return math.ldexp(1.0, math.frexp(value)[1] - 2) if value else 0.5
 
 
 # a harmonic function's numbers in the function table (kinem.functions.FunctionTable.arrays)
