@@ -643,6 +643,8 @@ def _landed(model, items) -> dict:
             continue
         if parts[0] == "points":
             reads = readers.get(parts[1], ())
+            if len({i for i, _ in reads}) != len(reads):   # a constraint reading it twice: left to _stacked
+                continue
         elif parts[0] == "constraints" and parts[1] in ids:
             i = ids[parts[1]]
             reads = () if parts[2] in case.constraints[i].refs else ((i, parts[2]),)
