@@ -24,6 +24,7 @@ At an instant where Phi_q is singular (its pivot ratio below the solver's
 floor, kinem.options.singular_pivot) the derivatives are infinite: they are
 reported as inf, flagged in ``singular`` and named in ``message``.
 """
+import math
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, is_dataclass, replace
@@ -33,7 +34,7 @@ import numpy as np
 from . import native
 from .errors import AnalysisError, InputError, KinemError
 from .constraints import REGISTRY
-from .functions import FunctionTable
+from .functions import FunctionTable, Harmonic, Poly
 from .model import _Context, families_of, separate_tables
 from .outline import Outline, OutlineTable
 from .options import Options, singular_pivot
@@ -113,7 +114,7 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     t = traj.t
     columns = _layout(model, levels)[0]
     width = len(columns)
-    for k, p in enumerate(listed):
+    for k, p in enumerate(listed if any(b.derived for b in case.bodies) else ()):   # no frame moves otherwise
         _derived_frames(case, p.path, columns, data[:, k * width:(k + 1) * width], traj)
     floor = singular_pivot(options.tolerance)
     singular = ~(ratio >= floor)
@@ -196,6 +197,7 @@ def _parts(model, listed) -> list:
     case, base = model.case, model.tables
     parts = _spline_tangents(case, listed, base)
     parts.update(_direct(model, [(k, p) for k, p in enumerate(listed) if k not in parts]))
+    parts.update(_landed(model, [(k, p) for k, p in enumerate(listed) if k not in parts]))
     rest = [k for k in range(len(listed)) if k not in parts]
     items = [(k, listed[k], moved, h) for k, (moved, h) in zip(rest, _moved(case, [listed[k] for k in rest]))]
     parts.update(_stacked(case, model.length, base, items))
@@ -277,7 +279,7 @@ def _moved(case, listed):
     place where it can be, else validated (``cases_of``)."""
     if not listed:
         return []
-    steps = [2.0 ** (np.floor(np.log2(abs(p.value))) - 1) if p.value else 0.5 for p in listed]
+    steps = [_step(p.value) for p in listed]
     # drivers of drawn frames that p turns (none where p moves no frame: kinem.parameters.driver_tangent)
     turned = [driver_tangent(case, p.path) if frame_tangent(case, p.path) else {} for p in listed]
     wanted = {q for t in turned for q in t}
@@ -449,7 +451,7 @@ def _full(base, part):
     """A ``_moved_tangent`` in ``_tangent``'s format: every family, function and outline column, zero where unmoved."""
     (families, functions, outlines), dlocal = part
     tangent = {k: d for k, _, _, d in families}
-    return ([(kind, t0, tangent[k] if k in tangent else _zero(t0)) for k, (kind, t0) in enumerate(base[0])],
+    return ([(kind, t0, {**_zero(t0), **tangent.get(k, {})}) for k, (kind, t0) in enumerate(base[0])],
             (functions[0], functions[1] or _zero(functions[0])), (outlines[0], outlines[1] or _zero(outlines[0]))), dlocal
 
 
@@ -512,7 +514,7 @@ def _spline_tangents(case, listed, base) -> dict:
         if (isinstance(o, Outline) and o.kind == "spline" and j < len(o.s) - o.periodic
                 and any(x is o for x in numbered)):
             by_outline.setdefault(id(o), (o, []))[1].append((k, j))
-    out = {}
+    out, zero = {}, None
     for o, ks in by_outline.values():
         unit = np.zeros((len(o.s), len(ks)))
         for col, (_, j) in enumerate(ks):
@@ -520,9 +522,11 @@ def _spline_tangents(case, listed, base) -> dict:
             if o.periodic and j == 0:
                 unit[-1, col] = 1.0
         c = CubicSpline(np.array(o.theta), unit, bc_type=o.bc).c    # (4, pieces, len(ks))
+        places = [i for i, x in enumerate(numbered) if x is o]
+        zero = zero or _zero(base[2])   # the unmoved columns' zeros, shared (read only)
         for col, (k, _) in enumerate(ks):
-            tangent = _zero(base[2])
-            for place in (i for i, x in enumerate(numbered) if x is o):
+            tangent = {**zero, "coef": np.zeros_like(zero["coef"])}
+            for place in places:
                 tangent["coef"][4 * first[place]:4 * (last[place] + 1)] = c[:, :, col].T.ravel()
             out[k] = ([], (base[1], {}), (base[2], tangent)), _dlocal(case, listed[k])
     return out
@@ -533,7 +537,10 @@ def _direct(model, items) -> dict:
     tangent is one number of the function or outline tables, taken as it
     is (S5's difference is a unit there, nothing else moves): a ground's
     ``value.k`` or an absolute constraint's ``value`` (the constant
-    function Poly((value,)) its row numbered), an outline's ``center.k``
+    function Poly((value,)) its row numbered), a driving function's
+    ``poly.k`` or ``harmonic.NAME`` (the function the constraint holds, at
+    every place the table numbers it: ((v + h) - v) / h with _moved's h,
+    the moved function's difference), an outline's ``center.k``
     (its centre: 1 or i) and a circle's ``circle.radius`` (its one piece's
     constant coefficient), where the tables hold the nominal value there.
     Not in a case in degrees (its angles' values are converted) nor one
@@ -543,7 +550,7 @@ def _direct(model, items) -> dict:
         return {}
     functions, outlines = base[1], base[2]
     numbered = [o for f in base[3] for o in f[1]]
-    kinds, by_id = [type(f) for f in model.families], None
+    kinds, by_id, function_list = [type(f) for f in model.families], None, None
     out = {}
     for k, p in items:
         parts = p.path.split(".")
@@ -566,6 +573,20 @@ def _direct(model, items) -> dict:
             out[k] = ([], (functions, {"data": d}), (outlines, {})), _dlocal(case, p)
             continue
         o = c.fields.get(parts[2])
+        if len(parts) == 5 and (type(o), parts[3]) in ((Poly, "poly"), (Harmonic, "harmonic")):
+            function_list = function_list or [x for f in base[3] for x in f[0]]
+            j = (int(parts[4]) if parts[4].isdigit() else -1) if parts[3] == "poly" else _HARMONIC.get(parts[4], -1)
+            places = [i for i, x in enumerate(function_list) if x is o]
+            start, data = functions["start"], functions["data"]
+            width = len(o.coeffs) if parts[3] == "poly" else len(_HARMONIC)
+            if (not places or not 0 <= j < width or any(start[i + 1] - start[i] != width for i in places)
+                    or any(data[start[i] + j] != p.value for i in places)):
+                continue
+            h = _step(p.value)
+            d = np.zeros_like(data)
+            d[[start[i] + j for i in places]] = ((p.value + h) - p.value) / h   # the moved function's difference
+            out[k] = ([], (functions, {"data": d}), (outlines, {})), _dlocal(case, p)
+            continue
         places = [i for i, x in enumerate(numbered) if x is o]
         if not isinstance(o, Outline) or not places:
             continue
@@ -583,6 +604,107 @@ def _direct(model, items) -> dict:
             continue
         out[k] = ([], (functions, {}), (outlines, tangent)), _dlocal(case, p)
     return out
+
+
+def _landed(model, items) -> dict:
+    """{k: ``_moved_tangent``} for the parameters of items [(k, p)] that are
+    a coordinate of a point that lands as it is in its families' tables
+    (Family.lands: a revolute's and a distance's si, sj, a follower's
+    point, a translational joint's points) or in a difference of two
+    (Family.spans: a line's direction): a constraint's key
+    ``constraints.C.KEY.k`` (or a scalar ``constraints.C.KEY`` landing in a
+    real column: a translational joint's phi0) or a point
+    ``points.P.at.k`` whose every reader
+    reads it through such keys. Its tangent is, at each such constraint's
+    entry of the columns, what the moved case's difference gives, ((v + h)
+    - v) / h, or that of a - b with a or b moved (times i for k = 1), with
+    _moved's h (``_step``), the family's other columns left out (zero):
+    the moved case's families rebuilt, without building them. Not in a case
+    in degrees nor one with drawn bodies (as ``_direct``)."""
+    case, base = model.case, model.tables
+    if not items or case.units.get("angle") == "deg" or any(b.carries for b in case.bodies):
+        return {}
+    place_of = {type(f): k for k, f in reversed(list(enumerate(model.families)))}
+    where, count, ids, readers = [], {}, {}, {}   # per constraint (place, index in its family)
+    for i, c in enumerate(case.constraints):
+        place = place_of[REGISTRY[c.type].family]
+        where.append((place, count.get(place, 0)))
+        count[place] = count.get(place, 0) + 1
+        ids.setdefault(constraint_id(c), i)
+        for key, point in c.refs.items():
+            readers.setdefault(point, []).append((i, key))
+    names = {q.name: j for j, q in enumerate(case.points)}
+    out, nominal_columns = {}, {}   # (place, column) -> the nominal column as a list (read once)
+    for k, p in items:
+        parts = p.path.split(".")
+        if len(parts) == 3 and parts[0] == "constraints" and parts[1] in ids:   # a scalar key: as a point's x
+            parts.append("0")
+        if len(parts) != 4 or parts[3] not in ("0", "1"):
+            continue
+        if parts[0] == "points":
+            reads = readers.get(parts[1], ())
+            if len({i for i, _ in reads}) != len(reads):   # a constraint reading it twice: left to _stacked
+                continue
+        elif parts[0] == "constraints" and parts[1] in ids:
+            i = ids[parts[1]]
+            reads = () if parts[2] in case.constraints[i].refs else ((i, parts[2]),)
+        else:
+            continue
+        h = _step(p.value)
+        unit = ((p.value + h) - p.value) / h * (1.0 if parts[3] == "0" else 1j)
+        tangent = {}
+        axis = int(parts[3])
+        for i, key in reads:
+            (place, j), fields = where[i], case.constraints[i].fields
+            family = model.families[place]
+            moves = [(family.lands[key], None)] if key in family.lands else []
+            moves += [(column, ab) for column, ab in family.spans.items() if key in ab]
+            v = fields.get(key)
+            scalar = type(v) is float and len(p.path.split(".")) == 3
+            if scalar:
+                v = (v,)
+            if not moves or not isinstance(v, tuple) or v[axis] != p.value or (scalar and any(ab for _, ab in moves)):
+                break
+            for column, ab in moves:
+                t0 = nominal_columns.get((place, column))
+                if t0 is None and column in base[0][place][1]:
+                    t0 = nominal_columns[place, column] = base[0][place][1][column].tolist()
+                a, b = (v, None) if ab is None else (fields.get(ab[0]), fields.get(ab[1]))
+                if t0 is None or len(t0) != count[place] or not isinstance(a, tuple) or not (
+                        t0[j] == (a[0] if scalar else complex(*a) if ab is None else complex(a[0] - b[0], a[1] - b[1]))):
+                    break
+                if ab is None:
+                    x = unit
+                else:   # the moved difference's, as the family forms it: a - b with a or b moved by h
+                    nominal = a[axis] - b[axis]
+                    moved = (a[axis] + h if ab[0] == key else a[axis]) - (b[axis] + h if ab[1] == key else b[axis])
+                    x = (moved - nominal) / h * (1.0 if axis == 0 else 1j)
+                d = tangent.setdefault(place, {}).get(column)
+                if d is None:
+                    d = tangent[place][column] = np.zeros_like(base[0][place][1][column])
+                d[j] = x
+            else:
+                continue
+            break
+        else:
+            if tangent:
+                dlocal = np.zeros(len(names), complex)
+                if parts[0] == "points":
+                    for point, d in local_tangent(case, p.path).items():
+                        dlocal[names[point]] += d
+                out[k] = ([(place, *base[0][place], d) for place, d in sorted(tangent.items())], (base[1], {}),
+                          (base[2], {})), dlocal
+    return out
+
+
+def _step(value) -> float:
+    """The step _moved takes p by: a power of two near |p| / 2 (0.5 at 0),
+    2^(floor(log2 |p|) - 1) with the exponent read exactly (math.frexp)."""
+    return math.ldexp(1.0, math.frexp(value)[1] - 2) if value else 0.5
+
+
+# a harmonic function's numbers in the function table (kinem.functions.FunctionTable.arrays)
+_HARMONIC = {"amplitude": 0, "omega": 1, "phase": 2, "offset": 3}
 
 
 def _stacked(case, length, base, items) -> dict:

@@ -323,6 +323,46 @@ def test_families_built_once_for_every_parameter_give_each_ones_tangent(path):
 
 
 @pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
+def test_driving_coefficients_are_taken_directly(path):
+    """A driving function's ``poly.k`` and ``harmonic.NAME`` (not in degrees)
+    take _direct's way, a unit of the function table where the nominal is
+    (test_numbers_taken_directly_equal_the_rebuilt_tangents compares each
+    with its moved case's rebuilt tangent exactly)."""
+    S, case, model, listed, base, items = _every_parameter_moved(path)
+    got = S._direct(model, [(k, p) for k, p, _, _ in items])
+    wanted = [k for k, p in enumerate(listed) if ".poly." in p.path or ".harmonic." in p.path]
+    if case.units.get("angle") != "deg":
+        assert all(k in got for k in wanted), [listed[k].path for k in wanted if k not in got]
+    for k in wanted:
+        if k in got:
+            d = got[k][0][1][1]["data"]
+            assert np.count_nonzero(d) >= 1 and np.all(np.abs(d[d != 0] - 1.0) <= 2e-16), listed[k].path
+
+
+@pytest.mark.parametrize("path", CASES + DRAWN, ids=lambda p: f"{p.parent.name}/{p.stem}")
+def test_points_that_land_as_they_are_give_the_rebuilt_tangents(path):
+    """kinem.sensitivity takes the tangent of a point that lands as it is in
+    its families' tables (Family.lands: a revolute's, a distance's, a
+    follower's point; _landed) at its entries directly: each parameter's
+    tangent equals the one of its own moved case (_moved_tangent: its
+    families rebuilt) exactly, every column of every family (a column it
+    leaves out: zero), the functions and outlines unmoved; not in a drawn
+    case."""
+    S, case, model, listed, base, items = _every_parameter_moved(path)
+    got = S._landed(model, [(k, p) for k, p, _, _ in items])
+    drawn = any(b.carries for b in case.bodies)
+    assert not (got and drawn)
+    assert got or drawn or not any(c.type in ("revolute", "cam-point") for c in case.constraints), path
+    for k, ((families, functions, outlines), dlocal) in got.items():
+        _, p, moved, h = items[k]
+        (want, (_, wf), (_, wo)), want_local = S._moved_tangent(case, model.length, base, p, moved, h)
+        assert functions[1] == outlines[1] == {} and wf == wo == {}, p.path
+        assert [f[:2] for f in families] == [f[:2] for f in want] and np.array_equal(dlocal, want_local), p.path
+        for (_, _, _, d), (_, _, _, w) in zip(families, want):   # a column left out is zero
+            assert d.keys() <= w.keys() and all(np.array_equal(d.get(key, 0 * w[key]), w[key]) for key in w), p.path
+
+
+@pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
 def test_functions_numbered_once_for_every_parameter_give_each_ones_tangent(path):
     """kinem.sensitivity numbers every parameter's moved driving function
     once after the model's (_function_tangents): each parameter's tangent

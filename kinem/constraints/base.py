@@ -43,7 +43,15 @@ class Family:
       structural Jacobian pattern, rows local to the family, in the order
       the core's family module gives the values),
     and implements ``table``.
+    ``lands``: the keys whose point (xi + i eta) or number lands as it is
+    in a column of the table, one entry per constraint in the family's
+    order (key -> column; kinem.sensitivity takes their tangents there
+    directly), and
+    ``spans``: the columns that hold the difference of two such keys'
+    points, column -> (key a, key b) for a - b.
     """
+    lands: dict = {}
+    spans: dict = {}
 
     def table(self, functions, outlines) -> tuple:
         """(kind, {column: 1-d array}): the family's struct-of-arrays table

@@ -10,6 +10,7 @@ from ..functions import FunctionSet, constant
 
 class Distance(Family):
     """Phi = d^T d - l(t)^2 with d = r_j^P - r_i^P (Eq. 4.13)."""
+    lands = {"si": "si", "sj": "sj"}
 
     def __init__(self, cons, ctx):
         self.ci = ctx.cols(c["i"] for c in cons)

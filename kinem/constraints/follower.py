@@ -13,6 +13,7 @@ class PointOnCurve(Family):
     """Phi = sigma (r_c + A_c p(theta) - r_b - A_b s'_b): two rows, x and y.
     cam-point: c = cam i, b = follower j, sigma = +1 (Eq. 4.26);
     point-follower: c = slotted body j, b = pin body i, sigma = -1 (Eq. 4.30)."""
+    lands = {"sj": "sb", "si": "sb"}   # cam-point: sj, point-follower: si
 
     def __init__(self, cons, ctx):
         cam = [c.type == "cam-point" for c in cons]

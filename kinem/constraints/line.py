@@ -31,6 +31,7 @@ class _PointOnLine(Family):
 
 class Translational(_PointOnLine):
     """Eq. 4.12: [(P_i - Q_i) x (P_j - P_i), phi_i - phi_j - (phi_i^0 - phi_j^0)]."""
+    lands, spans = {"si": "pa", "sj": "ob", "phi0": "phi0"}, {"ua": ("si", "qi")}
 
     def __init__(self, cons, ctx):
         ci = ctx.cols(c["i"] for c in cons)
@@ -48,6 +49,7 @@ class Translational(_PointOnLine):
 
 class RevoluteTranslational(_PointOnLine):
     """Eq. 4.16: (Q_j - P_i) x (Q_j - P_j) = 0: pin P_i on the line P_j Q_j of body j."""
+    lands, spans = {"sj": "pa", "si": "ob"}, {"ua": ("qj", "sj")}
 
     def __init__(self, cons, ctx):
         ci = ctx.cols(c["i"] for c in cons)

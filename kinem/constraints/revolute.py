@@ -6,6 +6,7 @@ from .base import BodyKey, Family, LocalKey, TypeDecl, WordKey, ints, local_poin
 
 class Revolute(Family):
     """Phi = r_i + A_i s'_i^P - r_j - A_j s'_j^P (Eq. 4.7): two rows, x and y."""
+    lands = {"si": "si", "sj": "sj"}
 
     def __init__(self, cons, ctx):
         self.ci = ctx.cols(c["i"] for c in cons)

@@ -205,8 +205,9 @@ pub fn run(
 }
 
 /// At each accepted instant k, after its rates: (k, the state there, the
-/// factorisation of Phi_q at its q, which the rates used).
-pub type Hook<'h> = &'h mut dyn FnMut(usize, &MarchState, &mut Factors);
+/// factorisation of Phi_q at its q, which the rates used, and e^{i q} there
+/// at the angle columns).
+pub type Hook<'h> = &'h mut dyn FnMut(usize, &MarchState, &mut Factors, &[C64]);
 
 /// `run`, calling `hook` at every accepted instant (kinem.sensitivity:
 /// the design sensitivities from the march's own factorisation).
@@ -257,7 +258,8 @@ pub fn run_hooked(
         out.pivot[r] = o.pivot;
         out.det[r] = o.det as i8;
         if let Some(h) = hook.as_mut() {
-            h(k, st, &mut ops.f);
+            ops.rotate();
+            h(k, st, &mut ops.f, &ops.e);
         }
         k += 1;
     }

@@ -590,9 +590,9 @@ impl Plan {
                 columns: inputs.columns(),
             };
             let mut at = crate::sensitivity::Instants::new(setup)?;
-            let mut hook = |k: usize, s: &march::MarchState, f: &mut Factors| {
+            let mut hook = |k: usize, s: &march::MarchState, f: &mut Factors, e: &[C64]| {
                 let x: [&[f64]; 3] = [&s.q, &s.qd, &s.qdd];
-                ratio[k] = at.at(times[k], &x[..stages], f, &mut data[k * width..(k + 1) * width]);
+                ratio[k] = at.at(times[k], &x[..stages], e, f, &mut data[k * width..(k + 1) * width]);
             };
             let watch = Watch::new(seconds, Some(&poll));
             Ok(march::run_hooked(kin, layout, times, 0, st, &settings, out, &watch, true, Some(&mut hook)))

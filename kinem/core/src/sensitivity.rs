@@ -128,7 +128,7 @@ pub fn sensitivities(
         kin.jac(&At { q, e: &e, t }, &mut values);
         layout.factor(&values, &mut f);
         let stages: [&[f64]; 3] = std::array::from_fn(|s| x.get(s).map_or(&[][..], |a| &a[k * n..(k + 1) * n]));
-        ratio[k] = at.at(t, &stages[..levels], &mut f, &mut data[k * w..(k + 1) * w]);
+        ratio[k] = at.at(t, &stages[..levels], &e, &mut f, &mut data[k * w..(k + 1) * w]);
     }
     Ok(())
 }
@@ -190,8 +190,8 @@ impl<'a> Instants<'a> {
     }
 
     /// Lanewise::at.
-    pub fn at(&mut self, t: f64, x: &[&[f64]], f: &mut Factors, out: &mut [f64]) -> f64 {
-        each_width!(self, a => a.at(t, x, f, out))
+    pub fn at(&mut self, t: f64, x: &[&[f64]], e: &[C64], f: &mut Factors, out: &mut [f64]) -> f64 {
+        each_width!(self, a => a.at(t, x, e, f, out))
     }
 }
 
@@ -286,7 +286,6 @@ pub struct Lanewise<'a, const N: usize> {
     flat: Vec<[f64; N]>,
     gather: Vec<usize>,
     buf: Vec<[f64; N]>,
-    e: Vec<C64>,
     q0: Vec<Lanes<N>>,
     e0: Vec<Complex<Lanes<N>>>,
     ql: Vec<Lanes<N>>,
@@ -348,9 +347,8 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             flat: vec![[0.0; N]; 3 * n + 2 * levels * points],
             buf: vec![[0.0; N]; w],
             gather: src.iter().map(|&j| if j < levels * n { j } else { 3 * n + j - levels * n }).collect(),
-            e: vec![C64::new(1.0, 0.0); n],
             q0: zl(),
-            e0: cl(),
+            e0: vec![Complex::new(Lanes::<N>::c(1.0), Lanes::<N>::c(0.0)); n],
             ql: zl(),
             qdl: zl(),
             qddl: zl(),
@@ -368,21 +366,20 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         self.np * self.w
     }
 
-    /// One instant: x its stages (q, qd, qdd: `levels` of n), f the
-    /// factorisation of Phi_q at (q, t) (its solves leave it as it is);
-    /// writes its row (P W) and returns Phi_q's pivot ratio.
-    pub fn at(&mut self, t: f64, x: &[&[f64]], f: &mut Factors, out: &mut [f64]) -> f64 {
+    /// One instant: x its stages (q, qd, qdd: `levels` of n), e e^{i q} at
+    /// the angle columns (the march's own), f the factorisation of Phi_q at
+    /// (q, t) (its solves leave it as it is); writes its row (P W) and
+    /// returns Phi_q's pivot ratio.
+    pub fn at(&mut self, t: f64, x: &[&[f64]], e: &[C64], f: &mut Factors, out: &mut [f64]) -> f64 {
         let Lanewise { kin, layout, levels, w, .. } = *self;
         let n = kin.n;
         let q = x[0];
         let ratio = layout.pivots(f).0;
-        for &j in &kin.angles {
-            let (s, c) = q[j].sin_cos();
-            self.e[j] = C64::new(c, s);
-        }
         for j in 0..n {
             self.q0[j] = Lanes::<N>::c(q[j]);
-            self.e0[j] = Complex::new(Lanes::<N>::c(self.e[j].re), Lanes::<N>::c(self.e[j].im));
+        }
+        for &j in &kin.angles {
+            self.e0[j] = Complex::new(Lanes::<N>::c(e[j].re), Lanes::<N>::c(e[j].im));
         }
         let at0 = At { q: &self.q0, e: &self.e0, t };
         self.solver.prepare(layout, f);
@@ -404,7 +401,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 self.ql[j] = Lanes::of(q[j], self.flat[j]);
             }
             for &j in &kin.angles {
-                let (c, s, d) = (self.e[j].re, self.e[j].im, self.flat[j]);
+                let (c, s, d) = (e[j].re, e[j].im, self.flat[j]);
                 self.el[j] = Complex::new(Lanes::of(c, d.map(|x| x * -s)), Lanes::of(s, d.map(|x| x * c)));
             }
             let at = At { q: &self.ql, e: &self.el, t };
@@ -582,6 +579,11 @@ impl Solver {
                 }
                 *o = acc;
             }
+            return;
+        }
+        if N == 1 {
+            // one lane: the solve reads and writes the lane arrays as they are
+            layout.solve(f, rhs.as_flattened(), out.as_flattened_mut());
             return;
         }
         for l in 0..count {
