@@ -7,9 +7,11 @@
 //! Taylor's (or Lagrange's) prediction, the chord from the Hermite start
 //! with the lane's last factorisation, corrections in lockstep (a lane whose
 //! chord is done waits, masked, while the others correct), Newton
-//! (newton::settle on the lane's own scalar operations, march::Native) where
-//! a lane has no factorisation yet or its chord contracts too slowly, the
-//! acceptance test and the rates. Each lane's LU, solves, pivot ratio and
+//! (newton::settle's steps, `Settling`, in lockstep too: one Phi or Jacobian
+//! over the lanes for every lane that asks one, each lane's own LU and
+//! solves) where a lane has no factorisation yet (the first instant) or its
+//! chord contracts too slowly, the acceptance test and the rates: no lane
+//! builds a scalar model. Each lane's LU, solves, pivot ratio and
 //! det sign are the scalar march's own (Layout::factor, solve, stats on the
 //! lane's Factors: the fixed pivot order, or partial pivoting where that
 //! order does not suit the lane's values), so each lane's figures are the
@@ -19,10 +21,10 @@
 use crate::accept::{jump_sizes, rejected, Why};
 use crate::families::At;
 use crate::lane_lu::LaneLu;
-use crate::lu::Layout;
-use crate::march::{residual, MarchState, Native, Settings, Step};
+use crate::lu::{Factors, Layout};
+use crate::march::{residual, MarchState, Settings};
 use crate::model::Kin;
-use crate::newton::{self, settle, Settled, Verdict, CHORD_STEPS};
+use crate::newton::{self, Settled, Verdict, CHORD_STEPS, POLISH};
 use crate::real::{cis, Real};
 use crate::step::{chord_start, predict, signs, Contraction};
 use crate::table::Table;
@@ -62,12 +64,12 @@ fn interleave<T: Copy>(
 ) -> Result<HashMap<String, Vec<T>>, String> {
     let mut out = HashMap::new();
     for (key, v) in columns(lanes[0]) {
+        // each lane's column, looked up once
+        let each = lanes.iter().map(|l| columns(l).get(key).filter(|x| x.len() == v.len())).collect::<Option<Vec<_>>>();
+        let each = each.ok_or_else(|| format!("lanes: column '{key}' differs in length between variants"))?;
         let mut d = Vec::with_capacity(v.len() * WIDTH);
         for i in 0..v.len() {
-            for l in lanes {
-                let x = columns(l).get(key).and_then(|x| x.get(i));
-                d.push(*x.ok_or_else(|| format!("lanes: column '{key}' differs in length between variants"))?);
-            }
+            d.extend(each.iter().map(|x| x[i]));
         }
         out.insert(key.clone(), d);
     }
@@ -105,10 +107,146 @@ enum Chord {
     Failed,
 }
 
-/// One lane: its scalar operations (its model, LU and solves), its state,
-/// the chord's memory (crate::step::Work's), the predictor, its rows.
-struct Lane<'a> {
-    ops: Native<'a>,
+/// newton::settle (with `finish`) a step at a time, so that the lanes take
+/// it in lockstep: `next` takes the result of the operation asked last
+/// (a residual, a correction's size; nothing for a factorisation) and asks
+/// the next one, the same operations in the same order as settle's on
+/// march::Native (tests/test_variants_lanes.py: every lane's figures equal
+/// the scalar march's to the bit).
+#[derive(Clone, Copy)]
+struct Settling {
+    it: usize,
+    r: f64,
+    step: f64,
+    converged: bool,
+    refined: bool,
+    polished: bool,
+    polish: bool,
+    /// where settle asked the operation asked last
+    at: Site,
+}
+
+/// settle's call sites.
+#[derive(Clone, Copy)]
+enum Site {
+    Start,
+    Evaluated,
+    Polished,
+    Refined,
+    Factored,
+    Iterated,
+    RefinedAfter,
+}
+
+/// An operation a lane's Newton asks, or its end.
+#[derive(Clone, Copy)]
+enum Ask {
+    Evaluate,
+    Factor,
+    /// a correction limited to this size
+    Correct(f64),
+    Done(Settled),
+}
+
+impl Settling {
+    fn new() -> Settling {
+        Settling {
+            it: 0,
+            r: f64::INFINITY,
+            step: 0.0,
+            converged: false,
+            refined: false,
+            polished: false,
+            polish: false,
+            at: Site::Start,
+        }
+    }
+
+    fn done(&self, converged: bool) -> Ask {
+        Ask::Done(Settled { iterations: self.it, residual: self.r, converged, last_step: self.step })
+    }
+
+    /// The next operation, given the result `x` of the last one.
+    fn next(&mut self, x: f64, s: &Settings) -> Ask {
+        match self.at {
+            Site::Start => {}
+            Site::Evaluated => {
+                if !self.converged {
+                    self.r = x;
+                    if self.r <= s.tolerance {
+                        self.converged = true;
+                    } else if !(self.r < f64::INFINITY) || self.it == s.max_iterations {
+                        return self.done(false);
+                    }
+                }
+                return self.corrections();
+            }
+            Site::Polished => {
+                (self.step, self.polish, self.polished) = (x, false, true);
+                return self.factor();
+            }
+            Site::Refined => {
+                (self.step, self.refined) = (x, true);
+                return self.factor();
+            }
+            Site::Factored => return self.after_factor(s),
+            Site::Iterated => self.it += 1,
+            Site::RefinedAfter => (self.step, self.refined) = (x, true),
+        }
+        self.top()
+    }
+
+    /// The loop's head: evaluate unless converged and not polishing.
+    fn top(&mut self) -> Ask {
+        if !self.converged || self.polish {
+            self.at = Site::Evaluated;
+            return Ask::Evaluate;
+        }
+        self.corrections()
+    }
+
+    /// The polishing correction, or the first after convergence, then the factorisation.
+    fn corrections(&mut self) -> Ask {
+        if self.polish {
+            self.at = Site::Polished;
+            return Ask::Correct(f64::INFINITY);
+        }
+        if self.converged && !self.refined && self.it > 0 {
+            self.at = Site::Refined;
+            return Ask::Correct(f64::INFINITY);
+        }
+        self.factor()
+    }
+
+    fn factor(&mut self) -> Ask {
+        self.at = Site::Factored;
+        Ask::Factor
+    }
+
+    fn after_factor(&mut self, s: &Settings) -> Ask {
+        if !self.converged {
+            self.at = Site::Iterated;
+            Ask::Correct(s.max_step)
+        } else if !self.refined {
+            self.at = Site::RefinedAfter;
+            Ask::Correct(f64::INFINITY)
+        } else if self.step > POLISH && !self.polished {
+            self.polish = true;
+            self.top()
+        } else {
+            self.done(true)
+        }
+    }
+}
+
+/// One lane: its LU (its own factors: the fixed order or partial pivoting,
+/// as the scalar march's), its state, the chord's memory
+/// (crate::step::Work's), the predictor, its Newton, its rows.
+struct Lane {
+    f: Factors,
+    /// Phi at its q, Newton's last evaluation (Newton corrects with it)
+    phi: Vec<f64>,
+    newton: Option<Settling>,
     st: MarchState,
     held: bool,
     memory: Contraction,
@@ -173,7 +311,6 @@ fn size(dq: &[f64], col_scale: &[f64]) -> f64 {
 #[allow(clippy::too_many_arguments)]
 pub fn march(
     wide: &Kin<W>,
-    kins: &[Kin],
     layout: &Layout,
     times: &[f64],
     q0: &[f64],
@@ -182,10 +319,11 @@ pub fn march(
     xs: &mut [Vec<f64>],
 ) -> Vec<Option<(usize, Why, i8)>> {
     let (n, m, kk) = (wide.n, wide.m, times.len());
-    let mut lanes: Vec<Lane> = kins
-        .iter()
-        .map(|kin| Lane {
-            ops: Native::new(kin, layout),
+    let mut lanes: Vec<Lane> = (0..WIDTH)
+        .map(|_| Lane {
+            f: layout.factors(),
+            phi: vec![0.0; m],
+            newton: None,
             st: MarchState::new(q0),
             held: false,
             memory: Contraction::none(),
@@ -278,7 +416,7 @@ pub fn march(
                     for i in 0..m {
                         r.b[i] = -r.one[i];
                     }
-                    layout.solve(&mut x.ops.f, &r.b, &mut r.dq);
+                    layout.solve(&mut x.f, &r.b, &mut r.dq);
                 }
                 let big = size(&r.dq, col_scale);
                 let f = if big > 0.0 { (s.max_step / big).min(1.0) } else { 1.0 };
@@ -292,24 +430,24 @@ pub fn march(
                 }
             }
         }
-        // Newton where there was no chord or it gave up; the chord's memory (crate::step::step)
+        // Newton from the predictor where there was no chord or it gave up; the chord's memory
+        // (crate::step::step)
         for (l, x) in lanes.iter_mut().enumerate().filter(|(_, x)| live(x)) {
-            x.settled = match x.chord {
+            (x.settled, x.newton) = match x.chord {
                 Chord::Done(settled, measured) => {
                     x.memory.chorded(measured);
-                    Some(settled)
+                    (Some(settled), None)
                 }
                 _ => {
                     x.memory = Contraction::none();
-                    let Ok(()) = x.ops.start(&x.qp, t);
-                    let Ok(settled) = settle(&mut x.ops, s.tolerance, s.max_iterations, s.max_step, true);
                     for j in 0..n {
-                        r.q[j].0[l] = x.ops.q[j];
+                        r.q[j].0[l] = x.qp[j];
                     }
-                    Some(settled)
+                    (None, Some(Settling::new()))
                 }
             };
         }
+        settle(wide, layout, s, t, &mut lanes, &mut r);
         // the factorisation at each lane's final q (the chord's last step; Newton's, again), from
         // one Jacobian over the lanes: over lanes where the fixed order suits, else the lane's own
         r.rotate(wide);
@@ -321,7 +459,7 @@ pub fn march(
             let newton = !matches!(x.chord, Chord::Done(..));
             if !fixed(&lu, l) && !newton {
                 Room::lane(&r.values, l, &mut r.one[..wide.nnz]);
-                layout.factor(&r.one[..wide.nnz], &mut x.ops.f);
+                layout.factor(&r.one[..wide.nnz], &mut x.f);
             }
         }
         // the acceptance test (crate::step::step, Mode::Track)
@@ -335,7 +473,7 @@ pub fn march(
             }
             let stats = match &lu {
                 Some(u) if u.fixed[l] => u.stats[l],
-                _ => layout.stats(&x.ops.f),
+                _ => layout.stats(&x.f),
             };
             let (pivot, det, previous) = signs(stats, &x.st);
             Room::lane(&r.q, l, &mut r.dq);
@@ -383,6 +521,68 @@ pub fn march(
         .collect()
 }
 
+/// Newton (`Settling`: newton::settle's steps) for the lanes that have one,
+/// in lockstep: per round each lane's corrections with its own factors
+/// (march::Native::correct's), then one Phi and one Jacobian over the lanes
+/// for the lanes that ask them, each lane's residual and its own LU
+/// (Native::evaluate's, factor's). A lane's operations read only its own
+/// lane, so each equals the scalar march's to the bit.
+fn settle(wide: &Kin<W>, layout: &Layout, s: &Settings, t: f64, lanes: &mut [Lane], r: &mut Room) {
+    let mut ask: [Option<Ask>; WIDTH] = std::array::from_fn(|l| lanes[l].newton.as_mut().map(|w| w.next(0.0, s)));
+    let (n, nnz) = (wide.n, wide.nnz);
+    loop {
+        for (x, a) in lanes.iter_mut().zip(ask.iter_mut()) {
+            if let Some(Ask::Done(settled)) = *a {
+                (x.settled, x.newton, *a) = (Some(settled), None, None);
+            }
+        }
+        if ask.iter().all(Option::is_none) {
+            return;
+        }
+        let mut result = [0.0; WIDTH];
+        for (l, x) in lanes.iter_mut().enumerate() {
+            let Some(Ask::Correct(limit)) = ask[l] else { continue };
+            for (b, p) in r.b.iter_mut().zip(&x.phi) {
+                *b = -p;
+            }
+            layout.solve(&mut x.f, &r.b, &mut r.dq);
+            let big = size(&r.dq, &layout.col_scale);
+            let f = if big > 0.0 { (limit / big).min(1.0) } else { 1.0 };
+            for j in 0..n {
+                r.q[j].0[l] += f * r.dq[j];
+            }
+            result[l] = big;
+        }
+        let evaluate = ask.iter().any(|a| matches!(a, Some(Ask::Evaluate)));
+        let factor = ask.iter().any(|a| matches!(a, Some(Ask::Factor)));
+        if evaluate || factor {
+            r.rotate(wide);
+        }
+        if evaluate {
+            wide.phi(&At { q: &r.q, e: &r.e, t }, &mut r.phi);
+        }
+        if factor {
+            wide.jac(&At { q: &r.q, e: &r.e, t }, &mut r.values);
+        }
+        for (l, x) in lanes.iter_mut().enumerate() {
+            match ask[l] {
+                Some(Ask::Evaluate) => {
+                    Room::lane(&r.phi, l, &mut x.phi);
+                    result[l] = residual(&x.phi, &layout.scale);
+                }
+                Some(Ask::Factor) => {
+                    Room::lane(&r.values, l, &mut r.one[..nnz]);
+                    layout.factor(&r.one[..nnz], &mut x.f);
+                }
+                _ => {}
+            }
+            if let (Some(_), Some(w)) = (ask[l], x.newton.as_mut()) {
+                ask[l] = Some(w.next(result[l], s));
+            }
+        }
+    }
+}
+
 /// x = Phi_q^-1 b for the lanes `taking`: over lanes where their
 /// factorisation is, else each alone; into each lane's qd (`second`: qdd) and xw's lane.
 #[allow(clippy::too_many_arguments)]
@@ -396,7 +596,7 @@ fn solve(
     room: &mut [f64],
     second: bool,
 ) {
-    fn into<'x>(x: &'x mut Lane, second: bool) -> &'x mut Vec<f64> {
+    fn into(x: &mut Lane, second: bool) -> &mut Vec<f64> {
         if second {
             &mut x.st.qdd
         } else {
@@ -414,7 +614,7 @@ fn solve(
         } else {
             Room::lane(b, l, room);
             let mut out = std::mem::take(into(x, second));
-            layout.solve(&mut x.ops.f, room, &mut out);
+            layout.solve(&mut x.f, room, &mut out);
             for (w, &v) in xw.iter_mut().zip(&out) {
                 w.0[l] = v;
             }

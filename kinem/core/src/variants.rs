@@ -178,16 +178,12 @@ fn group<'v>(
         Ok(t) => t,
         Err(e) => return vec![Err(e)],
     };
-    let built = tables
-        .iter()
-        .map(|(f, fu, o)| Kin::new(n, f.clone(), fu, o, b.tables.angles.clone()))
-        .collect::<Result<Vec<Kin>, String>>()
-        .and_then(|kins| Ok((lanes::wide_kin(n, &b.tables.angles, &tables)?, kins)));
-    let (wide, kins) = match built {
+    // the model over lanes only: no lane needs a scalar model (its Newton runs over the lanes too)
+    let wide = match lanes::wide_kin(n, &b.tables.angles, &tables) {
         Ok(x) => x,
         Err(e) => return vec![Err(e)],
     };
-    let marched = lanes::march(&wide, &kins, b.layout, b.times, b.q0, b.settings, b.watch, &mut s.lanes);
+    let marched = lanes::march(&wide, b.layout, b.times, b.q0, b.settings, b.watch, &mut s.lanes);
     let parts = data.chunks_mut(kk * w).zip(start.chunks_mut(n)).enumerate();
     parts
         .map(|(i, (data, start))| match marched[i] {
