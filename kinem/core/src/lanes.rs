@@ -32,6 +32,7 @@ use crate::watch::Watch;
 use crate::wide::Wide;
 use num_complex::Complex;
 use num_traits::{One, Zero};
+#[cfg(test)]
 use std::collections::HashMap;
 use std::time::Instant;
 
@@ -50,6 +51,7 @@ pub fn suits(outlines: &Table) -> bool {
 
 /// One table whose real and complex columns hold the lanes' values (as
 /// tangents: WIDTH per entry, read by Wide::of_lanes).
+#[cfg(test)]
 fn stack(lanes: &[&Table]) -> Result<Table, String> {
     let mut t = lanes[0].clone();
     t.d_reals = interleave(lanes, |t| &t.reals)?;
@@ -58,6 +60,7 @@ fn stack(lanes: &[&Table]) -> Result<Table, String> {
 }
 
 /// Per column of the first lane's: every lane's entry i, for i in order.
+#[cfg(test)]
 fn interleave<T: Copy>(
     lanes: &[&Table],
     columns: impl Fn(&Table) -> &HashMap<String, Vec<T>>,
@@ -79,7 +82,9 @@ fn interleave<T: Copy>(
 /// A variant's tables: its families', functions' and outlines'.
 pub type Tables = (Vec<(String, Table)>, Table, Table);
 
-/// The model over lanes from WIDTH variants' tables.
+/// The model over lanes from WIDTH variants' own tables (tests: the reference
+/// for crate::variants, which forms the tables over lanes at once).
+#[cfg(test)]
 pub fn wide_kin(n: usize, angles: &[i64], lanes: &[Tables]) -> Result<Kin<W>, String> {
     if lanes.len() != WIDTH {
         return Err(format!("lanes: {WIDTH} variants expected, got {}", lanes.len()));
