@@ -6,7 +6,9 @@
 //! marched by the one march (crate::march, through `march_one`) from the
 //! nominal's first state on the nominal's linear structure, and only the
 //! asked columns (crate::columns) written into one (variants, instants,
-//! columns) array. Variants run on the thread pool, each converging and
+//! columns) array; a group of WIDTH variants marched as lanes has its
+//! tables formed over lanes at once (`moved_lanes`) and no scalar models.
+//! Variants run on the thread pool, each converging and
 //! failing on its own; a deadline or a signal (crate::watch) stops them all.
 use crate::accept::Why;
 use crate::columns::columns;
