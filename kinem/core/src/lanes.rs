@@ -631,6 +631,68 @@ fn solve(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A scalar Newton problem, phi(q) = q^2 - a, its operations recorded.
+    struct Toy {
+        q: f64,
+        a: f64,
+        phi: f64,
+        j: f64,
+        trace: Vec<(char, u64)>,
+    }
+
+    impl newton::Ops for Toy {
+        type Error = ();
+        fn evaluate(&mut self, _: i64) -> Result<f64, ()> {
+            self.phi = self.q * self.q - self.a;
+            self.trace.push(('e', self.q.to_bits()));
+            Ok(self.phi.abs())
+        }
+        fn factor(&mut self, _: bool) -> Result<(), ()> {
+            self.j = 2.0 * self.q;
+            self.trace.push(('f', self.q.to_bits()));
+            Ok(())
+        }
+        fn correct(&mut self, limit: f64) -> Result<f64, ()> {
+            let dq = -self.phi / self.j;
+            let big = dq.abs();
+            self.q += if big > 0.0 { (limit / big).min(1.0) } else { 1.0 } * dq;
+            self.trace.push(('c', limit.to_bits()));
+            Ok(big)
+        }
+    }
+
+    /// `Settling` asks the operations newton::settle takes, in its order,
+    /// and ends as it does: converging (at once, after iterations, with and
+    /// without polishing), limited steps, running out of iterations, a NaN.
+    #[test]
+    fn settling_takes_settles_steps() {
+        for (q0, a, tolerance, max_iterations, max_step) in [
+            (1.0, 2.0, 1e-12, 20, 1e9),
+            (3.0, 2.0, 1e-6, 20, 0.1),
+            (2f64.sqrt(), 2.0, 1e-10, 20, 1e9),
+            (1.0, -1.0, 1e-10, 7, 1e9),
+            (0.5, 2.0, 1e-14, 3, 1e9),
+            (f64::NAN, 2.0, 1e-10, 5, 1e9),
+            (0.0, 0.0, 1e-10, 5, 1e9),
+        ] {
+            let toy = |q0| Toy { q: q0, a, phi: 0.0, j: 0.0, trace: Vec::new() };
+            let mut once = toy(q0);
+            let want = newton::settle(&mut once, tolerance, max_iterations, max_step, true).unwrap();
+            let s = Settings { tolerance, max_iterations, max_step, floor: 0.0, rates: false };
+            let (mut stepped, mut w, mut x) = (toy(q0), Settling::new(), 0.0);
+            let got = loop {
+                x = match w.next(x, &s) {
+                    Ask::Evaluate => newton::Ops::evaluate(&mut stepped, 0).unwrap(),
+                    Ask::Factor => newton::Ops::factor(&mut stepped, true).map(|_| 0.0).unwrap(),
+                    Ask::Correct(limit) => newton::Ops::correct(&mut stepped, limit).unwrap(),
+                    Ask::Done(settled) => break settled,
+                };
+            };
+            assert_eq!(stepped.trace, once.trace, "q0 {q0} a {a}");
+            assert_eq!(format!("{got:?}"), format!("{want:?}"), "q0 {q0} a {a}");
+        }
+    }
     use crate::functions::POLY;
     use num_complex::Complex64 as C64;
 
