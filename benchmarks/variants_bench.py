@@ -5,7 +5,7 @@ variants of the slider-crank at <= 0.5 us per variant-step on 2 cores, and
 average, the medians of REPEATS runs (round-robin, each warm), the
 per-variant-step cost, the processor time per variant-step (what 2 idle
 cores would take: a shared machine's wall clock is not), the same work with
-the variants marched one by one instead of 4 at a time as lanes (the same
+the variants marched one by one instead of 8 at a time as lanes (the same
 figures: checked), and once through the merged path (kinem.batch: merged
 cases, 128 variants a case) for comparison.
 
