@@ -5,7 +5,7 @@ variants of the slider-crank at <= 0.5 us per variant-step on 2 cores, and
 average, the medians of REPEATS runs (round-robin, each warm), the
 per-variant-step cost, the processor time per variant-step (what 2 idle
 cores would take: a shared machine's wall clock is not), the same work with
-the variants marched one by one instead of 4 at a time as lanes (the same
+the variants marched one by one instead of 8 at a time as lanes (the same
 figures: checked), and once through the merged path (kinem.batch: merged
 cases, 128 variants a case) for comparison.
 
@@ -87,11 +87,10 @@ def main(repeats=3):
             f"x{statistics.median(cpu['one by one']) / statistics.median(cpu['lanes']):.2f} processor; the same data")
         # the same work through the merged path, once
         listed = resolve(model.case, list(values))
-        columns, stages = _asked(model, outputs)
+        columns, _ = _asked(model, outputs)
         q0 = kinem.solve(model, times=model.times[:1]).q[0]
         grid = np.column_stack(list(values.values()))
-        seconds, m = timed(lambda: _merged(model, listed, grid, columns, OUTPUTS[:stages], model.times, q0,
-                                           model.options))()
+        seconds, m = timed(lambda: _merged(model, listed, grid, columns, model.times, q0, model.options))()
         gap = np.nanmax(np.abs(m.data - v.data)) if m.success.all() else float("nan")
         say(f"{'':13s} merged path (kinem.batch): {seconds:7.3f} s, {seconds / steps * 1e6:.3f} us per "
             f"variant-step; largest difference from the variants' {gap:.2e}; load {load()}")

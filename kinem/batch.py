@@ -11,9 +11,15 @@ An instant that one variant does not accept in the march (a sub-step, a
 limit position) is taken by the tracker for the whole merged case; residuals
 are measured against the largest variant's size: give variants of comparable
 size (the usual case for a parameter sweep).
+
+``solve_merged`` is the one merged-batch solver of sweeps, tolerance bands
+and variant batches (where kinem.variants' march cannot take them): a batch
+of variant cases solved as one merged case, a batch that fails halved until
+each failing variant is solved alone; where the variants start is the
+caller's explicit choice (``start``).
 """
 import re
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -22,6 +28,8 @@ from .constraints import REGISTRY
 from .errors import InputError
 from .result import Trajectory
 from .spec import Case, frozen_map
+
+OWN = "own"   # solve_merged's start: each variant from its own case's estimates
 
 
 def prefix(k: int) -> str:
@@ -74,3 +82,72 @@ def split(traj: Trajectory, k: int) -> Trajectory:
                          if count else f"split: k {k!r:.40}: the trajectory has no variants (not of a merged case)")
     return Trajectory(np.array(traj.t), tuple(traj.columns[i][len(p):] for i in idx),
                       np.ascontiguousarray(traj.data[:, idx]))
+
+
+@dataclass(frozen=True, eq=False)
+class Solved:
+    """One variant's outcome in ``solve_merged``: ``data`` its columns (K, C)
+    and ``q`` its state at the first instant (its own coordinates, in its own
+    model's order), or both None and ``why`` says why ("" when solved)."""
+    data: np.ndarray | None
+    q: np.ndarray | None
+    why: str = ""
+
+
+def solve_merged(cases, columns, *, start, times=None, options=None) -> list:
+    """Solves ``cases`` (variant Cases of one mechanism; an InputError in
+    place of a case that could not be made is reported as bad input) as one
+    merged case (``merge``) and returns a Solved per case. A batch that fails
+    (or whose merged equations are refused as input) is halved, until each
+    failing variant is solved alone by its own case.
+
+    ``start`` is where every variant starts, an explicit choice:
+    ``OWN``: from its own case's estimates (its bodies' q, each variant
+    assembled on its own: a sweep); or a mapping {coordinate name: value},
+    the nominal's state at the first instant (kinem.Model.coordinate_names),
+    each variant from it, so that it assembles near the nominal's branch
+    (the caller checks the branch on ``Solved.q``: tolerance bands, variant
+    batches). ``times`` and ``options`` as ``solve``'s (None: the case's)."""
+    from .result import stages_for
+
+    if not (start is OWN or hasattr(start, "items")):
+        raise InputError(f"solve_merged: start {start!r:.40}: expected kinem.batch.OWN or a mapping "
+                         "{coordinate name: value}")
+    out = [Solved(None, None, f"bad input: {c.summary()}") if isinstance(c, InputError) else None for c in cases]
+    _halving([k for k, c in enumerate(cases) if out[k] is None], list(cases), tuple(columns),
+             stages_for(columns), start, times, options, out)
+    return out
+
+
+def _halving(ks, cases, columns, stages, start, times, options, out):
+    from .model import compile
+    from .solver import solve
+
+    if not ks:
+        return
+    p = [prefix(j) if len(ks) > 1 else "" for j in range(len(ks))]
+    try:
+        model = compile(merge([cases[k] for k in ks]) if len(ks) > 1 else cases[ks[0]])
+    except InputError as e:   # e.g. a variant whose equations cannot be counted square
+        if len(ks) == 1:
+            out[ks[0]] = Solved(None, None, f"bad input: {e.summary()}")
+            return
+        model = None
+    if model is not None:
+        names = model.coordinate_names
+        own = names if len(ks) == 1 else [n.split("-", 1)[1] for n in names]   # each coordinate's own name
+        q0 = None if start is OWN else np.array([start[n] for n in own])
+        r = solve(model, outputs=stages, times=times, options=options, q0=q0)
+        if r.success:
+            at = {}   # variant j's coordinates by their merged names
+            for i, n in enumerate(names):
+                at.setdefault(0 if len(ks) == 1 else int(n[1:n.index("-")]), []).append(i)
+            for j, k in enumerate(ks):
+                out[k] = Solved(np.column_stack([r.trajectory[p[j] + c] for c in columns]), r.q[0, at[j]])
+            return
+        if len(ks) == 1:
+            out[ks[0]] = Solved(None, None, f"{r.status.name}: {r.message}")
+            return
+    half = len(ks) // 2
+    _halving(ks[:half], cases, columns, stages, start, times, options, out)
+    _halving(ks[half:], cases, columns, stages, start, times, options, out)

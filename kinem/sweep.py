@@ -8,8 +8,9 @@ all as one batch and returns a Sweep: one table of variant, parameters, t
 and the outputs. The batch is kinem.variants' (each variant from the
 nominal's first state, failing on its own) where the model's tables are
 affine in the swept parameters; else merged cases (kinem.batch, its
-variants marched side by side), a batch that fails halved until each
-failing variant is solved alone. Either way one variant's failure (or bad
+variants marched side by side, kinem.batch.solve_merged), each variant from
+its own estimates, a batch that fails halved until each failing variant is
+solved alone. Either way one variant's failure (or bad
 input: a value that makes a radius negative) is that variant's row and not
 the others'.
 """
@@ -116,7 +117,6 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
     from .case import load_dict, read
     from .model import compile
     from .parameters import apply_many, resolve, to_path
-    from .result import stages_for
 
     source = str(case) if isinstance(case, (str, Path)) else "<dict>"
     data = case if isinstance(case, dict) else read(case)
@@ -125,7 +125,6 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
     resolve(nominal, [to_path(nominal, n, source) for n in names])   # the names resolve (else one InputError for all)
     base = compile(nominal)
     columns = _columns(base, outputs)
-    stages = stages_for(columns)
     cases, errors = [], [""] * len(grid_values)
     if progress:
         progress.total = 2 * len(grid_values)
@@ -150,7 +149,7 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
     valid = [k for k, c in enumerate(cases) if c is not None]
     paths = [to_path(nominal, n, source) for n in names]
     if not (valid and _variants(base, paths, grid_values, valid, columns, out, errors, progress)):
-        _solve(valid, cases, stages, columns, out, errors, progress)
+        _solve(valid, cases, columns, out, errors, progress)
     return Sweep(names, grid_values, columns, np.array(base.times), out, tuple(errors))
 
 
@@ -194,43 +193,21 @@ def _columns(model, outputs) -> tuple:
     return outputs
 
 
-def _solve(ks, cases, stages, columns, out, errors, progress):
-    """Solves variants ``ks`` as one batch; halves a batch that fails."""
-    from .batch import merge, prefix
-    from .model import compile
-    from .solver import solve
+def _solve(ks, cases, columns, out, errors, progress):
+    """Solves variants ``ks`` as merged cases (kinem.batch.solve_merged), each
+    from its own case's estimates."""
+    from .batch import OWN, solve_merged
 
     if not ks:
         return
-    try:
-        model = compile(merge([cases[k] for k in ks]) if len(ks) > 1 else cases[ks[0]])
-        result = solve(model, outputs=stages)
-    except InputError as e:   # e.g. a variant whose equations cannot be counted square
-        if len(ks) > 1:
-            return _halves(ks, cases, stages, columns, out, errors, progress)
-        errors[ks[0]] = f"bad input: {e.summary()}"
-        result = None
-    if result is not None and result.success:
-        traj = result.trajectory
-        for j, k in enumerate(ks):   # variant j's columns by their merged names (kinem.batch)
-            p = prefix(j) if len(ks) > 1 else ""
-            out[k] = np.column_stack([traj[p + c] for c in columns])
-        if progress:
-            progress.done += len(ks)
-            progress.show(f"{len(ks)} variants solved")
-        return
-    if result is not None and len(ks) == 1:
-        errors[ks[0]] = f"{result.status.name}: {result.message}"
-        if progress:
-            progress.step("1 variant failed")
-        return
-    _halves(ks, cases, stages, columns, out, errors, progress)
-
-
-def _halves(ks, cases, stages, columns, out, errors, progress):
-    half = len(ks) // 2
-    _solve(ks[:half], cases, stages, columns, out, errors, progress)
-    _solve(ks[half:], cases, stages, columns, out, errors, progress)
+    for k, done in zip(ks, solve_merged([cases[k] for k in ks], columns, start=OWN)):
+        if done.data is not None:
+            out[k] = done.data
+        errors[k] = done.why
+    if progress:
+        failed = sum(1 for k in ks if errors[k])
+        progress.done += len(ks)
+        progress.show(f"{len(ks) - failed} variants solved" + (f", {failed} failed" if failed else ""))
 
 
 def parse_values(item: str):

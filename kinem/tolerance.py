@@ -22,7 +22,7 @@ import numpy as np
 
 from .errors import InputError
 from .parameters import resolve
-from .result import Trajectory, stages_for
+from .result import Trajectory
 from .sensitivity import cases_of, sensitivity
 from .variants import affine
 
@@ -216,44 +216,20 @@ def _solve_variants(model, tols, base, draws, times, branch, outputs):
 
 def _solve_chunk(model, chunk, times, q0, branch, outputs):
     """(values, {output: values over times}, None) or (values, None, why)
-    for every sample of the chunk: solved as one batch of merged variants;
-    when that fails (a sample cannot assemble or leaves the branch), sample
-    by sample."""
-    from .batch import merge, prefix
-    from .model import compile
-    from .solver import solve
+    for every sample of the chunk: solved as merged variants
+    (kinem.batch.solve_merged), each from the nominal's first state q0,
+    and kept only on the nominal's branch."""
+    from .batch import solve_merged
 
-    if len(chunk) <= 1:   # one sample: its own model, no batch
-        return _one_by_one(model, chunk, times, q0, branch, outputs)
-    index = {name: j for j, name in enumerate(model.coordinate_names)}
-    merged = compile(merge([v for _, v in chunk]))
-    start = np.array([q0[index[name.split("-", 1)[1]]] for name in merged.coordinate_names])
-    r = solve(merged, outputs=stages_for(outputs), times=times, q0=start)
-    if r.success:
-        at = {name: j for j, name in enumerate(merged.coordinate_names)}
-        out = []
-        for k, (values, _) in enumerate(chunk):
-            p = prefix(k)
-            q = r.q[0, [at[p + name] for name in model.coordinate_names]]
-            out.append((values, {c: r.trajectory[p + c] for c in outputs}, None) if _branch(model, q) == branch
-                       else (values, None, "assembled on another branch"))
-        return out
-    return _one_by_one(model, chunk, times, q0, branch, outputs)
-
-
-def _one_by_one(model, chunk, times, q0, branch, outputs):
-    from .model import compile
-    from .solver import solve
-
+    start = dict(zip(model.coordinate_names, q0))
     out = []
-    for values, variant in chunk:
-        r = solve(compile(variant), outputs=stages_for(outputs), times=times, q0=q0)
-        if not r.success:
-            out.append((values, None, r.message))
-        elif _branch(model, r.q[0]) != branch:
+    for (values, _), done in zip(chunk, solve_merged([v for _, v in chunk], outputs, start=start, times=times)):
+        if done.data is None:
+            out.append((values, None, done.why))
+        elif _branch(model, done.q) != branch:
             out.append((values, None, "assembled on another branch"))
         else:
-            out.append((values, {c: r.trajectory[c] for c in outputs}, None))
+            out.append((values, dict(zip(outputs, done.data.T)), None))
     return out
 
 

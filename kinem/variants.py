@@ -24,8 +24,9 @@ Parameters whose tables are not affine in them (a drawn body's frame that
 moves with the parameter, and the drivers that turn with it), and models or
 options the march does not take (kinem.march.usable: redundant equations,
 Jacobian reuse, an explicit sparse LU), are solved through the merged path
-instead (kinem.batch: chunks of merged cases, a
-chunk that fails solved variant by variant); ``merged`` says so.
+instead (kinem.batch.solve_merged: chunks of merged cases, each variant from
+the nominal's first state, a chunk that fails halved until each failing
+variant is solved alone); ``merged`` says so.
 """
 import time
 from dataclasses import dataclass, replace
@@ -93,6 +94,7 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
     A trace and q0 are refused (every variant starts from the nominal's
     assembly). ``lanes``: the core marches 8 variants at a time as lanes
     where the model suits (False: one by one; the same figures)."""
+    from .batch import solve_merged
     from .march import usable
     from .parameters import resolve, to_path
     from .solver import _checked_times, solve
@@ -115,7 +117,7 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
         raise AnalysisError(f"{case.source}: variants: the nominal does not assemble: {first.message}")
     q0 = np.ascontiguousarray(first.q[0])
     if not all(affine(case, p.path) for p in listed) or not usable(model, False, len(times), options):
-        return _merged(model, listed, values, columns, stage_names, times, q0, options)
+        return _merged(model, listed, values, columns, times, q0, options)
     K, N = len(times), len(values)
     data, start = np.empty((N, K, len(columns))), np.empty((N, model.n))
     end, why, det = np.empty(N, np.int64), np.empty(N, np.uint8), np.empty(N, np.int8)
@@ -138,12 +140,13 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
     flipped = (det != 0) & (det != d0)
     success, resolved, messages = end == K, np.zeros(N, bool), [""] * N
     again = [k for k in np.flatnonzero(~success) if status[k] not in (native.Why.OUT_OF_TIME, native.Why.INTERRUPTED)]
+    nominal = dict(zip(model.coordinate_names, q0))
     for k, case_k in zip(again, _cases(case, listed, values[again])):
-        row, message, q = _alone(case_k, columns, stage_names, times, q0, options)
-        if row is not None:
-            data[k], start[k], success[k], resolved[k] = row, q, True, True
+        done, = solve_merged([case_k], columns, start=nominal, times=times, options=options)   # alone
+        if done.data is not None:
+            data[k], start[k], success[k], resolved[k] = done.data, done.q, True, True
         else:
-            messages[k] = message
+            messages[k] = done.why
     for k, why in _refused(case, listed, values).items():
         data[k], success[k], resolved[k], messages[k] = np.nan, False, False, why
     for k in np.flatnonzero(~success):
@@ -242,51 +245,24 @@ def _cases(case, listed, values):
     return cases_of(case, [{p.path: float(v) for p, v in zip(listed, row)} for row in values])
 
 
-def _alone(variant, columns, stages, times, q0, options):
-    """(its columns (K, C), None, first state) for a variant solved by
-    ``solve`` of its own case from q0, or (None, why, None)."""
+def _merged(model, listed, values, columns, times, q0, options) -> Variants:
+    """The variants solved as merged cases (kinem.batch.solve_merged), CHUNK
+    at a time, each from the nominal's first state q0."""
+    from .batch import solve_merged
     from .model import compile
-    from .solver import solve
-
-    if isinstance(variant, InputError):
-        return None, f"bad input: {variant.summary()}", None
-    r = solve(compile(variant), outputs=stages, times=times, options=options, q0=q0)
-    if not r.success:
-        return None, f"{r.status.name}: {r.message}", None
-    return np.column_stack([r.trajectory[c] for c in columns]), "", r.q[0]
-
-
-def _merged(model, listed, values, columns, stages, times, q0, options) -> Variants:
-    """The variants solved as merged cases (kinem.batch), CHUNK at a time; a
-    chunk that fails, variant by variant (``_alone``)."""
-    from .batch import merge, prefix
-    from .model import compile
-    from .solver import solve
 
     N, K = len(values), len(times)
     data, start = np.full((N, K, len(columns)), np.nan), np.full((N, model.n), np.nan)
     success, messages = np.zeros(N, bool), [""] * N
     cases = _cases(model.case, listed, values)
-    index = {name: j for j, name in enumerate(model.coordinate_names)}
+    nominal = dict(zip(model.coordinate_names, q0))
     for first in range(0, N, CHUNK):
-        ks = [k for k in range(first, min(N, first + CHUNK)) if not isinstance(cases[k], InputError)]
-        r = None
-        if len(ks) > 1:
-            merged = compile(merge([cases[k] for k in ks]))
-            q = np.array([q0[index[name.split("-", 1)[1]]] for name in merged.coordinate_names])
-            r = solve(merged, outputs=stages, times=times, options=options, q0=q)
-        if r is not None and r.success:
-            at = {name: j for j, name in enumerate(merged.coordinate_names)}
-            for j, k in enumerate(ks):
-                p = prefix(j)
-                data[k] = np.column_stack([r.trajectory[p + c] for c in columns])
-                start[k] = r.q[0, [at[p + name] for name in model.coordinate_names]]
-                success[k] = True
-            continue
-        for k in range(first, min(N, first + CHUNK)):
-            row, messages[k], q = _alone(cases[k], columns, stages, times, q0, options)
-            if row is not None:
-                data[k], start[k], success[k] = row, q, True
+        chunk = range(first, min(N, first + CHUNK))
+        for k, done in zip(chunk, solve_merged([cases[k] for k in chunk], columns, start=nominal, times=times,
+                                               options=options)):
+            messages[k] = done.why
+            if done.data is not None:
+                data[k], start[k], success[k] = done.data, done.q, True
     d0 = _det(model, q0, times[0])
     flipped = np.array([bool(success[k] and d0 and _det(compile(cases[k]), start[k], times[0]) != d0)
                         for k in range(N)], bool)

@@ -143,3 +143,37 @@ def test_a_variant_handed_back_at_many_instants_keeps_the_march_linear():
     assert batch.success and len(calls) > K // 2, (batch.message, len(calls))
     assert sum(own for _, _, own in calls) < 25 * len(model.times)
     assert_equal_to_singles(batch, cases)
+
+
+NAMED = os.path.join(os.path.dirname(__file__), "data", "four_bar_named.toml")
+
+
+@pytest.mark.parametrize("from_nominal", [False, True])
+def test_solve_merged_halves_to_the_failing_variant(from_nominal):
+    """kinem.batch.solve_merged (the merged path of sweeps, tolerance bands
+    and variant batches): a coupler of 0.6 m cannot close the loop, so the
+    batch is halved until that variant fails alone with its reason; the
+    others equal their own solves (from their own estimates, or from the
+    nominal's first state: ``start``) to 1e-10 (their tolerance, 0.3 m
+    links), columns and first states; a case refused as input is bad input."""
+    from kinem.batch import OWN, solve_merged
+
+    couplers = [0.3, 0.6, 0.31, 0.29, 0.305]
+    cases = [kinem.load(NAMED, parameters={"coupler": c}) for c in couplers] + [kinem.InputError("no case")]
+    nominal = kinem.compile(cases[0])
+    q0 = kinem.solve(nominal, times=nominal.times[:1]).q[0]
+    start = dict(zip(nominal.coordinate_names, q0)) if from_nominal else OWN
+    columns = ("B.x", "B.vy", "rocker.alpha")
+    done = solve_merged(cases, columns, start=start)
+    assert [d.data is not None for d in done] == [True, False, True, True, True, False]
+    assert ("NOT_CONVERGED" in done[1].why or "SINGULAR" in done[1].why) and done[1].q is None
+    assert done[5].why == "bad input: no case"
+    for c, d in zip(cases, done):
+        if d.data is None:
+            continue
+        r = kinem.solve(kinem.compile(c), q0=q0 if from_nominal else None)
+        np.testing.assert_allclose(d.data, np.column_stack([r.trajectory[k] for k in columns]), rtol=0, atol=1e-10)
+        np.testing.assert_allclose(d.q, r.q[0], rtol=0, atol=1e-10)
+        assert d.why == ""
+    with pytest.raises(kinem.InputError, match="start"):
+        solve_merged(cases[:1], columns, start="nominal")

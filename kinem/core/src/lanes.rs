@@ -7,9 +7,11 @@
 //! Taylor's (or Lagrange's) prediction, the chord from the Hermite start
 //! with the lane's last factorisation, corrections in lockstep (a lane whose
 //! chord is done waits, masked, while the others correct), Newton
-//! (newton::settle on the lane's own scalar operations, march::Native) where
-//! a lane has no factorisation yet or its chord contracts too slowly, the
-//! acceptance test and the rates. Each lane's LU, solves, pivot ratio and
+//! (newton::settle's steps, `Settling`, in lockstep too: one Phi or Jacobian
+//! over the lanes for every lane that asks one, each lane's own LU and
+//! solves) where a lane has no factorisation yet (the first instant) or its
+//! chord contracts too slowly, the acceptance test and the rates: no lane
+//! builds a scalar model. Each lane's LU, solves, pivot ratio and
 //! det sign are the scalar march's own (Layout::factor, solve, stats on the
 //! lane's Factors: the fixed pivot order, or partial pivoting where that
 //! order does not suit the lane's values), so each lane's figures are the
@@ -19,10 +21,10 @@
 use crate::accept::{jump_sizes, rejected, Why};
 use crate::families::At;
 use crate::lane_lu::LaneLu;
-use crate::lu::Layout;
-use crate::march::{residual, MarchState, Native, Settings, Step};
+use crate::lu::{Factors, Layout};
+use crate::march::{residual, MarchState, Settings};
 use crate::model::Kin;
-use crate::newton::{self, settle, Settled, Verdict, CHORD_STEPS};
+use crate::newton::{self, Settled, Verdict, CHORD_STEPS, POLISH};
 use crate::real::{cis, Real};
 use crate::step::{chord_start, predict, signs, Contraction};
 use crate::table::Table;
@@ -30,6 +32,7 @@ use crate::watch::Watch;
 use crate::wide::Wide;
 use num_complex::Complex;
 use num_traits::{One, Zero};
+#[cfg(test)]
 use std::collections::HashMap;
 use std::time::Instant;
 
@@ -48,6 +51,7 @@ pub fn suits(outlines: &Table) -> bool {
 
 /// One table whose real and complex columns hold the lanes' values (as
 /// tangents: WIDTH per entry, read by Wide::of_lanes).
+#[cfg(test)]
 fn stack(lanes: &[&Table]) -> Result<Table, String> {
     let mut t = lanes[0].clone();
     t.d_reals = interleave(lanes, |t| &t.reals)?;
@@ -56,18 +60,19 @@ fn stack(lanes: &[&Table]) -> Result<Table, String> {
 }
 
 /// Per column of the first lane's: every lane's entry i, for i in order.
+#[cfg(test)]
 fn interleave<T: Copy>(
     lanes: &[&Table],
     columns: impl Fn(&Table) -> &HashMap<String, Vec<T>>,
 ) -> Result<HashMap<String, Vec<T>>, String> {
     let mut out = HashMap::new();
     for (key, v) in columns(lanes[0]) {
+        // each lane's column, looked up once
+        let each = lanes.iter().map(|l| columns(l).get(key).filter(|x| x.len() == v.len())).collect::<Option<Vec<_>>>();
+        let each = each.ok_or_else(|| format!("lanes: column '{key}' differs in length between variants"))?;
         let mut d = Vec::with_capacity(v.len() * WIDTH);
         for i in 0..v.len() {
-            for l in lanes {
-                let x = columns(l).get(key).and_then(|x| x.get(i));
-                d.push(*x.ok_or_else(|| format!("lanes: column '{key}' differs in length between variants"))?);
-            }
+            d.extend(each.iter().map(|x| x[i]));
         }
         out.insert(key.clone(), d);
     }
@@ -77,7 +82,9 @@ fn interleave<T: Copy>(
 /// A variant's tables: its families', functions' and outlines'.
 pub type Tables = (Vec<(String, Table)>, Table, Table);
 
-/// The model over lanes from WIDTH variants' tables.
+/// The model over lanes from WIDTH variants' own tables (tests: the reference
+/// for crate::variants, which forms the tables over lanes at once).
+#[cfg(test)]
 pub fn wide_kin(n: usize, angles: &[i64], lanes: &[Tables]) -> Result<Kin<W>, String> {
     if lanes.len() != WIDTH {
         return Err(format!("lanes: {WIDTH} variants expected, got {}", lanes.len()));
@@ -105,10 +112,146 @@ enum Chord {
     Failed,
 }
 
-/// One lane: its scalar operations (its model, LU and solves), its state,
-/// the chord's memory (crate::step::Work's), the predictor, its rows.
-struct Lane<'a> {
-    ops: Native<'a>,
+/// newton::settle (with `finish`) a step at a time, so that the lanes take
+/// it in lockstep: `next` takes the result of the operation asked last
+/// (a residual, a correction's size; nothing for a factorisation) and asks
+/// the next one, the same operations in the same order as settle's on
+/// march::Native (tests/test_variants_lanes.py: every lane's figures equal
+/// the scalar march's to the bit).
+#[derive(Clone, Copy)]
+struct Settling {
+    it: usize,
+    r: f64,
+    step: f64,
+    converged: bool,
+    refined: bool,
+    polished: bool,
+    polish: bool,
+    /// where settle asked the operation asked last
+    at: Site,
+}
+
+/// settle's call sites.
+#[derive(Clone, Copy)]
+enum Site {
+    Start,
+    Evaluated,
+    Polished,
+    Refined,
+    Factored,
+    Iterated,
+    RefinedAfter,
+}
+
+/// An operation a lane's Newton asks, or its end.
+#[derive(Clone, Copy)]
+enum Ask {
+    Evaluate,
+    Factor,
+    /// a correction limited to this size
+    Correct(f64),
+    Done(Settled),
+}
+
+impl Settling {
+    fn new() -> Settling {
+        Settling {
+            it: 0,
+            r: f64::INFINITY,
+            step: 0.0,
+            converged: false,
+            refined: false,
+            polished: false,
+            polish: false,
+            at: Site::Start,
+        }
+    }
+
+    fn done(&self, converged: bool) -> Ask {
+        Ask::Done(Settled { iterations: self.it, residual: self.r, converged, last_step: self.step })
+    }
+
+    /// The next operation, given the result `x` of the last one.
+    fn next(&mut self, x: f64, s: &Settings) -> Ask {
+        match self.at {
+            Site::Start => {}
+            Site::Evaluated => {
+                if !self.converged {
+                    self.r = x;
+                    if self.r <= s.tolerance {
+                        self.converged = true;
+                    } else if !(self.r < f64::INFINITY) || self.it == s.max_iterations {
+                        return self.done(false);
+                    }
+                }
+                return self.corrections();
+            }
+            Site::Polished => {
+                (self.step, self.polish, self.polished) = (x, false, true);
+                return self.factor();
+            }
+            Site::Refined => {
+                (self.step, self.refined) = (x, true);
+                return self.factor();
+            }
+            Site::Factored => return self.after_factor(s),
+            Site::Iterated => self.it += 1,
+            Site::RefinedAfter => (self.step, self.refined) = (x, true),
+        }
+        self.top()
+    }
+
+    /// The loop's head: evaluate unless converged and not polishing.
+    fn top(&mut self) -> Ask {
+        if !self.converged || self.polish {
+            self.at = Site::Evaluated;
+            return Ask::Evaluate;
+        }
+        self.corrections()
+    }
+
+    /// The polishing correction, or the first after convergence, then the factorisation.
+    fn corrections(&mut self) -> Ask {
+        if self.polish {
+            self.at = Site::Polished;
+            return Ask::Correct(f64::INFINITY);
+        }
+        if self.converged && !self.refined && self.it > 0 {
+            self.at = Site::Refined;
+            return Ask::Correct(f64::INFINITY);
+        }
+        self.factor()
+    }
+
+    fn factor(&mut self) -> Ask {
+        self.at = Site::Factored;
+        Ask::Factor
+    }
+
+    fn after_factor(&mut self, s: &Settings) -> Ask {
+        if !self.converged {
+            self.at = Site::Iterated;
+            Ask::Correct(s.max_step)
+        } else if !self.refined {
+            self.at = Site::RefinedAfter;
+            Ask::Correct(f64::INFINITY)
+        } else if self.step > POLISH && !self.polished {
+            self.polish = true;
+            self.top()
+        } else {
+            self.done(true)
+        }
+    }
+}
+
+/// One lane: its LU (its own factors: the fixed order or partial pivoting,
+/// as the scalar march's), its state, the chord's memory
+/// (crate::step::Work's), the predictor, its Newton, its rows.
+struct Lane {
+    f: Factors,
+    /// Phi at its q, Newton's last evaluation (Newton corrects with it)
+    phi: Vec<f64>,
+    newton: Option<Settling>,
     st: MarchState,
     held: bool,
     memory: Contraction,
@@ -173,7 +316,6 @@ fn size(dq: &[f64], col_scale: &[f64]) -> f64 {
 #[allow(clippy::too_many_arguments)]
 pub fn march(
     wide: &Kin<W>,
-    kins: &[Kin],
     layout: &Layout,
     times: &[f64],
     q0: &[f64],
@@ -182,10 +324,11 @@ pub fn march(
     xs: &mut [Vec<f64>],
 ) -> Vec<Option<(usize, Why, i8)>> {
     let (n, m, kk) = (wide.n, wide.m, times.len());
-    let mut lanes: Vec<Lane> = kins
-        .iter()
-        .map(|kin| Lane {
-            ops: Native::new(kin, layout),
+    let mut lanes: Vec<Lane> = (0..WIDTH)
+        .map(|_| Lane {
+            f: layout.factors(),
+            phi: vec![0.0; m],
+            newton: None,
             st: MarchState::new(q0),
             held: false,
             memory: Contraction::none(),
@@ -278,7 +421,7 @@ pub fn march(
                     for i in 0..m {
                         r.b[i] = -r.one[i];
                     }
-                    layout.solve(&mut x.ops.f, &r.b, &mut r.dq);
+                    layout.solve(&mut x.f, &r.b, &mut r.dq);
                 }
                 let big = size(&r.dq, col_scale);
                 let f = if big > 0.0 { (s.max_step / big).min(1.0) } else { 1.0 };
@@ -292,24 +435,24 @@ pub fn march(
                 }
             }
         }
-        // Newton where there was no chord or it gave up; the chord's memory (crate::step::step)
+        // Newton from the predictor where there was no chord or it gave up; the chord's memory
+        // (crate::step::step)
         for (l, x) in lanes.iter_mut().enumerate().filter(|(_, x)| live(x)) {
-            x.settled = match x.chord {
+            (x.settled, x.newton) = match x.chord {
                 Chord::Done(settled, measured) => {
                     x.memory.chorded(measured);
-                    Some(settled)
+                    (Some(settled), None)
                 }
                 _ => {
                     x.memory = Contraction::none();
-                    let Ok(()) = x.ops.start(&x.qp, t);
-                    let Ok(settled) = settle(&mut x.ops, s.tolerance, s.max_iterations, s.max_step, true);
                     for j in 0..n {
-                        r.q[j].0[l] = x.ops.q[j];
+                        r.q[j].0[l] = x.qp[j];
                     }
-                    Some(settled)
+                    (None, Some(Settling::new()))
                 }
             };
         }
+        settle(wide, layout, s, t, &mut lanes, &mut r);
         // the factorisation at each lane's final q (the chord's last step; Newton's, again), from
         // one Jacobian over the lanes: over lanes where the fixed order suits, else the lane's own
         r.rotate(wide);
@@ -321,7 +464,7 @@ pub fn march(
             let newton = !matches!(x.chord, Chord::Done(..));
             if !fixed(&lu, l) && !newton {
                 Room::lane(&r.values, l, &mut r.one[..wide.nnz]);
-                layout.factor(&r.one[..wide.nnz], &mut x.ops.f);
+                layout.factor(&r.one[..wide.nnz], &mut x.f);
             }
         }
         // the acceptance test (crate::step::step, Mode::Track)
@@ -335,7 +478,7 @@ pub fn march(
             }
             let stats = match &lu {
                 Some(u) if u.fixed[l] => u.stats[l],
-                _ => layout.stats(&x.ops.f),
+                _ => layout.stats(&x.f),
             };
             let (pivot, det, previous) = signs(stats, &x.st);
             Room::lane(&r.q, l, &mut r.dq);
@@ -383,6 +526,68 @@ pub fn march(
         .collect()
 }
 
+/// Newton (`Settling`: newton::settle's steps) for the lanes that have one,
+/// in lockstep: per round each lane's corrections with its own factors
+/// (march::Native::correct's), then one Phi and one Jacobian over the lanes
+/// for the lanes that ask them, each lane's residual and its own LU
+/// (Native::evaluate's, factor's). A lane's operations read only its own
+/// lane, so each equals the scalar march's to the bit.
+fn settle(wide: &Kin<W>, layout: &Layout, s: &Settings, t: f64, lanes: &mut [Lane], r: &mut Room) {
+    let mut ask: [Option<Ask>; WIDTH] = std::array::from_fn(|l| lanes[l].newton.as_mut().map(|w| w.next(0.0, s)));
+    let (n, nnz) = (wide.n, wide.nnz);
+    loop {
+        for (x, a) in lanes.iter_mut().zip(ask.iter_mut()) {
+            if let Some(Ask::Done(settled)) = *a {
+                (x.settled, x.newton, *a) = (Some(settled), None, None);
+            }
+        }
+        if ask.iter().all(Option::is_none) {
+            return;
+        }
+        let mut result = [0.0; WIDTH];
+        for (l, x) in lanes.iter_mut().enumerate() {
+            let Some(Ask::Correct(limit)) = ask[l] else { continue };
+            for (b, p) in r.b.iter_mut().zip(&x.phi) {
+                *b = -p;
+            }
+            layout.solve(&mut x.f, &r.b, &mut r.dq);
+            let big = size(&r.dq, &layout.col_scale);
+            let f = if big > 0.0 { (limit / big).min(1.0) } else { 1.0 };
+            for j in 0..n {
+                r.q[j].0[l] += f * r.dq[j];
+            }
+            result[l] = big;
+        }
+        let evaluate = ask.iter().any(|a| matches!(a, Some(Ask::Evaluate)));
+        let factor = ask.iter().any(|a| matches!(a, Some(Ask::Factor)));
+        if evaluate || factor {
+            r.rotate(wide);
+        }
+        if evaluate {
+            wide.phi(&At { q: &r.q, e: &r.e, t }, &mut r.phi);
+        }
+        if factor {
+            wide.jac(&At { q: &r.q, e: &r.e, t }, &mut r.values);
+        }
+        for (l, x) in lanes.iter_mut().enumerate() {
+            match ask[l] {
+                Some(Ask::Evaluate) => {
+                    Room::lane(&r.phi, l, &mut x.phi);
+                    result[l] = residual(&x.phi, &layout.scale);
+                }
+                Some(Ask::Factor) => {
+                    Room::lane(&r.values, l, &mut r.one[..nnz]);
+                    layout.factor(&r.one[..nnz], &mut x.f);
+                }
+                _ => {}
+            }
+            if let (Some(_), Some(w)) = (ask[l], x.newton.as_mut()) {
+                ask[l] = Some(w.next(result[l], s));
+            }
+        }
+    }
+}
+
 /// x = Phi_q^-1 b for the lanes `taking`: over lanes where their
 /// factorisation is, else each alone; into each lane's qd (`second`: qdd) and xw's lane.
 #[allow(clippy::too_many_arguments)]
@@ -396,7 +601,7 @@ fn solve(
     room: &mut [f64],
     second: bool,
 ) {
-    fn into<'x>(x: &'x mut Lane, second: bool) -> &'x mut Vec<f64> {
+    fn into(x: &mut Lane, second: bool) -> &mut Vec<f64> {
         if second {
             &mut x.st.qdd
         } else {
@@ -414,7 +619,7 @@ fn solve(
         } else {
             Room::lane(b, l, room);
             let mut out = std::mem::take(into(x, second));
-            layout.solve(&mut x.ops.f, room, &mut out);
+            layout.solve(&mut x.f, room, &mut out);
             for (w, &v) in xw.iter_mut().zip(&out) {
                 w.0[l] = v;
             }
@@ -426,6 +631,68 @@ fn solve(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A scalar Newton problem, phi(q) = q^2 - a, its operations recorded.
+    struct Toy {
+        q: f64,
+        a: f64,
+        phi: f64,
+        j: f64,
+        trace: Vec<(char, u64)>,
+    }
+
+    impl newton::Ops for Toy {
+        type Error = ();
+        fn evaluate(&mut self, _: i64) -> Result<f64, ()> {
+            self.phi = self.q * self.q - self.a;
+            self.trace.push(('e', self.q.to_bits()));
+            Ok(self.phi.abs())
+        }
+        fn factor(&mut self, _: bool) -> Result<(), ()> {
+            self.j = 2.0 * self.q;
+            self.trace.push(('f', self.q.to_bits()));
+            Ok(())
+        }
+        fn correct(&mut self, limit: f64) -> Result<f64, ()> {
+            let dq = -self.phi / self.j;
+            let big = dq.abs();
+            self.q += if big > 0.0 { (limit / big).min(1.0) } else { 1.0 } * dq;
+            self.trace.push(('c', limit.to_bits()));
+            Ok(big)
+        }
+    }
+
+    /// `Settling` asks the operations newton::settle takes, in its order,
+    /// and ends as it does: converging (at once, after iterations, with and
+    /// without polishing), limited steps, running out of iterations, a NaN.
+    #[test]
+    fn settling_takes_settles_steps() {
+        for (q0, a, tolerance, max_iterations, max_step) in [
+            (1.0, 2.0, 1e-12, 20, 1e9),
+            (3.0, 2.0, 1e-6, 20, 0.1),
+            (2f64.sqrt(), 2.0, 1e-10, 20, 1e9),
+            (1.0, -1.0, 1e-10, 7, 1e9),
+            (0.5, 2.0, 1e-14, 3, 1e9),
+            (f64::NAN, 2.0, 1e-10, 5, 1e9),
+            (0.0, 0.0, 1e-10, 5, 1e9),
+        ] {
+            let toy = |q0| Toy { q: q0, a, phi: 0.0, j: 0.0, trace: Vec::new() };
+            let mut once = toy(q0);
+            let want = newton::settle(&mut once, tolerance, max_iterations, max_step, true).unwrap();
+            let s = Settings { tolerance, max_iterations, max_step, floor: 0.0, rates: false };
+            let (mut stepped, mut w, mut x) = (toy(q0), Settling::new(), 0.0);
+            let got = loop {
+                x = match w.next(x, &s) {
+                    Ask::Evaluate => newton::Ops::evaluate(&mut stepped, 0).unwrap(),
+                    Ask::Factor => newton::Ops::factor(&mut stepped, true).map(|_| 0.0).unwrap(),
+                    Ask::Correct(limit) => newton::Ops::correct(&mut stepped, limit).unwrap(),
+                    Ask::Done(settled) => break settled,
+                };
+            };
+            assert_eq!(stepped.trace, once.trace, "q0 {q0} a {a}");
+            assert_eq!(format!("{got:?}"), format!("{want:?}"), "q0 {q0} a {a}");
+        }
+    }
     use crate::functions::POLY;
     use num_complex::Complex64 as C64;
 

@@ -6,7 +6,9 @@
 //! marched by the one march (crate::march, through `march_one`) from the
 //! nominal's first state on the nominal's linear structure, and only the
 //! asked columns (crate::columns) written into one (variants, instants,
-//! columns) array. Variants run on the thread pool, each converging and
+//! columns) array; a group of WIDTH variants marched as lanes has its
+//! tables formed over lanes at once (`moved_lanes`) and no scalar models.
+//! Variants run on the thread pool, each converging and
 //! failing on its own; a deadline or a signal (crate::watch) stops them all.
 use crate::accept::Why;
 use crate::columns::columns;
@@ -53,7 +55,66 @@ fn moved<'a>(base: &Table, tangents: impl Iterator<Item = (&'a Table, f64)>) -> 
     Ok(out)
 }
 
+/// WIDTH variants' tables at once, as one table over lanes (the columns'
+/// values lane by lane in d_reals and d_complex, as crate::lanes::wide_kin
+/// reads them; lane 0's in reals and complex): each entry of lane l is
+/// `moved`'s for that lane, the same operations in the same order (to the
+/// bit), without a table per variant.
+fn moved_lanes<'a, 'v>(
+    base: &Table,
+    tangents: impl Iterator<Item = &'a Table>,
+    dv: &dyn Fn(usize) -> &'v [f64],
+) -> Result<Table, String> {
+    fn spread<T: Copy>(v: &[T]) -> Vec<T> {
+        v.iter().flat_map(|&x| [x; WIDTH]).collect()
+    }
+    let mut out = base.clone();
+    out.d_reals = base.reals.iter().map(|(k, v)| (k.clone(), spread(v))).collect();
+    out.d_complex = base.complex.iter().map(|(k, v)| (k.clone(), spread(v))).collect();
+    for (p, t) in tangents.enumerate() {
+        let lanes: Vec<(usize, f64)> = (0..WIDTH).map(|l| (l, dv(l)[p])).filter(|&(_, d)| d != 0.0).collect();
+        if lanes.is_empty() {
+            continue;
+        }
+        for (key, d) in &t.reals {
+            let v = out.d_reals.get_mut(key).filter(|v| v.len() == d.len() * WIDTH);
+            let v = v.ok_or_else(|| format!("variants: tangent column '{key}' fits no table column"))?;
+            for &(l, dv) in &lanes {
+                v.iter_mut().skip(l).step_by(WIDTH).zip(d).for_each(|(x, dx)| *x += dv * dx);
+            }
+        }
+        for (key, d) in &t.complex {
+            let v = out.d_complex.get_mut(key).filter(|v| v.len() == d.len() * WIDTH);
+            let v = v.ok_or_else(|| format!("variants: tangent column '{key}' fits no table column"))?;
+            for &(l, dv) in &lanes {
+                v.iter_mut().skip(l).step_by(WIDTH).zip(d).for_each(|(x, dx)| *x += dx * dv);
+            }
+        }
+    }
+    for (key, v) in out.reals.iter_mut() {
+        *v = out.d_reals[key].iter().step_by(WIDTH).copied().collect();
+    }
+    for (key, v) in out.complex.iter_mut() {
+        *v = out.d_complex[key].iter().step_by(WIDTH).copied().collect();
+    }
+    Ok(out)
+}
+
 impl Tables {
+    /// The model over lanes of the WIDTH variants whose parameters moved by dv(l) from the nominal.
+    pub fn kin_lanes<'v>(&self, dv: &dyn Fn(usize) -> &'v [f64]) -> Result<Kin<lanes::W>, String> {
+        let tangents = &self.tangents;
+        let families = self
+            .families
+            .iter()
+            .enumerate()
+            .map(|(k, (kind, t))| Ok((kind.clone(), moved_lanes(t, tangents.iter().map(|p| &p.0[k]), dv)?)))
+            .collect::<Result<Vec<_>, String>>()?;
+        let functions = moved_lanes(&self.functions, tangents.iter().map(|p| &p.1), dv)?;
+        let outlines = moved_lanes(&self.outlines, tangents.iter().map(|p| &p.2), dv)?;
+        Kin::new(self.n, families, &functions, &outlines, self.angles.clone())
+    }
+
     /// The tables of the variant whose parameters moved by dv from the nominal.
     pub fn moved(&self, dv: &[f64]) -> Result<crate::lanes::Tables, String> {
         let tangents = &self.tangents;
@@ -174,20 +235,12 @@ fn group<'v>(
     start: &mut [f64],
 ) -> Vec<Verdict> {
     let (n, kk, w) = (b.tables.n, b.times.len(), b.asked.src.len());
-    let tables = match (0..WIDTH).map(|i| b.tables.moved(dv(i))).collect::<Result<Vec<_>, String>>() {
-        Ok(t) => t,
-        Err(e) => return vec![Err(e)],
-    };
-    let built = tables
-        .iter()
-        .map(|(f, fu, o)| Kin::new(n, f.clone(), fu, o, b.tables.angles.clone()))
-        .collect::<Result<Vec<Kin>, String>>()
-        .and_then(|kins| Ok((lanes::wide_kin(n, &b.tables.angles, &tables)?, kins)));
-    let (wide, kins) = match built {
+    // the model over lanes only: no lane needs a scalar model (its Newton runs over the lanes too)
+    let wide = match b.tables.kin_lanes(dv) {
         Ok(x) => x,
         Err(e) => return vec![Err(e)],
     };
-    let marched = lanes::march(&wide, &kins, b.layout, b.times, b.q0, b.settings, b.watch, &mut s.lanes);
+    let marched = lanes::march(&wide, b.layout, b.times, b.q0, b.settings, b.watch, &mut s.lanes);
     let parts = data.chunks_mut(kk * w).zip(start.chunks_mut(n)).enumerate();
     parts
         .map(|(i, (data, start))| match marched[i] {
@@ -327,5 +380,34 @@ mod tests {
         assert!(moved(&base, [(&stray, 1.0)].into_iter()).is_err());
         let short = table(&[("l", vec![1.0])], &[]);
         assert!(moved(&base, [(&short, 1.0)].into_iter()).is_err());
+    }
+
+    /// WIDTH variants' tables formed at once over lanes equal, to the bit,
+    /// each variant's own (`moved`) stacked as crate::lanes reads them.
+    #[test]
+    fn the_tables_over_lanes_are_each_variants_stacked() {
+        let base = table(&[("l", vec![1.0, 2.0]), ("r", vec![5.0, 6.0])], &[("s", vec![C64::new(1.0, -1.0); 2])]);
+        let t1 = table(&[("l", vec![0.5, 0.3])], &[("s", vec![C64::new(0.1, 2.0); 2])]);
+        let t2 = table(&[("l", vec![0.7, 1.0])], &[]);
+        let dvs: Vec<Vec<f64>> =
+            (0..WIDTH).map(|l| vec![0.1 * l as f64 - 0.2, if l == 3 { 0.0 } else { 0.3 / (1.0 + l as f64) }]).collect();
+        let dv = |l: usize| -> &[f64] { &dvs[l] };
+        let wide = moved_lanes(&base, [&t1, &t2].into_iter(), &dv).unwrap();
+        let each: Vec<Table> =
+            (0..WIDTH).map(|l| moved(&base, [(&t1, dvs[l][0]), (&t2, dvs[l][1])].into_iter()).unwrap()).collect();
+        for (key, v) in &wide.d_reals {
+            for (i, x) in v.iter().enumerate() {
+                assert_eq!(x.to_bits(), each[i % WIDTH].reals[key][i / WIDTH].to_bits(), "{key} {i}");
+            }
+        }
+        for (key, v) in &wide.d_complex {
+            for (i, x) in v.iter().enumerate() {
+                let y = each[i % WIDTH].complex[key][i / WIDTH];
+                assert!(x.re.to_bits() == y.re.to_bits() && x.im.to_bits() == y.im.to_bits(), "{key} {i}");
+            }
+        }
+        assert_eq!(wide.reals, each[0].reals);
+        assert_eq!(wide.complex, each[0].complex);
+        assert_eq!(wide.d_reals["r"], vec![5.0; WIDTH].into_iter().chain(vec![6.0; WIDTH]).collect::<Vec<_>>());
     }
 }
