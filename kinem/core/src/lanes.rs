@@ -7,7 +7,7 @@
 //! Taylor's (or Lagrange's) prediction, the chord from the Hermite start
 //! with the lane's last factorisation, corrections in lockstep (a lane whose
 //! chord is done waits, masked, while the others correct), Newton
-//! (newton::settle's steps, `Settling`, in lockstep too: one Phi or Jacobian
+//! (newton::Settling, settle a step at a time, in lockstep too: one Phi or Jacobian
 //! over the lanes for every lane that asks one, each lane's own LU and
 //! solves) where a lane has no factorisation yet (the first instant) or its
 //! chord contracts too slowly, the acceptance test and the rates: no lane
@@ -24,7 +24,7 @@ use crate::lane_lu::LaneLu;
 use crate::lu::{Factors, Layout};
 use crate::march::{residual, MarchState, Settings};
 use crate::model::Kin;
-use crate::newton::{self, Settled, Verdict, CHORD_STEPS, POLISH};
+use crate::newton::{self, Ask, Settled, Settling, Verdict, CHORD_STEPS};
 use crate::real::{cis, Real};
 use crate::step::{chord_start, predict, signs, Contraction};
 use crate::table::Table;
@@ -110,138 +110,6 @@ enum Chord {
     Done(Settled, f64),
     /// it gave up: Newton from the predictor
     Failed,
-}
-
-/// newton::settle (with `finish`) a step at a time, so that the lanes take
-/// it in lockstep: `next` takes the result of the operation asked last
-/// (a residual, a correction's size; nothing for a factorisation) and asks
-/// the next one, the same operations in the same order as settle's on
-/// march::Native (tests/test_variants_lanes.py: every lane's figures equal
-/// the scalar march's to the bit).
-#[derive(Clone, Copy)]
-struct Settling {
-    it: usize,
-    r: f64,
-    step: f64,
-    converged: bool,
-    refined: bool,
-    polished: bool,
-    polish: bool,
-    /// where settle asked the operation asked last
-    at: Site,
-}
-
-/// settle's call sites.
-#[derive(Clone, Copy)]
-enum Site {
-    Start,
-    Evaluated,
-    Polished,
-    Refined,
-    Factored,
-    Iterated,
-    RefinedAfter,
-}
-
-/// An operation a lane's Newton asks, or its end.
-#[derive(Clone, Copy)]
-enum Ask {
-    Evaluate,
-    Factor,
-    /// a correction limited to this size
-    Correct(f64),
-    Done(Settled),
-}
-
-impl Settling {
-    fn new() -> Settling {
-        Settling {
-            it: 0,
-            r: f64::INFINITY,
-            step: 0.0,
-            converged: false,
-            refined: false,
-            polished: false,
-            polish: false,
-            at: Site::Start,
-        }
-    }
-
-    fn done(&self, converged: bool) -> Ask {
-        Ask::Done(Settled { iterations: self.it, residual: self.r, converged, last_step: self.step })
-    }
-
-    /// The next operation, given the result `x` of the last one.
-    fn next(&mut self, x: f64, s: &Settings) -> Ask {
-        match self.at {
-            Site::Start => {}
-            Site::Evaluated => {
-                if !self.converged {
-                    self.r = x;
-                    if self.r <= s.tolerance {
-                        self.converged = true;
-                    } else if !(self.r < f64::INFINITY) || self.it == s.max_iterations {
-                        return self.done(false);
-                    }
-                }
-                return self.corrections();
-            }
-            Site::Polished => {
-                (self.step, self.polish, self.polished) = (x, false, true);
-                return self.factor();
-            }
-            Site::Refined => {
-                (self.step, self.refined) = (x, true);
-                return self.factor();
-            }
-            Site::Factored => return self.after_factor(s),
-            Site::Iterated => self.it += 1,
-            Site::RefinedAfter => (self.step, self.refined) = (x, true),
-        }
-        self.top()
-    }
-
-    /// The loop's head: evaluate unless converged and not polishing.
-    fn top(&mut self) -> Ask {
-        if !self.converged || self.polish {
-            self.at = Site::Evaluated;
-            return Ask::Evaluate;
-        }
-        self.corrections()
-    }
-
-    /// The polishing correction, or the first after convergence, then the factorisation.
-    fn corrections(&mut self) -> Ask {
-        if self.polish {
-            self.at = Site::Polished;
-            return Ask::Correct(f64::INFINITY);
-        }
-        if self.converged && !self.refined && self.it > 0 {
-            self.at = Site::Refined;
-            return Ask::Correct(f64::INFINITY);
-        }
-        self.factor()
-    }
-
-    fn factor(&mut self) -> Ask {
-        self.at = Site::Factored;
-        Ask::Factor
-    }
-
-    fn after_factor(&mut self, s: &Settings) -> Ask {
-        if !self.converged {
-            self.at = Site::Iterated;
-            Ask::Correct(s.max_step)
-        } else if !self.refined {
-            self.at = Site::RefinedAfter;
-            Ask::Correct(f64::INFINITY)
-        } else if self.step > POLISH && !self.polished {
-            self.polish = true;
-            self.top()
-        } else {
-            self.done(true)
-        }
-    }
 }
 
 /// One lane: its LU (its own factors: the fixed order or partial pivoting,
@@ -448,11 +316,11 @@ pub fn march(
                     for j in 0..n {
                         r.q[j].0[l] = x.qp[j];
                     }
-                    (None, Some(Settling::new()))
+                    (None, Some(Settling::new(s.tolerance, s.max_iterations, s.max_step, true)))
                 }
             };
         }
-        settle(wide, layout, s, t, &mut lanes, &mut r);
+        settle(wide, layout, t, &mut lanes, &mut r);
         // the factorisation at each lane's final q (the chord's last step; Newton's, again), from
         // one Jacobian over the lanes: over lanes where the fixed order suits, else the lane's own
         r.rotate(wide);
@@ -532,8 +400,8 @@ pub fn march(
 /// for the lanes that ask them, each lane's residual and its own LU
 /// (Native::evaluate's, factor's). A lane's operations read only its own
 /// lane, so each equals the scalar march's to the bit.
-fn settle(wide: &Kin<W>, layout: &Layout, s: &Settings, t: f64, lanes: &mut [Lane], r: &mut Room) {
-    let mut ask: [Option<Ask>; WIDTH] = std::array::from_fn(|l| lanes[l].newton.as_mut().map(|w| w.next(0.0, s)));
+fn settle(wide: &Kin<W>, layout: &Layout, t: f64, lanes: &mut [Lane], r: &mut Room) {
+    let mut ask: [Option<Ask>; WIDTH] = std::array::from_fn(|l| lanes[l].newton.as_mut().map(|w| w.next(0.0)));
     let (n, nnz) = (wide.n, wide.nnz);
     loop {
         for (x, a) in lanes.iter_mut().zip(ask.iter_mut()) {
@@ -558,8 +426,8 @@ fn settle(wide: &Kin<W>, layout: &Layout, s: &Settings, t: f64, lanes: &mut [Lan
             }
             result[l] = big;
         }
-        let evaluate = ask.iter().any(|a| matches!(a, Some(Ask::Evaluate)));
-        let factor = ask.iter().any(|a| matches!(a, Some(Ask::Factor)));
+        let evaluate = ask.iter().any(|a| matches!(a, Some(Ask::Evaluate(_))));
+        let factor = ask.iter().any(|a| matches!(a, Some(Ask::Factor(_))));
         if evaluate || factor {
             r.rotate(wide);
         }
@@ -571,18 +439,18 @@ fn settle(wide: &Kin<W>, layout: &Layout, s: &Settings, t: f64, lanes: &mut [Lan
         }
         for (l, x) in lanes.iter_mut().enumerate() {
             match ask[l] {
-                Some(Ask::Evaluate) => {
+                Some(Ask::Evaluate(_)) => {
                     Room::lane(&r.phi, l, &mut x.phi);
                     result[l] = residual(&x.phi, &layout.scale);
                 }
-                Some(Ask::Factor) => {
+                Some(Ask::Factor(_)) => {
                     Room::lane(&r.values, l, &mut r.one[..nnz]);
                     layout.factor(&r.one[..nnz], &mut x.f);
                 }
                 _ => {}
             }
             if let (Some(_), Some(w)) = (ask[l], x.newton.as_mut()) {
-                ask[l] = Some(w.next(result[l], s));
+                ask[l] = Some(w.next(result[l]));
             }
         }
     }
@@ -632,67 +500,6 @@ fn solve(
 mod tests {
     use super::*;
 
-    /// A scalar Newton problem, phi(q) = q^2 - a, its operations recorded.
-    struct Toy {
-        q: f64,
-        a: f64,
-        phi: f64,
-        j: f64,
-        trace: Vec<(char, u64)>,
-    }
-
-    impl newton::Ops for Toy {
-        type Error = ();
-        fn evaluate(&mut self, _: i64) -> Result<f64, ()> {
-            self.phi = self.q * self.q - self.a;
-            self.trace.push(('e', self.q.to_bits()));
-            Ok(self.phi.abs())
-        }
-        fn factor(&mut self, _: bool) -> Result<(), ()> {
-            self.j = 2.0 * self.q;
-            self.trace.push(('f', self.q.to_bits()));
-            Ok(())
-        }
-        fn correct(&mut self, limit: f64) -> Result<f64, ()> {
-            let dq = -self.phi / self.j;
-            let big = dq.abs();
-            self.q += if big > 0.0 { (limit / big).min(1.0) } else { 1.0 } * dq;
-            self.trace.push(('c', limit.to_bits()));
-            Ok(big)
-        }
-    }
-
-    /// `Settling` asks the operations newton::settle takes, in its order,
-    /// and ends as it does: converging (at once, after iterations, with and
-    /// without polishing), limited steps, running out of iterations, a NaN.
-    #[test]
-    fn settling_takes_settles_steps() {
-        for (q0, a, tolerance, max_iterations, max_step) in [
-            (1.0, 2.0, 1e-12, 20, 1e9),
-            (3.0, 2.0, 1e-6, 20, 0.1),
-            (2f64.sqrt(), 2.0, 1e-10, 20, 1e9),
-            (1.0, -1.0, 1e-10, 7, 1e9),
-            (0.5, 2.0, 1e-14, 3, 1e9),
-            (f64::NAN, 2.0, 1e-10, 5, 1e9),
-            (0.0, 0.0, 1e-10, 5, 1e9),
-        ] {
-            let toy = |q0| Toy { q: q0, a, phi: 0.0, j: 0.0, trace: Vec::new() };
-            let mut once = toy(q0);
-            let want = newton::settle(&mut once, tolerance, max_iterations, max_step, true).unwrap();
-            let s = Settings { tolerance, max_iterations, max_step, floor: 0.0, rates: false };
-            let (mut stepped, mut w, mut x) = (toy(q0), Settling::new(), 0.0);
-            let got = loop {
-                x = match w.next(x, &s) {
-                    Ask::Evaluate => newton::Ops::evaluate(&mut stepped, 0).unwrap(),
-                    Ask::Factor => newton::Ops::factor(&mut stepped, true).map(|_| 0.0).unwrap(),
-                    Ask::Correct(limit) => newton::Ops::correct(&mut stepped, limit).unwrap(),
-                    Ask::Done(settled) => break settled,
-                };
-            };
-            assert_eq!(stepped.trace, once.trace, "q0 {q0} a {a}");
-            assert_eq!(format!("{got:?}"), format!("{want:?}"), "q0 {q0} a {a}");
-        }
-    }
     use crate::functions::POLY;
     use num_complex::Complex64 as C64;
 

@@ -59,43 +59,159 @@ pub fn settle<O: Ops>(
     max_step: f64,
     finish: bool,
 ) -> Result<Settled, O::Error> {
-    let (mut it, mut r, mut step) = (0usize, f64::INFINITY, 0.0);
-    let (mut converged, mut refined, mut polished, mut polish) = (false, false, false, false);
-    let done = |it, r, converged, last_step| Ok(Settled { iterations: it, residual: r, converged, last_step });
+    let (mut w, mut x) = (Settling::new(tolerance, max_iterations, max_step, finish), 0.0);
     loop {
-        if !converged || polish {
-            let e = ops.evaluate(if converged { -1 } else { it as i64 })?;
-            if !converged {
-                r = e;
-                if r <= tolerance {
-                    converged = true;
-                    if !finish {
-                        return done(it, r, true, 0.0);
+        x = match w.next(x) {
+            Ask::Evaluate(it) => ops.evaluate(it)?,
+            Ask::Factor(last) => ops.factor(last).map(|_| 0.0)?,
+            Ask::Correct(limit) => ops.correct(limit)?,
+            Ask::Done(settled) => return Ok(settled),
+        };
+    }
+}
+
+/// `settle` a step at a time (crate::lanes takes it in lockstep over its
+/// lanes): `next` takes the result of the operation asked last (a
+/// residual, a correction's size; nothing for a factorisation) and asks the
+/// next one. The one place of Newton's decisions.
+#[derive(Clone, Copy)]
+pub struct Settling {
+    tolerance: f64,
+    max_iterations: usize,
+    max_step: f64,
+    finish: bool,
+    it: usize,
+    r: f64,
+    step: f64,
+    converged: bool,
+    refined: bool,
+    polished: bool,
+    polish: bool,
+    /// where the operation asked last was asked
+    at: Site,
+}
+
+/// Settling's call sites.
+#[derive(Clone, Copy)]
+enum Site {
+    Start,
+    Evaluated,
+    Polished,
+    Refined,
+    Factored,
+    Iterated,
+    RefinedAfter,
+}
+
+/// An operation Newton asks (Ops's, with its argument), or its end.
+#[derive(Clone, Copy)]
+pub enum Ask {
+    Evaluate(i64),
+    Factor(bool),
+    /// a correction limited to this size
+    Correct(f64),
+    Done(Settled),
+}
+
+impl Settling {
+    pub fn new(tolerance: f64, max_iterations: usize, max_step: f64, finish: bool) -> Settling {
+        Settling {
+            tolerance,
+            max_iterations,
+            max_step,
+            finish,
+            it: 0,
+            r: f64::INFINITY,
+            step: 0.0,
+            converged: false,
+            refined: false,
+            polished: false,
+            polish: false,
+            at: Site::Start,
+        }
+    }
+
+    fn done(&self, converged: bool) -> Ask {
+        Ask::Done(Settled { iterations: self.it, residual: self.r, converged, last_step: self.step })
+    }
+
+    /// The next operation, given the result `x` of the last one.
+    pub fn next(&mut self, x: f64) -> Ask {
+        match self.at {
+            Site::Start => {}
+            Site::Evaluated => {
+                if !self.converged {
+                    self.r = x;
+                    if self.r <= self.tolerance {
+                        self.converged = true;
+                        if !self.finish {
+                            return Ask::Done(Settled {
+                                iterations: self.it,
+                                residual: self.r,
+                                converged: true,
+                                last_step: 0.0,
+                            });
+                        }
+                    } else if !(self.r < f64::INFINITY) || self.it == self.max_iterations {
+                        return self.done(false);
                     }
-                } else if !(r < f64::INFINITY) || it == max_iterations {
-                    return done(it, r, false, step);
                 }
+                return self.corrections();
             }
+            Site::Polished => {
+                (self.step, self.polish, self.polished) = (x, false, true);
+                return self.factor();
+            }
+            Site::Refined => {
+                (self.step, self.refined) = (x, true);
+                return self.factor();
+            }
+            Site::Factored => return self.after_factor(),
+            Site::Iterated => self.it += 1,
+            Site::RefinedAfter => (self.step, self.refined) = (x, true),
         }
-        if polish {
-            step = ops.correct(f64::INFINITY)?;
-            polish = false;
-            polished = true;
-        } else if converged && !refined && it > 0 {
-            step = ops.correct(f64::INFINITY)?;
-            refined = true;
+        self.top()
+    }
+
+    /// The loop's head: evaluate unless converged and not polishing.
+    fn top(&mut self) -> Ask {
+        if !self.converged || self.polish {
+            self.at = Site::Evaluated;
+            return Ask::Evaluate(if self.converged { -1 } else { self.it as i64 });
         }
-        ops.factor(refined)?;
-        if !converged {
-            ops.correct(max_step)?;
-            it += 1;
-        } else if !refined {
-            step = ops.correct(f64::INFINITY)?;
-            refined = true;
-        } else if step > POLISH && !polished {
-            polish = true;
+        self.corrections()
+    }
+
+    /// The polishing correction, or the first after convergence, then the factorisation.
+    fn corrections(&mut self) -> Ask {
+        if self.polish {
+            self.at = Site::Polished;
+            return Ask::Correct(f64::INFINITY);
+        }
+        if self.converged && !self.refined && self.it > 0 {
+            self.at = Site::Refined;
+            return Ask::Correct(f64::INFINITY);
+        }
+        self.factor()
+    }
+
+    fn factor(&mut self) -> Ask {
+        self.at = Site::Factored;
+        Ask::Factor(self.refined)
+    }
+
+    fn after_factor(&mut self) -> Ask {
+        if !self.converged {
+            self.at = Site::Iterated;
+            Ask::Correct(self.max_step)
+        } else if !self.refined {
+            self.at = Site::RefinedAfter;
+            Ask::Correct(f64::INFINITY)
+        } else if self.step > POLISH && !self.polished {
+            self.polish = true;
+            self.top()
         } else {
-            return done(it, r, true, step);
+            self.done(true)
         }
     }
 }
