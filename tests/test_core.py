@@ -126,7 +126,7 @@ def test_unknown_kind_and_malformed_functions_and_outlines_raise_core_error():
 
 
 def test_a_panic_in_the_core_is_a_core_error_not_an_abort():
-    """The core catches its own panics (kinem/core/src/py.rs, guard): the
+    """The core catches its own panics (kinem/core/src/py/mod.rs, guard): the
     process lives on, the error is a KinemError with one line."""
     from kinem._core import _panic
 
