@@ -13,7 +13,6 @@
 use crate::lanes::{W, WIDTH};
 use crate::lu::{Layout, Shape, FALLBACK};
 use crate::order::MULTIPLIER;
-use crate::real::Real;
 use crate::triangular::Triangular;
 
 pub struct LaneLu<'a> {
@@ -39,33 +38,16 @@ impl<'a> LaneLu<'a> {
         })
     }
 
-    /// J_s from the Jacobian's values over lanes: Factoring::run lane by lane.
+    /// J_s from the Jacobian's values over lanes: Factoring's elimination
+    /// over lanes, its checks lane by lane.
     pub fn factor(&mut self, values: &[W]) {
         let (f, a) = (&self.t.factoring, &mut self.j);
-        for &at in &f.clear {
-            a[at as usize] = W::default();
-        }
-        for &(e, at, scale) in &f.place {
-            a[at as usize] = values[e as usize] * scale;
-        }
         let mut ok = [true; WIDTH];
-        let (mut m0, mut p0) = (0usize, 0usize);
-        for &[kk, m1] in &f.steps {
-            let r = W::c(1.0) / a[kk as usize];
-            for &[at, p1] in &f.mults[m0..m1 as usize] {
-                let l = a[at as usize] * r;
-                for q in 0..WIDTH {
-                    ok[q] &= l.0[q].abs() <= MULTIPLIER; // false for a zero or non-finite pivot too
-                }
-                a[at as usize] = l;
-                for &[dst, src] in &f.pairs[p0..p1 as usize] {
-                    let x = a[src as usize];
-                    a[dst as usize] = a[dst as usize] - l * x;
-                }
-                p0 = p1 as usize;
+        f.eliminate(values, a, |l: W| {
+            for q in 0..WIDTH {
+                ok[q] &= l.0[q].abs() <= MULTIPLIER; // false for a zero or non-finite pivot too
             }
-            m0 = m1 as usize;
-        }
+        });
         for &at in &f.ones {
             for q in 0..WIDTH {
                 ok[q] &= a[at as usize].0[q] == 1.0;
@@ -94,27 +76,14 @@ impl<'a> LaneLu<'a> {
     }
 
     /// x = Phi_q^-1 b over lanes (model rows in, coordinates out):
-    /// Triangular::solve's gather, Program::run and scatter lane by lane;
+    /// Triangular::solve's gather, Program::run and scatter over lanes;
     /// the lanes not `fixed` hold nothing of use.
     pub fn solve(&mut self, b: &[W], x: &mut [W]) {
         let (t, a, w) = (self.t, &self.j, &mut self.w);
         for ((v, &i), &scale) in w.iter_mut().zip(&t.gather).zip(&t.gscale) {
             *v = b[i] * scale;
         }
-        let p = &t.program;
-        let mut from = 0;
-        for &[end, r, v] in &p.divs {
-            for &[i, c, u] in &p.subs[from..end as usize] {
-                let y = w[c as usize];
-                w[i as usize] = w[i as usize] - a[u as usize] * y;
-            }
-            w[r as usize] = w[r as usize] / a[v as usize];
-            from = end as usize;
-        }
-        for &[i, c, u] in &p.subs[from..] {
-            let y = w[c as usize];
-            w[i as usize] = w[i as usize] - a[u as usize] * y;
-        }
+        t.program.run(a, w);
         for ((&v, &j), &scale) in w.iter().zip(&t.scatter).zip(&t.sscale) {
             x[j] = v * scale;
         }

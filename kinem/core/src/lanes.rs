@@ -22,7 +22,7 @@ use crate::accept::{jump_sizes, rejected, Why};
 use crate::families::At;
 use crate::lane_lu::LaneLu;
 use crate::lu::{Factors, Layout};
-use crate::march::{residual, MarchState, Settings};
+use crate::march::{limited, residual, size, MarchState, Settings};
 use crate::model::Kin;
 use crate::newton::{self, Ask, Settled, Settling, Verdict, CHORD_STEPS};
 use crate::real::{cis, Real};
@@ -173,11 +173,6 @@ impl Room {
     }
 }
 
-/// The largest |dq_j| / col_scale_j (the march's correction size).
-fn size(dq: &[f64], col_scale: &[f64]) -> f64 {
-    dq.iter().zip(col_scale).fold(0.0f64, |a, (d, c)| a.max(d.abs() / c))
-}
-
 /// Per lane: (first instant not taken, why, det sign at its first
 /// instant), or None for a lane to march alone; `xs[l]`: its Q (and QD,
 /// QDD with rates) at every instant taken, as crate::variants lays them.
@@ -292,7 +287,7 @@ pub fn march(
                     layout.solve(&mut x.f, &r.b, &mut r.dq);
                 }
                 let big = size(&r.dq, col_scale);
-                let f = if big > 0.0 { (s.max_step / big).min(1.0) } else { 1.0 };
+                let f = limited(big, s.max_step);
                 for j in 0..n {
                     r.q[j].0[l] += f * r.dq[j];
                 }
@@ -420,7 +415,7 @@ fn settle(wide: &Kin<W>, layout: &Layout, t: f64, lanes: &mut [Lane], r: &mut Ro
             }
             layout.solve(&mut x.f, &r.b, &mut r.dq);
             let big = size(&r.dq, &layout.col_scale);
-            let f = if big > 0.0 { (limit / big).min(1.0) } else { 1.0 };
+            let f = limited(big, limit);
             for j in 0..n {
                 r.q[j].0[l] += f * r.dq[j];
             }

@@ -88,9 +88,19 @@ pub fn residual(phi: &[f64], scale: &[f64]) -> f64 {
     }
 }
 
-/// The largest |dq_j| / col_scale_j.
-fn size(dq: &[f64], col_scale: &[f64]) -> f64 {
+/// The largest |dq_j| / col_scale_j: a correction's size.
+pub fn size(dq: &[f64], col_scale: &[f64]) -> f64 {
     dq.iter().zip(col_scale).fold(0.0f64, |a, (d, c)| a.max(d.abs() / c))
+}
+
+/// The factor that limits a correction of size `big` to `limit`.
+#[inline]
+pub fn limited(big: f64, limit: f64) -> f64 {
+    if big > 0.0 {
+        (limit / big).min(1.0)
+    } else {
+        1.0
+    }
 }
 
 impl Native<'_> {
@@ -130,7 +140,7 @@ impl Ops for Native<'_> {
         }
         self.layout.solve(&mut self.f, &self.b, &mut self.dq);
         let big = size(&self.dq, &self.layout.col_scale);
-        let f = if big > 0.0 { (limit / big).min(1.0) } else { 1.0 };
+        let f = limited(big, limit);
         for (q, d) in self.q.iter_mut().zip(&self.dq) {
             *q += f * d;
         }

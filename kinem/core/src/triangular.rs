@@ -16,6 +16,7 @@
 //! acceptance test's floor is partial pivoting's.
 use crate::lu::{dense_factor, dense_solve, masked_factor, masked_solve, Factors, FALLBACK, MASK};
 use crate::order::{Order, Pivots, MULTIPLIER};
+use crate::real::Real;
 
 /// A solve's forward and back substitution as one flat program over the
 /// positions w and the factors' values a (issue 31 item 4): `divs[k] = [end,
@@ -68,9 +69,10 @@ impl Program {
         Ok(())
     }
 
-    /// Runs the program on w (positions) with the values a.
+    /// Runs the program on w (positions) with the values a: over f64, or
+    /// over lanes (crate::lane_lu), the same operations in the same order.
     #[inline]
-    pub fn run(&self, a: &[f64], w: &mut [f64]) {
+    pub fn run<S: Real>(&self, a: &[S], w: &mut [S]) {
         assert!(a.len() >= self.values && w.len() >= self.positions);
         debug_assert!(self.check().is_ok());
         let mut from = 0;
@@ -81,9 +83,11 @@ impl Program {
             unsafe {
                 for &[i, c, u] in self.subs.get_unchecked(from..end) {
                     let x = *w.get_unchecked(c as usize);
-                    *w.get_unchecked_mut(i as usize) -= *a.get_unchecked(u as usize) * x;
+                    let y = w.get_unchecked_mut(i as usize);
+                    *y = *y - *a.get_unchecked(u as usize) * x;
                 }
-                *w.get_unchecked_mut(r as usize) /= *a.get_unchecked(v as usize);
+                let y = w.get_unchecked_mut(r as usize);
+                *y = *y / *a.get_unchecked(v as usize);
             }
             from = end;
         }
@@ -91,7 +95,8 @@ impl Program {
         for &[i, c, u] in unsafe { self.subs.get_unchecked(from..) } {
             unsafe {
                 let x = *w.get_unchecked(c as usize);
-                *w.get_unchecked_mut(i as usize) -= *a.get_unchecked(u as usize) * x;
+                let y = w.get_unchecked_mut(i as usize);
+                *y = *y - *a.get_unchecked(u as usize) * x;
             }
         }
     }
@@ -159,36 +164,51 @@ impl Factoring {
         Ok(())
     }
 
-    /// Assembles and factorises into a (Factors::j) from the Jacobian's
-    /// values; the pivots' figures (det: times `sign`), None where a pivot
-    /// is zero or not finite or a multiplier above MULTIPLIER.
+    /// Assembles and eliminates into a (Factors::j) from the Jacobian's
+    /// values, over f64 or over lanes (crate::lane_lu), the same operations
+    /// in the same order; `multiplier` sees every multiplier (the caller's
+    /// check against MULTIPLIER).
     #[inline]
-    pub fn run(&self, values: &[f64], a: &mut [f64], sign: i32) -> Option<Pivots> {
+    pub fn eliminate<S: Real>(&self, values: &[S], a: &mut [S], mut multiplier: impl FnMut(S)) {
         assert!(a.len() >= self.values && values.len() >= self.entries);
         debug_assert!(self.check().is_ok());
         // SAFETY (every unchecked index below): Factoring::check when built, and the lengths asserted above
         unsafe {
             for &at in &self.clear {
-                *a.get_unchecked_mut(at as usize) = 0.0;
+                *a.get_unchecked_mut(at as usize) = S::zero();
             }
             for &(e, at, scale) in &self.place {
                 *a.get_unchecked_mut(at as usize) = *values.get_unchecked(e as usize) * scale;
             }
-            let (mut m0, mut p0, mut ok) = (0usize, 0usize, true);
+            let (mut m0, mut p0) = (0usize, 0usize);
             for &[kk, m1] in &self.steps {
-                let r = 1.0 / *a.get_unchecked(kk as usize);
+                let r = S::one() / *a.get_unchecked(kk as usize);
                 for &[at, p1] in self.mults.get_unchecked(m0..m1 as usize) {
                     let l = *a.get_unchecked(at as usize) * r;
-                    ok &= l.abs() <= MULTIPLIER; // false for a zero or non-finite pivot too
+                    multiplier(l);
                     *a.get_unchecked_mut(at as usize) = l;
                     for &[dst, src] in self.pairs.get_unchecked(p0..p1 as usize) {
                         let x = *a.get_unchecked(src as usize);
-                        *a.get_unchecked_mut(dst as usize) -= l * x;
+                        let y = a.get_unchecked_mut(dst as usize);
+                        *y = *y - l * x;
                     }
                     p0 = p1 as usize;
                 }
                 m0 = m1 as usize;
             }
+        }
+    }
+
+    /// Assembles and factorises into a (Factors::j) from the Jacobian's
+    /// values; the pivots' figures (det: times `sign`), None where a pivot
+    /// is zero or not finite, a multiplier above MULTIPLIER or a folded
+    /// pivot not exactly 1.
+    #[inline]
+    pub fn run(&self, values: &[f64], a: &mut [f64], sign: i32) -> Option<Pivots> {
+        let mut ok = true;
+        self.eliminate(values, a, |l: f64| ok &= l.abs() <= MULTIPLIER); // false for a zero or non-finite pivot too
+                                                                         // SAFETY (every unchecked index below): Factoring::check when built, and eliminate's asserted lengths
+        unsafe {
             for &at in &self.ones {
                 ok &= *a.get_unchecked(at as usize) == 1.0;
             }
