@@ -57,6 +57,8 @@ def ensure_env() -> None:
     else:
         with_progress(pip + ["install", "-e", f"{ROOT}[test]"],
                       "installing kinem and its dependencies into .venv and building its core")
+    # its Python compiled here, once, as a wheel's install does: a run then writes no bytecode in the tree
+    subprocess.run([str(PYTHON), "-m", "compileall", "-q", "kinem", "adapters"], cwd=ROOT, check=True)
     STAMP.write_text(f"{deps} {core}")
 
 
@@ -119,6 +121,8 @@ def main(argv: list[str]) -> int:
         # both cores by default (the suite's tests are independent); -n 0 runs them in one process
         workers = [] if any(a == "-n" or a.startswith(("-n", "--numprocesses")) for a in rest) else ["-n", "2"]
         args = [str(PYTHON), "-m", "pytest", *workers, *rest]
+        # the tests write only under temporary folders: no bytecode of theirs, nor of what they run, in the tree
+        return subprocess.run(args, cwd=ROOT, env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}).returncode
     return subprocess.run(args, cwd=ROOT).returncode
 
 

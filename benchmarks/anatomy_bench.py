@@ -6,6 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
+import sys
+
+sys.dont_write_bytecode = True   # a benchmark writes nothing in the tree: no bytecode of what it imports
 from common import ROOT, march_of, native, patched, per_call, rounds, say, step_by_step
 import kinem
 

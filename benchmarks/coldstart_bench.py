@@ -10,6 +10,7 @@ import sys
 import tempfile
 import time
 
+sys.dont_write_bytecode = True   # a benchmark writes nothing in the tree: no bytecode of what it imports
 from common import ROOT, say
 
 # The full run's CSV goes to a scratch file, never to os.devnull: run as root, an atomic

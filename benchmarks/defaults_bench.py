@@ -15,6 +15,9 @@ import json
 import statistics
 from dataclasses import replace
 
+import sys
+
+sys.dont_write_bytecode = True   # a benchmark writes nothing in the tree: no bytecode of what it imports
 from common import ROOT, say  # puts the repository root on sys.path
 
 from adapters import get

@@ -6,6 +6,9 @@ import statistics
 
 import numpy as np
 
+import sys
+
+sys.dont_write_bytecode = True   # a benchmark writes nothing in the tree: no bytecode of what it imports
 from common import (CASES, ENGINES, LOOSE, REFERENCE_TOLERANCE, TIGHT, _plain, adapter_of, engine_runner,
                     load_case, march_of, native, reference_solution, rounds, say, step_by_step)
 import kinem

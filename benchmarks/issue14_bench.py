@@ -30,6 +30,7 @@ import time
 
 import numpy as np
 
+sys.dont_write_bytecode = True   # a benchmark writes nothing in the tree: no bytecode of what it imports
 from common import FIXED_INSTANTS, fixed_cost, load, rounds, say, timed  # puts the repository root on sys.path
 import peers
 

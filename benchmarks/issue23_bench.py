@@ -40,6 +40,7 @@ import time
 import numpy as np
 
 # common puts the repository root on sys.path
+sys.dont_write_bytecode = True   # a benchmark writes nothing in the tree: no bytecode of what it imports
 from common import FIXED_INSTANTS, ROOT, fixed_cost, load, machine, rounds, say, timed
 import peers
 

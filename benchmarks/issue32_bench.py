@@ -9,6 +9,9 @@ import argparse
 import tempfile
 from pathlib import Path
 
+import sys
+
+sys.dont_write_bytecode = True   # a benchmark writes nothing in the tree: no bytecode of what it imports
 from common import ROOT, load, rounds, say, timed
 
 import numpy as np

@@ -15,7 +15,9 @@ solve)."""
 import sys
 from pathlib import Path
 
-import kinem
+sys.dont_write_bytecode = True   # a benchmark writes nothing in the tree: no bytecode of what it imports
+
+import kinem  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 PEERS = ("slider-crank", "four-bar", "jansen")

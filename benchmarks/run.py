@@ -41,6 +41,7 @@ from pathlib import Path
 
 # sibling modules of this script (benchmarks/ is sys.path[0]); common, imported first, puts the
 # repository root on sys.path for kinem and adapters
+sys.dont_write_bytecode = True   # a benchmark writes nothing in the tree: no bytecode of what it imports
 from common import CASES, TIGHT, _plain, load_case, machine, native, reference_solution, say
 from anatomy_bench import section_anatomy
 from coldstart_bench import environments, section_coldstart

@@ -5,6 +5,9 @@ import time
 
 import numpy as np
 
+import sys
+
+sys.dont_write_bytecode = True   # a benchmark writes nothing in the tree: no bytecode of what it imports
 from common import fast_parity, march_of, native, per_call, rounds, say, step_by_step, timed_with
 import kinem
 from kinem.batch import merge

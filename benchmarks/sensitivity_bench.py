@@ -22,6 +22,7 @@ import statistics
 import sys
 import time
 
+sys.dont_write_bytecode = True   # a benchmark writes nothing in the tree: no bytecode of what it imports
 from common import load, rounds, say, timed
 
 import kinem

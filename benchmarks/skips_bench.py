@@ -8,6 +8,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+sys.dont_write_bytecode = True   # a benchmark writes nothing in the tree: no bytecode of what it imports
 from coldstart_bench import environments
 from common import CASES, ROOT, march_of, native, per_call, rounds, say, step_by_step
 import kinem

@@ -15,6 +15,7 @@ import resource
 import statistics
 import sys
 
+sys.dont_write_bytecode = True   # a benchmark writes nothing in the tree: no bytecode of what it imports
 from common import load, rounds, say, timed
 
 import numpy as np
