@@ -20,6 +20,8 @@ use crate::table::Table;
 use crate::watch::Watch;
 use num_complex::Complex64 as C64;
 use rayon::prelude::*;
+use std::collections::HashMap;
+use std::ops::{AddAssign, Mul};
 
 /// A model's tables (every function and outline its own number:
 /// kinem.sensitivity._tables) and their tangents along each design parameter.
@@ -33,24 +35,31 @@ pub struct Tables {
     pub tangents: Vec<(Vec<Table>, Table, Table)>,
 }
 
+/// columns[key][lane + stride i] += tangent[key][i] dv for every column of
+/// the tangent (stride 1, lane 0: a table's own columns; stride WIDTH: one
+/// lane of columns over lanes).
+fn add<T: Copy + AddAssign + Mul<f64, Output = T>>(
+    columns: &mut HashMap<String, Vec<T>>,
+    tangent: &HashMap<String, Vec<T>>,
+    stride: usize,
+    lane: usize,
+    dv: f64,
+) -> Result<(), String> {
+    for (key, d) in tangent {
+        let v = columns.get_mut(key).filter(|v| v.len() == d.len() * stride);
+        let v = v.ok_or_else(|| format!("variants: tangent column '{key}' fits no table column"))?;
+        v.iter_mut().skip(lane).step_by(stride).zip(d).for_each(|(x, &dx)| *x += dx * dv);
+    }
+    Ok(())
+}
+
 /// base + sum_p dv_p tangent_p over the real and complex columns (a column
 /// without a tangent keeps its values).
 fn moved<'a>(base: &Table, tangents: impl Iterator<Item = (&'a Table, f64)>) -> Result<Table, String> {
     let mut out = base.clone();
-    for (t, dv) in tangents {
-        if dv == 0.0 {
-            continue;
-        }
-        for (key, d) in &t.reals {
-            let v = out.reals.get_mut(key).filter(|v| v.len() == d.len());
-            let v = v.ok_or_else(|| format!("variants: tangent column '{key}' fits no table column"))?;
-            v.iter_mut().zip(d).for_each(|(x, dx)| *x += dv * dx);
-        }
-        for (key, d) in &t.complex {
-            let v = out.complex.get_mut(key).filter(|v| v.len() == d.len());
-            let v = v.ok_or_else(|| format!("variants: tangent column '{key}' fits no table column"))?;
-            v.iter_mut().zip(d).for_each(|(x, dx)| *x += dx * dv);
-        }
+    for (t, dv) in tangents.filter(|&(_, dv)| dv != 0.0) {
+        add(&mut out.reals, &t.reals, 1, 0, dv)?;
+        add(&mut out.complex, &t.complex, 1, 0, dv)?;
     }
     Ok(out)
 }
@@ -76,19 +85,9 @@ fn moved_lanes<'a, 'v>(
         if lanes.is_empty() {
             continue;
         }
-        for (key, d) in &t.reals {
-            let v = out.d_reals.get_mut(key).filter(|v| v.len() == d.len() * WIDTH);
-            let v = v.ok_or_else(|| format!("variants: tangent column '{key}' fits no table column"))?;
-            for &(l, dv) in &lanes {
-                v.iter_mut().skip(l).step_by(WIDTH).zip(d).for_each(|(x, dx)| *x += dv * dx);
-            }
-        }
-        for (key, d) in &t.complex {
-            let v = out.d_complex.get_mut(key).filter(|v| v.len() == d.len() * WIDTH);
-            let v = v.ok_or_else(|| format!("variants: tangent column '{key}' fits no table column"))?;
-            for &(l, dv) in &lanes {
-                v.iter_mut().skip(l).step_by(WIDTH).zip(d).for_each(|(x, dx)| *x += dx * dv);
-            }
+        for &(l, dv) in &lanes {
+            add(&mut out.d_reals, &t.reals, WIDTH, l, dv)?;
+            add(&mut out.d_complex, &t.complex, WIDTH, l, dv)?;
         }
     }
     for (key, v) in out.reals.iter_mut() {
