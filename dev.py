@@ -20,6 +20,7 @@ import hashlib
 import os
 import subprocess
 import sys
+import tempfile
 import time
 import venv
 from pathlib import Path
@@ -102,7 +103,7 @@ def check_core() -> int:
         if subprocess.run(cmd, cwd=CRATE, env=env).returncode:
             print(f"dev.py: {' '.join(cmd)} failed", file=sys.stderr)
             return 1
-    return subprocess.run([str(BIN / "lint-imports")], cwd=ROOT).returncode
+    return subprocess.run([str(BIN / "lint-imports"), "--no-cache"], cwd=ROOT).returncode
 
 
 def main(argv: list[str]) -> int:
@@ -120,9 +121,12 @@ def main(argv: list[str]) -> int:
             return 1
         # both cores by default (the suite's tests are independent); -n 0 runs them in one process
         workers = [] if any(a == "-n" or a.startswith(("-n", "--numprocesses")) for a in rest) else ["-n", "2"]
-        args = [str(PYTHON), "-m", "pytest", *workers, *rest]
-        # the tests write only under temporary folders: no bytecode of theirs, nor of what they run, in the tree
-        return subprocess.run(args, cwd=ROOT, env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}).returncode
+        args = [str(PYTHON), "-m", "pytest", "-p", "no:cacheprovider", *workers, *rest]
+        # the tests write only under temporary folders: no bytecode of theirs nor of what they run, no
+        # pytest cache, hypothesis's store in a temporary folder
+        with tempfile.TemporaryDirectory(prefix="kinem-hypothesis-") as store:
+            env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1", "HYPOTHESIS_STORAGE_DIRECTORY": store}
+            return subprocess.run(args, cwd=ROOT, env=env).returncode
     return subprocess.run(args, cwd=ROOT).returncode
 
 
