@@ -36,6 +36,12 @@ def prefix(k: int) -> str:
     return f"v{k}-"
 
 
+def unprefix(name: str) -> tuple[int, str]:
+    """A merged name's variant and own name: "v3-crank.x" -> (3, "crank.x")."""
+    head, own = name.split("-", 1)
+    return int(head[1:]), own
+
+
 def merge(cases, name="batch") -> Case:
     cases = list(cases)
     if not cases:
@@ -135,13 +141,13 @@ def _halving(ks, cases, columns, stages, start, times, options, out):
         model = None
     if model is not None:
         names = model.coordinate_names
-        own = names if len(ks) == 1 else [n.split("-", 1)[1] for n in names]   # each coordinate's own name
-        q0 = None if start is OWN else np.array([start[n] for n in own])
+        split_names = [(0, n) for n in names] if len(ks) == 1 else [unprefix(n) for n in names]
+        q0 = None if start is OWN else np.array([start[own] for _, own in split_names])
         r = solve(model, outputs=stages, times=times, options=options, q0=q0)
         if r.success:
             at = {}   # variant j's coordinates by their merged names
-            for i, n in enumerate(names):
-                at.setdefault(0 if len(ks) == 1 else int(n[1:n.index("-")]), []).append(i)
+            for i, (j, _) in enumerate(split_names):
+                at.setdefault(j, []).append(i)
             for j, k in enumerate(ks):
                 out[k] = Solved(np.column_stack([r.trajectory[p[j] + c] for c in columns]), r.q[0, at[j]])
             return
