@@ -22,7 +22,7 @@
 //! (Kin::seeded). All three share one factorisation of J at the instant
 //! (the march's layout, crate::lu): no finite differences anywhere.
 use crate::families::{At, Family, Shared};
-use crate::lu::{Factors, Layout};
+use crate::lu::{Factors, Layout, Shape};
 use crate::model::Kin;
 use crate::real::{Lanes, Real};
 use crate::table::Table;
@@ -296,7 +296,7 @@ pub struct Lanewise<'a, const N: usize> {
     jl: Vec<Lanes<N>>,
     rhs: Vec<[f64; N]>,
     rhs3: Vec<[f64; N]>,
-    solver: Solver,
+    solver: Solver<N>,
 }
 
 impl<'a, const N: usize> Lanewise<'a, N> {
@@ -511,9 +511,10 @@ fn products<const N: usize>(
 /// solves than one per parameter and level (3 P >= 2 n).
 pub const INVERSE: usize = 64;
 
-/// The instant's solves of N right-hand sides: one by one with the
-/// factors, or through the inverse (`inverse`: n x m, row-major).
-struct Solver {
+/// The instant's solves of N right-hand sides: through the inverse
+/// (`inverse`: n x m, row-major), all N at once with a block-triangular
+/// layout's factors (`solve_lanes`), or one by one with the factors.
+struct Solver<const N: usize> {
     use_inverse: bool,
     /// the inverse's entries that are not exactly zero (a block-triangular
     /// Phi_q has a block-triangular inverse), row by row: (column, value)
@@ -523,10 +524,12 @@ struct Solver {
     dense: Vec<f64>,
     b: Vec<f64>,
     x: Vec<f64>,
+    /// the lanes' positions (`solve_lanes`)
+    w: Vec<[f64; N]>,
 }
 
-impl Solver {
-    fn new(n: usize, m: usize, use_inverse: bool) -> Solver {
+impl<const N: usize> Solver<N> {
+    fn new(n: usize, m: usize, use_inverse: bool) -> Self {
         Solver {
             use_inverse,
             inverse: Vec::with_capacity(if use_inverse { n * m } else { 0 }),
@@ -534,6 +537,7 @@ impl Solver {
             dense: vec![0.0; if use_inverse { n * m } else { 0 }],
             b: vec![0.0; m],
             x: vec![0.0; n],
+            w: vec![[0.0; N]; n],
         }
     }
 
@@ -560,14 +564,7 @@ impl Solver {
     }
 
     /// out = Phi_q^-1 rhs for the first `count` lanes.
-    fn solve<const N: usize>(
-        &mut self,
-        layout: &Layout,
-        f: &mut Factors,
-        rhs: &[[f64; N]],
-        count: usize,
-        out: &mut [[f64; N]],
-    ) {
+    fn solve(&mut self, layout: &Layout, f: &mut Factors, rhs: &[[f64; N]], count: usize, out: &mut [[f64; N]]) {
         if self.use_inverse {
             for (j, o) in out.iter_mut().enumerate() {
                 let mut acc = [0.0; N];
@@ -586,6 +583,9 @@ impl Solver {
             layout.solve(f, rhs.as_flattened(), out.as_flattened_mut());
             return;
         }
+        if let (Shape::Triangular(t), Some(_)) = (&layout.shape, &f.fixed[0]) {
+            return solve_lanes(t, &f.j, rhs, out, &mut self.w);
+        }
         for l in 0..count {
             for (b, r) in self.b.iter_mut().zip(rhs) {
                 *b = r[l];
@@ -598,6 +598,95 @@ impl Solver {
     }
 }
 
+/// x = Phi_q^-1 b for N right-hand sides at once, with the factors `a` of
+/// a block-triangular layout factorised in its blocks' fixed orders:
+/// Triangular::solve's gather, Program::run and scatter, each operation
+/// applied to the N lanes in turn, so each lane's figures are that solve's
+/// to the bit (tests: the lanes equal one solve per parameter).
+fn solve_lanes<const N: usize>(
+    t: &crate::triangular::Triangular,
+    a: &[f64],
+    b: &[[f64; N]],
+    x: &mut [[f64; N]],
+    w: &mut [[f64; N]],
+) {
+    let p = &t.program;
+    assert!(a.len() >= p.values && w.len() >= p.positions && b.len() >= w.len() && x.len() >= w.len());
+    for ((v, &i), &scale) in w.iter_mut().zip(&t.gather).zip(&t.gscale) {
+        *v = b[i].map(|y| y * scale);
+    }
+    // SAFETY: Program::check (when the layout is built): every position
+    // below `positions` <= w.len(), every value below `values` <= a.len()
+    // (asserted), the ends ascending up to subs.len()
+    let sub = |w: &mut [[f64; N]], [i, c, u]: [u32; 3]| unsafe {
+        let (x, a) = (*w.get_unchecked(c as usize), *a.get_unchecked(u as usize));
+        let y = w.get_unchecked_mut(i as usize);
+        for l in 0..N {
+            y[l] -= a * x[l];
+        }
+    };
+    let mut from = 0;
+    for &[end, r, v] in &p.divs {
+        // SAFETY: as above
+        let (y, a) = unsafe {
+            for &s in p.subs.get_unchecked(from..end as usize) {
+                sub(w, s);
+            }
+            (w.get_unchecked_mut(r as usize), *a.get_unchecked(v as usize))
+        };
+        for l in 0..N {
+            y[l] /= a;
+        }
+        from = end as usize;
+    }
+    for &s in &p.subs[from..] {
+        sub(w, s);
+    }
+    for ((v, &j), &scale) in w.iter().zip(&t.scatter).zip(&t.sscale) {
+        x[j] = v.map(|y| y * scale);
+    }
+}
+
 /// The trajectory's column sources, points' body columns, their local
 /// coordinates and (P rows of) tangents: see `sensitivities`.
 pub type Cols<'a> = (&'a [usize], &'a [usize], &'a [C64], &'a [C64]);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The N lanes' solve with a block-triangular layout's factors is each
+    /// lane's Layout::solve to the bit (the slider-crank's pattern).
+    #[test]
+    fn the_lanes_solve_is_each_lanes_own_to_the_bit() {
+        let (rows, cols) = crate::decompose::tests::slider_crank();
+        let n = 12;
+        let scale = (0..n).map(|i| 1.0 + 0.1 * i as f64).collect();
+        let col_scale = (0..n).map(|j| 2.0 - 0.05 * j as f64).collect();
+        let mut layout = crate::plan::one_block(n, &rows, &cols, scale, col_scale);
+        let constant: Vec<bool> = rows.iter().map(|&r| r < 3).collect();
+        assert!(crate::plan::triangulate(&mut layout, &constant, &constant, &vec![false; rows.len()]));
+        let mut seed = 7u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        };
+        let mut fixed = 0;
+        for _ in 0..50 {
+            let values: Vec<f64> = rows.iter().map(|&r| if r < 3 || r == 11 { 1.0 } else { next() }).collect();
+            let mut f = layout.factors();
+            layout.factor(&values, &mut f);
+            let b: Vec<[f64; 4]> = (0..n).map(|_| [next(), next(), 0.0, next() * 1e-3]).collect();
+            let mut solver = Solver::<4>::new(n, n, false);
+            let mut out = vec![[0.0; 4]; n];
+            solver.solve(&layout, &mut f, &b, 4, &mut out);
+            fixed += f.fixed[0].is_some() as usize;
+            for l in 0..4 {
+                let (bl, mut x) = (b.iter().map(|r| r[l]).collect::<Vec<_>>(), vec![0.0; n]);
+                layout.solve(&mut f, &bl, &mut x);
+                assert!(x.iter().zip(&out).all(|(u, v)| u.to_bits() == v[l].to_bits()), "lane {l}");
+            }
+        }
+        assert!(fixed >= 25, "the blocks' orders taken: {fixed} of 50");
+    }
+}
