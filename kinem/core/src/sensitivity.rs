@@ -485,11 +485,17 @@ fn products<const N: usize>(
     r3: &mut [[f64; N]],
 ) {
     let qd = v[0];
+    let (m, n) = (r2.len(), qd.len());
+    assert!(pattern.iter().all(|&(i, j)| i < m && j < n) && dj.len() >= pattern.len());
     if let Some(qdd) = v.get(1) {
+        assert!(qdd.len() == n && r3.len() == m);
         r3.fill([0.0; N]);
         for (&(i, j), p) in pattern.iter().zip(dj) {
-            let (a, b) = (qd[j], qdd[j]);
-            let (x, y) = (&mut r2[i], &mut r3[i]);
+            // SAFETY: every row below m, every column below n (asserted above)
+            let (a, b, x, y) = unsafe {
+                let (x, y) = (&mut *r2.as_mut_ptr().add(i), &mut *r3.as_mut_ptr().add(i));
+                (*qd.get_unchecked(j), *qdd.get_unchecked(j), x, y)
+            };
             for l in 0..N {
                 x[l] -= p.d[l] * a;
                 y[l] -= p.d[l] * b;
@@ -497,7 +503,8 @@ fn products<const N: usize>(
         }
     } else {
         for (&(i, j), p) in pattern.iter().zip(dj) {
-            let (a, x) = (qd[j], &mut r2[i]);
+            // SAFETY: as above
+            let (a, x) = unsafe { (*qd.get_unchecked(j), r2.get_unchecked_mut(i)) };
             for l in 0..N {
                 x[l] -= p.d[l] * a;
             }
