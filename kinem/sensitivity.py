@@ -26,6 +26,7 @@ reported as inf, flagged in ``singular`` and named in ``message``.
 """
 import math
 import time
+import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass, is_dataclass, replace
 
@@ -94,7 +95,7 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     paths = [parameters] if isinstance(parameters, str) else list(parameters)
     if not paths:
         raise InputError(f"{case.source}: sensitivity: no parameters; expected one or more parameter paths")
-    listed = resolve(case, paths)
+    listed = _resolved(model, paths)
     if model.m != model.n:
         raise KinemError(f"{case.source}: sensitivities need as many equations as coordinates "
                          f"({model.m} equations, {model.n} coordinates: redundant constraints)")
@@ -175,14 +176,47 @@ def core_inputs(model, listed, result) -> tuple:
     return _instant_inputs(model, tangent_inputs(model, listed), result)
 
 
+# model -> ({path: its Parameter}, {path: (its core tangent, its points' dlocal)}): what a call
+# works out from the model and a path alone, kept for the model's next calls (as
+# kinem.result._LAYOUTS keeps its columns), read-only
+_KEPT = weakref.WeakKeyDictionary()
+
+
+def _kept(model) -> tuple:
+    kept = _KEPT.get(model)
+    if kept is None:
+        kept = _KEPT[model] = ({}, {})
+    return kept
+
+
+def _resolved(model, paths) -> tuple:
+    """kinem.parameters.resolve(model.case, paths), each path's Parameter
+    found once per model."""
+    known = _kept(model)[0]
+    paths = list(dict.fromkeys(paths))
+    if all(p in known for p in paths):
+        return tuple(known[p] for p in paths)
+    listed = resolve(model.case, paths)
+    known.update((p.path, p) for p in listed)
+    return listed
+
+
 def tangent_inputs(model, listed) -> tuple:
     """What the core's sensitivities take beside the instants: (the model's
     tables, each parameter's tangents, the Jacobian's pattern (rows, cols),
-    the named points' columns, local coordinates and tangents)."""
-    base, parts = model.tables, _parts(model, listed)
-    dlocal = np.array([d for _, d in parts], complex).reshape(len(parts), len(model.point_names))
-    core = [([(k, d) for k, _, _, d in families], functions[1], outlines[1])
-            for (families, functions, outlines), _ in parts]
+    the named points' columns, local coordinates and tangents). Each
+    parameter's tangent is built once per model (``_parts``; the arrays
+    read-only) and taken as it is by its later calls."""
+    base, kept = model.tables, _kept(model)[1]
+    missing = [p for p in dict.fromkeys(listed) if p.path not in kept]
+    for p, ((families, functions, outlines), dlocal) in zip(missing, _parts(model, missing)):
+        core = ([(k, d) for k, _, _, d in families], functions[1], outlines[1])
+        for table in [d for _, d in core[0]] + [core[1], core[2]]:
+            for v in table.values():
+                v.flags.writeable = False
+        kept[p.path] = core, dlocal
+    core = [kept[p.path][0] for p in listed]
+    dlocal = np.array([kept[p.path][1] for p in listed], complex).reshape(len(listed), len(model.point_names))
     return (base[:3], core, (np.asarray(model.jac_rows, np.int64), np.asarray(model.jac_cols, np.int64)),
             (np.asarray(model.point_cols, np.int64), model.point_local, dlocal))
 
