@@ -113,7 +113,7 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     else:
         traj, data, ratio, levels = fused
     t = traj.t
-    columns = _layout(model, levels)[0]
+    columns, _, column = _layout(model, levels)
     width = len(columns)
     for k, p in enumerate(listed if any(b.derived for b in case.bodies) else ()):   # no frame moves otherwise
         _derived_frames(case, p.path, columns, data[:, k * width:(k + 1) * width], traj)
@@ -125,9 +125,8 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
         at = ", ".join(f"{x:.6g}" for x in t[singular][:5]) + (" ..." if singular.sum() > 5 else "")
         message = (f"Phi_q singular (pivot ratio below {floor:.2g}) at {int(singular.sum())} instant(s), t = {at}: "
                    "the derivatives there are infinite")
-    heads = [f"d({c})/d(" for c in columns]
-    names = tuple([h + path for path in [p.path + ")" for p in listed] for h in heads])
-    derivatives = Trajectory(t.copy(), names, data, _Places(columns, [p.path for p in listed]))
+    names = _names(model, columns, listed)
+    derivatives = Trajectory(t.copy(), names, data, _Places(columns, [p.path for p in listed], column))
     return Sensitivity(listed, traj, derivatives, singular, ratio, message)
 
 
@@ -136,9 +135,9 @@ class _Places(Mapping):
     its place, k * width + j for parameter k and column j, from the
     columns' and the parameters' own places (not a dict of every name)."""
 
-    def __init__(self, columns, paths):
+    def __init__(self, columns, paths, column=None):
         self.columns, self.paths = columns, paths
-        self.column = {c: j for j, c in enumerate(columns)}
+        self.column = {c: j for j, c in enumerate(columns)} if column is None else column   # (read only)
         self.parameter = {p: k for k, p in enumerate(paths)}
 
     def __getitem__(self, name):
@@ -176,7 +175,8 @@ def core_inputs(model, listed, result) -> tuple:
     return _instant_inputs(model, tangent_inputs(model, listed), result)
 
 
-# model -> ({path: its Parameter}, {path: (its core tangent, its points' dlocal)}): what a call
+# model -> ({path: its Parameter}, {path: (its core tangent, its points' dlocal)}, {(path,
+# columns): its derivatives' names}): what a call
 # works out from the model and a path alone, kept for the model's next calls (as
 # kinem.result._LAYOUTS keeps its columns), read-only
 _KEPT = weakref.WeakKeyDictionary()
@@ -185,8 +185,23 @@ _KEPT = weakref.WeakKeyDictionary()
 def _kept(model) -> tuple:
     kept = _KEPT.get(model)
     if kept is None:
-        kept = _KEPT[model] = ({}, {})
+        kept = _KEPT[model] = ({}, {}, {})
     return kept
+
+
+def _names(model, columns, listed) -> tuple:
+    """The derivatives' column names, ``d(COLUMN)/d(PATH)`` for every
+    column and each parameter in turn, each parameter's made once per
+    model and its columns."""
+    kept = _kept(model)[2]
+    out = []
+    for p in listed:
+        own = kept.get((p.path, columns))
+        if own is None:
+            end = f")/d({p.path})"
+            own = kept[p.path, columns] = tuple(f"d({c}{end}" for c in columns)
+        out += own
+    return tuple(out)
 
 
 def _resolved(model, paths) -> tuple:
@@ -209,7 +224,7 @@ def tangent_inputs(model, listed) -> tuple:
     read-only) and taken as it is by its later calls."""
     base, kept = model.tables, _kept(model)[1]
     missing = [p for p in dict.fromkeys(listed) if p.path not in kept]
-    for p, ((families, functions, outlines), dlocal) in zip(missing, _parts(model, missing)):
+    for p, ((families, functions, outlines), dlocal) in zip(missing, _parts(model, missing) if missing else ()):
         core = ([(k, d) for k, _, _, d in families], functions[1], outlines[1])
         for table in [d for _, d in core[0]] + [core[1], core[2]]:
             for v in table.values():
