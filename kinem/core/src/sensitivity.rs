@@ -531,8 +531,11 @@ struct Solver<const N: usize> {
     dense: Vec<f64>,
     b: Vec<f64>,
     x: Vec<f64>,
-    /// the lanes' positions (`solve_lanes`)
+    /// the lanes' positions (`solve_lanes`), and N unit right-hand sides
+    /// and their solutions (`prepare`)
     w: Vec<[f64; N]>,
+    units: Vec<[f64; N]>,
+    columns: Vec<[f64; N]>,
 }
 
 impl<const N: usize> Solver<N> {
@@ -545,6 +548,8 @@ impl<const N: usize> Solver<N> {
             b: vec![0.0; m],
             x: vec![0.0; n],
             w: vec![[0.0; N]; n],
+            units: vec![[0.0; N]; if use_inverse { m } else { 0 }],
+            columns: vec![[0.0; N]; if use_inverse { n } else { 0 }],
         }
     }
 
@@ -555,12 +560,29 @@ impl<const N: usize> Solver<N> {
             return;
         }
         let m = self.b.len();
-        for i in 0..m {
-            self.b.fill(0.0);
-            self.b[i] = 1.0;
-            layout.solve(f, &self.b, &mut self.x);
-            for (j, &v) in self.x.iter().enumerate() {
-                self.dense[j * m + i] = v;
+        if let (Shape::Triangular(t), Some(_)) = (&layout.shape, &f.fixed[0]) {
+            // N columns of the inverse per solve (`solve_lanes`: each its own solve's to the bit)
+            let (b, x) = (&mut self.units, &mut self.columns);
+            for from in (0..m).step_by(N) {
+                b.fill([0.0; N]);
+                for l in 0..N.min(m - from) {
+                    b[from + l][l] = 1.0;
+                }
+                solve_lanes(t, &f.j, b, x, &mut self.w);
+                for (j, v) in x.iter().enumerate() {
+                    for l in 0..N.min(m - from) {
+                        self.dense[j * m + from + l] = v[l];
+                    }
+                }
+            }
+        } else {
+            for i in 0..m {
+                self.b.fill(0.0);
+                self.b[i] = 1.0;
+                layout.solve(f, &self.b, &mut self.x);
+                for (j, &v) in self.x.iter().enumerate() {
+                    self.dense[j * m + i] = v;
+                }
             }
         }
         self.inverse.clear();
@@ -662,8 +684,9 @@ pub type Cols<'a> = (&'a [usize], &'a [usize], &'a [C64], &'a [C64]);
 mod tests {
     use super::*;
 
-    /// The N lanes' solve with a block-triangular layout's factors is each
-    /// lane's Layout::solve to the bit (the slider-crank's pattern).
+    /// The N lanes' solve with a block-triangular layout's factors, and the
+    /// inverse formed N columns at a time, are each lane's and each
+    /// column's Layout::solve to the bit (the slider-crank's pattern).
     #[test]
     fn the_lanes_solve_is_each_lanes_own_to_the_bit() {
         let (rows, cols) = crate::decompose::tests::slider_crank();
@@ -692,6 +715,15 @@ mod tests {
                 let (bl, mut x) = (b.iter().map(|r| r[l]).collect::<Vec<_>>(), vec![0.0; n]);
                 layout.solve(&mut f, &bl, &mut x);
                 assert!(x.iter().zip(&out).all(|(u, v)| u.to_bits() == v[l].to_bits()), "lane {l}");
+            }
+            // the inverse, N columns per solve, is each column's own solve
+            let mut inverse = Solver::<4>::new(n, n, true);
+            inverse.prepare(&layout, &mut f);
+            for i in 0..n {
+                let (mut e, mut x) = (vec![0.0; n], vec![0.0; n]);
+                e[i] = 1.0;
+                layout.solve(&mut f, &e, &mut x);
+                assert!((0..n).all(|j| x[j].to_bits() == inverse.dense[j * n + i].to_bits()), "column {i}");
             }
         }
         assert!(fixed >= 25, "the blocks' orders taken: {fixed} of 50");
