@@ -200,8 +200,8 @@ impl<'a> Instants<'a> {
 struct Group<const N: usize> {
     model: Kin<Lanes<N>>,
     count: usize,
-    /// the moved families (every family where a function's or an
-    /// outline's table moves: any family may read it)
+    /// the moved families (where a function's or an outline's table
+    /// moves, every family that reads it: `reads`)
     moved: Vec<usize>,
     /// those of them whose nu may be non-zero
     timed: Vec<usize>,
@@ -243,18 +243,31 @@ fn fixed(kin: &Kin) -> Result<Vec<bool>, String> {
         .collect())
 }
 
+/// Whether a family reads (the functions' table, the outlines' table):
+/// the kinds that Family::new hands the number of functions (simple,
+/// distance: a driver's f(t)) or of outlines (point-on-curve, the cams),
+/// the only ones whose tables index them; a moved function or outline moves
+/// no other family.
+fn reads(f: &Family) -> (bool, bool) {
+    (
+        matches!(f, Family::Simple(_) | Family::Distance(_)),
+        matches!(f, Family::PointOnCurve(_) | Family::CamRoller(_) | Family::CamFlat(_)),
+    )
+}
+
 impl<const N: usize> Group<N> {
     fn new(kin: &Kin, group: &[Tangent], fixed: &[bool]) -> Result<Self, String> {
         let model = seeded::<N>(kin, group)?;
         let empty = |t: &Table| t.reals.is_empty() && t.complex.is_empty();
-        let moved: Vec<usize> = if group.iter().all(|t| empty(&t.functions) && empty(&t.outlines)) {
-            let mut places: Vec<usize> = group.iter().flat_map(|t| t.families.iter().map(|f| f.0)).collect();
-            places.sort_unstable();
-            places.dedup();
-            places
-        } else {
-            (0..kin.families.len()).collect()
-        };
+        let (functions, outlines) =
+            (group.iter().any(|t| !empty(&t.functions)), group.iter().any(|t| !empty(&t.outlines)));
+        let mut moved: Vec<usize> = group.iter().flat_map(|t| t.families.iter().map(|f| f.0)).collect();
+        moved.extend((0..kin.families.len()).filter(|&k| {
+            let (f, o) = reads(&kin.families[k]);
+            (functions && f) || (outlines && o)
+        }));
+        moved.sort_unstable();
+        moved.dedup();
         let timed = moved.iter().copied().filter(|k| model.time_dependent.contains(k)).collect();
         let (live, left) = (0..kin.families.len()).partition(|k| !fixed[*k] || moved.contains(k));
         Ok(Group { model, count: group.len(), moved, timed, live, left })
