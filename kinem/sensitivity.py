@@ -18,7 +18,10 @@ tangent is their exact linear part, (B(x + h e_p) - B(x)) / h with h a power
 of two (no truncation error, rounding only: relative 1e-16), each family
 built once for all the parameters that move it where it can be
 (``_stacked``), a spline outline's values from one spline (``_spline_tangents``).
-``tangents(model, paths)`` gives them in full.
+``tangents(model, paths)`` gives them in full. A model keeps each
+parameter's tangent, Parameter and derivatives' names for its later calls
+(``_KEPT``, as kinem.result keeps its columns' layout), so a warm call
+builds none of them again.
 
 At an instant where Phi_q is singular (its pivot ratio below the solver's
 floor, kinem.options.singular_pivot) the derivatives are infinite: they are
@@ -26,6 +29,7 @@ reported as inf, flagged in ``singular`` and named in ``message``.
 """
 import math
 import time
+import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass, is_dataclass, replace
 
@@ -94,7 +98,7 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     paths = [parameters] if isinstance(parameters, str) else list(parameters)
     if not paths:
         raise InputError(f"{case.source}: sensitivity: no parameters; expected one or more parameter paths")
-    listed = resolve(case, paths)
+    listed = _resolved(model, paths)
     if model.m != model.n:
         raise KinemError(f"{case.source}: sensitivities need as many equations as coordinates "
                          f"({model.m} equations, {model.n} coordinates: redundant constraints)")
@@ -112,7 +116,7 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     else:
         traj, data, ratio, levels = fused
     t = traj.t
-    columns = _layout(model, levels)[0]
+    columns, _, column = _layout(model, levels)
     width = len(columns)
     for k, p in enumerate(listed if any(b.derived for b in case.bodies) else ()):   # no frame moves otherwise
         _derived_frames(case, p.path, columns, data[:, k * width:(k + 1) * width], traj)
@@ -124,9 +128,8 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
         at = ", ".join(f"{x:.6g}" for x in t[singular][:5]) + (" ..." if singular.sum() > 5 else "")
         message = (f"Phi_q singular (pivot ratio below {floor:.2g}) at {int(singular.sum())} instant(s), t = {at}: "
                    "the derivatives there are infinite")
-    heads = [f"d({c})/d(" for c in columns]
-    names = tuple([h + path for path in [p.path + ")" for p in listed] for h in heads])
-    derivatives = Trajectory(t.copy(), names, data, _Places(columns, [p.path for p in listed]))
+    names = _names(model, columns, listed)
+    derivatives = Trajectory(t.copy(), names, data, _Places(columns, [p.path for p in listed], column))
     return Sensitivity(listed, traj, derivatives, singular, ratio, message)
 
 
@@ -135,9 +138,9 @@ class _Places(Mapping):
     its place, k * width + j for parameter k and column j, from the
     columns' and the parameters' own places (not a dict of every name)."""
 
-    def __init__(self, columns, paths):
+    def __init__(self, columns, paths, column=None):
         self.columns, self.paths = columns, paths
-        self.column = {c: j for j, c in enumerate(columns)}
+        self.column = {c: j for j, c in enumerate(columns)} if column is None else column   # (read only)
         self.parameter = {p: k for k, p in enumerate(paths)}
 
     def __getitem__(self, name):
@@ -175,14 +178,63 @@ def core_inputs(model, listed, result) -> tuple:
     return _instant_inputs(model, tangent_inputs(model, listed), result)
 
 
+# model -> ({path: its Parameter}, {path: (its core tangent, its points' dlocal)}, {(path,
+# columns): its derivatives' names}): what a call
+# works out from the model and a path alone, kept for the model's next calls (as
+# kinem.result._LAYOUTS keeps its columns), read-only
+_KEPT = weakref.WeakKeyDictionary()
+
+
+def _kept(model) -> tuple:
+    kept = _KEPT.get(model)
+    if kept is None:
+        kept = _KEPT[model] = ({}, {}, {})
+    return kept
+
+
+def _names(model, columns, listed) -> tuple:
+    """The derivatives' column names, ``d(COLUMN)/d(PATH)`` for every
+    column and each parameter in turn, each parameter's made once per
+    model and its columns."""
+    kept = _kept(model)[2]
+    out = []
+    for p in listed:
+        own = kept.get((p.path, columns))
+        if own is None:
+            end = f")/d({p.path})"
+            own = kept[p.path, columns] = tuple(f"d({c}{end}" for c in columns)
+        out += own
+    return tuple(out)
+
+
+def _resolved(model, paths) -> tuple:
+    """kinem.parameters.resolve(model.case, paths), each path's Parameter
+    found once per model."""
+    known = _kept(model)[0]
+    paths = list(dict.fromkeys(paths))
+    if all(p in known for p in paths):
+        return tuple(known[p] for p in paths)
+    listed = resolve(model.case, paths)
+    known.update((p.path, p) for p in listed)
+    return listed
+
+
 def tangent_inputs(model, listed) -> tuple:
     """What the core's sensitivities take beside the instants: (the model's
     tables, each parameter's tangents, the Jacobian's pattern (rows, cols),
-    the named points' columns, local coordinates and tangents)."""
-    base, parts = model.tables, _parts(model, listed)
-    dlocal = np.array([d for _, d in parts], complex).reshape(len(parts), len(model.point_names))
-    core = [([(k, d) for k, _, _, d in families], functions[1], outlines[1])
-            for (families, functions, outlines), _ in parts]
+    the named points' columns, local coordinates and tangents). Each
+    parameter's tangent is built once per model (``_parts``; the arrays
+    read-only) and taken as it is by its later calls."""
+    base, kept = model.tables, _kept(model)[1]
+    missing = [p for p in dict.fromkeys(listed) if p.path not in kept]
+    for p, ((families, functions, outlines), dlocal) in zip(missing, _parts(model, missing) if missing else ()):
+        core = ([(k, d) for k, _, _, d in families], functions[1], outlines[1])
+        for table in [d for _, d in core[0]] + [core[1], core[2]]:
+            for v in table.values():
+                v.flags.writeable = False
+        kept[p.path] = core, dlocal
+    core = [kept[p.path][0] for p in listed]
+    dlocal = np.array([kept[p.path][1] for p in listed], complex).reshape(len(listed), len(model.point_names))
     return (base[:3], core, (np.asarray(model.jac_rows, np.int64), np.asarray(model.jac_cols, np.int64)),
             (np.asarray(model.point_cols, np.int64), model.point_local, dlocal))
 

@@ -546,3 +546,24 @@ def test_the_cores_tables_taken_from_the_kept_ones_are_those_made_again(path):
         for key in a:
             assert a[key].dtype == b[key].dtype and a[key].shape == b[key].shape, key
             assert a[key].tobytes() == b[key].tobytes(), key
+
+
+@pytest.mark.parametrize("name", ["four_bar", "cam_table41"])
+def test_a_models_kept_tangents_give_the_first_calls_figures(name):
+    """A model's later calls take each parameter's tangent as its first
+    call built it (kinem.sensitivity._KEPT): the same derivatives to the
+    bit as a fresh model's, whatever the parameters asked with it, and the
+    kept arrays cannot be written."""
+    from kinem.sensitivity import tangent_inputs, _resolved
+    case = kinem.load(ROOT / "cases" / f"{name}.toml")
+    every = [p.path for p in parameters(case)]
+    model = kinem.compile(case)
+    first = sensitivity(model, every[:3])
+    again = sensitivity(model, every[1:5])   # two kept, two new
+    fresh = sensitivity(kinem.compile(case), every[1:5])
+    assert np.array_equal(again.derivatives.data, fresh.derivatives.data)
+    assert np.array_equal(first["d(" + first.trajectory.columns[0] + ")/d(" + every[1] + ")"],
+                          fresh["d(" + fresh.trajectory.columns[0] + ")/d(" + every[1] + ")"])
+    core = tangent_inputs(model, _resolved(model, every[:5]))[1]
+    arrays = [v for part in core for table in [d for _, d in part[0]] + [part[1], part[2]] for v in table.values()]
+    assert arrays and not any(v.flags.writeable for v in arrays)

@@ -114,7 +114,7 @@ pub fn order_blocks(kin: &Kin, layout: &mut Layout) {
 /// nonsingular block's pivots). `one`: the entries whose scaled value
 /// looked +1 at every trial: a 1x1 block of one such entry is folded (no
 /// division; each factorisation checks that it is still 1).
-fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool], one: &[bool]) -> bool {
+pub(crate) fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool], one: &[bool]) -> bool {
     let Shape::Blocks { count: 1, size, pad, patterns, .. } = &layout.shape else { return false };
     let (n, m) = (layout.n, layout.m);
     if !pad.is_empty() || n != m || *size != n || (n <= MASK && patterns.len() != n) {
@@ -241,7 +241,7 @@ fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool], one: &[boo
 /// One block of a square pattern (rows, cols per entry) in the model's
 /// order, as kinem.model.Model.plan lays it out (tests: plan's and the fuzz test's).
 #[cfg(test)]
-fn one_block(n: usize, rows: &[usize], cols: &[usize], scale: Vec<f64>, col_scale: Vec<f64>) -> Layout {
+pub(crate) fn one_block(n: usize, rows: &[usize], cols: &[usize], scale: Vec<f64>, col_scale: Vec<f64>) -> Layout {
     let mut patterns = vec![(0u64, 0u64); n];
     for (&r, &c) in rows.iter().zip(cols) {
         patterns[r].0 |= 1 << c;

@@ -22,7 +22,7 @@
 //! (Kin::seeded). All three share one factorisation of J at the instant
 //! (the march's layout, crate::lu): no finite differences anywhere.
 use crate::families::{At, Family, Shared};
-use crate::lu::{Factors, Layout};
+use crate::lu::{Factors, Layout, Shape};
 use crate::model::Kin;
 use crate::real::{Lanes, Real};
 use crate::table::Table;
@@ -200,8 +200,8 @@ impl<'a> Instants<'a> {
 struct Group<const N: usize> {
     model: Kin<Lanes<N>>,
     count: usize,
-    /// the moved families (every family where a function's or an
-    /// outline's table moves: any family may read it)
+    /// the moved families (where a function's or an outline's table
+    /// moves, every family that reads it: `reads`)
     moved: Vec<usize>,
     /// those of them whose nu may be non-zero
     timed: Vec<usize>,
@@ -243,18 +243,31 @@ fn fixed(kin: &Kin) -> Result<Vec<bool>, String> {
         .collect())
 }
 
+/// Whether a family reads (the functions' table, the outlines' table):
+/// the kinds that Family::new hands the number of functions (simple,
+/// distance: a driver's f(t)) or of outlines (point-on-curve, the cams),
+/// the only ones whose tables index them; a moved function or outline moves
+/// no other family.
+fn reads(f: &Family) -> (bool, bool) {
+    (
+        matches!(f, Family::Simple(_) | Family::Distance(_)),
+        matches!(f, Family::PointOnCurve(_) | Family::CamRoller(_) | Family::CamFlat(_)),
+    )
+}
+
 impl<const N: usize> Group<N> {
     fn new(kin: &Kin, group: &[Tangent], fixed: &[bool]) -> Result<Self, String> {
         let model = seeded::<N>(kin, group)?;
         let empty = |t: &Table| t.reals.is_empty() && t.complex.is_empty();
-        let moved: Vec<usize> = if group.iter().all(|t| empty(&t.functions) && empty(&t.outlines)) {
-            let mut places: Vec<usize> = group.iter().flat_map(|t| t.families.iter().map(|f| f.0)).collect();
-            places.sort_unstable();
-            places.dedup();
-            places
-        } else {
-            (0..kin.families.len()).collect()
-        };
+        let (functions, outlines) =
+            (group.iter().any(|t| !empty(&t.functions)), group.iter().any(|t| !empty(&t.outlines)));
+        let mut moved: Vec<usize> = group.iter().flat_map(|t| t.families.iter().map(|f| f.0)).collect();
+        moved.extend((0..kin.families.len()).filter(|&k| {
+            let (f, o) = reads(&kin.families[k]);
+            (functions && f) || (outlines && o)
+        }));
+        moved.sort_unstable();
+        moved.dedup();
         let timed = moved.iter().copied().filter(|k| model.time_dependent.contains(k)).collect();
         let (live, left) = (0..kin.families.len()).partition(|k| !fixed[*k] || moved.contains(k));
         Ok(Group { model, count: group.len(), moved, timed, live, left })
@@ -296,7 +309,7 @@ pub struct Lanewise<'a, const N: usize> {
     jl: Vec<Lanes<N>>,
     rhs: Vec<[f64; N]>,
     rhs3: Vec<[f64; N]>,
-    solver: Solver,
+    solver: Solver<N>,
 }
 
 impl<'a, const N: usize> Lanewise<'a, N> {
@@ -485,11 +498,17 @@ fn products<const N: usize>(
     r3: &mut [[f64; N]],
 ) {
     let qd = v[0];
+    let (m, n) = (r2.len(), qd.len());
+    assert!(pattern.iter().all(|&(i, j)| i < m && j < n) && dj.len() >= pattern.len());
     if let Some(qdd) = v.get(1) {
+        assert!(qdd.len() == n && r3.len() == m);
         r3.fill([0.0; N]);
         for (&(i, j), p) in pattern.iter().zip(dj) {
-            let (a, b) = (qd[j], qdd[j]);
-            let (x, y) = (&mut r2[i], &mut r3[i]);
+            // SAFETY: every row below m, every column below n (asserted above)
+            let (a, b, x, y) = unsafe {
+                let (x, y) = (&mut *r2.as_mut_ptr().add(i), &mut *r3.as_mut_ptr().add(i));
+                (*qd.get_unchecked(j), *qdd.get_unchecked(j), x, y)
+            };
             for l in 0..N {
                 x[l] -= p.d[l] * a;
                 y[l] -= p.d[l] * b;
@@ -497,7 +516,8 @@ fn products<const N: usize>(
         }
     } else {
         for (&(i, j), p) in pattern.iter().zip(dj) {
-            let (a, x) = (qd[j], &mut r2[i]);
+            // SAFETY: as above
+            let (a, x) = unsafe { (*qd.get_unchecked(j), r2.get_unchecked_mut(i)) };
             for l in 0..N {
                 x[l] -= p.d[l] * a;
             }
@@ -511,9 +531,10 @@ fn products<const N: usize>(
 /// solves than one per parameter and level (3 P >= 2 n).
 pub const INVERSE: usize = 64;
 
-/// The instant's solves of N right-hand sides: one by one with the
-/// factors, or through the inverse (`inverse`: n x m, row-major).
-struct Solver {
+/// The instant's solves of N right-hand sides: through the inverse
+/// (`inverse`: n x m, row-major), all N at once with a block-triangular
+/// layout's factors (`solve_lanes`), or one by one with the factors.
+struct Solver<const N: usize> {
     use_inverse: bool,
     /// the inverse's entries that are not exactly zero (a block-triangular
     /// Phi_q has a block-triangular inverse), row by row: (column, value)
@@ -523,10 +544,15 @@ struct Solver {
     dense: Vec<f64>,
     b: Vec<f64>,
     x: Vec<f64>,
+    /// the lanes' positions (`solve_lanes`), and N unit right-hand sides
+    /// and their solutions (`prepare`)
+    w: Vec<[f64; N]>,
+    units: Vec<[f64; N]>,
+    columns: Vec<[f64; N]>,
 }
 
-impl Solver {
-    fn new(n: usize, m: usize, use_inverse: bool) -> Solver {
+impl<const N: usize> Solver<N> {
+    fn new(n: usize, m: usize, use_inverse: bool) -> Self {
         Solver {
             use_inverse,
             inverse: Vec::with_capacity(if use_inverse { n * m } else { 0 }),
@@ -534,6 +560,9 @@ impl Solver {
             dense: vec![0.0; if use_inverse { n * m } else { 0 }],
             b: vec![0.0; m],
             x: vec![0.0; n],
+            w: vec![[0.0; N]; n],
+            units: vec![[0.0; N]; if use_inverse { m } else { 0 }],
+            columns: vec![[0.0; N]; if use_inverse { n } else { 0 }],
         }
     }
 
@@ -544,12 +573,29 @@ impl Solver {
             return;
         }
         let m = self.b.len();
-        for i in 0..m {
-            self.b.fill(0.0);
-            self.b[i] = 1.0;
-            layout.solve(f, &self.b, &mut self.x);
-            for (j, &v) in self.x.iter().enumerate() {
-                self.dense[j * m + i] = v;
+        if let (Shape::Triangular(t), Some(_)) = (&layout.shape, &f.fixed[0]) {
+            // N columns of the inverse per solve (`solve_lanes`: each its own solve's to the bit)
+            let (b, x) = (&mut self.units, &mut self.columns);
+            for from in (0..m).step_by(N) {
+                b.fill([0.0; N]);
+                for l in 0..N.min(m - from) {
+                    b[from + l][l] = 1.0;
+                }
+                solve_lanes(t, &f.j, b, x, &mut self.w);
+                for (j, v) in x.iter().enumerate() {
+                    for l in 0..N.min(m - from) {
+                        self.dense[j * m + from + l] = v[l];
+                    }
+                }
+            }
+        } else {
+            for i in 0..m {
+                self.b.fill(0.0);
+                self.b[i] = 1.0;
+                layout.solve(f, &self.b, &mut self.x);
+                for (j, &v) in self.x.iter().enumerate() {
+                    self.dense[j * m + i] = v;
+                }
             }
         }
         self.inverse.clear();
@@ -560,14 +606,7 @@ impl Solver {
     }
 
     /// out = Phi_q^-1 rhs for the first `count` lanes.
-    fn solve<const N: usize>(
-        &mut self,
-        layout: &Layout,
-        f: &mut Factors,
-        rhs: &[[f64; N]],
-        count: usize,
-        out: &mut [[f64; N]],
-    ) {
+    fn solve(&mut self, layout: &Layout, f: &mut Factors, rhs: &[[f64; N]], count: usize, out: &mut [[f64; N]]) {
         if self.use_inverse {
             for (j, o) in out.iter_mut().enumerate() {
                 let mut acc = [0.0; N];
@@ -586,6 +625,9 @@ impl Solver {
             layout.solve(f, rhs.as_flattened(), out.as_flattened_mut());
             return;
         }
+        if let (Shape::Triangular(t), Some(_)) = (&layout.shape, &f.fixed[0]) {
+            return solve_lanes(t, &f.j, rhs, out, &mut self.w);
+        }
         for l in 0..count {
             for (b, r) in self.b.iter_mut().zip(rhs) {
                 *b = r[l];
@@ -598,6 +640,105 @@ impl Solver {
     }
 }
 
+/// x = Phi_q^-1 b for N right-hand sides at once, with the factors `a` of
+/// a block-triangular layout factorised in its blocks' fixed orders:
+/// Triangular::solve's gather, Program::run and scatter, each operation
+/// applied to the N lanes in turn, so each lane's figures are that solve's
+/// to the bit (tests: the lanes equal one solve per parameter).
+fn solve_lanes<const N: usize>(
+    t: &crate::triangular::Triangular,
+    a: &[f64],
+    b: &[[f64; N]],
+    x: &mut [[f64; N]],
+    w: &mut [[f64; N]],
+) {
+    let p = &t.program;
+    assert!(a.len() >= p.values && w.len() >= p.positions && b.len() >= w.len() && x.len() >= w.len());
+    for ((v, &i), &scale) in w.iter_mut().zip(&t.gather).zip(&t.gscale) {
+        *v = b[i].map(|y| y * scale);
+    }
+    // SAFETY: Program::check (when the layout is built): every position
+    // below `positions` <= w.len(), every value below `values` <= a.len()
+    // (asserted), the ends ascending up to subs.len()
+    let sub = |w: &mut [[f64; N]], [i, c, u]: [u32; 3]| unsafe {
+        let (x, a) = (*w.get_unchecked(c as usize), *a.get_unchecked(u as usize));
+        let y = w.get_unchecked_mut(i as usize);
+        for l in 0..N {
+            y[l] -= a * x[l];
+        }
+    };
+    let mut from = 0;
+    for &[end, r, v] in &p.divs {
+        // SAFETY: as above
+        let (y, a) = unsafe {
+            for &s in p.subs.get_unchecked(from..end as usize) {
+                sub(w, s);
+            }
+            (w.get_unchecked_mut(r as usize), *a.get_unchecked(v as usize))
+        };
+        for l in 0..N {
+            y[l] /= a;
+        }
+        from = end as usize;
+    }
+    for &s in &p.subs[from..] {
+        sub(w, s);
+    }
+    for ((v, &j), &scale) in w.iter().zip(&t.scatter).zip(&t.sscale) {
+        x[j] = v.map(|y| y * scale);
+    }
+}
+
 /// The trajectory's column sources, points' body columns, their local
 /// coordinates and (P rows of) tangents: see `sensitivities`.
 pub type Cols<'a> = (&'a [usize], &'a [usize], &'a [C64], &'a [C64]);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The N lanes' solve with a block-triangular layout's factors, and the
+    /// inverse formed N columns at a time, are each lane's and each
+    /// column's Layout::solve to the bit (the slider-crank's pattern).
+    #[test]
+    fn the_lanes_solve_is_each_lanes_own_to_the_bit() {
+        let (rows, cols) = crate::decompose::tests::slider_crank();
+        let n = 12;
+        let scale = (0..n).map(|i| 1.0 + 0.1 * i as f64).collect();
+        let col_scale = (0..n).map(|j| 2.0 - 0.05 * j as f64).collect();
+        let mut layout = crate::plan::one_block(n, &rows, &cols, scale, col_scale);
+        let constant: Vec<bool> = rows.iter().map(|&r| r < 3).collect();
+        assert!(crate::plan::triangulate(&mut layout, &constant, &constant, &vec![false; rows.len()]));
+        let mut seed = 7u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        };
+        let mut fixed = 0;
+        for _ in 0..50 {
+            let values: Vec<f64> = rows.iter().map(|&r| if r < 3 || r == 11 { 1.0 } else { next() }).collect();
+            let mut f = layout.factors();
+            layout.factor(&values, &mut f);
+            let b: Vec<[f64; 4]> = (0..n).map(|_| [next(), next(), 0.0, next() * 1e-3]).collect();
+            let mut solver = Solver::<4>::new(n, n, false);
+            let mut out = vec![[0.0; 4]; n];
+            solver.solve(&layout, &mut f, &b, 4, &mut out);
+            fixed += f.fixed[0].is_some() as usize;
+            for l in 0..4 {
+                let (bl, mut x) = (b.iter().map(|r| r[l]).collect::<Vec<_>>(), vec![0.0; n]);
+                layout.solve(&mut f, &bl, &mut x);
+                assert!(x.iter().zip(&out).all(|(u, v)| u.to_bits() == v[l].to_bits()), "lane {l}");
+            }
+            // the inverse, N columns per solve, is each column's own solve
+            let mut inverse = Solver::<4>::new(n, n, true);
+            inverse.prepare(&layout, &mut f);
+            for i in 0..n {
+                let (mut e, mut x) = (vec![0.0; n], vec![0.0; n]);
+                e[i] = 1.0;
+                layout.solve(&mut f, &e, &mut x);
+                assert!((0..n).all(|j| x[j].to_bits() == inverse.dense[j * n + i].to_bits()), "column {i}");
+            }
+        }
+        assert!(fixed >= 25, "the blocks' orders taken: {fixed} of 50");
+    }
+}
