@@ -79,13 +79,6 @@ impl<'a> LaneLu<'a> {
     /// Triangular::solve's gather, Program::run and scatter over lanes;
     /// the lanes not `fixed` hold nothing of use.
     pub fn solve(&mut self, b: &[W], x: &mut [W]) {
-        let (t, a, w) = (self.t, &self.j, &mut self.w);
-        for ((v, &i), &scale) in w.iter_mut().zip(&t.gather).zip(&t.gscale) {
-            *v = b[i] * scale;
-        }
-        t.program.run(a, w);
-        for ((&v, &j), &scale) in w.iter().zip(&t.scatter).zip(&t.sscale) {
-            x[j] = v * scale;
-        }
+        self.t.run(&self.j, b, x, &mut self.w);
     }
 }

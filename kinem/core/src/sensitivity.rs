@@ -533,7 +533,7 @@ pub const INVERSE: usize = 64;
 
 /// The instant's solves of N right-hand sides: through the inverse
 /// (`inverse`: n x m, row-major), all N at once with a block-triangular
-/// layout's factors (`solve_lanes`), or one by one with the factors.
+/// layout's factors (Triangular::run over [f64; N], triangular::Cell), or one by one with the factors.
 struct Solver<const N: usize> {
     use_inverse: bool,
     /// the inverse's entries that are not exactly zero (a block-triangular
@@ -544,7 +544,7 @@ struct Solver<const N: usize> {
     dense: Vec<f64>,
     b: Vec<f64>,
     x: Vec<f64>,
-    /// the lanes' positions (`solve_lanes`), and N unit right-hand sides
+    /// the lanes' positions (Triangular::run), and N unit right-hand sides
     /// and their solutions (`prepare`)
     w: Vec<[f64; N]>,
     units: Vec<[f64; N]>,
@@ -574,14 +574,14 @@ impl<const N: usize> Solver<N> {
         }
         let m = self.b.len();
         if let (Shape::Triangular(t), Some(_)) = (&layout.shape, &f.fixed[0]) {
-            // N columns of the inverse per solve (`solve_lanes`: each its own solve's to the bit)
+            // N columns of the inverse per solve (Triangular::run: each its own solve's to the bit)
             let (b, x) = (&mut self.units, &mut self.columns);
             for from in (0..m).step_by(N) {
                 b.fill([0.0; N]);
                 for l in 0..N.min(m - from) {
                     b[from + l][l] = 1.0;
                 }
-                solve_lanes(t, &f.j, b, x, &mut self.w);
+                t.run(&f.j, b, x, &mut self.w);
                 for (j, v) in x.iter().enumerate() {
                     for l in 0..N.min(m - from) {
                         self.dense[j * m + from + l] = v[l];
@@ -626,7 +626,7 @@ impl<const N: usize> Solver<N> {
             return;
         }
         if let (Shape::Triangular(t), Some(_)) = (&layout.shape, &f.fixed[0]) {
-            return solve_lanes(t, &f.j, rhs, out, &mut self.w);
+            return t.run(&f.j, rhs, out, &mut self.w);
         }
         for l in 0..count {
             for (b, r) in self.b.iter_mut().zip(rhs) {
@@ -637,55 +637,6 @@ impl<const N: usize> Solver<N> {
                 o[l] = v;
             }
         }
-    }
-}
-
-/// x = Phi_q^-1 b for N right-hand sides at once, with the factors `a` of
-/// a block-triangular layout factorised in its blocks' fixed orders:
-/// Triangular::solve's gather, Program::run and scatter, each operation
-/// applied to the N lanes in turn, so each lane's figures are that solve's
-/// to the bit (tests: the lanes equal one solve per parameter).
-fn solve_lanes<const N: usize>(
-    t: &crate::triangular::Triangular,
-    a: &[f64],
-    b: &[[f64; N]],
-    x: &mut [[f64; N]],
-    w: &mut [[f64; N]],
-) {
-    let p = &t.program;
-    assert!(a.len() >= p.values && w.len() >= p.positions && b.len() >= w.len() && x.len() >= w.len());
-    for ((v, &i), &scale) in w.iter_mut().zip(&t.gather).zip(&t.gscale) {
-        *v = b[i].map(|y| y * scale);
-    }
-    // SAFETY: Program::check (when the layout is built): every position
-    // below `positions` <= w.len(), every value below `values` <= a.len()
-    // (asserted), the ends ascending up to subs.len()
-    let sub = |w: &mut [[f64; N]], [i, c, u]: [u32; 3]| unsafe {
-        let (x, a) = (*w.get_unchecked(c as usize), *a.get_unchecked(u as usize));
-        let y = w.get_unchecked_mut(i as usize);
-        for l in 0..N {
-            y[l] -= a * x[l];
-        }
-    };
-    let mut from = 0;
-    for &[end, r, v] in &p.divs {
-        // SAFETY: as above
-        let (y, a) = unsafe {
-            for &s in p.subs.get_unchecked(from..end as usize) {
-                sub(w, s);
-            }
-            (w.get_unchecked_mut(r as usize), *a.get_unchecked(v as usize))
-        };
-        for l in 0..N {
-            y[l] /= a;
-        }
-        from = end as usize;
-    }
-    for &s in &p.subs[from..] {
-        sub(w, s);
-    }
-    for ((v, &j), &scale) in w.iter().zip(&t.scatter).zip(&t.sscale) {
-        x[j] = v.map(|y| y * scale);
     }
 }
 

@@ -69,10 +69,11 @@ impl Program {
         Ok(())
     }
 
-    /// Runs the program on w (positions) with the values a: over f64, or
-    /// over lanes (crate::lane_lu), the same operations in the same order.
+    /// Runs the program on w (positions) with the values a: over f64, over
+    /// variants' lanes (crate::lane_lu) or over several right-hand sides
+    /// at once (crate::sensitivity), the same operations in the same order.
     #[inline]
-    pub fn run<S: Real>(&self, a: &[S], w: &mut [S]) {
+    pub fn run<A: Copy, W: Cell<A>>(&self, a: &[A], w: &mut [W]) {
         assert!(a.len() >= self.values && w.len() >= self.positions);
         debug_assert!(self.check().is_ok());
         let mut from = 0;
@@ -83,11 +84,9 @@ impl Program {
             unsafe {
                 for &[i, c, u] in self.subs.get_unchecked(from..end) {
                     let x = *w.get_unchecked(c as usize);
-                    let y = w.get_unchecked_mut(i as usize);
-                    *y = *y - *a.get_unchecked(u as usize) * x;
+                    w.get_unchecked_mut(i as usize).sub_mul(*a.get_unchecked(u as usize), x);
                 }
-                let y = w.get_unchecked_mut(r as usize);
-                *y = *y / *a.get_unchecked(v as usize);
+                w.get_unchecked_mut(r as usize).div(*a.get_unchecked(v as usize));
             }
             from = end;
         }
@@ -95,10 +94,53 @@ impl Program {
         for &[i, c, u] in unsafe { self.subs.get_unchecked(from..) } {
             unsafe {
                 let x = *w.get_unchecked(c as usize);
-                let y = w.get_unchecked_mut(i as usize);
-                *y = *y - *a.get_unchecked(u as usize) * x;
+                w.get_unchecked_mut(i as usize).sub_mul(*a.get_unchecked(u as usize), x);
             }
         }
+    }
+}
+
+/// What a solve's program works on, a factor's entry being `A`: a
+/// position's value (f64, or variants' lanes: A = Self), or the same
+/// position of N right-hand sides ([f64; N], A = f64). y.sub_mul(a, x) is
+/// y = y - a x, y.div(a) y = y / a, each lane's as f64's, to the bit.
+pub trait Cell<A>: Copy {
+    fn sub_mul(&mut self, a: A, x: Self);
+    fn div(&mut self, a: A);
+    fn scaled(self, s: f64) -> Self;
+}
+
+impl<S: Real> Cell<S> for S {
+    #[inline(always)]
+    fn sub_mul(&mut self, a: S, x: S) {
+        *self = *self - a * x;
+    }
+    #[inline(always)]
+    fn div(&mut self, a: S) {
+        *self = *self / a;
+    }
+    #[inline(always)]
+    fn scaled(self, s: f64) -> S {
+        self * s
+    }
+}
+
+impl<const N: usize> Cell<f64> for [f64; N] {
+    #[inline(always)]
+    fn sub_mul(&mut self, a: f64, x: Self) {
+        for (y, x) in self.iter_mut().zip(x) {
+            *y -= a * x;
+        }
+    }
+    #[inline(always)]
+    fn div(&mut self, a: f64) {
+        for y in self.iter_mut() {
+            *y /= a;
+        }
+    }
+    #[inline(always)]
+    fn scaled(self, s: f64) -> Self {
+        self.map(|y| y * s)
     }
 }
 
@@ -390,31 +432,41 @@ impl Triangular {
     /// the layout's (the fallback's solve is Layout::solve's, to the bit).
     pub fn solve(&self, f: &mut Factors, b: &[f64], x: &mut [f64], scale: &[f64], col_scale: &[f64]) {
         let n = self.gather.len();
-        let w = &mut f.w[..n];
+        let (j, w) = (&f.j, &mut f.w[..n]);
         if f.fixed[0].is_none() {
             w.fill(0.0);
             for (i, &p) in self.whole_row.iter().enumerate() {
                 w[p] = b[i] / scale[i];
             }
             if n > MASK {
-                dense_solve(&f.j[..n * n], n, &f.piv, w);
+                dense_solve(&j[..n * n], n, &f.piv, w);
             } else {
-                masked_solve(&f.j[..n * n], n, &f.piv, &f.rm, w);
+                masked_solve(&j[..n * n], n, &f.piv, &f.rm, w);
             }
             for (j, &p) in self.whole_col.iter().enumerate() {
                 x[j] = w[p] * col_scale[j];
             }
             return;
         }
-        assert!(b.len() >= n && x.len() >= n);
+        self.run(j, b, x, w);
+    }
+
+    /// x = Phi_q^-1 b with the blocks' factors a (block-triangular: not the
+    /// whole matrix's fallback), w the positions' scratch: the gather with
+    /// its scales, the program, the scatter; over f64, variants' lanes or
+    /// several right-hand sides (`Cell`).
+    #[inline]
+    pub fn run<A: Copy, W: Cell<A>>(&self, a: &[A], b: &[W], x: &mut [W], w: &mut [W]) {
+        let n = self.gather.len();
+        assert!(b.len() >= n && x.len() >= n && w.len() >= n);
         for ((v, &i), &scale) in w.iter_mut().zip(&self.gather).zip(&self.gscale) {
             // SAFETY: gather holds positions below n (Triangular::check, when built); b.len() >= n asserted
-            *v = unsafe { *b.get_unchecked(i) } * scale;
+            *v = unsafe { *b.get_unchecked(i) }.scaled(scale);
         }
-        self.program.run(&f.j, w);
+        self.program.run(a, w);
         for ((&v, &j), &scale) in w.iter().zip(&self.scatter).zip(&self.sscale) {
             // SAFETY: scatter holds positions below n (Triangular::check, when built); x.len() >= n asserted
-            unsafe { *x.get_unchecked_mut(j) = v * scale };
+            unsafe { *x.get_unchecked_mut(j) = v.scaled(scale) };
         }
     }
 
