@@ -5,7 +5,8 @@ velocities and accelerations at every output instant should cost at most
 sensitivity, the core's part alone), each warm (right after an untimed call
 of the same); medians of the process's CPU time (the machine is shared:
 CPU time is what the call itself spends, the same measure on both sides)
-and of wall time. Per case: the core's part (Plan.sensitivity with
+and of wall time; and the same ratio for first calls, each on a model
+just compiled (nothing kept by the model from an earlier call). Per case: the core's part (Plan.sensitivity with
 kinem.sensitivity.core_inputs) per instant and parameter against the plain
 solve per instant (the core's part with its own factorisation at every
 instant: kinem.sensitivity uses the march's, Plan.march_sensitivity), and
@@ -81,6 +82,23 @@ def medians(fns: dict, repeats: int) -> dict:
     return {k: (statistics.median(cpu[k]), statistics.median(wall[k])) for k in fns}
 
 
+def first_calls(name, paths, repeats: int) -> tuple:
+    """(median CPU seconds of a first solve, of a first sensitivity call):
+    each on a model just compiled (its compile untimed), so nothing the
+    model keeps for later calls (its plan, columns' layout, the parameters'
+    tangents and names) is there yet."""
+    case = kinem.load(f"cases/{name}.toml")
+    out = {"solve": [], "sensitivity": []}
+    for _ in range(max(1, repeats)):
+        for k, call in (("solve", kinem.solve), ("sensitivity", lambda m: sensitivity(m, paths))):
+            model = kinem.compile(case)
+            gc.collect()
+            c = time.process_time()
+            call(model)
+            out[k].append(time.process_time() - c)
+    return statistics.median(out["solve"]), statistics.median(out["sensitivity"])
+
+
 def main(repeats=7, samples=2000):
     say(f"load {load()}; medians of {repeats}, CPU time (wall time); bound: (1 + 0.5 P) x the solve")
     for name in CASES:
@@ -99,13 +117,17 @@ def main(repeats=7, samples=2000):
             (solve, solve_wall), (sens, sens_wall), (core, _) = r["solve"], r["sensitivity"], r["core"]
             tangents, python = r["tangents"][0], r["python"][0]
             ratio, bound = sens / solve, 1 + 0.5 * count
+            first_solve, first_sens = first_calls(name, paths, repeats)
             say(f"{name:15s} P={count:3d}  solve {solve * 1e3:6.2f} ms ({solve_wall * 1e3:6.2f})  "
                 f"sensitivity {sens * 1e3:7.2f} ms ({sens_wall * 1e3:7.2f})  ratio {ratio:6.2f} "
                 f"({sens_wall / solve_wall:6.2f})  bound {bound:5.1f}  {'ok' if ratio <= bound else 'OVER'}  "
                 f"core {core * 1e3:6.2f} ms: {1e6 * core / (instants * count):5.2f} us per instant and parameter, "
                 f"the solve {1e6 * solve / instants:5.2f} us per instant ({instants} instants); "
                 f"tangents (Python) {tangents * 1e3:5.2f} ms; "
-                f"Python part of a call {python * 1e3:5.2f} ms ({python / solve:4.2f} solves)")
+                f"Python part of a call {python * 1e3:5.2f} ms ({python / solve:4.2f} solves); "
+                f"first calls on a fresh model: solve {first_solve * 1e3:6.2f} ms, sensitivity "
+                f"{first_sens * 1e3:7.2f} ms, ratio {first_sens / first_solve:6.2f} "
+                f"{'ok' if first_sens <= bound * first_solve else 'OVER'}")
     model = kinem.compile(kinem.load("cases/four_bar.toml"))
     runs = min(repeats, 3)
     seconds, every, b = rounds({"tolerance": timed(lambda: tolerance(model, samples=samples, outputs=["B.x", "B.y"]))},
