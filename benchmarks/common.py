@@ -72,7 +72,9 @@ def fixed_cost(case, repeats: int) -> dict:
     """The fixed cost of a solve: the least-squares intercept of the whole
     kinem.solve call's time over FIXED_INSTANTS output instants (each the
     median of 10 warm solves in a row, rounds interleaved) of ``case`` at
-    its own step; prints the times and the fit."""
+    its own step, and directly: a warm solve of 2 instants (issue 31 item
+    6's measure; the intercept moves with the per-instant slope's fit);
+    prints the times and the fit."""
     def loop_of_solves(model, count=10):
         out = []
         for _ in range(count):
@@ -93,8 +95,14 @@ def fixed_cost(case, repeats: int) -> dict:
     worst = float(np.abs(t - (fixed + slope * K)).max())
     say("   " + ", ".join(f"t({k}) {1e6 * res[k][0]:.0f} us" for k in FIXED_INSTANTS))
     say(f"   fit: {1e6 * fixed:.1f} us + {1e6 * slope:.3f} us per instant (largest residual {1e6 * worst:.1f} us)")
+    two = kinem.compile(case.with_time(end=case.end / case.steps, steps=1))   # issue 31 item 6: 2 instants
+    assert len(two.times) == 2, len(two.times)
+    kinem.solve(two)  # warm
+    t2 = per_call(lambda: kinem.solve(two), repeats=max(7, repeats))
+    say(f"   a warm solve of 2 instants: {1e6 * t2:.1f} us (median of {max(7, repeats)} batches)")
     return {"fixed_us": 1e6 * fixed, "us_per_instant": 1e6 * slope, "fit_residual_us": 1e6 * worst,
-            "t_us": {str(k): 1e6 * res[k][0] for k in FIXED_INSTANTS}, "rounds": repeats}
+            "t_us": {str(k): 1e6 * res[k][0] for k in FIXED_INSTANTS}, "two_instants_us": 1e6 * t2,
+            "rounds": repeats}
 
 
 def per_call(fn, min_time=0.1, repeats=7) -> float:
