@@ -18,7 +18,7 @@
 //! scalar march's to the bit. A lane stops on its own at its first instant
 //! not accepted, with its reason (the caller solves it again alone, as it
 //! does a scalar march's); the others go on.
-use crate::accept::{jump_sizes, rejected, Why};
+use crate::accept::{gap, rejected, Why};
 use crate::families::At;
 use crate::lane_lu::LaneLu;
 use crate::lu::{Factors, Layout};
@@ -124,6 +124,8 @@ struct Lane {
     held: bool,
     memory: Contraction,
     qp: Vec<f64>,
+    /// the predicted motion at this instant (dimensionless)
+    motion: f64,
     start: Vec<f64>,
     judge: bool,
     chord: Chord,
@@ -195,6 +197,7 @@ pub fn march(
             st: MarchState::new(q0),
             held: false,
             memory: Contraction::none(),
+            motion: 0.0,
             qp: vec![0.0; n],
             start: vec![0.0; n],
             judge: false,
@@ -248,12 +251,13 @@ pub fn march(
                 continue;
             }
             x.judge = predict(st, t, taylor_from, &mut x.qp);
+            x.motion = gap(&x.qp, &st.q, col_scale);
             if x.held {
                 let from = if chord_start(st, t, &mut x.start) { &x.start } else { &x.qp };
                 for j in 0..n {
                     r.q[j].0[l] = from[j];
                 }
-                x.chord = Chord::On(newton::Chord::new(x.memory.known()));
+                x.chord = Chord::On(newton::Chord::new(x.memory.known(x.motion)));
             }
             x.held = false;
         }
@@ -303,11 +307,11 @@ pub fn march(
         for (l, x) in lanes.iter_mut().enumerate().filter(|(_, x)| live(x)) {
             (x.settled, x.newton) = match x.chord {
                 Chord::Done(settled, measured) => {
-                    x.memory.chorded(measured);
+                    x.memory.chorded(measured, x.motion);
                     (Some(settled), None)
                 }
                 _ => {
-                    x.memory = Contraction::none();
+                    x.memory.forget();
                     for j in 0..n {
                         r.q[j].0[l] = x.qp[j];
                     }
@@ -345,7 +349,7 @@ pub fn march(
             };
             let (pivot, det, previous) = signs(stats, &x.st);
             Room::lane(&r.q, l, &mut r.dq);
-            let (corr, motion) = jump_sizes(&r.dq, &x.qp, &x.st.q, col_scale);
+            let (corr, motion) = (gap(&r.dq, &x.qp, col_scale), x.motion);
             let why =
                 rejected(pivot, settled.last_step, det, previous, corr, motion, x.judge, s.floor, s.tolerance, false);
             if why != Why::Accepted {
@@ -353,6 +357,7 @@ pub fn march(
                 continue;
             }
             x.held = true;
+            x.memory.hold(pivot);
             x.st.take(&r.dq, t, det, s.rates);
             if k == 0 {
                 x.det0 = det as i8;
