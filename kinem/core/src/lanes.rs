@@ -23,14 +23,14 @@ use crate::families::At;
 use crate::lane_lu::LaneLu;
 use crate::lu::{Factors, Layout};
 use crate::march::{limited, residual, size, MarchState, Settings};
-use crate::model::Kin;
+use crate::model::{follow, Kin, Rotation};
 use crate::newton::{self, Ask, Settled, Settling, Verdict, CHORD_STEPS};
-use crate::real::{cis, Real};
+use crate::real::Real;
 use crate::step::{chord_start, predict, signs, Contraction};
 use crate::table::Table;
 use crate::watch::Watch;
 use crate::wide::Wide;
-use num_complex::Complex;
+use num_complex::{Complex, Complex64 as C64};
 use num_traits::{One, Zero};
 #[cfg(test)]
 use std::collections::HashMap;
@@ -145,6 +145,8 @@ struct Room {
     e: Vec<Complex<W>>,
     /// the angles e holds (NaN: none yet)
     seen: Vec<W>,
+    /// per lane: q was set (a start), not corrected, since e was rotated
+    fresh: [bool; WIDTH],
     phi: Vec<W>,
     values: Vec<W>,
     qd: Vec<W>,
@@ -162,16 +164,19 @@ impl Room {
         }
     }
 
-    /// e = e^{i q} at the angle columns whose q moved in some lane (as
-    /// Kin::rotate_changed: a grounded or sliding body's angle keeps its sin and cos).
+    /// e = e^{i q} at the angle columns, lane by lane as march::Native's
+    /// (Kin::rotate_changed: kept where q has not moved, sin_cos after a
+    /// start, turned after a correction: model::follow).
     fn rotate(&mut self, kin: &Kin<W>) {
         for &j in &kin.angles {
-            let (q, seen) = (self.q[j].0, self.seen[j].0);
-            if (0..WIDTH).any(|l| q[l].to_bits() != seen[l].to_bits() || q[l].is_nan()) {
-                self.e[j] = cis(self.q[j]);
-                self.seen[j] = self.q[j];
+            let (e, seen, q) = (&mut self.e[j], &mut self.seen[j].0, &self.q[j].0);
+            for l in 0..WIDTH {
+                let mut z = C64::new(e.re.0[l], e.im.0[l]);
+                follow(q[l], &mut seen[l], &mut z, if self.fresh[l] { Rotation::Fresh } else { Rotation::Turn });
+                (e.re.0[l], e.im.0[l]) = (z.re, z.im);
             }
         }
+        self.fresh = [false; WIDTH];
     }
 }
 
@@ -213,6 +218,7 @@ pub fn march(
         q: vec![W::zero(); n],
         e: vec![Complex::new(W::one(), W::zero()); n],
         seen: vec![W::c(f64::NAN); n],
+        fresh: [true; WIDTH],
         phi: vec![W::zero(); m],
         values: vec![W::zero(); wide.nnz],
         qd: vec![W::zero(); n],
@@ -257,6 +263,7 @@ pub fn march(
                 for j in 0..n {
                     r.q[j].0[l] = from[j];
                 }
+                r.fresh[l] = true;
                 x.chord = Chord::On(newton::Chord::new(x.memory.known(x.motion)));
             }
             x.held = false;
@@ -315,6 +322,7 @@ pub fn march(
                     for j in 0..n {
                         r.q[j].0[l] = x.qp[j];
                     }
+                    r.fresh[l] = true;
                     (None, Some(Settling::new(s.tolerance, s.max_iterations, s.max_step, true)))
                 }
             };

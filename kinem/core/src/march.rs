@@ -6,7 +6,7 @@
 use crate::accept::Why;
 use crate::families::At;
 use crate::lu::{Factors, Layout};
-use crate::model::Kin;
+use crate::model::{Kin, Rotation};
 use crate::newton::Ops;
 pub use crate::step::{rates_with, step, MarchState, Mode, Outcome, Settings, Step, Work, SINGULAR};
 use crate::watch::Watch;
@@ -50,6 +50,8 @@ pub struct Native<'a> {
     pub counts: [i64; 2],
     /// e holds e^{i q} of the current q (q has not moved since)
     rotated: bool,
+    /// q was set (start), not corrected, since e was rotated: sin_cos, no turn
+    fresh: bool,
 }
 
 impl<'a> Native<'a> {
@@ -68,6 +70,7 @@ impl<'a> Native<'a> {
             t: 0.0,
             counts: [0, 0],
             rotated: false,
+            fresh: true,
         }
     }
 }
@@ -104,12 +107,14 @@ pub fn limited(big: f64, limit: f64) -> f64 {
 }
 
 impl Native<'_> {
-    /// e = e^{i q} at the angle columns, once per configuration.
+    /// e = e^{i q} at the angle columns, once per configuration: sin_cos
+    /// after a start, turned after a correction (model::follow).
     #[inline]
     fn rotate(&mut self) {
         if !self.rotated {
-            self.kin.rotate_changed(&self.q, &mut self.e, &mut self.seen);
-            self.rotated = true;
+            let how = if self.fresh { Rotation::Fresh } else { Rotation::Turn };
+            self.kin.rotate_changed(&self.q, &mut self.e, &mut self.seen, how);
+            (self.rotated, self.fresh) = (true, false);
         }
     }
 }
@@ -153,7 +158,7 @@ impl Step for Native<'_> {
     fn start(&mut self, q: &[f64], t: f64) -> Result<(), Infallible> {
         self.q.copy_from_slice(q);
         self.t = t;
-        self.rotated = false;
+        (self.rotated, self.fresh) = (false, true);
         Ok(())
     }
 
