@@ -112,7 +112,7 @@ fn random_families_are_refused_or_evaluate_in_bounds() {
         kin.gamma(&at, &qd, &mut gamma);
         // the families that read their columns unchecked refuse (panic on) a
         // configuration shorter than n: their one check per call, never a read out of bounds
-        if ["simple", "revolute", "line"].contains(&kind) {
+        if ["simple", "revolute", "line", "distance"].contains(&kind) {
             let short = At { q: &q[..n - 1], e: &e[..n - 1], t: at.t };
             for which in 0..3 {
                 let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match which {

@@ -38,6 +38,8 @@ struct Row<S> {
     mx: f64,
     my: f64,
     point: bool,
+    /// mx or my is not 0: the row has a point term (set in `new`)
+    term: bool,
     relative: bool,
     f: usize,
     driven: bool,
@@ -51,7 +53,7 @@ impl<S: Real> Row<S> {
     /// angle < e.len() (Simple's invariant where `At::holds(n)`).
     #[inline(always)]
     unsafe fn point_term(&self, at: &At<S>) -> Option<S> {
-        if self.mx != 0.0 || self.my != 0.0 {
+        if self.term {
             let s = self.local * *at.e.get_unchecked(self.angle);
             Some(s.re * self.mx + s.im * self.my)
         } else {
@@ -90,6 +92,7 @@ impl<S: Real> Simple<S> {
                 mx: mx[r],
                 my: my[r],
                 point: point[r],
+                term: mx[r] != 0.0 || my[r] != 0.0,
                 relative: relative[r],
                 f: f[r],
                 driven: true,
