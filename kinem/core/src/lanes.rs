@@ -276,10 +276,7 @@ pub fn march(
             r.rotate(wide);
             wide.phi(&At { q: &r.q, e: &r.e, t }, &mut r.phi);
             if let Some(u) = lu.as_mut().filter(|u| u.fixed.iter().any(|&f| f)) {
-                for (b, &p) in r.rhs.iter_mut().zip(&r.phi) {
-                    *b = -p;
-                }
-                u.solve(&r.rhs, &mut dq);
+                u.solve(&r.phi, &mut dq);
             }
             for (l, x) in lanes.iter_mut().enumerate() {
                 let Chord::On(c) = &mut x.chord else { continue };
@@ -288,19 +285,16 @@ pub fn march(
                     x.chord = Chord::Failed;
                     continue;
                 }
-                // correct(max_step) as march::Native's
+                // correct(max_step) as march::Native's (q - f Phi_q^-1 Phi)
                 if fixed(&lu, l) {
                     Room::lane(&dq, l, &mut r.dq);
                 } else {
-                    for i in 0..m {
-                        r.b[i] = -r.one[i];
-                    }
-                    layout.solve(&mut x.f, &r.b, &mut r.dq);
+                    layout.solve(&mut x.f, &r.one[..m], &mut r.dq);
                 }
                 let big = size(&r.dq, col_scale);
                 let f = limited(big, s.max_step);
                 for j in 0..n {
-                    r.q[j].0[l] += f * r.dq[j];
+                    r.q[j].0[l] -= f * r.dq[j];
                 }
                 match c.corrected(step, big, s.tolerance) {
                     Verdict::Go => {}
@@ -423,14 +417,12 @@ fn settle(wide: &Kin<W>, layout: &Layout, t: f64, lanes: &mut [Lane], r: &mut Ro
         let mut result = [0.0; WIDTH];
         for (l, x) in lanes.iter_mut().enumerate() {
             let Some(Ask::Correct(limit)) = ask[l] else { continue };
-            for (b, p) in r.b.iter_mut().zip(&x.phi) {
-                *b = -p;
-            }
-            layout.solve(&mut x.f, &r.b, &mut r.dq);
+            // as march::Native::correct: q - f Phi_q^-1 Phi
+            layout.solve(&mut x.f, &x.phi, &mut r.dq);
             let big = size(&r.dq, &layout.col_scale);
             let f = limited(big, limit);
             for j in 0..n {
-                r.q[j].0[l] += f * r.dq[j];
+                r.q[j].0[l] -= f * r.dq[j];
             }
             result[l] = big;
         }

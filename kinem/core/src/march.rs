@@ -139,15 +139,15 @@ impl Ops for Native<'_> {
         Ok(())
     }
 
+    /// q -= Phi_q^-1 Phi: dq = Phi_q^-1 Phi, then q - f dq (the solve's
+    /// operations are odd in b, so these are the figures of q + f Phi_q^-1 (-Phi)
+    /// to the bit, without negating Phi).
     fn correct(&mut self, limit: f64) -> Result<f64, Infallible> {
-        for (b, p) in self.b.iter_mut().zip(&self.phi) {
-            *b = -p;
-        }
-        self.layout.solve(&mut self.f, &self.b, &mut self.dq);
+        self.layout.solve(&mut self.f, &self.phi, &mut self.dq);
         let big = size(&self.dq, &self.layout.col_scale);
         let f = limited(big, limit);
         for (q, d) in self.q.iter_mut().zip(&self.dq) {
-            *q += f * d;
+            *q -= f * d;
         }
         self.rotated = false;
         Ok(big)
@@ -184,10 +184,8 @@ impl Step for Native<'_> {
 
     fn probe(&mut self) -> Result<f64, Infallible> {
         self.evaluate(-1)?;
-        for (b, p) in self.b.iter_mut().zip(&self.phi) {
-            *b = -p;
-        }
-        self.layout.solve(&mut self.f, &self.b, &mut self.dq);
+        // |Phi_q^-1 Phi| = |Phi_q^-1 (-Phi)|, as in `correct`
+        self.layout.solve(&mut self.f, &self.phi, &mut self.dq);
         Ok(size(&self.dq, &self.layout.col_scale))
     }
 
