@@ -67,11 +67,6 @@ impl<S: Real> Functions<S> {
     }
 
     /// Whether function f is a constant (its derivatives vanish).
-    /// No function is piecewise (each is smooth to every order).
-    pub fn smooth(&self) -> bool {
-        !self.kind.contains(&PIECES)
-    }
-
     pub fn constant(&self, f: usize) -> bool {
         self.value[f].is_some()
     }

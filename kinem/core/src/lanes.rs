@@ -126,8 +126,6 @@ struct Lane {
     qp: Vec<f64>,
     /// the predicted motion at this instant (dimensionless)
     motion: f64,
-    /// the chord's start at this instant: Hermite's (with the bias: true), or None
-    from: Option<bool>,
     start: Vec<f64>,
     judge: bool,
     chord: Chord,
@@ -205,7 +203,6 @@ pub fn march(
             held: false,
             memory: Contraction::none(),
             motion: 0.0,
-            from: None,
             qp: vec![0.0; n],
             start: vec![0.0; n],
             judge: false,
@@ -231,7 +228,6 @@ pub fn march(
         dq: vec![0.0; n],
     };
     let (scale, col_scale) = (&layout.scale, &layout.col_scale);
-    let smooth = wide.smooth();
     // the LU over lanes where the layout is block-triangular, else each lane's own
     let mut lu = LaneLu::new(layout);
     let fixed = |lu: &Option<LaneLu>, l: usize| lu.as_ref().is_some_and(|u| u.fixed[l]);
@@ -262,10 +258,8 @@ pub fn march(
             }
             x.judge = predict(st, t, taylor_from, &mut x.qp);
             x.motion = gap(&x.qp, &st.q, col_scale);
-            x.from = None;
             if x.held {
-                x.from = chord_start(st, t, &mut x.start);
-                let from = if x.from.is_some() { &x.start } else { &x.qp };
+                let from = if chord_start(st, t, &mut x.start) { &x.start } else { &x.qp };
                 for j in 0..n {
                     r.q[j].0[l] = from[j];
                 }
@@ -367,12 +361,6 @@ pub fn march(
             x.held = true;
             x.memory.hold(pivot);
             x.st.take(&r.dq, t, det, s.rates);
-            // the Hermite start's error where the chord settled from it (crate::step::step)
-            let (chorded, again) = match x.chord {
-                Chord::Done(_, measured) => (true, !measured.is_nan()),
-                _ => (false, true),
-            };
-            x.st.learn(x.from.filter(|_| chorded && smooth).map(|applied| (&x.start[..], applied)), again);
             if k == 0 {
                 x.det0 = det as i8;
             }

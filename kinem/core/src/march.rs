@@ -243,7 +243,6 @@ pub fn run_hooked(
     let (mut next, mut tick) = (Instant::now(), 0u32);
     // ops.f holds the factorisation at the last accepted q (none before the first)
     let mut c = Work::new(n);
-    c.smooth = kin.smooth();
     if k == 0 {
         st.restart();
     }

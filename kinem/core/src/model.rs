@@ -96,13 +96,6 @@ impl<S: Real> Kin<S> {
         }
     }
 
-    /// No driving function or outline is piecewise: the motion is smooth to
-    /// every order, so the Hermite start's error changes smoothly from one
-    /// instant to the next (crate::step::MarchState::learn).
-    pub fn smooth(&self) -> bool {
-        self.functions.smooth() && self.outlines.smooth()
-    }
-
     pub fn phi(&self, at: &At<S>, out: &mut [S]) {
         let s = self.shared();
         for (k, f) in self.families.iter().enumerate() {

@@ -65,11 +65,6 @@ impl<S: Real> Outlines<S> {
         })
     }
 
-    /// Every outline is one cubic piece (a circle: smooth to every order).
-    pub fn smooth(&self) -> bool {
-        self.first == self.last
-    }
-
     pub fn len(&self) -> usize {
         self.first.len()
     }

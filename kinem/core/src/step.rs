@@ -77,13 +77,6 @@ pub struct MarchState {
     /// (NaN: none), when the steps solve rates (the chord's Hermite start)
     pub prev: Vec<f64>,
     pub before: f64,
-    /// the Hermite start's error at this instant (its q less the start
-    /// without its own bias), when the chord settled from it (`biased`):
-    /// added to the next Hermite start of an equal step (`chord_start`)
-    pub bias: Vec<f64>,
-    pub biased: bool,
-    /// instants since a chord took more than one correction
-    pub quiet: u32,
 }
 
 impl MarchState {
@@ -101,9 +94,6 @@ impl MarchState {
             tt: [f64::NAN; 3],
             prev: vec![0.0; 3 * n],
             before: f64::NAN,
-            bias: vec![0.0; n],
-            biased: false,
-            quiet: 0,
         }
     }
 
@@ -135,42 +125,8 @@ impl MarchState {
         self.rates = false;
         self.t = t;
         self.det = det;
-        self.biased = false;
-    }
-
-    /// After `take`: the chord settled from the Hermite start `start`
-    /// (`applied`: with the bias added, `chord_start`'s answer) in more than
-    /// one correction (`again`) or not, or did not settle from it (None).
-    /// The start's error at this instant becomes the bias of the next while
-    /// some chord of the last `QUIET` instants took more than one correction
-    /// (where the starts are at rounding already the bias would only cost).
-    #[inline(always)]
-    pub fn learn(&mut self, start: Option<(&[f64], bool)>, again: bool) {
-        let Some((start, applied)) = start else {
-            return;
-        };
-        self.quiet = if again { 0 } else { self.quiet.saturating_add(1) };
-        if self.quiet <= QUIET {
-            self.bias_from(start, applied);
-        }
-    }
-
-    /// `learn`'s bias, out of line (the step's own loop stays lean where no bias is kept).
-    #[inline(never)]
-    fn bias_from(&mut self, start: &[f64], applied: bool) {
-        let n = self.q.len();
-        let (q, start, bias) = (&self.q[..], &start[..n], &mut self.bias[..n]);
-        for j in 0..n {
-            let e = q[j] - start[j];
-            bias[j] = if applied { bias[j] + e } else { e };
-        }
-        self.biased = true;
     }
 }
-
-/// The bias of the Hermite start (`MarchState::learn`) is kept while a chord
-/// of the last this many instants took more than one correction.
-pub const QUIET: u32 = 8;
 
 /// How a step ended: why (Accepted: the state moved to it), the Newton
 /// iterations and residual, the pivot ratio and det sign of the final
@@ -233,9 +189,6 @@ pub trait Step: Ops {
 /// and room for the predictor and the Hermite start (n each).
 pub struct Work {
     pub held: bool,
-    /// the model is smooth (crate::model::Kin::smooth): the Hermite start
-    /// may carry the last instant's error (`MarchState::learn`)
-    pub smooth: bool,
     memory: Contraction,
     qp: Vec<f64>,
     start: Vec<f64>,
@@ -318,28 +271,16 @@ pub fn predict(st: &MarchState, t: f64, taylor_from: bool, qp: &mut [f64]) -> bo
 }
 
 /// The chord's start at t: Hermite's from the last two accepted instants
-/// into `start` when they are at hand and t is near (Some), else none
-/// (None: the predictor). Where the last instant's step was the same
-/// (within 1e-9 of it) and its chord settled from its Hermite start, that
-/// start's error is added (`MarchState::bias`): the extrapolation's error
-/// (of order h^6) changes little from one instant to the next, so the start
-/// lands closer to the root and the first correction proves rounding more
-/// often (Some(true)); the chord's own tests judge it as any start.
-pub fn chord_start(st: &MarchState, t: f64, start: &mut [f64]) -> Option<bool> {
+/// into `start` when they are at hand and t is near (true), else none
+/// (false: the predictor).
+pub fn chord_start(st: &MarchState, t: f64, start: &mut [f64]) -> bool {
     let (n, h) = (st.q.len(), t - st.t);
-    let a = st.t - st.before;
-    if !(st.before.is_finite() && h <= 2.0 * a) {
-        return None;
+    if !(st.before.is_finite() && h <= 2.0 * (st.t - st.before)) {
+        return false;
     }
     let p = [&st.prev[..n], &st.prev[n..2 * n], &st.prev[2 * n..]];
-    hermite(p, [&st.q[..], &st.qd[..], &st.qdd[..]], a, h, start);
-    let applied = st.biased && (h - a).abs() <= 1e-9 * a;
-    if applied {
-        for (x, b) in start.iter_mut().zip(&st.bias) {
-            *x += b;
-        }
-    }
-    Some(applied)
+    hermite(p, [&st.q[..], &st.qd[..], &st.qdd[..]], st.t - st.before, h, start);
+    true
 }
 
 /// The pivot ratio (0 where below SINGULAR) and det sign (0 there) of the
@@ -353,7 +294,7 @@ pub fn signs((ratio, det): (f64, i32), st: &MarchState) -> (f64, i32, i32) {
 impl Work {
     /// No factorisation held: the first step starts with Newton.
     pub fn new(n: usize) -> Self {
-        Work { held: false, smooth: false, memory: Contraction::none(), qp: vec![0.0; n], start: vec![0.0; n] }
+        Work { held: false, memory: Contraction::none(), qp: vec![0.0; n], start: vec![0.0; n] }
     }
 }
 
@@ -367,7 +308,6 @@ pub fn step<O: Step>(
     mode: Mode,
     c: &mut Work,
 ) -> Result<Outcome, O::Error> {
-    let smooth = c.smooth;
     let Work { qp, start, .. } = c;
     let (qp, start) = (&mut qp[..], &mut start[..]);
     let first = st.t.is_nan();
@@ -394,19 +334,18 @@ pub fn step<O: Step>(
     let motion = gap(qp, &st.q, ops.col_scale());
     // the chord with the last instant's factorisation, from the Hermite start when the last two
     // instants are at hand, else (or when it contracts too slowly) Newton from the predictor
-    let from = if c.held { chord_start(st, t, start) } else { None };
-    ops.start(if from.is_some() { start } else { qp }, t)?;
+    ops.start(if c.held && chord_start(st, t, start) { start } else { qp }, t)?;
     let chorded = if c.held { chord(ops, s.tolerance, s.max_step, c.memory.known(motion))? } else { None };
     c.held = false;
-    let (settled, from, again) = match chorded {
+    let settled = match chorded {
         Some((settled, measured)) => {
             c.memory.chorded(measured, motion);
-            (settled, from, !measured.is_nan())
+            settled
         }
         None => {
             c.memory.forget();
             ops.start(qp, t)?;
-            (settle(ops, s.tolerance, s.max_iterations, s.max_step, true)?, None, true)
+            settle(ops, s.tolerance, s.max_iterations, s.max_step, true)?
         }
     };
     if !settled.converged {
@@ -439,7 +378,6 @@ pub fn step<O: Step>(
     c.held = true;
     c.memory.hold(out.pivot);
     st.take(ops.q(), t, out.det, s.rates);
-    st.learn(from.filter(|_| smooth).map(|applied| (&start[..], applied)), again);
     if s.rates && out.pivot > 0.0 {
         ops.rates(&mut st.qd, &mut st.qdd)?;
         st.rates = true;
@@ -469,39 +407,6 @@ pub fn rates_with<E>(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The Hermite start carries the last start's error (the bias) at an
-    /// equal step only, and only while some chord of the last QUIET
-    /// instants took more than one correction; exact figures (tolerance 0).
-    #[test]
-    fn the_hermite_start_carries_the_last_error_at_an_equal_step() {
-        let mut st = MarchState::new(&[1.0, 2.0]);
-        (st.t, st.before) = (1.0, 0.9);
-        st.prev = vec![0.9, 1.9, 1.0, 1.0, 0.0, 0.0];
-        (st.qd, st.qdd) = (vec![1.0, 1.0], vec![0.0, 0.0]);
-        let mut plain = [0.0; 2];
-        assert_eq!(chord_start(&st, 1.1, &mut plain), Some(false));
-        // the chord settled 1e-13 and -2e-13 away from this start in two corrections
-        st.q = vec![plain[0] + 1e-13, plain[1] - 2e-13];
-        st.learn(Some((&plain, false)), true);
-        assert!(st.biased && st.bias == vec![st.q[0] - plain[0], st.q[1] - plain[1]]);
-        let mut start = [0.0; 2];
-        st.q = vec![1.0, 2.0];
-        assert_eq!(chord_start(&st, 1.1, &mut start), Some(true));
-        assert_eq!(start, [plain[0] + st.bias[0], plain[1] + st.bias[1]]);
-        // another step: no bias
-        assert_eq!(chord_start(&st, 1.15, &mut start), Some(false));
-        // a state taken anew holds none until it learns again; QUIET instants of one correction end it
-        st.take(&[1.0, 2.0], 1.1, 1, true);
-        assert!(!st.biased);
-        for _ in 0..QUIET {
-            st.learn(Some((&plain, false)), false);
-            assert!(st.biased);
-        }
-        st.biased = false;
-        st.learn(Some((&plain, false)), false);
-        assert!(!st.biased);
-    }
 
     /// The contraction a chord may assume: none before a measurement, with a
     /// singular held factorisation or after RECENT instants; the measured
