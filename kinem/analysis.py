@@ -54,10 +54,13 @@ class Data:
         return cls(q=model.q0.copy(), trace=[] if trace else None)
 
 
-def _factor(model, data, q, t) -> Factor:
+def _factor(model, data, q, t, angles=None) -> Factor:
+    """The factorisation at q (its Jacobian with ``angles``' e^{i q} where
+    given: the core's Angles, as a step holds them)."""
     data.jacobian_evaluations += 1
     data.factorizations += 1
-    return Factor(model, model.jac_values(q, t), data.solver)
+    values = model.jac_values(q, t) if angles is None else angles.jac(q, t)
+    return Factor(model, values, data.solver)
 
 
 # Jacobian reuse (modified Newton): a factorisation from a nearby
@@ -111,6 +114,8 @@ class Steps:
         self.phi = self.f = None
         self.r = self.previous = np.inf
         self.reused = 0
+        # e^{i q} as the core's march holds it (turned after a correction): the same figures, to the bit
+        self.angles = model.core.angles()
 
     @property
     def col_scale(self):
@@ -119,6 +124,7 @@ class Steps:
     def start(self, q, t):
         """A solve from q at t (the core's step)."""
         self.q, self.t = np.array(q, dtype=float), t
+        self.angles.start()
         self.r = self.previous = np.inf
         self.reused = 0
 
@@ -132,7 +138,7 @@ class Steps:
 
     def probe(self):
         """The size of one more Newton correction at q with the factorisation at hand (q unchanged)."""
-        dq = self.f.solve(-self.model.phi(self.q, self.t))
+        dq = self.f.solve(-self.angles.phi(self.q, self.t))
         return float(np.max(np.abs(dq) / self.model.col_scale)) if dq.size else 0.0
 
     def evaluate(self, it):
@@ -144,7 +150,7 @@ class Steps:
                 d.budget.spend(self.t)   # a least-squares step counts as an attempt
             else:
                 d.budget.check(self.t)
-        self.phi = m.phi(self.q, self.t)
+        self.phi = self.angles.phi(self.q, self.t)
         r = m.scaled_residual(self.phi)
         worst = int(np.argmax(r)) if r.size else 0
         residual = float(r[worst]) if r.size else 0.0
@@ -162,7 +168,7 @@ class Steps:
         elif last or self.reuse is None or self.reused >= REUSE_ITERATIONS or self.r > REUSE_RATE * self.previous:
             self.reuse = None  # full Newton from here on: a fresh Jacobian every iteration
             try:
-                self.f = _factor(m, d, self.q, self.t)
+                self.f = _factor(m, d, self.q, self.t, self.angles)
             except SingularError as e:
                 if not last:
                     raise

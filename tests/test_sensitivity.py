@@ -436,7 +436,10 @@ def test_one_pass_equals_the_solve_and_the_separate_sensitivities(path):
     instant, Plan.march_sensitivity) gives solve's trajectory to the bit and
     the derivatives of the separate pass (a solve, then Plan.sensitivity
     factorising again) to 1e-13 of the largest: the same Phi_q, factorised
-    the same way, at the same q."""
+    the same way, at the same q. The pivot ratios agree to 8 ulps of the
+    largest, not to the bit: the march's Phi_q takes e^{i q} turned by the
+    last correction's small angle (kinem/core/src/model.rs, follow: a few
+    roundings from sin_cos), the separate pass sin_cos's own."""
     from kinem.parameters import resolve
     from kinem.sensitivity import _derived_frames, _fused, _layout, core_inputs, tangent_inputs
 
@@ -457,7 +460,8 @@ def test_one_pass_equals_the_solve_and_the_separate_sensitivities(path):
     w = len(columns)
     for k, p in enumerate(listed):
         _derived_frames(model.case, p.path, columns, separate[:, k * w:(k + 1) * w], result.trajectory)
-    np.testing.assert_array_equal(ratio, ratio2)
+    assert np.abs(ratio - ratio2).max() <= 8 * np.finfo(float).eps * ratio2.max()
+    assert np.array_equal(ratio >= 1e-6, ratio2 >= 1e-6)
     whole = sensitivity(model, paths)
     regular = ratio >= 1e-6
     scale = np.abs(separate[regular]).max()

@@ -87,18 +87,18 @@ pub fn rejected(
     Why::Accepted
 }
 
-/// (correction, motion): the largest dimensionless |q - q_pred| and
-/// |q_pred - q_last|.
+/// The largest dimensionless |a - b| (lengths over their column scales):
+/// the correction from the predictor (q, q_pred) and the predicted motion
+/// (q_pred, q_last) that the acceptance test compares.
 #[inline]
-pub fn jump_sizes(q: &[f64], q_pred: &[f64], q_last: &[f64], col_scale: &[f64]) -> (f64, f64) {
-    let (mut corr, mut motion) = (0.0f64, 0.0f64);
-    let n = q.len();
-    let (q_pred, q_last, col_scale) = (&q_pred[..n], &q_last[..n], &col_scale[..n]);
+pub fn gap(a: &[f64], b: &[f64], col_scale: &[f64]) -> f64 {
+    let n = a.len();
+    let (b, col_scale) = (&b[..n], &col_scale[..n]);
+    let mut g = 0.0f64;
     for j in 0..n {
-        corr = corr.max((q[j] - q_pred[j]).abs() / col_scale[j]);
-        motion = motion.max((q_pred[j] - q_last[j]).abs() / col_scale[j]);
+        g = g.max((a[j] - b[j]).abs() / col_scale[j]);
     }
-    (corr, motion)
+    g
 }
 
 /// q at t extrapolated through the states h (3 rows of n) at times tt (3),

@@ -18,19 +18,19 @@
 //! scalar march's to the bit. A lane stops on its own at its first instant
 //! not accepted, with its reason (the caller solves it again alone, as it
 //! does a scalar march's); the others go on.
-use crate::accept::{jump_sizes, rejected, Why};
+use crate::accept::{gap, rejected, Why};
 use crate::families::At;
 use crate::lane_lu::LaneLu;
 use crate::lu::{Factors, Layout};
 use crate::march::{limited, residual, size, MarchState, Settings};
-use crate::model::Kin;
+use crate::model::{follow, Kin, Rotation};
 use crate::newton::{self, Ask, Settled, Settling, Verdict, CHORD_STEPS};
-use crate::real::{cis, Real};
+use crate::real::Real;
 use crate::step::{chord_start, predict, signs, Contraction};
 use crate::table::Table;
 use crate::watch::Watch;
 use crate::wide::Wide;
-use num_complex::Complex;
+use num_complex::{Complex, Complex64 as C64};
 use num_traits::{One, Zero};
 #[cfg(test)]
 use std::collections::HashMap;
@@ -124,6 +124,8 @@ struct Lane {
     held: bool,
     memory: Contraction,
     qp: Vec<f64>,
+    /// the predicted motion at this instant (dimensionless)
+    motion: f64,
     start: Vec<f64>,
     judge: bool,
     chord: Chord,
@@ -143,6 +145,8 @@ struct Room {
     e: Vec<Complex<W>>,
     /// the angles e holds (NaN: none yet)
     seen: Vec<W>,
+    /// per lane: q was set (a start), not corrected, since e was rotated
+    fresh: [bool; WIDTH],
     phi: Vec<W>,
     values: Vec<W>,
     qd: Vec<W>,
@@ -160,16 +164,19 @@ impl Room {
         }
     }
 
-    /// e = e^{i q} at the angle columns whose q moved in some lane (as
-    /// Kin::rotate_changed: a grounded or sliding body's angle keeps its sin and cos).
+    /// e = e^{i q} at the angle columns, lane by lane as march::Native's
+    /// (Kin::rotate_changed: kept where q has not moved, sin_cos after a
+    /// start, turned after a correction: model::follow).
     fn rotate(&mut self, kin: &Kin<W>) {
         for &j in &kin.angles {
-            let (q, seen) = (self.q[j].0, self.seen[j].0);
-            if (0..WIDTH).any(|l| q[l].to_bits() != seen[l].to_bits() || q[l].is_nan()) {
-                self.e[j] = cis(self.q[j]);
-                self.seen[j] = self.q[j];
+            let (e, seen, q) = (&mut self.e[j], &mut self.seen[j].0, &self.q[j].0);
+            for l in 0..WIDTH {
+                let mut z = C64::new(e.re.0[l], e.im.0[l]);
+                follow(q[l], &mut seen[l], &mut z, if self.fresh[l] { Rotation::Fresh } else { Rotation::Turn });
+                (e.re.0[l], e.im.0[l]) = (z.re, z.im);
             }
         }
+        self.fresh = [false; WIDTH];
     }
 }
 
@@ -195,6 +202,7 @@ pub fn march(
             st: MarchState::new(q0),
             held: false,
             memory: Contraction::none(),
+            motion: 0.0,
             qp: vec![0.0; n],
             start: vec![0.0; n],
             judge: false,
@@ -210,6 +218,7 @@ pub fn march(
         q: vec![W::zero(); n],
         e: vec![Complex::new(W::one(), W::zero()); n],
         seen: vec![W::c(f64::NAN); n],
+        fresh: [true; WIDTH],
         phi: vec![W::zero(); m],
         values: vec![W::zero(); wide.nnz],
         qd: vec![W::zero(); n],
@@ -248,12 +257,14 @@ pub fn march(
                 continue;
             }
             x.judge = predict(st, t, taylor_from, &mut x.qp);
+            x.motion = gap(&x.qp, &st.q, col_scale);
             if x.held {
                 let from = if chord_start(st, t, &mut x.start) { &x.start } else { &x.qp };
                 for j in 0..n {
                     r.q[j].0[l] = from[j];
                 }
-                x.chord = Chord::On(newton::Chord::new(x.memory.known()));
+                r.fresh[l] = true;
+                x.chord = Chord::On(newton::Chord::new(x.memory.known(x.motion)));
             }
             x.held = false;
         }
@@ -265,10 +276,7 @@ pub fn march(
             r.rotate(wide);
             wide.phi(&At { q: &r.q, e: &r.e, t }, &mut r.phi);
             if let Some(u) = lu.as_mut().filter(|u| u.fixed.iter().any(|&f| f)) {
-                for (b, &p) in r.rhs.iter_mut().zip(&r.phi) {
-                    *b = -p;
-                }
-                u.solve(&r.rhs, &mut dq);
+                u.solve(&r.phi, &mut dq);
             }
             for (l, x) in lanes.iter_mut().enumerate() {
                 let Chord::On(c) = &mut x.chord else { continue };
@@ -277,19 +285,16 @@ pub fn march(
                     x.chord = Chord::Failed;
                     continue;
                 }
-                // correct(max_step) as march::Native's
+                // correct(max_step) as march::Native's (q - f Phi_q^-1 Phi)
                 if fixed(&lu, l) {
                     Room::lane(&dq, l, &mut r.dq);
                 } else {
-                    for i in 0..m {
-                        r.b[i] = -r.one[i];
-                    }
-                    layout.solve(&mut x.f, &r.b, &mut r.dq);
+                    layout.solve(&mut x.f, &r.one[..m], &mut r.dq);
                 }
                 let big = size(&r.dq, col_scale);
                 let f = limited(big, s.max_step);
                 for j in 0..n {
-                    r.q[j].0[l] += f * r.dq[j];
+                    r.q[j].0[l] -= f * r.dq[j];
                 }
                 match c.corrected(step, big, s.tolerance) {
                     Verdict::Go => {}
@@ -303,14 +308,15 @@ pub fn march(
         for (l, x) in lanes.iter_mut().enumerate().filter(|(_, x)| live(x)) {
             (x.settled, x.newton) = match x.chord {
                 Chord::Done(settled, measured) => {
-                    x.memory.chorded(measured);
+                    x.memory.chorded(measured, x.motion);
                     (Some(settled), None)
                 }
                 _ => {
-                    x.memory = Contraction::none();
+                    x.memory.forget();
                     for j in 0..n {
                         r.q[j].0[l] = x.qp[j];
                     }
+                    r.fresh[l] = true;
                     (None, Some(Settling::new(s.tolerance, s.max_iterations, s.max_step, true)))
                 }
             };
@@ -345,7 +351,7 @@ pub fn march(
             };
             let (pivot, det, previous) = signs(stats, &x.st);
             Room::lane(&r.q, l, &mut r.dq);
-            let (corr, motion) = jump_sizes(&r.dq, &x.qp, &x.st.q, col_scale);
+            let (corr, motion) = (gap(&r.dq, &x.qp, col_scale), x.motion);
             let why =
                 rejected(pivot, settled.last_step, det, previous, corr, motion, x.judge, s.floor, s.tolerance, false);
             if why != Why::Accepted {
@@ -353,6 +359,7 @@ pub fn march(
                 continue;
             }
             x.held = true;
+            x.memory.hold(pivot);
             x.st.take(&r.dq, t, det, s.rates);
             if k == 0 {
                 x.det0 = det as i8;
@@ -410,14 +417,12 @@ fn settle(wide: &Kin<W>, layout: &Layout, t: f64, lanes: &mut [Lane], r: &mut Ro
         let mut result = [0.0; WIDTH];
         for (l, x) in lanes.iter_mut().enumerate() {
             let Some(Ask::Correct(limit)) = ask[l] else { continue };
-            for (b, p) in r.b.iter_mut().zip(&x.phi) {
-                *b = -p;
-            }
-            layout.solve(&mut x.f, &r.b, &mut r.dq);
+            // as march::Native::correct: q - f Phi_q^-1 Phi
+            layout.solve(&mut x.f, &x.phi, &mut r.dq);
             let big = size(&r.dq, &layout.col_scale);
             let f = limited(big, limit);
             for j in 0..n {
-                r.q[j].0[l] += f * r.dq[j];
+                r.q[j].0[l] -= f * r.dq[j];
             }
             result[l] = big;
         }

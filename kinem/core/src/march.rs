@@ -6,7 +6,7 @@
 use crate::accept::Why;
 use crate::families::At;
 use crate::lu::{Factors, Layout};
-use crate::model::Kin;
+use crate::model::{Kin, Rotation};
 use crate::newton::Ops;
 pub use crate::step::{rates_with, step, MarchState, Mode, Outcome, Settings, Step, Work, SINGULAR};
 use crate::watch::Watch;
@@ -50,6 +50,8 @@ pub struct Native<'a> {
     pub counts: [i64; 2],
     /// e holds e^{i q} of the current q (q has not moved since)
     rotated: bool,
+    /// q was set (start), not corrected, since e was rotated: sin_cos, no turn
+    fresh: bool,
 }
 
 impl<'a> Native<'a> {
@@ -68,6 +70,7 @@ impl<'a> Native<'a> {
             t: 0.0,
             counts: [0, 0],
             rotated: false,
+            fresh: true,
         }
     }
 }
@@ -104,12 +107,14 @@ pub fn limited(big: f64, limit: f64) -> f64 {
 }
 
 impl Native<'_> {
-    /// e = e^{i q} at the angle columns, once per configuration.
+    /// e = e^{i q} at the angle columns, once per configuration: sin_cos
+    /// after a start, turned after a correction (model::follow).
     #[inline]
     fn rotate(&mut self) {
         if !self.rotated {
-            self.kin.rotate_changed(&self.q, &mut self.e, &mut self.seen);
-            self.rotated = true;
+            let how = if self.fresh { Rotation::Fresh } else { Rotation::Turn };
+            self.kin.rotate_changed(&self.q, &mut self.e, &mut self.seen, how);
+            (self.rotated, self.fresh) = (true, false);
         }
     }
 }
@@ -134,15 +139,15 @@ impl Ops for Native<'_> {
         Ok(())
     }
 
+    /// q -= Phi_q^-1 Phi: dq = Phi_q^-1 Phi, then q - f dq (the solve's
+    /// operations are odd in b, so these are the figures of q + f Phi_q^-1 (-Phi)
+    /// to the bit, without negating Phi).
     fn correct(&mut self, limit: f64) -> Result<f64, Infallible> {
-        for (b, p) in self.b.iter_mut().zip(&self.phi) {
-            *b = -p;
-        }
-        self.layout.solve(&mut self.f, &self.b, &mut self.dq);
+        self.layout.solve(&mut self.f, &self.phi, &mut self.dq);
         let big = size(&self.dq, &self.layout.col_scale);
         let f = limited(big, limit);
         for (q, d) in self.q.iter_mut().zip(&self.dq) {
-            *q += f * d;
+            *q -= f * d;
         }
         self.rotated = false;
         Ok(big)
@@ -153,7 +158,7 @@ impl Step for Native<'_> {
     fn start(&mut self, q: &[f64], t: f64) -> Result<(), Infallible> {
         self.q.copy_from_slice(q);
         self.t = t;
-        self.rotated = false;
+        (self.rotated, self.fresh) = (false, true);
         Ok(())
     }
 
@@ -179,10 +184,8 @@ impl Step for Native<'_> {
 
     fn probe(&mut self) -> Result<f64, Infallible> {
         self.evaluate(-1)?;
-        for (b, p) in self.b.iter_mut().zip(&self.phi) {
-            *b = -p;
-        }
-        self.layout.solve(&mut self.f, &self.b, &mut self.dq);
+        // |Phi_q^-1 Phi| = |Phi_q^-1 (-Phi)|, as in `correct`
+        self.layout.solve(&mut self.f, &self.phi, &mut self.dq);
         Ok(size(&self.dq, &self.layout.col_scale))
     }
 

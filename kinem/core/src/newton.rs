@@ -230,9 +230,13 @@ pub const ROUNDING: f64 = 2e-15;
 /// At most this many chord corrections, then Newton.
 pub const CHORD_STEPS: usize = 5;
 /// A contraction measured this many instants ago or less may stand for the
-/// current one (doubled): the chord then stops after its first correction
-/// when that times the contraction is at rounding.
-pub const RECENT: u32 = 4;
+/// current one (scaled by the instants' motions and pivot ratios,
+/// crate::step::Contraction, and doubled): the chord then stops after its
+/// first correction when that times the contraction is at rounding. The
+/// scaling follows the contraction's drift; the age bounds how far the
+/// Jacobian's curvature it assumes is carried (any chord whose first
+/// correction is not proved measures a new one).
+pub const RECENT: u32 = 100;
 
 /// The book's modified Newton-Raphson with the factorisation the
 /// operations already hold (the previous instant's, at its corrected q):
@@ -245,7 +249,7 @@ pub const RECENT: u32 = 4;
 /// `CHORD_STEPS`. The iterations counted are the corrections made before
 /// the residual met the tolerance (the others are the final correction, as
 /// in `settle`); the last step is the last correction. `known`: a recent
-/// contraction (the march's, at most `RECENT` instants old; infinite: none),
+/// contraction (the march's, scaled to this instant, crate::step::Contraction; infinite: none),
 /// which, doubled, stands for this one's at the first correction; returned
 /// with the contraction measured here (NaN: none, one correction).
 pub fn chord<O: Ops>(

@@ -12,7 +12,7 @@
 //! trace; modified Newton). The tracker (kinem/tracking.py) keeps the
 //! policy around it: halving, stepping over a limit position, landing on an
 //! output instant.
-use crate::accept::{codes, hermite, jump_sizes, lagrange, rejected, taylor, Why};
+use crate::accept::{codes, gap, hermite, lagrange, rejected, taylor, Why};
 use crate::families::At;
 use crate::model::Kin;
 use crate::newton::{chord, settle, Ops, Settled, RECENT};
@@ -194,35 +194,63 @@ pub struct Work {
     start: Vec<f64>,
 }
 
-/// The chord's last measured contraction and the instants since: what
-/// newton::chord takes as `known`.
+/// The chord's last measured contraction, what it was measured with and the
+/// instants since: what newton::chord takes as `known`. A chord with the
+/// factorisation at the last accepted q contracts by about
+/// |Phi_q^-1 (Phi_q' - Phi_q)| <= |Phi_q^-1| L |dq| (L: the Jacobian's change per unit
+/// motion), so the measured contraction stands for an instant's scaled by
+/// the ratio of the instants' motions (the predicted motion from the last
+/// accepted q) and of the held factorisations' pivot ratios (|Phi_q^-1|'s
+/// proxy), where they grew; for at most `RECENT` instants.
 #[derive(Clone, Copy)]
 pub struct Contraction {
     theta: f64,
+    /// the predicted motion of the instant it was measured at, and the pivot
+    /// ratio of the factorisation it was measured with
+    motion: f64,
+    pivot: f64,
     age: u32,
+    /// the pivot ratio of the factorisation held now
+    held: f64,
 }
 
 impl Contraction {
     pub fn none() -> Self {
-        Contraction { theta: f64::INFINITY, age: RECENT + 1 }
+        Contraction { theta: f64::INFINITY, motion: 0.0, pivot: 0.0, age: RECENT + 1, held: 0.0 }
     }
 
-    /// The contraction the next chord may assume (infinite: none recent enough).
-    pub fn known(&self) -> f64 {
-        if self.age <= RECENT {
-            self.theta
+    /// The contraction the next chord may assume at an instant of predicted
+    /// motion `motion` (infinite: none recent enough, or a singular held factorisation).
+    #[inline]
+    pub fn known(&self, motion: f64) -> f64 {
+        if self.age <= RECENT && self.held > 0.0 {
+            // NaN ratios (no motion at either instant) leave the factor 1
+            self.theta * 1f64.max(motion / self.motion) * 1f64.max(self.pivot / self.held)
         } else {
             f64::INFINITY
         }
     }
 
-    /// After a chord that settled, with the contraction it measured (NaN: none).
-    pub fn chorded(&mut self, measured: f64) {
+    /// After a chord that settled at an instant of predicted motion
+    /// `motion`, with the contraction it measured (NaN: none).
+    #[inline]
+    pub fn chorded(&mut self, measured: f64, motion: f64) {
         if measured.is_nan() {
             self.age += 1;
         } else {
-            (self.theta, self.age) = (measured, 0);
+            (self.theta, self.motion, self.pivot, self.age) = (measured, motion, self.held, 0);
         }
+    }
+
+    /// A chord gave up: no contraction at hand (the held factorisation's figure kept).
+    pub fn forget(&mut self) {
+        *self = Contraction { held: self.held, ..Contraction::none() };
+    }
+
+    /// The factorisation at an accepted q, of pivot ratio `pivot`, is held for the next chord.
+    #[inline]
+    pub fn hold(&mut self, pivot: f64) {
+        self.held = pivot;
     }
 }
 
@@ -303,18 +331,19 @@ pub fn step<O: Step>(
         }
     }
     let judge = predict(st, t, taylor_from, qp);
+    let motion = gap(qp, &st.q, ops.col_scale());
     // the chord with the last instant's factorisation, from the Hermite start when the last two
     // instants are at hand, else (or when it contracts too slowly) Newton from the predictor
     ops.start(if c.held && chord_start(st, t, start) { start } else { qp }, t)?;
-    let chorded = if c.held { chord(ops, s.tolerance, s.max_step, c.memory.known())? } else { None };
+    let chorded = if c.held { chord(ops, s.tolerance, s.max_step, c.memory.known(motion))? } else { None };
     c.held = false;
     let settled = match chorded {
         Some((settled, measured)) => {
-            c.memory.chorded(measured);
+            c.memory.chorded(measured, motion);
             settled
         }
         None => {
-            c.memory = Contraction::none();
+            c.memory.forget();
             ops.start(qp, t)?;
             settle(ops, s.tolerance, s.max_iterations, s.max_step, true)?
         }
@@ -326,7 +355,7 @@ pub fn step<O: Step>(
     let previous;
     (out.pivot, out.det, previous) = signs(ops.stats()?, st);
     ops.fetch()?;
-    (out.corr, out.motion) = jump_sizes(ops.q(), qp, &st.q, ops.col_scale());
+    (out.corr, out.motion) = (gap(ops.q(), qp, ops.col_scale()), motion);
     out.why = match mode {
         Mode::Assemble if out.pivot > 0.0 && ops.q().iter().all(|v| v.is_finite()) => Why::Accepted,
         Mode::Assemble => Why::NearSingular,
@@ -347,6 +376,7 @@ pub fn step<O: Step>(
     }
     // the factorisation at the accepted q serves the rates and the next instant's chord
     c.held = true;
+    c.memory.hold(out.pivot);
     st.take(ops.q(), t, out.det, s.rates);
     if s.rates && out.pivot > 0.0 {
         ops.rates(&mut st.qd, &mut st.qdd)?;
@@ -372,4 +402,40 @@ pub fn rates_with<E>(
     solve(nu, qd)?;
     kin.gamma(at, qd, gamma);
     solve(gamma, qdd)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The contraction a chord may assume: none before a measurement, with a
+    /// singular held factorisation or after RECENT instants; the measured
+    /// one where motion and pivot ratio have not grown, scaled up (exactly,
+    /// tolerance 0) where the motion grew or the pivot ratio fell.
+    #[test]
+    fn a_measured_contraction_stands_scaled_by_motion_and_pivot() {
+        let mut c = Contraction::none();
+        c.hold(0.1);
+        assert_eq!(c.known(1e-3), f64::INFINITY);
+        c.chorded(4e-3, 1e-3);
+        c.hold(0.1);
+        assert_eq!(c.known(1e-3), 4e-3);
+        assert_eq!(c.known(0.5e-3), 4e-3);
+        assert_eq!(c.known(3e-3), 4e-3 * 3.0);
+        c.hold(0.05);
+        assert_eq!(c.known(3e-3), 4e-3 * 3.0 * 2.0);
+        c.hold(0.0);
+        assert_eq!(c.known(1e-3), f64::INFINITY);
+        c.hold(0.1);
+        for _ in 0..RECENT {
+            c.chorded(f64::NAN, 1e-3);
+        }
+        assert_eq!(c.known(1e-3), 4e-3);
+        c.chorded(f64::NAN, 1e-3);
+        assert_eq!(c.known(1e-3), f64::INFINITY);
+        c.chorded(2e-3, 0.0);
+        assert_eq!(c.known(0.0), 2e-3);
+        c.forget();
+        assert_eq!(c.known(0.0), f64::INFINITY);
+    }
 }

@@ -1,7 +1,7 @@
 //! Revolute-revolute composite joint (Eq. 4.13; Jacobian Table 4.2; gamma
 //! Table 4.3) and the distance driver, its extension with a length l(t)
 //! that follows a function (a linear actuator between two points).
-use super::{dot, i, rd, At, Shared};
+use super::{dot, i, At, Shared};
 use crate::real::Real;
 use crate::table::Table;
 use num_complex::Complex;
@@ -10,7 +10,11 @@ use num_complex::Complex;
 /// Columns: ci, cj the bodies' x columns; si, sj the points P on each;
 /// f the length's function (a constant for revolute-revolute), an index
 /// into the model's functions.
+///
+/// Invariants (checked in `new`): cj, si, sj, f as long as ci; every ci, cj
+/// below n - 2; so a kernel that checked `At::holds(n)` reads them unchecked.
 pub struct Distance<S = f64> {
+    n: usize,
     ci: Vec<usize>,
     cj: Vec<usize>,
     si: Vec<Complex<S>>,
@@ -27,6 +31,7 @@ impl<S: Real> Distance<S> {
             si: t.cplx_s("si")?,
             sj: t.cplx_s("sj")?,
             f: t.index("f", functions)?,
+            n,
             ci,
         })
     }
@@ -45,17 +50,22 @@ impl<S: Real> Distance<S> {
     }
 
     /// d = r_j + A_j s'_j - r_i - A_i s'_i, A_i s'_i, A_j s'_j.
+    ///
+    /// # Safety
+    /// c < ci.len() and `at.holds(n)` (Distance's invariants).
     #[inline(always)]
-    fn parts(&self, at: &At<S>, c: usize) -> (Complex<S>, Complex<S>, Complex<S>) {
-        let (a, b) = (self.ci[c], self.cj[c]);
-        let (sa, sb) = (self.si[c] * at.rot(a), self.sj[c] * at.rot(b));
-        (at.r(b) + sb - at.r(a) - sa, sa, sb)
+    unsafe fn parts(&self, at: &At<S>, c: usize) -> (Complex<S>, Complex<S>, Complex<S>) {
+        let (a, b) = (*self.ci.get_unchecked(c), *self.cj.get_unchecked(c));
+        let (sa, sb) = (*self.si.get_unchecked(c) * at.rot_at(a), *self.sj.get_unchecked(c) * at.rot_at(b));
+        (at.r_at(b) + sb - at.r_at(a) - sa, sa, sb)
     }
 
     /// Eq. 4.13: d . d - l(t)^2.
     pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
+        assert!(at.holds(self.n) && out.len() <= self.ci.len());
         for (c, o) in out.iter_mut().enumerate() {
-            let (d, _, _) = self.parts(at, c);
+            // SAFETY: c < out.len() <= ci.len(), q and e hold n (asserted above)
+            let (d, _, _) = unsafe { self.parts(at, c) };
             let l = s.functions.eval(self.f[c], at.t, 0);
             *o = d.re * d.re + d.im * d.im - l * l;
         }
@@ -63,9 +73,11 @@ impl<S: Real> Distance<S> {
 
     /// 2 [-d^T, -d^T B_i s'_i, d^T, d^T B_j s'_j] (Table 4.2).
     pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
-        for c in 0..self.ci.len() {
-            let (d, a, b) = self.parts(at, c);
-            out[6 * c..6 * c + 6].copy_from_slice(&[
+        assert!(at.holds(self.n) && out.len() >= 6 * self.ci.len());
+        for (c, o) in out.chunks_exact_mut(6).take(self.ci.len()).enumerate() {
+            // SAFETY: c < ci.len(), q and e hold n (asserted above)
+            let (d, a, b) = unsafe { self.parts(at, c) };
+            o.copy_from_slice(&[
                 d.re * -2.0,
                 d.im * -2.0,
                 (d.im * a.re - d.re * a.im) * -2.0,
@@ -86,11 +98,15 @@ impl<S: Real> Distance<S> {
     /// -2 d'.d' - 2 d.(A_i s'_i w_i^2 - A_j s'_j w_j^2) (Table 4.3), plus
     /// (l^2)'' = 2 (l'^2 + l l'') for a distance driver.
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
+        assert!(at.holds(self.n) && qd.len() >= self.n && out.len() <= self.ci.len());
         for (c, o) in out.iter_mut().enumerate() {
-            let (x, y) = (self.ci[c], self.cj[c]);
-            let (d, a, b) = self.parts(at, c);
-            let (wi, wj) = (qd[x + 2], qd[y + 2]);
-            let dd = rd(qd, y) + i::<S>() * b * wj - rd(qd, x) - i::<S>() * a * wi;
+            // SAFETY: c < out.len() <= ci.len(), q, e and qd hold n (asserted above), x, y < n - 2
+            let ((d, a, b), wi, wj, rx, ry) = unsafe {
+                let (x, y) = (*self.ci.get_unchecked(c), *self.cj.get_unchecked(c));
+                let r = |k: usize| Complex::new(*qd.get_unchecked(k), *qd.get_unchecked(k + 1));
+                (self.parts(at, c), *qd.get_unchecked(x + 2), *qd.get_unchecked(y + 2), r(x), r(y))
+            };
+            let dd = ry + i::<S>() * b * wj - rx - i::<S>() * a * wi;
             let e = a * (wi * wi) - b * (wj * wj);
             let f = self.f[c];
             let second = if s.functions.constant(f) {

@@ -9,7 +9,12 @@ use crate::table::Table;
 /// (negative when one gear is internal). Columns: ai, aj, ak the angle
 /// columns of gears i, j and carrier k (any valid column without one),
 /// carrier (flag), ri, rj (signed), phi0.
+///
+/// Invariants (checked in `new`): aj, ak, w, ri, rj, phi0 as long as ai;
+/// every ai, aj, ak below n; so Phi, having checked that q holds n, reads
+/// them unchecked.
 pub struct Gear<S = f64> {
+    n: usize,
     ai: Vec<usize>,
     aj: Vec<usize>,
     ak: Vec<usize>,
@@ -39,6 +44,7 @@ impl<S: Real> Gear<S> {
             ak: t.index("ak", n)?,
             w: carrier.iter().map(|&k| if k { 1.0 } else { 0.0 }).collect(),
             phi0: t.real_s("phi0")?,
+            n,
             ai,
             ri,
             rj,
@@ -56,9 +62,15 @@ impl<S: Real> Gear<S> {
 
     /// Eq. 4.18 (Eq. 4.17 with w = 0).
     pub fn phi(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
+        assert!(at.q.len() >= self.n && out.len() <= self.ai.len());
         for (c, o) in out.iter_mut().enumerate() {
-            let pk = at.q[self.ak[c]] * self.w[c];
-            *o = self.ri[c] * (at.q[self.ai[c]] - pk) + self.rj[c] * (at.q[self.aj[c]] - pk - self.phi0[c]);
+            // SAFETY: c < out.len() <= ai.len() (the other columns as long), every index below n <= q.len()
+            *o = unsafe {
+                let q = |k: &Vec<usize>| *at.q.get_unchecked(*k.get_unchecked(c));
+                let pk = q(&self.ak) * *self.w.get_unchecked(c);
+                *self.ri.get_unchecked(c) * (q(&self.ai) - pk)
+                    + *self.rj.get_unchecked(c) * (q(&self.aj) - pk - *self.phi0.get_unchecked(c))
+            };
         }
     }
 

@@ -8,7 +8,7 @@
 //! u = P_i - Q_i, d = P_j - P_i, and Eq. 4.16 with a = j, u = Q_j - P_j,
 //! d = P_i - P_j. A translational joint adds the row
 //! phi_i - phi_j - (phi_i^0 - phi_j^0) = 0 (Eq. 4.10 as corrected).
-use super::{cross, dot, i, rd, At, Shared};
+use super::{cross, dot, i, At, Shared};
 use crate::real::Real;
 use crate::table::Table;
 use num_complex::Complex;
@@ -18,7 +18,12 @@ use num_complex::Complex;
 /// (the point on b); ai, aj, phi0 the angle row's columns and constant,
 /// either all empty (revolute-translational: one row per constraint) or
 /// one per constraint (translational: two rows).
+///
+/// Invariants (checked in `new`): pa, ua, cb, ob as long as ca (and ai, aj,
+/// phi0 when `angle`); every ca, cb below n - 2, every ai, aj below n; so a
+/// kernel that checked `At::holds(n)` reads them unchecked.
 pub struct Line<S = f64> {
+    n: usize,
     ca: Vec<usize>,
     pa: Vec<Complex<S>>,
     ua: Vec<Complex<S>>,
@@ -53,6 +58,7 @@ impl<S: Real> Line<S> {
             ob: t.cplx_s("ob")?,
             aj: t.index("aj", n)?,
             phi0: t.real_s("phi0")?,
+            n,
             ca,
             ai,
             angle,
@@ -75,22 +81,30 @@ impl<S: Real> Line<S> {
         (if self.angle { 8 } else { 6 }) * self.ca.len()
     }
 
+    /// # Safety
+    /// c < ca.len() and `at.holds(n)` (Line's invariants).
     #[inline(always)]
-    fn parts(&self, at: &At<S>, c: usize) -> Parts<S> {
-        let (a, b) = (self.ca[c], self.cb[c]);
-        let (ea, eb) = (at.rot(a), at.rot(b));
-        let (sa, sb) = (self.pa[c] * ea, self.ob[c] * eb);
-        Parts { u: self.ua[c] * ea, d: at.r(b) + sb - at.r(a) - sa, sa, sb }
+    unsafe fn parts(&self, at: &At<S>, c: usize) -> Parts<S> {
+        let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
+        let (ea, eb) = (at.rot_at(a), at.rot_at(b));
+        let (sa, sb) = (*self.pa.get_unchecked(c) * ea, *self.ob.get_unchecked(c) * eb);
+        Parts { u: *self.ua.get_unchecked(c) * ea, d: at.r_at(b) + sb - at.r_at(a) - sa, sa, sb }
     }
 
     /// u x d (Eqs. 4.12, 4.16), then phi_i - phi_j - phi0 for translational joints.
     pub fn phi(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         let per = self.per();
+        assert!(at.holds(self.n) && out.len() >= per * self.ca.len());
         for c in 0..self.ca.len() {
-            let p = self.parts(at, c);
-            out[per * c] = cross(p.u, p.d);
-            if self.angle {
-                out[2 * c + 1] = at.q[self.ai[c]] - at.q[self.aj[c]] - self.phi0[c];
+            // SAFETY: c < ca.len(), q and e hold n (asserted above), the invariants of `Line`
+            unsafe {
+                let p = self.parts(at, c);
+                *out.get_unchecked_mut(per * c) = cross(p.u, p.d);
+                if self.angle {
+                    let (i, j) = (*self.ai.get_unchecked(c), *self.aj.get_unchecked(c));
+                    *out.get_unchecked_mut(2 * c + 1) =
+                        *at.q.get_unchecked(i) - *at.q.get_unchecked(j) - *self.phi0.get_unchecked(c);
+                }
             }
         }
     }
@@ -99,9 +113,10 @@ impl<S: Real> Line<S> {
     /// [phi_i, phi_j] = [1, -1] for translational joints.
     pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         let width = if self.angle { 8 } else { 6 };
-        for c in 0..self.ca.len() {
-            let p = self.parts(at, c);
-            let o = &mut out[width * c..width * c + width];
+        assert!(at.holds(self.n) && out.len() >= width * self.ca.len());
+        for (c, o) in out.chunks_exact_mut(width).take(self.ca.len()).enumerate() {
+            // SAFETY: c < ca.len(), q and e hold n (asserted above)
+            let p = unsafe { self.parts(at, c) };
             o[..6].copy_from_slice(&[p.u.im, -p.u.re, -dot(p.u, p.d + p.sa), -p.u.im, p.u.re, dot(p.u, p.sb)]);
             if self.angle {
                 o[6] = S::one();
@@ -113,15 +128,24 @@ impl<S: Real> Line<S> {
     /// -(u x d)'' without the acceleration terms (Table 4.3), then 0.
     pub fn gamma(&self, at: &At<S>, qd: &[S], _: &Shared<S>, out: &mut [S]) {
         let per = self.per();
+        assert!(at.holds(self.n) && qd.len() >= self.n && out.len() >= per * self.ca.len());
         for c in 0..self.ca.len() {
-            let p = self.parts(at, c);
-            let (a, b) = (self.ca[c], self.cb[c]);
-            let (wa, wb) = (qd[a + 2], qd[b + 2]);
-            let dd = rd(qd, b) + i::<S>() * p.sb * wb - rd(qd, a) - i::<S>() * p.sa * wa;
-            out[per * c] =
-                wa * wa * cross(p.u, p.d) + wa * dot(p.u, dd) * 2.0 + cross(p.u, p.sb * (wb * wb) - p.sa * (wa * wa));
-            if self.angle {
-                out[2 * c + 1] = S::zero();
+            // SAFETY: c < ca.len(), q, e and qd hold n (asserted above), the invariants of `Line`
+            unsafe {
+                let p = self.parts(at, c);
+                let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
+                let (wa, wb) = (*qd.get_unchecked(a + 2), *qd.get_unchecked(b + 2));
+                let (ra, rb) = (
+                    Complex::new(*qd.get_unchecked(a), *qd.get_unchecked(a + 1)),
+                    Complex::new(*qd.get_unchecked(b), *qd.get_unchecked(b + 1)),
+                );
+                let dd = rb + i::<S>() * p.sb * wb - ra - i::<S>() * p.sa * wa;
+                *out.get_unchecked_mut(per * c) = wa * wa * cross(p.u, p.d)
+                    + wa * dot(p.u, dd) * 2.0
+                    + cross(p.u, p.sb * (wb * wb) - p.sa * (wa * wa));
+                if self.angle {
+                    *out.get_unchecked_mut(2 * c + 1) = S::zero();
+                }
             }
         }
     }

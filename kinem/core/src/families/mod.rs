@@ -54,6 +54,34 @@ impl<S: Real> At<'_, S> {
     pub fn rot(&self, c: usize) -> Complex<S> {
         self.e[c + 2]
     }
+
+    /// Whether q and e hold n coordinates (a kernel checks it once per
+    /// call, then reads the columns its table was checked against n
+    /// without bounds checks: `r_at`, `rot_at`).
+    #[inline(always)]
+    pub fn holds(&self, n: usize) -> bool {
+        self.q.len() >= n && self.e.len() >= n
+    }
+
+    /// `r` without a bounds check.
+    ///
+    /// # Safety
+    /// c + 1 < q.len() (a body's x column c < n - 2 where `holds(n)`).
+    #[inline(always)]
+    pub unsafe fn r_at(&self, c: usize) -> Complex<S> {
+        debug_assert!(c + 1 < self.q.len());
+        Complex::new(*self.q.get_unchecked(c), *self.q.get_unchecked(c + 1))
+    }
+
+    /// `rot` without a bounds check.
+    ///
+    /// # Safety
+    /// c + 2 < e.len() (a body's x column c < n - 2 where `holds(n)`).
+    #[inline(always)]
+    pub unsafe fn rot_at(&self, c: usize) -> Complex<S> {
+        debug_assert!(c + 2 < self.e.len());
+        *self.e.get_unchecked(c + 2)
+    }
 }
 
 /// r' = xd + i yd of the body whose x column is c.

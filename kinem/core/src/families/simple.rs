@@ -17,7 +17,11 @@ use num_complex::Complex;
 /// component, else 0.0), point and relative (flags: which Jacobian entries
 /// the row has besides its 1 in column a), f (the driving function, an
 /// index into the model's functions; a constant for ground and absolute).
+///
+/// Invariant (checked in `new`): every row's a, angle and k below n, so a
+/// kernel that checked `At::holds(n)` reads their columns unchecked.
 pub struct Simple<S = f64> {
+    n: usize,
     rows: Vec<Row<S>>,
     entries: usize,
 }
@@ -34,6 +38,8 @@ struct Row<S> {
     mx: f64,
     my: f64,
     point: bool,
+    /// mx or my is not 0: the row has a point term (set in `new`)
+    term: bool,
     relative: bool,
     f: usize,
     driven: bool,
@@ -42,10 +48,13 @@ struct Row<S> {
 
 impl<S: Real> Row<S> {
     /// The point term: mx Re(A_i s') + my Im(A_i s'), if the row has one.
+    ///
+    /// # Safety
+    /// angle < e.len() (Simple's invariant where `At::holds(n)`).
     #[inline(always)]
-    fn point_term(&self, at: &At<S>) -> Option<S> {
-        if self.mx != 0.0 || self.my != 0.0 {
-            let s = self.local * at.e[self.angle];
+    unsafe fn point_term(&self, at: &At<S>) -> Option<S> {
+        if self.term {
+            let s = self.local * *at.e.get_unchecked(self.angle);
             Some(s.re * self.mx + s.im * self.my)
         } else {
             None
@@ -83,13 +92,14 @@ impl<S: Real> Simple<S> {
                 mx: mx[r],
                 my: my[r],
                 point: point[r],
+                term: mx[r] != 0.0 || my[r] != 0.0,
                 relative: relative[r],
                 f: f[r],
                 driven: true,
                 value: S::zero(),
             })
             .collect();
-        Ok(Simple { rows, entries })
+        Ok(Simple { n, rows, entries })
     }
 
     /// Takes each constant function's value (a ground's, an absolute
@@ -116,9 +126,12 @@ impl<S: Real> Simple<S> {
 
     /// Eqs. 4.31-4.40: q_a - w q_k + point term - f(t).
     pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
+        assert!(at.holds(self.n));
         for (row, o) in self.rows.iter().zip(out) {
-            let mut v = at.q[row.a] - at.q[row.k] * row.w - row.drive(at.t, 0, s);
-            if let Some(p) = row.point_term(at) {
+            // SAFETY: a, k, angle < n (new), q and e hold n (asserted above)
+            let (qa, qk, p) = unsafe { (*at.q.get_unchecked(row.a), *at.q.get_unchecked(row.k), row.point_term(at)) };
+            let mut v = qa - qk * row.w - row.drive(at.t, 0, s);
+            if let Some(p) = p {
                 v = v + p;
             }
             *o = v;
@@ -128,12 +141,14 @@ impl<S: Real> Simple<S> {
     /// 1 in column a; d(point term)/dphi_i = (B_i s')_c if a point; -1 in
     /// phi_k if relative (the pattern's order: a, angle, k, kept entries only).
     pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
+        assert!(at.holds(self.n));
         let mut e = 0;
         for row in &self.rows {
             out[e] = S::one();
             e += 1;
             if row.point {
-                let s = row.local * at.e[row.angle];
+                // SAFETY: angle < n (new), e holds n (asserted above)
+                let s = row.local * unsafe { *at.e.get_unchecked(row.angle) };
                 out[e] = s.re * row.my - s.im * row.mx;
                 e += 1;
             }
@@ -153,10 +168,12 @@ impl<S: Real> Simple<S> {
 
     /// Eq. 4.38 and the point forms: f''(t) + (A_i s')_c w_i^2.
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
+        assert!(at.holds(self.n) && qd.len() >= self.n);
         for (row, o) in self.rows.iter().zip(out) {
             let mut v = row.drive(at.t, 2, s);
-            if let Some(p) = row.point_term(at) {
-                let w = qd[row.angle];
+            // SAFETY: angle < n (new), e and qd hold n (asserted above)
+            if let Some(p) = unsafe { row.point_term(at) } {
+                let w = unsafe { *qd.get_unchecked(row.angle) };
                 v = v + p * (w * w);
             }
             *o = v;

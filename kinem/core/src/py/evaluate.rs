@@ -37,6 +37,12 @@ impl Core {
         self.kin.nnz
     }
 
+    /// e^{i q} as a step holds it, with Phi and the Jacobian at it
+    /// (Angles: kinem.analysis.Steps).
+    fn angles(&self) -> Angles {
+        Angles::new(self.kin.clone())
+    }
+
     /// Phi at Q (K, n), T (K,): (K, m).
     fn phi<'py>(
         &self,

@@ -10,7 +10,7 @@ use crate::accept::{self, Why};
 use crate::families::At;
 use crate::lu::{Factors, Layout, Shape};
 use crate::march;
-use crate::model::Kin;
+use crate::model::{Kin, Rotation};
 use crate::newton::{self, Ops};
 use crate::table::Table;
 use crate::watch::Watch;
@@ -161,7 +161,7 @@ mod step;
 
 use evaluate::Core;
 use plan::Plan;
-use step::{Lu, MarchState, Outcome};
+use step::{Angles, Lu, MarchState, Outcome};
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -193,6 +193,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(functions::outline_radius, m)?)?;
     m.add_class::<Plan>()?;
     m.add_class::<Lu>()?;
+    m.add_class::<Angles>()?;
     m.add_function(wrap_pyfunction!(step::settle, m)?)?;
     m.add_function(wrap_pyfunction!(functions::columns, m)?)?;
     m.add_function(wrap_pyfunction!(step::step, m)?)?;

@@ -38,6 +38,82 @@ impl Lu {
     }
 }
 
+/// e^{i q} at a step's q as the core's march holds it (march::Native,
+/// Kin::rotate_changed): kept where q has not moved, sin_cos after
+/// `start`, turned by a correction's small angle after one (model::follow);
+/// Phi and the Jacobian's values with it. kinem.analysis.Steps evaluates
+/// with it (Core.angles()), and the step's rates read its e, so that its
+/// steps agree with the core's to the bit.
+#[pyclass(module = "kinem._core")]
+pub(crate) struct Angles {
+    kin: Arc<Kin>,
+    e: Vec<C64>,
+    seen: Vec<f64>,
+    fresh: bool,
+}
+
+impl Angles {
+    pub(crate) fn new(kin: Arc<Kin>) -> Self {
+        let n = kin.n;
+        Angles { kin, e: vec![C64::new(1.0, 0.0); n], seen: vec![f64::NAN; n], fresh: true }
+    }
+
+    /// e at q as march::Native brings it there.
+    fn at(&mut self, q: &[f64]) -> PyResult<()> {
+        if q.len() != self.kin.n {
+            return Err(value_error("Angles: q has the wrong size"));
+        }
+        let how = if self.fresh { Rotation::Fresh } else { Rotation::Turn };
+        self.kin.rotate_changed(q, &mut self.e, &mut self.seen, how);
+        self.fresh = false;
+        Ok(())
+    }
+
+    fn eval<'py>(&mut self, py: Python<'py>, q: &[f64], t: f64, jac: bool) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        self.at(q)?;
+        let Angles { kin, e, .. } = self;
+        let at = At { q, e, t };
+        let v = guard(py, || {
+            let mut out = vec![0.0; if jac { kin.nnz } else { kin.m }];
+            if jac {
+                kin.jac(&at, &mut out)
+            } else {
+                kin.phi(&at, &mut out)
+            }
+            Ok(out)
+        })?;
+        Ok(PyArray1::from_vec(py, v))
+    }
+}
+
+#[pymethods]
+impl Angles {
+    /// q was set, not corrected: the next evaluation calls sin_cos where it moved.
+    fn start(&mut self) {
+        self.fresh = true;
+    }
+
+    /// Phi at q, t.
+    fn phi<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: PyReadonlyArray1<'py, f64>,
+        t: f64,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        self.eval(py, &vec1(&q), t, false)
+    }
+
+    /// The Jacobian's values at q, t, in the model's pattern order.
+    fn jac<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: PyReadonlyArray1<'py, f64>,
+        t: f64,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        self.eval(py, &vec1(&q), t, true)
+    }
+}
+
 /// settle's operations as a Python object's methods (the step-by-step
 /// analysis, kinem.analysis): evaluate(it) -> residual, factor(last),
 /// correct(limit) -> step size.
@@ -123,7 +199,14 @@ impl march::Step for PySteps<'_, '_> {
     }
     fn rates(&mut self, qd: &mut [f64], qdd: &mut [f64]) -> PyResult<()> {
         self.fetch()?;
-        self.kin.rotate(&self.q, &mut self.e);
+        // e as the operations' evaluations hold it (their Angles), else e^{i q}
+        match self.ops.ops.getattr("angles").ok().and_then(|a| a.extract::<PyRefMut<Angles>>().ok()) {
+            Some(mut a) => {
+                a.at(&self.q)?;
+                self.e.copy_from_slice(&a.e);
+            }
+            None => self.kin.rotate(&self.q, &mut self.e),
+        }
         let PySteps { ops, kin, q, e, t, nu, gamma, .. } = self;
         let at = At { q: &q[..], e: &e[..], t: *t };
         march::rates_with(kin, &at, nu, gamma, qd, qdd, |b, x| {
