@@ -179,7 +179,7 @@ def core_inputs(model, listed, result) -> tuple:
 
 
 # model -> ({path: its Parameter}, {path: (its core tangent, its points' dlocal)}, {(path,
-# columns): its derivatives' names}): what a call
+# columns): its derivatives' names}, {paths: tangent_inputs' tuple}): what a call
 # works out from the model and a path alone, kept for the model's next calls (as
 # kinem.result._LAYOUTS keeps its columns), read-only
 _KEPT = weakref.WeakKeyDictionary()
@@ -188,7 +188,7 @@ _KEPT = weakref.WeakKeyDictionary()
 def _kept(model) -> tuple:
     kept = _KEPT.get(model)
     if kept is None:
-        kept = _KEPT[model] = ({}, {}, {})
+        kept = _KEPT[model] = ({}, {}, {}, {})
     return kept
 
 
@@ -224,7 +224,12 @@ def tangent_inputs(model, listed) -> tuple:
     tables, each parameter's tangents, the Jacobian's pattern (rows, cols),
     the named points' columns, local coordinates and tangents). Each
     parameter's tangent is built once per model (``_parts``; the arrays
-    read-only) and taken as it is by its later calls."""
+    read-only) and taken as it is by its later calls; the whole tuple is
+    kept per model and list of paths (a warm call builds nothing)."""
+    paths = tuple(p.path for p in listed)
+    whole = _kept(model)[3]
+    if paths in whole:
+        return whole[paths]
     base, kept = model.tables, _kept(model)[1]
     missing = [p for p in dict.fromkeys(listed) if p.path not in kept]
     for p, ((families, functions, outlines), dlocal) in zip(missing, _parts(model, missing) if missing else ()):
@@ -235,8 +240,14 @@ def tangent_inputs(model, listed) -> tuple:
         kept[p.path] = core, dlocal
     core = [kept[p.path][0] for p in listed]
     dlocal = np.array([kept[p.path][1] for p in listed], complex).reshape(len(listed), len(model.point_names))
-    return (base[:3], core, (np.asarray(model.jac_rows, np.int64), np.asarray(model.jac_cols, np.int64)),
-            (np.asarray(model.point_cols, np.int64), model.point_local, dlocal))
+    pattern = (np.asarray(model.jac_rows, np.int64), np.asarray(model.jac_cols, np.int64))
+    points = np.asarray(model.point_cols, np.int64)
+    for a, own in ((dlocal, None), (points, model.point_cols), (pattern[0], model.jac_rows),
+                   (pattern[1], model.jac_cols)):
+        if a is not own:   # (the model's own arrays stay as they are)
+            a.flags.writeable = False
+    out = whole[paths] = (base[:3], core, pattern, (points, model.point_local, dlocal))
+    return out
 
 
 def _parts(model, listed) -> list:
