@@ -179,7 +179,8 @@ def core_inputs(model, listed, result) -> tuple:
 
 
 # model -> ({path: its Parameter}, {path: (its core tangent, its points' dlocal)}, {(path,
-# columns): its derivatives' names}, {paths: tangent_inputs' tuple}): what a call
+# columns): its derivatives' names}, {paths: tangent_inputs' tuple}, {id(that tuple): (it,
+# the core's set-up for it, Plan.sensitivity_setup)}): what a call
 # works out from the model and a path alone, kept for the model's next calls (as
 # kinem.result._LAYOUTS keeps its columns), read-only
 _KEPT = weakref.WeakKeyDictionary()
@@ -188,7 +189,7 @@ _KEPT = weakref.WeakKeyDictionary()
 def _kept(model) -> tuple:
     kept = _KEPT.get(model)
     if kept is None:
-        kept = _KEPT[model] = ({}, {}, {}, {})
+        kept = _KEPT[model] = ({}, {}, {}, {}, {})
     return kept
 
 
@@ -294,19 +295,32 @@ def _fused(model, tangents, outputs, times, options):
         return None
     check_square(model)
     st = native.MarchState(model.q0)   # the estimates to assemble from, as solve's
-    tables, core, pattern, (pc, local, dlocal) = tangents
-    src = _layout(model, 3)[1]
+    core, src = tangents[1], _layout(model, 3)[1]
     X, figures, ints = np.empty((3, nt, model.n)), np.zeros((2, nt)), np.zeros(nt + 2, np.int64)
     data, ratio = np.empty((nt, len(core) * len(src))), np.empty(nt)
     times = np.ascontiguousarray(times, float)
     settings = options.step_settings[True] + (float(Budget(model, options).left()),)
-    end, _ = model.plan.march_sensitivity(times, st, settings, X, figures, ints, tables, core, pattern,
-                                          (src, pc, local, dlocal), data, ratio)
+    end, _ = model.plan.march_sensitivity(times, st, settings, X, figures, ints, _setup(model, tangents, src),
+                                          data, ratio)
     if end < nt or violation(model, X[0, 0]):
         return None
     for x in X:
         x.flags.writeable = False
     return trajectory(model, times, X[0], X[1], X[2]), data, ratio, 3
+
+
+def _setup(model, tangents, src):
+    """The core's set-up of the fused pass for ``tangents`` (tangent_inputs')
+    and the columns ``src`` (Plan.sensitivity_setup: the model from its
+    tables, the parameters' seeded models, the probes), made once per model
+    and tangents and kept for its later calls."""
+    kept = _kept(model)[4]
+    own = kept.get(id(tangents))
+    if own is None or own[0] is not tangents:
+        tables, core, pattern, (pc, local, dlocal) = tangents
+        own = kept[id(tangents)] = (tangents, model.plan.sensitivity_setup(tables, core, pattern,
+                                                                          (src, pc, local, dlocal)))
+    return own[1]
 
 
 def _derived_frames(case, path, columns, block, traj):

@@ -97,24 +97,20 @@ fn seeded<const N: usize>(kin: &Kin, group: &[Tangent]) -> Result<Kin<Lanes<N>>,
 /// Phi_q is evaluated and factorised here at every instant: the march's
 /// own factorisation serves instead where it runs (`Instants::at` from
 /// its hook, crate::march::run_hooked).
-#[allow(clippy::too_many_arguments)]
 pub fn sensitivities(
-    kin: &Kin,
+    prepared: &Prepared,
     layout: &Layout,
-    tangents: &[Tangent],
-    rows: &[usize],
-    cols: &[usize],
     times: &[f64],
     x: &[&[f64]],
-    columns: Cols,
     data: &mut [f64],
     ratio: &mut [f64],
 ) -> Result<(), String> {
+    let kin = &prepared.kin;
     let (n, kk, levels) = (kin.n, times.len(), x.len());
     if levels == 0 || levels > 3 || x.iter().any(|a| a.len() != kk * n) {
         return Err("sensitivity: 1 to 3 arrays of K x n coordinates expected".into());
     }
-    let mut at = Instants::new(Setup { kin, layout, tangents, rows, cols, levels, columns })?;
+    let mut at = Instants::new(prepared, layout, levels)?;
     if data.len() != kk * at.width() || ratio.len() != kk {
         return Err("sensitivity: output arrays of the wrong size".into());
     }
@@ -159,28 +155,104 @@ pub fn lanes(p: usize) -> usize {
     LANES.iter().copied().find(|&w| w >= p).unwrap_or(LANES[LANES.len() - 1])
 }
 
-/// What the sensitivities of a run of instants are set up from: the
-/// model, the march's layout, the parameters' tangents, the Jacobian's
-/// pattern (rows, cols), the stages per instant (1 to 3) and the columns
-/// (as `sensitivities`').
-pub struct Setup<'a, 'b> {
-    pub kin: &'a Kin,
-    pub layout: &'a Layout,
-    pub tangents: &'b [Tangent],
-    pub rows: &'b [usize],
-    pub cols: &'b [usize],
-    pub levels: usize,
-    pub columns: Cols<'a>,
+/// What the sensitivities of a model's parameters are set up from, made
+/// once and kept (kinem.sensitivity keeps it per model and parameters:
+/// Plan.sensitivity_setup): the model (every function and outline its own
+/// number), the parameters' groups (`Group`: seeded models, moved and live
+/// families, the products' entries, after the probe of the `fixed`
+/// families), the named points' local coordinates over the lanes and the
+/// trajectory's column sources (`sensitivities`' columns).
+pub struct Prepared {
+    pub kin: Kin,
+    np: usize,
+    src: Vec<usize>,
+    pc: Vec<usize>,
+    points: usize,
+    groups: Grouped,
+}
+
+/// The groups and the points' local coordinates over the lanes that fit
+/// the number of parameters (`lanes`).
+enum Grouped {
+    One(Vec<Group<1>>, Vec<Vec<Complex<Lanes<1>>>>),
+    Two(Vec<Group<2>>, Vec<Vec<Complex<Lanes<2>>>>),
+    Four(Vec<Group<4>>, Vec<Vec<Complex<Lanes<4>>>>),
+    Eight(Vec<Group<8>>, Vec<Vec<Complex<Lanes<8>>>>),
+}
+
+impl Prepared {
+    /// From the model, the parameters' tangents, the Jacobian's pattern
+    /// (rows, cols) and the columns (as `sensitivities`').
+    pub fn new(kin: Kin, tangents: &[Tangent], rows: &[usize], cols: &[usize], columns: Cols) -> Result<Self, String> {
+        let (src, pc, local, dlocal) = columns;
+        let (n, m, nnz, np, points) = (kin.n, kin.m, kin.nnz, tangents.len(), local.len());
+        if rows.len() != nnz || cols.len() != nnz || rows.iter().any(|&r| r >= m) || cols.iter().any(|&c| c >= n) {
+            return Err("sensitivity: the Jacobian's pattern does not fit the model".into());
+        }
+        if dlocal.len() != np * points || pc.len() != points {
+            return Err("sensitivity: output arrays of the wrong size".into());
+        }
+        let fixed = fixed(&kin)?;
+        let pattern: Vec<(usize, usize)> = rows.iter().copied().zip(cols.iter().copied()).collect();
+        let (k, f, p) = (&kin, &fixed[..], &pattern[..]);
+        let groups = match lanes(np) {
+            1 => Grouped::One(grouped(k, tangents, f, p)?, locals(tangents.len(), local, dlocal)),
+            2 => Grouped::Two(grouped(k, tangents, f, p)?, locals(tangents.len(), local, dlocal)),
+            4 => Grouped::Four(grouped(k, tangents, f, p)?, locals(tangents.len(), local, dlocal)),
+            _ => Grouped::Eight(grouped(k, tangents, f, p)?, locals(tangents.len(), local, dlocal)),
+        };
+        Ok(Prepared { np, src: src.to_vec(), pc: pc.to_vec(), points, groups, kin })
+    }
+
+    /// The columns per instant and parameter (P W: an instant's row of data).
+    pub fn width(&self) -> usize {
+        self.np * self.src.len()
+    }
+}
+
+/// The parameters' groups of N (Group::new).
+fn grouped<const N: usize>(
+    kin: &Kin,
+    tangents: &[Tangent],
+    fixed: &[bool],
+    pattern: &[(usize, usize)],
+) -> Result<Vec<Group<N>>, String> {
+    tangents.chunks(N).map(|g| Group::new(kin, g, fixed, pattern)).collect()
+}
+
+/// Per group of N parameters, the named points' local coordinates with
+/// the group's tangents (dlocal, P rows of the points) in the lanes.
+fn locals<const N: usize>(np: usize, local: &[C64], dlocal: &[C64]) -> Vec<Vec<Complex<Lanes<N>>>> {
+    let points = local.len();
+    (0..np.div_ceil(N))
+        .map(|g| {
+            (0..points)
+                .map(|j| {
+                    let (mut re, mut im) = ([0.0; N], [0.0; N]);
+                    for p in g * N..(g * N + N).min(np) {
+                        (re[p - g * N], im[p - g * N]) = (dlocal[p * points + j].re, dlocal[p * points + j].im);
+                    }
+                    Complex::new(Lanes::of(local[j].re, re), Lanes::of(local[j].im, im))
+                })
+                .collect()
+        })
+        .collect()
 }
 
 impl<'a> Instants<'a> {
-    /// As `Lanewise::new`, its lanes by the number of parameters.
-    pub fn new(setup: Setup<'a, '_>) -> Result<Self, String> {
-        Ok(match lanes(setup.tangents.len()) {
-            1 => Instants::One(Lanewise::new(setup)?),
-            2 => Instants::Two(Lanewise::new(setup)?),
-            4 => Instants::Four(Lanewise::new(setup)?),
-            _ => Instants::Eight(Lanewise::new(setup)?),
+    /// A run of instants with `levels` stages (1 to 3) from the kept
+    /// set-up and the march's layout (`Lanewise::new`).
+    pub fn new(prepared: &'a Prepared, layout: &'a Layout, levels: usize) -> Result<Self, String> {
+        if levels == 0 || levels > 3 {
+            return Err("sensitivity: 1 to 3 levels expected".into());
+        }
+        let p = prepared;
+        crate::columns::check(p.kin.n, levels, &p.src, &p.pc, p.points)?;
+        Ok(match &p.groups {
+            Grouped::One(g, l) => Instants::One(Lanewise::new(p, g, l, layout, levels)),
+            Grouped::Two(g, l) => Instants::Two(Lanewise::new(p, g, l, layout, levels)),
+            Grouped::Four(g, l) => Instants::Four(Lanewise::new(p, g, l, layout, levels)),
+            Grouped::Eight(g, l) => Instants::Eight(Lanewise::new(p, g, l, layout, levels)),
         })
     }
 
@@ -324,10 +396,10 @@ pub struct Lanewise<'a, const N: usize> {
     layout: &'a Layout,
     np: usize,
     levels: usize,
-    groups: Vec<Group<N>>,
+    groups: &'a [Group<N>],
     columns: crate::columns::Columns<'a>,
     w: usize,
-    locs: Vec<Vec<Complex<Lanes<N>>>>,
+    locs: &'a [Vec<Complex<Lanes<N>>>],
     /// every named point's body angle an angle column: its e^{i phi} over
     /// the lanes is `el`'s (no sine and cosine taken again)
     turned: bool,
@@ -351,41 +423,21 @@ pub struct Lanewise<'a, const N: usize> {
 }
 
 impl<'a, const N: usize> Lanewise<'a, N> {
-    /// The set-up of a run of instants.
-    pub fn new(setup: Setup<'a, '_>) -> Result<Self, String> {
-        let Setup { kin, layout, tangents, rows, cols, levels, columns } = setup;
-        let (src, pc, local, dlocal) = columns;
-        let (w, points) = (src.len(), local.len());
-        let (n, m, nnz, np) = (kin.n, kin.m, kin.nnz, tangents.len());
-        if levels == 0 || levels > 3 {
-            return Err("sensitivity: 1 to 3 levels expected".into());
-        }
-        if rows.len() != nnz || cols.len() != nnz || rows.iter().any(|&r| r >= m) || cols.iter().any(|&c| c >= n) {
-            return Err("sensitivity: the Jacobian's pattern does not fit the model".into());
-        }
-        if dlocal.len() != np * points {
-            return Err("sensitivity: output arrays of the wrong size".into());
-        }
-        let fixed = fixed(kin)?;
-        let pattern: Vec<(usize, usize)> = rows.iter().copied().zip(cols.iter().copied()).collect();
-        let groups = tangents.chunks(N).map(|g| Group::new(kin, g, &fixed, &pattern)).collect::<Result<Vec<_>, _>>()?;
-        // the named points' local coordinates with the group's tangents in the lanes
-        let locs: Vec<Vec<Complex<Lanes<N>>>> = (0..groups.len())
-            .map(|g| {
-                (0..points)
-                    .map(|j| {
-                        let (mut re, mut im) = ([0.0; N], [0.0; N]);
-                        for p in g * N..(g * N + N).min(np) {
-                            (re[p - g * N], im[p - g * N]) = (dlocal[p * points + j].re, dlocal[p * points + j].im);
-                        }
-                        Complex::new(Lanes::of(local[j].re, re), Lanes::of(local[j].im, im))
-                    })
-                    .collect()
-            })
-            .collect();
+    /// The set-up of a run of instants: the kept groups and points'
+    /// local coordinates, the column layout and every scratch array.
+    fn new(
+        p: &'a Prepared,
+        groups: &'a [Group<N>],
+        locs: &'a [Vec<Complex<Lanes<N>>>],
+        layout: &'a Layout,
+        levels: usize,
+    ) -> Self {
+        let (kin, src, pc) = (&p.kin, &p.src, &p.pc);
+        let (w, points) = (src.len(), p.points);
+        let (n, m, nnz, np) = (kin.n, kin.m, kin.nnz, p.np);
         let zl = || vec![Lanes::<N>::c(0.0); n];
         let cl = || vec![Complex::new(Lanes::<N>::c(0.0), Lanes::<N>::c(0.0)); n];
-        Ok(Lanewise {
+        Lanewise {
             kin,
             layout,
             np,
@@ -410,7 +462,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             rhs: vec![[0.0; N]; m],
             rhs3: vec![[0.0; N]; m],
             solver: Solver::new(n, m, 3 * np >= 2 * n && n <= INVERSE),
-        })
+        }
     }
 
     /// The columns per instant and parameter (P W: an instant's row of data).
