@@ -351,10 +351,12 @@ impl<const N: usize> Group<N> {
 
 /// The Jacobian's entries of the `live` families whose tangent is not
 /// exactly zero at two generic points (q, q' in every lane, t) with the
-/// group's tables' tangents: an entry whose tangent is zero there is zero
-/// everywhere (its kernel does not read q or a moved table: a joint's
-/// constant blocks), and the products skip it (subtracting 0 a changes no
-/// sum). The other families' are zero as a whole.
+/// group's tables' tangents: of the kinds whose Jacobian is polynomial in
+/// e^{i q}, q and their tables (all but the curves and cams, whose
+/// outlines are piecewise: every entry of theirs is kept), an entry whose
+/// tangent is zero there is zero everywhere (its kernel does not read q or
+/// a moved table: a joint's constant blocks), and the products skip it
+/// (subtracting 0 a changes no sum). The other families' are zero as a whole.
 fn entries<const N: usize>(
     model: &Kin<Lanes<N>>,
     live: &[usize],
@@ -374,8 +376,10 @@ fn entries<const N: usize>(
         for &k in live {
             let place = model.entry_off[k]..model.entry_off[k + 1];
             model.families[k].jac(&at, &shared, &mut j[place.clone()]);
+            let piecewise =
+                matches!(model.families[k], Family::PointOnCurve(_) | Family::CamRoller(_) | Family::CamFlat(_));
             for p in place {
-                seen[p] |= j[p].d.iter().any(|&x| x != 0.0);
+                seen[p] |= piecewise || j[p].d.iter().any(|&x| x != 0.0);
             }
         }
     }
