@@ -19,9 +19,10 @@ of two (no truncation error, rounding only: relative 1e-16), each family
 built once for all the parameters that move it where it can be
 (``_stacked``), a spline outline's values from one spline (``_spline_tangents``).
 ``tangents(model, paths)`` gives them in full. A model keeps each
-parameter's tangent, Parameter and derivatives' names for its later calls
-(``_KEPT``, as kinem.result keeps its columns' layout), so a warm call
-builds none of them again.
+parameter's tangent, Parameter and derivatives' names, and the core's
+set-up for a list of parameters (Plan.sensitivity_setup), for its later
+calls (``_KEPT``, as kinem.result keeps its columns' layout), so a warm
+call builds none of them again.
 
 At an instant where Phi_q is singular (its pivot ratio below the solver's
 floor, kinem.options.singular_pivot) the derivatives are infinite: they are
