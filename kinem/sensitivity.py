@@ -181,7 +181,7 @@ def core_inputs(model, listed, result) -> tuple:
 
 # model -> ({path: its Parameter}, {path: (its core tangent, its points' dlocal)}, {(path,
 # columns): its derivatives' names}, {paths: tangent_inputs' tuple}, {id(that tuple): (it,
-# the core's set-up for it, Plan.sensitivity_setup)}): what a call
+# the plan, the core's set-up for it: Plan.sensitivity_setup)}): what a call
 # works out from the model and a path alone, kept for the model's next calls (as
 # kinem.result._LAYOUTS keeps its columns), read-only
 _KEPT = weakref.WeakKeyDictionary()
@@ -315,13 +315,13 @@ def _setup(model, tangents, src):
     and the columns ``src`` (Plan.sensitivity_setup: the model from its
     tables, the parameters' seeded models, the probes), made once per model
     and tangents and kept for its later calls."""
-    kept = _kept(model)[4]
+    kept, plan = _kept(model)[4], model.plan
     own = kept.get(id(tangents))
-    if own is None or own[0] is not tangents:
+    if own is None or own[0] is not tangents or own[1] is not plan:
         tables, core, pattern, (pc, local, dlocal) = tangents
-        own = kept[id(tangents)] = (tangents, model.plan.sensitivity_setup(tables, core, pattern,
+        own = kept[id(tangents)] = (tangents, plan, plan.sensitivity_setup(tables, core, pattern,
                                                                           (src, pc, local, dlocal)))
-    return own[1]
+    return own[2]
 
 
 def _derived_frames(case, path, columns, block, traj):

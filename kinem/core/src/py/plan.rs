@@ -200,7 +200,7 @@ impl Plan {
         columns: SensColumns<'py>,
     ) -> PyResult<SensSetup> {
         let inputs = SensInputs::of(&self.kin, tables, tangents, pattern, columns)?;
-        Ok(SensSetup(guard(py, move || inputs.prepare())?))
+        Ok(SensSetup(guard(py, move || inputs.prepare())?, self.layout.clone()))
     }
 
     /// The march (`march`, from k = 0: assembled from the estimates in
@@ -231,10 +231,11 @@ impl Plan {
         if self.layout.count >= 2 && matches!(self.layout.shape, Shape::Blocks { .. }) {
             return Err(value_error("march_sensitivity: a model marched in parts (Plan.sensitivity serves it)"));
         }
-        let prepared = &setup.get().0;
-        if (prepared.kin.n, prepared.kin.m, prepared.kin.nnz) != (n, self.kin.m, self.kin.nnz) {
-            return Err(value_error("march_sensitivity: the set-up is not this model's"));
+        let setup = setup.get();
+        if !Arc::ptr_eq(&setup.1, &self.layout) {
+            return Err(value_error("march_sensitivity: the set-up is not this model's (another plan made it)"));
         }
+        let prepared = &setup.0;
         let times = vec1(&times);
         let times: &[f64] = &times;
         let stages = if settings.4 { 3 } else { 1 };
@@ -677,6 +678,7 @@ impl SensInputs {
 }
 
 /// A model's sensitivities set up for some parameters (Plan.sensitivity_setup;
-/// crate::sensitivity::Prepared), read by Plan.march_sensitivity.
+/// crate::sensitivity::Prepared) and the layout of the plan that made it:
+/// read by that plan's march_sensitivity alone.
 #[pyclass(frozen, module = "kinem._core")]
-pub struct SensSetup(crate::sensitivity::Prepared);
+pub struct SensSetup(crate::sensitivity::Prepared, Arc<crate::lu::Layout>);
