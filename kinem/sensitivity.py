@@ -19,9 +19,10 @@ of two (no truncation error, rounding only: relative 1e-16), each family
 built once for all the parameters that move it where it can be
 (``_stacked``), a spline outline's values from one spline (``_spline_tangents``).
 ``tangents(model, paths)`` gives them in full. A model keeps each
-parameter's tangent, Parameter and derivatives' names for its later calls
-(``_KEPT``, as kinem.result keeps its columns' layout), so a warm call
-builds none of them again.
+parameter's tangent, Parameter and derivatives' names, and the core's
+set-up for a list of parameters (Plan.sensitivity_setup), for its later
+calls (``_KEPT``, as kinem.result keeps its columns' layout), so a warm
+call builds none of them again.
 
 At an instant where Phi_q is singular (its pivot ratio below the solver's
 floor, kinem.options.singular_pivot) the derivatives are infinite: they are
@@ -179,7 +180,8 @@ def core_inputs(model, listed, result) -> tuple:
 
 
 # model -> ({path: its Parameter}, {path: (its core tangent, its points' dlocal)}, {(path,
-# columns): its derivatives' names}): what a call
+# columns): its derivatives' names}, {paths: tangent_inputs' tuple}, {id(that tuple): (it,
+# the plan, the core's set-up for it: Plan.sensitivity_setup)}): what a call
 # works out from the model and a path alone, kept for the model's next calls (as
 # kinem.result._LAYOUTS keeps its columns), read-only
 _KEPT = weakref.WeakKeyDictionary()
@@ -188,7 +190,7 @@ _KEPT = weakref.WeakKeyDictionary()
 def _kept(model) -> tuple:
     kept = _KEPT.get(model)
     if kept is None:
-        kept = _KEPT[model] = ({}, {}, {})
+        kept = _KEPT[model] = ({}, {}, {}, {}, {})
     return kept
 
 
@@ -224,7 +226,12 @@ def tangent_inputs(model, listed) -> tuple:
     tables, each parameter's tangents, the Jacobian's pattern (rows, cols),
     the named points' columns, local coordinates and tangents). Each
     parameter's tangent is built once per model (``_parts``; the arrays
-    read-only) and taken as it is by its later calls."""
+    read-only) and taken as it is by its later calls; the whole tuple is
+    kept per model and list of paths (a warm call builds nothing)."""
+    paths = tuple(p.path for p in listed)
+    whole = _kept(model)[3]
+    if paths in whole:
+        return whole[paths]
     base, kept = model.tables, _kept(model)[1]
     missing = [p for p in dict.fromkeys(listed) if p.path not in kept]
     for p, ((families, functions, outlines), dlocal) in zip(missing, _parts(model, missing) if missing else ()):
@@ -235,8 +242,14 @@ def tangent_inputs(model, listed) -> tuple:
         kept[p.path] = core, dlocal
     core = [kept[p.path][0] for p in listed]
     dlocal = np.array([kept[p.path][1] for p in listed], complex).reshape(len(listed), len(model.point_names))
-    return (base[:3], core, (np.asarray(model.jac_rows, np.int64), np.asarray(model.jac_cols, np.int64)),
-            (np.asarray(model.point_cols, np.int64), model.point_local, dlocal))
+    pattern = (np.asarray(model.jac_rows, np.int64), np.asarray(model.jac_cols, np.int64))
+    points = np.asarray(model.point_cols, np.int64)
+    for a, own in ((dlocal, None), (points, model.point_cols), (pattern[0], model.jac_rows),
+                   (pattern[1], model.jac_cols)):
+        if a is not own:   # (the model's own arrays stay as they are)
+            a.flags.writeable = False
+    out = whole[paths] = (base[:3], core, pattern, (points, model.point_local, dlocal))
+    return out
 
 
 def _parts(model, listed) -> list:
@@ -283,19 +296,32 @@ def _fused(model, tangents, outputs, times, options):
         return None
     check_square(model)
     st = native.MarchState(model.q0)   # the estimates to assemble from, as solve's
-    tables, core, pattern, (pc, local, dlocal) = tangents
-    src = _layout(model, 3)[1]
+    core, src = tangents[1], _layout(model, 3)[1]
     X, figures, ints = np.empty((3, nt, model.n)), np.zeros((2, nt)), np.zeros(nt + 2, np.int64)
     data, ratio = np.empty((nt, len(core) * len(src))), np.empty(nt)
     times = np.ascontiguousarray(times, float)
     settings = options.step_settings[True] + (float(Budget(model, options).left()),)
-    end, _ = model.plan.march_sensitivity(times, st, settings, X, figures, ints, tables, core, pattern,
-                                          (src, pc, local, dlocal), data, ratio)
+    end, _ = model.plan.march_sensitivity(times, st, settings, X, figures, ints, _setup(model, tangents, src),
+                                          data, ratio)
     if end < nt or violation(model, X[0, 0]):
         return None
     for x in X:
         x.flags.writeable = False
     return trajectory(model, times, X[0], X[1], X[2]), data, ratio, 3
+
+
+def _setup(model, tangents, src):
+    """The core's set-up of the fused pass for ``tangents`` (tangent_inputs')
+    and the columns ``src`` (Plan.sensitivity_setup: the model from its
+    tables, the parameters' seeded models, the probes), made once per model
+    and tangents and kept for its later calls."""
+    kept, plan = _kept(model)[4], model.plan
+    own = kept.get(id(tangents))
+    if own is None or own[0] is not tangents or own[1] is not plan:
+        tables, core, pattern, (pc, local, dlocal) = tangents
+        own = kept[id(tangents)] = (tangents, plan, plan.sensitivity_setup(tables, core, pattern,
+                                                                          (src, pc, local, dlocal)))
+    return own[2]
 
 
 def _derived_frames(case, path, columns, block, traj):

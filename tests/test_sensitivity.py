@@ -571,3 +571,33 @@ def test_a_models_kept_tangents_give_the_first_calls_figures(name):
     core = tangent_inputs(model, _resolved(model, every[:5]))[1]
     arrays = [v for part in core for table in [d for _, d in part[0]] + [part[1], part[2]] for v in table.values()]
     assert arrays and not any(v.flags.writeable for v in arrays)
+
+
+def test_the_kept_core_setup_gives_a_fresh_ones_figures_and_fits_its_plan_alone():
+    """A model's kept core set-up (Plan.sensitivity_setup, kept per list of
+    parameters: kinem.sensitivity._setup) is made once and gives, call
+    after call, the derivatives of a set-up made anew to the bit; a set-up
+    made by another plan, even one of a model of the same size, is
+    refused (ValueError), never run."""
+    from kinem.result import OUTPUTS, _layout
+    from kinem.sensitivity import _KEPT, _fused, _resolved, _setup, tangent_inputs
+    model = kinem.compile(kinem.load(ROOT / "cases" / "slider_crank.toml"))
+    paths = [p.path for p in parameters(model.case)][:4]
+    first = sensitivity(model, paths)
+    tangents = tangent_inputs(model, _resolved(model, paths))
+    src = _layout(model, 3)[1]
+    kept = _setup(model, tangents, src)
+    again = sensitivity(model, paths)
+    assert _setup(model, tangents, src) is kept
+    assert np.array_equal(first.derivatives.data, again.derivatives.data)
+    tables, core, pattern, (pc, local, dlocal) = tangents
+    new = model.plan.sensitivity_setup(tables, core, pattern, (src, pc, local, dlocal))
+    assert new is not kept
+    _KEPT[model][4][id(tangents)] = (tangents, model.plan, new)
+    fused = _fused(model, tangents, OUTPUTS, None, None)
+    assert fused is not None and np.array_equal(fused[1], again.derivatives.data)
+    twin = kinem.compile(kinem.load(ROOT / "cases" / "slider_crank.toml"))   # the same tables, its own plan
+    foreign = twin.plan.sensitivity_setup(tables, core, pattern, (src, pc, local, dlocal))
+    _KEPT[model][4][id(tangents)] = (tangents, model.plan, foreign)
+    with pytest.raises(ValueError, match="not this model's"):
+        _fused(model, tangents, OUTPUTS, None, None)

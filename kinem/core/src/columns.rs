@@ -50,11 +50,23 @@ impl<'a> Columns<'a> {
 
     /// The named points' values at one instant (`row`'s pts).
     pub fn points<S: Real>(&self, x: &[&[S]], local: &[Complex<S>], pts: &mut [S]) {
+        self.points_turned(x, local, |c| cis(x[0][c]), pts)
+    }
+
+    /// `points`, e^{i phi} of angle column c from `turn(c)` (the caller's
+    /// own, e.g. the sensitivities' lanes: no sine and cosine taken again).
+    pub fn points_turned<S: Real>(
+        &self,
+        x: &[&[S]],
+        local: &[Complex<S>],
+        turn: impl Fn(usize) -> Complex<S>,
+        pts: &mut [S],
+    ) {
         let (stages, p) = (self.stages, self.pc.len());
         let i = i::<S>();
         for (j, (&c, &s)) in self.pc.iter().zip(local).enumerate() {
             let q = x[0];
-            let e = s * cis(q[c + 2]);
+            let e = s * turn(c + 2);
             let v = Complex::new(q[c], q[c + 1]) + e;
             pts[j] = v.re;
             pts[p + j] = v.im;

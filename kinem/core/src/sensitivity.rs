@@ -97,24 +97,20 @@ fn seeded<const N: usize>(kin: &Kin, group: &[Tangent]) -> Result<Kin<Lanes<N>>,
 /// Phi_q is evaluated and factorised here at every instant: the march's
 /// own factorisation serves instead where it runs (`Instants::at` from
 /// its hook, crate::march::run_hooked).
-#[allow(clippy::too_many_arguments)]
 pub fn sensitivities(
-    kin: &Kin,
+    prepared: &Prepared,
     layout: &Layout,
-    tangents: &[Tangent],
-    rows: &[usize],
-    cols: &[usize],
     times: &[f64],
     x: &[&[f64]],
-    columns: Cols,
     data: &mut [f64],
     ratio: &mut [f64],
 ) -> Result<(), String> {
+    let kin = &prepared.kin;
     let (n, kk, levels) = (kin.n, times.len(), x.len());
     if levels == 0 || levels > 3 || x.iter().any(|a| a.len() != kk * n) {
         return Err("sensitivity: 1 to 3 arrays of K x n coordinates expected".into());
     }
-    let mut at = Instants::new(Setup { kin, layout, tangents, rows, cols, levels, columns })?;
+    let mut at = Instants::new(prepared, layout, levels)?;
     if data.len() != kk * at.width() || ratio.len() != kk {
         return Err("sensitivity: output arrays of the wrong size".into());
     }
@@ -159,28 +155,104 @@ pub fn lanes(p: usize) -> usize {
     LANES.iter().copied().find(|&w| w >= p).unwrap_or(LANES[LANES.len() - 1])
 }
 
-/// What the sensitivities of a run of instants are set up from: the
-/// model, the march's layout, the parameters' tangents, the Jacobian's
-/// pattern (rows, cols), the stages per instant (1 to 3) and the columns
-/// (as `sensitivities`').
-pub struct Setup<'a, 'b> {
-    pub kin: &'a Kin,
-    pub layout: &'a Layout,
-    pub tangents: &'b [Tangent],
-    pub rows: &'b [usize],
-    pub cols: &'b [usize],
-    pub levels: usize,
-    pub columns: Cols<'a>,
+/// What the sensitivities of a model's parameters are set up from, made
+/// once and kept (kinem.sensitivity keeps it per model and parameters:
+/// Plan.sensitivity_setup): the model (every function and outline its own
+/// number), the parameters' groups (`Group`: seeded models, moved and live
+/// families, the products' entries, after the probe of the `fixed`
+/// families), the named points' local coordinates over the lanes and the
+/// trajectory's column sources (`sensitivities`' columns).
+pub struct Prepared {
+    pub kin: Kin,
+    np: usize,
+    src: Vec<usize>,
+    pc: Vec<usize>,
+    points: usize,
+    groups: Grouped,
+}
+
+/// The groups and the points' local coordinates over the lanes that fit
+/// the number of parameters (`lanes`).
+enum Grouped {
+    One(Vec<Group<1>>, Vec<Vec<Complex<Lanes<1>>>>),
+    Two(Vec<Group<2>>, Vec<Vec<Complex<Lanes<2>>>>),
+    Four(Vec<Group<4>>, Vec<Vec<Complex<Lanes<4>>>>),
+    Eight(Vec<Group<8>>, Vec<Vec<Complex<Lanes<8>>>>),
+}
+
+impl Prepared {
+    /// From the model, the parameters' tangents, the Jacobian's pattern
+    /// (rows, cols) and the columns (as `sensitivities`').
+    pub fn new(kin: Kin, tangents: &[Tangent], rows: &[usize], cols: &[usize], columns: Cols) -> Result<Self, String> {
+        let (src, pc, local, dlocal) = columns;
+        let (n, m, nnz, np, points) = (kin.n, kin.m, kin.nnz, tangents.len(), local.len());
+        if rows.len() != nnz || cols.len() != nnz || rows.iter().any(|&r| r >= m) || cols.iter().any(|&c| c >= n) {
+            return Err("sensitivity: the Jacobian's pattern does not fit the model".into());
+        }
+        if dlocal.len() != np * points || pc.len() != points {
+            return Err("sensitivity: output arrays of the wrong size".into());
+        }
+        let fixed = fixed(&kin)?;
+        let pattern: Vec<(usize, usize)> = rows.iter().copied().zip(cols.iter().copied()).collect();
+        let (k, f, p) = (&kin, &fixed[..], &pattern[..]);
+        let groups = match lanes(np) {
+            1 => Grouped::One(grouped(k, tangents, f, p)?, locals(tangents.len(), local, dlocal)),
+            2 => Grouped::Two(grouped(k, tangents, f, p)?, locals(tangents.len(), local, dlocal)),
+            4 => Grouped::Four(grouped(k, tangents, f, p)?, locals(tangents.len(), local, dlocal)),
+            _ => Grouped::Eight(grouped(k, tangents, f, p)?, locals(tangents.len(), local, dlocal)),
+        };
+        Ok(Prepared { np, src: src.to_vec(), pc: pc.to_vec(), points, groups, kin })
+    }
+
+    /// The columns per instant and parameter (P W: an instant's row of data).
+    pub fn width(&self) -> usize {
+        self.np * self.src.len()
+    }
+}
+
+/// The parameters' groups of N (Group::new).
+fn grouped<const N: usize>(
+    kin: &Kin,
+    tangents: &[Tangent],
+    fixed: &[bool],
+    pattern: &[(usize, usize)],
+) -> Result<Vec<Group<N>>, String> {
+    tangents.chunks(N).map(|g| Group::new(kin, g, fixed, pattern)).collect()
+}
+
+/// Per group of N parameters, the named points' local coordinates with
+/// the group's tangents (dlocal, P rows of the points) in the lanes.
+fn locals<const N: usize>(np: usize, local: &[C64], dlocal: &[C64]) -> Vec<Vec<Complex<Lanes<N>>>> {
+    let points = local.len();
+    (0..np.div_ceil(N))
+        .map(|g| {
+            (0..points)
+                .map(|j| {
+                    let (mut re, mut im) = ([0.0; N], [0.0; N]);
+                    for p in g * N..(g * N + N).min(np) {
+                        (re[p - g * N], im[p - g * N]) = (dlocal[p * points + j].re, dlocal[p * points + j].im);
+                    }
+                    Complex::new(Lanes::of(local[j].re, re), Lanes::of(local[j].im, im))
+                })
+                .collect()
+        })
+        .collect()
 }
 
 impl<'a> Instants<'a> {
-    /// As `Lanewise::new`, its lanes by the number of parameters.
-    pub fn new(setup: Setup<'a, '_>) -> Result<Self, String> {
-        Ok(match lanes(setup.tangents.len()) {
-            1 => Instants::One(Lanewise::new(setup)?),
-            2 => Instants::Two(Lanewise::new(setup)?),
-            4 => Instants::Four(Lanewise::new(setup)?),
-            _ => Instants::Eight(Lanewise::new(setup)?),
+    /// A run of instants with `levels` stages (1 to 3) from the kept
+    /// set-up and the march's layout (`Lanewise::new`).
+    pub fn new(prepared: &'a Prepared, layout: &'a Layout, levels: usize) -> Result<Self, String> {
+        if levels == 0 || levels > 3 {
+            return Err("sensitivity: 1 to 3 levels expected".into());
+        }
+        let p = prepared;
+        crate::columns::check(p.kin.n, levels, &p.src, &p.pc, p.points)?;
+        Ok(match &p.groups {
+            Grouped::One(g, l) => Instants::One(Lanewise::new(p, g, l, layout, levels)),
+            Grouped::Two(g, l) => Instants::Two(Lanewise::new(p, g, l, layout, levels)),
+            Grouped::Four(g, l) => Instants::Four(Lanewise::new(p, g, l, layout, levels)),
+            Grouped::Eight(g, l) => Instants::Eight(Lanewise::new(p, g, l, layout, levels)),
         })
     }
 
@@ -206,9 +278,11 @@ struct Group<const N: usize> {
     /// those of them whose nu may be non-zero
     timed: Vec<usize>,
     /// the families whose Jacobian and gamma have a tangent: the moved and
-    /// those that depend on q or qd; the others' are zero (`left`)
+    /// those that depend on q or qd; the others' are zero
     live: Vec<usize>,
-    left: Vec<usize>,
+    /// the Jacobian's entries (row, column, place) whose tangent may be
+    /// non-zero (`entries`): the (S2), (S3) products read these alone
+    entries: Vec<(usize, usize, usize)>,
 }
 
 /// Which families' Jacobian and gamma do not depend on q and qd (a
@@ -256,7 +330,7 @@ fn reads(f: &Family) -> (bool, bool) {
 }
 
 impl<const N: usize> Group<N> {
-    fn new(kin: &Kin, group: &[Tangent], fixed: &[bool]) -> Result<Self, String> {
+    fn new(kin: &Kin, group: &[Tangent], fixed: &[bool], pattern: &[(usize, usize)]) -> Result<Self, String> {
         let model = seeded::<N>(kin, group)?;
         let empty = |t: &Table| t.reals.is_empty() && t.complex.is_empty();
         let (functions, outlines) =
@@ -269,9 +343,47 @@ impl<const N: usize> Group<N> {
         moved.sort_unstable();
         moved.dedup();
         let timed = moved.iter().copied().filter(|k| model.time_dependent.contains(k)).collect();
-        let (live, left) = (0..kin.families.len()).partition(|k| !fixed[*k] || moved.contains(k));
-        Ok(Group { model, count: group.len(), moved, timed, live, left })
+        let live: Vec<usize> = (0..kin.families.len()).filter(|k| !fixed[*k] || moved.contains(k)).collect();
+        let entries = entries(&model, &live, pattern);
+        Ok(Group { model, count: group.len(), moved, timed, live, entries })
     }
+}
+
+/// The Jacobian's entries of the `live` families whose tangent is not
+/// exactly zero at two generic points (q, q' in every lane, t) with the
+/// group's tables' tangents: of the kinds whose Jacobian is polynomial in
+/// e^{i q}, q and their tables (all but the curves and cams, whose
+/// outlines are piecewise: every entry of theirs is kept), an entry whose
+/// tangent is zero there is zero everywhere (its kernel does not read q or
+/// a moved table: a joint's constant blocks), and the products skip it
+/// (subtracting 0 a changes no sum). The other families' are zero as a whole.
+fn entries<const N: usize>(
+    model: &Kin<Lanes<N>>,
+    live: &[usize],
+    pattern: &[(usize, usize)],
+) -> Vec<(usize, usize, usize)> {
+    let n = model.n;
+    let shared = Shared { functions: &model.functions, outlines: &model.outlines };
+    let mut seen = vec![false; model.nnz];
+    let mut j = vec![Lanes::<N>::c(0.0); model.nnz];
+    let mut e = vec![Complex::new(Lanes::c(1.0), Lanes::c(0.0)); n];
+    for (a, t) in [(0.3, 0.37), (1.1, 1.9)] {
+        let q: Vec<Lanes<N>> = (0..n)
+            .map(|c| Lanes::of(a + 0.7 * c as f64, std::array::from_fn(|l| 1.0 + 0.1 * c as f64 - 0.13 * l as f64)))
+            .collect();
+        model.rotate(&q, &mut e);
+        let at = At { q: &q, e: &e, t };
+        for &k in live {
+            let place = model.entry_off[k]..model.entry_off[k + 1];
+            model.families[k].jac(&at, &shared, &mut j[place.clone()]);
+            let piecewise =
+                matches!(model.families[k], Family::PointOnCurve(_) | Family::CamRoller(_) | Family::CamFlat(_));
+            for p in place {
+                seen[p] |= piecewise || j[p].d.iter().any(|&x| x != 0.0);
+            }
+        }
+    }
+    (0..model.nnz).filter(|&p| seen[p]).map(|p| (pattern[p].0, pattern[p].1, p)).collect()
 }
 
 /// The sensitivities of one instant after another, N parameters per
@@ -288,11 +400,13 @@ pub struct Lanewise<'a, const N: usize> {
     layout: &'a Layout,
     np: usize,
     levels: usize,
-    groups: Vec<Group<N>>,
-    pattern: Vec<(usize, usize)>,
+    groups: &'a [Group<N>],
     columns: crate::columns::Columns<'a>,
     w: usize,
-    locs: Vec<Vec<Complex<Lanes<N>>>>,
+    locs: &'a [Vec<Complex<Lanes<N>>>],
+    /// every named point's body angle an angle column: its e^{i phi} over
+    /// the lanes is `el`'s (no sine and cosine taken again)
+    turned: bool,
     pts: Vec<Lanes<N>>,
     /// s, sd, sdd (n each) and the points' tangents, a row per coordinate
     /// or point value; `gather`: each column's row there
@@ -313,49 +427,30 @@ pub struct Lanewise<'a, const N: usize> {
 }
 
 impl<'a, const N: usize> Lanewise<'a, N> {
-    /// The set-up of a run of instants.
-    pub fn new(setup: Setup<'a, '_>) -> Result<Self, String> {
-        let Setup { kin, layout, tangents, rows, cols, levels, columns } = setup;
-        let (src, pc, local, dlocal) = columns;
-        let (w, points) = (src.len(), local.len());
-        let (n, m, nnz, np) = (kin.n, kin.m, kin.nnz, tangents.len());
-        if levels == 0 || levels > 3 {
-            return Err("sensitivity: 1 to 3 levels expected".into());
-        }
-        if rows.len() != nnz || cols.len() != nnz || rows.iter().any(|&r| r >= m) || cols.iter().any(|&c| c >= n) {
-            return Err("sensitivity: the Jacobian's pattern does not fit the model".into());
-        }
-        if dlocal.len() != np * points {
-            return Err("sensitivity: output arrays of the wrong size".into());
-        }
-        let fixed = fixed(kin)?;
-        let groups = tangents.chunks(N).map(|g| Group::new(kin, g, &fixed)).collect::<Result<Vec<_>, _>>()?;
-        // the named points' local coordinates with the group's tangents in the lanes
-        let locs: Vec<Vec<Complex<Lanes<N>>>> = (0..groups.len())
-            .map(|g| {
-                (0..points)
-                    .map(|j| {
-                        let (mut re, mut im) = ([0.0; N], [0.0; N]);
-                        for p in g * N..(g * N + N).min(np) {
-                            (re[p - g * N], im[p - g * N]) = (dlocal[p * points + j].re, dlocal[p * points + j].im);
-                        }
-                        Complex::new(Lanes::of(local[j].re, re), Lanes::of(local[j].im, im))
-                    })
-                    .collect()
-            })
-            .collect();
+    /// The set-up of a run of instants: the kept groups and points'
+    /// local coordinates, the column layout and every scratch array.
+    fn new(
+        p: &'a Prepared,
+        groups: &'a [Group<N>],
+        locs: &'a [Vec<Complex<Lanes<N>>>],
+        layout: &'a Layout,
+        levels: usize,
+    ) -> Self {
+        let (kin, src, pc) = (&p.kin, &p.src, &p.pc);
+        let (w, points) = (src.len(), p.points);
+        let (n, m, nnz, np) = (kin.n, kin.m, kin.nnz, p.np);
         let zl = || vec![Lanes::<N>::c(0.0); n];
         let cl = || vec![Complex::new(Lanes::<N>::c(0.0), Lanes::<N>::c(0.0)); n];
-        Ok(Lanewise {
+        Lanewise {
             kin,
             layout,
             np,
             levels,
             groups,
-            pattern: rows.iter().copied().zip(cols.iter().copied()).collect(),
             columns: crate::columns::Columns::new(n, levels, src, pc),
             w,
             locs,
+            turned: pc.iter().all(|&c| kin.angles.contains(&(c + 2))),
             pts: vec![Lanes::<N>::c(0.0); 2 * levels * points],
             flat: vec![[0.0; N]; 3 * n + 2 * levels * points],
             buf: vec![[0.0; N]; w],
@@ -371,7 +466,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             rhs: vec![[0.0; N]; m],
             rhs3: vec![[0.0; N]; m],
             solver: Solver::new(n, m, 3 * np >= 2 * n && n <= INVERSE),
-        })
+        }
     }
 
     /// The columns per instant and parameter (P W: an instant's row of data).
@@ -414,17 +509,13 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 self.ql[j] = Lanes::of(q[j], self.flat[j]);
             }
             for &j in &kin.angles {
-                let (c, s, d) = (e[j].re, e[j].im, self.flat[j]);
-                self.el[j] = Complex::new(Lanes::of(c, d.map(|x| x * -s)), Lanes::of(s, d.map(|x| x * c)));
+                self.el[j] = turned(e[j], self.flat[j]);
             }
             let at = At { q: &self.ql, e: &self.el, t };
             if levels > 1 {
                 // S2: nu_p - D(J) qd, D(J) the Jacobian's tangent at q' = s
                 for &k in &group.live {
                     model.families[k].jac(&at, &shared, &mut self.jl[model.entry_off[k]..model.entry_off[k + 1]]);
-                }
-                for &k in &group.left {
-                    self.jl[model.entry_off[k]..model.entry_off[k + 1]].fill(Lanes::c(0.0));
                 }
                 self.rhs.fill([0.0; N]);
                 for &k in &group.timed {
@@ -434,7 +525,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                         *r = x.d;
                     }
                 }
-                products(&self.pattern, &self.jl, &x[1..], &mut self.rhs, &mut self.rhs3);
+                products(&group.entries, &self.jl, &x[1..], &mut self.rhs, &mut self.rhs3);
                 self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[n..2 * n]);
                 for j in 0..n {
                     self.qdl[j] = Lanes::of(x[1][j], self.flat[n + j]);
@@ -446,12 +537,12 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     let rows = model.row_off[k]..model.row_off[k + 1];
                     model.families[k].gamma(&at, &self.qdl, &shared, &mut self.rl[rows]);
                 }
-                for &k in &group.left {
-                    self.rl[model.row_off[k]..model.row_off[k + 1]].fill(Lanes::c(0.0));
-                }
-                for (r, x) in self.rhs3.iter_mut().zip(&self.rl) {
-                    for l in 0..N {
-                        r[l] += x.d[l];
+                for &k in &group.live {
+                    let rows = model.row_off[k]..model.row_off[k + 1];
+                    for (r, x) in self.rhs3[rows.clone()].iter_mut().zip(&self.rl[rows]) {
+                        for l in 0..N {
+                            r[l] += x.d[l];
+                        }
                     }
                 }
                 self.solver.solve(layout, f, &self.rhs3, count, &mut self.flat[2 * n..3 * n]);
@@ -462,7 +553,12 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             // every column's tangent: a coordinate's from s, sd, sdd, a named
             // point's from its value over the lanes (crate::columns)
             let stages: [&[Lanes<N>]; 3] = [&self.ql, &self.qdl, &self.qddl];
-            self.columns.points(&stages[..levels], &self.locs[g], &mut self.pts);
+            if self.turned {
+                let el = &self.el;
+                self.columns.points_turned(&stages[..levels], &self.locs[g], |c| el[c], &mut self.pts);
+            } else {
+                self.columns.points(&stages[..levels], &self.locs[g], &mut self.pts);
+            }
             for (o, p) in self.flat[3 * n..].iter_mut().zip(&self.pts) {
                 *o = p.d;
             }
@@ -487,39 +583,40 @@ impl<'a, const N: usize> Lanewise<'a, N> {
     }
 }
 
-/// The (S2) and (S3) products with D(J) (its tangents on the Jacobian's
-/// pattern, row and column of each entry), in one pass over it:
+/// e^{i q} over the lanes from e = e^{i q} and q's tangents d: cis of q
+/// with tangents d (Real::cos, sin) to the bit, where e = (cos q, sin q).
+#[inline(always)]
+fn turned<const N: usize>(e: C64, d: [f64; N]) -> Complex<Lanes<N>> {
+    let (c, s) = (e.re, e.im);
+    Complex::new(Lanes::of(c, d.map(|x| x * -s)), Lanes::of(s, d.map(|x| x * c)))
+}
+
+/// The (S2) and (S3) products with D(J) (its tangents at the entries
+/// that may be non-zero: row, column, place in dj, `entries`), in one pass:
 /// r2 -= D(J) v[0] (qd) and r3 = -D(J) v[1] (qdd, when given).
 fn products<const N: usize>(
-    pattern: &[(usize, usize)],
+    entries: &[(usize, usize, usize)],
     dj: &[Lanes<N>],
     v: &[&[f64]],
     r2: &mut [[f64; N]],
     r3: &mut [[f64; N]],
 ) {
     let qd = v[0];
-    let (m, n) = (r2.len(), qd.len());
-    assert!(pattern.iter().all(|&(i, j)| i < m && j < n) && dj.len() >= pattern.len());
     if let Some(qdd) = v.get(1) {
-        assert!(qdd.len() == n && r3.len() == m);
         r3.fill([0.0; N]);
-        for (&(i, j), p) in pattern.iter().zip(dj) {
-            // SAFETY: every row below m, every column below n (asserted above)
-            let (a, b, x, y) = unsafe {
-                let (x, y) = (&mut *r2.as_mut_ptr().add(i), &mut *r3.as_mut_ptr().add(i));
-                (*qd.get_unchecked(j), *qdd.get_unchecked(j), x, y)
-            };
+        for &(i, j, p) in entries {
+            let (a, b, d) = (qd[j], qdd[j], &dj[p].d);
+            let (x, y) = (&mut r2[i], &mut r3[i]);
             for l in 0..N {
-                x[l] -= p.d[l] * a;
-                y[l] -= p.d[l] * b;
+                x[l] -= d[l] * a;
+                y[l] -= d[l] * b;
             }
         }
     } else {
-        for (&(i, j), p) in pattern.iter().zip(dj) {
-            // SAFETY: as above
-            let (a, x) = unsafe { (*qd.get_unchecked(j), r2.get_unchecked_mut(i)) };
+        for &(i, j, p) in entries {
+            let (a, d, x) = (qd[j], &dj[p].d, &mut r2[i]);
             for l in 0..N {
-                x[l] -= p.d[l] * a;
+                x[l] -= d[l] * a;
             }
         }
     }
@@ -647,6 +744,80 @@ pub type Cols<'a> = (&'a [usize], &'a [usize], &'a [C64], &'a [C64]);
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::functions::POLY;
+    use crate::real::cis;
+
+    /// A revolute and a distance driver (a cubic) over three bodies
+    /// (as lanes.rs's tests), and a stand-in pattern.
+    fn model() -> (Kin, Vec<(usize, usize)>) {
+        let mut rev = Table::default();
+        rev.ints.insert("ci".into(), vec![0]);
+        rev.ints.insert("cj".into(), vec![3]);
+        rev.complex.insert("si".into(), vec![C64::new(0.4, 0.1)]);
+        rev.complex.insert("sj".into(), vec![C64::new(0.0, -0.5)]);
+        let mut dist = Table::default();
+        dist.ints.insert("ci".into(), vec![3]);
+        dist.ints.insert("cj".into(), vec![6]);
+        dist.ints.insert("f".into(), vec![0]);
+        dist.complex.insert("si".into(), vec![C64::new(-0.3, 0.2)]);
+        dist.complex.insert("sj".into(), vec![C64::new(0.6, 0.6)]);
+        let mut f = Table::default();
+        f.ints.insert("kind".into(), vec![POLY]);
+        f.ints.insert("start".into(), vec![0, 4]);
+        f.reals.insert("data".into(), vec![0.9, 0.5, -0.2, 0.1]);
+        let fams = vec![("revolute".into(), rev), ("distance".into(), dist)];
+        let kin = Kin::new(9, fams, &f, &Table::default(), vec![2, 5, 8]).unwrap();
+        let pattern = vec![(0, 0); kin.nnz]; // (the entries' places are what is tested)
+        (kin, pattern)
+    }
+
+    /// The entries the products skip carry a tangent of exactly zero at
+    /// every instant: at random (q, q', t), with a moved revolute's si
+    /// and a moved cubic's coefficients in the lanes, every entry not in
+    /// `entries` has D(J) = 0 (either sign), so the products over
+    /// `entries` are the whole pattern's (up to the sign of a zero sum);
+    /// and `turned` is cis of q with its tangents to the bit.
+    #[test]
+    fn the_skipped_entries_are_exactly_zero_and_turned_is_cis() {
+        let (kin, pattern) = model();
+        let mut si = Table::default();
+        si.complex.insert("si".into(), vec![C64::new(1.0, -0.5)]);
+        let mut cubic = Table::default();
+        cubic.reals.insert("data".into(), vec![0.0, 1.0, 0.0, 0.5]);
+        let tangents = [
+            Tangent { families: vec![(0, si)], functions: Table::default(), outlines: Table::default() },
+            Tangent { families: vec![], functions: cubic, outlines: Table::default() },
+        ];
+        let fixed = fixed(&kin).unwrap();
+        let group = Group::<2>::new(&kin, &tangents, &fixed, &pattern).unwrap();
+        assert!(group.entries.len() < pattern.len() && !group.entries.is_empty(), "{:?}", group.entries);
+        let model = &group.model;
+        let shared = Shared { functions: &model.functions, outlines: &model.outlines };
+        let mut seed = 11u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 / (1u64 << 53) as f64) * 6.0 - 3.0
+        };
+        let (mut j, mut e) = (vec![Lanes::<2>::c(0.0); kin.nnz], vec![Complex::new(Lanes::c(1.0), Lanes::c(0.0)); 9]);
+        for _ in 0..200 {
+            let q: Vec<Lanes<2>> = (0..9).map(|_| Lanes::of(next(), [next(), next()])).collect();
+            for &a in &kin.angles {
+                e[a] = turned(cis(q[a].v), q[a].d);
+                let c = cis(q[a]);
+                assert!([(e[a].re, c.re), (e[a].im, c.im)].iter().all(|(x, y)| x.v.to_bits() == y.v.to_bits()
+                    && x.d.iter().zip(&y.d).all(|(u, v)| u.to_bits() == v.to_bits())));
+            }
+            let at = At { q: &q, e: &e, t: next() };
+            for (k, f) in model.families.iter().enumerate() {
+                f.jac(&at, &shared, &mut j[model.entry_off[k]..model.entry_off[k + 1]]);
+            }
+            for (p, x) in j.iter().enumerate() {
+                if !group.entries.iter().any(|&(_, _, i)| i == p) {
+                    assert!(x.d.iter().all(|&v| v == 0.0), "entry {p}: {:?}", x.d);
+                }
+            }
+        }
+    }
 
     /// The N lanes' solve with a block-triangular layout's factors, and the
     /// inverse formed N columns at a time, are each lane's and each

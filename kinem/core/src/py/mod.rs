@@ -192,6 +192,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(functions::functions, m)?)?;
     m.add_function(wrap_pyfunction!(functions::outline_radius, m)?)?;
     m.add_class::<Plan>()?;
+    m.add_class::<plan::SensSetup>()?;
     m.add_class::<Lu>()?;
     m.add_class::<Angles>()?;
     m.add_function(wrap_pyfunction!(step::settle, m)?)?;

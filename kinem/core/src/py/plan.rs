@@ -163,7 +163,7 @@ impl Plan {
         dlocal: numpy::PyReadonlyArray2<'py, C64>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyArray1<f64>>)> {
         let times = times.as_slice()?.to_vec();
-        let (n, kk, levels) = (self.kin.n, times.len(), x.len());
+        let (n, kk) = (self.kin.n, times.len());
         let inputs = SensInputs::of(&self.kin, tables, tangents, (jac_rows, jac_cols), (src, pc, local, dlocal))?;
         let mut xs = Vec::new();
         for (k, a) in x.iter().enumerate() {
@@ -176,27 +176,31 @@ impl Plan {
         let width = inputs.parts.len() * inputs.src.len();
         let layout = self.layout.clone();
         let (data, ratio) = guard(py, move || {
-            let own = inputs.kin(levels)?;
+            let prepared = inputs.prepare()?;
             let mut ratio = vec![0.0; kk];
             let x: Vec<&[f64]> = xs.iter().map(|v| v.as_slice()).collect();
             let mut data = vec![0.0; kk * width];
-            let (r, c) = (&inputs.rows, &inputs.cols);
-            let columns = inputs.columns();
-            crate::sensitivity::sensitivities(
-                &own,
-                &layout,
-                &inputs.parts,
-                r,
-                c,
-                &times,
-                &x,
-                columns,
-                &mut data,
-                &mut ratio,
-            )?;
+            crate::sensitivity::sensitivities(&prepared, &layout, &times, &x, &mut data, &mut ratio)?;
             Ok((data, ratio))
         })?;
         Ok((out2(py, data, kk, width)?, PyArray1::from_vec(py, ratio)))
+    }
+
+    /// What `march_sensitivity` is set up from, made once per model and
+    /// parameters (kinem.sensitivity keeps it): tables, tangents, the
+    /// Jacobian's pattern (jac_rows, jac_cols) and the columns (src, pc,
+    /// local, dlocal), as `sensitivity`'s (crate::sensitivity::Prepared).
+    #[allow(clippy::type_complexity)]
+    fn sensitivity_setup<'py>(
+        &self,
+        py: Python<'py>,
+        tables: SensTables<'py>,
+        tangents: SensTangents<'py>,
+        pattern: (PyReadonlyArray1<'py, i64>, PyReadonlyArray1<'py, i64>),
+        columns: SensColumns<'py>,
+    ) -> PyResult<SensSetup> {
+        let inputs = SensInputs::of(&self.kin, tables, tangents, pattern, columns)?;
+        Ok(SensSetup(guard(py, move || inputs.prepare())?, self.layout.clone()))
     }
 
     /// The march (`march`, from k = 0: assembled from the estimates in
@@ -204,11 +208,10 @@ impl Plan {
     /// its own factorisation of Phi_q there, the one its rates use
     /// (crate::march::run_hooked, crate::sensitivity::Instants); a model
     /// the march splits into parts is refused (Plan.sensitivity serves it).
-    /// times, state, settings, out, figures, ints: as `march`; tables,
-    /// tangents, jac_rows, jac_cols, src, pc, local, dlocal: as
-    /// `sensitivity`, its levels out's. Writes data (K, P W) and ratio (K)
-    /// for the instants taken; returns (the first instant not taken, or K;
-    /// why).
+    /// times, state, settings, out, figures, ints: as `march`; setup: this
+    /// plan's `sensitivity_setup` (kept per model and parameters), its
+    /// levels out's. Writes data (K, P W) and ratio (K) for the instants
+    /// taken; returns (the first instant not taken, or K; why).
     #[allow(clippy::type_complexity, clippy::too_many_arguments)]
     fn march_sensitivity<'py>(
         &self,
@@ -219,10 +222,7 @@ impl Plan {
         out: Bound<'py, PyArray3<f64>>,
         figures: Bound<'py, PyArray2<f64>>,
         ints: Bound<'py, PyArray1<i64>>,
-        tables: SensTables<'py>,
-        tangents: SensTangents<'py>,
-        pattern: (PyReadonlyArray1<'py, i64>, PyReadonlyArray1<'py, i64>),
-        columns: SensColumns<'py>,
+        setup: &Bound<'py, SensSetup>,
         data: Bound<'py, PyArray2<f64>>,
         ratio: Bound<'py, PyArray1<f64>>,
     ) -> PyResult<(usize, u8)> {
@@ -231,14 +231,18 @@ impl Plan {
         if self.layout.count >= 2 && matches!(self.layout.shape, Shape::Blocks { .. }) {
             return Err(value_error("march_sensitivity: a model marched in parts (Plan.sensitivity serves it)"));
         }
-        let inputs = SensInputs::of(&self.kin, tables, tangents, pattern, columns)?;
+        let setup = setup.get();
+        if !Arc::ptr_eq(&setup.1, &self.layout) {
+            return Err(value_error("march_sensitivity: the set-up is not this model's (another plan made it)"));
+        }
+        let prepared = &setup.0;
         let times = vec1(&times);
         let times: &[f64] = &times;
         let stages = if settings.4 { 3 } else { 1 };
         let mut state = state.try_borrow_mut()?;
         let mut outputs = MarchOutputs::of(&out, &figures, &ints, kk)?;
         let (mut data, mut ratio) = (writable(&data, "data")?, writable(&ratio, "ratio")?);
-        let width = inputs.parts.len() * inputs.src.len();
+        let width = prepared.width();
         if state.0.q.len() != n || data.shape() != [kk, width] || ratio.len() != kk {
             return Err(bad("state, data or ratio"));
         }
@@ -252,17 +256,7 @@ impl Plan {
         let signal: std::sync::Mutex<Option<PyErr>> = std::sync::Mutex::new(None);
         let poll = || signalled(&signal);
         let (end, why) = guard(py, move || {
-            let own = inputs.kin(stages)?;
-            let setup = crate::sensitivity::Setup {
-                kin: &own,
-                layout,
-                tangents: &inputs.parts,
-                rows: &inputs.rows,
-                cols: &inputs.cols,
-                levels: stages,
-                columns: inputs.columns(),
-            };
-            let mut at = crate::sensitivity::Instants::new(setup)?;
+            let mut at = crate::sensitivity::Instants::new(prepared, layout, stages)?;
             let mut hook = |k: usize, s: &march::MarchState, f: &mut Factors, e: &[C64]| {
                 let x: [&[f64]; 3] = [&s.q, &s.qd, &s.qdd];
                 ratio[k] = at.at(times[k], &x[..stages], e, f, &mut data[k * width..(k + 1) * width]);
@@ -670,19 +664,21 @@ impl SensInputs {
         })
     }
 
-    /// The model from the tables (every function and outline its own
-    /// number), checked against the plan's and the columns against `levels`.
-    fn kin(&self, levels: usize) -> Result<Kin, String> {
-        crate::columns::check(self.n, levels, &self.src, &self.pc, self.local.len())?;
-        let families = self.families.clone();
-        let own = Kin::new(self.n, families, &self.functions, &self.outlines, self.angles.clone())?;
+    /// The set-up: the model from the tables (every function and outline
+    /// its own number), checked against the plan's, with the parameters'
+    /// groups (crate::sensitivity::Prepared).
+    fn prepare(self) -> Result<crate::sensitivity::Prepared, String> {
+        let own = Kin::new(self.n, self.families, &self.functions, &self.outlines, self.angles)?;
         if (own.m, own.nnz) != self.m_nnz {
             return Err("sensitivity: the tables are not the model's".to_string());
         }
-        Ok(own)
-    }
-
-    fn columns(&self) -> crate::sensitivity::Cols<'_> {
-        (&self.src, &self.pc, &self.local, &self.dlocal)
+        let columns = (&self.src[..], &self.pc[..], &self.local[..], &self.dlocal[..]);
+        crate::sensitivity::Prepared::new(own, &self.parts, &self.rows, &self.cols, columns)
     }
 }
+
+/// A model's sensitivities set up for some parameters (Plan.sensitivity_setup;
+/// crate::sensitivity::Prepared) and the layout of the plan that made it:
+/// read by that plan's march_sensitivity alone.
+#[pyclass(frozen, module = "kinem._core")]
+pub struct SensSetup(crate::sensitivity::Prepared, Arc<crate::lu::Layout>);
