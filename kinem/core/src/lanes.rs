@@ -365,6 +365,9 @@ pub fn march(
                 x.det0 = det as i8;
             }
             x.rate = s.rates && pivot > 0.0;
+            if s.rates && !x.rate {
+                x.st.no_rates();
+            }
             rates |= x.rate;
         }
         // the rates (crate::step::rates_with): nu and gamma over the lanes, each lane's solves

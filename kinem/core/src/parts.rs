@@ -143,7 +143,7 @@ pub fn run_parts(
             ps.det = p.layout.stats(&ops.f).1;
             (ps.qd, ps.qdd, ps.rates, ps.t) = (gather(&whole.qd), gather(&whole.qdd), whole.rates, whole.t);
             (ps.h, ps.tt, ps.before) = ((0..3).flat_map(|r| rows(&whole.h, r)).collect(), whole.tt, whole.before);
-            ps.prev = (0..3).flat_map(|r| rows(&whole.prev, r)).collect();
+            ps.prev = [gather(&whole.prev[0]), gather(&whole.prev[1]), gather(&whole.prev[2])];
             ps
         })
         .collect();

@@ -73,9 +73,9 @@ pub struct MarchState {
     /// none), when the steps solve no rates (Lagrange's predictor)
     pub h: Vec<f64>,
     pub tt: [f64; 3],
-    /// the accepted state before this one (q, qd, qdd: 3 n) and its time
+    /// the accepted state before this one (q, qd, qdd: n each) and its time
     /// (NaN: none), when the steps solve rates (the chord's Hermite start)
-    pub prev: Vec<f64>,
+    pub prev: [Vec<f64>; 3],
     pub before: f64,
 }
 
@@ -92,7 +92,7 @@ impl MarchState {
             det: 0,
             h: vec![0.0; 3 * n],
             tt: [f64::NAN; 3],
-            prev: vec![0.0; 3 * n],
+            prev: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
             before: f64::NAN,
         }
     }
@@ -104,15 +104,18 @@ impl MarchState {
 
     /// Takes the state q (into which `Step::q` has settled) at t, det sign
     /// `det`, as the last accepted one; `rates`: the steps solve rates (the
-    /// caller then puts them in qd, qdd), else the Lagrange history moves on.
+    /// caller then puts them in qd, qdd, or calls `no_rates`), else the
+    /// Lagrange history moves on.
     #[inline(always)]
     pub fn take(&mut self, q: &[f64], t: f64, det: i32, rates: bool) {
         let n = q.len();
         if rates {
-            // the last state becomes the earlier one of the Hermite start
-            self.prev[..n].copy_from_slice(&self.q);
-            self.prev[n..2 * n].copy_from_slice(&self.qd);
-            self.prev[2 * n..].copy_from_slice(&self.qdd);
+            // the last state becomes the earlier one of the Hermite start:
+            // buffers swapped, not copied (qd, qdd are then the caller's to fill)
+            let [pq, pqd, pqdd] = &mut self.prev;
+            std::mem::swap(pq, &mut self.q);
+            std::mem::swap(pqd, &mut self.qd);
+            std::mem::swap(pqdd, &mut self.qdd);
             self.before = self.t;
         }
         self.q.copy_from_slice(q);
@@ -125,6 +128,14 @@ impl MarchState {
         self.rates = false;
         self.t = t;
         self.det = det;
+    }
+
+    /// After `take` with rates, where none are solved (a singular
+    /// factorisation): qd and qdd keep the last state's, as before it.
+    #[cold]
+    pub fn no_rates(&mut self) {
+        self.qd.copy_from_slice(&self.prev[1]);
+        self.qdd.copy_from_slice(&self.prev[2]);
     }
 }
 
@@ -278,7 +289,7 @@ pub fn chord_start(st: &MarchState, t: f64, start: &mut [f64]) -> bool {
     if !(st.before.is_finite() && h <= 2.0 * (st.t - st.before)) {
         return false;
     }
-    let p = [&st.prev[..n], &st.prev[n..2 * n], &st.prev[2 * n..]];
+    let p = [&st.prev[0][..n], &st.prev[1][..n], &st.prev[2][..n]];
     hermite(p, [&st.q[..], &st.qd[..], &st.qdd[..]], st.t - st.before, h, start);
     true
 }
@@ -381,6 +392,8 @@ pub fn step<O: Step>(
     if s.rates && out.pivot > 0.0 {
         ops.rates(&mut st.qd, &mut st.qdd)?;
         st.rates = true;
+    } else if s.rates {
+        st.no_rates();
     }
     Ok(out)
 }
