@@ -181,7 +181,7 @@ mod tests {
     /// the bit (tolerance 0), at each order up to the second.
     #[test]
     fn polynomials_inline_equal_the_general_path_to_the_bit() {
-        let c = vec![0.3, -1.7, 2.9, 0.123456789, -4.1];
+        let c = vec![0.3, -1.7, 2.9, 0.123456789, -4.1, 0.7, 1.9];
         let f: Functions = Functions::from_table(&table(vec![POLY, POLY], vec![0, 5, 7], c)).unwrap();
         for t in [0.0, 0.1, -0.77, 1.3e3, 3.0f64.sqrt()] {
             for fun in 0..2 {
