@@ -1,7 +1,7 @@
 //! Rack and pinion (Eqs. 4.19, 4.20 and their general form, Problem 4.15),
 //! Sec. 4.2.3: the integrated no-slip condition of the pitch circle on the
 //! pitch line.
-use super::{dot, i, rd, At, Shared};
+use super::{dot, i, At, Shared};
 use crate::real::Real;
 use crate::table::Table;
 use num_complex::Complex;
@@ -11,8 +11,10 @@ use num_complex::Complex;
 /// P = r_j + A_j s'_j along the unit vector u = A_j u'. Rack fixed along x:
 /// Eq. 4.20; pinion centre fixed too: Eq. 4.19. Columns: ci (pinion), cj
 /// (rack) x columns; c (c'), s (s'_j), u (u', any length: normalised
-/// here), rho, phi0.
+/// here), rho, phi0. Each kernel checks `At::holds(n)` once per call,
+/// then reads the columns its table was checked against n unchecked.
 pub struct Rack<S = f64> {
+    n: usize,
     ci: Vec<usize>,
     cj: Vec<usize>,
     cc: Vec<Complex<S>>,
@@ -41,6 +43,7 @@ impl<S: Real> Rack<S> {
         let ci = t.index("ci", n.saturating_sub(2))?;
         t.same_length(ci.len(), &["cj", "c", "s", "u", "rho", "phi0"])?;
         Ok(Rack {
+            n,
             cj: t.index("cj", n.saturating_sub(2))?,
             cc: t.cplx_s("c")?,
             s: t.cplx_s("s")?,
@@ -59,45 +62,60 @@ impl<S: Real> Rack<S> {
         6 * self.ci.len()
     }
 
+    /// # Safety
+    /// c < ci.len() (so every column of the table has row c: `new`), and
+    /// `at.holds(n)`.
     #[inline(always)]
-    fn parts(&self, at: &At<S>, c: usize) -> Parts<S> {
-        let (x, y) = (self.ci[c], self.cj[c]);
-        let (ei, ej) = (at.rot(x), at.rot(y));
-        let (a, b) = (self.cc[c] * ei, self.s[c] * ej);
-        Parts { u: self.u[c] * ej, d: at.r(x) + a - at.r(y) - b, a, b }
+    unsafe fn parts(&self, at: &At<S>, c: usize) -> Parts<S> {
+        let (x, y) = (*self.ci.get_unchecked(c), *self.cj.get_unchecked(c));
+        let (ei, ej) = (at.rot_at(x), at.rot_at(y));
+        let (a, b) = (*self.cc.get_unchecked(c) * ei, *self.s.get_unchecked(c) * ej);
+        Parts { u: *self.u.get_unchecked(c) * ej, d: at.r_at(x) + a - at.r_at(y) - b, a, b }
     }
 
     /// u . d + rho (phi_i - phi_j - phi0) (Eqs. 4.19, 4.20, Problem 4.15).
     pub fn phi(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
+        assert!(at.holds(self.n) && out.len() <= self.ci.len());
         for (c, o) in out.iter_mut().enumerate() {
-            let p = self.parts(at, c);
-            *o = dot(p.u, p.d) + self.rho[c] * (at.q[self.ci[c] + 2] - at.q[self.cj[c] + 2] - self.phi0[c]);
+            // SAFETY: c < out.len() <= ci.len(), q and e hold n (asserted above), ci, cj < n - 2 (new)
+            unsafe {
+                let p = self.parts(at, c);
+                let (x, y) = (*self.ci.get_unchecked(c), *self.cj.get_unchecked(c));
+                let turn = *at.q.get_unchecked(x + 2) - *at.q.get_unchecked(y + 2) - *self.phi0.get_unchecked(c);
+                *o = dot(p.u, p.d) + *self.rho.get_unchecked(c) * turn;
+            }
         }
     }
 
     /// [u^T, u . (i A_i c') + rho, -u^T, (i u) . d - u . (i A_j s'_j) - rho].
     pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
-        for c in 0..self.ci.len() {
-            let Parts { u, d, a, b } = self.parts(at, c);
-            out[6 * c..6 * c + 6].copy_from_slice(&[
+        assert!(at.holds(self.n) && out.len() >= 6 * self.ci.len());
+        for (c, o) in out.chunks_exact_mut(6).take(self.ci.len()).enumerate() {
+            // SAFETY: c < ci.len(), q and e hold n (asserted above)
+            let (Parts { u, d, a, b }, rho) = unsafe { (self.parts(at, c), *self.rho.get_unchecked(c)) };
+            o.copy_from_slice(&[
                 u.re,
                 u.im,
-                u.im * a.re - u.re * a.im + self.rho[c],
+                u.im * a.re - u.re * a.im + rho,
                 -u.re,
                 -u.im,
-                (u.re * d.im - u.im * d.re) - (u.im * b.re - u.re * b.im) - self.rho[c],
+                (u.re * d.im - u.im * d.re) - (u.im * b.re - u.re * b.im) - rho,
             ]);
         }
     }
 
     /// -(u . d)'' without the acceleration terms.
     pub fn gamma(&self, at: &At<S>, qd: &[S], _: &Shared<S>, out: &mut [S]) {
+        assert!(at.holds(self.n) && qd.len() >= self.n && out.len() <= self.ci.len());
         let i = i::<S>();
         for (c, o) in out.iter_mut().enumerate() {
-            let (x, y) = (self.ci[c], self.cj[c]);
-            let Parts { u, d, a, b } = self.parts(at, c);
-            let (wi, wj) = (qd[x + 2], qd[y + 2]);
-            let dd = rd(qd, x) + i * a * wi - rd(qd, y) - i * b * wj;
+            // SAFETY: c < out.len() <= ci.len(), q, e and qd hold n (asserted above), ci, cj < n - 2 (new)
+            let (Parts { u, d, a, b }, wi, wj, rx, ry) = unsafe {
+                let (x, y) = (*self.ci.get_unchecked(c), *self.cj.get_unchecked(c));
+                let r = |k: usize| Complex::new(*qd.get_unchecked(k), *qd.get_unchecked(k + 1));
+                (self.parts(at, c), *qd.get_unchecked(x + 2), *qd.get_unchecked(y + 2), r(x), r(y))
+            };
+            let dd = rx + i * a * wi - ry - i * b * wj;
             let iu = i * u;
             *o = wj * wj * dot(u, d) - wj * dot(iu, dd) * 2.0 + wi * wi * dot(u, a) - wj * wj * dot(u, b);
         }
