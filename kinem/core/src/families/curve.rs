@@ -72,6 +72,16 @@ impl Outline {
         curve(at, s, self.o[c], self.cc[c], self.ct[c])
     }
 
+    /// `at` without bounds checks on the columns.
+    ///
+    /// # Safety
+    /// c < len() and `at.holds(n)` for the n the table was checked against (`new`).
+    #[inline(always)]
+    pub unsafe fn at_unchecked<S: Real>(&self, at: &At<S>, s: &Shared<S>, c: usize) -> Curve<S> {
+        let (o, cc, ct) = (*self.o.get_unchecked(c), *self.cc.get_unchecked(c), *self.ct.get_unchecked(c));
+        s.outlines.curve(o, *at.q.get_unchecked(ct), *at.e.get_unchecked(ct), at.rot_at(cc))
+    }
+
     /// The curve and its rates at constraint c.
     #[inline(always)]
     pub fn moving<S: Real>(&self, at: &At<S>, qd: &[S], s: &Shared<S>, c: usize) -> (Curve<S>, Rates<S>) {
@@ -85,7 +95,10 @@ impl Outline {
 /// cam-point: c = cam i, b = follower j, sigma = +1 (Eq. 4.26);
 /// point-follower: c = slotted body j, b = pin body i, sigma = -1 (Eq. 4.30).
 /// Columns: cc, ct, outline (Outline), cb (b's x column), sb (s'_b), sign.
+/// Each kernel checks `At::holds(n)` once per call, then reads the columns
+/// its table was checked against n unchecked.
 pub struct PointOnCurve<S = f64> {
+    n: usize,
     curve: Outline,
     cb: Vec<usize>,
     sb: Vec<Complex<S>>,
@@ -96,7 +109,13 @@ impl<S: Real> PointOnCurve<S> {
     pub fn new(t: &Table, n: usize, outlines: usize) -> Result<Self, String> {
         let curve = Outline::new(t, n, outlines)?;
         t.same_length(curve.len(), &["cb", "sb", "sign"])?;
-        Ok(PointOnCurve { cb: t.index("cb", n.saturating_sub(2))?, sb: t.cplx_s("sb")?, sign: t.real("sign")?, curve })
+        Ok(PointOnCurve {
+            n,
+            cb: t.index("cb", n.saturating_sub(2))?,
+            sb: t.cplx_s("sb")?,
+            sign: t.real("sign")?,
+            curve,
+        })
     }
 
     pub fn rows(&self) -> usize {
@@ -109,23 +128,35 @@ impl<S: Real> PointOnCurve<S> {
 
     /// sigma (r_c + a - r_b - A_b s'_b), rows x and y (Eqs. 4.26, 4.30).
     pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
-        for c in 0..self.cb.len() {
-            let (x, y) = (self.curve.cc[c], self.cb[c]);
-            let a = self.curve.at(at, s, c).a;
-            let d = (at.r(x) + a - at.r(y) - self.sb[c] * at.rot(y)) * S::c(self.sign[c]);
-            out[2 * c] = d.re;
-            out[2 * c + 1] = d.im;
+        assert!(at.holds(self.n) && out.len() >= 2 * self.cb.len());
+        for (c, o) in out.chunks_exact_mut(2).take(self.cb.len()).enumerate() {
+            // SAFETY: c < cb.len() (every column has its rows: new), q and e hold n (asserted above)
+            let d = unsafe {
+                let (x, y) = (*self.curve.cc.get_unchecked(c), *self.cb.get_unchecked(c));
+                let a = self.curve.at_unchecked(at, s, c).a;
+                let b = *self.sb.get_unchecked(c) * at.rot_at(y);
+                (at.r_at(x) + a - at.r_at(y) - b) * S::c(*self.sign.get_unchecked(c))
+            };
+            (o[0], o[1]) = (d.re, d.im);
         }
     }
 
     /// sigma [I, i a, g, -I, -B_b s'_b] in columns [r_c, phi_c, theta, r_b, phi_b]
     /// (Eq. 4.27's Jacobian; pattern per constraint: row x then row y).
     pub fn jac(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
-        for c in 0..self.cb.len() {
-            let p = self.curve.at(at, s, c);
-            let b = self.sb[c] * at.rot(self.cb[c]);
-            let (k, a, g) = (self.sign[c], p.a, p.g);
-            out[10 * c..10 * c + 10].copy_from_slice(&[
+        assert!(at.holds(self.n) && out.len() >= 10 * self.cb.len());
+        for (c, o) in out.chunks_exact_mut(10).take(self.cb.len()).enumerate() {
+            // SAFETY: c < cb.len(), q and e hold n (asserted above)
+            let (p, b, k) = unsafe {
+                let y = *self.cb.get_unchecked(c);
+                (
+                    self.curve.at_unchecked(at, s, c),
+                    *self.sb.get_unchecked(c) * at.rot_at(y),
+                    *self.sign.get_unchecked(c),
+                )
+            };
+            let (a, g) = (p.a, p.g);
+            o.copy_from_slice(&[
                 S::c(k),
                 a.im * -k,
                 g.re * k,
@@ -142,13 +173,18 @@ impl<S: Real> PointOnCurve<S> {
 
     /// -sigma (a'' + A_b s'_b w_b^2).
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
-        for c in 0..self.cb.len() {
-            let y = self.cb[c];
-            let (_, r) = self.curve.moving(at, qd, s, c);
-            let w = qd[y + 2];
-            let g = (r.a2 + self.sb[c] * at.rot(y) * (w * w)) * S::c(-self.sign[c]);
-            out[2 * c] = g.re;
-            out[2 * c + 1] = g.im;
+        assert!(at.holds(self.n) && qd.len() >= self.n && out.len() >= 2 * self.cb.len());
+        for (c, o) in out.chunks_exact_mut(2).take(self.cb.len()).enumerate() {
+            // SAFETY: c < cb.len(), q, e and qd hold n (asserted above), cc, cb < n - 2, ct < n (new)
+            let g = unsafe {
+                let (y, cc, ct) =
+                    (*self.cb.get_unchecked(c), *self.curve.cc.get_unchecked(c), *self.curve.ct.get_unchecked(c));
+                let p = self.curve.at_unchecked(at, s, c);
+                let r = rates(&p, *qd.get_unchecked(cc + 2), *qd.get_unchecked(ct));
+                let w = *qd.get_unchecked(y + 2);
+                (r.a2 + *self.sb.get_unchecked(c) * at.rot_at(y) * (w * w)) * S::c(-*self.sign.get_unchecked(c))
+            };
+            (o[0], o[1]) = (g.re, g.im);
         }
     }
 }
