@@ -4,25 +4,36 @@
 //! a = A_i p(theta), g = A_i g'(theta) the tangent there, h its derivative.
 use super::curve::Outline;
 use super::rack::unit;
-use super::{dot, i, rd, At, Shared};
+use super::{dot, i, At, Shared};
 use crate::real::Real;
 use crate::table::Table;
 use num_complex::Complex;
 
 /// The cam i (columns cc, ct, outline), the follower j (x column cj) and
-/// its point Q_j (sj).
+/// its point Q_j (sj). Each kernel checks `At::holds(n)` once per call,
+/// then reads the columns its table was checked against n unchecked.
 struct Pair<S> {
+    n: usize,
     curve: Outline,
     cj: Vec<usize>,
     sj: Vec<Complex<S>>,
 }
 
 impl<S: Real> Pair<S> {
+    /// The x columns of constraint c's cam and follower, its follower's s'_j.
+    ///
+    /// # Safety
+    /// c < curve.len() (every column has its rows: `new`).
+    #[inline(always)]
+    unsafe fn cols(&self, c: usize) -> (usize, usize, Complex<S>) {
+        (*self.curve.cc.get_unchecked(c), *self.cj.get_unchecked(c), *self.sj.get_unchecked(c))
+    }
+
     fn new(t: &Table, n: usize, outlines: usize, extra: &[&str]) -> Result<Self, String> {
         let curve = Outline::new(t, n, outlines)?;
         t.same_length(curve.len(), &["cj", "sj"])?;
         t.same_length(curve.len(), extra)?;
-        Ok(Pair { cj: t.index("cj", n.saturating_sub(2))?, sj: t.cplx_s("sj")?, curve })
+        Ok(Pair { n, cj: t.index("cj", n.saturating_sub(2))?, sj: t.cplx_s("sj")?, curve })
     }
 }
 
@@ -50,31 +61,41 @@ impl<S: Real> Roller<S> {
     }
 
     /// d = r_j + A_j s'_j - r_i - a, and A_j s'_j.
+    ///
+    /// # Safety
+    /// c < rows() / 2 and `at.holds(n)`.
     #[inline(always)]
-    fn d(&self, at: &At<S>, c: usize, a: Complex<S>) -> (Complex<S>, Complex<S>) {
-        let (x, y) = (self.p.curve.cc[c], self.p.cj[c]);
-        let b = self.p.sj[c] * at.rot(y);
-        (at.r(y) + b - at.r(x) - a, b)
+    unsafe fn d(&self, at: &At<S>, c: usize, a: Complex<S>) -> (Complex<S>, Complex<S>) {
+        let (x, y, sj) = self.p.cols(c);
+        let b = sj * at.rot_at(y);
+        (at.r_at(y) + b - at.r_at(x) - a, b)
     }
 
     /// Eq. 4.28: [g . d, d . d - rho^2].
     pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
-        for c in 0..self.rho2.len() {
-            let k = self.p.curve.at(at, s, c);
-            let (d, _) = self.d(at, c, k.a);
-            out[2 * c] = dot(k.g, d);
-            out[2 * c + 1] = dot(d, d) - self.rho2[c];
+        assert!(at.holds(self.p.n) && out.len() >= 2 * self.rho2.len());
+        for (c, o) in out.chunks_exact_mut(2).take(self.rho2.len()).enumerate() {
+            // SAFETY: c < rho2.len() = the table's length (new), q and e hold n (asserted above)
+            let (k, (d, _), rho2) = unsafe {
+                let k = self.p.curve.at_unchecked(at, s, c);
+                (k, self.d(at, c, k.a), *self.rho2.get_unchecked(c))
+            };
+            (o[0], o[1]) = (dot(k.g, d), dot(d, d) - rho2);
         }
     }
 
     /// Columns [r_i, phi_i, theta, r_j, phi_j] of both rows.
     pub fn jac(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
+        assert!(at.holds(self.p.n) && out.len() >= 14 * self.rho2.len());
         let i = i::<S>();
-        for c in 0..self.rho2.len() {
-            let k = self.p.curve.at(at, s, c);
+        for (c, o) in out.chunks_exact_mut(14).take(self.rho2.len()).enumerate() {
+            // SAFETY: c < rho2.len(), q and e hold n (asserted above)
+            let (k, (d, b)) = unsafe {
+                let k = self.p.curve.at_unchecked(at, s, c);
+                (k, self.d(at, c, k.a))
+            };
             let (a, g) = (k.a, k.g);
-            let (d, b) = self.d(at, c, a);
-            out[14 * c..14 * c + 14].copy_from_slice(&[
+            o.copy_from_slice(&[
                 -g.re,
                 -g.im,
                 dot(i * g, d) - dot(g, i * a),
@@ -95,16 +116,19 @@ impl<S: Real> Roller<S> {
 
     /// -(d/dt)^2 Phi without the acceleration terms: (g.d)'' = g''.d + 2 g'.d' + g.d''.
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
+        assert!(at.holds(self.p.n) && qd.len() >= self.p.n && out.len() >= 2 * self.rho2.len());
         let i = i::<S>();
-        for c in 0..self.rho2.len() {
-            let (x, y) = (self.p.curve.cc[c], self.p.cj[c]);
-            let (k, r) = self.p.curve.moving(at, qd, s, c);
-            let (d, b) = self.d(at, c, k.a);
-            let wj = qd[y + 2];
-            let d1 = rd(qd, y) + i * b * wj - rd(qd, x) - r.a1;
+        for (c, o) in out.chunks_exact_mut(2).take(self.rho2.len()).enumerate() {
+            // SAFETY: c < rho2.len(), q, e and qd hold n (asserted above), cc, cj < n - 2, ct < n (new)
+            let (k, r, (d, b), wj, rx, ry) = unsafe {
+                let (x, y, _) = self.p.cols(c);
+                let (k, r) = self.p.curve.moving_unchecked(at, qd, s, c);
+                let v = |j: usize| Complex::new(*qd.get_unchecked(j), *qd.get_unchecked(j + 1));
+                (k, r, self.d(at, c, k.a), *qd.get_unchecked(y + 2), v(x), v(y))
+            };
+            let d1 = ry + i * b * wj - rx - r.a1;
             let d2 = -b * (wj * wj) - r.a2;
-            out[2 * c] = -(dot(r.g2, d) + dot(r.g1, d1) * 2.0 + dot(k.g, d2));
-            out[2 * c + 1] = (dot(d1, d1) + dot(d, d2)) * -2.0;
+            (o[0], o[1]) = (-(dot(r.g2, d) + dot(r.g1, d1) * 2.0 + dot(k.g, d2)), (dot(d1, d1) + dot(d, d2)) * -2.0);
         }
     }
 }
@@ -132,32 +156,42 @@ impl<S: Real> Flat<S> {
     }
 
     /// d = r_i + a - r_j - A_j s'_j, A_j s'_j and n = A_j n'_j.
+    ///
+    /// # Safety
+    /// c < rows() / 2 and `at.holds(n)`.
     #[inline(always)]
-    fn parts(&self, at: &At<S>, c: usize, a: Complex<S>) -> (Complex<S>, Complex<S>, Complex<S>) {
-        let (x, y) = (self.p.curve.cc[c], self.p.cj[c]);
-        let e = at.rot(y);
-        let b = self.p.sj[c] * e;
-        (at.r(x) + a - at.r(y) - b, b, self.n[c] * e)
+    unsafe fn parts(&self, at: &At<S>, c: usize, a: Complex<S>) -> (Complex<S>, Complex<S>, Complex<S>) {
+        let (x, y, sj) = self.p.cols(c);
+        let e = at.rot_at(y);
+        let b = sj * e;
+        (at.r_at(x) + a - at.r_at(y) - b, b, *self.n.get_unchecked(c) * e)
     }
 
     /// Eq. 4.29: [g . n, d . n].
     pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
-        for c in 0..self.n.len() {
-            let k = self.p.curve.at(at, s, c);
-            let (d, _, n) = self.parts(at, c, k.a);
-            out[2 * c] = dot(k.g, n);
-            out[2 * c + 1] = dot(d, n);
+        assert!(at.holds(self.p.n) && out.len() >= 2 * self.n.len());
+        for (c, o) in out.chunks_exact_mut(2).take(self.n.len()).enumerate() {
+            // SAFETY: c < n.len() = the table's length (new), q and e hold n (asserted above)
+            let (k, (d, _, n)) = unsafe {
+                let k = self.p.curve.at_unchecked(at, s, c);
+                (k, self.parts(at, c, k.a))
+            };
+            (o[0], o[1]) = (dot(k.g, n), dot(d, n));
         }
     }
 
     /// Row 1 in [phi_i, theta, phi_j], row 2 in [r_i, phi_i, theta, r_j, phi_j].
     pub fn jac(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
+        assert!(at.holds(self.p.n) && out.len() >= 10 * self.n.len());
         let i = i::<S>();
-        for c in 0..self.n.len() {
-            let k = self.p.curve.at(at, s, c);
+        for (c, o) in out.chunks_exact_mut(10).take(self.n.len()).enumerate() {
+            // SAFETY: c < n.len(), q and e hold n (asserted above)
+            let (k, (d, b, n)) = unsafe {
+                let k = self.p.curve.at_unchecked(at, s, c);
+                (k, self.parts(at, c, k.a))
+            };
             let (a, g) = (k.a, k.g);
-            let (d, b, n) = self.parts(at, c, a);
-            out[10 * c..10 * c + 10].copy_from_slice(&[
+            o.copy_from_slice(&[
                 dot(i * g, n),
                 dot(k.h, n),
                 dot(g, i * n),
@@ -174,17 +208,21 @@ impl<S: Real> Flat<S> {
 
     /// -(g . n)'' and -(d . n)'' without the acceleration terms.
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
+        assert!(at.holds(self.p.n) && qd.len() >= self.p.n && out.len() >= 2 * self.n.len());
         let i = i::<S>();
-        for c in 0..self.n.len() {
-            let (x, y) = (self.p.curve.cc[c], self.p.cj[c]);
-            let (k, r) = self.p.curve.moving(at, qd, s, c);
-            let (d, b, n) = self.parts(at, c, k.a);
-            let wj = qd[y + 2];
+        for (c, o) in out.chunks_exact_mut(2).take(self.n.len()).enumerate() {
+            // SAFETY: c < n.len(), q, e and qd hold n (asserted above), cc, cj < n - 2, ct < n (new)
+            let (k, r, (d, b, n), wj, rx, ry) = unsafe {
+                let (x, y, _) = self.p.cols(c);
+                let (k, r) = self.p.curve.moving_unchecked(at, qd, s, c);
+                let v = |j: usize| Complex::new(*qd.get_unchecked(j), *qd.get_unchecked(j + 1));
+                (k, r, self.parts(at, c, k.a), *qd.get_unchecked(y + 2), v(x), v(y))
+            };
             let (n1, n2) = (i * n * wj, -n * (wj * wj));
-            let d1 = rd(qd, x) + r.a1 - rd(qd, y) - i * b * wj;
+            let d1 = rx + r.a1 - ry - i * b * wj;
             let d2 = r.a2 + b * (wj * wj);
-            out[2 * c] = -(dot(r.g2, n) + dot(r.g1, n1) * 2.0 + dot(k.g, n2));
-            out[2 * c + 1] = -(dot(d2, n) + dot(d1, n1) * 2.0 + dot(d, n2));
+            o[0] = -(dot(r.g2, n) + dot(r.g1, n1) * 2.0 + dot(k.g, n2));
+            o[1] = -(dot(d2, n) + dot(d1, n1) * 2.0 + dot(d, n2));
         }
     }
 }

@@ -17,13 +17,6 @@ use crate::real::Real;
 use crate::table::Table;
 use num_complex::Complex;
 
-/// The outline o of body cc at theta = q[ct]: e^{i theta} is in `At::e`
-/// (the artificial columns are angle columns).
-#[inline(always)]
-pub fn curve<S: Real>(at: &At<S>, s: &Shared<S>, o: usize, cc: usize, ct: usize) -> Curve<S> {
-    s.outlines.curve(o, at.q[ct], at.e[ct], at.rot(cc))
-}
-
 /// a', a'', g', g'' along a motion with w = phi_c', th = theta' (the
 /// module's formulas).
 pub struct Rates<S> {
@@ -67,12 +60,9 @@ impl Outline {
         self.cc.is_empty()
     }
 
-    #[inline(always)]
-    pub fn at<S: Real>(&self, at: &At<S>, s: &Shared<S>, c: usize) -> Curve<S> {
-        curve(at, s, self.o[c], self.cc[c], self.ct[c])
-    }
-
-    /// `at` without bounds checks on the columns.
+    /// The outline's place at constraint c: its outline at theta = q[ct]
+    /// (e^{i theta} is in `At::e`: the artificial columns are angle
+    /// columns) on body cc, read without bounds checks.
     ///
     /// # Safety
     /// c < len() and `at.holds(n)` for the n the table was checked against (`new`).
@@ -82,11 +72,21 @@ impl Outline {
         s.outlines.curve(o, *at.q.get_unchecked(ct), *at.e.get_unchecked(ct), at.rot_at(cc))
     }
 
-    /// The curve and its rates at constraint c.
+    /// The outline's place at constraint c and its rates, unchecked as `at_unchecked`.
+    ///
+    /// # Safety
+    /// c < len(), `at.holds(n)` and qd.len() >= n for the n the table was checked against (`new`).
     #[inline(always)]
-    pub fn moving<S: Real>(&self, at: &At<S>, qd: &[S], s: &Shared<S>, c: usize) -> (Curve<S>, Rates<S>) {
-        let p = self.at(at, s, c);
-        let r = rates(&p, qd[self.cc[c] + 2], qd[self.ct[c]]);
+    pub unsafe fn moving_unchecked<S: Real>(
+        &self,
+        at: &At<S>,
+        qd: &[S],
+        s: &Shared<S>,
+        c: usize,
+    ) -> (Curve<S>, Rates<S>) {
+        let p = self.at_unchecked(at, s, c);
+        let r =
+            rates(&p, *qd.get_unchecked(*self.cc.get_unchecked(c) + 2), *qd.get_unchecked(*self.ct.get_unchecked(c)));
         (p, r)
     }
 }
