@@ -140,12 +140,13 @@ pub fn taylor(q: &[f64], qd: &[f64], qdd: &[f64], h: f64, out: &mut [f64]) {
 
 /// The quintic Hermite extrapolation through (q, qd, qdd) at the last two
 /// accepted instants: `p` (the earlier one, a before) and `c`, to h after
-/// `c`: Taylor's q + h qd + h^2/2 qdd plus u^3 times the Hermite terms
-/// (u = h / a). Its error is of order h^6 (1.3e-13 of the size on the
-/// slider-crank's 501 instants, Taylor's 1.4e-7): a start for the chord
-/// (crate::newton::chord), not the acceptance test's predictor.
+/// `c`: Taylor's q + h qd + h^2/2 qdd (`base`, as `taylor` computes it from
+/// `c`; None: computed here) plus u^3 times the Hermite terms (u = h / a).
+/// Its error is of order h^6 (1.3e-13 of the size on the slider-crank's 501
+/// instants, Taylor's 1.4e-7): a start for the chord (crate::newton::chord),
+/// not the acceptance test's predictor.
 #[inline(always)]
-pub fn hermite(p: [&[f64]; 3], c: [&[f64]; 3], a: f64, h: f64, out: &mut [f64]) {
+pub fn hermite(p: [&[f64]; 3], c: [&[f64]; 3], a: f64, h: f64, base: Option<&[f64]>, out: &mut [f64]) {
     let u = h / a;
     let (u3, aa) = (u * u * u, a * a);
     let w = [
@@ -157,9 +158,21 @@ pub fn hermite(p: [&[f64]; 3], c: [&[f64]; 3], a: f64, h: f64, out: &mut [f64]) 
     ];
     let n = out.len();
     let (p, c) = ([&p[0][..n], &p[1][..n], &p[2][..n]], [&c[0][..n], &c[1][..n], &c[2][..n]]);
-    for j in 0..n {
-        let d = w[0] * (c[0][j] - p[0][j]) + w[1] * p[1][j] + w[2] * c[1][j] + w[3] * p[2][j] + w[4] * c[2][j];
-        out[j] = c[0][j] + h * c[1][j] + 0.5 * h * h * c[2][j] + u3 * d;
+    let (p0, p1, p2, c0, c1, c2) = (p[0], p[1], p[2], c[0], c[1], c[2]);
+    match base {
+        Some(b) => {
+            let b = &b[..n];
+            for j in 0..n {
+                let d = w[0] * (c0[j] - p0[j]) + w[1] * p1[j] + w[2] * c1[j] + w[3] * p2[j] + w[4] * c2[j];
+                out[j] = b[j] + u3 * d;
+            }
+        }
+        None => {
+            for j in 0..n {
+                let d = w[0] * (c0[j] - p0[j]) + w[1] * p1[j] + w[2] * c1[j] + w[3] * p2[j] + w[4] * c2[j];
+                out[j] = c0[j] + h * c1[j] + 0.5 * h * h * c2[j] + u3 * d;
+            }
+        }
     }
 }
 
@@ -186,8 +199,14 @@ mod tests {
         let dd = |t: f64| [12.0 * t - 10.0 * t.powi(3)];
         let (t0, t1, t) = (0.2, 0.5, 1.1);
         let mut q = [0.0];
-        hermite([&f(t0), &d(t0), &dd(t0)], [&f(t1), &d(t1), &dd(t1)], t1 - t0, t - t1, &mut q);
+        hermite([&f(t0), &d(t0), &dd(t0)], [&f(t1), &d(t1), &dd(t1)], t1 - t0, t - t1, None, &mut q);
         assert!((q[0] - f(t)[0]).abs() < 1e-12);
+        // with Taylor's predictor given as the base: the same figure to the bit (tolerance 0)
+        let mut base = [0.0];
+        taylor(&f(t1), &d(t1), &dd(t1), t - t1, &mut base);
+        let mut r = [0.0];
+        hermite([&f(t0), &d(t0), &dd(t0)], [&f(t1), &d(t1), &dd(t1)], t1 - t0, t - t1, Some(&base), &mut r);
+        assert_eq!(r[0].to_bits(), q[0].to_bits());
     }
 
     #[test]

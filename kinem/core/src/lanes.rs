@@ -259,7 +259,8 @@ pub fn march(
             x.judge = predict(st, t, taylor_from, &mut x.qp);
             x.motion = gap(&x.qp, &st.q, col_scale);
             if x.held {
-                let from = if chord_start(st, t, &mut x.start) { &x.start } else { &x.qp };
+                let taylor = if taylor_from { Some(&x.qp[..]) } else { None };
+                let from = if chord_start(st, t, taylor, &mut x.start) { &x.start } else { &x.qp };
                 for j in 0..n {
                     r.q[j].0[l] = from[j];
                 }

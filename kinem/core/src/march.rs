@@ -162,6 +162,13 @@ impl Step for Native<'_> {
         Ok(())
     }
 
+    #[inline(always)]
+    fn place(&mut self, t: f64) -> Option<&mut [f64]> {
+        self.t = t;
+        (self.rotated, self.fresh) = (false, true);
+        Some(&mut self.q)
+    }
+
     fn q(&self) -> &[f64] {
         &self.q
     }

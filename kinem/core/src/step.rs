@@ -176,6 +176,11 @@ impl Outcome {
 pub trait Step: Ops {
     /// Starts a solve at (q, t).
     fn start(&mut self, q: &[f64], t: f64) -> Result<(), Self::Error>;
+    /// Starts a solve at t from the q its caller writes into the room
+    /// returned (the operations' own q: no copy); None: the caller uses `start`.
+    fn place(&mut self, _t: f64) -> Option<&mut [f64]> {
+        None
+    }
     /// Brings q from where the operations keep it (after a solve), for `q`.
     fn fetch(&mut self) -> Result<(), Self::Error> {
         Ok(())
@@ -281,17 +286,31 @@ pub fn predict(st: &MarchState, t: f64, taylor_from: bool, qp: &mut [f64]) -> bo
     }
 }
 
+/// Whether the chord starts at t from Hermite's extrapolation: the last two
+/// accepted instants at hand and t near.
+#[inline]
+pub fn hermite_near(st: &MarchState, t: f64) -> bool {
+    st.before.is_finite() && t - st.t <= 2.0 * (st.t - st.before)
+}
+
 /// The chord's start at t: Hermite's from the last two accepted instants
 /// into `start` when they are at hand and t is near (true), else none
-/// (false: the predictor).
-pub fn chord_start(st: &MarchState, t: f64, start: &mut [f64]) -> bool {
-    let (n, h) = (st.q.len(), t - st.t);
-    if !(st.before.is_finite() && h <= 2.0 * (st.t - st.before)) {
+/// (false: the predictor). `taylor`: Taylor's predictor at t, when at hand
+/// (the same figures as recomputing it).
+pub fn chord_start(st: &MarchState, t: f64, taylor: Option<&[f64]>, start: &mut [f64]) -> bool {
+    if !hermite_near(st, t) {
         return false;
     }
-    let p = [&st.prev[0][..n], &st.prev[1][..n], &st.prev[2][..n]];
-    hermite(p, [&st.q[..], &st.qd[..], &st.qdd[..]], st.t - st.before, h, start);
+    hermite_start(st, t, taylor, start);
     true
+}
+
+/// Hermite's start at t into `start` (`chord_start`, where `hermite_near`).
+#[inline(always)]
+fn hermite_start(st: &MarchState, t: f64, taylor: Option<&[f64]>, start: &mut [f64]) {
+    let n = st.q.len();
+    let p = [&st.prev[0][..n], &st.prev[1][..n], &st.prev[2][..n]];
+    hermite(p, [&st.q[..], &st.qd[..], &st.qdd[..]], st.t - st.before, t - st.t, taylor, start);
 }
 
 /// The pivot ratio (0 where below SINGULAR) and det sign (0 there) of the
@@ -345,7 +364,18 @@ pub fn step<O: Step>(
     let motion = gap(qp, &st.q, ops.col_scale());
     // the chord with the last instant's factorisation, from the Hermite start when the last two
     // instants are at hand, else (or when it contracts too slowly) Newton from the predictor
-    ops.start(if c.held && chord_start(st, t, start) { start } else { qp }, t)?;
+    if c.held && hermite_near(st, t) {
+        let taylor = if taylor_from { Some(&qp[..]) } else { None };
+        match ops.place(t) {
+            Some(q) => hermite_start(st, t, taylor, q),
+            None => {
+                hermite_start(st, t, taylor, start);
+                ops.start(start, t)?;
+            }
+        }
+    } else {
+        ops.start(qp, t)?;
+    }
     let chorded = if c.held { chord(ops, s.tolerance, s.max_step, c.memory.known(motion))? } else { None };
     c.held = false;
     let settled = match chorded {
