@@ -284,10 +284,12 @@ def _new_figures(name, old, new, findings):
 
     keys = [k for k in INDEPENDENT_KEYS if k.endswith("_rel") and new.get(k) is not None and old.get(k) is None]
     if old.get("reference_kind", "native") != new.get("reference_kind", "native"):
-        keys.insert(0, f"position_error_rel against {new['reference_kind']}")
+        keys.insert(0, "position_error_rel")
     if keys and new["outcome"] == "ok":
-        findings.append(Finding(name, new["engine"], "main", "new", "figures", None, keys, False,
-                                f"new figures, no baseline: {', '.join(keys)}"))
+        what = ", ".join(k.split("_")[-3] if k.startswith("reference_") else "position" for k in keys)
+        findings.append(Finding(name, new["engine"], "main", "new", "figures", None, ", ".join(keys), False,
+                                f"new: no baseline for its {what} against {new['reference']} "
+                                "(--update-baseline records them)"))
 
 
 def _consensus_text(c) -> str:

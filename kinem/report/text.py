@@ -87,13 +87,15 @@ def figure(run) -> tuple:
     return max(shown, key=lambda x: x[0]) if shown else (None, "")
 
 
-def rates(run) -> str:
+def rates(run, brief=False) -> str:
     """Native's velocity and acceleration errors against its closed form,
     '' where it has none."""
-    if run.get("reference_velocity_error_rel") is None and run.get("reference_acceleration_error_rel") is None:
+    v, a = run.get("reference_velocity_error_rel"), run.get("reference_acceleration_error_rel")
+    if v is None and a is None:
         return ""
-    return (f"velocity {fmt(run.get('reference_velocity_error_rel'))}, acceleration "
-            f"{fmt(run.get('reference_acceleration_error_rel'))} of the peak against the closed form")
+    if brief:
+        return f"v {fmt(v)}, a {fmt(a)} of peak"
+    return f"velocity {fmt(v)}, acceleration {fmt(a)} of the peak against the closed form"
 
 
 def limits_text() -> str:
@@ -307,7 +309,7 @@ def summary_md(doc) -> str:
             "velocities / V, angular velocities / (V/L): the worst named; engines against native at tolerance "
             "1e-13; native against the closed form or equivalence group where the case has one, or the engines' "
             "consensus when it disagrees with it, else \"no independent reference\"; with a closed form also its "
-            "velocities and accelerations, each / the closed form's peak, and native fails above "
+            "velocities (v) and accelerations (a), each / the closed form's peak, and native fails above "
             f"{limits_text()}), then the whole run's wall "
             "time per output interval and the engine steps per interval (every attempt); ◦ native without an independent reference, ✅ pass or ok, ⚠️ new or "
             "outside the engine's tolerance (the metric, value and limit named), 🐢 slower than the baseline (not failing), ❌ failed or regressed. "
@@ -329,7 +331,7 @@ def _md_cell(cell) -> str:
     value, what = figure(r)
     text = f"{MARK[g]} " + (what if value is None else f"{fmt(value)} ({what})") + f", {cost(r)}"
     if rates(r) and not r.get("attributed"):
-        text += f"; {rates(r)}"
+        text += f"; {rates(r, brief=True)}"
     if verdict(r).fails or r.get("attributed"):
         text += f" ({short(judgement(r), 120)})"
     kind, sentence = v
