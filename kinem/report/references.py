@@ -150,7 +150,7 @@ def _pivot(model, traj, body):
 
     fixed = grounded(model)
     c = next(c for c in model.case.constraints if c.type == "revolute"
-             and {c["i"], c["j"]} & {body} and ({c["i"], c["j"]} - {body}) <= fixed and c["i"] != c["j"])
+             and body in (c["i"], c["j"]) and c["i"] != c["j"] and ({c["i"], c["j"]} - {body}) <= fixed)
     side = "j" if c["i"] == body else "i"
     return _global(traj, c[side], c["s" + side])
 
@@ -338,8 +338,9 @@ def rolling_pinion(model, traj):
     x = _driven(model, traj, pinion, "x")
     along = reference.scaled(1 / u.real, x)                         # the centre's travel along u
     turn = reference.scaled(-1 / h, along)                          # rack_travel's h phi, the rack fixed
+    angle = (_at(traj, pinion)[1] + turn[0], turn[1], turn[2])
     return ClosedForm("closed form kinem.reference.rack_travel (Eq. 4.20; pinion rolling on the fixed rack)", {},
-                      {pinion: (_sliding(traj, pinion, along, u)[0], (_at(traj, pinion)[1] + turn[0], turn[1], turn[2]))})
+                      {pinion: (_sliding(traj, pinion, along, u)[0], angle)})
 
 
 def pin_in_slot(model, traj):
@@ -408,8 +409,9 @@ def cam_roller(model, traj):
     e = abs(c0)
     psi = (np.angle(c0) + turn[0], turn[1], turn[2])
     d = reference.roller_on_circle(psi, e, o.radius + c["radius"], np.sign(q0.imag - e * np.sin(psi[0][0])))
+    travel = (d[0] - q0.imag, d[1], d[2])
     return ClosedForm("closed form kinem.reference.roller_on_circle (Example 4.4)", {},
-                      {cam: _turning(traj, cam, pivot, turn), fol: _sliding(traj, fol, (d[0] - q0.imag, d[1], d[2]), g)})
+                      {cam: _turning(traj, cam, pivot, turn), fol: _sliding(traj, fol, travel, g)})
 
 
 def cam_point(model, traj):
@@ -424,8 +426,9 @@ def cam_point(model, traj):
     u = (F0 - C0) / abs(F0 - C0)
     theta0 = np.angle(F0 - C0) - _at(traj, cam)[1]
     r = reference.radial_follower((theta0 - turn[0], -turn[1], -turn[2]), _outline_s(o))
+    travel = (r[0] - abs(F0 - C0), r[1], r[2])
     return ClosedForm("kinem.reference.radial_follower (Eq. 4.26: scipy's periodic CubicSpline of the table)", {},
-                      {cam: _turning(traj, cam, pivot, turn), fol: _sliding(traj, fol, (r[0] - abs(F0 - C0), r[1], r[2]), u)})
+                      {cam: _turning(traj, cam, pivot, turn), fol: _sliding(traj, fol, travel, u)})
 
 
 def _ground(model, traj, joint):
