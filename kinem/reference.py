@@ -162,17 +162,30 @@ def four_bar_case(a, b, c, g, fn=None, phi0=0.5, sign=1.0, end=2.0, steps=100, n
     }
 
 
-def quick_return(theta, oc, rc, rocker, link, height):
+def quick_return(theta, oc, rc, rocker, link, height, w=0.0, a=0.0):
     """Positions of the crank-shaper of Sec. 4.4.2 (model 3 geometry): crank
     pivot O = (0, 0), rocker pivot C = (0, -oc), crank rc, rocker length
     ``rocker`` through the crank pin A, link BD of length ``link`` to the tool
-    D on y = height, D right of B. Returns A, B, D (complex) and the angles."""
+    D on y = height, D right of B. Returns A, B, D (complex) and the angles;
+    with the crank's rate w and acceleration a also vA, aA, vB, aB, vD, aD
+    (chain rule: the rocker's angle is arg(A - C), D.x = B.x + S with
+    S = sqrt(link^2 - (height - B.y)^2))."""
     A = rc * np.exp(1j * theta)
+    vA, aA = 1j * w * A, (1j * a - w * w) * A
     C = -1j * oc
-    phr = np.angle(A - C)
+    W = A - C
+    phr = np.angle(W)
+    dphr = (vA / W).imag                           # d/dt log W = |W|'/|W| + i phr'
+    ddphr = (aA / W - (vA / W) ** 2).imag
     B = C + rocker * np.exp(1j * phr)
-    D = B.real + np.sqrt(link**2 - (height - B.imag) ** 2) + 1j * height
-    return {"A": A, "B": B, "D": D, "rocker": phr, "link": np.angle(D - B)}
+    vB, aB = 1j * dphr * (B - C), (1j * ddphr - dphr**2) * (B - C)
+    u = height - B.imag
+    S = np.sqrt(link**2 - u**2)
+    dS = u * vB.imag / S
+    ddS = (-vB.imag**2 + u * aB.imag) / S - dS**2 / S
+    D = B.real + S + 1j * height
+    return {"A": A, "B": B, "D": D, "rocker": phr, "link": np.angle(D - B),
+            "vA": vA, "aA": aA, "vB": vB, "aB": aB, "vD": vB.real + dS, "aD": aB.real + ddS}
 
 
 def quick_return_case(oc, rc, rocker, link, height, fn=None, phi0=0.52, end=2.0, steps=100, name="quick-return",
@@ -207,3 +220,152 @@ def quick_return_case(oc, rc, rocker, link, height, fn=None, phi0=0.52, end=2.0,
             {"type": "driver", "name": "crank-drive", "body": "crank", "coord": "phi", "d": fn},
         ],
     }
+
+
+# -- gears, racks, pins in slots and cams of Sec. 4.2: the report's closed forms ----------------
+# A motion is a triple (value, rate, acceleration) of arrays over the instants; every function
+# below maps the driven coordinate's triple to the others' by the chain rule (no differencing).
+
+def drive(f, t):
+    """(d(t) - d(0), d'(t), d''(t)) of a driving function of kinem.functions,
+    evaluated here with numpy (a Table: scipy's not-a-knot CubicSpline, as
+    Sec. 4.2.8 states), not by the compiled core."""
+    from scipy.interpolate import CubicSpline
+
+    from .functions import Harmonic, Poly, Table
+
+    t = np.asarray(t, float)
+    if isinstance(f, Poly):
+        c = np.polynomial.Polynomial(f.coeffs)
+        d = (c(t), c.deriv(1)(t), c.deriv(2)(t))
+    elif isinstance(f, Harmonic):
+        arg = f.omega * t + f.phase
+        d = (f.offset + f.amplitude * np.sin(arg), f.amplitude * f.omega * np.cos(arg),
+             -f.amplitude * f.omega**2 * np.sin(arg))
+    elif isinstance(f, Table):
+        sp = CubicSpline(np.asarray(f.t, float), np.asarray(f.value, float))
+        d = (sp(t), sp(t, 1), sp(t, 2))
+    else:
+        raise ValueError(f"no closed form for the driving function {f!r}")
+    return (d[0] - d[0][0], d[1], d[2])
+
+
+def scaled(k, m):
+    """k times a motion."""
+    return tuple(k * x for x in m)
+
+
+def turned(z0, pivot, turn):
+    """Position, velocity and acceleration (complex) of a body point at z0 at
+    t = 0 when its body turns by ``turn`` (a motion) about a fixed pivot."""
+    d, w, a = turn
+    r = (z0 - pivot) * np.exp(1j * d)
+    return pivot + r, 1j * w * r, (1j * a - w * w) * r
+
+
+def gear_pair(turn_i, ri, rj):
+    """Eq. 4.17, spur gears on fixed centres: (phi_i - phi_i^0) rho_i +
+    (phi_j - phi_j^0) rho_j = 0, so gear j turns by -rho_i / rho_j times
+    gear i's turn."""
+    return scaled(-ri / rj, turn_i)
+
+
+def planetary(turn_sun, r_sun, r_planet, r_ring):
+    """Eq. 4.18 on each mesh with the carrier k, the ring fixed: sun-planet
+    (external) rho_s (phi_s - phi_k) = -rho_p (phi_p - phi_k), planet-ring
+    (internal: both turn the same sense relative to k) rho_p (phi_p - phi_k)
+    = rho_r (0 - phi_k). Returns the turns of the carrier,
+    rho_s / (rho_s + rho_r) of the sun's, and of the planet,
+    (1 - rho_r / rho_p) of the carrier's."""
+    carrier = scaled(r_sun / (r_sun + r_ring), turn_sun)
+    return carrier, scaled(1.0 - r_ring / r_planet, carrier)
+
+
+def rack_travel(turn, h):
+    """Eqs. 4.19, 4.20: rolling without slip, a pinion turning by phi moves
+    the rack relative to its centre by h phi along the pitch line's
+    direction u, h the centre's signed distance from the line (positive on
+    the side of u turned +90 degrees): the contact point's velocity
+    phidot k x (-h n) = h phidot u. A fixed rack: the centre moves by -h phi."""
+    return scaled(h, turn)
+
+
+def circle_x(Y, R, side):
+    """Pin on a circular slot x^2 + y^2 = R^2 (Eq. 4.30 with s = R): x =
+    side sqrt(R^2 - y^2) and its rates, y a motion (x x' + y y' = 0)."""
+    y, vy, ay = Y
+    x = side * np.sqrt(R * R - y * y)
+    vx = -y * vy / x
+    return x, vx, -(vy * vy + y * ay + vx * vx) / x
+
+
+def polar_spline(theta, s, bc="periodic"):
+    """s(theta), s'(theta), s''(theta) of an outline's table (Sec. 4.2.4):
+    scipy's CubicSpline with the table's own end conditions, evaluated by
+    scipy (not by the compiled core's pieces)."""
+    from scipy.interpolate import CubicSpline
+
+    sp = CubicSpline(np.asarray(theta, float), np.asarray(s, float), bc_type=bc)
+    return lambda x: (sp(x), sp(x, 1), sp(x, 2))
+
+
+def pin_in_outline(Y, s, theta0):
+    """Pin on a slot p = s(theta) e^{i theta} (Eq. 4.30) whose y is the motion
+    Y: theta solves s(theta) sin(theta) = y at each instant (a bracketed
+    scalar root, Brent, from the previous instant's theta; theta0 at t = 0).
+    Returns the pin's x (a motion) and theta. Rates: g = s sin, h = s cos:
+    theta' = y' / g', theta'' = (y'' - g'' theta'^2) / g', x' = h' theta',
+    x'' = h'' theta'^2 + h' theta''."""
+    from scipy.optimize import brentq
+
+    y, vy, ay = Y
+    th = np.empty_like(y)
+    prev = theta0
+    for k, yk in enumerate(y):
+        f = lambda x: s(x)[0] * np.sin(x) - yk   # noqa: E731
+        step = 0.05
+        while f(prev - step) * f(prev + step) > 0:
+            step *= 2
+            if step > 1.0:
+                raise ValueError(f"no slot point at y = {yk:g} near theta = {prev:g}")
+        prev = th[k] = brentq(f, prev - step, prev + step, xtol=1e-15, rtol=4 * np.finfo(float).eps)
+    s0, s1, s2 = s(th)
+    c, n = np.cos(th), np.sin(th)
+    g1, g2 = s1 * n + s0 * c, s2 * n + 2 * s1 * c - s0 * n
+    h1, h2 = s1 * c - s0 * n, s2 * c - 2 * s1 * n - s0 * c
+    w = vy / g1
+    al = (ay - g2 * w * w) / g1
+    return (s0 * c, h1 * w, h2 * w * w + h1 * al), th
+
+
+def cam_flat_lift(centre, n, R, side=1.0):
+    """Eq. 4.29 for a circular cam and a flat face of normal n (unit,
+    complex): the face's height along n is the circle centre's plus side R
+    (the eccentric cam's lift e sin(phi) + R); centre a motion (complex)."""
+    h, v, a = ((np.conj(n) * z).real for z in centre)
+    return h + side * R, v, a
+
+
+def roller_on_circle(psi, e, rho, side=1.0):
+    """Example 4.4: a roller (centre on the y axis through the camshaft) on a
+    circular cam whose centre is at e (cos psi, sin psi): the roller centre's
+    height d = e sin(psi) + side rho cos(gamma), sin(gamma) = e cos(psi) / rho,
+    rho the sum of the radii; psi a motion. With S = rho cos(gamma) =
+    sqrt(rho^2 - e^2 cos^2 psi) and u = e^2 sin(psi) cos(psi):
+    S' = u psi' / S, S'' = (e^2 cos(2 psi) psi'^2 + u psi'') / S - S'^2 / S."""
+    p, w, a = psi
+    S = np.sqrt(rho * rho - (e * np.cos(p)) ** 2)
+    u = e * e * np.sin(p) * np.cos(p)
+    dS = u * w / S
+    ddS = (e * e * np.cos(2 * p) * w * w + u * a) / S - dS * dS / S
+    return (e * np.sin(p) + side * S, e * np.cos(p) * w + side * dS,
+            -e * np.sin(p) * w * w + e * np.cos(p) * a + side * ddS)
+
+
+def radial_follower(theta, s):
+    """Eq. 4.26 for a radial point follower: its tip is at s(theta) from the
+    outline's centre, theta the contact's polar angle on the cam (a motion):
+    r' = s' theta', r'' = s'' theta'^2 + s' theta''."""
+    th, w, a = theta
+    s0, s1, s2 = s(th)
+    return s0, s1 * w, s2 * w * w + s1 * a

@@ -143,12 +143,13 @@ def test_a_clean_rerun_passes_and_native_says_no_independent_reference(repo, tmp
     out = report(paths, tmp_path / "o", str(base))
     assert out.exit_code == 0 and out.value.doc["gate"]["regressions"] == 0, out.detail
     assert out.value.doc["options"]["whole_set"]   # the files given cover the baseline's set: whatever their folder
-    cam = next(c for c in out.value.doc["cases"] if c["name"] == "cam_roller_circle")
-    assert cam["runs"][0]["verdict"] == "no independent reference"
+    by_name = {c["name"]: c for c in out.value.doc["cases"]}
+    assert by_name["watt2"]["runs"][0]["verdict"] == "no independent reference"
+    assert by_name["cam_roller_circle"]["runs"][0]["verdict"] == "within tolerance"   # Example 4.4's closed form
     junit = ET.parse(tmp_path / "o" / "junit.xml").getroot()
-    cam_native = next(t for t in junit.iter("testcase") if t.get("classname").endswith("cam_roller_circle")
-                      and t.get("name") == "native")
-    assert cam_native.find("system-out").text == "no independent reference"
+    six_bar = next(t for t in junit.iter("testcase") if t.get("classname").endswith("watt2")
+                   and t.get("name") == "native")
+    assert six_bar.find("system-out").text == "no independent reference"
     html = (tmp_path / "o" / "index.html").read_text()
     assert "no independent reference" in html
     assert cli.main(["compare", paths[2], "--engines", "native"]) == 0

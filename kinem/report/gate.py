@@ -19,7 +19,8 @@ A regression (exit code 1) is, for a case and engine present in both:
 - a case whose fingerprint changed: "case changed: baseline stale" (its
   runs are then not compared); an edit of the native solver's settings
   alone is compared instead, at the baseline's tolerance (SETTINGS_SLACK).
-When native moved and an engine's own trajectory did not, the engine's
+Native's figures against a closed form the baseline's run lacks are "new"
+(listed, not failing). When native moved and an engine's own trajectory did not, the engine's
 findings against native are "attributed" (listed, not fatal).
 The same rules apply to every work-precision point both runs have (its
 position and velocity errors and its counts). Wall time is only flagged: time per step more than
@@ -98,7 +99,11 @@ def rank(r):
 
 
 def _figures(run):
-    return {k: run.get(k) for k in GATED}
+    """The gated figures, and native's rates against its closed form where it has them."""
+    out = {k: run.get(k) for k in GATED}
+    out.update({k: run[k] for k in ("reference_velocity_error_rel", "reference_acceleration_error_rel")
+                if run.get(k) is not None})
+    return out
 
 
 def grew(a, b) -> bool:
@@ -196,6 +201,7 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
                       "counts": run["counts"]},
                      findings)
             _trajectory(path, case, o, run, findings, settings and oc["solver"]["tolerance"])
+            _new_figures(name, o, run, findings)
             skipped = _sweep(name, e, oc, case, findings, scope)
             if skipped:
                 why = "--quick" if scope.sweeps else "not in this run's sweep: a regression"
@@ -268,6 +274,22 @@ def _judged(name, old, new, findings):
                else f"{a:.2e} in the baseline" if a is not None else "not in the baseline")
         findings.append(Finding(name, new["engine"], "main", "tolerance", k, limit, b, True,
                                 f"{name}/{new['engine']} {new['verdict']}: {k} {b:.2e} above its limit {limit:.0e} ({was})"))
+
+
+def _new_figures(name, old, new, findings):
+    """Native's figures against a closed form the baseline's run did not
+    have (a closed form new to the case, the rates against it): listed as
+    new, not failing; a baseline recorded with them compares them."""
+    from .runs import INDEPENDENT_KEYS
+
+    keys = [k for k in INDEPENDENT_KEYS if k.endswith("_rel") and new.get(k) is not None and old.get(k) is None]
+    if old.get("reference_kind", "native") != new.get("reference_kind", "native"):
+        keys.insert(0, "position_error_rel")
+    if keys and new["outcome"] == "ok":
+        what = ", ".join(k.split("_")[-3] if k.startswith("reference_") else "position" for k in keys)
+        findings.append(Finding(name, new["engine"], "main", "new", "figures", None, ", ".join(keys), False,
+                                f"new: no baseline for its {what} against {new['reference']} "
+                                "(--update-baseline records them)"))
 
 
 def _consensus_text(c) -> str:
@@ -460,6 +482,9 @@ def verdict(findings) -> tuple:
     slow = [f for f in findings if f.kind == "slower"]
     if slow:
         return Verdict.SLOWER, f"pass, slower x{slow[0].new / slow[0].old:.1f}"
+    new = [f for f in findings if f.kind == "new"]
+    if new:
+        return Verdict.NEW, new[0].message
     return Verdict.PASS, "pass"
 
 

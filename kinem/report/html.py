@@ -7,8 +7,8 @@ from html import escape
 
 from . import plots
 from .runs import Reference, sample
-from .text import (SELF, cost, failed, figure, fmt, headline, judgement, matrix, passed, provenance, reason, seconds,
-                   short, unsupported, unsupported_lines, verdict)
+from .text import (SELF, cost, failed, figure, fmt, headline, judgement, limits_text, matrix, passed, provenance, rates,
+                   reason, seconds, short, unsupported, unsupported_lines, verdict)
 
 SNAPSHOTS = 4   # instants of the static mechanism drawings
 CSS = """body{font:14px/1.4 system-ui,sans-serif;margin:1.5em auto;max-width:1250px;padding:0 1em;color:#222}
@@ -79,7 +79,8 @@ def _matrix_cell(cell, notes, case):
         return f'<td class=c-skip title="{escape(": ".join(x for x in reason(r) if x))}">–</td>'
     tip = escape(f"{r['status']}; position error / L {fmt(r['position_error_rel'])}; angle error "
                  f"{fmt(r['angle_error'])} rad; velocity error / V {fmt(r['velocity_error_rel'])}; residual "
-                 f"{fmt(r['constraint_residual'])}; verdict: {v[1]}; position error against {r['reference']}")
+                 f"{fmt(r['constraint_residual'])}; verdict: {v[1]}; position error against {r['reference']}"
+                 + (f"; {rates(r)}" if rates(r) else ""))
     said = []
     if v[0] in TAGS:
         said.append((TAGS[v[0]], v[1]))
@@ -211,7 +212,8 @@ def _native_reference(case):
         return "–"
     if Reference(native["reference_kind"]) is Reference.NATIVE:
         return f"{SELF} (its figures against native at the reference tolerance are the same solver's)"
-    return f"position error against {native['reference']}"
+    what = "position, velocity and acceleration errors" if rates(native) else "position error"
+    return f"{what} against {native['reference']}"
 
 
 def motion_section(model, series):
@@ -274,7 +276,9 @@ def index_html(doc, sections, curves=None) -> str:
                  "steps per interval counting every attempt (native: one solve per instant), the same unit in "
                  "every column; a numbered note below the table says what a tagged cell's verdict rests on; hover for the other figures and the verdict. References: engines against the "
                  "native solution at tolerance 1e-13; native against the case's closed form (ᶜ, kinem.reference) "
-                 "or its equivalence group (ᵍ) where it has one, else \"no independent reference\" (white). Green: ok and "
+                 "or its equivalence group (ᵍ) where it has one, else \"no independent reference\" (white). Against a "
+                 "closed form native's velocities and accelerations are checked too (hover: each error / the closed "
+                 f"form's peak); native fails (red) above {limits_text()}. Green: ok and "
                  "no regression; yellow: new, or outside the engine's documented tolerance (the metric, its value "
                  "and its limit named); blue: slower than the baseline relative to the engine's other cases in the same run (shown, "
                  "not failing unless --fail-on-slowdown); red: failed or regressed. Rows: cases with a red cell "

@@ -35,6 +35,9 @@ FRAMES = 120                 # instants of the animation (native and every engin
 PATH_INSTANTS = 480          # instants of the named points' paths drawn in the plane
 ERROR_KEYS = ("position_error", "position_error_rel", "angle_error", "velocity_error", "velocity_error_rel",
               "angular_velocity_error", "angular_velocity_error_rel", "constraint_residual")   # adapters.compare.FIGURES
+# native's rates against its closed form (kinem.report.references): velocities, accelerations / the peak
+INDEPENDENT_KEYS = ("reference_velocity_error", "reference_velocity_error_rel", "reference_acceleration_error",
+                    "reference_acceleration_error_rel")
 
 
 @dataclass(frozen=True)
@@ -84,7 +87,7 @@ def _blank(task, outcome, detail="", **extra):
            "reference_kind": Reference.NATIVE.value,
            "knobs": dict(task.point) or ({task.knob: task.value} if task.knob else {}), "trajectory": None,
            "verdict": _verdict_of(outcome), "estimate": {}, "reason": reason, "attributed": None}
-    out.update({k: None for k in ERROR_KEYS})
+    out.update({k: None for k in ERROR_KEYS + INDEPENDENT_KEYS})
     out.update(extra)
     return out
 
@@ -187,23 +190,30 @@ def run_native(task):
         out["series"] = _series(model, ref, r.trajectory, r.q, with_reference=True)
         out["reference_tolerance"] = ref_tol
         _independent(model, ref, r.trajectory, out)
-        if out["reference_kind"] != Reference.NATIVE.value:
-            out["verdict"] = Verdict.WITHIN.value
     return out
 
 
 def _independent(model, ref, traj, out):
-    """The main native run's position figures against the case's closed form
-    (kinem.report.references) where it has one; the named points of its
-    equivalence group into the series (kinem.report.equivalence)."""
-    from .references import closed_form, error
+    """The main native run against the case's closed form
+    (kinem.report.references) where it has one: its positions (or bodies'
+    coordinates), velocities and accelerations, each within its limit
+    (references.LIMITS) or the verdict is outside tolerance, the figure
+    named; the named points of its equivalence group into the series
+    (kinem.report.equivalence)."""
+    from adapters.compare import Verdict
+
+    from .references import LIMITS, closed_form, error
 
     cf = closed_form(model, ref)
     if cf is not None:
-        label, points = cf
-        d = error(model, traj, points)
-        out.update(position_error=_finite(d), position_error_rel=_finite(d / model.length), reference=label,
-                   reference_kind=Reference.CLOSED_FORM.value)
+        f = error(model, traj, cf)
+        out.update(position_error=_finite(f.position), position_error_rel=_finite(f.position_rel),
+                   reference_velocity_error=_finite(f.velocity), reference_velocity_error_rel=_finite(f.velocity_rel),
+                   reference_acceleration_error=_finite(f.acceleration),
+                   reference_acceleration_error_rel=_finite(f.acceleration_rel),
+                   reference=cf.label, reference_kind=Reference.CLOSED_FORM.value, tolerance=dict(LIMITS))
+        within = all(out[k] is not None and out[k] <= limit for k, limit in LIMITS.items())
+        out.update(within_tolerance=within, verdict=(Verdict.WITHIN if within else Verdict.OUTSIDE).value)
     eq = model.case.equivalent
     if eq is not None:
         pick = lambda tr: {n: [tr[f"{n}.x"].tolist(), tr[f"{n}.y"].tolist()] for n in eq.points}  # noqa: E731

@@ -87,6 +87,25 @@ def figure(run) -> tuple:
     return max(shown, key=lambda x: x[0]) if shown else (None, "")
 
 
+def rates(run, brief=False) -> str:
+    """Native's velocity and acceleration errors against its closed form,
+    '' where it has none."""
+    v, a = run.get("reference_velocity_error_rel"), run.get("reference_acceleration_error_rel")
+    if v is None and a is None:
+        return ""
+    if brief:
+        return f"v {fmt(v)}, a {fmt(a)} of peak"
+    return f"velocity {fmt(v)}, acceleration {fmt(a)} of the peak against the closed form"
+
+
+def limits_text() -> str:
+    """Native's limits against a closed form, in words."""
+    from .references import LIMITS
+
+    return (f"{LIMITS['position_error_rel']:.0e} of L in position, {LIMITS['reference_velocity_error_rel']:.0e} "
+            f"(velocity) and {LIMITS['reference_acceleration_error_rel']:.0e} (acceleration) of the peak")
+
+
 def exceeded(run) -> list:
     """(metric, value, limit) of every figure above the run's tolerance."""
     return [(k, run.get(k), limit) for k, limit in (run.get("tolerance") or {}).items()
@@ -289,7 +308,9 @@ def summary_md(doc) -> str:
     out += ["", "Cells: the worst error over every coordinate that moves (positions / L, bodies' angles in rad; "
             "velocities / V, angular velocities / (V/L): the worst named; engines against native at tolerance "
             "1e-13; native against the closed form or equivalence group where the case has one, or the engines' "
-            "consensus when it disagrees with it, else \"no independent reference\"), then the whole run's wall "
+            "consensus when it disagrees with it, else \"no independent reference\"; with a closed form also its "
+            "velocities (v) and accelerations (a), each / the closed form's peak, and native fails above "
+            f"{limits_text()}), then the whole run's wall "
             "time per output interval and the engine steps per interval (every attempt); ◦ native without an independent reference, ✅ pass or ok, ⚠️ new or "
             "outside the engine's tolerance (the metric, value and limit named), 🐢 slower than the baseline (not failing), ❌ failed or regressed. "
             "Details, plots and work-precision diagrams: index.html."]
@@ -309,6 +330,8 @@ def _md_cell(cell) -> str:
         return f"❌ {short(r['status'], 40)}".replace("|", "\\|")
     value, what = figure(r)
     text = f"{MARK[g]} " + (what if value is None else f"{fmt(value)} ({what})") + f", {cost(r)}"
+    if rates(r) and not r.get("attributed"):
+        text += f"; {rates(r, brief=True)}"
     if verdict(r).fails or r.get("attributed"):
         text += f" ({short(judgement(r), 120)})"
     kind, sentence = v
