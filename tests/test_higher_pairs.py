@@ -259,6 +259,24 @@ def test_rack_pinion_reduces_to_eqs_419_420():
         assert m.phi(q, 0.0)[0] == pytest.approx(eq419, abs=1e-12 * 100)
 
 
+def test_a_pinion_on_the_other_side_of_u_is_an_input_error():
+    """Phi rolls the pinion as if it lay on u's +90 degree side: a pinion
+    estimated on the -90 degree side (here 1.7 below a line along +x) would
+    roll the wrong way, so it is refused naming u; u reversed is accepted and
+    rolls it by Eq. 4.20 with the sign of that side."""
+    with pytest.raises(kinem.InputError, match="key 'u'.*-90 degrees") as e:
+        rack_model([0.4, -1.7, 0.9], [-2.0, 0.0, 0.0], 1.7)
+    assert "constraint 1" in str(e.value)
+    m = kinem.compile(kinem.load_dict({
+        "name": "rp", "time": {"end": 1.0, "steps": 1},
+        "bodies": {"p": {"q": [0.4, -1.7, 0.9]}, "r": {"q": [-2.0, 0.0, 0.0]}},
+        "constraints": [{"type": "rack-pinion", "pinion": "p", "radius": 1.7, "rack": "r", "sj": [0.0, 0.0],
+                         "u": [-1.0, 0.0]}],
+    }))
+    q = np.array([0.4 + 0.3, -1.7, 0.9 + 0.3 / 1.7, -2.0, 0.0, 0.0])   # centre moved +x, turned + by x/rho
+    assert m.phi(q, 0.0)[0] == pytest.approx(0.0, abs=1e-12)
+
+
 def test_gear_forms_417_418():
     """Eqs. 4.17 and 4.18 with the estimates as phi^0; internal: opposite sign of rho_j."""
     bodies = {"a": {"q": [0, 0, 0.3]}, "b": {"q": [0, 0, -1.1]}, "k": {"q": [0, 0, 0.7]}}

@@ -90,13 +90,22 @@ def _check_gear(f, bodies):
 
 
 def _check_rack(f, bodies):
+    """phi0 from the estimates; a pinion whose estimated centre lies on the
+    side of u turned -90 degrees (by more than half its radius) is refused:
+    Phi rolls it the other way there (Eq. 4.19's sign), so u must point the
+    other way along the line."""
     f.setdefault("center", (0.0, 0.0))
     f.setdefault("u", (1.0, 0.0))
+    (xi, yi, pi), (xj, yj, pj) = bodies[f["pinion"]].q, bodies[f["rack"]].q
+    ei, ej = np.exp(1j * pi), np.exp(1j * pj)
+    u = complex(*f["u"]) / np.hypot(*f["u"]) * ej
+    d = complex(xi, yi) + complex(*f["center"]) * ei - complex(xj, yj) - complex(*f["sj"]) * ej
+    side = (u.conjugate() * d).imag   # the centre's distance from the line, positive on u's +90 degree side
+    if side < -0.5 * f["radius"]:
+        return [("u", f"the pinion's centre lies {-side:.6g} from the pitch line on the side of u turned -90 "
+                      "degrees (by the estimates)", "u along the line with the pinion on its side turned +90 "
+                      "degrees (reverse u)")]
     if "phi0" not in f:
-        (xi, yi, pi), (xj, yj, pj) = bodies[f["pinion"]].q, bodies[f["rack"]].q
-        ei, ej = np.exp(1j * pi), np.exp(1j * pj)
-        u = complex(*f["u"]) / np.hypot(*f["u"]) * ej
-        d = complex(xi, yi) + complex(*f["center"]) * ei - complex(xj, yj) - complex(*f["sj"]) * ej
         f["phi0"] = float(pi - pj + (u.conjugate() * d).real / f["radius"])
     return []
 
