@@ -93,7 +93,18 @@ pub fn residual(phi: &[f64], scale: &[f64]) -> f64 {
 
 /// The largest |dq_j| / col_scale_j: a correction's size (NaNs passed over).
 pub fn size(dq: &[f64], col_scale: &[f64]) -> f64 {
-    dq.iter().zip(col_scale).fold(0.0f64, |a, (d, c)| most(a, d.abs() / c))
+    // two running maxima, as accept::gap
+    let ((d2, d1), (c2, c1)) = (dq.as_chunks::<2>(), col_scale[..dq.len()].as_chunks::<2>());
+    let mut g = [0.0f64; 2];
+    for (d, c) in d2.iter().zip(c2) {
+        for k in 0..2 {
+            g[k] = most(g[k], d[k].abs() / c[k]);
+        }
+    }
+    for (d, c) in d1.iter().zip(c1) {
+        g[0] = most(g[0], d.abs() / c);
+    }
+    most(g[0], g[1])
 }
 
 /// The factor that limits a correction of size `big` to `limit`.
