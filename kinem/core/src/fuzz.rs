@@ -214,6 +214,20 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
             let err = x.iter().zip(&x0).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
             assert!(err < 1e-6 / ratio, "trial {trial}: error {err}, pivot ratio {ratio}");
             solved += 1;
+            if let Some(got) = &f.fixed[0] {
+                // the pivots' figures read from the free pivots and the first folded one
+                // are those of every pivot in position order (tolerance 0)
+                let (mut small, mut big, mut at, mut det) = (f64::INFINITY, 0.0f64, 0, t.sign);
+                for (p, &v) in t.factoring.diag.iter().enumerate() {
+                    let d = f.j[v as usize];
+                    det = if d < 0.0 { -det } else { det };
+                    if d.abs() < small {
+                        (small, at) = (d.abs(), p);
+                    }
+                    big = big.max(d.abs());
+                }
+                assert_eq!((got.small, got.big, got.at, got.det), (small, big, at, det), "trial {trial}");
+            }
             if !t.program.quiet.is_empty() && f.fixed[0].is_some() {
                 // zero right sides at the quiet positions: the short program's figures are the
                 // full one's (equal as numbers: tolerance 0; only a zero's sign may differ)

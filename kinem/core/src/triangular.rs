@@ -218,6 +218,11 @@ pub struct Factoring {
     /// the folded pivots (`Program`): a factorisation where one is not
     /// exactly 1 is refused (the fallback takes it)
     pub ones: Vec<u32>,
+    /// the pivots not folded, [value index, position], and the first
+    /// folded one's position (n: none): `run` reads only those, the folded
+    /// ones being 1
+    pub free: Vec<[u32; 2]>,
+    pub first_one: u32,
     pub values: usize,
     pub entries: usize,
 }
@@ -235,6 +240,7 @@ impl Factoring {
             || self.pairs.iter().any(|p| bad(p[0]) || bad(p[1]))
             || self.diag.iter().any(|&x| bad(x))
             || self.ones.iter().any(|&x| bad(x))
+            || self.free.iter().any(|f| bad(f[0]))
         {
             return Err("factoring: an index out of range".into());
         }
@@ -308,7 +314,7 @@ impl Factoring {
                 return None;
             }
             let mut acc = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det: sign };
-            for (p, &at) in self.diag.iter().enumerate() {
+            for &[at, p] in &self.free {
                 let d = *a.get_unchecked(at as usize);
                 if d == 0.0 || !d.is_finite() {
                     return None;
@@ -316,8 +322,17 @@ impl Factoring {
                 if d < 0.0 {
                     acc.det = -acc.det;
                 }
-                acc.take(d.abs(), p);
+                acc.take(d.abs(), p as usize);
                 acc.big = acc.big.max(d.abs());
+            }
+            if (self.first_one as usize) < self.diag.len() {
+                // the folded pivots, each exactly 1 (checked above): the smallest is
+                // the first position of the least |pivot|, as the loop over all of them takes it
+                let p = self.first_one as usize;
+                if 1.0 < acc.small || (1.0 == acc.small && p < acc.at) {
+                    (acc.small, acc.at) = (1.0, p);
+                }
+                acc.big = acc.big.max(1.0);
             }
             Some(acc)
         }
@@ -455,6 +470,9 @@ impl Triangular {
                 Some(o) => o.factoring(d.store, &mut f),
             }
         }
+        let folded_at = |at: &u32| f.ones.contains(at);
+        f.free = (f.diag.iter().enumerate()).filter(|(_, at)| !folded_at(at)).map(|(p, &at)| [at, p as u32]).collect();
+        f.first_one = f.diag.iter().position(folded_at).unwrap_or(f.diag.len()) as u32;
         f.check()?;
         Ok(f)
     }
