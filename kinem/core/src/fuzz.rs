@@ -172,7 +172,7 @@ fn random_layout(n: usize, rng: &mut Rng) -> (Layout, Vec<usize>, Vec<usize>) {
 #[test]
 fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
     let mut rng = Rng(0x2545_f491_4f6c_dd1d);
-    let (mut solved, mut corrupted, mut folds) = (0, 0, 0);
+    let (mut solved, mut corrupted, mut folds, mut quiet) = (0, 0, 0, 0);
     for trial in 0..600 {
         let n = 2 + rng.below(19) as usize;
         let (mut layout, rows, cols) = random_layout(n, &mut rng);
@@ -180,7 +180,11 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
         // entries taken for +1 (a folded 1x1 pivot where one is alone in its block): set so in half the trials
         let one: Vec<bool> = constant.iter().map(|&c| c && rng.below(2) == 0).collect();
         let honest = trial % 2 == 0;
-        if !super::triangulate(&mut layout, &constant, &constant, &one) {
+        // rows whose nu looked zero: their folded 1x1 blocks are quiet positions of the program
+        // (from a generator of their own: the other draws as before)
+        let mut quiet_rng = Rng(0x9e37_79b9_7f4a_7c15 ^ trial as u64);
+        let still: Vec<bool> = (0..n).map(|_| quiet_rng.below(3) != 0).collect();
+        if !super::triangulate_still(&mut layout, &constant, &constant, &one, &still) {
             continue;
         }
         let Shape::Triangular(t) = &layout.shape else { panic!("trial {trial}: not triangular") };
@@ -210,6 +214,35 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
             let err = x.iter().zip(&x0).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
             assert!(err < 1e-6 / ratio, "trial {trial}: error {err}, pivot ratio {ratio}");
             solved += 1;
+            if let Some(got) = &f.fixed[0] {
+                // the pivots' figures read from the free pivots and the first folded one
+                // are those of every pivot in position order (tolerance 0)
+                let (mut small, mut big, mut at, mut det) = (f64::INFINITY, 0.0f64, 0, t.sign);
+                for (p, &v) in t.factoring.diag.iter().enumerate() {
+                    let d = f.j[v as usize];
+                    det = if d < 0.0 { -det } else { det };
+                    if d.abs() < small {
+                        (small, at) = (d.abs(), p);
+                    }
+                    big = big.max(d.abs());
+                }
+                assert_eq!((got.small, got.big, got.at, got.det), (small, big, at, det), "trial {trial}");
+            }
+            if !t.program.quiet.is_empty() && f.fixed[0].is_some() {
+                // zero right sides at the quiet positions: the short program's figures are the
+                // full one's (equal as numbers: tolerance 0; only a zero's sign may differ)
+                let mut b = b.clone();
+                for &q in &t.program.quiet {
+                    b[t.gather[q as usize]] = 0.0;
+                }
+                let mut full = (**t).clone();
+                full.program.quiet.clear();
+                let (mut xs, mut xf, mut w) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+                t.run(&f.j, &b, &mut xs, &mut w);
+                full.run(&f.j, &b, &mut xf, &mut w);
+                assert_eq!(xs, xf, "trial {trial}: the short program differs from the full one");
+                quiet += 1;
+            }
             folds += (folded > 0 && f.fixed[0].is_some()) as usize;
         }
         // any index of the program or the factoring moved out of range is refused
@@ -233,7 +266,7 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
         corrupted += 1;
     }
     assert!(
-        solved >= 300 && corrupted >= 100 && folds >= 20,
-        "{solved} solves ({folds} with folded pivots), {corrupted} corruptions checked"
+        solved >= 300 && corrupted >= 100 && folds >= 20 && quiet >= 20,
+        "{solved} solves ({folds} with folded pivots, {quiet} quiet), {corrupted} corruptions checked"
     );
 }

@@ -3,7 +3,7 @@
 //! kinem's LU, holding the last instant's factorisation for the chord), its
 //! figures into the outputs, until an instant is not accepted; that one is
 //! handed to the tracker (kinem/tracking.py), which calls the same step.
-use crate::accept::Why;
+use crate::accept::{most, Why};
 use crate::families::At;
 use crate::lu::{Factors, Layout};
 use crate::model::{Kin, Rotation};
@@ -81,7 +81,7 @@ pub fn residual(phi: &[f64], scale: &[f64]) -> f64 {
     let (mut r, mut nan) = (0.0f64, false);
     for (p, s) in phi.iter().zip(scale) {
         let v = p.abs() / s;
-        r = r.max(v);
+        r = most(r, v);
         nan |= v.is_nan();
     }
     if nan {
@@ -91,9 +91,20 @@ pub fn residual(phi: &[f64], scale: &[f64]) -> f64 {
     }
 }
 
-/// The largest |dq_j| / col_scale_j: a correction's size.
+/// The largest |dq_j| / col_scale_j: a correction's size (NaNs passed over).
 pub fn size(dq: &[f64], col_scale: &[f64]) -> f64 {
-    dq.iter().zip(col_scale).fold(0.0f64, |a, (d, c)| a.max(d.abs() / c))
+    // two running maxima, as accept::gap
+    let ((d2, d1), (c2, c1)) = (dq.as_chunks::<2>(), col_scale[..dq.len()].as_chunks::<2>());
+    let mut g = [0.0f64; 2];
+    for (d, c) in d2.iter().zip(c2) {
+        for k in 0..2 {
+            g[k] = most(g[k], d[k].abs() / c[k]);
+        }
+    }
+    for (d, c) in d1.iter().zip(c1) {
+        g[0] = most(g[0], d.abs() / c);
+    }
+    most(g[0], g[1])
 }
 
 /// The factor that limits a correction of size `big` to `limit`.

@@ -274,6 +274,7 @@ impl Contraction {
 /// Taylor's from its rates (`taylor_from`) or Lagrange's from its last
 /// instants. Whether the acceptance test judges the jump from it (not at the
 /// first instant, nor from a Lagrange predictor of fewer than two instants).
+#[inline(always)]
 pub fn predict(st: &MarchState, t: f64, taylor_from: bool, qp: &mut [f64]) -> bool {
     if st.t.is_nan() {
         qp.copy_from_slice(&st.q);

@@ -29,6 +29,14 @@ use crate::real::Real;
 /// `Factoring::ones` checks it each factorisation) has no division: its
 /// subtractions run with the next division's, or after the last one.
 ///
+/// The quiet positions: 1x1 blocks folded (pivot +1) with no subtraction
+/// into them and a row whose nu was zero at every trial (a ground's): their
+/// w is the gathered right side, zero in the rates' solves and in a
+/// correction once the ground is met. Where every one is zero, `run` runs
+/// `short`, the program without the subtractions that read them (w[i] -=
+/// a 0: the same w[i], but for the sign of a zero); the others are kept in
+/// the same order, so the figures are the full program's.
+///
 /// Invariants, checked once by `Program::check` when the model is built
 /// (and by debug assertions in `run`): every position i, c, r is below
 /// `positions`, every value index u, v below `values`, the ends ascend up
@@ -39,6 +47,9 @@ pub struct Program {
     pub divs: Vec<[u32; 3]>,
     pub positions: usize,
     pub values: usize,
+    pub quiet: Vec<u32>,
+    /// (subs, divs) without the subtractions that read a quiet position
+    pub short: (Vec<[u32; 3]>, Vec<[u32; 3]>),
 }
 
 impl Program {
@@ -50,39 +61,68 @@ impl Program {
         self.divs.push([self.subs.len() as u32, r as u32, v as u32]);
     }
 
-    /// The invariants `run` relies on (see `Program`).
+    /// The program without the subtractions that read the quiet positions
+    /// `quiet` (each a position no subtraction or division writes), set as
+    /// `short`; none where no subtraction reads one.
+    pub fn quieten(&mut self, quiet: Vec<u32>) {
+        let read = |s: &[u32; 3]| quiet.contains(&s[1]);
+        if quiet.iter().any(|&q| self.subs.iter().any(|s| s[0] == q) || self.divs.iter().any(|d| d[1] == q))
+            || !self.subs.iter().any(read)
+        {
+            return;
+        }
+        let (mut subs, mut divs, mut from) = (Vec::new(), Vec::new(), 0);
+        for &[end, r, v] in &self.divs {
+            subs.extend(self.subs[from..end as usize].iter().filter(|s| !read(s)));
+            divs.push([subs.len() as u32, r, v]);
+            from = end as usize;
+        }
+        subs.extend(self.subs[from..].iter().filter(|s| !read(s)));
+        (self.quiet, self.short) = (quiet, (subs, divs));
+    }
+
+    /// The invariants `run` relies on (see `Program`), of both lists.
     pub fn check(&self) -> Result<(), String> {
         let (p, v) = (self.positions, self.values);
         if p >= u32::MAX as usize || v >= u32::MAX as usize {
             return Err("program: too many positions or values".into());
         }
-        if let Some(s) = self.subs.iter().find(|s| s[0] as usize >= p || s[1] as usize >= p || s[2] as usize >= v) {
-            return Err(format!("program: subtraction {s:?} outside {p} positions, {v} values"));
+        if let Some(q) = self.quiet.iter().find(|&&q| q as usize >= p) {
+            return Err(format!("program: quiet position {q} outside {p} positions"));
         }
-        let mut end = 0;
-        for d in &self.divs {
-            if d[0] < end || d[0] as usize > self.subs.len() || d[1] as usize >= p || d[2] as usize >= v {
-                return Err(format!("program: division {d:?} out of order or range"));
+        for (subs, divs) in [(&self.subs, &self.divs), (&self.short.0, &self.short.1)] {
+            if let Some(s) = subs.iter().find(|s| s[0] as usize >= p || s[1] as usize >= p || s[2] as usize >= v) {
+                return Err(format!("program: subtraction {s:?} outside {p} positions, {v} values"));
             }
-            end = d[0];
+            let mut end = 0;
+            for d in divs {
+                if d[0] < end || d[0] as usize > subs.len() || d[1] as usize >= p || d[2] as usize >= v {
+                    return Err(format!("program: division {d:?} out of order or range"));
+                }
+                end = d[0];
+            }
         }
         Ok(())
     }
 
     /// Runs the program on w (positions) with the values a: over f64, over
     /// variants' lanes (crate::lane_lu) or over several right-hand sides
-    /// at once (crate::sensitivity), the same operations in the same order.
+    /// at once (crate::sensitivity), the same operations in the same order
+    /// (`short` where every quiet position is zero in every lane).
     #[inline]
     pub fn run<A: Copy, W: Cell<A>>(&self, a: &[A], w: &mut [W]) {
         assert!(a.len() >= self.values && w.len() >= self.positions);
         debug_assert!(self.check().is_ok());
+        // SAFETY: Program::check (when built): every quiet position below `positions` <= w.len()
+        let quiet = !self.quiet.is_empty() && self.quiet.iter().all(|&q| unsafe { w.get_unchecked(q as usize) }.zero());
+        let (subs, divs) = if quiet { (&self.short.0, &self.short.1) } else { (&self.subs, &self.divs) };
         let mut from = 0;
-        for &[end, r, v] in &self.divs {
+        for &[end, r, v] in divs {
             let end = end as usize;
             // SAFETY: Program::check (when built): from <= end <= subs.len(), every
             // position below `positions` <= w.len(), every value below `values` <= a.len()
             unsafe {
-                for &[i, c, u] in self.subs.get_unchecked(from..end) {
+                for &[i, c, u] in subs.get_unchecked(from..end) {
                     let x = *w.get_unchecked(c as usize);
                     w.get_unchecked_mut(i as usize).sub_mul(*a.get_unchecked(u as usize), x);
                 }
@@ -91,7 +131,7 @@ impl Program {
             from = end;
         }
         // SAFETY: as above (from <= subs.len())
-        for &[i, c, u] in unsafe { self.subs.get_unchecked(from..) } {
+        for &[i, c, u] in unsafe { subs.get_unchecked(from..) } {
             unsafe {
                 let x = *w.get_unchecked(c as usize);
                 w.get_unchecked_mut(i as usize).sub_mul(*a.get_unchecked(u as usize), x);
@@ -103,14 +143,20 @@ impl Program {
 /// What a solve's program works on, a factor's entry being `A`: a
 /// position's value (f64, or variants' lanes: A = Self), or the same
 /// position of N right-hand sides ([f64; N], A = f64). y.sub_mul(a, x) is
-/// y = y - a x, y.div(a) y = y / a, each lane's as f64's, to the bit.
+/// y = y - a x, y.div(a) y = y / a, each lane's as f64's, to the bit;
+/// y.zero(): every lane is zero.
 pub trait Cell<A>: Copy {
     fn sub_mul(&mut self, a: A, x: Self);
     fn div(&mut self, a: A);
     fn scaled(self, s: f64) -> Self;
+    fn zero(&self) -> bool;
 }
 
 impl<S: Real> Cell<S> for S {
+    #[inline(always)]
+    fn zero(&self) -> bool {
+        self.is_zero()
+    }
     #[inline(always)]
     fn sub_mul(&mut self, a: S, x: S) {
         *self = *self - a * x;
@@ -126,6 +172,10 @@ impl<S: Real> Cell<S> for S {
 }
 
 impl<const N: usize> Cell<f64> for [f64; N] {
+    #[inline(always)]
+    fn zero(&self) -> bool {
+        self.iter().all(|&y| y == 0.0)
+    }
     #[inline(always)]
     fn sub_mul(&mut self, a: f64, x: Self) {
         for (y, x) in self.iter_mut().zip(x) {
@@ -168,6 +218,11 @@ pub struct Factoring {
     /// the folded pivots (`Program`): a factorisation where one is not
     /// exactly 1 is refused (the fallback takes it)
     pub ones: Vec<u32>,
+    /// the pivots not folded, [value index, position], and the first
+    /// folded one's position (n: none): `run` reads only those, the folded
+    /// ones being 1
+    pub free: Vec<[u32; 2]>,
+    pub first_one: u32,
     pub values: usize,
     pub entries: usize,
 }
@@ -185,6 +240,7 @@ impl Factoring {
             || self.pairs.iter().any(|p| bad(p[0]) || bad(p[1]))
             || self.diag.iter().any(|&x| bad(x))
             || self.ones.iter().any(|&x| bad(x))
+            || self.free.iter().any(|f| bad(f[0]))
         {
             return Err("factoring: an index out of range".into());
         }
@@ -258,7 +314,7 @@ impl Factoring {
                 return None;
             }
             let mut acc = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det: sign };
-            for (p, &at) in self.diag.iter().enumerate() {
+            for &[at, p] in &self.free {
                 let d = *a.get_unchecked(at as usize);
                 if d == 0.0 || !d.is_finite() {
                     return None;
@@ -266,8 +322,17 @@ impl Factoring {
                 if d < 0.0 {
                     acc.det = -acc.det;
                 }
-                acc.take(d.abs(), p);
+                acc.take(d.abs(), p as usize);
                 acc.big = acc.big.max(d.abs());
+            }
+            if (self.first_one as usize) < self.diag.len() {
+                // the folded pivots, each exactly 1 (checked above): the smallest is
+                // the first position of the least |pivot|, as the loop over all of them takes it
+                let p = self.first_one as usize;
+                if 1.0 < acc.small || (1.0 == acc.small && p < acc.at) {
+                    (acc.small, acc.at) = (1.0, p);
+                }
+                acc.big = acc.big.max(1.0);
             }
             Some(acc)
         }
@@ -344,14 +409,17 @@ impl Triangular {
     }
 
     /// The program of the blocks' solve (off_at: where the off-diagonal
-    /// values are stored; folded: the 1x1 blocks without a division),
-    /// checked (`Program::check`).
+    /// values are stored; folded: the 1x1 blocks without a division; still:
+    /// the blocks whose rows' nu was zero at every trial), its quiet
+    /// positions (`Program`: the folded, still 1x1 blocks without
+    /// off-diagonal entries), checked (`Program::check`).
     pub fn program(
         blocks: &[Diagonal],
         off: &[(usize, usize, usize)],
         off_at: usize,
         n: usize,
         folded: &[bool],
+        still: &[bool],
     ) -> Result<Program, String> {
         let mut p = Program { positions: n, values: off_at + off.len(), ..Program::default() };
         let mut next = 0;
@@ -370,6 +438,10 @@ impl Triangular {
         if next != off.len() || p.divs.len() + folded.iter().filter(|&&f| f).count() != n {
             return Err("program: an off-diagonal entry out of order, or a position without its pivot".into());
         }
+        let quiet = (blocks.iter().enumerate())
+            .filter(|&(k, d)| d.order.is_none() && folded[k] && still[k] && !off.iter().any(|o| o.0 == k))
+            .map(|(_, d)| d.at as u32);
+        p.quieten(quiet.collect());
         p.check()?;
         Ok(p)
     }
@@ -398,6 +470,9 @@ impl Triangular {
                 Some(o) => o.factoring(d.store, &mut f),
             }
         }
+        let folded_at = |at: &u32| f.ones.contains(at);
+        f.free = (f.diag.iter().enumerate()).filter(|(_, at)| !folded_at(at)).map(|(p, &at)| [at, p as u32]).collect();
+        f.first_one = f.diag.iter().position(folded_at).unwrap_or(f.diag.len()) as u32;
         f.check()?;
         Ok(f)
     }
