@@ -100,6 +100,7 @@ def test_options_limits_are_checked(bad):
 # -- Medium: Ctrl-C -----------------------------------------------------------------------------
 
 SOLVE_1E7 = textwrap.dedent("""
+    import time
     import numpy as np
     import kinem
     d = {"name": "crank", "time": {"end": 1.0, "steps": 10},
@@ -112,7 +113,9 @@ SOLVE_1E7 = textwrap.dedent("""
     model = kinem.compile(kinem.load_dict(d))
     times = np.linspace(0.0, 1.0, 10**7)
     kinem.solve(model, outputs=("positions",), times=times[:100])   # warm
-    print("ready", flush=True)
+    start = time.perf_counter()
+    kinem.solve(model, outputs=("positions",), times=times[:10**6])
+    print("ready", 10 * (time.perf_counter() - start), flush=True)   # the whole solve's time, estimated
     try:
         r = kinem.solve(model, outputs=("positions",), times=times)
         print("finished", flush=True)
@@ -122,18 +125,22 @@ SOLVE_1E7 = textwrap.dedent("""
 
 
 def test_sigint_stops_a_1e7_instant_solve():
-    """SIGINT while the core marches 1e7 instants: KeyboardInterrupt comes at
-    once (measured 2-10 ms; 30 s before the core polled for signals)."""
+    """SIGINT while the core marches 1e7 instants: KeyboardInterrupt comes
+    long before the solve could have finished (measured 2-10 ms; the whole
+    solve before the core polled for signals). The bound is relative, not a
+    timing: half of what the solve had left by the child's own estimate (a
+    tenth of it, timed in the same process), so it holds at any load."""
     p = subprocess.Popen([sys.executable, "-c", SOLVE_1E7], stdout=subprocess.PIPE, text=True, cwd=ROOT)
     try:
-        assert p.stdout.readline().strip() == "ready"
-        time.sleep(1.0)   # the march has started (it takes seconds)
+        word, whole = p.stdout.readline().split()
+        assert word == "ready"
+        time.sleep(0.2)   # the march has started
         sent = time.perf_counter()
         p.send_signal(signal.SIGINT)
         line = p.stdout.readline().strip()
         latency = time.perf_counter() - sent
         assert line == "interrupted"
-        assert latency < 2.0, latency   # generous: the core polls every 2 ms
+        assert latency < 0.5 * (float(whole) - 0.2), (latency, whole)
     finally:
         p.kill()
         p.wait()

@@ -182,13 +182,16 @@ def test_the_time_limit_stops_every_variant():
 
 
 SIGINT_BATCH = textwrap.dedent("""
+    import time
     import numpy as np
     import kinem
     model = kinem.compile(kinem.load("cases/slider_crank.toml"))
     times = np.linspace(0.0, 5.0, 100_000)
     rods = {"constraints.B.si.0": np.linspace(290.0, 310.0, 64)}
     kinem.solve(model, outputs=["B.x"], times=times[:100], parameters=rods)   # warm
-    print("ready", flush=True)
+    start = time.perf_counter()
+    kinem.solve(model, outputs=["B.x"], times=times[:10_000], parameters=rods)
+    print("ready", 10 * (time.perf_counter() - start), flush=True)   # the whole batch's time, estimated
     try:
         kinem.solve(model, outputs=["B.x"], times=times, parameters=rods)
         print("finished", flush=True)
@@ -199,17 +202,23 @@ SIGINT_BATCH = textwrap.dedent("""
 
 
 def test_sigint_stops_a_batch():
-    """SIGINT while the core marches 64 variants of 1e5 instants (seconds of
-    work): KeyboardInterrupt comes at once."""
+    """SIGINT while the core marches 64 variants of 1e5 instants:
+    KeyboardInterrupt comes long before the batch could have finished. The
+    bound is relative, not a timing: half of what the batch had left by the
+    child's own estimate (a tenth of it, timed in the same process), so it
+    holds at any load; a core that did not poll would answer only at the end
+    (the core polls every 2 ms: measured latencies are milliseconds)."""
     p = subprocess.Popen([sys.executable, "-c", SIGINT_BATCH], stdout=subprocess.PIPE, text=True, cwd=ROOT)
     try:
-        assert p.stdout.readline().strip() == "ready"
-        time.sleep(0.3)
+        word, whole = p.stdout.readline().split()
+        assert word == "ready"
+        time.sleep(0.1)
         sent = time.perf_counter()
         p.send_signal(signal.SIGINT)
         line = p.stdout.readline().strip()
+        latency = time.perf_counter() - sent
         assert line == "interrupted"
-        assert time.perf_counter() - sent < 2.0   # generous: the core polls every 2 ms
+        assert latency < 0.5 * (float(whole) - 0.1), (latency, whole)
     finally:
         p.kill()
         p.wait()

@@ -268,10 +268,12 @@ struct Scratch {
 
 impl Scratch {
     fn new(n: usize, kk: usize, stages: usize) -> Scratch {
-        let x = vec![0.0; if stages > 1 { 3 } else { 1 } * kk * n];
+        // zeroed by the allocator (pages touched only when written), never copied:
+        // a thread's scratch is made before its first group even when a stop has come
+        let len = if stages > 1 { 3 } else { 1 } * kk * n;
         Scratch {
-            lanes: vec![x.clone(); WIDTH],
-            x,
+            lanes: (0..WIDTH).map(|_| vec![0.0; len]).collect(),
+            x: vec![0.0; len],
             iterations: vec![0; kk],
             residual: vec![0.0; kk],
             pivot: vec![0.0; kk],
