@@ -333,10 +333,11 @@ fn write(
     let local: Vec<C64> = (0..asked.local.len())
         .map(|j| asked.local[j] + (0..dv.len()).map(|k| asked.dlocal[k * asked.local.len() + j] * dv[k]).sum::<C64>())
         .collect();
-    let x: Vec<&[f64]> = x.chunks(kk * n).take(stages).collect();
-    // rows from `end` on hold an earlier variant's values or none: NaN
-    columns(&x, n, asked.src, asked.pc, &local, data);
-    data[end * asked.src.len()..].fill(f64::NAN);
+    // the instants taken (rows from `end` on hold an earlier variant's values or none: NaN)
+    let x: Vec<&[f64]> = x.chunks(kk * n).take(stages).map(|s| &s[..end * n]).collect();
+    let (taken, rest) = data.split_at_mut(end * asked.src.len());
+    columns(&x, n, asked.src, asked.pc, &local, taken);
+    rest.fill(f64::NAN);
     if end > 0 {
         start.copy_from_slice(&x[0][..n]);
     } else {
