@@ -82,6 +82,17 @@ def theta_on(o):
         lambda a: x[a[0]] + a[1] * (x[a[0] + 1] - x[a[0]]) + 2 * np.pi * a[2])
 
 
+def rack_pinion(d):
+    """A rack-pinion table whose pinion lies on the side of u turned +90
+    degrees at the estimates (every body at the origin): the case file
+    refuses the other side. sj is the centre's foot on the line, moved along it."""
+    rho, center, u, along = d(positive), d(point), d(direction), d(num)
+    e = complex(*u) / abs(complex(*u))
+    foot = complex(*center) - (0.5 + d(st.floats(0.0, 2.0))) * 1j * e + along * e
+    return {"pinion": "b0", "radius": rho, "center": center, "rack": "b1", "sj": [foot.real, foot.imag],
+            "u": u, "phi0": d(num)}
+
+
 # type -> strategy of its constraint table between bodies b0, b1, b2
 BUILDERS = {
     "ground": lambda d: {"body": "b0", "value": [d(num), d(num), d(num)]},
@@ -105,8 +116,7 @@ BUILDERS = {
     "distance-driver": lambda d: {"i": "b0", "si": d(point), "j": "b1", "sj": d(point), "d": d(function())},
     "gear": lambda d: dict({"carrier": "b2"} if d(st.booleans()) else {}, i="b0", ri=d(positive), j="b1",
                            rj=d(positive), internal=d(st.booleans()), phi0=d(num)),
-    "rack-pinion": lambda d: {"pinion": "b0", "radius": d(positive), "center": d(point), "rack": "b1",
-                              "sj": d(point), "u": d(direction), "phi0": d(num)},
+    "rack-pinion": lambda d: rack_pinion(d),
     "cam-point": lambda d: on_outline(d, "sj", {"cam": "b0", "follower": "b1"}),
     "cam-roller": lambda d: on_outline(d, "sj", {"cam": "b0", "follower": "b1", "radius": d(positive)}),
     "cam-flat": lambda d: on_outline(d, "sj", {"cam": "b0", "follower": "b1", "normal": d(direction)}),
