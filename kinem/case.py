@@ -12,10 +12,10 @@ from pathlib import Path
 from . import functions as fn
 from .casefile import sections
 from .casefile.checks import IDENT_RE, MAX_ARRAY, MAX_MAGNITUDE, MAX_NAME, MAX_TEXT, NAME_RE, Checker  # noqa: F401
-from .casefile.constraints import constraints
 from .casefile.drawn import place
 from .casefile.keys import COORDS  # noqa: F401
 from .casefile.sections import LINEAR_SOLVERS, MAX_ITEMS, SOLVER_KEYS  # noqa: F401
+from .constraints.read import constraints
 from .errors import InputError
 from .spec import Case, frozen_map
 
