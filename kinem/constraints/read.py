@@ -29,6 +29,12 @@ def constraints(ck, cs, bodies, points, end):
     return out
 
 
+def constraint_id(c) -> str:
+    """How a design parameter path names constraint c (kinem.parameters):
+    its name, ``#<index>`` when the file gave none (then named type-index)."""
+    return f"#{c.index}" if c.name == f"{c.type}-{c.index}" else c.name
+
+
 def constraint(ck, index, c, bodies, points, end):
     where = f"constraint {index}"
     if not isinstance(c, dict):
