@@ -40,7 +40,7 @@ import enum
 import math
 from dataclasses import asdict, dataclass
 
-from .fingerprint import moved
+from ..fingerprint import moved
 from .slowdown import SLOWDOWN_FACTOR, WALL_FLOOR, slower, typical  # noqa: F401 (the gate's constants)
 
 # Errors and residuals are relative to L (or radians, rad/s, scaled residual
@@ -329,7 +329,7 @@ def _trajectory(path, case, old, new, findings, settings_tolerance=None):
     from adapters.compare import FIGURE_OF
 
     from ..errors import InputError
-    from .fingerprint import UNITS
+    from ..fingerprint import UNITS
 
     a, b = old.get("trajectory"), new.get("trajectory")
     if a is None or b is None or rank(old) or rank(new):
