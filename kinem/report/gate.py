@@ -207,7 +207,9 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
                 why = "--quick" if scope.sweeps else "not in this run's sweep: a regression"
                 not_compared.append(f"{name}/{e}: {skipped} work-precision point(s) of the baseline ({why})")
             _judged(name, o, run, findings)
-            slower(name, o, run, typical_old, typical_new, fail_on_slowdown, findings)
+            slow = slower(name, o, run, typical_old, typical_new, fail_on_slowdown)
+            if slow:
+                findings.append(Finding(name, e, "main", "slower", *slow))
         _attribute(case, findings, start)
         for run in case["runs"]:
             e = run["engine"]
