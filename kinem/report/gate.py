@@ -80,6 +80,21 @@ class Verdict(str, enum.Enum):
     REGRESSED = "regressed"
 
 
+NO_BASELINE, UNCOMPARED = "no baseline", "not compared"   # kinds besides gate.Verdict's values
+
+
+def verdict_of(doc, key):
+    """(kind, sentence) of a gate verdict key ("case/engine" or
+    "equivalence/group"): kind a Verdict value, or NO_BASELINE or
+    UNCOMPARED."""
+    g = doc.get("gate")
+    if not g:
+        return NO_BASELINE, "no baseline"
+    if key not in g["kinds"]:
+        return UNCOMPARED, "not compared"
+    return g["kinds"][key], g["verdicts"][key]
+
+
 @dataclass(frozen=True)
 class Finding:
     case: str
