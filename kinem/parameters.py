@@ -30,7 +30,9 @@ numbers by its own path detaches it from the name.
 ``apply(case, {path: value})`` returns a new Case, validated as a case file
 is: the one place where ``--set``, sweeps, ``load(parameters=...)``,
 sensitivities and tolerance bands set values (a bare ``NAME`` is
-``parameters.NAME``).
+``parameters.NAME``). ``validated(data, source)`` is that validation
+(kinem.loader's Case, then the paths the case names: [tolerances] by
+``tolerances_of``, [report] sensitivity), which kinem.case, above, uses too.
 """
 import math
 import warnings
