@@ -26,6 +26,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from kinem.fingerprint import compact, kind, scaled
+
 from .base import Status
 
 
@@ -78,7 +80,7 @@ class Comparison:
     attributed: "Consensus | None" = None  # engines agree, native disagrees (``consensus``)
     independent: bool = True               # native: checked against something else than itself
     intervals: int = 0                     # output intervals simulated
-    compact: dict | None = field(default=None, repr=False, compare=False)   # kinem.report.fingerprint.compact
+    compact: dict | None = field(default=None, repr=False, compare=False)   # kinem.fingerprint.compact
 
     @property
     def verdict(self) -> Verdict:
@@ -225,8 +227,6 @@ def consensus(trajectories, tolerances, figures, length, v) -> Consensus | None:
     column, each is outside its own tolerance against native, and native
     lies further from their mean than any of them. The figure returned is
     the one native is furthest off, relative to the tightest limit."""
-    from kinem.report.fingerprint import kind, scaled
-
     native = trajectories.get("native")
     if native is None:
         return None
@@ -291,8 +291,6 @@ def compare(model, native, run, tolerance=None) -> Comparison:
         return Comparison(**dict(base, status=Status.NONFINITE, detail="non-finite trajectory"),
                           within_tolerance=False)
     within = all(e.get(k, 0.0) <= v for k, v in (tolerance or {}).items())
-    from kinem.report.fingerprint import compact
-
     return Comparison(**base, **e, within_tolerance=within, compact=compact(model, run.trajectory))
 
 
@@ -301,8 +299,6 @@ def attribute(model, native, rows) -> list:
     holds, native's row DISAGREES and the agreeing engines' rows are
     CONSISTENT (both carry the Consensus). native: the native SolveResult."""
     from dataclasses import replace
-
-    from kinem.report.fingerprint import compact
 
     ok = [r for r in rows if r.engine != "native" and r.ok and r.compact is not None]
     trajs = {"native": compact(model, native.trajectory), **{r.engine: r.compact for r in ok}}

@@ -13,13 +13,13 @@ __version__ = "0.1.0"   # as pyproject.toml's version (tests/test_front_door.py 
 from .analysis import Data, acceleration, factorize, position, velocity
 from .case import load, load_dict, loads
 from .errors import AnalysisError, ConvergenceError, InputError, KinemError, KinemWarning, SingularError
+from .front import solve
 from .model import Model, compile
 from .notebook import animate, plot
 from .options import Options
 from .parameters import Parameter, parameters
 from .result import OUTPUTS, SolveResult, Status, Trajectory
 from .sensitivity import Sensitivity, sensitivity
-from .solver import solve
 from .spec import Body, Case, Constraint, Point
 from .sweep import Sweep, sweep
 

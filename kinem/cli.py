@@ -465,15 +465,15 @@ def cmd_stress(a):
 
 
 def cmd_engines(a):
-    from adapters import matrix
+    from . import engines
 
     if a.tune is not None:
         return _tune(a)
     if a.update_docs:
-        changed = matrix.update(Path(__file__).resolve().parents[1] / "docs" / "engines.md")
+        changed = engines.update(Path(__file__).resolve().parents[1] / "docs" / "engines.md")
         print("docs/engines.md " + ("updated" if changed else "already current"))
     else:
-        print(matrix.markdown(), end="")
+        print(engines.markdown(), end="")
     return 0
 
 

@@ -30,15 +30,20 @@ numbers by its own path detaches it from the name.
 ``apply(case, {path: value})`` returns a new Case, validated as a case file
 is: the one place where ``--set``, sweeps, ``load(parameters=...)``,
 sensitivities and tolerance bands set values (a bare ``NAME`` is
-``parameters.NAME``).
+``parameters.NAME``). ``validated(data, source)`` is that validation
+(kinem.loader's Case, then the paths the case names: [tolerances] by
+``tolerances_of``, [report] sensitivity), which kinem.case, above, uses too.
 """
 import math
+import warnings
 from dataclasses import dataclass
 
 from . import functions as fn
-from .casefile.checks import suggest
+from .casefile.checks import number, suggest
 from .constraints import REGISTRY
-from .errors import InputError
+from .constraints.read import constraint_id
+from .errors import InputError, KinemWarning
+from .loader import build, fast_drivers
 from .spec import Case
 
 ROOTS = ("parameters", "points", "constraints")
@@ -55,11 +60,6 @@ class Parameter:
 
     def as_dict(self) -> dict:
         return {"path": self.path, "value": self.value, "unit": self.unit, "what": self.what}
-
-
-def constraint_id(c) -> str:
-    """How a path names constraint c: its name, ``#<index>`` when the file gave none."""
-    return f"#{c.index}" if c.name == f"{c.type}-{c.index}" else c.name
 
 
 def parameters(case: Case) -> tuple[Parameter, ...]:
@@ -86,6 +86,64 @@ def resolve(case: Case, paths) -> tuple[Parameter, ...]:
     return tuple(out)
 
 
+def validated(data, source: str, stacklevel: int = 1) -> Case:
+    """A dict with a case file's structure as a Case (kinem.loader.build),
+    with the design parameter paths it names checked ([tolerances]: paths and
+    sizes; [report] sensitivity) and a warning for each fast driver
+    (kinem.loader.fast_drivers): kinem.load_dict without values set.
+    ``stacklevel``: the warnings', counted from the caller."""
+    case = build(data, source)
+    if case.tolerances:   # their paths and sizes need the whole case
+        tolerances_of(case)
+    if "sensitivity" in case.report:
+        resolve(case, case.report["sensitivity"])
+    for text in fast_drivers(case):
+        warnings.warn(text, KinemWarning, stacklevel=stacklevel + 1)
+    return case
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """One parameter's tolerance: plus/minus ``pm``; ``sigma`` for a normal
+    distribution in Monte Carlo (None: uniform in +-pm)."""
+    path: str
+    pm: float
+    sigma: float | None = None
+
+
+def tolerances_of(case, given=None) -> tuple:
+    """The Tolerances of a case's [tolerances] section (or ``given``: {path:
+    pm or {pm, sigma}}), checked: known paths, pm > 0, 0 < sigma, a length
+    tolerance below the mechanism's size."""
+    raw = dict(case.tolerances if given is None else given)
+    if not raw:
+        raise InputError(f"{case.source}: no tolerances; expected a [tolerances] section "
+                         '(e.g. "constraints.A.si.0" = 0.0001) or tolerances={path: pm}')
+    listed = {p.path: p for p in resolve(case, raw)}
+    from .model import characteristic_length
+
+    size = characteristic_length(case)
+    out, problems = [], []
+    for path, v in raw.items():
+        pm, sigma = (v.get("pm"), v.get("sigma")) if hasattr(v, "items") else (v, None)
+        where = f"{case.source}: [tolerances]: key '{path}'"
+        if not isinstance(pm, (int, float)) or isinstance(pm, bool) or not 0 < pm < float("inf"):
+            problems.append(f"{where}: got {v!r}; expected a positive number or {{ pm = ..., sigma = ... }}")
+            continue
+        if sigma is not None and (not isinstance(sigma, (int, float)) or isinstance(sigma, bool) or not sigma > 0):
+            problems.append(f"{where}: sigma {sigma!r}; expected a positive number")
+            continue
+        p = listed[path]
+        if p.unit == case.length_unit and pm >= size:
+            problems.append(f"{where}: +-{pm:g} {p.unit} is not smaller than the mechanism "
+                            f"(its size {size:g} {p.unit}); expected a manufacturing tolerance, far below a link")
+            continue
+        out.append(Tolerance(path, float(pm), None if sigma is None else float(sigma)))
+    if problems:
+        raise InputError(problems)
+    return tuple(out)
+
+
 def apply(case: Case, values, source: str | None = None) -> Case:
     """A new Case with ``values`` ({path or named dimension: number, or its
     text}) set, validated as a case file is (a value out of its key's range
@@ -103,8 +161,6 @@ def apply_many(case: Case, designs, source: str | None = None, pinned: bool = Fa
     drawing's local coordinates are then affine in the drawn ones)."""
     import copy
 
-    from .case import load_dict
-
     source = source or case.source
     designs = [{to_path(case, k, source): _number(k, v, source) for k, v in dict(values).items()} for values in designs]
     resolve(case, {path for v in designs for path in v})
@@ -114,7 +170,7 @@ def apply_many(case: Case, designs, source: str | None = None, pinned: bool = Fa
         for path, v in values.items():
             _assign(d, case, path, v)
         try:
-            out.append(load_dict(d, source=source))
+            out.append(validated(d, source))
         except InputError as e:
             out.append(e)
     return out
@@ -136,8 +192,6 @@ def to_path(case, key, source) -> str:
 
 def _number(key, value, source):
     """A value as TOML would read it (command-line text converted), checked to be a number."""
-    from .case import _number as number
-
     value = number(value.item() if hasattr(value, "item") and hasattr(value, "dtype") else value)
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise InputError(f"{source}: parameter {key!r}: got {value!r}; expected a number")

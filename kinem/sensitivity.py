@@ -39,11 +39,12 @@ import numpy as np
 from . import native
 from .errors import AnalysisError, InputError, KinemError
 from .constraints import REGISTRY
+from .constraints.read import constraint_id
 from .functions import FunctionTable, Harmonic, Poly
 from .model import _Context, families_of, separate_tables
 from .outline import Outline, OutlineTable
 from .options import Options, singular_pivot
-from .parameters import apply_many, constraint_id, driver_tangent, frame_tangent, local_tangent, resolve
+from .parameters import apply_many, driver_tangent, frame_tangent, local_tangent, resolve
 from .result import OUTPUTS, Trajectory, _layout, trajectory
 from .branches import violation
 from .budget import Budget

@@ -2,7 +2,8 @@
 (docs/solver.md), on top of the stages (kinem.analysis), the tracker
 (kinem.tracking) and the march (kinem.march, the compiled core's loop); nothing below imports
 it. Its options (kinem.options.Options) are passed to it, not compiled into
-the Model: changing a tolerance never recompiles."""
+the Model: changing a tolerance never recompiles. kinem.front's ``solve``
+(``kinem.solve``) sits above it and kinem.variants, and dispatches to either."""
 import math
 import time
 
@@ -48,6 +49,12 @@ def _checked_times(times):
     return t
 
 
+def _checked_model(model) -> None:
+    """InputError unless model is a compiled kinem.Model."""
+    if not isinstance(model, Model):
+        raise InputError(f"solve: model {type(model).__name__}: expected a kinem.Model (kinem.compile(case))")
+
+
 def _checked_q0(model, q0):
     """q0 as n finite floats (InputError otherwise), or None."""
     if q0 is None:
@@ -59,7 +66,7 @@ def _checked_q0(model, q0):
 
 
 def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | None = None,
-          q0=None, parameters=None) -> SolveResult:
+          q0=None) -> SolveResult:
     """Position (and, when asked, velocity and acceleration) analysis at every
     output instant (``times``, default the case's), on the branch the
     assembly found (kinem.tracking), with ``options`` (default: the case's
@@ -69,15 +76,8 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     ``q0``: the estimate to assemble from at ``times[0]`` (default the case's
     ``model.q0``); a run continued from a solved state passes that state, so a
     long run can be solved in pieces (``kinem solve`` does: kinem.stream).
-
-    ``parameters``: {design parameter path: N values}: N variants solved
-    together, a kinem.variants.Variants (``outputs`` stages or column names)."""
-    if not isinstance(model, Model):
-        raise InputError(f"solve: model {type(model).__name__}: expected a kinem.Model (kinem.compile(case))")
-    if parameters is not None:
-        from .variants import solve_variants
-
-        return solve_variants(model, parameters, outputs, times, options, trace, q0)
+    ``kinem.solve`` (kinem.front) also solves variants together."""
+    _checked_model(model)
     times = _checked_times(times)   # None: the model's
     options = model.options if options is None else options
     if not isinstance(options, Options):

@@ -21,19 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InputError
-from .parameters import resolve
+from .parameters import resolve, tolerances_of
 from .result import Trajectory
 from .sensitivity import cases_of, sensitivity
 from .variants import affine
-
-
-@dataclass(frozen=True)
-class Tolerance:
-    """One parameter's tolerance: plus/minus ``pm``; ``sigma`` for a normal
-    distribution in Monte Carlo (None: uniform in +-pm)."""
-    path: str
-    pm: float
-    sigma: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,39 +47,6 @@ class Bands:
 
     def to_pandas(self):
         return self.table.to_pandas()
-
-
-def tolerances_of(case, given=None) -> tuple:
-    """The Tolerances of a case's [tolerances] section (or ``given``: {path:
-    pm or {pm, sigma}}), checked: known paths, pm > 0, 0 < sigma, a length
-    tolerance below the mechanism's size."""
-    raw = dict(case.tolerances if given is None else given)
-    if not raw:
-        raise InputError(f"{case.source}: no tolerances; expected a [tolerances] section "
-                         '(e.g. "constraints.A.si.0" = 0.0001) or tolerances={path: pm}')
-    listed = {p.path: p for p in resolve(case, raw)}
-    from .model import characteristic_length
-
-    size = characteristic_length(case)
-    out, problems = [], []
-    for path, v in raw.items():
-        pm, sigma = (v.get("pm"), v.get("sigma")) if hasattr(v, "items") else (v, None)
-        where = f"{case.source}: [tolerances]: key '{path}'"
-        if not isinstance(pm, (int, float)) or isinstance(pm, bool) or not 0 < pm < float("inf"):
-            problems.append(f"{where}: got {v!r}; expected a positive number or {{ pm = ..., sigma = ... }}")
-            continue
-        if sigma is not None and (not isinstance(sigma, (int, float)) or isinstance(sigma, bool) or not sigma > 0):
-            problems.append(f"{where}: sigma {sigma!r}; expected a positive number")
-            continue
-        p = listed[path]
-        if p.unit == case.length_unit and pm >= size:
-            problems.append(f"{where}: +-{pm:g} {p.unit} is not smaller than the mechanism "
-                            f"(its size {size:g} {p.unit}); expected a manufacturing tolerance, far below a link")
-            continue
-        out.append(Tolerance(path, float(pm), None if sigma is None else float(sigma)))
-    if problems:
-        raise InputError(problems)
-    return tuple(out)
 
 
 def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progress=None, chunk=None) -> Bands:

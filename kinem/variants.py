@@ -161,7 +161,7 @@ def _refused(case, listed, values) -> dict:
     or less: bad input, as a case file with it would be."""
     from .casefile.keys import PositiveKey
     from .constraints import REGISTRY
-    from .parameters import constraint_id
+    from .constraints.read import constraint_id
 
     out = {}
     for j, p in enumerate(listed):

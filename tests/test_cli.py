@@ -187,7 +187,7 @@ def test_analysis_failure_exit_1_and_no_partial_file(tmp_path):
 
 
 def test_engine_docs_are_generated_and_current():
-    from adapters import matrix
+    from kinem import engines
 
     text = (ROOT / "docs" / "engines.md").read_text()
-    assert matrix.BEGIN + "\n" + matrix.markdown() + matrix.END in text, "run: kinem engines --update-docs"
+    assert engines.BEGIN + "\n" + engines.markdown() + engines.END in text, "run: kinem engines --update-docs"

@@ -246,15 +246,14 @@ def test_one_problem_per_line_even_with_control_characters():
 # -- the generated tables of docs/case-format.md -------------------------------
 
 def test_case_format_tables_are_generated_and_current():
-    from kinem.casefile import docs
+    from kinem.constraints import docs
 
     text = (ROOT / "docs" / "case-format.md").read_text()
-    assert docs.render(text) == text, "run: python -m kinem.casefile.docs"
+    assert docs.render(text) == text, "run: python -m kinem.constraints.docs"
 
 
 def test_every_declared_key_is_documented():
-    from kinem.casefile import docs
-    from kinem.constraints import REGISTRY
+    from kinem.constraints import REGISTRY, docs
 
     table = docs.keys()
     for name, decl in REGISTRY.items():

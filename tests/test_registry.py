@@ -41,10 +41,10 @@ def test_a_new_engine_is_one_module_and_one_line(dummy, tmp_path, capsys):
     assert main(["compare", str(case), "--engines", "native,dummy", "--set", "dummy.dt=0"]) == 2
     assert "dummy setting 'dt' = 0: expected a positive number" in capsys.readouterr().err
     # the support matrix and the report's engine run
-    from adapters import matrix
+    from kinem import engines
     from kinem.report.runs import Task, run_task
 
-    assert "dummy 0.1" in matrix.markdown()
+    assert "dummy 0.1" in engines.markdown()
     r = run_task(Task(str(case), "dummy"))
     assert r["status"] == "ok" and r["within_tolerance"] and r["time_per_interval"] is not None
     # the stress suite

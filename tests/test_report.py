@@ -745,7 +745,7 @@ def test_case_edit_makes_the_baseline_stale(tmp_path):
     """A 1 mm edit of a link (the case is in metres) changes the case's fingerprint: the gate says
     "case changed: baseline stale" naming the case, and fails."""
     from kinem.case import load
-    from kinem.report.fingerprint import fingerprint
+    from kinem.fingerprint import fingerprint
 
     path = short_case(tmp_path, "four_bar", 0.1, steps=5)
     text = Path(path).read_text()

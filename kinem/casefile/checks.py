@@ -230,3 +230,16 @@ def names(d) -> str:
 def show(v) -> str:
     r = repr(v)
     return r if len(r) <= 60 else r[:57] + "..."
+
+
+def number(text):
+    """A command-line number as TOML would read it: an int, a float, or the text itself (then rejected)."""
+    if not isinstance(text, str):
+        return text
+    for convert in (int, float):
+        try:
+            v = convert(text.replace("_", ""))
+        except (ValueError, OverflowError):
+            continue
+        return int(v) if isinstance(v, float) and v.is_integer() and abs(v) <= 2**53 else v
+    return text

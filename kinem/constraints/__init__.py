@@ -1,4 +1,6 @@
-"""The registry: case-file constraint type -> its declaration and family."""
+"""The registry: case-file constraint type -> its declaration and family
+(``read`` checks a [[constraints]] table against it, ``docs`` writes
+docs/case-format.md's tables from it)."""
 from . import cam, distance, follower, gear, line, revolute, simple
 
 REGISTRY = {}

@@ -7,7 +7,7 @@ from html import escape
 
 import numpy as np
 
-from .plots import _plt, _png
+from .plots import _plt, _png, img
 
 SAMPLES = 200      # Monte Carlo samples of the report's bands
 STEP = 5e-4        # central differences' step, of the parameter's scale (as tests/test_sensitivity.py)
@@ -95,8 +95,6 @@ def _cell(c) -> str:
 
 
 def _sensitivity_plot(t, paths, columns, curves, checks=None):
-    from .html import _img
-
     plt = _plt()
     fig, axes = plt.subplots(1, len(paths), figsize=(4.2 * len(paths), 3.0), squeeze=False)
     every = max(1, len(t) // 25)
@@ -112,12 +110,11 @@ def _sensitivity_plot(t, paths, columns, curves, checks=None):
         ax.set_xlabel("t [s]")
     axes[0][0].legend(fontsize=7, title="lines exact, circles native's differences, crosses engines'", title_fontsize=7)
     fig.tight_layout()
-    return _img(_png(fig), "design sensitivities")
+    return img(_png(fig), "design sensitivities")
 
 
 def _bands(model, outputs):
     from ..tolerance import tolerance
-    from .html import _img
 
     b = tolerance(model, samples=SAMPLES, outputs=outputs, seed=0, chunk=1)   # sections run in forked workers
     plt = _plt()
@@ -151,4 +148,4 @@ def _bands(model, outputs):
     return ["<h3>Tolerance bands</h3><p>The case's [tolerances]: worst-case linear band (grey), root-sum-square "
             f"(dashed), Monte Carlo over {SAMPLES} seeded samples on the nominal's branch (red); {left}"
             f"Largest excess of the Monte Carlo band over the linear one: {excess}.</p>",
-            _img(_png(fig), "tolerance bands")]
+            img(_png(fig), "tolerance bands")]

@@ -14,6 +14,7 @@ from html import escape
 import numpy as np
 
 from ..outcome import Kind
+from .gate import verdict_of
 from .runs import Reference
 
 LABEL = "native at the reference tolerance of each case"
@@ -120,8 +121,6 @@ def html(doc, curves) -> str:
     groups = doc.get("equivalence") or []
     if not groups:
         return ""
-    from .text import verdict_of
-
     rows = []
     for e in groups:
         kind, verdict = verdict_of(doc, f"equivalence/{e['group']}")

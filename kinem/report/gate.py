@@ -40,7 +40,7 @@ import enum
 import math
 from dataclasses import asdict, dataclass
 
-from .fingerprint import moved
+from ..fingerprint import moved
 from .slowdown import SLOWDOWN_FACTOR, WALL_FLOOR, slower, typical  # noqa: F401 (the gate's constants)
 
 # Errors and residuals are relative to L (or radians, rad/s, scaled residual
@@ -78,6 +78,21 @@ class Verdict(str, enum.Enum):
     SLOWER = "slower"         # passes; slower than the baseline (not failing unless --fail-on-slowdown)
     NEW = "new"               # not in the baseline (fatal in a whole-set run: then REGRESSED)
     REGRESSED = "regressed"
+
+
+NO_BASELINE, UNCOMPARED = "no baseline", "not compared"   # kinds besides gate.Verdict's values
+
+
+def verdict_of(doc, key):
+    """(kind, sentence) of a gate verdict key ("case/engine" or
+    "equivalence/group"): kind a Verdict value, or NO_BASELINE or
+    UNCOMPARED."""
+    g = doc.get("gate")
+    if not g:
+        return NO_BASELINE, "no baseline"
+    if key not in g["kinds"]:
+        return UNCOMPARED, "not compared"
+    return g["kinds"][key], g["verdicts"][key]
 
 
 @dataclass(frozen=True)
@@ -207,7 +222,9 @@ def gate(current, baseline, path, fail_on_slowdown=False, scope: Scope | None = 
                 why = "--quick" if scope.sweeps else "not in this run's sweep: a regression"
                 not_compared.append(f"{name}/{e}: {skipped} work-precision point(s) of the baseline ({why})")
             _judged(name, o, run, findings)
-            slower(name, o, run, typical_old, typical_new, fail_on_slowdown, findings)
+            slow = slower(name, o, run, typical_old, typical_new, fail_on_slowdown)
+            if slow:
+                findings.append(Finding(name, e, "main", "slower", *slow))
         _attribute(case, findings, start)
         for run in case["runs"]:
             e = run["engine"]
@@ -329,7 +346,7 @@ def _trajectory(path, case, old, new, findings, settings_tolerance=None):
     from adapters.compare import FIGURE_OF
 
     from ..errors import InputError
-    from .fingerprint import UNITS
+    from ..fingerprint import UNITS
 
     a, b = old.get("trajectory"), new.get("trajectory")
     if a is None or b is None or rank(old) or rank(new):

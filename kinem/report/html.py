@@ -37,10 +37,6 @@ def _td(text, cls="", left=False):
     return f"<td{f' class={chr(34)}{c}{chr(34)}' if c else ''}>{escape(str(text))}</td>"
 
 
-def _img(uri, alt):
-    return f'<img alt="{escape(alt)}" src="{uri}">'
-
-
 def summary_matrix(doc):
     """One row per case (failed or regressed first), one column per engine:
     each cell coloured by its verdict, with the summary figure and the cost;
@@ -175,7 +171,7 @@ def case_section(case, model, series):
         img, flat = plots.trajectories(native["t"], native["reference"], series, case["unit"], case["length"])
         out.append("<h3>Named points against time</h3>" if model.case.points else "<h3>Bodies against time</h3>")
         if img:
-            out.append(_img(img, f"{name} trajectories"))
+            out.append(plots.img(img, f"{name} trajectories"))
         if flat:
             out.append("<p>Constant over the run (within 1e-9 L, or 1e-9 rad): " + ", ".join(
                 f"{escape(c)} = {v:.6g} {'rad' if c.endswith('.phi') else escape(case['unit'])}"
@@ -185,7 +181,7 @@ def case_section(case, model, series):
             out.append(f"<p>Below {plots.TINY:.0e} L at every instant for every run drawn "
                        f"({', '.join(series)}): not plotted.</p>")
         else:
-            out.append(_img(plots.errors(series), f"{name} errors"))
+            out.append(plots.img(plots.errors(series), f"{name} errors"))
     out.append("<h3>Comparison</h3>" + case_table(case))
     from .design import section
 
@@ -198,7 +194,7 @@ def case_section(case, model, series):
                    "1e-16 drawn at 1e-16. Each engine is swept over its time step in each family of its own "
                    "accuracy knobs (integrator, iterations: one marker and line style each, the defaults' family "
                    "solid); the pale band joins the engine's Pareto front (no other of its runs is both cheaper "
-                   "and more accurate in position).</p>" + _img(plots.work_precision(wp), f"{name} work-precision")
+                   "and more accurate in position).</p>" + plots.img(plots.work_precision(wp), f"{name} work-precision")
                    + "<details><summary>points</summary><div class=wrap>" + wp_table(wp) + "</div></details>")
     return "\n".join(out) + "</section>"
 

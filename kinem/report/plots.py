@@ -2,6 +2,7 @@
 The mechanism's drawings and animation are motion.py's."""
 import base64
 import io
+from html import escape
 
 import numpy as np
 
@@ -35,6 +36,11 @@ def _png(fig) -> str:
     _plt().close(fig)
     kind, data = min((("image/svg+xml", svg.getvalue()), ("image/png", png.getvalue())), key=lambda k: len(k[1]))
     return f"data:{kind};base64," + base64.b64encode(data).decode("ascii")
+
+
+def img(uri, alt) -> str:
+    """An <img> of a figure's data: URI (``_png``)."""
+    return f'<img alt="{escape(alt)}" src="{uri}">'
 
 
 def constant(values, scale, rel=CONSTANT):

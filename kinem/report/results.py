@@ -11,7 +11,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from ..errors import InputError
-from .fingerprint import fingerprint, instants, solver_settings
+from ..fingerprint import fingerprint, instants, solver_settings
 from .schema import SCHEMA, problems
 
 SCHEMA_VERSION = 5
@@ -241,7 +241,7 @@ def trajectories(doc) -> list:
     accelerations; an engine: what it has); the case its peak speed. A
     null, truncated or re-timed trajectory would switch the gate's check of
     the run off: 'where: problem' lines."""
-    from .fingerprint import KINDS
+    from ..fingerprint import KINDS
 
     out = []
     for c in doc["cases"]:

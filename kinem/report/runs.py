@@ -18,7 +18,7 @@ import numpy as np
 from adapters.base import Reason, Status
 
 from ..outcome import Kind
-from .fingerprint import compact
+from ..fingerprint import compact
 
 REFERENCE_TOLERANCE = 1e-13  # scaled residual; about 500 machine epsilons of L
 REFERENCE_LABEL = "native at the reference tolerance"  # what a run's figures are against, unless it says otherwise

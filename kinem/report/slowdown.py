@@ -74,7 +74,7 @@ def reference_case(current, engine, case):
     return per[len(per) // 2][1] if per else None
 
 
-def slower(name, old, new, typical_old, typical_new, fail_on_slowdown, findings):
+def slower(name, old, new, typical_old, typical_new, fail_on_slowdown):
     """A slowdown, measured so that machine load cancels: an engine's time
     per step on this case relative to its median over the run's other cases
     (the same run, the same machine load), against the same ratio in the
@@ -83,30 +83,29 @@ def slower(name, old, new, typical_old, typical_new, fail_on_slowdown, findings)
     must also be slower than the baseline's own time), so that reruns of
     identical code flag nothing. (Native's time is no reference
     for the engines: it moves 10-20x between runs.) Native's own time is
-    compared as it is, only with --fail-on-slowdown."""
-    from .gate import Finding
-
+    compared as it is, only with --fail-on-slowdown. Returns the gate's
+    Finding fields after (case, engine, where, kind): (metric, old, new,
+    fatal, message), or None."""
     a, b = old.get("time_per_step"), new.get("time_per_step")
     if not (a and b) or (old.get("wall_time") or 0) < WALL_FLOOR:
-        return
+        return None
     e = new["engine"]
     if e == "native":
         if fail_on_slowdown and b > SLOWDOWN_FACTOR * a:
-            findings.append(Finding(name, "native", "main", "slower", "time_per_step", a, b, True,
-                                    f"time per step x{b / a:.1f} ({1e6 * a:.3g} -> {1e6 * b:.3g} us)"))
-        return
+            return ("time_per_step", a, b, True, f"time per step x{b / a:.1f} ({1e6 * a:.3g} -> {1e6 * b:.3g} us)")
+        return None
     got = _ratios(name, old, new, typical_old, typical_new)
     if not got:
-        return
+        return None
     ra, rb, rep = got
     # a repeat must also be slower than the baseline's own time: the baseline's times are single runs (the
     # first run of an engine in a process pays its warm-up), so its ratio alone can flag identical code
     if rb > SLOWDOWN_FACTOR * ra and (not rep or rep["time_per_step"] > SLOWDOWN_FACTOR * a):
         against = (f"{rep['reference_case']} timed in turn with it, fastest of {rep['repeats']}" if rep
                    else f"{e}'s median over the run's other cases")
-        findings.append(Finding(name, e, "main", "slower", "time_per_step / the engine's median", ra, rb,
-                                bool(fail_on_slowdown),
-                                f"time per step relative to {against} x{rb / ra:.1f} ({ra:.3g} -> {rb:.3g}, same run)"))
+        return ("time_per_step / the engine's median", ra, rb, bool(fail_on_slowdown),
+                f"time per step relative to {against} x{rb / ra:.1f} ({ra:.3g} -> {rb:.3g}, same run)")
+    return None
 
 
 def confirm(doc, old, cases):

@@ -3,6 +3,8 @@
 summary.md and index.html show."""
 from xml.sax.saxutils import escape, quoteattr
 
+from .gate import NO_BASELINE, UNCOMPARED, verdict_of
+
 
 def fmt(x, spec=".1e"):
     return "–" if x is None else format(x, spec)
@@ -23,21 +25,6 @@ def failed(r) -> bool:
 
 def unsupported(r) -> bool:
     return r["outcome"] == "unsupported"
-
-
-NO_BASELINE, UNCOMPARED = "no baseline", "not compared"   # kinds besides gate.Verdict's values
-
-
-def verdict_of(doc, key):
-    """(kind, sentence) of a gate verdict key ("case/engine" or
-    "equivalence/group"): kind a gate.Verdict value, or NO_BASELINE or
-    UNCOMPARED."""
-    g = doc.get("gate")
-    if not g:
-        return NO_BASELINE, "no baseline"
-    if key not in g["kinds"]:
-        return UNCOMPARED, "not compared"
-    return g["kinds"][key], g["verdicts"][key]
 
 
 def rows(doc):

@@ -1,16 +1,16 @@
 """docs/case-format.md's tables, generated from the type declarations (the
 registry and the key kinds) and the loader's limits; tests keep the page
-equal to them. Regenerate with ``python -m kinem.casefile.docs``."""
+equal to them. Regenerate with ``python -m kinem.constraints.docs``."""
 from pathlib import Path
 
-from ..constraints import REGISTRY
-from . import checks
+from ..casefile import checks
+from . import REGISTRY
 
 PAGE = Path(__file__).resolve().parents[2] / "docs" / "case-format.md"
 
 
 def begin(name) -> str:
-    return f"<!-- generated: {name} (python -m kinem.casefile.docs; do not edit by hand) -->"
+    return f"<!-- generated: {name} (python -m kinem.constraints.docs; do not edit by hand) -->"
 
 
 END = "<!-- end of generated table -->"

@@ -1,9 +1,10 @@
-"""The [[constraints]] tables: each checked against its type's declared keys."""
-from ..constraints import REGISTRY, implemented_types
+"""The [[constraints]] tables: each checked against its type's declared keys
+(kinem.case reads the file; the key kinds are kinem.casefile.keys)."""
+from ..casefile.checks import IDENT_RE, IDENT_TEXT, show, suggest
+from ..casefile.keys import BodyKey, LocalKey, Scope
+from ..casefile.sections import MAX_ITEMS
 from ..spec import Constraint, frozen_map
-from .checks import IDENT_RE, IDENT_TEXT, show, suggest
-from .keys import BodyKey, LocalKey, Scope
-from .sections import MAX_ITEMS
+from . import REGISTRY, implemented_types
 
 
 def constraints(ck, cs, bodies, points, end):
@@ -26,6 +27,12 @@ def constraints(ck, cs, bodies, points, end):
         seen.add(con.name)
         out.append(con)
     return out
+
+
+def constraint_id(c) -> str:
+    """How a design parameter path names constraint c (kinem.parameters):
+    its name, ``#<index>`` when the file gave none (then named type-index)."""
+    return f"#{c.index}" if c.name == f"{c.type}-{c.index}" else c.name
 
 
 def constraint(ck, index, c, bodies, points, end):
