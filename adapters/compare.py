@@ -62,6 +62,7 @@ class Comparison:
     velocity_error_rel: float = float("nan")
     angular_velocity_error: float = float("nan")
     angular_velocity_error_rel: float = float("nan")
+    acceleration_error_rel: float = float("nan")   # native against its closed form (adapters.references) only
     constraint_residual: float = float("nan")
     wall_time: float = float("nan")
     steps: int = 0
@@ -91,7 +92,9 @@ class Comparison:
         if self.engine == "native":
             if self.attributed is not None:
                 return Verdict.DISAGREES
-            return Verdict.WITHIN if self.independent else Verdict.SELF
+            if not self.independent:
+                return Verdict.SELF
+            return Verdict.WITHIN if self.within_tolerance else Verdict.OUTSIDE
         if self.within_tolerance is None:
             return Verdict.NONE
         if self.within_tolerance:
@@ -311,24 +314,43 @@ def attribute(model, native, rows) -> list:
 
 def native_row(model, native, options=None) -> Comparison:
     """The native solver's own row: its residual, wall time and instants
-    (an output interval is one native step), and the options it was solved
-    with (kinem.Options; default the case's)."""
+    (an output interval is one native step), the options it was solved
+    with (kinem.Options; default the case's), and its figures against the
+    case's closed form where it has one (adapters.references: positions,
+    velocities and accelerations within references.LIMITS, the last named
+    in the detail), else no figure: nothing independent checked it
+    (Verdict.SELF), never a zero against itself."""
     from kinem.linalg import choose
     from kinem.options import Options
+
+    from .references import LIMITS, closed_form, error
 
     options = Options.of(model.case) if options is None else options
     res = model.kinematic_residual(native.q, native.trajectory.t)
     steps = len(native.iterations)
     n = max(steps - 1, 1)
-    # no figure against itself: nothing independent checked it (Verdict.SELF), never a zero
+    cf = closed_form(model, native) if native.success else None
+    checked, detail, within = {}, "" if native.success else native.message, native.success
+    if cf is not None:
+        f = error(model, native.trajectory, cf)
+        # the report's limits (LIMITS' keys are results.json's) on this row's own figures
+        limits = {"position_error_rel": LIMITS["position_error_rel"],
+                  "velocity_error_rel": LIMITS["reference_velocity_error_rel"],
+                  "acceleration_error_rel": LIMITS["reference_acceleration_error_rel"]}
+        checked = dict(position_error=f.position, position_error_rel=f.position_rel, velocity_error=f.velocity,
+                       velocity_error_rel=f.velocity_rel, acceleration_error_rel=f.acceleration_rel,
+                       tolerance=limits)
+        within = all(checked[k] <= limit for k, limit in limits.items())
+        detail = f"against the {cf.label}; accelerations {f.acceleration_rel:.2e} of the peak"
     return Comparison(engine="native", status=Status.OK if native.success else Status.FAILED,
-                      detail="" if native.success else native.message, independent=False, intervals=n,
+                      detail=detail, independent=cf is not None, intervals=n,
                       constraint_residual=res, wall_time=native.wall_time, steps=steps, substeps=1,
                       time_per_step=native.wall_time / max(steps, 1), time_per_interval=native.wall_time / n,
                       overhead_per_interval=0.0, time_per_sim_second=native.wall_time / model.case.end,
-                      within_tolerance=native.success,
+                      within_tolerance=within,
                       settings={"tolerance": options.tolerance, "max_iterations": options.max_iterations,
-                                "linear_solver": "sparse" if choose(model, options).sparse else "dense"})
+                                "linear_solver": "sparse" if choose(model, options).sparse else "dense"},
+                      **checked)
 
 
 def tolerance_of(adapter) -> dict:
@@ -389,15 +411,18 @@ def table(case_name, length, unit, rows) -> str:
             continue
         figures = [r.position_error, r.position_error_rel, r.angle_error, r.velocity_error_rel,
                    r.angular_velocity_error_rel]
-        shown = (" ".join(f"{x:9.2e}" for x in figures) if r.engine != "native"
-                 else f"{'(' + Verdict.SELF.value + ')':49s}")
+        shown = (" ".join("      n/a" if x != x else f"{x:9.2e}" for x in figures)
+                 if r.engine != "native" or r.independent else f"{'(' + Verdict.SELF.value + ')':49s}")
         lines.append(f"{r.engine:8s} {r.label:10s} {shown} "
                      f"{r.constraint_residual:9.2e} {r.steps_per_interval:9.3g} {1e6 * r.cost_per_interval:8.1f} "
                      f"{1e6 * r.time_per_interval:8.1f}  {r.verdict_text}")
         lines += [f"{'':8s} note: {n}" for n in r.notes]
+        if r.engine == "native" and r.independent:
+            lines.append(f"{'':8s} note: {r.detail}")
     lines.append("vel/V, omega/W: velocity and angular-velocity errors over the run's peak speed V and peak "
-                 "angular speed W (docs/engines.md, Tolerances); native is checked here only against itself: "
-                 "no independent reference (kinem report uses closed forms, equivalence groups and the engines' "
+                 "angular speed W (docs/engines.md, Tolerances); native against the case's closed form "
+                 "(adapters.references; angles as the arc they move a point at L, so 'angle' is n/a), else "
+                 "no independent reference here (kinem report also uses equivalence groups and the engines' "
                  "consensus); steps/out: engine steps per output interval, every attempt counted; us/out: the "
                  "whole run's wall time per output interval (the adapter's Python included; native: one solve "
                  "per output instant); stepping: the engine's stepping calls alone")

@@ -55,11 +55,11 @@ def cases(adapters) -> list:
 
     from .case import load
     from .model import compile
-    from .report.references import CLOSED_FORMS
+    from adapters.references import CLOSED_FORMS
 
     lines = ["", "## The repository's cases and their independent checks", "",
              "Every case of `cases/` with the engines that can represent it (each judged by its own tolerance) "
-             "and its checks that need no engine: a closed form of `kinem report` (kinem/report/references.py) "
+             "and its checks that need no engine: a closed form of `kinem report` (adapters/references.py) "
              "and an `[equivalent]` group (kinem/report/equivalence.py).", "",
              "| case | engines | closed form | equivalence group |", "|---|---|---|---|"]
     for path in sorted((Path(__file__).resolve().parents[1] / "cases").glob("*.toml")):

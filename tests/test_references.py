@@ -1,4 +1,4 @@
-"""The report's independent references (kinem.report.references,
+"""The report's independent references (adapters.references,
 kinem.reference): every repository case's closed form against native, each
 closed form's rates against its own central differences (no kinem in
 that), random dimensions for the gears, the rack and the cams, refusal of a
@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 import kinem
 from kinem.options import Options
-from kinem.report import references
+from adapters import references
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = sorted(p.stem for p in (ROOT / "cases").glob("*.toml"))
@@ -302,3 +302,38 @@ def test_native_within_its_limits_passes_and_is_new_to_an_older_baseline(tmp_pat
     assert g["verdicts"]["gear_pair/native"].startswith("new: no baseline for its position, velocity, acceleration "
                                                         "against closed form kinem.reference.gear_pair")
     assert gate(doc, doc, "same.json")["kinds"]["gear_pair/native"] == "pass"   # recorded: compared, unchanged
+
+
+def test_compare_checks_native_against_the_closed_form(monkeypatch, capsys):
+    """kinem compare's native row has the case's closed form: its figures
+    shown, within tolerance; native's velocities x (1 + 1e-8) (a patched
+    solver) put it outside tolerance, and the command exits 1."""
+    import kinem.solver
+    from kinem import cli
+    from kinem.result import Trajectory
+
+    path = str(ROOT / "cases" / "gear_pair.toml")
+
+    def native_lines():
+        lines = capsys.readouterr().out.splitlines()
+        k = next(i for i, line in enumerate(lines) if line.startswith("native"))
+        return lines[k], lines[k + 1]
+
+    assert cli.main(["compare", path, "--engines", "native"]) == 0
+    row, note = native_lines()
+    assert row.endswith("within tolerance") and "no independent reference" not in row
+    assert "closed form kinem.reference.gear_pair" in note
+    solve = kinem.solver.solve
+
+    def patched(*a, **k):
+        r = solve(*a, **k)
+        tr = r.trajectory
+        scale = np.array([1 + 1e-8 if c.endswith((".vx", ".vy", ".omega")) else 1.0 for c in tr.columns])
+        return dataclasses.replace(r, trajectory=Trajectory(tr.t.copy(), tr.columns, tr.data * scale))
+
+    monkeypatch.setattr(kinem.solver, "solve", patched)
+    assert cli.main(["compare", path, "--engines", "native"]) == 1
+    row, _ = native_lines()
+    assert "outside tolerance: velocity_error_rel" in row     # the figure named
+    vel = float(row.split()[5])          # vel/V: the 1e-8 injected, against the closed form's peak
+    assert 5e-9 < vel < 2e-8

@@ -491,7 +491,7 @@ def test_closed_form_takes_the_case_dimensions_and_needs_its_mechanism(tmp_path)
     matches it); a case named like a repository case that is another
     mechanism gets none (it would compare against the wrong one)."""
     import kinem
-    from kinem.report import references
+    from adapters import references
 
     def check(path):
         model = kinem.compile(kinem.load(path))

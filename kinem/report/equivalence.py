@@ -6,7 +6,7 @@ reference tolerance): per instant, the largest distance between a member's
 points and the first member's, over the points the members share, divided by
 the first member's L. That is the group's agreement; results.json keeps it
 under "equivalence" and the gate holds it to the baseline like an error.
-A member without a closed form (kinem.report.references) also gets its
+A member without a closed form (adapters.references) also gets its
 native row's position error against the group.
 """
 from html import escape

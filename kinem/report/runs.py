@@ -35,7 +35,7 @@ FRAMES = 120                 # instants of the animation (native and every engin
 PATH_INSTANTS = 480          # instants of the named points' paths drawn in the plane
 ERROR_KEYS = ("position_error", "position_error_rel", "angle_error", "velocity_error", "velocity_error_rel",
               "angular_velocity_error", "angular_velocity_error_rel", "constraint_residual")   # adapters.compare.FIGURES
-# native's rates against its closed form (kinem.report.references): velocities, accelerations / the peak
+# native's rates against its closed form (adapters.references): velocities, accelerations / the peak
 INDEPENDENT_KEYS = ("reference_velocity_error", "reference_velocity_error_rel", "reference_acceleration_error",
                     "reference_acceleration_error_rel")
 
@@ -195,14 +195,14 @@ def run_native(task):
 
 def _independent(model, ref, traj, out):
     """The main native run against the case's closed form
-    (kinem.report.references) where it has one: its positions (or bodies'
+    (adapters.references) where it has one: its positions (or bodies'
     coordinates), velocities and accelerations, each within its limit
     (references.LIMITS) or the verdict is outside tolerance, the figure
     named; the named points of its equivalence group into the series
     (kinem.report.equivalence)."""
     from adapters.compare import Verdict
 
-    from .references import LIMITS, closed_form, error
+    from adapters.references import LIMITS, closed_form, error
 
     cf = closed_form(model, ref)
     if cf is not None:

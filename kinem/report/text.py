@@ -87,7 +87,7 @@ def rates(run, brief=False) -> str:
 
 def limits_text() -> str:
     """Native's limits against a closed form, in words."""
-    from .references import LIMITS
+    from adapters.references import LIMITS
 
     return (f"{LIMITS['position_error_rel']:.0e} of L in position, {LIMITS['reference_velocity_error_rel']:.0e} "
             f"(velocity) and {LIMITS['reference_acceleration_error_rel']:.0e} (acceleration) of the peak")

@@ -1,4 +1,4 @@
-"""Independent references for the native row: the closed forms of
+"""Independent references for native (the report's native row, kinem compare's): the closed forms of
 kinem.reference for the repository's cases, evaluated at the case's
 instants, with their exact velocities and accelerations (chain rule).
 
@@ -19,8 +19,10 @@ from typing import Mapping
 
 import numpy as np
 
-from .. import reference
-from ..reference import drive, turned, wrap
+from kinem import reference
+from kinem.reference import drive, turned, wrap
+
+from .base import grounded
 
 FIT = 1e-6   # relative to L: the closed form must reproduce the t = 0 assembly this well to apply
 PARALLEL = 1e-9   # sine of the angle under which two directions count as parallel
@@ -58,9 +60,8 @@ class Figures:
 
 
 def closed_form(model, ref):
-    """The case's ClosedForm, or None. ref: the reference SolveResult of model's case."""
-    from adapters.base import grounded
-
+    """The case's ClosedForm, or None. ref: a SolveResult of model's case
+    (its first state gives the dimensions, its instants the times)."""
     make = CLOSED_FORMS.get(model.case.name)
     if make is None or not ref.success:
         return None
@@ -135,8 +136,6 @@ def _driven(model, traj, body, coord):
 
 def _pivot(model, traj, body):
     """Global position at t = 0 of the revolute joining ``body`` to a grounded body."""
-    from adapters.base import grounded
-
     fixed = grounded(model)
     c = next(c for c in model.case.constraints if c.type == "revolute"
              and body in (c["i"], c["j"]) and c["i"] != c["j"] and ({c["i"], c["j"]} - {body}) <= fixed)
@@ -148,8 +147,6 @@ def _line(model, traj, body, types=("translational",)):
     """Unit direction at t = 0 of the line that guides ``body`` on a grounded
     body: a translational joint's si -> qi on body i, a revolute-translational
     joint's sj -> qj on body j."""
-    from adapters.base import grounded
-
     fixed = grounded(model)
     c = next(c for c in model.case.constraints if c.type in types
              and body in (c["i"], c["j"]) and ({c["i"], c["j"]} - {body}) <= fixed)
@@ -257,8 +254,6 @@ def gear_pair(model, traj):
 
 def planetary(model, traj):
     """Eq. 4.18 on both meshes: sun driven, ring fixed, planet on the carrier."""
-    from adapters.base import grounded
-
     fixed = grounded(model)
     ring_mesh = next(c for c in model.case.constraints if c.type == "gear" and c.get("internal"))
     sun_mesh = next(c for c in model.case.constraints if c.type == "gear" and not c.get("internal"))
