@@ -4,8 +4,9 @@
 //! (r + A s', its first and second derivatives, Eqs. 4.43-4.45).
 //! Over S = Dual (crate::real) it gives the columns' tangents along a
 //! design parameter (kinem.sensitivity) from the coordinates' tangents.
-use crate::real::{cis, i, Real};
-use num_complex::Complex;
+use crate::families::{dmul, dturn, lane};
+use crate::real::{cis, i, Lanes, Real};
+use num_complex::{Complex, Complex64 as C64};
 
 /// out (K, C): column c of instant k is coordinate src[c] of stage
 /// src[c] / n when src[c] < stages n, else entry src[c] - stages n of the
@@ -81,6 +82,47 @@ impl<'a> Columns<'a> {
                     let v = Complex::new(qdd[c], qdd[c + 1]) + i * e * qdd[c + 2] - e * (om * om);
                     pts[4 * p + j] = v.re;
                     pts[5 * p + j] = v.im;
+                }
+            }
+        }
+    }
+}
+
+impl Columns<'_> {
+    /// The named points' tangents alone (`points` over Lanes<N> without
+    /// their values, the same figures): x the stages' values (n each), d
+    /// their N tangents (s, sd, sdd), local the points' local coordinates
+    /// with their tangents, e^{i phi} of angle column c from `turn(c)` (the
+    /// march's own); out as `points`' pts, N tangents an entry.
+    pub fn point_tangents<const N: usize>(
+        &self,
+        x: &[&[f64]],
+        d: &[&[[f64; N]]],
+        local: &[Complex<Lanes<N>>],
+        turn: impl Fn(usize) -> C64,
+        out: &mut [[f64; N]],
+    ) {
+        let (stages, p) = (self.stages, self.pc.len());
+        for (j, (&c, &s)) in self.pc.iter().zip(local).enumerate() {
+            let e = turn(c + 2);
+            let dq = d[0];
+            let big = C64::new(s.re.v, s.im.v) * e;
+            for l in 0..N {
+                let (v, dv) = lane(s, l);
+                let de = dmul(v, dv, e, dturn(e, dq[c + 2][l]));
+                out[j][l] = dq[c][l] + de.re;
+                out[p + j][l] = dq[c + 1][l] + de.im;
+                if stages > 1 {
+                    let (om, dom, dqd) = (x[1][c + 2], d[1][c + 2][l], d[1]);
+                    // i E om: re -E.im om, im E.re om
+                    out[2 * p + j][l] = dqd[c][l] + (-de.im * om + -big.im * dom);
+                    out[3 * p + j][l] = dqd[c + 1][l] + (de.re * om + big.re * dom);
+                    if stages > 2 {
+                        let (al, dal, dqdd) = (x[2][c + 2], d[2][c + 2][l], d[2]);
+                        let (oo, doo) = (om * om, dom * om + om * dom);
+                        out[4 * p + j][l] = dqdd[c][l] + (-de.im * al + -big.im * dal) - (de.re * oo + big.re * doo);
+                        out[5 * p + j][l] = dqdd[c + 1][l] + (de.re * al + big.re * dal) - (de.im * oo + big.im * doo);
+                    }
                 }
             }
         }

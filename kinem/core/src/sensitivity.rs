@@ -21,10 +21,10 @@
 //! (`lanes`), each lane seeded with one parameter's tables' tangents
 //! (Kin::seeded). All three share one factorisation of J at the instant
 //! (the march's layout, crate::lu): no finite differences anywhere.
-use crate::families::{At, Family, Shared};
+use crate::families::{At, Shared};
 use crate::lu::{Factors, Layout, Shape};
 use crate::model::Kin;
-use crate::real::{Lanes, Real};
+use crate::real::{cis, Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
 
@@ -278,10 +278,17 @@ struct Group<const N: usize> {
     /// those of them whose nu may be non-zero
     timed: Vec<usize>,
     /// the families whose Jacobian and gamma have a tangent: the moved and
-    /// those that depend on q or qd; the others' are zero
+    /// those that depend on q or qd; the others' are zero. `direct`: those
+    /// with the direct tangent kernels (Family::direct: over the march's
+    /// values, no lanes), with whether each is moved; `live`: the others,
+    /// evaluated over the lanes
+    direct: Vec<(usize, bool)>,
     live: Vec<usize>,
-    /// the Jacobian's entries (row, column, place) whose tangent may be
-    /// non-zero (`entries`): the (S2), (S3) products read these alone
+    /// the moved families without direct kernels (Phi_p over the lanes)
+    moved_lanes: bool,
+    /// the Jacobian's entries (row, column, place) of the `live` families
+    /// whose tangent may be non-zero (`entries`): the (S2), (S3) products
+    /// over the lanes read these alone
     entries: Vec<(usize, usize, usize)>,
 }
 
@@ -306,7 +313,7 @@ fn fixed(kin: &Kin) -> Result<Vec<bool>, String> {
         .iter()
         .enumerate()
         .map(|(k, f)| {
-            if !matches!(f, Family::Simple(_) | Family::Gear(_)) {
+            if !f.may_be_fixed() {
                 return false;
             }
             let (jk, gk) = (probe.entry_off[k]..probe.entry_off[k + 1], probe.row_off[k]..probe.row_off[k + 1]);
@@ -317,18 +324,6 @@ fn fixed(kin: &Kin) -> Result<Vec<bool>, String> {
         .collect())
 }
 
-/// Whether a family reads (the functions' table, the outlines' table):
-/// the kinds that Family::new hands the number of functions (simple,
-/// distance: a driver's f(t)) or of outlines (point-on-curve, the cams),
-/// the only ones whose tables index them; a moved function or outline moves
-/// no other family.
-fn reads(f: &Family) -> (bool, bool) {
-    (
-        matches!(f, Family::Simple(_) | Family::Distance(_)),
-        matches!(f, Family::PointOnCurve(_) | Family::CamRoller(_) | Family::CamFlat(_)),
-    )
-}
-
 impl<const N: usize> Group<N> {
     fn new(kin: &Kin, group: &[Tangent], fixed: &[bool], pattern: &[(usize, usize)]) -> Result<Self, String> {
         let model = seeded::<N>(kin, group)?;
@@ -337,15 +332,19 @@ impl<const N: usize> Group<N> {
             (group.iter().any(|t| !empty(&t.functions)), group.iter().any(|t| !empty(&t.outlines)));
         let mut moved: Vec<usize> = group.iter().flat_map(|t| t.families.iter().map(|f| f.0)).collect();
         moved.extend((0..kin.families.len()).filter(|&k| {
-            let (f, o) = reads(&kin.families[k]);
+            let (f, o) = kin.families[k].reads();
             (functions && f) || (outlines && o)
         }));
         moved.sort_unstable();
         moved.dedup();
         let timed = moved.iter().copied().filter(|k| model.time_dependent.contains(k)).collect();
-        let live: Vec<usize> = (0..kin.families.len()).filter(|k| !fixed[*k] || moved.contains(k)).collect();
+        let (direct, live): (Vec<usize>, Vec<usize>) = (0..kin.families.len())
+            .filter(|k| !fixed[*k] || moved.contains(k))
+            .partition(|&k| kin.families[k].direct());
+        let direct = direct.into_iter().map(|k| (k, moved.contains(&k))).collect();
+        let moved_lanes = moved.iter().any(|&k| !kin.families[k].direct());
         let entries = entries(&model, &live, pattern);
-        Ok(Group { model, count: group.len(), moved, timed, live, entries })
+        Ok(Group { model, count: group.len(), moved, timed, direct, live, moved_lanes, entries })
     }
 }
 
@@ -376,8 +375,7 @@ fn entries<const N: usize>(
         for &k in live {
             let place = model.entry_off[k]..model.entry_off[k + 1];
             model.families[k].jac(&at, &shared, &mut j[place.clone()]);
-            let piecewise =
-                matches!(model.families[k], Family::PointOnCurve(_) | Family::CamRoller(_) | Family::CamFlat(_));
+            let piecewise = model.families[k].piecewise();
             for p in place {
                 seen[p] |= piecewise || j[p].d.iter().any(|&x| x != 0.0);
             }
@@ -404,10 +402,13 @@ pub struct Lanewise<'a, const N: usize> {
     columns: crate::columns::Columns<'a>,
     w: usize,
     locs: &'a [Vec<Complex<Lanes<N>>>],
-    /// every named point's body angle an angle column: its e^{i phi} over
-    /// the lanes is `el`'s (no sine and cosine taken again)
+    /// every named point's body angle an angle column: its e^{i phi} is
+    /// the march's e (no sine and cosine taken again)
     turned: bool,
-    pts: Vec<Lanes<N>>,
+    /// whether any group has a moved family without direct kernels (its
+    /// Phi_p over the lanes at q0, e0)
+    lanes0: bool,
+    tg: Vec<[f64; N]>,
     /// s, sd, sdd (n each) and the points' tangents, a row per coordinate
     /// or point value; `gather`: each column's row there
     flat: Vec<[f64; N]>,
@@ -417,7 +418,6 @@ pub struct Lanewise<'a, const N: usize> {
     e0: Vec<Complex<Lanes<N>>>,
     ql: Vec<Lanes<N>>,
     qdl: Vec<Lanes<N>>,
-    qddl: Vec<Lanes<N>>,
     el: Vec<Complex<Lanes<N>>>,
     rl: Vec<Lanes<N>>,
     jl: Vec<Lanes<N>>,
@@ -451,7 +451,8 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             w,
             locs,
             turned: pc.iter().all(|&c| kin.angles.contains(&(c + 2))),
-            pts: vec![Lanes::<N>::c(0.0); 2 * levels * points],
+            lanes0: groups.iter().any(|g| g.moved_lanes),
+            tg: vec![[0.0; N]; m],
             flat: vec![[0.0; N]; 3 * n + 2 * levels * points],
             buf: vec![[0.0; N]; w],
             gather: src.iter().map(|&j| if j < levels * n { j } else { 3 * n + j - levels * n }).collect(),
@@ -459,7 +460,6 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             e0: vec![Complex::new(Lanes::<N>::c(1.0), Lanes::<N>::c(0.0)); n],
             ql: zl(),
             qdl: zl(),
-            qddl: zl(),
             el: cl(),
             rl: vec![Lanes::<N>::c(0.0); m],
             jl: vec![Lanes::<N>::c(0.0); nnz],
@@ -477,19 +477,26 @@ impl<'a, const N: usize> Lanewise<'a, N> {
     /// One instant: x its stages (q, qd, qdd: `levels` of n), e e^{i q} at
     /// the angle columns (the march's own), f the factorisation of Phi_q at
     /// (q, t) (its solves leave it as it is); writes its row (P W) and
-    /// returns Phi_q's pivot ratio.
+    /// returns Phi_q's pivot ratio. The families with direct kernels
+    /// (Family::phi_tangent, jac_products, gamma_tangent) read x and e as
+    /// they are; the others are evaluated over the lanes (q, e^{i q}, qd
+    /// with their tangents), and so are the named points' tangents
+    /// (Columns::point_tangents) from x, e and s, sd, sdd.
     pub fn at(&mut self, t: f64, x: &[&[f64]], e: &[C64], f: &mut Factors, out: &mut [f64]) -> f64 {
         let Lanewise { kin, layout, levels, w, .. } = *self;
         let n = kin.n;
         let q = x[0];
         let ratio = layout.pivots(f).0;
-        for j in 0..n {
-            self.q0[j] = Lanes::<N>::c(q[j]);
-        }
-        for &j in &kin.angles {
-            self.e0[j] = Complex::new(Lanes::<N>::c(e[j].re), Lanes::<N>::c(e[j].im));
+        if self.lanes0 {
+            for j in 0..n {
+                self.q0[j] = Lanes::<N>::c(q[j]);
+            }
+            for &j in &kin.angles {
+                self.e0[j] = Complex::new(Lanes::<N>::c(e[j].re), Lanes::<N>::c(e[j].im));
+            }
         }
         let at0 = At { q: &self.q0, e: &self.e0, t };
+        let atf = At { q, e, t };
         self.solver.prepare(layout, f);
         for (g, group) in self.groups.iter().enumerate() {
             let (model, count) = (&group.model, group.count);
@@ -498,18 +505,27 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             self.rhs.fill([0.0; N]);
             for &k in &group.moved {
                 let rows = model.row_off[k]..model.row_off[k + 1];
-                model.families[k].phi(&at0, &shared, &mut self.rl[rows.clone()]);
-                for (r, x) in self.rhs[rows.clone()].iter_mut().zip(&self.rl[rows]) {
-                    *r = x.d.map(|v| -v);
+                let family = &model.families[k];
+                if !family.phi_tangent(&atf, &shared, &mut self.rhs[rows.clone()]) {
+                    family.phi(&at0, &shared, &mut self.rl[rows.clone()]);
+                    for (r, x) in self.rhs[rows.clone()].iter_mut().zip(&self.rl[rows.clone()]) {
+                        *r = x.d;
+                    }
+                }
+                for r in &mut self.rhs[rows] {
+                    *r = r.map(|v| -v);
                 }
             }
             self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[..n]);
-            // q with tangent s, and e^{i q} with its tangent (Real::sin, cos)
-            for j in 0..n {
-                self.ql[j] = Lanes::of(q[j], self.flat[j]);
-            }
-            for &j in &kin.angles {
-                self.el[j] = turned(e[j], self.flat[j]);
+            let lanes = !group.live.is_empty();
+            if lanes {
+                // q with tangent s, and e^{i q} with its tangent (Real::sin, cos)
+                for j in 0..n {
+                    self.ql[j] = Lanes::of(q[j], self.flat[j]);
+                }
+                for &j in &kin.angles {
+                    self.el[j] = turned(e[j], self.flat[j]);
+                }
             }
             let at = At { q: &self.ql, e: &self.el, t };
             if levels > 1 {
@@ -526,9 +542,17 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     }
                 }
                 products(&group.entries, &self.jl, &x[1..], &mut self.rhs, &mut self.rhs3);
+                let (sl, rhs, rhs3) = (&self.flat[..n], &mut self.rhs, &mut self.rhs3);
+                for &(k, moved) in &group.direct {
+                    let rows = model.row_off[k]..model.row_off[k + 1];
+                    let r3 = if levels > 2 { &mut rhs3[rows.clone()] } else { &mut [][..] };
+                    model.families[k].jac_products(&atf, sl, moved, &x[1..], &mut rhs[rows], r3);
+                }
                 self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[n..2 * n]);
-                for j in 0..n {
-                    self.qdl[j] = Lanes::of(x[1][j], self.flat[n + j]);
+                if lanes {
+                    for j in 0..n {
+                        self.qdl[j] = Lanes::of(x[1][j], self.flat[n + j]);
+                    }
                 }
             }
             if levels > 2 {
@@ -545,22 +569,27 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                         }
                     }
                 }
-                self.solver.solve(layout, f, &self.rhs3, count, &mut self.flat[2 * n..3 * n]);
-                for j in 0..n {
-                    self.qddl[j] = Lanes::of(x[2][j], self.flat[2 * n + j]);
+                let (sl, sd) = (&self.flat[..n], &self.flat[n..2 * n]);
+                for &(k, moved) in &group.direct {
+                    let rows = model.row_off[k]..model.row_off[k + 1];
+                    let tg = &mut self.tg[rows.clone()];
+                    model.families[k].gamma_tangent(&atf, x[1], sl, sd, moved, &shared, tg);
+                    for (r, x) in self.rhs3[rows].iter_mut().zip(tg.iter()) {
+                        for l in 0..N {
+                            r[l] += x[l];
+                        }
+                    }
                 }
+                self.solver.solve(layout, f, &self.rhs3, count, &mut self.flat[2 * n..3 * n]);
             }
             // every column's tangent: a coordinate's from s, sd, sdd, a named
-            // point's from its value over the lanes (crate::columns)
-            let stages: [&[Lanes<N>]; 3] = [&self.ql, &self.qdl, &self.qddl];
+            // point's from x, e and them (crate::columns)
+            let (tangents, points) = self.flat.split_at_mut(3 * n);
+            let d: [&[[f64; N]]; 3] = [&tangents[..n], &tangents[n..2 * n], &tangents[2 * n..]];
             if self.turned {
-                let el = &self.el;
-                self.columns.points_turned(&stages[..levels], &self.locs[g], |c| el[c], &mut self.pts);
+                self.columns.point_tangents(x, &d[..levels], &self.locs[g], |c| e[c], points);
             } else {
-                self.columns.points(&stages[..levels], &self.locs[g], &mut self.pts);
-            }
-            for (o, p) in self.flat[3 * n..].iter_mut().zip(&self.pts) {
-                *o = p.d;
+                self.columns.point_tangents(x, &d[..levels], &self.locs[g], |c| cis(q[c]), points);
             }
             let to = &mut out[g * N * w..(g * N + count) * w];
             if N == 1 {
@@ -771,10 +800,11 @@ mod tests {
         (kin, pattern)
     }
 
-    /// The entries the products skip carry a tangent of exactly zero at
-    /// every instant: at random (q, q', t), with a moved revolute's si
-    /// and a moved cubic's coefficients in the lanes, every entry not in
-    /// `entries` has D(J) = 0 (either sign), so the products over
+    /// The entries the products over the lanes skip carry a tangent of
+    /// exactly zero at every instant: at random (q, q', t), with a moved
+    /// revolute's si and a moved cubic's coefficients in the lanes, every
+    /// entry the probe (`entries`, over both families) leaves out has
+    /// D(J) = 0 (either sign), so the products over
     /// `entries` are the whole pattern's (up to the sign of a zero sum);
     /// and `turned` is cis of q with its tangents to the bit.
     #[test]
@@ -790,7 +820,12 @@ mod tests {
         ];
         let fixed = fixed(&kin).unwrap();
         let group = Group::<2>::new(&kin, &tangents, &fixed, &pattern).unwrap();
-        assert!(group.entries.len() < pattern.len() && !group.entries.is_empty(), "{:?}", group.entries);
+        // the revolute has direct kernels, the distance is over the lanes
+        assert_eq!((&group.direct[..], &group.live[..]), (&[(0, true)][..], &[1][..]));
+        // the probe over both (as it serves any family over the lanes)
+        let all = entries(&group.model, &[0, 1], &pattern);
+        assert!(all.len() < pattern.len() && !all.is_empty(), "{all:?}");
+        assert_eq!(group.entries.len(), 6);
         let model = &group.model;
         let shared = Shared { functions: &model.functions, outlines: &model.outlines };
         let mut seed = 11u64;
@@ -812,7 +847,7 @@ mod tests {
                 f.jac(&at, &shared, &mut j[model.entry_off[k]..model.entry_off[k + 1]]);
             }
             for (p, x) in j.iter().enumerate() {
-                if !group.entries.iter().any(|&(_, _, i)| i == p) {
+                if !all.iter().any(|&(_, _, i)| i == p) {
                     assert!(x.d.iter().all(|&v| v == 0.0), "entry {p}: {:?}", x.d);
                 }
             }

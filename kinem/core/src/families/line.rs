@@ -8,10 +8,10 @@
 //! u = P_i - Q_i, d = P_j - P_i, and Eq. 4.16 with a = j, u = Q_j - P_j,
 //! d = P_i - P_j. A translational joint adds the row
 //! phi_i - phi_j - (phi_i^0 - phi_j^0) = 0 (Eq. 4.10 as corrected).
-use super::{cross, dot, i, At, Shared};
-use crate::real::Real;
+use super::{cross, dmul, dot, dturn, i, lane, At, Shared};
+use crate::real::{Lanes, Real};
 use crate::table::Table;
-use num_complex::Complex;
+use num_complex::{Complex, Complex64 as C64};
 
 /// Columns: ca, cb the x columns of the line body a and the other body b;
 /// pa (the line's base point on a), ua (its direction, local to a), ob
@@ -145,6 +145,149 @@ impl<S: Real> Line<S> {
                     + cross(p.u, p.sb * (wb * wb) - p.sa * (wa * wa));
                 if self.angle {
                     *out.get_unchecked_mut(2 * c + 1) = S::zero();
+                }
+            }
+        }
+    }
+}
+
+/// The direct tangent kernels (super::Family::phi_tangent, jac_products,
+/// gamma_tangent) of u x d = 0: with dA = i A s_phi, du = d(u') A_a +
+/// u' dA_a, dsa = d(s'_a) A_a + s'_a dA_a, dsb likewise, and
+/// dd = dr_b + dsb - dr_a - dsa, lane by lane (the translational joint's
+/// angle row has no tangent but its phi0's).
+impl<const N: usize> Line<Lanes<N>> {
+    /// The values (u, d, sa, sb) and, in lane l, their tangents along q' =
+    /// s (None: 0) and the tables (when `moved`).
+    ///
+    /// # Safety
+    /// c < ca.len() and `at.holds(n)`, s.len() >= n where given (Line's invariants).
+    #[inline(always)]
+    unsafe fn tangents(&self, at: &At, c: usize, s: Option<&[[f64; N]]>, moved: bool, l: usize) -> [(C64, C64); 4] {
+        let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
+        let (ea, eb) = (at.rot_at(a), at.rot_at(b));
+        let zero = C64::new(0.0, 0.0);
+        let (dra, drb, dea, deb) = match s {
+            Some(s) => (
+                C64::new(s.get_unchecked(a)[l], s.get_unchecked(a + 1)[l]),
+                C64::new(s.get_unchecked(b)[l], s.get_unchecked(b + 1)[l]),
+                dturn(ea, s.get_unchecked(a + 2)[l]),
+                dturn(eb, s.get_unchecked(b + 2)[l]),
+            ),
+            None => (zero, zero, zero, zero),
+        };
+        let table = |x: Complex<Lanes<N>>| {
+            let (v, d) = lane(x, l);
+            (v, if moved { d } else { zero })
+        };
+        let ((pa, dpa), (ua, dua), (ob, dob)) =
+            (table(*self.pa.get_unchecked(c)), table(*self.ua.get_unchecked(c)), table(*self.ob.get_unchecked(c)));
+        let (sa, sb, u) = (pa * ea, ob * eb, ua * ea);
+        let (dsa, dsb, du) = (dmul(pa, dpa, ea, dea), dmul(ob, dob, eb, deb), dmul(ua, dua, ea, dea));
+        let d = at.r_at(b) + sb - at.r_at(a) - sa;
+        [(u, du), (d, drb + dsb - dra - dsa), (sa, dsa), (sb, dsb)]
+    }
+
+    /// d/dp of Eqs. 4.12, 4.16 at q' = 0 (du x d + u x dd), then -d(phi0).
+    pub fn phi_tangent(&self, at: &At, out: &mut [[f64; N]]) {
+        let per = self.per();
+        assert!(at.holds(self.n) && out.len() >= per * self.ca.len());
+        for c in 0..self.ca.len() {
+            for l in 0..N {
+                // SAFETY: c < ca.len(), e holds n (asserted above)
+                let [(u, du), (d, dd), _, _] = unsafe { self.tangents(at, c, None, true, l) };
+                out[per * c][l] = cross(du, d) + cross(u, dd);
+                if self.angle {
+                    out[2 * c + 1][l] = -self.phi0[c].d[l];
+                }
+            }
+        }
+    }
+
+    /// r2 -= D(J) v[0], r3 -= D(J) v[1]: the u x d row's six entries
+    /// (Table 4.2); the angle row's are constant.
+    pub fn jac_products(
+        &self,
+        at: &At,
+        s: &[[f64; N]],
+        moved: bool,
+        v: &[&[f64]],
+        r2: &mut [[f64; N]],
+        r3: &mut [[f64; N]],
+    ) {
+        let (n, per) = (self.n, self.per());
+        assert!(at.holds(n) && s.len() >= n && v.iter().all(|x| x.len() >= n) && r2.len() >= per * self.ca.len());
+        assert!(v.len() < 2 || r3.len() >= per * self.ca.len());
+        for c in 0..self.ca.len() {
+            // SAFETY: c < ca.len(), q, e, s and v hold n (asserted above)
+            unsafe {
+                let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
+                for l in 0..N {
+                    let [(u, du), (d, dd), (sa, dsa), (sb, dsb)] = self.tangents(at, c, Some(s), moved, l);
+                    let entries = [
+                        (a, du.im),
+                        (a + 1, -du.re),
+                        (a + 2, -(dot(du, d + sa) + dot(u, dd + dsa))),
+                        (b, -du.im),
+                        (b + 1, du.re),
+                        (b + 2, dot(du, sb) + dot(u, dsb)),
+                    ];
+                    for (w, r) in v.iter().zip([&mut *r2, &mut *r3]) {
+                        let row = &mut r.get_unchecked_mut(per * c)[l];
+                        for (col, t) in entries {
+                            *row -= t * *w.get_unchecked(col);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// D(gamma) of Table 4.3's u x d row: d(wa^2 u x d + 2 wa u . d' +
+    /// u x (sb wb^2 - sa wa^2)), d' = rb' + i sb wb - ra' - i sa wa; the
+    /// angle row's 0.
+    #[allow(clippy::too_many_arguments)]
+    pub fn gamma_tangent(
+        &self,
+        at: &At,
+        qd: &[f64],
+        s: &[[f64; N]],
+        sd: &[[f64; N]],
+        moved: bool,
+        out: &mut [[f64; N]],
+    ) {
+        let (n, per) = (self.n, self.per());
+        assert!(at.holds(n) && qd.len() >= n && s.len() >= n && sd.len() >= n && out.len() >= per * self.ca.len());
+        let i = C64::new(0.0, 1.0);
+        for c in 0..self.ca.len() {
+            // SAFETY: c < ca.len(), q, e, qd, s and sd hold n (asserted above)
+            unsafe {
+                let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
+                let (wa, wb) = (*qd.get_unchecked(a + 2), *qd.get_unchecked(b + 2));
+                let (ra, rb) = (
+                    C64::new(*qd.get_unchecked(a), *qd.get_unchecked(a + 1)),
+                    C64::new(*qd.get_unchecked(b), *qd.get_unchecked(b + 1)),
+                );
+                let (va, vb) = (sd.get_unchecked(a), sd.get_unchecked(b));
+                for l in 0..N {
+                    let [(u, du), (d, dd), (sa, dsa), (sb, dsb)] = self.tangents(at, c, Some(s), moved, l);
+                    let (dwa, dwb) = (sd.get_unchecked(a + 2)[l], sd.get_unchecked(b + 2)[l]);
+                    let (dra, drb) =
+                        (C64::new(va[l], sd.get_unchecked(a + 1)[l]), C64::new(vb[l], sd.get_unchecked(b + 1)[l]));
+                    let rate = rb + i * sb * wb - ra - i * sa * wa;
+                    let drate = drb + i * (dsb * wb + sb * dwb) - dra - i * (dsa * wa + sa * dwa);
+                    let x = sb * (wb * wb) - sa * (wa * wa);
+                    let dx = dsb * (wb * wb) + sb * (2.0 * wb * dwb) - dsa * (wa * wa) - sa * (2.0 * wa * dwa);
+                    let (cr, dcr) = (cross(u, d), cross(du, d) + cross(u, dd));
+                    let (dt, ddt) = (dot(u, rate), dot(du, rate) + dot(u, drate));
+                    out.get_unchecked_mut(per * c)[l] = (2.0 * wa * dwa) * cr
+                        + wa * wa * dcr
+                        + (dwa * dt + wa * ddt) * 2.0
+                        + cross(du, x)
+                        + cross(u, dx);
+                    if self.angle {
+                        out.get_unchecked_mut(2 * c + 1)[l] = 0.0;
+                    }
                 }
             }
         }

@@ -15,7 +15,7 @@
 //! tangents of the tables and of q, qd through Phi, the Jacobian, nu and gamma.
 use crate::functions::Functions;
 use crate::outline::Outlines;
-use crate::real::Real;
+use crate::real::{Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
 
@@ -219,4 +219,124 @@ impl<S: Real> Family<S> {
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
         each!(self, f => f.gamma(at, qd, s, out))
     }
+}
+
+impl<S> Family<S> {
+    /// Which of the model's tables besides its own the family reads (the
+    /// functions' table, the outlines' table): the kinds Family::new hands
+    /// the number of functions (simple, distance: a driver's f(t)) or of
+    /// outlines (point-on-curve, the cams); a moved function or outline
+    /// moves no other family (crate::sensitivity).
+    pub fn reads(&self) -> (bool, bool) {
+        (
+            matches!(self, Family::Simple(_) | Family::Distance(_)),
+            matches!(self, Family::PointOnCurve(_) | Family::CamRoller(_) | Family::CamFlat(_)),
+        )
+    }
+
+    /// Whether its Jacobian is piecewise in q (an outline's pieces: the
+    /// curves and cams), not polynomial in e^{i q}, q and its tables.
+    pub fn piecewise(&self) -> bool {
+        matches!(self, Family::PointOnCurve(_) | Family::CamRoller(_) | Family::CamFlat(_))
+    }
+
+    /// Whether the kind holds a ground's or a driver's rows whose Jacobian
+    /// and gamma may read neither q nor qd (simple, gear: crate::sensitivity
+    /// probes which do).
+    pub fn may_be_fixed(&self) -> bool {
+        matches!(self, Family::Simple(_) | Family::Gear(_))
+    }
+
+    /// Whether the kind has the direct tangent kernels (phi_tangent,
+    /// jac_products, gamma_tangent over Lanes<N>): simple, revolute, line.
+    pub fn direct(&self) -> bool {
+        matches!(self, Family::Simple(_) | Family::Revolute(_) | Family::Line(_))
+    }
+}
+
+/// The direct tangent kernels of design sensitivities (crate::sensitivity,
+/// docs/design.md Eqs. S1-S3): over the analysis' own values (q, e^{i q}:
+/// an `At` of f64, the march's) and N lanes of tangents, s = dq/dp (and
+/// sd = dqd/dp), the tables' tangents those of the seeded family (`moved`:
+/// whether it carries any; else only the q' and qd' terms are taken). No
+/// value is carried beside the tangents: each kernel takes the few values
+/// its product rule needs. Each returns false for a kind without them
+/// (the caller evaluates that family over Lanes<N>, crate::real).
+impl<const N: usize> Family<Lanes<N>> {
+    /// Phi's tangent along the tables alone (q' = 0): Phi_p (S1).
+    pub fn phi_tangent(&self, at: &At, s: &Shared<Lanes<N>>, out: &mut [[f64; N]]) -> bool {
+        match self {
+            Family::Simple(f) => f.phi_tangent(at, s, out),
+            Family::Revolute(f) => f.phi_tangent(at, out),
+            Family::Line(f) => f.phi_tangent(at, out),
+            _ => return false,
+        }
+        true
+    }
+
+    /// The (S2), (S3) products with D(J) = D_s J + J_p, the Jacobian's
+    /// tangent along q' = s and the tables: r2 -= D(J) v[0] (qd) and, when
+    /// v[1] (qdd) is given, r3 -= D(J) v[1], over the family's rows.
+    pub fn jac_products(
+        &self,
+        at: &At,
+        sl: &[[f64; N]],
+        moved: bool,
+        v: &[&[f64]],
+        r2: &mut [[f64; N]],
+        r3: &mut [[f64; N]],
+    ) -> bool {
+        match self {
+            Family::Simple(f) => f.jac_products(at, sl, moved, v, r2, r3),
+            Family::Revolute(f) => f.jac_products(at, sl, moved, v, r2, r3),
+            Family::Line(f) => f.jac_products(at, sl, moved, v, r2, r3),
+            _ => return false,
+        }
+        true
+    }
+
+    /// D(gamma), gamma's tangent along q' = s, qd' = sd and the tables
+    /// (S3), at qd; written into out.
+    #[allow(clippy::too_many_arguments)]
+    pub fn gamma_tangent(
+        &self,
+        at: &At,
+        qd: &[f64],
+        sl: &[[f64; N]],
+        sd: &[[f64; N]],
+        moved: bool,
+        s: &Shared<Lanes<N>>,
+        out: &mut [[f64; N]],
+    ) -> bool {
+        match self {
+            Family::Simple(f) => f.gamma_tangent(at, qd, sl, sd, moved, s, out),
+            Family::Revolute(f) => f.gamma_tangent(at, qd, sl, sd, moved, out),
+            Family::Line(f) => f.gamma_tangent(at, qd, sl, sd, moved, out),
+            _ => return false,
+        }
+        true
+    }
+}
+
+/// A planar vector of Lanes<N>: its value and its tangent in lane l.
+#[inline(always)]
+pub fn lane<const N: usize>(x: Complex<Lanes<N>>, l: usize) -> (C64, C64) {
+    (C64::new(x.re.v, x.im.v), C64::new(x.re.d[l], x.im.d[l]))
+}
+
+/// d(u w) from u, w and their tangents du, dw, in Complex<Lanes>'s own
+/// order of operations (num_complex's product, crate::real's Lanes).
+#[inline(always)]
+pub fn dmul(u: C64, du: C64, w: C64, dw: C64) -> C64 {
+    C64::new(
+        (du.re * w.re + u.re * dw.re) - (du.im * w.im + u.im * dw.im),
+        (du.re * w.im + u.re * dw.im) + (du.im * w.re + u.im * dw.re),
+    )
+}
+
+/// The tangent of e = e^{i q} along q' = d: i e d (as crate::sensitivity's
+/// lanes take it from the march's e).
+#[inline(always)]
+pub fn dturn(e: C64, d: f64) -> C64 {
+    C64::new(d * -e.im, d * e.re)
 }

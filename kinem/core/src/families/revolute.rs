@@ -1,8 +1,8 @@
 //! Revolute joint, Eqs. 4.7-4.9; Jacobian Eq. 4.46 (Table 4.2); gamma Eq. 4.47.
-use super::{At, Shared};
-use crate::real::Real;
+use super::{dmul, dturn, lane, At, Shared};
+use crate::real::{Lanes, Real};
 use crate::table::Table;
-use num_complex::Complex;
+use num_complex::{Complex, Complex64 as C64};
 
 /// Phi = r_i + A_i s'_i^P - r_j - A_j s'_j^P (Eq. 4.7): two rows, x and y.
 /// Columns: ci, cj the bodies' x columns; si, sj the joint centre on each.
@@ -68,6 +68,114 @@ impl<S: Real> Revolute<S> {
             };
             o[0] = g.re;
             o[1] = g.im;
+        }
+    }
+}
+
+/// The direct tangent kernels (super::Family::phi_tangent, jac_products,
+/// gamma_tangent): a = A_i s'_i, b = A_j s'_j and their tangents
+/// da = d(s'_i) A_i + s'_i dA_i, dA_i = i A_i s_phi_i, lane by lane in
+/// the dual kernels' order (the same figures as `jac`, `gamma` over Lanes).
+impl<const N: usize> Revolute<Lanes<N>> {
+    /// d/dp of Eq. 4.7 at q' = 0: d(s'_i) A_i - d(s'_j) A_j.
+    pub fn phi_tangent(&self, at: &At, out: &mut [[f64; N]]) {
+        assert!(at.holds(self.n) && out.len() >= 2 * self.ci.len());
+        let zero = C64::new(0.0, 0.0);
+        for (c, o) in out.chunks_exact_mut(2).enumerate().take(self.ci.len()) {
+            // SAFETY: c < ci.len() = cj, si, sj's (new), ci, cj < n - 2, e holds n (asserted above)
+            let (ei, ej, si, sj) = unsafe {
+                let (a, b) = (*self.ci.get_unchecked(c), *self.cj.get_unchecked(c));
+                (at.rot_at(a), at.rot_at(b), *self.si.get_unchecked(c), *self.sj.get_unchecked(c))
+            };
+            for l in 0..N {
+                let ((si, dsi), (sj, dsj)) = (lane(si, l), lane(sj, l));
+                let d = dmul(si, dsi, ei, zero) - dmul(sj, dsj, ej, zero);
+                o[0][l] = d.re;
+                o[1][l] = d.im;
+            }
+        }
+    }
+
+    /// r2 -= D(J) v[0], r3 -= D(J) v[1] (Eq. 4.46: the phi columns' -B s'
+    /// entries alone have a tangent).
+    pub fn jac_products(
+        &self,
+        at: &At,
+        s: &[[f64; N]],
+        moved: bool,
+        v: &[&[f64]],
+        r2: &mut [[f64; N]],
+        r3: &mut [[f64; N]],
+    ) {
+        let n = self.n;
+        assert!(at.holds(n) && s.len() >= n && v.iter().all(|x| x.len() >= n) && r2.len() >= 2 * self.ci.len());
+        let third = v.len() > 1;
+        assert!(!third || r3.len() >= 2 * self.ci.len());
+        for c in 0..self.ci.len() {
+            // SAFETY: c < ci.len() = cj, si, sj's (new), ci, cj < n - 2; e, s, v hold n, r2, r3 2 per joint (asserted above)
+            unsafe {
+                let (i, j) = (*self.ci.get_unchecked(c) + 2, *self.cj.get_unchecked(c) + 2);
+                let (ei, ej) = (*at.e.get_unchecked(i), *at.e.get_unchecked(j));
+                let (si, sj) = (*self.si.get_unchecked(c), *self.sj.get_unchecked(c));
+                let (pi, pj) = (s.get_unchecked(i), s.get_unchecked(j));
+                let mut da = [C64::new(0.0, 0.0); N];
+                let mut db = da;
+                for l in 0..N {
+                    let ((si, mut dsi), (sj, mut dsj)) = (lane(si, l), lane(sj, l));
+                    if !moved {
+                        (dsi, dsj) = (C64::new(0.0, 0.0), C64::new(0.0, 0.0));
+                    }
+                    da[l] = dmul(si, dsi, ei, dturn(ei, pi[l]));
+                    db[l] = dmul(sj, dsj, ej, dturn(ej, pj[l]));
+                }
+                for (w, r) in v.iter().zip([&mut *r2, &mut *r3]) {
+                    let (wi, wj) = (*w.get_unchecked(i), *w.get_unchecked(j));
+                    let rows = r.get_unchecked_mut(2 * c..2 * c + 2);
+                    for l in 0..N {
+                        rows[0][l] -= -da[l].im * wi;
+                        rows[0][l] -= db[l].im * wj;
+                        rows[1][l] -= da[l].re * wi;
+                        rows[1][l] -= -db[l].re * wj;
+                    }
+                }
+            }
+        }
+    }
+
+    /// D(gamma) of Eq. 4.47: d(a w_i^2) - d(b w_j^2).
+    pub fn gamma_tangent(
+        &self,
+        at: &At,
+        qd: &[f64],
+        s: &[[f64; N]],
+        sd: &[[f64; N]],
+        moved: bool,
+        out: &mut [[f64; N]],
+    ) {
+        let n = self.n;
+        assert!(at.holds(n) && qd.len() >= n && s.len() >= n && sd.len() >= n && out.len() >= 2 * self.ci.len());
+        for (c, o) in out.chunks_exact_mut(2).enumerate().take(self.ci.len()) {
+            // SAFETY: as jac_products'
+            unsafe {
+                let (i, j) = (*self.ci.get_unchecked(c) + 2, *self.cj.get_unchecked(c) + 2);
+                let (ei, ej) = (*at.e.get_unchecked(i), *at.e.get_unchecked(j));
+                let (si, sj) = (*self.si.get_unchecked(c), *self.sj.get_unchecked(c));
+                let (wi, wj) = (*qd.get_unchecked(i), *qd.get_unchecked(j));
+                let (pi, pj, vi, vj) =
+                    (s.get_unchecked(i), s.get_unchecked(j), sd.get_unchecked(i), sd.get_unchecked(j));
+                let (a, b) = (C64::new(si.re.v, si.im.v) * ei, C64::new(sj.re.v, sj.im.v) * ej);
+                let (ww_i, ww_j) = (wi * wi, wj * wj);
+                for l in 0..N {
+                    let ((si, mut dsi), (sj, mut dsj)) = (lane(si, l), lane(sj, l));
+                    if !moved {
+                        (dsi, dsj) = (C64::new(0.0, 0.0), C64::new(0.0, 0.0));
+                    }
+                    let (da, db) = (dmul(si, dsi, ei, dturn(ei, pi[l])), dmul(sj, dsj, ej, dturn(ej, pj[l])));
+                    let (dwi, dwj) = (vi[l] * wi + wi * vi[l], vj[l] * wj + wj * vj[l]);
+                    o[0][l] = (da.re * ww_i + a.re * dwi) - (db.re * ww_j + b.re * dwj);
+                    o[1][l] = (da.im * ww_i + a.im * dwi) - (db.im * ww_j + b.im * dwj);
+                }
+            }
         }
     }
 }

@@ -6,10 +6,10 @@
 //! s = A_i s'_i^P is present for the point forms (Eqs. 4.34, 4.39, 4.40),
 //! the relative term for a motor between two moving bodies. ground,
 //! absolute and driver rows all come here, one row each (ground: three).
-use super::{At, Shared};
-use crate::real::Real;
+use super::{dmul, dturn, lane, At, Shared};
+use crate::real::{Lanes, Real};
 use crate::table::Table;
-use num_complex::Complex;
+use num_complex::{Complex, Complex64 as C64};
 
 /// Columns, one entry per row: a (the coordinate q_a), angle (phi_i's
 /// column), k (phi_k's column when relative, else any valid column),
@@ -177,6 +177,109 @@ impl<S: Real> Simple<S> {
                 v = v + p * (w * w);
             }
             *o = v;
+        }
+    }
+}
+
+/// The direct tangent kernels (super::Family::phi_tangent, jac_products,
+/// gamma_tangent): the point term's s = A_i s'_i with its tangent
+/// ds = d(s') A_i + s' dA_i, dA_i = i A_i s_phi_i, and the drivers' f(t)
+/// tangents (the functions' tables), lane by lane in the dual kernels'
+/// order (the same figures as `phi`, `jac`, `gamma` over Lanes).
+impl<const N: usize> Simple<Lanes<N>> {
+    /// d/dp of Eqs. 4.31-4.40 at q' = 0: d(point term) - d f(t).
+    pub fn phi_tangent(&self, at: &At, s: &Shared<Lanes<N>>, out: &mut [[f64; N]]) {
+        assert!(at.holds(self.n));
+        let zero = C64::new(0.0, 0.0);
+        for (row, o) in self.rows.iter().zip(out) {
+            let f = row.drive(at.t, 0, s).d;
+            // SAFETY: angle < n (new), e holds n (asserted above)
+            let e = unsafe { *at.e.get_unchecked(row.angle) };
+            for l in 0..N {
+                let mut v = -f[l];
+                if row.term {
+                    let (local, dlocal) = lane(row.local, l);
+                    let ds = dmul(local, dlocal, e, zero);
+                    v += ds.re * row.mx + ds.im * row.my;
+                }
+                o[l] = v;
+            }
+        }
+    }
+
+    /// r2 -= D(J) v[0], r3 -= D(J) v[1]: a point row's (B_i s')_c entry
+    /// alone has a tangent.
+    pub fn jac_products(
+        &self,
+        at: &At,
+        s: &[[f64; N]],
+        moved: bool,
+        v: &[&[f64]],
+        r2: &mut [[f64; N]],
+        r3: &mut [[f64; N]],
+    ) {
+        assert!(at.holds(self.n) && s.len() >= self.n && v.iter().all(|x| x.len() >= self.n));
+        let third = v.len() > 1;
+        for (k, row) in self.rows.iter().enumerate() {
+            if !row.point {
+                continue;
+            }
+            // SAFETY: angle < n (new), e, s and v hold n (asserted above)
+            let (e, p) = unsafe { (*at.e.get_unchecked(row.angle), s.get_unchecked(row.angle)) };
+            let (w, ww) =
+                unsafe { (*v[0].get_unchecked(row.angle), if third { *v[1].get_unchecked(row.angle) } else { 0.0 }) };
+            for l in 0..N {
+                let (local, mut dlocal) = lane(row.local, l);
+                if !moved {
+                    dlocal = C64::new(0.0, 0.0);
+                }
+                let ds = dmul(local, dlocal, e, dturn(e, p[l]));
+                let d = ds.re * row.my - ds.im * row.mx;
+                r2[k][l] -= d * w;
+                if third {
+                    r3[k][l] -= d * ww;
+                }
+            }
+        }
+    }
+
+    /// D(gamma) of Eq. 4.38 and the point forms: d f''(t) + d(p w^2).
+    #[allow(clippy::too_many_arguments)]
+    pub fn gamma_tangent(
+        &self,
+        at: &At,
+        qd: &[f64],
+        s: &[[f64; N]],
+        sd: &[[f64; N]],
+        moved: bool,
+        sh: &Shared<Lanes<N>>,
+        out: &mut [[f64; N]],
+    ) {
+        assert!(at.holds(self.n) && qd.len() >= self.n && s.len() >= self.n && sd.len() >= self.n);
+        for (row, o) in self.rows.iter().zip(out) {
+            *o = if moved { row.drive(at.t, 2, sh).d } else { [0.0; N] };
+            if !row.term {
+                continue;
+            }
+            // SAFETY: angle < n (new), e, qd, s and sd hold n (asserted above)
+            let (e, w, p, dw) = unsafe {
+                let a = row.angle;
+                (*at.e.get_unchecked(a), *qd.get_unchecked(a), s.get_unchecked(a), sd.get_unchecked(a))
+            };
+            let local_v = C64::new(row.local.re.v, row.local.im.v);
+            let sv = local_v * e;
+            let pv = sv.re * row.mx + sv.im * row.my;
+            let ww = w * w;
+            for l in 0..N {
+                let (local, mut dlocal) = lane(row.local, l);
+                if !moved {
+                    dlocal = C64::new(0.0, 0.0);
+                }
+                let ds = dmul(local, dlocal, e, dturn(e, p[l]));
+                let dp = ds.re * row.mx + ds.im * row.my;
+                let dww = dw[l] * w + w * dw[l];
+                o[l] += dp * ww + pv * dww;
+            }
         }
     }
 }
