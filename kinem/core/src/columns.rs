@@ -4,7 +4,7 @@
 //! (r + A s', its first and second derivatives, Eqs. 4.43-4.45).
 //! Over S = Dual (crate::real) it gives the columns' tangents along a
 //! design parameter (kinem.sensitivity) from the coordinates' tangents.
-use crate::families::{dmul, dturn, lane};
+use crate::families::lane;
 use crate::real::{cis, i, Lanes, Real};
 use num_complex::{Complex, Complex64 as C64};
 
@@ -90,7 +90,7 @@ impl<'a> Columns<'a> {
 
 impl Columns<'_> {
     /// The named points' tangents alone (`points` over Lanes<N> without
-    /// their values, the same figures): x the stages' values (n each), d
+    /// their values): x the stages' values (n each), d
     /// their N tangents (s, sd, sdd), local the points' local coordinates
     /// with their tangents, e^{i phi} of angle column c from `turn(c)` (the
     /// march's own); out as `points`' pts, N tangents an entry.
@@ -108,8 +108,8 @@ impl Columns<'_> {
             let dq = d[0];
             let big = C64::new(s.re.v, s.im.v) * e;
             for l in 0..N {
-                let (v, dv) = lane(s, l);
-                let de = dmul(v, dv, e, dturn(e, dq[c + 2][l]));
+                // dE = i E dphi + d(s') e
+                let de = C64::new(-big.im, big.re) * dq[c + 2][l] + lane(s, l).1 * e;
                 out[j][l] = dq[c][l] + de.re;
                 out[p + j][l] = dq[c + 1][l] + de.im;
                 if stages > 1 {

@@ -439,6 +439,9 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         let (kin, src, pc) = (&p.kin, &p.src, &p.pc);
         let (w, points) = (src.len(), p.points);
         let (n, m, nnz, np) = (kin.n, kin.m, kin.nnz, p.np);
+        let flat = 3 * n + 2 * levels * points;
+        let gather: Vec<usize> = src.iter().map(|&j| if j < levels * n { j } else { 3 * n + j - levels * n }).collect();
+        assert!(gather.iter().all(|&i| i < flat), "sensitivity: a column's source out of range");
         let zl = || vec![Lanes::<N>::c(0.0); n];
         let cl = || vec![Complex::new(Lanes::<N>::c(0.0), Lanes::<N>::c(0.0)); n];
         Lanewise {
@@ -453,9 +456,9 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             turned: pc.iter().all(|&c| kin.angles.contains(&(c + 2))),
             lanes0: groups.iter().any(|g| g.moved_lanes),
             tg: vec![[0.0; N]; m],
-            flat: vec![[0.0; N]; 3 * n + 2 * levels * points],
+            flat: vec![[0.0; N]; flat],
             buf: vec![[0.0; N]; w],
-            gather: src.iter().map(|&j| if j < levels * n { j } else { 3 * n + j - levels * n }).collect(),
+            gather,
             q0: zl(),
             e0: vec![Complex::new(Lanes::<N>::c(1.0), Lanes::<N>::c(0.0)); n],
             ql: zl(),
@@ -594,7 +597,8 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             let to = &mut out[g * N * w..(g * N + count) * w];
             if N == 1 {
                 for (o, &i) in to.iter_mut().zip(&self.gather) {
-                    *o = self.flat[i][0];
+                    // SAFETY: every gather index below flat.len() (asserted in `new`)
+                    *o = unsafe { self.flat.get_unchecked(i)[0] };
                 }
             } else {
                 // gathered once, then a lane at a time (fewer index checks)

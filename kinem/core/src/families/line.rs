@@ -8,7 +8,7 @@
 //! u = P_i - Q_i, d = P_j - P_i, and Eq. 4.16 with a = j, u = Q_j - P_j,
 //! d = P_i - P_j. A translational joint adds the row
 //! phi_i - phi_j - (phi_i^0 - phi_j^0) = 0 (Eq. 4.10 as corrected).
-use super::{cross, dmul, dot, dturn, i, lane, At, Shared};
+use super::{cross, dot, i, lane, At, Shared};
 use crate::real::{Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
@@ -152,40 +152,58 @@ impl<S: Real> Line<S> {
 }
 
 /// The direct tangent kernels (super::Family::phi_tangent, jac_products,
-/// gamma_tangent) of u x d = 0: with dA = i A s_phi, du = d(u') A_a +
-/// u' dA_a, dsa = d(s'_a) A_a + s'_a dA_a, dsb likewise, and
-/// dd = dr_b + dsb - dr_a - dsa, lane by lane (the translational joint's
-/// angle row has no tangent but its phi0's).
+/// gamma_tangent) of u x d = 0: with dA = i A dphi (Eq. 4.44), du = i u
+/// s_phi_a + d(u') A_a, dsa = i sa s_phi_a + d(s'_a) A_a, dsb likewise,
+/// and dd = dr_b + dsb - dr_a - dsa, lane by lane (the translational
+/// joint's angle row has no tangent but its phi0's).
 impl<const N: usize> Line<Lanes<N>> {
-    /// The values (u, d, sa, sb) and, in lane l, their tangents along q' =
-    /// s (None: 0) and the tables (when `moved`).
+    /// The values (u, d, sa, sb) of constraint c, as `parts`'.
     ///
     /// # Safety
-    /// c < ca.len() and `at.holds(n)`, s.len() >= n where given (Line's invariants).
+    /// c < ca.len() and `at.holds(n)` (Line's invariants).
     #[inline(always)]
-    unsafe fn tangents(&self, at: &At, c: usize, s: Option<&[[f64; N]]>, moved: bool, l: usize) -> [(C64, C64); 4] {
+    unsafe fn values(&self, at: &At, c: usize) -> [C64; 4] {
         let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
         let (ea, eb) = (at.rot_at(a), at.rot_at(b));
-        let zero = C64::new(0.0, 0.0);
-        let (dra, drb, dea, deb) = match s {
-            Some(s) => (
-                C64::new(s.get_unchecked(a)[l], s.get_unchecked(a + 1)[l]),
-                C64::new(s.get_unchecked(b)[l], s.get_unchecked(b + 1)[l]),
-                dturn(ea, s.get_unchecked(a + 2)[l]),
-                dturn(eb, s.get_unchecked(b + 2)[l]),
-            ),
-            None => (zero, zero, zero, zero),
-        };
-        let table = |x: Complex<Lanes<N>>| {
-            let (v, d) = lane(x, l);
-            (v, if moved { d } else { zero })
-        };
-        let ((pa, dpa), (ua, dua), (ob, dob)) =
-            (table(*self.pa.get_unchecked(c)), table(*self.ua.get_unchecked(c)), table(*self.ob.get_unchecked(c)));
-        let (sa, sb, u) = (pa * ea, ob * eb, ua * ea);
-        let (dsa, dsb, du) = (dmul(pa, dpa, ea, dea), dmul(ob, dob, eb, deb), dmul(ua, dua, ea, dea));
-        let d = at.r_at(b) + sb - at.r_at(a) - sa;
-        [(u, du), (d, drb + dsb - dra - dsa), (sa, dsa), (sb, dsb)]
+        let v = |x: &Complex<Lanes<N>>| C64::new(x.re.v, x.im.v);
+        let (sa, sb) = (v(self.pa.get_unchecked(c)) * ea, v(self.ob.get_unchecked(c)) * eb);
+        [v(self.ua.get_unchecked(c)) * ea, at.r_at(b) + sb - at.r_at(a) - sa, sa, sb]
+    }
+
+    /// The tangents (du, dd, dsa, dsb) of constraint c in lane l from its
+    /// `values`, along q' = s (None: 0) and the tables (when `moved`).
+    ///
+    /// # Safety
+    /// As `values`', and s.len() >= n where given.
+    #[inline(always)]
+    unsafe fn tangents(
+        &self,
+        at: &At,
+        c: usize,
+        x: &[C64; 4],
+        s: Option<&[[f64; N]]>,
+        moved: bool,
+        l: usize,
+    ) -> [C64; 4] {
+        let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
+        let [u, _, sa, sb] = *x;
+        let i = C64::new(0.0, 1.0);
+        let [mut du, mut dd, mut dsa, mut dsb] = [C64::new(0.0, 0.0); 4];
+        if let Some(s) = s {
+            let (pa, pb) = (s.get_unchecked(a + 2)[l], s.get_unchecked(b + 2)[l]);
+            (du, dsa, dsb) = (i * u * pa, i * sa * pa, i * sb * pb);
+            dd = C64::new(
+                s.get_unchecked(b)[l] - s.get_unchecked(a)[l],
+                s.get_unchecked(b + 1)[l] - s.get_unchecked(a + 1)[l],
+            );
+        }
+        if moved {
+            let (ea, eb) = (at.rot_at(a), at.rot_at(b));
+            du += lane(*self.ua.get_unchecked(c), l).1 * ea;
+            dsa += lane(*self.pa.get_unchecked(c), l).1 * ea;
+            dsb += lane(*self.ob.get_unchecked(c), l).1 * eb;
+        }
+        [du, dd + dsb - dsa, dsa, dsb]
     }
 
     /// d/dp of Eqs. 4.12, 4.16 at q' = 0 (du x d + u x dd), then -d(phi0).
@@ -193,10 +211,12 @@ impl<const N: usize> Line<Lanes<N>> {
         let per = self.per();
         assert!(at.holds(self.n) && out.len() >= per * self.ca.len());
         for c in 0..self.ca.len() {
+            // SAFETY: c < ca.len(), e holds n (asserted above)
+            let x = unsafe { self.values(at, c) };
             for l in 0..N {
-                // SAFETY: c < ca.len(), e holds n (asserted above)
-                let [(u, du), (d, dd), _, _] = unsafe { self.tangents(at, c, None, true, l) };
-                out[per * c][l] = cross(du, d) + cross(u, dd);
+                // SAFETY: as above
+                let [du, dd, _, _] = unsafe { self.tangents(at, c, &x, None, true, l) };
+                out[per * c][l] = cross(du, x[1]) + cross(x[0], dd);
                 if self.angle {
                     out[2 * c + 1][l] = -self.phi0[c].d[l];
                 }
@@ -222,21 +242,15 @@ impl<const N: usize> Line<Lanes<N>> {
             // SAFETY: c < ca.len(), q, e, s and v hold n (asserted above)
             unsafe {
                 let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
+                let x = self.values(at, c);
+                let [u, d, sa, sb] = x;
                 for l in 0..N {
-                    let [(u, du), (d, dd), (sa, dsa), (sb, dsb)] = self.tangents(at, c, Some(s), moved, l);
-                    let entries = [
-                        (a, du.im),
-                        (a + 1, -du.re),
-                        (a + 2, -(dot(du, d + sa) + dot(u, dd + dsa))),
-                        (b, -du.im),
-                        (b + 1, du.re),
-                        (b + 2, dot(du, sb) + dot(u, dsb)),
-                    ];
+                    let [du, dd, dsa, dsb] = self.tangents(at, c, &x, Some(s), moved, l);
+                    let (ta, tb) = (-(dot(du, d + sa) + dot(u, dd + dsa)), dot(du, sb) + dot(u, dsb));
                     for (w, r) in v.iter().zip([&mut *r2, &mut *r3]) {
+                        let g = |k: usize| *w.get_unchecked(k);
                         let row = &mut r.get_unchecked_mut(per * c)[l];
-                        for (col, t) in entries {
-                            *row -= t * *w.get_unchecked(col);
-                        }
+                        *row -= du.im * (g(a) - g(b)) - du.re * (g(a + 1) - g(b + 1)) + ta * g(a + 2) + tb * g(b + 2);
                     }
                 }
             }
@@ -263,28 +277,25 @@ impl<const N: usize> Line<Lanes<N>> {
             // SAFETY: c < ca.len(), q, e, qd, s and sd hold n (asserted above)
             unsafe {
                 let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
+                let x = self.values(at, c);
+                let [u, d, sa, sb] = x;
                 let (wa, wb) = (*qd.get_unchecked(a + 2), *qd.get_unchecked(b + 2));
-                let (ra, rb) = (
-                    C64::new(*qd.get_unchecked(a), *qd.get_unchecked(a + 1)),
-                    C64::new(*qd.get_unchecked(b), *qd.get_unchecked(b + 1)),
-                );
-                let (va, vb) = (sd.get_unchecked(a), sd.get_unchecked(b));
+                let rd = |k: usize| C64::new(*qd.get_unchecked(k), *qd.get_unchecked(k + 1));
+                let rate = rd(b) + i * sb * wb - rd(a) - i * sa * wa;
+                let big = sb * (wb * wb) - sa * (wa * wa);
+                let (cr, dt) = (cross(u, d), dot(u, rate));
                 for l in 0..N {
-                    let [(u, du), (d, dd), (sa, dsa), (sb, dsb)] = self.tangents(at, c, Some(s), moved, l);
+                    let [du, dd, dsa, dsb] = self.tangents(at, c, &x, Some(s), moved, l);
                     let (dwa, dwb) = (sd.get_unchecked(a + 2)[l], sd.get_unchecked(b + 2)[l]);
-                    let (dra, drb) =
-                        (C64::new(va[l], sd.get_unchecked(a + 1)[l]), C64::new(vb[l], sd.get_unchecked(b + 1)[l]));
-                    let rate = rb + i * sb * wb - ra - i * sa * wa;
-                    let drate = drb + i * (dsb * wb + sb * dwb) - dra - i * (dsa * wa + sa * dwa);
-                    let x = sb * (wb * wb) - sa * (wa * wa);
-                    let dx = dsb * (wb * wb) + sb * (2.0 * wb * dwb) - dsa * (wa * wa) - sa * (2.0 * wa * dwa);
-                    let (cr, dcr) = (cross(u, d), cross(du, d) + cross(u, dd));
-                    let (dt, ddt) = (dot(u, rate), dot(du, rate) + dot(u, drate));
+                    let drd = |k: usize| C64::new(sd.get_unchecked(k)[l], sd.get_unchecked(k + 1)[l]);
+                    let drate = drd(b) + i * (dsb * wb + sb * dwb) - drd(a) - i * (dsa * wa + sa * dwa);
+                    let dbig = dsb * (wb * wb) + sb * (2.0 * wb * dwb) - dsa * (wa * wa) - sa * (2.0 * wa * dwa);
+                    let (dcr, ddt) = (cross(du, d) + cross(u, dd), dot(du, rate) + dot(u, drate));
                     out.get_unchecked_mut(per * c)[l] = (2.0 * wa * dwa) * cr
                         + wa * wa * dcr
                         + (dwa * dt + wa * ddt) * 2.0
-                        + cross(du, x)
-                        + cross(u, dx);
+                        + cross(du, big)
+                        + cross(u, dbig);
                     if self.angle {
                         out.get_unchecked_mut(2 * c + 1)[l] = 0.0;
                     }

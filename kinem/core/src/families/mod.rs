@@ -323,20 +323,3 @@ impl<const N: usize> Family<Lanes<N>> {
 pub fn lane<const N: usize>(x: Complex<Lanes<N>>, l: usize) -> (C64, C64) {
     (C64::new(x.re.v, x.im.v), C64::new(x.re.d[l], x.im.d[l]))
 }
-
-/// d(u w) from u, w and their tangents du, dw, in Complex<Lanes>'s own
-/// order of operations (num_complex's product, crate::real's Lanes).
-#[inline(always)]
-pub fn dmul(u: C64, du: C64, w: C64, dw: C64) -> C64 {
-    C64::new(
-        (du.re * w.re + u.re * dw.re) - (du.im * w.im + u.im * dw.im),
-        (du.re * w.im + u.re * dw.im) + (du.im * w.re + u.im * dw.re),
-    )
-}
-
-/// The tangent of e = e^{i q} along q' = d: i e d (as crate::sensitivity's
-/// lanes take it from the march's e).
-#[inline(always)]
-pub fn dturn(e: C64, d: f64) -> C64 {
-    C64::new(d * -e.im, d * e.re)
-}

@@ -1,5 +1,5 @@
 //! Revolute joint, Eqs. 4.7-4.9; Jacobian Eq. 4.46 (Table 4.2); gamma Eq. 4.47.
-use super::{dmul, dturn, lane, At, Shared};
+use super::{lane, At, Shared};
 use crate::real::{Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
@@ -74,13 +74,11 @@ impl<S: Real> Revolute<S> {
 
 /// The direct tangent kernels (super::Family::phi_tangent, jac_products,
 /// gamma_tangent): a = A_i s'_i, b = A_j s'_j and their tangents
-/// da = d(s'_i) A_i + s'_i dA_i, dA_i = i A_i s_phi_i, lane by lane in
-/// the dual kernels' order (the same figures as `jac`, `gamma` over Lanes).
+/// da = i a s_phi_i + d(s'_i) A_i (Eq. 4.44: dA s' = B s' dphi), lane by lane.
 impl<const N: usize> Revolute<Lanes<N>> {
     /// d/dp of Eq. 4.7 at q' = 0: d(s'_i) A_i - d(s'_j) A_j.
     pub fn phi_tangent(&self, at: &At, out: &mut [[f64; N]]) {
         assert!(at.holds(self.n) && out.len() >= 2 * self.ci.len());
-        let zero = C64::new(0.0, 0.0);
         for (c, o) in out.chunks_exact_mut(2).enumerate().take(self.ci.len()) {
             // SAFETY: c < ci.len() = cj, si, sj's (new), ci, cj < n - 2, e holds n (asserted above)
             let (ei, ej, si, sj) = unsafe {
@@ -88,12 +86,35 @@ impl<const N: usize> Revolute<Lanes<N>> {
                 (at.rot_at(a), at.rot_at(b), *self.si.get_unchecked(c), *self.sj.get_unchecked(c))
             };
             for l in 0..N {
-                let ((si, dsi), (sj, dsj)) = (lane(si, l), lane(sj, l));
-                let d = dmul(si, dsi, ei, zero) - dmul(sj, dsj, ej, zero);
+                let d = lane(si, l).1 * ei - lane(sj, l).1 * ej;
                 o[0][l] = d.re;
                 o[1][l] = d.im;
             }
         }
+    }
+
+    /// (a, b) and their tangents (da, db: re, im per lane) of joint c.
+    ///
+    /// # Safety
+    /// c < ci.len(), `at.holds(n)`, s.len() >= n (Revolute's invariants).
+    #[inline(always)]
+    unsafe fn parts(&self, at: &At, c: usize, s: &[[f64; N]], moved: bool) -> [(C64, [f64; N], [f64; N]); 2] {
+        let (i, j) = (*self.ci.get_unchecked(c) + 2, *self.cj.get_unchecked(c) + 2);
+        let one = |e: C64, p: &[f64; N], t: Complex<Lanes<N>>| {
+            let a = C64::new(t.re.v, t.im.v) * e;
+            let (mut re, mut im) = (p.map(|x| -a.im * x), p.map(|x| a.re * x));
+            if moved {
+                for l in 0..N {
+                    re[l] += t.re.d[l] * e.re - t.im.d[l] * e.im;
+                    im[l] += t.re.d[l] * e.im + t.im.d[l] * e.re;
+                }
+            }
+            (a, re, im)
+        };
+        [
+            one(*at.e.get_unchecked(i), s.get_unchecked(i), *self.si.get_unchecked(c)),
+            one(*at.e.get_unchecked(j), s.get_unchecked(j), *self.sj.get_unchecked(c)),
+        ]
     }
 
     /// r2 -= D(J) v[0], r3 -= D(J) v[1] (Eq. 4.46: the phi columns' -B s'
@@ -109,33 +130,18 @@ impl<const N: usize> Revolute<Lanes<N>> {
     ) {
         let n = self.n;
         assert!(at.holds(n) && s.len() >= n && v.iter().all(|x| x.len() >= n) && r2.len() >= 2 * self.ci.len());
-        let third = v.len() > 1;
-        assert!(!third || r3.len() >= 2 * self.ci.len());
+        assert!(v.len() < 2 || r3.len() >= 2 * self.ci.len());
         for c in 0..self.ci.len() {
             // SAFETY: c < ci.len() = cj, si, sj's (new), ci, cj < n - 2; e, s, v hold n, r2, r3 2 per joint (asserted above)
             unsafe {
                 let (i, j) = (*self.ci.get_unchecked(c) + 2, *self.cj.get_unchecked(c) + 2);
-                let (ei, ej) = (*at.e.get_unchecked(i), *at.e.get_unchecked(j));
-                let (si, sj) = (*self.si.get_unchecked(c), *self.sj.get_unchecked(c));
-                let (pi, pj) = (s.get_unchecked(i), s.get_unchecked(j));
-                let mut da = [C64::new(0.0, 0.0); N];
-                let mut db = da;
-                for l in 0..N {
-                    let ((si, mut dsi), (sj, mut dsj)) = (lane(si, l), lane(sj, l));
-                    if !moved {
-                        (dsi, dsj) = (C64::new(0.0, 0.0), C64::new(0.0, 0.0));
-                    }
-                    da[l] = dmul(si, dsi, ei, dturn(ei, pi[l]));
-                    db[l] = dmul(sj, dsj, ej, dturn(ej, pj[l]));
-                }
+                let [(_, ar, ai), (_, br, bi)] = self.parts(at, c, s, moved);
                 for (w, r) in v.iter().zip([&mut *r2, &mut *r3]) {
                     let (wi, wj) = (*w.get_unchecked(i), *w.get_unchecked(j));
                     let rows = r.get_unchecked_mut(2 * c..2 * c + 2);
                     for l in 0..N {
-                        rows[0][l] -= -da[l].im * wi;
-                        rows[0][l] -= db[l].im * wj;
-                        rows[1][l] -= da[l].re * wi;
-                        rows[1][l] -= -db[l].re * wj;
+                        rows[0][l] += ai[l] * wi - bi[l] * wj;
+                        rows[1][l] -= ar[l] * wi - br[l] * wj;
                     }
                 }
             }
@@ -158,22 +164,14 @@ impl<const N: usize> Revolute<Lanes<N>> {
             // SAFETY: as jac_products'
             unsafe {
                 let (i, j) = (*self.ci.get_unchecked(c) + 2, *self.cj.get_unchecked(c) + 2);
-                let (ei, ej) = (*at.e.get_unchecked(i), *at.e.get_unchecked(j));
-                let (si, sj) = (*self.si.get_unchecked(c), *self.sj.get_unchecked(c));
+                let [(a, ar, ai), (b, br, bi)] = self.parts(at, c, s, moved);
                 let (wi, wj) = (*qd.get_unchecked(i), *qd.get_unchecked(j));
-                let (pi, pj, vi, vj) =
-                    (s.get_unchecked(i), s.get_unchecked(j), sd.get_unchecked(i), sd.get_unchecked(j));
-                let (a, b) = (C64::new(si.re.v, si.im.v) * ei, C64::new(sj.re.v, sj.im.v) * ej);
+                let (vi, vj) = (sd.get_unchecked(i), sd.get_unchecked(j));
                 let (ww_i, ww_j) = (wi * wi, wj * wj);
                 for l in 0..N {
-                    let ((si, mut dsi), (sj, mut dsj)) = (lane(si, l), lane(sj, l));
-                    if !moved {
-                        (dsi, dsj) = (C64::new(0.0, 0.0), C64::new(0.0, 0.0));
-                    }
-                    let (da, db) = (dmul(si, dsi, ei, dturn(ei, pi[l])), dmul(sj, dsj, ej, dturn(ej, pj[l])));
-                    let (dwi, dwj) = (vi[l] * wi + wi * vi[l], vj[l] * wj + wj * vj[l]);
-                    o[0][l] = (da.re * ww_i + a.re * dwi) - (db.re * ww_j + b.re * dwj);
-                    o[1][l] = (da.im * ww_i + a.im * dwi) - (db.im * ww_j + b.im * dwj);
+                    let (dwi, dwj) = (2.0 * wi * vi[l], 2.0 * wj * vj[l]);
+                    o[0][l] = (ar[l] * ww_i + a.re * dwi) - (br[l] * ww_j + b.re * dwj);
+                    o[1][l] = (ai[l] * ww_i + a.im * dwi) - (bi[l] * ww_j + b.im * dwj);
                 }
             }
         }

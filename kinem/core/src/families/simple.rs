@@ -6,7 +6,7 @@
 //! s = A_i s'_i^P is present for the point forms (Eqs. 4.34, 4.39, 4.40),
 //! the relative term for a motor between two moving bodies. ground,
 //! absolute and driver rows all come here, one row each (ground: three).
-use super::{dmul, dturn, lane, At, Shared};
+use super::{lane, At, Shared};
 use crate::real::{Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
@@ -183,28 +183,43 @@ impl<S: Real> Simple<S> {
 
 /// The direct tangent kernels (super::Family::phi_tangent, jac_products,
 /// gamma_tangent): the point term's s = A_i s'_i with its tangent
-/// ds = d(s') A_i + s' dA_i, dA_i = i A_i s_phi_i, and the drivers' f(t)
-/// tangents (the functions' tables), lane by lane in the dual kernels'
-/// order (the same figures as `phi`, `jac`, `gamma` over Lanes).
+/// ds = i s s_phi_i + d(s') A_i, and the drivers' f(t) tangents (the
+/// functions' tables), lane by lane.
 impl<const N: usize> Simple<Lanes<N>> {
     /// d/dp of Eqs. 4.31-4.40 at q' = 0: d(point term) - d f(t).
     pub fn phi_tangent(&self, at: &At, s: &Shared<Lanes<N>>, out: &mut [[f64; N]]) {
         assert!(at.holds(self.n));
-        let zero = C64::new(0.0, 0.0);
         for (row, o) in self.rows.iter().zip(out) {
             let f = row.drive(at.t, 0, s).d;
-            // SAFETY: angle < n (new), e holds n (asserted above)
-            let e = unsafe { *at.e.get_unchecked(row.angle) };
-            for l in 0..N {
-                let mut v = -f[l];
-                if row.term {
-                    let (local, dlocal) = lane(row.local, l);
-                    let ds = dmul(local, dlocal, e, zero);
-                    v += ds.re * row.mx + ds.im * row.my;
+            *o = f.map(|x| -x);
+            if row.term {
+                // SAFETY: angle < n (new), e holds n (asserted above)
+                let e = unsafe { *at.e.get_unchecked(row.angle) };
+                for l in 0..N {
+                    let ds = lane(row.local, l).1 * e;
+                    o[l] += ds.re * row.mx + ds.im * row.my;
                 }
-                o[l] = v;
             }
         }
+    }
+
+    /// The point term's s = A_i s' and its tangents ds (re, im per lane).
+    ///
+    /// # Safety
+    /// angle < e.len(), s.len() (Simple's invariant where `At::holds(n)`).
+    #[inline(always)]
+    unsafe fn point(&self, row: &Row<Lanes<N>>, at: &At, s: &[[f64; N]], moved: bool) -> (C64, [f64; N], [f64; N]) {
+        let (e, p) = (*at.e.get_unchecked(row.angle), s.get_unchecked(row.angle));
+        let v = C64::new(row.local.re.v, row.local.im.v) * e;
+        let (mut re, mut im) = (p.map(|x| -v.im * x), p.map(|x| v.re * x));
+        if moved {
+            for l in 0..N {
+                let d = lane(row.local, l).1 * e;
+                re[l] += d.re;
+                im[l] += d.im;
+            }
+        }
+        (v, re, im)
     }
 
     /// r2 -= D(J) v[0], r3 -= D(J) v[1]: a point row's (B_i s')_c entry
@@ -219,25 +234,17 @@ impl<const N: usize> Simple<Lanes<N>> {
         r3: &mut [[f64; N]],
     ) {
         assert!(at.holds(self.n) && s.len() >= self.n && v.iter().all(|x| x.len() >= self.n));
-        let third = v.len() > 1;
         for (k, row) in self.rows.iter().enumerate() {
             if !row.point {
                 continue;
             }
             // SAFETY: angle < n (new), e, s and v hold n (asserted above)
-            let (e, p) = unsafe { (*at.e.get_unchecked(row.angle), s.get_unchecked(row.angle)) };
-            let (w, ww) =
-                unsafe { (*v[0].get_unchecked(row.angle), if third { *v[1].get_unchecked(row.angle) } else { 0.0 }) };
-            for l in 0..N {
-                let (local, mut dlocal) = lane(row.local, l);
-                if !moved {
-                    dlocal = C64::new(0.0, 0.0);
-                }
-                let ds = dmul(local, dlocal, e, dturn(e, p[l]));
-                let d = ds.re * row.my - ds.im * row.mx;
-                r2[k][l] -= d * w;
-                if third {
-                    r3[k][l] -= d * ww;
+            let (_, re, im) = unsafe { self.point(row, at, s, moved) };
+            let d: [f64; N] = std::array::from_fn(|l| re[l] * row.my - im[l] * row.mx);
+            for (w, r) in v.iter().zip([&mut *r2, &mut *r3]) {
+                let w = w[row.angle];
+                for l in 0..N {
+                    r[k][l] -= d[l] * w;
                 }
             }
         }
@@ -262,23 +269,11 @@ impl<const N: usize> Simple<Lanes<N>> {
                 continue;
             }
             // SAFETY: angle < n (new), e, qd, s and sd hold n (asserted above)
-            let (e, w, p, dw) = unsafe {
-                let a = row.angle;
-                (*at.e.get_unchecked(a), *qd.get_unchecked(a), s.get_unchecked(a), sd.get_unchecked(a))
-            };
-            let local_v = C64::new(row.local.re.v, row.local.im.v);
-            let sv = local_v * e;
-            let pv = sv.re * row.mx + sv.im * row.my;
-            let ww = w * w;
+            let ((v, re, im), w, dw) =
+                unsafe { (self.point(row, at, s, moved), *qd.get_unchecked(row.angle), sd.get_unchecked(row.angle)) };
+            let (p, ww) = (v.re * row.mx + v.im * row.my, w * w);
             for l in 0..N {
-                let (local, mut dlocal) = lane(row.local, l);
-                if !moved {
-                    dlocal = C64::new(0.0, 0.0);
-                }
-                let ds = dmul(local, dlocal, e, dturn(e, p[l]));
-                let dp = ds.re * row.mx + ds.im * row.my;
-                let dww = dw[l] * w + w * dw[l];
-                o[l] += dp * ww + pv * dww;
+                o[l] += (re[l] * row.mx + im[l] * row.my) * ww + p * (2.0 * w * dw[l]);
             }
         }
     }
