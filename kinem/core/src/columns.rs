@@ -103,26 +103,44 @@ impl Columns<'_> {
         out: &mut [[f64; N]],
     ) {
         let (stages, p) = (self.stages, self.pc.len());
+        let n = x[0].len();
+        assert!(x.len() >= stages && d.len() >= stages && local.len() >= p && out.len() >= 2 * stages * p);
+        assert!(x[..stages].iter().all(|a| a.len() >= n) && d[..stages].iter().all(|a| a.len() >= n));
+        assert!(self.pc.iter().all(|&c| c + 2 < n));
         for (j, (&c, &s)) in self.pc.iter().zip(local).enumerate() {
             let e = turn(c + 2);
-            let dq = d[0];
             let big = C64::new(s.re.v, s.im.v) * e;
-            for l in 0..N {
-                // dE = i E dphi + d(s') e
-                let de = C64::new(-big.im, big.re) * dq[c + 2][l] + lane(s, l).1 * e;
-                out[j][l] = dq[c][l] + de.re;
-                out[p + j][l] = dq[c + 1][l] + de.im;
-                if stages > 1 {
-                    let (om, dom, dqd) = (x[1][c + 2], d[1][c + 2][l], d[1]);
-                    // i E om: re -E.im om, im E.re om
-                    out[2 * p + j][l] = dqd[c][l] + (-de.im * om + -big.im * dom);
-                    out[3 * p + j][l] = dqd[c + 1][l] + (de.re * om + big.re * dom);
-                    if stages > 2 {
-                        let (al, dal, dqdd) = (x[2][c + 2], d[2][c + 2][l], d[2]);
-                        let (oo, doo) = (om * om, dom * om + om * dom);
-                        out[4 * p + j][l] = dqdd[c][l] + (-de.im * al + -big.im * dal) - (de.re * oo + big.re * doo);
-                        out[5 * p + j][l] = dqdd[c + 1][l] + (de.re * al + big.re * dal) - (de.im * oo + big.im * doo);
-                    }
+            // SAFETY: c + 2 < n, every stage and its tangents hold n (asserted above)
+            let at = |k: usize, c: usize| unsafe { *d.get_unchecked(k).get_unchecked(c) };
+            let value = |k: usize| unsafe { *x.get_unchecked(k).get_unchecked(c + 2) };
+            // SAFETY: j < p and out holds 2 stages p (asserted above)
+            let mut put = |i: usize, v: [f64; N]| unsafe { *out.get_unchecked_mut(i * p + j) = v };
+            // dE = i E dphi + d(s') e
+            let phi = at(0, c + 2);
+            let de: [C64; N] = std::array::from_fn(|l| C64::new(-big.im, big.re) * phi[l] + lane(s, l).1 * e);
+            let (x0, y0) = (at(0, c), at(0, c + 1));
+            put(0, std::array::from_fn(|l| x0[l] + de[l].re));
+            put(1, std::array::from_fn(|l| y0[l] + de[l].im));
+            if stages > 1 {
+                // i E om: re -E.im om, im E.re om
+                let (om, dom, vx, vy) = (value(1), at(1, c + 2), at(1, c), at(1, c + 1));
+                put(2, std::array::from_fn(|l| vx[l] + (-de[l].im * om + -big.im * dom[l])));
+                put(3, std::array::from_fn(|l| vy[l] + (de[l].re * om + big.re * dom[l])));
+                if stages > 2 {
+                    let (al, dal, ax, ay, oo) = (value(2), at(2, c + 2), at(2, c), at(2, c + 1), om * om);
+                    let doo: [f64; N] = std::array::from_fn(|l| 2.0 * om * dom[l]);
+                    put(
+                        4,
+                        std::array::from_fn(|l| {
+                            ax[l] + (-de[l].im * al + -big.im * dal[l]) - (de[l].re * oo + big.re * doo[l])
+                        }),
+                    );
+                    put(
+                        5,
+                        std::array::from_fn(|l| {
+                            ay[l] + (de[l].re * al + big.re * dal[l]) - (de[l].im * oo + big.im * doo[l])
+                        }),
+                    );
                 }
             }
         }

@@ -408,7 +408,6 @@ pub struct Lanewise<'a, const N: usize> {
     /// whether any group has a moved family without direct kernels (its
     /// Phi_p over the lanes at q0, e0)
     lanes0: bool,
-    tg: Vec<[f64; N]>,
     /// s, sd, sdd (n each) and the points' tangents, a row per coordinate
     /// or point value; `gather`: each column's row there
     flat: Vec<[f64; N]>,
@@ -455,7 +454,6 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             locs,
             turned: pc.iter().all(|&c| kin.angles.contains(&(c + 2))),
             lanes0: groups.iter().any(|g| g.moved_lanes),
-            tg: vec![[0.0; N]; m],
             flat: vec![[0.0; N]; flat],
             buf: vec![[0.0; N]; w],
             gather,
@@ -575,13 +573,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 let (sl, sd) = (&self.flat[..n], &self.flat[n..2 * n]);
                 for &(k, moved) in &group.direct {
                     let rows = model.row_off[k]..model.row_off[k + 1];
-                    let tg = &mut self.tg[rows.clone()];
-                    model.families[k].gamma_tangent(&atf, x[1], sl, sd, moved, &shared, tg);
-                    for (r, x) in self.rhs3[rows].iter_mut().zip(tg.iter()) {
-                        for l in 0..N {
-                            r[l] += x[l];
-                        }
-                    }
+                    model.families[k].gamma_tangent(&atf, x[1], sl, sd, moved, &shared, &mut self.rhs3[rows]);
                 }
                 self.solver.solve(layout, f, &self.rhs3, count, &mut self.flat[2 * n..3 * n]);
             }
@@ -603,7 +595,8 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             } else {
                 // gathered once, then a lane at a time (fewer index checks)
                 for (b, &i) in self.buf.iter_mut().zip(&self.gather) {
-                    *b = self.flat[i];
+                    // SAFETY: every gather index below flat.len() (asserted in `new`)
+                    *b = unsafe { *self.flat.get_unchecked(i) };
                 }
                 for (lane, to) in to.chunks_mut(w).enumerate() {
                     for (o, b) in to.iter_mut().zip(&self.buf) {

@@ -291,14 +291,11 @@ impl<const N: usize> Line<Lanes<N>> {
                     let drate = drd(b) + i * (dsb * wb + sb * dwb) - drd(a) - i * (dsa * wa + sa * dwa);
                     let dbig = dsb * (wb * wb) + sb * (2.0 * wb * dwb) - dsa * (wa * wa) - sa * (2.0 * wa * dwa);
                     let (dcr, ddt) = (cross(du, d) + cross(u, dd), dot(du, rate) + dot(u, drate));
-                    out.get_unchecked_mut(per * c)[l] = (2.0 * wa * dwa) * cr
+                    out.get_unchecked_mut(per * c)[l] += (2.0 * wa * dwa) * cr
                         + wa * wa * dcr
                         + (dwa * dt + wa * ddt) * 2.0
                         + cross(du, big)
                         + cross(u, dbig);
-                    if self.angle {
-                        out.get_unchecked_mut(2 * c + 1)[l] = 0.0;
-                    }
                 }
             }
         }

@@ -296,7 +296,7 @@ impl<const N: usize> Family<Lanes<N>> {
     }
 
     /// D(gamma), gamma's tangent along q' = s, qd' = sd and the tables
-    /// (S3), at qd; written into out.
+    /// (S3), at qd; added to out.
     #[allow(clippy::too_many_arguments)]
     pub fn gamma_tangent(
         &self,

@@ -170,8 +170,8 @@ impl<const N: usize> Revolute<Lanes<N>> {
                 let (ww_i, ww_j) = (wi * wi, wj * wj);
                 for l in 0..N {
                     let (dwi, dwj) = (2.0 * wi * vi[l], 2.0 * wj * vj[l]);
-                    o[0][l] = (ar[l] * ww_i + a.re * dwi) - (br[l] * ww_j + b.re * dwj);
-                    o[1][l] = (ai[l] * ww_i + a.im * dwi) - (bi[l] * ww_j + b.im * dwj);
+                    o[0][l] += (ar[l] * ww_i + a.re * dwi) - (br[l] * ww_j + b.re * dwj);
+                    o[1][l] += (ai[l] * ww_i + a.im * dwi) - (bi[l] * ww_j + b.im * dwj);
                 }
             }
         }

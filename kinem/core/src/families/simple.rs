@@ -264,7 +264,12 @@ impl<const N: usize> Simple<Lanes<N>> {
     ) {
         assert!(at.holds(self.n) && qd.len() >= self.n && s.len() >= self.n && sd.len() >= self.n);
         for (row, o) in self.rows.iter().zip(out) {
-            *o = if moved { row.drive(at.t, 2, sh).d } else { [0.0; N] };
+            if moved {
+                let f = row.drive(at.t, 2, sh).d;
+                for l in 0..N {
+                    o[l] += f[l];
+                }
+            }
             if !row.term {
                 continue;
             }

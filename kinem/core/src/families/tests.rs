@@ -274,6 +274,7 @@ fn check_direct(kind: &str, tabs: &[Table; 3], art: usize, q: &[f64], qd: &[f64]
         let want = tangents(&dual, &lift(q, &zeros), &lift(qd, &zeros), time)[0].clone();
         near("Phi_p", &out.iter().map(|x| x[0]).collect::<Vec<_>>(), &want, 1e-12);
     }
+    out.fill([0.0]);
     if fam.gamma_tangent(&at, qd, &s, &sd, moved, &shared, &mut out) {
         let want = tangents(&dual, &lift(q, &dq), &lift(qd, &dqd), time)[3].clone();
         near("D(gamma)", &out.iter().map(|x| x[0]).collect::<Vec<_>>(), &want, 1e-12);
