@@ -159,8 +159,7 @@ pub fn lanes(p: usize) -> usize {
 /// once and kept (kinem.sensitivity keeps it per model and parameters:
 /// Plan.sensitivity_setup): the model (every function and outline its own
 /// number), the parameters' groups (`Group`: seeded models, moved and live
-/// families, the products' entries, after the probe of the `fixed`
-/// families), the named points' local coordinates over the lanes and the
+/// families, the products' entries: `probe`), the named points' local coordinates over the lanes and the
 /// trajectory's column sources (`sensitivities`' columns).
 pub struct Prepared {
     pub kin: Kin,
@@ -192,14 +191,13 @@ impl Prepared {
         if dlocal.len() != np * points || pc.len() != points {
             return Err("sensitivity: output arrays of the wrong size".into());
         }
-        let fixed = fixed(&kin)?;
         let pattern: Vec<(usize, usize)> = rows.iter().copied().zip(cols.iter().copied()).collect();
-        let (k, f, p) = (&kin, &fixed[..], &pattern[..]);
+        let (k, p) = (&kin, &pattern[..]);
         let groups = match lanes(np) {
-            1 => Grouped::One(grouped(k, tangents, f, p)?, locals(tangents.len(), local, dlocal)),
-            2 => Grouped::Two(grouped(k, tangents, f, p)?, locals(tangents.len(), local, dlocal)),
-            4 => Grouped::Four(grouped(k, tangents, f, p)?, locals(tangents.len(), local, dlocal)),
-            _ => Grouped::Eight(grouped(k, tangents, f, p)?, locals(tangents.len(), local, dlocal)),
+            1 => Grouped::One(grouped(k, tangents, p)?, locals(tangents.len(), local, dlocal)),
+            2 => Grouped::Two(grouped(k, tangents, p)?, locals(tangents.len(), local, dlocal)),
+            4 => Grouped::Four(grouped(k, tangents, p)?, locals(tangents.len(), local, dlocal)),
+            _ => Grouped::Eight(grouped(k, tangents, p)?, locals(tangents.len(), local, dlocal)),
         };
         Ok(Prepared { np, src: src.to_vec(), pc: pc.to_vec(), points, groups, kin })
     }
@@ -214,10 +212,9 @@ impl Prepared {
 fn grouped<const N: usize>(
     kin: &Kin,
     tangents: &[Tangent],
-    fixed: &[bool],
     pattern: &[(usize, usize)],
 ) -> Result<Vec<Group<N>>, String> {
-    tangents.chunks(N).map(|g| Group::new(kin, g, fixed, pattern)).collect()
+    tangents.chunks(N).map(|g| Group::new(kin, g, pattern)).collect()
 }
 
 /// Per group of N parameters, the named points' local coordinates with
@@ -292,40 +289,8 @@ struct Group<const N: usize> {
     entries: Vec<(usize, usize, usize)>,
 }
 
-/// Which families' Jacobian and gamma do not depend on q and qd (a
-/// ground's or a driver's rows; a gear's): of the kinds whose kernels are
-/// polynomial in e^{i q} and qd (simple, gear), those whose tangents along
-/// a generic q' and qd' are exactly zero (dual numbers: a term that does
-/// not read q or qd carries no tangent; one that does carries a non-zero
-/// one at a generic point).
-fn fixed(kin: &Kin) -> Result<Vec<bool>, String> {
-    let probe: Kin<Lanes<1>> = kin.over()?;
-    let n = kin.n;
-    let q: Vec<Lanes<1>> = (0..n).map(|j| Lanes::of(0.3 + 0.7 * j as f64, [1.0 + 0.1 * j as f64])).collect();
-    let qd: Vec<Lanes<1>> = (0..n).map(|j| Lanes::of(0.5 + 0.2 * j as f64, [0.9 - 0.05 * j as f64])).collect();
-    let mut e = vec![Complex::new(Lanes::c(1.0), Lanes::c(0.0)); n];
-    probe.rotate(&q, &mut e);
-    let at = At { q: &q, e: &e, t: 0.37 };
-    let shared = Shared { functions: &probe.functions, outlines: &probe.outlines };
-    let (mut j, mut g) = (vec![Lanes::c(0.0); kin.nnz], vec![Lanes::c(0.0); kin.m]);
-    Ok(probe
-        .families
-        .iter()
-        .enumerate()
-        .map(|(k, f)| {
-            if !f.may_be_fixed() {
-                return false;
-            }
-            let (jk, gk) = (probe.entry_off[k]..probe.entry_off[k + 1], probe.row_off[k]..probe.row_off[k + 1]);
-            f.jac(&at, &shared, &mut j[jk.clone()]);
-            f.gamma(&at, &qd, &shared, &mut g[gk.clone()]);
-            j[jk].iter().chain(&g[gk]).all(|x| x.d[0] == 0.0)
-        })
-        .collect())
-}
-
 impl<const N: usize> Group<N> {
-    fn new(kin: &Kin, group: &[Tangent], fixed: &[bool], pattern: &[(usize, usize)]) -> Result<Self, String> {
+    fn new(kin: &Kin, group: &[Tangent], pattern: &[(usize, usize)]) -> Result<Self, String> {
         let model = seeded::<N>(kin, group)?;
         let empty = |t: &Table| t.reals.is_empty() && t.complex.is_empty();
         let (functions, outlines) =
@@ -338,50 +303,72 @@ impl<const N: usize> Group<N> {
         moved.sort_unstable();
         moved.dedup();
         let timed = moved.iter().copied().filter(|k| model.time_dependent.contains(k)).collect();
-        let (direct, live): (Vec<usize>, Vec<usize>) = (0..kin.families.len())
-            .filter(|k| !fixed[*k] || moved.contains(k))
-            .partition(|&k| kin.families[k].direct());
+        let (live, mut entries) = probe(&model, &moved, pattern);
+        let (direct, live): (Vec<usize>, Vec<usize>) = live.into_iter().partition(|&k| kin.families[k].direct());
+        entries.retain(|&(_, _, p)| live.iter().any(|&k| (model.entry_off[k]..model.entry_off[k + 1]).contains(&p)));
         let direct = direct.into_iter().map(|k| (k, moved.contains(&k))).collect();
         let moved_lanes = moved.iter().any(|&k| !kin.families[k].direct());
-        let entries = entries(&model, &live, pattern);
         Ok(Group { model, count: group.len(), moved, timed, direct, live, moved_lanes, entries })
     }
 }
 
-/// The Jacobian's entries of the `live` families whose tangent is not
-/// exactly zero at two generic points (q, q' in every lane, t) with the
-/// group's tables' tangents: of the kinds whose Jacobian is polynomial in
-/// e^{i q}, q and their tables (all but the curves and cams, whose
-/// outlines are piecewise: every entry of theirs is kept), an entry whose
-/// tangent is zero there is zero everywhere (its kernel does not read q or
-/// a moved table: a joint's constant blocks), and the products skip it
-/// (subtracting 0 a changes no sum). The other families' are zero as a whole.
-fn entries<const N: usize>(
+/// The probe of a group (its seeded model, `moved` its moved families):
+/// the Jacobian and gamma at two generic points (q, q', qd, qd' in every
+/// lane, t) with the group's tables' tangents. Returns the live families
+/// and the Jacobian entries whose tangent may be non-zero.
+///
+/// A family is live if it is moved, or of a kind that may hold no fixed
+/// rows (Family::may_be_fixed: all but simple and gear), or its Jacobian's
+/// or gamma's tangent is not exactly zero at a probe point: those kinds'
+/// kernels are polynomial in e^{i q}, q, qd and their tables, so a term
+/// that reads q or qd carries a non-zero tangent at a generic point and
+/// one that does not carries none (a ground's or a driver's rows, a gear's
+/// Jacobian); a family that is not live has D(J) = 0 and D(gamma) = 0.
+///
+/// Of the live families, an entry whose tangent is zero at both points is
+/// zero everywhere (its kernel does not read q or a moved table: a joint's
+/// constant blocks) and the products skip it (subtracting 0 a changes no
+/// sum), except in the kinds whose outlines are piecewise (the curves and
+/// cams, Family::piecewise: every entry of theirs is kept).
+fn probe<const N: usize>(
     model: &Kin<Lanes<N>>,
-    live: &[usize],
+    moved: &[usize],
     pattern: &[(usize, usize)],
-) -> Vec<(usize, usize, usize)> {
+) -> (Vec<usize>, Vec<(usize, usize, usize)>) {
     let n = model.n;
     let shared = Shared { functions: &model.functions, outlines: &model.outlines };
-    let mut seen = vec![false; model.nnz];
-    let mut j = vec![Lanes::<N>::c(0.0); model.nnz];
+    let (mut seen, mut live) = (vec![false; model.nnz], vec![false; model.families.len()]);
+    let (mut j, mut g) = (vec![Lanes::<N>::c(0.0); model.nnz], vec![Lanes::<N>::c(0.0); model.m]);
     let mut e = vec![Complex::new(Lanes::c(1.0), Lanes::c(0.0)); n];
     for (a, t) in [(0.3, 0.37), (1.1, 1.9)] {
-        let q: Vec<Lanes<N>> = (0..n)
-            .map(|c| Lanes::of(a + 0.7 * c as f64, std::array::from_fn(|l| 1.0 + 0.1 * c as f64 - 0.13 * l as f64)))
-            .collect();
+        let lanes = |v: f64, d: f64, step: f64| -> Vec<Lanes<N>> {
+            (0..n)
+                .map(|c| Lanes::of(a + v * c as f64, std::array::from_fn(|l| d + step * c as f64 - 0.13 * l as f64)))
+                .collect()
+        };
+        let (q, qd) = (lanes(0.7, 1.0, 0.1), lanes(0.2, 0.9, -0.05));
         model.rotate(&q, &mut e);
         let at = At { q: &q, e: &e, t };
-        for &k in live {
-            let place = model.entry_off[k]..model.entry_off[k + 1];
-            model.families[k].jac(&at, &shared, &mut j[place.clone()]);
-            let piecewise = model.families[k].piecewise();
+        for (k, family) in model.families.iter().enumerate() {
+            let (place, rows) = (model.entry_off[k]..model.entry_off[k + 1], model.row_off[k]..model.row_off[k + 1]);
+            family.jac(&at, &shared, &mut j[place.clone()]);
+            family.gamma(&at, &qd, &shared, &mut g[rows.clone()]);
+            let moves = |x: &Lanes<N>| x.d.iter().any(|&v| v != 0.0);
+            live[k] |=
+                moved.contains(&k) || !family.may_be_fixed() || j[place.clone()].iter().chain(&g[rows]).any(moves);
             for p in place {
-                seen[p] |= piecewise || j[p].d.iter().any(|&x| x != 0.0);
+                seen[p] |= family.piecewise() || moves(&j[p]);
             }
         }
     }
-    (0..model.nnz).filter(|&p| seen[p]).map(|p| (pattern[p].0, pattern[p].1, p)).collect()
+    let live: Vec<usize> = (0..model.families.len()).filter(|&k| live[k]).collect();
+    let entries = live
+        .iter()
+        .flat_map(|&k| model.entry_off[k]..model.entry_off[k + 1])
+        .filter(|&p| seen[p])
+        .map(|p| (pattern[p].0, pattern[p].1, p))
+        .collect();
+    (live, entries)
 }
 
 /// The sensitivities of one instant after another, N parameters per
@@ -800,7 +787,7 @@ mod tests {
     /// The entries the products over the lanes skip carry a tangent of
     /// exactly zero at every instant: at random (q, q', t), with a moved
     /// revolute's si and a moved cubic's coefficients in the lanes, every
-    /// entry the probe (`entries`, over both families) leaves out has
+    /// entry the probe (`probe`, over both families) leaves out has
     /// D(J) = 0 (either sign), so the products over
     /// `entries` are the whole pattern's (up to the sign of a zero sum);
     /// and `turned` is cis of q with its tangents to the bit.
@@ -815,12 +802,12 @@ mod tests {
             Tangent { families: vec![(0, si)], functions: Table::default(), outlines: Table::default() },
             Tangent { families: vec![], functions: cubic, outlines: Table::default() },
         ];
-        let fixed = fixed(&kin).unwrap();
-        let group = Group::<2>::new(&kin, &tangents, &fixed, &pattern).unwrap();
+        let group = Group::<2>::new(&kin, &tangents, &pattern).unwrap();
         // the revolute has direct kernels, the distance is over the lanes
         assert_eq!((&group.direct[..], &group.live[..]), (&[(0, true)][..], &[1][..]));
         // the probe over both (as it serves any family over the lanes)
-        let all = entries(&group.model, &[0, 1], &pattern);
+        let (live, all) = probe(&group.model, &group.moved, &pattern);
+        assert_eq!(live, [0, 1]);
         assert!(all.len() < pattern.len() && !all.is_empty(), "{all:?}");
         assert_eq!(group.entries.len(), 6);
         let model = &group.model;
