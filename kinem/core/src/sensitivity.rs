@@ -21,7 +21,7 @@
 //! (`lanes`), each lane seeded with one parameter's tables' tangents
 //! (Kin::seeded). All three share one factorisation of J at the instant
 //! (the march's layout, crate::lu): no finite differences anywhere.
-use crate::families::{At, Shared};
+use crate::families::{At, Dir, Shared};
 use crate::lu::{Factors, Layout, Shape};
 use crate::model::Kin;
 use crate::real::{cis, Lanes, Real};
@@ -530,11 +530,12 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     }
                 }
                 products(&group.entries, &self.jl, &x[1..], &mut self.rhs, &mut self.rhs3);
-                let (sl, rhs, rhs3) = (&self.flat[..n], &mut self.rhs, &mut self.rhs3);
+                let (s, rhs, rhs3) = (&self.flat[..n], &mut self.rhs, &mut self.rhs3);
                 for &(k, moved) in &group.direct {
                     let rows = model.row_off[k]..model.row_off[k + 1];
                     let r3 = if levels > 2 { &mut rhs3[rows.clone()] } else { &mut [][..] };
-                    model.families[k].jac_products(&atf, sl, moved, &x[1..], &mut rhs[rows], r3);
+                    let d = Dir { at: At { q, e, t }, qd: x[1], s, sd: &[], moved };
+                    model.families[k].jac_products(&d, &x[1..], &mut rhs[rows], r3);
                 }
                 self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[n..2 * n]);
                 if lanes {
@@ -557,10 +558,11 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                         }
                     }
                 }
-                let (sl, sd) = (&self.flat[..n], &self.flat[n..2 * n]);
+                let (s, sd) = (&self.flat[..n], &self.flat[n..2 * n]);
                 for &(k, moved) in &group.direct {
                     let rows = model.row_off[k]..model.row_off[k + 1];
-                    model.families[k].gamma_tangent(&atf, x[1], sl, sd, moved, &shared, &mut self.rhs3[rows]);
+                    let d = Dir { at: At { q, e, t }, qd: x[1], s, sd, moved };
+                    model.families[k].gamma_tangent(&d, &shared, &mut self.rhs3[rows]);
                 }
                 self.solver.solve(layout, f, &self.rhs3, count, &mut self.flat[2 * n..3 * n]);
             }

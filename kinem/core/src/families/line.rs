@@ -8,7 +8,7 @@
 //! u = P_i - Q_i, d = P_j - P_i, and Eq. 4.16 with a = j, u = Q_j - P_j,
 //! d = P_i - P_j. A translational joint adds the row
 //! phi_i - phi_j - (phi_i^0 - phi_j^0) = 0 (Eq. 4.10 as corrected).
-use super::{cross, dot, i, lane, At, Shared};
+use super::{cross, dot, i, lane, At, Dir, Shared};
 use crate::real::{Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
@@ -226,15 +226,8 @@ impl<const N: usize> Line<Lanes<N>> {
 
     /// r2 -= D(J) v[0], r3 -= D(J) v[1]: the u x d row's six entries
     /// (Table 4.2); the angle row's are constant.
-    pub fn jac_products(
-        &self,
-        at: &At,
-        s: &[[f64; N]],
-        moved: bool,
-        v: &[&[f64]],
-        r2: &mut [[f64; N]],
-        r3: &mut [[f64; N]],
-    ) {
+    pub fn jac_products(&self, d: &Dir<N>, v: &[&[f64]], r2: &mut [[f64; N]], r3: &mut [[f64; N]]) {
+        let (at, s, moved) = (&d.at, d.s, d.moved);
         let (n, per) = (self.n, self.per());
         assert!(at.holds(n) && s.len() >= n && v.iter().all(|x| x.len() >= n) && r2.len() >= per * self.ca.len());
         assert!(v.len() < 2 || r3.len() >= per * self.ca.len());
@@ -260,16 +253,8 @@ impl<const N: usize> Line<Lanes<N>> {
     /// D(gamma) of Table 4.3's u x d row: d(wa^2 u x d + 2 wa u . d' +
     /// u x (sb wb^2 - sa wa^2)), d' = rb' + i sb wb - ra' - i sa wa; the
     /// angle row's 0.
-    #[allow(clippy::too_many_arguments)]
-    pub fn gamma_tangent(
-        &self,
-        at: &At,
-        qd: &[f64],
-        s: &[[f64; N]],
-        sd: &[[f64; N]],
-        moved: bool,
-        out: &mut [[f64; N]],
-    ) {
+    pub fn gamma_tangent(&self, d: &Dir<N>, out: &mut [[f64; N]]) {
+        let (at, qd, s, sd, moved) = (&d.at, d.qd, d.s, d.sd, d.moved);
         let (n, per) = (self.n, self.per());
         assert!(at.holds(n) && qd.len() >= n && s.len() >= n && sd.len() >= n && out.len() >= per * self.ca.len());
         let i = C64::new(0.0, 1.0);

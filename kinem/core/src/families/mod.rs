@@ -277,19 +277,11 @@ impl<const N: usize> Family<Lanes<N>> {
     /// The (S2), (S3) products with D(J) = D_s J + J_p, the Jacobian's
     /// tangent along q' = s and the tables: r2 -= D(J) v[0] (qd) and, when
     /// v[1] (qdd) is given, r3 -= D(J) v[1], over the family's rows.
-    pub fn jac_products(
-        &self,
-        at: &At,
-        sl: &[[f64; N]],
-        moved: bool,
-        v: &[&[f64]],
-        r2: &mut [[f64; N]],
-        r3: &mut [[f64; N]],
-    ) -> bool {
+    pub fn jac_products(&self, d: &Dir<N>, v: &[&[f64]], r2: &mut [[f64; N]], r3: &mut [[f64; N]]) -> bool {
         match self {
-            Family::Simple(f) => f.jac_products(at, sl, moved, v, r2, r3),
-            Family::Revolute(f) => f.jac_products(at, sl, moved, v, r2, r3),
-            Family::Line(f) => f.jac_products(at, sl, moved, v, r2, r3),
+            Family::Simple(f) => f.jac_products(d, v, r2, r3),
+            Family::Revolute(f) => f.jac_products(d, v, r2, r3),
+            Family::Line(f) => f.jac_products(d, v, r2, r3),
             _ => return false,
         }
         true
@@ -297,25 +289,27 @@ impl<const N: usize> Family<Lanes<N>> {
 
     /// D(gamma), gamma's tangent along q' = s, qd' = sd and the tables
     /// (S3), at qd; added to out.
-    #[allow(clippy::too_many_arguments)]
-    pub fn gamma_tangent(
-        &self,
-        at: &At,
-        qd: &[f64],
-        sl: &[[f64; N]],
-        sd: &[[f64; N]],
-        moved: bool,
-        s: &Shared<Lanes<N>>,
-        out: &mut [[f64; N]],
-    ) -> bool {
+    pub fn gamma_tangent(&self, d: &Dir<N>, s: &Shared<Lanes<N>>, out: &mut [[f64; N]]) -> bool {
         match self {
-            Family::Simple(f) => f.gamma_tangent(at, qd, sl, sd, moved, s, out),
-            Family::Revolute(f) => f.gamma_tangent(at, qd, sl, sd, moved, out),
-            Family::Line(f) => f.gamma_tangent(at, qd, sl, sd, moved, out),
+            Family::Simple(f) => f.gamma_tangent(d, s, out),
+            Family::Revolute(f) => f.gamma_tangent(d, out),
+            Family::Line(f) => f.gamma_tangent(d, out),
             _ => return false,
         }
         true
     }
+}
+
+/// Where the direct tangent kernels evaluate: the analysis' values (q,
+/// e^{i q}, t: `at`; qd), the lanes' tangents s = dq/dp and sd = dqd/dp
+/// (sd empty before (S2) is solved: jac_products does not read it), and
+/// whether the family's tables carry tangents (`moved`).
+pub struct Dir<'a, const N: usize> {
+    pub at: At<'a>,
+    pub qd: &'a [f64],
+    pub s: &'a [[f64; N]],
+    pub sd: &'a [[f64; N]],
+    pub moved: bool,
 }
 
 /// A planar vector of Lanes<N>: its value and its tangent in lane l.

@@ -1,5 +1,5 @@
 //! Revolute joint, Eqs. 4.7-4.9; Jacobian Eq. 4.46 (Table 4.2); gamma Eq. 4.47.
-use super::{lane, At, Shared};
+use super::{lane, At, Dir, Shared};
 use crate::real::{Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
@@ -119,15 +119,8 @@ impl<const N: usize> Revolute<Lanes<N>> {
 
     /// r2 -= D(J) v[0], r3 -= D(J) v[1] (Eq. 4.46: the phi columns' -B s'
     /// entries alone have a tangent).
-    pub fn jac_products(
-        &self,
-        at: &At,
-        s: &[[f64; N]],
-        moved: bool,
-        v: &[&[f64]],
-        r2: &mut [[f64; N]],
-        r3: &mut [[f64; N]],
-    ) {
+    pub fn jac_products(&self, d: &Dir<N>, v: &[&[f64]], r2: &mut [[f64; N]], r3: &mut [[f64; N]]) {
+        let (at, s, moved) = (&d.at, d.s, d.moved);
         let n = self.n;
         assert!(at.holds(n) && s.len() >= n && v.iter().all(|x| x.len() >= n) && r2.len() >= 2 * self.ci.len());
         assert!(v.len() < 2 || r3.len() >= 2 * self.ci.len());
@@ -149,15 +142,8 @@ impl<const N: usize> Revolute<Lanes<N>> {
     }
 
     /// D(gamma) of Eq. 4.47: d(a w_i^2) - d(b w_j^2).
-    pub fn gamma_tangent(
-        &self,
-        at: &At,
-        qd: &[f64],
-        s: &[[f64; N]],
-        sd: &[[f64; N]],
-        moved: bool,
-        out: &mut [[f64; N]],
-    ) {
+    pub fn gamma_tangent(&self, d: &Dir<N>, out: &mut [[f64; N]]) {
+        let (at, qd, s, sd, moved) = (&d.at, d.qd, d.s, d.sd, d.moved);
         let n = self.n;
         assert!(at.holds(n) && qd.len() >= n && s.len() >= n && sd.len() >= n && out.len() >= 2 * self.ci.len());
         for (c, o) in out.chunks_exact_mut(2).enumerate().take(self.ci.len()) {

@@ -6,7 +6,7 @@
 //! s = A_i s'_i^P is present for the point forms (Eqs. 4.34, 4.39, 4.40),
 //! the relative term for a motor between two moving bodies. ground,
 //! absolute and driver rows all come here, one row each (ground: three).
-use super::{lane, At, Shared};
+use super::{lane, At, Dir, Shared};
 use crate::real::{Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
@@ -224,15 +224,8 @@ impl<const N: usize> Simple<Lanes<N>> {
 
     /// r2 -= D(J) v[0], r3 -= D(J) v[1]: a point row's (B_i s')_c entry
     /// alone has a tangent.
-    pub fn jac_products(
-        &self,
-        at: &At,
-        s: &[[f64; N]],
-        moved: bool,
-        v: &[&[f64]],
-        r2: &mut [[f64; N]],
-        r3: &mut [[f64; N]],
-    ) {
+    pub fn jac_products(&self, d: &Dir<N>, v: &[&[f64]], r2: &mut [[f64; N]], r3: &mut [[f64; N]]) {
+        let (at, s, moved) = (&d.at, d.s, d.moved);
         assert!(at.holds(self.n) && s.len() >= self.n && v.iter().all(|x| x.len() >= self.n));
         for (k, row) in self.rows.iter().enumerate() {
             if !row.point {
@@ -251,17 +244,8 @@ impl<const N: usize> Simple<Lanes<N>> {
     }
 
     /// D(gamma) of Eq. 4.38 and the point forms: d f''(t) + d(p w^2).
-    #[allow(clippy::too_many_arguments)]
-    pub fn gamma_tangent(
-        &self,
-        at: &At,
-        qd: &[f64],
-        s: &[[f64; N]],
-        sd: &[[f64; N]],
-        moved: bool,
-        sh: &Shared<Lanes<N>>,
-        out: &mut [[f64; N]],
-    ) {
+    pub fn gamma_tangent(&self, d: &Dir<N>, sh: &Shared<Lanes<N>>, out: &mut [[f64; N]]) {
+        let (at, qd, s, sd, moved) = (&d.at, d.qd, d.s, d.sd, d.moved);
         assert!(at.holds(self.n) && qd.len() >= self.n && s.len() >= self.n && sd.len() >= self.n);
         for (row, o) in self.rows.iter().zip(out) {
             if moved {
