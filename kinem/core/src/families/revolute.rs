@@ -72,6 +72,13 @@ impl<S: Real> Revolute<S> {
     }
 }
 
+/// Whether a table's vector carries a tangent in any lane (a moved
+/// family's other joints do not: their table terms are skipped).
+#[inline(always)]
+fn moves<const N: usize>(t: Complex<Lanes<N>>) -> bool {
+    t.re.d.iter().chain(&t.im.d).any(|&x| x != 0.0)
+}
+
 /// The direct tangent kernels (super::Family::phi_tangent, jac_products,
 /// gamma_tangent): a = A_i s'_i, b = A_j s'_j and their tangents
 /// da = i a s_phi_i + d(s'_i) A_i (Eq. 4.44: dA s' = B s' dphi), lane by lane.
@@ -85,6 +92,10 @@ impl<const N: usize> Revolute<Lanes<N>> {
                 let (a, b) = (*self.ci.get_unchecked(c), *self.cj.get_unchecked(c));
                 (at.rot_at(a), at.rot_at(b), *self.si.get_unchecked(c), *self.sj.get_unchecked(c))
             };
+            if !(moves(si) || moves(sj)) {
+                o.fill([0.0; N]); // (the other joints of a moved family)
+                continue;
+            }
             for l in 0..N {
                 let d = lane(si, l).1 * ei - lane(sj, l).1 * ej;
                 o[0][l] = d.re;
@@ -103,7 +114,7 @@ impl<const N: usize> Revolute<Lanes<N>> {
         let one = |e: C64, p: &[f64; N], t: Complex<Lanes<N>>| {
             let a = C64::new(t.re.v, t.im.v) * e;
             let (mut re, mut im) = (p.map(|x| -a.im * x), p.map(|x| a.re * x));
-            if moved {
+            if moved && moves(t) {
                 for l in 0..N {
                     re[l] += t.re.d[l] * e.re - t.im.d[l] * e.im;
                     im[l] += t.re.d[l] * e.im + t.im.d[l] * e.re;
