@@ -109,12 +109,14 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
         raise KinemError(f"{case.source}: sensitivities need the compiled march's layout, which this model has not")
     tangents = tangent_inputs(model, listed)
     fused = _fused(model, tangents, outputs, times, options)
-    if fused is None:   # the march does not take the model or every instant: solve, then Plan.sensitivity
+    if fused is None:   # the march does not take the model or every instant: solve, then the separate pass
         result = solve(model, outputs, times, options=options)
         if not result.success:
             raise AnalysisError(f"{case.source}: the nominal solve failed: {result.message}")
-        args = _instant_inputs(model, tangents, result)
-        (data, ratio), traj, levels = plan.sensitivity(*args), result.trajectory, len(args[3])
+        X = [np.ascontiguousarray(x) for x in (result.q, result.qd, result.qdd) if x is not None]
+        traj, levels = result.trajectory, len(X)
+        setup = _setup(model, tangents, _layout(model, levels)[1])
+        data, ratio = plan.sensitivity_kept(setup, np.ascontiguousarray(traj.t), X)
     else:
         traj, data, ratio, levels = fused
     t = traj.t
@@ -181,8 +183,8 @@ def core_inputs(model, listed, result) -> tuple:
 
 
 # model -> ({path: its Parameter}, {path: (its core tangent, its points' dlocal)}, {(path,
-# columns): its derivatives' names}, {paths: tangent_inputs' tuple}, {id(that tuple): (it,
-# the plan, the core's set-up for it: Plan.sensitivity_setup)}): what a call
+# columns): its derivatives' names}, {paths: tangent_inputs' tuple}, {(id(that tuple),
+# its levels): (it, the plan, the core's set-up for it: Plan.sensitivity_setup)}): what a call
 # works out from the model and a path alone, kept for the model's next calls (as
 # kinem.result._LAYOUTS keeps its columns), read-only
 _KEPT = weakref.WeakKeyDictionary()
@@ -312,16 +314,19 @@ def _fused(model, tangents, outputs, times, options):
 
 
 def _setup(model, tangents, src):
-    """The core's set-up of the fused pass for ``tangents`` (tangent_inputs')
-    and the columns ``src`` (Plan.sensitivity_setup: the model from its
-    tables, the parameters' seeded models, the probes), made once per model
-    and tangents and kept for its later calls."""
+    """The core's set-up for ``tangents`` (tangent_inputs') and the columns
+    ``src`` of the trajectory's first levels (kinem.result._layout's: the
+    fused pass's three, the separate pass's as many as its solve has;
+    Plan.sensitivity_setup: the model from its tables, the parameters'
+    seeded models, the probes), made once per model, tangents and levels
+    and kept for its later calls (Plan.march_sensitivity,
+    Plan.sensitivity_kept)."""
     kept, plan = _kept(model)[4], model.plan
-    own = kept.get(id(tangents))
+    key = (id(tangents), len(src))
+    own = kept.get(key)
     if own is None or own[0] is not tangents or own[1] is not plan:
         tables, core, pattern, (pc, local, dlocal) = tangents
-        own = kept[id(tangents)] = (tangents, plan, plan.sensitivity_setup(tables, core, pattern,
-                                                                          (src, pc, local, dlocal)))
+        own = kept[key] = (tangents, plan, plan.sensitivity_setup(tables, core, pattern, (src, pc, local, dlocal)))
     return own[2]
 
 

@@ -593,11 +593,39 @@ def test_the_kept_core_setup_gives_a_fresh_ones_figures_and_fits_its_plan_alone(
     tables, core, pattern, (pc, local, dlocal) = tangents
     new = model.plan.sensitivity_setup(tables, core, pattern, (src, pc, local, dlocal))
     assert new is not kept
-    _KEPT[model][4][id(tangents)] = (tangents, model.plan, new)
+    _KEPT[model][4][id(tangents), len(src)] = (tangents, model.plan, new)
     fused = _fused(model, tangents, OUTPUTS, None, None)
     assert fused is not None and np.array_equal(fused[1], again.derivatives.data)
     twin = kinem.compile(kinem.load(ROOT / "cases" / "slider_crank.toml"))   # the same tables, its own plan
     foreign = twin.plan.sensitivity_setup(tables, core, pattern, (src, pc, local, dlocal))
-    _KEPT[model][4][id(tangents)] = (tangents, model.plan, foreign)
+    _KEPT[model][4][id(tangents), len(src)] = (tangents, model.plan, foreign)
     with pytest.raises(ValueError, match="not this model's"):
         _fused(model, tangents, OUTPUTS, None, None)
+
+
+def test_the_separate_pass_keeps_its_setup_per_levels_and_gives_a_fresh_ones_figures():
+    """The separate pass (outputs the fused pass does not take: positions
+    alone, positions and velocities) runs from a set-up kept per model,
+    parameters and levels (Plan.sensitivity_kept): made once, the figures
+    of Plan.sensitivity with a set-up made anew to the bit, call after
+    call; a set-up another plan made is refused (ValueError)."""
+    from kinem.result import _layout
+    from kinem.sensitivity import _KEPT, _resolved, core_inputs, tangent_inputs
+    model = kinem.compile(kinem.load(ROOT / "cases" / "four_bar.toml"))
+    paths = [p.path for p in parameters(model.case)][:3]
+    listed = _resolved(model, paths)
+    for outputs, levels in ((("positions",), 1), (("positions", "velocities"), 2)):
+        first = sensitivity(model, paths, outputs=outputs)
+        tangents = tangent_inputs(model, listed)
+        key = (id(tangents), len(_layout(model, levels)[1]))
+        kept = _KEPT[model][4][key][2]
+        again = sensitivity(model, paths, outputs=outputs)
+        assert _KEPT[model][4][key][2] is kept
+        result = kinem.solve(model, outputs)
+        fresh, ratio = model.plan.sensitivity(*core_inputs(model, listed, result))
+        assert np.array_equal(first.derivatives.data, fresh) and np.array_equal(again.derivatives.data, fresh)
+        assert np.array_equal(first.conditioning, ratio)
+    twin = kinem.compile(kinem.load(ROOT / "cases" / "four_bar.toml"))
+    X = [np.ascontiguousarray(result.q), np.ascontiguousarray(result.qd)]
+    with pytest.raises(ValueError, match="not this model's"):
+        twin.plan.sensitivity_kept(kept, np.ascontiguousarray(result.trajectory.t), X)

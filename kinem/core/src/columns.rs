@@ -4,8 +4,9 @@
 //! (r + A s', its first and second derivatives, Eqs. 4.43-4.45).
 //! Over S = Dual (crate::real) it gives the columns' tangents along a
 //! design parameter (kinem.sensitivity) from the coordinates' tangents.
-use crate::real::{cis, i, Real};
-use num_complex::Complex;
+use crate::families::lane;
+use crate::real::{cis, i, Lanes, Real};
+use num_complex::{Complex, Complex64 as C64};
 
 /// out (K, C): column c of instant k is coordinate src[c] of stage
 /// src[c] / n when src[c] < stages n, else entry src[c] - stages n of the
@@ -81,6 +82,65 @@ impl<'a> Columns<'a> {
                     let v = Complex::new(qdd[c], qdd[c + 1]) + i * e * qdd[c + 2] - e * (om * om);
                     pts[4 * p + j] = v.re;
                     pts[5 * p + j] = v.im;
+                }
+            }
+        }
+    }
+}
+
+impl Columns<'_> {
+    /// The named points' tangents alone (`points` over Lanes<N> without
+    /// their values): x the stages' values (n each), d
+    /// their N tangents (s, sd, sdd), local the points' local coordinates
+    /// with their tangents, e^{i phi} of angle column c from `turn(c)` (the
+    /// march's own); out as `points`' pts, N tangents an entry.
+    pub fn point_tangents<const N: usize>(
+        &self,
+        x: &[&[f64]],
+        d: &[&[[f64; N]]],
+        local: &[Complex<Lanes<N>>],
+        turn: impl Fn(usize) -> C64,
+        out: &mut [[f64; N]],
+    ) {
+        let (stages, p) = (self.stages, self.pc.len());
+        let n = x[0].len();
+        assert!(x.len() >= stages && d.len() >= stages && local.len() >= p && out.len() >= 2 * stages * p);
+        assert!(x[..stages].iter().all(|a| a.len() >= n) && d[..stages].iter().all(|a| a.len() >= n));
+        assert!(self.pc.iter().all(|&c| c + 2 < n));
+        for (j, (&c, &s)) in self.pc.iter().zip(local).enumerate() {
+            let e = turn(c + 2);
+            let big = C64::new(s.re.v, s.im.v) * e;
+            // SAFETY: c + 2 < n, every stage and its tangents hold n (asserted above)
+            let at = |k: usize, c: usize| unsafe { *d.get_unchecked(k).get_unchecked(c) };
+            let value = |k: usize| unsafe { *x.get_unchecked(k).get_unchecked(c + 2) };
+            // SAFETY: j < p and out holds 2 stages p (asserted above)
+            let mut put = |i: usize, v: [f64; N]| unsafe { *out.get_unchecked_mut(i * p + j) = v };
+            // dE = i E dphi + d(s') e
+            let phi = at(0, c + 2);
+            let de: [C64; N] = std::array::from_fn(|l| C64::new(-big.im, big.re) * phi[l] + lane(s, l).1 * e);
+            let (x0, y0) = (at(0, c), at(0, c + 1));
+            put(0, std::array::from_fn(|l| x0[l] + de[l].re));
+            put(1, std::array::from_fn(|l| y0[l] + de[l].im));
+            if stages > 1 {
+                // i E om: re -E.im om, im E.re om
+                let (om, dom, vx, vy) = (value(1), at(1, c + 2), at(1, c), at(1, c + 1));
+                put(2, std::array::from_fn(|l| vx[l] + (-de[l].im * om + -big.im * dom[l])));
+                put(3, std::array::from_fn(|l| vy[l] + (de[l].re * om + big.re * dom[l])));
+                if stages > 2 {
+                    let (al, dal, ax, ay, oo) = (value(2), at(2, c + 2), at(2, c), at(2, c + 1), om * om);
+                    let doo: [f64; N] = std::array::from_fn(|l| 2.0 * om * dom[l]);
+                    put(
+                        4,
+                        std::array::from_fn(|l| {
+                            ax[l] + (-de[l].im * al + -big.im * dal[l]) - (de[l].re * oo + big.re * doo[l])
+                        }),
+                    );
+                    put(
+                        5,
+                        std::array::from_fn(|l| {
+                            ay[l] + (de[l].re * al + big.re * dal[l]) - (de[l].im * oo + big.im * doo[l])
+                        }),
+                    );
                 }
             }
         }

@@ -21,10 +21,10 @@
 //! (`lanes`), each lane seeded with one parameter's tables' tangents
 //! (Kin::seeded). All three share one factorisation of J at the instant
 //! (the march's layout, crate::lu): no finite differences anywhere.
-use crate::families::{At, Family, Shared};
+use crate::families::{At, Dir, Shared};
 use crate::lu::{Factors, Layout, Shape};
 use crate::model::Kin;
-use crate::real::{Lanes, Real};
+use crate::real::{cis, Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
 
@@ -159,8 +159,7 @@ pub fn lanes(p: usize) -> usize {
 /// once and kept (kinem.sensitivity keeps it per model and parameters:
 /// Plan.sensitivity_setup): the model (every function and outline its own
 /// number), the parameters' groups (`Group`: seeded models, moved and live
-/// families, the products' entries, after the probe of the `fixed`
-/// families), the named points' local coordinates over the lanes and the
+/// families, the products' entries: `probe`), the named points' local coordinates over the lanes and the
 /// trajectory's column sources (`sensitivities`' columns).
 pub struct Prepared {
     pub kin: Kin,
@@ -192,14 +191,13 @@ impl Prepared {
         if dlocal.len() != np * points || pc.len() != points {
             return Err("sensitivity: output arrays of the wrong size".into());
         }
-        let fixed = fixed(&kin)?;
         let pattern: Vec<(usize, usize)> = rows.iter().copied().zip(cols.iter().copied()).collect();
-        let (k, f, p) = (&kin, &fixed[..], &pattern[..]);
+        let (k, p) = (&kin, &pattern[..]);
         let groups = match lanes(np) {
-            1 => Grouped::One(grouped(k, tangents, f, p)?, locals(tangents.len(), local, dlocal)),
-            2 => Grouped::Two(grouped(k, tangents, f, p)?, locals(tangents.len(), local, dlocal)),
-            4 => Grouped::Four(grouped(k, tangents, f, p)?, locals(tangents.len(), local, dlocal)),
-            _ => Grouped::Eight(grouped(k, tangents, f, p)?, locals(tangents.len(), local, dlocal)),
+            1 => Grouped::One(grouped(k, tangents, p)?, locals(tangents.len(), local, dlocal)),
+            2 => Grouped::Two(grouped(k, tangents, p)?, locals(tangents.len(), local, dlocal)),
+            4 => Grouped::Four(grouped(k, tangents, p)?, locals(tangents.len(), local, dlocal)),
+            _ => Grouped::Eight(grouped(k, tangents, p)?, locals(tangents.len(), local, dlocal)),
         };
         Ok(Prepared { np, src: src.to_vec(), pc: pc.to_vec(), points, groups, kin })
     }
@@ -214,10 +212,9 @@ impl Prepared {
 fn grouped<const N: usize>(
     kin: &Kin,
     tangents: &[Tangent],
-    fixed: &[bool],
     pattern: &[(usize, usize)],
 ) -> Result<Vec<Group<N>>, String> {
-    tangents.chunks(N).map(|g| Group::new(kin, g, fixed, pattern)).collect()
+    tangents.chunks(N).map(|g| Group::new(kin, g, pattern)).collect()
 }
 
 /// Per group of N parameters, the named points' local coordinates with
@@ -278,112 +275,100 @@ struct Group<const N: usize> {
     /// those of them whose nu may be non-zero
     timed: Vec<usize>,
     /// the families whose Jacobian and gamma have a tangent: the moved and
-    /// those that depend on q or qd; the others' are zero
+    /// those that depend on q or qd; the others' are zero. `direct`: those
+    /// with the direct tangent kernels (Family::direct: over the march's
+    /// values, no lanes), with whether each is moved; `live`: the others,
+    /// evaluated over the lanes
+    direct: Vec<(usize, bool)>,
     live: Vec<usize>,
-    /// the Jacobian's entries (row, column, place) whose tangent may be
-    /// non-zero (`entries`): the (S2), (S3) products read these alone
+    /// the moved families without direct kernels (Phi_p over the lanes)
+    moved_lanes: bool,
+    /// the Jacobian's entries (row, column, place) of the `live` families
+    /// whose tangent may be non-zero (`entries`): the (S2), (S3) products
+    /// over the lanes read these alone
     entries: Vec<(usize, usize, usize)>,
 }
 
-/// Which families' Jacobian and gamma do not depend on q and qd (a
-/// ground's or a driver's rows; a gear's): of the kinds whose kernels are
-/// polynomial in e^{i q} and qd (simple, gear), those whose tangents along
-/// a generic q' and qd' are exactly zero (dual numbers: a term that does
-/// not read q or qd carries no tangent; one that does carries a non-zero
-/// one at a generic point).
-fn fixed(kin: &Kin) -> Result<Vec<bool>, String> {
-    let probe: Kin<Lanes<1>> = kin.over()?;
-    let n = kin.n;
-    let q: Vec<Lanes<1>> = (0..n).map(|j| Lanes::of(0.3 + 0.7 * j as f64, [1.0 + 0.1 * j as f64])).collect();
-    let qd: Vec<Lanes<1>> = (0..n).map(|j| Lanes::of(0.5 + 0.2 * j as f64, [0.9 - 0.05 * j as f64])).collect();
-    let mut e = vec![Complex::new(Lanes::c(1.0), Lanes::c(0.0)); n];
-    probe.rotate(&q, &mut e);
-    let at = At { q: &q, e: &e, t: 0.37 };
-    let shared = Shared { functions: &probe.functions, outlines: &probe.outlines };
-    let (mut j, mut g) = (vec![Lanes::c(0.0); kin.nnz], vec![Lanes::c(0.0); kin.m]);
-    Ok(probe
-        .families
-        .iter()
-        .enumerate()
-        .map(|(k, f)| {
-            if !matches!(f, Family::Simple(_) | Family::Gear(_)) {
-                return false;
-            }
-            let (jk, gk) = (probe.entry_off[k]..probe.entry_off[k + 1], probe.row_off[k]..probe.row_off[k + 1]);
-            f.jac(&at, &shared, &mut j[jk.clone()]);
-            f.gamma(&at, &qd, &shared, &mut g[gk.clone()]);
-            j[jk].iter().chain(&g[gk]).all(|x| x.d[0] == 0.0)
-        })
-        .collect())
-}
-
-/// Whether a family reads (the functions' table, the outlines' table):
-/// the kinds that Family::new hands the number of functions (simple,
-/// distance: a driver's f(t)) or of outlines (point-on-curve, the cams),
-/// the only ones whose tables index them; a moved function or outline moves
-/// no other family.
-fn reads(f: &Family) -> (bool, bool) {
-    (
-        matches!(f, Family::Simple(_) | Family::Distance(_)),
-        matches!(f, Family::PointOnCurve(_) | Family::CamRoller(_) | Family::CamFlat(_)),
-    )
-}
-
 impl<const N: usize> Group<N> {
-    fn new(kin: &Kin, group: &[Tangent], fixed: &[bool], pattern: &[(usize, usize)]) -> Result<Self, String> {
+    fn new(kin: &Kin, group: &[Tangent], pattern: &[(usize, usize)]) -> Result<Self, String> {
         let model = seeded::<N>(kin, group)?;
         let empty = |t: &Table| t.reals.is_empty() && t.complex.is_empty();
         let (functions, outlines) =
             (group.iter().any(|t| !empty(&t.functions)), group.iter().any(|t| !empty(&t.outlines)));
         let mut moved: Vec<usize> = group.iter().flat_map(|t| t.families.iter().map(|f| f.0)).collect();
         moved.extend((0..kin.families.len()).filter(|&k| {
-            let (f, o) = reads(&kin.families[k]);
+            let (f, o) = kin.families[k].reads();
             (functions && f) || (outlines && o)
         }));
         moved.sort_unstable();
         moved.dedup();
         let timed = moved.iter().copied().filter(|k| model.time_dependent.contains(k)).collect();
-        let live: Vec<usize> = (0..kin.families.len()).filter(|k| !fixed[*k] || moved.contains(k)).collect();
-        let entries = entries(&model, &live, pattern);
-        Ok(Group { model, count: group.len(), moved, timed, live, entries })
+        let (live, mut entries) = probe(&model, &moved, pattern);
+        let (direct, live): (Vec<usize>, Vec<usize>) = live.into_iter().partition(|&k| kin.families[k].direct());
+        entries.retain(|&(_, _, p)| live.iter().any(|&k| (model.entry_off[k]..model.entry_off[k + 1]).contains(&p)));
+        let direct = direct.into_iter().map(|k| (k, moved.contains(&k))).collect();
+        let moved_lanes = moved.iter().any(|&k| !kin.families[k].direct());
+        Ok(Group { model, count: group.len(), moved, timed, direct, live, moved_lanes, entries })
     }
 }
 
-/// The Jacobian's entries of the `live` families whose tangent is not
-/// exactly zero at two generic points (q, q' in every lane, t) with the
-/// group's tables' tangents: of the kinds whose Jacobian is polynomial in
-/// e^{i q}, q and their tables (all but the curves and cams, whose
-/// outlines are piecewise: every entry of theirs is kept), an entry whose
-/// tangent is zero there is zero everywhere (its kernel does not read q or
-/// a moved table: a joint's constant blocks), and the products skip it
-/// (subtracting 0 a changes no sum). The other families' are zero as a whole.
-fn entries<const N: usize>(
+/// The probe of a group (its seeded model, `moved` its moved families):
+/// the Jacobian and gamma at two generic points (q, q', qd, qd' in every
+/// lane, t) with the group's tables' tangents. Returns the live families
+/// and the Jacobian entries whose tangent may be non-zero.
+///
+/// A family is live if it is moved, or of a kind that may hold no fixed
+/// rows (Family::may_be_fixed: all but simple and gear), or its Jacobian's
+/// or gamma's tangent is not exactly zero at a probe point: those kinds'
+/// kernels are polynomial in e^{i q}, q, qd and their tables, so a term
+/// that reads q or qd carries a non-zero tangent at a generic point and
+/// one that does not carries none (a ground's or a driver's rows, a gear's
+/// Jacobian); a family that is not live has D(J) = 0 and D(gamma) = 0.
+///
+/// Of the live families, an entry whose tangent is zero at both points is
+/// zero everywhere (its kernel does not read q or a moved table: a joint's
+/// constant blocks) and the products skip it (subtracting 0 a changes no
+/// sum), except in the kinds whose outlines are piecewise (the curves and
+/// cams, Family::piecewise: every entry of theirs is kept).
+fn probe<const N: usize>(
     model: &Kin<Lanes<N>>,
-    live: &[usize],
+    moved: &[usize],
     pattern: &[(usize, usize)],
-) -> Vec<(usize, usize, usize)> {
+) -> (Vec<usize>, Vec<(usize, usize, usize)>) {
     let n = model.n;
     let shared = Shared { functions: &model.functions, outlines: &model.outlines };
-    let mut seen = vec![false; model.nnz];
-    let mut j = vec![Lanes::<N>::c(0.0); model.nnz];
+    let (mut seen, mut live) = (vec![false; model.nnz], vec![false; model.families.len()]);
+    let (mut j, mut g) = (vec![Lanes::<N>::c(0.0); model.nnz], vec![Lanes::<N>::c(0.0); model.m]);
     let mut e = vec![Complex::new(Lanes::c(1.0), Lanes::c(0.0)); n];
     for (a, t) in [(0.3, 0.37), (1.1, 1.9)] {
-        let q: Vec<Lanes<N>> = (0..n)
-            .map(|c| Lanes::of(a + 0.7 * c as f64, std::array::from_fn(|l| 1.0 + 0.1 * c as f64 - 0.13 * l as f64)))
-            .collect();
+        let lanes = |v: f64, d: f64, step: f64| -> Vec<Lanes<N>> {
+            (0..n)
+                .map(|c| Lanes::of(a + v * c as f64, std::array::from_fn(|l| d + step * c as f64 - 0.13 * l as f64)))
+                .collect()
+        };
+        let (q, qd) = (lanes(0.7, 1.0, 0.1), lanes(0.2, 0.9, -0.05));
         model.rotate(&q, &mut e);
         let at = At { q: &q, e: &e, t };
-        for &k in live {
-            let place = model.entry_off[k]..model.entry_off[k + 1];
-            model.families[k].jac(&at, &shared, &mut j[place.clone()]);
-            let piecewise =
-                matches!(model.families[k], Family::PointOnCurve(_) | Family::CamRoller(_) | Family::CamFlat(_));
+        for (k, family) in model.families.iter().enumerate() {
+            let (place, rows) = (model.entry_off[k]..model.entry_off[k + 1], model.row_off[k]..model.row_off[k + 1]);
+            family.jac(&at, &shared, &mut j[place.clone()]);
+            family.gamma(&at, &qd, &shared, &mut g[rows.clone()]);
+            let moves = |x: &Lanes<N>| x.d.iter().any(|&v| v != 0.0);
+            live[k] |=
+                moved.contains(&k) || !family.may_be_fixed() || j[place.clone()].iter().chain(&g[rows]).any(moves);
             for p in place {
-                seen[p] |= piecewise || j[p].d.iter().any(|&x| x != 0.0);
+                seen[p] |= family.piecewise() || moves(&j[p]);
             }
         }
     }
-    (0..model.nnz).filter(|&p| seen[p]).map(|p| (pattern[p].0, pattern[p].1, p)).collect()
+    let live: Vec<usize> = (0..model.families.len()).filter(|&k| live[k]).collect();
+    let entries = live
+        .iter()
+        .flat_map(|&k| model.entry_off[k]..model.entry_off[k + 1])
+        .filter(|&p| seen[p])
+        .map(|p| (pattern[p].0, pattern[p].1, p))
+        .collect();
+    (live, entries)
 }
 
 /// The sensitivities of one instant after another, N parameters per
@@ -404,10 +389,12 @@ pub struct Lanewise<'a, const N: usize> {
     columns: crate::columns::Columns<'a>,
     w: usize,
     locs: &'a [Vec<Complex<Lanes<N>>>],
-    /// every named point's body angle an angle column: its e^{i phi} over
-    /// the lanes is `el`'s (no sine and cosine taken again)
+    /// every named point's body angle an angle column: its e^{i phi} is
+    /// the march's e (no sine and cosine taken again)
     turned: bool,
-    pts: Vec<Lanes<N>>,
+    /// whether any group has a moved family without direct kernels (its
+    /// Phi_p over the lanes at q0, e0)
+    lanes0: bool,
     /// s, sd, sdd (n each) and the points' tangents, a row per coordinate
     /// or point value; `gather`: each column's row there
     flat: Vec<[f64; N]>,
@@ -417,7 +404,6 @@ pub struct Lanewise<'a, const N: usize> {
     e0: Vec<Complex<Lanes<N>>>,
     ql: Vec<Lanes<N>>,
     qdl: Vec<Lanes<N>>,
-    qddl: Vec<Lanes<N>>,
     el: Vec<Complex<Lanes<N>>>,
     rl: Vec<Lanes<N>>,
     jl: Vec<Lanes<N>>,
@@ -439,6 +425,9 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         let (kin, src, pc) = (&p.kin, &p.src, &p.pc);
         let (w, points) = (src.len(), p.points);
         let (n, m, nnz, np) = (kin.n, kin.m, kin.nnz, p.np);
+        let flat = 3 * n + 2 * levels * points;
+        let gather: Vec<usize> = src.iter().map(|&j| if j < levels * n { j } else { 3 * n + j - levels * n }).collect();
+        assert!(gather.iter().all(|&i| i < flat), "sensitivity: a column's source out of range");
         let zl = || vec![Lanes::<N>::c(0.0); n];
         let cl = || vec![Complex::new(Lanes::<N>::c(0.0), Lanes::<N>::c(0.0)); n];
         Lanewise {
@@ -451,15 +440,14 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             w,
             locs,
             turned: pc.iter().all(|&c| kin.angles.contains(&(c + 2))),
-            pts: vec![Lanes::<N>::c(0.0); 2 * levels * points],
-            flat: vec![[0.0; N]; 3 * n + 2 * levels * points],
+            lanes0: groups.iter().any(|g| g.moved_lanes),
+            flat: vec![[0.0; N]; flat],
             buf: vec![[0.0; N]; w],
-            gather: src.iter().map(|&j| if j < levels * n { j } else { 3 * n + j - levels * n }).collect(),
+            gather,
             q0: zl(),
             e0: vec![Complex::new(Lanes::<N>::c(1.0), Lanes::<N>::c(0.0)); n],
             ql: zl(),
             qdl: zl(),
-            qddl: zl(),
             el: cl(),
             rl: vec![Lanes::<N>::c(0.0); m],
             jl: vec![Lanes::<N>::c(0.0); nnz],
@@ -477,19 +465,26 @@ impl<'a, const N: usize> Lanewise<'a, N> {
     /// One instant: x its stages (q, qd, qdd: `levels` of n), e e^{i q} at
     /// the angle columns (the march's own), f the factorisation of Phi_q at
     /// (q, t) (its solves leave it as it is); writes its row (P W) and
-    /// returns Phi_q's pivot ratio.
+    /// returns Phi_q's pivot ratio. The families with direct kernels
+    /// (Family::phi_tangent, jac_products, gamma_tangent) read x and e as
+    /// they are; the others are evaluated over the lanes (q, e^{i q}, qd
+    /// with their tangents), and so are the named points' tangents
+    /// (Columns::point_tangents) from x, e and s, sd, sdd.
     pub fn at(&mut self, t: f64, x: &[&[f64]], e: &[C64], f: &mut Factors, out: &mut [f64]) -> f64 {
         let Lanewise { kin, layout, levels, w, .. } = *self;
         let n = kin.n;
         let q = x[0];
         let ratio = layout.pivots(f).0;
-        for j in 0..n {
-            self.q0[j] = Lanes::<N>::c(q[j]);
-        }
-        for &j in &kin.angles {
-            self.e0[j] = Complex::new(Lanes::<N>::c(e[j].re), Lanes::<N>::c(e[j].im));
+        if self.lanes0 {
+            for j in 0..n {
+                self.q0[j] = Lanes::<N>::c(q[j]);
+            }
+            for &j in &kin.angles {
+                self.e0[j] = Complex::new(Lanes::<N>::c(e[j].re), Lanes::<N>::c(e[j].im));
+            }
         }
         let at0 = At { q: &self.q0, e: &self.e0, t };
+        let atf = At { q, e, t };
         self.solver.prepare(layout, f);
         for (g, group) in self.groups.iter().enumerate() {
             let (model, count) = (&group.model, group.count);
@@ -498,18 +493,27 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             self.rhs.fill([0.0; N]);
             for &k in &group.moved {
                 let rows = model.row_off[k]..model.row_off[k + 1];
-                model.families[k].phi(&at0, &shared, &mut self.rl[rows.clone()]);
-                for (r, x) in self.rhs[rows.clone()].iter_mut().zip(&self.rl[rows]) {
-                    *r = x.d.map(|v| -v);
+                let family = &model.families[k];
+                if !family.phi_tangent(&atf, &shared, &mut self.rhs[rows.clone()]) {
+                    family.phi(&at0, &shared, &mut self.rl[rows.clone()]);
+                    for (r, x) in self.rhs[rows.clone()].iter_mut().zip(&self.rl[rows.clone()]) {
+                        *r = x.d;
+                    }
+                }
+                for r in &mut self.rhs[rows] {
+                    *r = r.map(|v| -v);
                 }
             }
             self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[..n]);
-            // q with tangent s, and e^{i q} with its tangent (Real::sin, cos)
-            for j in 0..n {
-                self.ql[j] = Lanes::of(q[j], self.flat[j]);
-            }
-            for &j in &kin.angles {
-                self.el[j] = turned(e[j], self.flat[j]);
+            let lanes = !group.live.is_empty();
+            if lanes {
+                // q with tangent s, and e^{i q} with its tangent (Real::sin, cos)
+                for j in 0..n {
+                    self.ql[j] = Lanes::of(q[j], self.flat[j]);
+                }
+                for &j in &kin.angles {
+                    self.el[j] = turned(e[j], self.flat[j]);
+                }
             }
             let at = At { q: &self.ql, e: &self.el, t };
             if levels > 1 {
@@ -526,9 +530,18 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     }
                 }
                 products(&group.entries, &self.jl, &x[1..], &mut self.rhs, &mut self.rhs3);
+                let (s, rhs, rhs3) = (&self.flat[..n], &mut self.rhs, &mut self.rhs3);
+                for &(k, moved) in &group.direct {
+                    let rows = model.row_off[k]..model.row_off[k + 1];
+                    let r3 = if levels > 2 { &mut rhs3[rows.clone()] } else { &mut [][..] };
+                    let d = Dir { at: At { q, e, t }, qd: x[1], s, sd: &[], moved };
+                    model.families[k].jac_products(&d, &x[1..], &mut rhs[rows], r3);
+                }
                 self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[n..2 * n]);
-                for j in 0..n {
-                    self.qdl[j] = Lanes::of(x[1][j], self.flat[n + j]);
+                if lanes {
+                    for j in 0..n {
+                        self.qdl[j] = Lanes::of(x[1][j], self.flat[n + j]);
+                    }
                 }
             }
             if levels > 2 {
@@ -545,32 +558,34 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                         }
                     }
                 }
-                self.solver.solve(layout, f, &self.rhs3, count, &mut self.flat[2 * n..3 * n]);
-                for j in 0..n {
-                    self.qddl[j] = Lanes::of(x[2][j], self.flat[2 * n + j]);
+                let (s, sd) = (&self.flat[..n], &self.flat[n..2 * n]);
+                for &(k, moved) in &group.direct {
+                    let rows = model.row_off[k]..model.row_off[k + 1];
+                    let d = Dir { at: At { q, e, t }, qd: x[1], s, sd, moved };
+                    model.families[k].gamma_tangent(&d, &shared, &mut self.rhs3[rows]);
                 }
+                self.solver.solve(layout, f, &self.rhs3, count, &mut self.flat[2 * n..3 * n]);
             }
             // every column's tangent: a coordinate's from s, sd, sdd, a named
-            // point's from its value over the lanes (crate::columns)
-            let stages: [&[Lanes<N>]; 3] = [&self.ql, &self.qdl, &self.qddl];
+            // point's from x, e and them (crate::columns)
+            let (tangents, points) = self.flat.split_at_mut(3 * n);
+            let d: [&[[f64; N]]; 3] = [&tangents[..n], &tangents[n..2 * n], &tangents[2 * n..]];
             if self.turned {
-                let el = &self.el;
-                self.columns.points_turned(&stages[..levels], &self.locs[g], |c| el[c], &mut self.pts);
+                self.columns.point_tangents(x, &d[..levels], &self.locs[g], |c| e[c], points);
             } else {
-                self.columns.points(&stages[..levels], &self.locs[g], &mut self.pts);
-            }
-            for (o, p) in self.flat[3 * n..].iter_mut().zip(&self.pts) {
-                *o = p.d;
+                self.columns.point_tangents(x, &d[..levels], &self.locs[g], |c| cis(q[c]), points);
             }
             let to = &mut out[g * N * w..(g * N + count) * w];
             if N == 1 {
                 for (o, &i) in to.iter_mut().zip(&self.gather) {
-                    *o = self.flat[i][0];
+                    // SAFETY: every gather index below flat.len() (asserted in `new`)
+                    *o = unsafe { self.flat.get_unchecked(i)[0] };
                 }
             } else {
                 // gathered once, then a lane at a time (fewer index checks)
                 for (b, &i) in self.buf.iter_mut().zip(&self.gather) {
-                    *b = self.flat[i];
+                    // SAFETY: every gather index below flat.len() (asserted in `new`)
+                    *b = unsafe { *self.flat.get_unchecked(i) };
                 }
                 for (lane, to) in to.chunks_mut(w).enumerate() {
                     for (o, b) in to.iter_mut().zip(&self.buf) {
@@ -771,10 +786,11 @@ mod tests {
         (kin, pattern)
     }
 
-    /// The entries the products skip carry a tangent of exactly zero at
-    /// every instant: at random (q, q', t), with a moved revolute's si
-    /// and a moved cubic's coefficients in the lanes, every entry not in
-    /// `entries` has D(J) = 0 (either sign), so the products over
+    /// The entries the products over the lanes skip carry a tangent of
+    /// exactly zero at every instant: at random (q, q', t), with a moved
+    /// revolute's si and a moved cubic's coefficients in the lanes, every
+    /// entry the probe (`probe`, over both families) leaves out has
+    /// D(J) = 0 (either sign), so the products over
     /// `entries` are the whole pattern's (up to the sign of a zero sum);
     /// and `turned` is cis of q with its tangents to the bit.
     #[test]
@@ -788,9 +804,14 @@ mod tests {
             Tangent { families: vec![(0, si)], functions: Table::default(), outlines: Table::default() },
             Tangent { families: vec![], functions: cubic, outlines: Table::default() },
         ];
-        let fixed = fixed(&kin).unwrap();
-        let group = Group::<2>::new(&kin, &tangents, &fixed, &pattern).unwrap();
-        assert!(group.entries.len() < pattern.len() && !group.entries.is_empty(), "{:?}", group.entries);
+        let group = Group::<2>::new(&kin, &tangents, &pattern).unwrap();
+        // the revolute has direct kernels, the distance is over the lanes
+        assert_eq!((&group.direct[..], &group.live[..]), (&[(0, true)][..], &[1][..]));
+        // the probe over both (as it serves any family over the lanes)
+        let (live, all) = probe(&group.model, &group.moved, &pattern);
+        assert_eq!(live, [0, 1]);
+        assert!(all.len() < pattern.len() && !all.is_empty(), "{all:?}");
+        assert_eq!(group.entries.len(), 6);
         let model = &group.model;
         let shared = Shared { functions: &model.functions, outlines: &model.outlines };
         let mut seed = 11u64;
@@ -812,7 +833,7 @@ mod tests {
                 f.jac(&at, &shared, &mut j[model.entry_off[k]..model.entry_off[k + 1]]);
             }
             for (p, x) in j.iter().enumerate() {
-                if !group.entries.iter().any(|&(_, _, i)| i == p) {
+                if !all.iter().any(|&(_, _, i)| i == p) {
                     assert!(x.d.iter().all(|&v| v == 0.0), "entry {p}: {:?}", x.d);
                 }
             }

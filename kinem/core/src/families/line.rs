@@ -8,10 +8,10 @@
 //! u = P_i - Q_i, d = P_j - P_i, and Eq. 4.16 with a = j, u = Q_j - P_j,
 //! d = P_i - P_j. A translational joint adds the row
 //! phi_i - phi_j - (phi_i^0 - phi_j^0) = 0 (Eq. 4.10 as corrected).
-use super::{cross, dot, i, At, Shared};
-use crate::real::Real;
+use super::{cross, dot, i, lane, At, Dir, Shared};
+use crate::real::{Lanes, Real};
 use crate::table::Table;
-use num_complex::Complex;
+use num_complex::{Complex, Complex64 as C64};
 
 /// Columns: ca, cb the x columns of the line body a and the other body b;
 /// pa (the line's base point on a), ua (its direction, local to a), ob
@@ -145,6 +145,142 @@ impl<S: Real> Line<S> {
                     + cross(p.u, p.sb * (wb * wb) - p.sa * (wa * wa));
                 if self.angle {
                     *out.get_unchecked_mut(2 * c + 1) = S::zero();
+                }
+            }
+        }
+    }
+}
+
+/// The direct tangent kernels (super::Family::phi_tangent, jac_products,
+/// gamma_tangent) of u x d = 0: with dA = i A dphi (Eq. 4.44), du = i u
+/// s_phi_a + d(u') A_a, dsa = i sa s_phi_a + d(s'_a) A_a, dsb likewise,
+/// and dd = dr_b + dsb - dr_a - dsa, lane by lane (the translational
+/// joint's angle row has no tangent but its phi0's).
+impl<const N: usize> Line<Lanes<N>> {
+    /// The values (u, d, sa, sb) of constraint c, as `parts`'.
+    ///
+    /// # Safety
+    /// c < ca.len() and `at.holds(n)` (Line's invariants).
+    #[inline(always)]
+    unsafe fn values(&self, at: &At, c: usize) -> [C64; 4] {
+        let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
+        let (ea, eb) = (at.rot_at(a), at.rot_at(b));
+        let v = |x: &Complex<Lanes<N>>| C64::new(x.re.v, x.im.v);
+        let (sa, sb) = (v(self.pa.get_unchecked(c)) * ea, v(self.ob.get_unchecked(c)) * eb);
+        [v(self.ua.get_unchecked(c)) * ea, at.r_at(b) + sb - at.r_at(a) - sa, sa, sb]
+    }
+
+    /// The tangents (du, dd, dsa, dsb) of constraint c in lane l from its
+    /// `values`, along q' = s (None: 0) and the tables (when `moved`).
+    ///
+    /// # Safety
+    /// As `values`', and s.len() >= n where given.
+    #[inline(always)]
+    unsafe fn tangents(
+        &self,
+        at: &At,
+        c: usize,
+        x: &[C64; 4],
+        s: Option<&[[f64; N]]>,
+        moved: bool,
+        l: usize,
+    ) -> [C64; 4] {
+        let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
+        let [u, _, sa, sb] = *x;
+        let i = C64::new(0.0, 1.0);
+        let [mut du, mut dd, mut dsa, mut dsb] = [C64::new(0.0, 0.0); 4];
+        if let Some(s) = s {
+            let (pa, pb) = (s.get_unchecked(a + 2)[l], s.get_unchecked(b + 2)[l]);
+            (du, dsa, dsb) = (i * u * pa, i * sa * pa, i * sb * pb);
+            dd = C64::new(
+                s.get_unchecked(b)[l] - s.get_unchecked(a)[l],
+                s.get_unchecked(b + 1)[l] - s.get_unchecked(a + 1)[l],
+            );
+        }
+        if moved {
+            let (ea, eb) = (at.rot_at(a), at.rot_at(b));
+            du += lane(*self.ua.get_unchecked(c), l).1 * ea;
+            dsa += lane(*self.pa.get_unchecked(c), l).1 * ea;
+            dsb += lane(*self.ob.get_unchecked(c), l).1 * eb;
+        }
+        [du, dd + dsb - dsa, dsa, dsb]
+    }
+
+    /// d/dp of Eqs. 4.12, 4.16 at q' = 0 (du x d + u x dd), then -d(phi0).
+    pub fn phi_tangent(&self, at: &At, out: &mut [[f64; N]]) {
+        let per = self.per();
+        assert!(at.holds(self.n) && out.len() >= per * self.ca.len());
+        for c in 0..self.ca.len() {
+            // SAFETY: c < ca.len(), e holds n (asserted above)
+            let x = unsafe { self.values(at, c) };
+            for l in 0..N {
+                // SAFETY: as above
+                let [du, dd, _, _] = unsafe { self.tangents(at, c, &x, None, true, l) };
+                out[per * c][l] = cross(du, x[1]) + cross(x[0], dd);
+                if self.angle {
+                    out[2 * c + 1][l] = -self.phi0[c].d[l];
+                }
+            }
+        }
+    }
+
+    /// r2 -= D(J) v[0], r3 -= D(J) v[1]: the u x d row's six entries
+    /// (Table 4.2); the angle row's are constant.
+    pub fn jac_products(&self, d: &Dir<N>, v: &[&[f64]], r2: &mut [[f64; N]], r3: &mut [[f64; N]]) {
+        let (at, s, moved) = (&d.at, d.s, d.moved);
+        let (n, per) = (self.n, self.per());
+        assert!(at.holds(n) && s.len() >= n && v.iter().all(|x| x.len() >= n) && r2.len() >= per * self.ca.len());
+        assert!(v.len() < 2 || r3.len() >= per * self.ca.len());
+        for c in 0..self.ca.len() {
+            // SAFETY: c < ca.len(), q, e, s and v hold n (asserted above)
+            unsafe {
+                let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
+                let x = self.values(at, c);
+                let [u, d, sa, sb] = x;
+                for l in 0..N {
+                    let [du, dd, dsa, dsb] = self.tangents(at, c, &x, Some(s), moved, l);
+                    let (ta, tb) = (-(dot(du, d + sa) + dot(u, dd + dsa)), dot(du, sb) + dot(u, dsb));
+                    for (w, r) in v.iter().zip([&mut *r2, &mut *r3]) {
+                        let g = |k: usize| *w.get_unchecked(k);
+                        let row = &mut r.get_unchecked_mut(per * c)[l];
+                        *row -= du.im * (g(a) - g(b)) - du.re * (g(a + 1) - g(b + 1)) + ta * g(a + 2) + tb * g(b + 2);
+                    }
+                }
+            }
+        }
+    }
+
+    /// D(gamma) of Table 4.3's u x d row: d(wa^2 u x d + 2 wa u . d' +
+    /// u x (sb wb^2 - sa wa^2)), d' = rb' + i sb wb - ra' - i sa wa; the
+    /// angle row's 0.
+    pub fn gamma_tangent(&self, d: &Dir<N>, out: &mut [[f64; N]]) {
+        let (at, qd, s, sd, moved) = (&d.at, d.qd, d.s, d.sd, d.moved);
+        let (n, per) = (self.n, self.per());
+        assert!(at.holds(n) && qd.len() >= n && s.len() >= n && sd.len() >= n && out.len() >= per * self.ca.len());
+        let i = C64::new(0.0, 1.0);
+        for c in 0..self.ca.len() {
+            // SAFETY: c < ca.len(), q, e, qd, s and sd hold n (asserted above)
+            unsafe {
+                let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
+                let x = self.values(at, c);
+                let [u, d, sa, sb] = x;
+                let (wa, wb) = (*qd.get_unchecked(a + 2), *qd.get_unchecked(b + 2));
+                let rd = |k: usize| C64::new(*qd.get_unchecked(k), *qd.get_unchecked(k + 1));
+                let rate = rd(b) + i * sb * wb - rd(a) - i * sa * wa;
+                let big = sb * (wb * wb) - sa * (wa * wa);
+                let (cr, dt) = (cross(u, d), dot(u, rate));
+                for l in 0..N {
+                    let [du, dd, dsa, dsb] = self.tangents(at, c, &x, Some(s), moved, l);
+                    let (dwa, dwb) = (sd.get_unchecked(a + 2)[l], sd.get_unchecked(b + 2)[l]);
+                    let drd = |k: usize| C64::new(sd.get_unchecked(k)[l], sd.get_unchecked(k + 1)[l]);
+                    let drate = drd(b) + i * (dsb * wb + sb * dwb) - drd(a) - i * (dsa * wa + sa * dwa);
+                    let dbig = dsb * (wb * wb) + sb * (2.0 * wb * dwb) - dsa * (wa * wa) - sa * (2.0 * wa * dwa);
+                    let (dcr, ddt) = (cross(du, d) + cross(u, dd), dot(du, rate) + dot(u, drate));
+                    out.get_unchecked_mut(per * c)[l] += (2.0 * wa * dwa) * cr
+                        + wa * wa * dcr
+                        + (dwa * dt + wa * ddt) * 2.0
+                        + cross(du, big)
+                        + cross(u, dbig);
                 }
             }
         }

@@ -15,7 +15,7 @@
 //! tangents of the tables and of q, qd through Phi, the Jacobian, nu and gamma.
 use crate::functions::Functions;
 use crate::outline::Outlines;
-use crate::real::Real;
+use crate::real::{Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
 
@@ -219,4 +219,101 @@ impl<S: Real> Family<S> {
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
         each!(self, f => f.gamma(at, qd, s, out))
     }
+}
+
+impl<S> Family<S> {
+    /// Which of the model's tables besides its own the family reads (the
+    /// functions' table, the outlines' table): the kinds Family::new hands
+    /// the number of functions (simple, distance: a driver's f(t)) or of
+    /// outlines (point-on-curve, the cams); a moved function or outline
+    /// moves no other family (crate::sensitivity).
+    pub fn reads(&self) -> (bool, bool) {
+        (
+            matches!(self, Family::Simple(_) | Family::Distance(_)),
+            matches!(self, Family::PointOnCurve(_) | Family::CamRoller(_) | Family::CamFlat(_)),
+        )
+    }
+
+    /// Whether its Jacobian is piecewise in q (an outline's pieces: the
+    /// curves and cams), not polynomial in e^{i q}, q and its tables.
+    pub fn piecewise(&self) -> bool {
+        matches!(self, Family::PointOnCurve(_) | Family::CamRoller(_) | Family::CamFlat(_))
+    }
+
+    /// Whether the kind holds a ground's or a driver's rows whose Jacobian
+    /// and gamma may read neither q nor qd (simple, gear: crate::sensitivity
+    /// probes which do).
+    pub fn may_be_fixed(&self) -> bool {
+        matches!(self, Family::Simple(_) | Family::Gear(_))
+    }
+
+    /// Whether the kind has the direct tangent kernels (phi_tangent,
+    /// jac_products, gamma_tangent over Lanes<N>): simple, revolute, line.
+    pub fn direct(&self) -> bool {
+        matches!(self, Family::Simple(_) | Family::Revolute(_) | Family::Line(_))
+    }
+}
+
+/// The direct tangent kernels of design sensitivities (crate::sensitivity,
+/// docs/design.md Eqs. S1-S3): over the analysis' own values (q, e^{i q}:
+/// an `At` of f64, the march's) and N lanes of tangents, s = dq/dp (and
+/// sd = dqd/dp), the tables' tangents those of the seeded family (`moved`:
+/// whether it carries any; else only the q' and qd' terms are taken). No
+/// value is carried beside the tangents: each kernel takes the few values
+/// its product rule needs. Each returns false for a kind without them
+/// (the caller evaluates that family over Lanes<N>, crate::real).
+impl<const N: usize> Family<Lanes<N>> {
+    /// Phi's tangent along the tables alone (q' = 0): Phi_p (S1).
+    pub fn phi_tangent(&self, at: &At, s: &Shared<Lanes<N>>, out: &mut [[f64; N]]) -> bool {
+        match self {
+            Family::Simple(f) => f.phi_tangent(at, s, out),
+            Family::Revolute(f) => f.phi_tangent(at, out),
+            Family::Line(f) => f.phi_tangent(at, out),
+            _ => return false,
+        }
+        true
+    }
+
+    /// The (S2), (S3) products with D(J) = D_s J + J_p, the Jacobian's
+    /// tangent along q' = s and the tables: r2 -= D(J) v[0] (qd) and, when
+    /// v[1] (qdd) is given, r3 -= D(J) v[1], over the family's rows.
+    pub fn jac_products(&self, d: &Dir<N>, v: &[&[f64]], r2: &mut [[f64; N]], r3: &mut [[f64; N]]) -> bool {
+        match self {
+            Family::Simple(f) => f.jac_products(d, v, r2, r3),
+            Family::Revolute(f) => f.jac_products(d, v, r2, r3),
+            Family::Line(f) => f.jac_products(d, v, r2, r3),
+            _ => return false,
+        }
+        true
+    }
+
+    /// D(gamma), gamma's tangent along q' = s, qd' = sd and the tables
+    /// (S3), at qd; added to out.
+    pub fn gamma_tangent(&self, d: &Dir<N>, s: &Shared<Lanes<N>>, out: &mut [[f64; N]]) -> bool {
+        match self {
+            Family::Simple(f) => f.gamma_tangent(d, s, out),
+            Family::Revolute(f) => f.gamma_tangent(d, out),
+            Family::Line(f) => f.gamma_tangent(d, out),
+            _ => return false,
+        }
+        true
+    }
+}
+
+/// Where the direct tangent kernels evaluate: the analysis' values (q,
+/// e^{i q}, t: `at`; qd), the lanes' tangents s = dq/dp and sd = dqd/dp
+/// (sd empty before (S2) is solved: jac_products does not read it), and
+/// whether the family's tables carry tangents (`moved`).
+pub struct Dir<'a, const N: usize> {
+    pub at: At<'a>,
+    pub qd: &'a [f64],
+    pub s: &'a [[f64; N]],
+    pub sd: &'a [[f64; N]],
+    pub moved: bool,
+}
+
+/// A planar vector of Lanes<N>: its value and its tangent in lane l.
+#[inline(always)]
+pub fn lane<const N: usize>(x: Complex<Lanes<N>>, l: usize) -> (C64, C64) {
+    (C64::new(x.re.v, x.im.v), C64::new(x.re.d[l], x.im.d[l]))
 }

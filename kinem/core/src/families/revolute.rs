@@ -1,8 +1,8 @@
 //! Revolute joint, Eqs. 4.7-4.9; Jacobian Eq. 4.46 (Table 4.2); gamma Eq. 4.47.
-use super::{At, Shared};
-use crate::real::Real;
+use super::{lane, At, Dir, Shared};
+use crate::real::{Lanes, Real};
 use crate::table::Table;
-use num_complex::Complex;
+use num_complex::{Complex, Complex64 as C64};
 
 /// Phi = r_i + A_i s'_i^P - r_j - A_j s'_j^P (Eq. 4.7): two rows, x and y.
 /// Columns: ci, cj the bodies' x columns; si, sj the joint centre on each.
@@ -68,6 +68,109 @@ impl<S: Real> Revolute<S> {
             };
             o[0] = g.re;
             o[1] = g.im;
+        }
+    }
+}
+
+/// Whether a table's vector carries a tangent in any lane (a moved
+/// family's other joints do not: their table terms are skipped).
+#[inline(always)]
+fn moves<const N: usize>(t: Complex<Lanes<N>>) -> bool {
+    t.re.d.iter().chain(&t.im.d).any(|&x| x != 0.0)
+}
+
+/// The direct tangent kernels (super::Family::phi_tangent, jac_products,
+/// gamma_tangent): a = A_i s'_i, b = A_j s'_j and their tangents
+/// da = i a s_phi_i + d(s'_i) A_i (Eq. 4.44: dA s' = B s' dphi), lane by lane.
+impl<const N: usize> Revolute<Lanes<N>> {
+    /// d/dp of Eq. 4.7 at q' = 0: d(s'_i) A_i - d(s'_j) A_j.
+    pub fn phi_tangent(&self, at: &At, out: &mut [[f64; N]]) {
+        assert!(at.holds(self.n) && out.len() >= 2 * self.ci.len());
+        for (c, o) in out.chunks_exact_mut(2).enumerate().take(self.ci.len()) {
+            // SAFETY: c < ci.len() = cj, si, sj's (new), ci, cj < n - 2, e holds n (asserted above)
+            let (ei, ej, si, sj) = unsafe {
+                let (a, b) = (*self.ci.get_unchecked(c), *self.cj.get_unchecked(c));
+                (at.rot_at(a), at.rot_at(b), *self.si.get_unchecked(c), *self.sj.get_unchecked(c))
+            };
+            if !(moves(si) || moves(sj)) {
+                o.fill([0.0; N]); // (the other joints of a moved family)
+                continue;
+            }
+            for l in 0..N {
+                let d = lane(si, l).1 * ei - lane(sj, l).1 * ej;
+                o[0][l] = d.re;
+                o[1][l] = d.im;
+            }
+        }
+    }
+
+    /// (a, b) and their tangents (da, db: re, im per lane) of joint c.
+    ///
+    /// # Safety
+    /// c < ci.len(), `at.holds(n)`, s.len() >= n (Revolute's invariants).
+    #[inline(always)]
+    unsafe fn parts(&self, at: &At, c: usize, s: &[[f64; N]], moved: bool) -> [(C64, [f64; N], [f64; N]); 2] {
+        let (i, j) = (*self.ci.get_unchecked(c) + 2, *self.cj.get_unchecked(c) + 2);
+        let one = |e: C64, p: &[f64; N], t: Complex<Lanes<N>>| {
+            let a = C64::new(t.re.v, t.im.v) * e;
+            let (mut re, mut im) = (p.map(|x| -a.im * x), p.map(|x| a.re * x));
+            if moved && moves(t) {
+                for l in 0..N {
+                    re[l] += t.re.d[l] * e.re - t.im.d[l] * e.im;
+                    im[l] += t.re.d[l] * e.im + t.im.d[l] * e.re;
+                }
+            }
+            (a, re, im)
+        };
+        [
+            one(*at.e.get_unchecked(i), s.get_unchecked(i), *self.si.get_unchecked(c)),
+            one(*at.e.get_unchecked(j), s.get_unchecked(j), *self.sj.get_unchecked(c)),
+        ]
+    }
+
+    /// r2 -= D(J) v[0], r3 -= D(J) v[1] (Eq. 4.46: the phi columns' -B s'
+    /// entries alone have a tangent).
+    pub fn jac_products(&self, d: &Dir<N>, v: &[&[f64]], r2: &mut [[f64; N]], r3: &mut [[f64; N]]) {
+        let (at, s, moved) = (&d.at, d.s, d.moved);
+        let n = self.n;
+        assert!(at.holds(n) && s.len() >= n && v.iter().all(|x| x.len() >= n) && r2.len() >= 2 * self.ci.len());
+        assert!(v.len() < 2 || r3.len() >= 2 * self.ci.len());
+        for c in 0..self.ci.len() {
+            // SAFETY: c < ci.len() = cj, si, sj's (new), ci, cj < n - 2; e, s, v hold n, r2, r3 2 per joint (asserted above)
+            unsafe {
+                let (i, j) = (*self.ci.get_unchecked(c) + 2, *self.cj.get_unchecked(c) + 2);
+                let [(_, ar, ai), (_, br, bi)] = self.parts(at, c, s, moved);
+                for (w, r) in v.iter().zip([&mut *r2, &mut *r3]) {
+                    let (wi, wj) = (*w.get_unchecked(i), *w.get_unchecked(j));
+                    let rows = r.get_unchecked_mut(2 * c..2 * c + 2);
+                    for l in 0..N {
+                        rows[0][l] += ai[l] * wi - bi[l] * wj;
+                        rows[1][l] -= ar[l] * wi - br[l] * wj;
+                    }
+                }
+            }
+        }
+    }
+
+    /// D(gamma) of Eq. 4.47: d(a w_i^2) - d(b w_j^2).
+    pub fn gamma_tangent(&self, d: &Dir<N>, out: &mut [[f64; N]]) {
+        let (at, qd, s, sd, moved) = (&d.at, d.qd, d.s, d.sd, d.moved);
+        let n = self.n;
+        assert!(at.holds(n) && qd.len() >= n && s.len() >= n && sd.len() >= n && out.len() >= 2 * self.ci.len());
+        for (c, o) in out.chunks_exact_mut(2).enumerate().take(self.ci.len()) {
+            // SAFETY: as jac_products'
+            unsafe {
+                let (i, j) = (*self.ci.get_unchecked(c) + 2, *self.cj.get_unchecked(c) + 2);
+                let [(a, ar, ai), (b, br, bi)] = self.parts(at, c, s, moved);
+                let (wi, wj) = (*qd.get_unchecked(i), *qd.get_unchecked(j));
+                let (vi, vj) = (sd.get_unchecked(i), sd.get_unchecked(j));
+                let (ww_i, ww_j) = (wi * wi, wj * wj);
+                for l in 0..N {
+                    let (dwi, dwj) = (2.0 * wi * vi[l], 2.0 * wj * vj[l]);
+                    o[0][l] += (ar[l] * ww_i + a.re * dwi) - (br[l] * ww_j + b.re * dwj);
+                    o[1][l] += (ai[l] * ww_i + a.im * dwi) - (bi[l] * ww_j + b.im * dwj);
+                }
+            }
         }
     }
 }

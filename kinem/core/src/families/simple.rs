@@ -6,10 +6,10 @@
 //! s = A_i s'_i^P is present for the point forms (Eqs. 4.34, 4.39, 4.40),
 //! the relative term for a motor between two moving bodies. ground,
 //! absolute and driver rows all come here, one row each (ground: three).
-use super::{At, Shared};
-use crate::real::Real;
+use super::{lane, At, Dir, Shared};
+use crate::real::{Lanes, Real};
 use crate::table::Table;
-use num_complex::Complex;
+use num_complex::{Complex, Complex64 as C64};
 
 /// Columns, one entry per row: a (the coordinate q_a), angle (phi_i's
 /// column), k (phi_k's column when relative, else any valid column),
@@ -177,6 +177,93 @@ impl<S: Real> Simple<S> {
                 v = v + p * (w * w);
             }
             *o = v;
+        }
+    }
+}
+
+/// The direct tangent kernels (super::Family::phi_tangent, jac_products,
+/// gamma_tangent): the point term's s = A_i s'_i with its tangent
+/// ds = i s s_phi_i + d(s') A_i, and the drivers' f(t) tangents (the
+/// functions' tables), lane by lane.
+impl<const N: usize> Simple<Lanes<N>> {
+    /// d/dp of Eqs. 4.31-4.40 at q' = 0: d(point term) - d f(t).
+    pub fn phi_tangent(&self, at: &At, s: &Shared<Lanes<N>>, out: &mut [[f64; N]]) {
+        assert!(at.holds(self.n));
+        for (row, o) in self.rows.iter().zip(out) {
+            let f = row.drive(at.t, 0, s).d;
+            *o = f.map(|x| -x);
+            if row.term {
+                // SAFETY: angle < n (new), e holds n (asserted above)
+                let e = unsafe { *at.e.get_unchecked(row.angle) };
+                for l in 0..N {
+                    let ds = lane(row.local, l).1 * e;
+                    o[l] += ds.re * row.mx + ds.im * row.my;
+                }
+            }
+        }
+    }
+
+    /// The point term's s = A_i s' and its tangents ds (re, im per lane).
+    ///
+    /// # Safety
+    /// angle < e.len(), s.len() (Simple's invariant where `At::holds(n)`).
+    #[inline(always)]
+    unsafe fn point(&self, row: &Row<Lanes<N>>, at: &At, s: &[[f64; N]], moved: bool) -> (C64, [f64; N], [f64; N]) {
+        let (e, p) = (*at.e.get_unchecked(row.angle), s.get_unchecked(row.angle));
+        let v = C64::new(row.local.re.v, row.local.im.v) * e;
+        let (mut re, mut im) = (p.map(|x| -v.im * x), p.map(|x| v.re * x));
+        if moved {
+            for l in 0..N {
+                let d = lane(row.local, l).1 * e;
+                re[l] += d.re;
+                im[l] += d.im;
+            }
+        }
+        (v, re, im)
+    }
+
+    /// r2 -= D(J) v[0], r3 -= D(J) v[1]: a point row's (B_i s')_c entry
+    /// alone has a tangent.
+    pub fn jac_products(&self, d: &Dir<N>, v: &[&[f64]], r2: &mut [[f64; N]], r3: &mut [[f64; N]]) {
+        let (at, s, moved) = (&d.at, d.s, d.moved);
+        assert!(at.holds(self.n) && s.len() >= self.n && v.iter().all(|x| x.len() >= self.n));
+        for (k, row) in self.rows.iter().enumerate() {
+            if !row.point {
+                continue;
+            }
+            // SAFETY: angle < n (new), e, s and v hold n (asserted above)
+            let (_, re, im) = unsafe { self.point(row, at, s, moved) };
+            let d: [f64; N] = std::array::from_fn(|l| re[l] * row.my - im[l] * row.mx);
+            for (w, r) in v.iter().zip([&mut *r2, &mut *r3]) {
+                let w = w[row.angle];
+                for l in 0..N {
+                    r[k][l] -= d[l] * w;
+                }
+            }
+        }
+    }
+
+    /// D(gamma) of Eq. 4.38 and the point forms: d f''(t) + d(p w^2).
+    pub fn gamma_tangent(&self, d: &Dir<N>, sh: &Shared<Lanes<N>>, out: &mut [[f64; N]]) {
+        let (at, qd, s, sd, moved) = (&d.at, d.qd, d.s, d.sd, d.moved);
+        assert!(at.holds(self.n) && qd.len() >= self.n && s.len() >= self.n && sd.len() >= self.n);
+        for (row, o) in self.rows.iter().zip(out) {
+            if moved {
+                let f = row.drive(at.t, 2, sh).d;
+                for l in 0..N {
+                    o[l] += f[l];
+                }
+            }
+            if !row.term {
+                continue;
+            }
+            // SAFETY: angle < n (new), e, qd, s and sd hold n (asserted above)
+            let ((v, re, im), w, dw) =
+                unsafe { (self.point(row, at, s, moved), *qd.get_unchecked(row.angle), sd.get_unchecked(row.angle)) };
+            let (p, ww) = (v.re * row.mx + v.im * row.my, w * w);
+            for l in 0..N {
+                o[l] += (re[l] * row.mx + im[l] * row.my) * ww + p * (2.0 * w * dw[l]);
+            }
         }
     }
 }

@@ -210,6 +210,7 @@ fn check_parameters(kind: &str, t: &Table, art: usize, q: &[f64], qd: &[f64], ti
             d[e] = if im { C64::new(0.0, 1.0) } else { C64::new(1.0, 0.0) };
             tab.d_complex.insert(key.clone(), d);
         }
+        check_direct(kind, &seeded, art, q, qd, time, true);
         let [a, b, c] = seeded;
         let exact = tangents(&kin_with(kind, a, art, &b, &c), &lift(q, &zeros), &lift(qd, &zeros), time);
         let fd = fourth(&|h| {
@@ -218,6 +219,7 @@ fn check_parameters(kind: &str, t: &Table, art: usize, q: &[f64], qd: &[f64], ti
         });
         close(&format!("{kind}: table {w} column {key}[{e}]{}", if im { ".im" } else { "" }), &exact, &fd);
     }
+    check_direct(kind, &[t.clone(), f.clone(), o.clone()], art, q, qd, time, false);
     // along q and qd (the tangents of S2 and S3)
     let dq: Vec<f64> = (0..q.len()).map(|j| (j as f64 * 0.7).cos()).collect();
     let dqd: Vec<f64> = (0..q.len()).map(|j| (j as f64 * 1.1).sin()).collect();
@@ -229,6 +231,67 @@ fn check_parameters(kind: &str, t: &Table, art: usize, q: &[f64], qd: &[f64], ti
         all_f64(&k, &qs, &qds, time)
     });
     close(&format!("{kind}: along q and qd"), &exact, &fd);
+}
+
+/// The direct tangent kernels of a family over Lanes<1> (Family::
+/// phi_tangent, jac_products, gamma_tangent, where its kind has them) with
+/// the tables `tabs` (their tangents seeded or none: `moved`), at (q, qd)
+/// along q' = dq, qd' = dqd: Phi_p against the dual kernels' Phi tangent
+/// at q' = 0, D(gamma) against their gamma's tangent along (dq, dqd) (both
+/// within 1e-12 of the peak: the same derivatives, checked against finite
+/// differences in check_parameters), and the products D(J) qd, D(J) w
+/// against fourth-order differences of the dual Phi's tangent along qd and
+/// w (J v = d/de Phi(q + e v), so D(J) v = d/de of Phi's tangent there).
+fn check_direct(kind: &str, tabs: &[Table; 3], art: usize, q: &[f64], qd: &[f64], time: f64, moved: bool) {
+    use crate::families::{At, Dir, Shared};
+    use crate::real::Lanes;
+    let n = q.len();
+    let dq: Vec<f64> = (0..n).map(|j| (j as f64 * 0.7).cos()).collect();
+    let dqd: Vec<f64> = (0..n).map(|j| (j as f64 * 1.1).sin()).collect();
+    let w: Vec<f64> = (0..n).map(|j| 0.3 - (j as f64 * 0.4).sin()).collect();
+    let lift = |v: &[f64], d: &[f64]| -> Vec<Dual> { v.iter().zip(d).map(|(&a, &b)| Dual::lift(a, b)).collect() };
+    let [a, b, c] = tabs.clone();
+    let dual = kin_with::<Dual>(kind, a.clone(), art, &b, &c);
+    let lanes = kin_with::<Lanes<1>>(kind, a, art, &b, &c);
+    let (fam, shared) = (&lanes.families[0], Shared { functions: &lanes.functions, outlines: &lanes.outlines });
+    let mut e = vec![C64::new(1.0, 0.0); n];
+    for &j in &lanes.angles {
+        e[j] = C64::new(q[j].cos(), q[j].sin());
+    }
+    let at = At { q, e: &e, t: time };
+    let (s, sd): (Vec<[f64; 1]>, Vec<[f64; 1]>) =
+        (dq.iter().map(|&x| [x]).collect(), dqd.iter().map(|&x| [x]).collect());
+    let m = lanes.m;
+    let near = |what: &str, x: &[f64], y: &[f64], tol: f64| {
+        let peak = y.iter().fold(1.0f64, |p, v| p.max(v.abs()));
+        for (r, (a, b)) in x.iter().zip(y).enumerate() {
+            assert!((a - b).abs() <= tol * peak, "{kind}: direct {what}[{r}] {a} != {b} (peak {peak})");
+        }
+    };
+    let mut out = vec![[0.0]; m];
+    if moved && fam.phi_tangent(&at, &shared, &mut out) {
+        let zeros = vec![0.0; n];
+        let want = tangents(&dual, &lift(q, &zeros), &lift(qd, &zeros), time)[0].clone();
+        near("Phi_p", &out.iter().map(|x| x[0]).collect::<Vec<_>>(), &want, 1e-12);
+    }
+    out.fill([0.0]);
+    let dir = Dir { at: At { q, e: &e, t: time }, qd, s: &s, sd: &sd, moved };
+    if fam.gamma_tangent(&dir, &shared, &mut out) {
+        let want = tangents(&dual, &lift(q, &dq), &lift(qd, &dqd), time)[3].clone();
+        near("D(gamma)", &out.iter().map(|x| x[0]).collect::<Vec<_>>(), &want, 1e-12);
+    }
+    let (mut r2, mut r3) = (vec![[0.0]; m], vec![[0.0]; m]);
+    if fam.jac_products(&dir, &[qd, &w], &mut r2, &mut r3) {
+        for (v, r) in [(qd, &r2), (&w[..], &r3)] {
+            let phi = |h: f64| -> Vec<f64> {
+                let qs: Vec<f64> = q.iter().zip(v).map(|(a, b)| a + h * b).collect();
+                tangents(&dual, &lift(&qs, &dq), &lift(qd, &dqd), time)[0].clone()
+            };
+            let (a, b, c, d) = (phi(2.0 * H), phi(H), phi(-H), phi(-2.0 * H));
+            let fd: Vec<f64> = (0..m).map(|k| -(-a[k] + 8.0 * b[k] - 8.0 * c[k] + d[k]) / (12.0 * H)).collect();
+            near("D(J) v", &r.iter().map(|x| x[0]).collect::<Vec<_>>(), &fd, 1e-8);
+        }
+    }
 }
 
 fn eval(k: &Kin, q: &[f64], t: f64, what: u8, qd: &[f64]) -> Vec<f64> {
@@ -339,6 +402,23 @@ fn distance_derivatives_match_finite_differences() {
     let (q, qd) = state(&[]);
     check(&k, &rows, &cols, &q, &qd, 0.8);
     check_parameters("distance", &t, 0, &q, &qd, 0.8);
+}
+
+#[test]
+fn revolute_derivatives_match_finite_differences() {
+    // bodies 0-1 and 1-2
+    let t = table(
+        &[("ci", vec![0, 3]), ("cj", vec![3, 6])],
+        &[],
+        &[("si", vec![c(0.4, 0.1), c(-0.3, 0.2)]), ("sj", vec![c(0.0, -0.5), c(0.6, 0.6)])],
+    );
+    let k = kin("revolute", t.clone(), 0);
+    let joint =
+        |i: usize, j: usize| [(0, i), (0, i + 2), (0, j), (0, j + 2), (1, i + 1), (1, i + 2), (1, j + 1), (1, j + 2)];
+    let (rows, cols) = pattern(2, &[&joint(0, 3), &joint(3, 6)]);
+    let (q, qd) = state(&[]);
+    check(&k, &rows, &cols, &q, &qd, 0.8);
+    check_parameters("revolute", &t, 0, &q, &qd, 0.8);
 }
 
 #[test]

@@ -162,28 +162,28 @@ impl Plan {
         local: PyReadonlyArray1<'py, C64>,
         dlocal: numpy::PyReadonlyArray2<'py, C64>,
     ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyArray1<f64>>)> {
-        let times = times.as_slice()?.to_vec();
-        let (n, kk) = (self.kin.n, times.len());
         let inputs = SensInputs::of(&self.kin, tables, tangents, (jac_rows, jac_cols), (src, pc, local, dlocal))?;
-        let mut xs = Vec::new();
-        for (k, a) in x.iter().enumerate() {
-            let (v, r) = rows(a, n, &format!("sensitivity: x[{k}]"))?;
-            if r != kk {
-                return Err(pyo3::exceptions::PyValueError::new_err("sensitivity: one row per instant expected"));
-            }
-            xs.push(v.to_vec());
+        let prepared = guard(py, move || inputs.prepare())?;
+        self.separate(py, &prepared, times, x)
+    }
+
+    /// `sensitivity` from a kept set-up (this plan's `sensitivity_setup`,
+    /// its columns for as many levels as x has): kinem.sensitivity's
+    /// separate pass, its set-up made once per model and parameters as the
+    /// fused pass's is. A set-up another plan made is refused.
+    #[allow(clippy::type_complexity)]
+    fn sensitivity_kept<'py>(
+        &self,
+        py: Python<'py>,
+        setup: &Bound<'py, SensSetup>,
+        times: PyReadonlyArray1<'py, f64>,
+        x: Vec<PyReadonlyArray2<'py, f64>>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyArray1<f64>>)> {
+        let setup = setup.get();
+        if !Arc::ptr_eq(&setup.1, &self.layout) {
+            return Err(value_error("sensitivity_kept: the set-up is not this model's (another plan made it)"));
         }
-        let width = inputs.parts.len() * inputs.src.len();
-        let layout = self.layout.clone();
-        let (data, ratio) = guard(py, move || {
-            let prepared = inputs.prepare()?;
-            let mut ratio = vec![0.0; kk];
-            let x: Vec<&[f64]> = xs.iter().map(|v| v.as_slice()).collect();
-            let mut data = vec![0.0; kk * width];
-            crate::sensitivity::sensitivities(&prepared, &layout, &times, &x, &mut data, &mut ratio)?;
-            Ok((data, ratio))
-        })?;
-        Ok((out2(py, data, kk, width)?, PyArray1::from_vec(py, ratio)))
+        self.separate(py, &setup.0, times, x)
     }
 
     /// What `march_sensitivity` is set up from, made once per model and
@@ -592,6 +592,39 @@ impl<'py> MarchOutputs<'py> {
         let (residual, pivot) = self.figures.as_slice_mut().map_err(|_| bad("figures"))?.split_at_mut(kk);
         let (iterations, counts) = self.ints.as_slice_mut().map_err(|_| bad("ints"))?.split_at_mut(kk);
         Ok(march::Out { q: oq, qd, qdd, iterations, residual, pivot, det: &mut self.det, counts, first: 0 })
+    }
+}
+
+impl Plan {
+    /// The separate pass (crate::sensitivity::sensitivities) from a set-up:
+    /// x 1 to 3 arrays (K, n) at times; returns (data (K, P W), ratio (K)).
+    #[allow(clippy::type_complexity)]
+    fn separate<'py>(
+        &self,
+        py: Python<'py>,
+        prepared: &crate::sensitivity::Prepared,
+        times: PyReadonlyArray1<'py, f64>,
+        x: Vec<PyReadonlyArray2<'py, f64>>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyArray1<f64>>)> {
+        let times = times.as_slice()?.to_vec();
+        let (n, kk) = (self.kin.n, times.len());
+        let mut xs = Vec::new();
+        for (k, a) in x.iter().enumerate() {
+            let (v, r) = rows(a, n, &format!("sensitivity: x[{k}]"))?;
+            if r != kk {
+                return Err(pyo3::exceptions::PyValueError::new_err("sensitivity: one row per instant expected"));
+            }
+            xs.push(v.to_vec());
+        }
+        let (width, layout) = (prepared.width(), &self.layout);
+        let (data, ratio) = guard(py, move || {
+            let mut ratio = vec![0.0; kk];
+            let x: Vec<&[f64]> = xs.iter().map(|v| v.as_slice()).collect();
+            let mut data = vec![0.0; kk * width];
+            crate::sensitivity::sensitivities(prepared, layout, &times, &x, &mut data, &mut ratio)?;
+            Ok((data, ratio))
+        })?;
+        Ok((out2(py, data, kk, width)?, PyArray1::from_vec(py, ratio)))
     }
 }
 
