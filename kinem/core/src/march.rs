@@ -257,7 +257,7 @@ pub fn run_hooked(
 ) -> (usize, Why) {
     let n = kin.n;
     let Out { q, qd, qdd, iterations, residual, pivot, det, counts, first } = out;
-    marched(kin, layout, times, k, st, s, watch, caller, counts, |k, st, o, ops| {
+    run_rows(kin, layout, times, k, st, s, watch, caller, counts, |k, st, o, ops| {
         let r = k - first;
         q[r * n..(r + 1) * n].copy_from_slice(&st.q);
         if s.rates {
@@ -275,27 +275,11 @@ pub fn run_hooked(
     })
 }
 
-/// `run` handing each accepted instant (k, the state there, its outcome)
-/// to `row` instead of writing an `Out`: the caller keeps only what it asks
-/// (crate::variants: the asked columns, not the trajectory).
+/// The march of `run`, handing each accepted instant (k, the state there,
+/// its outcome, the march's operations) to `taken` instead of writing an
+/// `Out`: crate::variants keeps only the asked columns, not the trajectory.
 #[allow(clippy::too_many_arguments)]
 pub fn run_rows(
-    kin: &Kin,
-    layout: &Layout,
-    times: &[f64],
-    k: usize,
-    st: &mut MarchState,
-    s: &Settings,
-    watch: &Watch,
-    counts: &mut [i64],
-    mut row: impl FnMut(usize, &MarchState, &Outcome),
-) -> (usize, Why) {
-    marched(kin, layout, times, k, st, s, watch, false, counts, |k, st, o, _| row(k, st, o))
-}
-
-/// The march of `run`: `taken` at every accepted instant.
-#[allow(clippy::too_many_arguments)]
-fn marched(
     kin: &Kin,
     layout: &Layout,
     times: &[f64],

@@ -3,7 +3,7 @@
 //! case's numbers (kinem.sensitivity), so a variant's tables are the base
 //! tables plus sum_p dv_p tangent_p over its design parameters' moves dv:
 //! each variant's model is formed here from the base and the tangents,
-//! marched by the one march (crate::march, through `march_one`) from the
+//! marched by the one march (crate::march, through `run_rows`) from the
 //! nominal's first state on the nominal's linear structure, and only the
 //! asked columns (crate::columns) written into one (variants, instants,
 //! columns) array; a group of WIDTH variants marched as lanes has its
@@ -320,13 +320,23 @@ fn one(
     let (mut counts, mut det) = ([0i64; 2], 0i8);
     let pts = &mut s.pts;
     // k = 0: the variant assembles from the state's q
-    let (end, why) =
-        march::run_rows(&kin, b.layout, b.times, 0, &mut s.state, b.settings, b.watch, &mut counts, |k, st, o| {
+    let (end, why) = march::run_rows(
+        &kin,
+        b.layout,
+        b.times,
+        0,
+        &mut s.state,
+        b.settings,
+        b.watch,
+        false,
+        &mut counts,
+        |k, st, o, _| {
             if k == 0 {
                 det = o.det as i8;
             }
             rows.put(&local, pts, k, st, data, start)
-        });
+        },
+    );
     Ok(rows.finish(data, start, end, why, det))
 }
 
