@@ -181,8 +181,8 @@ impl Room {
 }
 
 /// Per lane: (first instant not taken, why, det sign at its first
-/// instant), or None for a lane to march alone; `xs[l]`: its Q (and QD,
-/// QDD with rates) at every instant taken, as crate::variants lays them.
+/// instant), or None for a lane to march alone; `row(l, k, state)` at
+/// every instant k lane l takes (crate::variants writes its columns there).
 #[allow(clippy::too_many_arguments)]
 pub fn march(
     wide: &Kin<W>,
@@ -191,7 +191,7 @@ pub fn march(
     q0: &[f64],
     s: &Settings,
     watch: &Watch,
-    xs: &mut [Vec<f64>],
+    mut row: impl FnMut(usize, usize, &MarchState),
 ) -> Vec<Option<(usize, Why, i8)>> {
     let (n, m, kk) = (wide.n, wide.m, times.len());
     let mut lanes: Vec<Lane> = (0..WIDTH)
@@ -380,12 +380,8 @@ pub fn march(
             solve(&mut lu, &mut lanes, layout, &taking, &r.rhs, &mut dq, &mut r.b, true);
             lanes.iter_mut().filter(|x| taking(x)).for_each(|x| x.st.rates = true);
         }
-        for (x, out) in lanes.iter().zip(xs.iter_mut()).filter(|(x, _)| live(x)) {
-            out[k * n..(k + 1) * n].copy_from_slice(&x.st.q);
-            if s.rates {
-                out[(kk + k) * n..(kk + k + 1) * n].copy_from_slice(&x.st.qd);
-                out[(2 * kk + k) * n..(2 * kk + k + 1) * n].copy_from_slice(&x.st.qdd);
-            }
+        for (l, x) in lanes.iter().enumerate().filter(|(_, x)| live(x)) {
+            row(l, k, &x.st);
         }
     }
     lanes

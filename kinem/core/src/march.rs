@@ -247,13 +247,49 @@ pub fn run_hooked(
     kin: &Kin,
     layout: &Layout,
     times: &[f64],
-    mut k: usize,
+    k: usize,
     st: &mut MarchState,
     s: &Settings,
     out: Out,
     watch: &Watch,
     caller: bool,
     mut hook: Option<Hook>,
+) -> (usize, Why) {
+    let n = kin.n;
+    let Out { q, qd, qdd, iterations, residual, pivot, det, counts, first } = out;
+    run_rows(kin, layout, times, k, st, s, watch, caller, counts, |k, st, o, ops| {
+        let r = k - first;
+        q[r * n..(r + 1) * n].copy_from_slice(&st.q);
+        if s.rates {
+            qd[r * n..(r + 1) * n].copy_from_slice(&st.qd);
+            qdd[r * n..(r + 1) * n].copy_from_slice(&st.qdd);
+        }
+        iterations[r] = o.iterations as i64;
+        residual[r] = o.residual;
+        pivot[r] = o.pivot;
+        det[r] = o.det as i8;
+        if let Some(h) = hook.as_mut() {
+            ops.rotate();
+            h(k, st, &mut ops.f, &ops.e);
+        }
+    })
+}
+
+/// The march of `run`, handing each accepted instant (k, the state there,
+/// its outcome, the march's operations) to `taken` instead of writing an
+/// `Out`: crate::variants keeps only the asked columns, not the trajectory.
+#[allow(clippy::too_many_arguments)]
+pub fn run_rows(
+    kin: &Kin,
+    layout: &Layout,
+    times: &[f64],
+    mut k: usize,
+    st: &mut MarchState,
+    s: &Settings,
+    watch: &Watch,
+    caller: bool,
+    counts: &mut [i64],
+    mut taken: impl FnMut(usize, &MarchState, &Outcome, &mut Native),
 ) -> (usize, Why) {
     let n = kin.n;
     let mut ops = Native::new(kin, layout);
@@ -278,23 +314,10 @@ pub fn run_hooked(
             result = (k, o.why);
             break;
         }
-        let r = k - out.first;
-        out.q[r * n..(r + 1) * n].copy_from_slice(&st.q);
-        if s.rates {
-            out.qd[r * n..(r + 1) * n].copy_from_slice(&st.qd);
-            out.qdd[r * n..(r + 1) * n].copy_from_slice(&st.qdd);
-        }
-        out.iterations[r] = o.iterations as i64;
-        out.residual[r] = o.residual;
-        out.pivot[r] = o.pivot;
-        out.det[r] = o.det as i8;
-        if let Some(h) = hook.as_mut() {
-            ops.rotate();
-            h(k, st, &mut ops.f, &ops.e);
-        }
+        taken(k, st, &o, &mut ops);
         k += 1;
     }
-    out.counts[0] += ops.counts[0];
-    out.counts[1] += ops.counts[1];
+    counts[0] += ops.counts[0];
+    counts[1] += ops.counts[1];
     result
 }

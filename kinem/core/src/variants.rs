@@ -3,7 +3,7 @@
 //! case's numbers (kinem.sensitivity), so a variant's tables are the base
 //! tables plus sum_p dv_p tangent_p over its design parameters' moves dv:
 //! each variant's model is formed here from the base and the tangents,
-//! marched by the one march (crate::march, through `march_one`) from the
+//! marched by the one march (crate::march, through `run_rows`) from the
 //! nominal's first state on the nominal's linear structure, and only the
 //! asked columns (crate::columns) written into one (variants, instants,
 //! columns) array; a group of WIDTH variants marched as lanes has its
@@ -11,10 +11,10 @@
 //! Variants run on the thread pool, each converging and
 //! failing on its own; a deadline or a signal (crate::watch) stops them all.
 use crate::accept::Why;
-use crate::columns::columns;
+use crate::columns::Columns;
 use crate::lanes::{self, WIDTH};
 use crate::lu::Layout;
-use crate::march::{self, MarchState, Out, Settings};
+use crate::march::{self, MarchState, Settings};
 use crate::model::Kin;
 use crate::table::Table;
 use crate::watch::Watch;
@@ -196,6 +196,7 @@ pub fn run(b: &Batch, values: &[f64], out: Written) -> Result<(), String> {
     {
         return Err("variants: outputs of the wrong size".into());
     }
+    let rows = Rows { cols: Columns::new(n, b.asked.stages, b.asked.src, b.asked.pc), stages: b.asked.stages, w };
     // groups of WIDTH variants as lanes, or of one (and the last, short, group) each alone
     let width = if b.lanes && lanes::suits(&b.tables.outlines) { WIDTH } else { 1 };
     // rayon makes a scratch per job it splits off (many per thread): they are
@@ -207,16 +208,16 @@ pub fn run(b: &Batch, values: &[f64], out: Written) -> Result<(), String> {
             .zip(out.start.par_chunks_mut(width * n))
             .enumerate()
             .map_init(
-                || Pooled::take(&pool, || Scratch::new(n, kk, b.asked.stages)),
+                || Pooled::take(&pool, || Scratch::new(n, b.asked)),
                 |scratch, (g, (data, start))| {
                     let scratch = scratch.get();
                     let (first, count) = (g * width, start.len() / n);
                     let dv = |i: usize| &values[(first + i) * p..(first + i + 1) * p];
                     if count == WIDTH && width == WIDTH {
-                        return group(b, scratch, &dv, data, start);
+                        return group(b, &rows, scratch, &dv, data, start);
                     }
                     let parts = data.chunks_mut(kk * w).zip(start.chunks_mut(n)).enumerate();
-                    parts.map(|(i, (data, start))| one(b, scratch, dv(i), data, start)).collect()
+                    parts.map(|(i, (data, start))| one(b, &rows, scratch, dv(i), data, start)).collect()
                 },
             )
             .collect()
@@ -230,9 +231,12 @@ pub fn run(b: &Batch, values: &[f64], out: Written) -> Result<(), String> {
     Ok(())
 }
 
-/// WIDTH variants marched as lanes (crate::lanes); a lane that needs it alone marches alone.
+/// WIDTH variants marched as lanes (crate::lanes), each lane's columns
+/// written at every instant it takes; a lane that needs it alone marches
+/// alone (its rows written again).
 fn group<'v>(
     b: &Batch,
+    rows: &Rows,
     s: &mut Scratch,
     dv: &dyn Fn(usize) -> &'v [f64],
     data: &mut [f64],
@@ -244,12 +248,19 @@ fn group<'v>(
         Ok(x) => x,
         Err(e) => return vec![Err(e)],
     };
-    let marched = lanes::march(&wide, b.layout, b.times, b.q0, b.settings, b.watch, &mut s.lanes);
-    let parts = data.chunks_mut(kk * w).zip(start.chunks_mut(n)).enumerate();
+    let locals: Vec<Vec<C64>> = (0..WIDTH).map(|l| local(b.asked, dv(l))).collect();
+    let mut parts: Vec<(&mut [f64], &mut [f64])> = data.chunks_mut(kk * w).zip(start.chunks_mut(n)).collect();
+    let pts = &mut s.pts;
+    let marched = lanes::march(&wide, b.layout, b.times, b.q0, b.settings, b.watch, |l, k, st| {
+        let (data, start) = &mut parts[l];
+        rows.put(&locals[l], pts, k, st, data, start)
+    });
     parts
+        .into_iter()
+        .enumerate()
         .map(|(i, (data, start))| match marched[i] {
-            Some((end, why, det)) => Ok(write(b, dv(i), &s.lanes[i], end, why, det, data, start)),
-            None => one(b, s, dv(i), data, start),
+            Some((end, why, det)) => Ok(rows.finish(data, start, end, why, det)),
+            None => one(b, rows, s, dv(i), data, start),
         })
         .collect()
 }
@@ -258,17 +269,11 @@ fn group<'v>(
 type Verdict = Result<(usize, Why, i8), String>;
 
 /// A thread's buffers for the march of one variant after another: the
-/// coordinates at every instant (Q, and QD, QDD with rates), the march's
-/// per-instant figures and its state.
+/// march's state and one instant's named points (nothing per instant: the
+/// columns are written as the instants are taken).
 struct Scratch {
-    x: Vec<f64>,
-    iterations: Vec<i64>,
-    residual: Vec<f64>,
-    pivot: Vec<f64>,
-    det: Vec<i8>,
     state: MarchState,
-    /// each lane's coordinates at every instant, as x
-    lanes: Vec<Vec<f64>>,
+    pts: Vec<f64>,
 }
 
 /// A scratch taken from a pool, put back when dropped.
@@ -294,88 +299,84 @@ impl Drop for Pooled<'_> {
 }
 
 impl Scratch {
-    fn new(n: usize, kk: usize, stages: usize) -> Scratch {
-        // zeroed by the allocator (pages touched only when written), never copied:
-        // a thread's scratch is made before its first group even when a stop has come
-        let len = if stages > 1 { 3 } else { 1 } * kk * n;
-        Scratch {
-            lanes: (0..WIDTH).map(|_| vec![0.0; len]).collect(),
-            x: vec![0.0; len],
-            iterations: vec![0; kk],
-            residual: vec![0.0; kk],
-            pivot: vec![0.0; kk],
-            det: vec![0; kk],
-            state: MarchState::new(&vec![0.0; n]),
-        }
+    fn new(n: usize, asked: &Asked) -> Scratch {
+        Scratch { state: MarchState::new(&vec![0.0; n]), pts: vec![0.0; 2 * asked.stages * asked.pc.len()] }
     }
 }
 
 /// One variant: (the first instant not taken, why, det sign at its first state).
 fn one(
     b: &Batch,
+    rows: &Rows,
     s: &mut Scratch,
     dv: &[f64],
     data: &mut [f64],
     start: &mut [f64],
 ) -> Result<(usize, Why, i8), String> {
     let kin = b.tables.kin(dv)?;
-    let times = b.times;
-    let (n, kk) = (b.tables.n, times.len());
-    let (oq, rest) = s.x.split_at_mut(kk * n);
-    let (oqd, oqdd) = rest.split_at_mut(rest.len() / 2);
+    let local = local(b.asked, dv);
     // the state the march starts from: the estimates q0, no rates, no history
     s.state.q.copy_from_slice(b.q0);
-    let mut counts = [0i64; 2];
-    let o = Out {
-        q: oq,
-        qd: oqd,
-        qdd: oqdd,
-        iterations: &mut s.iterations,
-        residual: &mut s.residual,
-        pivot: &mut s.pivot,
-        det: &mut s.det,
-        counts: &mut counts,
-        first: 0,
-    };
-    let (end, why) = march_one(&kin, b, &mut s.state, o);
-    Ok(write(b, dv, &s.x, end, why, if end > 0 { s.det[0] } else { 0 }, data, start))
+    let (mut counts, mut det) = ([0i64; 2], 0i8);
+    let pts = &mut s.pts;
+    // k = 0: the variant assembles from the state's q
+    let (end, why) = march::run_rows(
+        &kin,
+        b.layout,
+        b.times,
+        0,
+        &mut s.state,
+        b.settings,
+        b.watch,
+        false,
+        &mut counts,
+        |k, st, o, _| {
+            if k == 0 {
+                det = o.det as i8;
+            }
+            rows.put(&local, pts, k, st, data, start)
+        },
+    );
+    Ok(rows.finish(data, start, end, why, det))
 }
 
-/// A variant's asked columns from its coordinates x (Q, and QD, QDD with
-/// rates, at every instant) up to `end`, NaN after; its first state (NaN
-/// when it did not assemble); (end, why, det sign at its first state).
-#[allow(clippy::too_many_arguments)]
-fn write(
-    b: &Batch,
-    dv: &[f64],
-    x: &[f64],
-    end: usize,
-    why: Why,
-    det: i8,
-    data: &mut [f64],
-    start: &mut [f64],
-) -> (usize, Why, i8) {
-    let asked = b.asked;
-    let (n, kk, stages) = (b.tables.n, b.times.len(), asked.stages);
-    let local: Vec<C64> = (0..asked.local.len())
+/// A variant's named points' local coordinates, moved by dv along their tangents.
+fn local(asked: &Asked, dv: &[f64]) -> Vec<C64> {
+    (0..asked.local.len())
         .map(|j| asked.local[j] + (0..dv.len()).map(|k| asked.dlocal[k * asked.local.len() + j] * dv[k]).sum::<C64>())
-        .collect();
-    // the instants taken (rows from `end` on hold an earlier variant's values or none: NaN)
-    let x: Vec<&[f64]> = x.chunks(kk * n).take(stages).map(|s| &s[..end * n]).collect();
-    let (taken, rest) = data.split_at_mut(end * asked.src.len());
-    columns(&x, n, asked.src, asked.pc, &local, taken);
-    rest.fill(f64::NAN);
-    if end > 0 {
-        start.copy_from_slice(&x[0][..n]);
-    } else {
-        start.fill(f64::NAN);
-    }
-    (end, why, if end > 0 { det } else { 0 })
+        .collect()
 }
 
-/// The one call of the march (k = 0: the variant assembles from the state's q).
-fn march_one(kin: &Kin, b: &Batch, st: &mut MarchState, out: Out) -> (usize, Why) {
-    march::run(kin, b.layout, b.times, 0, st, b.settings, out, b.watch, false)
+/// The asked columns' writer: crate::columns's layout of them, the stages
+/// they read and their count a row.
+struct Rows<'a> {
+    cols: Columns<'a>,
+    stages: usize,
+    w: usize,
+}
+
+impl Rows<'_> {
+    /// Instant k taken by a variant: its asked columns (from the state, at
+    /// its moved points `local`) into its row k of data; at k = 0, q into
+    /// its first state.
+    fn put(&self, local: &[C64], pts: &mut [f64], k: usize, st: &MarchState, data: &mut [f64], start: &mut [f64]) {
+        let x: [&[f64]; 3] = [&st.q, &st.qd, &st.qdd];
+        self.cols.row(&x[..self.stages], local, pts, &mut data[k * self.w..(k + 1) * self.w]);
+        if k == 0 {
+            start.copy_from_slice(&st.q);
+        }
+    }
+
+    /// A variant's march ended at `end`: its rows from there NaN (they hold
+    /// an earlier variant's values or none), its first state NaN when it did
+    /// not assemble; (end, why, det sign at its first state).
+    fn finish(&self, data: &mut [f64], start: &mut [f64], end: usize, why: Why, det: i8) -> (usize, Why, i8) {
+        data[end * self.w..].fill(f64::NAN);
+        if end == 0 {
+            start.fill(f64::NAN);
+        }
+        (end, why, if end > 0 { det } else { 0 })
+    }
 }
 
 #[cfg(test)]
