@@ -22,7 +22,6 @@ use num_complex::Complex64 as C64;
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::ops::{AddAssign, Mul};
-use std::sync::Mutex;
 
 /// A model's tables (every function and outline its own number:
 /// kinem.sensitivity._tables) and their tangents along each design parameter.
@@ -199,18 +198,14 @@ pub fn run(b: &Batch, values: &[f64], out: Written) -> Result<(), String> {
     let rows = Rows { cols: Columns::new(n, b.asked.stages, b.asked.src, b.asked.pc), stages: b.asked.stages, w };
     // groups of WIDTH variants as lanes, or of one (and the last, short, group) each alone
     let width = if b.lanes && lanes::suits(&b.tables.outlines) { WIDTH } else { 1 };
-    // rayon makes a scratch per job it splits off (many per thread): they are
-    // kept in a pool, so a batch makes as many as run at once
-    let pool = Mutex::new(Vec::new());
     let results: Vec<Vec<Verdict>> = b.watch.around(|| {
         out.data
             .par_chunks_mut(width * kk * w)
             .zip(out.start.par_chunks_mut(width * n))
             .enumerate()
             .map_init(
-                || Pooled::take(&pool, || Scratch::new(n, b.asked)),
+                || Scratch::new(n, b.asked),
                 |scratch, (g, (data, start))| {
-                    let scratch = scratch.get();
                     let (first, count) = (g * width, start.len() / n);
                     let dv = |i: usize| &values[(first + i) * p..(first + i + 1) * p];
                     if count == WIDTH && width == WIDTH {
@@ -274,28 +269,6 @@ type Verdict = Result<(usize, Why, i8), String>;
 struct Scratch {
     state: MarchState,
     pts: Vec<f64>,
-}
-
-/// A scratch taken from a pool, put back when dropped.
-struct Pooled<'p>(Option<Scratch>, &'p Mutex<Vec<Scratch>>);
-
-impl<'p> Pooled<'p> {
-    fn take(pool: &'p Mutex<Vec<Scratch>>, make: impl FnOnce() -> Scratch) -> Self {
-        let kept = pool.lock().ok().and_then(|mut v| v.pop());
-        Pooled(Some(kept.unwrap_or_else(make)), pool)
-    }
-
-    fn get(&mut self) -> &mut Scratch {
-        self.0.as_mut().expect("a pooled scratch is held until dropped")
-    }
-}
-
-impl Drop for Pooled<'_> {
-    fn drop(&mut self) {
-        if let (Some(s), Ok(mut v)) = (self.0.take(), self.1.lock()) {
-            v.push(s);
-        }
-    }
 }
 
 impl Scratch {
