@@ -248,15 +248,9 @@ def test_a_wrong_native_position_fails_the_report(tmp_path, monkeypatch):
     assert "position_error_rel" in (tmp_path / "o" / "summary.md").read_text()
 
 
-def test_native_velocities_off_fail_the_report(tmp_path, monkeypatch):
-    """Native's velocities x (1 + 1e-8) (a patched solver: the reference run
-    too, so native against native sees nothing): the closed form's rates
-    catch it, the velocity figure named, positions within their limit."""
-    import kinem.solver
-    from kinem.report import runs
+def velocities_off(solve):
+    """``solve`` with its velocities x (1 + 1e-8): the trajectory's columns and qd."""
     from kinem.result import Trajectory
-
-    solve = kinem.solver.solve
 
     def patched(*a, **k):
         r = solve(*a, **k)
@@ -264,6 +258,17 @@ def test_native_velocities_off_fail_the_report(tmp_path, monkeypatch):
         scale = np.array([1 + 1e-8 if c.endswith((".vx", ".vy", ".omega")) else 1.0 for c in tr.columns])
         return dataclasses.replace(r, trajectory=Trajectory(tr.t.copy(), tr.columns, tr.data * scale),
                                    qd=r.qd * (1 + 1e-8))
+    return patched
+
+
+def test_native_velocities_off_fail_the_report(tmp_path, monkeypatch):
+    """Native's velocities x (1 + 1e-8) (a patched solver: the reference run
+    too, so native against native sees nothing): the closed form's rates
+    catch it, the velocity figure named, positions within their limit."""
+    import kinem.solver
+    from kinem.report import runs
+
+    patched = velocities_off(kinem.solver.solve)
 
     def patch():
         runs.reference.cache_clear()
@@ -310,7 +315,6 @@ def test_compare_checks_native_against_the_closed_form(monkeypatch, capsys):
     solver) put it outside tolerance, and the command exits 1."""
     import kinem.solver
     from kinem import cli
-    from kinem.result import Trajectory
 
     path = str(ROOT / "cases" / "gear_pair.toml")
 
@@ -323,15 +327,7 @@ def test_compare_checks_native_against_the_closed_form(monkeypatch, capsys):
     row, note = native_lines()
     assert row.endswith("within tolerance") and "no independent reference" not in row
     assert "closed form kinem.reference.gear_pair" in note
-    solve = kinem.solver.solve
-
-    def patched(*a, **k):
-        r = solve(*a, **k)
-        tr = r.trajectory
-        scale = np.array([1 + 1e-8 if c.endswith((".vx", ".vy", ".omega")) else 1.0 for c in tr.columns])
-        return dataclasses.replace(r, trajectory=Trajectory(tr.t.copy(), tr.columns, tr.data * scale))
-
-    monkeypatch.setattr(kinem.solver, "solve", patched)
+    monkeypatch.setattr(kinem.solver, "solve", velocities_off(kinem.solver.solve))
     assert cli.main(["compare", path, "--engines", "native"]) == 1
     row, _ = native_lines()
     assert "outside tolerance: velocity_error_rel" in row     # the figure named
