@@ -234,10 +234,10 @@ impl<S> Family<S> {
         )
     }
 
-    /// Whether its Jacobian is piecewise in q (an outline's pieces: the
-    /// curves and cams), not polynomial in e^{i q}, q and its tables.
+    /// Whether its Jacobian is piecewise in q, not polynomial in e^{i q},
+    /// q and its tables: the kinds that read an outline (its pieces).
     pub fn piecewise(&self) -> bool {
-        matches!(self, Family::PointOnCurve(_) | Family::CamRoller(_) | Family::CamFlat(_))
+        self.reads().1
     }
 
     /// Whether the kind holds a ground's or a driver's rows whose Jacobian
