@@ -233,7 +233,9 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
                 // full one's (equal as numbers: tolerance 0; only a zero's sign may differ)
                 let mut b = b.clone();
                 for &q in &t.program.quiet {
-                    b[t.gather[q as usize]] = 0.0;
+                    // the program's places are coordinates: the row of coordinate q's position
+                    let p = t.scatter.iter().position(|&j| j == q as usize).unwrap();
+                    b[t.gather[p]] = 0.0;
                 }
                 let mut full = (**t).clone();
                 full.program.quiet.clear();

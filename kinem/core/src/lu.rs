@@ -267,8 +267,23 @@ impl Layout {
         None
     }
 
-    /// x = Phi_q^-1 b from the factors (b: m rows, x: n coordinates).
+    /// x = Phi_q^-1 b from the factors (b: m rows, x: n coordinates). The
+    /// block-triangular layout's blocks (the march's usual case) inline,
+    /// straight into their program; every other layout and the fallback
+    /// out of line (`solve_other`), so the usual call has no prologue of theirs.
+    #[inline]
     pub fn solve(&self, f: &mut Factors, b: &[f64], x: &mut [f64]) {
+        if let Shape::Triangular(t) = &self.shape {
+            if f.fixed[0].is_some() {
+                return t.run(&f.j, b, x, &mut f.w);
+            }
+        }
+        self.solve_other(f, b, x)
+    }
+
+    /// `solve` of the layouts other than the triangular's blocks.
+    #[inline(never)]
+    fn solve_other(&self, f: &mut Factors, b: &[f64], x: &mut [f64]) {
         if let Shape::Triangular(t) = &self.shape {
             return t.solve(f, b, x, &self.scale, &self.col_scale);
         }

@@ -229,7 +229,7 @@ pub(crate) fn triangulate_still(
     let place: Vec<(usize, usize, usize)> = off.iter().map(|x| (x.0, x.1 as usize, x.2 as usize)).collect();
     let folded: Vec<bool> = blocks.iter().map(|d| d.entries.len() == 1 && one[d.entries[0].0 as usize]).collect();
     let still: Vec<bool> = d.blocks.iter().map(|b| b.rows.len() == 1 && still.get(b.rows[0]) == Some(&true)).collect();
-    let Ok(program) = Triangular::program(&blocks, &place, store, n, &folded, &still) else { return false };
+    let Ok(mut program) = Triangular::program(&blocks, &place, store, n, &folded, &still) else { return false };
     let off_entries: Vec<(u32, f64)> = off.iter().map(|x| (x.3, x.4)).collect();
     let Ok(factoring) = Triangular::factoring(&blocks, &off_entries, store, layout.at.len(), &folded) else {
         return false;
@@ -239,14 +239,15 @@ pub(crate) fn triangulate_still(
         gather[row_pos[i]] = i;
         scatter[col_pos[i]] = i;
     }
+    program.renumber(&scatter); // the solve runs in the coordinates (Triangular::run)
     let t = Triangular {
         blocks,
         off_entries,
         off_at: store,
         program,
         factoring,
-        gscale: gather.iter().map(|&i| 1.0 / layout.scale[i]).collect(),
-        sscale: scatter.iter().map(|&j| layout.col_scale[j]).collect(),
+        into: (0..n).map(|i| (scatter[row_pos[i]] as u32, 1.0 / layout.scale[i])).collect(),
+        col_scale: layout.col_scale.clone(),
         sign: crate::order::parity(&gather) * crate::order::parity(&scatter),
         gather,
         scatter,

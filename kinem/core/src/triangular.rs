@@ -19,9 +19,10 @@ use crate::order::{Order, Pivots, MULTIPLIER};
 use crate::real::Real;
 
 /// A solve's forward and back substitution as one flat program over the
-/// positions w and the factors' values a (issue 31 item 4): `divs[k] = [end,
-/// r, v]` runs the subtractions `subs[..end]` not yet run (`[i, c, u]`: w[i]
-/// -= a[u] w[c]), then w[r] /= a[v]. One tight loop, no branch on the
+/// places w (the positions, renumbered to the coordinates once built:
+/// `Program::renumber`, `Triangular::run`) and the factors' values a (issue
+/// 31 item 4): `divs[k] = [end, r, v]` runs the subtractions `subs[..end]`
+/// not yet run (`[i, c, u]`: w[i] -= a[u] w[c]), then w[r] /= a[v]. One tight loop, no branch on the
 /// structure; the division's order and operands are the elimination's, so
 /// the figures are those of the loops it replaces, to the bit.
 ///
@@ -79,6 +80,21 @@ impl Program {
         }
         subs.extend(self.subs[from..].iter().filter(|s| !read(s)));
         (self.quiet, self.short) = (quiet, (subs, divs));
+    }
+
+    /// The program over other places: position p becomes to[p] (a
+    /// permutation of the positions), in every list; the same operations
+    /// in the same order.
+    pub fn renumber(&mut self, to: &[usize]) {
+        let at = |p: &mut u32| *p = to[*p as usize] as u32;
+        for [i, c, _] in self.subs.iter_mut().chain(self.short.0.iter_mut()) {
+            at(i);
+            at(c);
+        }
+        for [_, r, _] in self.divs.iter_mut().chain(self.short.1.iter_mut()) {
+            at(r);
+        }
+        self.quiet.iter_mut().for_each(at);
     }
 
     /// The invariants `run` relies on (see `Program`), of both lists.
@@ -361,16 +377,19 @@ pub struct Triangular {
     pub off_entries: Vec<(u32, f64)>,
     pub off_at: usize,
     /// the solve (`Program`) over Factors::j: block k's off-diagonal
-    /// entries, then its division (1x1) or its elimination, block after block
+    /// entries, then its division (1x1) or its elimination, block after
+    /// block; its places are the coordinates (position p's is scatter[p]),
+    /// so that it runs in the solution itself (`run`)
     pub program: Program,
     /// the blocks' factorisation (`Factoring`)
     pub factoring: Factoring,
-    /// per position p: the model row b[gather[p]] / its scale (gscale) goes
-    /// there, and x[scatter[p]] = w[p] times the column's scale (sscale)
+    /// per position p: its model row gather[p] and coordinate scatter[p]
     pub gather: Vec<usize>,
-    pub gscale: Vec<f64>,
     pub scatter: Vec<usize>,
-    pub sscale: Vec<f64>,
+    /// per model row i: the coordinate (the place of the program) that
+    /// b[i] / scale[i] goes to, and 1 / scale[i]; per coordinate j, its scale
+    pub into: Vec<(u32, f64)>,
+    pub col_scale: Vec<f64>,
     /// the sign of the permutation into the blocks' order
     pub sign: i32,
     /// the fallback in the model's own order: positions of rows and
@@ -401,8 +420,9 @@ impl Triangular {
             let mut seen = vec![false; n];
             p.len() == n && p.iter().all(|&i| i < n && !std::mem::replace(&mut seen[i], true))
         };
-        if !perm(&self.gather) || !perm(&self.scatter) || self.gscale.len() != n || self.sscale.len() != n {
-            return Err("triangular: gather and scatter are not permutations of the positions".into());
+        let into: Vec<usize> = self.into.iter().map(|&(j, _)| j as usize).collect();
+        if !perm(&self.gather) || !perm(&self.scatter) || !perm(&into) || self.col_scale.len() != n {
+            return Err("triangular: gather, scatter and into are not permutations of the positions".into());
         }
         self.program.check()?;
         self.factoring.check()
@@ -527,21 +547,23 @@ impl Triangular {
     }
 
     /// x = Phi_q^-1 b with the blocks' factors a (block-triangular: not the
-    /// whole matrix's fallback), w the positions' scratch: the gather with
-    /// its scales, the program, the scatter; over f64, variants' lanes or
-    /// several right-hand sides (`Cell`).
+    /// whole matrix's fallback): each row's right side over its scale into
+    /// its coordinate (`into`), the program in x itself, then each
+    /// coordinate times its scale: the same operations on the same figures
+    /// as over positions with a gather and a scatter, to the bit, without
+    /// the scatter's permutation. Over f64, variants' lanes or several
+    /// right-hand sides (`Cell`); w: the callers' scratch, not needed here.
     #[inline]
-    pub fn run<A: Copy, W: Cell<A>>(&self, a: &[A], b: &[W], x: &mut [W], w: &mut [W]) {
-        let n = self.gather.len();
-        assert!(b.len() >= n && x.len() >= n && w.len() >= n);
-        for ((v, &i), &scale) in w.iter_mut().zip(&self.gather).zip(&self.gscale) {
-            // SAFETY: gather holds positions below n (Triangular::check, when built); b.len() >= n asserted
-            *v = unsafe { *b.get_unchecked(i) }.scaled(scale);
+    pub fn run<A: Copy, W: Cell<A>>(&self, a: &[A], b: &[W], x: &mut [W], _w: &mut [W]) {
+        let n = self.into.len();
+        assert!(b.len() >= n && x.len() >= n);
+        for (&v, &(j, scale)) in b.iter().zip(&self.into) {
+            // SAFETY: into holds coordinates below n (Triangular::check, when built); x.len() >= n asserted
+            unsafe { *x.get_unchecked_mut(j as usize) = v.scaled(scale) };
         }
-        self.program.run(a, w);
-        for ((&v, &j), &scale) in w.iter().zip(&self.scatter).zip(&self.sscale) {
-            // SAFETY: scatter holds positions below n (Triangular::check, when built); x.len() >= n asserted
-            unsafe { *x.get_unchecked_mut(j) = v.scaled(scale) };
+        self.program.run(a, x);
+        for (v, &scale) in x[..n].iter_mut().zip(&self.col_scale) {
+            *v = v.scaled(scale);
         }
     }
 
