@@ -7,7 +7,7 @@
 //! (shared/reference/performance.md, "What a static pivot order must
 //! respect"): a lane with a zero or non-finite pivot, a multiplier above
 //! crate::order::MULTIPLIER, or pivots spanning more than
-//! crate::lu::FALLBACK, or a folded pivot (Factoring::ones) not exactly 1
+//! crate::lu::FALLBACK, or a folded pivot (Factoring::one_entries) not exactly 1
 //! is not `fixed`: the caller factorises that lane
 //! alone (Layout::factor: partial pivoting, as the scalar march does).
 use crate::lanes::{W, WIDTH};
@@ -29,13 +29,9 @@ impl<'a> LaneLu<'a> {
     /// For a block-triangular layout (None otherwise: each lane's own LU).
     pub fn new(layout: &'a Layout) -> Option<Self> {
         let Shape::Triangular(t) = &layout.shape else { return None };
-        Some(LaneLu {
-            t,
-            j: vec![W::default(); t.factoring.values],
-            w: vec![W::default(); t.gather.len()],
-            fixed: [false; WIDTH],
-            stats: [(0.0, 0); WIDTH],
-        })
+        let mut j = vec![W::default(); t.factoring.values];
+        t.factoring.init(&mut j);
+        Some(LaneLu { t, j, w: vec![W::default(); t.gather.len()], fixed: [false; WIDTH], stats: [(0.0, 0); WIDTH] })
     }
 
     /// J_s from the Jacobian's values over lanes: Factoring's elimination
@@ -48,9 +44,10 @@ impl<'a> LaneLu<'a> {
                 ok[q] &= l.0[q].abs() <= MULTIPLIER; // false for a zero or non-finite pivot too
             }
         });
-        for &at in &f.ones {
+        for &(e, scale) in &f.one_entries {
+            let v = values[e as usize] * scale;
             for q in 0..WIDTH {
-                ok[q] &= a[at as usize].0[q] == 1.0;
+                ok[q] &= v.0[q] == 1.0;
             }
         }
         let (mut small, mut big, mut det) = ([f64::INFINITY; WIDTH], [0.0f64; WIDTH], [self.t.sign; WIDTH]);

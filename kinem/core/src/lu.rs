@@ -96,8 +96,10 @@ impl Layout {
             Shape::Blocks { size, .. } => *size,
             Shape::Band { size, .. } => *size,
             Shape::Triangular(t) => {
+                let mut j = vec![0.0; t.stored()];
+                t.factoring.init(&mut j);
                 return Factors {
-                    j: vec![0.0; t.stored()],
+                    j,
                     piv: vec![0; self.n.max(1)],
                     rm: vec![0; self.n.max(1)],
                     cm: vec![0; self.n.max(1)],

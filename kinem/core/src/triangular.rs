@@ -27,7 +27,7 @@ use crate::real::Real;
 /// the figures are those of the loops it replaces, to the bit.
 ///
 /// A 1x1 block whose pivot is a constant +1 (a ground's or a driver's row,
-/// `Factoring::ones` checks it each factorisation) has no division: its
+/// `Factoring::one_entries` checks it each factorisation) has no division: its
 /// subtractions run with the next division's, or after the last one.
 ///
 /// The quiet positions: 1x1 blocks folded (pivot +1) with no subtraction
@@ -212,7 +212,8 @@ impl<const N: usize> Cell<f64> for [f64; N] {
 
 /// The blocks' factorisation as flat lists over Factors::j (issue 31 item
 /// 4): the fill to clear, every entry's placement (values[e] times its
-/// scale at `at`: off-diagonal, 1x1 and larger blocks alike), then each
+/// scale at `at`: off-diagonal, 1x1 and larger blocks alike, but for the
+/// folded pivots: `ones`), then each
 /// elimination step `[pivot, end]` of the larger blocks' fixed orders, its
 /// multipliers `mults[..end]` (`[at, end]`: l = a[at] / pivot, then a[dst]
 /// -= l a[src] for `pairs[..end]`), then the n pivots `diag` (position
@@ -231,9 +232,12 @@ pub struct Factoring {
     pub mults: Vec<[u32; 2]>,
     pub pairs: Vec<[u32; 2]>,
     pub diag: Vec<u32>,
-    /// the folded pivots (`Program`): a factorisation where one is not
-    /// exactly 1 is refused (the fallback takes it)
+    /// the folded pivots (`Program`): their places, set to 1 once when the
+    /// factors are made (`init`) and never written again, and their
+    /// entries (Jacobian entry, scale): a factorisation where one's scaled
+    /// value is not exactly 1 is refused (the fallback takes it)
     pub ones: Vec<u32>,
+    pub one_entries: Vec<(u32, f64)>,
     /// the pivots not folded, [value index, position], and the first
     /// folded one's position (n: none): `run` reads only those, the folded
     /// ones being 1
@@ -256,6 +260,7 @@ impl Factoring {
             || self.pairs.iter().any(|p| bad(p[0]) || bad(p[1]))
             || self.diag.iter().any(|&x| bad(x))
             || self.ones.iter().any(|&x| bad(x))
+            || self.one_entries.iter().any(|&(e, _)| e as usize >= self.entries)
             || self.free.iter().any(|f| bad(f[0]))
         {
             return Err("factoring: an index out of range".into());
@@ -278,7 +283,15 @@ impl Factoring {
         Ok(())
     }
 
-    /// Assembles and eliminates into a (Factors::j) from the Jacobian's
+    /// The factors' storage a made ready: the folded pivots' places at 1
+    /// (`eliminate` never writes them).
+    pub fn init<S: Real>(&self, a: &mut [S]) {
+        for &at in &self.ones {
+            a[at as usize] = S::one();
+        }
+    }
+
+    /// Assembles and eliminates into a (Factors::j, `init` once) from the Jacobian's
     /// values, over f64 or over lanes (crate::lane_lu), the same operations
     /// in the same order; `multiplier` sees every multiplier (the caller's
     /// check against MULTIPLIER).
@@ -323,8 +336,8 @@ impl Factoring {
         self.eliminate(values, a, |l: f64| ok &= l.abs() <= MULTIPLIER); // false for a zero or non-finite pivot too
                                                                          // SAFETY (every unchecked index below): Factoring::check when built, and eliminate's asserted lengths
         unsafe {
-            for &at in &self.ones {
-                ok &= *a.get_unchecked(at as usize) == 1.0;
+            for &(e, scale) in &self.one_entries {
+                ok &= *values.get_unchecked(e as usize) * scale == 1.0;
             }
             if !ok {
                 return None;
@@ -332,14 +345,17 @@ impl Factoring {
             let mut acc = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det: sign };
             for &[at, p] in &self.free {
                 let d = *a.get_unchecked(at as usize);
-                if d == 0.0 || !d.is_finite() {
-                    return None;
+                let x = d.abs();
+                if !(x > 0.0 && x <= f64::MAX) {
+                    return None; // zero or not finite
                 }
                 if d < 0.0 {
                     acc.det = -acc.det;
                 }
-                acc.take(d.abs(), p as usize);
-                acc.big = acc.big.max(d.abs());
+                acc.take(x, p as usize);
+                if x > acc.big {
+                    acc.big = x; // f64::max's figure: neither is NaN
+                }
             }
             if (self.first_one as usize) < self.diag.len() {
                 // the folded pivots, each exactly 1 (checked above): the smallest is
@@ -480,12 +496,15 @@ impl Triangular {
         f.place.extend(off.iter().enumerate().map(|(x, &(e, scale))| (e, (off_at + x) as u32, scale)));
         for (k, d) in blocks.iter().enumerate() {
             match &d.order {
+                None if folded[k] => {
+                    // one entry (plan::triangulate_still), checked instead of placed
+                    f.one_entries.extend(&d.entries);
+                    f.diag.push(d.store as u32);
+                    f.ones.push(d.store as u32);
+                }
                 None => {
                     f.place.extend(d.entries.iter().map(|&(e, scale)| (e, d.store as u32, scale)));
                     f.diag.push(d.store as u32);
-                    if folded[k] {
-                        f.ones.push(d.store as u32);
-                    }
                 }
                 Some(o) => o.factoring(d.store, &mut f),
             }
