@@ -344,8 +344,13 @@ impl Layout {
     /// (pivot ratio, det sign) of J_s from its factors: the smallest over the
     /// largest |pivot| at the real (not padding) positions, 0 when one is not
     /// finite; the sign of det(J_s) (the rows' and columns' reordering
-    /// included), 0 for a zero pivot.
+    /// included), 0 for a zero pivot. The block-triangular layout's blocks
+    /// inline (the figures their factorisation took), the rest by `pivots`.
+    #[inline]
     pub fn stats(&self, f: &Factors) -> (f64, i32) {
+        if let (Shape::Triangular(_), Some(Some(p))) = (&self.shape, f.fixed.first()) {
+            return (p.ratio(), p.det);
+        }
         let (ratio, det, _) = self.pivots(f);
         (ratio, det)
     }
