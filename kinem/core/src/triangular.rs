@@ -572,7 +572,7 @@ impl Triangular {
     /// as over positions with a gather and a scatter, to the bit, without
     /// the scatter's permutation. Over f64, variants' lanes or several
     /// right-hand sides (`Cell`); w: the callers' scratch, not needed here.
-    #[inline]
+    #[inline(always)]
     pub fn run<A: Copy, W: Cell<A>>(&self, a: &[A], b: &[W], x: &mut [W], _w: &mut [W]) {
         let n = self.into.len();
         assert!(b.len() >= n && x.len() >= n);
