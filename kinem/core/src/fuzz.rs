@@ -195,7 +195,7 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
             let mut values: Vec<f64> =
                 rows.iter().map(|_| rng.unit() + if rng.below(2) == 0 { 2.0 } else { -2.0 }).collect();
             for e in (0..values.len()).filter(|&e| honest && one[e]) {
-                values[e] = 1.0 / layout.entry_scale[e]; // its scaled value 1, or within rounding of it
+                values[e] = 1.0; // Phi_q's value 1 (the factors are unscaled)
             }
             let mut a = vec![0.0; n * n];
             for e in 0..values.len() {
@@ -215,11 +215,11 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
             assert!(err < 1e-6 / ratio, "trial {trial}: error {err}, pivot ratio {ratio}");
             solved += 1;
             if let Some(got) = &f.fixed[0] {
-                // the pivots' figures read from the free pivots and the first folded one
-                // are those of every pivot in position order (tolerance 0)
+                // the pivots' figures read from the free pivots and the folded ones' constants
+                // are those of every pivot of J_s (Phi_q's times c_p / r_p) in position order (tolerance 0)
                 let (mut small, mut big, mut at, mut det) = (f64::INFINITY, 0.0f64, 0, t.sign);
                 for (p, &v) in t.factoring.diag.iter().enumerate() {
-                    let d = f.j[v as usize];
+                    let d = f.j[v as usize] * t.factoring.pivot_scale[p];
                     det = if d < 0.0 { -det } else { det };
                     if d.abs() < small {
                         (small, at) = (d.abs(), p);
@@ -260,7 +260,7 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
         let mut fa = t.factoring.clone();
         let far = (fa.values + rng.below(5) as usize) as u32;
         match rng.below(3) {
-            0 if !fa.place.is_empty() => fa.place[0].1 = far,
+            0 if !fa.place.is_empty() => fa.place[0][1] = far,
             1 if !fa.pairs.is_empty() => fa.pairs[0][1] = far,
             _ => fa.diag[0] = far,
         }

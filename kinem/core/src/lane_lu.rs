@@ -39,21 +39,21 @@ impl<'a> LaneLu<'a> {
     pub fn factor(&mut self, values: &[W]) {
         let (f, a) = (&self.t.factoring, &mut self.j);
         let mut ok = [true; WIDTH];
-        f.eliminate(values, a, |l: W| {
+        f.eliminate(values, a, |l: W, scale| {
             for q in 0..WIDTH {
-                ok[q] &= l.0[q].abs() <= MULTIPLIER; // false for a zero or non-finite pivot too
+                ok[q] &= (l.0[q] * scale).abs() <= MULTIPLIER; // false for a zero or non-finite pivot too
             }
         });
-        for &(e, scale) in &f.one_entries {
-            let v = values[e as usize] * scale;
+        for &e in &f.one_entries {
+            let v = values[e as usize];
             for q in 0..WIDTH {
                 ok[q] &= v.0[q] == 1.0;
             }
         }
         let (mut small, mut big, mut det) = ([f64::INFINITY; WIDTH], [0.0f64; WIDTH], [self.t.sign; WIDTH]);
-        for &at in &f.diag {
+        for (&at, &scale) in f.diag.iter().zip(&f.pivot_scale) {
             for q in 0..WIDTH {
-                let d = a[at as usize].0[q];
+                let d = a[at as usize].0[q] * scale; // J_s's pivot (Factoring)
                 if d == 0.0 || !d.is_finite() {
                     ok[q] = false;
                     continue;

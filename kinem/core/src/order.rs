@@ -310,7 +310,7 @@ impl Order {
     pub fn factoring(&self, store: usize, f: &mut crate::triangular::Factoring) {
         let (s, u) = (self.s, |x: usize| x as u32);
         f.clear.extend(self.fill_at.iter().map(|&at| u(store + at)));
-        f.place.extend(self.place.iter().map(|&(e, at, scale)| (e, u(store + at as usize), scale)));
+        f.place.extend(self.place.iter().map(|&(e, at, _)| [e, u(store + at as usize)])); // Phi_q's own values
         for &(k, lo, hi) in &self.steps {
             let k = k as usize;
             let right = &self.right[self.right_start[k] as usize..self.right_start[k + 1] as usize];

@@ -15,7 +15,8 @@ use num_complex::Complex64 as C64;
 /// The Jacobian's values at a few arbitrary configurations and times:
 /// (constant, unit) per entry: the same value at every one of them (a
 /// constant of the formulation: +-1 of a joint, a gear's radii) and, for
-/// those, whether the scaled value is +-1, and whether it is +1.
+/// those, whether the scaled value is +-1, and whether the value itself
+/// (unscaled: the block-triangular factors are Phi_q's) is +1.
 pub fn constant_entries(kin: &Kin, entry_scale: &[f64]) -> (Vec<bool>, Vec<bool>, Vec<bool>) {
     let n = kin.n;
     let mut first: Option<Vec<f64>> = None;
@@ -37,7 +38,7 @@ pub fn constant_entries(kin: &Kin, entry_scale: &[f64]) -> (Vec<bool>, Vec<bool>
     }
     let v = first.unwrap_or_default();
     let unit = (0..kin.nnz).map(|k| constant[k] && (v[k] * entry_scale[k]).abs() == 1.0).collect();
-    let one = (0..kin.nnz).map(|k| constant[k] && v[k] * entry_scale[k] == 1.0).collect();
+    let one = (0..kin.nnz).map(|k| constant[k] && v[k] == 1.0).collect();
     (constant, unit, one)
 }
 
@@ -126,7 +127,7 @@ pub fn order_blocks(kin: &Kin, layout: &mut Layout) {
 /// block-triangular order (Shape::Triangular), each diagonal block's
 /// positions in its fixed order. False (unchanged) otherwise, and where a
 /// block has no fixed order (a greedy order can miss a structurally
-/// nonsingular block's pivots). `one`: the entries whose scaled value
+/// nonsingular block's pivots). `one`: the entries whose value (unscaled)
 /// looked +1 at every trial: a 1x1 block of one such entry is folded (no
 /// division; each factorisation checks that it is still 1). Without
 /// quiet positions (the tests').
@@ -212,33 +213,34 @@ pub(crate) fn triangulate_still(
             row_pos[b.rows[i]] = at + step;
             col_pos[b.cols[j]] = at + step;
         }
-        let entries =
-            if s == 1 { inner[k].iter().map(|&e| (e as u32, layout.entry_scale[e])).collect() } else { Vec::new() };
+        let entries = if s == 1 { inner[k].iter().map(|&e| e as u32).collect() } else { Vec::new() };
         blocks.push(Diagonal { at, s, store, order, entries });
         at += s;
         store += s * s;
     }
     // the entries below the diagonal blocks, by the block of their row
-    let mut off: Vec<(usize, u32, u32, u32, f64)> = (0..rows.len())
+    let mut off: Vec<(usize, u32, u32, u32)> = (0..rows.len())
         .filter(|&e| block_of_row[rows[e]] != block_of_col[cols[e]])
-        .map(|e| {
-            (block_of_row[rows[e]], row_pos[rows[e]] as u32, col_pos[cols[e]] as u32, e as u32, layout.entry_scale[e])
-        })
+        .map(|e| (block_of_row[rows[e]], row_pos[rows[e]] as u32, col_pos[cols[e]] as u32, e as u32))
         .collect();
     off.sort_by_key(|x| x.0);
     let place: Vec<(usize, usize, usize)> = off.iter().map(|x| (x.0, x.1 as usize, x.2 as usize)).collect();
-    let folded: Vec<bool> = blocks.iter().map(|d| d.entries.len() == 1 && one[d.entries[0].0 as usize]).collect();
+    let folded: Vec<bool> = blocks.iter().map(|d| d.entries.len() == 1 && one[d.entries[0] as usize]).collect();
     let still: Vec<bool> = d.blocks.iter().map(|b| b.rows.len() == 1 && still.get(b.rows[0]) == Some(&true)).collect();
     let Ok(mut program) = Triangular::program(&blocks, &place, store, n, &folded, &still) else { return false };
-    let off_entries: Vec<(u32, f64)> = off.iter().map(|x| (x.3, x.4)).collect();
-    let Ok(factoring) = Triangular::factoring(&blocks, &off_entries, store, layout.at.len(), &folded) else {
-        return false;
-    };
+    let off_entries: Vec<u32> = off.iter().map(|x| x.3).collect();
     let (mut gather, mut scatter) = (vec![0; n], vec![0; n]);
     for i in 0..n {
         gather[row_pos[i]] = i;
         scatter[col_pos[i]] = i;
     }
+    let row_scale: Vec<f64> = gather.iter().map(|&i| layout.scale[i]).collect();
+    let col_scale: Vec<f64> = scatter.iter().map(|&j| layout.col_scale[j]).collect();
+    let Ok(factoring) =
+        Triangular::factoring(&blocks, &off_entries, store, layout.at.len(), &folded, &row_scale, &col_scale)
+    else {
+        return false;
+    };
     program.renumber(&scatter); // the solve runs in the coordinates (Triangular::run)
     let t = Triangular {
         blocks,
@@ -246,8 +248,7 @@ pub(crate) fn triangulate_still(
         off_at: store,
         program,
         factoring,
-        into: (0..n).map(|i| (scatter[row_pos[i]] as u32, 1.0 / layout.scale[i])).collect(),
-        col_scale: layout.col_scale.clone(),
+        into: (0..n).map(|i| scatter[row_pos[i]] as u32).collect(),
         sign: crate::order::parity(&gather) * crate::order::parity(&scatter),
         gather,
         scatter,

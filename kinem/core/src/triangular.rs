@@ -164,7 +164,6 @@ impl Program {
 pub trait Cell<A>: Copy {
     fn sub_mul(&mut self, a: A, x: Self);
     fn div(&mut self, a: A);
-    fn scaled(self, s: f64) -> Self;
     fn zero(&self) -> bool;
 }
 
@@ -180,10 +179,6 @@ impl<S: Real> Cell<S> for S {
     #[inline(always)]
     fn div(&mut self, a: S) {
         *self = *self / a;
-    }
-    #[inline(always)]
-    fn scaled(self, s: f64) -> S {
-        self * s
     }
 }
 
@@ -204,16 +199,12 @@ impl<const N: usize> Cell<f64> for [f64; N] {
             *y /= a;
         }
     }
-    #[inline(always)]
-    fn scaled(self, s: f64) -> Self {
-        self.map(|y| y * s)
-    }
 }
 
 /// The blocks' factorisation as flat lists over Factors::j (issue 31 item
-/// 4): the fill to clear, every entry's placement (values[e] times its
-/// scale at `at`: off-diagonal, 1x1 and larger blocks alike, but for the
-/// folded pivots: `ones`), then each
+/// 4): the fill to clear, every entry's placement (values[e] at `at`:
+/// off-diagonal, 1x1 and larger blocks alike, but for the folded pivots:
+/// `ones`), then each
 /// elimination step `[pivot, end]` of the larger blocks' fixed orders, its
 /// multipliers `mults[..end]` (`[at, end]`: l = a[at] / pivot, then a[dst]
 /// -= l a[src] for `pairs[..end]`), then the n pivots `diag` (position
@@ -221,28 +212,41 @@ impl<const N: usize> Cell<f64> for [f64; N] {
 /// Order::numeric block after block (the skip of a zero multiplier dropped;
 /// a multiplier above MULTIPLIER still rejects the order, after the loop).
 ///
+/// The factors are Phi_q's own, unscaled (issue 31 round 10): in the same
+/// fixed order, Phi_q = L U where J_s = R^-1 Phi_q C (R, C: the rows' and
+/// coordinates' scales, crate::lu) has L_s = R^-1 L R and U_s = R^-1 U C,
+/// so the solve needs no scale. The checks keep J_s's meaning: multiplier
+/// l_ik is tested as l_ik r_k / r_i (`mult_scale`), pivot p's figures are
+/// u_pp c_p / r_p (`pivot_scale`): J_s's at rounding.
+///
 /// Invariants, checked once by `Factoring::check` when the model is built:
 /// every index into the values below `values`, every entry below `entries`,
 /// the ends ascend and the last ones are mults.len() and pairs.len().
 #[derive(Clone, Debug, Default)]
 pub struct Factoring {
     pub clear: Vec<u32>,
-    pub place: Vec<(u32, u32, f64)>,
+    pub place: Vec<[u32; 2]>,
     pub steps: Vec<[u32; 2]>,
     pub mults: Vec<[u32; 2]>,
+    /// per multiplier: r_k / r_i (its row i's and pivot k's row scales)
+    pub mult_scale: Vec<f64>,
     pub pairs: Vec<[u32; 2]>,
     pub diag: Vec<u32>,
+    /// per position p: c_p / r_p (J_s's pivot over Phi_q's)
+    pub pivot_scale: Vec<f64>,
     /// the folded pivots (`Program`): their places, set to 1 once when the
     /// factors are made (`init`) and never written again, and their
-    /// entries (Jacobian entry, scale): a factorisation where one's scaled
-    /// value is not exactly 1 is refused (the fallback takes it)
+    /// Jacobian entries: a factorisation where one is not exactly 1 is
+    /// refused (the fallback takes it)
     pub ones: Vec<u32>,
-    pub one_entries: Vec<(u32, f64)>,
-    /// the pivots not folded, [value index, position], and the first
-    /// folded one's position (n: none): `run` reads only those, the folded
-    /// ones being 1
-    pub free: Vec<[u32; 2]>,
+    pub one_entries: Vec<u32>,
+    /// the pivots not folded (value index, position, pivot_scale), and the
+    /// folded ones' figures, constant (their pivots being 1): the first
+    /// position of the smallest c_p / r_p (n: none), that one and the largest
+    pub free: Vec<(u32, u32, f64)>,
     pub first_one: u32,
+    pub ones_small: f64,
+    pub ones_big: f64,
     pub values: usize,
     pub entries: usize,
 }
@@ -254,14 +258,16 @@ impl Factoring {
         let bad = |x: u32| x as usize >= v;
         if v >= u32::MAX as usize
             || self.clear.iter().any(|&x| bad(x))
-            || self.place.iter().any(|&(e, at, _)| e as usize >= self.entries || bad(at))
+            || self.place.iter().any(|&[e, at]| e as usize >= self.entries || bad(at))
             || self.steps.iter().any(|s| bad(s[0]))
             || self.mults.iter().any(|m| bad(m[0]))
             || self.pairs.iter().any(|p| bad(p[0]) || bad(p[1]))
             || self.diag.iter().any(|&x| bad(x))
             || self.ones.iter().any(|&x| bad(x))
-            || self.one_entries.iter().any(|&(e, _)| e as usize >= self.entries)
-            || self.free.iter().any(|f| bad(f[0]))
+            || self.one_entries.iter().any(|&e| e as usize >= self.entries)
+            || self.free.iter().any(|f| bad(f.0))
+            || self.mult_scale.len() != self.mults.len()
+            || self.pivot_scale.len() != self.diag.len()
         {
             return Err("factoring: an index out of range".into());
         }
@@ -293,10 +299,10 @@ impl Factoring {
 
     /// Assembles and eliminates into a (Factors::j, `init` once) from the Jacobian's
     /// values, over f64 or over lanes (crate::lane_lu), the same operations
-    /// in the same order; `multiplier` sees every multiplier (the caller's
-    /// check against MULTIPLIER).
+    /// in the same order; `multiplier` sees every multiplier with its
+    /// `mult_scale` (the caller's check against MULTIPLIER).
     #[inline]
-    pub fn eliminate<S: Real>(&self, values: &[S], a: &mut [S], mut multiplier: impl FnMut(S)) {
+    pub fn eliminate<S: Real>(&self, values: &[S], a: &mut [S], mut multiplier: impl FnMut(S, f64)) {
         assert!(a.len() >= self.values && values.len() >= self.entries);
         debug_assert!(self.check().is_ok());
         // SAFETY (every unchecked index below): Factoring::check when built, and the lengths asserted above
@@ -304,15 +310,16 @@ impl Factoring {
             for &at in &self.clear {
                 *a.get_unchecked_mut(at as usize) = S::zero();
             }
-            for &(e, at, scale) in &self.place {
-                *a.get_unchecked_mut(at as usize) = *values.get_unchecked(e as usize) * scale;
+            for &[e, at] in &self.place {
+                *a.get_unchecked_mut(at as usize) = *values.get_unchecked(e as usize);
             }
             let (mut m0, mut p0) = (0usize, 0usize);
             for &[kk, m1] in &self.steps {
                 let r = S::one() / *a.get_unchecked(kk as usize);
-                for &[at, p1] in self.mults.get_unchecked(m0..m1 as usize) {
+                let scales = self.mult_scale.get_unchecked(m0..m1 as usize);
+                for (&[at, p1], &scale) in self.mults.get_unchecked(m0..m1 as usize).iter().zip(scales) {
                     let l = *a.get_unchecked(at as usize) * r;
-                    multiplier(l);
+                    multiplier(l, scale);
                     *a.get_unchecked_mut(at as usize) = l;
                     for &[dst, src] in self.pairs.get_unchecked(p0..p1 as usize) {
                         let x = *a.get_unchecked(src as usize);
@@ -327,24 +334,24 @@ impl Factoring {
     }
 
     /// Assembles and factorises into a (Factors::j) from the Jacobian's
-    /// values; the pivots' figures (det: times `sign`), None where a pivot
-    /// is zero or not finite, a multiplier above MULTIPLIER or a folded
-    /// pivot not exactly 1.
+    /// values; the pivots' figures (J_s's: det times `sign`), None where a
+    /// pivot is zero or not finite, a multiplier of J_s above MULTIPLIER or
+    /// a folded pivot not exactly 1.
     #[inline]
     pub fn run(&self, values: &[f64], a: &mut [f64], sign: i32) -> Option<Pivots> {
         let mut ok = true;
-        self.eliminate(values, a, |l: f64| ok &= l.abs() <= MULTIPLIER); // false for a zero or non-finite pivot too
-                                                                         // SAFETY (every unchecked index below): Factoring::check when built, and eliminate's asserted lengths
+        self.eliminate(values, a, |l: f64, scale| ok &= (l * scale).abs() <= MULTIPLIER); // false for a zero or non-finite pivot too
+                                                                                          // SAFETY (every unchecked index below): Factoring::check when built, and eliminate's asserted lengths
         unsafe {
-            for &(e, scale) in &self.one_entries {
-                ok &= *values.get_unchecked(e as usize) * scale == 1.0;
+            for &e in &self.one_entries {
+                ok &= *values.get_unchecked(e as usize) == 1.0;
             }
             if !ok {
                 return None;
             }
             let mut acc = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det: sign };
-            for &[at, p] in &self.free {
-                let d = *a.get_unchecked(at as usize);
+            for &(at, p, scale) in &self.free {
+                let d = *a.get_unchecked(at as usize) * scale;
                 let x = d.abs();
                 if !(x > 0.0 && x <= f64::MAX) {
                     return None; // zero or not finite
@@ -358,13 +365,13 @@ impl Factoring {
                 }
             }
             if (self.first_one as usize) < self.diag.len() {
-                // the folded pivots, each exactly 1 (checked above): the smallest is
-                // the first position of the least |pivot|, as the loop over all of them takes it
+                // the folded pivots, each exactly 1 (checked above): J_s's c_p / r_p, the
+                // smallest at the first position of the least, as the loop over all of them takes it
                 let p = self.first_one as usize;
-                if 1.0 < acc.small || (1.0 == acc.small && p < acc.at) {
-                    (acc.small, acc.at) = (1.0, p);
+                if self.ones_small < acc.small || (self.ones_small == acc.small && p < acc.at) {
+                    (acc.small, acc.at) = (self.ones_small, p);
                 }
-                acc.big = acc.big.max(1.0);
+                acc.big = acc.big.max(self.ones_big);
             }
             Some(acc)
         }
@@ -379,8 +386,8 @@ pub struct Diagonal {
     pub s: usize,
     pub store: usize,
     pub order: Option<Order>,
-    /// a 1x1 block's entries (Jacobian entry, scale): the last one sets it
-    pub entries: Vec<(u32, f64)>,
+    /// a 1x1 block's Jacobian entries: the last one sets it
+    pub entries: Vec<u32>,
 }
 
 /// The blocks in solve order, the entries below them, and the whole
@@ -388,9 +395,9 @@ pub struct Diagonal {
 #[derive(Clone, Debug)]
 pub struct Triangular {
     pub blocks: Vec<Diagonal>,
-    /// the off-diagonal entries (Jacobian entry, scale): their values are
-    /// stored in Factors::j from `off_at`, in this order
-    pub off_entries: Vec<(u32, f64)>,
+    /// the off-diagonal Jacobian entries: their values are stored in
+    /// Factors::j from `off_at`, in this order
+    pub off_entries: Vec<u32>,
     pub off_at: usize,
     /// the solve (`Program`) over Factors::j: block k's off-diagonal
     /// entries, then its division (1x1) or its elimination, block after
@@ -403,9 +410,8 @@ pub struct Triangular {
     pub gather: Vec<usize>,
     pub scatter: Vec<usize>,
     /// per model row i: the coordinate (the place of the program) that
-    /// b[i] / scale[i] goes to, and 1 / scale[i]; per coordinate j, its scale
-    pub into: Vec<(u32, f64)>,
-    pub col_scale: Vec<f64>,
+    /// b[i] goes to (the factors being Phi_q's, unscaled: `Factoring`)
+    pub into: Vec<u32>,
     /// the sign of the permutation into the blocks' order
     pub sign: i32,
     /// the fallback in the model's own order: positions of rows and
@@ -429,15 +435,15 @@ impl Triangular {
     }
 
     /// The invariants the solve relies on beyond its program's: gather and
-    /// scatter are permutations of the n positions, with a scale each.
+    /// scatter are permutations of the n positions, and so is into.
     pub fn check(&self) -> Result<(), String> {
         let n = self.gather.len();
         let perm = |p: &[usize]| {
             let mut seen = vec![false; n];
             p.len() == n && p.iter().all(|&i| i < n && !std::mem::replace(&mut seen[i], true))
         };
-        let into: Vec<usize> = self.into.iter().map(|&(j, _)| j as usize).collect();
-        if !perm(&self.gather) || !perm(&self.scatter) || !perm(&into) || self.col_scale.len() != n {
+        let into: Vec<usize> = self.into.iter().map(|&j| j as usize).collect();
+        if !perm(&self.gather) || !perm(&self.scatter) || !perm(&into) {
             return Err("triangular: gather, scatter and into are not permutations of the positions".into());
         }
         self.program.check()?;
@@ -483,17 +489,20 @@ impl Triangular {
     }
 
     /// The factorisation of the blocks (see `Factoring`) over `entries`
-    /// Jacobian entries (folded: the 1x1 blocks whose pivot must be 1),
-    /// checked (`Factoring::check`).
+    /// Jacobian entries (folded: the 1x1 blocks whose pivot must be 1;
+    /// row_scale, col_scale: per position, its row's and coordinate's
+    /// scales), checked (`Factoring::check`).
     pub fn factoring(
         blocks: &[Diagonal],
-        off: &[(u32, f64)],
+        off: &[u32],
         off_at: usize,
         entries: usize,
         folded: &[bool],
+        row_scale: &[f64],
+        col_scale: &[f64],
     ) -> Result<Factoring, String> {
         let mut f = Factoring { values: off_at + off.len(), entries, ..Factoring::default() };
-        f.place.extend(off.iter().enumerate().map(|(x, &(e, scale))| (e, (off_at + x) as u32, scale)));
+        f.place.extend(off.iter().enumerate().map(|(x, &e)| [e, (off_at + x) as u32]));
         for (k, d) in blocks.iter().enumerate() {
             match &d.order {
                 None if folded[k] => {
@@ -503,15 +512,40 @@ impl Triangular {
                     f.ones.push(d.store as u32);
                 }
                 None => {
-                    f.place.extend(d.entries.iter().map(|&(e, scale)| (e, d.store as u32, scale)));
+                    f.place.extend(d.entries.iter().map(|&e| [e, d.store as u32]));
                     f.diag.push(d.store as u32);
                 }
-                Some(o) => o.factoring(d.store, &mut f),
+                Some(o) => {
+                    let from = f.mults.len();
+                    o.factoring(d.store, &mut f);
+                    // multiplier (i, k) of the block at store + i s + k: rows d.at + i, d.at + k
+                    let rows = |at: u32| {
+                        let x = at as usize - d.store;
+                        (d.at + x / d.s, d.at + x % d.s)
+                    };
+                    let scales = f.mults[from..].iter().map(|m| rows(m[0])).map(|(i, k)| row_scale[k] / row_scale[i]);
+                    f.mult_scale.extend(scales.collect::<Vec<_>>());
+                }
             }
         }
+        if f.diag.len() != row_scale.len() || row_scale.len() != col_scale.len() {
+            return Err("factoring: a scale per position needed".into());
+        }
+        f.pivot_scale = (0..f.diag.len()).map(|p| col_scale[p] / row_scale[p]).collect();
         let folded_at = |at: &u32| f.ones.contains(at);
-        f.free = (f.diag.iter().enumerate()).filter(|(_, at)| !folded_at(at)).map(|(p, &at)| [at, p as u32]).collect();
-        f.first_one = f.diag.iter().position(folded_at).unwrap_or(f.diag.len()) as u32;
+        f.free = (f.diag.iter().enumerate())
+            .filter(|(_, at)| !folded_at(at))
+            .map(|(p, &at)| (at, p as u32, f.pivot_scale[p]))
+            .collect();
+        let ones = (f.diag.iter().enumerate()).filter(|(_, at)| folded_at(at)).map(|(p, _)| (f.pivot_scale[p], p));
+        let (mut small, mut big, mut first) = (f64::INFINITY, 0.0f64, f.diag.len());
+        for (x, p) in ones {
+            if x < small {
+                (small, first) = (x, p);
+            }
+            big = big.max(x);
+        }
+        (f.ones_small, f.ones_big, f.first_one) = (small, big, first as u32);
         f.check()?;
         Ok(f)
     }
@@ -566,24 +600,20 @@ impl Triangular {
     }
 
     /// x = Phi_q^-1 b with the blocks' factors a (block-triangular: not the
-    /// whole matrix's fallback): each row's right side over its scale into
-    /// its coordinate (`into`), the program in x itself, then each
-    /// coordinate times its scale: the same operations on the same figures
-    /// as over positions with a gather and a scatter, to the bit, without
-    /// the scatter's permutation. Over f64, variants' lanes or several
-    /// right-hand sides (`Cell`); w: the callers' scratch, not needed here.
+    /// whole matrix's fallback; Phi_q's own, unscaled: `Factoring`): each
+    /// row's right side into its coordinate (`into`), then the program in x
+    /// itself, without the scatter's permutation. Over f64, variants' lanes
+    /// or several right-hand sides (`Cell`); w: the callers' scratch, not
+    /// needed here.
     #[inline(always)]
     pub fn run<A: Copy, W: Cell<A>>(&self, a: &[A], b: &[W], x: &mut [W], _w: &mut [W]) {
         let n = self.into.len();
         assert!(b.len() >= n && x.len() >= n);
-        for (&v, &(j, scale)) in b.iter().zip(&self.into) {
+        for (&v, &j) in b.iter().zip(&self.into) {
             // SAFETY: into holds coordinates below n (Triangular::check, when built); x.len() >= n asserted
-            unsafe { *x.get_unchecked_mut(j as usize) = v.scaled(scale) };
+            unsafe { *x.get_unchecked_mut(j as usize) = v };
         }
         self.program.run(a, x);
-        for (v, &scale) in x[..n].iter_mut().zip(&self.col_scale) {
-            *v = v.scaled(scale);
-        }
     }
 
     /// (pivot ratio, det sign, position of the smallest |pivot| in the
