@@ -371,7 +371,9 @@ impl Factoring {
                 if self.ones_small < acc.small || (self.ones_small == acc.small && p < acc.at) {
                     (acc.small, acc.at) = (self.ones_small, p);
                 }
-                acc.big = acc.big.max(self.ones_big);
+                if self.ones_big > acc.big {
+                    acc.big = self.ones_big; // f64::max's figure: neither is NaN
+                }
             }
             Some(acc)
         }
