@@ -23,7 +23,7 @@ use crate::families::At;
 use crate::lane_lu::LaneLu;
 use crate::lu::{Factors, Layout};
 use crate::march::{limited, residual, size, MarchState, Settings};
-use crate::model::{follow, Kin, Rotation};
+use crate::model::{follow, Anchor, Kin, Rotation};
 use crate::newton::{self, Ask, Settled, Settling, Verdict, CHORD_STEPS};
 use crate::real::Real;
 use crate::step::{chord_start, predict, signs, Contraction};
@@ -145,6 +145,8 @@ struct Room {
     e: Vec<Complex<W>>,
     /// the angles e holds (NaN: none yet)
     seen: Vec<W>,
+    /// each angle's last e^{i a} from sin_cos, per lane (model::follow)
+    anchor: Vec<[Anchor; WIDTH]>,
     /// per lane: q was set (a start), not corrected, since e was rotated
     fresh: [bool; WIDTH],
     phi: Vec<W>,
@@ -165,14 +167,15 @@ impl Room {
     }
 
     /// e = e^{i q} at the angle columns, lane by lane as march::Native's
-    /// (Kin::rotate_changed: kept where q has not moved, sin_cos after a
-    /// start, turned after a correction: model::follow).
+    /// (Kin::rotate_changed: kept where q has not moved, from the anchor
+    /// after a start, turned after a correction: model::follow).
     fn rotate(&mut self, kin: &Kin<W>) {
         for &j in &kin.angles {
-            let (e, seen, q) = (&mut self.e[j], &mut self.seen[j].0, &self.q[j].0);
+            let (e, seen, anchor, q) = (&mut self.e[j], &mut self.seen[j].0, &mut self.anchor[j], &self.q[j].0);
             for l in 0..WIDTH {
                 let mut z = C64::new(e.re.0[l], e.im.0[l]);
-                follow(q[l], &mut seen[l], &mut z, if self.fresh[l] { Rotation::Fresh } else { Rotation::Turn });
+                let how = if self.fresh[l] { Rotation::Fresh } else { Rotation::Turn };
+                follow(q[l], &mut seen[l], &mut z, &mut anchor[l], how);
                 (e.re.0[l], e.im.0[l]) = (z.re, z.im);
             }
         }
@@ -218,6 +221,7 @@ pub fn march(
         q: vec![W::zero(); n],
         e: vec![Complex::new(W::one(), W::zero()); n],
         seen: vec![W::c(f64::NAN); n],
+        anchor: vec![[Anchor::NONE; WIDTH]; n],
         fresh: [true; WIDTH],
         phi: vec![W::zero(); m],
         values: vec![W::zero(); wide.nnz],
