@@ -26,7 +26,7 @@ use crate::march::{limited, residual, size, MarchState, Settings};
 use crate::model::{follow, Anchor, Kin, Rotation};
 use crate::newton::{self, Ask, Settled, Settling, Verdict, CHORD_STEPS};
 use crate::real::Real;
-use crate::step::{chord_start, predict, signs, Contraction};
+use crate::step::{biased_start, hermite_near, predict, signs, Bias, Contraction};
 use crate::table::Table;
 use crate::watch::Watch;
 use crate::wide::Wide;
@@ -126,7 +126,12 @@ struct Lane {
     qp: Vec<f64>,
     /// the predicted motion at this instant (dimensionless)
     motion: f64,
+    /// Hermite's start (its chord starts from it, biased, at this instant: `hermite`)
     start: Vec<f64>,
+    hermite: bool,
+    /// whether its next start adds the last one's error, room for the biased start (crate::step::Work's)
+    bias: Bias,
+    biased: Vec<f64>,
     judge: bool,
     chord: Chord,
     settled: Option<Settled>,
@@ -208,6 +213,9 @@ pub fn march(
             motion: 0.0,
             qp: vec![0.0; n],
             start: vec![0.0; n],
+            hermite: false,
+            bias: Bias::new(wide.smooth),
+            biased: vec![0.0; n],
             judge: false,
             chord: Chord::Off,
             settled: None,
@@ -262,9 +270,15 @@ pub fn march(
             }
             x.judge = predict(st, t, taylor_from, &mut x.qp);
             x.motion = gap(&x.qp, &st.q, col_scale);
+            x.hermite = x.held && hermite_near(st, t);
             if x.held {
                 let taylor = if taylor_from { Some(&x.qp[..]) } else { None };
-                let from = if chord_start(st, t, taylor, &mut x.start) { &x.start } else { &x.qp };
+                let from = if x.hermite {
+                    biased_start(st, t, taylor, &mut x.start, &x.bias, &mut x.biased);
+                    &x.biased
+                } else {
+                    &x.qp
+                };
                 for j in 0..n {
                     r.q[j].0[l] = from[j];
                 }
@@ -365,6 +379,8 @@ pub fn march(
             }
             x.held = true;
             x.memory.hold(pivot);
+            let chorded = matches!(x.chord, Chord::Done(..));
+            x.bias.measure(x.hermite && chorded, t - x.st.t);
             x.st.take(&r.dq, t, det, s.rates);
             if k == 0 {
                 x.det0 = det as i8;

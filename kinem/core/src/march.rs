@@ -299,7 +299,7 @@ pub fn run_rows(
     let mut result = (times.len(), Why::Accepted);
     let (mut next, mut tick) = (Instant::now(), 0u32);
     // ops.f holds the factorisation at the last accepted q (none before the first)
-    let mut c = Work::new(n);
+    let mut c = Work::new(n, kin.smooth);
     if k == 0 {
         st.restart();
     }

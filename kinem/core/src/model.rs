@@ -22,6 +22,10 @@ pub struct Kin<S = f64> {
     pub functions: Functions<S>,
     pub outlines: Outlines<S>,
     pub time_dependent: Vec<usize>, // families whose nu may be non-zero
+    /// no family reads an outline and no driving function is a table's
+    /// pieces: q(t) as smooth as the drivers' polynomials and harmonics
+    /// (the march's Hermite start then carries its last error: step::Bias)
+    pub smooth: bool,
     /// the tables it was built from (Kin::split builds its parts from them)
     tables: Vec<(String, Table)>,
     function_table: Table,
@@ -67,6 +71,8 @@ impl<S: Real> Kin<S> {
             f.bind(&shared);
         }
         let time_dependent = (0..list.len()).filter(|&k| list[k].time_dependent(&shared)).collect();
+        let pieces = functions_table.ints.get("kind").is_some_and(|k| k.contains(&crate::functions::PIECES));
+        let smooth = !pieces && !list.iter().any(|f| f.piecewise());
         Ok(Kin {
             n,
             m: *row_off.last().unwrap(),
@@ -78,6 +84,7 @@ impl<S: Real> Kin<S> {
             functions,
             outlines,
             time_dependent,
+            smooth,
             tables,
             function_table: functions_table.clone(),
             outline_table: outlines_table.clone(),

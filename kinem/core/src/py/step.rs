@@ -257,7 +257,7 @@ pub(crate) fn step<'py>(
         return Err(value_error("step: the state or col_scale has the wrong size"));
     }
     let s = march_settings(settings);
-    let (n, m) = (kin.n, kin.m);
+    let (n, m, smooth) = (kin.n, kin.m, kin.smooth);
     let mut o = PySteps {
         ops: PyOps { ops },
         kin,
@@ -269,7 +269,7 @@ pub(crate) fn step<'py>(
         gamma: vec![0.0; m],
     };
     let st = &mut state.0;
-    let outcome = guard_held(py, || march::step(&mut o, st, t, &s, mode, &mut march::Work::new(n)))?;
+    let outcome = guard_held(py, || march::step(&mut o, st, t, &s, mode, &mut march::Work::new(n, smooth)))?;
     let q = o.q.clone();
     Ok(Outcome::new(py, outcome, q, [0, 0]))
 }
