@@ -266,6 +266,10 @@ pub enum Rotation {
 /// of e's components.
 pub const TURN: f64 = 1e-4;
 
+/// Below this angle (2^-27 rad) a turn's 1 - d^2/2 is 1 and d - d^3/6 is d
+/// in floating point (d^2/2 under half an ulp of 1): the turn is e (1 + i d).
+const TINY: f64 = 7.450580596923828e-9;
+
 /// The largest angle (rad) from its anchor at which a step's start takes
 /// e^{i x} as the anchor's e^{i a} turned by x - a (`near`) instead of
 /// calling sin_cos (which then anchors the angle again at x).
@@ -314,7 +318,10 @@ pub fn follow(x: f64, seen: &mut f64, e: &mut C64, anchor: &mut Anchor, how: Rot
     }
     let d = x - *seen;
     let far = x - anchor.a;
-    if how == Rotation::Turn && d.abs() <= TURN {
+    if how == Rotation::Turn && d.abs() <= TINY {
+        // 1 - d^2/2 rounds to 1 and d - d^3/6 to d: the same figures as below, fewer operations
+        *e = C64::new(e.re - e.im * d, e.re * d + e.im);
+    } else if how == Rotation::Turn && d.abs() <= TURN {
         let d2 = d * d;
         *e *= C64::new(1.0 - 0.5 * d2, d - d * d2 * (1.0 / 6.0));
     } else if how == Rotation::Fresh && far.abs() <= NEAR {
@@ -376,6 +383,25 @@ mod tests {
                 follow(y, &mut seen, &mut e, &mut anchor, how);
                 assert_eq!(e, C64::new(y.cos(), y.sin()));
                 assert_eq!(anchor, Anchor { a: y, e });
+            }
+        }
+    }
+
+    /// A turn by an angle below TINY is the general turn's figure to the
+    /// bit (tolerance 0), for angles up to TINY of either sign.
+    #[test]
+    fn a_tiny_turn_is_the_general_one_to_the_bit() {
+        for k in 0..=2000 {
+            let small = TINY * (k as f64 / 1000.0 - 1.0) * if k % 3 == 0 { 1e-5 } else { 1.0 };
+            for x in [-2.9, 0.3, 1.7, 5.1] {
+                let e = C64::new(f64::cos(x), f64::sin(x));
+                let (mut seen, mut f, mut anchor) = (x, e, Anchor::NONE);
+                follow(x + small, &mut seen, &mut f, &mut anchor, Rotation::Turn);
+                // the general turn by the angle follow sees, (x + small) - x
+                let d = (x + small) - x;
+                let d2 = d * d;
+                let general = e * C64::new(1.0 - 0.5 * d2, d - d * d2 * (1.0 / 6.0));
+                assert_eq!((f.re.to_bits(), f.im.to_bits()), (general.re.to_bits(), general.im.to_bits()), "{x} {d}");
             }
         }
     }
