@@ -23,10 +23,10 @@ use crate::families::At;
 use crate::lane_lu::LaneLu;
 use crate::lu::{Factors, Layout};
 use crate::march::{limited, residual, size, MarchState, Settings};
-use crate::model::{follow, Kin, Rotation};
+use crate::model::{follow, Anchor, Kin, Rotation};
 use crate::newton::{self, Ask, Settled, Settling, Verdict, CHORD_STEPS};
 use crate::real::Real;
-use crate::step::{chord_start, predict, signs, Contraction};
+use crate::step::{biased_start, hermite_near, predict, signs, Bias, Contraction};
 use crate::table::Table;
 use crate::watch::Watch;
 use crate::wide::Wide;
@@ -126,7 +126,12 @@ struct Lane {
     qp: Vec<f64>,
     /// the predicted motion at this instant (dimensionless)
     motion: f64,
+    /// Hermite's start (its chord starts from it, biased, at this instant: `hermite`)
     start: Vec<f64>,
+    hermite: bool,
+    /// whether its next start adds the last one's error, room for the biased start (crate::step::Work's)
+    bias: Bias,
+    biased: Vec<f64>,
     judge: bool,
     chord: Chord,
     settled: Option<Settled>,
@@ -145,6 +150,8 @@ struct Room {
     e: Vec<Complex<W>>,
     /// the angles e holds (NaN: none yet)
     seen: Vec<W>,
+    /// each angle's last e^{i a} from sin_cos, per lane (model::follow)
+    anchor: Vec<[Anchor; WIDTH]>,
     /// per lane: q was set (a start), not corrected, since e was rotated
     fresh: [bool; WIDTH],
     phi: Vec<W>,
@@ -165,14 +172,15 @@ impl Room {
     }
 
     /// e = e^{i q} at the angle columns, lane by lane as march::Native's
-    /// (Kin::rotate_changed: kept where q has not moved, sin_cos after a
-    /// start, turned after a correction: model::follow).
+    /// (Kin::rotate_changed: kept where q has not moved, from the anchor
+    /// after a start, turned after a correction: model::follow).
     fn rotate(&mut self, kin: &Kin<W>) {
         for &j in &kin.angles {
-            let (e, seen, q) = (&mut self.e[j], &mut self.seen[j].0, &self.q[j].0);
+            let (e, seen, anchor, q) = (&mut self.e[j], &mut self.seen[j].0, &mut self.anchor[j], &self.q[j].0);
             for l in 0..WIDTH {
                 let mut z = C64::new(e.re.0[l], e.im.0[l]);
-                follow(q[l], &mut seen[l], &mut z, if self.fresh[l] { Rotation::Fresh } else { Rotation::Turn });
+                let how = if self.fresh[l] { Rotation::Fresh } else { Rotation::Turn };
+                follow(q[l], &mut seen[l], &mut z, &mut anchor[l], how);
                 (e.re.0[l], e.im.0[l]) = (z.re, z.im);
             }
         }
@@ -205,6 +213,9 @@ pub fn march(
             motion: 0.0,
             qp: vec![0.0; n],
             start: vec![0.0; n],
+            hermite: false,
+            bias: Bias::new(wide.smooth),
+            biased: vec![0.0; n],
             judge: false,
             chord: Chord::Off,
             settled: None,
@@ -218,6 +229,7 @@ pub fn march(
         q: vec![W::zero(); n],
         e: vec![Complex::new(W::one(), W::zero()); n],
         seen: vec![W::c(f64::NAN); n],
+        anchor: vec![[Anchor::NONE; WIDTH]; n],
         fresh: [true; WIDTH],
         phi: vec![W::zero(); m],
         values: vec![W::zero(); wide.nnz],
@@ -258,9 +270,15 @@ pub fn march(
             }
             x.judge = predict(st, t, taylor_from, &mut x.qp);
             x.motion = gap(&x.qp, &st.q, col_scale);
+            x.hermite = x.held && hermite_near(st, t);
             if x.held {
                 let taylor = if taylor_from { Some(&x.qp[..]) } else { None };
-                let from = if chord_start(st, t, taylor, &mut x.start) { &x.start } else { &x.qp };
+                let from = if x.hermite {
+                    biased_start(st, t, taylor, &mut x.start, &x.bias, &mut x.biased);
+                    &x.biased
+                } else {
+                    &x.qp
+                };
                 for j in 0..n {
                     r.q[j].0[l] = from[j];
                 }
@@ -361,6 +379,8 @@ pub fn march(
             }
             x.held = true;
             x.memory.hold(pivot);
+            let chorded = matches!(x.chord, Chord::Done(..));
+            x.bias.measure(x.hermite && chorded, t - x.st.t);
             x.st.take(&r.dq, t, det, s.rates);
             if k == 0 {
                 x.det0 = det as i8;

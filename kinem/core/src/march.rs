@@ -6,7 +6,7 @@
 use crate::accept::{most, Why};
 use crate::families::At;
 use crate::lu::{Factors, Layout};
-use crate::model::{Kin, Rotation};
+use crate::model::{Anchor, Kin, Rotation};
 use crate::newton::Ops;
 pub use crate::step::{rates_with, step, MarchState, Mode, Outcome, Settings, Step, Work, SINGULAR};
 use crate::watch::Watch;
@@ -42,6 +42,8 @@ pub struct Native<'a> {
     pub e: Vec<C64>,
     /// the angles e holds (NaN: none yet)
     seen: Vec<f64>,
+    /// each angle's last e^{i a} from sin_cos (model::follow)
+    anchor: Vec<Anchor>,
     pub phi: Vec<f64>,
     values: Vec<f64>,
     dq: Vec<f64>,
@@ -63,6 +65,7 @@ impl<'a> Native<'a> {
             q: vec![0.0; kin.n],
             e: vec![C64::new(1.0, 0.0); kin.n],
             seen: vec![f64::NAN; kin.n],
+            anchor: vec![Anchor::NONE; kin.n],
             phi: vec![0.0; kin.m],
             values: vec![0.0; kin.nnz],
             dq: vec![0.0; kin.n],
@@ -118,13 +121,13 @@ pub fn limited(big: f64, limit: f64) -> f64 {
 }
 
 impl Native<'_> {
-    /// e = e^{i q} at the angle columns, once per configuration: sin_cos
-    /// after a start, turned after a correction (model::follow).
+    /// e = e^{i q} at the angle columns, once per configuration: from the
+    /// angle's anchor after a start, turned after a correction (model::follow).
     #[inline]
     fn rotate(&mut self) {
         if !self.rotated {
             let how = if self.fresh { Rotation::Fresh } else { Rotation::Turn };
-            self.kin.rotate_changed(&self.q, &mut self.e, &mut self.seen, how);
+            self.kin.rotate_changed(&self.q, &mut self.e, &mut self.seen, &mut self.anchor, how);
             (self.rotated, self.fresh) = (true, false);
         }
     }
@@ -296,7 +299,7 @@ pub fn run_rows(
     let mut result = (times.len(), Why::Accepted);
     let (mut next, mut tick) = (Instant::now(), 0u32);
     // ops.f holds the factorisation at the last accepted q (none before the first)
-    let mut c = Work::new(n);
+    let mut c = Work::new(n, kin.smooth);
     if k == 0 {
         st.restart();
     }

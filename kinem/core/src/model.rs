@@ -22,6 +22,10 @@ pub struct Kin<S = f64> {
     pub functions: Functions<S>,
     pub outlines: Outlines<S>,
     pub time_dependent: Vec<usize>, // families whose nu may be non-zero
+    /// no family reads an outline and no driving function is a table's
+    /// pieces: q(t) as smooth as the drivers' polynomials and harmonics
+    /// (the march's Hermite start then carries its last error: step::Bias)
+    pub smooth: bool,
     /// the tables it was built from (Kin::split builds its parts from them)
     tables: Vec<(String, Table)>,
     function_table: Table,
@@ -67,6 +71,8 @@ impl<S: Real> Kin<S> {
             f.bind(&shared);
         }
         let time_dependent = (0..list.len()).filter(|&k| list[k].time_dependent(&shared)).collect();
+        let pieces = functions_table.ints.get("kind").is_some_and(|k| k.contains(&crate::functions::PIECES));
+        let smooth = !pieces && !list.iter().any(|f| f.piecewise());
         Ok(Kin {
             n,
             m: *row_off.last().unwrap(),
@@ -78,6 +84,7 @@ impl<S: Real> Kin<S> {
             functions,
             outlines,
             time_dependent,
+            smooth,
             tables,
             function_table: functions_table.clone(),
             outline_table: outlines_table.clone(),
@@ -225,15 +232,20 @@ impl Kin {
 
     /// `rotate` where q[j] has changed since `seen` (the angles e holds), as
     /// in a march: a grounded or sliding body's angle keeps its sin and cos;
-    /// after a correction (`Rotation::Turn`) e is turned by its small angle
-    /// (`follow`). Python's operations (kinem.analysis.Steps) call the same,
-    /// through kinem._core's Angles, so both steps agree to the bit.
+    /// at a step's start (`Rotation::Fresh`) e is its anchor's turned by
+    /// the angle since, after a correction (`Rotation::Turn`) e is turned by
+    /// its small angle (`follow`). Python's operations (kinem.analysis.Steps)
+    /// call the same, through kinem._core's Angles, so both steps agree to the bit.
     #[inline(always)]
-    pub fn rotate_changed(&self, q: &[f64], e: &mut [C64], seen: &mut [f64], how: Rotation) {
-        assert!(q.len() >= self.n && e.len() >= self.n && seen.len() >= self.n);
+    pub fn rotate_changed(&self, q: &[f64], e: &mut [C64], seen: &mut [f64], anchor: &mut [Anchor], how: Rotation) {
+        assert!(q.len() >= self.n && e.len() >= self.n && seen.len() >= self.n && anchor.len() >= self.n);
         for &j in &self.angles {
             // SAFETY: every angle column is below n (checked in Kin::new), the slices' lengths asserted above
-            unsafe { follow(*q.get_unchecked(j), seen.get_unchecked_mut(j), e.get_unchecked_mut(j), how) };
+            unsafe {
+                let (e, seen, anchor) =
+                    (e.get_unchecked_mut(j), seen.get_unchecked_mut(j), anchor.get_unchecked_mut(j));
+                follow(*q.get_unchecked(j), seen, e, anchor, how)
+            };
         }
     }
 }
@@ -241,35 +253,83 @@ impl Kin {
 /// How `follow` brings e^{i seen} to e^{i x}.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub enum Rotation {
-    /// x was set (a step's start): sin_cos where it moved, so that turns
-    /// never add up over the instants
+    /// x was set (a step's start): e^{i x} from the angle's anchor (an
+    /// e^{i a} of sin_cos), so that turns never add up over the instants
     Fresh,
     /// x was corrected: e turned by the correction where it is small
     Turn,
 }
 
-/// The largest angle (rad) by which `follow` turns e instead of calling
-/// sin_cos: cos d = 1 - d^2/2 and sin d = d - d^3/6 are then within 5e-18
-/// (d^4/24, d^5/120) of cos d and sin d, below rounding of e's components.
+/// The largest angle (rad) by which `follow` turns e after a correction
+/// instead of calling sin_cos: cos d = 1 - d^2/2 and sin d = d - d^3/6 are
+/// then within 5e-18 (d^4/24, d^5/120) of cos d and sin d, below rounding
+/// of e's components.
 pub const TURN: f64 = 1e-4;
+
+/// Below this angle (2^-27 rad) a turn's 1 - d^2/2 is 1 and d - d^3/6 is d
+/// in floating point (d^2/2 under half an ulp of 1): the turn is e (1 + i d).
+const TINY: f64 = 7.450580596923828e-9;
+
+/// The largest angle (rad) from its anchor at which a step's start takes
+/// e^{i x} as the anchor's e^{i a} turned by x - a (`near`) instead of
+/// calling sin_cos (which then anchors the angle again at x).
+pub const NEAR: f64 = 0.125;
+
+/// An angle column's last e^{i a} from sin_cos: a start's e^{i x} is
+/// e^{i a} e^{i (x - a)}, within a few roundings of sin_cos of x however
+/// many instants it has served (`follow`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Anchor {
+    a: f64,
+    e: C64,
+}
+
+impl Anchor {
+    /// None yet: the next start calls sin_cos.
+    pub const NONE: Anchor = Anchor { a: f64::NAN, e: C64::new(1.0, 0.0) };
+}
+
+/// e^{i d} for |d| <= NEAR: cos d and sin d by their Taylor series to d^10
+/// and d^11 (the next terms, d^12/12! and d^13/13!, below 1.5e-19 and 1e-21
+/// at NEAR: under rounding of cos d and sin d).
+#[inline(always)]
+pub fn near(d: f64) -> C64 {
+    let d2 = d * d;
+    let c =
+        1.0 + d2 * (-0.5 + d2 * (1.0 / 24.0 + d2 * (-1.0 / 720.0 + d2 * (1.0 / 40320.0 + d2 * (-1.0 / 3628800.0)))));
+    let s = d + d
+        * d2
+        * (-1.0 / 6.0 + d2 * (1.0 / 120.0 + d2 * (-1.0 / 5040.0 + d2 * (1.0 / 362880.0 + d2 * (-1.0 / 39916800.0)))));
+    C64::new(c, s)
+}
 
 /// e = e^{i x} from e = e^{i seen} (seen = x after): kept where x is seen
 /// bit for bit; by Turn where d = x - seen is at most TURN, e times
 /// (1 - d^2/2) + i (d - d^3/6) (a chord correction's Phi and the
 /// factorisation after it need no sin_cos: a few roundings per turn, at
-/// most CHORD_STEPS + a few turns per instant); else sin_cos.
+/// most CHORD_STEPS + a few turns per instant); by Fresh where x is within
+/// NEAR of the anchor's a, the anchor's e^{i a} times e^{i (x - a)}
+/// (`near`: a few roundings from sin_cos of x, whatever the instants
+/// before); else sin_cos, and x is the anchor.
 #[inline(always)]
-pub fn follow(x: f64, seen: &mut f64, e: &mut C64, how: Rotation) {
+pub fn follow(x: f64, seen: &mut f64, e: &mut C64, anchor: &mut Anchor, how: Rotation) {
     if x.to_bits() == seen.to_bits() && !x.is_nan() {
         return;
     }
     let d = x - *seen;
-    if how == Rotation::Turn && d.abs() <= TURN {
+    let far = x - anchor.a;
+    if how == Rotation::Turn && d.abs() <= TINY {
+        // 1 - d^2/2 rounds to 1 and d - d^3/6 to d: the same figures as below, fewer operations
+        *e = C64::new(e.re - e.im * d, e.re * d + e.im);
+    } else if how == Rotation::Turn && d.abs() <= TURN {
         let d2 = d * d;
         *e *= C64::new(1.0 - 0.5 * d2, d - d * d2 * (1.0 / 6.0));
+    } else if how == Rotation::Fresh && far.abs() <= NEAR {
+        *e = anchor.e * near(far);
     } else {
         let (s, c) = x.sin_cos();
         *e = C64::new(c, s);
+        *anchor = Anchor { a: x, e: *e };
     }
     *seen = x;
 }
@@ -299,30 +359,82 @@ mod tests {
 
     /// A turn by a correction's angle lands on sin_cos of the new angle to
     /// 2.5e-16 (a few roundings) per turn, through a chain of ten turns; a
-    /// larger angle or a fresh start calls sin_cos; an angle that has not
-    /// moved keeps e bit for bit.
+    /// larger angle calls sin_cos (and anchors the angle there); an angle
+    /// that has not moved keeps e bit for bit.
     #[test]
     fn a_turn_lands_on_sin_cos() {
         use Rotation::*;
         for k in 0..2000 {
             let x0 = -7.0 + 0.007 * k as f64;
-            let (mut seen, mut e) = (f64::NAN, C64::new(1.0, 0.0));
-            follow(x0, &mut seen, &mut e, Turn);
+            let (mut seen, mut e, mut anchor) = (f64::NAN, C64::new(1.0, 0.0), Anchor::NONE);
+            follow(x0, &mut seen, &mut e, &mut anchor, Turn);
             assert_eq!(e, C64::new(x0.cos(), x0.sin()));
             let mut x = x0;
             for i in 0..10 {
                 x += TURN * ((k * 7 + i * 3) % 11) as f64 / 10.0 * if i % 2 == 0 { 1.0 } else { -1.0 };
-                follow(x, &mut seen, &mut e, Turn);
+                follow(x, &mut seen, &mut e, &mut anchor, Turn);
                 let err = (e - C64::new(x.cos(), x.sin())).norm();
                 assert!(err <= 2.5e-16 * (i + 1) as f64, "{x}: {err} after {} turns", i + 1);
             }
             let kept = e;
-            follow(x, &mut seen, &mut e, Fresh);
+            follow(x, &mut seen, &mut e, &mut anchor, Fresh);
             assert_eq!(kept, e);
-            for (y, how) in [(x + 2.0 * TURN, Turn), (x + 1e-9, Fresh)] {
-                follow(y, &mut seen, &mut e, how);
+            for (y, how) in [(x + 2.0 * TURN, Turn), (x + 2.0 * NEAR, Fresh)] {
+                follow(y, &mut seen, &mut e, &mut anchor, how);
                 assert_eq!(e, C64::new(y.cos(), y.sin()));
+                assert_eq!(anchor, Anchor { a: y, e });
             }
         }
+    }
+
+    /// A turn by an angle below TINY is the general turn's figure to the
+    /// bit (tolerance 0), for angles up to TINY of either sign.
+    #[test]
+    fn a_tiny_turn_is_the_general_one_to_the_bit() {
+        for k in 0..=2000 {
+            let small = TINY * (k as f64 / 1000.0 - 1.0) * if k % 3 == 0 { 1e-5 } else { 1.0 };
+            for x in [-2.9, 0.3, 1.7, 5.1] {
+                let e = C64::new(f64::cos(x), f64::sin(x));
+                let (mut seen, mut f, mut anchor) = (x, e, Anchor::NONE);
+                follow(x + small, &mut seen, &mut f, &mut anchor, Rotation::Turn);
+                // the general turn by the angle follow sees, (x + small) - x
+                let d = (x + small) - x;
+                let d2 = d * d;
+                let general = e * C64::new(1.0 - 0.5 * d2, d - d * d2 * (1.0 / 6.0));
+                assert_eq!((f.re.to_bits(), f.im.to_bits()), (general.re.to_bits(), general.im.to_bits()), "{x} {d}");
+            }
+        }
+    }
+
+    /// A march's starts (Fresh) over 20,000 instants of steps up to past
+    /// NEAR, with up to five turns between them: every start's e^{i x}
+    /// within 2 ulps of 1 (4.5e-16, each component) of sin_cos of x however
+    /// long its anchor has served, no drift; `near` within 1.2e-16 of
+    /// sin_cos over |d| <= NEAR.
+    #[test]
+    fn a_start_from_its_anchor_lands_on_sin_cos_without_drift() {
+        use Rotation::*;
+        for k in 0..=10_000 {
+            let d = NEAR * (k as f64 / 5_000.0 - 1.0);
+            let (s, c) = d.sin_cos();
+            let z = near(d);
+            assert!((z.re - c).abs() <= 1.2e-16 && (z.im - s).abs() <= 1.2e-16, "{d}: {z} against {c} {s}");
+        }
+        let (mut seen, mut e, mut anchor) = (f64::NAN, C64::new(1.0, 0.0), Anchor::NONE);
+        let (mut x, mut worst) = (-3.0f64, 0.0f64);
+        for i in 0..20_000u64 {
+            // a step's motion: swinging, up to 0.15 rad (past NEAR), and back
+            let h = 0.15 * ((i as f64) * 0.0137).sin() * ((i * 7919 % 101) as f64 / 100.0);
+            x += h;
+            follow(x, &mut seen, &mut e, &mut anchor, Fresh);
+            let (s, c) = x.sin_cos();
+            worst = worst.max((e.re - c).abs()).max((e.im - s).abs());
+            assert!((e.re - c).abs() <= 4.5e-16 && (e.im - s).abs() <= 4.5e-16, "{i}: {x}: {e} against {c} {s}");
+            for j in 0..(i % 6) {
+                x += 1e-6 * (j as f64 - 2.5);
+                follow(x, &mut seen, &mut e, &mut anchor, Turn);
+            }
+        }
+        assert!(worst > 0.0);
     }
 }

@@ -535,7 +535,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     let rows = model.row_off[k]..model.row_off[k + 1];
                     let r3 = if levels > 2 { &mut rhs3[rows.clone()] } else { &mut [][..] };
                     let d = Dir { at: At { q, e, t }, qd: x[1], s, sd: &[], moved };
-                    model.families[k].jac_products(&d, &x[1..], &mut rhs[rows], r3);
+                    model.families[k].jac_products(&d, &shared, &x[1..], &mut rhs[rows], r3);
                 }
                 self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[n..2 * n]);
                 if lanes {

@@ -11,11 +11,11 @@
 //! and along a motion, without the terms in the accelerations,
 //!     a'  = i w a + g th',   a''  = -w^2 a + 2 i w th' g + th'^2 h,
 //!     g'  = i w g + h th',   g''  = -w^2 g + 2 i w th' h + th'^2 k.
-use super::{i, At, Shared};
+use super::{i, lane, At, Dir, Shared, I};
 use crate::outline::Curve;
-use crate::real::Real;
+use crate::real::{Lanes, Real};
 use crate::table::Table;
-use num_complex::Complex;
+use num_complex::{Complex, Complex64 as C64};
 
 /// a', a'', g', g'' along a motion with w = phi_c', th = theta' (the
 /// module's formulas).
@@ -185,6 +185,129 @@ impl<S: Real> PointOnCurve<S> {
                 (r.a2 + *self.sb.get_unchecked(c) * at.rot_at(y) * (w * w)) * S::c(-*self.sign.get_unchecked(c))
             };
             (o[0], o[1]) = (g.re, g.im);
+        }
+    }
+}
+
+/// The direct tangent kernels (super::Family::phi_tangent, jac_products,
+/// gamma_tangent) of Eqs. 4.26, 4.30 and their Jacobian and gamma: the
+/// outline's a, g, h, k at the analysis' theta and phi_c (one evaluation
+/// over the lanes at q' = 0: the values, and the outline table's tangents
+/// where it is moved), then, lane by lane along q' = s (qd' = sd),
+///     Da = i a s_phic + g s_th + d(a),   Dg = i g s_phic + h s_th + d(g),
+///     Dh = i h s_phic + k s_th + d(h),   Db = i b s_phib + A_b d(s'_b),
+/// with b = A_b s'_b and d(.) the tables' tangents.
+impl<const N: usize> PointOnCurve<Lanes<N>> {
+    /// The outline's place at constraint c with the tables' tangents alone.
+    ///
+    /// # Safety
+    /// c < cb.len() and `at.holds(n)` (PointOnCurve's invariants).
+    #[inline(always)]
+    unsafe fn fixed(&self, at: &At, s: &Shared<Lanes<N>>, c: usize) -> Curve<Lanes<N>> {
+        let (o, cc, ct) =
+            (*self.curve.o.get_unchecked(c), *self.curve.cc.get_unchecked(c), *self.curve.ct.get_unchecked(c));
+        let lift = |z: C64| Complex::new(Lanes::c(z.re), Lanes::c(z.im));
+        s.outlines.curve(o, Lanes::c(*at.q.get_unchecked(ct)), lift(*at.e.get_unchecked(ct)), lift(at.rot_at(cc)))
+    }
+
+    /// d/dp of Eqs. 4.26, 4.30 at q' = 0: sigma (d(a) - A_b d(s'_b)).
+    pub fn phi_tangent(&self, at: &At, s: &Shared<Lanes<N>>, out: &mut [[f64; N]]) {
+        assert!(at.holds(self.n) && out.len() >= 2 * self.cb.len());
+        for (c, o) in out.chunks_exact_mut(2).take(self.cb.len()).enumerate() {
+            // SAFETY: c < cb.len() (every column has its rows: new), q and e hold n (asserted above)
+            let (p, eb, sb, k) = unsafe {
+                let y = *self.cb.get_unchecked(c);
+                (self.fixed(at, s, c), at.rot_at(y), *self.sb.get_unchecked(c), *self.sign.get_unchecked(c))
+            };
+            for l in 0..N {
+                let d = (lane(p.a, l).1 - lane(sb, l).1 * eb) * k;
+                (o[0][l], o[1][l]) = (d.re, d.im);
+            }
+        }
+    }
+
+    /// r2 -= D(J) v[0], r3 -= D(J) v[1]: D(J) w = sigma (i Da w_phic +
+    /// Dg w_th - i Db w_phib).
+    pub fn jac_products(
+        &self,
+        d: &Dir<N>,
+        s: &Shared<Lanes<N>>,
+        v: &[&[f64]],
+        r2: &mut [[f64; N]],
+        r3: &mut [[f64; N]],
+    ) {
+        let (at, sq, moved) = (&d.at, d.s, d.moved);
+        let n = self.n;
+        assert!(at.holds(n) && sq.len() >= n && v.iter().all(|x| x.len() >= n) && r2.len() >= 2 * self.cb.len());
+        assert!(v.len() < 2 || r3.len() >= 2 * self.cb.len());
+        for c in 0..self.cb.len() {
+            // SAFETY: c < cb.len(); cc, cb < n - 2, ct < n (new); e, s and v hold n, r2, r3 two rows per constraint (asserted above)
+            unsafe {
+                let (y, cc, ct) =
+                    (*self.cb.get_unchecked(c), *self.curve.cc.get_unchecked(c), *self.curve.ct.get_unchecked(c));
+                let (p, eb, sb, k) =
+                    (self.fixed(at, s, c), at.rot_at(y), *self.sb.get_unchecked(c), *self.sign.get_unchecked(c));
+                let (a, g, h) = (lane(p.a, 0).0, lane(p.g, 0).0, lane(p.h, 0).0);
+                let b = C64::new(sb.re.v, sb.im.v) * eb;
+                let (sc, st, sy) = (sq.get_unchecked(cc + 2), sq.get_unchecked(ct), sq.get_unchecked(y + 2));
+                for l in 0..N {
+                    let (mut da, mut dg, mut db) =
+                        (I * a * sc[l] + g * st[l], I * g * sc[l] + h * st[l], I * b * sy[l]);
+                    if moved {
+                        (da, dg, db) = (da + lane(p.a, l).1, dg + lane(p.g, l).1, db + lane(sb, l).1 * eb);
+                    }
+                    for (w, r) in v.iter().zip([&mut *r2, &mut *r3]) {
+                        let (wc, wt, wy) = (*w.get_unchecked(cc + 2), *w.get_unchecked(ct), *w.get_unchecked(y + 2));
+                        let dv = (I * da * wc + dg * wt - I * db * wy) * k;
+                        r.get_unchecked_mut(2 * c)[l] -= dv.re;
+                        r.get_unchecked_mut(2 * c + 1)[l] -= dv.im;
+                    }
+                }
+            }
+        }
+    }
+
+    /// D(gamma) of -sigma (a'' + b w_b^2), a'' = -w^2 a + 2 i w th g + th^2 h.
+    pub fn gamma_tangent(&self, d: &Dir<N>, s: &Shared<Lanes<N>>, out: &mut [[f64; N]]) {
+        let (at, qd, sq, sd, moved) = (&d.at, d.qd, d.s, d.sd, d.moved);
+        let n = self.n;
+        assert!(at.holds(n) && qd.len() >= n && sq.len() >= n && sd.len() >= n && out.len() >= 2 * self.cb.len());
+        for c in 0..self.cb.len() {
+            // SAFETY: as in jac_products (qd, sd hold n too: asserted above)
+            unsafe {
+                let (y, cc, ct) =
+                    (*self.cb.get_unchecked(c), *self.curve.cc.get_unchecked(c), *self.curve.ct.get_unchecked(c));
+                let (p, eb, sb, k) =
+                    (self.fixed(at, s, c), at.rot_at(y), *self.sb.get_unchecked(c), *self.sign.get_unchecked(c));
+                let (a, g, h, kk) = (lane(p.a, 0).0, lane(p.g, 0).0, lane(p.h, 0).0, lane(p.k, 0).0);
+                let b = C64::new(sb.re.v, sb.im.v) * eb;
+                let (w, th, wb) = (*qd.get_unchecked(cc + 2), *qd.get_unchecked(ct), *qd.get_unchecked(y + 2));
+                let (sc, st, sy) = (sq.get_unchecked(cc + 2), sq.get_unchecked(ct), sq.get_unchecked(y + 2));
+                let (dwc, dth, dwb) = (sd.get_unchecked(cc + 2), sd.get_unchecked(ct), sd.get_unchecked(y + 2));
+                for l in 0..N {
+                    let (mut da, mut dg, mut dh, mut db) = (
+                        I * a * sc[l] + g * st[l],
+                        I * g * sc[l] + h * st[l],
+                        I * h * sc[l] + kk * st[l],
+                        I * b * sy[l],
+                    );
+                    if moved {
+                        da += lane(p.a, l).1;
+                        dg += lane(p.g, l).1;
+                        dh += lane(p.h, l).1;
+                        db += lane(sb, l).1 * eb;
+                    }
+                    let (dw, dt, dy) = (dwc[l], dth[l], dwb[l]);
+                    let a2 = -a * (2.0 * w * dw) - da * (w * w)
+                        + I * g * (2.0 * (dw * th + w * dt))
+                        + I * dg * (2.0 * w * th)
+                        + h * (2.0 * th * dt)
+                        + dh * (th * th);
+                    let dv = (a2 + db * (wb * wb) + b * (2.0 * wb * dy)) * -k;
+                    out.get_unchecked_mut(2 * c)[l] += dv.re;
+                    out.get_unchecked_mut(2 * c + 1)[l] += dv.im;
+                }
+            }
         }
     }
 }

@@ -248,9 +248,10 @@ impl<S> Family<S> {
     }
 
     /// Whether the kind has the direct tangent kernels (phi_tangent,
-    /// jac_products, gamma_tangent over Lanes<N>): simple, revolute, line.
+    /// jac_products, gamma_tangent over Lanes<N>): simple, revolute, line,
+    /// point-on-curve.
     pub fn direct(&self) -> bool {
-        matches!(self, Family::Simple(_) | Family::Revolute(_) | Family::Line(_))
+        matches!(self, Family::Simple(_) | Family::Revolute(_) | Family::Line(_) | Family::PointOnCurve(_))
     }
 }
 
@@ -269,6 +270,7 @@ impl<const N: usize> Family<Lanes<N>> {
             Family::Simple(f) => f.phi_tangent(at, s, out),
             Family::Revolute(f) => f.phi_tangent(at, out),
             Family::Line(f) => f.phi_tangent(at, out),
+            Family::PointOnCurve(f) => f.phi_tangent(at, s, out),
             _ => return false,
         }
         true
@@ -277,11 +279,19 @@ impl<const N: usize> Family<Lanes<N>> {
     /// The (S2), (S3) products with D(J) = D_s J + J_p, the Jacobian's
     /// tangent along q' = s and the tables: r2 -= D(J) v[0] (qd) and, when
     /// v[1] (qdd) is given, r3 -= D(J) v[1], over the family's rows.
-    pub fn jac_products(&self, d: &Dir<N>, v: &[&[f64]], r2: &mut [[f64; N]], r3: &mut [[f64; N]]) -> bool {
+    pub fn jac_products(
+        &self,
+        d: &Dir<N>,
+        s: &Shared<Lanes<N>>,
+        v: &[&[f64]],
+        r2: &mut [[f64; N]],
+        r3: &mut [[f64; N]],
+    ) -> bool {
         match self {
             Family::Simple(f) => f.jac_products(d, v, r2, r3),
             Family::Revolute(f) => f.jac_products(d, v, r2, r3),
             Family::Line(f) => f.jac_products(d, v, r2, r3),
+            Family::PointOnCurve(f) => f.jac_products(d, s, v, r2, r3),
             _ => return false,
         }
         true
@@ -294,6 +304,7 @@ impl<const N: usize> Family<Lanes<N>> {
             Family::Simple(f) => f.gamma_tangent(d, s, out),
             Family::Revolute(f) => f.gamma_tangent(d, out),
             Family::Line(f) => f.gamma_tangent(d, out),
+            Family::PointOnCurve(f) => f.gamma_tangent(d, s, out),
             _ => return false,
         }
         true

@@ -281,7 +281,7 @@ fn check_direct(kind: &str, tabs: &[Table; 3], art: usize, q: &[f64], qd: &[f64]
         near("D(gamma)", &out.iter().map(|x| x[0]).collect::<Vec<_>>(), &want, 1e-12);
     }
     let (mut r2, mut r3) = (vec![[0.0]; m], vec![[0.0]; m]);
-    if fam.jac_products(&dir, &[qd, &w], &mut r2, &mut r3) {
+    if fam.jac_products(&dir, &shared, &[qd, &w], &mut r2, &mut r3) {
         for (v, r) in [(qd, &r2), (&w[..], &r3)] {
             let phi = |h: f64| -> Vec<f64> {
                 let qs: Vec<f64> = q.iter().zip(v).map(|(a, b)| a + h * b).collect();

@@ -521,7 +521,7 @@ impl Plan {
         let (kin, layout, st) = (&*self.kin, &*self.layout, &mut state.0);
         let (o, q, counts) = guard(py, move || {
             let mut ops = march::Native::new(kin, layout);
-            let Ok(o) = march::step(&mut ops, st, t, &s, mode, &mut march::Work::new(kin.n));
+            let Ok(o) = march::step(&mut ops, st, t, &s, mode, &mut march::Work::new(kin.n, kin.smooth));
             Ok((o, ops.q, ops.counts))
         })?;
         Ok(Outcome::new(py, o, q, counts))

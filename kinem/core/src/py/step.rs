@@ -39,8 +39,9 @@ impl Lu {
 }
 
 /// e^{i q} at a step's q as the core's march holds it (march::Native,
-/// Kin::rotate_changed): kept where q has not moved, sin_cos after
-/// `start`, turned by a correction's small angle after one (model::follow);
+/// Kin::rotate_changed): kept where q has not moved, after `start` its
+/// anchor's e^{i a} turned by the angle since (sin_cos where it is far),
+/// turned by a correction's small angle after one (model::follow);
 /// Phi and the Jacobian's values with it. kinem.analysis.Steps evaluates
 /// with it (Core.angles()), and the step's rates read its e, so that its
 /// steps agree with the core's to the bit.
@@ -49,13 +50,20 @@ pub(crate) struct Angles {
     kin: Arc<Kin>,
     e: Vec<C64>,
     seen: Vec<f64>,
+    anchor: Vec<Anchor>,
     fresh: bool,
 }
 
 impl Angles {
     pub(crate) fn new(kin: Arc<Kin>) -> Self {
         let n = kin.n;
-        Angles { kin, e: vec![C64::new(1.0, 0.0); n], seen: vec![f64::NAN; n], fresh: true }
+        Angles {
+            kin,
+            e: vec![C64::new(1.0, 0.0); n],
+            seen: vec![f64::NAN; n],
+            anchor: vec![Anchor::NONE; n],
+            fresh: true,
+        }
     }
 
     /// e at q as march::Native brings it there.
@@ -64,7 +72,7 @@ impl Angles {
             return Err(value_error("Angles: q has the wrong size"));
         }
         let how = if self.fresh { Rotation::Fresh } else { Rotation::Turn };
-        self.kin.rotate_changed(q, &mut self.e, &mut self.seen, how);
+        self.kin.rotate_changed(q, &mut self.e, &mut self.seen, &mut self.anchor, how);
         self.fresh = false;
         Ok(())
     }
@@ -249,7 +257,7 @@ pub(crate) fn step<'py>(
         return Err(value_error("step: the state or col_scale has the wrong size"));
     }
     let s = march_settings(settings);
-    let (n, m) = (kin.n, kin.m);
+    let (n, m, smooth) = (kin.n, kin.m, kin.smooth);
     let mut o = PySteps {
         ops: PyOps { ops },
         kin,
@@ -261,7 +269,7 @@ pub(crate) fn step<'py>(
         gamma: vec![0.0; m],
     };
     let st = &mut state.0;
-    let outcome = guard_held(py, || march::step(&mut o, st, t, &s, mode, &mut march::Work::new(n)))?;
+    let outcome = guard_held(py, || march::step(&mut o, st, t, &s, mode, &mut march::Work::new(n, smooth)))?;
     let q = o.q.clone();
     Ok(Outcome::new(py, outcome, q, [0, 0]))
 }
