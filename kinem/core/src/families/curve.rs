@@ -189,6 +189,17 @@ impl<S: Real> PointOnCurve<S> {
     }
 }
 
+/// A constraint's columns and values at the analysis (`PointOnCurve::place`).
+struct Place<const N: usize> {
+    y: usize,
+    cc: usize,
+    ct: usize,
+    p: Curve<Lanes<N>>,
+    eb: C64,
+    sb: Complex<Lanes<N>>,
+    k: f64,
+}
+
 /// The direct tangent kernels (super::Family::phi_tangent, jac_products,
 /// gamma_tangent) of Eqs. 4.26, 4.30 and their Jacobian and gamma: the
 /// outline's a, g, h, k at the analysis' theta and phi_c (one evaluation
@@ -210,15 +221,31 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
         s.outlines.curve(o, Lanes::c(*at.q.get_unchecked(ct)), lift(*at.e.get_unchecked(ct)), lift(at.rot_at(cc)))
     }
 
+    /// Constraint c at the analysis: its columns, the outline's place with
+    /// the tables' tangents (`fixed`), e^{i phi_b}, s'_b and the sign.
+    ///
+    /// # Safety
+    /// As `fixed`.
+    #[inline(always)]
+    unsafe fn place(&self, at: &At, s: &Shared<Lanes<N>>, c: usize) -> Place<N> {
+        let y = *self.cb.get_unchecked(c);
+        Place {
+            y,
+            cc: *self.curve.cc.get_unchecked(c),
+            ct: *self.curve.ct.get_unchecked(c),
+            p: self.fixed(at, s, c),
+            eb: at.rot_at(y),
+            sb: *self.sb.get_unchecked(c),
+            k: *self.sign.get_unchecked(c),
+        }
+    }
+
     /// d/dp of Eqs. 4.26, 4.30 at q' = 0: sigma (d(a) - A_b d(s'_b)).
     pub fn phi_tangent(&self, at: &At, s: &Shared<Lanes<N>>, out: &mut [[f64; N]]) {
         assert!(at.holds(self.n) && out.len() >= 2 * self.cb.len());
         for (c, o) in out.chunks_exact_mut(2).take(self.cb.len()).enumerate() {
             // SAFETY: c < cb.len() (every column has its rows: new), q and e hold n (asserted above)
-            let (p, eb, sb, k) = unsafe {
-                let y = *self.cb.get_unchecked(c);
-                (self.fixed(at, s, c), at.rot_at(y), *self.sb.get_unchecked(c), *self.sign.get_unchecked(c))
-            };
+            let Place { p, eb, sb, k, .. } = unsafe { self.place(at, s, c) };
             for l in 0..N {
                 let d = (lane(p.a, l).1 - lane(sb, l).1 * eb) * k;
                 (o[0][l], o[1][l]) = (d.re, d.im);
@@ -243,10 +270,7 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
         for c in 0..self.cb.len() {
             // SAFETY: c < cb.len(); cc, cb < n - 2, ct < n (new); e, s and v hold n, r2, r3 two rows per constraint (asserted above)
             unsafe {
-                let (y, cc, ct) =
-                    (*self.cb.get_unchecked(c), *self.curve.cc.get_unchecked(c), *self.curve.ct.get_unchecked(c));
-                let (p, eb, sb, k) =
-                    (self.fixed(at, s, c), at.rot_at(y), *self.sb.get_unchecked(c), *self.sign.get_unchecked(c));
+                let Place { y, cc, ct, p, eb, sb, k } = self.place(at, s, c);
                 let (a, g, h) = (lane(p.a, 0).0, lane(p.g, 0).0, lane(p.h, 0).0);
                 let b = C64::new(sb.re.v, sb.im.v) * eb;
                 let (sc, st, sy) = (sq.get_unchecked(cc + 2), sq.get_unchecked(ct), sq.get_unchecked(y + 2));
@@ -275,10 +299,7 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
         for c in 0..self.cb.len() {
             // SAFETY: as in jac_products (qd, sd hold n too: asserted above)
             unsafe {
-                let (y, cc, ct) =
-                    (*self.cb.get_unchecked(c), *self.curve.cc.get_unchecked(c), *self.curve.ct.get_unchecked(c));
-                let (p, eb, sb, k) =
-                    (self.fixed(at, s, c), at.rot_at(y), *self.sb.get_unchecked(c), *self.sign.get_unchecked(c));
+                let Place { y, cc, ct, p, eb, sb, k } = self.place(at, s, c);
                 let (a, g, h, kk) = (lane(p.a, 0).0, lane(p.g, 0).0, lane(p.h, 0).0, lane(p.k, 0).0);
                 let b = C64::new(sb.re.v, sb.im.v) * eb;
                 let (w, th, wb) = (*qd.get_unchecked(cc + 2), *qd.get_unchecked(ct), *qd.get_unchecked(y + 2));
