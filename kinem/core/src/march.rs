@@ -123,7 +123,7 @@ pub fn limited(big: f64, limit: f64) -> f64 {
 impl Native<'_> {
     /// e = e^{i q} at the angle columns, once per configuration: from the
     /// angle's anchor after a start, turned after a correction (model::follow).
-    #[inline]
+    #[inline(always)]
     fn rotate(&mut self) {
         if !self.rotated {
             let how = if self.fresh { Rotation::Fresh } else { Rotation::Turn };
