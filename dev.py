@@ -43,24 +43,29 @@ def digest(paths) -> str:
 def ensure_env() -> None:
     """.venv with kinem installed (editable) and its core built: the
     dependencies again when pyproject.toml changes, the core alone when
-    only the crate's sources do."""
+    only the crate's sources do; kinem's Python byte-compiled (`compiled`)."""
     deps = digest([ROOT / "pyproject.toml"])
     core = digest([CRATE / "Cargo.toml", CRATE / "Cargo.lock", *sorted(CRATE.glob("src/**/*.rs"))])
     have = STAMP.read_text().split() if STAMP.exists() and PYTHON.exists() else []
-    if have == [deps, core]:
-        return
-    if not PYTHON.exists():
-        print("dev.py: creating .venv", file=sys.stderr)
-        venv.create(VENV, with_pip=True)
-    pip = [str(PYTHON), "-m", "pip", "--disable-pip-version-check", "-v"]
-    if have[:1] == [deps]:
-        with_progress(pip + ["install", "--no-deps", "-e", str(ROOT)], "rebuilding kinem's compiled core")
-    else:
-        with_progress(pip + ["install", "-e", f"{ROOT}[test]"],
-                      "installing kinem and its dependencies into .venv and building its core")
-    # its Python compiled here, once, as a wheel's install does: a run then writes no bytecode in the tree
+    if have != [deps, core]:
+        if not PYTHON.exists():
+            print("dev.py: creating .venv", file=sys.stderr)
+            venv.create(VENV, with_pip=True)
+        pip = [str(PYTHON), "-m", "pip", "--disable-pip-version-check", "-v"]
+        if have[:1] == [deps]:
+            with_progress(pip + ["install", "--no-deps", "-e", str(ROOT)], "rebuilding kinem's compiled core")
+        else:
+            with_progress(pip + ["install", "-e", f"{ROOT}[test]"],
+                          "installing kinem and its dependencies into .venv and building its core")
+        STAMP.write_text(f"{deps} {core}")
+    compiled()
+
+
+def compiled() -> None:
+    """kinem's Python byte-compiled here, as a wheel's install does, at every
+    command (only what changed since: a pull that edits Python alone leaves
+    the stamp as it is): a run then writes no bytecode in the tree."""
     subprocess.run([str(PYTHON), "-m", "compileall", "-q", "kinem", "adapters"], cwd=ROOT, check=True)
-    STAMP.write_text(f"{deps} {core}")
 
 
 # the lines of pip's and cargo's verbose output that mark a stage of the install
