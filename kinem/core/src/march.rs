@@ -6,7 +6,7 @@
 use crate::accept::{most, Why};
 use crate::families::At;
 use crate::lu::{Factors, Layout};
-use crate::model::{Anchor, Kin, Rotation};
+use crate::model::{Kin, Turning};
 use crate::newton::Ops;
 pub use crate::step::{rates_with, step, MarchState, Mode, Outcome, Settings, Step, Work, SINGULAR};
 use crate::watch::Watch;
@@ -39,11 +39,8 @@ pub struct Native<'a> {
     pub layout: &'a Layout,
     pub f: Factors,
     pub q: Vec<f64>,
-    pub e: Vec<C64>,
-    /// the angles e holds (NaN: none yet)
-    seen: Vec<f64>,
-    /// each angle's last e^{i a} from sin_cos (model::follow)
-    anchor: Vec<Anchor>,
+    /// e^{i q} at the angle columns (`turning.e`)
+    pub turning: Turning,
     pub phi: Vec<f64>,
     values: Vec<f64>,
     dq: Vec<f64>,
@@ -52,8 +49,6 @@ pub struct Native<'a> {
     pub counts: [i64; 2],
     /// e holds e^{i q} of the current q (q has not moved since)
     rotated: bool,
-    /// q was set (start), not corrected, since e was rotated: sin_cos, no turn
-    fresh: bool,
 }
 
 impl<'a> Native<'a> {
@@ -63,9 +58,7 @@ impl<'a> Native<'a> {
             layout,
             f: layout.factors(),
             q: vec![0.0; kin.n],
-            e: vec![C64::new(1.0, 0.0); kin.n],
-            seen: vec![f64::NAN; kin.n],
-            anchor: vec![Anchor::NONE; kin.n],
+            turning: Turning::new(kin.n),
             phi: vec![0.0; kin.m],
             values: vec![0.0; kin.nnz],
             dq: vec![0.0; kin.n],
@@ -73,7 +66,6 @@ impl<'a> Native<'a> {
             t: 0.0,
             counts: [0, 0],
             rotated: false,
-            fresh: true,
         }
     }
 }
@@ -126,9 +118,8 @@ impl Native<'_> {
     #[inline(always)]
     fn rotate(&mut self) {
         if !self.rotated {
-            let how = if self.fresh { Rotation::Fresh } else { Rotation::Turn };
-            self.kin.rotate_changed(&self.q, &mut self.e, &mut self.seen, &mut self.anchor, how);
-            (self.rotated, self.fresh) = (true, false);
+            self.turning.to(self.kin, &self.q);
+            self.rotated = true;
         }
     }
 }
@@ -138,7 +129,7 @@ impl Ops for Native<'_> {
 
     fn evaluate(&mut self, _: i64) -> Result<f64, Infallible> {
         self.rotate();
-        self.kin.phi(&At { q: &self.q, e: &self.e, t: self.t }, &mut self.phi);
+        self.kin.phi(&At { q: &self.q, e: &self.turning.e, t: self.t }, &mut self.phi);
         Ok(residual(&self.phi, &self.layout.scale))
     }
 
@@ -146,7 +137,7 @@ impl Ops for Native<'_> {
     #[inline(always)]
     fn factor(&mut self, _: bool) -> Result<(), Infallible> {
         self.rotate();
-        self.kin.jac(&At { q: &self.q, e: &self.e, t: self.t }, &mut self.values);
+        self.kin.jac(&At { q: &self.q, e: &self.turning.e, t: self.t }, &mut self.values);
         self.layout.factor(&self.values, &mut self.f);
         self.counts[0] += 1;
         self.counts[1] += 1;
@@ -172,14 +163,16 @@ impl Step for Native<'_> {
     fn start(&mut self, q: &[f64], t: f64) -> Result<(), Infallible> {
         self.q.copy_from_slice(q);
         self.t = t;
-        (self.rotated, self.fresh) = (false, true);
+        self.rotated = false;
+        self.turning.restart();
         Ok(())
     }
 
     #[inline(always)]
     fn place(&mut self, t: f64) -> Option<&mut [f64]> {
         self.t = t;
-        (self.rotated, self.fresh) = (false, true);
+        self.rotated = false;
+        self.turning.restart();
         Some(&mut self.q)
     }
 
@@ -195,8 +188,8 @@ impl Step for Native<'_> {
     #[inline(always)]
     fn rates(&mut self, qd: &mut [f64], qdd: &mut [f64]) -> Result<(), Infallible> {
         self.rotate();
-        let Native { kin, layout, f, q, e, t, phi, b, .. } = self;
-        let at = At { q: &q[..], e: &e[..], t: *t };
+        let Native { kin, layout, f, q, turning, t, phi, b, .. } = self;
+        let at = At { q: &q[..], e: &turning.e[..], t: *t };
         rates_with(kin, &at, phi, b, qd, qdd, |rhs, x| {
             layout.solve(f, rhs, x);
             Ok(())
@@ -273,7 +266,7 @@ pub fn run_hooked(
         det[r] = o.det as i8;
         if let Some(h) = hook.as_mut() {
             ops.rotate();
-            h(k, st, &mut ops.f, &ops.e);
+            h(k, st, &mut ops.f, &ops.turning.e);
         }
     })
 }

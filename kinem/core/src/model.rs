@@ -289,6 +289,41 @@ impl Anchor {
     pub const NONE: Anchor = Anchor { a: f64::NAN, e: C64::new(1.0, 0.0) };
 }
 
+/// e^{i q} at the angle columns as a march carries it from one
+/// configuration to the next (`follow`): the angles it holds, each angle's
+/// anchor, and whether q was set (a step's start) rather than corrected
+/// since. march::Native and Python's Angles (py/step.rs) each hold one, so
+/// that both steps agree to the bit.
+pub struct Turning {
+    pub e: Vec<C64>,
+    /// the angles e holds (NaN: none yet)
+    seen: Vec<f64>,
+    /// each angle's last e^{i a} from sin_cos
+    anchor: Vec<Anchor>,
+    /// q was set, not corrected, since e was brought to it
+    fresh: bool,
+}
+
+impl Turning {
+    pub fn new(n: usize) -> Self {
+        Turning { e: vec![C64::new(1.0, 0.0); n], seen: vec![f64::NAN; n], anchor: vec![Anchor::NONE; n], fresh: true }
+    }
+
+    /// q was set (a step's start): the next `to` takes e from the anchors.
+    #[inline(always)]
+    pub fn restart(&mut self) {
+        self.fresh = true;
+    }
+
+    /// e = e^{i q} (Kin::rotate_changed: Fresh after a start, else Turn).
+    #[inline(always)]
+    pub fn to(&mut self, kin: &Kin, q: &[f64]) {
+        let how = if self.fresh { Rotation::Fresh } else { Rotation::Turn };
+        kin.rotate_changed(q, &mut self.e, &mut self.seen, &mut self.anchor, how);
+        self.fresh = false;
+    }
+}
+
 /// e^{i d} for |d| <= NEAR: cos d and sin d by their Taylor series to d^10
 /// and d^11 (the next terms, d^12/12! and d^13/13!, below 1.5e-19 and 1e-21
 /// at NEAR: under rounding of cos d and sin d).

@@ -10,7 +10,7 @@ use crate::accept::{self, Why};
 use crate::families::At;
 use crate::lu::{Factors, Layout, Shape};
 use crate::march;
-use crate::model::{Anchor, Kin, Rotation};
+use crate::model::{Kin, Turning};
 use crate::newton::{self, Ops};
 use crate::table::Table;
 use crate::watch::Watch;

@@ -48,22 +48,13 @@ impl Lu {
 #[pyclass(module = "kinem._core")]
 pub(crate) struct Angles {
     kin: Arc<Kin>,
-    e: Vec<C64>,
-    seen: Vec<f64>,
-    anchor: Vec<Anchor>,
-    fresh: bool,
+    turning: Turning,
 }
 
 impl Angles {
     pub(crate) fn new(kin: Arc<Kin>) -> Self {
-        let n = kin.n;
-        Angles {
-            kin,
-            e: vec![C64::new(1.0, 0.0); n],
-            seen: vec![f64::NAN; n],
-            anchor: vec![Anchor::NONE; n],
-            fresh: true,
-        }
+        let turning = Turning::new(kin.n);
+        Angles { kin, turning }
     }
 
     /// e at q as march::Native brings it there.
@@ -71,16 +62,14 @@ impl Angles {
         if q.len() != self.kin.n {
             return Err(value_error("Angles: q has the wrong size"));
         }
-        let how = if self.fresh { Rotation::Fresh } else { Rotation::Turn };
-        self.kin.rotate_changed(q, &mut self.e, &mut self.seen, &mut self.anchor, how);
-        self.fresh = false;
+        self.turning.to(&self.kin, q);
         Ok(())
     }
 
     fn eval<'py>(&mut self, py: Python<'py>, q: &[f64], t: f64, jac: bool) -> PyResult<Bound<'py, PyArray1<f64>>> {
         self.at(q)?;
-        let Angles { kin, e, .. } = self;
-        let at = At { q, e, t };
+        let Angles { kin, turning } = self;
+        let at = At { q, e: &turning.e, t };
         let v = guard(py, || {
             let mut out = vec![0.0; if jac { kin.nnz } else { kin.m }];
             if jac {
@@ -98,7 +87,7 @@ impl Angles {
 impl Angles {
     /// q was set, not corrected: the next evaluation calls sin_cos where it moved.
     fn start(&mut self) {
-        self.fresh = true;
+        self.turning.restart();
     }
 
     /// Phi at q, t.
@@ -211,7 +200,7 @@ impl march::Step for PySteps<'_, '_> {
         match self.ops.ops.getattr("angles").ok().and_then(|a| a.extract::<PyRefMut<Angles>>().ok()) {
             Some(mut a) => {
                 a.at(&self.q)?;
-                self.e.copy_from_slice(&a.e);
+                self.e.copy_from_slice(&a.turning.e);
             }
             None => self.kin.rotate(&self.q, &mut self.e),
         }
