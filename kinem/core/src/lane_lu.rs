@@ -19,7 +19,6 @@ pub struct LaneLu<'a> {
     t: &'a Triangular,
     /// the blocks' factors and the off-diagonal values (Factors::j's places)
     j: Vec<W>,
-    w: Vec<W>,
     /// per lane: factorised in the fixed order, and then its (pivot ratio, det sign)
     pub fixed: [bool; WIDTH],
     pub stats: [(f64, i32); WIDTH],
@@ -31,7 +30,7 @@ impl<'a> LaneLu<'a> {
         let Shape::Triangular(t) = &layout.shape else { return None };
         let mut j = vec![W::default(); t.factoring.values];
         t.factoring.init(&mut j);
-        Some(LaneLu { t, j, w: vec![W::default(); t.gather.len()], fixed: [false; WIDTH], stats: [(0.0, 0); WIDTH] })
+        Some(LaneLu { t, j, fixed: [false; WIDTH], stats: [(0.0, 0); WIDTH] })
     }
 
     /// J_s from the Jacobian's values over lanes: Factoring's elimination
@@ -76,6 +75,6 @@ impl<'a> LaneLu<'a> {
     /// Triangular::solve's gather, Program::run and scatter over lanes;
     /// the lanes not `fixed` hold nothing of use.
     pub fn solve(&mut self, b: &[W], x: &mut [W]) {
-        self.t.run(&self.j, b, x, &mut self.w);
+        self.t.run(&self.j, b, x);
     }
 }

@@ -656,9 +656,7 @@ struct Solver<const N: usize> {
     dense: Vec<f64>,
     b: Vec<f64>,
     x: Vec<f64>,
-    /// the lanes' positions (Triangular::run), and N unit right-hand sides
-    /// and their solutions (`prepare`)
-    w: Vec<[f64; N]>,
+    /// N unit right-hand sides and their solutions (`prepare`)
     units: Vec<[f64; N]>,
     columns: Vec<[f64; N]>,
 }
@@ -672,7 +670,6 @@ impl<const N: usize> Solver<N> {
             dense: vec![0.0; if use_inverse { n * m } else { 0 }],
             b: vec![0.0; m],
             x: vec![0.0; n],
-            w: vec![[0.0; N]; n],
             units: vec![[0.0; N]; if use_inverse { m } else { 0 }],
             columns: vec![[0.0; N]; if use_inverse { n } else { 0 }],
         }
@@ -693,7 +690,7 @@ impl<const N: usize> Solver<N> {
                 for l in 0..N.min(m - from) {
                     b[from + l][l] = 1.0;
                 }
-                t.run(&f.j, b, x, &mut self.w);
+                t.run(&f.j, b, x);
                 for (j, v) in x.iter().enumerate() {
                     for l in 0..N.min(m - from) {
                         self.dense[j * m + from + l] = v[l];
@@ -738,7 +735,7 @@ impl<const N: usize> Solver<N> {
             return;
         }
         if let (Shape::Triangular(t), Some(_)) = (&layout.shape, &f.fixed[0]) {
-            return t.run(&f.j, rhs, out, &mut self.w);
+            return t.run(&f.j, rhs, out);
         }
         for l in 0..count {
             for (b, r) in self.b.iter_mut().zip(rhs) {

@@ -598,17 +598,16 @@ impl Triangular {
             }
             return;
         }
-        self.run(j, b, x, w);
+        self.run(j, b, x);
     }
 
     /// x = Phi_q^-1 b with the blocks' factors a (block-triangular: not the
     /// whole matrix's fallback; Phi_q's own, unscaled: `Factoring`): each
     /// row's right side into its coordinate (`into`), then the program in x
     /// itself, without the scatter's permutation. Over f64, variants' lanes
-    /// or several right-hand sides (`Cell`); w: the callers' scratch, not
-    /// needed here.
+    /// or several right-hand sides (`Cell`).
     #[inline(always)]
-    pub fn run<A: Copy, W: Cell<A>>(&self, a: &[A], b: &[W], x: &mut [W], _w: &mut [W]) {
+    pub fn run<A: Copy, W: Cell<A>>(&self, a: &[A], b: &[W], x: &mut [W]) {
         let n = self.into.len();
         assert!(b.len() >= n && x.len() >= n);
         for (&v, &j) in b.iter().zip(&self.into) {
