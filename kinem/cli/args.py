@@ -1,0 +1,138 @@
+"""The command line's argument values: parsed, checked, turned into what
+the API takes (one-line InputErrors naming the option)."""
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from ..errors import InputError, one_line
+from ..result import OUTPUTS
+
+
+class Parser(argparse.ArgumentParser):
+    def error(self, message):
+        command = self.prog.removeprefix("kinem").strip()   # "solve", or "" for kinem itself
+        raise InputError(f"{command}: {message}" if command else message)
+
+
+def load_model(path, end=None, steps=None, values=None):
+    from ..case import check_time, load, time_options
+    from ..model import compile
+
+    end, steps = time_options(end, steps)  # the rules of the case file's [time]
+    case = warned(load, path, parameters=set_values(values))
+    if end is not None or steps is not None:
+        case = check_time(case.with_time(end, steps))
+    return compile(case)
+
+
+def output_list(text, extra=()):
+    items = [s.strip() for s in text.split(",") if s.strip()]
+    bad = [s for s in items if s not in OUTPUTS + extra]
+    if bad or not items:
+        raise InputError(f"--outputs: got {text!r}; expected a comma-separated list of {', '.join(OUTPUTS + extra)}")
+    return tuple(items)
+
+
+def warned(fn, *args, **kwargs):
+    """fn(...) with the KinemWarnings it gives printed as one line each on standard error."""
+    import warnings
+
+    from ..errors import KinemWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", KinemWarning)
+        out = fn(*args, **kwargs)
+    for w in caught:
+        if issubclass(w.category, KinemWarning):
+            print(one_line(f"kinem: warning: {w.message}"), file=sys.stderr)
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return out
+
+
+def frame_bar():
+    """A frame progress bar (kinem.notebook.frame_bar) when standard error is a terminal, else None."""
+    if not sys.stderr.isatty():
+        return None
+    from ..notebook import frame_bar
+
+    return frame_bar(1)
+
+
+def set_values(items) -> dict:
+    """--set NAME=VALUE (repeatable) of solve and info: name -> value text
+    (kinem.parameters.apply resolves the name and checks the value)."""
+    out = {}
+    for item in items or ():
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip() or not value.strip():
+            raise InputError(f"--set: got {item!r}; expected NAME=VALUE with NAME a named dimension of the "
+                             "case's [parameters] or a design parameter path (kinem info CASE --parameters)")
+        out[name.strip()] = value.strip()
+    return out
+
+
+def set_option(p):
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="a named dimension of the case's [parameters] or a design parameter path (repeatable): "
+                        "--set crank=55, --set constraints.B.si.0=0.31")
+
+
+def file_format(out, fmt):
+    """--format, or the one --out's suffix names (csv by default); they must agree."""
+    suffix = Path(out).suffix.lower().lstrip(".") if out and out != "-" else ""
+    if fmt and suffix in ("csv", "npz") and suffix != fmt:
+        raise InputError(f"--format {fmt} does not match --out {out}: expected a .{fmt} file name, "
+                         f"or --format {suffix}")
+    fmt = fmt or (suffix if suffix in ("csv", "npz") else "csv")
+    if fmt == "npz" and (not out or out == "-"):
+        raise InputError("--format npz needs --out FILE")
+    return fmt
+
+
+def engine_settings(items, dt, engines=None):
+    """--set engine.key=value (repeatable) and --dt into engine -> overrides,
+    checked by each engine named (or in ``engines``) with a one-line error."""
+    from adapters import names, settings
+
+    ENGINES = names()
+    out = {e: {} for e in ENGINES}
+    for item in items or ():
+        key, sep, raw = item.partition("=")
+        engine, dot, name = key.partition(".")
+        if not sep or not dot or engine not in ENGINES or not name:
+            raise InputError(f"--set: got {item!r}; expected ENGINE.KEY=VALUE with ENGINE one of {', '.join(ENGINES)}")
+        try:
+            value = json.loads(raw)
+        except ValueError:
+            value = raw
+        out[engine][name] = value
+    if dt is not None:
+        if not dt > 0:
+            raise InputError(f"--dt: got {dt}; expected a positive time step")
+        for e in ENGINES:
+            out[e].setdefault("dt", dt)
+    for e in ENGINES:
+        if e in (engines or ()) or any(x.partition(".")[0] == e for x in items or ()):
+            settings(e, out[e], "--set" if items else "--dt")
+    return out
+
+
+def engine_list(text, allow_empty=False) -> list:
+    """--engines: a comma-separated list of native and the engines (None: all)."""
+    from adapters import names
+
+    ENGINES = names()
+    if text is None:
+        return ["native", *ENGINES]
+    from ..casefile.checks import suggest
+
+    engines = [e.strip() for e in text.split(",") if e.strip()]
+    unknown = [e for e in engines if e not in ("native",) + ENGINES]
+    guess = suggest(unknown[0], ("native",) + ENGINES) if unknown else None
+    if guess is not None:
+        raise InputError(f"--engines: unknown engine {unknown[0]!r}; did you mean '{guess}'?")
+    if unknown or not (engines or allow_empty):
+        raise InputError(f"--engines: got {text!r}; expected a comma-separated list of native, {', '.join(ENGINES)}")
+    return engines

@@ -1,0 +1,272 @@
+"""The commands other than solve: each one reads its arguments, calls the
+API and prints or writes the answer; exit 0, or 1 for a failed verdict."""
+import json
+import sys
+from pathlib import Path
+
+from ..errors import AnalysisError, InputError, one_line
+from .args import engine_list, engine_settings, file_format, frame_bar, load_model, output_list, warned
+from .streams import note
+
+
+def cmd_sweep(a):
+    """kinem sweep CASE --set NAME=START:STOP:COUNT ...: one table of every variant (kinem.sweep)."""
+    from ..output import Output
+    from ..sweep import parse_values, sweep
+
+    values = {}
+    for item in a.set or ():
+        name, v = parse_values(item)
+        if name in values:
+            raise InputError(f"--set: {name!r} given twice; expected each parameter once")
+        values[name] = v
+    if not values:
+        raise InputError("sweep: no --set; expected one or more --set NAME=START:STOP:COUNT")
+    columns = [c.strip() for c in a.outputs.split(",") if c.strip()] if a.outputs is not None else None
+    bar = None
+    if sys.stderr.isatty():
+        from ..report.progress import Progress
+
+        bar = Progress(0)
+    try:
+        result = warned(sweep, a.case, values, columns, bar)
+    finally:
+        if bar:
+            bar.close()
+    with Output("-" if a.out is None else a.out) as out:
+        out.write(result.csv())
+        out.commit()
+    failed = [k for k, e in enumerate(result.errors) if e]
+    if failed:
+        print(one_line(f"kinem: {len(failed)} of {len(result)} variants failed (variant {failed[0]}: "
+                       f"{result.errors[failed[0]]}); their rows say why"), file=sys.stderr)
+        return 1
+    return 0
+
+
+def cmd_info(a):
+    from ..info import describe, info
+
+    if a.parameters:
+        from ..info import describe_parameters
+        from ..parameters import parameters
+
+        listed = parameters(load_model(a.case, values=a.set).case)
+        print(json.dumps([p.as_dict() for p in listed], indent=2) if a.json else describe_parameters(listed))
+        return 0
+    if a.blocks:
+        from ..info import blocks_as_dict, describe_blocks
+
+        model = load_model(a.case, values=a.set)
+        print(json.dumps(blocks_as_dict(model), indent=2) if a.json else describe_blocks(model))
+        return 0
+    i = info(load_model(a.case, values=a.set))
+    print(json.dumps(i.as_dict(), indent=2) if a.json else describe(i))
+    if not i.assembled:  # the figures above are of the closest configuration found
+        from ..result import Status
+
+        what = "assembles on a branch it excludes" if i.status is Status.WRONG_BRANCH else "does not assemble at t = 0"
+        raise AnalysisError(f"{a.case}: {what}: {i.diagnosis}")
+    return 0
+
+
+def cmd_sensitivity(a):
+    from ..output import write_trajectory
+    from ..sensitivity import sensitivity
+
+    fmt = file_format(a.out, a.format)
+    model = load_model(a.case, a.end, a.steps)
+    paths = [p.strip() for p in a.parameters.split(",") if p.strip()]
+    s = sensitivity(model, paths, outputs=output_list(a.outputs))
+    if s.singular.any():
+        print(f"kinem: warning: {a.case}: {s.message}", file=sys.stderr)
+    write_trajectory(s.derivatives, "-" if a.out is None else a.out, fmt)
+    return 0
+
+
+def cmd_tolerance(a):
+    from ..output import write_trajectory
+    from ..tolerance import tolerance
+
+    fmt = file_format(a.out, a.format)
+    model = load_model(a.case, a.end, a.steps)
+    outputs = [c.strip() for c in a.outputs.split(",") if c.strip()] if a.outputs else None
+    progress = None
+    if sys.stderr.isatty():
+        from ..report.progress import Progress
+
+        bar = Progress(a.samples)
+
+        def progress(done, total):
+            bar.done = done
+            bar.show(f"sample {done:,} of {total:,}")
+    b = tolerance(model, samples=a.samples, outputs=outputs, seed=a.seed, progress=progress)
+    write_trajectory(b.table, "-" if a.out is None else a.out, fmt)
+    for c, amount, t in b.excess:
+        print(f"{c}: the Monte Carlo band leaves the worst-case linear band by at most {amount:.3g} (t = {t:.6g})",
+              file=sys.stderr)
+    if b.rejected:
+        print(f"kinem: {len(b.rejected)} of {b.samples} samples not on the nominal's branch, left out; first: "
+              f"{b.rejected[0][1]}", file=sys.stderr)
+    return 0
+
+
+def cmd_stress(a):
+    from .. import stress
+
+    engines = engine_list(a.engines)
+    outcomes = stress.run(engines, a.quick, a.jobs, a.scheduler)
+    if a.json:
+        print(json.dumps([stress.as_dict(o) for o in outcomes], indent=2, default=float))
+    else:
+        print(stress.table(outcomes, engines))
+    misses = stress.misses(outcomes, a.quick)
+    for o, want in misses:
+        print(f"native: {o.value.scenario}: {o.status.value} ({o.message}), expected {want.value}", file=sys.stderr)
+    return 1 if misses else 0
+
+
+def cmd_engines(a):
+    from .. import engines
+
+    if a.tune is not None:
+        return _tune(a)
+    if a.update_docs:
+        changed = engines.update(Path(__file__).resolve().parents[2] / "docs" / "engines.md")
+        print("docs/engines.md " + ("updated" if changed else "already current"))
+    else:
+        print(engines.markdown(), end="")
+    return 0
+
+
+def _tune(a):
+    """kinem engines --tune [ENGINES]: the sweep behind the default settings (adapters/tune.py)."""
+    from adapters import names, tune
+
+    engines = [e.strip() for e in a.tune.split(",") if e.strip()] if a.tune else list(names())
+    unknown = [e for e in engines if e not in names()]
+    if unknown:
+        raise InputError(f"--tune: got {a.tune!r}; expected a comma-separated list of {', '.join(names())}")
+    models = tune._models(tune.QUICK_CASES if a.quick else tune.CASES, a.quick)
+    results = [tune.sweep(e, quick=a.quick, repeats=1 if a.quick else 3, models=models) for e in engines]
+    if a.json:
+        print(json.dumps(results, indent=2, default=float))
+    else:
+        print("\n\n".join(tune.text(r) for r in results))
+    return 0
+
+
+def cmd_export(a):
+    """kinem export CASE --engine NAME --out FILE: the engine model as the harness runs it."""
+    from adapters.base import Failure, start
+    from adapters.export import export
+
+    model = load_model(a.case)
+    try:
+        q0, qd0 = start(model)   # the harness's start: the model's own assembly at the first instant
+    except Failure as e:
+        raise AnalysisError(f"{a.case}: no start to run the engine from: {e.detail}") from None
+    settings = dict(model.case.engines.get(a.engine, {}))   # the case file's [engines.NAME] table, as the harness
+    if settings:
+        from adapters import case_settings
+
+        case_settings(model, a.engine)   # checked as the harness checks it (naming the file and the key)
+    text = export(model, a.engine, q0, qd0, settings)
+    from ..output import write_atomic
+
+    write_atomic(a.out, lambda f: f.write(text.encode()))   # devices, FIFOs and links written through
+    note(a.out)
+    return 0
+
+
+def cmd_compare(a):
+    from adapters.compare import run_case, table
+
+    engines = engine_list(a.engines)
+    model = load_model(a.case, a.end, a.steps)
+    if a.sensitivity is not None:
+        return _compare_sensitivity(a, model, engines)
+    native, rows = run_case(model, engines, engine_settings(a.set, a.dt, engines), a.scheduler)
+    if a.json:
+        print(json.dumps({"case": model.case.name, "length": model.length, "unit": model.case.length_unit,
+                          "engines": {r.engine: r.as_dict() for r in rows}}, indent=2, default=float))
+    else:
+        print(table(model.case.name, model.length, model.case.length_unit, rows))
+    return 1 if any(r.verdict.fails for r in rows) else 0   # adapters.compare.Verdict: the report's rule too
+
+
+def _compare_sensitivity(a, model, engines):
+    """kinem compare --sensitivity: exact sensitivities against every source's
+    central differences (adapters.sensitivity); exit 1 when one is outside."""
+    from adapters import check_case
+    from adapters.sensitivity import check, table
+
+    check_case(model.case)
+    paths = [p.strip() for p in a.sensitivity.split(",") if p.strip()] or list(model.case.report.get("sensitivity", ()))
+    if not paths:
+        raise InputError(f"{a.case}: --sensitivity: no parameters given and the case has no [report] sensitivity; "
+                         "expected --sensitivity P[,P...]")
+    _, checks = check(model, paths, engines, engine_settings(a.set, a.dt, engines))
+    if a.json:
+        print(json.dumps({"case": model.case.name, "sensitivity": [
+            {"engine": c.engine, "parameter": c.parameter, "status": c.status.value, "detail": c.detail, "h": c.h,
+             "figure": c.figure, "error": c.error, "limit": c.limit, "at": c.at, "ratio": c.ratio,
+             "within": c.within} for c in checks]}, indent=2, default=float))
+    else:
+        print(table(model.case.name, checks))
+    return 1 if any(c.within is False for c in checks) else 0
+
+
+def cmd_report(a):
+    from ..report import Options, run
+
+    engines = engine_list(a.engines, allow_empty=True)  # native always runs in the report
+    if a.jobs is not None and a.jobs < 0:
+        raise InputError(f"--jobs: got {a.jobs}; expected 0 (no worker processes) or more")
+    whole = sorted(str(p) for p in Path("cases").glob("*.toml"))
+    paths = a.cases or whole
+    engines = tuple(dict.fromkeys(e for e in engines if e != "native"))
+    if a.stress and a.no_stress:
+        raise InputError("--stress and --no-stress: give at most one")
+    baseline = a.baseline
+    if baseline is None:   # OUT/baseline.json when it exists
+        found = Path(a.out) / "baseline.json"
+        baseline = str(found) if found.is_file() else None
+    elif baseline == "none":
+        baseline = None
+    outcome = run(Options(cases=tuple(paths), engines=engines, out=a.out,
+                          baseline=baseline, update_baseline=a.update_baseline, quick=a.quick, junit=a.junit,
+                          fail_on_slowdown=a.fail_on_slowdown, workers=a.jobs, scheduler=a.scheduler,
+                          stress=True if a.stress else False if a.no_stress else None,
+                          work_precision=a.work_precision,
+                          baseline_default=a.baseline is None))
+    print(outcome.detail)
+    return outcome.exit_code
+
+
+def cmd_diff(a):
+    from ..report.diff import diff
+
+    lines, regressions = diff(a.a, a.b)
+    for line in lines:
+        print(line)
+    print(f"kinem diff: {a.b} against {a.a}: {regressions} regression(s), {len(lines) - regressions} other line(s)"
+          if lines else f"kinem diff: {a.b} against {a.a}: nothing moved")
+    return 1 if regressions else 0
+
+
+def cmd_animate(a):
+    from ..report.animate import check_output, write
+
+    engines = [e for e in engine_list(a.engines, allow_empty=True) if e != "native"]
+    check_output(a.out)
+    bar = frame_bar()
+    try:
+        skipped = write(load_model(a.case), a.out, engines, bar)
+    finally:
+        if bar:
+            bar.close()
+    for name, why in skipped.items():
+        print(one_line(f"{name}: not drawn: {why}"), file=sys.stderr)
+    note(a.out)
+    return 0
