@@ -308,8 +308,7 @@ def _fused(model, tangents, outputs, times, options):
                                           data, ratio)
     if end < nt or violation(model, X[0, 0]):
         return None
-    for x in X:
-        x.flags.writeable = False
+    X.flags.writeable = False   # (its views, made after, are read-only too: as solve's)
     return trajectory(model, times, X[0], X[1], X[2]), data, ratio, 3
 
 

@@ -232,9 +232,10 @@ pub fn run(
 }
 
 /// At each accepted instant k, after its rates: (k, the state there, the
-/// factorisation of Phi_q at its q, which the rates used, and e^{i q} there
-/// at the angle columns).
-pub type Hook<'h> = &'h mut dyn FnMut(usize, &MarchState, &mut Factors, &[C64]);
+/// factorisation of Phi_q at its q, which the rates used, e^{i q} there
+/// at the angle columns, and that factorisation's pivot ratio, the
+/// instant's own: 0 where below SINGULAR, crate::step::signs).
+pub type Hook<'h> = &'h mut dyn FnMut(usize, &MarchState, &mut Factors, &[C64], f64);
 
 /// `run`, calling `hook` at every accepted instant (kinem.sensitivity:
 /// the design sensitivities from the march's own factorisation).
@@ -266,7 +267,7 @@ pub fn run_hooked(
         det[r] = o.det as i8;
         if let Some(h) = hook.as_mut() {
             ops.rotate();
-            h(k, st, &mut ops.f, &ops.turning.e);
+            h(k, st, &mut ops.f, &ops.turning.e, o.pivot);
         }
     })
 }

@@ -124,7 +124,7 @@ pub fn sensitivities(
         kin.jac(&At { q, e: &e, t }, &mut values);
         layout.factor(&values, &mut f);
         let stages: [&[f64]; 3] = std::array::from_fn(|s| x.get(s).map_or(&[][..], |a| &a[k * n..(k + 1) * n]));
-        ratio[k] = at.at(t, &stages[..levels], &e, &mut f, &mut data[k * w..(k + 1) * w]);
+        ratio[k] = at.at(t, &stages[..levels], &e, &mut f, 0.0, &mut data[k * w..(k + 1) * w]);
     }
     Ok(())
 }
@@ -259,8 +259,8 @@ impl<'a> Instants<'a> {
     }
 
     /// Lanewise::at.
-    pub fn at(&mut self, t: f64, x: &[&[f64]], e: &[C64], f: &mut Factors, out: &mut [f64]) -> f64 {
-        each_width!(self, a => a.at(t, x, e, f, out))
+    pub fn at(&mut self, t: f64, x: &[&[f64]], e: &[C64], f: &mut Factors, pivot: f64, out: &mut [f64]) -> f64 {
+        each_width!(self, a => a.at(t, x, e, f, pivot, out))
     }
 }
 
@@ -464,17 +464,18 @@ impl<'a, const N: usize> Lanewise<'a, N> {
 
     /// One instant: x its stages (q, qd, qdd: `levels` of n), e e^{i q} at
     /// the angle columns (the march's own), f the factorisation of Phi_q at
-    /// (q, t) (its solves leave it as it is); writes its row (P W) and
-    /// returns Phi_q's pivot ratio. The families with direct kernels
+    /// (q, t) (its solves leave it as it is), pivot its pivot ratio where
+    /// the caller has it (the march's, 0 where below SINGULAR: then taken
+    /// from f); writes its row (P W) and returns Phi_q's pivot ratio. The families with direct kernels
     /// (Family::phi_tangent, jac_products, gamma_tangent) read x and e as
     /// they are; the others are evaluated over the lanes (q, e^{i q}, qd
     /// with their tangents), and so are the named points' tangents
     /// (Columns::point_tangents) from x, e and s, sd, sdd.
-    pub fn at(&mut self, t: f64, x: &[&[f64]], e: &[C64], f: &mut Factors, out: &mut [f64]) -> f64 {
+    pub fn at(&mut self, t: f64, x: &[&[f64]], e: &[C64], f: &mut Factors, pivot: f64, out: &mut [f64]) -> f64 {
         let Lanewise { kin, layout, levels, w, .. } = *self;
         let n = kin.n;
         let q = x[0];
-        let ratio = layout.pivots(f).0;
+        let ratio = if pivot > 0.0 { pivot } else { layout.pivots(f).0 };
         if self.lanes0 {
             for j in 0..n {
                 self.q0[j] = Lanes::<N>::c(q[j]);
@@ -714,7 +715,9 @@ impl<const N: usize> Solver<N> {
         }
     }
 
-    /// out = Phi_q^-1 rhs for the first `count` lanes.
+    /// out = Phi_q^-1 rhs for the first `count` lanes (inlined in
+    /// Lanewise::at: its branches are decided once per call).
+    #[inline(always)]
     fn solve(&mut self, layout: &Layout, f: &mut Factors, rhs: &[[f64; N]], count: usize, out: &mut [[f64; N]]) {
         if self.use_inverse {
             for (j, o) in out.iter_mut().enumerate() {

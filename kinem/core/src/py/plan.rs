@@ -257,9 +257,9 @@ impl Plan {
         let poll = || signalled(&signal);
         let (end, why) = guard(py, move || {
             let mut at = crate::sensitivity::Instants::new(prepared, layout, stages)?;
-            let mut hook = |k: usize, s: &march::MarchState, f: &mut Factors, e: &[C64]| {
+            let mut hook = |k: usize, s: &march::MarchState, f: &mut Factors, e: &[C64], pivot: f64| {
                 let x: [&[f64]; 3] = [&s.q, &s.qd, &s.qdd];
-                ratio[k] = at.at(times[k], &x[..stages], e, f, &mut data[k * width..(k + 1) * width]);
+                ratio[k] = at.at(times[k], &x[..stages], e, f, pivot, &mut data[k * width..(k + 1) * width]);
             };
             let watch = Watch::new(seconds, Some(&poll));
             Ok(march::run_hooked(kin, layout, times, 0, st, &settings, out, &watch, true, Some(&mut hook)))
