@@ -97,9 +97,10 @@ def cmd_tolerance(a):
 
         bar = Progress(a.samples)
 
-        def progress(done, total):
+        def show(done, total):
             bar.done = done
             bar.show(f"sample {done:,} of {total:,}")
+        progress = show
     b = tolerance(model, samples=a.samples, outputs=outputs, seed=a.seed, progress=progress)
     write_trajectory(b.table, "-" if a.out is None else a.out, fmt)
     for c, amount, t in b.excess:

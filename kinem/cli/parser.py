@@ -27,8 +27,7 @@ def parser():
     s.add_argument("--outputs", default=",".join(OUTPUTS),
                    help="any of positions,velocities,accelerations,margins (margins: the smallest singular value "
                         "of the dimensionless Jacobian and the transmission angles, docs/design.md)")
-    s.add_argument("--end", help="end time (overrides the case; the case file's range)")
-    s.add_argument("--steps", help="number of output intervals (overrides the case; the case file's range)")
+    time_options(s)
     s.add_argument("--diagnostics", nargs="?", const="-", metavar="FILE",
                    help="write the full trace (Newton iterations, rejected sub-steps, conditioning) as CSV "
                         "to FILE, or to standard error")
@@ -75,8 +74,7 @@ def parser():
     se.add_argument("--out", help="output file (default: CSV to standard output)")
     se.add_argument("--format", choices=("csv", "npz"), help="csv (default) or npz (needs --out)")
     se.add_argument("--outputs", default=",".join(OUTPUTS), help="any of positions,velocities,accelerations")
-    se.add_argument("--end", help="end time (overrides the case)")
-    se.add_argument("--steps", help="number of output intervals (overrides the case)")
+    time_options(se)
     se.set_defaults(run=cmd_sensitivity)
 
     tl = sub.add_parser("tolerance", help="tolerance bands: linear worst case, root-sum-square, Monte Carlo")
@@ -86,8 +84,7 @@ def parser():
     tl.add_argument("--seed", type=int, default=0, help="the samples' seed (default 0)")
     tl.add_argument("--out", help="output file (default: CSV to standard output)")
     tl.add_argument("--format", choices=("csv", "npz"), help="csv (default) or npz (needs --out)")
-    tl.add_argument("--end", help="end time (overrides the case)")
-    tl.add_argument("--steps", help="number of output intervals (overrides the case)")
+    time_options(tl)
     tl.set_defaults(run=cmd_tolerance)
 
     st = sub.add_parser("stress", help="the stress suite on native and the engines, each outcome classified")
@@ -121,8 +118,7 @@ def parser():
     c.add_argument("--set", action="append", metavar="ENGINE.KEY=VALUE", help="an engine setting (repeatable)")
     scheduler_option(c)
     c.add_argument("--json", action="store_true", help="the error figures as JSON instead of the table")
-    c.add_argument("--end", help="end time (overrides the case)")
-    c.add_argument("--steps", help="number of output intervals (overrides the case)")
+    time_options(c)
     c.add_argument("--sensitivity", nargs="?", const="", metavar="P[,P...]",
                    help="check the exact sensitivities to these parameter paths (default: the case's [report] "
                         "sensitivity) against native's and the engines' central differences")
@@ -177,6 +173,11 @@ def set_option(p):
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="a named dimension of the case's [parameters] or a design parameter path (repeatable): "
                         "--set crank=55, --set constraints.B.si.0=0.31")
+
+
+def time_options(p):
+    p.add_argument("--end", help="end time (overrides the case; the case file's range)")
+    p.add_argument("--steps", help="number of output intervals (overrides the case; the case file's range)")
 
 
 def errors_option(p):
