@@ -121,7 +121,7 @@ impl<S: Real> Kin<S> {
         out.fill(S::zero());
         let s = self.shared();
         for &k in &self.time_dependent {
-            self.families[k].nu(t, &s, &mut out[self.row_off[k]..self.row_off[k + 1]]);
+            self.families[k].nu_driven(t, &s, &mut out[self.row_off[k]..self.row_off[k + 1]]);
         }
     }
 

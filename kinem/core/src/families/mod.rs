@@ -216,6 +216,15 @@ impl<S: Real> Family<S> {
         }
     }
 
+    /// nu's rows that may not be zero (a simple family's drivers), the
+    /// others left as they are: `nu` where out is zero.
+    pub fn nu_driven(&self, t: f64, s: &Shared<S>, out: &mut [S]) {
+        match self {
+            Family::Simple(f) => f.nu_driven(t, s, out),
+            _ => self.nu(t, s, out),
+        }
+    }
+
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
         each!(self, f => f.gamma(at, qd, s, out))
     }

@@ -24,6 +24,8 @@ pub struct Simple<S = f64> {
     n: usize,
     rows: Vec<Row<S>>,
     entries: usize,
+    /// the rows whose function is not a constant (row, function), once bound
+    drivers: Vec<(usize, usize)>,
 }
 
 /// One row's columns (see `Simple`), with w = 1.0 for a relative row (else
@@ -99,7 +101,7 @@ impl<S: Real> Simple<S> {
                 value: S::zero(),
             })
             .collect();
-        Ok(Simple { n, rows, entries })
+        Ok(Simple { n, rows, entries, drivers: Vec::new() })
     }
 
     /// Takes each constant function's value (a ground's, an absolute
@@ -109,6 +111,7 @@ impl<S: Real> Simple<S> {
             row.driven = !s.functions.constant(row.f);
             row.value = if row.driven { S::zero() } else { s.functions.eval(row.f, 0.0, 0) };
         }
+        self.drivers = self.rows.iter().enumerate().filter(|(_, r)| r.driven).map(|(k, r)| (k, r.f)).collect();
     }
 
     pub fn rows(&self) -> usize {
@@ -163,6 +166,14 @@ impl<S: Real> Simple<S> {
     pub fn nu(&self, t: f64, s: &Shared<S>, out: &mut [S]) {
         for (row, o) in self.rows.iter().zip(out) {
             *o = row.drive(t, 1, s);
+        }
+    }
+
+    /// nu's rows that may not be zero, the drivers' f'(t) (Eq. 4.37); the
+    /// others left as they are (zero: crate::model::Kin::nu).
+    pub fn nu_driven(&self, t: f64, s: &Shared<S>, out: &mut [S]) {
+        for &(k, f) in &self.drivers {
+            out[k] = s.functions.eval(f, t, 1);
         }
     }
 
