@@ -22,6 +22,10 @@ pub struct Kin<S = f64> {
     pub functions: Functions<S>,
     pub outlines: Outlines<S>,
     pub time_dependent: Vec<usize>, // families whose nu may be non-zero
+    /// each family's rows and Jacobian entries (row_off, entry_off's
+    /// spans, ascending within 0..m and 0..nnz: the evaluations slice
+    /// their outputs by them unchecked)
+    spans: Vec<[(usize, usize); 2]>,
     /// no family reads an outline and no driving function is a table's
     /// pieces: q(t) as smooth as the drivers' polynomials and harmonics
     /// (the march's Hermite start then carries its last error: step::Bias)
@@ -66,6 +70,7 @@ impl<S: Real> Kin<S> {
             row_off.push(row_off.last().unwrap() + f.rows());
             entry_off.push(entry_off.last().unwrap() + f.entries());
         }
+        let spans = (0..list.len()).map(|k| [(row_off[k], row_off[k + 1]), (entry_off[k], entry_off[k + 1])]).collect();
         let shared = Shared { functions: &functions, outlines: &outlines };
         for f in &mut list {
             f.bind(&shared);
@@ -84,6 +89,7 @@ impl<S: Real> Kin<S> {
             functions,
             outlines,
             time_dependent,
+            spans,
             smooth,
             tables,
             function_table: functions_table.clone(),
@@ -104,16 +110,20 @@ impl<S: Real> Kin<S> {
     }
 
     pub fn phi(&self, at: &At<S>, out: &mut [S]) {
+        assert!(out.len() >= self.m);
         let s = self.shared();
-        for (k, f) in self.families.iter().enumerate() {
-            f.phi(at, &s, &mut out[self.row_off[k]..self.row_off[k + 1]]);
+        for (f, &[(a, b), _]) in self.families.iter().zip(&self.spans) {
+            // SAFETY: a <= b <= m (spans), out holds m (asserted above)
+            f.phi(at, &s, unsafe { out.get_unchecked_mut(a..b) });
         }
     }
 
     pub fn jac(&self, at: &At<S>, out: &mut [S]) {
+        assert!(out.len() >= self.nnz);
         let s = self.shared();
-        for (k, f) in self.families.iter().enumerate() {
-            f.jac(at, &s, &mut out[self.entry_off[k]..self.entry_off[k + 1]]);
+        for (f, &[_, (a, b)]) in self.families.iter().zip(&self.spans) {
+            // SAFETY: a <= b <= nnz (spans), out holds nnz (asserted above)
+            f.jac(at, &s, unsafe { out.get_unchecked_mut(a..b) });
         }
     }
 
@@ -126,9 +136,11 @@ impl<S: Real> Kin<S> {
     }
 
     pub fn gamma(&self, at: &At<S>, qd: &[S], out: &mut [S]) {
+        assert!(out.len() >= self.m);
         let s = self.shared();
-        for (k, f) in self.families.iter().enumerate() {
-            f.gamma(at, qd, &s, &mut out[self.row_off[k]..self.row_off[k + 1]]);
+        for (f, &[(a, b), _]) in self.families.iter().zip(&self.spans) {
+            // SAFETY: a <= b <= m (spans), out holds m (asserted above)
+            f.gamma(at, qd, &s, unsafe { out.get_unchecked_mut(a..b) });
         }
     }
 }
