@@ -423,21 +423,22 @@ fn revolute_derivatives_match_finite_differences() {
 
 #[test]
 fn simple_derivatives_match_finite_differences() {
-    // x of a point of body 1 = a constant; phi_2 - phi_0 = the harmonic; y_0 = the cubic
+    // x of a point of body 1 = a constant; phi_2 - phi_0 = the harmonic; y_0 = the cubic;
+    // y_1 = the constant (a ground's row: q_a - f alone)
     let t = table(
         &[
-            ("a", vec![3, 8, 1]),
-            ("angle", vec![5, 8, 2]),
-            ("k", vec![0, 2, 0]),
-            ("point", vec![1, 0, 0]),
-            ("relative", vec![0, 1, 0]),
-            ("f", vec![0, 2, 1]),
+            ("a", vec![3, 8, 1, 4]),
+            ("angle", vec![5, 8, 2, 5]),
+            ("k", vec![0, 2, 0, 0]),
+            ("point", vec![1, 0, 0, 0]),
+            ("relative", vec![0, 1, 0, 0]),
+            ("f", vec![0, 2, 1, 0]),
         ],
-        &[("mx", vec![1.0, 0.0, 0.0]), ("my", vec![0.0, 0.0, 0.0])],
-        &[("local", vec![c(0.7, -0.2), c(0.0, 0.0), c(0.0, 0.0)])],
+        &[("mx", vec![1.0, 0.0, 0.0, 0.0]), ("my", vec![0.0, 0.0, 0.0, 0.0])],
+        &[("local", vec![c(0.7, -0.2), c(0.0, 0.0), c(0.0, 0.0), c(0.0, 0.0)])],
     );
     let k = kin("simple", t.clone(), 0);
-    let (rows, cols) = (vec![0, 0, 1, 1, 2], vec![3, 5, 8, 2, 1]);
+    let (rows, cols) = (vec![0, 0, 1, 1, 2, 3], vec![3, 5, 8, 2, 1, 4]);
     let (q, qd) = state(&[]);
     check(&k, &rows, &cols, &q, &qd, 0.8);
     check_parameters("simple", &t, 0, &q, &qd, 0.8);
