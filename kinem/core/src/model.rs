@@ -22,6 +22,10 @@ pub struct Kin<S = f64> {
     pub functions: Functions<S>,
     pub outlines: Outlines<S>,
     pub time_dependent: Vec<usize>, // families whose nu may be non-zero
+    /// the simple families' driver rows (row, function): nu = f'(t) there
+    drivers: Vec<(usize, usize)>,
+    /// the other families whose nu may be non-zero
+    timed: Vec<usize>,
     /// each family's rows and Jacobian entries (row_off, entry_off's
     /// spans, ascending within 0..m and 0..nnz: the evaluations slice
     /// their outputs by them unchecked)
@@ -75,7 +79,14 @@ impl<S: Real> Kin<S> {
         for f in &mut list {
             f.bind(&shared);
         }
-        let time_dependent = (0..list.len()).filter(|&k| list[k].time_dependent(&shared)).collect();
+        let time_dependent: Vec<usize> = (0..list.len()).filter(|&k| list[k].time_dependent(&shared)).collect();
+        let mut drivers = Vec::new();
+        for (k, f) in list.iter().enumerate() {
+            if let Family::Simple(f) = f {
+                drivers.extend(f.drivers().iter().map(|&(r, g)| (row_off[k] + r, g)));
+            }
+        }
+        let timed = time_dependent.iter().copied().filter(|&k| !matches!(list[k], Family::Simple(_))).collect();
         let pieces = functions_table.ints.get("kind").is_some_and(|k| k.contains(&crate::functions::PIECES));
         let smooth = !pieces && !list.iter().any(|f| f.piecewise());
         Ok(Kin {
@@ -89,6 +100,8 @@ impl<S: Real> Kin<S> {
             functions,
             outlines,
             time_dependent,
+            drivers,
+            timed,
             spans,
             smooth,
             tables,
@@ -130,8 +143,11 @@ impl<S: Real> Kin<S> {
     pub fn nu(&self, t: f64, out: &mut [S]) {
         out.fill(S::zero());
         let s = self.shared();
-        for &k in &self.time_dependent {
-            self.families[k].nu_driven(t, &s, &mut out[self.row_off[k]..self.row_off[k + 1]]);
+        for &(r, f) in &self.drivers {
+            out[r] = self.functions.eval(f, t, 1);
+        }
+        for &k in &self.timed {
+            self.families[k].nu(t, &s, &mut out[self.row_off[k]..self.row_off[k + 1]]);
         }
     }
 

@@ -106,7 +106,9 @@ pub struct Shared<'a, S = f64> {
     pub outlines: &'a Outlines<S>,
 }
 
-/// The type switch: one variant per family, each holding its table.
+/// The type switch: one variant per family, each holding its table (a
+/// byte's tag: the switch reads it, not a niche in a table's fields).
+#[repr(u8)]
 pub enum Family<S = f64> {
     Simple(simple::Simple<S>),
     Revolute(revolute::Revolute<S>),
@@ -213,15 +215,6 @@ impl<S: Real> Family<S> {
             Family::Simple(f) => f.nu(t, s, out),
             Family::Distance(f) => f.nu(t, s, out),
             _ => out.fill(S::zero()),
-        }
-    }
-
-    /// nu's rows that may not be zero (a simple family's drivers), the
-    /// others left as they are: `nu` where out is zero.
-    pub fn nu_driven(&self, t: f64, s: &Shared<S>, out: &mut [S]) {
-        match self {
-            Family::Simple(f) => f.nu_driven(t, s, out),
-            _ => self.nu(t, s, out),
         }
     }
 

@@ -225,12 +225,10 @@ impl<S: Real> Simple<S> {
         }
     }
 
-    /// nu's rows that may not be zero, the drivers' f'(t) (Eq. 4.37); the
-    /// others left as they are (zero: crate::model::Kin::nu).
-    pub fn nu_driven(&self, t: f64, s: &Shared<S>, out: &mut [S]) {
-        for &(k, f) in &self.drivers {
-            out[k] = s.functions.eval(f, t, 1);
-        }
+    /// The rows whose nu may not be zero, (row, function) once bound:
+    /// there nu = f'(t) (Eq. 4.37), elsewhere 0 (crate::model::Kin::nu).
+    pub fn drivers(&self) -> &[(usize, usize)] {
+        &self.drivers
     }
 
     /// Eq. 4.38 and the point forms: f''(t) + (A_i s')_c w_i^2.
