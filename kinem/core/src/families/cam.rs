@@ -72,7 +72,6 @@ impl<S: Real> Roller<S> {
     }
 
     /// Eq. 4.28: [g . d, d . d - rho^2].
-    #[inline(never)]
     pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.p.n) && out.len() >= 2 * self.rho2.len());
         for (c, o) in out.chunks_exact_mut(2).take(self.rho2.len()).enumerate() {
@@ -86,7 +85,6 @@ impl<S: Real> Roller<S> {
     }
 
     /// Columns [r_i, phi_i, theta, r_j, phi_j] of both rows.
-    #[inline(never)]
     pub fn jac(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.p.n) && out.len() >= 14 * self.rho2.len());
         let i = i::<S>();
@@ -117,7 +115,6 @@ impl<S: Real> Roller<S> {
     }
 
     /// -(d/dt)^2 Phi without the acceleration terms: (g.d)'' = g''.d + 2 g'.d' + g.d''.
-    #[inline(never)]
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.p.n) && qd.len() >= self.p.n && out.len() >= 2 * self.rho2.len());
         let i = i::<S>();
@@ -171,7 +168,6 @@ impl<S: Real> Flat<S> {
     }
 
     /// Eq. 4.29: [g . n, d . n].
-    #[inline(never)]
     pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.p.n) && out.len() >= 2 * self.n.len());
         for (c, o) in out.chunks_exact_mut(2).take(self.n.len()).enumerate() {
@@ -185,7 +181,6 @@ impl<S: Real> Flat<S> {
     }
 
     /// Row 1 in [phi_i, theta, phi_j], row 2 in [r_i, phi_i, theta, r_j, phi_j].
-    #[inline(never)]
     pub fn jac(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.p.n) && out.len() >= 10 * self.n.len());
         let i = i::<S>();
@@ -212,7 +207,6 @@ impl<S: Real> Flat<S> {
     }
 
     /// -(g . n)'' and -(d . n)'' without the acceleration terms.
-    #[inline(never)]
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.p.n) && qd.len() >= self.p.n && out.len() >= 2 * self.n.len());
         let i = i::<S>();

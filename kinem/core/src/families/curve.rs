@@ -127,7 +127,6 @@ impl<S: Real> PointOnCurve<S> {
     }
 
     /// sigma (r_c + a - r_b - A_b s'_b), rows x and y (Eqs. 4.26, 4.30).
-    #[inline(never)]
     pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && out.len() >= 2 * self.cb.len());
         for (c, o) in out.chunks_exact_mut(2).take(self.cb.len()).enumerate() {
@@ -144,7 +143,6 @@ impl<S: Real> PointOnCurve<S> {
 
     /// sigma [I, i a, g, -I, -B_b s'_b] in columns [r_c, phi_c, theta, r_b, phi_b]
     /// (Eq. 4.27's Jacobian; pattern per constraint: row x then row y).
-    #[inline(never)]
     pub fn jac(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && out.len() >= 10 * self.cb.len());
         for (c, o) in out.chunks_exact_mut(10).take(self.cb.len()).enumerate() {
@@ -174,7 +172,6 @@ impl<S: Real> PointOnCurve<S> {
     }
 
     /// -sigma (a'' + A_b s'_b w_b^2).
-    #[inline(never)]
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && qd.len() >= self.n && out.len() >= 2 * self.cb.len());
         for (c, o) in out.chunks_exact_mut(2).take(self.cb.len()).enumerate() {

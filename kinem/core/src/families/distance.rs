@@ -61,7 +61,6 @@ impl<S: Real> Distance<S> {
     }
 
     /// Eq. 4.13: d . d - l(t)^2.
-    #[inline(never)]
     pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && out.len() <= self.ci.len());
         for (c, o) in out.iter_mut().enumerate() {
@@ -73,7 +72,6 @@ impl<S: Real> Distance<S> {
     }
 
     /// 2 [-d^T, -d^T B_i s'_i, d^T, d^T B_j s'_j] (Table 4.2).
-    #[inline(never)]
     pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && out.len() >= 6 * self.ci.len());
         for (c, o) in out.chunks_exact_mut(6).take(self.ci.len()).enumerate() {
@@ -99,7 +97,6 @@ impl<S: Real> Distance<S> {
 
     /// -2 d'.d' - 2 d.(A_i s'_i w_i^2 - A_j s'_j w_j^2) (Table 4.3), plus
     /// (l^2)'' = 2 (l'^2 + l l'') for a distance driver.
-    #[inline(never)]
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && qd.len() >= self.n && out.len() <= self.ci.len());
         for (c, o) in out.iter_mut().enumerate() {

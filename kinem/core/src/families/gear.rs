@@ -61,7 +61,6 @@ impl<S: Real> Gear<S> {
     }
 
     /// Eq. 4.18 (Eq. 4.17 with w = 0).
-    #[inline(never)]
     pub fn phi(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         assert!(at.q.len() >= self.n && out.len() <= self.ai.len());
         for (c, o) in out.iter_mut().enumerate() {
@@ -77,13 +76,11 @@ impl<S: Real> Gear<S> {
 
     /// Constant: [rho_i, rho_j, -(rho_i + rho_j)] in [phi_i, phi_j, phi_k]
     /// (the last only with a carrier).
-    #[inline(never)]
     pub fn jac(&self, _: &At<S>, _: &Shared<S>, out: &mut [S]) {
         out.copy_from_slice(&self.values);
     }
 
     /// gamma = 0: the rows are linear in q.
-    #[inline(never)]
     pub fn gamma(&self, _: &At<S>, _: &[S], _: &Shared<S>, out: &mut [S]) {
         out.fill(S::zero());
     }

@@ -74,7 +74,6 @@ impl<S: Real> Rack<S> {
     }
 
     /// u . d + rho (phi_i - phi_j - phi0) (Eqs. 4.19, 4.20, Problem 4.15).
-    #[inline(never)]
     pub fn phi(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && out.len() <= self.ci.len());
         for (c, o) in out.iter_mut().enumerate() {
@@ -89,7 +88,6 @@ impl<S: Real> Rack<S> {
     }
 
     /// [u^T, u . (i A_i c') + rho, -u^T, (i u) . d - u . (i A_j s'_j) - rho].
-    #[inline(never)]
     pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && out.len() >= 6 * self.ci.len());
         for (c, o) in out.chunks_exact_mut(6).take(self.ci.len()).enumerate() {
@@ -107,7 +105,6 @@ impl<S: Real> Rack<S> {
     }
 
     /// -(u . d)'' without the acceleration terms.
-    #[inline(never)]
     pub fn gamma(&self, at: &At<S>, qd: &[S], _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && qd.len() >= self.n && out.len() <= self.ci.len());
         let i = i::<S>();
