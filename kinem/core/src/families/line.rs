@@ -8,11 +8,10 @@
 //! u = P_i - Q_i, d = P_j - P_i, and Eq. 4.16 with a = j, u = Q_j - P_j,
 //! d = P_i - P_j. A translational joint adds the row
 //! phi_i - phi_j - (phi_i^0 - phi_j^0) = 0 (Eq. 4.10 as corrected).
-use super::{cross, dot, i, lane, At, Dir, Shared};
+use super::{cross, dot, each_side, i, lane, sides, At, Dir, Shared, Sides};
 use crate::real::{Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
-use num_traits::Zero;
 
 /// Columns: ca, cb the x columns of the line body a and the other body b;
 /// pa (the line's base point on a), ua (its direction, local to a), ob
@@ -54,17 +53,6 @@ struct Row<S> {
     c: usize,
 }
 
-/// Which of a constraint's points are not exactly zero (A: pa, B: ob): a
-/// term A s' with s' = 0 is left out of its kernels. The figures are those
-/// of the full kernel to the bit but for the sign of an exact zero (x + A 0
-/// = x for every x but a zero).
-struct Sides<const A: bool, const B: bool>;
-
-impl<const A: bool, const B: bool> Sides<A, B> {
-    /// The group's place in `Line::groups`.
-    const GROUP: usize = (!A as usize) * 2 + (!B as usize);
-}
-
 /// u = A_a u'_a, d = r_b + A_b s'_b - r_a - A_a s'_a, A_a s'_a, A_b s'_b.
 struct Parts<S> {
     u: Complex<S>,
@@ -82,11 +70,7 @@ impl<S: Real> Line<S> {
         let angle = !ai.is_empty();
         t.same_length(if angle { c } else { 0 }, &["ai", "aj", "phi0"])?;
         let (pa, ua, cb, ob) = (t.cplx_s("pa")?, t.cplx_s("ua")?, t.index("cb", n.saturating_sub(2))?, t.cplx_s("ob")?);
-        let group = |k: usize| (pa[k].is_zero() as usize) * 2 + ob[k].is_zero() as usize;
-        let groups = std::array::from_fn(|g| {
-            let rows = (0..c).filter(|&k| group(k) == g);
-            rows.map(|k| Row { ca: ca[k], cb: cb[k], pa: pa[k], ua: ua[k], ob: ob[k], c: k }).collect()
-        });
+        let groups = sides(&pa, &ob, |k| Row { ca: ca[k], cb: cb[k], pa: pa[k], ua: ua[k], ob: ob[k], c: k });
         Ok(Line { aj: t.index("aj", n)?, phi0: t.real_s("phi0")?, n, ca, pa, ua, cb, ob, ai, angle, groups })
     }
 
@@ -137,10 +121,7 @@ impl<S: Real> Line<S> {
     /// u x d (Eqs. 4.12, 4.16), then phi_i - phi_j - phi0 for translational joints.
     pub fn phi(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && out.len() >= self.rows());
-        self.phi_of::<true, true>(at, out);
-        self.phi_of::<true, false>(at, out);
-        self.phi_of::<false, true>(at, out);
-        self.phi_of::<false, false>(at, out);
+        each_side!(self.phi_of(at, out));
         if self.angle {
             for (c, o) in out.chunks_exact_mut(2).take(self.ca.len()).enumerate() {
                 // SAFETY: c < ca.len() = ai, aj, phi0's; q holds n (asserted above)
@@ -169,10 +150,7 @@ impl<S: Real> Line<S> {
     /// [phi_i, phi_j] = [1, -1] for translational joints.
     pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && out.len() >= self.entries());
-        self.jac_of::<true, true>(at, out);
-        self.jac_of::<true, false>(at, out);
-        self.jac_of::<false, true>(at, out);
-        self.jac_of::<false, false>(at, out);
+        each_side!(self.jac_of(at, out));
     }
 
     /// Table 4.2's row over the constraints of Sides<A, B> (d + sa = d
@@ -200,10 +178,7 @@ impl<S: Real> Line<S> {
     /// -(u x d)'' without the acceleration terms (Table 4.3), then 0.
     pub fn gamma(&self, at: &At<S>, qd: &[S], _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && qd.len() >= self.n && out.len() >= self.rows());
-        self.gamma_of::<true, true>(at, qd, out);
-        self.gamma_of::<true, false>(at, qd, out);
-        self.gamma_of::<false, true>(at, qd, out);
-        self.gamma_of::<false, false>(at, qd, out);
+        each_side!(self.gamma_of(at, qd, out));
         if self.angle {
             for o in out.chunks_exact_mut(2).take(self.ca.len()) {
                 o[1] = S::zero();

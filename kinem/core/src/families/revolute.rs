@@ -1,9 +1,8 @@
 //! Revolute joint, Eqs. 4.7-4.9; Jacobian Eq. 4.46 (Table 4.2); gamma Eq. 4.47.
-use super::{lane, At, Dir, Shared};
+use super::{each_side, lane, sides, At, Dir, Shared, Sides};
 use crate::real::{Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
-use num_traits::Zero;
 
 /// Phi = r_i + A_i s'_i^P - r_j - A_j s'_j^P (Eq. 4.7): two rows, x and y.
 /// Columns: ci, cj the bodies' x columns; si, sj the joint centre on each.
@@ -34,27 +33,12 @@ struct Joint<S> {
     k: usize,
 }
 
-/// Which local points of a joint are not exactly zero (I: s'_i, J: s'_j):
-/// a term A s' with s' = 0 is left out of its kernels. The figures are
-/// those of the full kernel to the bit but for the sign of an exact zero
-/// (x + A 0 = x for every x but a zero).
-struct Sides<const I: bool, const J: bool>;
-
-impl<const I: bool, const J: bool> Sides<I, J> {
-    /// The group's place in `Revolute::groups`.
-    const GROUP: usize = (!I as usize) * 2 + (!J as usize);
-}
-
 impl<S: Real> Revolute<S> {
     pub fn new(t: &Table, n: usize) -> Result<Self, String> {
         let ci = t.index("ci", n.saturating_sub(2))?;
         t.same_length(ci.len(), &["cj", "si", "sj"])?;
         let (cj, si, sj) = (t.index("cj", n.saturating_sub(2))?, t.cplx_s("si")?, t.cplx_s("sj")?);
-        let group = |k: usize| (si[k].is_zero() as usize) * 2 + sj[k].is_zero() as usize;
-        let groups = std::array::from_fn(|g| {
-            let joints = (0..ci.len()).filter(|&k| group(k) == g);
-            joints.map(|k| Joint { ci: ci[k], cj: cj[k], si: si[k], sj: sj[k], k }).collect()
-        });
+        let groups = sides(&si, &sj, |k| Joint { ci: ci[k], cj: cj[k], si: si[k], sj: sj[k], k });
         Ok(Revolute { n, ci, cj, si, sj, groups })
     }
 
@@ -69,10 +53,7 @@ impl<S: Real> Revolute<S> {
     /// Eq. 4.7.
     pub fn phi(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && out.len() >= self.rows());
-        self.phi_of::<true, true>(at, out);
-        self.phi_of::<true, false>(at, out);
-        self.phi_of::<false, true>(at, out);
-        self.phi_of::<false, false>(at, out);
+        each_side!(self.phi_of(at, out));
     }
 
     /// Eq. 4.7 over the joints of Sides<I, J>; out holds 2 rows per joint
@@ -100,10 +81,7 @@ impl<S: Real> Revolute<S> {
     /// constraint: row x: x_i, phi_i, x_j, phi_j; row y: y_i, phi_i, y_j, phi_j.
     pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && out.len() >= self.entries());
-        self.jac_of::<true, true>(at, out);
-        self.jac_of::<true, false>(at, out);
-        self.jac_of::<false, true>(at, out);
-        self.jac_of::<false, false>(at, out);
+        each_side!(self.jac_of(at, out));
     }
 
     /// Eq. 4.46 over the joints of Sides<I, J> (B 0 = 0); out holds 8
@@ -125,10 +103,7 @@ impl<S: Real> Revolute<S> {
     /// Eq. 4.47: A_i s'_i w_i^2 - A_j s'_j w_j^2.
     pub fn gamma(&self, at: &At<S>, qd: &[S], _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && qd.len() >= self.n && out.len() >= self.rows());
-        self.gamma_of::<true, true>(at, qd, out);
-        self.gamma_of::<true, false>(at, qd, out);
-        self.gamma_of::<false, true>(at, qd, out);
-        self.gamma_of::<false, false>(at, qd, out);
+        each_side!(self.gamma_of(at, qd, out));
     }
 
     /// Eq. 4.47 over the joints of Sides<I, J>; out holds 2 rows per joint,
