@@ -22,6 +22,14 @@ pub struct Kin<S = f64> {
     pub functions: Functions<S>,
     pub outlines: Outlines<S>,
     pub time_dependent: Vec<usize>, // families whose nu may be non-zero
+    /// the simple families' driver rows (row, function): nu = f'(t) there
+    drivers: Vec<(usize, usize)>,
+    /// the other families whose nu may be non-zero
+    timed: Vec<usize>,
+    /// each family's rows and Jacobian entries (row_off, entry_off's
+    /// spans, ascending within 0..m and 0..nnz: the evaluations slice
+    /// their outputs by them unchecked)
+    spans: Vec<[(usize, usize); 2]>,
     /// no family reads an outline and no driving function is a table's
     /// pieces: q(t) as smooth as the drivers' polynomials and harmonics
     /// (the march's Hermite start then carries its last error: step::Bias)
@@ -66,11 +74,19 @@ impl<S: Real> Kin<S> {
             row_off.push(row_off.last().unwrap() + f.rows());
             entry_off.push(entry_off.last().unwrap() + f.entries());
         }
+        let spans = (0..list.len()).map(|k| [(row_off[k], row_off[k + 1]), (entry_off[k], entry_off[k + 1])]).collect();
         let shared = Shared { functions: &functions, outlines: &outlines };
         for f in &mut list {
             f.bind(&shared);
         }
-        let time_dependent = (0..list.len()).filter(|&k| list[k].time_dependent(&shared)).collect();
+        let time_dependent: Vec<usize> = (0..list.len()).filter(|&k| list[k].time_dependent(&shared)).collect();
+        let mut drivers = Vec::new();
+        for (k, f) in list.iter().enumerate() {
+            if let Family::Simple(f) = f {
+                drivers.extend(f.drivers().iter().map(|&(r, g)| (row_off[k] + r, g)));
+            }
+        }
+        let timed = time_dependent.iter().copied().filter(|&k| !matches!(list[k], Family::Simple(_))).collect();
         let pieces = functions_table.ints.get("kind").is_some_and(|k| k.contains(&crate::functions::PIECES));
         let smooth = !pieces && !list.iter().any(|f| f.piecewise());
         Ok(Kin {
@@ -84,6 +100,9 @@ impl<S: Real> Kin<S> {
             functions,
             outlines,
             time_dependent,
+            drivers,
+            timed,
+            spans,
             smooth,
             tables,
             function_table: functions_table.clone(),
@@ -104,31 +123,40 @@ impl<S: Real> Kin<S> {
     }
 
     pub fn phi(&self, at: &At<S>, out: &mut [S]) {
+        assert!(out.len() >= self.m);
         let s = self.shared();
-        for (k, f) in self.families.iter().enumerate() {
-            f.phi(at, &s, &mut out[self.row_off[k]..self.row_off[k + 1]]);
+        for (f, &[(a, b), _]) in self.families.iter().zip(&self.spans) {
+            // SAFETY: a <= b <= m (spans), out holds m (asserted above)
+            f.phi(at, &s, unsafe { out.get_unchecked_mut(a..b) });
         }
     }
 
     pub fn jac(&self, at: &At<S>, out: &mut [S]) {
+        assert!(out.len() >= self.nnz);
         let s = self.shared();
-        for (k, f) in self.families.iter().enumerate() {
-            f.jac(at, &s, &mut out[self.entry_off[k]..self.entry_off[k + 1]]);
+        for (f, &[_, (a, b)]) in self.families.iter().zip(&self.spans) {
+            // SAFETY: a <= b <= nnz (spans), out holds nnz (asserted above)
+            f.jac(at, &s, unsafe { out.get_unchecked_mut(a..b) });
         }
     }
 
     pub fn nu(&self, t: f64, out: &mut [S]) {
         out.fill(S::zero());
         let s = self.shared();
-        for &k in &self.time_dependent {
+        for &(r, f) in &self.drivers {
+            out[r] = self.functions.eval(f, t, 1);
+        }
+        for &k in &self.timed {
             self.families[k].nu(t, &s, &mut out[self.row_off[k]..self.row_off[k + 1]]);
         }
     }
 
     pub fn gamma(&self, at: &At<S>, qd: &[S], out: &mut [S]) {
+        assert!(out.len() >= self.m);
         let s = self.shared();
-        for (k, f) in self.families.iter().enumerate() {
-            f.gamma(at, qd, &s, &mut out[self.row_off[k]..self.row_off[k + 1]]);
+        for (f, &[(a, b), _]) in self.families.iter().zip(&self.spans) {
+            // SAFETY: a <= b <= m (spans), out holds m (asserted above)
+            f.gamma(at, qd, &s, unsafe { out.get_unchecked_mut(a..b) });
         }
     }
 }

@@ -8,7 +8,7 @@
 //! u = P_i - Q_i, d = P_j - P_i, and Eq. 4.16 with a = j, u = Q_j - P_j,
 //! d = P_i - P_j. A translational joint adds the row
 //! phi_i - phi_j - (phi_i^0 - phi_j^0) = 0 (Eq. 4.10 as corrected).
-use super::{cross, dot, i, lane, At, Dir, Shared};
+use super::{cross, dot, each_side, i, lane, sides, At, Dir, Shared, Sides};
 use crate::real::{Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
@@ -22,6 +22,11 @@ use num_complex::{Complex, Complex64 as C64};
 /// Invariants (checked in `new`): pa, ua, cb, ob as long as ca (and ai, aj,
 /// phi0 when `angle`); every ca, cb below n - 2, every ai, aj below n; so a
 /// kernel that checked `At::holds(n)` reads them unchecked.
+///
+/// The value kernels (phi, jac, gamma) run over `groups`, the same
+/// constraints grouped by which of pa, ob are exactly zero (value and every
+/// tangent: `Complex::is_zero`), each group by its own kernel without the
+/// products with them (`Sides`); the direct tangent kernels read the columns.
 pub struct Line<S = f64> {
     n: usize,
     ca: Vec<usize>,
@@ -33,6 +38,19 @@ pub struct Line<S = f64> {
     aj: Vec<usize>,
     phi0: Vec<S>,
     angle: bool,
+    /// the constraints by Sides<A, B>::GROUP
+    groups: [Vec<Row<S>>; 4],
+}
+
+/// One constraint of a group: its columns and vectors, and its place c
+/// (its u x d row, `per` c; its Jacobian entries from `width` c).
+struct Row<S> {
+    ca: usize,
+    cb: usize,
+    pa: Complex<S>,
+    ua: Complex<S>,
+    ob: Complex<S>,
+    c: usize,
 }
 
 /// u = A_a u'_a, d = r_b + A_b s'_b - r_a - A_a s'_a, A_a s'_a, A_b s'_b.
@@ -51,18 +69,9 @@ impl<S: Real> Line<S> {
         let ai = t.index("ai", n)?;
         let angle = !ai.is_empty();
         t.same_length(if angle { c } else { 0 }, &["ai", "aj", "phi0"])?;
-        Ok(Line {
-            pa: t.cplx_s("pa")?,
-            ua: t.cplx_s("ua")?,
-            cb: t.index("cb", n.saturating_sub(2))?,
-            ob: t.cplx_s("ob")?,
-            aj: t.index("aj", n)?,
-            phi0: t.real_s("phi0")?,
-            n,
-            ca,
-            ai,
-            angle,
-        })
+        let (pa, ua, cb, ob) = (t.cplx_s("pa")?, t.cplx_s("ua")?, t.index("cb", n.saturating_sub(2))?, t.cplx_s("ob")?);
+        let groups = sides(&pa, &ob, |k| Row { ca: ca[k], cb: cb[k], pa: pa[k], ua: ua[k], ob: ob[k], c: k });
+        Ok(Line { aj: t.index("aj", n)?, phi0: t.real_s("phi0")?, n, ca, pa, ua, cb, ob, ai, angle, groups })
     }
 
     fn per(&self) -> usize {
@@ -73,38 +82,66 @@ impl<S: Real> Line<S> {
         }
     }
 
+    fn width(&self) -> usize {
+        if self.angle {
+            8
+        } else {
+            6
+        }
+    }
+
     pub fn rows(&self) -> usize {
         self.per() * self.ca.len()
     }
 
     pub fn entries(&self) -> usize {
-        (if self.angle { 8 } else { 6 }) * self.ca.len()
+        self.width() * self.ca.len()
     }
 
+    /// The parts of constraint r of Sides<A, B> (sa, sb zero where left out).
+    ///
     /// # Safety
-    /// c < ca.len() and `at.holds(n)` (Line's invariants).
+    /// `at.holds(n)` (Line's invariants: r.ca, r.cb < n - 2).
     #[inline(always)]
-    unsafe fn parts(&self, at: &At<S>, c: usize) -> Parts<S> {
-        let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
-        let (ea, eb) = (at.rot_at(a), at.rot_at(b));
-        let (sa, sb) = (*self.pa.get_unchecked(c) * ea, *self.ob.get_unchecked(c) * eb);
-        Parts { u: *self.ua.get_unchecked(c) * ea, d: at.r_at(b) + sb - at.r_at(a) - sa, sa, sb }
+    unsafe fn parts<const A: bool, const B: bool>(at: &At<S>, r: &Row<S>) -> Parts<S> {
+        let zero = Complex::new(S::zero(), S::zero());
+        let ea = at.rot_at(r.ca);
+        let (sa, sb) = (if A { r.pa * ea } else { zero }, if B { r.ob * at.rot_at(r.cb) } else { zero });
+        let mut d = at.r_at(r.cb);
+        if B {
+            d = d + sb;
+        }
+        d = d - at.r_at(r.ca);
+        if A {
+            d = d - sa;
+        }
+        Parts { u: r.ua * ea, d, sa, sb }
     }
 
     /// u x d (Eqs. 4.12, 4.16), then phi_i - phi_j - phi0 for translational joints.
     pub fn phi(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
-        let per = self.per();
-        assert!(at.holds(self.n) && out.len() >= per * self.ca.len());
-        for c in 0..self.ca.len() {
-            // SAFETY: c < ca.len(), q and e hold n (asserted above), the invariants of `Line`
-            unsafe {
-                let p = self.parts(at, c);
-                *out.get_unchecked_mut(per * c) = cross(p.u, p.d);
-                if self.angle {
+        assert!(at.holds(self.n) && out.len() >= self.rows());
+        each_side!(self.phi_of(at, out));
+        if self.angle {
+            for (c, o) in out.chunks_exact_mut(2).take(self.ca.len()).enumerate() {
+                // SAFETY: c < ca.len() = ai, aj, phi0's; q holds n (asserted above)
+                o[1] = unsafe {
                     let (i, j) = (*self.ai.get_unchecked(c), *self.aj.get_unchecked(c));
-                    *out.get_unchecked_mut(2 * c + 1) =
-                        *at.q.get_unchecked(i) - *at.q.get_unchecked(j) - *self.phi0.get_unchecked(c);
-                }
+                    *at.q.get_unchecked(i) - *at.q.get_unchecked(j) - *self.phi0.get_unchecked(c)
+                };
+            }
+        }
+    }
+
+    /// u x d over the constraints of Sides<A, B> (`phi` asserted out's rows and n).
+    #[inline(always)]
+    fn phi_of<const A: bool, const B: bool>(&self, at: &At<S>, out: &mut [S]) {
+        let per = self.per();
+        for r in &self.groups[Sides::<A, B>::GROUP] {
+            // SAFETY: r.c < ca.len(); q and e hold n, out per rows per constraint (phi)
+            unsafe {
+                let p = Self::parts::<A, B>(at, r);
+                *out.get_unchecked_mut(per * r.c) = cross(p.u, p.d);
             }
         }
     }
@@ -112,40 +149,77 @@ impl<S: Real> Line<S> {
     /// Columns [x_a, y_a, phi_a, x_b, y_b, phi_b] of u x d (Table 4.2), then
     /// [phi_i, phi_j] = [1, -1] for translational joints.
     pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
-        let width = if self.angle { 8 } else { 6 };
-        assert!(at.holds(self.n) && out.len() >= width * self.ca.len());
-        for (c, o) in out.chunks_exact_mut(width).take(self.ca.len()).enumerate() {
-            // SAFETY: c < ca.len(), q and e hold n (asserted above)
-            let p = unsafe { self.parts(at, c) };
-            o[..6].copy_from_slice(&[p.u.im, -p.u.re, -dot(p.u, p.d + p.sa), -p.u.im, p.u.re, dot(p.u, p.sb)]);
-            if self.angle {
-                o[6] = S::one();
-                o[7] = -S::one();
+        assert!(at.holds(self.n) && out.len() >= self.entries());
+        each_side!(self.jac_of(at, out));
+    }
+
+    /// Table 4.2's row over the constraints of Sides<A, B> (d + sa = d
+    /// where sa is left out, u . sb = 0 where sb is); `jac` asserted out's
+    /// entries and n.
+    #[inline(always)]
+    fn jac_of<const A: bool, const B: bool>(&self, at: &At<S>, out: &mut [S]) {
+        let width = self.width();
+        for r in &self.groups[Sides::<A, B>::GROUP] {
+            // SAFETY: r.c < ca.len(); q and e hold n, out width entries per constraint (jac)
+            unsafe {
+                let p = Self::parts::<A, B>(at, r);
+                let o = out.get_unchecked_mut(width * r.c..width * r.c + width);
+                let ta = if A { dot(p.u, p.d + p.sa) } else { dot(p.u, p.d) };
+                let tb = if B { dot(p.u, p.sb) } else { S::zero() };
+                o[..6].copy_from_slice(&[p.u.im, -p.u.re, -ta, -p.u.im, p.u.re, tb]);
+                if self.angle {
+                    o[6] = S::one();
+                    o[7] = -S::one();
+                }
             }
         }
     }
 
     /// -(u x d)'' without the acceleration terms (Table 4.3), then 0.
     pub fn gamma(&self, at: &At<S>, qd: &[S], _: &Shared<S>, out: &mut [S]) {
+        assert!(at.holds(self.n) && qd.len() >= self.n && out.len() >= self.rows());
+        each_side!(self.gamma_of(at, qd, out));
+        if self.angle {
+            for o in out.chunks_exact_mut(2).take(self.ca.len()) {
+                o[1] = S::zero();
+            }
+        }
+    }
+
+    /// Table 4.3's row over the constraints of Sides<A, B>: the terms of sa,
+    /// sb left out where they are (`gamma` asserted out's rows and n).
+    #[inline(always)]
+    fn gamma_of<const A: bool, const B: bool>(&self, at: &At<S>, qd: &[S], out: &mut [S]) {
         let per = self.per();
-        assert!(at.holds(self.n) && qd.len() >= self.n && out.len() >= per * self.ca.len());
-        for c in 0..self.ca.len() {
-            // SAFETY: c < ca.len(), q, e and qd hold n (asserted above), the invariants of `Line`
+        for r in &self.groups[Sides::<A, B>::GROUP] {
+            // SAFETY: r.c < ca.len(); q, e and qd hold n, out per rows per constraint (gamma)
             unsafe {
-                let p = self.parts(at, c);
-                let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
-                let (wa, wb) = (*qd.get_unchecked(a + 2), *qd.get_unchecked(b + 2));
+                let p = Self::parts::<A, B>(at, r);
+                let (a, b) = (r.ca, r.cb);
+                let wa = *qd.get_unchecked(a + 2);
                 let (ra, rb) = (
                     Complex::new(*qd.get_unchecked(a), *qd.get_unchecked(a + 1)),
                     Complex::new(*qd.get_unchecked(b), *qd.get_unchecked(b + 1)),
                 );
-                let dd = rb + i::<S>() * p.sb * wb - ra - i::<S>() * p.sa * wa;
-                *out.get_unchecked_mut(per * c) = wa * wa * cross(p.u, p.d)
-                    + wa * dot(p.u, dd) * 2.0
-                    + cross(p.u, p.sb * (wb * wb) - p.sa * (wa * wa));
-                if self.angle {
-                    *out.get_unchecked_mut(2 * c + 1) = S::zero();
+                let mut dd = rb;
+                if B {
+                    dd = dd + i::<S>() * p.sb * *qd.get_unchecked(b + 2);
                 }
+                dd = dd - ra;
+                if A {
+                    dd = dd - i::<S>() * p.sa * wa;
+                }
+                let mut g = wa * wa * cross(p.u, p.d) + wa * dot(p.u, dd) * 2.0;
+                if A || B {
+                    let wb = *qd.get_unchecked(b + 2);
+                    let big = match (A, B) {
+                        (true, true) => p.sb * (wb * wb) - p.sa * (wa * wa),
+                        (false, true) => p.sb * (wb * wb),
+                        _ => -(p.sa * (wa * wa)),
+                    };
+                    g = g + cross(p.u, big);
+                }
+                *out.get_unchecked_mut(per * r.c) = g;
             }
         }
     }

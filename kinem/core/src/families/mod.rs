@@ -18,6 +18,7 @@ use crate::outline::Outlines;
 use crate::real::{Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
+use num_traits::Zero;
 
 pub mod cam;
 pub mod curve;
@@ -106,7 +107,9 @@ pub struct Shared<'a, S = f64> {
     pub outlines: &'a Outlines<S>,
 }
 
-/// The type switch: one variant per family, each holding its table.
+/// The type switch: one variant per family, each holding its table (a
+/// byte's tag: the switch reads it, not a niche in a table's fields).
+#[repr(u8)]
 pub enum Family<S = f64> {
     Simple(simple::Simple<S>),
     Revolute(revolute::Revolute<S>),
@@ -138,6 +141,37 @@ pub fn coordinate_columns(kind: &str) -> &'static [&'static str] {
         _ => &[],
     }
 }
+
+/// Which of a constraint's two local vectors are not exactly zero (A:
+/// the first, B: the second; the revolute's s'_i and s'_j, the line's base
+/// point and the other body's point): a term A s' with s' = 0 is left out
+/// of the group's kernels. The figures are those of the full kernel to the
+/// bit but for the sign of an exact zero (x + A 0 = x for every x but a zero).
+pub struct Sides<const A: bool, const B: bool>;
+
+impl<const A: bool, const B: bool> Sides<A, B> {
+    /// The group's place in the array `sides` makes.
+    pub const GROUP: usize = (!A as usize) * 2 + (!B as usize);
+}
+
+/// Constraints 0..a.len() grouped by Sides<A, B>::GROUP of their vectors
+/// a[k], b[k] (zero when the value and every tangent are: `is_zero`, so a
+/// seeded design parameter keeps the full kernel), each made by `make`.
+pub fn sides<S: Real, T>(a: &[Complex<S>], b: &[Complex<S>], make: impl Fn(usize) -> T) -> [Vec<T>; 4] {
+    let group = |k: usize| (a[k].is_zero() as usize) * 2 + b[k].is_zero() as usize;
+    std::array::from_fn(|g| (0..a.len()).filter(|&k| group(k) == g).map(&make).collect())
+}
+
+/// `$s.$f::<A, B>(args)` for the four groups of `Sides`.
+macro_rules! each_side {
+    ($s:ident . $f:ident ( $($a:expr),* )) => {
+        $s.$f::<true, true>($($a),*);
+        $s.$f::<true, false>($($a),*);
+        $s.$f::<false, true>($($a),*);
+        $s.$f::<false, false>($($a),*);
+    };
+}
+pub(crate) use each_side;
 
 macro_rules! each {
     ($self:expr, $f:ident => $e:expr) => {

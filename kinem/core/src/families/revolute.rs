@@ -1,5 +1,5 @@
 //! Revolute joint, Eqs. 4.7-4.9; Jacobian Eq. 4.46 (Table 4.2); gamma Eq. 4.47.
-use super::{lane, At, Dir, Shared};
+use super::{each_side, lane, sides, At, Dir, Shared, Sides};
 use crate::real::{Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
@@ -8,19 +8,38 @@ use num_complex::{Complex, Complex64 as C64};
 /// Columns: ci, cj the bodies' x columns; si, sj the joint centre on each.
 /// Invariant (checked in `new`): every ci, cj below n - 2, so a kernel
 /// that checked `At::holds(n)` reads their columns unchecked.
+///
+/// The value kernels (phi, jac, gamma) run over `groups`, the same joints
+/// grouped by which local points are exactly zero (value and every
+/// tangent: `Complex::is_zero`), each group by its own kernel without the
+/// products with them (`Sides`); the direct tangent kernels read the columns.
 pub struct Revolute<S = f64> {
     n: usize,
     ci: Vec<usize>,
     cj: Vec<usize>,
     si: Vec<Complex<S>>,
     sj: Vec<Complex<S>>,
+    /// the joints by Sides<I, J>::GROUP
+    groups: [Vec<Joint<S>>; 4],
+}
+
+/// One joint of a group: its columns and local points, and its place k
+/// (rows 2k, 2k + 1; Jacobian entries 8k..8k + 8).
+struct Joint<S> {
+    ci: usize,
+    cj: usize,
+    si: Complex<S>,
+    sj: Complex<S>,
+    k: usize,
 }
 
 impl<S: Real> Revolute<S> {
     pub fn new(t: &Table, n: usize) -> Result<Self, String> {
         let ci = t.index("ci", n.saturating_sub(2))?;
         t.same_length(ci.len(), &["cj", "si", "sj"])?;
-        Ok(Revolute { n, cj: t.index("cj", n.saturating_sub(2))?, ci, si: t.cplx_s("si")?, sj: t.cplx_s("sj")? })
+        let (cj, si, sj) = (t.index("cj", n.saturating_sub(2))?, t.cplx_s("si")?, t.cplx_s("sj")?);
+        let groups = sides(&si, &sj, |k| Joint { ci: ci[k], cj: cj[k], si: si[k], sj: sj[k], k });
+        Ok(Revolute { n, ci, cj, si, sj, groups })
     }
 
     pub fn rows(&self) -> usize {
@@ -33,41 +52,77 @@ impl<S: Real> Revolute<S> {
 
     /// Eq. 4.7.
     pub fn phi(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
-        assert!(at.holds(self.n));
-        let joints = self.ci.iter().zip(&self.cj).zip(self.si.iter().zip(&self.sj));
-        for (o, ((&a, &b), (&si, &sj))) in out.chunks_exact_mut(2).zip(joints) {
-            // SAFETY: a, b < n - 2 (new), q and e hold n (asserted above)
-            let d = unsafe { at.r_at(a) + si * at.rot_at(a) - at.r_at(b) - sj * at.rot_at(b) };
-            o[0] = d.re;
-            o[1] = d.im;
+        assert!(at.holds(self.n) && out.len() >= self.rows());
+        each_side!(self.phi_of(at, out));
+    }
+
+    /// Eq. 4.7 over the joints of Sides<I, J>; out holds 2 rows per joint
+    /// and `at` n coordinates (`phi` asserted both).
+    #[inline(always)]
+    fn phi_of<const I: bool, const J: bool>(&self, at: &At<S>, out: &mut [S]) {
+        for p in &self.groups[Sides::<I, J>::GROUP] {
+            // SAFETY: ci, cj < n - 2 and k < the joints' count (new); q, e hold n, out 2 rows per joint (phi)
+            unsafe {
+                let mut d = at.r_at(p.ci);
+                if I {
+                    d = d + p.si * at.rot_at(p.ci);
+                }
+                d = d - at.r_at(p.cj);
+                if J {
+                    d = d - p.sj * at.rot_at(p.cj);
+                }
+                *out.get_unchecked_mut(2 * p.k) = d.re;
+                *out.get_unchecked_mut(2 * p.k + 1) = d.im;
+            }
         }
     }
 
     /// Eq. 4.46: [I, B_i s'_i, -I, -B_j s'_j]; B s' = i A s'. Pattern per
     /// constraint: row x: x_i, phi_i, x_j, phi_j; row y: y_i, phi_i, y_j, phi_j.
     pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
-        assert!(at.holds(self.n));
-        let (one, minus) = (S::one(), -S::one());
-        let joints = self.ci.iter().zip(&self.cj).zip(self.si.iter().zip(&self.sj));
-        for (o, ((&ci, &cj), (&si, &sj))) in out.chunks_exact_mut(8).zip(joints) {
-            // SAFETY: ci, cj < n - 2 (new), e holds n (asserted above)
-            let (a, b) = unsafe { (si * at.rot_at(ci), sj * at.rot_at(cj)) };
-            o.copy_from_slice(&[one, -a.im, minus, b.im, one, a.re, minus, -b.re]);
+        assert!(at.holds(self.n) && out.len() >= self.entries());
+        each_side!(self.jac_of(at, out));
+    }
+
+    /// Eq. 4.46 over the joints of Sides<I, J> (B 0 = 0); out holds 8
+    /// entries per joint and `at` n coordinates (`jac` asserted both).
+    #[inline(always)]
+    fn jac_of<const I: bool, const J: bool>(&self, at: &At<S>, out: &mut [S]) {
+        let (one, minus, zero) = (S::one(), -S::one(), S::zero());
+        for p in &self.groups[Sides::<I, J>::GROUP] {
+            // SAFETY: ci, cj < n - 2 and k < the joints' count (new); e holds n, out 8 entries per joint (jac)
+            unsafe {
+                let a = if I { p.si * at.rot_at(p.ci) } else { Complex::new(zero, zero) };
+                let b = if J { p.sj * at.rot_at(p.cj) } else { Complex::new(zero, zero) };
+                let o = out.get_unchecked_mut(8 * p.k..8 * p.k + 8);
+                o.copy_from_slice(&[one, -a.im, minus, b.im, one, a.re, minus, -b.re]);
+            }
         }
     }
 
     /// Eq. 4.47: A_i s'_i w_i^2 - A_j s'_j w_j^2.
     pub fn gamma(&self, at: &At<S>, qd: &[S], _: &Shared<S>, out: &mut [S]) {
-        assert!(at.holds(self.n) && qd.len() >= self.n);
-        let joints = self.ci.iter().zip(&self.cj).zip(self.si.iter().zip(&self.sj));
-        for (o, ((&a, &b), (&si, &sj))) in out.chunks_exact_mut(2).zip(joints) {
-            // SAFETY: a, b < n - 2 (new), e and qd hold n (asserted above)
-            let g = unsafe {
-                let (wi, wj) = (*qd.get_unchecked(a + 2), *qd.get_unchecked(b + 2));
-                si * at.rot_at(a) * (wi * wi) - sj * at.rot_at(b) * (wj * wj)
-            };
-            o[0] = g.re;
-            o[1] = g.im;
+        assert!(at.holds(self.n) && qd.len() >= self.n && out.len() >= self.rows());
+        each_side!(self.gamma_of(at, qd, out));
+    }
+
+    /// Eq. 4.47 over the joints of Sides<I, J>; out holds 2 rows per joint,
+    /// `at` and qd n coordinates (`gamma` asserted them).
+    #[inline(always)]
+    fn gamma_of<const I: bool, const J: bool>(&self, at: &At<S>, qd: &[S], out: &mut [S]) {
+        for p in &self.groups[Sides::<I, J>::GROUP] {
+            // SAFETY: ci, cj < n - 2 and k < the joints' count (new); e and qd hold n, out 2 rows per joint (gamma)
+            unsafe {
+                let (wi, wj) = (*qd.get_unchecked(p.ci + 2), *qd.get_unchecked(p.cj + 2));
+                let g = match (I, J) {
+                    (true, true) => p.si * at.rot_at(p.ci) * (wi * wi) - p.sj * at.rot_at(p.cj) * (wj * wj),
+                    (true, false) => p.si * at.rot_at(p.ci) * (wi * wi),
+                    (false, true) => -(p.sj * at.rot_at(p.cj) * (wj * wj)),
+                    (false, false) => Complex::new(S::zero(), S::zero()),
+                };
+                *out.get_unchecked_mut(2 * p.k) = g.re;
+                *out.get_unchecked_mut(2 * p.k + 1) = g.im;
+            }
         }
     }
 }

@@ -24,6 +24,25 @@ pub struct Simple<S = f64> {
     n: usize,
     rows: Vec<Row<S>>,
     entries: usize,
+    /// the rows whose function is not a constant (row, function), once bound
+    drivers: Vec<(usize, usize)>,
+    /// the rows q_a - f(t) (no point term, not relative, Eqs. 4.31-4.33,
+    /// 4.36): their kernels without the terms they lack, by whether f is a
+    /// constant (a ground's, once bound) or a driver
+    fixed: Vec<Plain<S>>,
+    plain: Vec<Plain<S>>,
+    /// the other rows (row, its first Jacobian entry): the general kernel
+    general: Vec<(usize, usize)>,
+}
+
+/// A row q_a - f(t) (`Simple::fixed`, `plain`): its place k, coordinate a,
+/// Jacobian entry e, and its function f or constant value.
+struct Plain<S> {
+    k: usize,
+    a: usize,
+    e: usize,
+    f: usize,
+    value: S,
 }
 
 /// One row's columns (see `Simple`), with w = 1.0 for a relative row (else
@@ -99,7 +118,10 @@ impl<S: Real> Simple<S> {
                 value: S::zero(),
             })
             .collect();
-        Ok(Simple { n, rows, entries })
+        let mut s =
+            Simple { n, rows, entries, drivers: Vec::new(), fixed: Vec::new(), plain: Vec::new(), general: Vec::new() };
+        s.group();
+        Ok(s)
     }
 
     /// Takes each constant function's value (a ground's, an absolute
@@ -109,6 +131,29 @@ impl<S: Real> Simple<S> {
             row.driven = !s.functions.constant(row.f);
             row.value = if row.driven { S::zero() } else { s.functions.eval(row.f, 0.0, 0) };
         }
+        self.drivers = self.rows.iter().enumerate().filter(|(_, r)| r.driven).map(|(k, r)| (k, r.f)).collect();
+        self.group();
+    }
+
+    /// Sorts the rows into `fixed`, `plain` and `general` (before `bind`
+    /// every function counts as a driver).
+    fn group(&mut self) {
+        let (mut fixed, mut plain, mut general) = (Vec::new(), Vec::new(), Vec::new());
+        let mut e = 0;
+        for (k, r) in self.rows.iter().enumerate() {
+            if r.point || r.relative || r.term {
+                general.push((k, e));
+            } else {
+                let p = Plain { k, a: r.a, e, f: r.f, value: r.value };
+                if r.driven {
+                    plain.push(p);
+                } else {
+                    fixed.push(p);
+                }
+            }
+            e += 1 + r.point as usize + r.relative as usize;
+        }
+        (self.fixed, self.plain, self.general) = (fixed, plain, general);
     }
 
     pub fn rows(&self) -> usize {
@@ -125,25 +170,40 @@ impl<S: Real> Simple<S> {
     }
 
     /// Eqs. 4.31-4.40: q_a - w q_k + point term - f(t).
+    /// (The rows q_a - f(t) without the products with w = 0: the figures
+    /// of the general row to the bit but for the sign of an exact zero.)
     pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
-        assert!(at.holds(self.n));
-        for (row, o) in self.rows.iter().zip(out) {
-            // SAFETY: a, k, angle < n (new), q and e hold n (asserted above)
-            let (qa, qk, p) = unsafe { (*at.q.get_unchecked(row.a), *at.q.get_unchecked(row.k), row.point_term(at)) };
-            let mut v = qa - qk * row.w - row.drive(at.t, 0, s);
-            if let Some(p) = p {
-                v = v + p;
+        assert!(at.holds(self.n) && out.len() >= self.rows.len());
+        // SAFETY (the three loops): k < rows (group), out holds them; a, k, angle < n (new), q and e hold n (asserted above)
+        for p in &self.fixed {
+            unsafe { *out.get_unchecked_mut(p.k) = *at.q.get_unchecked(p.a) - p.value };
+        }
+        for p in &self.plain {
+            unsafe { *out.get_unchecked_mut(p.k) = *at.q.get_unchecked(p.a) - s.functions.eval(p.f, at.t, 0) };
+        }
+        for &(k, _) in &self.general {
+            unsafe {
+                let row = self.rows.get_unchecked(k);
+                let (qa, qk, p) = (*at.q.get_unchecked(row.a), *at.q.get_unchecked(row.k), row.point_term(at));
+                let mut v = qa - qk * row.w - row.drive(at.t, 0, s);
+                if let Some(p) = p {
+                    v = v + p;
+                }
+                *out.get_unchecked_mut(k) = v;
             }
-            *o = v;
         }
     }
 
     /// 1 in column a; d(point term)/dphi_i = (B_i s')_c if a point; -1 in
     /// phi_k if relative (the pattern's order: a, angle, k, kept entries only).
     pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
-        assert!(at.holds(self.n));
-        let mut e = 0;
-        for row in &self.rows {
+        assert!(at.holds(self.n) && out.len() >= self.entries);
+        for p in self.fixed.iter().chain(&self.plain) {
+            // SAFETY: e < entries (group), out holds them (asserted above)
+            unsafe { *out.get_unchecked_mut(p.e) = S::one() };
+        }
+        for &(k, mut e) in &self.general {
+            let row = &self.rows[k];
             out[e] = S::one();
             e += 1;
             if row.point {
@@ -154,7 +214,6 @@ impl<S: Real> Simple<S> {
             }
             if row.relative {
                 out[e] = S::c(-row.w);
-                e += 1;
             }
         }
     }
@@ -166,17 +225,32 @@ impl<S: Real> Simple<S> {
         }
     }
 
+    /// The rows whose nu may not be zero, (row, function) once bound:
+    /// there nu = f'(t) (Eq. 4.37), elsewhere 0 (crate::model::Kin::nu).
+    pub fn drivers(&self) -> &[(usize, usize)] {
+        &self.drivers
+    }
+
     /// Eq. 4.38 and the point forms: f''(t) + (A_i s')_c w_i^2.
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
-        assert!(at.holds(self.n) && qd.len() >= self.n);
-        for (row, o) in self.rows.iter().zip(out) {
-            let mut v = row.drive(at.t, 2, s);
-            // SAFETY: angle < n (new), e and qd hold n (asserted above)
-            if let Some(p) = unsafe { row.point_term(at) } {
-                let w = unsafe { *qd.get_unchecked(row.angle) };
-                v = v + p * (w * w);
+        assert!(at.holds(self.n) && qd.len() >= self.n && out.len() >= self.rows.len());
+        // SAFETY (the three loops): k < rows (group), out holds them; angle < n (new), e and qd hold n (asserted above)
+        for p in &self.fixed {
+            unsafe { *out.get_unchecked_mut(p.k) = S::zero() };
+        }
+        for p in &self.plain {
+            unsafe { *out.get_unchecked_mut(p.k) = s.functions.eval(p.f, at.t, 2) };
+        }
+        for &(k, _) in &self.general {
+            unsafe {
+                let row = self.rows.get_unchecked(k);
+                let mut v = row.drive(at.t, 2, s);
+                if let Some(p) = row.point_term(at) {
+                    let w = *qd.get_unchecked(row.angle);
+                    v = v + p * (w * w);
+                }
+                *out.get_unchecked_mut(k) = v;
             }
-            *o = v;
         }
     }
 }

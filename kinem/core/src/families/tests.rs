@@ -423,21 +423,22 @@ fn revolute_derivatives_match_finite_differences() {
 
 #[test]
 fn simple_derivatives_match_finite_differences() {
-    // x of a point of body 1 = a constant; phi_2 - phi_0 = the harmonic; y_0 = the cubic
+    // x of a point of body 1 = a constant; phi_2 - phi_0 = the harmonic; y_0 = the cubic;
+    // y_1 = the constant (a ground's row: q_a - f alone)
     let t = table(
         &[
-            ("a", vec![3, 8, 1]),
-            ("angle", vec![5, 8, 2]),
-            ("k", vec![0, 2, 0]),
-            ("point", vec![1, 0, 0]),
-            ("relative", vec![0, 1, 0]),
-            ("f", vec![0, 2, 1]),
+            ("a", vec![3, 8, 1, 4]),
+            ("angle", vec![5, 8, 2, 5]),
+            ("k", vec![0, 2, 0, 0]),
+            ("point", vec![1, 0, 0, 0]),
+            ("relative", vec![0, 1, 0, 0]),
+            ("f", vec![0, 2, 1, 0]),
         ],
-        &[("mx", vec![1.0, 0.0, 0.0]), ("my", vec![0.0, 0.0, 0.0])],
-        &[("local", vec![c(0.7, -0.2), c(0.0, 0.0), c(0.0, 0.0)])],
+        &[("mx", vec![1.0, 0.0, 0.0, 0.0]), ("my", vec![0.0, 0.0, 0.0, 0.0])],
+        &[("local", vec![c(0.7, -0.2), c(0.0, 0.0), c(0.0, 0.0), c(0.0, 0.0)])],
     );
     let k = kin("simple", t.clone(), 0);
-    let (rows, cols) = (vec![0, 0, 1, 1, 2], vec![3, 5, 8, 2, 1]);
+    let (rows, cols) = (vec![0, 0, 1, 1, 2, 3], vec![3, 5, 8, 2, 1, 4]);
     let (q, qd) = state(&[]);
     check(&k, &rows, &cols, &q, &qd, 0.8);
     check_parameters("simple", &t, 0, &q, &qd, 0.8);
@@ -578,4 +579,98 @@ fn malformed_family_tables_are_refused() {
     let mut t = ok();
     t.ints.remove("ci");
     assert!(build(t).is_err());
+}
+
+/// Phi, Jacobian values, nu and gamma of `k` over duals at (q, qd, t)
+/// (tangents zero): their values.
+fn values(k: &Kin<Dual>, q: &[f64], qd: &[f64], t: f64) -> [Vec<f64>; 4] {
+    use crate::families::At;
+    let (q, qd): (Vec<Dual>, Vec<Dual>) =
+        (q.iter().map(|&x| Dual::c(x)).collect(), qd.iter().map(|&x| Dual::c(x)).collect());
+    let mut e = vec![Complex::new(Dual::c(1.0), Dual::c(0.0)); k.n];
+    k.rotate(&q, &mut e);
+    let at = At { q: &q, e: &e, t };
+    let (mut phi, mut jac, mut nu, mut gamma) =
+        (vec![Dual::c(0.0); k.m], vec![Dual::c(0.0); k.nnz], vec![Dual::c(0.0); k.m], vec![Dual::c(0.0); k.m]);
+    k.phi(&at, &mut phi);
+    k.jac(&at, &mut jac);
+    k.nu(t, &mut nu);
+    k.gamma(&at, &qd, &mut gamma);
+    [phi, jac, nu, gamma].map(|v| v.iter().map(|x| x.v).collect())
+}
+
+/// Joints whose local points are exactly zero (the revolute's s'_i, s'_j,
+/// the line's base point and point, each alone and both) are evaluated
+/// without the products with them: the figures of the full kernels to the
+/// bit but for the sign of an exact zero (tolerance 0). The full kernels'
+/// are the dual kernels' values with a tangent seeded on every local point
+/// (not zero: the full group). Their derivatives against finite
+/// differences as the other families'.
+#[test]
+fn zero_local_points_left_out_give_the_full_kernels_figures() {
+    let (q, qd) = state(&[]);
+    let z = c(0.0, 0.0);
+    let revolute = table(
+        &[("ci", vec![0, 3, 0, 6, 3]), ("cj", vec![3, 6, 6, 0, 0])],
+        &[],
+        &[("si", vec![z, c(-0.3, 0.2), z, c(0.2, 0.0), z]), ("sj", vec![c(0.0, -0.5), z, z, c(0.6, 0.6), z])],
+    );
+    let line = |angle: bool| {
+        let (ai, aj, phi0) = if angle {
+            (vec![2, 5, 8, 2], vec![5, 8, 2, 8], vec![0.3, -0.1, 0.0, 0.2])
+        } else {
+            (vec![], vec![], vec![])
+        };
+        table(
+            &[("ca", vec![0, 3, 6, 0]), ("cb", vec![3, 6, 0, 6]), ("ai", ai), ("aj", aj)],
+            &[("phi0", phi0)],
+            &[
+                ("pa", vec![z, c(0.2, 0.1), z, c(-0.1, 0.3)]),
+                ("ua", vec![c(-0.5, 0.8), c(0.3, 0.4), c(1.0, 0.0), c(0.0, -0.7)]),
+                ("ob", vec![c(0.4, -0.3), z, z, c(0.2, 0.2)]),
+            ],
+        )
+    };
+    for (kind, t) in [("revolute", revolute), ("line", line(true)), ("line", line(false))] {
+        let mut full = t.clone();
+        for key in ["si", "sj", "pa", "ob"] {
+            if let Some(v) = t.complex.get(key) {
+                full.d_complex.insert(key.to_string(), vec![c(1.0, 0.0); v.len()]);
+            }
+        }
+        let k = kin(kind, t.clone(), 0);
+        let want = values(&kin_with(kind, full, 0, &functions(), &outlines()), &q, &qd, 0.8);
+        let got = all_f64(&k, &q, &qd, 0.8);
+        let mut zeros = 0;
+        for (w, name) in ["Phi", "Jacobian", "nu", "gamma"].iter().enumerate() {
+            assert_eq!(got[w].len(), want[w].len());
+            for (r, (x, y)) in got[w].iter().zip(&want[w]).enumerate() {
+                assert!(x.to_bits() == y.to_bits() || (*x == 0.0 && *y == 0.0), "{kind}: {name}[{r}] {x} != {y}");
+                zeros += (*x == 0.0) as usize;
+            }
+        }
+        assert!(zeros > 0, "{kind}: no entry left out");
+        let (rows, cols): (Vec<usize>, Vec<usize>) = if kind == "revolute" {
+            let joint = |i: usize, j: usize| {
+                [(0, i), (0, i + 2), (0, j), (0, j + 2), (1, i + 1), (1, i + 2), (1, j + 1), (1, j + 2)]
+            };
+            pattern(2, &[&joint(0, 3), &joint(3, 6), &joint(0, 6), &joint(6, 0), &joint(3, 0)])
+        } else {
+            let per = if t.ints["ai"].is_empty() { 1 } else { 2 };
+            let ai = t.ints["ai"].iter().map(|&x| x as usize).collect::<Vec<_>>();
+            let aj = t.ints["aj"].iter().map(|&x| x as usize).collect::<Vec<_>>();
+            let mut entries: Vec<Vec<(usize, usize)>> = Vec::new();
+            for (c, (&a, &b)) in [0usize, 3, 6, 0].iter().zip(&[3usize, 6, 0, 6]).enumerate() {
+                let mut e = vec![(0, a), (0, a + 1), (0, a + 2), (0, b), (0, b + 1), (0, b + 2)];
+                if per == 2 {
+                    e.extend([(1, ai[c]), (1, aj[c])]);
+                }
+                entries.push(e);
+            }
+            let refs: Vec<&[(usize, usize)]> = entries.iter().map(|e| &e[..]).collect();
+            pattern(per, &refs)
+        };
+        check(&k, &rows, &cols, &q, &qd, 0.8);
+        check_parameters(kind, &t, 0, &q, &qd, 0.8);
+    }
 }
