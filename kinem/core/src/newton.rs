@@ -231,12 +231,21 @@ pub const ROUNDING: f64 = 2e-15;
 pub const CHORD_STEPS: usize = 5;
 /// A contraction measured this many instants ago or less may stand for the
 /// current one (scaled by the instants' motions and pivot ratios,
-/// crate::step::Contraction, and doubled): the chord then stops after its
+/// crate::step::Contraction, and times `MARGIN`): the chord then stops after its
 /// first correction when that times the contraction is at rounding. The
 /// scaling follows the contraction's drift; the age bounds how far the
 /// Jacobian's curvature it assumes is carried (any chord whose first
 /// correction is not proved measures a new one).
 pub const RECENT: u32 = 100;
+/// The recent contraction times this stands for a chord's first one. What
+/// it covers was measured (docs/benchmarks.md, round 12: every chord that
+/// made a second correction, its first contraction over the recent one):
+/// at most 2.95 on the Jansen leg, 2.43 on the peers' four-bar, 5.45 at
+/// worst over the cases (quick_return_1, whose chords never stop after one
+/// correction); and every chord that stopped after one correction, made to
+/// take one more, left at most 0.76 of its claim (2.0 left 3 of the Jansen
+/// leg's at 1.5 times theirs, 3.0 one of the four-bar's at 1.3).
+pub const MARGIN: f64 = 4.0;
 
 /// The book's modified Newton-Raphson with the factorisation the
 /// operations already hold (the previous instant's, at its corrected q):
@@ -250,8 +259,8 @@ pub const RECENT: u32 = 100;
 /// the residual met the tolerance (the others are the final correction, as
 /// in `settle`); the last step is the last correction. `known`: a recent
 /// contraction (the march's, scaled to this instant, crate::step::Contraction; infinite: none),
-/// which, doubled, stands for this one's at the first correction; returned
-/// with the contraction measured here (NaN: none, one correction).
+/// which, times `MARGIN`, stands for this one's at the first correction; returned
+/// with the first correction's contraction measured here (NaN: none, one correction).
 pub fn chord<O: Ops>(
     ops: &mut O,
     tolerance: f64,
@@ -284,10 +293,12 @@ pub struct Chord {
     iterations: usize,
     residual: f64,
     assumed: f64,
+    /// the first correction's contraction: the second's size over the first's (NaN: not made)
+    first: f64,
 }
 
 /// What a chord correction leaves: more to do, done (how it settled, the
-/// contraction measured: NaN after one correction), or give up.
+/// first correction's contraction: NaN after one correction), or give up.
 pub enum Verdict {
     Go,
     Done(Settled, f64),
@@ -297,7 +308,13 @@ pub enum Verdict {
 impl Chord {
     /// `known`: `chord`'s.
     pub fn new(known: f64) -> Self {
-        Chord { previous: f64::INFINITY, iterations: 0, residual: f64::INFINITY, assumed: 2.0 * known }
+        Chord {
+            previous: f64::INFINITY,
+            iterations: 0,
+            residual: f64::INFINITY,
+            assumed: MARGIN * known,
+            first: f64::NAN,
+        }
     }
 
     /// Ops::evaluate's iteration at correction `step` (-1 once the residual met the tolerance).
@@ -327,14 +344,20 @@ impl Chord {
         }
         let theta = size / self.previous;
         self.previous = size;
+        if step == 1 {
+            // what the next chord's first correction assumes: the first contraction, not a
+            // later one (the error's direction changes: cam_roller_circle's second is often a
+            // tenth of its first, so the last one underestimated the next first by 7 at the median)
+            self.first = theta;
+        }
         // a correction at rounding leaves at most itself; else the estimate from the contraction,
-        // measured, or at the first correction the recent one doubled
+        // measured, or at the first correction the recent one times MARGIN
         let estimate = |theta: f64| theta < 0.5 && size * theta / (1.0 - theta) <= ROUNDING;
         let done = size <= ROUNDING || if step == 0 { estimate(self.assumed) } else { estimate(theta) };
         if self.residual <= tolerance && done {
             let settled =
                 Settled { iterations: self.iterations, residual: self.residual, converged: true, last_step: size };
-            return Verdict::Done(settled, if step == 0 { f64::NAN } else { theta });
+            return Verdict::Done(settled, self.first);
         }
         if theta > CONTRACTION && size > ROUNDING {
             return Verdict::Stop;
