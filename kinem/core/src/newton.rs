@@ -227,8 +227,11 @@ pub const CONTRACTION: f64 = 0.03;
 /// positions, so that the factorisation at the final q, the instant's only
 /// one, gives the rates to rounding.
 pub const ROUNDING: f64 = 2e-15;
-/// At most this many chord corrections, then Newton.
-pub const CHORD_STEPS: usize = 5;
+/// At most this many chord corrections, then Newton: six since a later
+/// correction's estimate carries MARGIN (round 12), where a Lagrange start
+/// (positions only) may take one more to prove (quick_return_1's
+/// positions-only run: 503 factorisations with five, 299 with six).
+pub const CHORD_STEPS: usize = 6;
 /// A contraction measured this many instants ago or less may stand for the
 /// current one (scaled by the instants' motions and pivot ratios,
 /// crate::step::Contraction, and times `MARGIN`): the chord then stops after its
@@ -237,14 +240,15 @@ pub const CHORD_STEPS: usize = 5;
 /// Jacobian's curvature it assumes is carried (any chord whose first
 /// correction is not proved measures a new one).
 pub const RECENT: u32 = 100;
-/// The recent contraction times this stands for a chord's first one. What
-/// it covers was measured (docs/benchmarks.md, round 12: every chord that
+/// The recent contraction times this stands for a chord's first one, and a
+/// measured one times this (not below the first's) for the next. What it
+/// covers was measured (docs/benchmarks.md, round 12: every chord that
 /// made a second correction, its first contraction over the recent one):
 /// at most 2.95 on the Jansen leg, 2.43 on the peers' four-bar, 5.45 at
 /// worst over the cases (quick_return_1, whose chords never stop after one
-/// correction); and every chord that stopped after one correction, made to
-/// take one more, left at most 0.76 of its claim (2.0 left 3 of the Jansen
-/// leg's at 1.5 times theirs, 3.0 one of the four-bar's at 1.3).
+/// correction); and every chord, made to take one more correction where it
+/// stopped, left at most its claim or the rounding noise (about 3e-15 on
+/// the Jansen leg's fast phases), where 2 left 2.9e-14.
 pub const MARGIN: f64 = 4.0;
 
 /// The book's modified Newton-Raphson with the factorisation the
@@ -317,6 +321,15 @@ impl Chord {
         }
     }
 
+    /// The first correction's assumed contraction where one is known (0: none).
+    fn floor(&self) -> f64 {
+        if self.assumed < f64::INFINITY {
+            self.assumed
+        } else {
+            0.0
+        }
+    }
+
     /// Ops::evaluate's iteration at correction `step` (-1 once the residual met the tolerance).
     pub fn iteration(&self, step: usize, tolerance: f64) -> i64 {
         if self.residual <= tolerance {
@@ -350,10 +363,14 @@ impl Chord {
             // tenth of its first, so the last one underestimated the next first by 7 at the median)
             self.first = theta;
         }
-        // a correction at rounding leaves at most itself; else the estimate from the contraction,
-        // measured, or at the first correction the recent one times MARGIN
+        // a correction at rounding leaves at most itself; else the estimate from the contraction:
+        // at the first correction the recent one times MARGIN, later the measured one times MARGIN
+        // and not below the first's assumed (a later contraction exceeds the one measured before
+        // it: the Jansen leg's by up to 20 times, where the error turns to a direction that
+        // contracts less)
         let estimate = |theta: f64| theta < 0.5 && size * theta / (1.0 - theta) <= ROUNDING;
-        let done = size <= ROUNDING || if step == 0 { estimate(self.assumed) } else { estimate(theta) };
+        let assumed = if step == 0 { self.assumed } else { (MARGIN * theta).max(self.floor()) };
+        let done = size <= ROUNDING || estimate(assumed);
         if self.residual <= tolerance && done {
             let settled =
                 Settled { iterations: self.iterations, residual: self.residual, converged: true, last_step: size };
