@@ -227,10 +227,16 @@ pub const CONTRACTION: f64 = 0.03;
 /// positions, so that the factorisation at the final q, the instant's only
 /// one, gives the rates to rounding.
 pub const ROUNDING: f64 = 2e-15;
+/// A correction this small that no longer contracts is rounding noise
+/// (dimensionless): in their fast phases the Jansen leg's and the peers'
+/// four-bar's corrections stall at 2e-15 to 4e-15 (round 12, one more
+/// correction forced after each chord), and MARGIN asks for more
+/// corrections near that floor than the estimate without it did.
+pub const NOISE: f64 = 4.0 * ROUNDING;
 /// At most this many chord corrections, then Newton: six since a later
 /// correction's estimate carries MARGIN (round 12), where a Lagrange start
 /// (positions only) may take one more to prove (quick_return_1's
-/// positions-only run: 503 factorisations with five, 299 with six).
+/// positions-only run: 503 factorisations with five, 287 with six).
 pub const CHORD_STEPS: usize = 6;
 /// A contraction measured this many instants ago or less may stand for the
 /// current one (scaled by the instants' motions and pivot ratios,
@@ -370,13 +376,21 @@ impl Chord {
         // contracts less)
         let estimate = |theta: f64| theta < 0.5 && size * theta / (1.0 - theta) <= ROUNDING;
         let assumed = if step == 0 { self.assumed } else { (MARGIN * theta).max(self.floor()) };
-        let done = size <= ROUNDING || estimate(assumed);
+        // a later correction at NOISE or below that no longer contracts is the arithmetic's noise:
+        // the chord is as converged as a fresh factorisation would leave it (Newton from the
+        // predictor would only meet the same floor)
+        let stalled = step > 0 && size <= NOISE && theta > CONTRACTION;
+        let done = size <= ROUNDING || estimate(assumed) || stalled;
         if self.residual <= tolerance && done {
             let settled =
                 Settled { iterations: self.iterations, residual: self.residual, converged: true, last_step: size };
             return Verdict::Done(settled, self.first);
         }
-        if theta > CONTRACTION && size > ROUNDING {
+        // a slow contraction gives up to Newton, unless the corrections left reach rounding at it
+        // (near convergence they cost less than Newton's fresh factorisations)
+        let left = (CHORD_STEPS - 1 - step) as i32;
+        let reachable = theta < 0.5 && size * theta.powi(left) <= ROUNDING;
+        if theta > CONTRACTION && size > ROUNDING && !reachable {
             return Verdict::Stop;
         }
         Verdict::Go
@@ -440,6 +454,37 @@ mod tests {
         // the slope at 1.0: contraction about 0.3, no convergence claimed
         let mut s = Sqrt2 { x: 1.4, slope: 2.0, evaluations: 0, factorizations: 0 };
         assert!(chord(&mut s, 1e-12, 0.5, f64::INFINITY).unwrap().is_none() && s.factorizations == 0);
+    }
+
+    /// The chord's verdicts on given sizes (tolerance 1e-12, residual met):
+    /// a slow contraction gives up far from rounding but goes on where the
+    /// corrections left reach it; a later correction's estimate carries
+    /// MARGIN and the first's assumed figure; a stall at the noise is done.
+    #[test]
+    fn the_chord_gives_up_only_where_rounding_is_out_of_reach() {
+        let run = |known: f64, sizes: &[f64]| {
+            let mut c = Chord::new(known);
+            let mut last = Verdict::Go;
+            for (step, &size) in sizes.iter().enumerate() {
+                assert!(c.residual(step, 1e-13, 1e-12));
+                last = c.corrected(step, size, 1e-12);
+            }
+            last
+        };
+        // contraction 0.1 at 1e-10: four corrections leave 1e-14, out of reach
+        assert!(matches!(run(f64::INFINITY, &[1e-9, 1e-10]), Verdict::Stop));
+        // contraction 0.1 at 5e-14, three corrections left: reachable, go on
+        assert!(matches!(run(f64::INFINITY, &[5e-12, 5e-13, 5e-14]), Verdict::Go));
+        // contraction 1e-3 at 1e-12: 1e-15 by the measured figure, but 4e-15 by MARGIN times it
+        assert!(matches!(run(f64::INFINITY, &[1e-9, 1e-12]), Verdict::Go));
+        assert!(matches!(run(f64::INFINITY, &[1e-10, 1e-13]), Verdict::Done(..)));
+        // the first's assumed figure (4 x 1e-2) stands under a smaller measured one
+        assert!(matches!(run(1e-2, &[1e-10, 1e-13]), Verdict::Go));
+        // a correction at NOISE that no longer contracts: done, with the first contraction measured
+        match run(f64::INFINITY, &[1e-14, 5e-15]) {
+            Verdict::Done(s, first) => assert!(s.converged && first == 0.5),
+            _ => panic!("a stall at the noise is done"),
+        }
     }
 
     #[test]
