@@ -20,7 +20,8 @@ pub const POLISH: f64 = 1e-10;
 pub trait Ops {
     type Error;
     /// Phi at q and its max scaled residual (it: the Newton iteration, -1
-    /// after convergence).
+    /// after convergence, where the residual is not read: an implementor may
+    /// return 0 there).
     fn evaluate(&mut self, it: i64) -> Result<f64, Self::Error>;
     /// The factorisation at q (final: the one left at the end; a
     /// step-by-step run with Jacobian reuse may keep a nearby one otherwise).
