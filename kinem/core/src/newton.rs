@@ -251,11 +251,13 @@ pub const RECENT: u32 = 100;
 /// measured one times this (not below the first's) for the next. What it
 /// covers was measured (docs/benchmarks.md, round 12: every chord that
 /// made a second correction, its first contraction over the recent one):
-/// at most 2.95 on the Jansen leg, 2.43 on the peers' four-bar, 5.45 at
-/// worst over the cases (quick_return_1, whose chords never stop after one
+/// at most 1.96 on the Jansen leg, 2.47 on the peers' four-bar, 4.32 at
+/// worst over the cases (pin_in_slot, whose chords never stop after one
 /// correction); and every chord, made to take one more correction where it
 /// stopped, left at most its claim or the rounding noise (about 3e-15 on
-/// the Jansen leg's fast phases), where 2 left 2.9e-14.
+/// the Jansen leg's fast phases), but for one phase of the peers' four-bar
+/// (1.2e-14: a second contraction 40 times the first); with the last
+/// contraction doubled the Jansen leg's left up to 2.9e-14.
 pub const MARGIN: f64 = 4.0;
 
 /// The book's modified Newton-Raphson with the factorisation the
