@@ -127,9 +127,15 @@ impl Native<'_> {
 impl Ops for Native<'_> {
     type Error = Infallible;
 
-    fn evaluate(&mut self, _: i64) -> Result<f64, Infallible> {
+    /// After convergence (it -1) the residual is not read (newton::Ops): 0,
+    /// without its loop over the rows (a non-finite Phi still shows in the
+    /// correction's size, which gives up as the residual did).
+    fn evaluate(&mut self, it: i64) -> Result<f64, Infallible> {
         self.rotate();
         self.kin.phi(&At { q: &self.q, e: &self.turning.e, t: self.t }, &mut self.phi);
+        if it < 0 {
+            return Ok(0.0);
+        }
         Ok(residual(&self.phi, &self.layout.scale))
     }
 

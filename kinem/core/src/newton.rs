@@ -20,7 +20,8 @@ pub const POLISH: f64 = 1e-10;
 pub trait Ops {
     type Error;
     /// Phi at q and its max scaled residual (it: the Newton iteration, -1
-    /// after convergence).
+    /// after convergence, where the residual is not read: an implementor may
+    /// return 0 there).
     fn evaluate(&mut self, it: i64) -> Result<f64, Self::Error>;
     /// The factorisation at q (final: the one left at the end; a
     /// step-by-step run with Jacobian reuse may keep a nearby one otherwise).
@@ -227,16 +228,37 @@ pub const CONTRACTION: f64 = 0.03;
 /// positions, so that the factorisation at the final q, the instant's only
 /// one, gives the rates to rounding.
 pub const ROUNDING: f64 = 2e-15;
-/// At most this many chord corrections, then Newton.
-pub const CHORD_STEPS: usize = 5;
+/// A correction this small that no longer contracts is rounding noise
+/// (dimensionless): in their fast phases the Jansen leg's and the peers'
+/// four-bar's corrections stall at 2e-15 to 4e-15 (round 12, one more
+/// correction forced after each chord), and MARGIN asks for more
+/// corrections near that floor than the estimate without it did.
+pub const NOISE: f64 = 4.0 * ROUNDING;
+/// At most this many chord corrections, then Newton: six since a later
+/// correction's estimate carries MARGIN (round 12), where a Lagrange start
+/// (positions only) may take one more to prove (quick_return_1's
+/// positions-only run: 503 factorisations with five, 287 with six).
+pub const CHORD_STEPS: usize = 6;
 /// A contraction measured this many instants ago or less may stand for the
 /// current one (scaled by the instants' motions and pivot ratios,
-/// crate::step::Contraction, and doubled): the chord then stops after its
+/// crate::step::Contraction, and times `MARGIN`): the chord then stops after its
 /// first correction when that times the contraction is at rounding. The
 /// scaling follows the contraction's drift; the age bounds how far the
 /// Jacobian's curvature it assumes is carried (any chord whose first
 /// correction is not proved measures a new one).
 pub const RECENT: u32 = 100;
+/// The recent contraction times this stands for a chord's first one, and a
+/// measured one times this (not below the first's) for the next. What it
+/// covers was measured (docs/benchmarks.md, round 12: every chord that
+/// made a second correction, its first contraction over the recent one):
+/// at most 1.96 on the Jansen leg, 2.47 on the peers' four-bar, 4.32 at
+/// worst over the cases (pin_in_slot, whose chords never stop after one
+/// correction); and every chord, made to take one more correction where it
+/// stopped, left at most its claim or the rounding noise (about 3e-15 on
+/// the Jansen leg's fast phases), but for one phase of the peers' four-bar
+/// (1.2e-14: a second contraction 40 times the first); with the last
+/// contraction doubled the Jansen leg's left up to 2.9e-14.
+pub const MARGIN: f64 = 4.0;
 
 /// The book's modified Newton-Raphson with the factorisation the
 /// operations already hold (the previous instant's, at its corrected q):
@@ -250,8 +272,8 @@ pub const RECENT: u32 = 100;
 /// the residual met the tolerance (the others are the final correction, as
 /// in `settle`); the last step is the last correction. `known`: a recent
 /// contraction (the march's, scaled to this instant, crate::step::Contraction; infinite: none),
-/// which, doubled, stands for this one's at the first correction; returned
-/// with the contraction measured here (NaN: none, one correction).
+/// which, times `MARGIN`, stands for this one's at the first correction; returned
+/// with the first correction's contraction measured here (NaN: none, one correction).
 pub fn chord<O: Ops>(
     ops: &mut O,
     tolerance: f64,
@@ -284,10 +306,12 @@ pub struct Chord {
     iterations: usize,
     residual: f64,
     assumed: f64,
+    /// the first correction's contraction: the second's size over the first's (NaN: not made)
+    first: f64,
 }
 
 /// What a chord correction leaves: more to do, done (how it settled, the
-/// contraction measured: NaN after one correction), or give up.
+/// first correction's contraction: NaN after one correction), or give up.
 pub enum Verdict {
     Go,
     Done(Settled, f64),
@@ -297,7 +321,22 @@ pub enum Verdict {
 impl Chord {
     /// `known`: `chord`'s.
     pub fn new(known: f64) -> Self {
-        Chord { previous: f64::INFINITY, iterations: 0, residual: f64::INFINITY, assumed: 2.0 * known }
+        Chord {
+            previous: f64::INFINITY,
+            iterations: 0,
+            residual: f64::INFINITY,
+            assumed: MARGIN * known,
+            first: f64::NAN,
+        }
+    }
+
+    /// The first correction's assumed contraction where one is known (0: none).
+    fn floor(&self) -> f64 {
+        if self.assumed < f64::INFINITY {
+            self.assumed
+        } else {
+            0.0
+        }
     }
 
     /// Ops::evaluate's iteration at correction `step` (-1 once the residual met the tolerance).
@@ -327,16 +366,34 @@ impl Chord {
         }
         let theta = size / self.previous;
         self.previous = size;
-        // a correction at rounding leaves at most itself; else the estimate from the contraction,
-        // measured, or at the first correction the recent one doubled
+        if step == 1 {
+            // what the next chord's first correction assumes: the first contraction, not a
+            // later one (the error's direction changes: cam_roller_circle's second is often a
+            // tenth of its first, so the last one underestimated the next first by 7 at the median)
+            self.first = theta;
+        }
+        // a correction at rounding leaves at most itself; else the estimate from the contraction:
+        // at the first correction the recent one times MARGIN, later the measured one times MARGIN
+        // and not below the first's assumed (a later contraction exceeds the one measured before
+        // it: the Jansen leg's by up to 20 times, where the error turns to a direction that
+        // contracts less)
         let estimate = |theta: f64| theta < 0.5 && size * theta / (1.0 - theta) <= ROUNDING;
-        let done = size <= ROUNDING || if step == 0 { estimate(self.assumed) } else { estimate(theta) };
+        let assumed = if step == 0 { self.assumed } else { (MARGIN * theta).max(self.floor()) };
+        // a later correction at NOISE or below that no longer contracts is the arithmetic's noise:
+        // the chord is as converged as a fresh factorisation would leave it (Newton from the
+        // predictor would only meet the same floor)
+        let stalled = step > 0 && size <= NOISE && theta > CONTRACTION;
+        let done = size <= ROUNDING || estimate(assumed) || stalled;
         if self.residual <= tolerance && done {
             let settled =
                 Settled { iterations: self.iterations, residual: self.residual, converged: true, last_step: size };
-            return Verdict::Done(settled, if step == 0 { f64::NAN } else { theta });
+            return Verdict::Done(settled, self.first);
         }
-        if theta > CONTRACTION && size > ROUNDING {
+        // a slow contraction gives up to Newton, unless the corrections left reach rounding at it
+        // (near convergence they cost less than Newton's fresh factorisations)
+        let left = (CHORD_STEPS - 1 - step) as i32;
+        let reachable = theta < 0.5 && size * theta.powi(left) <= ROUNDING;
+        if theta > CONTRACTION && size > ROUNDING && !reachable {
             return Verdict::Stop;
         }
         Verdict::Go
@@ -400,6 +457,37 @@ mod tests {
         // the slope at 1.0: contraction about 0.3, no convergence claimed
         let mut s = Sqrt2 { x: 1.4, slope: 2.0, evaluations: 0, factorizations: 0 };
         assert!(chord(&mut s, 1e-12, 0.5, f64::INFINITY).unwrap().is_none() && s.factorizations == 0);
+    }
+
+    /// The chord's verdicts on given sizes (tolerance 1e-12, residual met):
+    /// a slow contraction gives up far from rounding but goes on where the
+    /// corrections left reach it; a later correction's estimate carries
+    /// MARGIN and the first's assumed figure; a stall at the noise is done.
+    #[test]
+    fn the_chord_gives_up_only_where_rounding_is_out_of_reach() {
+        let run = |known: f64, sizes: &[f64]| {
+            let mut c = Chord::new(known);
+            let mut last = Verdict::Go;
+            for (step, &size) in sizes.iter().enumerate() {
+                assert!(c.residual(step, 1e-13, 1e-12));
+                last = c.corrected(step, size, 1e-12);
+            }
+            last
+        };
+        // contraction 0.1 at 1e-10: four corrections leave 1e-14, out of reach
+        assert!(matches!(run(f64::INFINITY, &[1e-9, 1e-10]), Verdict::Stop));
+        // contraction 0.1 at 5e-14, three corrections left: reachable, go on
+        assert!(matches!(run(f64::INFINITY, &[5e-12, 5e-13, 5e-14]), Verdict::Go));
+        // contraction 1e-3 at 1e-12: 1e-15 by the measured figure, but 4e-15 by MARGIN times it
+        assert!(matches!(run(f64::INFINITY, &[1e-9, 1e-12]), Verdict::Go));
+        assert!(matches!(run(f64::INFINITY, &[1e-10, 1e-13]), Verdict::Done(..)));
+        // the first's assumed figure (4 x 1e-2) stands under a smaller measured one
+        assert!(matches!(run(1e-2, &[1e-10, 1e-13]), Verdict::Go));
+        // a correction at NOISE that no longer contracts: done, with the first contraction measured
+        match run(f64::INFINITY, &[1e-14, 5e-15]) {
+            Verdict::Done(s, first) => assert!(s.converged && first == 0.5),
+            _ => panic!("a stall at the noise is done"),
+        }
     }
 
     #[test]
