@@ -1,4 +1,4 @@
-"""Cases with design parameters moved (kinem.sensitivity's steps,
+"""Cases with design parameters moved (the tangents' steps, kinem.tangents;
 kinem.variants' and kinem.tolerance's designs): each design's Case with its
 numbers set in place where it can be (``in_place``, ``_set``: a point's or
 a constraint's number, one inside a function or outline table), without

@@ -42,7 +42,7 @@ def moved_tangent(case, length, base, p, moved, step):
         if not any(v.any() for v in (*df.values(), *do.values())):   # no function or outline moved
             families = [f for f in families if any(v.any() for v in f[3].values())]
         return (families, (base[1], df), (base[2], do)), points_tangent(case, p)
-    tables, functions, outlines = reached   # only the families of the constraints moved in place (_replaced)
+    tables, functions, outlines = reached   # only the families of the constraints moved in place (kinem.moved)
     families = [(k, *base[0][k], _linear(base[0][k][1], tables[k], step)) for k in sorted(tables)]
     return (families, (base[1], {} if functions is base[1] else _difference(base[1], functions, step, p.path)),
             (base[2], {} if outlines is base[2] else _difference(base[2], outlines, step, p.path))), points_tangent(case, p)
@@ -51,10 +51,11 @@ def moved_tangent(case, length, base, p, moved, step):
 def _entries(case, moved, base):
     """((functions, moved), (outlines, moved)): the model's function and
     outline tables (``base``, _tables) with the functions and outlines that
-    ``moved`` (a case from _replaced) changed in their places, ``moved``
-    whether any did (else the table is base's), when moved changes nothing
-    but fields of constraints that are functions or outlines (_set_entry):
-    the families' tables hold only their numbers, so none of them moves
+    ``moved`` (a case from kinem.moved._replaced) changed in their places,
+    ``moved`` whether any did (else the table is base's), when moved
+    changes nothing but fields of constraints that are functions or
+    outlines (kinem.moved._set_entry): the families' tables hold only their
+    numbers, so none of them moves
     (tests/test_sensitivity.py compares with every table rebuilt). None
     otherwise, or when a changed function or outline is not in the tables
     as the constraint holds it."""
@@ -75,9 +76,9 @@ def _entries(case, moved, base):
 
 def _reached(case, moved, length, base):
     """({family number: its table}, functions, outlines) of the families
-    holding a constraint that ``moved`` (a case from _replaced) changed,
-    each built alone, its functions and outlines numbered where the model's
-    ``base`` tables (_tables) number them, the others' kept; None when moved
+    holding a constraint that ``moved`` (a case from kinem.moved._replaced)
+    changed, each built alone, its functions and outlines numbered where the
+    model's ``base`` tables (_tables) number them, the others' kept; None when moved
     is not such a case, or a rebuilt family numbers functions, outlines or
     columns otherwise than in ``base``."""
     if len(moved.constraints) != len(case.constraints) or moved.bodies is not case.bodies:

@@ -60,7 +60,8 @@ def _full(base, part):
     (families, functions, outlines), dlocal = part
     tangent = {k: d for k, _, _, d in families}
     return ([(kind, t0, {**zeros_of(t0), **tangent.get(k, {})}) for k, (kind, t0) in enumerate(base[0])],
-            (functions[0], functions[1] or zeros_of(functions[0])), (outlines[0], outlines[1] or zeros_of(outlines[0]))), dlocal
+            (functions[0], functions[1] or zeros_of(functions[0])),
+            (outlines[0], outlines[1] or zeros_of(outlines[0]))), dlocal
 
 
 def tangents(model, paths, base=None) -> list:
@@ -80,7 +81,7 @@ def _spline_tangents(case, listed, base) -> dict:
     unit vector e_j (e_0 + e_last for a periodic outline's first) in that
     outline's coefficients (OutlineTable's layout: pieces first[o] ..
     last[o], 4 coefficients each), every j of one outline from one
-    CubicSpline. No family's table moves (as ``_entries``)."""
+    CubicSpline. No family's table moves (as kinem.moved_tables._entries)."""
     if not any(".spline.s." in p.path for p in listed):
         return {}
     from scipy.interpolate import CubicSpline
@@ -122,7 +123,7 @@ def _direct(model, items) -> dict:
     ``value.k`` or an absolute constraint's ``value`` (the constant
     function Poly((value,)) its row numbered), a driving function's
     ``poly.k`` or ``harmonic.NAME`` (the function the constraint holds, at
-    every place the table numbers it: ((v + h) - v) / h with moved_cases's h,
+    every place the table numbers it: ((v + h) - v) / h with moved_cases' h,
     the moved function's difference), an outline's ``center.k``
     (its centre: 1 or i) and a circle's ``circle.radius`` (its one piece's
     constant coefficient), where the tables hold the nominal value there.
@@ -201,7 +202,7 @@ def _landed(model, items) -> dict:
     reads it through such keys. Its tangent is, at each such constraint's
     entry of the columns, what the moved case's difference gives, ((v + h)
     - v) / h, or that of a - b with a or b moved (times i for k = 1), with
-    moved_cases's h (``step_for``), the family's other columns left out (zero):
+    moved_cases' h (``step_for``), the family's other columns left out (zero):
     the moved case's families rebuilt, without building them. Not in a case
     in degrees nor one with drawn bodies (as ``_direct``)."""
     case, base = model.case, model.tables
@@ -357,11 +358,12 @@ def _stacked(case, length, base, items) -> dict:
 
 def _function_tangents(case, base, items) -> dict:
     """{k: ``moved_tangent``} for the items [(k, p, moved case, h)] whose
-    moved case changes only driving functions (as ``_entries``): every
-    moved function numbered once after the model's in one FunctionTable
-    (function f's numbers are data[start[f]:start[f + 1]],
-    kinem/core/src/functions.rs), a parameter's tangent the difference of
-    its functions' numbers and theirs over h."""
+    moved case changes only driving functions (as
+    kinem.moved_tables._entries): every moved function numbered once after
+    the model's in one FunctionTable (function f's numbers are
+    data[start[f]:start[f + 1]], kinem/core/src/functions.rs), a
+    parameter's tangent the difference of its functions' numbers and
+    theirs over h."""
     if not items:
         return {}
     listed = [x for numbered in base[3] for x in numbered[0]]
