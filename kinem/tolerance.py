@@ -22,8 +22,9 @@ import numpy as np
 
 from .errors import InputError
 from .parameters import resolve, tolerances_of
+from .moved import cases_of
 from .result import Trajectory
-from .sensitivity import cases_of, sensitivity
+from .sensitivity import sensitivity
 from .variants import affine
 
 

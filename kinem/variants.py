@@ -2,7 +2,7 @@
 lanes"; docs/solver.md, "Variants of one mechanism"):
 ``kinem.solve(model, parameters={"constraints.A.si.0": values, ...})``.
 
-The model's tables are affine in the case's numbers (kinem.sensitivity), so
+The model's tables are affine in the case's numbers (kinem.tangents), so
 a variant's are the nominal's plus sum_p (v_p - nominal_p) tangent_p: the
 tables and their tangents go to the core once (kinem.native.Plan.variants),
 which forms each variant's model itself, marches the variants on its thread
@@ -184,8 +184,8 @@ def affine(case, path) -> bool:
 
 
 def _tangents(model, listed):
-    """(the model's tables, per parameter their tangent: kinem.sensitivity.tangents)."""
-    from .sensitivity import tangents
+    """(the model's tables, per parameter their tangent: kinem.tangents.tangents)."""
+    from .tangents import tangents
 
     return model.tables, tangents(model, [p.path for p in listed], model.tables)
 
@@ -239,8 +239,8 @@ def _asked(model, outputs):
 
 
 def _cases(case, listed, values):
-    """Each variant's own Case (kinem.sensitivity.cases_of), or the InputError that refuses it."""
-    from .sensitivity import cases_of
+    """Each variant's own Case (kinem.moved.cases_of), or the InputError that refuses it."""
+    from .moved import cases_of
 
     return cases_of(case, [{p.path: float(v) for p, v in zip(listed, row)} for row in values])
 

@@ -11,8 +11,11 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import kinem
+from kinem.moved import _replaced, moved_cases
+from kinem.moved_tables import _difference, _reached, _tables, moved_tangent, same
 from kinem.parameters import apply, parameters
 from kinem.sensitivity import sensitivity
+from kinem.tangents import _direct, _function_tangents, _landed, _spline_tangents, _stacked, _tangent
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = sorted((ROOT / "cases").glob("*.toml"))
@@ -223,19 +226,16 @@ def test_coordinates_moved_in_place_give_the_validated_tables(path):
     place (no validated case per parameter): the model's tables from that
     case equal, to 1e-15 relative, those of the validated case that
     kinem.parameters.apply gives."""
-    import importlib
-
-    S = importlib.import_module("kinem.sensitivity")
     case = kinem.load(path)
     length = kinem.compile(case).length
     fast = 0
     for p in parameters(case):
         value = p.value + 0.25 * max(abs(p.value), 1e-3)
-        moved = S._replaced(case, p.path, value)
+        moved = _replaced(case, p.path, value)
         if moved is None:
             continue
         fast += 1
-        a, b = S._tables(moved, length), S._tables(apply(case, {p.path: value}), length)
+        a, b = _tables(moved, length), _tables(apply(case, {p.path: value}), length)
         pairs = [(x[1], y[1]) for x, y in zip(a[0], b[0])] + [(a[1], b[1]), (a[2], b[2])]
         assert len(a[0]) == len(b[0])
         for x, y in pairs:
@@ -244,19 +244,19 @@ def test_coordinates_moved_in_place_give_the_validated_tables(path):
                 assert np.allclose(x[key], y[key], rtol=1e-15, atol=0), (p.path, key)
     assert fast > 0 or not any(p.path.startswith("points.") for p in parameters(case))
     # and the tangents built from the reached families alone equal those of every table rebuilt
-    base = S._tables(case, length)
+    base = _tables(case, length)
     for p in parameters(case):
         h = 0.125 * max(abs(p.value), 1.0)
-        moved = S._replaced(case, p.path, p.value + h)
-        if moved is None or S._reached(case, moved, length, base) is None:
+        moved = _replaced(case, p.path, p.value + h)
+        if moved is None or _reached(case, moved, length, base) is None:
             continue
-        (families, functions, outlines), _ = S._tangent(case, length, base, p, moved, h)
-        tables, f1, o1, _ = S._tables(moved, length)
+        (families, functions, outlines), _ = _tangent(case, length, base, p, moved, h)
+        tables, f1, o1, _ = _tables(moved, length)
         for (_, t0, d), (_, t1) in zip(families, tables):
-            full = S._difference(t0, t1, h, p.path)
+            full = _difference(t0, t1, h, p.path)
             assert full.keys() == d.keys() and all(np.array_equal(full[k], d[k]) for k in full), p.path
         for (t0, d), t1 in ((functions, f1), (outlines, o1)):
-            full = S._difference(t0, t1, h, p.path)
+            full = _difference(t0, t1, h, p.path)
             assert full.keys() == d.keys() and all(np.array_equal(full[k], d[k]) for k in full), p.path
 
 
@@ -266,9 +266,6 @@ def test_spline_values_tangents_in_one_spline_equal_their_differences():
     tangents equal those of the case moved by h (_tangent, S5), to 1e-12 of
     the largest, on the cam of Table 4.1 (periodic) and every other case
     with a spline outline."""
-    import importlib
-
-    S = importlib.import_module("kinem.sensitivity")
     checked = 0
     for path in CASES:
         case = kinem.load(path)
@@ -276,10 +273,10 @@ def test_spline_values_tangents_in_one_spline_equal_their_differences():
         if not listed:
             continue
         model = kinem.compile(case)
-        base = S._tables(case, model.length)
-        fast = S._spline_tangents(case, listed, base)
-        slow = {k: S._tangent(case, model.length, base, p, moved, h)
-                for k, (p, (moved, h)) in enumerate(zip(listed, S._moved(case, listed)))}
+        base = _tables(case, model.length)
+        fast = _spline_tangents(case, listed, base)
+        slow = {k: _tangent(case, model.length, base, p, moved, h)
+                for k, (p, (moved, h)) in enumerate(zip(listed, moved_cases(case, listed)))}
         for k, ((families, functions, (_, d)), dlocal) in fast.items():
             (_, _, (_, want)), want_local = slow[k]
             assert families == [] and functions[1] == {} and np.array_equal(dlocal, want_local), listed[k].path
@@ -291,31 +288,28 @@ def test_spline_values_tangents_in_one_spline_equal_their_differences():
 
 
 def _every_parameter_moved(path):
-    """(kinem.sensitivity, case, model, its parameters, the model's tables,
-    [(k, parameter, moved case, step)]) for the tangent-building tests."""
-    import importlib
-
-    S = importlib.import_module("kinem.sensitivity")
+    """(case, model, its parameters, the model's tables, [(k, parameter,
+    moved case, step)]) for the tangent-building tests."""
     case = kinem.load(path)
     model = kinem.compile(case)
     listed = parameters(case)
-    base = S._tables(case, model.length)
-    return S, case, model, listed, base, [(k, p, moved, h) for k, (p, (moved, h))
-                                          in enumerate(zip(listed, S._moved(case, listed)))]
+    base = _tables(case, model.length)
+    return case, model, listed, base, [(k, p, moved, h) for k, (p, (moved, h))
+                                       in enumerate(zip(listed, moved_cases(case, listed)))]
 
 
 @pytest.mark.parametrize("path", CASES + DRAWN, ids=lambda p: f"{p.parent.name}/{p.stem}")
 def test_families_built_once_for_every_parameter_give_each_ones_tangent(path):
     """kinem.sensitivity builds a family once over its constraints and every
     parameter's moved ones (_stacked): each parameter's tangent equals the
-    one of its own moved case (_moved_tangent) exactly."""
-    S, case, model, listed, base, items = _every_parameter_moved(path)
-    stacked = S._stacked(case, model.length, base, items)
-    # a drawn case's moved cases are validated ones (kinem.parameters.apply_many): left to _moved_tangent
+    one of its own moved case (moved_tangent) exactly."""
+    case, model, listed, base, items = _every_parameter_moved(path)
+    stacked = _stacked(case, model.length, base, items)
+    # a drawn case's moved cases are validated ones (kinem.parameters.apply_many): left to moved_tangent
     assert stacked or any(b.carries for b in case.bodies) or not any(p.path.startswith("points.") for p in listed)
     for k, ((families, functions, outlines), dlocal) in stacked.items():
         _, p, moved, h = items[k]
-        (want, _, _), want_local = S._moved_tangent(case, model.length, base, p, moved, h)
+        (want, _, _), want_local = moved_tangent(case, model.length, base, p, moved, h)
         assert [f[:2] for f in families] == [f[:2] for f in want] and functions[1] == outlines[1] == {}, p.path
         assert np.array_equal(dlocal, want_local), p.path
         for (_, _, _, d), (_, _, _, w) in zip(families, want):
@@ -328,8 +322,8 @@ def test_driving_coefficients_are_taken_directly(path):
     take _direct's way, a unit of the function table where the nominal is
     (test_numbers_taken_directly_equal_the_rebuilt_tangents compares each
     with its moved case's rebuilt tangent exactly)."""
-    S, case, model, listed, base, items = _every_parameter_moved(path)
-    got = S._direct(model, [(k, p) for k, p, _, _ in items])
+    case, model, listed, base, items = _every_parameter_moved(path)
+    got = _direct(model, [(k, p) for k, p, _, _ in items])
     wanted = [k for k, p in enumerate(listed) if ".poly." in p.path or ".harmonic." in p.path]
     if case.units.get("angle") != "deg":
         assert all(k in got for k in wanted), [listed[k].path for k in wanted if k not in got]
@@ -344,18 +338,18 @@ def test_points_that_land_as_they_are_give_the_rebuilt_tangents(path):
     """kinem.sensitivity takes the tangent of a point that lands as it is in
     its families' tables (Family.lands: a revolute's, a distance's, a
     follower's point; _landed) at its entries directly: each parameter's
-    tangent equals the one of its own moved case (_moved_tangent: its
+    tangent equals the one of its own moved case (moved_tangent: its
     families rebuilt) exactly, every column of every family (a column it
     leaves out: zero), the functions and outlines unmoved; not in a drawn
     case."""
-    S, case, model, listed, base, items = _every_parameter_moved(path)
-    got = S._landed(model, [(k, p) for k, p, _, _ in items])
+    case, model, listed, base, items = _every_parameter_moved(path)
+    got = _landed(model, [(k, p) for k, p, _, _ in items])
     drawn = any(b.carries for b in case.bodies)
     assert not (got and drawn)
     assert got or drawn or not any(c.type in ("revolute", "cam-point") for c in case.constraints), path
     for k, ((families, functions, outlines), dlocal) in got.items():
         _, p, moved, h = items[k]
-        (want, (_, wf), (_, wo)), want_local = S._moved_tangent(case, model.length, base, p, moved, h)
+        (want, (_, wf), (_, wo)), want_local = moved_tangent(case, model.length, base, p, moved, h)
         assert functions[1] == outlines[1] == {} and wf == wo == {}, p.path
         assert [f[:2] for f in families] == [f[:2] for f in want] and np.array_equal(dlocal, want_local), p.path
         for (_, _, _, d), (_, _, _, w) in zip(families, want):   # a column left out is zero
@@ -366,13 +360,13 @@ def test_points_that_land_as_they_are_give_the_rebuilt_tangents(path):
 def test_functions_numbered_once_for_every_parameter_give_each_ones_tangent(path):
     """kinem.sensitivity numbers every parameter's moved driving function
     once after the model's (_function_tangents): each parameter's tangent
-    equals the one of its own moved case (_moved_tangent) exactly."""
-    S, case, model, listed, base, items = _every_parameter_moved(path)
-    got = S._function_tangents(case, base, items)
+    equals the one of its own moved case (moved_tangent) exactly."""
+    case, model, listed, base, items = _every_parameter_moved(path)
+    got = _function_tangents(case, base, items)
     assert got or not any(".poly." in p.path for p in listed)
     for k, ((families, (_, d), (_, o)), dlocal) in got.items():
         _, p, moved, h = items[k]
-        (want, (_, w), (_, wo)), want_local = S._moved_tangent(case, model.length, base, p, moved, h)
+        (want, (_, w), (_, wo)), want_local = moved_tangent(case, model.length, base, p, moved, h)
         assert families == want == [] and o == wo == {} and np.array_equal(dlocal, want_local), p.path
         assert d.keys() == w.keys() and all(np.array_equal(d[key], w[key]) for key in w), p.path
 
@@ -383,16 +377,16 @@ def test_numbers_taken_directly_equal_the_rebuilt_tangents(path):
     an outline's centre and a circle's radius directly as a unit of the
     function or outline table (_direct): each parameter's tangent equals
     the one of its own moved case with every family rebuilt
-    (_moved_tangent) exactly, and moves no family; not in a drawn case,
+    (moved_tangent) exactly, and moves no family; not in a drawn case,
     where the ground's value moves a drawn frame's tables too."""
-    S, case, model, listed, base, items = _every_parameter_moved(path)
-    got = S._direct(model, [(k, p) for k, p, _, _ in items])
+    case, model, listed, base, items = _every_parameter_moved(path)
+    got = _direct(model, [(k, p) for k, p, _, _ in items])
     drawn = any(b.carries for b in case.bodies)   # left to the moved case: the ground's value places a frame
     assert (got or drawn or not any(p.path.endswith((".value.0", ".center.0", ".radius")) for p in listed))
     assert not (got and drawn)
     for k, ((families, (_, df), (_, do)), dlocal) in got.items():
         _, p, moved, h = items[k]
-        (want, (_, wf), (_, wo)), want_local = S._moved_tangent(case, model.length, base, p, moved, h)
+        (want, (_, wf), (_, wo)), want_local = moved_tangent(case, model.length, base, p, moved, h)
         assert families == [] and all(not v.any() for _, _, _, d in want for v in d.values()), p.path
         assert np.array_equal(dlocal, want_local), p.path
         for d, w in ((df, wf), (do, wo)):
@@ -401,22 +395,22 @@ def test_numbers_taken_directly_equal_the_rebuilt_tangents(path):
 
 
 def test_public_tangents_rebuild_a_moved_design():
-    """kinem.sensitivity.tangents(model, paths): per path every family's,
-    function's and outline's tangent (kinem.sensitivity._tangent's format);
+    """kinem.tangents.tangents(model, paths): per path every family's,
+    function's and outline's tangent (kinem.tangents._tangent's format);
     the nominal tables plus (value - nominal) x tangent give the tables of
     the case with two parameters moved at once, to 1e-12 of the largest
     (the tables are affine in the case's numbers)."""
     import importlib
 
-    S = importlib.import_module("kinem.sensitivity")
+    S = importlib.import_module("kinem.tangents")
     case = kinem.load(ROOT / "cases" / "four_bar.toml")
     model = kinem.compile(case)
     paths = ["points.A.at.0", "constraints.crank-drive.d.poly.1"]
     tangents = S.tangents(model, paths)
     values = {q.path: q.value for q in parameters(case) if q.path in paths}
     moved = {paths[0]: values[paths[0]] + 0.01, paths[1]: values[paths[1]] * 1.25}
-    want = S._tables(apply(case, moved), model.length)
-    base = S._tables(case, model.length)
+    want = _tables(apply(case, moved), model.length)
+    base = _tables(case, model.length)
     assert len(tangents) == 2 and all(len(t[0][0]) == len(base[0]) for t in tangents)
     got = [dict(t) for _, t in base[0]] + [dict(base[1]), dict(base[2])]
     for path, ((families, (_, df), (_, do)), _) in zip(paths, tangents):
@@ -518,19 +512,16 @@ def test_derivative_columns_are_found_by_name():
 def test_compile_keeps_the_tables_the_tangents_move(path):
     """compile keeps the families' tables with every function and outline
     its own number (Model.tables, what the tangents move), read-only: the
-    same as those built again from the case (kinem.sensitivity._tables),
+    same as those built again from the case (kinem.moved_tables._tables),
     column by column to the bit, with the same functions and outlines
     numbered by each family."""
-    import importlib
-
-    S = importlib.import_module("kinem.sensitivity")
     model = kinem.compile(kinem.load(path))
-    kept, again = model.tables, S._tables(model.case, model.length)
+    kept, again = model.tables, _tables(model.case, model.length)
     assert [k for k, _ in kept[0]] == [k for k, _ in again[0]] and kept[3] == again[3]
     for a, b in [(x[1], y[1]) for x, y in zip(kept[0], again[0])] + [(kept[1], again[1]), (kept[2], again[2])]:
         assert a.keys() == b.keys()
         for key in a:
-            assert a[key].dtype == b[key].dtype and S._same(a[key], b[key]), key
+            assert a[key].dtype == b[key].dtype and same(a[key], b[key]), key
             assert not a[key].flags.writeable, key
 
 

@@ -16,8 +16,8 @@ from hypothesis import given, settings, strategies as st
 import kinem
 from kinem import native
 from kinem.errors import InputError
+from kinem.moved_tables import _tables
 from kinem.parameters import apply, apply_many, parameters
-from kinem.sensitivity import _tables
 from kinem.variants import _tangents, affine
 
 ROOT = Path(__file__).resolve().parents[1]
