@@ -24,7 +24,7 @@ use std::collections::HashMap;
 use std::ops::{AddAssign, Mul};
 
 /// A model's tables (every function and outline its own number:
-/// kinem.sensitivity._tables) and their tangents along each design parameter.
+/// kinem.moved_tables._tables) and their tangents along each design parameter.
 pub struct Tables {
     pub n: usize,
     pub angles: Vec<i64>,

@@ -134,7 +134,7 @@ impl Plan {
 
     /// Design sensitivities (crate::sensitivity): tables, the model's
     /// (families [(kind, table)], functions, outlines) with every function
-    /// and outline its own number (kinem.sensitivity._tables); tangents, one per
+    /// and outline its own number (kinem.moved_tables._tables); tangents, one per
     /// parameter: (families [(place, tangent)], functions' tangent,
     /// outlines' tangent), the families the parameter moves (their places
     /// among the model's) with the tangents of their tables' real and
