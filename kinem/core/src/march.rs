@@ -194,9 +194,9 @@ impl Step for Native<'_> {
     #[inline(always)]
     fn rates(&mut self, qd: &mut [f64], qdd: &mut [f64]) -> Result<(), Infallible> {
         self.rotate();
-        let Native { kin, layout, f, q, turning, t, phi, b, .. } = self;
+        let Native { kin, layout, f, q, turning, t, phi, b, values, .. } = self;
         let at = At { q: &q[..], e: &turning.e[..], t: *t };
-        rates_with(kin, &at, phi, b, qd, qdd, |rhs, x| {
+        rates_with(kin, &at, Some(values), phi, b, qd, qdd, |rhs, x| {
             layout.solve(f, rhs, x);
             Ok(())
         })
