@@ -190,7 +190,10 @@ impl Step for Native<'_> {
         Ok(self.layout.stats(&self.f))
     }
 
-    /// The factorisation and e^{i q} are at q: settle's and the chord's last operation.
+    /// The factorisation and e^{i q} are at q: settle's and the chord's last
+    /// operation; so are the Jacobian values it was made from (`values`:
+    /// only `factor` writes them), from which gamma reads the revolutes'
+    /// A s' (Kin::gamma_with).
     #[inline(always)]
     fn rates(&mut self, qd: &mut [f64], qdd: &mut [f64]) -> Result<(), Infallible> {
         self.rotate();
