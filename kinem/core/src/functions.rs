@@ -95,12 +95,17 @@ impl<S: Real> Functions<S> {
             return if order == 0 { v } else { S::zero() };
         }
         if self.kind[f] == POLY && order <= 2 {
-            // Horner on the order-th derivative's coefficients, as `general`
-            let mut v = S::zero();
-            for &c in self.poly[f][order as usize].iter().rev() {
-                v = v * t + c;
-            }
-            return v;
+            // Horner on the order-th derivative's coefficients, as `general`;
+            // up to three written out (the same operations: no loop set-up)
+            let c = &self.poly[f][order as usize];
+            let z = S::zero();
+            return match *c.as_slice() {
+                [] => z,
+                [c0] => z * t + c0,
+                [c0, c1] => (z * t + c1) * t + c0,
+                [c0, c1, c2] => ((z * t + c2) * t + c1) * t + c0,
+                _ => c.iter().rev().fold(z, |v, &c| v * t + c),
+            };
         }
         self.general(f, t, order)
     }

@@ -190,13 +190,16 @@ impl Step for Native<'_> {
         Ok(self.layout.stats(&self.f))
     }
 
-    /// The factorisation and e^{i q} are at q: settle's and the chord's last operation.
+    /// The factorisation and e^{i q} are at q: settle's and the chord's last
+    /// operation; so are the Jacobian values it was made from (`values`:
+    /// only `factor` writes them), from which gamma reads the revolutes'
+    /// A s' (Kin::gamma_with).
     #[inline(always)]
     fn rates(&mut self, qd: &mut [f64], qdd: &mut [f64]) -> Result<(), Infallible> {
         self.rotate();
-        let Native { kin, layout, f, q, turning, t, phi, b, .. } = self;
+        let Native { kin, layout, f, q, turning, t, phi, b, values, .. } = self;
         let at = At { q: &q[..], e: &turning.e[..], t: *t };
-        rates_with(kin, &at, phi, b, qd, qdd, |rhs, x| {
+        rates_with(kin, &at, Some(values), phi, b, qd, qdd, |rhs, x| {
             layout.solve(f, rhs, x);
             Ok(())
         })

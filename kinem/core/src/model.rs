@@ -151,12 +151,22 @@ impl<S: Real> Kin<S> {
         }
     }
 
+    #[inline]
     pub fn gamma(&self, at: &At<S>, qd: &[S], out: &mut [S]) {
-        assert!(out.len() >= self.m);
+        self.gamma_with(at, qd, None, out)
+    }
+
+    /// `gamma`; `jac`: the Jacobian values at the same q (`jac`'s output),
+    /// if at hand: the revolute joints read their rotated local points
+    /// there (crate::march::Native: the rates follow the factorisation at
+    /// the settled q), the same figures to the bit.
+    pub fn gamma_with(&self, at: &At<S>, qd: &[S], jac: Option<&[S]>, out: &mut [S]) {
+        assert!(out.len() >= self.m && jac.is_none_or(|v| v.len() >= self.nnz));
         let s = self.shared();
-        for (f, &[(a, b), _]) in self.families.iter().zip(&self.spans) {
-            // SAFETY: a <= b <= m (spans), out holds m (asserted above)
-            f.gamma(at, qd, &s, unsafe { out.get_unchecked_mut(a..b) });
+        for (f, &[(a, b), (c, d)]) in self.families.iter().zip(&self.spans) {
+            // SAFETY: a <= b <= m, c <= d <= nnz (spans), out holds m, jac nnz (asserted above)
+            let v = jac.map(|v| unsafe { v.get_unchecked(c..d) });
+            f.gamma_with(at, qd, &s, v, unsafe { out.get_unchecked_mut(a..b) });
         }
     }
 }

@@ -498,11 +498,14 @@ pub fn step<O: Step>(
 
 /// qd, qdd at (q, t) (e: e^{i q}) with `solve` (x with Phi_q x = b, the
 /// factorisation at q): Phi_q qd = nu, Phi_q qdd = gamma (Eqs. 3.13, 3.15).
-/// nu and gamma: room for m values each. Every step's rates, whatever its solver.
+/// nu and gamma: room for m values each; `jac`: the Jacobian values at q,
+/// if at hand (Kin::gamma_with reads the revolutes' A s' there). Every
+/// step's rates, whatever its solver.
 #[allow(clippy::too_many_arguments)]
 pub fn rates_with<E>(
     kin: &Kin,
     at: &At,
+    jac: Option<&[f64]>,
     nu: &mut [f64],
     gamma: &mut [f64],
     qd: &mut [f64],
@@ -511,7 +514,7 @@ pub fn rates_with<E>(
 ) -> Result<(), E> {
     kin.nu(at.t, nu);
     solve(nu, qd)?;
-    kin.gamma(at, qd, gamma);
+    kin.gamma_with(at, qd, jac, gamma);
     solve(gamma, qdd)
 }
 

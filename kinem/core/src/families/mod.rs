@@ -162,8 +162,14 @@ pub fn sides<S: Real, T>(a: &[Complex<S>], b: &[Complex<S>], make: impl Fn(usize
     std::array::from_fn(|g| (0..a.len()).filter(|&k| group(k) == g).map(&make).collect())
 }
 
-/// `$s.$f::<A, B>(args)` for the four groups of `Sides`.
+/// `$s.$f::<A, B>(args)` (`$f::<K>`: `$f::<A, B, K>`) for the four groups of `Sides`.
 macro_rules! each_side {
+    ($s:ident . $f:ident :: < $k:tt > ( $($a:expr),* )) => {
+        $s.$f::<true, true, $k>($($a),*);
+        $s.$f::<true, false, $k>($($a),*);
+        $s.$f::<false, true, $k>($($a),*);
+        $s.$f::<false, false, $k>($($a),*);
+    };
     ($s:ident . $f:ident ( $($a:expr),* )) => {
         $s.$f::<true, true>($($a),*);
         $s.$f::<true, false>($($a),*);
@@ -250,8 +256,25 @@ impl<S: Real> Family<S> {
         }
     }
 
+    #[inline(always)]
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
-        each!(self, f => f.gamma(at, qd, s, out))
+        self.gamma_with(at, qd, s, None, out)
+    }
+
+    /// `gamma`; `jac`: the family's Jacobian values at the same q, if at
+    /// hand (the revolute reads its rotated local points there).
+    pub fn gamma_with(&self, at: &At<S>, qd: &[S], s: &Shared<S>, jac: Option<&[S]>, out: &mut [S]) {
+        match self {
+            Family::Simple(f) => f.gamma(at, qd, s, out),
+            Family::Revolute(f) => f.gamma(at, qd, jac, out),
+            Family::Line(f) => f.gamma(at, qd, s, out),
+            Family::Distance(f) => f.gamma(at, qd, s, out),
+            Family::Gear(f) => f.gamma(at, qd, s, out),
+            Family::Rack(f) => f.gamma(at, qd, s, out),
+            Family::PointOnCurve(f) => f.gamma(at, qd, s, out),
+            Family::CamRoller(f) => f.gamma(at, qd, s, out),
+            Family::CamFlat(f) => f.gamma(at, qd, s, out),
+        }
     }
 }
 

@@ -100,24 +100,40 @@ impl<S: Real> Revolute<S> {
         }
     }
 
-    /// Eq. 4.47: A_i s'_i w_i^2 - A_j s'_j w_j^2.
-    pub fn gamma(&self, at: &At<S>, qd: &[S], _: &Shared<S>, out: &mut [S]) {
+    /// Eq. 4.47: A_i s'_i w_i^2 - A_j s'_j w_j^2; with `jac`, the family's
+    /// Jacobian values at the same q (`jac`'s output), a = A_i s'_i and
+    /// b = A_j s'_j are read from its B s' entries (a = (e5, -e1), b =
+    /// (-e7, e3): exact negations, the same figures to the bit) instead of
+    /// rotated again.
+    pub fn gamma(&self, at: &At<S>, qd: &[S], jac: Option<&[S]>, out: &mut [S]) {
         assert!(at.holds(self.n) && qd.len() >= self.n && out.len() >= self.rows());
-        each_side!(self.gamma_of(at, qd, out));
+        match jac {
+            Some(v) => {
+                assert!(v.len() >= self.entries());
+                each_side!(self.gamma_of::<true>(at, qd, v, out));
+            }
+            None => {
+                each_side!(self.gamma_of::<false>(at, qd, &[], out));
+            }
+        }
     }
 
-    /// Eq. 4.47 over the joints of Sides<I, J>; out holds 2 rows per joint,
+    /// Eq. 4.47 over the joints of Sides<I, J>, a and b from the Jacobian
+    /// values v when K; out holds 2 rows per joint, v (when K) 8 entries,
     /// `at` and qd n coordinates (`gamma` asserted them).
     #[inline(always)]
-    fn gamma_of<const I: bool, const J: bool>(&self, at: &At<S>, qd: &[S], out: &mut [S]) {
+    fn gamma_of<const I: bool, const J: bool, const K: bool>(&self, at: &At<S>, qd: &[S], v: &[S], out: &mut [S]) {
         for p in &self.groups[Sides::<I, J>::GROUP] {
-            // SAFETY: ci, cj < n - 2 and k < the joints' count (new); e and qd hold n, out 2 rows per joint (gamma)
+            // SAFETY: ci, cj < n - 2 and k < the joints' count (new); e and qd hold n, out 2 rows per joint, v 8 (gamma)
             unsafe {
                 let (wi, wj) = (*qd.get_unchecked(p.ci + 2), *qd.get_unchecked(p.cj + 2));
+                let e = |x: usize| *v.get_unchecked(8 * p.k + x);
+                let a = || if K { Complex::new(e(5), -e(1)) } else { p.si * at.rot_at(p.ci) };
+                let b = || if K { Complex::new(-e(7), e(3)) } else { p.sj * at.rot_at(p.cj) };
                 let g = match (I, J) {
-                    (true, true) => p.si * at.rot_at(p.ci) * (wi * wi) - p.sj * at.rot_at(p.cj) * (wj * wj),
-                    (true, false) => p.si * at.rot_at(p.ci) * (wi * wi),
-                    (false, true) => -(p.sj * at.rot_at(p.cj) * (wj * wj)),
+                    (true, true) => a() * (wi * wi) - b() * (wj * wj),
+                    (true, false) => a() * (wi * wi),
+                    (false, true) => -(b() * (wj * wj)),
                     (false, false) => Complex::new(S::zero(), S::zero()),
                 };
                 *out.get_unchecked_mut(2 * p.k) = g.re;

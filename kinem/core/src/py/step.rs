@@ -206,7 +206,7 @@ impl march::Step for PySteps<'_, '_> {
         }
         let PySteps { ops, kin, q, e, t, nu, gamma, .. } = self;
         let at = At { q: &q[..], e: &e[..], t: *t };
-        march::rates_with(kin, &at, nu, gamma, qd, qdd, |b, x| {
+        march::rates_with(kin, &at, None, nu, gamma, qd, qdd, |b, x| {
             let py = ops.ops.py();
             let r: PyReadonlyArray1<f64> = ops.ops.call_method1("solve", (PyArray1::from_slice(py, b),))?.extract()?;
             if r.len() != x.len() {
