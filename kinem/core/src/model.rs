@@ -26,10 +26,6 @@ pub struct Kin<S = f64> {
     drivers: Vec<(usize, usize)>,
     /// the other families whose nu may be non-zero
     timed: Vec<usize>,
-    /// each family's rows and Jacobian entries (row_off, entry_off's
-    /// spans, ascending within 0..m and 0..nnz: the evaluations slice
-    /// their outputs by them unchecked)
-    spans: Vec<[(usize, usize); 2]>,
     /// no family reads an outline and no driving function is a table's
     /// pieces: q(t) as smooth as the drivers' polynomials and harmonics
     /// (the march's Hermite start then carries its last error: step::Bias)
@@ -74,7 +70,6 @@ impl<S: Real> Kin<S> {
             row_off.push(row_off.last().unwrap() + f.rows());
             entry_off.push(entry_off.last().unwrap() + f.entries());
         }
-        let spans = (0..list.len()).map(|k| [(row_off[k], row_off[k + 1]), (entry_off[k], entry_off[k + 1])]).collect();
         let shared = Shared { functions: &functions, outlines: &outlines };
         for f in &mut list {
             f.bind(&shared);
@@ -102,7 +97,6 @@ impl<S: Real> Kin<S> {
             time_dependent,
             drivers,
             timed,
-            spans,
             smooth,
             tables,
             function_table: functions_table.clone(),
@@ -125,18 +119,18 @@ impl<S: Real> Kin<S> {
     pub fn phi(&self, at: &At<S>, out: &mut [S]) {
         assert!(out.len() >= self.m);
         let s = self.shared();
-        for (f, &[(a, b), _]) in self.families.iter().zip(&self.spans) {
-            // SAFETY: a <= b <= m (spans), out holds m (asserted above)
-            f.phi(at, &s, unsafe { out.get_unchecked_mut(a..b) });
+        for (f, r) in self.families.iter().zip(self.row_off.windows(2)) {
+            // SAFETY: row_off ascends from 0 to m (new), out holds m (asserted above)
+            f.phi(at, &s, unsafe { out.get_unchecked_mut(r[0]..r[1]) });
         }
     }
 
     pub fn jac(&self, at: &At<S>, out: &mut [S]) {
         assert!(out.len() >= self.nnz);
         let s = self.shared();
-        for (f, &[_, (a, b)]) in self.families.iter().zip(&self.spans) {
-            // SAFETY: a <= b <= nnz (spans), out holds nnz (asserted above)
-            f.jac(at, &s, unsafe { out.get_unchecked_mut(a..b) });
+        for (f, e) in self.families.iter().zip(self.entry_off.windows(2)) {
+            // SAFETY: entry_off ascends from 0 to nnz (new), out holds nnz (asserted above)
+            f.jac(at, &s, unsafe { out.get_unchecked_mut(e[0]..e[1]) });
         }
     }
 
@@ -163,10 +157,10 @@ impl<S: Real> Kin<S> {
     pub fn gamma_with(&self, at: &At<S>, qd: &[S], jac: Option<&[S]>, out: &mut [S]) {
         assert!(out.len() >= self.m && jac.is_none_or(|v| v.len() >= self.nnz));
         let s = self.shared();
-        for (f, &[(a, b), (c, d)]) in self.families.iter().zip(&self.spans) {
-            // SAFETY: a <= b <= m, c <= d <= nnz (spans), out holds m, jac nnz (asserted above)
-            let v = jac.map(|v| unsafe { v.get_unchecked(c..d) });
-            f.gamma_with(at, qd, &s, v, unsafe { out.get_unchecked_mut(a..b) });
+        for ((f, r), e) in self.families.iter().zip(self.row_off.windows(2)).zip(self.entry_off.windows(2)) {
+            // SAFETY: row_off ascends from 0 to m, entry_off from 0 to nnz (new); out holds m, jac nnz (asserted above)
+            let v = jac.map(|v| unsafe { v.get_unchecked(e[0]..e[1]) });
+            f.gamma_with(at, qd, &s, v, unsafe { out.get_unchecked_mut(r[0]..r[1]) });
         }
     }
 }
