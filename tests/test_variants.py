@@ -182,7 +182,7 @@ def test_the_time_limit_stops_every_variant():
 
 
 SIGINT_BATCH = textwrap.dedent("""
-    import time
+    import time, traceback
     import numpy as np
     import kinem
     model = kinem.compile(kinem.load("cases/slider_crank.toml"))
@@ -191,14 +191,32 @@ SIGINT_BATCH = textwrap.dedent("""
     kinem.solve(model, outputs=["B.x"], times=times[:100], parameters=rods)   # warm
     start = time.perf_counter()
     kinem.solve(model, outputs=["B.x"], times=times[:10_000], parameters=rods)
-    print("ready", 10 * (time.perf_counter() - start), flush=True)   # the whole batch's time, estimated
+    whole = 10 * (time.perf_counter() - start)   # the whole batch's time, estimated
     try:
+        print("ready", whole, flush=True)
         kinem.solve(model, outputs=["B.x"], times=times, parameters=rods)
         print("finished", flush=True)
-    except KeyboardInterrupt:
-        print("interrupted", flush=True)
+    except KeyboardInterrupt as e:
+        # where it surfaced: inside kinem.solve, or before the call began
+        inside = len(traceback.extract_tb(e.__traceback__)) > 1
+        print("interrupted", "inside" if inside else "before", flush=True)
 """)
 
+
+def interrupt_batch():
+    """One child: (its answer, the latency from SIGINT to it, the batch's whole time)."""
+    p = subprocess.Popen([sys.executable, "-c", SIGINT_BATCH], stdout=subprocess.PIPE, text=True, cwd=ROOT)
+    try:
+        word, whole = p.stdout.readline().split()
+        assert word == "ready"
+        time.sleep(0.1)
+        sent = time.perf_counter()
+        p.send_signal(signal.SIGINT)
+        line = p.stdout.readline().split()
+        return line, time.perf_counter() - sent, float(whole)
+    finally:
+        p.kill()
+        p.wait()
 
 
 def test_sigint_stops_a_batch():
@@ -207,21 +225,16 @@ def test_sigint_stops_a_batch():
     bound is relative, not a timing: half of what the batch had left by the
     child's own estimate (a tenth of it, timed in the same process), so it
     holds at any load; a core that did not poll would answer only at the end
-    (the core polls every 2 ms: measured latencies are milliseconds)."""
-    p = subprocess.Popen([sys.executable, "-c", SIGINT_BATCH], stdout=subprocess.PIPE, text=True, cwd=ROOT)
-    try:
-        word, whole = p.stdout.readline().split()
-        assert word == "ready"
-        time.sleep(0.1)
-        sent = time.perf_counter()
-        p.send_signal(signal.SIGINT)
-        line = p.stdout.readline().strip()
-        latency = time.perf_counter() - sent
-        assert line == "interrupted"
-        assert latency < 0.5 * (float(whole) - 0.1), (latency, whole)
-    finally:
-        p.kill()
-        p.wait()
+    (the core polls every 2 ms: measured latencies are milliseconds). On a
+    loaded machine the signal can land before the child enters the solve
+    (it says so): that child proves nothing and another is run, up to 3."""
+    for _ in range(3):
+        line, latency, whole = interrupt_batch()
+        assert line[0] == "interrupted", line
+        if line[1] == "inside":
+            break
+    assert line == ["interrupted", "inside"]
+    assert latency < 0.5 * (whole - 0.1), (latency, whole)
 
 
 def test_a_variant_the_march_stops_is_solved_alone():
