@@ -38,20 +38,34 @@ use crate::real::Real;
 /// a 0: the same w[i], but for the sign of a zero); the others are kept in
 /// the same order, so the figures are the full program's.
 ///
+/// A diagonal block of 2 to crate::dense::LIMIT coordinates runs as one
+/// dense kernel (crate::dense, issue 31 round 15) instead of its
+/// subtractions and divisions: `dense[b] = [div, end, s, p, store]` runs,
+/// after the divisions `divs[..div]` and the subtractions `subs[..end]`,
+/// the block of s places `places[p..p + s]` (its coordinates in its fixed
+/// order) with its factors a[store..store + s s]. Its figures are the lists'
+/// to the bit but for the sign of a zero (crate::dense).
+///
 /// Invariants, checked once by `Program::check` when the model is built
-/// (and by debug assertions in `run`): every position i, c, r is below
-/// `positions`, every value index u, v below `values`, the ends ascend up
-/// to subs.len(). `run` asserts that its slices are that long.
+/// (and by debug assertions in `run`): every position i, c, r and place
+/// below `positions`, every value index u, v and dense block's factors below
+/// `values`, the ends ascend up to subs.len() (a dense block's end between
+/// its divisions' ends). `run` asserts that its slices are that long.
 #[derive(Clone, Debug, Default)]
 pub struct Program {
     pub subs: Vec<[u32; 3]>,
     pub divs: Vec<[u32; 3]>,
+    pub dense: Vec<[u32; 5]>,
+    pub places: Vec<u32>,
     pub positions: usize,
     pub values: usize,
     pub quiet: Vec<u32>,
-    /// (subs, divs) without the subtractions that read a quiet position
-    pub short: (Vec<[u32; 3]>, Vec<[u32; 3]>),
+    /// (subs, divs, dense) without the subtractions that read a quiet position
+    pub short: Lists,
 }
+
+/// A program's (subs, divs, dense).
+pub type Lists = (Vec<[u32; 3]>, Vec<[u32; 3]>, Vec<[u32; 5]>);
 
 impl Program {
     pub fn sub(&mut self, i: usize, c: usize, u: usize) {
@@ -62,24 +76,33 @@ impl Program {
         self.divs.push([self.subs.len() as u32, r as u32, v as u32]);
     }
 
+    /// A dense block of s positions from `at`, its factors from `store`.
+    pub fn dense_block(&mut self, at: usize, s: usize, store: usize) {
+        let u = |x: usize| x as u32;
+        self.dense.push([u(self.divs.len()), u(self.subs.len()), u(s), u(self.places.len()), u(store)]);
+        self.places.extend((at..at + s).map(u));
+    }
+
     /// The program without the subtractions that read the quiet positions
-    /// `quiet` (each a position no subtraction or division writes), set as
-    /// `short`; none where no subtraction reads one.
+    /// `quiet` (each a position no subtraction, division or dense block
+    /// writes), set as `short`; none where no subtraction reads one.
     pub fn quieten(&mut self, quiet: Vec<u32>) {
         let read = |s: &[u32; 3]| quiet.contains(&s[1]);
-        if quiet.iter().any(|&q| self.subs.iter().any(|s| s[0] == q) || self.divs.iter().any(|d| d[1] == q))
-            || !self.subs.iter().any(read)
+        if quiet.iter().any(|&q| {
+            self.subs.iter().any(|s| s[0] == q) || self.divs.iter().any(|d| d[1] == q) || self.places.contains(&q)
+        }) || !self.subs.iter().any(read)
         {
             return;
         }
-        let (mut subs, mut divs, mut from) = (Vec::new(), Vec::new(), 0);
-        for &[end, r, v] in &self.divs {
-            subs.extend(self.subs[from..end as usize].iter().filter(|s| !read(s)));
-            divs.push([subs.len() as u32, r, v]);
-            from = end as usize;
+        // kept[e]: the subtractions kept among subs[..e]
+        let mut kept = vec![0u32];
+        for sub in &self.subs {
+            kept.push(kept[kept.len() - 1] + !read(sub) as u32);
         }
-        subs.extend(self.subs[from..].iter().filter(|s| !read(s)));
-        (self.quiet, self.short) = (quiet, (subs, divs));
+        let subs = self.subs.iter().filter(|s| !read(s)).copied().collect();
+        let divs = self.divs.iter().map(|&[end, r, v]| [kept[end as usize], r, v]).collect();
+        let dense = self.dense.iter().map(|&[d, end, s, p, at]| [d, kept[end as usize], s, p, at]).collect();
+        (self.quiet, self.short) = (quiet, (subs, divs, dense));
     }
 
     /// The program over other places: position p becomes to[p] (a
@@ -94,6 +117,7 @@ impl Program {
         for [_, r, _] in self.divs.iter_mut().chain(self.short.1.iter_mut()) {
             at(r);
         }
+        self.places.iter_mut().for_each(at);
         self.quiet.iter_mut().for_each(at);
     }
 
@@ -106,7 +130,12 @@ impl Program {
         if let Some(q) = self.quiet.iter().find(|&&q| q as usize >= p) {
             return Err(format!("program: quiet position {q} outside {p} positions"));
         }
-        for (subs, divs) in [(&self.subs, &self.divs), (&self.short.0, &self.short.1)] {
+        if let Some(x) = self.places.iter().find(|&&x| x as usize >= p) {
+            return Err(format!("program: place {x} outside {p} positions"));
+        }
+        for (subs, divs, dense) in
+            [(&self.subs, &self.divs, &self.dense), (&self.short.0, &self.short.1, &self.short.2)]
+        {
             if let Some(s) = subs.iter().find(|s| s[0] as usize >= p || s[1] as usize >= p || s[2] as usize >= v) {
                 return Err(format!("program: subtraction {s:?} outside {p} positions, {v} values"));
             }
@@ -116,6 +145,23 @@ impl Program {
                     return Err(format!("program: division {d:?} out of order or range"));
                 }
                 end = d[0];
+            }
+            let (mut div, mut end) = (0, 0);
+            for b @ &[d, e, s, at, store] in dense {
+                let (d, e, s, at, store) = (d as usize, e as usize, s as usize, at as usize, store as usize);
+                if d < div
+                    || d > divs.len()
+                    || e < end
+                    || e > subs.len()
+                    || (d > 0 && (divs[d - 1][0] as usize) > e)
+                    || (d < divs.len() && (divs[d][0] as usize) < e)
+                    || !crate::dense::fits(s)
+                    || at + s > self.places.len()
+                    || store + s * s > v
+                {
+                    return Err(format!("program: dense block {b:?} out of order or range"));
+                }
+                (div, end) = (d, e);
             }
         }
         Ok(())
@@ -131,29 +177,58 @@ impl Program {
         debug_assert!(self.check().is_ok());
         // SAFETY: Program::check (when built): every quiet position below `positions` <= w.len()
         let quiet = !self.quiet.is_empty() && self.quiet.iter().all(|&q| unsafe { w.get_unchecked(q as usize) }.zero());
-        let (subs, divs) = if quiet { (&self.short.0, &self.short.1) } else { (&self.subs, &self.divs) };
-        let mut from = 0;
-        for &[end, r, v] in divs {
-            let end = end as usize;
-            // SAFETY: Program::check (when built): from <= end <= subs.len(), every
-            // position below `positions` <= w.len(), every value below `values` <= a.len()
-            unsafe {
-                for &[i, c, u] in subs.get_unchecked(from..end) {
-                    let x = *w.get_unchecked(c as usize);
-                    w.get_unchecked_mut(i as usize).sub_mul(*a.get_unchecked(u as usize), x);
-                }
-                w.get_unchecked_mut(r as usize).div(*a.get_unchecked(v as usize));
+        let (subs, divs, dense) =
+            if quiet { (&self.short.0, &self.short.1, &self.short.2) } else { (&self.subs, &self.divs, &self.dense) };
+        let (mut from, mut div) = (0, 0);
+        // SAFETY (every unchecked index below): Program::check (when built): the ends ascend
+        // (a dense block's between its divisions'), every position and place below
+        // `positions` <= w.len(), every value and dense block's factors below `values` <= a.len()
+        unsafe {
+            for &[d, end, s, p, store] in dense {
+                from = steps(subs, divs.get_unchecked(div..d as usize), from, a, w);
+                subtract(subs.get_unchecked(from..end as usize), a, w);
+                let (s, p) = (s as usize, p as usize);
+                crate::dense::solve(s, a.get_unchecked(store as usize..), self.places.get_unchecked(p..p + s), w);
+                (from, div) = (end as usize, d as usize);
             }
-            from = end;
-        }
-        // SAFETY: as above (from <= subs.len())
-        for &[i, c, u] in unsafe { subs.get_unchecked(from..) } {
-            unsafe {
-                let x = *w.get_unchecked(c as usize);
-                w.get_unchecked_mut(i as usize).sub_mul(*a.get_unchecked(u as usize), x);
-            }
+            from = steps(subs, divs.get_unchecked(div..), from, a, w);
+            subtract(subs.get_unchecked(from..), a, w);
         }
     }
+}
+
+/// The subtractions `subs` (w[i] -= a[u] w[c]).
+///
+/// # Safety
+/// every position below w.len(), every value below a.len().
+#[inline(always)]
+unsafe fn subtract<A: Copy, W: Cell<A>>(subs: &[[u32; 3]], a: &[A], w: &mut [W]) {
+    for &[i, c, u] in subs {
+        let x = *w.get_unchecked(c as usize);
+        w.get_unchecked_mut(i as usize).sub_mul(*a.get_unchecked(u as usize), x);
+    }
+}
+
+/// The divisions `divs`, each after the subtractions from `from` to its
+/// end; the end of the last (`from` without any).
+///
+/// # Safety
+/// as `subtract`, and from <= each end <= subs.len(), ascending.
+#[inline(always)]
+unsafe fn steps<A: Copy, W: Cell<A>>(
+    subs: &[[u32; 3]],
+    divs: &[[u32; 3]],
+    mut from: usize,
+    a: &[A],
+    w: &mut [W],
+) -> usize {
+    for &[end, r, v] in divs {
+        let end = end as usize;
+        subtract(subs.get_unchecked(from..end), a, w);
+        w.get_unchecked_mut(r as usize).div(*a.get_unchecked(v as usize));
+        from = end;
+    }
+    from
 }
 
 /// What a solve's program works on, a factor's entry being `A`: a
@@ -476,10 +551,12 @@ impl Triangular {
             match &d.order {
                 None if folded[k] => {}
                 None => p.div(d.at, d.store),
+                Some(_) if crate::dense::fits(d.s) => p.dense_block(d.at, d.s, d.store),
                 Some(o) => o.program(d.at, d.store, &mut p),
             }
         }
-        if next != off.len() || p.divs.len() + folded.iter().filter(|&&f| f).count() != n {
+        let dense: usize = p.dense.iter().map(|b| b[2] as usize).sum();
+        if next != off.len() || p.divs.len() + dense + folded.iter().filter(|&&f| f).count() != n {
             return Err("program: an off-diagonal entry out of order, or a position without its pivot".into());
         }
         let quiet = (blocks.iter().enumerate())
