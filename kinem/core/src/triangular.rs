@@ -171,7 +171,7 @@ impl Program {
     /// variants' lanes (crate::lane_lu) or over several right-hand sides
     /// at once (crate::sensitivity), the same operations in the same order
     /// (`short` where every quiet position is zero in every lane).
-    #[inline]
+    #[inline(always)]
     pub fn run<A: Copy, W: Cell<A>>(&self, a: &[A], w: &mut [W]) {
         assert!(a.len() >= self.values && w.len() >= self.positions);
         debug_assert!(self.check().is_ok());
