@@ -279,11 +279,13 @@ impl<const N: usize> Cell<f64> for [f64; N] {
 /// The blocks' factorisation as flat lists over Factors::j (issue 31 item
 /// 4): the fill to clear, every entry's placement (values[e] at `at`:
 /// off-diagonal, 1x1 and larger blocks alike, but for the folded pivots:
-/// `ones`), then each
-/// elimination step `[pivot, end]` of the larger blocks' fixed orders, its
-/// multipliers `mults[..end]` (`[at, end]`: l = a[at] / pivot, then a[dst]
-/// -= l a[src] for `pairs[..end]`), then the n pivots `diag` (position
-/// order) read for the figures. The same operations, in the same order, as
+/// `ones`), then the multipliers of the larger blocks' fixed orders'
+/// elimination steps, step after step (`[pivot, at, end]`: l = a[at] /
+/// pivot, as a[at] times the pivot's reciprocal, then a[dst] -= l a[src]
+/// for `pairs[..end]`), then the n pivots `diag` (position order) read for
+/// the figures. A step's reciprocal is taken again for each of its
+/// multipliers (the same figure: its pivot is not written in the step; one
+/// loop, no step's loop around it). The same operations, in the same order, as
 /// Order::numeric block after block (the skip of a zero multiplier dropped;
 /// a multiplier above MULTIPLIER still rejects the order, after the loop).
 ///
@@ -301,8 +303,7 @@ impl<const N: usize> Cell<f64> for [f64; N] {
 pub struct Factoring {
     pub clear: Vec<u32>,
     pub place: Vec<[u32; 2]>,
-    pub steps: Vec<[u32; 2]>,
-    pub mults: Vec<[u32; 2]>,
+    pub mults: Vec<[u32; 3]>,
     /// per multiplier: r_k / r_i (its row i's and pivot k's row scales)
     pub mult_scale: Vec<f64>,
     pub pairs: Vec<[u32; 2]>,
@@ -334,8 +335,7 @@ impl Factoring {
         if v >= u32::MAX as usize
             || self.clear.iter().any(|&x| bad(x))
             || self.place.iter().any(|&[e, at]| e as usize >= self.entries || bad(at))
-            || self.steps.iter().any(|s| bad(s[0]))
-            || self.mults.iter().any(|m| bad(m[0]))
+            || self.mults.iter().any(|m| bad(m[0]) || bad(m[1]))
             || self.pairs.iter().any(|p| bad(p[0]) || bad(p[1]))
             || self.diag.iter().any(|&x| bad(x))
             || self.ones.iter().any(|&x| bad(x))
@@ -356,9 +356,7 @@ impl Factoring {
             }
             last as usize == len
         };
-        if !ascending(&mut self.steps.iter().map(|s| s[1]), self.mults.len())
-            || !ascending(&mut self.mults.iter().map(|m| m[1]), self.pairs.len())
-        {
+        if !ascending(&mut self.mults.iter().map(|m| m[2]), self.pairs.len()) {
             return Err("factoring: ends out of order".into());
         }
         Ok(())
@@ -388,22 +386,18 @@ impl Factoring {
             for &[e, at] in &self.place {
                 *a.get_unchecked_mut(at as usize) = *values.get_unchecked(e as usize);
             }
-            let (mut m0, mut p0) = (0usize, 0usize);
-            for &[kk, m1] in &self.steps {
+            let mut p0 = 0usize;
+            for (&[kk, at, p1], &scale) in self.mults.iter().zip(&self.mult_scale) {
                 let r = S::one() / *a.get_unchecked(kk as usize);
-                let scales = self.mult_scale.get_unchecked(m0..m1 as usize);
-                for (&[at, p1], &scale) in self.mults.get_unchecked(m0..m1 as usize).iter().zip(scales) {
-                    let l = *a.get_unchecked(at as usize) * r;
-                    multiplier(l, scale);
-                    *a.get_unchecked_mut(at as usize) = l;
-                    for &[dst, src] in self.pairs.get_unchecked(p0..p1 as usize) {
-                        let x = *a.get_unchecked(src as usize);
-                        let y = a.get_unchecked_mut(dst as usize);
-                        *y = *y - l * x;
-                    }
-                    p0 = p1 as usize;
+                let l = *a.get_unchecked(at as usize) * r;
+                multiplier(l, scale);
+                *a.get_unchecked_mut(at as usize) = l;
+                for &[dst, src] in self.pairs.get_unchecked(p0..p1 as usize) {
+                    let x = *a.get_unchecked(src as usize);
+                    let y = a.get_unchecked_mut(dst as usize);
+                    *y = *y - l * x;
                 }
-                m0 = m1 as usize;
+                p0 = p1 as usize;
             }
         }
     }
@@ -602,7 +596,7 @@ impl Triangular {
                         let x = at as usize - d.store;
                         (d.at + x / d.s, d.at + x % d.s)
                     };
-                    let scales = f.mults[from..].iter().map(|m| rows(m[0])).map(|(i, k)| row_scale[k] / row_scale[i]);
+                    let scales = f.mults[from..].iter().map(|m| rows(m[1])).map(|(i, k)| row_scale[k] / row_scale[i]);
                     f.mult_scale.extend(scales.collect::<Vec<_>>());
                 }
             }
