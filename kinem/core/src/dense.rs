@@ -1,23 +1,22 @@
 //! Fixed-size dense kernels for the block-triangular layout's diagonal
 //! blocks (crate::triangular, issue 31 round 15): a block of s coordinates,
-//! 2 <= s <= LIMIT, is factorised and solved over all s x s places of its
-//! factors (stored dense, row-major, in its fixed pivot order:
-//! crate::order), by code written for its size (const generics, one match
+//! 2 <= s <= LIMIT, is solved over all s x s places of its factors (stored
+//! dense, row-major, in its fixed pivot order: crate::order; factorised by
+//! the lists, crate::triangular::Factoring, every place outside the
+//! pattern zero), by code written for its size (const generics, one match
 //! on s per block: the loops unroll, the right side lives in registers).
 //!
-//! Each entry sees the operations of the block's sparse lists
-//! (Order::program, Order::factoring) in their order, and more: the
-//! structural zeros' products. x - 0 y = x for every finite y, so the
-//! figures are the lists' to the bit but for the sign of an exact zero
-//! (-0 - 0 y can be +0); a non-finite value spreads wider than in the
-//! lists (a zero pivot rejects the order either way).
-use crate::real::Real;
+//! Each entry sees the operations of the block's program (Order::program)
+//! in their order, and more: the structural zeros' products. x - 0 y = x
+//! for every finite y, so the figures are the program's to the bit but for
+//! the sign of an exact zero (-0 - 0 y can be +0). (A dense factorisation
+//! of the blocks was measured slower: docs/benchmarks.md, "Round 15".)
 use crate::triangular::Cell;
 
 /// The largest block given a dense kernel; larger ones keep the lists.
 pub const LIMIT: usize = 8;
 
-/// Whether a block of s coordinates is factorised and solved dense.
+/// Whether a block of s coordinates is solved dense.
 pub fn fits(s: usize) -> bool {
     (2..=LIMIT).contains(&s)
 }
@@ -65,49 +64,6 @@ pub unsafe fn solve<A: Copy, W: Cell<A>>(s: usize, a: &[A], p: &[u32], w: &mut [
         6 => solve_s::<6, A, W>(a, p, w),
         7 => solve_s::<7, A, W>(a, p, w),
         8 => solve_s::<8, A, W>(a, p, w),
-        _ => unreachable!("dense block of {s}"),
-    }
-}
-
-/// LU of the block a (s x s, its entries placed, every other place zero) in
-/// its fixed order, in place: step k's multipliers l = a[i][k] / pivot (as
-/// a[i][k] times the pivot's reciprocal), each seen by `multiplier` with
-/// its scale[i s + k], then row i -= l row k right of column k.
-///
-/// # Safety
-/// a.len() >= s s, scale.len() >= s s.
-#[inline(always)]
-unsafe fn factor_s<const S: usize, R: Real>(a: &mut [R], scale: &[f64], multiplier: &mut impl FnMut(R, f64)) {
-    for k in 0..S - 1 {
-        let r = R::one() / *a.get_unchecked(k * S + k);
-        for i in k + 1..S {
-            let l = *a.get_unchecked(i * S + k) * r;
-            multiplier(l, *scale.get_unchecked(i * S + k));
-            *a.get_unchecked_mut(i * S + k) = l;
-            for j in k + 1..S {
-                let x = *a.get_unchecked(k * S + j);
-                let y = a.get_unchecked_mut(i * S + j);
-                *y = *y - l * x;
-            }
-        }
-    }
-}
-
-/// `factor_s` for a block of s coordinates (`fits(s)`).
-///
-/// # Safety
-/// as `factor_s`.
-#[inline(always)]
-pub unsafe fn factor<R: Real>(s: usize, a: &mut [R], scale: &[f64], multiplier: &mut impl FnMut(R, f64)) {
-    debug_assert!(fits(s) && a.len() >= s * s && scale.len() >= s * s);
-    match s {
-        2 => factor_s::<2, R>(a, scale, multiplier),
-        3 => factor_s::<3, R>(a, scale, multiplier),
-        4 => factor_s::<4, R>(a, scale, multiplier),
-        5 => factor_s::<5, R>(a, scale, multiplier),
-        6 => factor_s::<6, R>(a, scale, multiplier),
-        7 => factor_s::<7, R>(a, scale, multiplier),
-        8 => factor_s::<8, R>(a, scale, multiplier),
         _ => unreachable!("dense block of {s}"),
     }
 }
