@@ -21,14 +21,22 @@ use crate::real::Real;
 /// A solve's forward and back substitution as one flat program over the
 /// places w (the positions, renumbered to the coordinates once built:
 /// `Program::renumber`, `Triangular::run`) and the factors' values a (issue
-/// 31 item 4): `divs[k] = [end, r, v]` runs the subtractions `subs[..end]`
-/// not yet run (`[i, c, u]`: w[i] -= a[u] w[c]), then w[r] /= a[v]. One tight loop, no branch on the
-/// structure; the division's order and operands are the elimination's, so
-/// the figures are those of the loops it replaces, to the bit.
+/// 31 item 4): `steps[k] = [end, 1, r, v]` runs the subtractions
+/// `subs[..end]` not yet run (`[i, c, u]`: w[i] -= a[u] w[c]), then w[r] /=
+/// a[v]. One tight loop, no branch on the structure but a step's size; the
+/// division's order and operands are the elimination's, so the figures are
+/// those of the loops it replaces, to the bit.
+///
+/// A diagonal block of 2 to crate::dense::LIMIT coordinates is one step
+/// `[end, s, p, store]` run by a dense kernel (crate::dense, issue 31 round
+/// 15) instead of its subtractions and divisions: its s places
+/// `places[p..p + s]` (its coordinates in its fixed order), its factors
+/// `a[store..store + s s]`. Its figures are the lists' to the bit but for
+/// the sign of a zero (crate::dense).
 ///
 /// A 1x1 block whose pivot is a constant +1 (a ground's or a driver's row,
 /// `Factoring::one_entries` checks it each factorisation) has no division: its
-/// subtractions run with the next division's, or after the last one.
+/// subtractions run with the next step's, or after the last one.
 ///
 /// The quiet positions: 1x1 blocks folded (pivot +1) with no subtraction
 /// into them and a row whose nu was zero at every trial (a ground's): their
@@ -38,34 +46,22 @@ use crate::real::Real;
 /// a 0: the same w[i], but for the sign of a zero); the others are kept in
 /// the same order, so the figures are the full program's.
 ///
-/// A diagonal block of 2 to crate::dense::LIMIT coordinates runs as one
-/// dense kernel (crate::dense, issue 31 round 15) instead of its
-/// subtractions and divisions: `dense[b] = [div, end, s, p, store]` runs,
-/// after the divisions `divs[..div]` and the subtractions `subs[..end]`,
-/// the block of s places `places[p..p + s]` (its coordinates in its fixed
-/// order) with its factors a[store..store + s s]. Its figures are the lists'
-/// to the bit but for the sign of a zero (crate::dense).
-///
 /// Invariants, checked once by `Program::check` when the model is built
 /// (and by debug assertions in `run`): every position i, c, r and place
 /// below `positions`, every value index u, v and dense block's factors below
-/// `values`, the ends ascend up to subs.len() (a dense block's end between
-/// its divisions' ends). `run` asserts that its slices are that long.
+/// `values`, the ends ascend up to subs.len(). `run` asserts that its slices
+/// are that long.
 #[derive(Clone, Debug, Default)]
 pub struct Program {
     pub subs: Vec<[u32; 3]>,
-    pub divs: Vec<[u32; 3]>,
-    pub dense: Vec<[u32; 5]>,
+    pub steps: Vec<[u32; 4]>,
     pub places: Vec<u32>,
     pub positions: usize,
     pub values: usize,
     pub quiet: Vec<u32>,
-    /// (subs, divs, dense) without the subtractions that read a quiet position
-    pub short: Lists,
+    /// (subs, steps) without the subtractions that read a quiet position
+    pub short: (Vec<[u32; 3]>, Vec<[u32; 4]>),
 }
-
-/// A program's (subs, divs, dense).
-pub type Lists = (Vec<[u32; 3]>, Vec<[u32; 3]>, Vec<[u32; 5]>);
 
 impl Program {
     pub fn sub(&mut self, i: usize, c: usize, u: usize) {
@@ -73,24 +69,28 @@ impl Program {
     }
 
     pub fn div(&mut self, r: usize, v: usize) {
-        self.divs.push([self.subs.len() as u32, r as u32, v as u32]);
+        self.steps.push([self.subs.len() as u32, 1, r as u32, v as u32]);
     }
 
     /// A dense block of s positions from `at`, its factors from `store`.
     pub fn dense_block(&mut self, at: usize, s: usize, store: usize) {
         let u = |x: usize| x as u32;
-        self.dense.push([u(self.divs.len()), u(self.subs.len()), u(s), u(self.places.len()), u(store)]);
+        self.steps.push([u(self.subs.len()), u(s), u(self.places.len()), u(store)]);
         self.places.extend((at..at + s).map(u));
     }
 
+    /// The positions the steps write: the divisions' and the dense blocks' places.
+    fn written(&self) -> impl Iterator<Item = u32> + '_ {
+        (self.steps.iter().filter(|d| d[1] == 1).map(|d| d[2])).chain(self.places.iter().copied())
+    }
+
     /// The program without the subtractions that read the quiet positions
-    /// `quiet` (each a position no subtraction, division or dense block
-    /// writes), set as `short`; none where no subtraction reads one.
+    /// `quiet` (each a position no subtraction or step writes), set as
+    /// `short`; none where no subtraction reads one.
     pub fn quieten(&mut self, quiet: Vec<u32>) {
         let read = |s: &[u32; 3]| quiet.contains(&s[1]);
-        if quiet.iter().any(|&q| {
-            self.subs.iter().any(|s| s[0] == q) || self.divs.iter().any(|d| d[1] == q) || self.places.contains(&q)
-        }) || !self.subs.iter().any(read)
+        if quiet.iter().any(|&q| self.subs.iter().any(|s| s[0] == q) || self.written().any(|r| r == q))
+            || !self.subs.iter().any(read)
         {
             return;
         }
@@ -100,9 +100,8 @@ impl Program {
             kept.push(kept[kept.len() - 1] + !read(sub) as u32);
         }
         let subs = self.subs.iter().filter(|s| !read(s)).copied().collect();
-        let divs = self.divs.iter().map(|&[end, r, v]| [kept[end as usize], r, v]).collect();
-        let dense = self.dense.iter().map(|&[d, end, s, p, at]| [d, kept[end as usize], s, p, at]).collect();
-        (self.quiet, self.short) = (quiet, (subs, divs, dense));
+        let steps = self.steps.iter().map(|&[end, s, r, v]| [kept[end as usize], s, r, v]).collect();
+        (self.quiet, self.short) = (quiet, (subs, steps));
     }
 
     /// The program over other places: position p becomes to[p] (a
@@ -114,8 +113,10 @@ impl Program {
             at(i);
             at(c);
         }
-        for [_, r, _] in self.divs.iter_mut().chain(self.short.1.iter_mut()) {
-            at(r);
+        for [_, s, r, _] in self.steps.iter_mut().chain(self.short.1.iter_mut()) {
+            if *s == 1 {
+                at(r);
+            }
         }
         self.places.iter_mut().for_each(at);
         self.quiet.iter_mut().for_each(at);
@@ -133,35 +134,22 @@ impl Program {
         if let Some(x) = self.places.iter().find(|&&x| x as usize >= p) {
             return Err(format!("program: place {x} outside {p} positions"));
         }
-        for (subs, divs, dense) in
-            [(&self.subs, &self.divs, &self.dense), (&self.short.0, &self.short.1, &self.short.2)]
-        {
+        for (subs, steps) in [(&self.subs, &self.steps), (&self.short.0, &self.short.1)] {
             if let Some(s) = subs.iter().find(|s| s[0] as usize >= p || s[1] as usize >= p || s[2] as usize >= v) {
                 return Err(format!("program: subtraction {s:?} outside {p} positions, {v} values"));
             }
             let mut end = 0;
-            for d in divs {
-                if d[0] < end || d[0] as usize > subs.len() || d[1] as usize >= p || d[2] as usize >= v {
-                    return Err(format!("program: division {d:?} out of order or range"));
+            for d in steps {
+                let (s, r, at) = (d[1] as usize, d[2] as usize, d[3] as usize);
+                let fits = if s == 1 {
+                    r < p && at < v
+                } else {
+                    crate::dense::fits(s) && r + s <= self.places.len() && at + s * s <= v
+                };
+                if d[0] < end || d[0] as usize > subs.len() || !fits {
+                    return Err(format!("program: step {d:?} out of order or range"));
                 }
                 end = d[0];
-            }
-            let (mut div, mut end) = (0, 0);
-            for b @ &[d, e, s, at, store] in dense {
-                let (d, e, s, at, store) = (d as usize, e as usize, s as usize, at as usize, store as usize);
-                if d < div
-                    || d > divs.len()
-                    || e < end
-                    || e > subs.len()
-                    || (d > 0 && (divs[d - 1][0] as usize) > e)
-                    || (d < divs.len() && (divs[d][0] as usize) < e)
-                    || !crate::dense::fits(s)
-                    || at + s > self.places.len()
-                    || store + s * s > v
-                {
-                    return Err(format!("program: dense block {b:?} out of order or range"));
-                }
-                (div, end) = (d, e);
             }
         }
         Ok(())
@@ -177,21 +165,23 @@ impl Program {
         debug_assert!(self.check().is_ok());
         // SAFETY: Program::check (when built): every quiet position below `positions` <= w.len()
         let quiet = !self.quiet.is_empty() && self.quiet.iter().all(|&q| unsafe { w.get_unchecked(q as usize) }.zero());
-        let (subs, divs, dense) =
-            if quiet { (&self.short.0, &self.short.1, &self.short.2) } else { (&self.subs, &self.divs, &self.dense) };
-        let (mut from, mut div) = (0, 0);
-        // SAFETY (every unchecked index below): Program::check (when built): the ends ascend
-        // (a dense block's between its divisions'), every position and place below
-        // `positions` <= w.len(), every value and dense block's factors below `values` <= a.len()
+        let (subs, steps) = if quiet { (&self.short.0, &self.short.1) } else { (&self.subs, &self.steps) };
+        let mut from = 0;
+        // SAFETY (every unchecked index below): Program::check (when built): the ends ascend up
+        // to subs.len(), every position and place below `positions` <= w.len(), every value and
+        // dense block's factors below `values` <= a.len()
         unsafe {
-            for &[d, end, s, p, store] in dense {
-                from = steps(subs, divs.get_unchecked(div..d as usize), from, a, w);
-                subtract(subs.get_unchecked(from..end as usize), a, w);
-                let (s, p) = (s as usize, p as usize);
-                crate::dense::solve(s, a.get_unchecked(store as usize..), self.places.get_unchecked(p..p + s), w);
-                (from, div) = (end as usize, d as usize);
+            for &[end, s, r, v] in steps {
+                let end = end as usize;
+                subtract(subs.get_unchecked(from..end), a, w);
+                if s == 1 {
+                    w.get_unchecked_mut(r as usize).div(*a.get_unchecked(v as usize));
+                } else {
+                    let (s, r) = (s as usize, r as usize);
+                    crate::dense::solve(s, a.get_unchecked(v as usize..), self.places.get_unchecked(r..r + s), w);
+                }
+                from = end;
             }
-            from = steps(subs, divs.get_unchecked(div..), from, a, w);
             subtract(subs.get_unchecked(from..), a, w);
         }
     }
@@ -207,28 +197,6 @@ unsafe fn subtract<A: Copy, W: Cell<A>>(subs: &[[u32; 3]], a: &[A], w: &mut [W])
         let x = *w.get_unchecked(c as usize);
         w.get_unchecked_mut(i as usize).sub_mul(*a.get_unchecked(u as usize), x);
     }
-}
-
-/// The divisions `divs`, each after the subtractions from `from` to its
-/// end; the end of the last (`from` without any).
-///
-/// # Safety
-/// as `subtract`, and from <= each end <= subs.len(), ascending.
-#[inline(always)]
-unsafe fn steps<A: Copy, W: Cell<A>>(
-    subs: &[[u32; 3]],
-    divs: &[[u32; 3]],
-    mut from: usize,
-    a: &[A],
-    w: &mut [W],
-) -> usize {
-    for &[end, r, v] in divs {
-        let end = end as usize;
-        subtract(subs.get_unchecked(from..end), a, w);
-        w.get_unchecked_mut(r as usize).div(*a.get_unchecked(v as usize));
-        from = end;
-    }
-    from
 }
 
 /// What a solve's program works on, a factor's entry being `A`: a
@@ -549,8 +517,8 @@ impl Triangular {
                 Some(o) => o.program(d.at, d.store, &mut p),
             }
         }
-        let dense: usize = p.dense.iter().map(|b| b[2] as usize).sum();
-        if next != off.len() || p.divs.len() + dense + folded.iter().filter(|&&f| f).count() != n {
+        let solved: usize = p.steps.iter().map(|d| d[1] as usize).sum();
+        if next != off.len() || solved + folded.iter().filter(|&&f| f).count() != n {
             return Err("program: an off-diagonal entry out of order, or a position without its pivot".into());
         }
         let quiet = (blocks.iter().enumerate())
