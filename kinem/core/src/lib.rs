@@ -11,6 +11,7 @@
 pub mod accept;
 pub mod columns;
 pub mod decompose;
+pub mod dense;
 pub mod families;
 pub mod functions;
 pub mod lane_lu;
