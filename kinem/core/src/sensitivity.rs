@@ -272,7 +272,8 @@ struct Group<const N: usize> {
     /// the moved families (where a function's or an outline's table
     /// moves, every family that reads it: `reads`)
     moved: Vec<usize>,
-    /// those of them whose nu may be non-zero
+    /// those of them whose nu may be non-zero (none where no function
+    /// but a constant moves: a constant's derivatives are zero)
     timed: Vec<usize>,
     /// the families whose Jacobian and gamma have a tangent: the moved and
     /// those that depend on q or qd; the others' are zero. `direct`: those
@@ -302,7 +303,10 @@ impl<const N: usize> Group<N> {
         }));
         moved.sort_unstable();
         moved.dedup();
-        let timed = moved.iter().copied().filter(|k| model.time_dependent.contains(k)).collect();
+        // nu (f'(t), 2 l l') moves only with a function that is not a constant
+        let fs = &model.functions;
+        let drives = (0..fs.len()).any(|f| !fs.constant(f) && fs.moves(f));
+        let timed = moved.iter().copied().filter(|k| drives && model.time_dependent.contains(k)).collect();
         let (live, mut entries) = probe(&model, &moved, pattern);
         let (direct, live): (Vec<usize>, Vec<usize>) = live.into_iter().partition(|&k| kin.families[k].direct());
         entries.retain(|&(_, _, p)| live.iter().any(|&k| (model.entry_off[k]..model.entry_off[k + 1]).contains(&p)));
