@@ -21,7 +21,7 @@
 //! (`lanes`), each lane seeded with one parameter's tables' tangents
 //! (Kin::seeded). All three share one factorisation of J at the instant
 //! (the march's layout, crate::lu): no finite differences anywhere.
-use crate::families::{At, Dir, Shared};
+use crate::families::{At, Dir, Kept, Shared};
 use crate::lu::{Factors, Layout, Shape};
 use crate::model::Kin;
 use crate::real::{cis, Lanes, Real};
@@ -280,7 +280,7 @@ struct Group<const N: usize> {
     /// with the direct tangent kernels (Family::direct: over the march's
     /// values, no lanes), with whether each is moved; `live`: the others,
     /// evaluated over the lanes
-    direct: Vec<(usize, bool)>,
+    direct: Vec<Direct>,
     live: Vec<usize>,
     /// the moved families without direct kernels (Phi_p over the lanes)
     moved_lanes: bool,
@@ -288,6 +288,8 @@ struct Group<const N: usize> {
     /// whose tangent may be non-zero (`entries`): the (S2), (S3) products
     /// over the lanes read these alone
     entries: Vec<(usize, usize, usize)>,
+    /// how many values and tangents the direct families keep (`Direct`)
+    kept: (usize, usize),
 }
 
 impl<const N: usize> Group<N> {
@@ -310,10 +312,28 @@ impl<const N: usize> Group<N> {
         let (live, mut entries) = probe(&model, &moved, pattern);
         let (direct, live): (Vec<usize>, Vec<usize>) = live.into_iter().partition(|&k| kin.families[k].direct());
         entries.retain(|&(_, _, p)| live.iter().any(|&k| (model.entry_off[k]..model.entry_off[k + 1]).contains(&p)));
-        let direct = direct.into_iter().map(|k| (k, moved.contains(&k))).collect();
+        let (mut v, mut d) = (0, 0);
+        let direct = direct
+            .into_iter()
+            .map(|k| {
+                let (vn, dn) = model.families[k].kept();
+                (v, d) = (v + vn, d + dn);
+                Direct { k, moved: moved.contains(&k), v: v - vn..v, d: d - dn..d }
+            })
+            .collect();
         let moved_lanes = moved.iter().any(|&k| !kin.families[k].direct());
-        Ok(Group { model, count: group.len(), moved, timed, direct, live, moved_lanes, entries })
+        Ok(Group { model, count: group.len(), moved, timed, direct, live, moved_lanes, entries, kept: (v, d) })
     }
+}
+
+/// A family with the direct tangent kernels in a group: its place, whether
+/// it is moved, and where its jac_products keeps its values (v) and
+/// tangents (d) for its gamma_tangent (Family::kept, Lanewise's kv, kd).
+struct Direct {
+    k: usize,
+    moved: bool,
+    v: std::ops::Range<usize>,
+    d: std::ops::Range<usize>,
 }
 
 /// The probe of a group (its seeded model, `moved` its moved families):
@@ -413,6 +433,9 @@ pub struct Lanewise<'a, const N: usize> {
     jl: Vec<Lanes<N>>,
     rhs: Vec<[f64; N]>,
     rhs3: Vec<[f64; N]>,
+    /// what the direct families' jac_products keep for their gamma_tangent
+    kv: Vec<C64>,
+    kd: Vec<[f64; N]>,
     solver: Solver<N>,
 }
 
@@ -432,6 +455,8 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         let flat = 3 * n + 2 * levels * points;
         let gather: Vec<usize> = src.iter().map(|&j| if j < levels * n { j } else { 3 * n + j - levels * n }).collect();
         assert!(gather.iter().all(|&i| i < flat), "sensitivity: a column's source out of range");
+        // (every group's Direct ranges end within its `kept`, and kv, kd hold the largest: `at` slices them unchecked)
+        assert!(groups.iter().all(|g| g.direct.iter().all(|f| f.v.end <= g.kept.0 && f.d.end <= g.kept.1)));
         let zl = || vec![Lanes::<N>::c(0.0); n];
         let cl = || vec![Complex::new(Lanes::<N>::c(0.0), Lanes::<N>::c(0.0)); n];
         Lanewise {
@@ -457,6 +482,8 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             jl: vec![Lanes::<N>::c(0.0); nnz],
             rhs: vec![[0.0; N]; m],
             rhs3: vec![[0.0; N]; m],
+            kv: vec![C64::new(0.0, 0.0); groups.iter().map(|g| g.kept.0).max().unwrap_or(0)],
+            kd: vec![[0.0; N]; groups.iter().map(|g| g.kept.1).max().unwrap_or(0)],
             solver: Solver::new(n, m, 3 * np >= 2 * n && n <= INVERSE),
         }
     }
@@ -536,11 +563,19 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 }
                 products(&group.entries, &self.jl, &x[1..], &mut self.rhs, &mut self.rhs3);
                 let (s, rhs, rhs3) = (&self.flat[..n], &mut self.rhs, &mut self.rhs3);
-                for &(k, moved) in &group.direct {
+                for f in &group.direct {
+                    let (k, moved) = (f.k, f.moved);
                     let rows = model.row_off[k]..model.row_off[k + 1];
-                    let r3 = if levels > 2 { &mut rhs3[rows.clone()] } else { &mut [][..] };
+                    let (r3, keep) = if levels > 2 {
+                        // SAFETY: every Direct's ranges within kv, kd (sized in `new` for every group)
+                        let (v, d) =
+                            unsafe { (self.kv.get_unchecked_mut(f.v.clone()), self.kd.get_unchecked_mut(f.d.clone())) };
+                        (&mut rhs3[rows.clone()], Kept { v, d })
+                    } else {
+                        (&mut [][..], Kept::none())
+                    };
                     let d = Dir { at: At { q, e, t }, qd: x[1], s, sd: &[], moved };
-                    model.families[k].jac_products(&d, &shared, &x[1..], &mut rhs[rows], r3);
+                    model.families[k].jac_products(&d, &shared, &x[1..], &mut rhs[rows], r3, keep);
                 }
                 self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[n..2 * n]);
                 if lanes {
@@ -564,10 +599,15 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     }
                 }
                 let (s, sd) = (&self.flat[..n], &self.flat[n..2 * n]);
-                for &(k, moved) in &group.direct {
+                for f in &group.direct {
+                    let (k, moved) = (f.k, f.moved);
                     let rows = model.row_off[k]..model.row_off[k + 1];
                     let d = Dir { at: At { q, e, t }, qd: x[1], s, sd, moved };
-                    model.families[k].gamma_tangent(&d, &shared, &mut self.rhs3[rows]);
+                    // SAFETY: as in (S2)
+                    let (v, kd) =
+                        unsafe { (self.kv.get_unchecked_mut(f.v.clone()), self.kd.get_unchecked_mut(f.d.clone())) };
+                    let kept = Kept { v, d: kd };
+                    model.families[k].gamma_tangent(&d, &shared, &mut self.rhs3[rows], kept);
                 }
                 self.solver.solve(layout, f, &self.rhs3, count, &mut self.flat[2 * n..3 * n]);
             }
@@ -810,7 +850,8 @@ mod tests {
         ];
         let group = Group::<2>::new(&kin, &tangents, &pattern).unwrap();
         // the revolute has direct kernels, the distance is over the lanes
-        assert_eq!((&group.direct[..], &group.live[..]), (&[(0, true)][..], &[1][..]));
+        let direct: Vec<(usize, bool)> = group.direct.iter().map(|f| (f.k, f.moved)).collect();
+        assert_eq!((&direct[..], &group.live[..]), (&[(0, true)][..], &[1][..]));
         // the probe over both (as it serves any family over the lanes)
         let (live, all) = probe(&group.model, &group.moved, &pattern);
         assert_eq!(live, [0, 1]);
