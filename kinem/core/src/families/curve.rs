@@ -11,7 +11,7 @@
 //! and along a motion, without the terms in the accelerations,
 //!     a'  = i w a + g th',   a''  = -w^2 a + 2 i w th' g + th'^2 h,
 //!     g'  = i w g + h th',   g''  = -w^2 g + 2 i w th' h + th'^2 k.
-use super::{i, lane, At, Dir, Kept, Shared, I};
+use super::{i, iz, lane, At, Dir, Kept, Shared};
 use crate::outline::Curve;
 use crate::real::{Lanes, Real};
 use crate::table::Table;
@@ -317,13 +317,13 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
                 let (sc, st, sy) = (sq.get_unchecked(cc + 2), sq.get_unchecked(ct), sq.get_unchecked(y + 2));
                 for l in 0..N {
                     let (mut da, mut dg, mut db) =
-                        (I * a * sc[l] + g * st[l], I * g * sc[l] + h * st[l], I * b * sy[l]);
+                        (iz(a) * sc[l] + g * st[l], iz(g) * sc[l] + h * st[l], iz(b) * sy[l]);
                     if moved {
                         (da, dg, db) = (da + lane(p.a, l).1, dg + lane(p.g, l).1, db + lane(sb, l).1 * eb);
                     }
                     for (w, r) in v.iter().zip([&mut *r2, &mut *r3]) {
                         let (wc, wt, wy) = (*w.get_unchecked(cc + 2), *w.get_unchecked(ct), *w.get_unchecked(y + 2));
-                        let dv = (I * da * wc + dg * wt - I * db * wy) * k;
+                        let dv = (iz(da) * wc + dg * wt - iz(db) * wy) * k;
                         r.get_unchecked_mut(2 * c)[l] -= dv.re;
                         r.get_unchecked_mut(2 * c + 1)[l] -= dv.im;
                     }
@@ -351,10 +351,10 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
                 let (dwc, dth, dwb) = (sd.get_unchecked(cc + 2), sd.get_unchecked(ct), sd.get_unchecked(y + 2));
                 for l in 0..N {
                     let (mut da, mut dg, mut dh, mut db) = (
-                        I * a * sc[l] + g * st[l],
-                        I * g * sc[l] + h * st[l],
-                        I * h * sc[l] + kk * st[l],
-                        I * b * sy[l],
+                        iz(a) * sc[l] + g * st[l],
+                        iz(g) * sc[l] + h * st[l],
+                        iz(h) * sc[l] + kk * st[l],
+                        iz(b) * sy[l],
                     );
                     if moved {
                         da += lane(p.a, l).1;
@@ -364,8 +364,8 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
                     }
                     let (dw, dt, dy) = (dwc[l], dth[l], dwb[l]);
                     let a2 = -a * (2.0 * w * dw) - da * (w * w)
-                        + I * g * (2.0 * (dw * th + w * dt))
-                        + I * dg * (2.0 * w * th)
+                        + iz(g) * (2.0 * (dw * th + w * dt))
+                        + iz(dg) * (2.0 * w * th)
                         + h * (2.0 * th * dt)
                         + dh * (th * th);
                     let dv = (a2 + db * (wb * wb) + b * (2.0 * wb * dy)) * -k;

@@ -8,7 +8,7 @@
 //! u = P_i - Q_i, d = P_j - P_i, and Eq. 4.16 with a = j, u = Q_j - P_j,
 //! d = P_i - P_j. A translational joint adds the row
 //! phi_i - phi_j - (phi_i^0 - phi_j^0) = 0 (Eq. 4.10 as corrected).
-use super::{cross, dot, each_side, i, lane, sides, At, Dir, Kept, Shared, Sides};
+use super::{cross, dot, each_side, i, iz, lane, sides, At, Dir, Kept, Shared, Sides};
 use crate::real::{Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
@@ -261,11 +261,10 @@ impl<const N: usize> Line<Lanes<N>> {
     ) -> [C64; 4] {
         let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
         let [u, _, sa, sb] = *x;
-        let i = C64::new(0.0, 1.0);
         let [mut du, mut dd, mut dsa, mut dsb] = [C64::new(0.0, 0.0); 4];
         if let Some(s) = s {
             let (pa, pb) = (s.get_unchecked(a + 2)[l], s.get_unchecked(b + 2)[l]);
-            (du, dsa, dsb) = (i * u * pa, i * sa * pa, i * sb * pb);
+            (du, dsa, dsb) = (iz(u) * pa, iz(sa) * pa, iz(sb) * pb);
             dd = C64::new(
                 s.get_unchecked(b)[l] - s.get_unchecked(a)[l],
                 s.get_unchecked(b + 1)[l] - s.get_unchecked(a + 1)[l],
@@ -350,7 +349,6 @@ impl<const N: usize> Line<Lanes<N>> {
         let (n, per, count) = (self.n, self.per(), self.ca.len());
         assert!(at.holds(n) && qd.len() >= n && s.len() >= n && sd.len() >= n && out.len() >= per * count);
         let keeps = kept.v.len() >= 4 * count && kept.d.len() >= 8 * count;
-        let i = C64::new(0.0, 1.0);
         for c in 0..count {
             // SAFETY: c < ca.len(), q, e, qd, s and sd hold n, kept 4 and 8 per constraint where it keeps (asserted above)
             unsafe {
@@ -364,7 +362,7 @@ impl<const N: usize> Line<Lanes<N>> {
                 let [u, d, sa, sb] = x;
                 let (wa, wb) = (*qd.get_unchecked(a + 2), *qd.get_unchecked(b + 2));
                 let rd = |k: usize| C64::new(*qd.get_unchecked(k), *qd.get_unchecked(k + 1));
-                let rate = rd(b) + i * sb * wb - rd(a) - i * sa * wa;
+                let rate = rd(b) + iz(sb) * wb - rd(a) - iz(sa) * wa;
                 let big = sb * (wb * wb) - sa * (wa * wa);
                 let (cr, dt) = (cross(u, d), dot(u, rate));
                 for l in 0..N {
@@ -376,7 +374,7 @@ impl<const N: usize> Line<Lanes<N>> {
                     };
                     let (dwa, dwb) = (sd.get_unchecked(a + 2)[l], sd.get_unchecked(b + 2)[l]);
                     let drd = |k: usize| C64::new(sd.get_unchecked(k)[l], sd.get_unchecked(k + 1)[l]);
-                    let drate = drd(b) + i * (dsb * wb + sb * dwb) - drd(a) - i * (dsa * wa + sa * dwa);
+                    let drate = drd(b) + iz(dsb * wb + sb * dwb) - drd(a) - iz(dsa * wa + sa * dwa);
                     let dbig = dsb * (wb * wb) + sb * (2.0 * wb * dwb) - dsa * (wa * wa) - sa * (2.0 * wa * dwa);
                     let (dcr, ddt) = (cross(du, d) + cross(u, dd), dot(du, rate) + dot(u, drate));
                     out.get_unchecked_mut(per * c)[l] += (2.0 * wa * dwa) * cr

@@ -411,6 +411,13 @@ pub struct Dir<'a, const N: usize> {
     pub moved: bool,
 }
 
+/// i z, written out: (-Im z, Re z), where the product I * z also takes
+/// 0 Re z and 0 Im z (the same figures but for the sign of an exact zero).
+#[inline(always)]
+pub fn iz(z: C64) -> C64 {
+    C64::new(-z.im, z.re)
+}
+
 /// A planar vector of Lanes<N>: its value and its tangent in lane l.
 #[inline(always)]
 pub fn lane<const N: usize>(x: Complex<Lanes<N>>, l: usize) -> (C64, C64) {
