@@ -318,7 +318,8 @@ impl<const N: usize> Group<N> {
             .map(|k| {
                 let (vn, dn) = model.families[k].kept();
                 (v, d) = (v + vn, d + dn);
-                Direct { k, moved: moved.contains(&k), v: v - vn..v, d: d - dn..d }
+                let rows = model.row_off[k]..model.row_off[k + 1];
+                Direct { k, rows, moved: moved.contains(&k), v: v - vn..v, d: d - dn..d }
             })
             .collect();
         let moved_lanes = moved.iter().any(|&k| !kin.families[k].direct());
@@ -326,11 +327,12 @@ impl<const N: usize> Group<N> {
     }
 }
 
-/// A family with the direct tangent kernels in a group: its place, whether
-/// it is moved, and where its jac_products keeps its values (v) and
-/// tangents (d) for its gamma_tangent (Family::kept, Lanewise's kv, kd).
+/// A family with the direct tangent kernels in a group: its place, its
+/// rows, whether it is moved, and where its jac_products keeps its values
+/// (v) and tangents (d) for its gamma_tangent (Family::kept, Lanewise's kv, kd).
 struct Direct {
     k: usize,
+    rows: std::ops::Range<usize>,
     moved: bool,
     v: std::ops::Range<usize>,
     d: std::ops::Range<usize>,
@@ -456,7 +458,10 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         let gather: Vec<usize> = src.iter().map(|&j| if j < levels * n { j } else { 3 * n + j - levels * n }).collect();
         assert!(gather.iter().all(|&i| i < flat), "sensitivity: a column's source out of range");
         // (every group's Direct ranges end within its `kept`, and kv, kd hold the largest: `at` slices them unchecked)
-        assert!(groups.iter().all(|g| g.direct.iter().all(|f| f.v.end <= g.kept.0 && f.d.end <= g.kept.1)));
+        // (and every Direct's rows end within the m rows of rhs, rhs3)
+        assert!(groups
+            .iter()
+            .all(|g| g.direct.iter().all(|f| f.v.end <= g.kept.0 && f.d.end <= g.kept.1 && f.rows.end <= m)));
         let zl = || vec![Lanes::<N>::c(0.0); n];
         let cl = || vec![Complex::new(Lanes::<N>::c(0.0), Lanes::<N>::c(0.0)); n];
         Lanewise {
@@ -564,18 +569,22 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 products(&group.entries, &self.jl, &x[1..], &mut self.rhs, &mut self.rhs3);
                 let (s, rhs, rhs3) = (&self.flat[..n], &mut self.rhs, &mut self.rhs3);
                 for f in &group.direct {
-                    let (k, moved) = (f.k, f.moved);
-                    let rows = model.row_off[k]..model.row_off[k + 1];
-                    let (r3, keep) = if levels > 2 {
-                        // SAFETY: every Direct's ranges within kv, kd (sized in `new` for every group)
-                        let (v, d) =
-                            unsafe { (self.kv.get_unchecked_mut(f.v.clone()), self.kd.get_unchecked_mut(f.d.clone())) };
-                        (&mut rhs3[rows.clone()], Kept { v, d })
-                    } else {
-                        (&mut [][..], Kept::none())
+                    // SAFETY: every Direct's ranges within kv, kd and its rows within rhs, rhs3 (asserted in `new`)
+                    let (r2, r3, keep) = unsafe {
+                        if levels > 2 {
+                            let (v, d) =
+                                (self.kv.get_unchecked_mut(f.v.clone()), self.kd.get_unchecked_mut(f.d.clone()));
+                            (
+                                rhs.get_unchecked_mut(f.rows.clone()),
+                                rhs3.get_unchecked_mut(f.rows.clone()),
+                                Kept { v, d },
+                            )
+                        } else {
+                            (rhs.get_unchecked_mut(f.rows.clone()), &mut [][..], Kept::none())
+                        }
                     };
-                    let d = Dir { at: At { q, e, t }, qd: x[1], s, sd: &[], moved };
-                    model.families[k].jac_products(&d, &shared, &x[1..], &mut rhs[rows], r3, keep);
+                    let d = Dir { at: At { q, e, t }, qd: x[1], s, sd: &[], moved: f.moved };
+                    model.families[f.k].jac_products(&d, &shared, &x[1..], r2, r3, keep);
                 }
                 self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[n..2 * n]);
                 if lanes {
@@ -600,14 +609,13 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 }
                 let (s, sd) = (&self.flat[..n], &self.flat[n..2 * n]);
                 for f in &group.direct {
-                    let (k, moved) = (f.k, f.moved);
-                    let rows = model.row_off[k]..model.row_off[k + 1];
-                    let d = Dir { at: At { q, e, t }, qd: x[1], s, sd, moved };
+                    let d = Dir { at: At { q, e, t }, qd: x[1], s, sd, moved: f.moved };
                     // SAFETY: as in (S2)
-                    let (v, kd) =
-                        unsafe { (self.kv.get_unchecked_mut(f.v.clone()), self.kd.get_unchecked_mut(f.d.clone())) };
-                    let kept = Kept { v, d: kd };
-                    model.families[k].gamma_tangent(&d, &shared, &mut self.rhs3[rows], kept);
+                    let (v, kd, r3) = unsafe {
+                        let (v, kd) = (self.kv.get_unchecked_mut(f.v.clone()), self.kd.get_unchecked_mut(f.d.clone()));
+                        (v, kd, self.rhs3.get_unchecked_mut(f.rows.clone()))
+                    };
+                    model.families[f.k].gamma_tangent(&d, &shared, r3, Kept { v, d: kd });
                 }
                 self.solver.solve(layout, f, &self.rhs3, count, &mut self.flat[2 * n..3 * n]);
             }
