@@ -275,6 +275,8 @@ struct Group<const N: usize> {
     /// those of them whose nu may be non-zero (none where no function
     /// but a constant moves: a constant's derivatives are zero)
     timed: Vec<usize>,
+    /// whether a function that is not a constant moves (Dir::drives)
+    drives: bool,
     /// the families whose Jacobian and gamma have a tangent: the moved and
     /// those that depend on q or qd; the others' are zero. `direct`: those
     /// with the direct tangent kernels (Family::direct: over the march's
@@ -309,6 +311,7 @@ impl<const N: usize> Group<N> {
         let fs = &model.functions;
         let drives = (0..fs.len()).any(|f| !fs.constant(f) && fs.moves(f));
         let timed = moved.iter().copied().filter(|k| drives && model.time_dependent.contains(k)).collect();
+        // (and f'' likewise: Dir::drives)
         let (live, mut entries) = probe(&model, &moved, pattern);
         let (direct, live): (Vec<usize>, Vec<usize>) = live.into_iter().partition(|&k| kin.families[k].direct());
         entries.retain(|&(_, _, p)| live.iter().any(|&k| (model.entry_off[k]..model.entry_off[k + 1]).contains(&p)));
@@ -323,7 +326,7 @@ impl<const N: usize> Group<N> {
             })
             .collect();
         let moved_lanes = moved.iter().any(|&k| !kin.families[k].direct());
-        Ok(Group { model, count: group.len(), moved, timed, direct, live, moved_lanes, entries, kept: (v, d) })
+        Ok(Group { model, count: group.len(), moved, timed, drives, direct, live, moved_lanes, entries, kept: (v, d) })
     }
 }
 
@@ -583,7 +586,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                             (rhs.get_unchecked_mut(f.rows.clone()), &mut [][..], Kept::none())
                         }
                     };
-                    let d = Dir { at: At { q, e, t }, qd: x[1], s, sd: &[], moved: f.moved };
+                    let d = Dir { at: At { q, e, t }, qd: x[1], s, sd: &[], moved: f.moved, drives: group.drives };
                     model.families[f.k].jac_products(&d, &shared, &x[1..], r2, r3, keep);
                 }
                 self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[n..2 * n]);
@@ -609,7 +612,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 }
                 let (s, sd) = (&self.flat[..n], &self.flat[n..2 * n]);
                 for f in &group.direct {
-                    let d = Dir { at: At { q, e, t }, qd: x[1], s, sd, moved: f.moved };
+                    let d = Dir { at: At { q, e, t }, qd: x[1], s, sd, moved: f.moved, drives: group.drives };
                     // SAFETY: as in (S2)
                     let (v, kd, r3) = unsafe {
                         let (v, kd) = (self.kv.get_unchecked_mut(f.v.clone()), self.kd.get_unchecked_mut(f.d.clone()));

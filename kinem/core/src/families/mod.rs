@@ -401,14 +401,17 @@ impl<const N: usize> Kept<'_, N> {
 
 /// Where the direct tangent kernels evaluate: the analysis' values (q,
 /// e^{i q}, t: `at`; qd), the lanes' tangents s = dq/dp and sd = dqd/dp
-/// (sd empty before (S2) is solved: jac_products does not read it), and
-/// whether the family's tables carry tangents (`moved`).
+/// (sd empty before (S2) is solved: jac_products does not read it),
+/// whether the family's tables carry tangents (`moved`), and whether a
+/// function that is not a constant does (`drives`: else every f', f''
+/// has a zero tangent).
 pub struct Dir<'a, const N: usize> {
     pub at: At<'a>,
     pub qd: &'a [f64],
     pub s: &'a [[f64; N]],
     pub sd: &'a [[f64; N]],
     pub moved: bool,
+    pub drives: bool,
 }
 
 /// i z, written out: (-Im z, Re z), where the product I * z also takes

@@ -275,7 +275,7 @@ fn check_direct(kind: &str, tabs: &[Table; 3], art: usize, q: &[f64], qd: &[f64]
         near("Phi_p", &out.iter().map(|x| x[0]).collect::<Vec<_>>(), &want, 1e-12);
     }
     out.fill([0.0]);
-    let dir = Dir { at: At { q, e: &e, t: time }, qd, s: &s, sd: &sd, moved };
+    let dir = Dir { at: At { q, e: &e, t: time }, qd, s: &s, sd: &sd, moved, drives: moved };
     if fam.gamma_tangent(&dir, &shared, &mut out, Kept::none()) {
         let want = tangents(&dual, &lift(q, &dq), &lift(qd, &dqd), time)[3].clone();
         near("D(gamma)", &out.iter().map(|x| x[0]).collect::<Vec<_>>(), &want, 1e-12);
