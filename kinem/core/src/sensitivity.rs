@@ -425,9 +425,14 @@ pub struct Lanewise<'a, const N: usize> {
     /// Phi_p over the lanes at q0, e0)
     lanes0: bool,
     /// s, sd, sdd (n each) and the points' tangents, a row per coordinate
-    /// or point value; `gather`: each column's row there
+    /// or point value; `gather`: each column's row there; `triples`: the
+    /// columns (c, its row i) whose next two columns are rows i + 1, i + 2
+    /// (a body's x, y, phi at one level), `singles` the others (N = 1's
+    /// gather: three columns per copy)
     flat: Vec<[f64; N]>,
     gather: Vec<usize>,
+    triples: Vec<(usize, usize)>,
+    singles: Vec<(usize, usize)>,
     buf: Vec<[f64; N]>,
     q0: Vec<Lanes<N>>,
     e0: Vec<Complex<Lanes<N>>>,
@@ -458,8 +463,25 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         let (w, points) = (src.len(), p.points);
         let (n, m, nnz, np) = (kin.n, kin.m, kin.nnz, p.np);
         let flat = 3 * n + 2 * levels * points;
-        let gather: Vec<usize> = src.iter().map(|&j| if j < levels * n { j } else { 3 * n + j - levels * n }).collect();
+        // (a point's value i, entry i p + j of `points`' pts, is row 2 levels j + i after s, sd, sdd:
+        // Columns::point_tangents)
+        let row = |j: usize| match j.checked_sub(levels * n) {
+            None => j,
+            Some(v) if points > 0 => 3 * n + 2 * levels * (v % points) + v / points,
+            Some(v) => 3 * n + v,
+        };
+        let gather: Vec<usize> = src.iter().map(|&j| row(j)).collect();
         assert!(gather.iter().all(|&i| i < flat), "sensitivity: a column's source out of range");
+        let (mut triples, mut singles, mut c) = (Vec::new(), Vec::new(), 0);
+        while c < w {
+            if c + 2 < w && gather[c + 1] == gather[c] + 1 && gather[c + 2] == gather[c] + 2 {
+                triples.push((c, gather[c]));
+                c += 3;
+            } else {
+                singles.push((c, gather[c]));
+                c += 1;
+            }
+        }
         // (every group's Direct ranges end within its `kept`, and kv, kd hold the largest: `at` slices them unchecked)
         // (and every Direct's rows end within the m rows of rhs, rhs3)
         assert!(groups
@@ -481,6 +503,8 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             flat: vec![[0.0; N]; flat],
             buf: vec![[0.0; N]; w],
             gather,
+            triples,
+            singles,
             q0: zl(),
             e0: vec![Complex::new(Lanes::<N>::c(1.0), Lanes::<N>::c(0.0)); n],
             ql: zl(),
@@ -633,9 +657,16 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             }
             let to = &mut out[g * N * w..(g * N + count) * w];
             if N == 1 {
-                for (o, &i) in to.iter_mut().zip(&self.gather) {
-                    // SAFETY: every gather index below flat.len() (asserted in `new`)
-                    *o = unsafe { self.flat.get_unchecked(i)[0] };
+                // SAFETY: every gather index below flat.len() (asserted in `new`), every column c
+                // (c + 2 of a triple) below w = to.len()
+                unsafe {
+                    for &(c, i) in &self.triples {
+                        let (x, o) = (self.flat.get_unchecked(i..i + 3), to.get_unchecked_mut(c..c + 3));
+                        (o[0], o[1], o[2]) = (x[0][0], x[1][0], x[2][0]);
+                    }
+                    for &(c, i) in &self.singles {
+                        *to.get_unchecked_mut(c) = self.flat.get_unchecked(i)[0];
+                    }
                 }
             } else {
                 // gathered once, then a lane at a time (fewer index checks)
