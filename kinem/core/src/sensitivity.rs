@@ -560,12 +560,9 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 let family = &model.families[k];
                 if !family.phi_tangent(&atf, &shared, &mut self.rhs[rows.clone()]) {
                     family.phi(&at0, &shared, &mut self.rl[rows.clone()]);
-                    for (r, x) in self.rhs[rows.clone()].iter_mut().zip(&self.rl[rows.clone()]) {
-                        *r = x.d;
+                    for (r, x) in self.rhs[rows.clone()].iter_mut().zip(&self.rl[rows]) {
+                        *r = x.d.map(|v| -v);
                     }
-                }
-                for r in &mut self.rhs[rows] {
-                    *r = r.map(|v| -v);
                 }
             }
             self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[..n]);

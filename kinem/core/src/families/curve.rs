@@ -280,7 +280,7 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
             let Place { p, eb, sb, k, .. } = unsafe { self.place(at, s, c) };
             for l in 0..N {
                 let d = (lane(p.a, l).1 - lane(sb, l).1 * eb) * k;
-                (o[0][l], o[1][l]) = (d.re, d.im);
+                (o[0][l], o[1][l]) = (-d.re, -d.im);
             }
         }
     }

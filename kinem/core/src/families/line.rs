@@ -289,9 +289,9 @@ impl<const N: usize> Line<Lanes<N>> {
             for l in 0..N {
                 // SAFETY: as above
                 let [du, dd, _, _] = unsafe { self.tangents(at, c, &x, None, true, l) };
-                out[per * c][l] = cross(du, x[1]) + cross(x[0], dd);
+                out[per * c][l] = -(cross(du, x[1]) + cross(x[0], dd));
                 if self.angle {
-                    out[2 * c + 1][l] = -self.phi0[c].d[l];
+                    out[2 * c + 1][l] = self.phi0[c].d[l]; // (-(-d(phi0)), exactly)
                 }
             }
         }

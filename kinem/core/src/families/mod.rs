@@ -321,7 +321,8 @@ impl<S> Family<S> {
 /// its product rule needs. Each returns false for a kind without them
 /// (the caller evaluates that family over Lanes<N>, crate::real).
 impl<const N: usize> Family<Lanes<N>> {
-    /// Phi's tangent along the tables alone (q' = 0): Phi_p (S1).
+    /// Phi's tangent along the tables alone (q' = 0), negated: -Phi_p,
+    /// (S1)'s right-hand side (the sign taken in each store).
     pub fn phi_tangent(&self, at: &At, s: &Shared<Lanes<N>>, out: &mut [[f64; N]]) -> bool {
         match self {
             Family::Simple(f) => f.phi_tangent(at, s, out),

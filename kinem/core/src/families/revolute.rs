@@ -157,7 +157,7 @@ fn moves<const N: usize>(t: Complex<Lanes<N>>) -> bool {
 /// gamma_tangent): a = A_i s'_i, b = A_j s'_j and their tangents
 /// da = i a s_phi_i + d(s'_i) A_i (Eq. 4.44: dA s' = B s' dphi), lane by lane.
 impl<const N: usize> Revolute<Lanes<N>> {
-    /// d/dp of Eq. 4.7 at q' = 0: d(s'_i) A_i - d(s'_j) A_j.
+    /// -d/dp of Eq. 4.7 at q' = 0: -(d(s'_i) A_i - d(s'_j) A_j).
     pub fn phi_tangent(&self, at: &At, out: &mut [[f64; N]]) {
         assert!(at.holds(self.n) && out.len() >= 2 * self.ci.len());
         for (c, o) in out.chunks_exact_mut(2).enumerate().take(self.ci.len()) {
@@ -167,13 +167,13 @@ impl<const N: usize> Revolute<Lanes<N>> {
                 (at.rot_at(a), at.rot_at(b), *self.si.get_unchecked(c), *self.sj.get_unchecked(c))
             };
             if !(moves(si) || moves(sj)) {
-                o.fill([0.0; N]); // (the other joints of a moved family)
+                o.fill([-0.0; N]); // (the other joints of a moved family: -0)
                 continue;
             }
             for l in 0..N {
                 let d = lane(si, l).1 * ei - lane(sj, l).1 * ej;
-                o[0][l] = d.re;
-                o[1][l] = d.im;
+                o[0][l] = -d.re;
+                o[1][l] = -d.im;
             }
         }
     }

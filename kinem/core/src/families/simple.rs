@@ -260,19 +260,22 @@ impl<S: Real> Simple<S> {
 /// ds = i s s_phi_i + d(s') A_i, and the drivers' f(t) tangents (the
 /// functions' tables), lane by lane.
 impl<const N: usize> Simple<Lanes<N>> {
-    /// d/dp of Eqs. 4.31-4.40 at q' = 0: d(point term) - d f(t).
+    /// -d/dp of Eqs. 4.31-4.40 at q' = 0: -(d(point term) - d f(t)).
     pub fn phi_tangent(&self, at: &At, s: &Shared<Lanes<N>>, out: &mut [[f64; N]]) {
         assert!(at.holds(self.n));
         for (row, o) in self.rows.iter().zip(out) {
             let f = row.drive(at.t, 0, s).d;
-            *o = f.map(|x| -x);
             if row.term {
+                let mut v = f.map(|x| -x);
                 // SAFETY: angle < n (new), e holds n (asserted above)
                 let e = unsafe { *at.e.get_unchecked(row.angle) };
                 for l in 0..N {
                     let ds = lane(row.local, l).1 * e;
-                    o[l] += ds.re * row.mx + ds.im * row.my;
+                    v[l] += ds.re * row.mx + ds.im * row.my;
                 }
+                *o = v.map(|x| -x);
+            } else {
+                *o = f; // (-(-f), exactly)
             }
         }
     }

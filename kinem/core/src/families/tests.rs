@@ -272,7 +272,7 @@ fn check_direct(kind: &str, tabs: &[Table; 3], art: usize, q: &[f64], qd: &[f64]
     if moved && fam.phi_tangent(&at, &shared, &mut out) {
         let zeros = vec![0.0; n];
         let want = tangents(&dual, &lift(q, &zeros), &lift(qd, &zeros), time)[0].clone();
-        near("Phi_p", &out.iter().map(|x| x[0]).collect::<Vec<_>>(), &want, 1e-12);
+        near("Phi_p", &out.iter().map(|x| -x[0]).collect::<Vec<_>>(), &want, 1e-12);
     }
     out.fill([0.0]);
     let dir = Dir { at: At { q, e: &e, t: time }, qd, s: &s, sd: &sd, moved, drives: moved };
