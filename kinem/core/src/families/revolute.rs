@@ -147,10 +147,7 @@ impl<S: Real> Revolute<S> {
 /// family's other joints do not: their table terms are skipped).
 #[inline(always)]
 fn moves<const N: usize>(t: Complex<Lanes<N>>) -> bool {
-    // x != 0.0 for some x: a bit besides the sign's set in some x (NaN
-    // included, -0.0 not), the lanes' bits or-ed first (no branch per x)
-    let bits = (0..N).fold(0u64, |b, l| b | t.re.d[l].to_bits() | t.im.d[l].to_bits());
-    bits << 1 != 0
+    t.re.d.iter().chain(&t.im.d).any(|&x| x != 0.0)
 }
 
 /// The direct tangent kernels (super::Family::phi_tangent, jac_products,
