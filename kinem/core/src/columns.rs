@@ -93,7 +93,9 @@ impl Columns<'_> {
     /// their values): x the stages' values (n each), d
     /// their N tangents (s, sd, sdd), local the points' local coordinates
     /// with their tangents, e^{i phi} of angle column c from `turn(c)` (the
-    /// march's own); out as `points`' pts, N tangents an entry.
+    /// march's own); out point by point, each its 2 stages entries in
+    /// `points`' order (x, y, vx, vy, ax, ay: point j's entry i at
+    /// 2 stages j + i), N tangents an entry.
     pub fn point_tangents<const N: usize>(
         &self,
         x: &[&[f64]],
@@ -114,7 +116,7 @@ impl Columns<'_> {
             let at = |k: usize, c: usize| unsafe { *d.get_unchecked(k).get_unchecked(c) };
             let value = |k: usize| unsafe { *x.get_unchecked(k).get_unchecked(c + 2) };
             // SAFETY: j < p and out holds 2 stages p (asserted above)
-            let mut put = |i: usize, v: [f64; N]| unsafe { *out.get_unchecked_mut(i * p + j) = v };
+            let mut put = |i: usize, v: [f64; N]| unsafe { *out.get_unchecked_mut(2 * stages * j + i) = v };
             // dE = i E dphi + d(s') e
             let phi = at(0, c + 2);
             let de: [C64; N] = std::array::from_fn(|l| C64::new(-big.im, big.re) * phi[l] + lane(s, l).1 * e);

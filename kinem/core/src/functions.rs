@@ -3,7 +3,7 @@
 //! and tables as piecewise cubics (the not-a-knot spline's pieces, made by
 //! scipy in kinem.functions when the model is compiled; extended beyond the
 //! table by its end cubics, as scipy's PPoly).
-use crate::real::Real;
+use crate::real::{Lanes, Real};
 use crate::table::Table;
 
 pub const POLY: i64 = 0;
@@ -155,6 +155,14 @@ impl<S: Real> Functions<S> {
                 }
             }
         }
+    }
+}
+
+impl<const N: usize> Functions<Lanes<N>> {
+    /// Whether function f's parameters carry a tangent in any lane (a
+    /// design parameter moves it: crate::sensitivity).
+    pub fn moves(&self, f: usize) -> bool {
+        self.data[self.start[f]..self.start[f + 1]].iter().any(|x| x.d.iter().any(|&v| v != 0.0))
     }
 }
 

@@ -21,7 +21,7 @@
 //! (`lanes`), each lane seeded with one parameter's tables' tangents
 //! (Kin::seeded). All three share one factorisation of J at the instant
 //! (the march's layout, crate::lu): no finite differences anywhere.
-use crate::families::{At, Dir, Shared};
+use crate::families::{At, Dir, Kept, Shared};
 use crate::lu::{Factors, Layout, Shape};
 use crate::model::Kin;
 use crate::real::{cis, Lanes, Real};
@@ -272,14 +272,17 @@ struct Group<const N: usize> {
     /// the moved families (where a function's or an outline's table
     /// moves, every family that reads it: `reads`)
     moved: Vec<usize>,
-    /// those of them whose nu may be non-zero
+    /// those of them whose nu may be non-zero (none where no function
+    /// but a constant moves: a constant's derivatives are zero)
     timed: Vec<usize>,
+    /// whether a function that is not a constant moves (Dir::drives)
+    drives: bool,
     /// the families whose Jacobian and gamma have a tangent: the moved and
     /// those that depend on q or qd; the others' are zero. `direct`: those
     /// with the direct tangent kernels (Family::direct: over the march's
     /// values, no lanes), with whether each is moved; `live`: the others,
     /// evaluated over the lanes
-    direct: Vec<(usize, bool)>,
+    direct: Vec<Direct>,
     live: Vec<usize>,
     /// the moved families without direct kernels (Phi_p over the lanes)
     moved_lanes: bool,
@@ -287,6 +290,8 @@ struct Group<const N: usize> {
     /// whose tangent may be non-zero (`entries`): the (S2), (S3) products
     /// over the lanes read these alone
     entries: Vec<(usize, usize, usize)>,
+    /// how many values and tangents the direct families keep (`Direct`)
+    kept: (usize, usize),
 }
 
 impl<const N: usize> Group<N> {
@@ -302,14 +307,38 @@ impl<const N: usize> Group<N> {
         }));
         moved.sort_unstable();
         moved.dedup();
-        let timed = moved.iter().copied().filter(|k| model.time_dependent.contains(k)).collect();
+        // nu (f'(t), 2 l l') moves only with a function that is not a constant
+        let fs = &model.functions;
+        let drives = (0..fs.len()).any(|f| !fs.constant(f) && fs.moves(f));
+        let timed = moved.iter().copied().filter(|k| drives && model.time_dependent.contains(k)).collect();
+        // (and f'' likewise: Dir::drives)
         let (live, mut entries) = probe(&model, &moved, pattern);
         let (direct, live): (Vec<usize>, Vec<usize>) = live.into_iter().partition(|&k| kin.families[k].direct());
         entries.retain(|&(_, _, p)| live.iter().any(|&k| (model.entry_off[k]..model.entry_off[k + 1]).contains(&p)));
-        let direct = direct.into_iter().map(|k| (k, moved.contains(&k))).collect();
+        let (mut v, mut d) = (0, 0);
+        let direct = direct
+            .into_iter()
+            .map(|k| {
+                let (vn, dn) = model.families[k].kept();
+                (v, d) = (v + vn, d + dn);
+                let rows = model.row_off[k]..model.row_off[k + 1];
+                Direct { k, rows, moved: moved.contains(&k), v: v - vn..v, d: d - dn..d }
+            })
+            .collect();
         let moved_lanes = moved.iter().any(|&k| !kin.families[k].direct());
-        Ok(Group { model, count: group.len(), moved, timed, direct, live, moved_lanes, entries })
+        Ok(Group { model, count: group.len(), moved, timed, drives, direct, live, moved_lanes, entries, kept: (v, d) })
     }
+}
+
+/// A family with the direct tangent kernels in a group: its place, its
+/// rows, whether it is moved, and where its jac_products keeps its values
+/// (v) and tangents (d) for its gamma_tangent (Family::kept, Lanewise's kv, kd).
+struct Direct {
+    k: usize,
+    rows: std::ops::Range<usize>,
+    moved: bool,
+    v: std::ops::Range<usize>,
+    d: std::ops::Range<usize>,
 }
 
 /// The probe of a group (its seeded model, `moved` its moved families):
@@ -396,9 +425,14 @@ pub struct Lanewise<'a, const N: usize> {
     /// Phi_p over the lanes at q0, e0)
     lanes0: bool,
     /// s, sd, sdd (n each) and the points' tangents, a row per coordinate
-    /// or point value; `gather`: each column's row there
+    /// or point value; `gather`: each column's row there; `triples`: the
+    /// columns (c, its row i) whose next two columns are rows i + 1, i + 2
+    /// (a body's x, y, phi at one level), `singles` the others (N = 1's
+    /// gather: three columns per copy)
     flat: Vec<[f64; N]>,
     gather: Vec<usize>,
+    triples: Vec<(usize, usize)>,
+    singles: Vec<(usize, usize)>,
     buf: Vec<[f64; N]>,
     q0: Vec<Lanes<N>>,
     e0: Vec<Complex<Lanes<N>>>,
@@ -409,6 +443,9 @@ pub struct Lanewise<'a, const N: usize> {
     jl: Vec<Lanes<N>>,
     rhs: Vec<[f64; N]>,
     rhs3: Vec<[f64; N]>,
+    /// what the direct families' jac_products keep for their gamma_tangent
+    kv: Vec<C64>,
+    kd: Vec<[f64; N]>,
     solver: Solver<N>,
 }
 
@@ -426,8 +463,30 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         let (w, points) = (src.len(), p.points);
         let (n, m, nnz, np) = (kin.n, kin.m, kin.nnz, p.np);
         let flat = 3 * n + 2 * levels * points;
-        let gather: Vec<usize> = src.iter().map(|&j| if j < levels * n { j } else { 3 * n + j - levels * n }).collect();
+        // (a point's value i, entry i p + j of `points`' pts, is row 2 levels j + i after s, sd, sdd:
+        // Columns::point_tangents)
+        let row = |j: usize| match j.checked_sub(levels * n) {
+            None => j,
+            Some(v) if points > 0 => 3 * n + 2 * levels * (v % points) + v / points,
+            Some(v) => 3 * n + v,
+        };
+        let gather: Vec<usize> = src.iter().map(|&j| row(j)).collect();
         assert!(gather.iter().all(|&i| i < flat), "sensitivity: a column's source out of range");
+        let (mut triples, mut singles, mut c) = (Vec::new(), Vec::new(), 0);
+        while c < w {
+            if c + 2 < w && gather[c + 1] == gather[c] + 1 && gather[c + 2] == gather[c] + 2 {
+                triples.push((c, gather[c]));
+                c += 3;
+            } else {
+                singles.push((c, gather[c]));
+                c += 1;
+            }
+        }
+        // (every group's Direct ranges end within its `kept`, and kv, kd hold the largest: `at` slices them unchecked)
+        // (and every Direct's rows end within the m rows of rhs, rhs3)
+        assert!(groups
+            .iter()
+            .all(|g| g.direct.iter().all(|f| f.v.end <= g.kept.0 && f.d.end <= g.kept.1 && f.rows.end <= m)));
         let zl = || vec![Lanes::<N>::c(0.0); n];
         let cl = || vec![Complex::new(Lanes::<N>::c(0.0), Lanes::<N>::c(0.0)); n];
         Lanewise {
@@ -444,6 +503,8 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             flat: vec![[0.0; N]; flat],
             buf: vec![[0.0; N]; w],
             gather,
+            triples,
+            singles,
             q0: zl(),
             e0: vec![Complex::new(Lanes::<N>::c(1.0), Lanes::<N>::c(0.0)); n],
             ql: zl(),
@@ -453,6 +514,8 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             jl: vec![Lanes::<N>::c(0.0); nnz],
             rhs: vec![[0.0; N]; m],
             rhs3: vec![[0.0; N]; m],
+            kv: vec![C64::new(0.0, 0.0); groups.iter().map(|g| g.kept.0).max().unwrap_or(0)],
+            kd: vec![[0.0; N]; groups.iter().map(|g| g.kept.1).max().unwrap_or(0)],
             solver: Solver::new(n, m, 3 * np >= 2 * n && n <= INVERSE),
         }
     }
@@ -497,12 +560,9 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 let family = &model.families[k];
                 if !family.phi_tangent(&atf, &shared, &mut self.rhs[rows.clone()]) {
                     family.phi(&at0, &shared, &mut self.rl[rows.clone()]);
-                    for (r, x) in self.rhs[rows.clone()].iter_mut().zip(&self.rl[rows.clone()]) {
-                        *r = x.d;
+                    for (r, x) in self.rhs[rows.clone()].iter_mut().zip(&self.rl[rows]) {
+                        *r = x.d.map(|v| -v);
                     }
-                }
-                for r in &mut self.rhs[rows] {
-                    *r = r.map(|v| -v);
                 }
             }
             self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[..n]);
@@ -532,11 +592,23 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 }
                 products(&group.entries, &self.jl, &x[1..], &mut self.rhs, &mut self.rhs3);
                 let (s, rhs, rhs3) = (&self.flat[..n], &mut self.rhs, &mut self.rhs3);
-                for &(k, moved) in &group.direct {
-                    let rows = model.row_off[k]..model.row_off[k + 1];
-                    let r3 = if levels > 2 { &mut rhs3[rows.clone()] } else { &mut [][..] };
-                    let d = Dir { at: At { q, e, t }, qd: x[1], s, sd: &[], moved };
-                    model.families[k].jac_products(&d, &shared, &x[1..], &mut rhs[rows], r3);
+                for f in &group.direct {
+                    // SAFETY: every Direct's ranges within kv, kd and its rows within rhs, rhs3 (asserted in `new`)
+                    let (r2, r3, keep) = unsafe {
+                        if levels > 2 {
+                            let (v, d) =
+                                (self.kv.get_unchecked_mut(f.v.clone()), self.kd.get_unchecked_mut(f.d.clone()));
+                            (
+                                rhs.get_unchecked_mut(f.rows.clone()),
+                                rhs3.get_unchecked_mut(f.rows.clone()),
+                                Kept { v, d },
+                            )
+                        } else {
+                            (rhs.get_unchecked_mut(f.rows.clone()), &mut [][..], Kept::none())
+                        }
+                    };
+                    let d = Dir { at: At { q, e, t }, qd: x[1], s, sd: &[], moved: f.moved, drives: group.drives };
+                    model.families[f.k].jac_products(&d, &shared, &x[1..], r2, r3, keep);
                 }
                 self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[n..2 * n]);
                 if lanes {
@@ -560,10 +632,14 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     }
                 }
                 let (s, sd) = (&self.flat[..n], &self.flat[n..2 * n]);
-                for &(k, moved) in &group.direct {
-                    let rows = model.row_off[k]..model.row_off[k + 1];
-                    let d = Dir { at: At { q, e, t }, qd: x[1], s, sd, moved };
-                    model.families[k].gamma_tangent(&d, &shared, &mut self.rhs3[rows]);
+                for f in &group.direct {
+                    let d = Dir { at: At { q, e, t }, qd: x[1], s, sd, moved: f.moved, drives: group.drives };
+                    // SAFETY: as in (S2)
+                    let (v, kd, r3) = unsafe {
+                        let (v, kd) = (self.kv.get_unchecked_mut(f.v.clone()), self.kd.get_unchecked_mut(f.d.clone()));
+                        (v, kd, self.rhs3.get_unchecked_mut(f.rows.clone()))
+                    };
+                    model.families[f.k].gamma_tangent(&d, &shared, r3, Kept { v, d: kd });
                 }
                 self.solver.solve(layout, f, &self.rhs3, count, &mut self.flat[2 * n..3 * n]);
             }
@@ -578,9 +654,16 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             }
             let to = &mut out[g * N * w..(g * N + count) * w];
             if N == 1 {
-                for (o, &i) in to.iter_mut().zip(&self.gather) {
-                    // SAFETY: every gather index below flat.len() (asserted in `new`)
-                    *o = unsafe { self.flat.get_unchecked(i)[0] };
+                // SAFETY: every gather index below flat.len() (asserted in `new`), every column c
+                // (c + 2 of a triple) below w = to.len()
+                unsafe {
+                    for &(c, i) in &self.triples {
+                        let (x, o) = (self.flat.get_unchecked(i..i + 3), to.get_unchecked_mut(c..c + 3));
+                        (o[0], o[1], o[2]) = (x[0][0], x[1][0], x[2][0]);
+                    }
+                    for &(c, i) in &self.singles {
+                        *to.get_unchecked_mut(c) = self.flat.get_unchecked(i)[0];
+                    }
                 }
             } else {
                 // gathered once, then a lane at a time (fewer index checks)
@@ -806,7 +889,8 @@ mod tests {
         ];
         let group = Group::<2>::new(&kin, &tangents, &pattern).unwrap();
         // the revolute has direct kernels, the distance is over the lanes
-        assert_eq!((&group.direct[..], &group.live[..]), (&[(0, true)][..], &[1][..]));
+        let direct: Vec<(usize, bool)> = group.direct.iter().map(|f| (f.k, f.moved)).collect();
+        assert_eq!((&direct[..], &group.live[..]), (&[(0, true)][..], &[1][..]));
         // the probe over both (as it serves any family over the lanes)
         let (live, all) = probe(&group.model, &group.moved, &pattern);
         assert_eq!(live, [0, 1]);

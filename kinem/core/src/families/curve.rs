@@ -11,7 +11,7 @@
 //! and along a motion, without the terms in the accelerations,
 //!     a'  = i w a + g th',   a''  = -w^2 a + 2 i w th' g + th'^2 h,
 //!     g'  = i w g + h th',   g''  = -w^2 g + 2 i w th' h + th'^2 k.
-use super::{i, lane, At, Dir, Shared, I};
+use super::{i, iz, lane, At, Dir, Kept, Shared};
 use crate::outline::Curve;
 use crate::real::{Lanes, Real};
 use crate::table::Table;
@@ -228,16 +228,48 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
     /// As `fixed`.
     #[inline(always)]
     unsafe fn place(&self, at: &At, s: &Shared<Lanes<N>>, c: usize) -> Place<N> {
+        self.place_at(at, c, self.fixed(at, s, c))
+    }
+
+    /// `place` with the outline's place p (`fixed`'s) at hand.
+    ///
+    /// # Safety
+    /// As `fixed`.
+    #[inline(always)]
+    unsafe fn place_at(&self, at: &At, c: usize, p: Curve<Lanes<N>>) -> Place<N> {
         let y = *self.cb.get_unchecked(c);
         Place {
             y,
             cc: *self.curve.cc.get_unchecked(c),
             ct: *self.curve.ct.get_unchecked(c),
-            p: self.fixed(at, s, c),
+            p,
             eb: at.rot_at(y),
             sb: *self.sb.get_unchecked(c),
             k: *self.sign.get_unchecked(c),
         }
+    }
+
+    /// Kept's sizes: per constraint the outline's a, g, h, k (values) and
+    /// the tangents of a, g, h (re, im of each), as `fixed` gives them.
+    pub fn kept(&self) -> (usize, usize) {
+        (4 * self.cb.len(), 6 * self.cb.len())
+    }
+
+    /// The outline's place of constraint c from `kept` (jac_products').
+    ///
+    /// # Safety
+    /// kept holds c's (`kept`), and `place`'s.
+    #[inline(always)]
+    unsafe fn place_kept(&self, at: &At, c: usize, kept: &Kept<N>) -> Place<N> {
+        let (v, d) = (kept.v.get_unchecked(4 * c..4 * c + 4), kept.d.get_unchecked(6 * c..6 * c + 6));
+        let z = |x: C64, re: [f64; N], im: [f64; N]| Complex::new(Lanes::of(x.re, re), Lanes::of(x.im, im));
+        let p = Curve {
+            a: z(v[0], d[0], d[1]),
+            g: z(v[1], d[2], d[3]),
+            h: z(v[2], d[4], d[5]),
+            k: z(v[3], [0.0; N], [0.0; N]),
+        };
+        self.place_at(at, c, p)
     }
 
     /// d/dp of Eqs. 4.26, 4.30 at q' = 0: sigma (d(a) - A_b d(s'_b)).
@@ -248,7 +280,7 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
             let Place { p, eb, sb, k, .. } = unsafe { self.place(at, s, c) };
             for l in 0..N {
                 let d = (lane(p.a, l).1 - lane(sb, l).1 * eb) * k;
-                (o[0][l], o[1][l]) = (d.re, d.im);
+                (o[0][l], o[1][l]) = (-d.re, -d.im);
             }
         }
     }
@@ -262,27 +294,36 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
         v: &[&[f64]],
         r2: &mut [[f64; N]],
         r3: &mut [[f64; N]],
+        keep: Kept<N>,
     ) {
         let (at, sq, moved) = (&d.at, d.s, d.moved);
-        let n = self.n;
-        assert!(at.holds(n) && sq.len() >= n && v.iter().all(|x| x.len() >= n) && r2.len() >= 2 * self.cb.len());
-        assert!(v.len() < 2 || r3.len() >= 2 * self.cb.len());
-        for c in 0..self.cb.len() {
-            // SAFETY: c < cb.len(); cc, cb < n - 2, ct < n (new); e, s and v hold n, r2, r3 two rows per constraint (asserted above)
+        let (n, count) = (self.n, self.cb.len());
+        assert!(at.holds(n) && sq.len() >= n && v.iter().all(|x| x.len() >= n) && r2.len() >= 2 * count);
+        assert!(v.len() < 2 || r3.len() >= 2 * count);
+        let keeps = keep.v.len() >= 4 * count && keep.d.len() >= 6 * count;
+        for c in 0..count {
+            // SAFETY: c < cb.len(); cc, cb < n - 2, ct < n (new); e, s and v hold n, r2, r3 two rows per
+            // constraint, keep 4 and 6 where it keeps (asserted above)
             unsafe {
                 let Place { y, cc, ct, p, eb, sb, k } = self.place(at, s, c);
+                if keeps {
+                    let z = |x: Complex<Lanes<N>>| (C64::new(x.re.v, x.im.v), x.re.d, x.im.d);
+                    let ((a, ar, ai), (g, gr, gi), (h, hr, hi)) = (z(p.a), z(p.g), z(p.h));
+                    keep.v.get_unchecked_mut(4 * c..4 * c + 4).copy_from_slice(&[a, g, h, z(p.k).0]);
+                    keep.d.get_unchecked_mut(6 * c..6 * c + 6).copy_from_slice(&[ar, ai, gr, gi, hr, hi]);
+                }
                 let (a, g, h) = (lane(p.a, 0).0, lane(p.g, 0).0, lane(p.h, 0).0);
                 let b = C64::new(sb.re.v, sb.im.v) * eb;
                 let (sc, st, sy) = (sq.get_unchecked(cc + 2), sq.get_unchecked(ct), sq.get_unchecked(y + 2));
                 for l in 0..N {
                     let (mut da, mut dg, mut db) =
-                        (I * a * sc[l] + g * st[l], I * g * sc[l] + h * st[l], I * b * sy[l]);
+                        (iz(a) * sc[l] + g * st[l], iz(g) * sc[l] + h * st[l], iz(b) * sy[l]);
                     if moved {
                         (da, dg, db) = (da + lane(p.a, l).1, dg + lane(p.g, l).1, db + lane(sb, l).1 * eb);
                     }
                     for (w, r) in v.iter().zip([&mut *r2, &mut *r3]) {
                         let (wc, wt, wy) = (*w.get_unchecked(cc + 2), *w.get_unchecked(ct), *w.get_unchecked(y + 2));
-                        let dv = (I * da * wc + dg * wt - I * db * wy) * k;
+                        let dv = (iz(da) * wc + dg * wt - iz(db) * wy) * k;
                         r.get_unchecked_mut(2 * c)[l] -= dv.re;
                         r.get_unchecked_mut(2 * c + 1)[l] -= dv.im;
                     }
@@ -291,15 +332,18 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
         }
     }
 
-    /// D(gamma) of -sigma (a'' + b w_b^2), a'' = -w^2 a + 2 i w th g + th^2 h.
-    pub fn gamma_tangent(&self, d: &Dir<N>, s: &Shared<Lanes<N>>, out: &mut [[f64; N]]) {
+    /// D(gamma) of -sigma (a'' + b w_b^2), a'' = -w^2 a + 2 i w th g + th^2 h;
+    /// the outline's place from `kept` where it holds it (jac_products').
+    pub fn gamma_tangent(&self, d: &Dir<N>, s: &Shared<Lanes<N>>, out: &mut [[f64; N]], kept: Kept<N>) {
         let (at, qd, sq, sd, moved) = (&d.at, d.qd, d.s, d.sd, d.moved);
-        let n = self.n;
-        assert!(at.holds(n) && qd.len() >= n && sq.len() >= n && sd.len() >= n && out.len() >= 2 * self.cb.len());
-        for c in 0..self.cb.len() {
+        let (n, count) = (self.n, self.cb.len());
+        assert!(at.holds(n) && qd.len() >= n && sq.len() >= n && sd.len() >= n && out.len() >= 2 * count);
+        let keeps = kept.v.len() >= 4 * count && kept.d.len() >= 6 * count;
+        for c in 0..count {
             // SAFETY: as in jac_products (qd, sd hold n too: asserted above)
             unsafe {
-                let Place { y, cc, ct, p, eb, sb, k } = self.place(at, s, c);
+                let Place { y, cc, ct, p, eb, sb, k } =
+                    if keeps { self.place_kept(at, c, &kept) } else { self.place(at, s, c) };
                 let (a, g, h, kk) = (lane(p.a, 0).0, lane(p.g, 0).0, lane(p.h, 0).0, lane(p.k, 0).0);
                 let b = C64::new(sb.re.v, sb.im.v) * eb;
                 let (w, th, wb) = (*qd.get_unchecked(cc + 2), *qd.get_unchecked(ct), *qd.get_unchecked(y + 2));
@@ -307,10 +351,10 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
                 let (dwc, dth, dwb) = (sd.get_unchecked(cc + 2), sd.get_unchecked(ct), sd.get_unchecked(y + 2));
                 for l in 0..N {
                     let (mut da, mut dg, mut dh, mut db) = (
-                        I * a * sc[l] + g * st[l],
-                        I * g * sc[l] + h * st[l],
-                        I * h * sc[l] + kk * st[l],
-                        I * b * sy[l],
+                        iz(a) * sc[l] + g * st[l],
+                        iz(g) * sc[l] + h * st[l],
+                        iz(h) * sc[l] + kk * st[l],
+                        iz(b) * sy[l],
                     );
                     if moved {
                         da += lane(p.a, l).1;
@@ -320,8 +364,8 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
                     }
                     let (dw, dt, dy) = (dwc[l], dth[l], dwb[l]);
                     let a2 = -a * (2.0 * w * dw) - da * (w * w)
-                        + I * g * (2.0 * (dw * th + w * dt))
-                        + I * dg * (2.0 * w * th)
+                        + iz(g) * (2.0 * (dw * th + w * dt))
+                        + iz(dg) * (2.0 * w * th)
                         + h * (2.0 * th * dt)
                         + dh * (th * th);
                     let dv = (a2 + db * (wb * wb) + b * (2.0 * wb * dy)) * -k;

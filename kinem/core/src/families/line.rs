@@ -8,7 +8,7 @@
 //! u = P_i - Q_i, d = P_j - P_i, and Eq. 4.16 with a = j, u = Q_j - P_j,
 //! d = P_i - P_j. A translational joint adds the row
 //! phi_i - phi_j - (phi_i^0 - phi_j^0) = 0 (Eq. 4.10 as corrected).
-use super::{cross, dot, each_side, i, lane, sides, At, Dir, Shared, Sides};
+use super::{cross, dot, each_side, i, iz, lane, sides, At, Dir, Kept, Shared, Sides};
 use crate::real::{Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
@@ -261,11 +261,10 @@ impl<const N: usize> Line<Lanes<N>> {
     ) -> [C64; 4] {
         let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
         let [u, _, sa, sb] = *x;
-        let i = C64::new(0.0, 1.0);
         let [mut du, mut dd, mut dsa, mut dsb] = [C64::new(0.0, 0.0); 4];
         if let Some(s) = s {
             let (pa, pb) = (s.get_unchecked(a + 2)[l], s.get_unchecked(b + 2)[l]);
-            (du, dsa, dsb) = (i * u * pa, i * sa * pa, i * sb * pb);
+            (du, dsa, dsb) = (iz(u) * pa, iz(sa) * pa, iz(sb) * pb);
             dd = C64::new(
                 s.get_unchecked(b)[l] - s.get_unchecked(a)[l],
                 s.get_unchecked(b + 1)[l] - s.get_unchecked(a + 1)[l],
@@ -290,29 +289,46 @@ impl<const N: usize> Line<Lanes<N>> {
             for l in 0..N {
                 // SAFETY: as above
                 let [du, dd, _, _] = unsafe { self.tangents(at, c, &x, None, true, l) };
-                out[per * c][l] = cross(du, x[1]) + cross(x[0], dd);
+                out[per * c][l] = -(cross(du, x[1]) + cross(x[0], dd));
                 if self.angle {
-                    out[2 * c + 1][l] = -self.phi0[c].d[l];
+                    out[2 * c + 1][l] = self.phi0[c].d[l]; // (-(-d(phi0)), exactly)
                 }
             }
         }
     }
 
+    /// Kept's sizes: per constraint its `values` (u, d, sa, sb) and their
+    /// `tangents` (re, im of each).
+    pub fn kept(&self) -> (usize, usize) {
+        (4 * self.ca.len(), 8 * self.ca.len())
+    }
+
     /// r2 -= D(J) v[0], r3 -= D(J) v[1]: the u x d row's six entries
-    /// (Table 4.2); the angle row's are constant.
-    pub fn jac_products(&self, d: &Dir<N>, v: &[&[f64]], r2: &mut [[f64; N]], r3: &mut [[f64; N]]) {
+    /// (Table 4.2); the angle row's are constant. The constraints' values
+    /// and tangents into `keep` where it holds them (`kept`).
+    pub fn jac_products(&self, d: &Dir<N>, v: &[&[f64]], r2: &mut [[f64; N]], r3: &mut [[f64; N]], keep: Kept<N>) {
         let (at, s, moved) = (&d.at, d.s, d.moved);
-        let (n, per) = (self.n, self.per());
-        assert!(at.holds(n) && s.len() >= n && v.iter().all(|x| x.len() >= n) && r2.len() >= per * self.ca.len());
-        assert!(v.len() < 2 || r3.len() >= per * self.ca.len());
-        for c in 0..self.ca.len() {
-            // SAFETY: c < ca.len(), q, e, s and v hold n (asserted above)
+        let (n, per, count) = (self.n, self.per(), self.ca.len());
+        assert!(at.holds(n) && s.len() >= n && v.iter().all(|x| x.len() >= n) && r2.len() >= per * count);
+        assert!(v.len() < 2 || r3.len() >= per * count);
+        let keeps = keep.v.len() >= 4 * count && keep.d.len() >= 8 * count;
+        for c in 0..count {
+            // SAFETY: c < ca.len(), q, e, s and v hold n, keep 4 and 8 per constraint where it keeps (asserted above)
             unsafe {
                 let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
                 let x = self.values(at, c);
+                if keeps {
+                    keep.v.get_unchecked_mut(4 * c..4 * c + 4).copy_from_slice(&x);
+                }
                 let [u, d, sa, sb] = x;
                 for l in 0..N {
                     let [du, dd, dsa, dsb] = self.tangents(at, c, &x, Some(s), moved, l);
+                    if keeps {
+                        let k = keep.d.get_unchecked_mut(8 * c..8 * c + 8);
+                        for (m, t) in [du, dd, dsa, dsb].iter().enumerate() {
+                            (k[2 * m][l], k[2 * m + 1][l]) = (t.re, t.im);
+                        }
+                    }
                     let (ta, tb) = (-(dot(du, d + sa) + dot(u, dd + dsa)), dot(du, sb) + dot(u, dsb));
                     for (w, r) in v.iter().zip([&mut *r2, &mut *r3]) {
                         let g = |k: usize| *w.get_unchecked(k);
@@ -326,28 +342,39 @@ impl<const N: usize> Line<Lanes<N>> {
 
     /// D(gamma) of Table 4.3's u x d row: d(wa^2 u x d + 2 wa u . d' +
     /// u x (sb wb^2 - sa wa^2)), d' = rb' + i sb wb - ra' - i sa wa; the
-    /// angle row's 0.
-    pub fn gamma_tangent(&self, d: &Dir<N>, out: &mut [[f64; N]]) {
+    /// angle row's 0. The values and tangents from `kept` where it holds
+    /// them (jac_products' at the same s).
+    pub fn gamma_tangent(&self, d: &Dir<N>, out: &mut [[f64; N]], kept: Kept<N>) {
         let (at, qd, s, sd, moved) = (&d.at, d.qd, d.s, d.sd, d.moved);
-        let (n, per) = (self.n, self.per());
-        assert!(at.holds(n) && qd.len() >= n && s.len() >= n && sd.len() >= n && out.len() >= per * self.ca.len());
-        let i = C64::new(0.0, 1.0);
-        for c in 0..self.ca.len() {
-            // SAFETY: c < ca.len(), q, e, qd, s and sd hold n (asserted above)
+        let (n, per, count) = (self.n, self.per(), self.ca.len());
+        assert!(at.holds(n) && qd.len() >= n && s.len() >= n && sd.len() >= n && out.len() >= per * count);
+        let keeps = kept.v.len() >= 4 * count && kept.d.len() >= 8 * count;
+        for c in 0..count {
+            // SAFETY: c < ca.len(), q, e, qd, s and sd hold n, kept 4 and 8 per constraint where it keeps (asserted above)
             unsafe {
                 let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
-                let x = self.values(at, c);
+                let x = if keeps {
+                    let k = kept.v.get_unchecked(4 * c..4 * c + 4);
+                    [k[0], k[1], k[2], k[3]]
+                } else {
+                    self.values(at, c)
+                };
                 let [u, d, sa, sb] = x;
                 let (wa, wb) = (*qd.get_unchecked(a + 2), *qd.get_unchecked(b + 2));
                 let rd = |k: usize| C64::new(*qd.get_unchecked(k), *qd.get_unchecked(k + 1));
-                let rate = rd(b) + i * sb * wb - rd(a) - i * sa * wa;
+                let rate = rd(b) + iz(sb) * wb - rd(a) - iz(sa) * wa;
                 let big = sb * (wb * wb) - sa * (wa * wa);
                 let (cr, dt) = (cross(u, d), dot(u, rate));
                 for l in 0..N {
-                    let [du, dd, dsa, dsb] = self.tangents(at, c, &x, Some(s), moved, l);
+                    let [du, dd, dsa, dsb] = if keeps {
+                        let k = kept.d.get_unchecked(8 * c..8 * c + 8);
+                        std::array::from_fn(|m| C64::new(k[2 * m][l], k[2 * m + 1][l]))
+                    } else {
+                        self.tangents(at, c, &x, Some(s), moved, l)
+                    };
                     let (dwa, dwb) = (sd.get_unchecked(a + 2)[l], sd.get_unchecked(b + 2)[l]);
                     let drd = |k: usize| C64::new(sd.get_unchecked(k)[l], sd.get_unchecked(k + 1)[l]);
-                    let drate = drd(b) + i * (dsb * wb + sb * dwb) - drd(a) - i * (dsa * wa + sa * dwa);
+                    let drate = drd(b) + iz(dsb * wb + sb * dwb) - drd(a) - iz(dsa * wa + sa * dwa);
                     let dbig = dsb * (wb * wb) + sb * (2.0 * wb * dwb) - dsa * (wa * wa) - sa * (2.0 * wa * dwa);
                     let (dcr, ddt) = (cross(du, d) + cross(u, dd), dot(du, rate) + dot(u, drate));
                     out.get_unchecked_mut(per * c)[l] += (2.0 * wa * dwa) * cr

@@ -321,7 +321,8 @@ impl<S> Family<S> {
 /// its product rule needs. Each returns false for a kind without them
 /// (the caller evaluates that family over Lanes<N>, crate::real).
 impl<const N: usize> Family<Lanes<N>> {
-    /// Phi's tangent along the tables alone (q' = 0): Phi_p (S1).
+    /// Phi's tangent along the tables alone (q' = 0), negated: -Phi_p,
+    /// (S1)'s right-hand side (the sign taken in each store).
     pub fn phi_tangent(&self, at: &At, s: &Shared<Lanes<N>>, out: &mut [[f64; N]]) -> bool {
         match self {
             Family::Simple(f) => f.phi_tangent(at, s, out),
@@ -335,7 +336,9 @@ impl<const N: usize> Family<Lanes<N>> {
 
     /// The (S2), (S3) products with D(J) = D_s J + J_p, the Jacobian's
     /// tangent along q' = s and the tables: r2 -= D(J) v[0] (qd) and, when
-    /// v[1] (qdd) is given, r3 -= D(J) v[1], over the family's rows.
+    /// v[1] (qdd) is given, r3 -= D(J) v[1], over the family's rows. Where
+    /// `keep` holds the family's `kept` sizes, the values and tangents it
+    /// took per constraint are written there for `gamma_tangent`.
     pub fn jac_products(
         &self,
         d: &Dir<N>,
@@ -343,41 +346,80 @@ impl<const N: usize> Family<Lanes<N>> {
         v: &[&[f64]],
         r2: &mut [[f64; N]],
         r3: &mut [[f64; N]],
+        keep: Kept<N>,
     ) -> bool {
         match self {
             Family::Simple(f) => f.jac_products(d, v, r2, r3),
-            Family::Revolute(f) => f.jac_products(d, v, r2, r3),
-            Family::Line(f) => f.jac_products(d, v, r2, r3),
-            Family::PointOnCurve(f) => f.jac_products(d, s, v, r2, r3),
+            Family::Revolute(f) => f.jac_products(d, v, r2, r3, keep),
+            Family::Line(f) => f.jac_products(d, v, r2, r3, keep),
+            Family::PointOnCurve(f) => f.jac_products(d, s, v, r2, r3, keep),
             _ => return false,
         }
         true
     }
 
     /// D(gamma), gamma's tangent along q' = s, qd' = sd and the tables
-    /// (S3), at qd; added to out.
-    pub fn gamma_tangent(&self, d: &Dir<N>, s: &Shared<Lanes<N>>, out: &mut [[f64; N]]) -> bool {
+    /// (S3), at qd; added to out. `kept`: what `jac_products` kept at the
+    /// same instant and s (the same figures to the bit), or empty (then
+    /// taken again).
+    pub fn gamma_tangent(&self, d: &Dir<N>, s: &Shared<Lanes<N>>, out: &mut [[f64; N]], kept: Kept<N>) -> bool {
         match self {
             Family::Simple(f) => f.gamma_tangent(d, s, out),
-            Family::Revolute(f) => f.gamma_tangent(d, out),
-            Family::Line(f) => f.gamma_tangent(d, out),
-            Family::PointOnCurve(f) => f.gamma_tangent(d, s, out),
+            Family::Revolute(f) => f.gamma_tangent(d, out, kept),
+            Family::Line(f) => f.gamma_tangent(d, out, kept),
+            Family::PointOnCurve(f) => f.gamma_tangent(d, s, out, kept),
             _ => return false,
         }
         true
+    }
+
+    /// How many values and lanes of tangents `jac_products` keeps for
+    /// `gamma_tangent` (Kept): (0, 0) where it keeps none.
+    pub fn kept(&self) -> (usize, usize) {
+        match self {
+            Family::Revolute(f) => f.kept(),
+            Family::Line(f) => f.kept(),
+            Family::PointOnCurve(f) => f.kept(),
+            _ => (0, 0),
+        }
+    }
+}
+
+/// A family's values and their tangents per constraint, taken by
+/// `jac_products` and read again by `gamma_tangent` at the same instant
+/// (its sizes `Family::kept`); empty slices: nothing kept.
+pub struct Kept<'a, const N: usize> {
+    pub v: &'a mut [C64],
+    pub d: &'a mut [[f64; N]],
+}
+
+impl<const N: usize> Kept<'_, N> {
+    /// Nothing kept.
+    pub fn none() -> Self {
+        Kept { v: &mut [], d: &mut [] }
     }
 }
 
 /// Where the direct tangent kernels evaluate: the analysis' values (q,
 /// e^{i q}, t: `at`; qd), the lanes' tangents s = dq/dp and sd = dqd/dp
-/// (sd empty before (S2) is solved: jac_products does not read it), and
-/// whether the family's tables carry tangents (`moved`).
+/// (sd empty before (S2) is solved: jac_products does not read it),
+/// whether the family's tables carry tangents (`moved`), and whether a
+/// function that is not a constant does (`drives`: else every f', f''
+/// has a zero tangent).
 pub struct Dir<'a, const N: usize> {
     pub at: At<'a>,
     pub qd: &'a [f64],
     pub s: &'a [[f64; N]],
     pub sd: &'a [[f64; N]],
     pub moved: bool,
+    pub drives: bool,
+}
+
+/// i z, written out: (-Im z, Re z), where the product I * z also takes
+/// 0 Re z and 0 Im z (the same figures but for the sign of an exact zero).
+#[inline(always)]
+pub fn iz(z: C64) -> C64 {
+    C64::new(-z.im, z.re)
 }
 
 /// A planar vector of Lanes<N>: its value and its tangent in lane l.

@@ -1,5 +1,5 @@
 //! Revolute joint, Eqs. 4.7-4.9; Jacobian Eq. 4.46 (Table 4.2); gamma Eq. 4.47.
-use super::{each_side, lane, sides, At, Dir, Shared, Sides};
+use super::{each_side, lane, sides, At, Dir, Kept, Shared, Sides};
 use crate::real::{Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
@@ -154,7 +154,7 @@ fn moves<const N: usize>(t: Complex<Lanes<N>>) -> bool {
 /// gamma_tangent): a = A_i s'_i, b = A_j s'_j and their tangents
 /// da = i a s_phi_i + d(s'_i) A_i (Eq. 4.44: dA s' = B s' dphi), lane by lane.
 impl<const N: usize> Revolute<Lanes<N>> {
-    /// d/dp of Eq. 4.7 at q' = 0: d(s'_i) A_i - d(s'_j) A_j.
+    /// -d/dp of Eq. 4.7 at q' = 0: -(d(s'_i) A_i - d(s'_j) A_j).
     pub fn phi_tangent(&self, at: &At, out: &mut [[f64; N]]) {
         assert!(at.holds(self.n) && out.len() >= 2 * self.ci.len());
         for (c, o) in out.chunks_exact_mut(2).enumerate().take(self.ci.len()) {
@@ -164,13 +164,13 @@ impl<const N: usize> Revolute<Lanes<N>> {
                 (at.rot_at(a), at.rot_at(b), *self.si.get_unchecked(c), *self.sj.get_unchecked(c))
             };
             if !(moves(si) || moves(sj)) {
-                o.fill([0.0; N]); // (the other joints of a moved family)
+                o.fill([-0.0; N]); // (the other joints of a moved family: -0)
                 continue;
             }
             for l in 0..N {
                 let d = lane(si, l).1 * ei - lane(sj, l).1 * ej;
-                o[0][l] = d.re;
-                o[1][l] = d.im;
+                o[0][l] = -d.re;
+                o[1][l] = -d.im;
             }
         }
     }
@@ -199,18 +199,31 @@ impl<const N: usize> Revolute<Lanes<N>> {
         ]
     }
 
+    /// Kept's sizes: per joint a, b and their tangents (re, im of each).
+    pub fn kept(&self) -> (usize, usize) {
+        (2 * self.ci.len(), 4 * self.ci.len())
+    }
+
     /// r2 -= D(J) v[0], r3 -= D(J) v[1] (Eq. 4.46: the phi columns' -B s'
-    /// entries alone have a tangent).
-    pub fn jac_products(&self, d: &Dir<N>, v: &[&[f64]], r2: &mut [[f64; N]], r3: &mut [[f64; N]]) {
+    /// entries alone have a tangent); the joints' `parts` into `keep` where
+    /// it holds them (`kept`).
+    pub fn jac_products(&self, d: &Dir<N>, v: &[&[f64]], r2: &mut [[f64; N]], r3: &mut [[f64; N]], keep: Kept<N>) {
         let (at, s, moved) = (&d.at, d.s, d.moved);
-        let n = self.n;
-        assert!(at.holds(n) && s.len() >= n && v.iter().all(|x| x.len() >= n) && r2.len() >= 2 * self.ci.len());
-        assert!(v.len() < 2 || r3.len() >= 2 * self.ci.len());
-        for c in 0..self.ci.len() {
-            // SAFETY: c < ci.len() = cj, si, sj's (new), ci, cj < n - 2; e, s, v hold n, r2, r3 2 per joint (asserted above)
+        let (n, count) = (self.n, self.ci.len());
+        assert!(at.holds(n) && s.len() >= n && v.iter().all(|x| x.len() >= n) && r2.len() >= 2 * count);
+        assert!(v.len() < 2 || r3.len() >= 2 * count);
+        let keeps = keep.v.len() >= 2 * count && keep.d.len() >= 4 * count;
+        for c in 0..count {
+            // SAFETY: c < ci.len() = cj, si, sj's (new), ci, cj < n - 2; e, s, v hold n, r2, r3 2 per joint,
+            // keep 2 and 4 per joint where it keeps (asserted above)
             unsafe {
                 let (i, j) = (*self.ci.get_unchecked(c) + 2, *self.cj.get_unchecked(c) + 2);
-                let [(_, ar, ai), (_, br, bi)] = self.parts(at, c, s, moved);
+                let [(a, ar, ai), (b, br, bi)] = self.parts(at, c, s, moved);
+                if keeps {
+                    (*keep.v.get_unchecked_mut(2 * c), *keep.v.get_unchecked_mut(2 * c + 1)) = (a, b);
+                    let o = keep.d.get_unchecked_mut(4 * c..4 * c + 4);
+                    (o[0], o[1], o[2], o[3]) = (ar, ai, br, bi);
+                }
                 for (w, r) in v.iter().zip([&mut *r2, &mut *r3]) {
                     let (wi, wj) = (*w.get_unchecked(i), *w.get_unchecked(j));
                     let rows = r.get_unchecked_mut(2 * c..2 * c + 2);
@@ -223,16 +236,23 @@ impl<const N: usize> Revolute<Lanes<N>> {
         }
     }
 
-    /// D(gamma) of Eq. 4.47: d(a w_i^2) - d(b w_j^2).
-    pub fn gamma_tangent(&self, d: &Dir<N>, out: &mut [[f64; N]]) {
+    /// D(gamma) of Eq. 4.47: d(a w_i^2) - d(b w_j^2); the joints' `parts`
+    /// from `kept` where it holds them (jac_products' at the same s).
+    pub fn gamma_tangent(&self, d: &Dir<N>, out: &mut [[f64; N]], kept: Kept<N>) {
         let (at, qd, s, sd, moved) = (&d.at, d.qd, d.s, d.sd, d.moved);
-        let n = self.n;
-        assert!(at.holds(n) && qd.len() >= n && s.len() >= n && sd.len() >= n && out.len() >= 2 * self.ci.len());
-        for (c, o) in out.chunks_exact_mut(2).enumerate().take(self.ci.len()) {
+        let (n, count) = (self.n, self.ci.len());
+        assert!(at.holds(n) && qd.len() >= n && s.len() >= n && sd.len() >= n && out.len() >= 2 * count);
+        let keeps = kept.v.len() >= 2 * count && kept.d.len() >= 4 * count;
+        for (c, o) in out.chunks_exact_mut(2).enumerate().take(count) {
             // SAFETY: as jac_products'
             unsafe {
                 let (i, j) = (*self.ci.get_unchecked(c) + 2, *self.cj.get_unchecked(c) + 2);
-                let [(a, ar, ai), (b, br, bi)] = self.parts(at, c, s, moved);
+                let [(a, ar, ai), (b, br, bi)] = if keeps {
+                    let k = kept.d.get_unchecked(4 * c..4 * c + 4);
+                    [(*kept.v.get_unchecked(2 * c), k[0], k[1]), (*kept.v.get_unchecked(2 * c + 1), k[2], k[3])]
+                } else {
+                    self.parts(at, c, s, moved)
+                };
                 let (wi, wj) = (*qd.get_unchecked(i), *qd.get_unchecked(j));
                 let (vi, vj) = (sd.get_unchecked(i), sd.get_unchecked(j));
                 let (ww_i, ww_j) = (wi * wi, wj * wj);

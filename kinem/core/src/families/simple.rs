@@ -260,19 +260,22 @@ impl<S: Real> Simple<S> {
 /// ds = i s s_phi_i + d(s') A_i, and the drivers' f(t) tangents (the
 /// functions' tables), lane by lane.
 impl<const N: usize> Simple<Lanes<N>> {
-    /// d/dp of Eqs. 4.31-4.40 at q' = 0: d(point term) - d f(t).
+    /// -d/dp of Eqs. 4.31-4.40 at q' = 0: -(d(point term) - d f(t)).
     pub fn phi_tangent(&self, at: &At, s: &Shared<Lanes<N>>, out: &mut [[f64; N]]) {
         assert!(at.holds(self.n));
         for (row, o) in self.rows.iter().zip(out) {
             let f = row.drive(at.t, 0, s).d;
-            *o = f.map(|x| -x);
             if row.term {
+                let mut v = f.map(|x| -x);
                 // SAFETY: angle < n (new), e holds n (asserted above)
                 let e = unsafe { *at.e.get_unchecked(row.angle) };
                 for l in 0..N {
                     let ds = lane(row.local, l).1 * e;
-                    o[l] += ds.re * row.mx + ds.im * row.my;
+                    v[l] += ds.re * row.mx + ds.im * row.my;
                 }
+                *o = v.map(|x| -x);
+            } else {
+                *o = f; // (-(-f), exactly)
             }
         }
     }
@@ -297,11 +300,12 @@ impl<const N: usize> Simple<Lanes<N>> {
     }
 
     /// r2 -= D(J) v[0], r3 -= D(J) v[1]: a point row's (B_i s')_c entry
-    /// alone has a tangent.
+    /// alone has a tangent (the point rows are among `general`).
     pub fn jac_products(&self, d: &Dir<N>, v: &[&[f64]], r2: &mut [[f64; N]], r3: &mut [[f64; N]]) {
         let (at, s, moved) = (&d.at, d.s, d.moved);
         assert!(at.holds(self.n) && s.len() >= self.n && v.iter().all(|x| x.len() >= self.n));
-        for (k, row) in self.rows.iter().enumerate() {
+        for &(k, _) in &self.general {
+            let row = &self.rows[k];
             if !row.point {
                 continue;
             }
@@ -317,17 +321,23 @@ impl<const N: usize> Simple<Lanes<N>> {
         }
     }
 
-    /// D(gamma) of Eq. 4.38 and the point forms: d f''(t) + d(p w^2).
+    /// D(gamma) of Eq. 4.38 and the point forms: d f''(t) + d(p w^2)
+    /// (d f'' only where a function that is not a constant moves:
+    /// `Dir::drives`; the point terms' rows are among `general`).
     pub fn gamma_tangent(&self, d: &Dir<N>, sh: &Shared<Lanes<N>>, out: &mut [[f64; N]]) {
         let (at, qd, s, sd, moved) = (&d.at, d.qd, d.s, d.sd, d.moved);
         assert!(at.holds(self.n) && qd.len() >= self.n && s.len() >= self.n && sd.len() >= self.n);
-        for (row, o) in self.rows.iter().zip(out) {
-            if moved {
+        assert!(out.len() >= self.rows.len());
+        if moved && d.drives {
+            for (row, o) in self.rows.iter().zip(&mut *out) {
                 let f = row.drive(at.t, 2, sh).d;
                 for l in 0..N {
                     o[l] += f[l];
                 }
             }
+        }
+        for &(k, _) in &self.general {
+            let (row, o) = (&self.rows[k], &mut out[k]);
             if !row.term {
                 continue;
             }

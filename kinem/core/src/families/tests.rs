@@ -243,7 +243,7 @@ fn check_parameters(kind: &str, t: &Table, art: usize, q: &[f64], qd: &[f64], ti
 /// against fourth-order differences of the dual Phi's tangent along qd and
 /// w (J v = d/de Phi(q + e v), so D(J) v = d/de of Phi's tangent there).
 fn check_direct(kind: &str, tabs: &[Table; 3], art: usize, q: &[f64], qd: &[f64], time: f64, moved: bool) {
-    use crate::families::{At, Dir, Shared};
+    use crate::families::{At, Dir, Kept, Shared};
     use crate::real::Lanes;
     let n = q.len();
     let dq: Vec<f64> = (0..n).map(|j| (j as f64 * 0.7).cos()).collect();
@@ -272,16 +272,22 @@ fn check_direct(kind: &str, tabs: &[Table; 3], art: usize, q: &[f64], qd: &[f64]
     if moved && fam.phi_tangent(&at, &shared, &mut out) {
         let zeros = vec![0.0; n];
         let want = tangents(&dual, &lift(q, &zeros), &lift(qd, &zeros), time)[0].clone();
-        near("Phi_p", &out.iter().map(|x| x[0]).collect::<Vec<_>>(), &want, 1e-12);
+        near("Phi_p", &out.iter().map(|x| -x[0]).collect::<Vec<_>>(), &want, 1e-12);
     }
     out.fill([0.0]);
-    let dir = Dir { at: At { q, e: &e, t: time }, qd, s: &s, sd: &sd, moved };
-    if fam.gamma_tangent(&dir, &shared, &mut out) {
+    let dir = Dir { at: At { q, e: &e, t: time }, qd, s: &s, sd: &sd, moved, drives: moved };
+    if fam.gamma_tangent(&dir, &shared, &mut out, Kept::none()) {
         let want = tangents(&dual, &lift(q, &dq), &lift(qd, &dqd), time)[3].clone();
         near("D(gamma)", &out.iter().map(|x| x[0]).collect::<Vec<_>>(), &want, 1e-12);
     }
     let (mut r2, mut r3) = (vec![[0.0]; m], vec![[0.0]; m]);
-    if fam.jac_products(&dir, &shared, &[qd, &w], &mut r2, &mut r3) {
+    let (vn, dn) = fam.kept();
+    let (mut kv, mut kd) = (vec![C64::new(f64::NAN, 0.0); vn], vec![[f64::NAN]; dn]);
+    if fam.jac_products(&dir, &shared, &[qd, &w], &mut r2, &mut r3, Kept { v: &mut kv, d: &mut kd }) {
+        // what jac_products kept gives gamma_tangent's figures to the bit
+        let mut again = vec![[0.0]; m];
+        assert!(fam.gamma_tangent(&dir, &shared, &mut again, Kept { v: &mut kv, d: &mut kd }));
+        assert!(again.iter().zip(&out).all(|(a, b)| a[0].to_bits() == b[0].to_bits()), "{kind}: kept D(gamma)");
         for (v, r) in [(qd, &r2), (&w[..], &r3)] {
             let phi = |h: f64| -> Vec<f64> {
                 let qs: Vec<f64> = q.iter().zip(v).map(|(a, b)| a + h * b).collect();
