@@ -175,11 +175,11 @@ impl Step for Native<'_> {
     }
 
     #[inline(always)]
-    fn place(&mut self, t: f64) -> Option<&mut [f64]> {
+    fn place(&mut self, t: f64) -> Option<(&mut [f64], &[f64])> {
         self.t = t;
         self.rotated = false;
         self.turning.restart();
-        Some(&mut self.q)
+        Some((&mut self.q, &self.layout.col_scale))
     }
 
     fn q(&self) -> &[f64] {

@@ -12,7 +12,7 @@
 //! trace; modified Newton). The tracker (kinem/tracking.py) keeps the
 //! policy around it: halving, stepping over a limit position, landing on an
 //! output instant.
-use crate::accept::{codes, gap, hermite, lagrange, rejected, taylor, Why};
+use crate::accept::{codes, gap, hermite, lagrange, predicted, rejected, taylor, Why};
 use crate::families::At;
 use crate::model::Kin;
 use crate::newton::{chord, settle, Ops, Settled, RECENT};
@@ -177,8 +177,9 @@ pub trait Step: Ops {
     /// Starts a solve at (q, t).
     fn start(&mut self, q: &[f64], t: f64) -> Result<(), Self::Error>;
     /// Starts a solve at t from the q its caller writes into the room
-    /// returned (the operations' own q: no copy); None: the caller uses `start`.
-    fn place(&mut self, _t: f64) -> Option<&mut [f64]> {
+    /// returned (the operations' own q: no copy), with the columns' scales
+    /// (`col_scale`); None: the caller uses `start`.
+    fn place(&mut self, _t: f64) -> Option<(&mut [f64], &[f64])> {
         None
     }
     /// Brings q from where the operations keep it (after a solve), for `q`.
@@ -425,22 +426,38 @@ pub fn step<O: Step>(
             return Ok(out);
         }
     }
-    let judge = predict(st, t, taylor_from, qp);
-    let motion = gap(qp, &st.q, ops.col_scale());
     // the chord with the last instant's factorisation, from the Hermite start when the last two
     // instants are at hand, else (or when it contracts too slowly) Newton from the predictor
     let hermite = c.held && hermite_near(st, t);
-    if hermite {
+    let (judge, motion);
+    if hermite && taylor_from {
+        // Taylor's predictor, the motion and the chord's start in one pass (accept::predicted)
+        let (a, h, on) = (st.t - st.before, t - st.t, bias.at(t - st.t));
+        let (cs, ps) = ([&st.q[..], &st.qd[..], &st.qdd[..]], [&st.prev[0][..], &st.prev[1][..], &st.prev[2][..]]);
+        judge = true;
+        motion = match ops.place(t) {
+            Some((q, col_scale)) => predicted(cs, ps, a, h, col_scale, on, qp, start, q),
+            None => {
+                let motion = predicted(cs, ps, a, h, ops.col_scale(), on, qp, start, biased);
+                ops.start(biased, t)?;
+                motion
+            }
+        };
+    } else if hermite {
+        judge = predict(st, t, taylor_from, qp);
+        motion = gap(qp, &st.q, ops.col_scale());
         // Hermite's start into `start`, and with the last instant's error (Bias) into the operations' q
         let taylor = if taylor_from { Some(&qp[..]) } else { None };
         match ops.place(t) {
-            Some(q) => biased_start(st, t, taylor, start, bias, q),
+            Some((q, _)) => biased_start(st, t, taylor, start, bias, q),
             None => {
                 biased_start(st, t, taylor, start, bias, biased);
                 ops.start(biased, t)?;
             }
         }
     } else {
+        judge = predict(st, t, taylor_from, qp);
+        motion = gap(qp, &st.q, ops.col_scale());
         ops.start(qp, t)?;
     }
     let chorded = if c.held { chord(ops, s.tolerance, s.max_step, c.memory.known(motion))? } else { None };
