@@ -92,19 +92,44 @@ pub fn rejected(
 /// (q_pred, q_last) that the acceptance test compares.
 #[inline]
 pub fn gap(a: &[f64], b: &[f64], col_scale: &[f64]) -> f64 {
+    gap_as::<false>(a, b, col_scale, &mut [])
+}
+
+/// `gap`, copying a into `keep` (a's length) in the same pass.
+#[inline]
+pub fn gap_keep(a: &[f64], b: &[f64], col_scale: &[f64], keep: &mut [f64]) -> f64 {
+    gap_as::<true>(a, b, col_scale, keep)
+}
+
+/// `gap`, with a copied into `keep` when K.
+#[inline(always)]
+fn gap_as<const K: bool>(a: &[f64], b: &[f64], col_scale: &[f64], keep: &mut [f64]) -> f64 {
     let n = a.len();
     let (b, col_scale) = (&b[..n], &col_scale[..n]);
     // two running maxima, so that the loop vectorises (a maximum does not
     // depend on the order it is taken in: the same figure)
-    let ((a2, a1), (b2, b1), (c2, c1)) = (a.as_chunks::<2>(), b.as_chunks::<2>(), col_scale.as_chunks::<2>());
+    let (a2, b2, c2) = (a.as_chunks::<2>().0, b.as_chunks::<2>().0, col_scale.as_chunks::<2>().0);
     let mut g = [0.0f64; 2];
-    for ((a, b), c) in a2.iter().zip(b2).zip(c2) {
-        for k in 0..2 {
-            g[k] = most(g[k], (a[k] - b[k]).abs() / c[k]);
+    if K {
+        let keep = &mut keep[..n];
+        for ((x, a), (b, c)) in keep.as_chunks_mut::<2>().0.iter_mut().zip(a2).zip(b2.iter().zip(c2)) {
+            for l in 0..2 {
+                g[l] = most(g[l], (a[l] - b[l]).abs() / c[l]);
+            }
+            *x = *a;
+        }
+        if n % 2 == 1 {
+            keep[n - 1] = a[n - 1];
+        }
+    } else {
+        for (a, (b, c)) in a2.iter().zip(b2.iter().zip(c2)) {
+            for l in 0..2 {
+                g[l] = most(g[l], (a[l] - b[l]).abs() / c[l]);
+            }
         }
     }
-    for ((a, b), c) in a1.iter().zip(b1).zip(c1) {
-        g[0] = most(g[0], (a - b).abs() / c);
+    if n % 2 == 1 {
+        g[0] = most(g[0], (a[n - 1] - b[n - 1]).abs() / col_scale[n - 1]);
     }
     most(g[0], g[1])
 }
@@ -325,6 +350,10 @@ mod tests {
                 assert_eq!(bits(&start), bits(&s));
                 assert_eq!(bits(&room), bits(&chord));
                 assert_eq!(motion.to_bits(), gap(&base, c[0], &col).to_bits());
+                // the gap that keeps its first vector: the same figure, and the copy
+                let mut kept = vec![f64::NAN; n];
+                assert_eq!(gap_keep(&s, &base, &col, &mut kept).to_bits(), gap(&s, &base, &col).to_bits());
+                assert_eq!(bits(&kept), bits(&s));
             }
         }
     }

@@ -12,7 +12,7 @@
 //! trace; modified Newton). The tracker (kinem/tracking.py) keeps the
 //! policy around it: halving, stepping over a limit position, landing on an
 //! output instant.
-use crate::accept::{codes, gap, hermite, lagrange, predicted, rejected, taylor, Why};
+use crate::accept::{codes, gap, gap_keep, hermite, lagrange, predicted, rejected, taylor, Why};
 use crate::families::At;
 use crate::model::Kin;
 use crate::newton::{chord, settle, Ops, Settled, RECENT};
@@ -108,22 +108,47 @@ impl MarchState {
     /// Lagrange history moves on.
     #[inline(always)]
     pub fn take(&mut self, q: &[f64], t: f64, det: i32, rates: bool) {
-        let n = q.len();
+        self.retire(rates);
+        self.q.copy_from_slice(q);
+        self.taken(t, det, rates);
+    }
+
+    /// `take` from q in `kept` (n), which is swapped in where the steps
+    /// solve rates (`kept` then holds what was the state before the last:
+    /// room for the next), not copied.
+    #[inline(always)]
+    pub fn take_kept(&mut self, kept: &mut Vec<f64>, t: f64, det: i32, rates: bool) {
+        self.retire(rates);
         if rates {
-            // the last state becomes the earlier one of the Hermite start:
-            // buffers swapped, not copied (qd, qdd are then the caller's to fill)
+            std::mem::swap(&mut self.q, kept);
+        } else {
+            self.q.copy_from_slice(kept);
+        }
+        self.taken(t, det, rates);
+    }
+
+    /// With rates, the last state becomes the earlier one of the Hermite
+    /// start: buffers swapped, not copied (q, qd, qdd are then the caller's to fill).
+    #[inline(always)]
+    fn retire(&mut self, rates: bool) {
+        if rates {
             let [pq, pqd, pqdd] = &mut self.prev;
             std::mem::swap(pq, &mut self.q);
             std::mem::swap(pqd, &mut self.qd);
             std::mem::swap(pqdd, &mut self.qdd);
             self.before = self.t;
         }
-        self.q.copy_from_slice(q);
+    }
+
+    /// After q was taken at t: the Lagrange history (without rates), the flags.
+    #[inline(always)]
+    fn taken(&mut self, t: f64, det: i32, rates: bool) {
+        let n = self.q.len();
         if !rates {
             self.tt.copy_within(1..3, 0);
             self.h.copy_within(n..3 * n, 0);
             self.tt[2] = t;
-            self.h[2 * n..3 * n].copy_from_slice(q);
+            self.h[2 * n..3 * n].copy_from_slice(&self.q);
         }
         self.rates = false;
         self.t = t;
@@ -213,6 +238,8 @@ pub struct Work {
     bias: Bias,
     /// room for the biased start where the operations give none (`Step::place`)
     biased: Vec<f64>,
+    /// the settled q, kept by the correction's gap for the state (MarchState::take_kept)
+    kept: Vec<f64>,
 }
 
 /// Whether the chord's start at the next instant adds the Hermite start's
@@ -390,6 +417,7 @@ impl Work {
             start: vec![0.0; n],
             bias: Bias::new(smooth),
             biased: vec![0.0; n],
+            kept: vec![0.0; n],
         }
     }
 }
@@ -404,7 +432,7 @@ pub fn step<O: Step>(
     mode: Mode,
     c: &mut Work,
 ) -> Result<Outcome, O::Error> {
-    let Work { qp, start, bias, biased, .. } = c;
+    let Work { qp, start, bias, biased, kept, .. } = c;
     let (qp, start) = (&mut qp[..], &mut start[..]);
     let first = st.t.is_nan();
     let taylor_from = (s.rates || mode == Mode::Direct) && !first;
@@ -480,7 +508,8 @@ pub fn step<O: Step>(
     let previous;
     (out.pivot, out.det, previous) = signs(ops.stats()?, st);
     ops.fetch()?;
-    (out.corr, out.motion) = (gap(ops.q(), qp, ops.col_scale()), motion);
+    // the correction from the predictor, keeping the settled q for the state (take_kept)
+    (out.corr, out.motion) = (gap_keep(ops.q(), qp, ops.col_scale(), kept), motion);
     out.why = match mode {
         Mode::Assemble if out.pivot > 0.0 && ops.q().iter().all(|v| v.is_finite()) => Why::Accepted,
         Mode::Assemble => Why::NearSingular,
@@ -503,7 +532,7 @@ pub fn step<O: Step>(
     c.held = true;
     c.memory.hold(out.pivot);
     bias.measure(hermite && chorded.is_some(), t - st.t);
-    st.take(ops.q(), t, out.det, s.rates);
+    st.take_kept(kept, t, out.det, s.rates);
     if s.rates && out.pivot > 0.0 {
         ops.rates(&mut st.qd, &mut st.qdd)?;
         st.rates = true;
