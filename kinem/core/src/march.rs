@@ -8,7 +8,7 @@ use crate::families::At;
 use crate::lu::{Factors, Layout};
 use crate::model::{Kin, Turning};
 use crate::newton::Ops;
-pub use crate::step::{rates_with, step, MarchState, Mode, Outcome, Settings, Step, Work, SINGULAR};
+pub use crate::step::{rates_from, rates_with, step, MarchState, Mode, Outcome, Settings, Step, Work, SINGULAR};
 use crate::watch::Watch;
 use num_complex::Complex64 as C64;
 use std::convert::Infallible;
@@ -46,6 +46,8 @@ pub struct Native<'a> {
     dq: Vec<f64>,
     /// room for the corrected q (`correct`: swapped with q)
     next: Vec<f64>,
+    /// nu's room: zeroed here, written by Kin::nu_over alone
+    nu: Vec<f64>,
     b: Vec<f64>,
     pub t: f64,
     pub counts: [i64; 2],
@@ -65,6 +67,7 @@ impl<'a> Native<'a> {
             values: vec![0.0; kin.nnz],
             dq: vec![0.0; kin.n],
             next: vec![0.0; kin.n],
+            nu: vec![0.0; kin.m],
             b: vec![0.0; kin.m],
             t: 0.0,
             counts: [0, 0],
@@ -76,13 +79,15 @@ impl<'a> Native<'a> {
 /// max |phi_i| / scale_i; a NaN gives NaN.
 pub fn residual(phi: &[f64], scale: &[f64]) -> f64 {
     assert!(scale.len() >= phi.len());
-    let (mut r, mut nan) = (0.0f64, false);
+    // the terms' sum is NaN exactly where a term is (each is NaN or at least 0: a sum of those
+    // overflows to infinity, never to NaN): one addition per row tells what a NaN test did
+    let (mut r, mut sum) = (0.0f64, 0.0f64);
     for (p, s) in phi.iter().zip(scale) {
         let v = p.abs() / s;
         r = most(r, v);
-        nan |= v.is_nan();
+        sum += v;
     }
-    if nan {
+    if sum.is_nan() {
         f64::NAN
     } else {
         r
@@ -231,9 +236,11 @@ impl Step for Native<'_> {
     #[inline(always)]
     fn rates(&mut self, qd: &mut [f64], qdd: &mut [f64]) -> Result<(), Infallible> {
         self.rotate();
-        let Native { kin, layout, f, q, turning, t, phi, b, values, .. } = self;
+        let Native { kin, layout, f, q, turning, t, nu, b, values, .. } = self;
         let at = At { q: &q[..], e: &turning.e[..], t: *t };
-        rates_with(kin, &at, Some(values), phi, b, qd, qdd, |rhs, x| {
+        // nu's own room: its rows without a driver stay 0 from `new` (Kin::nu_over)
+        kin.nu_over(*t, nu);
+        rates_from(kin, &at, Some(values), nu, b, qd, qdd, |rhs, x| {
             layout.solve(f, rhs, x);
             Ok(())
         })
@@ -365,6 +372,21 @@ pub fn run_rows(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The residual: the largest |phi| / scale; NaN where a row is NaN
+    /// (0 / 0 too), infinite where a row is and none NaN (exactly, tolerance 0).
+    #[test]
+    fn a_residual_is_nan_exactly_where_a_row_is() {
+        let scale = [1.0, 2.0, 0.5, 4.0];
+        assert_eq!(residual(&[0.1, -0.4, 0.05, 0.0], &scale), 0.2);
+        assert!(residual(&[0.1, f64::NAN, 0.05, 0.0], &scale).is_nan());
+        assert!(residual(&[f64::INFINITY, f64::NAN, 0.0, 0.0], &scale).is_nan());
+        assert!(residual(&[0.0, 0.0], &[1.0, 0.0]).is_nan());
+        assert_eq!(residual(&[f64::INFINITY, -f64::INFINITY, 1e308, 1e308], &scale), f64::INFINITY);
+        // rows that sum past the largest float: infinite sum, not NaN; the residual is the largest row
+        assert_eq!(residual(&[1e308, 1e308, 1e308, 1e308], &scale), f64::INFINITY);
+        assert_eq!(residual(&[1e308, 1e308, 1e307, 1e308], &scale), 1e308);
+    }
 
     /// `stepped` gives `size`'s figure and q - dq to the bit (tolerance 0),
     /// a NaN passed over as `size` passes it, for odd and even n.

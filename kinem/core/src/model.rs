@@ -136,6 +136,14 @@ impl<S: Real> Kin<S> {
 
     pub fn nu(&self, t: f64, out: &mut [S]) {
         out.fill(S::zero());
+        self.nu_over(t, out);
+    }
+
+    /// `nu` into a room whose rows outside the drivers' and the timed
+    /// families' hold 0 (only `nu_over` writes it after it was zeroed:
+    /// crate::march::Native's), without zeroing it again.
+    #[inline]
+    pub fn nu_over(&self, t: f64, out: &mut [S]) {
         let s = self.shared();
         for &(r, f) in &self.drivers {
             out[r] = self.functions.eval(f, t, 1);

@@ -556,9 +556,25 @@ pub fn rates_with<E>(
     gamma: &mut [f64],
     qd: &mut [f64],
     qdd: &mut [f64],
-    mut solve: impl FnMut(&[f64], &mut [f64]) -> Result<(), E>,
+    solve: impl FnMut(&[f64], &mut [f64]) -> Result<(), E>,
 ) -> Result<(), E> {
     kin.nu(at.t, nu);
+    rates_from(kin, at, jac, nu, gamma, qd, qdd, solve)
+}
+
+/// `rates_with` where nu already holds nu at t (crate::march::Native: Kin::nu_over).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn rates_from<E>(
+    kin: &Kin,
+    at: &At,
+    jac: Option<&[f64]>,
+    nu: &[f64],
+    gamma: &mut [f64],
+    qd: &mut [f64],
+    qdd: &mut [f64],
+    mut solve: impl FnMut(&[f64], &mut [f64]) -> Result<(), E>,
+) -> Result<(), E> {
     solve(nu, qd)?;
     kin.gamma_with(at, qd, jac, gamma);
     solve(gamma, qdd)
