@@ -57,14 +57,18 @@ pub struct Native<'a> {
 
 impl<'a> Native<'a> {
     pub fn new(kin: &'a Kin, layout: &'a Layout) -> Self {
+        let (q, turning) = (vec![0.0; kin.n], Turning::new(kin.n));
+        // the Jacobian's constant entries, which `factor`'s Kin::jac_over keeps (at any q)
+        let mut values = vec![0.0; kin.nnz];
+        kin.jac(&At { q: &q, e: &turning.e, t: 0.0 }, &mut values);
         Native {
             kin,
             layout,
             f: layout.factors(),
-            q: vec![0.0; kin.n],
-            turning: Turning::new(kin.n),
+            q,
+            turning,
             phi: vec![0.0; kin.m],
-            values: vec![0.0; kin.nnz],
+            values,
             dq: vec![0.0; kin.n],
             next: vec![0.0; kin.n],
             nu: vec![0.0; kin.m],
@@ -176,7 +180,8 @@ impl Ops for Native<'_> {
     #[inline(always)]
     fn factor(&mut self, _: bool) -> Result<(), Infallible> {
         self.rotate();
-        self.kin.jac(&At { q: &self.q, e: &self.turning.e, t: self.t }, &mut self.values);
+        // the values' constant entries from `new` (Kin::jac_over)
+        self.kin.jac_over(&At { q: &self.q, e: &self.turning.e, t: self.t }, &mut self.values);
         self.layout.factor(&self.values, &mut self.f);
         self.counts[0] += 1;
         self.counts[1] += 1;

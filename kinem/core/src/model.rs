@@ -134,6 +134,18 @@ impl<S: Real> Kin<S> {
         }
     }
 
+    /// `jac` into out that holds this model's Jacobian from an earlier
+    /// `jac` (crate::march::Native's values, written by these two alone):
+    /// the constant entries (Family::jac_over) are not written again.
+    pub fn jac_over(&self, at: &At<S>, out: &mut [S]) {
+        assert!(out.len() >= self.nnz);
+        let s = self.shared();
+        for (f, e) in self.families.iter().zip(self.entry_off.windows(2)) {
+            // SAFETY: entry_off ascends from 0 to nnz (new), out holds nnz (asserted above)
+            f.jac_over(at, &s, unsafe { out.get_unchecked_mut(e[0]..e[1]) });
+        }
+    }
+
     pub fn nu(&self, t: f64, out: &mut [S]) {
         out.fill(S::zero());
         self.nu_over(t, out);

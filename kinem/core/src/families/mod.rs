@@ -247,6 +247,18 @@ impl<S: Real> Family<S> {
         each!(self, f => f.jac(at, s, out))
     }
 
+    /// `jac` where out holds the family's Jacobian from an earlier `jac`:
+    /// its constant entries are not written again (simple, revolute, line;
+    /// the other kinds write every entry).
+    pub fn jac_over(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
+        match self {
+            Family::Simple(f) => f.jac_over(at, s, out),
+            Family::Revolute(f) => f.jac_over(at, s, out),
+            Family::Line(f) => f.jac_over(at, s, out),
+            _ => self.jac(at, s, out),
+        }
+    }
+
     /// nu = -Phi_t (zero for families without drivers).
     pub fn nu(&self, t: f64, s: &Shared<S>, out: &mut [S]) {
         match self {

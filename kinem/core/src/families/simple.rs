@@ -196,11 +196,26 @@ impl<S: Real> Simple<S> {
 
     /// 1 in column a; d(point term)/dphi_i = (B_i s')_c if a point; -1 in
     /// phi_k if relative (the pattern's order: a, angle, k, kept entries only).
-    pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
+    pub fn jac(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
+        self.jac_as::<true>(at, s, out)
+    }
+
+    /// `jac` where out holds the family's Jacobian from an earlier `jac`
+    /// (its constant entries kept): the rows q_a - f(t), whose one entry is
+    /// 1, are not written again.
+    pub fn jac_over(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
+        self.jac_as::<false>(at, s, out)
+    }
+
+    /// `jac`, the constant rows' entries written when ALL.
+    #[inline(always)]
+    fn jac_as<const ALL: bool>(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && out.len() >= self.entries);
-        for p in self.fixed.iter().chain(&self.plain) {
-            // SAFETY: e < entries (group), out holds them (asserted above)
-            unsafe { *out.get_unchecked_mut(p.e) = S::one() };
+        if ALL {
+            for p in self.fixed.iter().chain(&self.plain) {
+                // SAFETY: e < entries (group), out holds them (asserted above)
+                unsafe { *out.get_unchecked_mut(p.e) = S::one() };
+            }
         }
         for &(k, mut e) in &self.general {
             let row = &self.rows[k];

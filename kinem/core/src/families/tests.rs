@@ -708,3 +708,77 @@ fn gamma_from_the_jacobian_equals_gamma_to_the_bit() {
         assert!(want.iter().filter(|x| **x != 0.0).count() >= 6);
     }
 }
+
+/// `jac_over` on the Jacobian of another configuration (its constant
+/// entries kept) gives `jac`'s values to the bit (tolerance 0): the simple,
+/// revolute (every `Sides` group), line (with and without its angle row)
+/// and distance (the full kernel) families.
+#[test]
+fn the_jacobian_over_its_constant_entries_equals_jac_to_the_bit() {
+    use crate::families::At;
+    let z = c(0.0, 0.0);
+    let kinds = [
+        (
+            "simple",
+            table(
+                &[
+                    ("a", vec![3, 8, 1, 4]),
+                    ("angle", vec![5, 8, 2, 5]),
+                    ("k", vec![0, 2, 0, 0]),
+                    ("point", vec![1, 0, 0, 0]),
+                    ("relative", vec![0, 1, 0, 0]),
+                    ("f", vec![0, 2, 1, 0]),
+                ],
+                &[("mx", vec![1.0, 0.0, 0.0, 0.0]), ("my", vec![0.0, 0.0, 0.0, 0.0])],
+                &[("local", vec![c(0.7, -0.2), z, z, z])],
+            ),
+        ),
+        (
+            "revolute",
+            table(
+                &[("ci", vec![0, 3, 0, 6]), ("cj", vec![3, 6, 6, 0])],
+                &[],
+                &[("si", vec![z, c(-0.3, 0.2), z, c(0.2, 0.0)]), ("sj", vec![c(0.0, -0.5), z, z, c(0.6, 0.6)])],
+            ),
+        ),
+        (
+            "line",
+            table(
+                &[("ca", vec![0, 3]), ("cb", vec![3, 6]), ("ai", vec![2, 5]), ("aj", vec![5, 8])],
+                &[("phi0", vec![0.3, -0.1])],
+                &[("pa", vec![c(0.2, 0.1), z]), ("ua", vec![c(-0.5, 0.8), c(0.6, 0.8)]), ("ob", vec![c(0.4, -0.3), z])],
+            ),
+        ),
+        (
+            "line",
+            table(
+                &[("ca", vec![6]), ("cb", vec![0]), ("ai", vec![]), ("aj", vec![])],
+                &[("phi0", vec![])],
+                &[("pa", vec![c(0.2, 0.1)]), ("ua", vec![c(-0.5, 0.8)]), ("ob", vec![c(0.4, -0.3)])],
+            ),
+        ),
+    ];
+    for (kind, t) in kinds {
+        let k = kin(kind, t, 0);
+        let (q0, _) = state(&[]);
+        let at_step = |step: usize| -> (Vec<f64>, Vec<C64>) {
+            let q: Vec<f64> =
+                q0.iter().enumerate().map(|(j, x)| x + 0.157 * step as f64 * (1.0 + j as f64 * 0.1)).collect();
+            let mut e = vec![C64::new(1.0, 0.0); k.n];
+            k.rotate(&q, &mut e);
+            (q, e)
+        };
+        let (q, e) = at_step(0);
+        let mut over = vec![0.0; k.nnz];
+        k.jac(&At { q: &q, e: &e, t: 0.8 }, &mut over);
+        for step in 1..20 {
+            let (q, e) = at_step(step);
+            let at = At { q: &q, e: &e, t: 0.8 + 0.01 * step as f64 };
+            let mut want = vec![f64::NAN; k.nnz];
+            k.jac(&at, &mut want);
+            k.jac_over(&at, &mut over);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&over), bits(&want), "{kind} at step {step}");
+        }
+    }
+}
