@@ -48,6 +48,7 @@ pub struct Native<'a> {
     next: Vec<f64>,
     /// nu's room: zeroed here, written by Kin::nu_over alone
     nu: Vec<f64>,
+    /// gamma's room: zeros from `new`, written by the rates alone (Kin::gamma_over)
     b: Vec<f64>,
     pub t: f64,
     pub counts: [i64; 2],
@@ -245,7 +246,8 @@ impl Step for Native<'_> {
         let at = At { q: &q[..], e: &turning.e[..], t: *t };
         // nu's own room: its rows without a driver stay 0 from `new` (Kin::nu_over)
         kin.nu_over(*t, nu);
-        rates_from(kin, &at, Some(values), nu, b, qd, qdd, |rhs, x| {
+        // gamma's room `b`: only here, its constant rows 0 from `new` (Kin::gamma_over)
+        rates_from::<true, _>(kin, &at, Some(values), nu, b, qd, qdd, |rhs, x| {
             layout.solve(f, rhs, x);
             Ok(())
         })

@@ -559,13 +559,15 @@ pub fn rates_with<E>(
     solve: impl FnMut(&[f64], &mut [f64]) -> Result<(), E>,
 ) -> Result<(), E> {
     kin.nu(at.t, nu);
-    rates_from(kin, at, jac, nu, gamma, qd, qdd, solve)
+    rates_from::<false, E>(kin, at, jac, nu, gamma, qd, qdd, solve)
 }
 
-/// `rates_with` where nu already holds nu at t (crate::march::Native: Kin::nu_over).
+/// `rates_with` where nu already holds nu at t (crate::march::Native:
+/// Kin::nu_over); OVER: gamma's room holds the last gamma of this model
+/// (or zeros), whose constant rows are not written again (Kin::gamma_over).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-pub fn rates_from<E>(
+pub fn rates_from<const OVER: bool, E>(
     kin: &Kin,
     at: &At,
     jac: Option<&[f64]>,
@@ -576,7 +578,11 @@ pub fn rates_from<E>(
     mut solve: impl FnMut(&[f64], &mut [f64]) -> Result<(), E>,
 ) -> Result<(), E> {
     solve(nu, qd)?;
-    kin.gamma_with(at, qd, jac, gamma);
+    if OVER {
+        kin.gamma_over(at, qd, jac, gamma);
+    } else {
+        kin.gamma_with(at, qd, jac, gamma);
+    }
     solve(gamma, qdd)
 }
 

@@ -183,10 +183,22 @@ impl<S: Real> Line<S> {
     }
 
     /// -(u x d)'' without the acceleration terms (Table 4.3), then 0.
-    pub fn gamma(&self, at: &At<S>, qd: &[S], _: &Shared<S>, out: &mut [S]) {
+    pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
+        self.gamma_as::<true>(at, qd, s, out)
+    }
+
+    /// `gamma` where out holds 0 at the angle rows (an earlier `gamma`'s,
+    /// or zeros), which are not written again.
+    pub fn gamma_over(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
+        self.gamma_as::<false>(at, qd, s, out)
+    }
+
+    /// `gamma`, the angle rows (0) written when ALL.
+    #[inline(always)]
+    fn gamma_as<const ALL: bool>(&self, at: &At<S>, qd: &[S], _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && qd.len() >= self.n && out.len() >= self.rows());
         each_side!(self.gamma_of(at, qd, out));
-        if self.angle {
+        if ALL && self.angle {
             for o in out.chunks_exact_mut(2).take(self.ca.len()) {
                 o[1] = S::zero();
             }

@@ -273,6 +273,17 @@ impl<S: Real> Family<S> {
         self.gamma_with(at, qd, s, None, out)
     }
 
+    /// `gamma_with` where out holds the family's gamma from an earlier
+    /// one (or zeros): its constant rows (0: the simple family's grounds,
+    /// the translational joints' angle rows) are not written again.
+    pub fn gamma_over(&self, at: &At<S>, qd: &[S], s: &Shared<S>, jac: Option<&[S]>, out: &mut [S]) {
+        match self {
+            Family::Simple(f) => f.gamma_over(at, qd, s, out),
+            Family::Line(f) => f.gamma_over(at, qd, s, out),
+            _ => self.gamma_with(at, qd, s, jac, out),
+        }
+    }
+
     /// `gamma`; `jac`: the family's Jacobian values at the same q, if at
     /// hand (the revolute reads its rotated local points there).
     pub fn gamma_with(&self, at: &At<S>, qd: &[S], s: &Shared<S>, jac: Option<&[S]>, out: &mut [S]) {

@@ -248,10 +248,24 @@ impl<S: Real> Simple<S> {
 
     /// Eq. 4.38 and the point forms: f''(t) + (A_i s')_c w_i^2.
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
+        self.gamma_as::<true>(at, qd, s, out)
+    }
+
+    /// `gamma` where out holds 0 at the rows q_a - c (a ground's: an
+    /// earlier `gamma`'s, or zeros), which are not written again.
+    pub fn gamma_over(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
+        self.gamma_as::<false>(at, qd, s, out)
+    }
+
+    /// `gamma`, the rows q_a - c (0) written when ALL.
+    #[inline(always)]
+    fn gamma_as<const ALL: bool>(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && qd.len() >= self.n && out.len() >= self.rows.len());
         // SAFETY (the three loops): k < rows (group), out holds them; angle < n (new), e and qd hold n (asserted above)
-        for p in &self.fixed {
-            unsafe { *out.get_unchecked_mut(p.k) = S::zero() };
+        if ALL {
+            for p in &self.fixed {
+                unsafe { *out.get_unchecked_mut(p.k) = S::zero() };
+            }
         }
         for p in &self.plain {
             unsafe { *out.get_unchecked_mut(p.k) = s.functions.eval(p.f, at.t, 2) };

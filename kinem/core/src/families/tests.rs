@@ -710,11 +710,12 @@ fn gamma_from_the_jacobian_equals_gamma_to_the_bit() {
 }
 
 /// `jac_over` on the Jacobian of another configuration (its constant
-/// entries kept) gives `jac`'s values to the bit (tolerance 0): the simple,
+/// entries kept) gives `jac`'s values to the bit (tolerance 0), and
+/// `gamma_over` on the last gamma (zeros at first) gamma's: the simple,
 /// revolute (every `Sides` group), line (with and without its angle row)
 /// and distance (the full kernel) families.
 #[test]
-fn the_jacobian_over_its_constant_entries_equals_jac_to_the_bit() {
+fn the_jacobian_and_gamma_over_their_constant_entries_equal_jac_and_gamma_to_the_bit() {
     use crate::families::At;
     let z = c(0.0, 0.0);
     let kinds = [
@@ -769,8 +770,9 @@ fn the_jacobian_over_its_constant_entries_equals_jac_to_the_bit() {
             (q, e)
         };
         let (q, e) = at_step(0);
-        let mut over = vec![0.0; k.nnz];
+        let (mut over, mut gamma_over) = (vec![0.0; k.nnz], vec![0.0; k.m]);
         k.jac(&At { q: &q, e: &e, t: 0.8 }, &mut over);
+        let qd: Vec<f64> = (0..k.n).map(|j| 0.3 - 0.07 * j as f64).collect();
         for step in 1..20 {
             let (q, e) = at_step(step);
             let at = At { q: &q, e: &e, t: 0.8 + 0.01 * step as f64 };
@@ -779,6 +781,11 @@ fn the_jacobian_over_its_constant_entries_equals_jac_to_the_bit() {
             k.jac_over(&at, &mut over);
             let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(&over), bits(&want), "{kind} at step {step}");
+            // gamma over the last one (zeros first): gamma's figures
+            let mut gamma = vec![f64::NAN; k.m];
+            k.gamma_with(&at, &qd, Some(&want), &mut gamma);
+            k.gamma_over(&at, &qd, Some(&over), &mut gamma_over);
+            assert_eq!(bits(&gamma_over), bits(&gamma), "{kind}'s gamma at step {step}");
         }
     }
 }
