@@ -279,6 +279,7 @@ impl<S: Real> Family<S> {
     pub fn gamma_over(&self, at: &At<S>, qd: &[S], s: &Shared<S>, jac: Option<&[S]>, out: &mut [S]) {
         match self {
             Family::Simple(f) => f.gamma_over(at, qd, s, out),
+            Family::Revolute(f) => f.gamma(at, qd, jac, out),
             Family::Line(f) => f.gamma_over(at, qd, s, out),
             _ => self.gamma_with(at, qd, s, jac, out),
         }
