@@ -421,11 +421,10 @@ fn revolute_derivatives_match_finite_differences() {
     check_parameters("revolute", &t, 0, &q, &qd, 0.8);
 }
 
-#[test]
-fn simple_derivatives_match_finite_differences() {
-    // x of a point of body 1 = a constant; phi_2 - phi_0 = the harmonic; y_0 = the cubic;
-    // y_1 = the constant (a ground's row: q_a - f alone)
-    let t = table(
+/// x of a point of body 1 = a constant; phi_2 - phi_0 = the harmonic; y_0 = the cubic;
+/// y_1 = the constant (a ground's row: q_a - f alone).
+fn simple_table() -> Table {
+    table(
         &[
             ("a", vec![3, 8, 1, 4]),
             ("angle", vec![5, 8, 2, 5]),
@@ -436,7 +435,12 @@ fn simple_derivatives_match_finite_differences() {
         ],
         &[("mx", vec![1.0, 0.0, 0.0, 0.0]), ("my", vec![0.0, 0.0, 0.0, 0.0])],
         &[("local", vec![c(0.7, -0.2), c(0.0, 0.0), c(0.0, 0.0), c(0.0, 0.0)])],
-    );
+    )
+}
+
+#[test]
+fn simple_derivatives_match_finite_differences() {
+    let t = simple_table();
     let k = kin("simple", t.clone(), 0);
     let (rows, cols) = (vec![0, 0, 1, 1, 2, 3], vec![3, 5, 8, 2, 1, 4]);
     let (q, qd) = state(&[]);
@@ -719,21 +723,7 @@ fn the_jacobian_and_gamma_over_their_constant_entries_equal_jac_and_gamma_to_the
     use crate::families::At;
     let z = c(0.0, 0.0);
     let kinds = [
-        (
-            "simple",
-            table(
-                &[
-                    ("a", vec![3, 8, 1, 4]),
-                    ("angle", vec![5, 8, 2, 5]),
-                    ("k", vec![0, 2, 0, 0]),
-                    ("point", vec![1, 0, 0, 0]),
-                    ("relative", vec![0, 1, 0, 0]),
-                    ("f", vec![0, 2, 1, 0]),
-                ],
-                &[("mx", vec![1.0, 0.0, 0.0, 0.0]), ("my", vec![0.0, 0.0, 0.0, 0.0])],
-                &[("local", vec![c(0.7, -0.2), z, z, z])],
-            ),
-        ),
+        ("simple", simple_table()),
         (
             "revolute",
             table(
