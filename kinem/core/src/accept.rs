@@ -92,19 +92,44 @@ pub fn rejected(
 /// (q_pred, q_last) that the acceptance test compares.
 #[inline]
 pub fn gap(a: &[f64], b: &[f64], col_scale: &[f64]) -> f64 {
+    gap_as::<false>(a, b, col_scale, &mut [])
+}
+
+/// `gap`, copying a into `keep` (a's length) in the same pass.
+#[inline]
+pub fn gap_keep(a: &[f64], b: &[f64], col_scale: &[f64], keep: &mut [f64]) -> f64 {
+    gap_as::<true>(a, b, col_scale, keep)
+}
+
+/// `gap`, with a copied into `keep` when K.
+#[inline(always)]
+fn gap_as<const K: bool>(a: &[f64], b: &[f64], col_scale: &[f64], keep: &mut [f64]) -> f64 {
     let n = a.len();
     let (b, col_scale) = (&b[..n], &col_scale[..n]);
     // two running maxima, so that the loop vectorises (a maximum does not
     // depend on the order it is taken in: the same figure)
-    let ((a2, a1), (b2, b1), (c2, c1)) = (a.as_chunks::<2>(), b.as_chunks::<2>(), col_scale.as_chunks::<2>());
+    let (a2, b2, c2) = (a.as_chunks::<2>().0, b.as_chunks::<2>().0, col_scale.as_chunks::<2>().0);
     let mut g = [0.0f64; 2];
-    for ((a, b), c) in a2.iter().zip(b2).zip(c2) {
-        for k in 0..2 {
-            g[k] = most(g[k], (a[k] - b[k]).abs() / c[k]);
+    if K {
+        let keep = &mut keep[..n];
+        for ((x, a), (b, c)) in keep.as_chunks_mut::<2>().0.iter_mut().zip(a2).zip(b2.iter().zip(c2)) {
+            for l in 0..2 {
+                g[l] = most(g[l], (a[l] - b[l]).abs() / c[l]);
+            }
+            *x = *a;
+        }
+        if n % 2 == 1 {
+            keep[n - 1] = a[n - 1];
+        }
+    } else {
+        for (a, (b, c)) in a2.iter().zip(b2.iter().zip(c2)) {
+            for l in 0..2 {
+                g[l] = most(g[l], (a[l] - b[l]).abs() / c[l]);
+            }
         }
     }
-    for ((a, b), c) in a1.iter().zip(b1).zip(c1) {
-        g[0] = most(g[0], (a - b).abs() / c);
+    if n % 2 == 1 {
+        g[0] = most(g[0], (a[n - 1] - b[n - 1]).abs() / col_scale[n - 1]);
     }
     most(g[0], g[1])
 }
@@ -167,15 +192,7 @@ pub fn taylor(q: &[f64], qd: &[f64], qdd: &[f64], h: f64, out: &mut [f64]) {
 /// not the acceptance test's predictor.
 #[inline(always)]
 pub fn hermite(p: [&[f64]; 3], c: [&[f64]; 3], a: f64, h: f64, base: Option<&[f64]>, out: &mut [f64]) {
-    let u = h / a;
-    let (u3, aa) = (u * u * u, a * a);
-    let w = [
-        10.0 + 15.0 * u + 6.0 * u * u,
-        -a * (4.0 + 7.0 * u + 3.0 * u * u),
-        -a * (6.0 + 8.0 * u + 3.0 * u * u),
-        -0.5 * aa * (1.0 + u) * (1.0 + u),
-        0.5 * aa * (3.0 + 3.0 * u + u * u),
-    ];
+    let (w, u3) = weights(a, h);
     let n = out.len();
     let (p, c) = ([&p[0][..n], &p[1][..n], &p[2][..n]], [&c[0][..n], &c[1][..n], &c[2][..n]]);
     let (p0, p1, p2, c0, c1, c2) = (p[0], p[1], p[2], c[0], c[1], c[2]);
@@ -194,6 +211,83 @@ pub fn hermite(p: [&[f64]; 3], c: [&[f64]; 3], a: f64, h: f64, base: Option<&[f6
             }
         }
     }
+}
+
+/// Hermite's weights (`hermite`'s d = w0 (q - p0) + w1 p1 + w2 qd + w3 p2
+/// + w4 qdd) and u^3, u = h / a.
+#[inline(always)]
+fn weights(a: f64, h: f64) -> ([f64; 5], f64) {
+    let u = h / a;
+    let (u3, aa) = (u * u * u, a * a);
+    let w = [
+        10.0 + 15.0 * u + 6.0 * u * u,
+        -a * (4.0 + 7.0 * u + 3.0 * u * u),
+        -a * (6.0 + 8.0 * u + 3.0 * u * u),
+        -0.5 * aa * (1.0 + u) * (1.0 + u),
+        0.5 * aa * (3.0 + 3.0 * u + u * u),
+    ];
+    (w, u3)
+}
+
+/// The march's predictors in one pass over the coordinates (step::step
+/// where the chord starts from Hermite's extrapolation with Taylor's base):
+/// Taylor's predictor into `qp` (`taylor`), the predicted motion (returned:
+/// `gap(qp, q)`), Hermite's start into `start` (`hermite` with base `qp`),
+/// and the chord's start into `room`: that start, plus the last start's
+/// error (q - the last start, which `start` holds on entry) where `biased`
+/// (step::biased_start). Each figure is those functions' to the bit (the
+/// same operations per coordinate; the motion a maximum, whatever its
+/// order). `c`: the last accepted state (q, qd, qdd), `p`: the one before,
+/// `a` before it; `h`: the step from `c`. Every slice holds n = qp.len()
+/// (sliced once here: the loop reads them without bounds checks).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn predicted(
+    c: [&[f64]; 3],
+    p: [&[f64]; 3],
+    a: f64,
+    h: f64,
+    col_scale: &[f64],
+    biased: bool,
+    qp: &mut [f64],
+    start: &mut [f64],
+    room: &mut [f64],
+) -> f64 {
+    if biased {
+        predicted_as::<true>(c, p, a, h, col_scale, qp, start, room)
+    } else {
+        predicted_as::<false>(c, p, a, h, col_scale, qp, start, room)
+    }
+}
+
+/// `predicted`, biased or not (B), each its own loop.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn predicted_as<const B: bool>(
+    c: [&[f64]; 3],
+    p: [&[f64]; 3],
+    a: f64,
+    h: f64,
+    col_scale: &[f64],
+    qp: &mut [f64],
+    start: &mut [f64],
+    room: &mut [f64],
+) -> f64 {
+    let ([w0, w1, w2, w3, w4], u3) = weights(a, h);
+    let n = qp.len();
+    let ([q, qd, qdd], [p0, p1, p2]) = ([&c[0][..n], &c[1][..n], &c[2][..n]], [&p[0][..n], &p[1][..n], &p[2][..n]]);
+    let (start, room) = (&mut start[..n], &mut room[..n]);
+    for j in 0..n {
+        // Taylor's b (as `taylor`), Hermite's s (as `hermite` from b), the chord's start
+        let b = q[j] + h * qd[j] + 0.5 * h * h * qdd[j];
+        qp[j] = b;
+        let d = w0 * (q[j] - p0[j]) + w1 * p1[j] + w2 * qd[j] + w3 * p2[j] + w4 * qdd[j];
+        let s = b + u3 * d;
+        room[j] = if B { (q[j] - start[j]) + s } else { s };
+        start[j] = s;
+    }
+    // the maximum in its own loop (`gap`'s pairs: a running maximum does not vectorise with the rest)
+    gap(qp, q, col_scale)
 }
 
 #[cfg(test)]
@@ -227,6 +321,41 @@ mod tests {
         let mut r = [0.0];
         hermite([&f(t0), &d(t0), &dd(t0)], [&f(t1), &d(t1), &dd(t1)], t1 - t0, t - t1, Some(&base), &mut r);
         assert_eq!(r[0].to_bits(), q[0].to_bits());
+    }
+
+    /// `predicted` gives `taylor`'s predictor, `gap`'s motion, `hermite`'s
+    /// start (from Taylor's base) and the chord's start, biased (q minus the
+    /// last start, plus the new one) or not, to the bit (tolerance 0), for
+    /// odd and even n.
+    #[test]
+    fn one_pass_predictors_equal_the_separate_ones_to_the_bit() {
+        for n in [1usize, 5, 12] {
+            let v = |k: usize| -> Vec<f64> {
+                (0..n).map(|j| ((k * 31 + j * 7) as f64 * 0.37).sin() * (1.0 + j as f64)).collect()
+            };
+            let (c, p, last, col) =
+                ([v(1), v(2), v(3)], [v(4), v(5), v(6)], v(7), v(8).iter().map(|x| 0.5 + x.abs()).collect::<Vec<_>>());
+            let (c, p) = ([&c[0][..], &c[1][..], &c[2][..]], [&p[0][..], &p[1][..], &p[2][..]]);
+            let (a, h) = (0.013, 0.0127);
+            for biased in [false, true] {
+                let (mut qp, mut start, mut room) = (vec![0.0; n], last.clone(), vec![0.0; n]);
+                let motion = predicted(c, p, a, h, &col, biased, &mut qp, &mut start, &mut room);
+                let mut base = vec![0.0; n];
+                taylor(c[0], c[1], c[2], h, &mut base);
+                let mut s = vec![0.0; n];
+                hermite(p, c, a, h, Some(&base), &mut s);
+                let chord: Vec<f64> = (0..n).map(|j| if biased { (c[0][j] - last[j]) + s[j] } else { s[j] }).collect();
+                let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&qp), bits(&base));
+                assert_eq!(bits(&start), bits(&s));
+                assert_eq!(bits(&room), bits(&chord));
+                assert_eq!(motion.to_bits(), gap(&base, c[0], &col).to_bits());
+                // the gap that keeps its first vector: the same figure, and the copy
+                let mut kept = vec![f64::NAN; n];
+                assert_eq!(gap_keep(&s, &base, &col, &mut kept).to_bits(), gap(&s, &base, &col).to_bits());
+                assert_eq!(bits(&kept), bits(&s));
+            }
+        }
     }
 
     #[test]

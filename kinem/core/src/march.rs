@@ -8,7 +8,7 @@ use crate::families::At;
 use crate::lu::{Factors, Layout};
 use crate::model::{Kin, Turning};
 use crate::newton::Ops;
-pub use crate::step::{rates_with, step, MarchState, Mode, Outcome, Settings, Step, Work, SINGULAR};
+pub use crate::step::{rates_from, rates_with, step, MarchState, Mode, Outcome, Settings, Step, Work, SINGULAR};
 use crate::watch::Watch;
 use num_complex::Complex64 as C64;
 use std::convert::Infallible;
@@ -44,6 +44,11 @@ pub struct Native<'a> {
     pub phi: Vec<f64>,
     values: Vec<f64>,
     dq: Vec<f64>,
+    /// room for the corrected q (`correct`: swapped with q)
+    next: Vec<f64>,
+    /// nu's room: zeroed here, written by Kin::nu_over alone
+    nu: Vec<f64>,
+    /// gamma's room: zeros from `new`, written by the rates alone (Kin::gamma_over)
     b: Vec<f64>,
     pub t: f64,
     pub counts: [i64; 2],
@@ -53,15 +58,21 @@ pub struct Native<'a> {
 
 impl<'a> Native<'a> {
     pub fn new(kin: &'a Kin, layout: &'a Layout) -> Self {
+        let (q, turning) = (vec![0.0; kin.n], Turning::new(kin.n));
+        // the Jacobian's constant entries, which `factor`'s Kin::jac_over keeps (at any q)
+        let mut values = vec![0.0; kin.nnz];
+        kin.jac(&At { q: &q, e: &turning.e, t: 0.0 }, &mut values);
         Native {
             kin,
             layout,
             f: layout.factors(),
-            q: vec![0.0; kin.n],
-            turning: Turning::new(kin.n),
+            q,
+            turning,
             phi: vec![0.0; kin.m],
-            values: vec![0.0; kin.nnz],
+            values,
             dq: vec![0.0; kin.n],
+            next: vec![0.0; kin.n],
+            nu: vec![0.0; kin.m],
             b: vec![0.0; kin.m],
             t: 0.0,
             counts: [0, 0],
@@ -73,16 +84,28 @@ impl<'a> Native<'a> {
 /// max |phi_i| / scale_i; a NaN gives NaN.
 pub fn residual(phi: &[f64], scale: &[f64]) -> f64 {
     assert!(scale.len() >= phi.len());
-    let (mut r, mut nan) = (0.0f64, false);
-    for (p, s) in phi.iter().zip(scale) {
-        let v = p.abs() / s;
-        r = most(r, v);
-        nan |= v.is_nan();
+    // the terms' sum is NaN exactly where a term is (each is NaN or at least 0: a sum of those
+    // overflows to infinity, never to NaN): one addition per row tells what a NaN test did
+    // (in pairs of rows, two running maxima and sums, so that they vectorise, as `size`)
+    let n = phi.len();
+    let (p2, s2) = (phi.as_chunks::<2>().0, scale[..n].as_chunks::<2>().0);
+    let (mut r, mut sum) = ([0.0f64; 2], [0.0f64; 2]);
+    for (p, s) in p2.iter().zip(s2) {
+        for l in 0..2 {
+            let v = p[l].abs() / s[l];
+            r[l] = most(r[l], v);
+            sum[l] += v;
+        }
     }
-    if nan {
+    if n % 2 == 1 {
+        let v = phi[n - 1].abs() / scale[n - 1];
+        r[0] = most(r[0], v);
+        sum[0] += v;
+    }
+    if (sum[0] + sum[1]).is_nan() {
         f64::NAN
     } else {
-        r
+        most(r[0], r[1])
     }
 }
 
@@ -98,6 +121,31 @@ pub fn size(dq: &[f64], col_scale: &[f64]) -> f64 {
     }
     for (d, c) in d1.iter().zip(c1) {
         g[0] = most(g[0], d.abs() / c);
+    }
+    most(g[0], g[1])
+}
+
+/// `size(dq, col_scale)`, writing q - dq into `next` in the same pass
+/// (n = q.len(): every slice holds n).
+#[inline(always)]
+pub fn stepped(q: &[f64], dq: &[f64], col_scale: &[f64], next: &mut [f64]) -> f64 {
+    let n = q.len();
+    let (dq, col_scale, next) = (&dq[..n], &col_scale[..n], &mut next[..n]);
+    // two running maxima in pairs, as `size`
+    let (q2, d2, c2, x2) =
+        (q.as_chunks::<2>().0, dq.as_chunks::<2>().0, col_scale.as_chunks::<2>().0, next.as_chunks_mut::<2>().0);
+    let mut g = [0.0f64; 2];
+    for k in 0..n / 2 {
+        let (q, d, c) = (q2[k], d2[k], c2[k]);
+        for l in 0..2 {
+            g[l] = most(g[l], d[l].abs() / c[l]);
+            x2[k][l] = q[l] - d[l];
+        }
+    }
+    if n % 2 == 1 {
+        let j = n - 1;
+        g[0] = most(g[0], dq[j].abs() / col_scale[j]);
+        next[j] = q[j] - dq[j];
     }
     most(g[0], g[1])
 }
@@ -143,7 +191,8 @@ impl Ops for Native<'_> {
     #[inline(always)]
     fn factor(&mut self, _: bool) -> Result<(), Infallible> {
         self.rotate();
-        self.kin.jac(&At { q: &self.q, e: &self.turning.e, t: self.t }, &mut self.values);
+        // the values' constant entries from `new` (Kin::jac_over)
+        self.kin.jac_over(&At { q: &self.q, e: &self.turning.e, t: self.t }, &mut self.values);
         self.layout.factor(&self.values, &mut self.f);
         self.counts[0] += 1;
         self.counts[1] += 1;
@@ -155,10 +204,16 @@ impl Ops for Native<'_> {
     /// to the bit, without negating Phi).
     fn correct(&mut self, limit: f64) -> Result<f64, Infallible> {
         self.layout.solve(&mut self.f, &self.phi, &mut self.dq);
-        let big = size(&self.dq, &self.layout.col_scale);
+        // q - dq into `next` with the size in one pass (`stepped`), taken where the limit leaves
+        // the correction whole (f = 1: q - 1 dq is q - dq to the bit), else q - f dq
+        let big = stepped(&self.q, &self.dq, &self.layout.col_scale, &mut self.next);
         let f = limited(big, limit);
-        for (q, d) in self.q.iter_mut().zip(&self.dq) {
-            *q -= f * d;
+        if f == 1.0 {
+            std::mem::swap(&mut self.q, &mut self.next);
+        } else {
+            for (q, d) in self.q.iter_mut().zip(&self.dq) {
+                *q -= f * d;
+            }
         }
         self.rotated = false;
         Ok(big)
@@ -175,11 +230,11 @@ impl Step for Native<'_> {
     }
 
     #[inline(always)]
-    fn place(&mut self, t: f64) -> Option<&mut [f64]> {
+    fn place(&mut self, t: f64) -> Option<(&mut [f64], &[f64])> {
         self.t = t;
         self.rotated = false;
         self.turning.restart();
-        Some(&mut self.q)
+        Some((&mut self.q, &self.layout.col_scale))
     }
 
     fn q(&self) -> &[f64] {
@@ -197,9 +252,12 @@ impl Step for Native<'_> {
     #[inline(always)]
     fn rates(&mut self, qd: &mut [f64], qdd: &mut [f64]) -> Result<(), Infallible> {
         self.rotate();
-        let Native { kin, layout, f, q, turning, t, phi, b, values, .. } = self;
+        let Native { kin, layout, f, q, turning, t, nu, b, values, .. } = self;
         let at = At { q: &q[..], e: &turning.e[..], t: *t };
-        rates_with(kin, &at, Some(values), phi, b, qd, qdd, |rhs, x| {
+        // nu's own room: its rows without a driver stay 0 from `new` (Kin::nu_over)
+        kin.nu_over(*t, nu);
+        // gamma's room `b`: only here, its constant rows 0 from `new` (Kin::gamma_over)
+        rates_from::<true, _>(kin, &at, Some(values), nu, b, qd, qdd, |rhs, x| {
             layout.solve(f, rhs, x);
             Ok(())
         })
@@ -326,4 +384,48 @@ pub fn run_rows(
     counts[0] += ops.counts[0];
     counts[1] += ops.counts[1];
     result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The residual: the largest |phi| / scale; NaN where a row is NaN
+    /// (0 / 0 too), infinite where a row is and none NaN (exactly, tolerance 0).
+    #[test]
+    fn a_residual_is_nan_exactly_where_a_row_is() {
+        let scale = [1.0, 2.0, 0.5, 4.0];
+        assert_eq!(residual(&[0.1, -0.4, 0.05, 0.0], &scale), 0.2);
+        assert!(residual(&[0.1, f64::NAN, 0.05, 0.0], &scale).is_nan());
+        assert!(residual(&[f64::INFINITY, f64::NAN, 0.0, 0.0], &scale).is_nan());
+        assert!(residual(&[0.0, 0.0], &[1.0, 0.0]).is_nan());
+        // an odd count: the last row alone
+        assert_eq!(residual(&[0.1, -0.4, 0.9], &[1.0, 2.0, 0.5]), 1.8);
+        assert!(residual(&[0.1, -0.4, f64::NAN], &[1.0, 2.0, 0.5]).is_nan());
+        assert_eq!(residual(&[f64::INFINITY, -f64::INFINITY, 1e308, 1e308], &scale), f64::INFINITY);
+        // rows that sum past the largest float: infinite sum, not NaN; the residual is the largest row
+        assert_eq!(residual(&[1e308, 1e308, 1e308, 1e308], &scale), f64::INFINITY);
+        assert_eq!(residual(&[1e308, 1e308, 1e307, 1e308], &scale), 1e308);
+    }
+
+    /// `stepped` gives `size`'s figure and q - dq to the bit (tolerance 0),
+    /// a NaN passed over as `size` passes it, for odd and even n.
+    #[test]
+    fn a_correction_in_one_pass_equals_size_and_the_update() {
+        for n in [1usize, 4, 7, 12] {
+            let v = |k: usize| -> Vec<f64> { (0..n).map(|j| ((k * 13 + j * 5) as f64 * 0.71).cos() * 1e-3).collect() };
+            let (q, mut dq, col) = (v(1), v(2), v(3).iter().map(|x| 0.2 + x.abs()).collect::<Vec<_>>());
+            for nan in [false, true] {
+                if nan {
+                    dq[n / 2] = f64::NAN;
+                }
+                let mut next = vec![0.0; n];
+                let big = stepped(&q, &dq, &col, &mut next);
+                assert_eq!(big.to_bits(), size(&dq, &col).to_bits());
+                for j in 0..n {
+                    assert_eq!(next[j].to_bits(), (q[j] - 1.0 * dq[j]).to_bits());
+                }
+            }
+        }
+    }
 }

@@ -134,8 +134,28 @@ impl<S: Real> Kin<S> {
         }
     }
 
+    /// `jac` into out that holds this model's Jacobian from an earlier
+    /// `jac` (crate::march::Native's values, written by these two alone):
+    /// the constant entries (Family::jac_over) are not written again.
+    pub fn jac_over(&self, at: &At<S>, out: &mut [S]) {
+        assert!(out.len() >= self.nnz);
+        let s = self.shared();
+        for (f, e) in self.families.iter().zip(self.entry_off.windows(2)) {
+            // SAFETY: entry_off ascends from 0 to nnz (new), out holds nnz (asserted above)
+            f.jac_over(at, &s, unsafe { out.get_unchecked_mut(e[0]..e[1]) });
+        }
+    }
+
     pub fn nu(&self, t: f64, out: &mut [S]) {
         out.fill(S::zero());
+        self.nu_over(t, out);
+    }
+
+    /// `nu` into a room whose rows outside the drivers' and the timed
+    /// families' hold 0 (only `nu_over` writes it after it was zeroed:
+    /// crate::march::Native's), without zeroing it again.
+    #[inline]
+    pub fn nu_over(&self, t: f64, out: &mut [S]) {
         let s = self.shared();
         for &(r, f) in &self.drivers {
             out[r] = self.functions.eval(f, t, 1);
@@ -155,12 +175,30 @@ impl<S: Real> Kin<S> {
     /// there (crate::march::Native: the rates follow the factorisation at
     /// the settled q), the same figures to the bit.
     pub fn gamma_with(&self, at: &At<S>, qd: &[S], jac: Option<&[S]>, out: &mut [S]) {
+        self.gamma_as::<false>(at, qd, jac, out)
+    }
+
+    /// `gamma_with` into out that holds this model's gamma from an earlier
+    /// one, or zeros (crate::march::Native's room, written by this alone):
+    /// the constant rows (Family::gamma_over) are not written again.
+    pub fn gamma_over(&self, at: &At<S>, qd: &[S], jac: Option<&[S]>, out: &mut [S]) {
+        self.gamma_as::<true>(at, qd, jac, out)
+    }
+
+    /// `gamma_with`, or `gamma_over` when OVER.
+    #[inline(always)]
+    fn gamma_as<const OVER: bool>(&self, at: &At<S>, qd: &[S], jac: Option<&[S]>, out: &mut [S]) {
         assert!(out.len() >= self.m && jac.is_none_or(|v| v.len() >= self.nnz));
         let s = self.shared();
         for ((f, r), e) in self.families.iter().zip(self.row_off.windows(2)).zip(self.entry_off.windows(2)) {
             // SAFETY: row_off ascends from 0 to m, entry_off from 0 to nnz (new); out holds m, jac nnz (asserted above)
             let v = jac.map(|v| unsafe { v.get_unchecked(e[0]..e[1]) });
-            f.gamma_with(at, qd, &s, v, unsafe { out.get_unchecked_mut(r[0]..r[1]) });
+            let o = unsafe { out.get_unchecked_mut(r[0]..r[1]) };
+            if OVER {
+                f.gamma_over(at, qd, &s, v, o);
+            } else {
+                f.gamma_with(at, qd, &s, v, o);
+            }
         }
     }
 }

@@ -12,7 +12,7 @@
 //! trace; modified Newton). The tracker (kinem/tracking.py) keeps the
 //! policy around it: halving, stepping over a limit position, landing on an
 //! output instant.
-use crate::accept::{codes, gap, hermite, lagrange, rejected, taylor, Why};
+use crate::accept::{codes, gap, gap_keep, hermite, lagrange, predicted, rejected, taylor, Why};
 use crate::families::At;
 use crate::model::Kin;
 use crate::newton::{chord, settle, Ops, Settled, RECENT};
@@ -108,22 +108,47 @@ impl MarchState {
     /// Lagrange history moves on.
     #[inline(always)]
     pub fn take(&mut self, q: &[f64], t: f64, det: i32, rates: bool) {
-        let n = q.len();
+        self.retire(rates);
+        self.q.copy_from_slice(q);
+        self.taken(t, det, rates);
+    }
+
+    /// `take` from q in `kept` (n), which is swapped in where the steps
+    /// solve rates (`kept` then holds what was the state before the last:
+    /// room for the next), not copied.
+    #[inline(always)]
+    pub fn take_kept(&mut self, kept: &mut Vec<f64>, t: f64, det: i32, rates: bool) {
+        self.retire(rates);
         if rates {
-            // the last state becomes the earlier one of the Hermite start:
-            // buffers swapped, not copied (qd, qdd are then the caller's to fill)
+            std::mem::swap(&mut self.q, kept);
+        } else {
+            self.q.copy_from_slice(kept);
+        }
+        self.taken(t, det, rates);
+    }
+
+    /// With rates, the last state becomes the earlier one of the Hermite
+    /// start: buffers swapped, not copied (q, qd, qdd are then the caller's to fill).
+    #[inline(always)]
+    fn retire(&mut self, rates: bool) {
+        if rates {
             let [pq, pqd, pqdd] = &mut self.prev;
             std::mem::swap(pq, &mut self.q);
             std::mem::swap(pqd, &mut self.qd);
             std::mem::swap(pqdd, &mut self.qdd);
             self.before = self.t;
         }
-        self.q.copy_from_slice(q);
+    }
+
+    /// After q was taken at t: the Lagrange history (without rates), the flags.
+    #[inline(always)]
+    fn taken(&mut self, t: f64, det: i32, rates: bool) {
+        let n = self.q.len();
         if !rates {
             self.tt.copy_within(1..3, 0);
             self.h.copy_within(n..3 * n, 0);
             self.tt[2] = t;
-            self.h[2 * n..3 * n].copy_from_slice(q);
+            self.h[2 * n..3 * n].copy_from_slice(&self.q);
         }
         self.rates = false;
         self.t = t;
@@ -177,8 +202,9 @@ pub trait Step: Ops {
     /// Starts a solve at (q, t).
     fn start(&mut self, q: &[f64], t: f64) -> Result<(), Self::Error>;
     /// Starts a solve at t from the q its caller writes into the room
-    /// returned (the operations' own q: no copy); None: the caller uses `start`.
-    fn place(&mut self, _t: f64) -> Option<&mut [f64]> {
+    /// returned (the operations' own q: no copy), with the columns' scales
+    /// (`col_scale`); None: the caller uses `start`.
+    fn place(&mut self, _t: f64) -> Option<(&mut [f64], &[f64])> {
         None
     }
     /// Brings q from where the operations keep it (after a solve), for `q`.
@@ -212,6 +238,8 @@ pub struct Work {
     bias: Bias,
     /// room for the biased start where the operations give none (`Step::place`)
     biased: Vec<f64>,
+    /// the settled q, kept by the correction's gap for the state (MarchState::take_kept)
+    kept: Vec<f64>,
 }
 
 /// Whether the chord's start at the next instant adds the Hermite start's
@@ -389,6 +417,7 @@ impl Work {
             start: vec![0.0; n],
             bias: Bias::new(smooth),
             biased: vec![0.0; n],
+            kept: vec![0.0; n],
         }
     }
 }
@@ -403,7 +432,7 @@ pub fn step<O: Step>(
     mode: Mode,
     c: &mut Work,
 ) -> Result<Outcome, O::Error> {
-    let Work { qp, start, bias, biased, .. } = c;
+    let Work { qp, start, bias, biased, kept, .. } = c;
     let (qp, start) = (&mut qp[..], &mut start[..]);
     let first = st.t.is_nan();
     let taylor_from = (s.rates || mode == Mode::Direct) && !first;
@@ -425,22 +454,38 @@ pub fn step<O: Step>(
             return Ok(out);
         }
     }
-    let judge = predict(st, t, taylor_from, qp);
-    let motion = gap(qp, &st.q, ops.col_scale());
     // the chord with the last instant's factorisation, from the Hermite start when the last two
     // instants are at hand, else (or when it contracts too slowly) Newton from the predictor
     let hermite = c.held && hermite_near(st, t);
-    if hermite {
+    let (judge, motion);
+    if hermite && taylor_from {
+        // Taylor's predictor, the motion and the chord's start in one pass (accept::predicted)
+        let (a, h, on) = (st.t - st.before, t - st.t, bias.at(t - st.t));
+        let (cs, ps) = ([&st.q[..], &st.qd[..], &st.qdd[..]], [&st.prev[0][..], &st.prev[1][..], &st.prev[2][..]]);
+        judge = true;
+        motion = match ops.place(t) {
+            Some((q, col_scale)) => predicted(cs, ps, a, h, col_scale, on, qp, start, q),
+            None => {
+                let motion = predicted(cs, ps, a, h, ops.col_scale(), on, qp, start, biased);
+                ops.start(biased, t)?;
+                motion
+            }
+        };
+    } else if hermite {
+        judge = predict(st, t, taylor_from, qp);
+        motion = gap(qp, &st.q, ops.col_scale());
         // Hermite's start into `start`, and with the last instant's error (Bias) into the operations' q
         let taylor = if taylor_from { Some(&qp[..]) } else { None };
         match ops.place(t) {
-            Some(q) => biased_start(st, t, taylor, start, bias, q),
+            Some((q, _)) => biased_start(st, t, taylor, start, bias, q),
             None => {
                 biased_start(st, t, taylor, start, bias, biased);
                 ops.start(biased, t)?;
             }
         }
     } else {
+        judge = predict(st, t, taylor_from, qp);
+        motion = gap(qp, &st.q, ops.col_scale());
         ops.start(qp, t)?;
     }
     let chorded = if c.held { chord(ops, s.tolerance, s.max_step, c.memory.known(motion))? } else { None };
@@ -463,7 +508,8 @@ pub fn step<O: Step>(
     let previous;
     (out.pivot, out.det, previous) = signs(ops.stats()?, st);
     ops.fetch()?;
-    (out.corr, out.motion) = (gap(ops.q(), qp, ops.col_scale()), motion);
+    // the correction from the predictor, keeping the settled q for the state (take_kept)
+    (out.corr, out.motion) = (gap_keep(ops.q(), qp, ops.col_scale(), kept), motion);
     out.why = match mode {
         Mode::Assemble if out.pivot > 0.0 && ops.q().iter().all(|v| v.is_finite()) => Why::Accepted,
         Mode::Assemble => Why::NearSingular,
@@ -486,7 +532,7 @@ pub fn step<O: Step>(
     c.held = true;
     c.memory.hold(out.pivot);
     bias.measure(hermite && chorded.is_some(), t - st.t);
-    st.take(ops.q(), t, out.det, s.rates);
+    st.take_kept(kept, t, out.det, s.rates);
     if s.rates && out.pivot > 0.0 {
         ops.rates(&mut st.qd, &mut st.qdd)?;
         st.rates = true;
@@ -510,11 +556,33 @@ pub fn rates_with<E>(
     gamma: &mut [f64],
     qd: &mut [f64],
     qdd: &mut [f64],
-    mut solve: impl FnMut(&[f64], &mut [f64]) -> Result<(), E>,
+    solve: impl FnMut(&[f64], &mut [f64]) -> Result<(), E>,
 ) -> Result<(), E> {
     kin.nu(at.t, nu);
+    rates_from::<false, E>(kin, at, jac, nu, gamma, qd, qdd, solve)
+}
+
+/// `rates_with` where nu already holds nu at t (crate::march::Native:
+/// Kin::nu_over); OVER: gamma's room holds the last gamma of this model
+/// (or zeros), whose constant rows are not written again (Kin::gamma_over).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn rates_from<const OVER: bool, E>(
+    kin: &Kin,
+    at: &At,
+    jac: Option<&[f64]>,
+    nu: &[f64],
+    gamma: &mut [f64],
+    qd: &mut [f64],
+    qdd: &mut [f64],
+    mut solve: impl FnMut(&[f64], &mut [f64]) -> Result<(), E>,
+) -> Result<(), E> {
     solve(nu, qd)?;
-    kin.gamma_with(at, qd, jac, gamma);
+    if OVER {
+        kin.gamma_over(at, qd, jac, gamma);
+    } else {
+        kin.gamma_with(at, qd, jac, gamma);
+    }
     solve(gamma, qdd)
 }
 

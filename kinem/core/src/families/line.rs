@@ -150,14 +150,21 @@ impl<S: Real> Line<S> {
     /// [phi_i, phi_j] = [1, -1] for translational joints.
     pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && out.len() >= self.entries());
-        each_side!(self.jac_of(at, out));
+        each_side!(self.jac_of::<true>(at, out));
+    }
+
+    /// `jac` where out holds the family's Jacobian from an earlier `jac`
+    /// (its constant entries kept): the angle rows' [1, -1] are not written again.
+    pub fn jac_over(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
+        assert!(at.holds(self.n) && out.len() >= self.entries());
+        each_side!(self.jac_of::<false>(at, out));
     }
 
     /// Table 4.2's row over the constraints of Sides<A, B> (d + sa = d
-    /// where sa is left out, u . sb = 0 where sb is); `jac` asserted out's
-    /// entries and n.
+    /// where sa is left out, u . sb = 0 where sb is), the angle rows'
+    /// constant entries when ALL; `jac` asserted out's entries and n.
     #[inline(always)]
-    fn jac_of<const A: bool, const B: bool>(&self, at: &At<S>, out: &mut [S]) {
+    fn jac_of<const A: bool, const B: bool, const ALL: bool>(&self, at: &At<S>, out: &mut [S]) {
         let width = self.width();
         for r in &self.groups[Sides::<A, B>::GROUP] {
             // SAFETY: r.c < ca.len(); q and e hold n, out width entries per constraint (jac)
@@ -167,7 +174,7 @@ impl<S: Real> Line<S> {
                 let ta = if A { dot(p.u, p.d + p.sa) } else { dot(p.u, p.d) };
                 let tb = if B { dot(p.u, p.sb) } else { S::zero() };
                 o[..6].copy_from_slice(&[p.u.im, -p.u.re, -ta, -p.u.im, p.u.re, tb]);
-                if self.angle {
+                if ALL && self.angle {
                     o[6] = S::one();
                     o[7] = -S::one();
                 }
@@ -176,10 +183,22 @@ impl<S: Real> Line<S> {
     }
 
     /// -(u x d)'' without the acceleration terms (Table 4.3), then 0.
-    pub fn gamma(&self, at: &At<S>, qd: &[S], _: &Shared<S>, out: &mut [S]) {
+    pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
+        self.gamma_as::<true>(at, qd, s, out)
+    }
+
+    /// `gamma` where out holds 0 at the angle rows (an earlier `gamma`'s,
+    /// or zeros), which are not written again.
+    pub fn gamma_over(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
+        self.gamma_as::<false>(at, qd, s, out)
+    }
+
+    /// `gamma`, the angle rows (0) written when ALL.
+    #[inline(always)]
+    fn gamma_as<const ALL: bool>(&self, at: &At<S>, qd: &[S], _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && qd.len() >= self.n && out.len() >= self.rows());
         each_side!(self.gamma_of(at, qd, out));
-        if self.angle {
+        if ALL && self.angle {
             for o in out.chunks_exact_mut(2).take(self.ca.len()) {
                 o[1] = S::zero();
             }

@@ -247,6 +247,18 @@ impl<S: Real> Family<S> {
         each!(self, f => f.jac(at, s, out))
     }
 
+    /// `jac` where out holds the family's Jacobian from an earlier `jac`:
+    /// its constant entries are not written again (simple, revolute, line;
+    /// the other kinds write every entry).
+    pub fn jac_over(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
+        match self {
+            Family::Simple(f) => f.jac_over(at, s, out),
+            Family::Revolute(f) => f.jac_over(at, s, out),
+            Family::Line(f) => f.jac_over(at, s, out),
+            _ => self.jac(at, s, out),
+        }
+    }
+
     /// nu = -Phi_t (zero for families without drivers).
     pub fn nu(&self, t: f64, s: &Shared<S>, out: &mut [S]) {
         match self {
@@ -259,6 +271,18 @@ impl<S: Real> Family<S> {
     #[inline(always)]
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
         self.gamma_with(at, qd, s, None, out)
+    }
+
+    /// `gamma_with` where out holds the family's gamma from an earlier
+    /// one (or zeros): its constant rows (0: the simple family's grounds,
+    /// the translational joints' angle rows) are not written again.
+    pub fn gamma_over(&self, at: &At<S>, qd: &[S], s: &Shared<S>, jac: Option<&[S]>, out: &mut [S]) {
+        match self {
+            Family::Simple(f) => f.gamma_over(at, qd, s, out),
+            Family::Revolute(f) => f.gamma(at, qd, jac, out),
+            Family::Line(f) => f.gamma_over(at, qd, s, out),
+            _ => self.gamma_with(at, qd, s, jac, out),
+        }
     }
 
     /// `gamma`; `jac`: the family's Jacobian values at the same q, if at

@@ -81,13 +81,21 @@ impl<S: Real> Revolute<S> {
     /// constraint: row x: x_i, phi_i, x_j, phi_j; row y: y_i, phi_i, y_j, phi_j.
     pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && out.len() >= self.entries());
-        each_side!(self.jac_of(at, out));
+        each_side!(self.jac_of::<true>(at, out));
     }
 
-    /// Eq. 4.46 over the joints of Sides<I, J> (B 0 = 0); out holds 8
-    /// entries per joint and `at` n coordinates (`jac` asserted both).
+    /// `jac` where out holds the family's Jacobian from an earlier `jac`
+    /// (its constant entries kept): the B s' entries alone are written.
+    pub fn jac_over(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
+        assert!(at.holds(self.n) && out.len() >= self.entries());
+        each_side!(self.jac_of::<false>(at, out));
+    }
+
+    /// Eq. 4.46 over the joints of Sides<I, J> (B 0 = 0), the constant
+    /// entries (I, -I) too when ALL; out holds 8 entries per joint and `at`
+    /// n coordinates (`jac` asserted both).
     #[inline(always)]
-    fn jac_of<const I: bool, const J: bool>(&self, at: &At<S>, out: &mut [S]) {
+    fn jac_of<const I: bool, const J: bool, const ALL: bool>(&self, at: &At<S>, out: &mut [S]) {
         let (one, minus, zero) = (S::one(), -S::one(), S::zero());
         for p in &self.groups[Sides::<I, J>::GROUP] {
             // SAFETY: ci, cj < n - 2 and k < the joints' count (new); e holds n, out 8 entries per joint (jac)
@@ -95,7 +103,11 @@ impl<S: Real> Revolute<S> {
                 let a = if I { p.si * at.rot_at(p.ci) } else { Complex::new(zero, zero) };
                 let b = if J { p.sj * at.rot_at(p.cj) } else { Complex::new(zero, zero) };
                 let o = out.get_unchecked_mut(8 * p.k..8 * p.k + 8);
-                o.copy_from_slice(&[one, -a.im, minus, b.im, one, a.re, minus, -b.re]);
+                if ALL {
+                    o.copy_from_slice(&[one, -a.im, minus, b.im, one, a.re, minus, -b.re]);
+                } else {
+                    (o[1], o[3], o[5], o[7]) = (-a.im, b.im, a.re, -b.re);
+                }
             }
         }
     }

@@ -196,11 +196,26 @@ impl<S: Real> Simple<S> {
 
     /// 1 in column a; d(point term)/dphi_i = (B_i s')_c if a point; -1 in
     /// phi_k if relative (the pattern's order: a, angle, k, kept entries only).
-    pub fn jac(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
+    pub fn jac(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
+        self.jac_as::<true>(at, s, out)
+    }
+
+    /// `jac` where out holds the family's Jacobian from an earlier `jac`
+    /// (its constant entries kept): the rows q_a - f(t), whose one entry is
+    /// 1, are not written again.
+    pub fn jac_over(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
+        self.jac_as::<false>(at, s, out)
+    }
+
+    /// `jac`, the constant rows' entries written when ALL.
+    #[inline(always)]
+    fn jac_as<const ALL: bool>(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && out.len() >= self.entries);
-        for p in self.fixed.iter().chain(&self.plain) {
-            // SAFETY: e < entries (group), out holds them (asserted above)
-            unsafe { *out.get_unchecked_mut(p.e) = S::one() };
+        if ALL {
+            for p in self.fixed.iter().chain(&self.plain) {
+                // SAFETY: e < entries (group), out holds them (asserted above)
+                unsafe { *out.get_unchecked_mut(p.e) = S::one() };
+            }
         }
         for &(k, mut e) in &self.general {
             let row = &self.rows[k];
@@ -233,10 +248,24 @@ impl<S: Real> Simple<S> {
 
     /// Eq. 4.38 and the point forms: f''(t) + (A_i s')_c w_i^2.
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
+        self.gamma_as::<true>(at, qd, s, out)
+    }
+
+    /// `gamma` where out holds 0 at the rows q_a - c (a ground's: an
+    /// earlier `gamma`'s, or zeros), which are not written again.
+    pub fn gamma_over(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
+        self.gamma_as::<false>(at, qd, s, out)
+    }
+
+    /// `gamma`, the rows q_a - c (0) written when ALL.
+    #[inline(always)]
+    fn gamma_as<const ALL: bool>(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && qd.len() >= self.n && out.len() >= self.rows.len());
         // SAFETY (the three loops): k < rows (group), out holds them; angle < n (new), e and qd hold n (asserted above)
-        for p in &self.fixed {
-            unsafe { *out.get_unchecked_mut(p.k) = S::zero() };
+        if ALL {
+            for p in &self.fixed {
+                unsafe { *out.get_unchecked_mut(p.k) = S::zero() };
+            }
         }
         for p in &self.plain {
             unsafe { *out.get_unchecked_mut(p.k) = s.functions.eval(p.f, at.t, 2) };

@@ -427,11 +427,10 @@ fn revolute_derivatives_match_finite_differences() {
     check_parameters("revolute", &t, 0, &q, &qd, 0.8);
 }
 
-#[test]
-fn simple_derivatives_match_finite_differences() {
-    // x of a point of body 1 = a constant; phi_2 - phi_0 = the harmonic; y_0 = the cubic;
-    // y_1 = the constant (a ground's row: q_a - f alone)
-    let t = table(
+/// x of a point of body 1 = a constant; phi_2 - phi_0 = the harmonic; y_0 = the cubic;
+/// y_1 = the constant (a ground's row: q_a - f alone).
+fn simple_table() -> Table {
+    table(
         &[
             ("a", vec![3, 8, 1, 4]),
             ("angle", vec![5, 8, 2, 5]),
@@ -442,7 +441,12 @@ fn simple_derivatives_match_finite_differences() {
         ],
         &[("mx", vec![1.0, 0.0, 0.0, 0.0]), ("my", vec![0.0, 0.0, 0.0, 0.0])],
         &[("local", vec![c(0.7, -0.2), c(0.0, 0.0), c(0.0, 0.0), c(0.0, 0.0)])],
-    );
+    )
+}
+
+#[test]
+fn simple_derivatives_match_finite_differences() {
+    let t = simple_table();
     let k = kin("simple", t.clone(), 0);
     let (rows, cols) = (vec![0, 0, 1, 1, 2, 3], vec![3, 5, 8, 2, 1, 4]);
     let (q, qd) = state(&[]);
@@ -712,5 +716,72 @@ fn gamma_from_the_jacobian_equals_gamma_to_the_bit() {
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&got), bits(&want), "at step {step}");
         assert!(want.iter().filter(|x| **x != 0.0).count() >= 6);
+    }
+}
+
+/// `jac_over` on the Jacobian of another configuration (its constant
+/// entries kept) gives `jac`'s values to the bit (tolerance 0), and
+/// `gamma_over` on the last gamma (zeros at first) gamma's: the simple,
+/// revolute (every `Sides` group), line (with and without its angle row)
+/// and distance (the full kernel) families.
+#[test]
+fn the_jacobian_and_gamma_over_their_constant_entries_equal_jac_and_gamma_to_the_bit() {
+    use crate::families::At;
+    let z = c(0.0, 0.0);
+    let kinds = [
+        ("simple", simple_table()),
+        (
+            "revolute",
+            table(
+                &[("ci", vec![0, 3, 0, 6]), ("cj", vec![3, 6, 6, 0])],
+                &[],
+                &[("si", vec![z, c(-0.3, 0.2), z, c(0.2, 0.0)]), ("sj", vec![c(0.0, -0.5), z, z, c(0.6, 0.6)])],
+            ),
+        ),
+        (
+            "line",
+            table(
+                &[("ca", vec![0, 3]), ("cb", vec![3, 6]), ("ai", vec![2, 5]), ("aj", vec![5, 8])],
+                &[("phi0", vec![0.3, -0.1])],
+                &[("pa", vec![c(0.2, 0.1), z]), ("ua", vec![c(-0.5, 0.8), c(0.6, 0.8)]), ("ob", vec![c(0.4, -0.3), z])],
+            ),
+        ),
+        (
+            "line",
+            table(
+                &[("ca", vec![6]), ("cb", vec![0]), ("ai", vec![]), ("aj", vec![])],
+                &[("phi0", vec![])],
+                &[("pa", vec![c(0.2, 0.1)]), ("ua", vec![c(-0.5, 0.8)]), ("ob", vec![c(0.4, -0.3)])],
+            ),
+        ),
+    ];
+    for (kind, t) in kinds {
+        let k = kin(kind, t, 0);
+        let (q0, _) = state(&[]);
+        let at_step = |step: usize| -> (Vec<f64>, Vec<C64>) {
+            let q: Vec<f64> =
+                q0.iter().enumerate().map(|(j, x)| x + 0.157 * step as f64 * (1.0 + j as f64 * 0.1)).collect();
+            let mut e = vec![C64::new(1.0, 0.0); k.n];
+            k.rotate(&q, &mut e);
+            (q, e)
+        };
+        let (q, e) = at_step(0);
+        let (mut over, mut gamma_over) = (vec![0.0; k.nnz], vec![0.0; k.m]);
+        k.jac(&At { q: &q, e: &e, t: 0.8 }, &mut over);
+        let qd: Vec<f64> = (0..k.n).map(|j| 0.3 - 0.07 * j as f64).collect();
+        for step in 1..20 {
+            let (q, e) = at_step(step);
+            let at = At { q: &q, e: &e, t: 0.8 + 0.01 * step as f64 };
+            let mut want = vec![f64::NAN; k.nnz];
+            k.jac(&at, &mut want);
+            k.jac_over(&at, &mut over);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&over), bits(&want), "{kind} at step {step}");
+            // gamma over the last one (zeros first): gamma's figures
+            let mut gamma = vec![f64::NAN; k.m];
+            k.gamma_with(&at, &qd, Some(&want), &mut gamma);
+            k.gamma_over(&at, &qd, Some(&over), &mut gamma_over);
+            assert_eq!(bits(&gamma_over), bits(&gamma), "{kind}'s gamma at step {step}");
+        }
     }
 }
