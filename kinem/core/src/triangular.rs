@@ -15,7 +15,7 @@
 //! MASK coordinates, dense above), so that every figure near the
 //! acceptance test's floor is partial pivoting's.
 use crate::lu::{dense_factor, dense_solve, masked_factor, masked_solve, Factors, FALLBACK, MASK};
-use crate::order::{Order, Pivots, MULTIPLIER};
+use crate::order::{Order, Pivots, MULTIPLIER, NONE};
 use crate::real::Real;
 
 /// A solve's forward and back substitution as one flat program over the
@@ -370,8 +370,22 @@ impl Factoring {
         }
     }
 
+    /// The first position whose pivot's figure (J_s's |u_pp| c_p / r_p) is
+    /// `small` (the smallest, `run`'s), a: the factors: the one a loop over
+    /// the positions in order taking each strictly smaller figure would keep.
+    pub fn smallest(&self, a: &[f64], small: f64) -> usize {
+        let free = self.free.iter().find(|&&(at, _, scale)| (a[at as usize] * scale).abs() == small);
+        let at = free.map_or(NONE, |f| f.1 as usize);
+        let one = self.first_one as usize;
+        if one < self.diag.len() && self.ones_small == small && one < at {
+            return one;
+        }
+        at
+    }
+
     /// Assembles and factorises into a (Factors::j) from the Jacobian's
-    /// values; the pivots' figures (J_s's: det times `sign`), None where a
+    /// values; the pivots' figures (J_s's: det times `sign`; the smallest's
+    /// position not figured, `smallest` finds it on demand), None where a
     /// pivot is zero or not finite, a multiplier of J_s above MULTIPLIER or
     /// a folded pivot not exactly 1.
     #[inline]
@@ -386,31 +400,27 @@ impl Factoring {
             if !ok {
                 return None;
             }
-            let mut acc = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det: sign };
-            for &(at, p, scale) in &self.free {
-                let d = *a.get_unchecked(at as usize) * scale;
-                let x = d.abs();
-                if !(x > 0.0 && x <= f64::MAX) {
-                    return None; // zero or not finite
-                }
-                if d < 0.0 {
-                    acc.det = -acc.det;
-                }
-                acc.take(x, p as usize);
-                if x > acc.big {
-                    acc.big = x; // f64::max's figure: neither is NaN
-                }
+            // the free pivots' |d| as bits: positive figures order as their bits, so the
+            // smallest and largest are the integers' (the same figures); a zero is the
+            // bits 0, an infinity or a NaN above f64::MAX's; det's sign the sign bits' parity
+            let (mut small, mut big, mut neg) = (f64::INFINITY.to_bits(), 0u64, 0u64);
+            for &(at, _, scale) in &self.free {
+                let d = (*a.get_unchecked(at as usize) * scale).to_bits();
+                neg ^= d >> 63;
+                let x = d & !(1 << 63);
+                small = small.min(x);
+                big = big.max(x);
             }
+            if small == 0 || big > f64::MAX.to_bits() {
+                return None; // zero or not finite
+            }
+            let det = if neg == 1 { -sign } else { sign };
+            // `at` is not figured here (the step reads the ratio and det): Triangular::pivots finds it
+            let mut acc = Pivots { small: f64::from_bits(small), big: f64::from_bits(big), at: NONE, det };
             if (self.first_one as usize) < self.diag.len() {
-                // the folded pivots, each exactly 1 (checked above): J_s's c_p / r_p, the
-                // smallest at the first position of the least, as the loop over all of them takes it
-                let p = self.first_one as usize;
-                if self.ones_small < acc.small || (self.ones_small == acc.small && p < acc.at) {
-                    (acc.small, acc.at) = (self.ones_small, p);
-                }
-                if self.ones_big > acc.big {
-                    acc.big = self.ones_big; // f64::max's figure: neither is NaN
-                }
+                // the folded pivots, each exactly 1 (checked above): J_s's c_p / r_p
+                acc.small = acc.small.min(self.ones_small);
+                acc.big = acc.big.max(self.ones_big); // f64::max's figure: neither is NaN
             }
             Some(acc)
         }
@@ -660,7 +670,7 @@ impl Triangular {
     /// blocks' order) of the factors.
     pub fn pivots(&self, f: &Factors) -> (f64, i32, usize) {
         if let Some(p) = &f.fixed[0] {
-            return (p.ratio(), p.det, p.at);
+            return (p.ratio(), p.det, self.factoring.smallest(&f.j, p.small));
         }
         let n = self.gather.len();
         let mut acc = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det: self.whole_sign };
