@@ -403,10 +403,11 @@ impl Factoring {
             // the free pivots' |d| as bits: positive figures order as their bits, so the
             // smallest and largest are the integers' (the same figures); a zero is the
             // bits 0, an infinity or a NaN above f64::MAX's; det's sign the sign bits' parity
+            // (the top bit of all the bits' exclusive or)
             let (mut small, mut big, mut neg) = (f64::INFINITY.to_bits(), 0u64, 0u64);
             for &(at, _, scale) in &self.free {
                 let d = (*a.get_unchecked(at as usize) * scale).to_bits();
-                neg ^= d >> 63;
+                neg ^= d;
                 let x = d & !(1 << 63);
                 small = small.min(x);
                 big = big.max(x);
@@ -414,7 +415,7 @@ impl Factoring {
             if small == 0 || big > f64::MAX.to_bits() {
                 return None; // zero or not finite
             }
-            let det = if neg == 1 { -sign } else { sign };
+            let det = if neg >> 63 == 1 { -sign } else { sign };
             // `at` is not figured here (the step reads the ratio and det): Triangular::pivots finds it
             let mut acc = Pivots { small: f64::from_bits(small), big: f64::from_bits(big), at: NONE, det };
             if (self.first_one as usize) < self.diag.len() {
