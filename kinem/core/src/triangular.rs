@@ -419,9 +419,14 @@ impl Factoring {
             // `at` is not figured here (the step reads the ratio and det): Triangular::pivots finds it
             let mut acc = Pivots { small: f64::from_bits(small), big: f64::from_bits(big), at: NONE, det };
             if (self.first_one as usize) < self.diag.len() {
-                // the folded pivots, each exactly 1 (checked above): J_s's c_p / r_p
-                acc.small = acc.small.min(self.ones_small);
-                acc.big = acc.big.max(self.ones_big); // f64::max's figure: neither is NaN
+                // the folded pivots, each exactly 1 (checked above): J_s's c_p / r_p (no
+                // figure is NaN: compared, not f64::min / max with their NaN handling)
+                if self.ones_small < acc.small {
+                    acc.small = self.ones_small;
+                }
+                if self.ones_big > acc.big {
+                    acc.big = self.ones_big;
+                }
             }
             Some(acc)
         }
