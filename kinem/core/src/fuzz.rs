@@ -266,9 +266,14 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
         assert!(p.check().is_err(), "trial {trial}: a corrupted program passed its check");
         let mut fa = t.factoring.clone();
         let far = (fa.values + rng.below(5) as usize) as u32;
-        match rng.below(3) {
+        match rng.below(4) {
             0 if !fa.place.is_empty() => fa.place[0][1] = far,
             1 if !fa.pairs.is_empty() => fa.pairs[0][1] = far,
+            2 if fa.mults.iter().any(|m| m[2] != crate::triangular::NO_PAIR) => {
+                // a multiplier's own update pair
+                let m = fa.mults.iter_mut().find(|m| m[2] != crate::triangular::NO_PAIR).unwrap();
+                m[2 + rng.below(2) as usize] = far;
+            }
             _ => fa.diag[0] = far,
         }
         assert!(fa.check().is_err(), "trial {trial}: a corrupted factoring passed its check");

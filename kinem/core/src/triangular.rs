@@ -248,9 +248,10 @@ impl<const N: usize> Cell<f64> for [f64; N] {
 /// 4): the fill to clear, every entry's placement (values[e] at `at`:
 /// off-diagonal, 1x1 and larger blocks alike, but for the folded pivots:
 /// `ones`), then the multipliers of the larger blocks' fixed orders'
-/// elimination steps, step after step (`[pivot, at, end]`: l = a[at] /
-/// pivot, as a[at] times the pivot's reciprocal, then a[dst] -= l a[src]
-/// for `pairs[..end]`), then the n pivots `diag` (position order) read for
+/// elimination steps, step after step (`[pivot, at, dst, src, end]`: l =
+/// a[at] / pivot, as a[at] times the pivot's reciprocal, then a[dst] -= l
+/// a[src] for its first update pair, carried in the entry (none where dst
+/// is NO_PAIR), and for the rest, `pairs[..end]`), then the n pivots `diag` (position order) read for
 /// the figures. A step's reciprocal is taken again for each of its
 /// multipliers (the same figure: its pivot is not written in the step; one
 /// loop, no step's loop around it). The same operations, in the same order, as
@@ -267,11 +268,14 @@ impl<const N: usize> Cell<f64> for [f64; N] {
 /// Invariants, checked once by `Factoring::check` when the model is built:
 /// every index into the values below `values`, every entry below `entries`,
 /// the ends ascend and the last ones are mults.len() and pairs.len().
+/// A multiplier without an update pair (`Factoring::mults`).
+pub const NO_PAIR: u32 = u32::MAX;
+
 #[derive(Clone, Debug, Default)]
 pub struct Factoring {
     pub clear: Vec<u32>,
     pub place: Vec<[u32; 2]>,
-    pub mults: Vec<[u32; 3]>,
+    pub mults: Vec<[u32; 5]>,
     /// per multiplier: r_k / r_i (its row i's and pivot k's row scales)
     pub mult_scale: Vec<f64>,
     pub pairs: Vec<[u32; 2]>,
@@ -303,7 +307,7 @@ impl Factoring {
         if v >= u32::MAX as usize
             || self.clear.iter().any(|&x| bad(x))
             || self.place.iter().any(|&[e, at]| e as usize >= self.entries || bad(at))
-            || self.mults.iter().any(|m| bad(m[0]) || bad(m[1]))
+            || self.mults.iter().any(|m| bad(m[0]) || bad(m[1]) || (m[2] != NO_PAIR && (bad(m[2]) || bad(m[3]))))
             || self.pairs.iter().any(|p| bad(p[0]) || bad(p[1]))
             || self.diag.iter().any(|&x| bad(x))
             || self.ones.iter().any(|&x| bad(x))
@@ -324,7 +328,7 @@ impl Factoring {
             }
             last as usize == len
         };
-        if !ascending(&mut self.mults.iter().map(|m| m[2]), self.pairs.len()) {
+        if !ascending(&mut self.mults.iter().map(|m| m[4]), self.pairs.len()) {
             return Err("factoring: ends out of order".into());
         }
         Ok(())
@@ -355,11 +359,16 @@ impl Factoring {
                 *a.get_unchecked_mut(at as usize) = *values.get_unchecked(e as usize);
             }
             let mut p0 = 0usize;
-            for (&[kk, at, p1], &scale) in self.mults.iter().zip(&self.mult_scale) {
+            for (&[kk, at, dst, src, p1], &scale) in self.mults.iter().zip(&self.mult_scale) {
                 let r = S::one() / *a.get_unchecked(kk as usize);
                 let l = *a.get_unchecked(at as usize) * r;
                 multiplier(l, scale);
                 *a.get_unchecked_mut(at as usize) = l;
+                if dst != NO_PAIR {
+                    let x = *a.get_unchecked(src as usize);
+                    let y = a.get_unchecked_mut(dst as usize);
+                    *y = *y - l * x;
+                }
                 for &[dst, src] in self.pairs.get_unchecked(p0..p1 as usize) {
                     let x = *a.get_unchecked(src as usize);
                     let y = a.get_unchecked_mut(dst as usize);
