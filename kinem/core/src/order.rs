@@ -308,7 +308,6 @@ impl Order {
     /// `store`: its fill to clear, its entries' placement (`place`, set by
     /// the caller), its multipliers (each with its step's pivot) and its pivots.
     pub fn factoring(&self, store: usize, f: &mut crate::triangular::Factoring) {
-        use crate::triangular::NO_PAIR;
         let (s, u) = (self.s, |x: usize| x as u32);
         f.clear.extend(self.fill_at.iter().map(|&at| u(store + at)));
         f.place.extend(self.place.iter().map(|&(e, at, _)| [e, u(store + at as usize)])); // Phi_q's own values
@@ -317,11 +316,8 @@ impl Order {
             let right = &self.right[self.right_start[k] as usize..self.right_start[k + 1] as usize];
             for &(i, at) in &self.mult[lo as usize..hi as usize] {
                 let i = i as usize * s;
-                // the first update pair in the multiplier's entry, the rest in the pairs
-                let mut pairs = right.iter().map(|&j| [u(store + i + j as usize), u(store + k * s + j as usize)]);
-                let [dst, src] = pairs.next().unwrap_or([NO_PAIR; 2]);
-                f.pairs.extend(pairs);
-                f.mults.push([u(store + k * s + k), u(store + at as usize), dst, src, u(f.pairs.len())]);
+                f.pairs.extend(right.iter().map(|&j| [u(store + i + j as usize), u(store + k * s + j as usize)]));
+                f.mults.push([u(store + k * s + k), u(store + at as usize), u(f.pairs.len())]);
             }
         }
         f.diag.extend((0..s).map(|k| u(store + k * s + k)));

@@ -15,7 +15,7 @@
 //! MASK coordinates, dense above), so that every figure near the
 //! acceptance test's floor is partial pivoting's.
 use crate::lu::{dense_factor, dense_solve, masked_factor, masked_solve, Factors, FALLBACK, MASK};
-use crate::order::{Order, Pivots, MULTIPLIER, NONE};
+use crate::order::{Order, Pivots, MULTIPLIER};
 use crate::real::Real;
 
 /// A solve's forward and back substitution as one flat program over the
@@ -248,10 +248,9 @@ impl<const N: usize> Cell<f64> for [f64; N] {
 /// 4): the fill to clear, every entry's placement (values[e] at `at`:
 /// off-diagonal, 1x1 and larger blocks alike, but for the folded pivots:
 /// `ones`), then the multipliers of the larger blocks' fixed orders'
-/// elimination steps, step after step (`[pivot, at, dst, src, end]`: l =
-/// a[at] / pivot, as a[at] times the pivot's reciprocal, then a[dst] -= l
-/// a[src] for its first update pair, carried in the entry (none where dst
-/// is NO_PAIR), and for the rest, `pairs[..end]`), then the n pivots `diag` (position order) read for
+/// elimination steps, step after step (`[pivot, at, end]`: l = a[at] /
+/// pivot, as a[at] times the pivot's reciprocal, then a[dst] -= l a[src]
+/// for `pairs[..end]`), then the n pivots `diag` (position order) read for
 /// the figures. A step's reciprocal is taken again for each of its
 /// multipliers (the same figure: its pivot is not written in the step; one
 /// loop, no step's loop around it). The same operations, in the same order, as
@@ -268,14 +267,11 @@ impl<const N: usize> Cell<f64> for [f64; N] {
 /// Invariants, checked once by `Factoring::check` when the model is built:
 /// every index into the values below `values`, every entry below `entries`,
 /// the ends ascend and the last ones are mults.len() and pairs.len().
-/// A multiplier without an update pair (`Factoring::mults`).
-pub const NO_PAIR: u32 = u32::MAX;
-
 #[derive(Clone, Debug, Default)]
 pub struct Factoring {
     pub clear: Vec<u32>,
     pub place: Vec<[u32; 2]>,
-    pub mults: Vec<[u32; 5]>,
+    pub mults: Vec<[u32; 3]>,
     /// per multiplier: r_k / r_i (its row i's and pivot k's row scales)
     pub mult_scale: Vec<f64>,
     pub pairs: Vec<[u32; 2]>,
@@ -307,7 +303,7 @@ impl Factoring {
         if v >= u32::MAX as usize
             || self.clear.iter().any(|&x| bad(x))
             || self.place.iter().any(|&[e, at]| e as usize >= self.entries || bad(at))
-            || self.mults.iter().any(|m| bad(m[0]) || bad(m[1]) || (m[2] != NO_PAIR && (bad(m[2]) || bad(m[3]))))
+            || self.mults.iter().any(|m| bad(m[0]) || bad(m[1]))
             || self.pairs.iter().any(|p| bad(p[0]) || bad(p[1]))
             || self.diag.iter().any(|&x| bad(x))
             || self.ones.iter().any(|&x| bad(x))
@@ -328,7 +324,7 @@ impl Factoring {
             }
             last as usize == len
         };
-        if !ascending(&mut self.mults.iter().map(|m| m[4]), self.pairs.len()) {
+        if !ascending(&mut self.mults.iter().map(|m| m[2]), self.pairs.len()) {
             return Err("factoring: ends out of order".into());
         }
         Ok(())
@@ -359,16 +355,11 @@ impl Factoring {
                 *a.get_unchecked_mut(at as usize) = *values.get_unchecked(e as usize);
             }
             let mut p0 = 0usize;
-            for (&[kk, at, dst, src, p1], &scale) in self.mults.iter().zip(&self.mult_scale) {
+            for (&[kk, at, p1], &scale) in self.mults.iter().zip(&self.mult_scale) {
                 let r = S::one() / *a.get_unchecked(kk as usize);
                 let l = *a.get_unchecked(at as usize) * r;
                 multiplier(l, scale);
                 *a.get_unchecked_mut(at as usize) = l;
-                if dst != NO_PAIR {
-                    let x = *a.get_unchecked(src as usize);
-                    let y = a.get_unchecked_mut(dst as usize);
-                    *y = *y - l * x;
-                }
                 for &[dst, src] in self.pairs.get_unchecked(p0..p1 as usize) {
                     let x = *a.get_unchecked(src as usize);
                     let y = a.get_unchecked_mut(dst as usize);
@@ -379,22 +370,8 @@ impl Factoring {
         }
     }
 
-    /// The first position whose pivot's figure (J_s's |u_pp| c_p / r_p) is
-    /// `small` (the smallest, `run`'s), a: the factors: the one a loop over
-    /// the positions in order taking each strictly smaller figure would keep.
-    pub fn smallest(&self, a: &[f64], small: f64) -> usize {
-        let free = self.free.iter().find(|&&(at, _, scale)| (a[at as usize] * scale).abs() == small);
-        let at = free.map_or(NONE, |f| f.1 as usize);
-        let one = self.first_one as usize;
-        if one < self.diag.len() && self.ones_small == small && one < at {
-            return one;
-        }
-        at
-    }
-
     /// Assembles and factorises into a (Factors::j) from the Jacobian's
-    /// values; the pivots' figures (J_s's: det times `sign`; the smallest's
-    /// position not figured, `smallest` finds it on demand), None where a
+    /// values; the pivots' figures (J_s's: det times `sign`), None where a
     /// pivot is zero or not finite, a multiplier of J_s above MULTIPLIER or
     /// a folded pivot not exactly 1.
     #[inline]
@@ -409,32 +386,30 @@ impl Factoring {
             if !ok {
                 return None;
             }
-            // the free pivots' |d| as bits: positive figures order as their bits, so the
-            // smallest and largest are the integers' (the same figures); a zero is the
-            // bits 0, an infinity or a NaN above f64::MAX's; det's sign the sign bits' parity
-            // (the top bit of all the bits' exclusive or)
-            let (mut small, mut big, mut neg) = (f64::INFINITY.to_bits(), 0u64, 0u64);
-            for &(at, _, scale) in &self.free {
-                let d = (*a.get_unchecked(at as usize) * scale).to_bits();
-                neg ^= d;
-                let x = d & !(1 << 63);
-                small = small.min(x);
-                big = big.max(x);
+            let mut acc = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det: sign };
+            for &(at, p, scale) in &self.free {
+                let d = *a.get_unchecked(at as usize) * scale;
+                let x = d.abs();
+                if !(x > 0.0 && x <= f64::MAX) {
+                    return None; // zero or not finite
+                }
+                if d < 0.0 {
+                    acc.det = -acc.det;
+                }
+                acc.take(x, p as usize);
+                if x > acc.big {
+                    acc.big = x; // f64::max's figure: neither is NaN
+                }
             }
-            if small == 0 || big > f64::MAX.to_bits() {
-                return None; // zero or not finite
-            }
-            let det = if neg >> 63 == 1 { -sign } else { sign };
-            // `at` is not figured here (the step reads the ratio and det): Triangular::pivots finds it
-            let mut acc = Pivots { small: f64::from_bits(small), big: f64::from_bits(big), at: NONE, det };
             if (self.first_one as usize) < self.diag.len() {
-                // the folded pivots, each exactly 1 (checked above): J_s's c_p / r_p (no
-                // figure is NaN: compared, not f64::min / max with their NaN handling)
-                if self.ones_small < acc.small {
-                    acc.small = self.ones_small;
+                // the folded pivots, each exactly 1 (checked above): J_s's c_p / r_p, the
+                // smallest at the first position of the least, as the loop over all of them takes it
+                let p = self.first_one as usize;
+                if self.ones_small < acc.small || (self.ones_small == acc.small && p < acc.at) {
+                    (acc.small, acc.at) = (self.ones_small, p);
                 }
                 if self.ones_big > acc.big {
-                    acc.big = self.ones_big;
+                    acc.big = self.ones_big; // f64::max's figure: neither is NaN
                 }
             }
             Some(acc)
@@ -685,7 +660,7 @@ impl Triangular {
     /// blocks' order) of the factors.
     pub fn pivots(&self, f: &Factors) -> (f64, i32, usize) {
         if let Some(p) = &f.fixed[0] {
-            return (p.ratio(), p.det, self.factoring.smallest(&f.j, p.small));
+            return (p.ratio(), p.det, p.at);
         }
         let n = self.gather.len();
         let mut acc = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det: self.whole_sign };
