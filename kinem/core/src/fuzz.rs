@@ -190,8 +190,7 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
         let Shape::Triangular(t) = &layout.shape else { panic!("trial {trial}: not triangular") };
         t.check().unwrap();
         let folded = t.factoring.ones.len();
-        let positions: usize = t.program.steps.iter().map(|d| d[1] as usize).sum();
-        assert_eq!(positions + folded, n, "trial {trial}: one division per position not folded or dense");
+        assert_eq!(t.program.divs.len() + folded, n, "trial {trial}: one division per position not folded");
         for _ in 0..4 {
             let mut values: Vec<f64> =
                 rows.iter().map(|_| rng.unit() + if rng.below(2) == 0 { 2.0 } else { -2.0 }).collect();
@@ -250,17 +249,12 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
         }
         // any index of the program or the factoring moved out of range is refused
         let mut p = t.program.clone();
-        let k = rng.below(p.subs.len() as u64 + p.steps.len() as u64) as usize;
+        let k = rng.below(p.subs.len() as u64 + p.divs.len() as u64) as usize;
         let far = (p.positions.max(p.values) + rng.below(5) as usize) as u32;
         if k < p.subs.len() {
             p.subs[k][rng.below(3) as usize] = far;
         } else {
-            // a division's position or value; a dense block's places (or one of them) or factors
-            let d = &mut p.steps[k - p.subs.len()];
-            match rng.below(3) {
-                0 if d[1] > 1 => p.places[d[2] as usize] = far,
-                x => d[2 + (x % 2) as usize] = far,
-            }
+            p.divs[k - p.subs.len()][1 + rng.below(2) as usize] = far;
         }
         assert!(p.check().is_err(), "trial {trial}: a corrupted program passed its check");
         let mut fa = t.factoring.clone();

@@ -11,7 +11,6 @@
 pub mod accept;
 pub mod columns;
 pub mod decompose;
-pub mod dense;
 pub mod families;
 pub mod functions;
 pub mod lane_lu;

@@ -306,7 +306,7 @@ impl Order {
     /// Appends `numeric` (without its skip of a zero multiplier) to a
     /// factoring (crate::triangular::Factoring), the block's factors from
     /// `store`: its fill to clear, its entries' placement (`place`, set by
-    /// the caller), its multipliers (each with its step's pivot) and its pivots.
+    /// the caller), its steps and its pivots.
     pub fn factoring(&self, store: usize, f: &mut crate::triangular::Factoring) {
         let (s, u) = (self.s, |x: usize| x as u32);
         f.clear.extend(self.fill_at.iter().map(|&at| u(store + at)));
@@ -317,8 +317,9 @@ impl Order {
             for &(i, at) in &self.mult[lo as usize..hi as usize] {
                 let i = i as usize * s;
                 f.pairs.extend(right.iter().map(|&j| [u(store + i + j as usize), u(store + k * s + j as usize)]));
-                f.mults.push([u(store + k * s + k), u(store + at as usize), u(f.pairs.len())]);
+                f.mults.push([u(store + at as usize), u(f.pairs.len())]);
             }
+            f.steps.push([u(store + k * s + k), u(f.mults.len())]);
         }
         f.diag.extend((0..s).map(|k| u(store + k * s + k)));
     }

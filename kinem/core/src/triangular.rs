@@ -21,22 +21,14 @@ use crate::real::Real;
 /// A solve's forward and back substitution as one flat program over the
 /// places w (the positions, renumbered to the coordinates once built:
 /// `Program::renumber`, `Triangular::run`) and the factors' values a (issue
-/// 31 item 4): `steps[k] = [end, 1, r, v]` runs the subtractions
-/// `subs[..end]` not yet run (`[i, c, u]`: w[i] -= a[u] w[c]), then w[r] /=
-/// a[v]. One tight loop, no branch on the structure but a step's size; the
-/// division's order and operands are the elimination's, so the figures are
-/// those of the loops it replaces, to the bit.
-///
-/// A diagonal block of 2 to crate::dense::LIMIT coordinates is one step
-/// `[end, s, p, store]` run by a dense kernel (crate::dense, issue 31 round
-/// 15) instead of its subtractions and divisions: its s places
-/// `places[p..p + s]` (its coordinates in its fixed order), its factors
-/// `a[store..store + s s]`. Its figures are the lists' to the bit but for
-/// the sign of a zero (crate::dense).
+/// 31 item 4): `divs[k] = [end, r, v]` runs the subtractions `subs[..end]`
+/// not yet run (`[i, c, u]`: w[i] -= a[u] w[c]), then w[r] /= a[v]. One tight loop, no branch on the
+/// structure; the division's order and operands are the elimination's, so
+/// the figures are those of the loops it replaces, to the bit.
 ///
 /// A 1x1 block whose pivot is a constant +1 (a ground's or a driver's row,
 /// `Factoring::one_entries` checks it each factorisation) has no division: its
-/// subtractions run with the next step's, or after the last one.
+/// subtractions run with the next division's, or after the last one.
 ///
 /// The quiet positions: 1x1 blocks folded (pivot +1) with no subtraction
 /// into them and a row whose nu was zero at every trial (a ground's): their
@@ -47,20 +39,18 @@ use crate::real::Real;
 /// the same order, so the figures are the full program's.
 ///
 /// Invariants, checked once by `Program::check` when the model is built
-/// (and by debug assertions in `run`): every position i, c, r and place
-/// below `positions`, every value index u, v and dense block's factors below
-/// `values`, the ends ascend up to subs.len(). `run` asserts that its slices
-/// are that long.
+/// (and by debug assertions in `run`): every position i, c, r is below
+/// `positions`, every value index u, v below `values`, the ends ascend up
+/// to subs.len(). `run` asserts that its slices are that long.
 #[derive(Clone, Debug, Default)]
 pub struct Program {
     pub subs: Vec<[u32; 3]>,
-    pub steps: Vec<[u32; 4]>,
-    pub places: Vec<u32>,
+    pub divs: Vec<[u32; 3]>,
     pub positions: usize,
     pub values: usize,
     pub quiet: Vec<u32>,
-    /// (subs, steps) without the subtractions that read a quiet position
-    pub short: (Vec<[u32; 3]>, Vec<[u32; 4]>),
+    /// (subs, divs) without the subtractions that read a quiet position
+    pub short: (Vec<[u32; 3]>, Vec<[u32; 3]>),
 }
 
 impl Program {
@@ -69,39 +59,27 @@ impl Program {
     }
 
     pub fn div(&mut self, r: usize, v: usize) {
-        self.steps.push([self.subs.len() as u32, 1, r as u32, v as u32]);
-    }
-
-    /// A dense block of s positions from `at`, its factors from `store`.
-    pub fn dense_block(&mut self, at: usize, s: usize, store: usize) {
-        let u = |x: usize| x as u32;
-        self.steps.push([u(self.subs.len()), u(s), u(self.places.len()), u(store)]);
-        self.places.extend((at..at + s).map(u));
-    }
-
-    /// The positions the steps write: the divisions' and the dense blocks' places.
-    fn written(&self) -> impl Iterator<Item = u32> + '_ {
-        (self.steps.iter().filter(|d| d[1] == 1).map(|d| d[2])).chain(self.places.iter().copied())
+        self.divs.push([self.subs.len() as u32, r as u32, v as u32]);
     }
 
     /// The program without the subtractions that read the quiet positions
-    /// `quiet` (each a position no subtraction or step writes), set as
+    /// `quiet` (each a position no subtraction or division writes), set as
     /// `short`; none where no subtraction reads one.
     pub fn quieten(&mut self, quiet: Vec<u32>) {
         let read = |s: &[u32; 3]| quiet.contains(&s[1]);
-        if quiet.iter().any(|&q| self.subs.iter().any(|s| s[0] == q) || self.written().any(|r| r == q))
+        if quiet.iter().any(|&q| self.subs.iter().any(|s| s[0] == q) || self.divs.iter().any(|d| d[1] == q))
             || !self.subs.iter().any(read)
         {
             return;
         }
-        // kept[e]: the subtractions kept among subs[..e]
-        let mut kept = vec![0u32];
-        for sub in &self.subs {
-            kept.push(kept[kept.len() - 1] + !read(sub) as u32);
+        let (mut subs, mut divs, mut from) = (Vec::new(), Vec::new(), 0);
+        for &[end, r, v] in &self.divs {
+            subs.extend(self.subs[from..end as usize].iter().filter(|s| !read(s)));
+            divs.push([subs.len() as u32, r, v]);
+            from = end as usize;
         }
-        let subs = self.subs.iter().filter(|s| !read(s)).copied().collect();
-        let steps = self.steps.iter().map(|&[end, s, r, v]| [kept[end as usize], s, r, v]).collect();
-        (self.quiet, self.short) = (quiet, (subs, steps));
+        subs.extend(self.subs[from..].iter().filter(|s| !read(s)));
+        (self.quiet, self.short) = (quiet, (subs, divs));
     }
 
     /// The program over other places: position p becomes to[p] (a
@@ -113,12 +91,9 @@ impl Program {
             at(i);
             at(c);
         }
-        for [_, s, r, _] in self.steps.iter_mut().chain(self.short.1.iter_mut()) {
-            if *s == 1 {
-                at(r);
-            }
+        for [_, r, _] in self.divs.iter_mut().chain(self.short.1.iter_mut()) {
+            at(r);
         }
-        self.places.iter_mut().for_each(at);
         self.quiet.iter_mut().for_each(at);
     }
 
@@ -131,23 +106,14 @@ impl Program {
         if let Some(q) = self.quiet.iter().find(|&&q| q as usize >= p) {
             return Err(format!("program: quiet position {q} outside {p} positions"));
         }
-        if let Some(x) = self.places.iter().find(|&&x| x as usize >= p) {
-            return Err(format!("program: place {x} outside {p} positions"));
-        }
-        for (subs, steps) in [(&self.subs, &self.steps), (&self.short.0, &self.short.1)] {
+        for (subs, divs) in [(&self.subs, &self.divs), (&self.short.0, &self.short.1)] {
             if let Some(s) = subs.iter().find(|s| s[0] as usize >= p || s[1] as usize >= p || s[2] as usize >= v) {
                 return Err(format!("program: subtraction {s:?} outside {p} positions, {v} values"));
             }
             let mut end = 0;
-            for d in steps {
-                let (s, r, at) = (d[1] as usize, d[2] as usize, d[3] as usize);
-                let fits = if s == 1 {
-                    r < p && at < v
-                } else {
-                    crate::dense::fits(s) && r + s <= self.places.len() && at + s * s <= v
-                };
-                if d[0] < end || d[0] as usize > subs.len() || !fits {
-                    return Err(format!("program: step {d:?} out of order or range"));
+            for d in divs {
+                if d[0] < end || d[0] as usize > subs.len() || d[1] as usize >= p || d[2] as usize >= v {
+                    return Err(format!("program: division {d:?} out of order or range"));
                 }
                 end = d[0];
             }
@@ -159,43 +125,34 @@ impl Program {
     /// variants' lanes (crate::lane_lu) or over several right-hand sides
     /// at once (crate::sensitivity), the same operations in the same order
     /// (`short` where every quiet position is zero in every lane).
-    #[inline(always)]
+    #[inline]
     pub fn run<A: Copy, W: Cell<A>>(&self, a: &[A], w: &mut [W]) {
         assert!(a.len() >= self.values && w.len() >= self.positions);
         debug_assert!(self.check().is_ok());
         // SAFETY: Program::check (when built): every quiet position below `positions` <= w.len()
         let quiet = !self.quiet.is_empty() && self.quiet.iter().all(|&q| unsafe { w.get_unchecked(q as usize) }.zero());
-        let (subs, steps) = if quiet { (&self.short.0, &self.short.1) } else { (&self.subs, &self.steps) };
+        let (subs, divs) = if quiet { (&self.short.0, &self.short.1) } else { (&self.subs, &self.divs) };
         let mut from = 0;
-        // SAFETY (every unchecked index below): Program::check (when built): the ends ascend up
-        // to subs.len(), every position and place below `positions` <= w.len(), every value and
-        // dense block's factors below `values` <= a.len()
-        unsafe {
-            for &[end, s, r, v] in steps {
-                let end = end as usize;
-                subtract(subs.get_unchecked(from..end), a, w);
-                if s == 1 {
-                    w.get_unchecked_mut(r as usize).div(*a.get_unchecked(v as usize));
-                } else {
-                    let (s, r) = (s as usize, r as usize);
-                    crate::dense::solve(s, a.get_unchecked(v as usize..), self.places.get_unchecked(r..r + s), w);
+        for &[end, r, v] in divs {
+            let end = end as usize;
+            // SAFETY: Program::check (when built): from <= end <= subs.len(), every
+            // position below `positions` <= w.len(), every value below `values` <= a.len()
+            unsafe {
+                for &[i, c, u] in subs.get_unchecked(from..end) {
+                    let x = *w.get_unchecked(c as usize);
+                    w.get_unchecked_mut(i as usize).sub_mul(*a.get_unchecked(u as usize), x);
                 }
-                from = end;
+                w.get_unchecked_mut(r as usize).div(*a.get_unchecked(v as usize));
             }
-            subtract(subs.get_unchecked(from..), a, w);
+            from = end;
         }
-    }
-}
-
-/// The subtractions `subs` (w[i] -= a[u] w[c]).
-///
-/// # Safety
-/// every position below w.len(), every value below a.len().
-#[inline(always)]
-unsafe fn subtract<A: Copy, W: Cell<A>>(subs: &[[u32; 3]], a: &[A], w: &mut [W]) {
-    for &[i, c, u] in subs {
-        let x = *w.get_unchecked(c as usize);
-        w.get_unchecked_mut(i as usize).sub_mul(*a.get_unchecked(u as usize), x);
+        // SAFETY: as above (from <= subs.len())
+        for &[i, c, u] in unsafe { subs.get_unchecked(from..) } {
+            unsafe {
+                let x = *w.get_unchecked(c as usize);
+                w.get_unchecked_mut(i as usize).sub_mul(*a.get_unchecked(u as usize), x);
+            }
+        }
     }
 }
 
@@ -247,13 +204,11 @@ impl<const N: usize> Cell<f64> for [f64; N] {
 /// The blocks' factorisation as flat lists over Factors::j (issue 31 item
 /// 4): the fill to clear, every entry's placement (values[e] at `at`:
 /// off-diagonal, 1x1 and larger blocks alike, but for the folded pivots:
-/// `ones`), then the multipliers of the larger blocks' fixed orders'
-/// elimination steps, step after step (`[pivot, at, end]`: l = a[at] /
-/// pivot, as a[at] times the pivot's reciprocal, then a[dst] -= l a[src]
-/// for `pairs[..end]`), then the n pivots `diag` (position order) read for
-/// the figures. A step's reciprocal is taken again for each of its
-/// multipliers (the same figure: its pivot is not written in the step; one
-/// loop, no step's loop around it). The same operations, in the same order, as
+/// `ones`), then each
+/// elimination step `[pivot, end]` of the larger blocks' fixed orders, its
+/// multipliers `mults[..end]` (`[at, end]`: l = a[at] / pivot, then a[dst]
+/// -= l a[src] for `pairs[..end]`), then the n pivots `diag` (position
+/// order) read for the figures. The same operations, in the same order, as
 /// Order::numeric block after block (the skip of a zero multiplier dropped;
 /// a multiplier above MULTIPLIER still rejects the order, after the loop).
 ///
@@ -271,7 +226,8 @@ impl<const N: usize> Cell<f64> for [f64; N] {
 pub struct Factoring {
     pub clear: Vec<u32>,
     pub place: Vec<[u32; 2]>,
-    pub mults: Vec<[u32; 3]>,
+    pub steps: Vec<[u32; 2]>,
+    pub mults: Vec<[u32; 2]>,
     /// per multiplier: r_k / r_i (its row i's and pivot k's row scales)
     pub mult_scale: Vec<f64>,
     pub pairs: Vec<[u32; 2]>,
@@ -303,7 +259,8 @@ impl Factoring {
         if v >= u32::MAX as usize
             || self.clear.iter().any(|&x| bad(x))
             || self.place.iter().any(|&[e, at]| e as usize >= self.entries || bad(at))
-            || self.mults.iter().any(|m| bad(m[0]) || bad(m[1]))
+            || self.steps.iter().any(|s| bad(s[0]))
+            || self.mults.iter().any(|m| bad(m[0]))
             || self.pairs.iter().any(|p| bad(p[0]) || bad(p[1]))
             || self.diag.iter().any(|&x| bad(x))
             || self.ones.iter().any(|&x| bad(x))
@@ -324,7 +281,9 @@ impl Factoring {
             }
             last as usize == len
         };
-        if !ascending(&mut self.mults.iter().map(|m| m[2]), self.pairs.len()) {
+        if !ascending(&mut self.steps.iter().map(|s| s[1]), self.mults.len())
+            || !ascending(&mut self.mults.iter().map(|m| m[1]), self.pairs.len())
+        {
             return Err("factoring: ends out of order".into());
         }
         Ok(())
@@ -354,18 +313,22 @@ impl Factoring {
             for &[e, at] in &self.place {
                 *a.get_unchecked_mut(at as usize) = *values.get_unchecked(e as usize);
             }
-            let mut p0 = 0usize;
-            for (&[kk, at, p1], &scale) in self.mults.iter().zip(&self.mult_scale) {
+            let (mut m0, mut p0) = (0usize, 0usize);
+            for &[kk, m1] in &self.steps {
                 let r = S::one() / *a.get_unchecked(kk as usize);
-                let l = *a.get_unchecked(at as usize) * r;
-                multiplier(l, scale);
-                *a.get_unchecked_mut(at as usize) = l;
-                for &[dst, src] in self.pairs.get_unchecked(p0..p1 as usize) {
-                    let x = *a.get_unchecked(src as usize);
-                    let y = a.get_unchecked_mut(dst as usize);
-                    *y = *y - l * x;
+                let scales = self.mult_scale.get_unchecked(m0..m1 as usize);
+                for (&[at, p1], &scale) in self.mults.get_unchecked(m0..m1 as usize).iter().zip(scales) {
+                    let l = *a.get_unchecked(at as usize) * r;
+                    multiplier(l, scale);
+                    *a.get_unchecked_mut(at as usize) = l;
+                    for &[dst, src] in self.pairs.get_unchecked(p0..p1 as usize) {
+                        let x = *a.get_unchecked(src as usize);
+                        let y = a.get_unchecked_mut(dst as usize);
+                        *y = *y - l * x;
+                    }
+                    p0 = p1 as usize;
                 }
-                p0 = p1 as usize;
+                m0 = m1 as usize;
             }
         }
     }
@@ -513,12 +476,10 @@ impl Triangular {
             match &d.order {
                 None if folded[k] => {}
                 None => p.div(d.at, d.store),
-                Some(_) if crate::dense::fits(d.s) => p.dense_block(d.at, d.s, d.store),
                 Some(o) => o.program(d.at, d.store, &mut p),
             }
         }
-        let solved: usize = p.steps.iter().map(|d| d[1] as usize).sum();
-        if next != off.len() || solved + folded.iter().filter(|&&f| f).count() != n {
+        if next != off.len() || p.divs.len() + folded.iter().filter(|&&f| f).count() != n {
             return Err("program: an off-diagonal entry out of order, or a position without its pivot".into());
         }
         let quiet = (blocks.iter().enumerate())
@@ -564,7 +525,7 @@ impl Triangular {
                         let x = at as usize - d.store;
                         (d.at + x / d.s, d.at + x % d.s)
                     };
-                    let scales = f.mults[from..].iter().map(|m| rows(m[1])).map(|(i, k)| row_scale[k] / row_scale[i]);
+                    let scales = f.mults[from..].iter().map(|m| rows(m[0])).map(|(i, k)| row_scale[k] / row_scale[i]);
                     f.mult_scale.extend(scales.collect::<Vec<_>>());
                 }
             }
