@@ -2,9 +2,9 @@
 against the plain solve: every listed parameter's d/dp of positions,
 velocities and accelerations at every output instant should cost at most
 (1 + 0.5 P) plain solves (P parameters). P = 1 is run for the case's
-first parameter and for a moving link's dimension (DIMENSION). Round-robin runs (solve,
-sensitivity, the core's part alone), each warm (right after an untimed call
-of the same); medians of the process's CPU time (the machine is shared:
+first parameter and for a moving link's dimension (DIMENSION).
+Round-robin runs (solve, sensitivity, the core's part alone), each warm
+(right after an untimed call of the same); medians of the process's CPU time (the machine is shared:
 CPU time is what the call itself spends, the same measure on both sides)
 and of wall time; and the same ratio for first calls, each on a model
 just compiled (nothing kept by the model from an earlier call). Per case: the core's part (Plan.sensitivity with

@@ -4,7 +4,7 @@
 //! (r + A s', its first and second derivatives, Eqs. 4.43-4.45).
 //! Over S = Dual (crate::real) it gives the columns' tangents along a
 //! design parameter (kinem.sensitivity) from the coordinates' tangents.
-use crate::families::lane;
+use crate::families::{iz, lane};
 use crate::real::{cis, i, Lanes, Real};
 use num_complex::{Complex, Complex64 as C64};
 
@@ -119,7 +119,8 @@ impl Columns<'_> {
             let mut put = |i: usize, v: [f64; N]| unsafe { *out.get_unchecked_mut(2 * stages * j + i) = v };
             // dE = i E dphi + d(s') e
             let phi = at(0, c + 2);
-            let de: [C64; N] = std::array::from_fn(|l| C64::new(-big.im, big.re) * phi[l] + lane(s, l).1 * e);
+            let ib = iz(big);
+            let de: [C64; N] = std::array::from_fn(|l| ib * phi[l] + lane(s, l).1 * e);
             let (x0, y0) = (at(0, c), at(0, c + 1));
             put(0, std::array::from_fn(|l| x0[l] + de[l].re));
             put(1, std::array::from_fn(|l| y0[l] + de[l].im));
