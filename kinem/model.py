@@ -208,6 +208,11 @@ class Model:
         return Options.of(self.case)
 
     @cached_property
+    def derived_frames(self) -> bool:
+        """Whether a body's frame derives from drawn points (``Body.derived``)."""
+        return any(b.derived for b in self.case.bodies)
+
+    @cached_property
     def times(self) -> np.ndarray:
         """The case's output instants (read-only)."""
         t = self.case.times

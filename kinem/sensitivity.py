@@ -116,18 +116,19 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     t = traj.t
     columns, _, column = _layout(model, levels)
     width = len(columns)
-    for k, p in enumerate(listed if any(b.derived for b in case.bodies) else ()):   # no frame moves otherwise
+    for k, p in enumerate(listed if model.derived_frames else ()):   # no frame moves otherwise
         _derived_frames(case, p.path, columns, data[:, k * width:(k + 1) * width], traj)
     floor = singular_pivot(options.tolerance)
-    singular = ~(ratio >= floor)
+    regular = not len(ratio) or ratio.min() >= floor   # (a NaN ratio is singular: its min is NaN)
+    singular = np.zeros(len(ratio), bool) if regular else ~(ratio >= floor)
     message = "exact at every instant"
-    if singular.any():
+    if not regular:
         data[singular] = np.inf
         at = ", ".join(f"{x:.6g}" for x in t[singular][:5]) + (" ..." if singular.sum() > 5 else "")
         message = (f"Phi_q singular (pivot ratio below {floor:.2g}) at {int(singular.sum())} instant(s), t = {at}: "
                    "the derivatives there are infinite")
     names = _names(model, columns, listed)
-    derivatives = Trajectory(t.copy(), names, data, _Places(columns, [p.path for p in listed], column))
+    derivatives = Trajectory(t, names, data, _Places(columns, [p.path for p in listed], column))   # t: read-only
     return Sensitivity(listed, traj, derivatives, singular, ratio, message)
 
 
@@ -211,8 +212,10 @@ def _resolved(model, paths) -> tuple:
     found once per model."""
     known = _kept(model)[0]
     paths = list(dict.fromkeys(paths))
-    if all(p in known for p in paths):
-        return tuple(known[p] for p in paths)
+    try:
+        return tuple([known[p] for p in paths])
+    except (KeyError, TypeError):   # a path not resolved yet (or not a string: resolve words the error)
+        pass
     listed = resolve(model.case, paths)
     known.update((p.path, p) for p in listed)
     return listed
@@ -276,7 +279,7 @@ def _fused(model, tangents, outputs, times, options):
     X, figures, ints = np.empty((3, nt, model.n)), np.zeros((2, nt)), np.zeros(nt + 2, np.int64)
     data, ratio = np.empty((nt, len(core) * len(src))), np.empty(nt)
     times = np.ascontiguousarray(times, float)
-    settings = options.step_settings[True] + (float(Budget(model, options).left()),)
+    settings = options.step_settings[True] + (float(Budget(model, options).left()),)   # (the call's time left)
     end, _ = model.plan.march_sensitivity(times, st, settings, X, figures, ints, _setup(model, tangents, src),
                                           data, ratio)
     if end < nt or violation(model, X[0, 0]):

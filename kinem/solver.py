@@ -35,6 +35,8 @@ def _checked_times(times):
     """times as a float array: one or more finite, strictly increasing instants (InputError otherwise)."""
     if times is None:
         return None
+    if type(times) is np.ndarray and times.dtype == np.float64 and times.ndim == 1 and native.increasing(times):
+        return times   # the usual call: checked in one pass by the core
     t = _floats("times", times, "a sequence of numbers")
     # increasing strictly between finite ends: every instant finite (a NaN fails the comparison)
     if t.ndim == 1 and len(t) and math.isfinite(t[0]) and math.isfinite(t[-1]) and \

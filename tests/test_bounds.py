@@ -245,6 +245,29 @@ def test_api_messages_name_the_parameter_not_a_flag(slider, tmp_path):
     assert "--out" not in str(e.value) and str(e.value).startswith("animate: path")
 
 
+BAD_TIMES = {
+    "nan": [0.0, float("nan"), 1.0], "inf at the end": [0.0, 1.0, float("inf")], "-inf first": [-np.inf, 0.0],
+    "equal": [0.0, 0.5, 0.5], "decreasing": [1.0, 0.5], "empty": [], "nan alone": [float("nan")],
+    "2-D": [[0.0, 1.0]], "strided back": np.arange(4.0)[::-1],
+}
+
+
+@pytest.mark.parametrize("what", sorted(BAD_TIMES))
+@pytest.mark.parametrize("kind", ["list", "float64", "float32"])
+def test_bad_times_are_refused_however_given(slider, what, kind):
+    # the core's one-pass check (native.increasing) and the worded check agree on every form
+    given = BAD_TIMES[what]
+    times = given if kind == "list" else np.asarray(given, np.float64 if kind == "float64" else np.float32)
+    with pytest.raises(kinem.InputError, match="times"):
+        kinem.solve(slider, times=times)
+
+
+@pytest.mark.parametrize("times", [[0.25], [0.0, 1e-9, 0.5], np.linspace(0.0, 0.5, 7)[::2], [0, 1, 2]])
+def test_good_times_pass_however_given(slider, times):
+    r = kinem.solve(slider, times=times, outputs=("positions",))
+    assert r.success and np.array_equal(r.trajectory.t, np.asarray(times, float))
+
+
 PROBES = {
     "load": lambda m, r: kinem.load(123),
     "compile": lambda m, r: kinem.compile("case.toml"),

@@ -61,6 +61,18 @@ pub(crate) fn outline_radius<'py>(
     out2(py, v, 4, n)
 }
 
+/// Whether t holds one or more instants, finite and each after the one
+/// before (kinem.solver's check of a solve's times, which words the error
+/// when not): the ends finite and every step positive (a NaN fails it).
+#[pyfunction]
+pub(crate) fn increasing(t: PyReadonlyArray1<'_, f64>) -> bool {
+    let t = vec1(&t);
+    match (t.first(), t.last()) {
+        (Some(a), Some(b)) => a.is_finite() && b.is_finite() && t.windows(2).all(|w| w[1] > w[0]),
+        _ => false,
+    }
+}
+
 /// Panics inside the core with `message`, without the GIL or (`held`) with
 /// it (tests/test_core.py: a panic reaches Python as
 /// kinem.errors.CoreError, never an abort nor a PanicException).

@@ -191,6 +191,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(functions::_panic, m)?)?;
     m.add_function(wrap_pyfunction!(functions::functions, m)?)?;
     m.add_function(wrap_pyfunction!(functions::outline_radius, m)?)?;
+    m.add_function(wrap_pyfunction!(functions::increasing, m)?)?;
     m.add_class::<Plan>()?;
     m.add_class::<plan::SensSetup>()?;
     m.add_class::<Lu>()?;
