@@ -28,6 +28,7 @@ At an instant where Phi_q is singular (its pivot ratio below the solver's
 floor, kinem.options.singular_pivot) the derivatives are infinite: they are
 reported as inf, flagged in ``singular`` and named in ``message``.
 """
+import math
 import time
 import weakref
 from collections.abc import Mapping
@@ -94,14 +95,21 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     paths = [parameters] if isinstance(parameters, str) else list(parameters)
     if not paths:
         raise InputError(f"{case.source}: sensitivity: no parameters; expected one or more parameter paths")
-    listed = _resolved(model, paths)
-    if model.m != model.n:
-        raise KinemError(f"{case.source}: sensitivities need as many equations as coordinates "
-                         f"({model.m} equations, {model.n} coordinates: redundant constraints)")
+    calls = _kept(model)[5]
+    try:
+        key = tuple(paths)
+        listed, tangents = calls[key]   # a warm call: resolved and checked before (the model does not change)
+    except (KeyError, TypeError):   # (TypeError: a path that is no string, which _resolved words)
+        listed = _resolved(model, paths)
+        if model.m != model.n:
+            raise KinemError(f"{case.source}: sensitivities need as many equations as coordinates "
+                             f"({model.m} equations, {model.n} coordinates: redundant constraints)") from None
+        if model.plan is None:
+            raise KinemError(f"{case.source}: sensitivities need the compiled march's layout, which this model "
+                             "has not") from None
+        tangents = tangent_inputs(model, listed)
+        calls[key] = listed, tangents
     plan = model.plan
-    if plan is None:
-        raise KinemError(f"{case.source}: sensitivities need the compiled march's layout, which this model has not")
-    tangents = tangent_inputs(model, listed)
     fused = _fused(model, tangents, outputs, times, options)
     if fused is None:   # the march does not take the model or every instant: solve, then the separate pass
         result = solve(model, outputs, times, options=options)
@@ -127,8 +135,10 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
         at = ", ".join(f"{x:.6g}" for x in t[singular][:5]) + (" ..." if singular.sum() > 5 else "")
         message = (f"Phi_q singular (pivot ratio below {floor:.2g}) at {int(singular.sum())} instant(s), t = {at}: "
                    "the derivatives there are infinite")
-    names = _names(model, columns, listed)
-    derivatives = Trajectory(t, names, data, _Places(columns, [p.path for p in listed], column))   # t: read-only
+    own = calls.get((key, columns))
+    if own is None:   # the derivatives' names and places, kept for the same paths and columns
+        own = calls[key, columns] = _names(model, columns, listed), _Places(columns, [p.path for p in listed], column)
+    derivatives = Trajectory(t, own[0], data, own[1])   # t: the trajectory's, read-only
     return Sensitivity(listed, traj, derivatives, singular, ratio, message)
 
 
@@ -179,16 +189,17 @@ def core_inputs(model, listed, result) -> tuple:
 
 # model -> ({path: its Parameter}, {path: (its core tangent, its points' dlocal)}, {(path,
 # columns): its derivatives' names}, {paths: tangent_inputs' tuple}, {(id(that tuple),
-# its levels): (it, the plan, the core's set-up for it: Plan.sensitivity_setup)}): what a call
-# works out from the model and a path alone, kept for the model's next calls (as
-# kinem.result._LAYOUTS keeps its columns), read-only
+# its levels): (it, the plan, the core's set-up for it: Plan.sensitivity_setup)}, {a call's
+# tuple of paths: (its Parameters, tangent_inputs'); (that tuple, columns): (the derivatives'
+# names, their _Places)}): what a call works out from the model and its paths alone, kept
+# for the model's next calls (as kinem.result._LAYOUTS keeps its columns), read-only
 _KEPT = weakref.WeakKeyDictionary()
 
 
 def _kept(model) -> tuple:
     kept = _KEPT.get(model)
     if kept is None:
-        kept = _KEPT[model] = ({}, {}, {}, {}, {})
+        kept = _KEPT[model] = ({}, {}, {}, {}, {}, {})
     return kept
 
 
@@ -279,7 +290,8 @@ def _fused(model, tangents, outputs, times, options):
     X, figures, ints = np.empty((3, nt, model.n)), np.zeros((2, nt)), np.zeros(nt + 2, np.int64)
     data, ratio = np.empty((nt, len(core) * len(src))), np.empty(nt)
     times = np.ascontiguousarray(times, float)
-    settings = options.step_settings[True] + (float(Budget(model, options).left()),)   # (the call's time left)
+    left = math.inf if options.max_seconds is None else float(Budget(model, options).left())   # the call's time left
+    settings = options.step_settings[True] + (left,)
     end, _ = model.plan.march_sensitivity(times, st, settings, X, figures, ints, _setup(model, tangents, src),
                                           data, ratio)
     if end < nt or violation(model, X[0, 0]):
