@@ -146,24 +146,35 @@ pub fn most(g: f64, v: f64) -> f64 {
     }
 }
 
+/// The least spacing of two states that `lagrange` extrapolates through, as
+/// a fraction of its step: sub-steps (halvings of an output interval) stay far
+/// above it, so only states nearly at one instant are left out.
+pub const STATES_APART: f64 = 1e-8;
+
 /// q at t extrapolated through the states h (3 rows of n) at times tt (3),
-/// oldest first (NaN: none): Lagrange through those within four steps of t.
-/// Returns the order: the points used - 1 (0: no slope to judge a jump by;
-/// -1: none).
+/// oldest first (NaN: none): Lagrange through those within four steps of t
+/// and, newest first, more than STATES_APART of the step from every newer
+/// one taken: states closer together than that carry Newton's error (up to
+/// its tolerance) into the slope multiplied by the step over their spacing (a
+/// state 1e-40 s after the one before, then a step of 0.5 s: 5e39). Returns
+/// the order: the points used - 1 (0: no slope to judge a jump by; -1: none).
 pub fn lagrange(t: f64, tt: &[f64; 3], h: &[f64], q: &mut [f64]) -> i32 {
     let n = q.len();
     let step = t - tt[2];
     q.fill(0.0);
-    let near = |i: usize| t - tt[i] <= 4.0 * step;
+    let mut near = [false; 3];
+    for i in (0..3).rev() {
+        near[i] = t - tt[i] <= 4.0 * step && (i + 1..3).all(|j| !near[j] || tt[j] - tt[i] > STATES_APART * step);
+    }
     let mut used = 0;
     for i in 0..3 {
-        if !near(i) {
+        if !near[i] {
             continue;
         }
         used += 1;
         let mut w = 1.0;
         for j in 0..3 {
-            if j != i && near(j) {
+            if j != i && near[j] {
                 w *= (t - tt[j]) / (tt[i] - tt[j]);
             }
         }
@@ -304,6 +315,24 @@ mod tests {
         assert!((q[0] - f(0.3)).abs() < 1e-14);
         let none = [f64::NAN, f64::NAN, 0.2];
         assert_eq!(lagrange(0.3, &none, &h, &mut q), 0);
+    }
+
+    #[test]
+    fn lagrange_skips_states_too_close_for_the_step() {
+        // a state 1e-40 s after the one before, then a step of 0.5 s: the last state alone
+        let h = [f64::NAN, 1.0, 1.0 + 1e-16];
+        let mut q = [0.0];
+        assert_eq!(lagrange(0.5, &[f64::NAN, 0.0, 1e-40], &h, &mut q), 0);
+        assert_eq!(q[0], h[2]);
+        // the middle state too close to the newest: the line through the oldest and the newest
+        let f = |t: f64| 2.0 - 3.0 * t;
+        let tt = [0.0, 0.1, 0.1 + 1e-10];
+        let h: Vec<f64> = tt.iter().map(|&t| f(t)).collect();
+        assert_eq!(lagrange(0.6, &tt, &h, &mut q), 1);
+        assert!((q[0] - f(0.6)).abs() < 1e-13, "{}", q[0]);
+        // evenly spaced states are all taken, as are a sub-step's 2^-20 of the step
+        assert_eq!(lagrange(0.3, &[0.0, 0.1, 0.2], &[1.0, 1.0, 1.0], &mut q), 2);
+        assert_eq!(lagrange(1.0, &[f64::NAN, 0.0, 2f64.powi(-20)], &[0.0, 1.0, 1.0], &mut q), 1);
     }
 
     #[test]
