@@ -1199,4 +1199,54 @@ mod tests {
         }
         assert!(fixed >= 25, "the blocks' orders taken: {fixed} of 50");
     }
+
+    /// A restricted solve (Program::reached, as `Reach` uses it): for right
+    /// sides zero but at the rows of a random set, the reached places get
+    /// the full solve's figures (but for the sign of a zero) and every
+    /// place not reached is exactly zero in the full solve; the slider-crank's
+    /// pattern, every row alone and random sets.
+    #[test]
+    fn a_restricted_solve_is_the_full_ones_at_the_reached_places() {
+        let (rows, cols) = crate::decompose::tests::slider_crank();
+        let n = 12;
+        let scale = (0..n).map(|i| 1.0 + 0.1 * i as f64).collect();
+        let col_scale = (0..n).map(|j| 2.0 - 0.05 * j as f64).collect();
+        let mut layout = crate::plan::one_block(n, &rows, &cols, scale, col_scale);
+        let constant: Vec<bool> = rows.iter().map(|&r| r < 3).collect();
+        assert!(crate::plan::triangulate(&mut layout, &constant, &constant, &vec![false; rows.len()]));
+        let Shape::Triangular(t) = &layout.shape else { panic!("the slider-crank's layout is block-triangular") };
+        let mut seed = 5u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        };
+        let (mut partial, mut solved) = (0, 0);
+        for trial in 0..60 {
+            let values: Vec<f64> = rows.iter().map(|&r| if r < 3 || r == 11 { 1.0 } else { next() }).collect();
+            let mut f = layout.factors();
+            layout.factor(&values, &mut f);
+            if f.fixed[0].is_none() {
+                continue;
+            }
+            solved += 1;
+            let set: Vec<bool> = (0..n).map(|r| if trial < n { r == trial } else { next() > 0.6 }).collect();
+            let mut from = vec![false; n];
+            (0..n).filter(|&r| set[r]).for_each(|r| from[t.into[r] as usize] = true);
+            let (reached, program) = t.program.reached(&from);
+            let b: Vec<f64> = (0..n).map(|r| if set[r] { next() } else { 0.0 }).collect();
+            let mut full = vec![0.0; n];
+            layout.solve(&mut f, &b, &mut full);
+            let mut x = vec![0.0; n];
+            for r in (0..n).filter(|&r| reached[t.into[r] as usize]) {
+                x[t.into[r] as usize] = b[r];
+            }
+            program.run(&f.j, &mut x);
+            partial += reached.iter().any(|&r| !r) as usize;
+            for c in 0..n {
+                assert!(x[c] == full[c], "trial {trial}, place {c}: {} against {}", x[c], full[c]);
+                assert!(reached[c] || full[c] == 0.0, "trial {trial}: place {c} not reached, {}", full[c]);
+            }
+        }
+        assert!(solved >= 30 && partial >= 5, "{solved} solved, {partial} reaching part of the places");
+    }
 }
