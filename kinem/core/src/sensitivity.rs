@@ -509,6 +509,10 @@ struct Reach {
     direct: Vec<bool>,
     points: Vec<usize>,
     fixed: Option<Vec<f64>>,
+    /// the rows of Lanewise's flat this group does not write (its places
+    /// not reached at every level, its points not taken): zeroed before
+    /// the group where groups before it may have written them
+    unset: Vec<u32>,
 }
 
 impl Reach {
@@ -522,6 +526,7 @@ impl Reach {
             direct: vec![true; group.direct.len()],
             points: (0..points).collect(),
             fixed: None,
+            unset: Vec::new(),
         };
         let t = match &layout.shape {
             Shape::Triangular(t) if t.into.len() == m && m == n && t.program.positions == n => t,
@@ -549,6 +554,7 @@ impl Reach {
             direct: group.direct.iter().map(|f| f.rows.clone().any(|r| from[place(r)])).collect(),
             points: (0..points).filter(|&j| local(j) || (0..3).any(|i| reached[p.pc[j] + i])).collect(),
             fixed: None,
+            unset: Vec::new(),
         }
     }
 }
@@ -644,7 +650,16 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             .all(|g| g.direct.iter().all(|f| f.v.end <= g.kept.0 && f.d.end <= g.kept.1 && f.rows.end <= m)));
         let zl = || vec![Lanes::<N>::c(0.0); n];
         let cl = || vec![Complex::new(Lanes::<N>::c(0.0), Lanes::<N>::c(0.0)); n];
-        let reach: Vec<Reach> = groups.iter().zip(locs).map(|(g, l)| Reach::new(p, g, l, layout)).collect();
+        let mut reach: Vec<Reach> = groups.iter().zip(locs).map(|(g, l)| Reach::new(p, g, l, layout)).collect();
+        for r in reach.iter_mut().filter(|r| r.program.is_some()) {
+            // (s, sd, sdd at the places not reached; a point's 2 levels values at 3 n + 2 levels j)
+            let places = (0..3).flat_map(|k| r.zero.iter().map(move |&c| k * n as u32 + c));
+            let taken = |j: &usize| r.points.contains(j);
+            let skipped =
+                (0..points).filter(|j| !taken(j)).flat_map(|j| 3 * n + 2 * levels * j..3 * n + 2 * levels * (j + 1));
+            r.unset = places.chain(skipped.map(|i| i as u32)).collect();
+        }
+        assert!(reach.iter().all(|r| r.unset.iter().all(|&i| (i as usize) < flat)));
         // (every reach's rows within rhs (m rows) and s (n coordinates): Solver::solve_in)
         assert!(reach.iter().all(|r| r.rows.iter().all(|&(i, c)| (i as usize) < m && (c as usize) < n)));
         let mut at = Lanewise {
@@ -750,8 +765,12 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 out[g * N * w..(g * N + count) * w].copy_from_slice(row);
                 continue;
             }
-            if several && reach.program.is_some() {
-                self.flat.fill([0.0; N]); // (a group before may have written what this one does not)
+            if several {
+                for &i in &reach.unset {
+                    // SAFETY: every unset row below flat.len() (asserted in `new`)
+                    unsafe { *self.flat.get_unchecked_mut(i as usize) = [0.0; N] };
+                    // (a group before may have written it)
+                }
             }
             let shared = Shared { functions: &model.functions, outlines: &model.outlines };
             // S1: -Phi_p, Phi's tangent at q' = 0, non-zero in the moved families' rows alone
