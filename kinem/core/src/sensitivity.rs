@@ -488,7 +488,8 @@ fn moving<const N: usize>(
     (seeds, shift)
 }
 
-/// What a group's parameters reach in a run of instants (issue 30): the
+/// What a group's parameters reach in a run of instants (issue 30; taken
+/// where `partial`, for a group alone, else every place): the
 /// places of the block-triangular solve that (S1)-(S3) can make non-zero,
 /// from the rows whose Phi_p may be non-zero (`moving`) and the rows whose
 /// constraints read a reached coordinate (their D(J), D(gamma)), to a
@@ -509,14 +510,16 @@ struct Reach {
     direct: Vec<bool>,
     points: Vec<usize>,
     fixed: Option<Vec<f64>>,
-    /// the rows of Lanewise's flat this group does not write (its places
-    /// not reached at every level, its points not taken): zeroed before
-    /// the group where groups before it may have written them
-    unset: Vec<u32>,
 }
 
 impl Reach {
-    fn new<const N: usize>(p: &Prepared, group: &Group<N>, locs: &[Complex<Lanes<N>>], layout: &Layout) -> Self {
+    fn new<const N: usize>(
+        p: &Prepared,
+        group: &Group<N>,
+        locs: &[Complex<Lanes<N>>],
+        layout: &Layout,
+        partial: bool,
+    ) -> Self {
         let (n, m, points) = (p.kin.n, p.kin.m, p.points);
         let local = |j: usize| locs[j].re.d.iter().chain(&locs[j].im.d).any(|&x| x != 0.0);
         let all = Reach {
@@ -526,10 +529,9 @@ impl Reach {
             direct: vec![true; group.direct.len()],
             points: (0..points).collect(),
             fixed: None,
-            unset: Vec::new(),
         };
         let t = match &layout.shape {
-            Shape::Triangular(t) if t.into.len() == m && m == n && t.program.positions == n => t,
+            Shape::Triangular(t) if partial && t.into.len() == m && m == n && t.program.positions == n => t,
             _ => return all,
         };
         let place = |r: usize| t.into[r] as usize;
@@ -554,7 +556,6 @@ impl Reach {
             direct: group.direct.iter().map(|f| f.rows.clone().any(|r| from[place(r)])).collect(),
             points: (0..points).filter(|&j| local(j) || (0..3).any(|i| reached[p.pc[j] + i])).collect(),
             fixed: None,
-            unset: Vec::new(),
         }
     }
 }
@@ -650,16 +651,10 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             .all(|g| g.direct.iter().all(|f| f.v.end <= g.kept.0 && f.d.end <= g.kept.1 && f.rows.end <= m)));
         let zl = || vec![Lanes::<N>::c(0.0); n];
         let cl = || vec![Complex::new(Lanes::<N>::c(0.0), Lanes::<N>::c(0.0)); n];
-        let mut reach: Vec<Reach> = groups.iter().zip(locs).map(|(g, l)| Reach::new(p, g, l, layout)).collect();
-        for r in reach.iter_mut().filter(|r| r.program.is_some()) {
-            // (s, sd, sdd at the places not reached; a point's 2 levels values at 3 n + 2 levels j)
-            let places = (0..3).flat_map(|k| r.zero.iter().map(move |&c| k * n as u32 + c));
-            let taken = |j: &usize| r.points.contains(j);
-            let skipped =
-                (0..points).filter(|j| !taken(j)).flat_map(|j| 3 * n + 2 * levels * j..3 * n + 2 * levels * (j + 1));
-            r.unset = places.chain(skipped.map(|i| i as u32)).collect();
-        }
-        assert!(reach.iter().all(|r| r.unset.iter().all(|&i| (i as usize) < flat)));
+        // (one group alone: with several, their reach is nearly every place's, and the
+        // groups would share flat's rows: each its whole pass, or its fixed row)
+        let one = groups.len() == 1;
+        let reach: Vec<Reach> = groups.iter().zip(locs).map(|(g, l)| Reach::new(p, g, l, layout, one)).collect();
         // (every reach's rows within rhs (m rows) and s (n coordinates): Solver::solve_in)
         assert!(reach.iter().all(|r| r.rows.iter().all(|&(i, c)| (i as usize) < m && (c as usize) < n)));
         let mut at = Lanewise {
@@ -757,20 +752,12 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         let at0 = At { q: &self.q0, e: &self.e0, t };
         let atf = At { q, e, t };
         self.solver.prepare(layout, f);
-        let several = self.groups.len() > 1;
         for (g, group) in self.groups.iter().enumerate() {
             let (model, count) = (&group.model, group.count);
             let reach = &self.reach[g];
             if let Some(row) = &reach.fixed {
                 out[g * N * w..(g * N + count) * w].copy_from_slice(row);
                 continue;
-            }
-            if several {
-                for &i in &reach.unset {
-                    // SAFETY: every unset row below flat.len() (asserted in `new`)
-                    unsafe { *self.flat.get_unchecked_mut(i as usize) = [0.0; N] };
-                    // (a group before may have written it)
-                }
             }
             let shared = Shared { functions: &model.functions, outlines: &model.outlines };
             // S1: -Phi_p, Phi's tangent at q' = 0, non-zero in the moved families' rows alone
