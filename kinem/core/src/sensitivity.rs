@@ -1161,11 +1161,8 @@ mod tests {
         }
     }
 
-    /// The N lanes' solve with a block-triangular layout's factors, and the
-    /// inverse formed N columns at a time, are each lane's and each
-    /// column's Layout::solve to the bit (the slider-crank's pattern).
-    #[test]
-    fn the_lanes_solve_is_each_lanes_own_to_the_bit() {
+    /// The slider-crank's pattern (its rows) and a block-triangular layout of it.
+    fn slider_layout() -> (Vec<usize>, Layout) {
         let (rows, cols) = crate::decompose::tests::slider_crank();
         let n = 12;
         let scale = (0..n).map(|i| 1.0 + 0.1 * i as f64).collect();
@@ -1173,11 +1170,25 @@ mod tests {
         let mut layout = crate::plan::one_block(n, &rows, &cols, scale, col_scale);
         let constant: Vec<bool> = rows.iter().map(|&r| r < 3).collect();
         assert!(crate::plan::triangulate(&mut layout, &constant, &constant, &vec![false; rows.len()]));
-        let mut seed = 7u64;
-        let mut next = || {
+        (rows, layout)
+    }
+
+    /// Uniform numbers in [-1, 1) from a seed.
+    fn random(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
             seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-        };
+        }
+    }
+
+    /// The N lanes' solve with a block-triangular layout's factors, and the
+    /// inverse formed N columns at a time, are each lane's and each
+    /// column's Layout::solve to the bit (the slider-crank's pattern).
+    #[test]
+    fn the_lanes_solve_is_each_lanes_own_to_the_bit() {
+        let (rows, layout) = slider_layout();
+        let n = 12;
+        let mut next = random(7);
         let mut fixed = 0;
         for _ in 0..50 {
             let values: Vec<f64> = rows.iter().map(|&r| if r < 3 || r == 11 { 1.0 } else { next() }).collect();
@@ -1213,19 +1224,10 @@ mod tests {
     /// pattern, every row alone and random sets.
     #[test]
     fn a_restricted_solve_is_the_full_ones_at_the_reached_places() {
-        let (rows, cols) = crate::decompose::tests::slider_crank();
+        let (rows, layout) = slider_layout();
         let n = 12;
-        let scale = (0..n).map(|i| 1.0 + 0.1 * i as f64).collect();
-        let col_scale = (0..n).map(|j| 2.0 - 0.05 * j as f64).collect();
-        let mut layout = crate::plan::one_block(n, &rows, &cols, scale, col_scale);
-        let constant: Vec<bool> = rows.iter().map(|&r| r < 3).collect();
-        assert!(crate::plan::triangulate(&mut layout, &constant, &constant, &vec![false; rows.len()]));
         let Shape::Triangular(t) = &layout.shape else { panic!("the slider-crank's layout is block-triangular") };
-        let mut seed = 5u64;
-        let mut next = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-        };
+        let mut next = random(5);
         let (mut partial, mut solved) = (0, 0);
         for trial in 0..60 {
             let values: Vec<f64> = rows.iter().map(|&r| if r < 3 || r == 11 { 1.0 } else { next() }).collect();
