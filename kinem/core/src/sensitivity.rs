@@ -21,6 +21,15 @@
 //! (`lanes`), each lane seeded with one parameter's tables' tangents
 //! (Kin::seeded). All three share one factorisation of J at the instant
 //! (the march's layout, crate::lu): no finite differences anywhere.
+//!
+//! A group of parameters alone (P <= 8) takes only what they reach
+//! (`Reach`, `moving`): -Phi_p is zero outside the rows of the constraints
+//! they move, so in the block-triangular order s, sd and sdd are zero at
+//! every place the solve does not carry those rows to; the solves run
+//! over the reached places, and the families and named points none of
+//! whose coordinates is reached are skipped. A group that shifts the whole
+//! mechanism along x or y (a ground's value) has s = that shift and
+//! sd = sdd = 0 at every instant: its row is written once.
 use crate::families::{At, Dir, Kept, Shared};
 use crate::lu::{Factors, Layout, Shape};
 use crate::model::Kin;
