@@ -95,21 +95,26 @@ impl Columns<'_> {
     /// with their tangents, e^{i phi} of angle column c from `turn(c)` (the
     /// march's own); out point by point, each its 2 stages entries in
     /// `points`' order (x, y, vx, vy, ax, ay: point j's entry i at
-    /// 2 stages j + i), N tangents an entry.
+    /// 2 stages j + i), N tangents an entry. `only`: the points taken (all
+    /// of them, or those a design parameter reaches: crate::sensitivity;
+    /// the others' entries are not written).
     pub fn point_tangents<const N: usize>(
         &self,
         x: &[&[f64]],
         d: &[&[[f64; N]]],
         local: &[Complex<Lanes<N>>],
         turn: impl Fn(usize) -> C64,
+        only: &[usize],
         out: &mut [[f64; N]],
     ) {
         let (stages, p) = (self.stages, self.pc.len());
         let n = x[0].len();
         assert!(x.len() >= stages && d.len() >= stages && local.len() >= p && out.len() >= 2 * stages * p);
         assert!(x[..stages].iter().all(|a| a.len() >= n) && d[..stages].iter().all(|a| a.len() >= n));
-        assert!(self.pc.iter().all(|&c| c + 2 < n));
-        for (j, (&c, &s)) in self.pc.iter().zip(local).enumerate() {
+        assert!(self.pc.iter().all(|&c| c + 2 < n) && only.iter().all(|&j| j < p));
+        for &j in only {
+            // SAFETY: j < p = pc.len() <= local.len() (asserted above)
+            let (c, s) = unsafe { (*self.pc.get_unchecked(j), *local.get_unchecked(j)) };
             let e = turn(c + 2);
             let big = C64::new(s.re.v, s.im.v) * e;
             // SAFETY: c + 2 < n, every stage and its tangents hold n (asserted above)

@@ -21,11 +21,21 @@
 //! (`lanes`), each lane seeded with one parameter's tables' tangents
 //! (Kin::seeded). All three share one factorisation of J at the instant
 //! (the march's layout, crate::lu): no finite differences anywhere.
+//!
+//! A group of parameters alone (P <= 8) takes only what they reach
+//! (`Reach`, `moving`): -Phi_p is zero outside the rows of the constraints
+//! they move, so in the block-triangular order s, sd and sdd are zero at
+//! every place the solve does not carry those rows to; the solves run
+//! over the reached places, and the families and named points none of
+//! whose coordinates is reached are skipped. A group that shifts the whole
+//! mechanism along x or y (a ground's value) has s = that shift and
+//! sd = sdd = 0 at every instant: its row is written once.
 use crate::families::{At, Dir, Kept, Shared};
 use crate::lu::{Factors, Layout, Shape};
 use crate::model::Kin;
 use crate::real::{cis, Lanes, Real};
 use crate::table::Table;
+use crate::triangular::Program;
 use num_complex::{Complex, Complex64 as C64};
 
 /// How many parameters share one evaluation of the model and of the named
@@ -168,6 +178,8 @@ pub struct Prepared {
     pc: Vec<usize>,
     points: usize,
     groups: Grouped,
+    /// the Jacobian's pattern (row, column: `Reach`)
+    pattern: Vec<(usize, usize)>,
 }
 
 /// The groups and the points' local coordinates over the lanes that fit
@@ -199,7 +211,7 @@ impl Prepared {
             4 => Grouped::Four(grouped(k, tangents, p)?, locals(tangents.len(), local, dlocal)),
             _ => Grouped::Eight(grouped(k, tangents, p)?, locals(tangents.len(), local, dlocal)),
         };
-        Ok(Prepared { np, src: src.to_vec(), pc: pc.to_vec(), points, groups, kin })
+        Ok(Prepared { np, src: src.to_vec(), pc: pc.to_vec(), points, groups, kin, pattern })
     }
 
     /// The columns per instant and parameter (P W: an instant's row of data).
@@ -292,6 +304,10 @@ struct Group<const N: usize> {
     entries: Vec<(usize, usize, usize)>,
     /// how many values and tangents the direct families keep (`Direct`)
     kept: (usize, usize),
+    /// the rows whose Phi_p may be non-zero, and the group's shift where
+    /// s is one at every instant (`moving`)
+    seeds: Vec<bool>,
+    shift: Option<Vec<[f64; N]>>,
 }
 
 impl<const N: usize> Group<N> {
@@ -326,7 +342,9 @@ impl<const N: usize> Group<N> {
             })
             .collect();
         let moved_lanes = moved.iter().any(|&k| !kin.families[k].direct());
-        Ok(Group { model, count: group.len(), moved, timed, drives, direct, live, moved_lanes, entries, kept: (v, d) })
+        let (seeds, shift) = moving(&model, &moved, drives || outlines, group.len());
+        let count = group.len();
+        Ok(Group { model, count, moved, timed, drives, direct, live, moved_lanes, entries, kept: (v, d), seeds, shift })
     }
 }
 
@@ -400,6 +418,157 @@ fn probe<const N: usize>(
     (live, entries)
 }
 
+/// The rows of a group (its seeded model, `moved` its moved families,
+/// `tables`: whether an outline's table or a function that is not a
+/// constant moves (a constant's Phi_p is too: no pieces in t), `count`
+/// its parameters) whose Phi_p may be non-zero, and the group's shift: s
+/// per coordinate where every parameter of the group moves the mechanism
+/// rigidly along x or y, or moves nothing (None where one does not).
+///
+/// At two generic points (q, t) Phi's tangent is taken along q' = 0 with
+/// the tables' tangents (Phi_p), and along q' = X and q' = Y (every body's
+/// x, y coordinate moved by 1) with them. Phi is polynomial in e^{i q}, q
+/// and its tables but for the functions' and outlines' pieces, so (as in
+/// `probe`) a row whose Phi_p is zero at both points is zero everywhere;
+/// every row of a moved family that reads a moved function's or outline's
+/// table, or reads an outline at all (Family::piecewise), is taken as
+/// well. A parameter whose tangent along q' = T is zero in every row at
+/// both points (and that moves no function or outline) has
+/// Phi_q T + Phi_p = 0 at every q and t: s = T (Eq. S1) at every instant,
+/// and, that identity's q and t derivatives being zero too, the
+/// right-hand sides of (S2) and (S3) are zero: sd = sdd = 0.
+fn moving<const N: usize>(
+    model: &Kin<Lanes<N>>,
+    moved: &[usize],
+    tables: bool,
+    count: usize,
+) -> (Vec<bool>, Option<Vec<[f64; N]>>) {
+    let (n, m, angles) = (model.n, model.m, &model.angles);
+    // a body's x column: its angle column less 2, where neither column between is an angle (an
+    // outline's angle follows another angle column)
+    let x: Vec<usize> = angles
+        .iter()
+        .filter(|&&a| a >= 2 && !angles.contains(&(a - 1)) && !angles.contains(&(a - 2)))
+        .map(|&a| a - 2)
+        .collect();
+    let shifts: [Vec<f64>; 3] = std::array::from_fn(|k| {
+        let mut t = vec![0.0; n];
+        for &c in &x {
+            if k > 0 {
+                t[c + k - 1] = 1.0;
+            }
+        }
+        t
+    });
+    let mut seeds = vec![false; m];
+    let mut fits = [[true; N]; 3];
+    let (mut out, mut e) = (vec![Lanes::<N>::c(0.0); m], vec![Complex::new(Lanes::c(1.0), Lanes::c(0.0)); n]);
+    for (a, t) in [(0.3, 0.37), (1.1, 1.9)] {
+        for (shift, fit) in shifts.iter().zip(&mut fits) {
+            let q: Vec<Lanes<N>> = (0..n).map(|c| Lanes::of(a + 0.7 * c as f64, [shift[c]; N])).collect();
+            model.rotate(&q, &mut e);
+            model.phi(&At { q: &q, e: &e, t }, &mut out);
+            for (r, v) in out.iter().enumerate() {
+                for l in 0..N {
+                    if v.d[l] != 0.0 {
+                        fit[l] = false;
+                    }
+                }
+                seeds[r] |= shift.iter().all(|&x| x == 0.0) && v.d.iter().any(|&x| x != 0.0);
+            }
+        }
+    }
+    for &k in moved {
+        let f = &model.families[k];
+        if f.piecewise() || (tables && (f.reads().0 || f.reads().1)) {
+            seeds[model.row_off[k]..model.row_off[k + 1]].fill(true);
+        }
+    }
+    let shift = (!tables && (0..count).all(|l| fits.iter().any(|f| f[l]))).then(|| {
+        (0..n)
+            .map(|c| {
+                std::array::from_fn(|l| match (0..3).find(|&k| fits[k][l]) {
+                    Some(k) if l < count => shifts[k][c],
+                    _ => 0.0,
+                })
+            })
+            .collect()
+    });
+    (seeds, shift)
+}
+
+/// What a group's parameters reach in a run of instants (issue 30; taken
+/// where `partial`, for a group alone, else every place): the
+/// places of the block-triangular solve that (S1)-(S3) can make non-zero,
+/// from the rows whose Phi_p may be non-zero (`moving`) and the rows whose
+/// constraints read a reached coordinate (their D(J), D(gamma)), to a
+/// fixed point; the coordinates not reached have s = sd = sdd = 0 exactly.
+/// `program`: the solve restricted to them (Program::reached; None: every
+/// place reached, or a layout without the blocks' order), `rows` the
+/// rows copied into it (row, place), `zero` the places a full solve (the
+/// fallback's, the inverse's) leaves to be zeroed; `direct`: per direct
+/// family of the group, whether its (S2), (S3) kernels run (its rows'
+/// right sides are zero otherwise); `points`: the named points taken (on
+/// a reached body, or their local coordinates moved); `fixed`: the
+/// group's whole output where its shift is known (`moving`) and no named
+/// point's local coordinates move.
+struct Reach {
+    program: Option<Program>,
+    rows: Vec<(u32, u32)>,
+    zero: Vec<u32>,
+    direct: Vec<bool>,
+    points: Vec<usize>,
+    fixed: Option<Vec<f64>>,
+}
+
+impl Reach {
+    fn new<const N: usize>(
+        p: &Prepared,
+        group: &Group<N>,
+        locs: &[Complex<Lanes<N>>],
+        layout: &Layout,
+        partial: bool,
+    ) -> Self {
+        let (n, m, points) = (p.kin.n, p.kin.m, p.points);
+        let local = |j: usize| locs[j].re.d.iter().chain(&locs[j].im.d).any(|&x| x != 0.0);
+        let all = Reach {
+            program: None,
+            rows: Vec::new(),
+            zero: Vec::new(),
+            direct: vec![true; group.direct.len()],
+            points: (0..points).collect(),
+            fixed: None,
+        };
+        let t = match &layout.shape {
+            Shape::Triangular(t) if partial && t.into.len() == m && m == n && t.program.positions == n => t,
+            _ => return all,
+        };
+        let place = |r: usize| t.into[r] as usize;
+        let mut from = vec![false; n];
+        (0..m).filter(|&r| group.seeds[r]).for_each(|r| from[place(r)] = true);
+        let (reached, program) = loop {
+            let (reached, program) = t.program.reached(&from);
+            let mut more = from.clone();
+            p.pattern.iter().filter(|&&(_, c)| reached[c]).for_each(|&(r, _)| more[place(r)] = true);
+            if more == from {
+                break (reached, program);
+            }
+            from = more;
+        };
+        if reached.iter().all(|&r| r) {
+            return all;
+        }
+        Reach {
+            program: Some(program),
+            rows: (0..m).filter(|&r| reached[place(r)]).map(|r| (r as u32, place(r) as u32)).collect(),
+            zero: (0..n).filter(|&c| !reached[c]).map(|c| c as u32).collect(),
+            direct: group.direct.iter().map(|f| f.rows.clone().any(|r| from[place(r)])).collect(),
+            points: (0..points).filter(|&j| local(j) || (0..3).any(|i| reached[p.pc[j] + i])).collect(),
+            fixed: None,
+        }
+    }
+}
+
 /// The sensitivities of one instant after another, N parameters per
 /// evaluation (Eqs. S1-S3), from the factorisation of Phi_q at each
 /// instant's q: the seeded models, the column layout and every scratch
@@ -447,6 +616,8 @@ pub struct Lanewise<'a, const N: usize> {
     kv: Vec<C64>,
     kd: Vec<[f64; N]>,
     solver: Solver<N>,
+    /// per group, what its parameters reach (`Reach`)
+    reach: Vec<Reach>,
 }
 
 impl<'a, const N: usize> Lanewise<'a, N> {
@@ -489,7 +660,13 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             .all(|g| g.direct.iter().all(|f| f.v.end <= g.kept.0 && f.d.end <= g.kept.1 && f.rows.end <= m)));
         let zl = || vec![Lanes::<N>::c(0.0); n];
         let cl = || vec![Complex::new(Lanes::<N>::c(0.0), Lanes::<N>::c(0.0)); n];
-        Lanewise {
+        // (one group alone: with several, their reach is nearly every place's, and the
+        // groups would share flat's rows: each its whole pass, or its fixed row)
+        let one = groups.len() == 1;
+        let reach: Vec<Reach> = groups.iter().zip(locs).map(|(g, l)| Reach::new(p, g, l, layout, one)).collect();
+        // (every reach's rows within rhs (m rows) and s (n coordinates): Solver::solve_in)
+        assert!(reach.iter().all(|r| r.rows.iter().all(|&(i, c)| (i as usize) < m && (c as usize) < n)));
+        let mut at = Lanewise {
             kin,
             layout,
             np,
@@ -517,7 +694,41 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             kv: vec![C64::new(0.0, 0.0); groups.iter().map(|g| g.kept.0).max().unwrap_or(0)],
             kd: vec![[0.0; N]; groups.iter().map(|g| g.kept.1).max().unwrap_or(0)],
             solver: Solver::new(n, m, 3 * np >= 2 * n && n <= INVERSE),
+            reach,
+        };
+        for g in 0..groups.len() {
+            at.fix(g);
         }
+        at
+    }
+
+    /// A group's whole output where its shift is known (`moving`, Reach's
+    /// `fixed`) and no named point's local coordinates move: s the shift,
+    /// sd = sdd = 0, the points' tangents from them (the shift's x and y;
+    /// zero velocities and accelerations, whatever the instant's values).
+    fn fix(&mut self, g: usize) {
+        let (group, n, w, levels) = (&self.groups[g], self.kin.n, self.w, self.levels);
+        let Some(shift) = &group.shift else { return };
+        let locs = &self.locs[g];
+        if locs.iter().any(|z| z.re.d.iter().chain(&z.im.d).any(|&x| x != 0.0)) {
+            return;
+        }
+        self.flat.fill([0.0; N]);
+        self.flat[..n].copy_from_slice(shift);
+        let zeros = vec![0.0; n];
+        let x = [&zeros[..], &zeros[..], &zeros[..]];
+        let all: Vec<usize> = (0..locs.len()).collect();
+        let (tangents, points) = self.flat.split_at_mut(3 * n);
+        let d: [&[[f64; N]]; 3] = [&tangents[..n], &tangents[n..2 * n], &tangents[2 * n..]];
+        self.columns.point_tangents(&x[..levels], &d[..levels], locs, |_| C64::new(1.0, 0.0), &all, points);
+        let mut row = vec![0.0; group.count * w];
+        for (lane, to) in row.chunks_mut(w).enumerate() {
+            for (o, &i) in to.iter_mut().zip(&self.gather) {
+                *o = self.flat[i][lane];
+            }
+        }
+        self.flat.fill([0.0; N]);
+        self.reach[g].fixed = Some(row);
     }
 
     /// The columns per instant and parameter (P W: an instant's row of data).
@@ -552,6 +763,11 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         self.solver.prepare(layout, f);
         for (g, group) in self.groups.iter().enumerate() {
             let (model, count) = (&group.model, group.count);
+            let reach = &self.reach[g];
+            if let Some(row) = &reach.fixed {
+                out[g * N * w..(g * N + count) * w].copy_from_slice(row);
+                continue;
+            }
             let shared = Shared { functions: &model.functions, outlines: &model.outlines };
             // S1: -Phi_p, Phi's tangent at q' = 0, non-zero in the moved families' rows alone
             self.rhs.fill([0.0; N]);
@@ -565,7 +781,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     }
                 }
             }
-            self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[..n]);
+            self.solver.solve_in(layout, f, &self.rhs, count, &mut self.flat[..n], reach);
             let lanes = !group.live.is_empty();
             if lanes {
                 // q with tangent s, and e^{i q} with its tangent (Real::sin, cos)
@@ -592,7 +808,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 }
                 products(&group.entries, &self.jl, &x[1..], &mut self.rhs, &mut self.rhs3);
                 let (s, rhs, rhs3) = (&self.flat[..n], &mut self.rhs, &mut self.rhs3);
-                for f in &group.direct {
+                for (f, _) in group.direct.iter().zip(&reach.direct).filter(|x| *x.1) {
                     // SAFETY: every Direct's ranges within kv, kd and its rows within rhs, rhs3 (asserted in `new`)
                     let (r2, r3, keep) = unsafe {
                         if levels > 2 {
@@ -610,7 +826,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     let d = Dir { at: At { q, e, t }, qd: x[1], s, sd: &[], moved: f.moved, drives: group.drives };
                     model.families[f.k].jac_products(&d, &shared, &x[1..], r2, r3, keep);
                 }
-                self.solver.solve(layout, f, &self.rhs, count, &mut self.flat[n..2 * n]);
+                self.solver.solve_in(layout, f, &self.rhs, count, &mut self.flat[n..2 * n], reach);
                 if lanes {
                     for j in 0..n {
                         self.qdl[j] = Lanes::of(x[1][j], self.flat[n + j]);
@@ -632,7 +848,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     }
                 }
                 let (s, sd) = (&self.flat[..n], &self.flat[n..2 * n]);
-                for f in &group.direct {
+                for (f, _) in group.direct.iter().zip(&reach.direct).filter(|x| *x.1) {
                     let d = Dir { at: At { q, e, t }, qd: x[1], s, sd, moved: f.moved, drives: group.drives };
                     // SAFETY: as in (S2)
                     let (v, kd, r3) = unsafe {
@@ -641,16 +857,16 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     };
                     model.families[f.k].gamma_tangent(&d, &shared, r3, Kept { v, d: kd });
                 }
-                self.solver.solve(layout, f, &self.rhs3, count, &mut self.flat[2 * n..3 * n]);
+                self.solver.solve_in(layout, f, &self.rhs3, count, &mut self.flat[2 * n..3 * n], reach);
             }
             // every column's tangent: a coordinate's from s, sd, sdd, a named
             // point's from x, e and them (crate::columns)
             let (tangents, points) = self.flat.split_at_mut(3 * n);
             let d: [&[[f64; N]]; 3] = [&tangents[..n], &tangents[n..2 * n], &tangents[2 * n..]];
             if self.turned {
-                self.columns.point_tangents(x, &d[..levels], &self.locs[g], |c| e[c], points);
+                self.columns.point_tangents(x, &d[..levels], &self.locs[g], |c| e[c], &reach.points, points);
             } else {
-                self.columns.point_tangents(x, &d[..levels], &self.locs[g], |c| cis(q[c]), points);
+                self.columns.point_tangents(x, &d[..levels], &self.locs[g], |c| cis(q[c]), &reach.points, points);
             }
             let to = &mut out[g * N * w..(g * N + count) * w];
             if N == 1 {
@@ -798,6 +1014,36 @@ impl<const N: usize> Solver<N> {
         }
     }
 
+    /// `solve` where a group's parameters reach only some places (`Reach`):
+    /// the rows reached copied to their places and the restricted program
+    /// run there with the blocks' factors (the other places stay zero), or
+    /// the full solve and its places not reached zeroed (they are zero but
+    /// for the fallback's or the inverse's rounding).
+    #[inline(always)]
+    fn solve_in(
+        &mut self,
+        layout: &Layout,
+        f: &mut Factors,
+        rhs: &[[f64; N]],
+        count: usize,
+        out: &mut [[f64; N]],
+        reach: &Reach,
+    ) {
+        let Some(program) = &reach.program else { return self.solve(layout, f, rhs, count, out) };
+        if let (false, Shape::Triangular(_), Some(_)) = (self.use_inverse, &layout.shape, &f.fixed[0]) {
+            assert!(rhs.len() >= self.b.len() && out.len() >= self.x.len());
+            for &(r, c) in &reach.rows {
+                // SAFETY: r < m <= rhs.len(), c < n <= out.len() (asserted here and in Lanewise::new)
+                unsafe { *out.get_unchecked_mut(c as usize) = *rhs.get_unchecked(r as usize) };
+            }
+            return program.run(&f.j, out);
+        }
+        self.solve(layout, f, rhs, count, out);
+        for &c in &reach.zero {
+            out[c as usize] = [0.0; N];
+        }
+    }
+
     /// out = Phi_q^-1 rhs for the first `count` lanes (inlined in
     /// Lanewise::at: its branches are decided once per call).
     #[inline(always)]
@@ -924,11 +1170,8 @@ mod tests {
         }
     }
 
-    /// The N lanes' solve with a block-triangular layout's factors, and the
-    /// inverse formed N columns at a time, are each lane's and each
-    /// column's Layout::solve to the bit (the slider-crank's pattern).
-    #[test]
-    fn the_lanes_solve_is_each_lanes_own_to_the_bit() {
+    /// The slider-crank's pattern (its rows) and a block-triangular layout of it.
+    fn slider_layout() -> (Vec<usize>, Layout) {
         let (rows, cols) = crate::decompose::tests::slider_crank();
         let n = 12;
         let scale = (0..n).map(|i| 1.0 + 0.1 * i as f64).collect();
@@ -936,11 +1179,25 @@ mod tests {
         let mut layout = crate::plan::one_block(n, &rows, &cols, scale, col_scale);
         let constant: Vec<bool> = rows.iter().map(|&r| r < 3).collect();
         assert!(crate::plan::triangulate(&mut layout, &constant, &constant, &vec![false; rows.len()]));
-        let mut seed = 7u64;
-        let mut next = || {
+        (rows, layout)
+    }
+
+    /// Uniform numbers in [-1, 1) from a seed.
+    fn random(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
             seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-        };
+        }
+    }
+
+    /// The N lanes' solve with a block-triangular layout's factors, and the
+    /// inverse formed N columns at a time, are each lane's and each
+    /// column's Layout::solve to the bit (the slider-crank's pattern).
+    #[test]
+    fn the_lanes_solve_is_each_lanes_own_to_the_bit() {
+        let (rows, layout) = slider_layout();
+        let n = 12;
+        let mut next = random(7);
         let mut fixed = 0;
         for _ in 0..50 {
             let values: Vec<f64> = rows.iter().map(|&r| if r < 3 || r == 11 { 1.0 } else { next() }).collect();
@@ -967,5 +1224,46 @@ mod tests {
             }
         }
         assert!(fixed >= 25, "the blocks' orders taken: {fixed} of 50");
+    }
+
+    /// A restricted solve (Program::reached, as `Reach` uses it): for right
+    /// sides zero but at the rows of a random set, the reached places get
+    /// the full solve's figures (but for the sign of a zero) and every
+    /// place not reached is exactly zero in the full solve; the slider-crank's
+    /// pattern, every row alone and random sets.
+    #[test]
+    fn a_restricted_solve_is_the_full_ones_at_the_reached_places() {
+        let (rows, layout) = slider_layout();
+        let n = 12;
+        let Shape::Triangular(t) = &layout.shape else { panic!("the slider-crank's layout is block-triangular") };
+        let mut next = random(5);
+        let (mut partial, mut solved) = (0, 0);
+        for trial in 0..60 {
+            let values: Vec<f64> = rows.iter().map(|&r| if r < 3 || r == 11 { 1.0 } else { next() }).collect();
+            let mut f = layout.factors();
+            layout.factor(&values, &mut f);
+            if f.fixed[0].is_none() {
+                continue;
+            }
+            solved += 1;
+            let set: Vec<bool> = (0..n).map(|r| if trial < n { r == trial } else { next() > 0.6 }).collect();
+            let mut from = vec![false; n];
+            (0..n).filter(|&r| set[r]).for_each(|r| from[t.into[r] as usize] = true);
+            let (reached, program) = t.program.reached(&from);
+            let b: Vec<f64> = (0..n).map(|r| if set[r] { next() } else { 0.0 }).collect();
+            let mut full = vec![0.0; n];
+            layout.solve(&mut f, &b, &mut full);
+            let mut x = vec![0.0; n];
+            for r in (0..n).filter(|&r| reached[t.into[r] as usize]) {
+                x[t.into[r] as usize] = b[r];
+            }
+            program.run(&f.j, &mut x);
+            partial += reached.iter().any(|&r| !r) as usize;
+            for c in 0..n {
+                assert!(x[c] == full[c], "trial {trial}, place {c}: {} against {}", x[c], full[c]);
+                assert!(reached[c] || full[c] == 0.0, "trial {trial}: place {c} not reached, {}", full[c]);
+            }
+        }
+        assert!(solved >= 30 && partial >= 5, "{solved} solved, {partial} reaching part of the places");
     }
 }

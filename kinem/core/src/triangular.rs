@@ -154,6 +154,41 @@ impl Program {
             }
         }
     }
+
+    /// The program for right sides that are zero but at the places
+    /// `from` (issue 30: the places a design parameter reaches,
+    /// crate::sensitivity): `reached[p]` for every place a run can make
+    /// non-zero from them (in the program's order), and the program of the
+    /// subtractions that read a reached place and of the divisions of
+    /// reached places, the same operations in the same order. Every
+    /// operation left out reads a place that is zero then (w[i] -= a 0,
+    /// 0 / a): the figures are the full program's but for the sign of a
+    /// zero, and the places not reached are not written. Its quiet
+    /// positions are self's that are reached (`quieten`).
+    pub fn reached(&self, from: &[bool]) -> (Vec<bool>, Program) {
+        let mut reached = from.to_vec();
+        reached.resize(self.positions, false);
+        let mut p = Program { positions: self.positions, values: self.values, ..Program::default() };
+        let take = |reached: &mut [bool], subs: &[[u32; 3]], p: &mut Program| {
+            for &[i, c, u] in subs {
+                if reached[c as usize] {
+                    reached[i as usize] = true;
+                    p.sub(i as usize, c as usize, u as usize);
+                }
+            }
+        };
+        let mut start = 0;
+        for &[end, r, v] in &self.divs {
+            take(&mut reached, &self.subs[start..end as usize], &mut p);
+            if reached[r as usize] {
+                p.div(r as usize, v as usize);
+            }
+            start = end as usize;
+        }
+        take(&mut reached, &self.subs[start..], &mut p);
+        p.quieten(self.quiet.iter().copied().filter(|&q| reached[q as usize]).collect());
+        (reached, p)
+    }
 }
 
 /// What a solve's program works on, a factor's entry being `A`: a
