@@ -172,7 +172,7 @@ fn random_layout(n: usize, rng: &mut Rng) -> (Layout, Vec<usize>, Vec<usize>) {
 #[test]
 fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
     let mut rng = Rng(0x2545_f491_4f6c_dd1d);
-    let (mut solved, mut corrupted, mut folds, mut quiet) = (0, 0, 0, 0);
+    let (mut solved, mut corrupted, mut folds, mut quiet, mut deep) = (0, 0, 0, 0, 0);
     for trial in 0..600 {
         let n = 2 + rng.below(19) as usize;
         let (mut layout, rows, cols) = random_layout(n, &mut rng);
@@ -184,7 +184,12 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
         // (from a generator of their own: the other draws as before)
         let mut quiet_rng = Rng(0x9e37_79b9_7f4a_7c15 ^ trial as u64);
         let still: Vec<bool> = (0..n).map(|_| quiet_rng.below(3) != 0).collect();
-        if !super::triangulate_still(&mut layout, &constant, &constant, &one, &still) {
+        // entries exactly zero (a revolute's B s' with s' = 0), in a third of the trials: their
+        // subtractions are left out, so that more 1x1 blocks may be quiet
+        let mut zero_rng = Rng(0x6a09_e667_f3bc_c908 ^ trial as u64);
+        let zero: Vec<bool> = rows.iter().map(|_| trial % 3 == 1 && zero_rng.below(4) == 0).collect();
+        let zero: Vec<bool> = zero.iter().zip(&one).map(|(&z, &o)| z && !o).collect();
+        if !super::triangulate_zero(&mut layout, &constant, &constant, &one, &still, &zero) {
             continue;
         }
         let Shape::Triangular(t) = &layout.shape else { panic!("trial {trial}: not triangular") };
@@ -196,6 +201,9 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
                 rows.iter().map(|_| rng.unit() + if rng.below(2) == 0 { 2.0 } else { -2.0 }).collect();
             for e in (0..values.len()).filter(|&e| honest && one[e]) {
                 values[e] = 1.0; // Phi_q's value 1 (the factors are unscaled)
+            }
+            for e in (0..values.len()).filter(|&e| zero[e]) {
+                values[e] = if rng.below(2) == 0 { 0.0 } else { -0.0 }; // exactly zero, as the model's
             }
             let mut a = vec![0.0; n * n];
             for e in 0..values.len() {
@@ -244,19 +252,24 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
                 full.run(&f.j, &b, &mut xf);
                 assert_eq!(xs, xf, "trial {trial}: the short program differs from the full one");
                 quiet += 1;
+                // a quiet position that a subtraction writes (from another quiet one)
+                deep += t.program.subs.iter().any(|s| t.program.quiet.contains(&s[0])) as usize;
             }
             folds += (folded > 0 && f.fixed[0].is_some()) as usize;
         }
         // any index of the program or the factoring moved out of range is refused
         let mut p = t.program.clone();
-        let k = rng.below(p.subs.len() as u64 + p.divs.len() as u64) as usize;
-        let far = (p.positions.max(p.values) + rng.below(5) as usize) as u32;
-        if k < p.subs.len() {
-            p.subs[k][rng.below(3) as usize] = far;
-        } else {
-            p.divs[k - p.subs.len()][1 + rng.below(2) as usize] = far;
+        if !p.subs.is_empty() || !p.divs.is_empty() {
+            // (a program of folded pivots whose subtractions all read exact zeros has neither)
+            let k = rng.below(p.subs.len() as u64 + p.divs.len() as u64) as usize;
+            let far = (p.positions.max(p.values) + rng.below(5) as usize) as u32;
+            if k < p.subs.len() {
+                p.subs[k][rng.below(3) as usize] = far;
+            } else {
+                p.divs[k - p.subs.len()][1 + rng.below(2) as usize] = far;
+            }
+            assert!(p.check().is_err(), "trial {trial}: a corrupted program passed its check");
         }
-        assert!(p.check().is_err(), "trial {trial}: a corrupted program passed its check");
         let mut fa = t.factoring.clone();
         let far = (fa.values + rng.below(5) as usize) as u32;
         match rng.below(3) {
@@ -268,7 +281,7 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
         corrupted += 1;
     }
     assert!(
-        solved >= 300 && corrupted >= 100 && folds >= 20 && quiet >= 20,
-        "{solved} solves ({folds} with folded pivots, {quiet} quiet), {corrupted} corruptions checked"
+        solved >= 300 && corrupted >= 100 && folds >= 20 && quiet >= 20 && deep >= 5,
+        "{solved} solves ({folds} with folded pivots, {quiet} quiet, {deep} through quiet positions), {corrupted} corruptions checked"
     );
 }

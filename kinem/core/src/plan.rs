@@ -62,7 +62,7 @@ pub fn still_rows(kin: &Kin) -> Vec<bool> {
 /// one block that decomposes is laid out block-triangularly instead.
 pub fn order_blocks(kin: &Kin, layout: &mut Layout) {
     let (constant, unit, one) = constant_entries(kin, &layout.entry_scale);
-    if triangulate_still(layout, &constant, &unit, &one, &still_rows(kin)) {
+    if triangulate_zero(layout, &constant, &unit, &one, &still_rows(kin), &kin.zero_entries()) {
         return;
     }
     let Shape::Blocks { count, size, pad, patterns, .. } = &layout.shape else { return };
@@ -138,12 +138,30 @@ pub(crate) fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool],
 
 /// `triangulate`, with `still`: the rows whose nu looked zero
 /// (`still_rows`; none: no quiet positions in the solve's program).
+#[cfg(test)]
 pub(crate) fn triangulate_still(
     layout: &mut Layout,
     constant: &[bool],
     unit: &[bool],
     one: &[bool],
     still: &[bool],
+) -> bool {
+    triangulate_zero(layout, constant, unit, one, still, &[])
+}
+
+/// `triangulate_still`, with `zero`: the entries exactly zero at every
+/// configuration (Kin::zero_entries; none: every entry may be nonzero),
+/// whose subtractions below the diagonal blocks the solve's program leaves
+/// out (w -= 0 x: the same w but for a zero's sign), so that a 1x1 block
+/// whose other entries are such zeros or read quiet positions is quiet too
+/// (Triangular::program).
+pub(crate) fn triangulate_zero(
+    layout: &mut Layout,
+    constant: &[bool],
+    unit: &[bool],
+    one: &[bool],
+    still: &[bool],
+    zero: &[bool],
 ) -> bool {
     let Shape::Blocks { count: 1, size, pad, patterns, .. } = &layout.shape else { return false };
     let (n, m) = (layout.n, layout.m);
@@ -227,7 +245,8 @@ pub(crate) fn triangulate_still(
     let place: Vec<(usize, usize, usize)> = off.iter().map(|x| (x.0, x.1 as usize, x.2 as usize)).collect();
     let folded: Vec<bool> = blocks.iter().map(|d| d.entries.len() == 1 && one[d.entries[0] as usize]).collect();
     let still: Vec<bool> = d.blocks.iter().map(|b| b.rows.len() == 1 && still.get(b.rows[0]) == Some(&true)).collect();
-    let Ok(mut program) = Triangular::program(&blocks, &place, store, n, &folded, &still) else { return false };
+    let zero: Vec<bool> = off.iter().map(|x| zero.get(x.3 as usize) == Some(&true)).collect();
+    let Ok(mut program) = Triangular::program(&blocks, &place, store, n, &folded, &still, &zero) else { return false };
     let off_entries: Vec<u32> = off.iter().map(|x| x.3).collect();
     let (mut gather, mut scatter) = (vec![0; n], vec![0; n]);
     for i in 0..n {

@@ -30,10 +30,13 @@ use crate::real::Real;
 /// `Factoring::one_entries` checks it each factorisation) has no division: its
 /// subtractions run with the next division's, or after the last one.
 ///
-/// The quiet positions: 1x1 blocks folded (pivot +1) with no subtraction
-/// into them and a row whose nu was zero at every trial (a ground's): their
-/// w is the gathered right side, zero in the rates' solves and in a
-/// correction once the ground is met. Where every one is zero, `run` runs
+/// The quiet positions: 1x1 blocks folded (pivot +1) whose row's nu was
+/// zero at every trial and whose subtractions, if any, read quiet positions
+/// (a ground's; a body pinned at its origin to it, whose entries on its
+/// angle are exact zeros, left out of the program; an angle tied to the
+/// ground's): their w is the gathered right side, zero in the rates'
+/// solves and in a correction once the ground is met, and stays zero.
+/// Where every one is zero, `run` runs
 /// `short`, the program without the subtractions that read them (w[i] -=
 /// a 0: the same w[i], but for the sign of a zero); the others are kept in
 /// the same order, so the figures are the full program's.
@@ -63,11 +66,13 @@ impl Program {
     }
 
     /// The program without the subtractions that read the quiet positions
-    /// `quiet` (each a position no subtraction or division writes), set as
-    /// `short`; none where no subtraction reads one.
+    /// `quiet` (each a position no division writes and no subtraction
+    /// writes but from a quiet position: where all of them are zero on
+    /// entry they stay zero, but for a zero's sign), set as `short`; none
+    /// where no subtraction reads one.
     pub fn quieten(&mut self, quiet: Vec<u32>) {
         let read = |s: &[u32; 3]| quiet.contains(&s[1]);
-        if quiet.iter().any(|&q| self.subs.iter().any(|s| s[0] == q) || self.divs.iter().any(|d| d[1] == q))
+        if quiet.iter().any(|&q| self.subs.iter().any(|s| s[0] == q && !read(s)) || self.divs.iter().any(|d| d[1] == q))
             || !self.subs.iter().any(read)
         {
             return;
@@ -454,9 +459,13 @@ impl Triangular {
 
     /// The program of the blocks' solve (off_at: where the off-diagonal
     /// values are stored; folded: the 1x1 blocks without a division; still:
-    /// the blocks whose rows' nu was zero at every trial), its quiet
-    /// positions (`Program`: the folded, still 1x1 blocks without
-    /// off-diagonal entries), checked (`Program::check`).
+    /// the blocks whose rows' nu was zero at every trial; zero: the
+    /// off-diagonal entries exactly zero at every configuration, whose
+    /// subtractions are left out: w -= 0 x leaves w but for a zero's sign),
+    /// its quiet positions (`Program`: the folded, still 1x1 blocks whose
+    /// off-diagonal entries, the zeros aside, all read quiet positions: a
+    /// ground's, a body pinned at its origin to it, an angle tied to the
+    /// ground's), checked (`Program::check`).
     pub fn program(
         blocks: &[Diagonal],
         off: &[(usize, usize, usize)],
@@ -464,17 +473,22 @@ impl Triangular {
         n: usize,
         folded: &[bool],
         still: &[bool],
+        zero: &[bool],
     ) -> Result<Program, String> {
         let mut p = Program { positions: n, values: off_at + off.len(), ..Program::default() };
-        let mut next = 0;
+        let (mut next, mut quiet) = (0, vec![false; n]);
         for (k, d) in blocks.iter().enumerate() {
             // off: (block of the row, row position, column position), sorted by block
+            let mut reads_quiet = true;
             while next < off.len() && off[next].0 == k {
-                p.sub(off[next].1, off[next].2, off_at + next);
+                if !zero.get(next).is_some_and(|&z| z) {
+                    p.sub(off[next].1, off[next].2, off_at + next);
+                    reads_quiet &= quiet[off[next].2];
+                }
                 next += 1;
             }
             match &d.order {
-                None if folded[k] => {}
+                None if folded[k] => quiet[d.at] = still[k] && reads_quiet,
                 None => p.div(d.at, d.store),
                 Some(o) => o.program(d.at, d.store, &mut p),
             }
@@ -482,10 +496,7 @@ impl Triangular {
         if next != off.len() || p.divs.len() + folded.iter().filter(|&&f| f).count() != n {
             return Err("program: an off-diagonal entry out of order, or a position without its pivot".into());
         }
-        let quiet = (blocks.iter().enumerate())
-            .filter(|&(k, d)| d.order.is_none() && folded[k] && still[k] && !off.iter().any(|o| o.0 == k))
-            .map(|(_, d)| d.at as u32);
-        p.quieten(quiet.collect());
+        p.quieten((0..n).filter(|&i| quiet[i]).map(|i| i as u32).collect());
         p.check()?;
         Ok(p)
     }

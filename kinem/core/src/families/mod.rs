@@ -259,6 +259,16 @@ impl<S: Real> Family<S> {
         }
     }
 
+    /// Marks (true) the family's Jacobian entries that are exactly zero at
+    /// every configuration and time (out: one per entry): the revolute's
+    /// B s' where s' = 0 (its `Sides` groups); none of the other kinds.
+    /// The solve's program leaves their subtractions out (crate::plan).
+    pub fn zero_entries(&self, out: &mut [bool]) {
+        if let Family::Revolute(f) = self {
+            f.zero_entries(out)
+        }
+    }
+
     /// nu = -Phi_t (zero for families without drivers).
     pub fn nu(&self, t: f64, s: &Shared<S>, out: &mut [S]) {
         match self {

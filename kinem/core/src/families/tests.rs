@@ -719,6 +719,38 @@ fn gamma_from_the_jacobian_equals_gamma_to_the_bit() {
     }
 }
 
+/// The entries Kin::zero_entries marks (a revolute's B s' where s' is
+/// exactly zero: two per zero side) are exactly 0 at every configuration
+/// (tolerance 0), and none is marked where both local points are nonzero;
+/// every other family marks none.
+#[test]
+fn the_zero_entries_are_zero_at_every_configuration() {
+    use crate::families::At;
+    let z = c(0.0, 0.0);
+    let t = table(
+        &[("ci", vec![0, 3, 0, 6]), ("cj", vec![3, 6, 6, 0])],
+        &[],
+        &[("si", vec![z, c(-0.3, 0.2), z, c(0.2, 0.0)]), ("sj", vec![c(0.0, -0.5), z, z, c(0.6, 0.6)])],
+    );
+    let k = kin("revolute", t, 0);
+    let zero = k.zero_entries();
+    // joints 0 (s_i = 0), 1 (s_j = 0), 2 (both), 3 (neither): 2 + 2 + 4 + 0 entries
+    let marked: Vec<usize> = (0..k.nnz).filter(|&e| zero[e]).collect();
+    assert_eq!(marked, vec![1, 5, 11, 15, 17, 19, 21, 23]);
+    let (q0, _) = state(&[]);
+    for step in 0..40 {
+        let q: Vec<f64> =
+            q0.iter().enumerate().map(|(j, x)| x + 0.157 * step as f64 * (1.0 + j as f64 * 0.1)).collect();
+        let mut e = vec![C64::new(1.0, 0.0); k.n];
+        k.rotate(&q, &mut e);
+        let mut jac = vec![f64::NAN; k.nnz];
+        k.jac(&At { q: &q, e: &e, t: 0.8 }, &mut jac);
+        assert!(marked.iter().all(|&e| jac[e] == 0.0), "at step {step}: {jac:?}");
+        assert!((0..k.nnz).filter(|e| !zero[*e]).all(|e| jac[e] != 0.0), "at step {step}: {jac:?}");
+    }
+    assert!(kin("simple", simple_table(), 0).zero_entries().iter().all(|z| !z));
+}
+
 /// `jac_over` on the Jacobian of another configuration (its constant
 /// entries kept) gives `jac`'s values to the bit (tolerance 0), and
 /// `gamma_over` on the last gamma (zeros at first) gamma's: the simple,
