@@ -256,7 +256,7 @@ pub(crate) fn triangulate_zero(
     let row_scale: Vec<f64> = gather.iter().map(|&i| layout.scale[i]).collect();
     let col_scale: Vec<f64> = scatter.iter().map(|&j| layout.col_scale[j]).collect();
     let Ok(factoring) =
-        Triangular::factoring(&blocks, &off_entries, store, layout.at.len(), &folded, &row_scale, &col_scale)
+        Triangular::factoring(&blocks, &off_entries, store, layout.at.len(), &folded, &zero, &row_scale, &col_scale)
     else {
         return false;
     };

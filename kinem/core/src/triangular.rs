@@ -245,6 +245,11 @@ pub struct Factoring {
     /// refused (the fallback takes it)
     pub ones: Vec<u32>,
     pub one_entries: Vec<u32>,
+    /// the Jacobian entries taken for exact zeros (Kin::zero_entries), whose
+    /// subtractions the program leaves out: not placed, and a factorisation
+    /// where one is not exactly 0 (a variant that moved a zero local point,
+    /// on the nominal's layout) is refused (the fallback takes it)
+    pub zero_entries: Vec<u32>,
     /// the pivots not folded (value index, position, pivot_scale), and the
     /// folded ones' figures, constant (their pivots being 1): the first
     /// position of the smallest c_p / r_p (n: none), that one and the largest
@@ -269,7 +274,7 @@ impl Factoring {
             || self.pairs.iter().any(|p| bad(p[0]) || bad(p[1]))
             || self.diag.iter().any(|&x| bad(x))
             || self.ones.iter().any(|&x| bad(x))
-            || self.one_entries.iter().any(|&e| e as usize >= self.entries)
+            || self.one_entries.iter().chain(&self.zero_entries).any(|&e| e as usize >= self.entries)
             || self.free.iter().any(|f| bad(f.0))
             || self.mult_scale.len() != self.mults.len()
             || self.pivot_scale.len() != self.diag.len()
@@ -340,16 +345,22 @@ impl Factoring {
 
     /// Assembles and factorises into a (Factors::j) from the Jacobian's
     /// values; the pivots' figures (J_s's: det times `sign`), None where a
-    /// pivot is zero or not finite, a multiplier of J_s above MULTIPLIER or
-    /// a folded pivot not exactly 1.
+    /// pivot is zero or not finite, a multiplier of J_s above MULTIPLIER,
+    /// a folded pivot not exactly 1 or an entry taken for zero that is not
+    /// (checked where `zeros`: the values' Kin may not have those zeros).
     #[inline]
-    pub fn run(&self, values: &[f64], a: &mut [f64], sign: i32) -> Option<Pivots> {
+    pub fn run(&self, values: &[f64], a: &mut [f64], sign: i32, zeros: bool) -> Option<Pivots> {
         let mut ok = true;
         self.eliminate(values, a, |l: f64, scale| ok &= (l * scale).abs() <= MULTIPLIER); // false for a zero or non-finite pivot too
                                                                                           // SAFETY (every unchecked index below): Factoring::check when built, and eliminate's asserted lengths
         unsafe {
             for &e in &self.one_entries {
                 ok &= *values.get_unchecked(e as usize) == 1.0;
+            }
+            if zeros {
+                for &e in &self.zero_entries {
+                    ok &= *values.get_unchecked(e as usize) == 0.0;
+                }
             }
             if !ok {
                 return None;
@@ -503,19 +514,24 @@ impl Triangular {
 
     /// The factorisation of the blocks (see `Factoring`) over `entries`
     /// Jacobian entries (folded: the 1x1 blocks whose pivot must be 1;
+    /// zero: the off-diagonal entries taken for exact zeros, as `program`'s;
     /// row_scale, col_scale: per position, its row's and coordinate's
     /// scales), checked (`Factoring::check`).
+    #[allow(clippy::too_many_arguments)]
     pub fn factoring(
         blocks: &[Diagonal],
         off: &[u32],
         off_at: usize,
         entries: usize,
         folded: &[bool],
+        zero: &[bool],
         row_scale: &[f64],
         col_scale: &[f64],
     ) -> Result<Factoring, String> {
         let mut f = Factoring { values: off_at + off.len(), entries, ..Factoring::default() };
-        f.place.extend(off.iter().enumerate().map(|(x, &e)| [e, (off_at + x) as u32]));
+        let taken = |x: usize| zero.get(x).is_some_and(|&z| z);
+        f.place.extend(off.iter().enumerate().filter(|&(x, _)| !taken(x)).map(|(x, &e)| [e, (off_at + x) as u32]));
+        f.zero_entries.extend(off.iter().enumerate().filter(|&(x, _)| taken(x)).map(|(_, &e)| e));
         for (k, d) in blocks.iter().enumerate() {
             match &d.order {
                 None if folded[k] => {
@@ -586,7 +602,7 @@ impl Triangular {
     }
 
     fn blocks_factor(&self, values: &[f64], f: &mut Factors) -> Option<Pivots> {
-        self.factoring.run(values, &mut f.j, self.sign)
+        self.factoring.run(values, &mut f.j, self.sign, !f.zeros_hold)
     }
 
     /// x = Phi_q^-1 b (model rows in, coordinates out); scale, col_scale:
