@@ -172,7 +172,8 @@ fn random_layout(n: usize, rng: &mut Rng) -> (Layout, Vec<usize>, Vec<usize>) {
 #[test]
 fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
     let mut rng = Rng(0x2545_f491_4f6c_dd1d);
-    let (mut solved, mut corrupted, mut folds, mut quiet, mut deep, mut refused) = (0, 0, 0, 0, 0, 0);
+    let (mut solved, mut corrupted, mut folds, mut quiet, mut deep, mut refused, mut same, mut cut) =
+        (0, 0, 0, 0, 0, 0, 0, 0);
     for trial in 0..600 {
         let n = 2 + rng.below(19) as usize;
         let (mut layout, rows, cols) = random_layout(n, &mut rng);
@@ -189,9 +190,14 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
         let mut zero_rng = Rng(0x6a09_e667_f3bc_c908 ^ trial as u64);
         let zero: Vec<bool> = rows.iter().map(|_| trial % 3 == 1 && zero_rng.below(4) == 0).collect();
         let zero: Vec<bool> = zero.iter().zip(&one).map(|(&z, &o)| z && !o).collect();
+        let original = layout.clone();
         if !super::triangulate_zero(&mut layout, &constant, &constant, &one, &still, &zero) {
             continue;
         }
+        // the same layout with every entry taken for nonzero: the figures the zeros must leave
+        let mut with_zeros = original.clone();
+        let plain =
+            zero.iter().any(|&z| z) && super::triangulate_still(&mut with_zeros, &constant, &constant, &one, &still);
         let Shape::Triangular(t) = &layout.shape else { panic!("trial {trial}: not triangular") };
         t.check().unwrap();
         let folded = t.factoring.ones.len();
@@ -224,6 +230,18 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
             }
             let mut x = vec![0.0; n];
             layout.solve(&mut f, &b, &mut x);
+            if honest && plain {
+                // exact zeros left out of the program and the blocks' elimination: the same
+                // pivots' figures and solution as with them (equal as numbers: tolerance 0)
+                let mut g = with_zeros.factors();
+                with_zeros.factor(&values, &mut g);
+                let mut y = vec![0.0; n];
+                with_zeros.solve(&mut g, &b, &mut y);
+                assert_eq!(layout.stats(&f), with_zeros.stats(&g), "trial {trial}: the zeros changed the pivots");
+                assert_eq!(x, y, "trial {trial}: the zeros changed the solution");
+                same += 1;
+                cut += t.blocks.iter().any(|d| d.order.as_ref().is_some_and(|o| o.reduced)) as usize;
+            }
             let err = x.iter().zip(&x0).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
             assert!(err < 1e-6 / ratio, "trial {trial}: error {err}, pivot ratio {ratio}");
             solved += 1;
@@ -286,8 +304,16 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
         corrupted += 1;
     }
     assert!(
-        solved >= 300 && corrupted >= 100 && folds >= 20 && quiet >= 20 && deep >= 5 && refused >= 20,
+        solved >= 300
+            && corrupted >= 100
+            && folds >= 20
+            && quiet >= 20
+            && deep >= 5
+            && refused >= 20
+            && same >= 50
+            && cut >= 10,
         "{solved} solves ({folds} with folded pivots, {quiet} quiet, {deep} through quiet positions, {refused} \
-         nonzero entries taken for zero refused), {corrupted} corruptions checked"
+         nonzero entries taken for zero refused, {same} equal to the solves with the zeros, \
+         {cut} of them with a block's elimination cut), {corrupted} corruptions checked"
     );
 }

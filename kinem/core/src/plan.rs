@@ -95,7 +95,7 @@ pub fn order_blocks(kin: &Kin, layout: &mut Layout) {
             u[i] |= 1 << i;
             k[i] |= 1 << i;
         }
-        let mut order = Order::new(s, &rows, &u, &k);
+        let mut order = Order::new(s, &rows, &u, &k, &[]);
         if let Some(o) = &mut order {
             let entries: Vec<(usize, usize)> = layout.by_block[layout.block_start[c]..layout.block_start[c + 1]]
                 .iter()
@@ -195,17 +195,20 @@ pub(crate) fn triangulate_zero(
             inner[block_of_col[cols[e]]].push(e);
         }
     }
-    let mut orders = Vec::with_capacity(d.blocks.len());
+    let (mut orders, mut inner_zeros) = (Vec::with_capacity(d.blocks.len()), Vec::new());
     for (k, b) in d.blocks.iter().enumerate() {
         let s = b.cols.len();
         if s == 1 {
             orders.push(None);
             continue;
         }
-        let (mut pr, mut u, mut kk) = (vec![0u64; s], vec![0u64; s], vec![0u64; s]);
+        let (mut pr, mut u, mut kk, mut zz) = (vec![0u64; s], vec![0u64; s], vec![0u64; s], vec![0u64; s]);
         for &e in &inner[k] {
             let (r, c) = (local_row[rows[e]], local_col[cols[e]]);
             pr[r] |= 1 << c;
+            if zero.get(e) == Some(&true) {
+                zz[r] |= 1 << c;
+            }
             if constant[e] {
                 kk[r] |= 1 << c;
                 if unit[e] {
@@ -213,7 +216,11 @@ pub(crate) fn triangulate_zero(
                 }
             }
         }
-        let Some(mut o) = Order::new(s, &pr, &u, &kk) else { return false };
+        let Some(mut o) = Order::new(s, &pr, &u, &kk, &zz) else { return false };
+        if o.reduced {
+            // the exact zeros its elimination leaves out, checked where the values' Kin may not have them
+            inner_zeros.extend(inner[k].iter().filter(|&&e| zero.get(e) == Some(&true)).map(|&e| e as u32));
+        }
         let same: Vec<usize> = (0..s).collect();
         let local: Vec<(usize, usize)> = inner[k].iter().map(|&e| (local_row[rows[e]], local_col[cols[e]])).collect();
         o.fuse(&same, &same, &vec![1.0; s], &vec![1.0; s], &local, &[], &vec![true; s]);
@@ -255,11 +262,12 @@ pub(crate) fn triangulate_zero(
     }
     let row_scale: Vec<f64> = gather.iter().map(|&i| layout.scale[i]).collect();
     let col_scale: Vec<f64> = scatter.iter().map(|&j| layout.col_scale[j]).collect();
-    let Ok(factoring) =
+    let Ok(mut factoring) =
         Triangular::factoring(&blocks, &off_entries, store, layout.at.len(), &folded, &zero, &row_scale, &col_scale)
     else {
         return false;
     };
+    factoring.zero_entries.extend(inner_zeros);
     program.renumber(&scatter); // the solve runs in the coordinates (Triangular::run)
     let t = Triangular {
         blocks,
