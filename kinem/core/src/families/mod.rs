@@ -261,11 +261,14 @@ impl<S: Real> Family<S> {
 
     /// Marks (true) the family's Jacobian entries that are exactly zero at
     /// every configuration and time (out: one per entry): the revolute's
-    /// B s' where s' = 0 (its `Sides` groups); none of the other kinds.
-    /// The solve's program leaves their subtractions out (crate::plan).
+    /// B s' where s' = 0, the line's u . A_b s'_b where its point on b is
+    /// (their `Sides` groups); none of the other kinds. The solve leaves
+    /// them out of its program and the blocks' elimination (crate::plan).
     pub fn zero_entries(&self, out: &mut [bool]) {
-        if let Family::Revolute(f) = self {
-            f.zero_entries(out)
+        match self {
+            Family::Revolute(f) => f.zero_entries(out),
+            Family::Line(f) => f.zero_entries(out),
+            _ => {}
         }
     }
 

@@ -749,6 +749,36 @@ fn the_zero_entries_are_zero_at_every_configuration() {
         assert!((0..k.nnz).filter(|e| !zero[*e]).all(|e| jac[e] != 0.0), "at step {step}: {jac:?}");
     }
     assert!(kin("simple", simple_table(), 0).zero_entries().iter().all(|z| !z));
+    // the line family (with and without its angle row): u . A_b s'_b where ob is zero
+    for with_angle in [true, false] {
+        let (ai, aj, phi0) = if with_angle {
+            (vec![2, 5, 8, 2], vec![5, 8, 2, 8], vec![0.3, -0.1, 0.0, 0.2])
+        } else {
+            (vec![], vec![], vec![])
+        };
+        let t = table(
+            &[("ca", vec![0, 3, 6, 0]), ("cb", vec![3, 6, 0, 6]), ("ai", ai), ("aj", aj)],
+            &[("phi0", phi0)],
+            &[
+                ("pa", vec![z, c(0.2, 0.1), z, c(-0.1, 0.3)]),
+                ("ua", vec![c(-0.5, 0.8), c(0.3, 0.4), c(1.0, 0.0), c(0.0, -0.7)]),
+                ("ob", vec![c(0.4, -0.3), z, z, c(0.2, 0.2)]),
+            ],
+        );
+        let k = kin("line", t, 0);
+        let (zero, width) = (k.zero_entries(), if with_angle { 8 } else { 6 });
+        let marked: Vec<usize> = (0..k.nnz).filter(|&e| zero[e]).collect();
+        assert_eq!(marked, vec![width + 5, 2 * width + 5]);
+        for step in 0..40 {
+            let q: Vec<f64> =
+                q0.iter().enumerate().map(|(j, x)| x + 0.157 * step as f64 * (1.0 + j as f64 * 0.1)).collect();
+            let mut e = vec![C64::new(1.0, 0.0); k.n];
+            k.rotate(&q, &mut e);
+            let mut jac = vec![f64::NAN; k.nnz];
+            k.jac(&At { q: &q, e: &e, t: 0.8 }, &mut jac);
+            assert!(marked.iter().all(|&e| jac[e] == 0.0), "line at step {step}: {jac:?}");
+        }
+    }
 }
 
 /// `jac_over` on the Jacobian of another configuration (its constant
