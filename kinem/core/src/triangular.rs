@@ -30,16 +30,17 @@ use crate::real::Real;
 /// `Factoring::one_entries` checks it each factorisation) has no division: its
 /// subtractions run with the next division's, or after the last one.
 ///
-/// The quiet positions: 1x1 blocks folded (pivot +1) whose row's nu was
-/// zero at every trial and whose subtractions, if any, read quiet positions
+/// The quiet positions: 1x1 blocks whose row's nu was zero at every trial
+/// and whose subtractions, if any, read quiet positions
 /// (a ground's; a body pinned at its origin to it, whose entries on its
 /// angle are exact zeros, left out of the program; an angle tied to the
 /// ground's): their w is the gathered right side, zero in the rates'
-/// solves and in a correction once the ground is met, and stays zero.
-/// Where every one is zero, `run` runs
-/// `short`, the program without the subtractions that read them (w[i] -=
-/// a 0: the same w[i], but for the sign of a zero); the others are kept in
-/// the same order, so the figures are the full program's.
+/// solves and in a correction once the ground is met, and stays zero (a
+/// division by the pivot, nonzero and finite in a factorisation taken,
+/// keeps it zero). Where every one is zero, `run` runs `short`, the
+/// program without the subtractions that read them (w[i] -= a 0: the same
+/// w[i], but for the sign of a zero) and without their divisions; the
+/// others are kept in the same order, so the figures are the full program's.
 ///
 /// Invariants, checked once by `Program::check` when the model is built
 /// (and by debug assertions in `run`): every position i, c, r is below
@@ -66,21 +67,23 @@ impl Program {
     }
 
     /// The program without the subtractions that read the quiet positions
-    /// `quiet` (each a position no division writes and no subtraction
-    /// writes but from a quiet position: where all of them are zero on
-    /// entry they stay zero, but for a zero's sign), set as `short`; none
+    /// `quiet` and their divisions (each a position no subtraction writes
+    /// but from a quiet position, and divided, if at all, by a pivot the
+    /// factorisation checked nonzero and finite: where all of them are zero
+    /// on entry they stay zero, but for a zero's sign), set as `short`; none
     /// where no subtraction reads one.
     pub fn quieten(&mut self, quiet: Vec<u32>) {
         let read = |s: &[u32; 3]| quiet.contains(&s[1]);
-        if quiet.iter().any(|&q| self.subs.iter().any(|s| s[0] == q && !read(s)) || self.divs.iter().any(|d| d[1] == q))
-            || !self.subs.iter().any(read)
-        {
+        if quiet.iter().any(|&q| self.subs.iter().any(|s| s[0] == q && !read(s))) || !self.subs.iter().any(read) {
             return;
         }
         let (mut subs, mut divs, mut from) = (Vec::new(), Vec::new(), 0);
         for &[end, r, v] in &self.divs {
             subs.extend(self.subs[from..end as usize].iter().filter(|s| !read(s)));
-            divs.push([subs.len() as u32, r, v]);
+            // a quiet position's division (0 / a nonzero pivot: a zero) is left out too
+            if !quiet.contains(&r) {
+                divs.push([subs.len() as u32, r, v]);
+            }
             from = end as usize;
         }
         subs.extend(self.subs[from..].iter().filter(|s| !read(s)));
@@ -473,7 +476,7 @@ impl Triangular {
     /// the blocks whose rows' nu was zero at every trial; zero: the
     /// off-diagonal entries exactly zero at every configuration, whose
     /// subtractions are left out: w -= 0 x leaves w but for a zero's sign),
-    /// its quiet positions (`Program`: the folded, still 1x1 blocks whose
+    /// its quiet positions (`Program`: the still 1x1 blocks whose
     /// off-diagonal entries, the zeros aside, all read quiet positions: a
     /// ground's, a body pinned at its origin to it, an angle tied to the
     /// ground's), checked (`Program::check`).
@@ -500,7 +503,10 @@ impl Triangular {
             }
             match &d.order {
                 None if folded[k] => quiet[d.at] = still[k] && reads_quiet,
-                None => p.div(d.at, d.store),
+                None => {
+                    p.div(d.at, d.store);
+                    quiet[d.at] = still[k] && reads_quiet;
+                }
                 Some(o) => o.program(d.at, d.store, &mut p),
             }
         }
