@@ -172,8 +172,7 @@ fn random_layout(n: usize, rng: &mut Rng) -> (Layout, Vec<usize>, Vec<usize>) {
 #[test]
 fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
     let mut rng = Rng(0x2545_f491_4f6c_dd1d);
-    let (mut solved, mut corrupted, mut folds, mut quiet, mut deep, mut refused, mut same, mut cut) =
-        (0, 0, 0, 0, 0, 0, 0, 0);
+    let (mut solved, mut corrupted, mut folds, mut quiet, mut deep, mut refused, mut same) = (0, 0, 0, 0, 0, 0, 0);
     for trial in 0..600 {
         let n = 2 + rng.below(19) as usize;
         let (mut layout, rows, cols) = random_layout(n, &mut rng);
@@ -231,16 +230,16 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
             let mut x = vec![0.0; n];
             layout.solve(&mut f, &b, &mut x);
             if honest && plain {
-                // exact zeros left out of the program and the blocks' elimination: the same
-                // pivots' figures and solution as with them (equal as numbers: tolerance 0)
+                // exact zeros no part of the structure (other blocks, other pivot orders): the
+                // same matrix's det sign and solution to rounding (the bound below, both ways)
                 let mut g = with_zeros.factors();
                 with_zeros.factor(&values, &mut g);
                 let mut y = vec![0.0; n];
                 with_zeros.solve(&mut g, &b, &mut y);
-                assert_eq!(layout.stats(&f), with_zeros.stats(&g), "trial {trial}: the zeros changed the pivots");
-                assert_eq!(x, y, "trial {trial}: the zeros changed the solution");
+                let (a, c) = (layout.stats(&f), with_zeros.stats(&g));
+                let apart = x.iter().zip(&y).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
+                assert!(a.1 == c.1 && apart < 1e-6 / a.0.min(c.0), "trial {trial}: {a:?} {c:?}, apart {apart}");
                 same += 1;
-                cut += t.blocks.iter().any(|d| d.order.as_ref().is_some_and(|o| o.reduced)) as usize;
             }
             let err = x.iter().zip(&x0).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
             assert!(err < 1e-6 / ratio, "trial {trial}: error {err}, pivot ratio {ratio}");
@@ -304,16 +303,9 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
         corrupted += 1;
     }
     assert!(
-        solved >= 300
-            && corrupted >= 100
-            && folds >= 20
-            && quiet >= 20
-            && deep >= 5
-            && refused >= 20
-            && same >= 50
-            && cut >= 10,
+        solved >= 300 && corrupted >= 100 && folds >= 20 && quiet >= 20 && deep >= 5 && refused >= 20 && same >= 20,
         "{solved} solves ({folds} with folded pivots, {quiet} quiet, {deep} through quiet positions, {refused} \
-         nonzero entries taken for zero refused, {same} equal to the solves with the zeros, \
-         {cut} of them with a block's elimination cut), {corrupted} corruptions checked"
+         nonzero entries taken for zero refused, {same} equal to the solves with the zeros to rounding), \
+         {corrupted} corruptions checked"
     );
 }

@@ -54,9 +54,6 @@ pub struct Order {
     sscale: Vec<f64>,
     /// per Jacobian entry of the block, its position in the permuted block
     pub entry_at: Vec<usize>,
-    /// the elimination leaves out the entries `new` was given as exact zeros
-    /// (none of them a pivot): the caller checks them (Factoring::zero_entries)
-    pub reduced: bool,
     /// the assembly: Jacobian entry e goes to position at, times its scale
     pub place: Vec<(u32, u32, f64)>,
     /// the permuted positions of the block's padding (1 on the diagonal)
@@ -123,14 +120,8 @@ impl Order {
     /// The order for a block of size s with row patterns `rows` (bit j of
     /// rows[i]: entry (i, j) may be non-zero); `unit[i]` and `constant[i]`:
     /// the columns where row i's entry is constant with |value| 1, or
-    /// constant at all; `zero[i]` (empty: none): the columns where it is
-    /// exactly zero at every configuration (Kin::zero_entries). The order is
-    /// the pattern's with them; its elimination (fill, steps, the solve's
-    /// program) is over the pattern without them, where none is a pivot
-    /// (`reduced`): the same operations but those that multiply by such a
-    /// zero (x - 0 y: x, but for a zero's sign). None when the pattern is
-    /// structurally singular.
-    pub fn new(s: usize, rows: &[u64], unit: &[u64], constant: &[u64], zero: &[u64]) -> Option<Order> {
+    /// constant at all. None when the pattern is structurally singular.
+    pub fn new(s: usize, rows: &[u64], unit: &[u64], constant: &[u64]) -> Option<Order> {
         assert!(s <= 64 && rows.len() == s);
         let full = if s == 64 { u64::MAX } else { (1u64 << s) - 1 };
         let mut pat = rows.to_vec();
@@ -184,12 +175,10 @@ impl Order {
             inv_row[row[k]] = k;
             inv_col[col[k]] = k;
         }
-        let zero_at = |i: usize| zero.get(i).copied().unwrap_or(0);
-        let reduced = (0..s).any(|i| zero_at(i) != 0) && (0..s).all(|k| zero_at(row[k]) >> col[k] & 1 == 0);
-        // the permuted pattern (without the exact zeros where `reduced`) and its fill
+        // the permuted pattern and its fill
         let mut p = vec![0u64; s];
         for (k, pk) in p.iter_mut().enumerate() {
-            let mut m = rows[row[k]] & if reduced { !zero_at(row[k]) } else { u64::MAX };
+            let mut m = rows[row[k]];
             while m != 0 {
                 let j = m.trailing_zeros() as usize;
                 m &= m - 1;
@@ -243,7 +232,6 @@ impl Order {
             scatter: Vec::new(),
             sscale: Vec::new(),
             entry_at: Vec::new(),
-            reduced,
             place: Vec::new(),
             pad_at: Vec::new(),
         })
@@ -436,7 +424,7 @@ mod tests {
         let rows: Vec<u64> = a.iter().map(|r| (0..s).filter(|&j| r[j] != 0.0).fold(0, |m, j| m | 1 << j)).collect();
         let unit: Vec<u64> =
             a.iter().map(|r| (0..s).filter(|&j| r[j].abs() == 1.0).fold(0, |m, j| m | 1 << j)).collect();
-        let o = Order::new(s, &rows, &unit, &unit, &[]).unwrap();
+        let o = Order::new(s, &rows, &unit, &unit).unwrap();
         let mut p = vec![0.0; s * s];
         for i in 0..s {
             for j in 0..s {
@@ -473,6 +461,6 @@ mod tests {
 
     #[test]
     fn a_structurally_singular_pattern_has_no_order() {
-        assert!(Order::new(2, &[0b01, 0b01], &[0, 0], &[0, 0], &[]).is_none());
+        assert!(Order::new(2, &[0b01, 0b01], &[0, 0], &[0, 0]).is_none());
     }
 }

@@ -95,7 +95,7 @@ pub fn order_blocks(kin: &Kin, layout: &mut Layout) {
             u[i] |= 1 << i;
             k[i] |= 1 << i;
         }
-        let mut order = Order::new(s, &rows, &u, &k, &[]);
+        let mut order = Order::new(s, &rows, &u, &k);
         if let Some(o) = &mut order {
             let entries: Vec<(usize, usize)> = layout.by_block[layout.block_start[c]..layout.block_start[c + 1]]
                 .iter()
@@ -151,10 +151,13 @@ pub(crate) fn triangulate_still(
 
 /// `triangulate_still`, with `zero`: the entries exactly zero at every
 /// configuration (Kin::zero_entries; none: every entry may be nonzero),
-/// whose subtractions below the diagonal blocks the solve's program leaves
-/// out (w -= 0 x: the same w but for a zero's sign), so that a 1x1 block
-/// whose other entries are such zeros or read quiet positions is quiet too
-/// (Triangular::program).
+/// which are no part of the structure: the blocks, their pivot orders,
+/// the elimination and the solve's program are the pattern's without them
+/// (their operations were products with a zero), so that a pin at the
+/// ground's origin or at a point of it with the body's own origin is a
+/// pair of 1x1 blocks, quiet (Triangular::program); each factorisation
+/// whose values' Kin may not have them checks them
+/// (Factoring::zero_entries, Factors::zeros_hold).
 pub(crate) fn triangulate_zero(
     layout: &mut Layout,
     constant: &[bool],
@@ -177,7 +180,11 @@ pub(crate) fn triangulate_zero(
     }
     let rows: Vec<usize> = layout.at.iter().map(|&(_, r, _)| row_at[r]).collect();
     let cols: Vec<usize> = layout.at.iter().map(|&(_, _, c)| col_at[c]).collect();
-    let d = decompose(m, n, &rows, &cols);
+    // the exact zeros are no part of the structure the blocks are made of (checked instead: they
+    // join Factoring::zero_entries below)
+    let live: Vec<usize> = (0..rows.len()).filter(|&e| zero.get(e) != Some(&true)).collect();
+    let (live_rows, live_cols): (Vec<usize>, Vec<usize>) = live.iter().map(|&e| (rows[e], cols[e])).unzip();
+    let d = decompose(m, n, &live_rows, &live_cols);
     if d.kind != Kind::Exact || d.blocks.len() < 2 || d.blocks.iter().any(|b| b.cols.len() > MASK) {
         return false;
     }
@@ -190,25 +197,22 @@ pub(crate) fn triangulate_zero(
         }
     }
     let mut inner: Vec<Vec<usize>> = vec![Vec::new(); d.blocks.len()]; // the entries inside each block
-    for e in 0..rows.len() {
+    for &e in &live {
         if block_of_row[rows[e]] == block_of_col[cols[e]] {
             inner[block_of_col[cols[e]]].push(e);
         }
     }
-    let (mut orders, mut inner_zeros) = (Vec::with_capacity(d.blocks.len()), Vec::new());
+    let mut orders = Vec::with_capacity(d.blocks.len());
     for (k, b) in d.blocks.iter().enumerate() {
         let s = b.cols.len();
         if s == 1 {
             orders.push(None);
             continue;
         }
-        let (mut pr, mut u, mut kk, mut zz) = (vec![0u64; s], vec![0u64; s], vec![0u64; s], vec![0u64; s]);
+        let (mut pr, mut u, mut kk) = (vec![0u64; s], vec![0u64; s], vec![0u64; s]);
         for &e in &inner[k] {
             let (r, c) = (local_row[rows[e]], local_col[cols[e]]);
             pr[r] |= 1 << c;
-            if zero.get(e) == Some(&true) {
-                zz[r] |= 1 << c;
-            }
             if constant[e] {
                 kk[r] |= 1 << c;
                 if unit[e] {
@@ -216,11 +220,7 @@ pub(crate) fn triangulate_zero(
                 }
             }
         }
-        let Some(mut o) = Order::new(s, &pr, &u, &kk, &zz) else { return false };
-        if o.reduced {
-            // the exact zeros its elimination leaves out, checked where the values' Kin may not have them
-            inner_zeros.extend(inner[k].iter().filter(|&&e| zero.get(e) == Some(&true)).map(|&e| e as u32));
-        }
+        let Some(mut o) = Order::new(s, &pr, &u, &kk) else { return false };
         let same: Vec<usize> = (0..s).collect();
         let local: Vec<(usize, usize)> = inner[k].iter().map(|&e| (local_row[rows[e]], local_col[cols[e]])).collect();
         o.fuse(&same, &same, &vec![1.0; s], &vec![1.0; s], &local, &[], &vec![true; s]);
@@ -244,7 +244,7 @@ pub(crate) fn triangulate_zero(
         store += s * s;
     }
     // the entries below the diagonal blocks, by the block of their row
-    let mut off: Vec<(usize, u32, u32, u32)> = (0..rows.len())
+    let mut off: Vec<(usize, u32, u32, u32)> = (live.iter().copied())
         .filter(|&e| block_of_row[rows[e]] != block_of_col[cols[e]])
         .map(|e| (block_of_row[rows[e]], row_pos[rows[e]] as u32, col_pos[cols[e]] as u32, e as u32))
         .collect();
@@ -252,8 +252,7 @@ pub(crate) fn triangulate_zero(
     let place: Vec<(usize, usize, usize)> = off.iter().map(|x| (x.0, x.1 as usize, x.2 as usize)).collect();
     let folded: Vec<bool> = blocks.iter().map(|d| d.entries.len() == 1 && one[d.entries[0] as usize]).collect();
     let still: Vec<bool> = d.blocks.iter().map(|b| b.rows.len() == 1 && still.get(b.rows[0]) == Some(&true)).collect();
-    let zero: Vec<bool> = off.iter().map(|x| zero.get(x.3 as usize) == Some(&true)).collect();
-    let Ok(mut program) = Triangular::program(&blocks, &place, store, n, &folded, &still, &zero) else { return false };
+    let Ok(mut program) = Triangular::program(&blocks, &place, store, n, &folded, &still) else { return false };
     let off_entries: Vec<u32> = off.iter().map(|x| x.3).collect();
     let (mut gather, mut scatter) = (vec![0; n], vec![0; n]);
     for i in 0..n {
@@ -263,11 +262,12 @@ pub(crate) fn triangulate_zero(
     let row_scale: Vec<f64> = gather.iter().map(|&i| layout.scale[i]).collect();
     let col_scale: Vec<f64> = scatter.iter().map(|&j| layout.col_scale[j]).collect();
     let Ok(mut factoring) =
-        Triangular::factoring(&blocks, &off_entries, store, layout.at.len(), &folded, &zero, &row_scale, &col_scale)
+        Triangular::factoring(&blocks, &off_entries, store, layout.at.len(), &folded, &row_scale, &col_scale)
     else {
         return false;
     };
-    factoring.zero_entries.extend(inner_zeros);
+    // the exact zeros, checked where the values' Kin may not have them (Factors::zeros_hold)
+    factoring.zero_entries = (0..rows.len()).filter(|e| live.binary_search(e).is_err()).map(|e| e as u32).collect();
     program.renumber(&scatter); // the solve runs in the coordinates (Triangular::run)
     let t = Triangular {
         blocks,

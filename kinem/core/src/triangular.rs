@@ -473,10 +473,7 @@ impl Triangular {
 
     /// The program of the blocks' solve (off_at: where the off-diagonal
     /// values are stored; folded: the 1x1 blocks without a division; still:
-    /// the blocks whose rows' nu was zero at every trial; zero: the
-    /// off-diagonal entries exactly zero at every configuration, whose
-    /// subtractions are left out: w -= 0 x leaves w but for a zero's sign),
-    /// its quiet positions (`Program`: the still 1x1 blocks whose
+    /// the blocks whose rows' nu was zero at every trial), its quiet positions (`Program`: the still 1x1 blocks whose
     /// off-diagonal entries, the zeros aside, all read quiet positions: a
     /// ground's, a body pinned at its origin to it, an angle tied to the
     /// ground's), checked (`Program::check`).
@@ -487,7 +484,6 @@ impl Triangular {
         n: usize,
         folded: &[bool],
         still: &[bool],
-        zero: &[bool],
     ) -> Result<Program, String> {
         let mut p = Program { positions: n, values: off_at + off.len(), ..Program::default() };
         let (mut next, mut quiet) = (0, vec![false; n]);
@@ -495,10 +491,8 @@ impl Triangular {
             // off: (block of the row, row position, column position), sorted by block
             let mut reads_quiet = true;
             while next < off.len() && off[next].0 == k {
-                if !zero.get(next).is_some_and(|&z| z) {
-                    p.sub(off[next].1, off[next].2, off_at + next);
-                    reads_quiet &= quiet[off[next].2];
-                }
+                p.sub(off[next].1, off[next].2, off_at + next);
+                reads_quiet &= quiet[off[next].2];
                 next += 1;
             }
             match &d.order {
@@ -520,24 +514,19 @@ impl Triangular {
 
     /// The factorisation of the blocks (see `Factoring`) over `entries`
     /// Jacobian entries (folded: the 1x1 blocks whose pivot must be 1;
-    /// zero: the off-diagonal entries taken for exact zeros, as `program`'s;
     /// row_scale, col_scale: per position, its row's and coordinate's
     /// scales), checked (`Factoring::check`).
-    #[allow(clippy::too_many_arguments)]
     pub fn factoring(
         blocks: &[Diagonal],
         off: &[u32],
         off_at: usize,
         entries: usize,
         folded: &[bool],
-        zero: &[bool],
         row_scale: &[f64],
         col_scale: &[f64],
     ) -> Result<Factoring, String> {
         let mut f = Factoring { values: off_at + off.len(), entries, ..Factoring::default() };
-        let taken = |x: usize| zero.get(x).is_some_and(|&z| z);
-        f.place.extend(off.iter().enumerate().filter(|&(x, _)| !taken(x)).map(|(x, &e)| [e, (off_at + x) as u32]));
-        f.zero_entries.extend(off.iter().enumerate().filter(|&(x, _)| taken(x)).map(|(_, &e)| e));
+        f.place.extend(off.iter().enumerate().map(|(x, &e)| [e, (off_at + x) as u32]));
         for (k, d) in blocks.iter().enumerate() {
             match &d.order {
                 None if folded[k] => {
