@@ -32,9 +32,9 @@ use crate::real::Real;
 ///
 /// The quiet positions: 1x1 blocks whose row's nu was zero at every trial
 /// and whose subtractions, if any, read quiet positions
-/// (a ground's; a body pinned at its origin to it, whose entries on its
-/// angle are exact zeros, left out of the program; an angle tied to the
-/// ground's): their w is the gathered right side, zero in the rates'
+/// (a ground's; a body pinned to it by its own origin, whose entries on
+/// its angle are exact zeros, no part of the structure; an angle tied to
+/// the ground's): their w is the gathered right side, zero in the rates'
 /// solves and in a correction once the ground is met, and stays zero (a
 /// division by the pivot, nonzero and finite in a factorisation taken,
 /// keeps it zero). Where every one is zero, `run` runs `short`, the
@@ -248,10 +248,11 @@ pub struct Factoring {
     /// refused (the fallback takes it)
     pub ones: Vec<u32>,
     pub one_entries: Vec<u32>,
-    /// the Jacobian entries taken for exact zeros (Kin::zero_entries), whose
-    /// subtractions the program leaves out: not placed, and a factorisation
-    /// where one is not exactly 0 (a variant that moved a zero local point,
-    /// on the nominal's layout) is refused (the fallback takes it)
+    /// the Jacobian entries taken for exact zeros (Kin::zero_entries): no
+    /// part of the blocks' structure (plan::triangulate_zero), never placed;
+    /// a factorisation where one is not exactly 0 (a variant that moved a
+    /// zero local point, on the nominal's layout) is refused where checked
+    /// (Factors::zeros_hold false: the fallback takes it)
     pub zero_entries: Vec<u32>,
     /// the pivots not folded (value index, position, pivot_scale), and the
     /// folded ones' figures, constant (their pivots being 1): the first
