@@ -172,7 +172,7 @@ fn random_layout(n: usize, rng: &mut Rng) -> (Layout, Vec<usize>, Vec<usize>) {
 #[test]
 fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
     let mut rng = Rng(0x2545_f491_4f6c_dd1d);
-    let (mut solved, mut corrupted, mut folds, mut quiet) = (0, 0, 0, 0);
+    let (mut solved, mut corrupted, mut folds, mut quiet, mut deep, mut refused, mut same) = (0, 0, 0, 0, 0, 0, 0);
     for trial in 0..600 {
         let n = 2 + rng.below(19) as usize;
         let (mut layout, rows, cols) = random_layout(n, &mut rng);
@@ -184,9 +184,19 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
         // (from a generator of their own: the other draws as before)
         let mut quiet_rng = Rng(0x9e37_79b9_7f4a_7c15 ^ trial as u64);
         let still: Vec<bool> = (0..n).map(|_| quiet_rng.below(3) != 0).collect();
-        if !super::triangulate_still(&mut layout, &constant, &constant, &one, &still) {
+        // entries exactly zero (a revolute's B s' with s' = 0), in a third of the trials: their
+        // subtractions are left out, so that more 1x1 blocks may be quiet
+        let mut zero_rng = Rng(0x6a09_e667_f3bc_c908 ^ trial as u64);
+        let zero: Vec<bool> = rows.iter().map(|_| trial % 3 == 1 && zero_rng.below(4) == 0).collect();
+        let zero: Vec<bool> = zero.iter().zip(&one).map(|(&z, &o)| z && !o).collect();
+        let original = layout.clone();
+        if !super::triangulate_zero(&mut layout, &constant, &constant, &one, &still, &zero) {
             continue;
         }
+        // the same layout with every entry taken for nonzero: the figures the zeros must leave
+        let mut with_zeros = original.clone();
+        let plain =
+            zero.iter().any(|&z| z) && super::triangulate_still(&mut with_zeros, &constant, &constant, &one, &still);
         let Shape::Triangular(t) = &layout.shape else { panic!("trial {trial}: not triangular") };
         t.check().unwrap();
         let folded = t.factoring.ones.len();
@@ -197,6 +207,9 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
             for e in (0..values.len()).filter(|&e| honest && one[e]) {
                 values[e] = 1.0; // Phi_q's value 1 (the factors are unscaled)
             }
+            for e in (0..values.len()).filter(|&e| honest && zero[e]) {
+                values[e] = if rng.below(2) == 0 { 0.0 } else { -0.0 }; // exactly zero, as the model's
+            }
             let mut a = vec![0.0; n * n];
             for e in 0..values.len() {
                 a[rows[e] * n + cols[e]] = values[e];
@@ -205,12 +218,29 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
             let b: Vec<f64> = (0..n).map(|i| (0..n).map(|j| a[i * n + j] * x0[j]).sum()).collect();
             let mut f = layout.factors();
             layout.factor(&values, &mut f);
+            if !honest && !t.factoring.zero_entries.is_empty() {
+                // an entry taken for zero that is not (a variant's moved local point): the fallback's
+                assert!(f.fixed[0].is_none(), "trial {trial}: a nonzero entry taken for zero was factorised");
+                refused += 1;
+            }
             let (ratio, _) = layout.stats(&f);
             if ratio < 1e-8 {
                 continue;
             }
             let mut x = vec![0.0; n];
             layout.solve(&mut f, &b, &mut x);
+            if honest && plain {
+                // exact zeros no part of the structure (other blocks, other pivot orders): the
+                // same matrix's det sign and solution to rounding (the bound below, both ways)
+                let mut g = with_zeros.factors();
+                with_zeros.factor(&values, &mut g);
+                let mut y = vec![0.0; n];
+                with_zeros.solve(&mut g, &b, &mut y);
+                let (a, c) = (layout.stats(&f), with_zeros.stats(&g));
+                let apart = x.iter().zip(&y).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
+                assert!(a.1 == c.1 && apart < 1e-6 / a.0.min(c.0), "trial {trial}: {a:?} {c:?}, apart {apart}");
+                same += 1;
+            }
             let err = x.iter().zip(&x0).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
             assert!(err < 1e-6 / ratio, "trial {trial}: error {err}, pivot ratio {ratio}");
             solved += 1;
@@ -244,19 +274,24 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
                 full.run(&f.j, &b, &mut xf);
                 assert_eq!(xs, xf, "trial {trial}: the short program differs from the full one");
                 quiet += 1;
+                // a quiet position that a subtraction writes (from another quiet one)
+                deep += t.program.subs.iter().any(|s| t.program.quiet.contains(&s[0])) as usize;
             }
             folds += (folded > 0 && f.fixed[0].is_some()) as usize;
         }
         // any index of the program or the factoring moved out of range is refused
         let mut p = t.program.clone();
-        let k = rng.below(p.subs.len() as u64 + p.divs.len() as u64) as usize;
-        let far = (p.positions.max(p.values) + rng.below(5) as usize) as u32;
-        if k < p.subs.len() {
-            p.subs[k][rng.below(3) as usize] = far;
-        } else {
-            p.divs[k - p.subs.len()][1 + rng.below(2) as usize] = far;
+        if !p.subs.is_empty() || !p.divs.is_empty() {
+            // (a program of folded pivots whose subtractions all read exact zeros has neither)
+            let k = rng.below(p.subs.len() as u64 + p.divs.len() as u64) as usize;
+            let far = (p.positions.max(p.values) + rng.below(5) as usize) as u32;
+            if k < p.subs.len() {
+                p.subs[k][rng.below(3) as usize] = far;
+            } else {
+                p.divs[k - p.subs.len()][1 + rng.below(2) as usize] = far;
+            }
+            assert!(p.check().is_err(), "trial {trial}: a corrupted program passed its check");
         }
-        assert!(p.check().is_err(), "trial {trial}: a corrupted program passed its check");
         let mut fa = t.factoring.clone();
         let far = (fa.values + rng.below(5) as usize) as u32;
         match rng.below(3) {
@@ -268,7 +303,9 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
         corrupted += 1;
     }
     assert!(
-        solved >= 300 && corrupted >= 100 && folds >= 20 && quiet >= 20,
-        "{solved} solves ({folds} with folded pivots, {quiet} quiet), {corrupted} corruptions checked"
+        solved >= 300 && corrupted >= 100 && folds >= 20 && quiet >= 20 && deep >= 5 && refused >= 20 && same >= 20,
+        "{solved} solves ({folds} with folded pivots, {quiet} quiet, {deep} through quiet positions, {refused} \
+         nonzero entries taken for zero refused, {same} equal to the solves with the zeros to rounding), \
+         {corrupted} corruptions checked"
     );
 }

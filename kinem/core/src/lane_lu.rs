@@ -7,7 +7,8 @@
 //! (shared/reference/performance.md, "What a static pivot order must
 //! respect"): a lane with a zero or non-finite pivot, a multiplier above
 //! crate::order::MULTIPLIER, or pivots spanning more than
-//! crate::lu::FALLBACK, or a folded pivot (Factoring::one_entries) not exactly 1
+//! crate::lu::FALLBACK, a folded pivot (Factoring::one_entries) not exactly 1
+//! or an entry taken for zero (Factoring::zero_entries) not exactly 0
 //! is not `fixed`: the caller factorises that lane
 //! alone (Layout::factor: partial pivoting, as the scalar march does).
 use crate::lanes::{W, WIDTH};
@@ -47,6 +48,12 @@ impl<'a> LaneLu<'a> {
             let v = values[e as usize];
             for q in 0..WIDTH {
                 ok[q] &= v.0[q] == 1.0;
+            }
+        }
+        for &e in &f.zero_entries {
+            let v = values[e as usize];
+            for q in 0..WIDTH {
+                ok[q] &= v.0[q] == 0.0; // a lane that moved a zero local point: its own LU
             }
         }
         let (mut small, mut big, mut det) = ([f64::INFINITY; WIDTH], [0.0f64; WIDTH], [self.t.sign; WIDTH]);

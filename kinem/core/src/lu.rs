@@ -88,9 +88,23 @@ pub struct Factors {
     /// (None: with partial pivoting)
     pub fixed: Vec<Option<Pivots>>,
     y: Vec<f64>,
+    /// the values factorised here are a Kin's whose exact zeros cover the
+    /// entries the layout takes for zero (`Layout::zeros_hold`: the march
+    /// sets it for its own Kin); false (made so): each factorisation checks
+    /// those entries (a variant's Kin on the nominal's layout, the lanes')
+    pub zeros_hold: bool,
 }
 
 impl Layout {
+    /// Whether kin's exact zeros (Kin::zero_entries) cover the Jacobian
+    /// entries this layout takes for zero (Factoring::zero_entries): then a
+    /// factorisation of its values need not check them (Factors::zeros_hold).
+    pub fn zeros_hold(&self, kin: &crate::model::Kin) -> bool {
+        let Shape::Triangular(t) = &self.shape else { return true };
+        let zero = kin.zero_entries();
+        t.factoring.zero_entries.iter().all(|&e| zero.get(e as usize) == Some(&true))
+    }
+
     pub fn factors(&self) -> Factors {
         let per = match &self.shape {
             Shape::Blocks { size, .. } => *size,
@@ -106,6 +120,7 @@ impl Layout {
                     w: vec![0.0; self.n.max(1)],
                     fixed: vec![None],
                     y: Vec::new(),
+                    zeros_hold: false,
                 };
             }
         };
@@ -117,6 +132,7 @@ impl Layout {
             w: vec![0.0; (self.count * per).max(self.n).max(self.width)],
             fixed: vec![None; self.count],
             y: vec![0.0; per.max(1)],
+            zeros_hold: false,
         }
     }
 

@@ -62,10 +62,13 @@ impl<'a> Native<'a> {
         // the Jacobian's constant entries, which `factor`'s Kin::jac_over keeps (at any q)
         let mut values = vec![0.0; kin.nnz];
         kin.jac(&At { q: &q, e: &turning.e, t: 0.0 }, &mut values);
+        let mut f = layout.factors();
+        // the model's own exact zeros: its factorisations need not check them (a variant's may)
+        f.zeros_hold = layout.zeros_hold(kin);
         Native {
             kin,
             layout,
-            f: layout.factors(),
+            f,
             q,
             turning,
             phi: vec![0.0; kin.m],

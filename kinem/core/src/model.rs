@@ -146,6 +146,16 @@ impl<S: Real> Kin<S> {
         }
     }
 
+    /// The Jacobian entries exactly zero at every configuration and time
+    /// (Family::zero_entries), one flag per entry.
+    pub fn zero_entries(&self) -> Vec<bool> {
+        let mut zero = vec![false; self.nnz];
+        for (f, e) in self.families.iter().zip(self.entry_off.windows(2)) {
+            f.zero_entries(&mut zero[e[0]..e[1]]);
+        }
+        zero
+    }
+
     pub fn nu(&self, t: f64, out: &mut [S]) {
         out.fill(S::zero());
         self.nu_over(t, out);

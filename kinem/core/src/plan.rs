@@ -62,7 +62,7 @@ pub fn still_rows(kin: &Kin) -> Vec<bool> {
 /// one block that decomposes is laid out block-triangularly instead.
 pub fn order_blocks(kin: &Kin, layout: &mut Layout) {
     let (constant, unit, one) = constant_entries(kin, &layout.entry_scale);
-    if triangulate_still(layout, &constant, &unit, &one, &still_rows(kin)) {
+    if triangulate_zero(layout, &constant, &unit, &one, &still_rows(kin), &kin.zero_entries()) {
         return;
     }
     let Shape::Blocks { count, size, pad, patterns, .. } = &layout.shape else { return };
@@ -138,12 +138,33 @@ pub(crate) fn triangulate(layout: &mut Layout, constant: &[bool], unit: &[bool],
 
 /// `triangulate`, with `still`: the rows whose nu looked zero
 /// (`still_rows`; none: no quiet positions in the solve's program).
+#[cfg(test)]
 pub(crate) fn triangulate_still(
     layout: &mut Layout,
     constant: &[bool],
     unit: &[bool],
     one: &[bool],
     still: &[bool],
+) -> bool {
+    triangulate_zero(layout, constant, unit, one, still, &[])
+}
+
+/// `triangulate_still`, with `zero`: the entries exactly zero at every
+/// configuration (Kin::zero_entries; none: every entry may be nonzero),
+/// which are no part of the structure: the blocks, their pivot orders,
+/// the elimination and the solve's program are the pattern's without them
+/// (their operations were products with a zero), so that a pin at the
+/// ground's origin or at a point of it with the body's own origin is a
+/// pair of 1x1 blocks, quiet (Triangular::program); each factorisation
+/// whose values' Kin may not have them checks them
+/// (Factoring::zero_entries, Factors::zeros_hold).
+pub(crate) fn triangulate_zero(
+    layout: &mut Layout,
+    constant: &[bool],
+    unit: &[bool],
+    one: &[bool],
+    still: &[bool],
+    zero: &[bool],
 ) -> bool {
     let Shape::Blocks { count: 1, size, pad, patterns, .. } = &layout.shape else { return false };
     let (n, m) = (layout.n, layout.m);
@@ -159,7 +180,11 @@ pub(crate) fn triangulate_still(
     }
     let rows: Vec<usize> = layout.at.iter().map(|&(_, r, _)| row_at[r]).collect();
     let cols: Vec<usize> = layout.at.iter().map(|&(_, _, c)| col_at[c]).collect();
-    let d = decompose(m, n, &rows, &cols);
+    // the exact zeros are no part of the structure the blocks are made of (checked instead: they
+    // join Factoring::zero_entries below)
+    let live: Vec<usize> = (0..rows.len()).filter(|&e| zero.get(e) != Some(&true)).collect();
+    let (live_rows, live_cols): (Vec<usize>, Vec<usize>) = live.iter().map(|&e| (rows[e], cols[e])).unzip();
+    let d = decompose(m, n, &live_rows, &live_cols);
     if d.kind != Kind::Exact || d.blocks.len() < 2 || d.blocks.iter().any(|b| b.cols.len() > MASK) {
         return false;
     }
@@ -172,7 +197,7 @@ pub(crate) fn triangulate_still(
         }
     }
     let mut inner: Vec<Vec<usize>> = vec![Vec::new(); d.blocks.len()]; // the entries inside each block
-    for e in 0..rows.len() {
+    for &e in &live {
         if block_of_row[rows[e]] == block_of_col[cols[e]] {
             inner[block_of_col[cols[e]]].push(e);
         }
@@ -219,7 +244,7 @@ pub(crate) fn triangulate_still(
         store += s * s;
     }
     // the entries below the diagonal blocks, by the block of their row
-    let mut off: Vec<(usize, u32, u32, u32)> = (0..rows.len())
+    let mut off: Vec<(usize, u32, u32, u32)> = (live.iter().copied())
         .filter(|&e| block_of_row[rows[e]] != block_of_col[cols[e]])
         .map(|e| (block_of_row[rows[e]], row_pos[rows[e]] as u32, col_pos[cols[e]] as u32, e as u32))
         .collect();
@@ -236,11 +261,13 @@ pub(crate) fn triangulate_still(
     }
     let row_scale: Vec<f64> = gather.iter().map(|&i| layout.scale[i]).collect();
     let col_scale: Vec<f64> = scatter.iter().map(|&j| layout.col_scale[j]).collect();
-    let Ok(factoring) =
+    let Ok(mut factoring) =
         Triangular::factoring(&blocks, &off_entries, store, layout.at.len(), &folded, &row_scale, &col_scale)
     else {
         return false;
     };
+    // the exact zeros, checked where the values' Kin may not have them (Factors::zeros_hold)
+    factoring.zero_entries = (0..rows.len()).filter(|e| live.binary_search(e).is_err()).map(|e| e as u32).collect();
     program.renumber(&scatter); // the solve runs in the coordinates (Triangular::run)
     let t = Triangular {
         blocks,

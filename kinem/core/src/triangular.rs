@@ -30,13 +30,17 @@ use crate::real::Real;
 /// `Factoring::one_entries` checks it each factorisation) has no division: its
 /// subtractions run with the next division's, or after the last one.
 ///
-/// The quiet positions: 1x1 blocks folded (pivot +1) with no subtraction
-/// into them and a row whose nu was zero at every trial (a ground's): their
-/// w is the gathered right side, zero in the rates' solves and in a
-/// correction once the ground is met. Where every one is zero, `run` runs
-/// `short`, the program without the subtractions that read them (w[i] -=
-/// a 0: the same w[i], but for the sign of a zero); the others are kept in
-/// the same order, so the figures are the full program's.
+/// The quiet positions: 1x1 blocks whose row's nu was zero at every trial
+/// and whose subtractions, if any, read quiet positions
+/// (a ground's; a body pinned to it by its own origin, whose entries on
+/// its angle are exact zeros, no part of the structure; an angle tied to
+/// the ground's): their w is the gathered right side, zero in the rates'
+/// solves and in a correction once the ground is met, and stays zero (a
+/// division by the pivot, nonzero and finite in a factorisation taken,
+/// keeps it zero). Where every one is zero, `run` runs `short`, the
+/// program without the subtractions that read them (w[i] -= a 0: the same
+/// w[i], but for the sign of a zero) and without their divisions; the
+/// others are kept in the same order, so the figures are the full program's.
 ///
 /// Invariants, checked once by `Program::check` when the model is built
 /// (and by debug assertions in `run`): every position i, c, r is below
@@ -63,19 +67,23 @@ impl Program {
     }
 
     /// The program without the subtractions that read the quiet positions
-    /// `quiet` (each a position no subtraction or division writes), set as
-    /// `short`; none where no subtraction reads one.
+    /// `quiet` and their divisions (each a position no subtraction writes
+    /// but from a quiet position, and divided, if at all, by a pivot the
+    /// factorisation checked nonzero and finite: where all of them are zero
+    /// on entry they stay zero, but for a zero's sign), set as `short`; none
+    /// where no subtraction reads one.
     pub fn quieten(&mut self, quiet: Vec<u32>) {
         let read = |s: &[u32; 3]| quiet.contains(&s[1]);
-        if quiet.iter().any(|&q| self.subs.iter().any(|s| s[0] == q) || self.divs.iter().any(|d| d[1] == q))
-            || !self.subs.iter().any(read)
-        {
+        if quiet.iter().any(|&q| self.subs.iter().any(|s| s[0] == q && !read(s))) || !self.subs.iter().any(read) {
             return;
         }
         let (mut subs, mut divs, mut from) = (Vec::new(), Vec::new(), 0);
         for &[end, r, v] in &self.divs {
             subs.extend(self.subs[from..end as usize].iter().filter(|s| !read(s)));
-            divs.push([subs.len() as u32, r, v]);
+            // a quiet position's division (0 / a nonzero pivot: a zero) is left out too
+            if !quiet.contains(&r) {
+                divs.push([subs.len() as u32, r, v]);
+            }
             from = end as usize;
         }
         subs.extend(self.subs[from..].iter().filter(|s| !read(s)));
@@ -275,6 +283,12 @@ pub struct Factoring {
     /// refused (the fallback takes it)
     pub ones: Vec<u32>,
     pub one_entries: Vec<u32>,
+    /// the Jacobian entries taken for exact zeros (Kin::zero_entries): no
+    /// part of the blocks' structure (plan::triangulate_zero), never placed;
+    /// a factorisation where one is not exactly 0 (a variant that moved a
+    /// zero local point, on the nominal's layout) is refused where checked
+    /// (Factors::zeros_hold false: the fallback takes it)
+    pub zero_entries: Vec<u32>,
     /// the pivots not folded (value index, position, pivot_scale), and the
     /// folded ones' figures, constant (their pivots being 1): the first
     /// position of the smallest c_p / r_p (n: none), that one and the largest
@@ -299,7 +313,7 @@ impl Factoring {
             || self.pairs.iter().any(|p| bad(p[0]) || bad(p[1]))
             || self.diag.iter().any(|&x| bad(x))
             || self.ones.iter().any(|&x| bad(x))
-            || self.one_entries.iter().any(|&e| e as usize >= self.entries)
+            || self.one_entries.iter().chain(&self.zero_entries).any(|&e| e as usize >= self.entries)
             || self.free.iter().any(|f| bad(f.0))
             || self.mult_scale.len() != self.mults.len()
             || self.pivot_scale.len() != self.diag.len()
@@ -370,16 +384,22 @@ impl Factoring {
 
     /// Assembles and factorises into a (Factors::j) from the Jacobian's
     /// values; the pivots' figures (J_s's: det times `sign`), None where a
-    /// pivot is zero or not finite, a multiplier of J_s above MULTIPLIER or
-    /// a folded pivot not exactly 1.
+    /// pivot is zero or not finite, a multiplier of J_s above MULTIPLIER,
+    /// a folded pivot not exactly 1 or an entry taken for zero that is not
+    /// (checked where `zeros`: the values' Kin may not have those zeros).
     #[inline]
-    pub fn run(&self, values: &[f64], a: &mut [f64], sign: i32) -> Option<Pivots> {
+    pub fn run(&self, values: &[f64], a: &mut [f64], sign: i32, zeros: bool) -> Option<Pivots> {
         let mut ok = true;
         self.eliminate(values, a, |l: f64, scale| ok &= (l * scale).abs() <= MULTIPLIER); // false for a zero or non-finite pivot too
                                                                                           // SAFETY (every unchecked index below): Factoring::check when built, and eliminate's asserted lengths
         unsafe {
             for &e in &self.one_entries {
                 ok &= *values.get_unchecked(e as usize) == 1.0;
+            }
+            if zeros {
+                for &e in &self.zero_entries {
+                    ok &= *values.get_unchecked(e as usize) == 0.0;
+                }
             }
             if !ok {
                 return None;
@@ -489,9 +509,10 @@ impl Triangular {
 
     /// The program of the blocks' solve (off_at: where the off-diagonal
     /// values are stored; folded: the 1x1 blocks without a division; still:
-    /// the blocks whose rows' nu was zero at every trial), its quiet
-    /// positions (`Program`: the folded, still 1x1 blocks without
-    /// off-diagonal entries), checked (`Program::check`).
+    /// the blocks whose rows' nu was zero at every trial), its quiet positions (`Program`: the still 1x1 blocks whose
+    /// off-diagonal entries, the zeros aside, all read quiet positions: a
+    /// ground's, a body pinned at its origin to it, an angle tied to the
+    /// ground's), checked (`Program::check`).
     pub fn program(
         blocks: &[Diagonal],
         off: &[(usize, usize, usize)],
@@ -501,26 +522,28 @@ impl Triangular {
         still: &[bool],
     ) -> Result<Program, String> {
         let mut p = Program { positions: n, values: off_at + off.len(), ..Program::default() };
-        let mut next = 0;
+        let (mut next, mut quiet) = (0, vec![false; n]);
         for (k, d) in blocks.iter().enumerate() {
             // off: (block of the row, row position, column position), sorted by block
+            let mut reads_quiet = true;
             while next < off.len() && off[next].0 == k {
                 p.sub(off[next].1, off[next].2, off_at + next);
+                reads_quiet &= quiet[off[next].2];
                 next += 1;
             }
             match &d.order {
-                None if folded[k] => {}
-                None => p.div(d.at, d.store),
+                None if folded[k] => quiet[d.at] = still[k] && reads_quiet,
+                None => {
+                    p.div(d.at, d.store);
+                    quiet[d.at] = still[k] && reads_quiet;
+                }
                 Some(o) => o.program(d.at, d.store, &mut p),
             }
         }
         if next != off.len() || p.divs.len() + folded.iter().filter(|&&f| f).count() != n {
             return Err("program: an off-diagonal entry out of order, or a position without its pivot".into());
         }
-        let quiet = (blocks.iter().enumerate())
-            .filter(|&(k, d)| d.order.is_none() && folded[k] && still[k] && !off.iter().any(|o| o.0 == k))
-            .map(|(_, d)| d.at as u32);
-        p.quieten(quiet.collect());
+        p.quieten((0..n).filter(|&i| quiet[i]).map(|i| i as u32).collect());
         p.check()?;
         Ok(p)
     }
@@ -610,7 +633,7 @@ impl Triangular {
     }
 
     fn blocks_factor(&self, values: &[f64], f: &mut Factors) -> Option<Pivots> {
-        self.factoring.run(values, &mut f.j, self.sign)
+        self.factoring.run(values, &mut f.j, self.sign, !f.zeros_hold)
     }
 
     /// x = Phi_q^-1 b (model rows in, coordinates out); scale, col_scale:

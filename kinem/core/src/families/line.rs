@@ -160,6 +160,20 @@ impl<S: Real> Line<S> {
         each_side!(self.jac_of::<false>(at, out));
     }
 
+    /// The entry u . A_b s'_b (5: phi_b's) where ob is exactly zero (the
+    /// groups `jac_of` writes it as a constant zero), marked in out.
+    pub fn zero_entries(&self, out: &mut [bool]) {
+        let width = self.width();
+        for (g, group) in self.groups.iter().enumerate() {
+            if g & 1 != 0 {
+                // Sides::<A, B>::GROUP = !A * 2 + !B: ob is zero
+                for r in group {
+                    out[width * r.c + 5] = true;
+                }
+            }
+        }
+    }
+
     /// Table 4.2's row over the constraints of Sides<A, B> (d + sa = d
     /// where sa is left out, u . sb = 0 where sb is), the angle rows'
     /// constant entries when ALL; `jac` asserted out's entries and n.

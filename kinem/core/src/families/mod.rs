@@ -259,6 +259,19 @@ impl<S: Real> Family<S> {
         }
     }
 
+    /// Marks (true) the family's Jacobian entries that are exactly zero at
+    /// every configuration and time (out: one per entry): the revolute's
+    /// B s' where s' = 0, the line's u . A_b s'_b where its point on b is
+    /// (their `Sides` groups); none of the other kinds. The block-triangular
+    /// layout is made without them (crate::plan::triangulate_zero).
+    pub fn zero_entries(&self, out: &mut [bool]) {
+        match self {
+            Family::Revolute(f) => f.zero_entries(out),
+            Family::Line(f) => f.zero_entries(out),
+            _ => {}
+        }
+    }
+
     /// nu = -Phi_t (zero for families without drivers).
     pub fn nu(&self, t: f64, s: &Shared<S>, out: &mut [S]) {
         match self {

@@ -91,6 +91,20 @@ impl<S: Real> Revolute<S> {
         each_side!(self.jac_of::<false>(at, out));
     }
 
+    /// The entries B_i s'_i (1, 5) where s'_i is exactly zero and -B_j s'_j
+    /// (3, 7) where s'_j is (the groups `jac_of` writes as constant zeros),
+    /// marked in out (8 per joint).
+    pub fn zero_entries(&self, out: &mut [bool]) {
+        for (g, group) in self.groups.iter().enumerate() {
+            let (zi, zj) = (g & 2 != 0, g & 1 != 0); // Sides::<I, J>::GROUP = !I * 2 + !J
+            for p in group {
+                let o = &mut out[8 * p.k..8 * p.k + 8];
+                (o[1], o[5]) = (o[1] || zi, o[5] || zi);
+                (o[3], o[7]) = (o[3] || zj, o[7] || zj);
+            }
+        }
+    }
+
     /// Eq. 4.46 over the joints of Sides<I, J> (B 0 = 0), the constant
     /// entries (I, -I) too when ALL; out holds 8 entries per joint and `at`
     /// n coordinates (`jac` asserted both).

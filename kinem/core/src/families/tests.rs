@@ -719,6 +719,57 @@ fn gamma_from_the_jacobian_equals_gamma_to_the_bit() {
     }
 }
 
+/// The entries Kin::zero_entries marks (a revolute's B s' where s' is
+/// exactly zero: two per zero side; a line's u . A_b s'_b where ob is) are
+/// exactly 0 at every configuration (tolerance 0), and none is marked
+/// where the local points are nonzero; the simple family marks none.
+#[test]
+fn the_zero_entries_are_zero_at_every_configuration() {
+    use crate::families::At;
+    let z = c(0.0, 0.0);
+    let (q0, _) = state(&[]);
+    // the marked entries of kind's table t, then at 40 configurations: those 0, the others not
+    // (a line's -ta may cross 0 at some: `all` only for the revolute's)
+    let zeros = |kind: &str, t: Table, all: bool| -> Vec<usize> {
+        let k = kin(kind, t, 0);
+        let zero = k.zero_entries();
+        for step in 0..40 {
+            let q: Vec<f64> =
+                q0.iter().enumerate().map(|(j, x)| x + 0.157 * step as f64 * (1.0 + j as f64 * 0.1)).collect();
+            let mut e = vec![C64::new(1.0, 0.0); k.n];
+            k.rotate(&q, &mut e);
+            let mut jac = vec![f64::NAN; k.nnz];
+            k.jac(&At { q: &q, e: &e, t: 0.8 }, &mut jac);
+            assert!((0..k.nnz).all(|e| !zero[e] || jac[e] == 0.0), "{kind} at step {step}: {jac:?}");
+            assert!(!all || (0..k.nnz).all(|e| zero[e] || jac[e] != 0.0), "{kind} at step {step}: {jac:?}");
+        }
+        (0..k.nnz).filter(|&e| zero[e]).collect()
+    };
+    let revolute = table(
+        &[("ci", vec![0, 3, 0, 6]), ("cj", vec![3, 6, 6, 0])],
+        &[],
+        &[("si", vec![z, c(-0.3, 0.2), z, c(0.2, 0.0)]), ("sj", vec![c(0.0, -0.5), z, z, c(0.6, 0.6)])],
+    );
+    // joints 0 (s_i = 0), 1 (s_j = 0), 2 (both), 3 (neither): 2 + 2 + 4 + 0 entries
+    assert_eq!(zeros("revolute", revolute, true), vec![1, 5, 11, 15, 17, 19, 21, 23]);
+    assert_eq!(zeros("simple", simple_table(), false), Vec::<usize>::new());
+    // the line family, with and without its angle row: constraints 1 and 2 have ob = 0
+    for (ai, aj, phi0, width) in
+        [(vec![2, 5, 8, 2], vec![5, 8, 2, 8], vec![0.3, -0.1, 0.0, 0.2], 8), (vec![], vec![], vec![], 6)]
+    {
+        let line = table(
+            &[("ca", vec![0, 3, 6, 0]), ("cb", vec![3, 6, 0, 6]), ("ai", ai), ("aj", aj)],
+            &[("phi0", phi0)],
+            &[
+                ("pa", vec![z, c(0.2, 0.1), z, c(-0.1, 0.3)]),
+                ("ua", vec![c(-0.5, 0.8), c(0.3, 0.4), c(1.0, 0.0), c(0.0, -0.7)]),
+                ("ob", vec![c(0.4, -0.3), z, z, c(0.2, 0.2)]),
+            ],
+        );
+        assert_eq!(zeros("line", line, false), vec![width + 5, 2 * width + 5]);
+    }
+}
+
 /// `jac_over` on the Jacobian of another configuration (its constant
 /// entries kept) gives `jac`'s values to the bit (tolerance 0), and
 /// `gamma_over` on the last gamma (zeros at first) gamma's: the simple,
