@@ -37,8 +37,6 @@ use crate::real::{cis, Lanes, Real};
 use crate::table::Table;
 use crate::triangular::Program;
 use num_complex::{Complex, Complex64 as C64};
-use std::borrow::Cow;
-use std::sync::Arc;
 
 /// How many parameters share one evaluation of the model and of the named
 /// points' columns (crate::real::Lanes): as many as there are up to 8
@@ -182,9 +180,6 @@ pub struct Prepared {
     groups: Grouped,
     /// the Jacobian's pattern (row, column: `Reach`)
     pattern: Vec<(usize, usize)>,
-    /// the groups' reach with the layout it was taken for (`keep`: the
-    /// plan's, made once with the set-up; another layout takes its own)
-    kept: Option<(Arc<Layout>, Vec<Reach>)>,
 }
 
 /// The groups and the points' local coordinates over the lanes that fit
@@ -216,44 +211,13 @@ impl Prepared {
             4 => Grouped::Four(grouped(k, tangents, p)?, locals(tangents.len(), local, dlocal)),
             _ => Grouped::Eight(grouped(k, tangents, p)?, locals(tangents.len(), local, dlocal)),
         };
-        Ok(Prepared { np, src: src.to_vec(), pc: pc.to_vec(), points, groups, kin, pattern, kept: None })
-    }
-
-    /// The groups' reach (`Reach`) with the layout of the plan that keeps
-    /// this set-up, taken once here instead of at every run of instants.
-    pub fn keep(mut self, layout: Arc<Layout>) -> Self {
-        let reach = match &self.groups {
-            Grouped::One(g, l) => reaches(&self, g, l, &layout),
-            Grouped::Two(g, l) => reaches(&self, g, l, &layout),
-            Grouped::Four(g, l) => reaches(&self, g, l, &layout),
-            Grouped::Eight(g, l) => reaches(&self, g, l, &layout),
-        };
-        self.kept = Some((layout, reach));
-        self
-    }
-
-    /// The kept reach where it was taken for this layout.
-    fn kept(&self, layout: &Layout) -> Option<&[Reach]> {
-        self.kept.as_ref().filter(|k| std::ptr::eq(Arc::as_ptr(&k.0), layout)).map(|k| &k.1[..])
+        Ok(Prepared { np, src: src.to_vec(), pc: pc.to_vec(), points, groups, kin, pattern })
     }
 
     /// The columns per instant and parameter (P W: an instant's row of data).
     pub fn width(&self) -> usize {
         self.np * self.src.len()
     }
-}
-
-/// Every group's reach (`Reach::new`; partial for a group alone: with
-/// several, their reach is nearly every place's, and the groups would
-/// share flat's rows: each its whole pass, or its fixed row).
-fn reaches<const N: usize>(
-    p: &Prepared,
-    groups: &[Group<N>],
-    locs: &[Vec<Complex<Lanes<N>>>],
-    layout: &Layout,
-) -> Vec<Reach> {
-    let one = groups.len() == 1;
-    groups.iter().zip(locs).map(|(g, l)| Reach::new(p, g, l, layout, one)).collect()
 }
 
 /// The parameters' groups of N (Group::new).
@@ -545,14 +509,16 @@ fn moving<const N: usize>(
 /// fallback's, the inverse's) leaves to be zeroed; `direct`: per direct
 /// family of the group, whether its (S2), (S3) kernels run (its rows'
 /// right sides are zero otherwise); `points`: the named points taken (on
-/// a reached body, or their local coordinates moved).
-#[derive(Clone)]
+/// a reached body, or their local coordinates moved); `fixed`: the
+/// group's whole output where its shift is known (`moving`) and no named
+/// point's local coordinates move.
 struct Reach {
     program: Option<Program>,
     rows: Vec<(u32, u32)>,
     zero: Vec<u32>,
     direct: Vec<bool>,
     points: Vec<usize>,
+    fixed: Option<Vec<f64>>,
 }
 
 impl Reach {
@@ -571,6 +537,7 @@ impl Reach {
             zero: Vec::new(),
             direct: vec![true; group.direct.len()],
             points: (0..points).collect(),
+            fixed: None,
         };
         let t = match &layout.shape {
             Shape::Triangular(t) if partial && t.into.len() == m && m == n && t.program.positions == n => t,
@@ -597,6 +564,7 @@ impl Reach {
             zero: (0..n).filter(|&c| !reached[c]).map(|c| c as u32).collect(),
             direct: group.direct.iter().map(|f| f.rows.clone().any(|r| from[place(r)])).collect(),
             points: (0..points).filter(|&j| local(j) || (0..3).any(|i| reached[p.pc[j] + i])).collect(),
+            fixed: None,
         }
     }
 }
@@ -648,11 +616,8 @@ pub struct Lanewise<'a, const N: usize> {
     kv: Vec<C64>,
     kd: Vec<[f64; N]>,
     solver: Solver<N>,
-    /// per group, what its parameters reach (`Reach`: the set-up's, kept)
-    reach: Cow<'a, [Reach]>,
-    /// per group, its whole output where its shift is known (`moving`)
-    /// and no named point's local coordinates move (`fix`)
-    fixed: Vec<Option<Vec<f64>>>,
+    /// per group, what its parameters reach (`Reach`)
+    reach: Vec<Reach>,
 }
 
 impl<'a, const N: usize> Lanewise<'a, N> {
@@ -695,10 +660,10 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             .all(|g| g.direct.iter().all(|f| f.v.end <= g.kept.0 && f.d.end <= g.kept.1 && f.rows.end <= m)));
         let zl = || vec![Lanes::<N>::c(0.0); n];
         let cl = || vec![Complex::new(Lanes::<N>::c(0.0), Lanes::<N>::c(0.0)); n];
-        let reach = match p.kept(layout) {
-            Some(r) => Cow::Borrowed(r),
-            None => Cow::Owned(reaches(p, groups, locs, layout)),
-        };
+        // (one group alone: with several, their reach is nearly every place's, and the
+        // groups would share flat's rows: each its whole pass, or its fixed row)
+        let one = groups.len() == 1;
+        let reach: Vec<Reach> = groups.iter().zip(locs).map(|(g, l)| Reach::new(p, g, l, layout, one)).collect();
         // (every reach's rows within rhs (m rows) and s (n coordinates): Solver::solve_in)
         assert!(reach.iter().all(|r| r.rows.iter().all(|&(i, c)| (i as usize) < m && (c as usize) < n)));
         let mut at = Lanewise {
@@ -730,7 +695,6 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             kd: vec![[0.0; N]; groups.iter().map(|g| g.kept.1).max().unwrap_or(0)],
             solver: Solver::new(n, m, 3 * np >= 2 * n && n <= INVERSE),
             reach,
-            fixed: vec![None; groups.len()],
         };
         for g in 0..groups.len() {
             at.fix(g);
@@ -764,7 +728,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             }
         }
         self.flat.fill([0.0; N]);
-        self.fixed[g] = Some(row);
+        self.reach[g].fixed = Some(row);
     }
 
     /// The columns per instant and parameter (P W: an instant's row of data).
@@ -800,7 +764,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         for (g, group) in self.groups.iter().enumerate() {
             let (model, count) = (&group.model, group.count);
             let reach = &self.reach[g];
-            if let Some(row) = &self.fixed[g] {
+            if let Some(row) = &reach.fixed {
                 out[g * N * w..(g * N + count) * w].copy_from_slice(row);
                 continue;
             }

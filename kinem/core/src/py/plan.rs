@@ -200,8 +200,7 @@ impl Plan {
         columns: SensColumns<'py>,
     ) -> PyResult<SensSetup> {
         let inputs = SensInputs::of(&self.kin, tables, tangents, pattern, columns)?;
-        let layout = self.layout.clone();
-        Ok(SensSetup(guard(py, move || Ok(inputs.prepare()?.keep(layout)))?, self.layout.clone()))
+        Ok(SensSetup(guard(py, move || inputs.prepare())?, self.layout.clone()))
     }
 
     /// The march (`march`, from k = 0: assembled from the estimates in
