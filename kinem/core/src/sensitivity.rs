@@ -296,6 +296,9 @@ struct Group<const N: usize> {
     /// evaluated over the lanes
     direct: Vec<Direct>,
     live: Vec<usize>,
+    /// per moved family, its place in `direct` where its phi_tangent
+    /// keeps what its jac_products reads (Family::hands, Direct's `held`)
+    hands: Vec<Option<usize>>,
     /// the moved families without direct kernels (Phi_p over the lanes)
     moved_lanes: bool,
     /// the Jacobian's entries (row, column, place) of the `live` families
@@ -332,29 +335,49 @@ impl<const N: usize> Group<N> {
         let (direct, live): (Vec<usize>, Vec<usize>) = live.into_iter().partition(|&k| kin.families[k].direct());
         entries.retain(|&(_, _, p)| live.iter().any(|&k| (model.entry_off[k]..model.entry_off[k + 1]).contains(&p)));
         let (mut v, mut d) = (0, 0);
-        let direct = direct
+        let direct: Vec<Direct> = direct
             .into_iter()
             .map(|k| {
                 let (vn, dn) = model.families[k].kept();
                 (v, d) = (v + vn, d + dn);
                 let rows = model.row_off[k]..model.row_off[k + 1];
-                Direct { k, rows, moved: moved.contains(&k), v: v - vn..v, d: d - dn..d }
+                let moved = moved.contains(&k);
+                let held = moved && model.families[k].hands();
+                Direct { k, rows, moved, held, v: v - vn..v, d: d - dn..d }
             })
             .collect();
+        let hands = moved.iter().map(|&k| direct.iter().position(|f| f.k == k && f.held)).collect();
         let moved_lanes = moved.iter().any(|&k| !kin.families[k].direct());
         let (seeds, shift) = moving(&model, &moved, drives || outlines, group.len());
         let count = group.len();
-        Ok(Group { model, count, moved, timed, drives, direct, live, moved_lanes, entries, kept: (v, d), seeds, shift })
+        Ok(Group {
+            model,
+            count,
+            moved,
+            timed,
+            drives,
+            direct,
+            live,
+            hands,
+            moved_lanes,
+            entries,
+            kept: (v, d),
+            seeds,
+            shift,
+        })
     }
 }
 
 /// A family with the direct tangent kernels in a group: its place, its
 /// rows, whether it is moved, and where its jac_products keeps its values
-/// (v) and tangents (d) for its gamma_tangent (Family::kept, Lanewise's kv, kd).
+/// (v) and tangents (d) for its gamma_tangent (Family::kept, Lanewise's kv,
+/// kd); `held`: moved, and its phi_tangent keeps them there first for its
+/// jac_products (Family::hands).
 struct Direct {
     k: usize,
     rows: std::ops::Range<usize>,
     moved: bool,
+    held: bool,
     v: std::ops::Range<usize>,
     d: std::ops::Range<usize>,
 }
@@ -771,10 +794,20 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             let shared = Shared { functions: &model.functions, outlines: &model.outlines };
             // S1: -Phi_p, Phi's tangent at q' = 0, non-zero in the moved families' rows alone
             self.rhs.fill([0.0; N]);
-            for &k in &group.moved {
+            for (&k, hand) in group.moved.iter().zip(&group.hands) {
                 let rows = model.row_off[k]..model.row_off[k + 1];
                 let family = &model.families[k];
-                if !family.phi_tangent(&atf, &shared, &mut self.rhs[rows.clone()]) {
+                let keep = match hand {
+                    Some(i) if levels > 1 => {
+                        let f = &group.direct[*i];
+                        // SAFETY: every Direct's ranges within kv, kd (asserted in `new`)
+                        unsafe {
+                            Kept::of(self.kv.get_unchecked_mut(f.v.clone()), self.kd.get_unchecked_mut(f.d.clone()))
+                        }
+                    }
+                    _ => Kept::none(),
+                };
+                if !family.phi_tangent(&atf, &shared, &mut self.rhs[rows.clone()], keep) {
                     family.phi(&at0, &shared, &mut self.rl[rows.clone()]);
                     for (r, x) in self.rhs[rows.clone()].iter_mut().zip(&self.rl[rows]) {
                         *r = x.d.map(|v| -v);
@@ -810,18 +843,19 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 let (s, rhs, rhs3) = (&self.flat[..n], &mut self.rhs, &mut self.rhs3);
                 for (f, _) in group.direct.iter().zip(&reach.direct).filter(|x| *x.1) {
                     // SAFETY: every Direct's ranges within kv, kd and its rows within rhs, rhs3 (asserted in `new`)
+                    // (what its phi_tangent kept, `held`, read)
                     let (r2, r3, keep) = unsafe {
-                        if levels > 2 {
-                            let (v, d) =
-                                (self.kv.get_unchecked_mut(f.v.clone()), self.kd.get_unchecked_mut(f.d.clone()));
-                            (
-                                rhs.get_unchecked_mut(f.rows.clone()),
-                                rhs3.get_unchecked_mut(f.rows.clone()),
-                                Kept { v, d },
-                            )
+                        let keep = if levels > 2 || f.held {
+                            Kept {
+                                v: self.kv.get_unchecked_mut(f.v.clone()),
+                                d: self.kd.get_unchecked_mut(f.d.clone()),
+                                held: f.held,
+                            }
                         } else {
-                            (rhs.get_unchecked_mut(f.rows.clone()), &mut [][..], Kept::none())
-                        }
+                            Kept::none()
+                        };
+                        let r3 = if levels > 2 { rhs3.get_unchecked_mut(f.rows.clone()) } else { &mut [][..] };
+                        (rhs.get_unchecked_mut(f.rows.clone()), r3, keep)
                     };
                     let d = Dir { at: At { q, e, t }, qd: x[1], s, sd: &[], moved: f.moved, drives: group.drives };
                     model.families[f.k].jac_products(&d, &shared, &x[1..], r2, r3, keep);
@@ -855,7 +889,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                         let (v, kd) = (self.kv.get_unchecked_mut(f.v.clone()), self.kd.get_unchecked_mut(f.d.clone()));
                         (v, kd, self.rhs3.get_unchecked_mut(f.rows.clone()))
                     };
-                    model.families[f.k].gamma_tangent(&d, &shared, r3, Kept { v, d: kd });
+                    model.families[f.k].gamma_tangent(&d, &shared, r3, Kept::of(v, kd));
                 }
                 self.solver.solve_in(layout, f, &self.rhs3, count, &mut self.flat[2 * n..3 * n], reach);
             }

@@ -200,6 +200,19 @@ struct Place<const N: usize> {
     k: f64,
 }
 
+/// Keeps constraint c's outline place p (a, g, h, k and the tangents of
+/// a, g, h: `kept`'s layout, read by `place_kept`).
+///
+/// # Safety
+/// keep holds 4 values and 6 tangents per constraint up to c.
+#[inline(always)]
+unsafe fn store<const N: usize>(p: &Curve<Lanes<N>>, c: usize, keep: &mut Kept<N>) {
+    let z = |x: Complex<Lanes<N>>| (C64::new(x.re.v, x.im.v), x.re.d, x.im.d);
+    let ((a, ar, ai), (g, gr, gi), (h, hr, hi)) = (z(p.a), z(p.g), z(p.h));
+    keep.v.get_unchecked_mut(4 * c..4 * c + 4).copy_from_slice(&[a, g, h, z(p.k).0]);
+    keep.d.get_unchecked_mut(6 * c..6 * c + 6).copy_from_slice(&[ar, ai, gr, gi, hr, hi]);
+}
+
 /// The direct tangent kernels (super::Family::phi_tangent, jac_products,
 /// gamma_tangent) of Eqs. 4.26, 4.30 and their Jacobian and gamma: the
 /// outline's a, g, h, k at the analysis' theta and phi_c (one evaluation
@@ -272,12 +285,19 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
         self.place_at(at, c, p)
     }
 
-    /// d/dp of Eqs. 4.26, 4.30 at q' = 0: sigma (d(a) - A_b d(s'_b)).
-    pub fn phi_tangent(&self, at: &At, s: &Shared<Lanes<N>>, out: &mut [[f64; N]]) {
+    /// d/dp of Eqs. 4.26, 4.30 at q' = 0: sigma (d(a) - A_b d(s'_b)); the
+    /// outline's place kept where `keep` holds `kept`'s sizes (as
+    /// jac_products keeps it: the same evaluation at the same q).
+    pub fn phi_tangent(&self, at: &At, s: &Shared<Lanes<N>>, out: &mut [[f64; N]], mut keep: Kept<N>) {
         assert!(at.holds(self.n) && out.len() >= 2 * self.cb.len());
+        let keeps = keep.v.len() >= 4 * self.cb.len() && keep.d.len() >= 6 * self.cb.len();
         for (c, o) in out.chunks_exact_mut(2).take(self.cb.len()).enumerate() {
-            // SAFETY: c < cb.len() (every column has its rows: new), q and e hold n (asserted above)
+            // SAFETY: c < cb.len() (every column has its rows: new), q and e hold n, keep 4 and 6 per
+            // constraint where it keeps (asserted above)
             let Place { p, eb, sb, k, .. } = unsafe { self.place(at, s, c) };
+            if keeps {
+                unsafe { store(&p, c, &mut keep) };
+            }
             for l in 0..N {
                 let d = (lane(p.a, l).1 - lane(sb, l).1 * eb) * k;
                 (o[0][l], o[1][l]) = (-d.re, -d.im);
@@ -294,23 +314,22 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
         v: &[&[f64]],
         r2: &mut [[f64; N]],
         r3: &mut [[f64; N]],
-        keep: Kept<N>,
+        mut keep: Kept<N>,
     ) {
         let (at, sq, moved) = (&d.at, d.s, d.moved);
         let (n, count) = (self.n, self.cb.len());
         assert!(at.holds(n) && sq.len() >= n && v.iter().all(|x| x.len() >= n) && r2.len() >= 2 * count);
         assert!(v.len() < 2 || r3.len() >= 2 * count);
         let keeps = keep.v.len() >= 4 * count && keep.d.len() >= 6 * count;
+        let held = keeps && keep.held;
         for c in 0..count {
             // SAFETY: c < cb.len(); cc, cb < n - 2, ct < n (new); e, s and v hold n, r2, r3 two rows per
             // constraint, keep 4 and 6 where it keeps (asserted above)
             unsafe {
-                let Place { y, cc, ct, p, eb, sb, k } = self.place(at, s, c);
-                if keeps {
-                    let z = |x: Complex<Lanes<N>>| (C64::new(x.re.v, x.im.v), x.re.d, x.im.d);
-                    let ((a, ar, ai), (g, gr, gi), (h, hr, hi)) = (z(p.a), z(p.g), z(p.h));
-                    keep.v.get_unchecked_mut(4 * c..4 * c + 4).copy_from_slice(&[a, g, h, z(p.k).0]);
-                    keep.d.get_unchecked_mut(6 * c..6 * c + 6).copy_from_slice(&[ar, ai, gr, gi, hr, hi]);
+                let Place { y, cc, ct, p, eb, sb, k } =
+                    if held { self.place_kept(at, c, &keep) } else { self.place(at, s, c) };
+                if keeps && !held {
+                    store(&p, c, &mut keep);
                 }
                 let (a, g, h) = (lane(p.a, 0).0, lane(p.g, 0).0, lane(p.h, 0).0);
                 let b = C64::new(sb.re.v, sb.im.v) * eb;

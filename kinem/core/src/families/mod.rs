@@ -359,13 +359,16 @@ impl<S> Family<S> {
 /// (the caller evaluates that family over Lanes<N>, crate::real).
 impl<const N: usize> Family<Lanes<N>> {
     /// Phi's tangent along the tables alone (q' = 0), negated: -Phi_p,
-    /// (S1)'s right-hand side (the sign taken in each store).
-    pub fn phi_tangent(&self, at: &At, s: &Shared<Lanes<N>>, out: &mut [[f64; N]]) -> bool {
+    /// (S1)'s right-hand side (the sign taken in each store). Where `keep`
+    /// holds the family's `kept` sizes and the kind `hands` its outline's
+    /// place on, that place is written there (Kept::held) for
+    /// `jac_products` at the same instant.
+    pub fn phi_tangent(&self, at: &At, s: &Shared<Lanes<N>>, out: &mut [[f64; N]], keep: Kept<N>) -> bool {
         match self {
             Family::Simple(f) => f.phi_tangent(at, s, out),
             Family::Revolute(f) => f.phi_tangent(at, out),
             Family::Line(f) => f.phi_tangent(at, out),
-            Family::PointOnCurve(f) => f.phi_tangent(at, s, out),
+            Family::PointOnCurve(f) => f.phi_tangent(at, s, out, keep),
             _ => return false,
         }
         true
@@ -410,6 +413,13 @@ impl<const N: usize> Family<Lanes<N>> {
         true
     }
 
+    /// Whether `phi_tangent` keeps what `jac_products` keeps (the
+    /// point-on-curve's outline place at q' = 0 with the tables' tangents:
+    /// its two evaluations at the same q are one).
+    pub fn hands(&self) -> bool {
+        matches!(self, Family::PointOnCurve(_))
+    }
+
     /// How many values and lanes of tangents `jac_products` keeps for
     /// `gamma_tangent` (Kept): (0, 0) where it keeps none.
     pub fn kept(&self) -> (usize, usize) {
@@ -424,16 +434,24 @@ impl<const N: usize> Family<Lanes<N>> {
 
 /// A family's values and their tangents per constraint, taken by
 /// `jac_products` and read again by `gamma_tangent` at the same instant
-/// (its sizes `Family::kept`); empty slices: nothing kept.
+/// (its sizes `Family::kept`); empty slices: nothing kept. `held`: they
+/// hold already what `phi_tangent` kept at the instant (Family::hands), for
+/// `jac_products` to read rather than take.
 pub struct Kept<'a, const N: usize> {
     pub v: &'a mut [C64],
     pub d: &'a mut [[f64; N]],
+    pub held: bool,
 }
 
-impl<const N: usize> Kept<'_, N> {
+impl<'a, const N: usize> Kept<'a, N> {
     /// Nothing kept.
     pub fn none() -> Self {
-        Kept { v: &mut [], d: &mut [] }
+        Kept { v: &mut [], d: &mut [], held: false }
+    }
+
+    /// To be written (or read by gamma_tangent: what jac_products wrote).
+    pub fn of(v: &'a mut [C64], d: &'a mut [[f64; N]]) -> Self {
+        Kept { v, d, held: false }
     }
 }
 

@@ -269,7 +269,7 @@ fn check_direct(kind: &str, tabs: &[Table; 3], art: usize, q: &[f64], qd: &[f64]
         }
     };
     let mut out = vec![[0.0]; m];
-    if moved && fam.phi_tangent(&at, &shared, &mut out) {
+    if moved && fam.phi_tangent(&at, &shared, &mut out, Kept::none()) {
         let zeros = vec![0.0; n];
         let want = tangents(&dual, &lift(q, &zeros), &lift(qd, &zeros), time)[0].clone();
         near("Phi_p", &out.iter().map(|x| -x[0]).collect::<Vec<_>>(), &want, 1e-12);
@@ -283,11 +283,27 @@ fn check_direct(kind: &str, tabs: &[Table; 3], art: usize, q: &[f64], qd: &[f64]
     let (mut r2, mut r3) = (vec![[0.0]; m], vec![[0.0]; m]);
     let (vn, dn) = fam.kept();
     let (mut kv, mut kd) = (vec![C64::new(f64::NAN, 0.0); vn], vec![[f64::NAN]; dn]);
-    if fam.jac_products(&dir, &shared, &[qd, &w], &mut r2, &mut r3, Kept { v: &mut kv, d: &mut kd }) {
+    if fam.jac_products(&dir, &shared, &[qd, &w], &mut r2, &mut r3, Kept::of(&mut kv, &mut kd)) {
         // what jac_products kept gives gamma_tangent's figures to the bit
         let mut again = vec![[0.0]; m];
-        assert!(fam.gamma_tangent(&dir, &shared, &mut again, Kept { v: &mut kv, d: &mut kd }));
+        assert!(fam.gamma_tangent(&dir, &shared, &mut again, Kept::of(&mut kv, &mut kd)));
         assert!(again.iter().zip(&out).all(|(a, b)| a[0].to_bits() == b[0].to_bits()), "{kind}: kept D(gamma)");
+        if moved && fam.hands() {
+            // what phi_tangent kept is jac_products' to the bit, and jac_products reading it (held) gives its figures
+            let (mut hv, mut hd) = (vec![C64::new(f64::NAN, 0.0); vn], vec![[f64::NAN]; dn]);
+            let mut phi = vec![[0.0]; m];
+            assert!(fam.phi_tangent(&at, &shared, &mut phi, Kept::of(&mut hv, &mut hd)));
+            let bits = |a: &[C64], b: &[C64]| a.iter().zip(b).all(|(x, y)| (x.re, x.im) == (y.re, y.im));
+            assert!(
+                bits(&hv, &kv) && hd.iter().zip(&kd).all(|(x, y)| x[0].to_bits() == y[0].to_bits()),
+                "{kind}: kept"
+            );
+            let (mut h2, mut h3) = (vec![[0.0]; m], vec![[0.0]; m]);
+            let held = Kept { v: &mut hv, d: &mut hd, held: true };
+            assert!(fam.jac_products(&dir, &shared, &[qd, &w], &mut h2, &mut h3, held));
+            let same = |a: &[[f64; 1]], b: &[[f64; 1]]| a.iter().zip(b).all(|(x, y)| x[0].to_bits() == y[0].to_bits());
+            assert!(same(&h2, &r2) && same(&h3, &r3), "{kind}: jac_products from phi_tangent's place");
+        }
         for (v, r) in [(qd, &r2), (&w[..], &r3)] {
             let phi = |h: f64| -> Vec<f64> {
                 let qs: Vec<f64> = q.iter().zip(v).map(|(a, b)| a + h * b).collect();
