@@ -119,15 +119,16 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
         traj, levels = result.trajectory, len(X)
         setup = _setup(model, tangents, _layout(model, levels)[1])
         data, ratio = plan.sensitivity_kept(setup, np.ascontiguousarray(traj.t), X)
+        least = ratio.min() if len(ratio) else np.inf   # (NaN where a ratio is)
     else:
-        traj, data, ratio, levels = fused
+        traj, data, ratio, levels, least = fused
     t = traj.t
     columns, _, column = _layout(model, levels)
     width = len(columns)
     for k, p in enumerate(listed if model.derived_frames else ()):   # no frame moves otherwise
         _derived_frames(case, p.path, columns, data[:, k * width:(k + 1) * width], traj)
     floor = singular_pivot(options.tolerance)
-    regular = not len(ratio) or ratio.min() >= floor   # (a NaN ratio is singular: its min is NaN)
+    regular = least >= floor   # (a NaN ratio is singular: the least is NaN then)
     singular = np.zeros(len(ratio), bool) if regular else ~(ratio >= floor)
     message = "exact at every instant"
     if not regular:
@@ -272,7 +273,7 @@ def _instant_inputs(model, tangents, result) -> tuple:
 
 
 def _fused(model, tangents, outputs, times, options):
-    """(trajectory, data, ratio, levels): the march and the sensitivities of
+    """(trajectory, data, ratio, levels, the least ratio): the march and the sensitivities of
     every instant from its own factorisation (Plan.march_sensitivity), for
     every output (the default) when the march takes the model (kinem.march)
     and every instant, its trajectory then solve's to the bit; None
@@ -292,12 +293,12 @@ def _fused(model, tangents, outputs, times, options):
     times = np.ascontiguousarray(times, float)
     left = math.inf if options.max_seconds is None else float(Budget(model, options).left())   # the call's time left
     settings = options.step_settings[True] + (left,)
-    end, _ = model.plan.march_sensitivity(times, st, settings, X, figures, ints, _setup(model, tangents, src),
-                                          data, ratio)
+    end, _, least = model.plan.march_sensitivity(times, st, settings, X, figures, ints,
+                                                 _setup(model, tangents, src), data, ratio)
     if end < nt or violation(model, X[0, 0]):
         return None
     X.flags.writeable = False   # (its views, made after, are read-only too: as solve's)
-    return trajectory(model, times, X[0], X[1], X[2]), data, ratio, 3
+    return trajectory(model, times, X[0], X[1], X[2]), data, ratio, 3, least
 
 
 def _setup(model, tangents, src):

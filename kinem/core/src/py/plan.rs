@@ -211,7 +211,8 @@ impl Plan {
     /// times, state, settings, out, figures, ints: as `march`; setup: this
     /// plan's `sensitivity_setup` (kept per model and parameters), its
     /// levels out's. Writes data (K, P W) and ratio (K) for the instants
-    /// taken; returns (the first instant not taken, or K; why).
+    /// taken; returns (the first instant not taken, or K; why; the least
+    /// ratio of the instants taken, NaN where one is NaN).
     #[allow(clippy::type_complexity, clippy::too_many_arguments)]
     fn march_sensitivity<'py>(
         &self,
@@ -225,7 +226,7 @@ impl Plan {
         setup: &Bound<'py, SensSetup>,
         data: Bound<'py, PyArray2<f64>>,
         ratio: Bound<'py, PyArray1<f64>>,
-    ) -> PyResult<(usize, u8)> {
+    ) -> PyResult<(usize, u8, f64)> {
         let (n, kk) = (self.kin.n, times.len());
         let bad = |what: &str| value_error(format!("march_sensitivity: {what} has the wrong shape"));
         if self.layout.count >= 2 && matches!(self.layout.shape, Shape::Blocks { .. }) {
@@ -255,19 +256,30 @@ impl Plan {
         let out = outputs.out(n, stages, "march_sensitivity")?;
         let signal: std::sync::Mutex<Option<PyErr>> = std::sync::Mutex::new(None);
         let poll = || signalled(&signal);
-        let (end, why) = guard(py, move || {
+        let (end, why, least) = guard(py, move || {
             let mut at = crate::sensitivity::Instants::new(prepared, layout, stages)?;
-            let mut hook = |k: usize, s: &march::MarchState, f: &mut Factors, e: &[C64], pivot: f64| {
-                let x: [&[f64]; 3] = [&s.q, &s.qd, &s.qdd];
-                ratio[k] = at.at(times[k], &x[..stages], e, f, pivot, &mut data[k * width..(k + 1) * width]);
-            };
             let watch = Watch::new(seconds, Some(&poll));
-            Ok(march::run_hooked(kin, layout, times, 0, st, &settings, out, &watch, true, Some(&mut hook)))
+            let (end, why) = {
+                let mut hook = |k: usize, s: &march::MarchState, f: &mut Factors, e: &[C64], pivot: f64| {
+                    let x: [&[f64]; 3] = [&s.q, &s.qd, &s.qdd];
+                    ratio[k] = at.at(times[k], &x[..stages], e, f, pivot, &mut data[k * width..(k + 1) * width]);
+                };
+                march::run_hooked(kin, layout, times, 0, st, &settings, out, &watch, true, Some(&mut hook))
+            };
+            // the least ratio of the instants taken, NaN where one is
+            let least = ratio[..end.min(ratio.len())].iter().fold(f64::INFINITY, |a, &r| {
+                if a.is_nan() || r.is_nan() {
+                    f64::NAN
+                } else {
+                    a.min(r)
+                }
+            });
+            Ok((end, why, least))
         })?;
         if why == Why::Interrupted {
             return Err(raised(&signal));
         }
-        Ok((end, why as u8))
+        Ok((end, why as u8, least))
     }
 
     /// The structural decomposition of an m x n Jacobian pattern (rows,
