@@ -267,7 +267,7 @@ pub(crate) fn triangulate_zero(
         return false;
     };
     // the exact zeros, checked where the values' Kin may not have them (Factors::zeros_hold)
-    factoring.zero_entries = (0..rows.len()).filter(|e| live.binary_search(e).is_err()).map(|e| e as u32).collect();
+    factoring.zero_entries = (0..rows.len()).filter(|&e| zero.get(e) == Some(&true)).map(|e| e as u32).collect();
     program.renumber(&scatter); // the solve runs in the coordinates (Triangular::run)
     let t = Triangular {
         blocks,

@@ -487,7 +487,8 @@ fn moving<const N: usize>(
     let mut fits = [[true; N]; 3];
     let (mut out, mut e) = (vec![Lanes::<N>::c(0.0); m], vec![Complex::new(Lanes::c(1.0), Lanes::c(0.0)); n]);
     for (a, t) in [(0.3, 0.37), (1.1, 1.9)] {
-        for (shift, fit) in shifts.iter().zip(&mut fits) {
+        // shifts[0]: q' = 0, the tangent along the tables alone (Phi_p)
+        for (k, (shift, fit)) in shifts.iter().zip(&mut fits).enumerate() {
             let q: Vec<Lanes<N>> = (0..n).map(|c| Lanes::of(a + 0.7 * c as f64, [shift[c]; N])).collect();
             model.rotate(&q, &mut e);
             model.phi(&At { q: &q, e: &e, t }, &mut out);
@@ -497,7 +498,7 @@ fn moving<const N: usize>(
                         fit[l] = false;
                     }
                 }
-                seeds[r] |= shift.iter().all(|&x| x == 0.0) && v.d.iter().any(|&x| x != 0.0);
+                seeds[r] |= k == 0 && v.d.iter().any(|&x| x != 0.0);
             }
         }
     }
