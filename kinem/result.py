@@ -70,9 +70,9 @@ class Trajectory:
         set_(self, "_index", {c: k for k, c in enumerate(columns)} if _index is None else _index)
         set_(self, "_make", make)
         set_(self, "_data", None)
-        t.flags.writeable = False
+        t.setflags(write=False)   # (setflags: half the flags setter's cost)
         if make is None:
-            data.flags.writeable = False
+            data.setflags(write=False)
             set_(self, "_data", data)
 
     @property
@@ -80,10 +80,17 @@ class Trajectory:
         """The table (instants, columns), read-only."""
         if self._data is None:
             d = self._make()
-            d.flags.writeable = False
+            d.setflags(write=False)
             object.__setattr__(self, "_data", d)
             object.__setattr__(self, "_make", None)
         return self._data
+
+    @classmethod
+    def of(cls, t, columns, data, index) -> "Trajectory":
+        """Trajectory(t, columns, data, index) for a read-only t: data made
+        read-only, without __init__'s attribute by attribute setting."""
+        data.setflags(write=False)
+        return frozen(cls, {"t": t, "columns": columns, "_index": index, "_make": None, "_data": data})
 
     def __getitem__(self, name: str) -> np.ndarray:
         try:
@@ -168,9 +175,7 @@ class SolveResult:
             raise TypeError("SolveResult.of: a dict or keywords, not both")
         if values.keys() != _RESULT_FIELDS:
             raise TypeError(f"SolveResult.of: fields {sorted(values.keys() ^ _RESULT_FIELDS)} missing or unknown")
-        r = object.__new__(cls)
-        object.__setattr__(r, "__dict__", values)
-        return r
+        return frozen(cls, values)
 
     def _repr_html_(self):
         return HTML["result"](self) if "result" in HTML else None
@@ -223,9 +228,16 @@ def trajectory(model, t, Q, QD=None, QDD=None) -> Trajectory:
     t = np.array(t, dtype=float)
     if not len(t):
         return Trajectory(t, names, np.empty((0, len(names))), index)
-    t.flags.writeable = False
+    t.setflags(write=False)
     # Trajectory(t, names, None, index, make=...) without its __init__'s attribute by attribute setting
-    traj = object.__new__(Trajectory)
-    traj.__dict__.update(t=t, columns=names, _index=index, _data=None, _make=lambda: native.columns(
-        [np.ascontiguousarray(x, float) for x in X], src, model.point_cols, model.point_local))
-    return traj
+    return frozen(Trajectory, {"t": t, "columns": names, "_index": index, "_data": None, "_make": lambda: native.columns(
+        [np.ascontiguousarray(x, float) for x in X], src, model.point_cols, model.point_local)})
+
+
+def frozen(cls, values: dict):
+    """An instance of the frozen dataclass ``cls`` from every field's value
+    (a dict, taken, not copied): its __init__'s object.__setattr__ per field
+    left out (about 0.15 us a field, on every solve)."""
+    r = object.__new__(cls)
+    object.__setattr__(r, "__dict__", values)
+    return r

@@ -40,8 +40,8 @@ from . import native
 from .errors import AnalysisError, InputError, KinemError
 from .options import Options, singular_pivot
 from .parameters import frame_tangent, resolve
-from .result import OUTPUTS, Trajectory, _layout, trajectory
-from .branches import violation
+from .result import OUTPUTS, Trajectory, _layout, frozen, trajectory
+from .branches import pins, violation
 from .budget import Budget
 from .march import banded, usable
 from .solver import _checked_times, check_square, solve
@@ -139,8 +139,9 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     own = calls.get((key, columns))
     if own is None:   # the derivatives' names and places, kept for the same paths and columns
         own = calls[key, columns] = _names(model, columns, listed), _Places(columns, [p.path for p in listed], column)
-    derivatives = Trajectory(t, own[0], data, own[1])   # t: the trajectory's, read-only
-    return Sensitivity(listed, traj, derivatives, singular, ratio, message)
+    derivatives = Trajectory.of(t, own[0], data, own[1])   # t: the trajectory's, read-only
+    return frozen(Sensitivity, {"parameters": listed, "trajectory": traj, "derivatives": derivatives,
+                                "singular": singular, "conditioning": ratio, "message": message})
 
 
 class _Places(Mapping):
@@ -293,12 +294,14 @@ def _fused(model, tangents, outputs, times, options):
     times = np.ascontiguousarray(times, float)
     left = math.inf if options.max_seconds is None else float(Budget(model, options).left())   # the call's time left
     settings = options.step_settings[True] + (left,)
+    # made before the march, as solve's (Python's caches are cold after it); X never leaves: the
+    # trajectory's columns are made from it (its _make), not views of it
+    traj, pinned = trajectory(model, times, X[0], X[1], X[2]), pins(model)
     end, _, least = model.plan.march_sensitivity(times, st, settings, X, figures, ints,
                                                  _setup(model, tangents, src), data, ratio)
-    if end < nt or violation(model, X[0, 0]):
+    if end < nt or pinned and violation(model, X[0, 0]):
         return None
-    X.flags.writeable = False   # (its views, made after, are read-only too: as solve's)
-    return trajectory(model, times, X[0], X[1], X[2]), data, ratio, 3, least
+    return traj, data, ratio, 3, least
 
 
 def _setup(model, tangents, src):

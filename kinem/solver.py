@@ -12,7 +12,7 @@ import numpy as np
 from . import native
 from .analysis import Data
 from .budget import Budget
-from .branches import violation
+from .branches import pins, violation
 from .diagnose import contact_hint, explain_assembly
 from .errors import AnalysisError, InputError, SingularError, WorkLimitError
 from .linalg import choose
@@ -110,6 +110,9 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     start = time.perf_counter()
     march = March(model, state, budget, times, X, figures, ints, options, need_v) \
         if usable(model, trace, nt, options) else None
+    # made before the march: after a core march of many instants Python's caches are cold and the same
+    # statements take twice as long (docs/benchmarks.md "Fixed cost (item 6), session 21")
+    traj, pinned = trajectory(model, times, Q, QD, QDD), q0 is None and pins(model)
     tracker = data = None   # made for the instants the march hands back (all of them without it)
     k = 0
     try:
@@ -141,18 +144,18 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         if k == 0 and not limit and (hint := contact_hint(model)):
             why = f"{why}; {hint}" if why else hint
         message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {why + '; ' if why else ''}{e}"
-    if q0 is None and k and (pin := violation(model, Q[0])):   # the branch the case pins (kinem.branches)
+    if pinned and k and (pin := violation(model, Q[0])):   # the branch the case pins (kinem.branches)
         status, message, k = Status.WRONG_BRANCH, f"assembly at t = {times[0]:.6g}: {pin[1]}", 0
     wall = time.perf_counter() - start
     n_ok = k
     ok = status is Status.SUCCESS
     t_fail = None if ok else float(times[n_ok])
     # the instants solved, read-only (views of X made after it is): the trajectory's columns are made from them
-    X.flags.writeable = False
+    X.setflags(write=False)
     Q, QD, QDD = X[0, :n_ok], X[1, :n_ok] if need_v else None, X[2, :n_ok] if need_a else None
     if n_ok < nt:
         times, iters, resid, cond = times[:n_ok], iters[:n_ok], resid[:n_ok], cond[:n_ok]
-    traj = trajectory(model, times, Q, QD, QDD)
+        traj = trajectory(model, times, Q, QD, QDD)
     moves = ()
     if want_margins:   # kinem.margins: columns after the trajectory's own
         names, values, moves = margins(model, Q, times)

@@ -509,6 +509,25 @@ def test_derivative_columns_are_found_by_name():
         d[f"d(B.x)/d({paths[0]}.0)"]
 
 
+def test_results_made_without_init_have_every_field_and_are_read_only():
+    """kinem.result.frozen makes a Sensitivity, its derivatives' Trajectory
+    and a SolveResult from a dict (no __init__): each has every field of its
+    dataclass (a field added later and not filled would fail here), and the
+    arrays a user gets are read-only, as __init__ makes them."""
+    from dataclasses import fields
+
+    model = kinem.compile(kinem.load(ROOT / "cases" / "slider_crank.toml"))
+    s = sensitivity(model, [p.path for p in parameters(model.case)][:2])
+    r = kinem.solve(model)
+    for obj in (s, s.derivatives, s.trajectory, r, r.trajectory):
+        assert {f.name for f in fields(obj)} <= obj.__dict__.keys()
+    for a in (s.derivatives.t, s.derivatives.data, s.trajectory.t, s.trajectory.data, r.q, r.qd, r.qdd,
+              r.trajectory.t, r.trajectory.data):
+        assert not a.flags.writeable
+        with pytest.raises(ValueError):
+            a[0] = 1.0
+
+
 @pytest.mark.parametrize("path", CASES, ids=lambda p: p.stem)
 def test_compile_keeps_the_tables_the_tangents_move(path):
     """compile keeps the families' tables with every function and outline
