@@ -85,13 +85,6 @@ class Trajectory:
             object.__setattr__(self, "_make", None)
         return self._data
 
-    @classmethod
-    def of(cls, t, columns, data, index) -> "Trajectory":
-        """Trajectory(t, columns, data, index) for a read-only t: data made
-        read-only, without __init__'s attribute by attribute setting."""
-        data.setflags(write=False)
-        return frozen(cls, {"t": t, "columns": columns, "_index": index, "_make": None, "_data": data})
-
     def __getitem__(self, name: str) -> np.ndarray:
         try:
             return self.data[:, self._index[name]]

@@ -110,38 +110,50 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
         tangents = tangent_inputs(model, listed)
         calls[key] = listed, tangents
     plan = model.plan
-    fused = _fused(model, tangents, outputs, times, options)
+    # the fused pass's (three levels) columns, names and floor made before its march, as solve's
+    # trajectory is (Python's caches are cold after a long core march)
+    named = _named(model, calls, key, listed, 3)
+    fused = _fused(model, tangents, outputs, times, options, named)
     if fused is None:   # the march does not take the model or every instant: solve, then the separate pass
         result = solve(model, outputs, times, options=options)
         if not result.success:
             raise AnalysisError(f"{case.source}: the nominal solve failed: {result.message}")
         X = [np.ascontiguousarray(x) for x in (result.q, result.qd, result.qdd) if x is not None]
-        traj, levels = result.trajectory, len(X)
-        setup = _setup(model, tangents, _layout(model, levels)[1])
+        traj, named = result.trajectory, _named(model, calls, key, listed, len(X))
+        setup = _setup(model, tangents, _layout(model, len(X))[1])
         data, ratio = plan.sensitivity_kept(setup, np.ascontiguousarray(traj.t), X)
         least = ratio.min() if len(ratio) else np.inf   # (NaN where a ratio is)
+        derivatives, singular = Trajectory(traj.t, named[2], None, named[3], make=lambda: data), None
     else:
-        traj, data, ratio, levels, least = fused
-    t = traj.t
-    columns, _, column = _layout(model, levels)
+        traj, derivatives, data, ratio, least, singular = fused
+    t, columns = traj.t, named[0]
     width = len(columns)
     for k, p in enumerate(listed if model.derived_frames else ()):   # no frame moves otherwise
         _derived_frames(case, p.path, columns, data[:, k * width:(k + 1) * width], traj)
     floor = singular_pivot(options.tolerance)
-    regular = least >= floor   # (a NaN ratio is singular: the least is NaN then)
-    singular = np.zeros(len(ratio), bool) if regular else ~(ratio >= floor)
     message = "exact at every instant"
-    if not regular:
+    if least >= floor:   # regular (a NaN ratio is singular: the least is NaN then)
+        singular = np.zeros(len(ratio), bool) if singular is None else singular
+    else:
+        singular = ~(ratio >= floor)
         data[singular] = np.inf
         at = ", ".join(f"{x:.6g}" for x in t[singular][:5]) + (" ..." if singular.sum() > 5 else "")
         message = (f"Phi_q singular (pivot ratio below {floor:.2g}) at {int(singular.sum())} instant(s), t = {at}: "
                    "the derivatives there are infinite")
-    own = calls.get((key, columns))
-    if own is None:   # the derivatives' names and places, kept for the same paths and columns
-        own = calls[key, columns] = _names(model, columns, listed), _Places(columns, [p.path for p in listed], column)
-    derivatives = Trajectory.of(t, own[0], data, own[1])   # t: the trajectory's, read-only
     return frozen(Sensitivity, {"parameters": listed, "trajectory": traj, "derivatives": derivatives,
                                 "singular": singular, "conditioning": ratio, "message": message})
+
+
+def _named(model, calls, key, listed, levels) -> tuple:
+    """(columns, column index, the derivatives' names, their _Places) of
+    the first ``levels`` of the trajectory's, kept per model, paths and
+    columns."""
+    columns, _, column = _layout(model, levels)
+    own = calls.get((key, columns))
+    if own is None:   # the derivatives' names and places, kept for the same paths and columns
+        own = calls[key, columns] = (columns, column, _names(model, columns, listed),
+                                     _Places(columns, [p.path for p in listed], column))
+    return own
 
 
 class _Places(Mapping):
@@ -192,7 +204,7 @@ def core_inputs(model, listed, result) -> tuple:
 # model -> ({path: its Parameter}, {path: (its core tangent, its points' dlocal)}, {(path,
 # columns): its derivatives' names}, {paths: tangent_inputs' tuple}, {(id(that tuple),
 # its levels): (it, the plan, the core's set-up for it: Plan.sensitivity_setup)}, {a call's
-# tuple of paths: (its Parameters, tangent_inputs'); (that tuple, columns): (the derivatives'
+# tuple of paths: (its Parameters, tangent_inputs'); (that tuple, columns): (the columns, their index, the derivatives'
 # names, their _Places)}): what a call works out from the model and its paths alone, kept
 # for the model's next calls (as kinem.result._LAYOUTS keeps its columns), read-only
 _KEPT = weakref.WeakKeyDictionary()
@@ -273,12 +285,15 @@ def _instant_inputs(model, tangents, result) -> tuple:
             pc, local, dlocal)
 
 
-def _fused(model, tangents, outputs, times, options):
-    """(trajectory, data, ratio, levels, the least ratio): the march and the sensitivities of
-    every instant from its own factorisation (Plan.march_sensitivity), for
-    every output (the default) when the march takes the model (kinem.march)
-    and every instant, its trajectory then solve's to the bit; None
-    otherwise (the caller solves, then runs Plan.sensitivity)."""
+def _fused(model, tangents, outputs, times, options, named):
+    """(trajectory, derivatives, data, ratio, the least ratio, no instant
+    singular): the march and the sensitivities of every instant from its
+    own factorisation (Plan.march_sensitivity), for every output (the
+    default) when the march takes the model (kinem.march) and every
+    instant, its trajectory then solve's to the bit; None otherwise (the
+    caller solves, then runs Plan.sensitivity). ``named``: ``_named``'s of
+    three levels; the derivatives' Trajectory reads ``data`` at its first
+    use (made read-only then: the caller may still write it)."""
     options = model.options if options is None else options
     if not (type(outputs) is tuple and outputs == OUTPUTS) or not isinstance(options, Options):
         return None
@@ -297,11 +312,13 @@ def _fused(model, tangents, outputs, times, options):
     # made before the march, as solve's (Python's caches are cold after it); X never leaves: the
     # trajectory's columns are made from it (its _make), not views of it
     traj, pinned = trajectory(model, times, X[0], X[1], X[2]), pins(model)
+    derivatives = Trajectory(traj.t, named[2], None, named[3], make=lambda: data)
+    singular = np.zeros(nt, bool)
     end, _, least = model.plan.march_sensitivity(times, st, settings, X, figures, ints,
                                                  _setup(model, tangents, src), data, ratio)
     if end < nt or pinned and violation(model, X[0, 0]):
         return None
-    return traj, data, ratio, 3, least
+    return traj, derivatives, data, ratio, least, singular
 
 
 def _setup(model, tangents, src):

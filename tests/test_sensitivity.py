@@ -435,19 +435,20 @@ def test_one_pass_equals_the_solve_and_the_separate_sensitivities(path):
     last correction's small angle (kinem/core/src/model.rs, follow: a few
     roundings from sin_cos), the separate pass sin_cos's own."""
     from kinem.parameters import resolve
-    from kinem.sensitivity import _derived_frames, _fused, _layout, core_inputs, tangent_inputs
+    from kinem.sensitivity import _derived_frames, _fused, _layout, _named, core_inputs, tangent_inputs
 
     model = kinem.compile(kinem.load(path))
     paths = [p.path for p in parameters(model.case)]
     if not paths or model.m != model.n:
         pytest.skip("no design parameters, or not square")
     listed = resolve(model.case, paths)
-    fused = _fused(model, tangent_inputs(model, listed), kinem.result.OUTPUTS, None, None)
+    named = _named(model, {}, tuple(paths), listed, 3)
+    fused = _fused(model, tangent_inputs(model, listed), kinem.result.OUTPUTS, None, None, named)
     result = kinem.solve(model)
     if fused is None:
         pytest.skip("the march does not take this model or every instant: the separate pass serves it")
-    traj, data, ratio, levels, least = fused
-    assert levels == 3
+    traj, derivatives, data, ratio, least, singular = fused
+    assert derivatives.columns == named[2] and derivatives.data is data and not singular.any()
     assert least == ratio.min() or (np.isnan(least) and np.isnan(ratio).any())   # the core's least ratio
     assert np.array_equal(traj.data, result.trajectory.data) and traj.columns == result.trajectory.columns
     separate, ratio2 = model.plan.sensitivity(*core_inputs(model, listed, result))
@@ -591,7 +592,7 @@ def test_the_kept_core_setup_gives_a_fresh_ones_figures_and_fits_its_plan_alone(
     made by another plan, even one of a model of the same size, is
     refused (ValueError), never run."""
     from kinem.result import OUTPUTS, _layout
-    from kinem.sensitivity import _KEPT, _fused, _resolved, _setup, tangent_inputs
+    from kinem.sensitivity import _KEPT, _fused, _named, _resolved, _setup, tangent_inputs
     model = kinem.compile(kinem.load(ROOT / "cases" / "slider_crank.toml"))
     paths = [p.path for p in parameters(model.case)][:4]
     first = sensitivity(model, paths)
@@ -605,13 +606,14 @@ def test_the_kept_core_setup_gives_a_fresh_ones_figures_and_fits_its_plan_alone(
     new = model.plan.sensitivity_setup(tables, core, pattern, (src, pc, local, dlocal))
     assert new is not kept
     _KEPT[model][4][id(tangents), len(src)] = (tangents, model.plan, new)
-    fused = _fused(model, tangents, OUTPUTS, None, None)
-    assert fused is not None and np.array_equal(fused[1], again.derivatives.data)
+    named = _named(model, {}, tuple(paths), _resolved(model, paths), 3)
+    fused = _fused(model, tangents, OUTPUTS, None, None, named)
+    assert fused is not None and np.array_equal(fused[2], again.derivatives.data)
     twin = kinem.compile(kinem.load(ROOT / "cases" / "slider_crank.toml"))   # the same tables, its own plan
     foreign = twin.plan.sensitivity_setup(tables, core, pattern, (src, pc, local, dlocal))
     _KEPT[model][4][id(tangents), len(src)] = (tangents, model.plan, foreign)
     with pytest.raises(ValueError, match="not this model's"):
-        _fused(model, tangents, OUTPUTS, None, None)
+        _fused(model, tangents, OUTPUTS, None, None, named)
 
 
 def test_the_separate_pass_keeps_its_setup_per_levels_and_gives_a_fresh_ones_figures():
