@@ -304,8 +304,14 @@ def _fused(model, tangents, outputs, times, options, named):
     check_square(model)
     st = native.MarchState(model.q0)   # the estimates to assemble from, as solve's
     core, src = tangents[1], _layout(model, 3)[1]
-    X, figures, ints = np.empty((3, nt, model.n)), np.zeros((2, nt)), np.zeros(nt + 2, np.int64)
-    data, ratio = np.empty((nt, len(core) * len(src))), np.empty(nt)
+    # the march's states and the derivatives in one block: glibc's malloc serves the next call's from
+    # the heap this one frees, where two blocks could come fresh from the system at every call (in a
+    # process holding other large arrays: about 50 page faults a call for the slider-crank's 501
+    # instants, a fifth of its time; docs/design.md "Cost: the call's Python part, session 21")
+    size = 3 * nt * model.n
+    block = np.empty(size + nt * len(core) * len(src))
+    X, data = block[:size].reshape(3, nt, model.n), block[size:].reshape(nt, len(core) * len(src))
+    figures, ints, ratio = np.zeros((2, nt)), np.zeros(nt + 2, np.int64), np.empty(nt)
     times = np.ascontiguousarray(times, float)
     left = math.inf if options.max_seconds is None else float(Budget(model, options).left())   # the call's time left
     settings = options.step_settings[True] + (left,)
