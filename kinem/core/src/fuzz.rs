@@ -309,3 +309,78 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
          {corrupted} corruptions checked"
     );
 }
+
+/// Pivots that are a constant -1 (plan::negate): the solve negates there
+/// instead of dividing, and its figures are the divisions' to the bit
+/// (tolerance 0, Triangular::run divides by the stored -1); the pivots'
+/// figures with theirs folded are those of every pivot; a factorisation
+/// where such an entry is not -1 (a variant's) is refused.
+#[test]
+fn negated_pivots_solve_as_the_divisions_and_a_moved_one_is_refused() {
+    use crate::triangular::NEGATE;
+    let mut rng = Rng(0x3c6e_f372_fe94_f82b);
+    let (mut negated, mut equal, mut refused) = (0, 0, 0);
+    for trial in 0..400 {
+        let n = 2 + rng.below(15) as usize;
+        let (mut layout, rows, _) = random_layout(n, &mut rng);
+        let constant: Vec<bool> = rows.iter().map(|_| rng.below(2) == 0).collect();
+        let one: Vec<bool> = constant.iter().map(|&c| c && rng.below(4) == 0).collect();
+        let minus: Vec<bool> = constant.iter().zip(&one).map(|(&c, &o)| c && !o && rng.below(2) == 0).collect();
+        let still = vec![false; n];
+        if !super::triangulate_zero(&mut layout, &constant, &constant, &one, &still, &[]) {
+            continue;
+        }
+        let Shape::Triangular(t) = &mut layout.shape else { panic!("trial {trial}: not triangular") };
+        super::negate(t, &minus);
+        let t = (**t).clone();
+        t.check().unwrap();
+        let marked = t.program.divs.iter().filter(|d| d[2] & NEGATE != 0).count();
+        negated += (marked > 0) as usize;
+        let honest = trial % 4 != 3;
+        for _ in 0..3 {
+            let mut values: Vec<f64> =
+                rows.iter().map(|_| rng.unit() + if rng.below(2) == 0 { 2.0 } else { -2.0 }).collect();
+            for e in 0..values.len() {
+                if one[e] {
+                    values[e] = 1.0;
+                } else if minus[e] {
+                    values[e] = -1.0;
+                }
+            }
+            if !honest {
+                if let Some(&e) = t.factoring.minus_entries.first() {
+                    values[e as usize] = -1.0 - 2f64.powi(-40);
+                }
+            }
+            let mut f = layout.factors();
+            layout.factor(&values, &mut f);
+            if !honest && !t.factoring.minus_entries.is_empty() {
+                assert!(f.fixed[0].is_none(), "trial {trial}: a pivot taken for -1 that is not was factorised");
+                refused += 1;
+                continue;
+            }
+            let Some(got) = f.fixed[0] else { continue };
+            let b: Vec<f64> = (0..n).map(|_| rng.unit()).collect();
+            let (mut x, mut y) = (vec![0.0; n], vec![0.0; n]);
+            layout.solve(&mut f, &b, &mut x);
+            t.run(&f.j, &b, &mut y);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&x), bits(&y), "trial {trial}: negations differ from the divisions");
+            let (mut small, mut big, mut at, mut det) = (f64::INFINITY, 0.0f64, 0, t.sign);
+            for (p, &v) in t.factoring.diag.iter().enumerate() {
+                let d = f.j[v as usize] * t.factoring.pivot_scale[p];
+                det = if d < 0.0 { -det } else { det };
+                if d.abs() < small {
+                    (small, at) = (d.abs(), p);
+                }
+                big = big.max(d.abs());
+            }
+            assert_eq!((got.small, got.big, got.at, got.det), (small, big, at, det), "trial {trial}");
+            equal += (marked > 0) as usize;
+        }
+    }
+    assert!(
+        negated >= 50 && equal >= 100 && refused >= 20,
+        "{negated} layouts negating, {equal} solves, {refused} refused"
+    );
+}

@@ -46,6 +46,15 @@ use crate::real::Real;
 /// (and by debug assertions in `run`): every position i, c, r is below
 /// `positions`, every value index u, v below `values`, the ends ascend up
 /// to subs.len(). `run` asserts that its slices are that long.
+/// A division's value index with this bit set divides by a pivot that is
+/// a constant -1 of the formulation (a revolute's or a joint's -1 alone in
+/// its place, never written by the elimination: plan::negate), which every
+/// factorisation checks (`Factoring::minus_entries`): the scalar solve
+/// (`Program::run_negating`) negates there instead of dividing, x / -1
+/// being -x to the bit, and without the division's latency in the chain;
+/// the other runs divide by the value under the bit.
+pub const NEGATE: u32 = 1 << 31;
+
 #[derive(Clone, Debug, Default)]
 pub struct Program {
     pub subs: Vec<[u32; 3]>,
@@ -108,7 +117,7 @@ impl Program {
     /// The invariants `run` relies on (see `Program`), of both lists.
     pub fn check(&self) -> Result<(), String> {
         let (p, v) = (self.positions, self.values);
-        if p >= u32::MAX as usize || v >= u32::MAX as usize {
+        if p >= NEGATE as usize || v >= NEGATE as usize {
             return Err("program: too many positions or values".into());
         }
         if let Some(q) = self.quiet.iter().find(|&&q| q as usize >= p) {
@@ -120,7 +129,7 @@ impl Program {
             }
             let mut end = 0;
             for d in divs {
-                if d[0] < end || d[0] as usize > subs.len() || d[1] as usize >= p || d[2] as usize >= v {
+                if d[0] < end || d[0] as usize > subs.len() || d[1] as usize >= p || (d[2] & !NEGATE) as usize >= v {
                     return Err(format!("program: division {d:?} out of order or range"));
                 }
                 end = d[0];
@@ -135,6 +144,20 @@ impl Program {
     /// (`short` where every quiet position is zero in every lane).
     #[inline]
     pub fn run<A: Copy, W: Cell<A>>(&self, a: &[A], w: &mut [W]) {
+        self.run_as::<false, A, W>(a, w)
+    }
+
+    /// `run` over f64 on factors from `Factoring::run`, which checked every
+    /// pivot under `NEGATE` to be -1: those divisions are negations (the
+    /// same figures to the bit).
+    #[inline]
+    pub fn run_negating(&self, a: &[f64], w: &mut [f64]) {
+        self.run_as::<true, f64, f64>(a, w)
+    }
+
+    /// `run`, negating where NEG and the division's index carries `NEGATE`.
+    #[inline(always)]
+    fn run_as<const NEG: bool, A: Copy, W: Cell<A>>(&self, a: &[A], w: &mut [W]) {
         assert!(a.len() >= self.values && w.len() >= self.positions);
         debug_assert!(self.check().is_ok());
         // SAFETY: Program::check (when built): every quiet position below `positions` <= w.len()
@@ -150,7 +173,12 @@ impl Program {
                     let x = *w.get_unchecked(c as usize);
                     w.get_unchecked_mut(i as usize).sub_mul(*a.get_unchecked(u as usize), x);
                 }
-                w.get_unchecked_mut(r as usize).div(*a.get_unchecked(v as usize));
+                let y = w.get_unchecked_mut(r as usize);
+                if NEG && v & NEGATE != 0 {
+                    y.negate();
+                } else {
+                    y.div(*a.get_unchecked((v & !NEGATE) as usize));
+                }
             }
             from = end;
         }
@@ -207,6 +235,8 @@ impl Program {
 pub trait Cell<A>: Copy {
     fn sub_mul(&mut self, a: A, x: Self);
     fn div(&mut self, a: A);
+    /// y = -y (y / -1 to the bit)
+    fn negate(&mut self);
     fn zero(&self) -> bool;
 }
 
@@ -222,6 +252,10 @@ impl<S: Real> Cell<S> for S {
     #[inline(always)]
     fn div(&mut self, a: S) {
         *self = *self / a;
+    }
+    #[inline(always)]
+    fn negate(&mut self) {
+        *self = -*self;
     }
 }
 
@@ -240,6 +274,12 @@ impl<const N: usize> Cell<f64> for [f64; N] {
     fn div(&mut self, a: f64) {
         for y in self.iter_mut() {
             *y /= a;
+        }
+    }
+    #[inline(always)]
+    fn negate(&mut self) {
+        for y in self.iter_mut() {
+            *y = -*y;
         }
     }
 }
@@ -283,6 +323,12 @@ pub struct Factoring {
     /// refused (the fallback takes it)
     pub ones: Vec<u32>,
     pub one_entries: Vec<u32>,
+    /// the Jacobian entries of the pivots the solve negates by (`NEGATE`):
+    /// a factorisation where one is not exactly -1 is refused
+    pub minus_entries: Vec<u32>,
+    /// an odd count of those pivots (not in `free`: their figures are
+    /// folded with the ones', each |-1| c_p / r_p, and each flips the det sign)
+    pub minus_odd: bool,
     /// the Jacobian entries taken for exact zeros (Kin::zero_entries): no
     /// part of the blocks' structure (plan::triangulate_zero), never placed;
     /// a factorisation where one is not exactly 0 (a variant that moved a
@@ -313,7 +359,8 @@ impl Factoring {
             || self.pairs.iter().any(|p| bad(p[0]) || bad(p[1]))
             || self.diag.iter().any(|&x| bad(x))
             || self.ones.iter().any(|&x| bad(x))
-            || self.one_entries.iter().chain(&self.zero_entries).any(|&e| e as usize >= self.entries)
+            || (self.one_entries.iter().chain(&self.zero_entries).chain(&self.minus_entries))
+                .any(|&e| e as usize >= self.entries)
             || self.free.iter().any(|f| bad(f.0))
             || self.mult_scale.len() != self.mults.len()
             || self.pivot_scale.len() != self.diag.len()
@@ -396,6 +443,9 @@ impl Factoring {
             for &e in &self.one_entries {
                 ok &= *values.get_unchecked(e as usize) == 1.0;
             }
+            for &e in &self.minus_entries {
+                ok &= *values.get_unchecked(e as usize) == -1.0;
+            }
             if zeros {
                 for &e in &self.zero_entries {
                     ok &= *values.get_unchecked(e as usize) == 0.0;
@@ -404,7 +454,8 @@ impl Factoring {
             if !ok {
                 return None;
             }
-            let mut acc = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det: sign };
+            let det = if self.minus_odd { -sign } else { sign };
+            let mut acc = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det };
             for &(at, p, scale) in &self.free {
                 let d = *a.get_unchecked(at as usize) * scale;
                 let x = d.abs();
@@ -656,7 +707,7 @@ impl Triangular {
             }
             return;
         }
-        self.run(j, b, x);
+        self.run_negating(j, b, x);
     }
 
     /// x = Phi_q^-1 b with the blocks' factors a (block-triangular: not the
@@ -666,13 +717,26 @@ impl Triangular {
     /// or several right-hand sides (`Cell`).
     #[inline(always)]
     pub fn run<A: Copy, W: Cell<A>>(&self, a: &[A], b: &[W], x: &mut [W]) {
+        self.sides_into(b, x);
+        self.program.run(a, x);
+    }
+
+    /// `run` over f64 on factors from `factor` (`Program::run_negating`).
+    #[inline(always)]
+    pub fn run_negating(&self, a: &[f64], b: &[f64], x: &mut [f64]) {
+        self.sides_into(b, x);
+        self.program.run_negating(a, x);
+    }
+
+    /// Each row's right side b[i] into its coordinate x[into[i]].
+    #[inline(always)]
+    fn sides_into<W: Copy>(&self, b: &[W], x: &mut [W]) {
         let n = self.into.len();
         assert!(b.len() >= n && x.len() >= n);
         for (&v, &j) in b.iter().zip(&self.into) {
             // SAFETY: into holds coordinates below n (Triangular::check, when built); x.len() >= n asserted
             unsafe { *x.get_unchecked_mut(j as usize) = v };
         }
-        self.program.run(a, x);
     }
 
     /// (pivot ratio, det sign, position of the smallest |pivot| in the
