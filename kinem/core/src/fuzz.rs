@@ -319,7 +319,7 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
 fn negated_pivots_solve_as_the_divisions_and_a_moved_one_is_refused() {
     use crate::triangular::NEGATE;
     let mut rng = Rng(0x3c6e_f372_fe94_f82b);
-    let (mut negated, mut equal, mut refused) = (0, 0, 0);
+    let (mut negated, mut equal, mut refused, mut steps) = (0, 0, 0, 0);
     for trial in 0..400 {
         let n = 2 + rng.below(15) as usize;
         let (mut layout, rows, _) = random_layout(n, &mut rng);
@@ -337,6 +337,7 @@ fn negated_pivots_solve_as_the_divisions_and_a_moved_one_is_refused() {
         let marked = t.program.divs.iter().filter(|d| d[2] & NEGATE != 0).count();
         negated += (marked > 0) as usize;
         let honest = trial % 4 != 3;
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         for _ in 0..3 {
             let mut values: Vec<f64> =
                 rows.iter().map(|_| rng.unit() + if rng.below(2) == 0 { 2.0 } else { -2.0 }).collect();
@@ -360,11 +361,15 @@ fn negated_pivots_solve_as_the_divisions_and_a_moved_one_is_refused() {
                 continue;
             }
             let Some(got) = f.fixed[0] else { continue };
+            // the factors with 1 / -1 taken for the steps' negated pivots: the divisions' to the bit
+            let mut plain = layout.factors();
+            t.factoring.eliminate(&values, &mut plain.j, |_, _| {});
+            assert_eq!(bits(&plain.j), bits(&f.j), "trial {trial}: the factors differ from the divisions'");
+            steps += t.factoring.steps.iter().any(|s| s[0] & NEGATE != 0) as usize;
             let b: Vec<f64> = (0..n).map(|_| rng.unit()).collect();
             let (mut x, mut y) = (vec![0.0; n], vec![0.0; n]);
             layout.solve(&mut f, &b, &mut x);
             t.run(&f.j, &b, &mut y);
-            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(&x), bits(&y), "trial {trial}: negations differ from the divisions");
             let (mut small, mut big, mut at, mut det) = (f64::INFINITY, 0.0f64, 0, t.sign);
             for (p, &v) in t.factoring.diag.iter().enumerate() {
@@ -380,7 +385,7 @@ fn negated_pivots_solve_as_the_divisions_and_a_moved_one_is_refused() {
         }
     }
     assert!(
-        negated >= 50 && equal >= 100 && refused >= 20,
-        "{negated} layouts negating, {equal} solves, {refused} refused"
+        negated >= 50 && equal >= 100 && refused >= 20 && steps >= 20,
+        "{negated} layouts negating, {equal} solves ({steps} with negated steps), {refused} refused"
     );
 }

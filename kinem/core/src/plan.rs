@@ -360,6 +360,10 @@ pub(crate) fn negate(t: &mut Triangular, minus: &[bool]) {
     }
     (f.ones_small, f.ones_big, f.first_one) = (small, big, first as u32);
     f.free.retain(|&(at, _, _)| !minus_at.contains(&at));
+    // a larger block's elimination step on such a pivot: 1 / -1 without the division
+    for step in f.steps.iter_mut().filter(|s| minus_at.contains(&s[0])) {
+        step[0] |= NEGATE;
+    }
     f.minus_odd = minus_at.len() % 2 == 1;
 }
 

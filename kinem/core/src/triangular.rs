@@ -351,10 +351,10 @@ impl Factoring {
     pub fn check(&self) -> Result<(), String> {
         let v = self.values;
         let bad = |x: u32| x as usize >= v;
-        if v >= u32::MAX as usize
+        if v >= NEGATE as usize
             || self.clear.iter().any(|&x| bad(x))
             || self.place.iter().any(|&[e, at]| e as usize >= self.entries || bad(at))
-            || self.steps.iter().any(|s| bad(s[0]))
+            || self.steps.iter().any(|s| bad(s[0] & !NEGATE))
             || self.mults.iter().any(|m| bad(m[0]))
             || self.pairs.iter().any(|p| bad(p[0]) || bad(p[1]))
             || self.diag.iter().any(|&x| bad(x))
@@ -398,7 +398,15 @@ impl Factoring {
     /// in the same order; `multiplier` sees every multiplier with its
     /// `mult_scale` (the caller's check against MULTIPLIER).
     #[inline]
-    pub fn eliminate<S: Real>(&self, values: &[S], a: &mut [S], mut multiplier: impl FnMut(S, f64)) {
+    pub fn eliminate<S: Real>(&self, values: &[S], a: &mut [S], multiplier: impl FnMut(S, f64)) {
+        self.eliminate_as::<false, S>(values, a, multiplier)
+    }
+
+    /// `eliminate`; where NEG (`run`, whose checks take every pivot under
+    /// `NEGATE` for -1), a step's 1 / pivot there is -1 without the division
+    /// (1 / -1 to the bit).
+    #[inline(always)]
+    fn eliminate_as<const NEG: bool, S: Real>(&self, values: &[S], a: &mut [S], mut multiplier: impl FnMut(S, f64)) {
         assert!(a.len() >= self.values && values.len() >= self.entries);
         debug_assert!(self.check().is_ok());
         // SAFETY (every unchecked index below): Factoring::check when built, and the lengths asserted above
@@ -411,7 +419,11 @@ impl Factoring {
             }
             let (mut m0, mut p0) = (0usize, 0usize);
             for &[kk, m1] in &self.steps {
-                let r = S::one() / *a.get_unchecked(kk as usize);
+                let r = if NEG && kk & NEGATE != 0 {
+                    -S::one()
+                } else {
+                    S::one() / *a.get_unchecked((kk & !NEGATE) as usize)
+                };
                 let scales = self.mult_scale.get_unchecked(m0..m1 as usize);
                 for (&[at, p1], &scale) in self.mults.get_unchecked(m0..m1 as usize).iter().zip(scales) {
                     let l = *a.get_unchecked(at as usize) * r;
@@ -437,8 +449,8 @@ impl Factoring {
     #[inline]
     pub fn run(&self, values: &[f64], a: &mut [f64], sign: i32, zeros: bool) -> Option<Pivots> {
         let mut ok = true;
-        self.eliminate(values, a, |l: f64, scale| ok &= (l * scale).abs() <= MULTIPLIER); // false for a zero or non-finite pivot too
-                                                                                          // SAFETY (every unchecked index below): Factoring::check when built, and eliminate's asserted lengths
+        self.eliminate_as::<true, f64>(values, a, |l: f64, scale| ok &= (l * scale).abs() <= MULTIPLIER); // false for a zero or non-finite pivot too
+                                                                                                          // SAFETY (every unchecked index below): Factoring::check when built, and eliminate's asserted lengths
         unsafe {
             for &e in &self.one_entries {
                 ok &= *values.get_unchecked(e as usize) == 1.0;
