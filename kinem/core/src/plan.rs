@@ -363,6 +363,7 @@ pub(crate) fn negate(t: &mut Triangular, minus: &[bool]) {
     // a larger block's elimination step on such a pivot: 1 / -1 without the division
     for step in f.steps.iter_mut().filter(|s| minus_at.contains(&s[0])) {
         step[0] |= NEGATE;
+        f.negated_steps = true;
     }
     f.minus_odd = minus_at.len() % 2 == 1;
 }

@@ -329,6 +329,8 @@ pub struct Factoring {
     /// an odd count of those pivots (not in `free`: their figures are
     /// folded with the ones', each |-1| c_p / r_p, and each flips the det sign)
     pub minus_odd: bool,
+    /// a step of the elimination is on such a pivot (`NEGATE` in `steps`)
+    pub negated_steps: bool,
     /// the Jacobian entries taken for exact zeros (Kin::zero_entries): no
     /// part of the blocks' structure (plan::triangulate_zero), never placed;
     /// a factorisation where one is not exactly 0 (a variant that moved a
@@ -449,8 +451,14 @@ impl Factoring {
     #[inline]
     pub fn run(&self, values: &[f64], a: &mut [f64], sign: i32, zeros: bool) -> Option<Pivots> {
         let mut ok = true;
-        self.eliminate_as::<true, f64>(values, a, |l: f64, scale| ok &= (l * scale).abs() <= MULTIPLIER); // false for a zero or non-finite pivot too
-                                                                                                          // SAFETY (every unchecked index below): Factoring::check when built, and eliminate's asserted lengths
+        let check = |l: f64, scale: f64| ok &= (l * scale).abs() <= MULTIPLIER; // false for a zero or non-finite pivot too
+                                                                                // the loop with the steps' negation test only where a step is negated (the others' loop is as before)
+        if self.negated_steps {
+            self.eliminate_as::<true, f64>(values, a, check);
+        } else {
+            self.eliminate_as::<false, f64>(values, a, check);
+        }
+        // SAFETY (every unchecked index below): Factoring::check when built, and eliminate's asserted lengths
         unsafe {
             for &e in &self.one_entries {
                 ok &= *values.get_unchecked(e as usize) == 1.0;
