@@ -169,6 +169,22 @@ fn random_layout(n: usize, rng: &mut Rng) -> (Layout, Vec<usize>, Vec<usize>) {
     (l, rows, cols)
 }
 
+/// The pivots' figures read from every pivot of J_s (Phi_q's times c_p /
+/// r_p) in position order, from the factors j: (smallest, largest, the
+/// position of the first smallest, det sign).
+fn every_pivot(t: &crate::triangular::Triangular, j: &[f64]) -> (f64, f64, usize, i32) {
+    let (mut small, mut big, mut at, mut det) = (f64::INFINITY, 0.0f64, 0, t.sign);
+    for (p, &v) in t.factoring.diag.iter().enumerate() {
+        let d = j[v as usize] * t.factoring.pivot_scale[p];
+        det = if d < 0.0 { -det } else { det };
+        if d.abs() < small {
+            (small, at) = (d.abs(), p);
+        }
+        big = big.max(d.abs());
+    }
+    (small, big, at, det)
+}
+
 #[test]
 fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
     let mut rng = Rng(0x2545_f491_4f6c_dd1d);
@@ -247,16 +263,7 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
             if let Some(got) = &f.fixed[0] {
                 // the pivots' figures read from the free pivots and the folded ones' constants
                 // are those of every pivot of J_s (Phi_q's times c_p / r_p) in position order (tolerance 0)
-                let (mut small, mut big, mut at, mut det) = (f64::INFINITY, 0.0f64, 0, t.sign);
-                for (p, &v) in t.factoring.diag.iter().enumerate() {
-                    let d = f.j[v as usize] * t.factoring.pivot_scale[p];
-                    det = if d < 0.0 { -det } else { det };
-                    if d.abs() < small {
-                        (small, at) = (d.abs(), p);
-                    }
-                    big = big.max(d.abs());
-                }
-                assert_eq!((got.small, got.big, got.at, got.det), (small, big, at, det), "trial {trial}");
+                assert_eq!((got.small, got.big, got.at, got.det), every_pivot(t, &f.j), "trial {trial}");
             }
             if !t.program.quiet.is_empty() && f.fixed[0].is_some() {
                 // zero right sides at the quiet positions: the short program's figures are the
@@ -371,16 +378,7 @@ fn negated_pivots_solve_as_the_divisions_and_a_moved_one_is_refused() {
             layout.solve(&mut f, &b, &mut x);
             t.run(&f.j, &b, &mut y);
             assert_eq!(bits(&x), bits(&y), "trial {trial}: negations differ from the divisions");
-            let (mut small, mut big, mut at, mut det) = (f64::INFINITY, 0.0f64, 0, t.sign);
-            for (p, &v) in t.factoring.diag.iter().enumerate() {
-                let d = f.j[v as usize] * t.factoring.pivot_scale[p];
-                det = if d < 0.0 { -det } else { det };
-                if d.abs() < small {
-                    (small, at) = (d.abs(), p);
-                }
-                big = big.max(d.abs());
-            }
-            assert_eq!((got.small, got.big, got.at, got.det), (small, big, at, det), "trial {trial}");
+            assert_eq!((got.small, got.big, got.at, got.det), every_pivot(&t, &f.j), "trial {trial}");
             equal += (marked > 0) as usize;
         }
     }
