@@ -18,6 +18,15 @@ use crate::lu::{dense_factor, dense_solve, masked_factor, masked_solve, Factors,
 use crate::order::{Order, Pivots, MULTIPLIER};
 use crate::real::Real;
 
+/// A division's value index with this bit set divides by a pivot that is
+/// a constant -1 of the formulation (a revolute's or a joint's -1 alone in
+/// its place, never written by the elimination: plan::negate), which every
+/// factorisation checks (`Factoring::minus_entries`): the scalar solve
+/// (`Program::run_negating`) negates there instead of dividing, x / -1
+/// being -x to the bit, and without the division's latency in the chain;
+/// the other runs divide by the value under the bit.
+pub const NEGATE: u32 = 1 << 31;
+
 /// A solve's forward and back substitution as one flat program over the
 /// places w (the positions, renumbered to the coordinates once built:
 /// `Program::renumber`, `Triangular::run`) and the factors' values a (issue
@@ -28,7 +37,9 @@ use crate::real::Real;
 ///
 /// A 1x1 block whose pivot is a constant +1 (a ground's or a driver's row,
 /// `Factoring::one_entries` checks it each factorisation) has no division: its
-/// subtractions run with the next division's, or after the last one.
+/// subtractions run with the next division's, or after the last one. A
+/// pivot that is a constant -1 keeps its division, which the scalar run
+/// makes a negation (`NEGATE`).
 ///
 /// The quiet positions: 1x1 blocks whose row's nu was zero at every trial
 /// and whose subtractions, if any, read quiet positions
@@ -45,16 +56,8 @@ use crate::real::Real;
 /// Invariants, checked once by `Program::check` when the model is built
 /// (and by debug assertions in `run`): every position i, c, r is below
 /// `positions`, every value index u, v below `values`, the ends ascend up
-/// to subs.len(). `run` asserts that its slices are that long.
-/// A division's value index with this bit set divides by a pivot that is
-/// a constant -1 of the formulation (a revolute's or a joint's -1 alone in
-/// its place, never written by the elimination: plan::negate), which every
-/// factorisation checks (`Factoring::minus_entries`): the scalar solve
-/// (`Program::run_negating`) negates there instead of dividing, x / -1
-/// being -x to the bit, and without the division's latency in the chain;
-/// the other runs divide by the value under the bit.
-pub const NEGATE: u32 = 1 << 31;
-
+/// to subs.len(), a value index carrying `NEGATE` below `values` without
+/// it. `run` asserts that its slices are that long.
 #[derive(Clone, Debug, Default)]
 pub struct Program {
     pub subs: Vec<[u32; 3]>,
@@ -446,8 +449,10 @@ impl Factoring {
     /// Assembles and factorises into a (Factors::j) from the Jacobian's
     /// values; the pivots' figures (J_s's: det times `sign`), None where a
     /// pivot is zero or not finite, a multiplier of J_s above MULTIPLIER,
-    /// a folded pivot not exactly 1 or an entry taken for zero that is not
-    /// (checked where `zeros`: the values' Kin may not have those zeros).
+    /// a folded pivot not exactly 1, a negated one (`minus_entries`) not
+    /// exactly -1, or an entry taken for zero that is not (checked where
+    /// `zeros`: the values' Kin may not have those zeros). The steps on a
+    /// negated pivot take 1 / -1 without the division (`NEGATE`).
     #[inline]
     pub fn run(&self, values: &[f64], a: &mut [f64], sign: i32, zeros: bool) -> Option<Pivots> {
         let mut ok = true;
