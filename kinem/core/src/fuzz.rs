@@ -169,6 +169,22 @@ fn random_layout(n: usize, rng: &mut Rng) -> (Layout, Vec<usize>, Vec<usize>) {
     (l, rows, cols)
 }
 
+/// The pivots' figures read from every pivot of J_s (Phi_q's times c_p /
+/// r_p) in position order, from the factors j: (smallest, largest, the
+/// position of the first smallest, det sign).
+fn every_pivot(t: &crate::triangular::Triangular, j: &[f64]) -> (f64, f64, usize, i32) {
+    let (mut small, mut big, mut at, mut det) = (f64::INFINITY, 0.0f64, 0, t.sign);
+    for (p, &v) in t.factoring.diag.iter().enumerate() {
+        let d = j[v as usize] * t.factoring.pivot_scale[p];
+        det = if d < 0.0 { -det } else { det };
+        if d.abs() < small {
+            (small, at) = (d.abs(), p);
+        }
+        big = big.max(d.abs());
+    }
+    (small, big, at, det)
+}
+
 #[test]
 fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
     let mut rng = Rng(0x2545_f491_4f6c_dd1d);
@@ -247,16 +263,7 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
             if let Some(got) = &f.fixed[0] {
                 // the pivots' figures read from the free pivots and the folded ones' constants
                 // are those of every pivot of J_s (Phi_q's times c_p / r_p) in position order (tolerance 0)
-                let (mut small, mut big, mut at, mut det) = (f64::INFINITY, 0.0f64, 0, t.sign);
-                for (p, &v) in t.factoring.diag.iter().enumerate() {
-                    let d = f.j[v as usize] * t.factoring.pivot_scale[p];
-                    det = if d < 0.0 { -det } else { det };
-                    if d.abs() < small {
-                        (small, at) = (d.abs(), p);
-                    }
-                    big = big.max(d.abs());
-                }
-                assert_eq!((got.small, got.big, got.at, got.det), (small, big, at, det), "trial {trial}");
+                assert_eq!((got.small, got.big, got.at, got.det), every_pivot(t, &f.j), "trial {trial}");
             }
             if !t.program.quiet.is_empty() && f.fixed[0].is_some() {
                 // zero right sides at the quiet positions: the short program's figures are the
@@ -307,5 +314,76 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
         "{solved} solves ({folds} with folded pivots, {quiet} quiet, {deep} through quiet positions, {refused} \
          nonzero entries taken for zero refused, {same} equal to the solves with the zeros to rounding), \
          {corrupted} corruptions checked"
+    );
+}
+
+/// Pivots that are a constant -1 (plan::negate): the solve negates there
+/// instead of dividing, and its figures are the divisions' to the bit
+/// (tolerance 0, Triangular::run divides by the stored -1); the pivots'
+/// figures with theirs folded are those of every pivot; a factorisation
+/// where such an entry is not -1 (a variant's) is refused.
+#[test]
+fn negated_pivots_solve_as_the_divisions_and_a_moved_one_is_refused() {
+    use crate::triangular::NEGATE;
+    let mut rng = Rng(0x3c6e_f372_fe94_f82b);
+    let (mut negated, mut equal, mut refused, mut steps) = (0, 0, 0, 0);
+    for trial in 0..400 {
+        let n = 2 + rng.below(15) as usize;
+        let (mut layout, rows, _) = random_layout(n, &mut rng);
+        let constant: Vec<bool> = rows.iter().map(|_| rng.below(2) == 0).collect();
+        let one: Vec<bool> = constant.iter().map(|&c| c && rng.below(4) == 0).collect();
+        let minus: Vec<bool> = constant.iter().zip(&one).map(|(&c, &o)| c && !o && rng.below(2) == 0).collect();
+        let still = vec![false; n];
+        if !super::triangulate_zero(&mut layout, &constant, &constant, &one, &still, &[]) {
+            continue;
+        }
+        let Shape::Triangular(t) = &mut layout.shape else { panic!("trial {trial}: not triangular") };
+        super::negate(t, &minus);
+        let t = (**t).clone();
+        t.check().unwrap();
+        let marked = t.program.divs.iter().filter(|d| d[2] & NEGATE != 0).count();
+        negated += (marked > 0) as usize;
+        let honest = trial % 4 != 3;
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for _ in 0..3 {
+            let mut values: Vec<f64> =
+                rows.iter().map(|_| rng.unit() + if rng.below(2) == 0 { 2.0 } else { -2.0 }).collect();
+            for e in 0..values.len() {
+                if one[e] {
+                    values[e] = 1.0;
+                } else if minus[e] {
+                    values[e] = -1.0;
+                }
+            }
+            if !honest {
+                if let Some(&e) = t.factoring.minus_entries.first() {
+                    values[e as usize] = -1.0 - 2f64.powi(-40);
+                }
+            }
+            let mut f = layout.factors();
+            layout.factor(&values, &mut f);
+            if !honest && !t.factoring.minus_entries.is_empty() {
+                assert!(f.fixed[0].is_none(), "trial {trial}: a pivot taken for -1 that is not was factorised");
+                refused += 1;
+                continue;
+            }
+            let Some(got) = f.fixed[0] else { continue };
+            // the factors with 1 / -1 taken for the steps' negated pivots: the divisions' to the bit
+            let mut plain = layout.factors();
+            t.factoring.eliminate(&values, &mut plain.j, |_, _| {});
+            assert_eq!(bits(&plain.j), bits(&f.j), "trial {trial}: the factors differ from the divisions'");
+            steps += t.factoring.steps.iter().any(|s| s[0] & NEGATE != 0) as usize;
+            let b: Vec<f64> = (0..n).map(|_| rng.unit()).collect();
+            let (mut x, mut y) = (vec![0.0; n], vec![0.0; n]);
+            layout.solve(&mut f, &b, &mut x);
+            t.run(&f.j, &b, &mut y);
+            assert_eq!(bits(&x), bits(&y), "trial {trial}: negations differ from the divisions");
+            assert_eq!((got.small, got.big, got.at, got.det), every_pivot(&t, &f.j), "trial {trial}");
+            equal += (marked > 0) as usize;
+        }
+    }
+    assert!(
+        negated >= 50 && equal >= 100 && refused >= 20 && steps >= 20,
+        "{negated} layouts negating, {equal} solves ({steps} with negated steps), {refused} refused"
     );
 }

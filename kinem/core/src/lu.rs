@@ -293,7 +293,7 @@ impl Layout {
     pub fn solve(&self, f: &mut Factors, b: &[f64], x: &mut [f64]) {
         if let Shape::Triangular(t) = &self.shape {
             if f.fixed[0].is_some() {
-                return t.run(&f.j, b, x);
+                return t.run_negating(&f.j, b, x);
             }
         }
         self.solve_other(f, b, x)

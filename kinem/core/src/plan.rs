@@ -9,7 +9,7 @@ use crate::families::At;
 use crate::lu::{Layout, Shape, MASK};
 use crate::model::Kin;
 use crate::order::{Order, NONE};
-use crate::triangular::{Diagonal, Triangular};
+use crate::triangular::{Diagonal, Triangular, NEGATE};
 use num_complex::Complex64 as C64;
 
 /// The Jacobian's values at a few arbitrary configurations and times:
@@ -18,6 +18,13 @@ use num_complex::Complex64 as C64;
 /// those, whether the scaled value is +-1, and whether the value itself
 /// (unscaled: the block-triangular factors are Phi_q's) is +1.
 pub fn constant_entries(kin: &Kin, entry_scale: &[f64]) -> (Vec<bool>, Vec<bool>, Vec<bool>) {
+    let (constant, unit, one, _) = constant_signs(kin, entry_scale);
+    (constant, unit, one)
+}
+
+/// `constant_entries`, and whether the value (unscaled) is -1 (`negate`).
+#[allow(clippy::type_complexity)]
+pub fn constant_signs(kin: &Kin, entry_scale: &[f64]) -> (Vec<bool>, Vec<bool>, Vec<bool>, Vec<bool>) {
     let n = kin.n;
     let mut first: Option<Vec<f64>> = None;
     let mut constant = vec![true; kin.nnz];
@@ -39,7 +46,8 @@ pub fn constant_entries(kin: &Kin, entry_scale: &[f64]) -> (Vec<bool>, Vec<bool>
     let v = first.unwrap_or_default();
     let unit = (0..kin.nnz).map(|k| constant[k] && (v[k] * entry_scale[k]).abs() == 1.0).collect();
     let one = (0..kin.nnz).map(|k| constant[k] && v[k] == 1.0).collect();
-    (constant, unit, one)
+    let minus = (0..kin.nnz).map(|k| constant[k] && v[k] == -1.0).collect();
+    (constant, unit, one, minus)
 }
 
 /// The rows whose nu (= -Phi_t) is zero at a few arbitrary times: a
@@ -61,8 +69,11 @@ pub fn still_rows(kin: &Kin) -> Vec<bool> {
 /// the pattern is structurally singular: that block keeps partial pivoting);
 /// one block that decomposes is laid out block-triangularly instead.
 pub fn order_blocks(kin: &Kin, layout: &mut Layout) {
-    let (constant, unit, one) = constant_entries(kin, &layout.entry_scale);
+    let (constant, unit, one, minus) = constant_signs(kin, &layout.entry_scale);
     if triangulate_zero(layout, &constant, &unit, &one, &still_rows(kin), &kin.zero_entries()) {
+        if let Shape::Triangular(t) = &mut layout.shape {
+            negate(t, &minus);
+        }
         return;
     }
     let Shape::Blocks { count, size, pad, patterns, .. } = &layout.shape else { return };
@@ -295,6 +306,66 @@ pub(crate) fn triangulate_zero(
     layout.col_pos = col_pos;
     layout.shape = Shape::Triangular(Box::new(t));
     true
+}
+
+/// Marks the solve's divisions by a constant -1 (`minus`: per Jacobian
+/// entry, its value looked -1 at every trial) with triangular::NEGATE: a
+/// pivot placed from one such entry alone and written by no step of the
+/// elimination (a revolute's -1 on the coordinate it solves, a 1x1 block or
+/// a pivot of a larger block's order taken before any update reaches it).
+/// Those entries join Factoring::minus_entries, checked at each
+/// factorisation (a variant on the nominal's layout whose entry is not -1:
+/// the fallback takes it).
+pub(crate) fn negate(t: &mut Triangular, minus: &[bool]) {
+    let f = &mut t.factoring;
+    let (mut placed, mut from, mut written) = (vec![0u32; f.values], vec![0u32; f.values], vec![false; f.values]);
+    for &[e, at] in &f.place {
+        placed[at as usize] += 1;
+        from[at as usize] = e;
+    }
+    for &at in f.clear.iter().chain(f.ones.iter()).chain(f.mults.iter().map(|m| &m[0])) {
+        written[at as usize] = true;
+    }
+    for &[dst, _] in &f.pairs {
+        written[dst as usize] = true;
+    }
+    let eligible = |v: u32| {
+        let v = v as usize;
+        v < placed.len() && placed[v] == 1 && !written[v] && minus.get(from[v] as usize) == Some(&true)
+    };
+    let (mut entries, mut negated) = (Vec::new(), Vec::new());
+    for d in t.program.divs.iter_mut().chain(t.program.short.1.iter_mut()) {
+        if eligible(d[2]) {
+            entries.push(from[d[2] as usize]);
+            negated.push(d[2]);
+            d[2] |= NEGATE;
+        }
+    }
+    negated.sort_unstable();
+    negated.dedup();
+    entries.sort_unstable();
+    entries.dedup();
+    f.minus_entries = entries;
+    // their pivots' figures are constant (|-1| c_p / r_p, each a det flip): folded as the ones' are
+    let minus_at: Vec<u32> = negated.iter().map(|&v| v & !NEGATE).collect();
+    let (mut small, mut big, mut first) = (f.ones_small, f.ones_big, f.first_one as usize);
+    for (p, at) in f.diag.iter().enumerate() {
+        if minus_at.contains(at) {
+            let x = f.pivot_scale[p];
+            if x < small || (x == small && p < first) {
+                (small, first) = (x, p);
+            }
+            big = big.max(x);
+        }
+    }
+    (f.ones_small, f.ones_big, f.first_one) = (small, big, first as u32);
+    f.free.retain(|&(at, _, _)| !minus_at.contains(&at));
+    // a larger block's elimination step on such a pivot: 1 / -1 without the division
+    for step in f.steps.iter_mut().filter(|s| minus_at.contains(&s[0])) {
+        step[0] |= NEGATE;
+        f.negated_steps = true;
+    }
+    f.minus_odd = minus_at.len() % 2 == 1;
 }
 
 /// One block of a square pattern (rows, cols per entry) in the model's

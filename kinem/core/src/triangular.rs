@@ -18,6 +18,15 @@ use crate::lu::{dense_factor, dense_solve, masked_factor, masked_solve, Factors,
 use crate::order::{Order, Pivots, MULTIPLIER};
 use crate::real::Real;
 
+/// A division's value index with this bit set divides by a pivot that is
+/// a constant -1 of the formulation (a revolute's or a joint's -1 alone in
+/// its place, never written by the elimination: plan::negate), which every
+/// factorisation checks (`Factoring::minus_entries`): the scalar solve
+/// (`Program::run_negating`) negates there instead of dividing, x / -1
+/// being -x to the bit, and without the division's latency in the chain;
+/// the other runs divide by the value under the bit.
+pub const NEGATE: u32 = 1 << 31;
+
 /// A solve's forward and back substitution as one flat program over the
 /// places w (the positions, renumbered to the coordinates once built:
 /// `Program::renumber`, `Triangular::run`) and the factors' values a (issue
@@ -28,7 +37,9 @@ use crate::real::Real;
 ///
 /// A 1x1 block whose pivot is a constant +1 (a ground's or a driver's row,
 /// `Factoring::one_entries` checks it each factorisation) has no division: its
-/// subtractions run with the next division's, or after the last one.
+/// subtractions run with the next division's, or after the last one. A
+/// pivot that is a constant -1 keeps its division, which the scalar run
+/// makes a negation (`NEGATE`).
 ///
 /// The quiet positions: 1x1 blocks whose row's nu was zero at every trial
 /// and whose subtractions, if any, read quiet positions
@@ -45,7 +56,8 @@ use crate::real::Real;
 /// Invariants, checked once by `Program::check` when the model is built
 /// (and by debug assertions in `run`): every position i, c, r is below
 /// `positions`, every value index u, v below `values`, the ends ascend up
-/// to subs.len(). `run` asserts that its slices are that long.
+/// to subs.len(), a value index carrying `NEGATE` below `values` without
+/// it. `run` asserts that its slices are that long.
 #[derive(Clone, Debug, Default)]
 pub struct Program {
     pub subs: Vec<[u32; 3]>,
@@ -108,7 +120,7 @@ impl Program {
     /// The invariants `run` relies on (see `Program`), of both lists.
     pub fn check(&self) -> Result<(), String> {
         let (p, v) = (self.positions, self.values);
-        if p >= u32::MAX as usize || v >= u32::MAX as usize {
+        if p >= NEGATE as usize || v >= NEGATE as usize {
             return Err("program: too many positions or values".into());
         }
         if let Some(q) = self.quiet.iter().find(|&&q| q as usize >= p) {
@@ -120,7 +132,7 @@ impl Program {
             }
             let mut end = 0;
             for d in divs {
-                if d[0] < end || d[0] as usize > subs.len() || d[1] as usize >= p || d[2] as usize >= v {
+                if d[0] < end || d[0] as usize > subs.len() || d[1] as usize >= p || (d[2] & !NEGATE) as usize >= v {
                     return Err(format!("program: division {d:?} out of order or range"));
                 }
                 end = d[0];
@@ -135,6 +147,20 @@ impl Program {
     /// (`short` where every quiet position is zero in every lane).
     #[inline]
     pub fn run<A: Copy, W: Cell<A>>(&self, a: &[A], w: &mut [W]) {
+        self.run_as::<false, A, W>(a, w)
+    }
+
+    /// `run` over f64 on factors from `Factoring::run`, which checked every
+    /// pivot under `NEGATE` to be -1: those divisions are negations (the
+    /// same figures to the bit).
+    #[inline]
+    pub fn run_negating(&self, a: &[f64], w: &mut [f64]) {
+        self.run_as::<true, f64, f64>(a, w)
+    }
+
+    /// `run`, negating where NEG and the division's index carries `NEGATE`.
+    #[inline(always)]
+    fn run_as<const NEG: bool, A: Copy, W: Cell<A>>(&self, a: &[A], w: &mut [W]) {
         assert!(a.len() >= self.values && w.len() >= self.positions);
         debug_assert!(self.check().is_ok());
         // SAFETY: Program::check (when built): every quiet position below `positions` <= w.len()
@@ -150,7 +176,12 @@ impl Program {
                     let x = *w.get_unchecked(c as usize);
                     w.get_unchecked_mut(i as usize).sub_mul(*a.get_unchecked(u as usize), x);
                 }
-                w.get_unchecked_mut(r as usize).div(*a.get_unchecked(v as usize));
+                let y = w.get_unchecked_mut(r as usize);
+                if NEG && v & NEGATE != 0 {
+                    y.negate();
+                } else {
+                    y.div(*a.get_unchecked((v & !NEGATE) as usize));
+                }
             }
             from = end;
         }
@@ -207,6 +238,8 @@ impl Program {
 pub trait Cell<A>: Copy {
     fn sub_mul(&mut self, a: A, x: Self);
     fn div(&mut self, a: A);
+    /// y = -y (y / -1 to the bit)
+    fn negate(&mut self);
     fn zero(&self) -> bool;
 }
 
@@ -222,6 +255,10 @@ impl<S: Real> Cell<S> for S {
     #[inline(always)]
     fn div(&mut self, a: S) {
         *self = *self / a;
+    }
+    #[inline(always)]
+    fn negate(&mut self) {
+        *self = -*self;
     }
 }
 
@@ -240,6 +277,12 @@ impl<const N: usize> Cell<f64> for [f64; N] {
     fn div(&mut self, a: f64) {
         for y in self.iter_mut() {
             *y /= a;
+        }
+    }
+    #[inline(always)]
+    fn negate(&mut self) {
+        for y in self.iter_mut() {
+            *y = -*y;
         }
     }
 }
@@ -283,6 +326,14 @@ pub struct Factoring {
     /// refused (the fallback takes it)
     pub ones: Vec<u32>,
     pub one_entries: Vec<u32>,
+    /// the Jacobian entries of the pivots the solve negates by (`NEGATE`):
+    /// a factorisation where one is not exactly -1 is refused
+    pub minus_entries: Vec<u32>,
+    /// an odd count of those pivots (not in `free`: their figures are
+    /// folded with the ones', each |-1| c_p / r_p, and each flips the det sign)
+    pub minus_odd: bool,
+    /// a step of the elimination is on such a pivot (`NEGATE` in `steps`)
+    pub negated_steps: bool,
     /// the Jacobian entries taken for exact zeros (Kin::zero_entries): no
     /// part of the blocks' structure (plan::triangulate_zero), never placed;
     /// a factorisation where one is not exactly 0 (a variant that moved a
@@ -305,15 +356,16 @@ impl Factoring {
     pub fn check(&self) -> Result<(), String> {
         let v = self.values;
         let bad = |x: u32| x as usize >= v;
-        if v >= u32::MAX as usize
+        if v >= NEGATE as usize
             || self.clear.iter().any(|&x| bad(x))
             || self.place.iter().any(|&[e, at]| e as usize >= self.entries || bad(at))
-            || self.steps.iter().any(|s| bad(s[0]))
+            || self.steps.iter().any(|s| bad(s[0] & !NEGATE))
             || self.mults.iter().any(|m| bad(m[0]))
             || self.pairs.iter().any(|p| bad(p[0]) || bad(p[1]))
             || self.diag.iter().any(|&x| bad(x))
             || self.ones.iter().any(|&x| bad(x))
-            || self.one_entries.iter().chain(&self.zero_entries).any(|&e| e as usize >= self.entries)
+            || (self.one_entries.iter().chain(&self.zero_entries).chain(&self.minus_entries))
+                .any(|&e| e as usize >= self.entries)
             || self.free.iter().any(|f| bad(f.0))
             || self.mult_scale.len() != self.mults.len()
             || self.pivot_scale.len() != self.diag.len()
@@ -351,7 +403,15 @@ impl Factoring {
     /// in the same order; `multiplier` sees every multiplier with its
     /// `mult_scale` (the caller's check against MULTIPLIER).
     #[inline]
-    pub fn eliminate<S: Real>(&self, values: &[S], a: &mut [S], mut multiplier: impl FnMut(S, f64)) {
+    pub fn eliminate<S: Real>(&self, values: &[S], a: &mut [S], multiplier: impl FnMut(S, f64)) {
+        self.eliminate_as::<false, S>(values, a, multiplier)
+    }
+
+    /// `eliminate`; where NEG (`run`, whose checks take every pivot under
+    /// `NEGATE` for -1), a step's 1 / pivot there is -1 without the division
+    /// (1 / -1 to the bit).
+    #[inline(always)]
+    fn eliminate_as<const NEG: bool, S: Real>(&self, values: &[S], a: &mut [S], mut multiplier: impl FnMut(S, f64)) {
         assert!(a.len() >= self.values && values.len() >= self.entries);
         debug_assert!(self.check().is_ok());
         // SAFETY (every unchecked index below): Factoring::check when built, and the lengths asserted above
@@ -364,7 +424,11 @@ impl Factoring {
             }
             let (mut m0, mut p0) = (0usize, 0usize);
             for &[kk, m1] in &self.steps {
-                let r = S::one() / *a.get_unchecked(kk as usize);
+                let r = if NEG && kk & NEGATE != 0 {
+                    -S::one()
+                } else {
+                    S::one() / *a.get_unchecked((kk & !NEGATE) as usize)
+                };
                 let scales = self.mult_scale.get_unchecked(m0..m1 as usize);
                 for (&[at, p1], &scale) in self.mults.get_unchecked(m0..m1 as usize).iter().zip(scales) {
                     let l = *a.get_unchecked(at as usize) * r;
@@ -385,16 +449,27 @@ impl Factoring {
     /// Assembles and factorises into a (Factors::j) from the Jacobian's
     /// values; the pivots' figures (J_s's: det times `sign`), None where a
     /// pivot is zero or not finite, a multiplier of J_s above MULTIPLIER,
-    /// a folded pivot not exactly 1 or an entry taken for zero that is not
-    /// (checked where `zeros`: the values' Kin may not have those zeros).
+    /// a folded pivot not exactly 1, a negated one (`minus_entries`) not
+    /// exactly -1, or an entry taken for zero that is not (checked where
+    /// `zeros`: the values' Kin may not have those zeros). The steps on a
+    /// negated pivot take 1 / -1 without the division (`NEGATE`).
     #[inline]
     pub fn run(&self, values: &[f64], a: &mut [f64], sign: i32, zeros: bool) -> Option<Pivots> {
         let mut ok = true;
-        self.eliminate(values, a, |l: f64, scale| ok &= (l * scale).abs() <= MULTIPLIER); // false for a zero or non-finite pivot too
-                                                                                          // SAFETY (every unchecked index below): Factoring::check when built, and eliminate's asserted lengths
+        let check = |l: f64, scale: f64| ok &= (l * scale).abs() <= MULTIPLIER; // false for a zero or non-finite pivot too
+                                                                                // the loop with the steps' negation test only where a step is negated (the others' loop is as before)
+        if self.negated_steps {
+            self.eliminate_as::<true, f64>(values, a, check);
+        } else {
+            self.eliminate_as::<false, f64>(values, a, check);
+        }
+        // SAFETY (every unchecked index below): Factoring::check when built, and eliminate's asserted lengths
         unsafe {
             for &e in &self.one_entries {
                 ok &= *values.get_unchecked(e as usize) == 1.0;
+            }
+            for &e in &self.minus_entries {
+                ok &= *values.get_unchecked(e as usize) == -1.0;
             }
             if zeros {
                 for &e in &self.zero_entries {
@@ -404,7 +479,8 @@ impl Factoring {
             if !ok {
                 return None;
             }
-            let mut acc = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det: sign };
+            let det = if self.minus_odd { -sign } else { sign };
+            let mut acc = Pivots { small: f64::INFINITY, big: 0.0, at: 0, det };
             for &(at, p, scale) in &self.free {
                 let d = *a.get_unchecked(at as usize) * scale;
                 let x = d.abs();
@@ -656,7 +732,7 @@ impl Triangular {
             }
             return;
         }
-        self.run(j, b, x);
+        self.run_negating(j, b, x);
     }
 
     /// x = Phi_q^-1 b with the blocks' factors a (block-triangular: not the
@@ -666,13 +742,26 @@ impl Triangular {
     /// or several right-hand sides (`Cell`).
     #[inline(always)]
     pub fn run<A: Copy, W: Cell<A>>(&self, a: &[A], b: &[W], x: &mut [W]) {
+        self.sides_into(b, x);
+        self.program.run(a, x);
+    }
+
+    /// `run` over f64 on factors from `factor` (`Program::run_negating`).
+    #[inline(always)]
+    pub fn run_negating(&self, a: &[f64], b: &[f64], x: &mut [f64]) {
+        self.sides_into(b, x);
+        self.program.run_negating(a, x);
+    }
+
+    /// Each row's right side b[i] into its coordinate x[into[i]].
+    #[inline(always)]
+    fn sides_into<W: Copy>(&self, b: &[W], x: &mut [W]) {
         let n = self.into.len();
         assert!(b.len() >= n && x.len() >= n);
         for (&v, &j) in b.iter().zip(&self.into) {
             // SAFETY: into holds coordinates below n (Triangular::check, when built); x.len() >= n asserted
             unsafe { *x.get_unchecked_mut(j as usize) = v };
         }
-        self.program.run(a, x);
     }
 
     /// (pivot ratio, det sign, position of the smallest |pivot| in the
