@@ -318,8 +318,10 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
 }
 
 /// Pivots that are a constant -1 (plan::negate): the solve negates there
-/// instead of dividing, and its figures are the divisions' to the bit
-/// (tolerance 0, Triangular::run divides by the stored -1); the pivots'
+/// instead of multiplying by the reciprocal, and its figures are the
+/// products' to the bit (tolerance 0, Triangular::run multiplies by the
+/// stored -1); every position's reciprocal is 1 / its pivot (tolerance 0:
+/// Factoring::recips and the steps'); the pivots'
 /// figures with theirs folded are those of every pivot; a factorisation
 /// where such an entry is not -1 (a variant's) is refused.
 #[test]
@@ -372,6 +374,15 @@ fn negated_pivots_solve_as_the_divisions_and_a_moved_one_is_refused() {
             let mut plain = layout.factors();
             t.factoring.eliminate(&values, &mut plain.j, |_, _| {});
             assert_eq!(bits(&plain.j), bits(&f.j), "trial {trial}: the factors differ from the divisions'");
+            let fa = &t.factoring;
+            for (p, &at) in fa.diag.iter().enumerate().filter(|(_, at)| !fa.ones.contains(at)) {
+                let got = f.j[fa.recip_at as usize + p];
+                assert_eq!(
+                    got.to_bits(),
+                    (1.0 / f.j[at as usize]).to_bits(),
+                    "trial {trial}: position {p}'s reciprocal"
+                );
+            }
             steps += t.factoring.steps.iter().any(|s| s[0] & NEGATE != 0) as usize;
             let b: Vec<f64> = (0..n).map(|_| rng.unit()).collect();
             let (mut x, mut y) = (vec![0.0; n], vec![0.0; n]);

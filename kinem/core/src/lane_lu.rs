@@ -7,7 +7,9 @@
 //! (shared/reference/performance.md, "What a static pivot order must
 //! respect"): a lane with a zero or non-finite pivot, a multiplier above
 //! crate::order::MULTIPLIER, or pivots spanning more than
-//! crate::lu::FALLBACK, a folded pivot (Factoring::one_entries) not exactly 1
+//! crate::lu::FALLBACK, a folded pivot (Factoring::one_entries) not exactly 1,
+//! a negated one (Factoring::minus_entries: its reciprocal is the -1 set
+//! once, as the scalar's) not exactly -1
 //! or an entry taken for zero (Factoring::zero_entries) not exactly 0
 //! is not `fixed`: the caller factorises that lane
 //! alone (Layout::factor: partial pivoting, as the scalar march does).
@@ -48,6 +50,12 @@ impl<'a> LaneLu<'a> {
             let v = values[e as usize];
             for q in 0..WIDTH {
                 ok[q] &= v.0[q] == 1.0;
+            }
+        }
+        for &e in &f.minus_entries {
+            let v = values[e as usize];
+            for q in 0..WIDTH {
+                ok[q] &= v.0[q] == -1.0; // as the scalar's Factoring::run: that lane's own LU
             }
         }
         for &e in &f.zero_entries {

@@ -306,8 +306,9 @@ impl Order {
     /// Appends `numeric` (without its skip of a zero multiplier) to a
     /// factoring (crate::triangular::Factoring), the block's factors from
     /// `store`: its fill to clear, its entries' placement (`place`, set by
-    /// the caller), its steps and its pivots.
-    pub fn factoring(&self, store: usize, f: &mut crate::triangular::Factoring) {
+    /// the caller), its steps and its pivots; the pivots' reciprocals at
+    /// `recip` + k (the steps' with them, the last one's after the steps).
+    pub fn factoring(&self, store: usize, recip: usize, f: &mut crate::triangular::Factoring) {
         let (s, u) = (self.s, |x: usize| x as u32);
         f.clear.extend(self.fill_at.iter().map(|&at| u(store + at)));
         f.place.extend(self.place.iter().map(|&(e, at, _)| [e, u(store + at as usize)])); // Phi_q's own values
@@ -319,8 +320,10 @@ impl Order {
                 f.pairs.extend(right.iter().map(|&j| [u(store + i + j as usize), u(store + k * s + j as usize)]));
                 f.mults.push([u(store + at as usize), u(f.pairs.len())]);
             }
-            f.steps.push([u(store + k * s + k), u(f.mults.len())]);
+            f.steps.push([u(store + k * s + k), u(f.mults.len()), u(recip + k)]);
         }
+        let stepped = |k: usize| self.steps.iter().any(|st| st.0 as usize == k);
+        f.recips.extend((0..s).filter(|&k| !stepped(k)).map(|k| [u(store + k * s + k), u(recip + k)]));
         f.diag.extend((0..s).map(|k| u(store + k * s + k)));
     }
 

@@ -329,25 +329,29 @@ pub(crate) fn negate(t: &mut Triangular, minus: &[bool]) {
     for &[dst, _] in &f.pairs {
         written[dst as usize] = true;
     }
-    let eligible = |v: u32| {
-        let v = v as usize;
-        v < placed.len() && placed[v] == 1 && !written[v] && minus.get(from[v] as usize) == Some(&true)
-    };
-    let (mut entries, mut negated) = (Vec::new(), Vec::new());
+    // a division's value is its position's reciprocal (Factoring::recip_at): its pivot is that position's
+    let pivot = |r: u32| f.diag.get((r as usize).wrapping_sub(f.recip_at as usize)).map(|&v| v as usize);
+    let eligible =
+        |v: usize| v < placed.len() && placed[v] == 1 && !written[v] && minus.get(from[v] as usize) == Some(&true);
+    let (mut entries, mut negated, mut recips) = (Vec::new(), Vec::new(), Vec::new());
     for d in t.program.divs.iter_mut().chain(t.program.short.1.iter_mut()) {
-        if eligible(d[2]) {
-            entries.push(from[d[2] as usize]);
-            negated.push(d[2]);
+        if let Some(v) = pivot(d[2]).filter(|&v| eligible(v)) {
+            entries.push(from[v]);
+            negated.push(v as u32);
+            recips.push(d[2]);
             d[2] |= NEGATE;
         }
     }
-    negated.sort_unstable();
-    negated.dedup();
-    entries.sort_unstable();
-    entries.dedup();
+    for list in [&mut negated, &mut entries, &mut recips] {
+        list.sort_unstable();
+        list.dedup();
+    }
     f.minus_entries = entries;
+    // their reciprocals are -1, set once (Factoring::init), not computed
+    f.recips.retain(|r| !recips.contains(&r[1]));
+    f.minus_recips = recips;
     // their pivots' figures are constant (|-1| c_p / r_p, each a det flip): folded as the ones' are
-    let minus_at: Vec<u32> = negated.iter().map(|&v| v & !NEGATE).collect();
+    let minus_at = negated;
     let (mut small, mut big, mut first) = (f.ones_small, f.ones_big, f.first_one as usize);
     for (p, at) in f.diag.iter().enumerate() {
         if minus_at.contains(at) {

@@ -18,28 +18,33 @@ use crate::lu::{dense_factor, dense_solve, masked_factor, masked_solve, Factors,
 use crate::order::{Order, Pivots, MULTIPLIER};
 use crate::real::Real;
 
-/// A division's value index with this bit set divides by a pivot that is
-/// a constant -1 of the formulation (a revolute's or a joint's -1 alone in
-/// its place, never written by the elimination: plan::negate), which every
-/// factorisation checks (`Factoring::minus_entries`): the scalar solve
-/// (`Program::run_negating`) negates there instead of dividing, x / -1
-/// being -x to the bit, and without the division's latency in the chain;
-/// the other runs divide by the value under the bit.
+/// A division's value index with this bit set is the reciprocal of a pivot
+/// that is a constant -1 of the formulation (a revolute's or a joint's -1
+/// alone in its place, never written by the elimination: plan::negate),
+/// which every factorisation checks (`Factoring::minus_entries`, the lanes'
+/// too); that reciprocal is -1, set once (`Factoring::minus_recips`): the
+/// scalar solve (`Program::run_negating`) negates there instead of
+/// multiplying, x * -1 being -x to the bit; the other runs multiply by the
+/// value under the bit.
 pub const NEGATE: u32 = 1 << 31;
 
 /// A solve's forward and back substitution as one flat program over the
 /// places w (the positions, renumbered to the coordinates once built:
 /// `Program::renumber`, `Triangular::run`) and the factors' values a (issue
 /// 31 item 4): `divs[k] = [end, r, v]` runs the subtractions `subs[..end]`
-/// not yet run (`[i, c, u]`: w[i] -= a[u] w[c]), then w[r] /= a[v]. One tight loop, no branch on the
-/// structure; the division's order and operands are the elimination's, so
-/// the figures are those of the loops it replaces, to the bit.
+/// not yet run (`[i, c, u]`: w[i] -= a[u] w[c]), then the division w[r] *=
+/// a[v], a[v] being the reciprocal 1 / pivot that the factorisation keeps
+/// (`Factoring::recips`, issue 31 round 21: a product instead of a
+/// division in the solve's chain). One tight loop, no branch on the
+/// structure; the order and operands are the elimination's (each division
+/// by the pivot a product with its reciprocal), the same in every run:
+/// the scalar march, the lanes and the sensitivities' right sides.
 ///
 /// A 1x1 block whose pivot is a constant +1 (a ground's or a driver's row,
 /// `Factoring::one_entries` checks it each factorisation) has no division: its
 /// subtractions run with the next division's, or after the last one. A
-/// pivot that is a constant -1 keeps its division, which the scalar run
-/// makes a negation (`NEGATE`).
+/// pivot that is a constant -1 keeps its product (with -1), which the
+/// scalar run makes a negation (`NEGATE`).
 ///
 /// The quiet positions: 1x1 blocks whose row's nu was zero at every trial
 /// and whose subtractions, if any, read quiet positions
@@ -47,8 +52,8 @@ pub const NEGATE: u32 = 1 << 31;
 /// its angle are exact zeros, no part of the structure; an angle tied to
 /// the ground's): their w is the gathered right side, zero in the rates'
 /// solves and in a correction once the ground is met, and stays zero (a
-/// division by the pivot, nonzero and finite in a factorisation taken,
-/// keeps it zero). Where every one is zero, `run` runs `short`, the
+/// product with the reciprocal of a pivot, nonzero and finite in a
+/// factorisation taken, keeps it zero). Where every one is zero, `run` runs `short`, the
 /// program without the subtractions that read them (w[i] -= a 0: the same
 /// w[i], but for the sign of a zero) and without their divisions; the
 /// others are kept in the same order, so the figures are the full program's.
@@ -92,7 +97,7 @@ impl Program {
         let (mut subs, mut divs, mut from) = (Vec::new(), Vec::new(), 0);
         for &[end, r, v] in &self.divs {
             subs.extend(self.subs[from..end as usize].iter().filter(|s| !read(s)));
-            // a quiet position's division (0 / a nonzero pivot: a zero) is left out too
+            // a quiet position's division (0 times 1 / a nonzero pivot: a zero) is left out too
             if !quiet.contains(&r) {
                 divs.push([subs.len() as u32, r, v]);
             }
@@ -151,8 +156,8 @@ impl Program {
     }
 
     /// `run` over f64 on factors from `Factoring::run`, which checked every
-    /// pivot under `NEGATE` to be -1: those divisions are negations (the
-    /// same figures to the bit).
+    /// pivot under `NEGATE` to be -1: those products with -1 are negations
+    /// (the same figures to the bit).
     #[inline]
     pub fn run_negating(&self, a: &[f64], w: &mut [f64]) {
         self.run_as::<true, f64, f64>(a, w)
@@ -180,7 +185,7 @@ impl Program {
                 if NEG && v & NEGATE != 0 {
                     y.negate();
                 } else {
-                    y.div(*a.get_unchecked((v & !NEGATE) as usize));
+                    y.mul(*a.get_unchecked((v & !NEGATE) as usize));
                 }
             }
             from = end;
@@ -233,12 +238,12 @@ impl Program {
 /// What a solve's program works on, a factor's entry being `A`: a
 /// position's value (f64, or variants' lanes: A = Self), or the same
 /// position of N right-hand sides ([f64; N], A = f64). y.sub_mul(a, x) is
-/// y = y - a x, y.div(a) y = y / a, each lane's as f64's, to the bit;
+/// y = y - a x, y.mul(a) y = y a, each lane's as f64's, to the bit;
 /// y.zero(): every lane is zero.
 pub trait Cell<A>: Copy {
     fn sub_mul(&mut self, a: A, x: Self);
-    fn div(&mut self, a: A);
-    /// y = -y (y / -1 to the bit)
+    fn mul(&mut self, a: A);
+    /// y = -y (y * -1 to the bit)
     fn negate(&mut self);
     fn zero(&self) -> bool;
 }
@@ -253,8 +258,8 @@ impl<S: Real> Cell<S> for S {
         *self = *self - a * x;
     }
     #[inline(always)]
-    fn div(&mut self, a: S) {
-        *self = *self / a;
+    fn mul(&mut self, a: S) {
+        *self = *self * a;
     }
     #[inline(always)]
     fn negate(&mut self) {
@@ -274,9 +279,9 @@ impl<const N: usize> Cell<f64> for [f64; N] {
         }
     }
     #[inline(always)]
-    fn div(&mut self, a: f64) {
+    fn mul(&mut self, a: f64) {
         for y in self.iter_mut() {
-            *y /= a;
+            *y *= a;
         }
     }
     #[inline(always)]
@@ -291,12 +296,16 @@ impl<const N: usize> Cell<f64> for [f64; N] {
 /// 4): the fill to clear, every entry's placement (values[e] at `at`:
 /// off-diagonal, 1x1 and larger blocks alike, but for the folded pivots:
 /// `ones`), then each
-/// elimination step `[pivot, end]` of the larger blocks' fixed orders, its
-/// multipliers `mults[..end]` (`[at, end]`: l = a[at] / pivot, then a[dst]
-/// -= l a[src] for `pairs[..end]`), then the n pivots `diag` (position
-/// order) read for the figures. The same operations, in the same order, as
-/// Order::numeric block after block (the skip of a zero multiplier dropped;
-/// a multiplier above MULTIPLIER still rejects the order, after the loop).
+/// elimination step `[pivot, end, recip]` of the larger blocks' fixed
+/// orders (r = 1 / pivot, kept at `recip` for the solve), its multipliers
+/// `mults[..end]` (`[at, end]`: l = a[at] r, then a[dst] -= l a[src] for
+/// `pairs[..end]`), then the reciprocals of the other pivots (`recips`,
+/// `[pivot, recip]`: the 1x1 blocks' and each larger block's last), then
+/// the n pivots `diag` (position order) read for the figures. The same
+/// operations, in the same order, as Order::numeric block after block (the
+/// skip of a zero multiplier dropped; a multiplier above MULTIPLIER still
+/// rejects the order, after the loop). Position p's reciprocal is at
+/// `recip_at + p` (the program's division of p reads it: `Program`).
 ///
 /// The factors are Phi_q's own, unscaled (issue 31 round 10): in the same
 /// fixed order, Phi_q = L U where J_s = R^-1 Phi_q C (R, C: the rows' and
@@ -312,7 +321,7 @@ impl<const N: usize> Cell<f64> for [f64; N] {
 pub struct Factoring {
     pub clear: Vec<u32>,
     pub place: Vec<[u32; 2]>,
-    pub steps: Vec<[u32; 2]>,
+    pub steps: Vec<[u32; 3]>,
     pub mults: Vec<[u32; 2]>,
     /// per multiplier: r_k / r_i (its row i's and pivot k's row scales)
     pub mult_scale: Vec<f64>,
@@ -320,6 +329,15 @@ pub struct Factoring {
     pub diag: Vec<u32>,
     /// per position p: c_p / r_p (J_s's pivot over Phi_q's)
     pub pivot_scale: Vec<f64>,
+    /// the pivots' reciprocals the elimination's steps do not take, after
+    /// them: [pivot, recip], a[recip] = 1 / a[pivot]; position p's at
+    /// recip_at + p
+    pub recips: Vec<[u32; 2]>,
+    pub recip_at: u32,
+    /// the reciprocals of the pivots that are a constant -1 (`NEGATE`,
+    /// `minus_entries`): set to -1 once (`init`), never computed (a step's
+    /// is written, -1 again where its pivot is)
+    pub minus_recips: Vec<u32>,
     /// the folded pivots (`Program`): their places, set to 1 once when the
     /// factors are made (`init`) and never written again, and their
     /// Jacobian entries: a factorisation where one is not exactly 1 is
@@ -359,7 +377,9 @@ impl Factoring {
         if v >= NEGATE as usize
             || self.clear.iter().any(|&x| bad(x))
             || self.place.iter().any(|&[e, at]| e as usize >= self.entries || bad(at))
-            || self.steps.iter().any(|s| bad(s[0] & !NEGATE))
+            || self.steps.iter().any(|s| bad(s[0] & !NEGATE) || bad(s[2]))
+            || self.recips.iter().any(|r| bad(r[0]) || bad(r[1]))
+            || self.minus_recips.iter().any(|&x| bad(x))
             || self.mults.iter().any(|m| bad(m[0]))
             || self.pairs.iter().any(|p| bad(p[0]) || bad(p[1]))
             || self.diag.iter().any(|&x| bad(x))
@@ -391,10 +411,14 @@ impl Factoring {
     }
 
     /// The factors' storage a made ready: the folded pivots' places at 1
-    /// (`eliminate` never writes them).
+    /// and the reciprocals of the -1 pivots at -1 (`eliminate` never writes
+    /// the former, nor the latter but as -1 where checked).
     pub fn init<S: Real>(&self, a: &mut [S]) {
         for &at in &self.ones {
             a[at as usize] = S::one();
+        }
+        for &at in &self.minus_recips {
+            a[at as usize] = -S::one();
         }
     }
 
@@ -409,7 +433,8 @@ impl Factoring {
 
     /// `eliminate`; where NEG (`run`, whose checks take every pivot under
     /// `NEGATE` for -1), a step's 1 / pivot there is -1 without the division
-    /// (1 / -1 to the bit).
+    /// (1 / -1 to the bit). Every step's and pivot's reciprocal is kept
+    /// for the solve (`Program`).
     #[inline(always)]
     fn eliminate_as<const NEG: bool, S: Real>(&self, values: &[S], a: &mut [S], mut multiplier: impl FnMut(S, f64)) {
         assert!(a.len() >= self.values && values.len() >= self.entries);
@@ -423,12 +448,13 @@ impl Factoring {
                 *a.get_unchecked_mut(at as usize) = *values.get_unchecked(e as usize);
             }
             let (mut m0, mut p0) = (0usize, 0usize);
-            for &[kk, m1] in &self.steps {
+            for &[kk, m1, at] in &self.steps {
                 let r = if NEG && kk & NEGATE != 0 {
                     -S::one()
                 } else {
                     S::one() / *a.get_unchecked((kk & !NEGATE) as usize)
                 };
+                *a.get_unchecked_mut(at as usize) = r;
                 let scales = self.mult_scale.get_unchecked(m0..m1 as usize);
                 for (&[at, p1], &scale) in self.mults.get_unchecked(m0..m1 as usize).iter().zip(scales) {
                     let l = *a.get_unchecked(at as usize) * r;
@@ -442,6 +468,9 @@ impl Factoring {
                     p0 = p1 as usize;
                 }
                 m0 = m1 as usize;
+            }
+            for &[pivot, at] in &self.recips {
+                *a.get_unchecked_mut(at as usize) = S::one() / *a.get_unchecked(pivot as usize);
             }
         }
     }
@@ -562,9 +591,9 @@ pub struct Triangular {
 
 impl Triangular {
     /// The factors' storage: the fallback's n x n, then the blocks', then
-    /// the off-diagonal values.
+    /// the off-diagonal values, then the pivots' reciprocals.
     pub fn stored(&self) -> usize {
-        self.off_at + self.off_entries.len()
+        self.factoring.values
     }
 
     /// The invariants the solve relies on beyond its program's: gather and
@@ -597,7 +626,8 @@ impl Triangular {
         folded: &[bool],
         still: &[bool],
     ) -> Result<Program, String> {
-        let mut p = Program { positions: n, values: off_at + off.len(), ..Program::default() };
+        let recip_at = off_at + off.len();
+        let mut p = Program { positions: n, values: recip_at + n, ..Program::default() };
         let (mut next, mut quiet) = (0, vec![false; n]);
         for (k, d) in blocks.iter().enumerate() {
             // off: (block of the row, row position, column position), sorted by block
@@ -619,6 +649,10 @@ impl Triangular {
         if next != off.len() || p.divs.len() + folded.iter().filter(|&&f| f).count() != n {
             return Err("program: an off-diagonal entry out of order, or a position without its pivot".into());
         }
+        // each division by position r's pivot: a product with its reciprocal (Factoring::recip_at)
+        for d in &mut p.divs {
+            d[2] = (recip_at + d[1] as usize) as u32;
+        }
         p.quieten((0..n).filter(|&i| quiet[i]).map(|i| i as u32).collect());
         p.check()?;
         Ok(p)
@@ -637,7 +671,9 @@ impl Triangular {
         row_scale: &[f64],
         col_scale: &[f64],
     ) -> Result<Factoring, String> {
-        let mut f = Factoring { values: off_at + off.len(), entries, ..Factoring::default() };
+        let recip_at = off_at + off.len();
+        let n = row_scale.len();
+        let mut f = Factoring { values: recip_at + n, entries, recip_at: recip_at as u32, ..Factoring::default() };
         f.place.extend(off.iter().enumerate().map(|(x, &e)| [e, (off_at + x) as u32]));
         for (k, d) in blocks.iter().enumerate() {
             match &d.order {
@@ -650,10 +686,11 @@ impl Triangular {
                 None => {
                     f.place.extend(d.entries.iter().map(|&e| [e, d.store as u32]));
                     f.diag.push(d.store as u32);
+                    f.recips.push([d.store as u32, (recip_at + d.at) as u32]);
                 }
                 Some(o) => {
                     let from = f.mults.len();
-                    o.factoring(d.store, &mut f);
+                    o.factoring(d.store, recip_at + d.at, &mut f);
                     // multiplier (i, k) of the block at store + i s + k: rows d.at + i, d.at + k
                     let rows = |at: u32| {
                         let x = at as usize - d.store;
