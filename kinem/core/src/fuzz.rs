@@ -323,10 +323,14 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
 /// stored -1); every position's reciprocal is 1 / its pivot (tolerance 0:
 /// Factoring::recips and the steps'); the pivots'
 /// figures with theirs folded are those of every pivot; a factorisation
-/// where such an entry is not -1 (a variant's) is refused.
+/// where such an entry is not -1 (a variant's) is refused. The lanes
+/// (crate::lane_lu) refuse it too, and otherwise solve as the scalar, to
+/// the bit, lane by lane.
 #[test]
 fn negated_pivots_solve_as_the_divisions_and_a_moved_one_is_refused() {
+    use crate::lanes::WIDTH;
     use crate::triangular::NEGATE;
+    use crate::wide::Wide;
     let mut rng = Rng(0x3c6e_f372_fe94_f82b);
     let (mut negated, mut equal, mut refused, mut steps) = (0, 0, 0, 0);
     for trial in 0..400 {
@@ -364,8 +368,12 @@ fn negated_pivots_solve_as_the_divisions_and_a_moved_one_is_refused() {
             }
             let mut f = layout.factors();
             layout.factor(&values, &mut f);
+            // the lanes (crate::lane_lu, each lane these values): refused as the scalar, else its figures
+            let mut lanes = crate::lane_lu::LaneLu::new(&layout).expect("triangular");
+            lanes.factor(&values.iter().map(|&v| Wide([v; WIDTH])).collect::<Vec<_>>());
             if !honest && !t.factoring.minus_entries.is_empty() {
                 assert!(f.fixed[0].is_none(), "trial {trial}: a pivot taken for -1 that is not was factorised");
+                assert!(!lanes.fixed.iter().any(|&x| x), "trial {trial}: a lane's pivot taken for -1 that is not");
                 refused += 1;
                 continue;
             }
@@ -389,6 +397,13 @@ fn negated_pivots_solve_as_the_divisions_and_a_moved_one_is_refused() {
             layout.solve(&mut f, &b, &mut x);
             t.run(&f.j, &b, &mut y);
             assert_eq!(bits(&x), bits(&y), "trial {trial}: negations differ from the divisions");
+            let mut xl = vec![Wide([0.0; WIDTH]); n];
+            lanes.solve(&b.iter().map(|&v| Wide([v; WIDTH])).collect::<Vec<_>>(), &mut xl);
+            for q in 0..WIDTH {
+                assert!(lanes.fixed[q], "trial {trial}: lane {q} refused where the scalar was not");
+                let lane: Vec<f64> = xl.iter().map(|w| w.0[q]).collect();
+                assert_eq!(bits(&lane), bits(&x), "trial {trial}: lane {q} differs from the scalar");
+            }
             assert_eq!((got.small, got.big, got.at, got.det), every_pivot(&t, &f.j), "trial {trial}");
             equal += (marked > 0) as usize;
         }
