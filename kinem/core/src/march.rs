@@ -8,6 +8,7 @@ use crate::families::At;
 use crate::lu::{Factors, Layout};
 use crate::model::{Kin, Turning};
 use crate::newton::Ops;
+use crate::outline::Piece;
 pub use crate::step::{rates_from, rates_with, step, MarchState, Mode, Outcome, Settings, Step, Work, SINGULAR};
 use crate::watch::Watch;
 use num_complex::Complex64 as C64;
@@ -54,6 +55,9 @@ pub struct Native<'a> {
     pub counts: [i64; 2],
     /// e holds e^{i q} of the current q (q has not moved since)
     rotated: bool,
+    /// the pieces the factorisation's outlines were taken on (m, or empty:
+    /// not kept; Kin::jac_over_keeping), for `run_hooked`'s hook
+    pieces: Vec<Piece>,
 }
 
 impl<'a> Native<'a> {
@@ -80,6 +84,7 @@ impl<'a> Native<'a> {
             t: 0.0,
             counts: [0, 0],
             rotated: false,
+            pieces: Vec::new(),
         }
     }
 }
@@ -175,6 +180,17 @@ impl Native<'_> {
     }
 }
 
+impl Native<'_> {
+    /// The values at q as `factor` takes them, keeping the outlines'
+    /// pieces (Kin::jac_over_keeping; out of the march's own line of code).
+    #[cold]
+    #[inline(never)]
+    fn jac_keeping(&mut self) {
+        let at = At { q: &self.q, e: &self.turning.e, t: self.t };
+        self.kin.jac_over_keeping(&at, &mut self.values, &mut self.pieces);
+    }
+}
+
 impl Ops for Native<'_> {
     type Error = Infallible;
 
@@ -194,8 +210,12 @@ impl Ops for Native<'_> {
     #[inline(always)]
     fn factor(&mut self, _: bool) -> Result<(), Infallible> {
         self.rotate();
-        // the values' constant entries from `new` (Kin::jac_over)
-        self.kin.jac_over(&At { q: &self.q, e: &self.turning.e, t: self.t }, &mut self.values);
+        if self.pieces.is_empty() {
+            // the values' constant entries from `new` (Kin::jac_over)
+            self.kin.jac_over(&At { q: &self.q, e: &self.turning.e, t: self.t }, &mut self.values);
+        } else {
+            self.jac_keeping();
+        }
         self.layout.factor(&self.values, &mut self.f);
         self.counts[0] += 1;
         self.counts[1] += 1;
@@ -303,9 +323,11 @@ pub fn run(
 
 /// At each accepted instant k, after its rates: (k, the state there, the
 /// factorisation of Phi_q at its q, which the rates used, e^{i q} there
-/// at the angle columns, and that factorisation's pivot ratio, the
-/// instant's own: 0 where below SINGULAR, crate::step::signs).
-pub type Hook<'h> = &'h mut dyn FnMut(usize, &MarchState, &mut Factors, &[C64], f64);
+/// at the angle columns, the pieces its outlines were taken on at that q
+/// (m: a point-on-curve constraint's at its first row; empty where the
+/// model has none: Kin::jac_over_keeping), and that factorisation's pivot
+/// ratio, the instant's own: 0 where below SINGULAR, crate::step::signs).
+pub type Hook<'h> = &'h mut dyn FnMut(usize, &MarchState, &mut Factors, &[C64], &[Piece], f64);
 
 /// `run`, calling `hook` at every accepted instant (kinem.sensitivity:
 /// the design sensitivities from the march's own factorisation).
@@ -324,7 +346,8 @@ pub fn run_hooked(
 ) -> (usize, Why) {
     let n = kin.n;
     let Out { q, qd, qdd, iterations, residual, pivot, det, counts, first } = out;
-    run_rows(kin, layout, times, k, st, s, watch, caller, counts, |k, st, o, ops| {
+    let keep = hook.is_some() && kin.keeps_pieces();
+    run_rows_as(kin, layout, times, k, st, s, watch, caller, counts, keep, |k, st, o, ops| {
         let r = k - first;
         q[r * n..(r + 1) * n].copy_from_slice(&st.q);
         if s.rates {
@@ -337,7 +360,7 @@ pub fn run_hooked(
         det[r] = o.det as i8;
         if let Some(h) = hook.as_mut() {
             ops.rotate();
-            h(k, st, &mut ops.f, &ops.turning.e, o.pivot);
+            h(k, st, &mut ops.f, &ops.turning.e, &ops.pieces, o.pivot);
         }
     })
 }
@@ -350,16 +373,38 @@ pub fn run_rows(
     kin: &Kin,
     layout: &Layout,
     times: &[f64],
+    k: usize,
+    st: &mut MarchState,
+    s: &Settings,
+    watch: &Watch,
+    caller: bool,
+    counts: &mut [i64],
+    taken: impl FnMut(usize, &MarchState, &Outcome, &mut Native),
+) -> (usize, Why) {
+    run_rows_as(kin, layout, times, k, st, s, watch, caller, counts, false, taken)
+}
+
+/// `run_rows`; `keep`: its factorisations keep their outlines' pieces
+/// (Native's `pieces`, for run_hooked's hook).
+#[allow(clippy::too_many_arguments)]
+fn run_rows_as(
+    kin: &Kin,
+    layout: &Layout,
+    times: &[f64],
     mut k: usize,
     st: &mut MarchState,
     s: &Settings,
     watch: &Watch,
     caller: bool,
     counts: &mut [i64],
+    keep: bool,
     mut taken: impl FnMut(usize, &MarchState, &Outcome, &mut Native),
 ) -> (usize, Why) {
     let n = kin.n;
     let mut ops = Native::new(kin, layout);
+    if keep {
+        ops.pieces = vec![Piece::default(); kin.m];
+    }
     let mut result = (times.len(), Why::Accepted);
     let (mut next, mut tick) = (Instant::now(), 0u32);
     // ops.f holds the factorisation at the last accepted q (none before the first)

@@ -4,7 +4,7 @@
 //! the families share.
 use crate::families::{coordinate_columns, At, Family, Shared};
 use crate::functions::Functions;
-use crate::outline::Outlines;
+use crate::outline::{Outlines, Piece};
 use crate::real::{cis, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
@@ -144,6 +144,32 @@ impl<S: Real> Kin<S> {
             // SAFETY: entry_off ascends from 0 to nnz (new), out holds nnz (asserted above)
             f.jac_over(at, &s, unsafe { out.get_unchecked_mut(e[0]..e[1]) });
         }
+    }
+
+    /// `jac_over`, the point-on-curve families keeping the piece each
+    /// constraint's outline was taken on (crate::outline::Piece) in pieces,
+    /// which holds m: a constraint's at its first row (crate::march::Native
+    /// hands them to the design sensitivities at the same q). The same
+    /// figures as `jac_over`; the other families by `jac` (every entry
+    /// written again: Family::jac_over keeps `jac_over` its one caller, so
+    /// the march's own code is as it was).
+    pub fn jac_over_keeping(&self, at: &At<S>, out: &mut [S], pieces: &mut [Piece]) {
+        assert!(out.len() >= self.nnz && pieces.len() >= self.m);
+        let s = self.shared();
+        for ((f, e), r) in self.families.iter().zip(self.entry_off.windows(2)).zip(self.row_off.windows(2)) {
+            // SAFETY: entry_off ascends from 0 to nnz (new), out holds nnz (asserted above)
+            let o = unsafe { out.get_unchecked_mut(e[0]..e[1]) };
+            match f {
+                Family::PointOnCurve(p) => p.jac_keeping(at, &s, o, &mut pieces[r[0]..r[1]]),
+                _ => f.jac(at, &s, o),
+            }
+        }
+    }
+
+    /// Whether a family takes an outline's place in `jac` that
+    /// `jac_over_keeping` keeps (a point-on-curve).
+    pub fn keeps_pieces(&self) -> bool {
+        self.families.iter().any(|f| matches!(f, Family::PointOnCurve(_)))
     }
 
     /// The Jacobian entries exactly zero at every configuration and time

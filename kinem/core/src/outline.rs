@@ -4,9 +4,9 @@
 //! pieces, made by scipy in kinem.outline when the model is compiled; a
 //! circle is one constant piece). A periodic outline wraps theta into its
 //! period; an open one is extended beyond its table by its end cubics.
-use crate::real::{i, Real};
+use crate::real::{i, Lanes, Real};
 use crate::table::Table;
-use num_complex::Complex;
+use num_complex::{Complex, Complex64 as C64};
 
 /// Over S = Dual (crate::real), the coefficients and centres carry their
 /// tangents along a design parameter, and theta its tangent along q.
@@ -76,6 +76,13 @@ impl<S: Real> Outlines<S> {
     /// s and its first three derivatives of outline o at theta.
     #[inline]
     pub fn radius(&self, o: usize, theta: S) -> [S; 4] {
+        self.radius_in(o, theta).0
+    }
+
+    /// `radius`, with the piece it was taken on and theta's offset from
+    /// that piece's start (the value of h: `Piece`).
+    #[inline]
+    fn radius_in(&self, o: usize, theta: S) -> ([S; 4], Piece) {
         let mut x = theta - self.t0[o];
         let span = self.span[o];
         if self.periodic[o] {
@@ -85,27 +92,67 @@ impl<S: Real> Outlines<S> {
         let (a, b) = (self.first[o], self.last[o]);
         let i = (a + self.starts[a..=b].partition_point(|&s| s <= key)).saturating_sub(1).clamp(a, b);
         let h = x - self.starts[i];
-        let c = &self.coef[4 * i..4 * i + 4];
-        [
-            ((c[0] * h + c[1]) * h + c[2]) * h + c[3],
-            (c[0] * 3.0 * h + c[1] * 2.0) * h + c[2],
-            c[0] * 6.0 * h + c[1] * 2.0,
-            c[0] * 6.0,
-        ]
+        (cubic(&self.coef[4 * i..4 * i + 4], h), Piece { i, h: h.re() })
     }
 
     /// The outline o at theta, in a body rotated by `rot` = e^{i phi_c};
     /// `e` = e^{i theta}.
     #[inline]
     pub fn curve(&self, o: usize, theta: S, e: Complex<S>, rot: Complex<S>) -> Curve<S> {
-        let [s, s1, s2, s3] = self.radius(o, theta);
-        let i = i::<S>();
-        let re = rot * e;
-        Curve {
-            a: rot * self.center[o] + re * s,
-            g: re * (i * s + s1),
-            h: re * (i * (s1 * 2.0) + (s2 - s)),
-            k: re * (i * (s2 * 3.0 - s) + (s3 - s1 * 3.0)),
-        }
+        self.curve_in(o, theta, e, rot).0
+    }
+
+    /// `curve`, with the piece it was taken on (crate::march keeps it for
+    /// the design sensitivities at the same q: `Outlines::handed`).
+    #[inline]
+    pub fn curve_in(&self, o: usize, theta: S, e: Complex<S>, rot: Complex<S>) -> (Curve<S>, Piece) {
+        let (r, piece) = self.radius_in(o, theta);
+        (place(self.center[o], rot, e, r), piece)
+    }
+}
+
+/// Where an outline's radius was taken: its piece i and theta's offset h
+/// from the piece's start (the analysis' value).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Piece {
+    pub i: usize,
+    pub h: f64,
+}
+
+/// s and its first three derivatives on a piece (coefficients c, highest
+/// power first) at offset h.
+#[inline(always)]
+fn cubic<S: Real>(c: &[S], h: S) -> [S; 4] {
+    [
+        ((c[0] * h + c[1]) * h + c[2]) * h + c[3],
+        (c[0] * 3.0 * h + c[1] * 2.0) * h + c[2],
+        c[0] * 6.0 * h + c[1] * 2.0,
+        c[0] * 6.0,
+    ]
+}
+
+/// The outline's place (Curve) from its centre, the body's rotation, e^{i
+/// theta} and the radius' [s, s', s'', s'''].
+#[inline(always)]
+fn place<S: Real>(center: Complex<S>, rot: Complex<S>, e: Complex<S>, [s, s1, s2, s3]: [S; 4]) -> Curve<S> {
+    let i = i::<S>();
+    let re = rot * e;
+    Curve {
+        a: rot * center + re * s,
+        g: re * (i * s + s1),
+        h: re * (i * (s1 * 2.0) + (s2 - s)),
+        k: re * (i * (s2 * 3.0 - s) + (s3 - s1 * 3.0)),
+    }
+}
+
+impl<const N: usize> Outlines<Lanes<N>> {
+    /// `curve` at the piece the analysis took at the same theta (its value
+    /// pass's, handed over: crate::march), over the lanes at q' = 0 (theta,
+    /// e and rot lifted: no tangent): the same operations as `curve`'s
+    /// after its piece was found, the same figures.
+    #[inline(always)]
+    pub fn handed(&self, o: usize, p: Piece, e: C64, rot: C64) -> Curve<Lanes<N>> {
+        let lift = |z: C64| Complex::new(Lanes::c(z.re), Lanes::c(z.im));
+        place(self.center[o], lift(rot), lift(e), cubic(&self.coef[4 * p.i..4 * p.i + 4], Lanes::c(p.h)))
     }
 }

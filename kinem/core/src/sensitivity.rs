@@ -33,6 +33,7 @@
 use crate::families::{At, Dir, Kept, Shared};
 use crate::lu::{Factors, Layout, Shape};
 use crate::model::Kin;
+use crate::outline::Piece;
 use crate::real::{cis, Lanes, Real};
 use crate::table::Table;
 use crate::triangular::Program;
@@ -134,7 +135,7 @@ pub fn sensitivities(
         kin.jac(&At { q, e: &e, t }, &mut values);
         layout.factor(&values, &mut f);
         let stages: [&[f64]; 3] = std::array::from_fn(|s| x.get(s).map_or(&[][..], |a| &a[k * n..(k + 1) * n]));
-        ratio[k] = at.at(t, &stages[..levels], &e, &mut f, 0.0, &mut data[k * w..(k + 1) * w]);
+        ratio[k] = at.at(t, &stages[..levels], &e, &[], &mut f, 0.0, &mut data[k * w..(k + 1) * w]);
     }
     Ok(())
 }
@@ -271,8 +272,18 @@ impl<'a> Instants<'a> {
     }
 
     /// Lanewise::at.
-    pub fn at(&mut self, t: f64, x: &[&[f64]], e: &[C64], f: &mut Factors, pivot: f64, out: &mut [f64]) -> f64 {
-        each_width!(self, a => a.at(t, x, e, f, pivot, out))
+    #[allow(clippy::too_many_arguments)]
+    pub fn at(
+        &mut self,
+        t: f64,
+        x: &[&[f64]],
+        e: &[C64],
+        pieces: &[Piece],
+        f: &mut Factors,
+        pivot: f64,
+        out: &mut [f64],
+    ) -> f64 {
+        each_width!(self, a => a.at(t, x, e, pieces, f, pivot, out))
     }
 }
 
@@ -764,13 +775,29 @@ impl<'a, const N: usize> Lanewise<'a, N> {
     /// the angle columns (the march's own), f the factorisation of Phi_q at
     /// (q, t) (its solves leave it as it is), pivot its pivot ratio where
     /// the caller has it (the march's, 0 where below SINGULAR: then taken
-    /// from f); writes its row (P W) and returns Phi_q's pivot ratio. The families with direct kernels
+    /// from f), pieces the pieces f's outlines were taken on (m: the
+    /// march's, Kin::jac_over_keeping; or empty: found again); writes its
+    /// row (P W) and returns Phi_q's pivot ratio. The families with direct kernels
     /// (Family::phi_tangent, jac_products, gamma_tangent) read x and e as
     /// they are; the others are evaluated over the lanes (q, e^{i q}, qd
     /// with their tangents), and so are the named points' tangents
     /// (Columns::point_tangents) from x, e and s, sd, sdd.
-    pub fn at(&mut self, t: f64, x: &[&[f64]], e: &[C64], f: &mut Factors, pivot: f64, out: &mut [f64]) -> f64 {
+    #[allow(clippy::too_many_arguments)]
+    pub fn at(
+        &mut self,
+        t: f64,
+        x: &[&[f64]],
+        e: &[C64],
+        pieces: &[Piece],
+        f: &mut Factors,
+        pivot: f64,
+        out: &mut [f64],
+    ) -> f64 {
         let Lanewise { kin, layout, levels, w, .. } = *self;
+        assert!(pieces.is_empty() || pieces.len() >= kin.m);
+        // a family's pieces, at its rows (row_off ascends to m: Kin::new)
+        let pieces_of =
+            |k: usize| if pieces.is_empty() { &[][..] } else { &pieces[kin.row_off[k]..kin.row_off[k + 1]] };
         let n = kin.n;
         let q = x[0];
         let ratio = if pivot > 0.0 { pivot } else { layout.pivots(f).0 };
@@ -808,6 +835,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     }
                     _ => Kept::none(),
                 };
+                let keep = Kept { pieces: if hand.is_some() { pieces_of(k) } else { &[] }, ..keep };
                 if !family.phi_tangent(&atf, &shared, &mut self.rhs[rows.clone()], keep) {
                     family.phi(&at0, &shared, &mut self.rl[rows.clone()]);
                     for (r, x) in self.rhs[rows.clone()].iter_mut().zip(&self.rl[rows]) {
@@ -851,9 +879,10 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                                 v: self.kv.get_unchecked_mut(f.v.clone()),
                                 d: self.kd.get_unchecked_mut(f.d.clone()),
                                 held: f.held,
+                                pieces: if f.held { &[] } else { pieces_of(f.k) },
                             }
                         } else {
-                            Kept::none()
+                            Kept { pieces: pieces_of(f.k), ..Kept::none() }
                         };
                         let r3 = if levels > 2 { rhs3.get_unchecked_mut(f.rows.clone()) } else { &mut [][..] };
                         (rhs.get_unchecked_mut(f.rows.clone()), r3, keep)

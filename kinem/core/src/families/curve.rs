@@ -12,7 +12,7 @@
 //!     a'  = i w a + g th',   a''  = -w^2 a + 2 i w th' g + th'^2 h,
 //!     g'  = i w g + h th',   g''  = -w^2 g + 2 i w th' h + th'^2 k.
 use super::{i, iz, lane, At, Dir, Kept, Shared};
-use crate::outline::Curve;
+use crate::outline::{Curve, Piece};
 use crate::real::{Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
@@ -68,8 +68,17 @@ impl Outline {
     /// c < len() and `at.holds(n)` for the n the table was checked against (`new`).
     #[inline(always)]
     pub unsafe fn at_unchecked<S: Real>(&self, at: &At<S>, s: &Shared<S>, c: usize) -> Curve<S> {
+        self.at_in_unchecked(at, s, c).0
+    }
+
+    /// `at_unchecked`, with the piece the outline was taken on.
+    ///
+    /// # Safety
+    /// As `at_unchecked`.
+    #[inline(always)]
+    pub unsafe fn at_in_unchecked<S: Real>(&self, at: &At<S>, s: &Shared<S>, c: usize) -> (Curve<S>, Piece) {
         let (o, cc, ct) = (*self.o.get_unchecked(c), *self.cc.get_unchecked(c), *self.ct.get_unchecked(c));
-        s.outlines.curve(o, *at.q.get_unchecked(ct), *at.e.get_unchecked(ct), at.rot_at(cc))
+        s.outlines.curve_in(o, *at.q.get_unchecked(ct), *at.e.get_unchecked(ct), at.rot_at(cc))
     }
 
     /// The outline's place at constraint c and its rates, unchecked as `at_unchecked`.
@@ -144,16 +153,30 @@ impl<S: Real> PointOnCurve<S> {
     /// sigma [I, i a, g, -I, -B_b s'_b] in columns [r_c, phi_c, theta, r_b, phi_b]
     /// (Eq. 4.27's Jacobian; pattern per constraint: row x then row y).
     pub fn jac(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
+        self.jac_as::<false>(at, s, out, &mut [])
+    }
+
+    /// `jac`, keeping the piece each constraint's outline was taken on in
+    /// pieces (two per constraint, its rows': the first) for the design
+    /// sensitivities at the same q (crate::march hands them over).
+    pub fn jac_keeping(&self, at: &At<S>, s: &Shared<S>, out: &mut [S], pieces: &mut [Piece]) {
+        assert!(pieces.len() >= 2 * self.cb.len());
+        self.jac_as::<true>(at, s, out, pieces)
+    }
+
+    /// `jac`, and `jac_keeping` when KEEP.
+    #[inline(always)]
+    fn jac_as<const KEEP: bool>(&self, at: &At<S>, s: &Shared<S>, out: &mut [S], pieces: &mut [Piece]) {
         assert!(at.holds(self.n) && out.len() >= 10 * self.cb.len());
         for (c, o) in out.chunks_exact_mut(10).take(self.cb.len()).enumerate() {
-            // SAFETY: c < cb.len(), q and e hold n (asserted above)
+            // SAFETY: c < cb.len(), q and e hold n (asserted above); pieces 2 per constraint when KEEP (jac_keeping)
             let (p, b, k) = unsafe {
                 let y = *self.cb.get_unchecked(c);
-                (
-                    self.curve.at_unchecked(at, s, c),
-                    *self.sb.get_unchecked(c) * at.rot_at(y),
-                    *self.sign.get_unchecked(c),
-                )
+                let (p, piece) = self.curve.at_in_unchecked(at, s, c);
+                if KEEP {
+                    *pieces.get_unchecked_mut(2 * c) = piece;
+                }
+                (p, *self.sb.get_unchecked(c) * at.rot_at(y), *self.sign.get_unchecked(c))
             };
             let (a, g) = (p.a, p.g);
             o.copy_from_slice(&[
@@ -222,14 +245,20 @@ unsafe fn store<const N: usize>(p: &Curve<Lanes<N>>, c: usize, keep: &mut Kept<N
 ///     Dh = i h s_phic + k s_th + d(h),   Db = i b s_phib + A_b d(s'_b),
 /// with b = A_b s'_b and d(.) the tables' tangents.
 impl<const N: usize> PointOnCurve<Lanes<N>> {
-    /// The outline's place at constraint c with the tables' tangents alone.
+    /// The outline's place at constraint c with the tables' tangents alone;
+    /// at the piece the analysis took (`pieces`, two per constraint: the
+    /// march's, Outlines::handed) where pieces holds them, else found again.
     ///
     /// # Safety
-    /// c < cb.len() and `at.holds(n)` (PointOnCurve's invariants).
+    /// c < cb.len() and `at.holds(n)` (PointOnCurve's invariants); pieces
+    /// empty or holding 2 per constraint.
     #[inline(always)]
-    unsafe fn fixed(&self, at: &At, s: &Shared<Lanes<N>>, c: usize) -> Curve<Lanes<N>> {
+    unsafe fn fixed(&self, at: &At, s: &Shared<Lanes<N>>, c: usize, pieces: &[Piece]) -> Curve<Lanes<N>> {
         let (o, cc, ct) =
             (*self.curve.o.get_unchecked(c), *self.curve.cc.get_unchecked(c), *self.curve.ct.get_unchecked(c));
+        if !pieces.is_empty() {
+            return s.outlines.handed(o, *pieces.get_unchecked(2 * c), *at.e.get_unchecked(ct), at.rot_at(cc));
+        }
         let lift = |z: C64| Complex::new(Lanes::c(z.re), Lanes::c(z.im));
         s.outlines.curve(o, Lanes::c(*at.q.get_unchecked(ct)), lift(*at.e.get_unchecked(ct)), lift(at.rot_at(cc)))
     }
@@ -240,8 +269,8 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
     /// # Safety
     /// As `fixed`.
     #[inline(always)]
-    unsafe fn place(&self, at: &At, s: &Shared<Lanes<N>>, c: usize) -> Place<N> {
-        self.place_at(at, c, self.fixed(at, s, c))
+    unsafe fn place(&self, at: &At, s: &Shared<Lanes<N>>, c: usize, pieces: &[Piece]) -> Place<N> {
+        self.place_at(at, c, self.fixed(at, s, c, pieces))
     }
 
     /// `place` with the outline's place p (`fixed`'s) at hand.
@@ -291,10 +320,11 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
     pub fn phi_tangent(&self, at: &At, s: &Shared<Lanes<N>>, out: &mut [[f64; N]], mut keep: Kept<N>) {
         assert!(at.holds(self.n) && out.len() >= 2 * self.cb.len());
         let keeps = keep.v.len() >= 4 * self.cb.len() && keep.d.len() >= 6 * self.cb.len();
+        assert!(keep.pieces.is_empty() || keep.pieces.len() >= 2 * self.cb.len());
         for (c, o) in out.chunks_exact_mut(2).take(self.cb.len()).enumerate() {
             // SAFETY: c < cb.len() (every column has its rows: new), q and e hold n, keep 4 and 6 per
-            // constraint where it keeps (asserted above)
-            let Place { p, eb, sb, k, .. } = unsafe { self.place(at, s, c) };
+            // constraint where it keeps, its pieces 2 where it holds them (asserted above)
+            let Place { p, eb, sb, k, .. } = unsafe { self.place(at, s, c, keep.pieces) };
             if keeps {
                 unsafe { store(&p, c, &mut keep) };
             }
@@ -321,13 +351,14 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
         assert!(at.holds(n) && sq.len() >= n && v.iter().all(|x| x.len() >= n) && r2.len() >= 2 * count);
         assert!(v.len() < 2 || r3.len() >= 2 * count);
         let keeps = keep.v.len() >= 4 * count && keep.d.len() >= 6 * count;
+        assert!(keep.pieces.is_empty() || keep.pieces.len() >= 2 * count);
         let held = keeps && keep.held;
         for c in 0..count {
             // SAFETY: c < cb.len(); cc, cb < n - 2, ct < n (new); e, s and v hold n, r2, r3 two rows per
             // constraint, keep 4 and 6 where it keeps (asserted above)
             unsafe {
                 let Place { y, cc, ct, p, eb, sb, k } =
-                    if held { self.place_kept(at, c, &keep) } else { self.place(at, s, c) };
+                    if held { self.place_kept(at, c, &keep) } else { self.place(at, s, c, keep.pieces) };
                 if keeps && !held {
                     store(&p, c, &mut keep);
                 }
@@ -362,7 +393,7 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
             // SAFETY: as in jac_products (qd, sd hold n too: asserted above)
             unsafe {
                 let Place { y, cc, ct, p, eb, sb, k } =
-                    if keeps { self.place_kept(at, c, &kept) } else { self.place(at, s, c) };
+                    if keeps { self.place_kept(at, c, &kept) } else { self.place(at, s, c, &[]) };
                 let (a, g, h, kk) = (lane(p.a, 0).0, lane(p.g, 0).0, lane(p.h, 0).0, lane(p.k, 0).0);
                 let b = C64::new(sb.re.v, sb.im.v) * eb;
                 let (w, th, wb) = (*qd.get_unchecked(cc + 2), *qd.get_unchecked(ct), *qd.get_unchecked(y + 2));

@@ -14,7 +14,7 @@
 //! analysis, Dual for design sensitivities, where the same code carries the
 //! tangents of the tables and of q, qd through Phi, the Jacobian, nu and gamma.
 use crate::functions::Functions;
-use crate::outline::Outlines;
+use crate::outline::{Outlines, Piece};
 use crate::real::{Lanes, Real};
 use crate::table::Table;
 use num_complex::{Complex, Complex64 as C64};
@@ -437,21 +437,26 @@ impl<const N: usize> Family<Lanes<N>> {
 /// (its sizes `Family::kept`); empty slices: nothing kept. `held`: they
 /// hold already what `phi_tangent` kept at the instant (Family::hands), for
 /// `jac_products` to read rather than take.
+/// `pieces`: the pieces the analysis' value pass took the family's outlines
+/// on at the same q (crate::outline::Piece, the march's, two per
+/// constraint: its rows'), or empty: the point-on-curve's phi_tangent and
+/// jac_products then find them again.
 pub struct Kept<'a, const N: usize> {
     pub v: &'a mut [C64],
     pub d: &'a mut [[f64; N]],
     pub held: bool,
+    pub pieces: &'a [Piece],
 }
 
 impl<'a, const N: usize> Kept<'a, N> {
     /// Nothing kept.
     pub fn none() -> Self {
-        Kept { v: &mut [], d: &mut [], held: false }
+        Kept { v: &mut [], d: &mut [], held: false, pieces: &[] }
     }
 
     /// To be written (or read by gamma_tangent: what jac_products wrote).
     pub fn of(v: &'a mut [C64], d: &'a mut [[f64; N]]) -> Self {
-        Kept { v, d, held: false }
+        Kept { v, d, held: false, pieces: &[] }
     }
 }
 

@@ -252,7 +252,8 @@ fn check_direct(kind: &str, tabs: &[Table; 3], art: usize, q: &[f64], qd: &[f64]
     let lift = |v: &[f64], d: &[f64]| -> Vec<Dual> { v.iter().zip(d).map(|(&a, &b)| Dual::lift(a, b)).collect() };
     let [a, b, c] = tabs.clone();
     let dual = kin_with::<Dual>(kind, a.clone(), art, &b, &c);
-    let lanes = kin_with::<Lanes<1>>(kind, a, art, &b, &c);
+    let lanes = kin_with::<Lanes<1>>(kind, a.clone(), art, &b, &c);
+    let plain = kin_with::<f64>(kind, a, art, &b, &c);
     let (fam, shared) = (&lanes.families[0], Shared { functions: &lanes.functions, outlines: &lanes.outlines });
     let mut e = vec![C64::new(1.0, 0.0); n];
     for &j in &lanes.angles {
@@ -299,10 +300,26 @@ fn check_direct(kind: &str, tabs: &[Table; 3], art: usize, q: &[f64], qd: &[f64]
                 "{kind}: kept"
             );
             let (mut h2, mut h3) = (vec![[0.0]; m], vec![[0.0]; m]);
-            let held = Kept { v: &mut hv, d: &mut hd, held: true };
+            let held = Kept { v: &mut hv, d: &mut hd, held: true, pieces: &[] };
             assert!(fam.jac_products(&dir, &shared, &[qd, &w], &mut h2, &mut h3, held));
             let same = |a: &[[f64; 1]], b: &[[f64; 1]]| a.iter().zip(b).all(|(x, y)| x[0].to_bits() == y[0].to_bits());
             assert!(same(&h2, &r2) && same(&h3, &r3), "{kind}: jac_products from phi_tangent's place");
+            // the pieces the analysis' Jacobian kept (Kin::jac_over_keeping, the march's hand-over): its
+            // values jac's, and phi_tangent and jac_products at them give the same figures to the bit
+            let (mut values, mut again, mut pieces) =
+                (vec![0.0; plain.nnz], vec![0.0; plain.nnz], vec![crate::outline::Piece::default(); plain.m]);
+            plain.jac(&at, &mut values);
+            plain.jac_over_keeping(&at, &mut again, &mut pieces);
+            assert!(values.iter().zip(&again).all(|(x, y)| x.to_bits() == y.to_bits()), "{kind}: kept jac");
+            let (mut pv, mut pd) = (vec![C64::new(f64::NAN, 0.0); vn], vec![[f64::NAN]; dn]);
+            let mut handed = vec![[0.0]; m];
+            assert!(fam.phi_tangent(&at, &shared, &mut handed, Kept { pieces: &pieces, ..Kept::of(&mut pv, &mut pd) }));
+            assert!(same(&handed, &phi) && bits(&pv, &hv) && same(&pd, &hd), "{kind}: phi_tangent at the pieces");
+            let (mut p2, mut p3) = (vec![[0.0]; m], vec![[0.0]; m]);
+            let (mut qv, mut qdk) = (vec![C64::new(f64::NAN, 0.0); vn], vec![[f64::NAN]; dn]);
+            let keep = Kept { pieces: &pieces, ..Kept::of(&mut qv, &mut qdk) };
+            assert!(fam.jac_products(&dir, &shared, &[qd, &w], &mut p2, &mut p3, keep));
+            assert!(same(&p2, &r2) && same(&p3, &r3), "{kind}: jac_products at the pieces");
         }
         for (v, r) in [(qd, &r2), (&w[..], &r3)] {
             let phi = |h: f64| -> Vec<f64> {

@@ -2,6 +2,7 @@
 //! sensitivities and variants, the step.
 use super::functions::sources;
 use super::*;
+use crate::outline::Piece;
 
 pub(crate) fn positions(t: &Table, key: &str, bound: usize) -> PyResult<Vec<usize>> {
     t.index(key, bound).map_err(pyo3::exceptions::PyValueError::new_err)
@@ -260,10 +261,12 @@ impl Plan {
             let mut at = crate::sensitivity::Instants::new(prepared, layout, stages)?;
             let watch = Watch::new(seconds, Some(&poll));
             let (end, why) = {
-                let mut hook = |k: usize, s: &march::MarchState, f: &mut Factors, e: &[C64], pivot: f64| {
-                    let x: [&[f64]; 3] = [&s.q, &s.qd, &s.qdd];
-                    ratio[k] = at.at(times[k], &x[..stages], e, f, pivot, &mut data[k * width..(k + 1) * width]);
-                };
+                let mut hook =
+                    |k: usize, s: &march::MarchState, f: &mut Factors, e: &[C64], pieces: &[Piece], pivot: f64| {
+                        let x: [&[f64]; 3] = [&s.q, &s.qd, &s.qdd];
+                        let row = &mut data[k * width..(k + 1) * width];
+                        ratio[k] = at.at(times[k], &x[..stages], e, pieces, f, pivot, row);
+                    };
                 march::run_hooked(kin, layout, times, 0, st, &settings, out, &watch, true, Some(&mut hook))
             };
             // the least ratio of the instants taken, NaN where one is
