@@ -347,7 +347,7 @@ pub fn run_hooked(
     let n = kin.n;
     let Out { q, qd, qdd, iterations, residual, pivot, det, counts, first } = out;
     let keep = hook.is_some() && kin.keeps_pieces();
-    run_rows_as(kin, layout, times, k, st, s, watch, caller, counts, keep, |k, st, o, ops| {
+    run_rows(kin, layout, times, k, st, s, watch, caller, counts, keep, |k, st, o, ops| {
         let r = k - first;
         q[r * n..(r + 1) * n].copy_from_slice(&st.q);
         if s.rates {
@@ -368,26 +368,10 @@ pub fn run_hooked(
 /// The march of `run`, handing each accepted instant (k, the state there,
 /// its outcome, the march's operations) to `taken` instead of writing an
 /// `Out`: crate::variants keeps only the asked columns, not the trajectory.
+/// `keep`: its factorisations keep their outlines' pieces (Native's
+/// `pieces`, for run_hooked's hook).
 #[allow(clippy::too_many_arguments)]
 pub fn run_rows(
-    kin: &Kin,
-    layout: &Layout,
-    times: &[f64],
-    k: usize,
-    st: &mut MarchState,
-    s: &Settings,
-    watch: &Watch,
-    caller: bool,
-    counts: &mut [i64],
-    taken: impl FnMut(usize, &MarchState, &Outcome, &mut Native),
-) -> (usize, Why) {
-    run_rows_as(kin, layout, times, k, st, s, watch, caller, counts, false, taken)
-}
-
-/// `run_rows`; `keep`: its factorisations keep their outlines' pieces
-/// (Native's `pieces`, for run_hooked's hook).
-#[allow(clippy::too_many_arguments)]
-fn run_rows_as(
     kin: &Kin,
     layout: &Layout,
     times: &[f64],

@@ -303,6 +303,7 @@ fn one(
         b.watch,
         false,
         &mut counts,
+        false,
         |k, st, o, _| {
             if k == 0 {
                 det = o.det as i8;
