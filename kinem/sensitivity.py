@@ -110,8 +110,8 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
         tangents = tangent_inputs(model, listed)
         calls[key] = listed, tangents
     plan = model.plan
-    # the fused pass's (three levels) columns, names and floor made before its march, as solve's
-    # trajectory is (Python's caches are cold after a long core march)
+    # the fused pass's (three levels) columns and the derivatives' names made before its march, as
+    # solve's trajectory is (Python's caches are cold after a long core march)
     named = _named(model, calls, key, listed, 3)
     fused = _fused(model, tangents, outputs, times, options, named)
     if fused is None:   # the march does not take the model or every instant: solve, then the separate pass

@@ -485,8 +485,9 @@ impl Factoring {
     #[inline]
     pub fn run(&self, values: &[f64], a: &mut [f64], sign: i32, zeros: bool) -> Option<Pivots> {
         let mut ok = true;
-        let check = |l: f64, scale: f64| ok &= (l * scale).abs() <= MULTIPLIER; // false for a zero or non-finite pivot too
-                                                                                // the loop with the steps' negation test only where a step is negated (the others' loop is as before)
+        // false for a zero or non-finite pivot too
+        let check = |l: f64, scale: f64| ok &= (l * scale).abs() <= MULTIPLIER;
+        // the loop with the steps' negation test only where a step is negated (the others' loop is as before)
         if self.negated_steps {
             self.eliminate_as::<true, f64>(values, a, check);
         } else {
