@@ -21,8 +21,8 @@ kinem.moved, its tables' difference from kinem.moved_tables).
 ``kinem.tangents.tangents(model, paths)`` gives them in full. A model keeps each
 parameter's tangent, Parameter and derivatives' names, and the core's
 set-up for a list of parameters (Plan.sensitivity_setup), for its later
-calls (``_KEPT``, as kinem.result keeps its columns' layout), so a warm
-call builds none of them again.
+calls (``_KEPT``: per model a ``_Kept``, in it per list of paths a
+``_Call``), so a warm call builds none of them again.
 
 At an instant where Phi_q is singular (its pivot ratio below the solver's
 floor, kinem.options.singular_pivot) the derivatives are infinite: they are
@@ -95,10 +95,9 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     paths = [parameters] if isinstance(parameters, str) else list(parameters)
     if not paths:
         raise InputError(f"{case.source}: sensitivity: no parameters; expected one or more parameter paths")
-    calls = _kept(model)[5]
+    kept = _kept(model)
     try:
-        key = tuple(paths)
-        listed, tangents = calls[key]   # a warm call: resolved and checked before (the model does not change)
+        call = kept.calls[tuple(paths)]   # a warm call: resolved and checked before (the model does not change)
     except (KeyError, TypeError):   # (TypeError: a path that is no string, which _resolved words)
         listed = _resolved(model, paths)
         if model.m != model.n:
@@ -107,21 +106,19 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
         if model.plan is None:
             raise KinemError(f"{case.source}: sensitivities need the compiled march's layout, which this model "
                              "has not") from None
-        tangents = tangent_inputs(model, listed)
-        calls[key] = listed, tangents
-    plan = model.plan
+        call = kept.calls[tuple(paths)] = kept.call(model, listed)
+    plan, listed, tangents = model.plan, call.listed, call.tangents
     # the fused pass's (three levels) columns and the derivatives' names made before its march, as
     # solve's trajectory is (Python's caches are cold after a long core march)
-    named = _named(model, calls, key, listed, 3)
-    fused = _fused(model, tangents, outputs, times, options, named)
+    named = call.named(model, 3)
+    fused = _fused(model, call, outputs, times, options, named)
     if fused is None:   # the march does not take the model or every instant: solve, then the separate pass
         result = solve(model, outputs, times, options=options)
         if not result.success:
             raise AnalysisError(f"{case.source}: the nominal solve failed: {result.message}")
         X = [np.ascontiguousarray(x) for x in (result.q, result.qd, result.qdd) if x is not None]
-        traj, named = result.trajectory, _named(model, calls, key, listed, len(X))
-        setup = _setup(model, tangents, _layout(model, len(X))[1])
-        data, ratio = plan.sensitivity_kept(setup, np.ascontiguousarray(traj.t), X)
+        traj, named = result.trajectory, call.named(model, len(X))
+        data, ratio = plan.sensitivity_kept(call.setup(model, len(X)), np.ascontiguousarray(traj.t), X)
         least = ratio.min() if len(ratio) else np.inf   # (NaN where a ratio is)
         derivatives, singular = Trajectory(traj.t, named[2], None, named[3], make=lambda: data), None
     else:
@@ -142,18 +139,6 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
                    "the derivatives there are infinite")
     return frozen(Sensitivity, {"parameters": listed, "trajectory": traj, "derivatives": derivatives,
                                 "singular": singular, "conditioning": ratio, "message": message})
-
-
-def _named(model, calls, key, listed, levels) -> tuple:
-    """(columns, column index, the derivatives' names, their _Places) of
-    the first ``levels`` of the trajectory's, kept per model, paths and
-    columns."""
-    columns, _, column = _layout(model, levels)
-    own = calls.get((key, columns))
-    if own is None:   # the derivatives' names and places, kept for the same paths and columns
-        own = calls[key, columns] = (columns, column, _names(model, columns, listed),
-                                     _Places(columns, [p.path for p in listed], column))
-    return own
 
 
 class _Places(Mapping):
@@ -201,41 +186,79 @@ def core_inputs(model, listed, result) -> tuple:
     return _instant_inputs(model, tangent_inputs(model, listed), result)
 
 
-# model -> ({path: its Parameter}, {path: (its core tangent, its points' dlocal)}, {(path,
-# columns): its derivatives' names}, {paths: tangent_inputs' tuple}, {(id(that tuple),
-# its levels): (it, the plan, the core's set-up for it: Plan.sensitivity_setup)}, {a call's
-# tuple of paths: (its Parameters, tangent_inputs'); (that tuple, columns): (the columns, their index, the derivatives'
-# names, their _Places)}): what a call works out from the model and its paths alone, kept
-# for the model's next calls (as kinem.result._LAYOUTS keeps its columns), read-only
-_KEPT = weakref.WeakKeyDictionary()
+class _Kept:
+    """What a model's calls work out from the model and their paths alone,
+    kept for its later calls (as kinem.result._LAYOUTS keeps its columns'
+    layout): each path's Parameter, each parameter's tangent of the tables
+    with its named points' (read-only arrays), and per list of paths its
+    ``_Call``."""
+    __slots__ = ("parameters", "parts", "calls")
+
+    def __init__(self):
+        self.parameters = {}   # path -> its Parameter
+        self.parts = {}        # path -> (its core tangent, its named points' dlocal)
+        self.calls = {}        # a tuple of paths, as asked or as listed -> its _Call
+
+    def call(self, model, listed) -> "_Call":
+        """The _Call of the parameters ``listed`` (kinem.parameters.Parameter)."""
+        key = tuple(p.path for p in listed)
+        own = self.calls.get(key)
+        if own is None:
+            own = self.calls[key] = _Call(listed, _tangents(model, self.parts, listed))
+        return own
 
 
-def _kept(model) -> tuple:
+class _Call:
+    """One list of parameters' own: their Parameters (``listed``), what the
+    core takes beside the instants (``tangents``: tangent_inputs'), and per
+    number of levels, made at its first use, the derivatives' names
+    (``named``) and the core's set-up (``setup``)."""
+    __slots__ = ("listed", "tangents", "_named", "_setups")
+
+    def __init__(self, listed, tangents):
+        self.listed, self.tangents, self._named, self._setups = listed, tangents, {}, {}
+
+    def named(self, model, levels) -> tuple:
+        """(columns, column index, the derivatives' names, their _Places) of
+        the trajectory's first ``levels``: ``d(COLUMN)/d(PATH)`` for every
+        column and each parameter in turn."""
+        own = self._named.get(levels)
+        if own is None:
+            columns, _, column = _layout(model, levels)
+            paths = [p.path for p in self.listed]
+            names = tuple(f"d({c})/d({p})" for p in paths for c in columns)
+            own = self._named[levels] = (columns, column, names, _Places(columns, paths, column))
+        return own
+
+    def setup(self, model, levels):
+        """The core's set-up for the trajectory's first ``levels`` (the
+        fused pass's three, the separate pass's as many as its solve has;
+        Plan.sensitivity_setup: the model from its tables, the parameters'
+        seeded models, the probes), made once per plan (Plan.march_sensitivity,
+        Plan.sensitivity_kept refuse another plan's)."""
+        own = self._setups.get(levels)
+        if own is None or own[0] is not model.plan:
+            tables, core, pattern, (pc, local, dlocal) = self.tangents
+            src = _layout(model, levels)[1]
+            own = self._setups[levels] = (model.plan, model.plan.sensitivity_setup(tables, core, pattern,
+                                                                                    (src, pc, local, dlocal)))
+        return own[1]
+
+
+_KEPT = weakref.WeakKeyDictionary()   # model -> its _Kept
+
+
+def _kept(model) -> _Kept:
     kept = _KEPT.get(model)
     if kept is None:
-        kept = _KEPT[model] = ({}, {}, {}, {}, {}, {})
+        kept = _KEPT[model] = _Kept()
     return kept
-
-
-def _names(model, columns, listed) -> tuple:
-    """The derivatives' column names, ``d(COLUMN)/d(PATH)`` for every
-    column and each parameter in turn, each parameter's made once per
-    model and its columns."""
-    kept = _kept(model)[2]
-    out = []
-    for p in listed:
-        own = kept.get((p.path, columns))
-        if own is None:
-            end = f")/d({p.path})"
-            own = kept[p.path, columns] = tuple(f"d({c}{end}" for c in columns)
-        out += own
-    return tuple(out)
 
 
 def _resolved(model, paths) -> tuple:
     """kinem.parameters.resolve(model.case, paths), each path's Parameter
     found once per model."""
-    known = _kept(model)[0]
+    known = _kept(model).parameters
     paths = list(dict.fromkeys(paths))
     try:
         return tuple([known[p] for p in paths])
@@ -249,32 +272,32 @@ def _resolved(model, paths) -> tuple:
 def tangent_inputs(model, listed) -> tuple:
     """What the core's sensitivities take beside the instants: (the model's
     tables, each parameter's tangents, the Jacobian's pattern (rows, cols),
-    the named points' columns, local coordinates and tangents). Each
-    parameter's tangent is built once per model (``tangent_parts``; the arrays
-    read-only) and taken as it is by its later calls; the whole tuple is
-    kept per model and list of paths (a warm call builds nothing)."""
-    paths = tuple(p.path for p in listed)
-    whole = _kept(model)[3]
-    if paths in whole:
-        return whole[paths]
-    base, kept = model.tables, _kept(model)[1]
-    missing = [p for p in dict.fromkeys(listed) if p.path not in kept]
+    the named points' columns, local coordinates and tangents), kept per
+    model and list of parameters (a warm call builds nothing)."""
+    return _kept(model).call(model, listed).tangents
+
+
+def _tangents(model, parts, listed) -> tuple:
+    """tangent_inputs' tuple, each parameter's tangent built once per model
+    (``tangent_parts``; kept in ``parts``, its arrays read-only) and taken
+    as it is by later lists that hold it."""
+    base = model.tables
+    missing = [p for p in dict.fromkeys(listed) if p.path not in parts]
     for p, ((families, functions, outlines), dlocal) in zip(missing, tangent_parts(model, missing) if missing else ()):
         core = ([(k, d) for k, _, _, d in families], functions[1], outlines[1])
         for table in [d for _, d in core[0]] + [core[1], core[2]]:
             for v in table.values():
                 v.flags.writeable = False
-        kept[p.path] = core, dlocal
-    core = [kept[p.path][0] for p in listed]
-    dlocal = np.array([kept[p.path][1] for p in listed], complex).reshape(len(listed), len(model.point_names))
+        parts[p.path] = core, dlocal
+    core = [parts[p.path][0] for p in listed]
+    dlocal = np.array([parts[p.path][1] for p in listed], complex).reshape(len(listed), len(model.point_names))
     pattern = (np.asarray(model.jac_rows, np.int64), np.asarray(model.jac_cols, np.int64))
     points = np.asarray(model.point_cols, np.int64)
     for a, own in ((dlocal, None), (points, model.point_cols), (pattern[0], model.jac_rows),
                    (pattern[1], model.jac_cols)):
         if a is not own:   # (the model's own arrays stay as they are)
             a.flags.writeable = False
-    out = whole[paths] = (base[:3], core, pattern, (points, model.point_local, dlocal))
-    return out
+    return base[:3], core, pattern, (points, model.point_local, dlocal)
 
 
 def _instant_inputs(model, tangents, result) -> tuple:
@@ -285,13 +308,13 @@ def _instant_inputs(model, tangents, result) -> tuple:
             pc, local, dlocal)
 
 
-def _fused(model, tangents, outputs, times, options, named):
+def _fused(model, call, outputs, times, options, named):
     """(trajectory, derivatives, data, ratio, the least ratio, no instant
     singular): the march and the sensitivities of every instant from its
     own factorisation (Plan.march_sensitivity), for every output (the
     default) when the march takes the model (kinem.march) and every
     instant, its trajectory then solve's to the bit; None otherwise (the
-    caller solves, then runs Plan.sensitivity). ``named``: ``_named``'s of
+    caller solves, then runs Plan.sensitivity). ``named``: ``_Call.named``'s of
     three levels; the derivatives' Trajectory reads ``data`` at its first
     use (made read-only then: the caller may still write it)."""
     options = model.options if options is None else options
@@ -303,7 +326,7 @@ def _fused(model, tangents, outputs, times, options, named):
         return None
     check_square(model)
     st = native.MarchState(model.q0)   # the estimates to assemble from, as solve's
-    core, src = tangents[1], _layout(model, 3)[1]
+    core, src = call.tangents[1], _layout(model, 3)[1]
     # the march's states and the derivatives in one block: glibc's malloc serves the next call's from
     # the heap this one frees, where two blocks could come fresh from the system at every call (in a
     # process holding other large arrays: about 50 page faults a call for the slider-crank's 501
@@ -321,27 +344,10 @@ def _fused(model, tangents, outputs, times, options, named):
     derivatives = Trajectory(traj.t, named[2], None, named[3], make=lambda: data)
     singular = np.zeros(nt, bool)
     end, _, least = model.plan.march_sensitivity(times, st, settings, X, figures, ints,
-                                                 _setup(model, tangents, src), data, ratio)
+                                                 call.setup(model, 3), data, ratio)
     if end < nt or pinned and violation(model, X[0, 0]):
         return None
     return traj, derivatives, data, ratio, least, singular
-
-
-def _setup(model, tangents, src):
-    """The core's set-up for ``tangents`` (tangent_inputs') and the columns
-    ``src`` of the trajectory's first levels (kinem.result._layout's: the
-    fused pass's three, the separate pass's as many as its solve has;
-    Plan.sensitivity_setup: the model from its tables, the parameters'
-    seeded models, the probes), made once per model, tangents and levels
-    and kept for its later calls (Plan.march_sensitivity,
-    Plan.sensitivity_kept)."""
-    kept, plan = _kept(model)[4], model.plan
-    key = (id(tangents), len(src))
-    own = kept.get(key)
-    if own is None or own[0] is not tangents or own[1] is not plan:
-        tables, core, pattern, (pc, local, dlocal) = tangents
-        own = kept[key] = (tangents, plan, plan.sensitivity_setup(tables, core, pattern, (src, pc, local, dlocal)))
-    return own[2]
 
 
 def _derived_frames(case, path, columns, block, traj):

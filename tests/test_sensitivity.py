@@ -435,15 +435,16 @@ def test_one_pass_equals_the_solve_and_the_separate_sensitivities(path):
     last correction's small angle (kinem/core/src/model.rs, follow: a few
     roundings from sin_cos), the separate pass sin_cos's own."""
     from kinem.parameters import resolve
-    from kinem.sensitivity import _derived_frames, _fused, _layout, _named, core_inputs, tangent_inputs
+    from kinem.sensitivity import _derived_frames, _fused, _kept, _layout, core_inputs
 
     model = kinem.compile(kinem.load(path))
     paths = [p.path for p in parameters(model.case)]
     if not paths or model.m != model.n:
         pytest.skip("no design parameters, or not square")
     listed = resolve(model.case, paths)
-    named = _named(model, {}, tuple(paths), listed, 3)
-    fused = _fused(model, tangent_inputs(model, listed), kinem.result.OUTPUTS, None, None, named)
+    call = _kept(model).call(model, listed)
+    named = call.named(model, 3)
+    fused = _fused(model, call, kinem.result.OUTPUTS, None, None, named)
     result = kinem.solve(model)
     if fused is None:
         pytest.skip("the march does not take this model or every instant: the separate pass serves it")
@@ -587,33 +588,33 @@ def test_a_models_kept_tangents_give_the_first_calls_figures(name):
 
 def test_the_kept_core_setup_gives_a_fresh_ones_figures_and_fits_its_plan_alone():
     """A model's kept core set-up (Plan.sensitivity_setup, kept per list of
-    parameters: kinem.sensitivity._setup) is made once and gives, call
+    parameters: kinem.sensitivity._Call.setup) is made once and gives, call
     after call, the derivatives of a set-up made anew to the bit; a set-up
     made by another plan, even one of a model of the same size, is
     refused (ValueError), never run."""
     from kinem.result import OUTPUTS, _layout
-    from kinem.sensitivity import _KEPT, _fused, _named, _resolved, _setup, tangent_inputs
+    from kinem.sensitivity import _fused, _kept, _resolved
     model = kinem.compile(kinem.load(ROOT / "cases" / "slider_crank.toml"))
     paths = [p.path for p in parameters(model.case)][:4]
     first = sensitivity(model, paths)
-    tangents = tangent_inputs(model, _resolved(model, paths))
-    src = _layout(model, 3)[1]
-    kept = _setup(model, tangents, src)
+    call = _kept(model).call(model, _resolved(model, paths))
+    kept = call.setup(model, 3)
     again = sensitivity(model, paths)
-    assert _setup(model, tangents, src) is kept
+    assert call.setup(model, 3) is kept
     assert np.array_equal(first.derivatives.data, again.derivatives.data)
-    tables, core, pattern, (pc, local, dlocal) = tangents
+    src = _layout(model, 3)[1]
+    tables, core, pattern, (pc, local, dlocal) = call.tangents
     new = model.plan.sensitivity_setup(tables, core, pattern, (src, pc, local, dlocal))
     assert new is not kept
-    _KEPT[model][4][id(tangents), len(src)] = (tangents, model.plan, new)
-    named = _named(model, {}, tuple(paths), _resolved(model, paths), 3)
-    fused = _fused(model, tangents, OUTPUTS, None, None, named)
+    call._setups[3] = (model.plan, new)
+    named = call.named(model, 3)
+    fused = _fused(model, call, OUTPUTS, None, None, named)
     assert fused is not None and np.array_equal(fused[2], again.derivatives.data)
     twin = kinem.compile(kinem.load(ROOT / "cases" / "slider_crank.toml"))   # the same tables, its own plan
     foreign = twin.plan.sensitivity_setup(tables, core, pattern, (src, pc, local, dlocal))
-    _KEPT[model][4][id(tangents), len(src)] = (tangents, model.plan, foreign)
+    call._setups[3] = (model.plan, foreign)
     with pytest.raises(ValueError, match="not this model's"):
-        _fused(model, tangents, OUTPUTS, None, None, named)
+        _fused(model, call, OUTPUTS, None, None, named)
 
 
 def test_the_separate_pass_keeps_its_setup_per_levels_and_gives_a_fresh_ones_figures():
@@ -622,18 +623,16 @@ def test_the_separate_pass_keeps_its_setup_per_levels_and_gives_a_fresh_ones_fig
     parameters and levels (Plan.sensitivity_kept): made once, the figures
     of Plan.sensitivity with a set-up made anew to the bit, call after
     call; a set-up another plan made is refused (ValueError)."""
-    from kinem.result import _layout
-    from kinem.sensitivity import _KEPT, _resolved, core_inputs, tangent_inputs
+    from kinem.sensitivity import _kept, _resolved, core_inputs
     model = kinem.compile(kinem.load(ROOT / "cases" / "four_bar.toml"))
     paths = [p.path for p in parameters(model.case)][:3]
     listed = _resolved(model, paths)
+    call = _kept(model).call(model, listed)
     for outputs, levels in ((("positions",), 1), (("positions", "velocities"), 2)):
         first = sensitivity(model, paths, outputs=outputs)
-        tangents = tangent_inputs(model, listed)
-        key = (id(tangents), len(_layout(model, levels)[1]))
-        kept = _KEPT[model][4][key][2]
+        kept = call._setups[levels][1]
         again = sensitivity(model, paths, outputs=outputs)
-        assert _KEPT[model][4][key][2] is kept
+        assert call._setups[levels][1] is kept
         result = kinem.solve(model, outputs)
         fresh, ratio = model.plan.sensitivity(*core_inputs(model, listed, result))
         assert np.array_equal(first.derivatives.data, fresh) and np.array_equal(again.derivatives.data, fresh)
