@@ -100,7 +100,8 @@ pub struct Native<'a> {
     dq: Vec<f64>,
     /// room for the corrected q (`correct`: swapped with q)
     next: Vec<f64>,
-    /// nu's room: zeroed here, written by Kin::nu_over alone
+    /// nu's room: zeroed here, written by Kin::nu_over alone (here
+    /// once where the model's nu is the same at every instant: Kin::nu_fixed)
     nu: Vec<f64>,
     /// gamma's room: zeros from `new`, written by the rates alone (Kin::gamma_over)
     b: Vec<f64>,
@@ -122,6 +123,10 @@ impl<'a> Native<'a> {
         let mut f = layout.factors();
         // the model's own exact zeros: its factorisations need not check them (a variant's may)
         f.zeros_hold = layout.zeros_hold(kin);
+        let mut nu = vec![0.0; kin.m];
+        if kin.nu_fixed {
+            kin.nu_over(0.0, &mut nu);
+        }
         Native {
             kin,
             layout,
@@ -132,7 +137,7 @@ impl<'a> Native<'a> {
             values,
             dq: vec![0.0; kin.n],
             next: vec![0.0; kin.n],
-            nu: vec![0.0; kin.m],
+            nu,
             b: vec![0.0; kin.m],
             t: 0.0,
             counts: [0, 0],
@@ -330,8 +335,11 @@ impl Step for Native<'_> {
         self.rotate();
         let Native { kin, layout, f, q, turning, t, nu, b, values, .. } = self;
         let at = At { q: &q[..], e: &turning.e[..], t: *t };
-        // nu's own room: its rows without a driver stay 0 from `new` (Kin::nu_over)
-        kin.nu_over(*t, nu);
+        // nu's own room: its rows without a driver stay 0 from `new` (Kin::nu_over), and all of
+        // them where nu is the same at every instant (Kin::nu_fixed: written in `new`)
+        if !kin.nu_fixed {
+            kin.nu_over(*t, nu);
+        }
         // gamma's room `b`: only here, its constant rows 0 from `new` (Kin::gamma_over)
         rates_from::<true, _>(kin, &at, Some(values), nu, b, qd, qdd, |rhs, x| {
             layout.solve(f, rhs, x);

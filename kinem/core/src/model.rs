@@ -26,6 +26,10 @@ pub struct Kin<S = f64> {
     drivers: Vec<(usize, usize)>,
     /// the other families whose nu may be non-zero
     timed: Vec<usize>,
+    /// nu is the same at every instant: no timed family, every driver's
+    /// d' the same figure at every t (Functions::rate_fixed; a crank at a
+    /// constant speed): crate::march::Native writes it once
+    pub nu_fixed: bool,
     /// no family reads an outline and no driving function is a table's
     /// pieces: q(t) as smooth as the drivers' polynomials and harmonics
     /// (the march's Hermite start then carries its last error: step::Bias)
@@ -81,7 +85,9 @@ impl<S: Real> Kin<S> {
                 drivers.extend(f.drivers().iter().map(|&(r, g)| (row_off[k] + r, g)));
             }
         }
-        let timed = time_dependent.iter().copied().filter(|&k| !matches!(list[k], Family::Simple(_))).collect();
+        let timed: Vec<usize> =
+            time_dependent.iter().copied().filter(|&k| !matches!(list[k], Family::Simple(_))).collect();
+        let nu_fixed = timed.is_empty() && drivers.iter().all(|&(_, f)| functions.rate_fixed(f));
         let pieces = functions_table.ints.get("kind").is_some_and(|k| k.contains(&crate::functions::PIECES));
         let smooth = !pieces && !list.iter().any(|f| f.piecewise());
         Ok(Kin {
@@ -97,6 +103,7 @@ impl<S: Real> Kin<S> {
             time_dependent,
             drivers,
             timed,
+            nu_fixed,
             smooth,
             tables,
             function_table: functions_table.clone(),
