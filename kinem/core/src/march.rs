@@ -123,6 +123,8 @@ impl<'a> Native<'a> {
         let mut f = layout.factors();
         // the model's own exact zeros: its factorisations need not check them (a variant's may)
         f.zeros_hold = layout.zeros_hold(kin);
+        // its folded and negated pivots' entries: constants of its values, never written again
+        f.signs_hold = layout.signs_hold(&values, &kin.over_kept());
         let mut nu = vec![0.0; kin.m];
         if kin.nu_fixed {
             kin.nu_over(0.0, &mut nu);
@@ -449,6 +451,8 @@ pub fn run_rows(
     let mut ops = Native::new(kin, layout);
     if keep {
         ops.pieces = vec![Piece::default(); kin.m];
+        // Kin::jac_over_keeping writes every entry of its other families (their constants again)
+        ops.f.signs_hold = false;
     }
     let mut result = (times.len(), Why::Accepted);
     let (mut next, mut looks) = (Instant::now(), Looks::new());

@@ -247,6 +247,24 @@ impl<S: Real> Kin<S> {
 }
 
 impl Kin {
+    /// The Jacobian entries `jac_over` never writes (its constants, which
+    /// `jac` wrote): those it leaves as they were at two configurations.
+    pub fn over_kept(&self) -> Vec<bool> {
+        // a NaN no evaluation makes (an operation's NaN is the default one)
+        let mark = f64::from_bits(0x7ff8_dead_beef_0001);
+        let mut kept = vec![true; self.nnz];
+        for x in [0.0, 0.7] {
+            let q: Vec<f64> = (0..self.n).map(|j| x * (1.0 + j as f64)).collect();
+            let e: Vec<C64> = q.iter().map(|&v| cis(v)).collect();
+            let mut out = vec![mark; self.nnz];
+            self.jac_over(&At { q: &q, e: &e, t: x }, &mut out);
+            for (k, v) in kept.iter_mut().zip(&out) {
+                *k &= v.to_bits() == mark.to_bits();
+            }
+        }
+        kept
+    }
+
     /// The same model over another scalar S (Dual: its tables' tangents
     /// zero, for the tangents along q and qd alone; crate::sensitivity).
     pub fn over<S: Real>(&self) -> Result<Kin<S>, String> {
