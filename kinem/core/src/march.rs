@@ -124,7 +124,7 @@ impl<'a> Native<'a> {
         // the model's own exact zeros: its factorisations need not check them (a variant's may)
         f.zeros_hold = layout.zeros_hold(kin);
         // its folded and negated pivots' entries: constants of its values, never written again
-        f.signs_hold = layout.signs_hold(&values, &kin.over_kept());
+        f.signs_hold = layout.signs_hold(&values, kin.over_kept());
         let mut nu = vec![0.0; kin.m];
         if kin.nu_fixed {
             kin.nu_over(0.0, &mut nu);

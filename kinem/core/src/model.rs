@@ -30,6 +30,8 @@ pub struct Kin<S = f64> {
     /// d' the same figure at every t (Functions::rate_fixed; a crank at a
     /// constant speed): crate::march::Native writes it once
     pub nu_fixed: bool,
+    /// the entries `jac_over` never writes (`over_kept`, made at its first call)
+    kept: std::sync::OnceLock<Vec<bool>>,
     /// no family reads an outline and no driving function is a table's
     /// pieces: q(t) as smooth as the drivers' polynomials and harmonics
     /// (the march's Hermite start then carries its last error: step::Bias)
@@ -104,6 +106,7 @@ impl<S: Real> Kin<S> {
             drivers,
             timed,
             nu_fixed,
+            kept: std::sync::OnceLock::new(),
             smooth,
             tables,
             function_table: functions_table.clone(),
@@ -248,8 +251,13 @@ impl<S: Real> Kin<S> {
 
 impl Kin {
     /// The Jacobian entries `jac_over` never writes (its constants, which
-    /// `jac` wrote): those it leaves as they were at two configurations.
-    pub fn over_kept(&self) -> Vec<bool> {
+    /// `jac` wrote): those it leaves as they were at two configurations;
+    /// made once per model (every march's `Native::new` asks).
+    pub fn over_kept(&self) -> &[bool] {
+        self.kept.get_or_init(|| self.kept_entries())
+    }
+
+    fn kept_entries(&self) -> Vec<bool> {
         // a NaN no evaluation makes (an operation's NaN is the default one)
         let mark = f64::from_bits(0x7ff8_dead_beef_0001);
         let mut kept = vec![true; self.nnz];
