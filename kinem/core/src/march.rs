@@ -22,8 +22,9 @@ const WATCH_EVERY: u32 = 4;
 /// poll) is looked at about this often: every `Looks::every` instants,
 /// doubled (up to WATCH_MOST) while that many took less than half of it,
 /// halved where they took more. A clock read costs about 50 ns in a
-/// virtual machine (the slider-crank's instant about 300 ns), and a stop
-/// comes within about two spans of its cause.
+/// virtual machine (the slider-crank's instant about 300 ns); at a steady
+/// pace a deadline is seen within about two spans of passing, and a signal
+/// within that of its poll (every `watch::POLL`, as before).
 const WATCH_SPAN: Duration = Duration::from_micros(100);
 const WATCH_MOST: u32 = 256;
 
