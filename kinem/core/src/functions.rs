@@ -87,6 +87,20 @@ impl<S: Real> Functions<S> {
         self.value[f].is_some()
     }
 
+    /// Whether `eval(f, t, 1)` is the same figure at every finite t: a
+    /// constant's (0), a polynomial's of degree one at most whose d' = c is
+    /// not -0 (0 t + c is c but for c = -0, which 0 t of a negative t
+    /// leaves -0 and of another t +0).
+    pub fn rate_fixed(&self, f: usize) -> bool {
+        self.value[f].is_some()
+            || (self.kind[f] == POLY
+                && match self.poly[f][1].as_slice() {
+                    [] => true,
+                    [c] => !(c.re() == 0.0 && c.re().is_sign_negative()),
+                    _ => false,
+                })
+    }
+
     /// d(t) (order 0), d'(t) (1) or d''(t) (2) of function f: a constant's
     /// and a polynomial's inline, the others out of line.
     #[inline(always)]
@@ -203,6 +217,26 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A function whose d' is the same figure at every t is told so
+    /// (constants, polynomials of degree one but for d' = -0), and d' is
+    /// then the same to the bit (tolerance 0) at t of either sign.
+    #[test]
+    fn a_fixed_rate_is_the_same_at_every_instant() {
+        let c = vec![7.0, 0.5, 2.0, 0.0, 2.0, 1.0, -0.0, 1.0, 2.0, 3.0, 2.0, 3.0, 0.5, 1.0];
+        let f: Functions =
+            Functions::from_table(&table(vec![POLY, POLY, POLY, POLY, POLY, HARMONIC], vec![0, 1, 3, 5, 7, 10, 14], c))
+                .unwrap();
+        let fixed: Vec<bool> = (0..6).map(|k| f.rate_fixed(k)).collect();
+        assert_eq!(fixed, [true, true, true, false, false, false]);
+        for k in (0..6).filter(|&k| fixed[k]) {
+            for t in [0.0, -0.0, 0.1, -0.77, 1.3e3, -2e9] {
+                assert_eq!(f.eval(k, t, 1).to_bits(), f.eval(k, 0.0, 1).to_bits());
+            }
+        }
+        // d' = -0: +0 at t >= 0, -0 at t < 0
+        assert_ne!(f.eval(3, 1.0, 1).to_bits(), f.eval(3, -1.0, 1).to_bits());
     }
 
     #[test]

@@ -93,6 +93,13 @@ pub struct Factors {
     /// sets it for its own Kin); false (made so): each factorisation checks
     /// those entries (a variant's Kin on the nominal's layout, the lanes')
     pub zeros_hold: bool,
+    /// the values factorised here hold exactly 1 at the folded pivots'
+    /// entries and -1 at the negated ones' (Factoring::one_entries,
+    /// minus_entries), and nothing writes those entries again
+    /// (`Layout::signs_hold`: the march's own values, whose constant
+    /// entries Kin::jac_over never writes); false (made so): each
+    /// factorisation checks them
+    pub signs_hold: bool,
 }
 
 impl Layout {
@@ -103,6 +110,17 @@ impl Layout {
         let Shape::Triangular(t) = &self.shape else { return true };
         let zero = kin.zero_entries();
         t.factoring.zero_entries.iter().all(|&e| zero.get(e as usize) == Some(&true))
+    }
+
+    /// Whether `values` hold exactly 1 at every folded pivot's entry and
+    /// -1 at every negated one's (Factoring::one_entries, minus_entries),
+    /// each of them `kept` (never written again: Kin::over_kept): then a
+    /// factorisation of those values need not check them (Factors::signs_hold).
+    pub fn signs_hold(&self, values: &[f64], kept: &[bool]) -> bool {
+        let Shape::Triangular(t) = &self.shape else { return false };
+        let holds = |e: u32, v: f64| kept.get(e as usize) == Some(&true) && values.get(e as usize) == Some(&v);
+        let f = &t.factoring;
+        f.one_entries.iter().all(|&e| holds(e, 1.0)) && f.minus_entries.iter().all(|&e| holds(e, -1.0))
     }
 
     pub fn factors(&self) -> Factors {
@@ -121,6 +139,7 @@ impl Layout {
                     fixed: vec![None],
                     y: Vec::new(),
                     zeros_hold: false,
+                    signs_hold: false,
                 };
             }
         };
@@ -133,6 +152,7 @@ impl Layout {
             fixed: vec![None; self.count],
             y: vec![0.0; per.max(1)],
             zeros_hold: false,
+            signs_hold: false,
         }
     }
 

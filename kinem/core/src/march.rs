@@ -13,10 +13,64 @@ pub use crate::step::{rates_from, rates_with, step, MarchState, Mode, Outcome, S
 use crate::watch::Watch;
 use num_complex::Complex64 as C64;
 use std::convert::Infallible;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
-/// The march looks at its watch (a deadline, a signal) every this many instants.
+/// The march looks at a watch that reads no clock (only the stop flag: no
+/// deadline, no signal poll on this thread) every this many instants.
 const WATCH_EVERY: u32 = 4;
+/// A watch that reads the clock (a deadline, the calling thread's signal
+/// poll) is looked at about this often: every `Looks::every` instants,
+/// doubled (up to WATCH_MOST) while that many took less than half of it,
+/// halved where they took more. A clock read costs about 50 ns in a
+/// virtual machine (the slider-crank's instant about 300 ns); at a steady
+/// pace a deadline is seen within about two spans of passing, and a signal
+/// within that of its poll (every `watch::POLL`, as before).
+const WATCH_SPAN: Duration = Duration::from_micros(100);
+const WATCH_MOST: u32 = 256;
+
+/// When the march looks at its watch next (`WATCH_SPAN`).
+struct Looks {
+    /// instants between looks, and left before the next
+    every: u32,
+    left: u32,
+    /// when the watch read its clock last (None: not yet)
+    last: Option<Instant>,
+}
+
+impl Looks {
+    fn new() -> Self {
+        Looks { every: 1, left: 0, last: None }
+    }
+
+    /// Whether to look at the watch before this instant.
+    #[inline(always)]
+    fn due(&mut self) -> bool {
+        if self.left == 0 {
+            return true;
+        }
+        self.left -= 1;
+        false
+    }
+
+    /// After a look that read the clock at `now` (None: it read none).
+    #[inline]
+    fn looked(&mut self, now: Option<Instant>) {
+        match (now, self.last) {
+            (Some(now), Some(last)) => {
+                let took = now.saturating_duration_since(last);
+                if took < WATCH_SPAN / 2 && self.every < WATCH_MOST {
+                    self.every *= 2;
+                } else if took > WATCH_SPAN && self.every > 1 {
+                    self.every /= 2;
+                }
+            }
+            (None, _) => self.every = WATCH_EVERY,
+            _ => {}
+        }
+        self.last = now;
+        self.left = self.every - 1;
+    }
+}
 
 /// Per instant: Q, QD, QDD (K n), Newton iterations, residual, pivot ratio,
 /// det sign (K); counts: Jacobian evaluations and factorisations, added to.
@@ -47,7 +101,8 @@ pub struct Native<'a> {
     dq: Vec<f64>,
     /// room for the corrected q (`correct`: swapped with q)
     next: Vec<f64>,
-    /// nu's room: zeroed here, written by Kin::nu_over alone
+    /// nu's room: zeroed here, written by Kin::nu_over alone (here
+    /// once where the model's nu is the same at every instant: Kin::nu_fixed)
     nu: Vec<f64>,
     /// gamma's room: zeros from `new`, written by the rates alone (Kin::gamma_over)
     b: Vec<f64>,
@@ -69,6 +124,12 @@ impl<'a> Native<'a> {
         let mut f = layout.factors();
         // the model's own exact zeros: its factorisations need not check them (a variant's may)
         f.zeros_hold = layout.zeros_hold(kin);
+        // its folded and negated pivots' entries: constants of its values, never written again
+        f.signs_hold = layout.signs_hold(&values, kin.over_kept());
+        let mut nu = vec![0.0; kin.m];
+        if kin.nu_fixed {
+            kin.nu_over(0.0, &mut nu);
+        }
         Native {
             kin,
             layout,
@@ -79,7 +140,7 @@ impl<'a> Native<'a> {
             values,
             dq: vec![0.0; kin.n],
             next: vec![0.0; kin.n],
-            nu: vec![0.0; kin.m],
+            nu,
             b: vec![0.0; kin.m],
             t: 0.0,
             counts: [0, 0],
@@ -277,8 +338,11 @@ impl Step for Native<'_> {
         self.rotate();
         let Native { kin, layout, f, q, turning, t, nu, b, values, .. } = self;
         let at = At { q: &q[..], e: &turning.e[..], t: *t };
-        // nu's own room: its rows without a driver stay 0 from `new` (Kin::nu_over)
-        kin.nu_over(*t, nu);
+        // nu's own room: its rows without a driver stay 0 from `new` (Kin::nu_over), and all of
+        // them where nu is the same at every instant (Kin::nu_fixed: written in `new`)
+        if !kin.nu_fixed {
+            kin.nu_over(*t, nu);
+        }
         // gamma's room `b`: only here, its constant rows 0 from `new` (Kin::gamma_over)
         rates_from::<true, _>(kin, &at, Some(values), nu, b, qd, qdd, |rhs, x| {
             layout.solve(f, rhs, x);
@@ -388,23 +452,26 @@ pub fn run_rows(
     let mut ops = Native::new(kin, layout);
     if keep {
         ops.pieces = vec![Piece::default(); kin.m];
+        // Kin::jac_over_keeping writes every entry of its other families (their constants again)
+        ops.f.signs_hold = false;
     }
     let mut result = (times.len(), Why::Accepted);
-    let (mut next, mut tick) = (Instant::now(), 0u32);
+    let (mut next, mut looks) = (Instant::now(), Looks::new());
     // ops.f holds the factorisation at the last accepted q (none before the first)
     let mut c = Work::new(n, kin.smooth);
     if k == 0 {
         st.restart();
     }
     while k < times.len() {
-        // the clock every WATCH_EVERY instants: a few ns per instant, a stop within a few
-        if tick % WATCH_EVERY == 0 {
-            if let Some(why) = watch.check(caller, &mut next) {
+        // the watch about every WATCH_SPAN (or every WATCH_EVERY instants where it reads no clock)
+        if looks.due() {
+            let (why, now) = watch.look(caller, &mut next);
+            if let Some(why) = why {
                 result = (k, why);
                 break;
             }
+            looks.looked(now);
         }
-        tick = tick.wrapping_add(1);
         let Ok(o) = step(&mut ops, st, times[k], s, Mode::Track, &mut c);
         if o.why != Why::Accepted {
             result = (k, o.why);
@@ -438,6 +505,46 @@ mod tests {
         // rows that sum past the largest float: infinite sum, not NaN; the residual is the largest row
         assert_eq!(residual(&[1e308, 1e308, 1e308, 1e308], &scale), f64::INFINITY);
         assert_eq!(residual(&[1e308, 1e308, 1e307, 1e308], &scale), 1e308);
+    }
+
+    /// The looks at a watch: at the first instant, then every 1, 2, 4, ...
+    /// instants while those took under half of WATCH_SPAN, at most
+    /// WATCH_MOST; halved where they took more than it; every WATCH_EVERY
+    /// where the watch reads no clock.
+    #[test]
+    fn the_watch_is_looked_at_about_every_span() {
+        let mut l = Looks::new();
+        let t0 = Instant::now();
+        let (mut at, mut looks) = (Vec::new(), 0u32);
+        for k in 0..2000u32 {
+            if l.due() {
+                at.push(k);
+                looks += 1;
+                // each instant takes 10 ns
+                l.looked(Some(t0 + Duration::from_nanos(10 * k as u64)));
+            }
+        }
+        assert_eq!(&at[..6], &[0, 1, 3, 7, 15, 31]);
+        assert_eq!(l.every, WATCH_MOST);
+        assert!(at.windows(2).all(|w| w[1] - w[0] <= WATCH_MOST), "{at:?}");
+        assert!(looks < 20, "{looks}");
+        // slow instants (1 ms each): halved at every look down to 1
+        let mut t = t0 + Duration::from_secs(1);
+        while !l.due() {}
+        l.looked(Some(t));
+        for _ in 0..20 {
+            let mut instants = 1;
+            while !l.due() {
+                instants += 1;
+            }
+            assert_eq!(instants, l.every);
+            t += Duration::from_millis(l.every as u64);
+            l.looked(Some(t));
+        }
+        assert_eq!(l.every, 1);
+        // no clock read: every WATCH_EVERY instants
+        l.looked(None);
+        assert_eq!((l.every, l.left), (WATCH_EVERY, WATCH_EVERY - 1));
     }
 
     /// `stepped` gives `size`'s figure and q - dq to the bit (tolerance 0),

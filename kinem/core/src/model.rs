@@ -26,6 +26,12 @@ pub struct Kin<S = f64> {
     drivers: Vec<(usize, usize)>,
     /// the other families whose nu may be non-zero
     timed: Vec<usize>,
+    /// nu is the same at every instant: no timed family, every driver's
+    /// d' the same figure at every t (Functions::rate_fixed; a crank at a
+    /// constant speed): crate::march::Native writes it once
+    pub nu_fixed: bool,
+    /// the entries `jac_over` never writes (`over_kept`, made at its first call)
+    kept: std::sync::OnceLock<Vec<bool>>,
     /// no family reads an outline and no driving function is a table's
     /// pieces: q(t) as smooth as the drivers' polynomials and harmonics
     /// (the march's Hermite start then carries its last error: step::Bias)
@@ -81,7 +87,9 @@ impl<S: Real> Kin<S> {
                 drivers.extend(f.drivers().iter().map(|&(r, g)| (row_off[k] + r, g)));
             }
         }
-        let timed = time_dependent.iter().copied().filter(|&k| !matches!(list[k], Family::Simple(_))).collect();
+        let timed: Vec<usize> =
+            time_dependent.iter().copied().filter(|&k| !matches!(list[k], Family::Simple(_))).collect();
+        let nu_fixed = timed.is_empty() && drivers.iter().all(|&(_, f)| functions.rate_fixed(f));
         let pieces = functions_table.ints.get("kind").is_some_and(|k| k.contains(&crate::functions::PIECES));
         let smooth = !pieces && !list.iter().any(|f| f.piecewise());
         Ok(Kin {
@@ -97,6 +105,8 @@ impl<S: Real> Kin<S> {
             time_dependent,
             drivers,
             timed,
+            nu_fixed,
+            kept: std::sync::OnceLock::new(),
             smooth,
             tables,
             function_table: functions_table.clone(),
@@ -240,6 +250,29 @@ impl<S: Real> Kin<S> {
 }
 
 impl Kin {
+    /// The Jacobian entries `jac_over` never writes (its constants, which
+    /// `jac` wrote): those it leaves as they were at two configurations;
+    /// made once per model (every march's `Native::new` asks).
+    pub fn over_kept(&self) -> &[bool] {
+        self.kept.get_or_init(|| self.kept_entries())
+    }
+
+    fn kept_entries(&self) -> Vec<bool> {
+        // a NaN no evaluation makes (an operation's NaN is the default one)
+        let mark = f64::from_bits(0x7ff8_dead_beef_0001);
+        let mut kept = vec![true; self.nnz];
+        for x in [0.0, 0.7] {
+            let q: Vec<f64> = (0..self.n).map(|j| x * (1.0 + j as f64)).collect();
+            let e: Vec<C64> = q.iter().map(|&v| cis(v)).collect();
+            let mut out = vec![mark; self.nnz];
+            self.jac_over(&At { q: &q, e: &e, t: x }, &mut out);
+            for (k, v) in kept.iter_mut().zip(&out) {
+                *k &= v.to_bits() == mark.to_bits();
+            }
+        }
+        kept
+    }
+
     /// The same model over another scalar S (Dual: its tables' tangents
     /// zero, for the tangents along q and qd alone; crate::sensitivity).
     pub fn over<S: Real>(&self) -> Result<Kin<S>, String> {

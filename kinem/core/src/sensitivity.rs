@@ -1234,6 +1234,32 @@ mod tests {
         }
     }
 
+    /// The entries Kin::jac_over never writes (Kin::over_kept: the
+    /// revolute's I and -I, none of the distance's) are `jac`'s at every
+    /// configuration, to the bit (tolerance 0): what lets the march skip
+    /// checking its folded and negated pivots' entries (Factors::signs_hold).
+    #[test]
+    fn the_entries_jac_over_keeps_are_constants_of_jac() {
+        let (kin, _) = model();
+        let kept = kin.over_kept();
+        assert_eq!(kept.iter().filter(|&&k| k).count(), 4, "{kept:?}");
+        let mut r = random(7);
+        let jac = |q: &[f64]| {
+            let e: Vec<C64> = q.iter().map(|&v| cis(v)).collect();
+            let mut out = vec![0.0; kin.nnz];
+            kin.jac(&crate::families::At { q, e: &e, t: 0.3 }, &mut out);
+            out
+        };
+        let first = jac(&vec![0.0; kin.n]);
+        for _ in 0..20 {
+            let q: Vec<f64> = (0..kin.n).map(|_| 3.0 * r()).collect();
+            let v = jac(&q);
+            for k in (0..kin.nnz).filter(|&k| kept[k]) {
+                assert_eq!(v[k].to_bits(), first[k].to_bits());
+            }
+        }
+    }
+
     /// The slider-crank's pattern (its rows) and a block-triangular layout of it.
     fn slider_layout() -> (Vec<usize>, Layout) {
         let (rows, cols) = crate::decompose::tests::slider_crank();

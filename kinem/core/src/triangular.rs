@@ -483,7 +483,7 @@ impl Factoring {
     /// `zeros`: the values' Kin may not have those zeros). The steps on a
     /// negated pivot take 1 / -1 without the division (`NEGATE`).
     #[inline]
-    pub fn run(&self, values: &[f64], a: &mut [f64], sign: i32, zeros: bool) -> Option<Pivots> {
+    pub fn run(&self, values: &[f64], a: &mut [f64], sign: i32, zeros: bool, signs: bool) -> Option<Pivots> {
         let mut ok = true;
         // false for a zero or non-finite pivot too
         let check = |l: f64, scale: f64| ok &= (l * scale).abs() <= MULTIPLIER;
@@ -495,11 +495,14 @@ impl Factoring {
         }
         // SAFETY (every unchecked index below): Factoring::check when built, and eliminate's asserted lengths
         unsafe {
-            for &e in &self.one_entries {
-                ok &= *values.get_unchecked(e as usize) == 1.0;
-            }
-            for &e in &self.minus_entries {
-                ok &= *values.get_unchecked(e as usize) == -1.0;
+            // (not where the values keep them: `signs` false, Factors::signs_hold)
+            if signs {
+                for &e in &self.one_entries {
+                    ok &= *values.get_unchecked(e as usize) == 1.0;
+                }
+                for &e in &self.minus_entries {
+                    ok &= *values.get_unchecked(e as usize) == -1.0;
+                }
             }
             if zeros {
                 for &e in &self.zero_entries {
@@ -751,7 +754,7 @@ impl Triangular {
     }
 
     fn blocks_factor(&self, values: &[f64], f: &mut Factors) -> Option<Pivots> {
-        self.factoring.run(values, &mut f.j, self.sign, !f.zeros_hold)
+        self.factoring.run(values, &mut f.j, self.sign, !f.zeros_hold, !f.signs_hold)
     }
 
     /// x = Phi_q^-1 b (model rows in, coordinates out); scale, col_scale:

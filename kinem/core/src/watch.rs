@@ -50,14 +50,25 @@ impl<'a> Watch<'a> {
     /// deadline, and on the calling thread (`caller`) a signal poll when
     /// `next` has passed (then POLL later).
     pub fn check(&self, caller: bool, next: &mut Instant) -> Option<Why> {
+        self.look(caller, next).0
+    }
+
+    /// `check`, with the time it read (None: it read no clock, having no
+    /// deadline nor, on this thread, a poll; or the stop flag was set).
+    pub fn look(&self, caller: bool, next: &mut Instant) -> (Option<Why>, Option<Instant>) {
         let code = self.stop.load(Ordering::Relaxed);
         if code != 0 {
-            return Why::ALL.get(code as usize).copied();
+            return (Why::ALL.get(code as usize).copied(), None);
         }
         if self.deadline.is_none() && !(caller && self.poll.is_some()) {
-            return None;
+            return (None, None);
         }
         let now = Instant::now();
+        (self.clocked(caller, next, now), Some(now))
+    }
+
+    /// `check`'s deadline and signal poll at `now`.
+    fn clocked(&self, caller: bool, next: &mut Instant, now: Instant) -> Option<Why> {
         if self.deadline.is_some_and(|d| now >= d) {
             return Some(self.halt(Why::OutOfTime));
         }
