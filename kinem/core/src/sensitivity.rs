@@ -287,6 +287,96 @@ impl<'a> Instants<'a> {
     }
 }
 
+/// How many accepted instants the fused pass keeps before it takes their
+/// sensitivities (`Deferred`).
+pub const DEFERRED: usize = 16;
+
+/// The march's accepted instants kept for the sensitivity pass: each
+/// one's index, stages, e^{i q}, outline pieces, factorisation (copied:
+/// `Factors::copy_from`) and pivot ratio, so that the march takes DEFERRED
+/// steps and then the pass DEFERRED instants, each with its code in the
+/// caches, rather than the two in turn at every instant (the same figures:
+/// each instant's pass reads its own copies, to the bit).
+pub struct Deferred {
+    cap: usize,
+    n: usize,
+    m: usize,
+    levels: usize,
+    len: usize,
+    k: Vec<usize>,
+    x: Vec<f64>,
+    e: Vec<C64>,
+    pieces: Vec<Piece>,
+    kept: Vec<bool>,
+    f: Vec<Factors>,
+    pivot: Vec<f64>,
+}
+
+impl Deferred {
+    pub fn new(layout: &Layout, n: usize, m: usize, levels: usize) -> Self {
+        let cap = DEFERRED;
+        Deferred {
+            cap,
+            n,
+            m,
+            levels,
+            len: 0,
+            k: vec![0; cap],
+            x: vec![0.0; cap * levels * n],
+            e: vec![C64::new(0.0, 0.0); cap * n],
+            pieces: vec![Piece::default(); cap * m],
+            kept: vec![false; cap],
+            f: (0..cap).map(|_| layout.factors()).collect(),
+            pivot: vec![0.0; cap],
+        }
+    }
+
+    /// Keeps instant k (its stages x, as Instants::at takes them); true
+    /// when DEFERRED are kept (then `run`).
+    #[allow(clippy::too_many_arguments)]
+    pub fn push(
+        &mut self,
+        layout: &Layout,
+        k: usize,
+        x: &[&[f64]],
+        f: &Factors,
+        e: &[C64],
+        pieces: &[Piece],
+        pivot: f64,
+    ) -> bool {
+        let (i, n, m) = (self.len, self.n, self.m);
+        self.k[i] = k;
+        for (l, v) in x[..self.levels].iter().enumerate() {
+            self.x[(i * self.levels + l) * n..(i * self.levels + l + 1) * n].copy_from_slice(&v[..n]);
+        }
+        self.e[i * n..(i + 1) * n].copy_from_slice(&e[..n]);
+        self.kept[i] = !pieces.is_empty();
+        if !pieces.is_empty() {
+            self.pieces[i * m..(i + 1) * m].copy_from_slice(&pieces[..m]);
+        }
+        self.f[i].copy_from(f, layout);
+        self.pivot[i] = pivot;
+        self.len += 1;
+        self.len == self.cap
+    }
+
+    /// The kept instants' sensitivities (Instants::at) in the order kept:
+    /// instant k's row of `data` (width each) and its ratio; none kept after.
+    pub fn run(&mut self, at: &mut Instants, times: &[f64], data: &mut [f64], width: usize, ratio: &mut [f64]) {
+        let (n, m, levels) = (self.n, self.m, self.levels);
+        for i in 0..self.len {
+            let k = self.k[i];
+            let stage = |l: usize| &self.x[(i * levels + l) * n..(i * levels + l + 1) * n];
+            let x: [&[f64]; 3] = [stage(0), stage(levels.min(2) - 1), stage(levels - 1)];
+            let pieces = if self.kept[i] { &self.pieces[i * m..(i + 1) * m] } else { &[][..] };
+            let row = &mut data[k * width..(k + 1) * width];
+            let e = &self.e[i * n..(i + 1) * n];
+            ratio[k] = at.at(times[k], &x[..levels], e, pieces, &mut self.f[i], self.pivot[i], row);
+        }
+        self.len = 0;
+    }
+}
+
 /// Up to N parameters' model (Kin::seeded, a lane each) and the families
 /// their tables move: only those rows carry Phi_p and nu_p.
 struct Group<const N: usize> {

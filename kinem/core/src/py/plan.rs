@@ -260,15 +260,19 @@ impl Plan {
         let (end, why, least) = guard(py, move || {
             let mut at = crate::sensitivity::Instants::new(prepared, layout, stages)?;
             let watch = Watch::new(seconds, Some(&poll));
+            // the instants' sensitivities DEFERRED at a time, after as many march steps (Deferred)
+            let mut kept = crate::sensitivity::Deferred::new(layout, kin.n, kin.m, stages);
             let (end, why) = {
                 let mut hook =
                     |k: usize, s: &march::MarchState, f: &mut Factors, e: &[C64], pieces: &[Piece], pivot: f64| {
                         let x: [&[f64]; 3] = [&s.q, &s.qd, &s.qdd];
-                        let row = &mut data[k * width..(k + 1) * width];
-                        ratio[k] = at.at(times[k], &x[..stages], e, pieces, f, pivot, row);
+                        if kept.push(layout, k, &x[..stages], f, e, pieces, pivot) {
+                            kept.run(&mut at, times, data, width, ratio);
+                        }
                     };
                 march::run_hooked(kin, layout, times, 0, st, &settings, out, &watch, true, Some(&mut hook))
             };
+            kept.run(&mut at, times, data, width, ratio);
             // the least ratio of the instants taken, NaN where one is
             let least = ratio[..end.min(ratio.len())].iter().fold(f64::INFINITY, |a, &r| {
                 if a.is_nan() || r.is_nan() {
