@@ -1380,6 +1380,33 @@ mod tests {
         assert!(fixed >= 25, "the blocks' orders taken: {fixed} of 50");
     }
 
+    /// A factorisation copied into other factors (Factors::copy_from, as
+    /// `Deferred` keeps an instant's) solves and gives its pivots as the
+    /// original to the bit, the blocks' orders taken or the fallback's,
+    /// whatever the copy's storage held before.
+    #[test]
+    fn copied_factors_solve_as_the_originals_to_the_bit() {
+        let (rows, layout) = slider_layout();
+        let n = 12;
+        let mut next = random(11);
+        let (mut copy, mut kinds) = (layout.factors(), [0, 0]);
+        for _ in 0..60 {
+            let values: Vec<f64> = rows.iter().map(|&r| if r < 3 || r == 11 { 1.0 } else { next() }).collect();
+            let mut f = layout.factors();
+            layout.factor(&values, &mut f);
+            kinds[f.fixed[0].is_some() as usize] += 1;
+            copy.copy_from(&f, &layout);
+            let b: Vec<f64> = (0..n).map(|_| next()).collect();
+            let (mut x, mut y) = (vec![0.0; n], vec![0.0; n]);
+            layout.solve(&mut f, &b, &mut x);
+            layout.solve(&mut copy, &b, &mut y);
+            assert!(x.iter().zip(&y).all(|(u, v)| u.to_bits() == v.to_bits()));
+            let (p, q) = (layout.pivots(&f), layout.pivots(&copy));
+            assert!(p.0.to_bits() == q.0.to_bits() && (p.1, p.2) == (q.1, q.2));
+        }
+        assert!(kinds[0] > 0 && kinds[1] > 0, "both kinds of factorisation: {kinds:?}");
+    }
+
     /// A restricted solve (Program::reached, as `Reach` uses it): for right
     /// sides zero but at the rows of a random set, the reached places get
     /// the full solve's figures (but for the sign of a zero) and every
