@@ -271,6 +271,13 @@ impl<'a> Instants<'a> {
         each_width!(self, x => x.width())
     }
 
+    /// Whether every group's row is fixed (Reach's `fixed`: a shift): an
+    /// instant's pass is then a copy, and deferring it (`Deferred`) would
+    /// cost more than it is.
+    pub fn fixed(&self) -> bool {
+        each_width!(self, x => x.reach.iter().all(|r| r.fixed.is_some()))
+    }
+
     /// Lanewise::at.
     #[allow(clippy::too_many_arguments)]
     pub fn at(
@@ -313,8 +320,8 @@ pub struct Deferred {
 }
 
 impl Deferred {
-    pub fn new(layout: &Layout, n: usize, m: usize, levels: usize) -> Self {
-        let cap = DEFERRED;
+    /// Room for `cap` instants (DEFERRED; 0 where none are deferred).
+    pub fn new(layout: &Layout, n: usize, m: usize, levels: usize, cap: usize) -> Self {
         Deferred {
             cap,
             n,

@@ -260,13 +260,19 @@ impl Plan {
         let (end, why, least) = guard(py, move || {
             let mut at = crate::sensitivity::Instants::new(prepared, layout, stages)?;
             let watch = Watch::new(seconds, Some(&poll));
-            // the instants' sensitivities DEFERRED at a time, after as many march steps (Deferred)
-            let mut kept = crate::sensitivity::Deferred::new(layout, kin.n, kin.m, stages);
+            // the instants' sensitivities DEFERRED at a time, after as many march steps (Deferred),
+            // but where every row is fixed (then each instant's is a copy)
+            let defer = !at.fixed();
+            let cap = if defer { crate::sensitivity::DEFERRED } else { 0 };
+            let mut kept = crate::sensitivity::Deferred::new(layout, kin.n, kin.m, stages, cap);
             let (end, why) = {
                 let mut hook =
                     |k: usize, s: &march::MarchState, f: &mut Factors, e: &[C64], pieces: &[Piece], pivot: f64| {
                         let x: [&[f64]; 3] = [&s.q, &s.qd, &s.qdd];
-                        if kept.push(layout, k, &x[..stages], f, e, pieces, pivot) {
+                        if !defer {
+                            let row = &mut data[k * width..(k + 1) * width];
+                            ratio[k] = at.at(times[k], &x[..stages], e, pieces, f, pivot, row);
+                        } else if kept.push(layout, k, &x[..stages], f, e, pieces, pivot) {
                             kept.run(&mut at, times, data, width, ratio);
                         }
                     };
