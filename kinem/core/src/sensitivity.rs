@@ -338,6 +338,12 @@ impl Deferred {
         }
     }
 
+    /// Whether it has room for `cap` instants of `levels` stages (its
+    /// layout's: a set-up keeps one for its next call).
+    pub fn fits(&self, cap: usize, levels: usize) -> bool {
+        self.cap == cap && self.levels == levels && self.len == 0
+    }
+
     /// Keeps instant k (its stages x, as Instants::at takes them); true
     /// when DEFERRED are kept (then `run`).
     #[allow(clippy::too_many_arguments)]
