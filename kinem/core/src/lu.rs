@@ -102,27 +102,6 @@ pub struct Factors {
     pub signs_hold: bool,
 }
 
-impl Factors {
-    /// Another factorisation of `layout` copied into this one's storage
-    /// (the same layout's `factors`: no allocation), its work arrays not:
-    /// what a solve or `Layout::pivots` reads of it, to the bit. Where a
-    /// block-triangular layout's blocks were factorised (`fixed[0]`), only
-    /// their stored values (after the fallback's n x n) and pivots are read.
-    pub fn copy_from(&mut self, other: &Factors, layout: &Layout) {
-        self.fixed.copy_from_slice(&other.fixed);
-        self.zeros_hold = other.zeros_hold;
-        if let (Shape::Triangular(_), Some(_)) = (&layout.shape, &other.fixed[0]) {
-            let from = layout.n * layout.n;
-            self.j[from..].copy_from_slice(&other.j[from..]);
-            return;
-        }
-        self.j.copy_from_slice(&other.j);
-        self.piv.copy_from_slice(&other.piv);
-        self.rm.copy_from_slice(&other.rm);
-        self.cm.copy_from_slice(&other.cm);
-    }
-}
-
 impl Layout {
     /// Whether kin's exact zeros (Kin::zero_entries) cover the Jacobian
     /// entries this layout takes for zero (Factoring::zero_entries): then a

@@ -271,13 +271,6 @@ impl<'a> Instants<'a> {
         each_width!(self, x => x.width())
     }
 
-    /// Whether every group's row is fixed (Reach's `fixed`: a shift): an
-    /// instant's pass is then a copy, and deferring it (`Deferred`) would
-    /// cost more than it is.
-    pub fn fixed(&self) -> bool {
-        each_width!(self, x => x.reach.iter().all(|r| r.fixed.is_some()))
-    }
-
     /// Lanewise::at.
     #[allow(clippy::too_many_arguments)]
     pub fn at(
@@ -291,102 +284,6 @@ impl<'a> Instants<'a> {
         out: &mut [f64],
     ) -> f64 {
         each_width!(self, a => a.at(t, x, e, pieces, f, pivot, out))
-    }
-}
-
-/// How many accepted instants the fused pass keeps before it takes their
-/// sensitivities (`Deferred`).
-pub const DEFERRED: usize = 16;
-
-/// The march's accepted instants kept for the sensitivity pass: each
-/// one's index, stages, e^{i q}, outline pieces, factorisation (copied:
-/// `Factors::copy_from`) and pivot ratio, so that the march takes DEFERRED
-/// steps and then the pass DEFERRED instants, each with its code in the
-/// caches, rather than the two in turn at every instant (the same figures:
-/// each instant's pass reads its own copies, to the bit).
-pub struct Deferred {
-    cap: usize,
-    n: usize,
-    m: usize,
-    levels: usize,
-    len: usize,
-    k: Vec<usize>,
-    x: Vec<f64>,
-    e: Vec<C64>,
-    pieces: Vec<Piece>,
-    kept: Vec<bool>,
-    f: Vec<Factors>,
-    pivot: Vec<f64>,
-}
-
-impl Deferred {
-    /// Room for `cap` instants (DEFERRED; 0 where none are deferred).
-    pub fn new(layout: &Layout, n: usize, m: usize, levels: usize, cap: usize) -> Self {
-        Deferred {
-            cap,
-            n,
-            m,
-            levels,
-            len: 0,
-            k: vec![0; cap],
-            x: vec![0.0; cap * levels * n],
-            e: vec![C64::new(0.0, 0.0); cap * n],
-            pieces: vec![Piece::default(); cap * m],
-            kept: vec![false; cap],
-            f: (0..cap).map(|_| layout.factors()).collect(),
-            pivot: vec![0.0; cap],
-        }
-    }
-
-    /// Whether it has room for `cap` instants of `levels` stages (its
-    /// layout's: a set-up keeps one for its next call).
-    pub fn fits(&self, cap: usize, levels: usize) -> bool {
-        self.cap == cap && self.levels == levels && self.len == 0
-    }
-
-    /// Keeps instant k (its stages x, as Instants::at takes them); true
-    /// when DEFERRED are kept (then `run`).
-    #[allow(clippy::too_many_arguments)]
-    pub fn push(
-        &mut self,
-        layout: &Layout,
-        k: usize,
-        x: &[&[f64]],
-        f: &Factors,
-        e: &[C64],
-        pieces: &[Piece],
-        pivot: f64,
-    ) -> bool {
-        let (i, n, m) = (self.len, self.n, self.m);
-        self.k[i] = k;
-        for (l, v) in x[..self.levels].iter().enumerate() {
-            self.x[(i * self.levels + l) * n..(i * self.levels + l + 1) * n].copy_from_slice(&v[..n]);
-        }
-        self.e[i * n..(i + 1) * n].copy_from_slice(&e[..n]);
-        self.kept[i] = !pieces.is_empty();
-        if !pieces.is_empty() {
-            self.pieces[i * m..(i + 1) * m].copy_from_slice(&pieces[..m]);
-        }
-        self.f[i].copy_from(f, layout);
-        self.pivot[i] = pivot;
-        self.len += 1;
-        self.len == self.cap
-    }
-
-    /// The kept instants' sensitivities (Instants::at) in the order kept:
-    /// instant k's row of `data` (width each) and its ratio; none kept after.
-    pub fn run(&mut self, at: &mut Instants, times: &[f64], data: &mut [f64], width: usize, ratio: &mut [f64]) {
-        let (n, m, levels) = (self.n, self.m, self.levels);
-        for i in 0..self.len {
-            let k = self.k[i];
-            let stage = |l: usize| &self.x[(i * levels + l) * n..(i * levels + l + 1) * n];
-            let x: [&[f64]; 3] = [stage(0), stage(levels.min(2) - 1), stage(levels - 1)];
-            let pieces = if self.kept[i] { &self.pieces[i * m..(i + 1) * m] } else { &[][..] };
-            let row = &mut data[k * width..(k + 1) * width];
-            let e = &self.e[i * n..(i + 1) * n];
-            ratio[k] = at.at(times[k], &x[..levels], e, pieces, &mut self.f[i], self.pivot[i], row);
-        }
-        self.len = 0;
     }
 }
 
@@ -1417,33 +1314,6 @@ mod tests {
             }
         }
         assert!(fixed >= 25, "the blocks' orders taken: {fixed} of 50");
-    }
-
-    /// A factorisation copied into other factors (Factors::copy_from, as
-    /// `Deferred` keeps an instant's) solves and gives its pivots as the
-    /// original to the bit, the blocks' orders taken or the fallback's,
-    /// whatever the copy's storage held before.
-    #[test]
-    fn copied_factors_solve_as_the_originals_to_the_bit() {
-        let (rows, layout) = slider_layout();
-        let n = 12;
-        let mut next = random(11);
-        let (mut copy, mut kinds) = (layout.factors(), [0, 0]);
-        for _ in 0..60 {
-            let values: Vec<f64> = rows.iter().map(|&r| if r < 3 || r == 11 { 1.0 } else { next() }).collect();
-            let mut f = layout.factors();
-            layout.factor(&values, &mut f);
-            kinds[f.fixed[0].is_some() as usize] += 1;
-            copy.copy_from(&f, &layout);
-            let b: Vec<f64> = (0..n).map(|_| next()).collect();
-            let (mut x, mut y) = (vec![0.0; n], vec![0.0; n]);
-            layout.solve(&mut f, &b, &mut x);
-            layout.solve(&mut copy, &b, &mut y);
-            assert!(x.iter().zip(&y).all(|(u, v)| u.to_bits() == v.to_bits()));
-            let (p, q) = (layout.pivots(&f), layout.pivots(&copy));
-            assert!(p.0.to_bits() == q.0.to_bits() && (p.1, p.2) == (q.1, q.2));
-        }
-        assert!(kinds[0] > 0 && kinds[1] > 0, "both kinds of factorisation: {kinds:?}");
     }
 
     /// A restricted solve (Program::reached, as `Reach` uses it): for right

@@ -201,7 +201,7 @@ impl Plan {
         columns: SensColumns<'py>,
     ) -> PyResult<SensSetup> {
         let inputs = SensInputs::of(&self.kin, tables, tangents, pattern, columns)?;
-        Ok(SensSetup(guard(py, move || inputs.prepare())?, self.layout.clone(), std::sync::Mutex::new(None)))
+        Ok(SensSetup(guard(py, move || inputs.prepare())?, self.layout.clone()))
     }
 
     /// The march (`march`, from k = 0: assembled from the estimates in
@@ -260,31 +260,15 @@ impl Plan {
         let (end, why, least) = guard(py, move || {
             let mut at = crate::sensitivity::Instants::new(prepared, layout, stages)?;
             let watch = Watch::new(seconds, Some(&poll));
-            // the instants' sensitivities DEFERRED at a time, after as many march steps (Deferred),
-            // but where every row is fixed (then each instant's is a copy)
-            let defer = !at.fixed();
-            let cap = if defer { crate::sensitivity::DEFERRED } else { 0 };
-            // (the storage of the set-up's last call where it is free and fits, else new)
-            let spare = setup.2.try_lock().ok().and_then(|mut d| d.take()).filter(|d| d.fits(cap, stages));
-            let mut kept =
-                spare.unwrap_or_else(|| crate::sensitivity::Deferred::new(layout, kin.n, kin.m, stages, cap));
             let (end, why) = {
                 let mut hook =
                     |k: usize, s: &march::MarchState, f: &mut Factors, e: &[C64], pieces: &[Piece], pivot: f64| {
                         let x: [&[f64]; 3] = [&s.q, &s.qd, &s.qdd];
-                        if !defer {
-                            let row = &mut data[k * width..(k + 1) * width];
-                            ratio[k] = at.at(times[k], &x[..stages], e, pieces, f, pivot, row);
-                        } else if kept.push(layout, k, &x[..stages], f, e, pieces, pivot) {
-                            kept.run(&mut at, times, data, width, ratio);
-                        }
+                        let row = &mut data[k * width..(k + 1) * width];
+                        ratio[k] = at.at(times[k], &x[..stages], e, pieces, f, pivot, row);
                     };
                 march::run_hooked(kin, layout, times, 0, st, &settings, out, &watch, true, Some(&mut hook))
             };
-            kept.run(&mut at, times, data, width, ratio);
-            if let Ok(mut d) = setup.2.try_lock() {
-                *d = Some(kept);
-            }
             // the least ratio of the instants taken, NaN where one is
             let least = ratio[..end.min(ratio.len())].iter().fold(f64::INFINITY, |a, &r| {
                 if a.is_nan() || r.is_nan() {
@@ -745,9 +729,4 @@ impl SensInputs {
 /// crate::sensitivity::Prepared) and the layout of the plan that made it:
 /// read by that plan's march_sensitivity alone.
 #[pyclass(frozen, module = "kinem._core")]
-pub struct SensSetup(
-    crate::sensitivity::Prepared,
-    Arc<crate::lu::Layout>,
-    /// the last call's deferred instants' storage (crate::sensitivity::Deferred), for the next
-    std::sync::Mutex<Option<crate::sensitivity::Deferred>>,
-);
+pub struct SensSetup(crate::sensitivity::Prepared, Arc<crate::lu::Layout>);
