@@ -107,7 +107,7 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
             raise KinemError(f"{case.source}: sensitivities need the compiled march's layout, which this model "
                              "has not") from None
         call = kept.calls[tuple(paths)] = kept.call(model, listed)
-    plan, listed, tangents = model.plan, call.listed, call.tangents
+    plan, listed = model.plan, call.listed
     # the fused pass's (three levels) columns and the derivatives' names made before its march, as
     # solve's trajectory is (Python's caches are cold after a long core march)
     named = call.named(model, 3)
