@@ -2,9 +2,9 @@
 extension kinem._core): the one place the rest of kinem imports it from."""
 from enum import IntEnum
 
-from kinem._core import (CORES, KAPPA, KINDS, MAX_STEP, MODES, POLISH, REGULAR, SINGULAR, THREADS,  # noqa: F401
-                         WHY, Core, Lu, MarchState, Outcome, Plan, columns, functions, increasing, outline_radius, settle,
-                         step)
+from ._core import (CORES, KAPPA, KINDS, MAX_STEP, MODES, POLISH, REGULAR, SINGULAR, THREADS,  # noqa: F401
+                    WHY, Core, Lu, MarchState, Outcome, Plan, columns, functions, increasing, outline_radius, settle,
+                    step)
 
 
 class Why(IntEnum):
