@@ -57,3 +57,22 @@ def test_issue23_peers_section_runs(tmp_path):
     for t in res["targets"]:
         assert isinstance(t["met"], bool) and t["figure"] and t["goal"] > 0
     assert "issue 23 targets" in p.stdout
+
+
+def test_paired_runs_both_ways_on_one_tree():
+    """benchmarks/paired.py pairs two builds in one process: run A/A (this
+    tree twice, each copy on its own core) in both modes, for one case each.
+    The copies go to a temporary folder: the benchmarks and the package gain no file (but bytecode,
+    which other tests' imports may write meanwhile)."""
+    def files():
+        return sorted(p for d in ("benchmarks", "kinem") for p in (ROOT / d).rglob("*")
+                      if "target" not in p.parts and "__pycache__" not in p.parts)
+
+    before = files()
+    for what, case in (("march", "four_bar"), ("sensitivity", "slider_crank")):
+        p = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "paired.py"), str(ROOT), "--what", what,
+                            "--pairs", "2", "--cases", case], cwd=ROOT, capture_output=True, text=True, timeout=300)
+        assert p.returncode == 0, p.stderr[-3000:]
+        lines = [x for x in p.stdout.splitlines() if x.startswith(case)]
+        assert len(lines) == 1 and "B / A - 1" in lines[0], p.stdout
+    assert files() == before
