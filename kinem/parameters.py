@@ -39,7 +39,7 @@ import warnings
 from dataclasses import dataclass
 
 from . import functions as fn
-from .casefile.checks import number, suggest
+from .casefile.checks import number, show, suggest
 from .constraints import REGISTRY
 from .constraints.read import constraint_id
 from .errors import InputError, KinemWarning
@@ -127,21 +127,33 @@ def tolerances_of(case, given=None) -> tuple:
     for path, v in raw.items():
         pm, sigma = (v.get("pm"), v.get("sigma")) if hasattr(v, "items") else (v, None)
         where = f"{case.source}: [tolerances]: key '{path}'"
-        if not isinstance(pm, (int, float)) or isinstance(pm, bool) or not 0 < pm < float("inf"):
-            problems.append(f"{where}: got {v!r}; expected a positive number or {{ pm = ..., sigma = ... }}")
+        pm, given_sigma, sigma = _real(pm), sigma, _real(sigma)
+        if pm is None or not 0 < pm < math.inf:
+            problems.append(f"{where}: got {show(v)}; expected a positive number or {{ pm = ..., sigma = ... }}")
             continue
-        if sigma is not None and (not isinstance(sigma, (int, float)) or isinstance(sigma, bool) or not sigma > 0):
-            problems.append(f"{where}: sigma {sigma!r}; expected a positive number")
+        if given_sigma is not None and (sigma is None or not 0 < sigma < math.inf):
+            problems.append(f"{where}: sigma {show(given_sigma)}; expected a positive number")
             continue
         p = listed[path]
         if p.unit == case.length_unit and pm >= size:
             problems.append(f"{where}: +-{pm:g} {p.unit} is not smaller than the mechanism "
                             f"(its size {size:g} {p.unit}); expected a manufacturing tolerance, far below a link")
             continue
-        out.append(Tolerance(path, float(pm), None if sigma is None else float(sigma)))
+        out.append(Tolerance(path, pm, sigma))
     if problems:
         raise InputError(problems)
     return tuple(out)
+
+
+def _real(v) -> float | None:
+    """v as a float: a number (not a bool) a float holds; else None (a
+    whole number beyond a float's range, a text, a table)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return None
+    try:
+        return float(v)
+    except OverflowError:
+        return None
 
 
 def apply(case: Case, values, source: str | None = None) -> Case:

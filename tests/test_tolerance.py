@@ -60,6 +60,25 @@ def test_bad_tolerances_are_refused_naming_them():
         tolerance(model, {"points.A.at.0": 0.5})
     with pytest.raises(kinem.InputError, match="expected a positive number"):
         tolerance(model, {"points.A.at.0": -1.0})
+    # numbers no float holds, and sigmas that are not finite and positive (found by the fuzz test's
+    # random profile: a 400-digit tolerance was an internal error)
+    for bad in (9 * 10 ** 400, float("nan"), float("inf"), {"pm": 1e-4, "sigma": 3 * 10 ** 400},
+                {"pm": 1e-4, "sigma": float("inf")}, {"pm": 1e-4, "sigma": float("nan")}, {"pm": 1e-4, "sigma": 0}):
+        with pytest.raises(kinem.InputError, match=r"points\.A\.at\.0.*expected a positive number"):
+            tolerance(model, {"points.A.at.0": bad})
+
+
+def test_a_tolerance_beyond_a_float_in_the_file_is_bad_input(tmp_path):
+    """kinem info on a case whose [tolerances] holds a 400-digit number or sigma: exit 2, one line naming
+    the file and the key (it was an internal error, exit 3)."""
+    text = (ROOT / "cases" / "four_bar.toml").read_text()
+    for old, new in (('"points.A.at.0" = 0.0001', '"points.A.at.0" = 9' + "0" * 400),
+                     ("sigma = 0.00003", "sigma = 3" + "0" * 400)):
+        bad = tmp_path / "bad.toml"
+        bad.write_text(text.replace(old, new))
+        r = subprocess.run([sys.executable, "-m", "kinem", "info", str(bad)], capture_output=True, text=True)
+        assert r.returncode == 2 and str(bad) in r.stderr and "[tolerances]" in r.stderr, r.stderr
+        assert len(r.stderr.strip().splitlines()) == 1 and len(r.stderr) < 400
 
 
 def test_case_file_section_and_cli(tmp_path):
