@@ -413,3 +413,55 @@ fn negated_pivots_solve_as_the_divisions_and_a_moved_one_is_refused() {
         "{negated} layouts negating, {equal} solves ({steps} with negated steps), {refused} refused"
     );
 }
+
+/// The constants placed once (Layout::place_once: entries never written
+/// again, at places nothing else writes): every factorisation after it
+/// gives the factors of one that places every entry, to the bit (the whole
+/// storage, tolerance 0), over values that move but for those entries,
+/// and after a factorisation that fell back to partial pivoting (a zero
+/// pivot: the fallback writes over the places), whose next one places
+/// every entry again.
+#[test]
+fn constants_placed_once_factorise_as_every_placement() {
+    let mut rng = Rng(0x510e_527f_ade6_82d1);
+    let (mut once, mut compared, mut fell) = (0, 0, 0);
+    for trial in 0..300 {
+        let n = 2 + rng.below(15) as usize;
+        let (mut layout, rows, _) = random_layout(n, &mut rng);
+        let constant: Vec<bool> = rows.iter().map(|_| rng.below(2) == 0).collect();
+        let (still, none) = (vec![false; n], vec![false; rows.len()]);
+        if !super::triangulate_zero(&mut layout, &constant, &constant, &none, &still, &none) {
+            continue;
+        }
+        let Shape::Triangular(t) = &layout.shape else { panic!("trial {trial}: not triangular") };
+        let kept: Vec<bool> = rows.iter().map(|_| rng.below(2) == 0).collect();
+        let draw = |rng: &mut Rng| rng.unit() + if rng.below(2) == 0 { 2.0 } else { -2.0 };
+        let mut values: Vec<f64> = rows.iter().map(|_| draw(&mut rng)).collect();
+        let (mut f, mut plain) = (layout.factors(), layout.factors());
+        layout.place_once(&values, &kept, &mut f);
+        once += f.once as usize;
+        assert!(f.once == f.placed && (!f.once || f.again.len() < t.factoring.place.len()), "trial {trial}");
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        // a pivot placed from an entry that is not kept (zero: the fallback's)
+        let pivot = (t.factoring.place.iter()).find(|p| t.factoring.diag.contains(&p[1]) && !kept[p[0] as usize]);
+        for round in 0..4 {
+            for e in (0..values.len()).filter(|&e| !kept[e]) {
+                values[e] = draw(&mut rng);
+            }
+            let fall = round == 1 && pivot.is_some();
+            if fall {
+                values[pivot.unwrap()[0] as usize] = 0.0;
+            }
+            layout.factor(&values, &mut f);
+            layout.factor(&values, &mut plain);
+            assert_eq!(f.fixed[0].is_some(), plain.fixed[0].is_some(), "trial {trial}");
+            if f.fixed[0].is_none() {
+                assert!(!f.placed, "trial {trial}: the constants taken for placed after a fallback");
+                fell += 1;
+            }
+            assert_eq!(bits(&f.j), bits(&plain.j), "trial {trial} round {round}: the factors differ");
+            compared += 1;
+        }
+    }
+    assert!(once >= 100 && compared >= 600 && fell >= 50, "{once} placed once, {compared} compared, {fell} fallbacks");
+}

@@ -100,6 +100,14 @@ pub struct Factors {
     /// entries Kin::jac_over never writes); false (made so): each
     /// factorisation checks them
     pub signs_hold: bool,
+    /// the placements of a factorisation where the march's constant entries
+    /// were placed once (`Layout::place_once`): the others, in order
+    pub again: Vec<[u32; 2]>,
+    /// `again` stands for every placement (the constants placed once)
+    pub once: bool,
+    /// the constants placed once are in j (a factorisation with partial
+    /// pivoting overwrites them: the next one places every entry)
+    pub placed: bool,
 }
 
 impl Layout {
@@ -123,6 +131,33 @@ impl Layout {
         f.one_entries.iter().all(|&e| holds(e, 1.0)) && f.minus_entries.iter().all(|&e| holds(e, -1.0))
     }
 
+    /// Places the Jacobian's constant entries (`kept`: never written again
+    /// into `values`, Kin::over_kept) into f's factors once, where nothing
+    /// else writes their places (Factoring::place_free); f's factorisations
+    /// then place only the others (Factors::again), the same figures.
+    pub fn place_once(&self, values: &[f64], kept: &[bool], f: &mut Factors) {
+        let Shape::Triangular(t) = &self.shape else { return };
+        let p = &t.factoring;
+        let once = |k: usize, e: u32| p.place_free[k] && kept.get(e as usize) == Some(&true);
+        let mut again = Vec::with_capacity(p.place.len());
+        for (k, &[e, at]) in p.place.iter().enumerate() {
+            if once(k, e) {
+                f.j[at as usize] = values[e as usize];
+            } else {
+                again.push([e, at]);
+            }
+        }
+        if again.len() < p.place.len() {
+            (f.again, f.once, f.placed) = (again, true, true);
+        }
+    }
+
+    /// Every placement at each factorisation again (`place_once` undone).
+    pub fn place_every(&self, f: &mut Factors) {
+        (f.once, f.placed) = (false, false);
+        f.again.clear();
+    }
+
     pub fn factors(&self) -> Factors {
         let per = match &self.shape {
             Shape::Blocks { size, .. } => *size,
@@ -140,6 +175,9 @@ impl Layout {
                     y: Vec::new(),
                     zeros_hold: false,
                     signs_hold: false,
+                    again: Vec::new(),
+                    once: false,
+                    placed: false,
                 };
             }
         };
@@ -153,6 +191,9 @@ impl Layout {
             y: vec![0.0; per.max(1)],
             zeros_hold: false,
             signs_hold: false,
+            again: Vec::new(),
+            once: false,
+            placed: false,
         }
     }
 

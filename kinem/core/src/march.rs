@@ -126,6 +126,8 @@ impl<'a> Native<'a> {
         f.zeros_hold = layout.zeros_hold(kin);
         // its folded and negated pivots' entries: constants of its values, never written again
         f.signs_hold = layout.signs_hold(&values, kin.over_kept());
+        // and its constant entries placed once, where nothing else writes their places
+        layout.place_once(&values, kin.over_kept(), &mut f);
         let mut nu = vec![0.0; kin.m];
         if kin.nu_fixed {
             kin.nu_over(0.0, &mut nu);
@@ -454,6 +456,7 @@ pub fn run_rows(
         ops.pieces = vec![Piece::default(); kin.m];
         // Kin::jac_over_keeping writes every entry of its other families (their constants again)
         ops.f.signs_hold = false;
+        layout.place_every(&mut ops.f);
     }
     let mut result = (times.len(), Why::Accepted);
     let (mut next, mut looks) = (Instant::now(), Looks::new());

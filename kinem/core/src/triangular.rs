@@ -367,6 +367,10 @@ pub struct Factoring {
     pub ones_big: f64,
     pub values: usize,
     pub entries: usize,
+    /// per placement (`place`): its place is written by no other placement,
+    /// clear, step, multiplier, update or reciprocal, so that a constant
+    /// entry placed there once stays (`Layout::place_once`)
+    pub place_free: Vec<bool>,
 }
 
 impl Factoring {
@@ -428,23 +432,33 @@ impl Factoring {
     /// `mult_scale` (the caller's check against MULTIPLIER).
     #[inline]
     pub fn eliminate<S: Real>(&self, values: &[S], a: &mut [S], multiplier: impl FnMut(S, f64)) {
-        self.eliminate_as::<false, S>(values, a, multiplier)
+        self.eliminate_as::<false, S>(values, &self.place, a, multiplier)
     }
 
     /// `eliminate`; where NEG (`run`, whose checks take every pivot under
     /// `NEGATE` for -1), a step's 1 / pivot there is -1 without the division
     /// (1 / -1 to the bit). Every step's and pivot's reciprocal is kept
     /// for the solve (`Program`).
+    /// `place`: `self.place`, or the placements left where the others' constants
+    /// are in a already (Factors::again: a sublist of it, in its order).
     #[inline(always)]
-    fn eliminate_as<const NEG: bool, S: Real>(&self, values: &[S], a: &mut [S], mut multiplier: impl FnMut(S, f64)) {
+    fn eliminate_as<const NEG: bool, S: Real>(
+        &self,
+        values: &[S],
+        place: &[[u32; 2]],
+        a: &mut [S],
+        mut multiplier: impl FnMut(S, f64),
+    ) {
         assert!(a.len() >= self.values && values.len() >= self.entries);
+        assert!(place.len() <= self.place.len());
         debug_assert!(self.check().is_ok());
+        debug_assert!(place.iter().all(|x| self.place.contains(x)));
         // SAFETY (every unchecked index below): Factoring::check when built, and the lengths asserted above
         unsafe {
             for &at in &self.clear {
                 *a.get_unchecked_mut(at as usize) = S::zero();
             }
-            for &[e, at] in &self.place {
+            for &[e, at] in place {
                 *a.get_unchecked_mut(at as usize) = *values.get_unchecked(e as usize);
             }
             let (mut m0, mut p0) = (0usize, 0usize);
@@ -482,16 +496,25 @@ impl Factoring {
     /// exactly -1, or an entry taken for zero that is not (checked where
     /// `zeros`: the values' Kin may not have those zeros). The steps on a
     /// negated pivot take 1 / -1 without the division (`NEGATE`).
+    /// `place`: as `eliminate_as`'s.
     #[inline]
-    pub fn run(&self, values: &[f64], a: &mut [f64], sign: i32, zeros: bool, signs: bool) -> Option<Pivots> {
+    pub fn run(
+        &self,
+        values: &[f64],
+        place: &[[u32; 2]],
+        a: &mut [f64],
+        sign: i32,
+        zeros: bool,
+        signs: bool,
+    ) -> Option<Pivots> {
         let mut ok = true;
         // false for a zero or non-finite pivot too
         let check = |l: f64, scale: f64| ok &= (l * scale).abs() <= MULTIPLIER;
         // the loop with the steps' negation test only where a step is negated (the others' loop is as before)
         if self.negated_steps {
-            self.eliminate_as::<true, f64>(values, a, check);
+            self.eliminate_as::<true, f64>(values, place, a, check);
         } else {
-            self.eliminate_as::<false, f64>(values, a, check);
+            self.eliminate_as::<false, f64>(values, place, a, check);
         }
         // SAFETY (every unchecked index below): Factoring::check when built, and eliminate's asserted lengths
         unsafe {
@@ -723,6 +746,20 @@ impl Triangular {
             big = big.max(x);
         }
         (f.ones_small, f.ones_big, f.first_one) = (small, big, first as u32);
+        // the places written by anything but one placement
+        let mut writes = vec![0u32; f.values];
+        let places = f.place.iter().map(|p| p[1]);
+        let steps = f.steps.iter().map(|s| s[2]);
+        let mults = f.mults.iter().map(|m| m[0]);
+        let pairs = f.pairs.iter().map(|p| p[0]);
+        let recips = f.recips.iter().map(|r| r[1]);
+        let others = f.clear.iter().chain(&f.ones).chain(&f.minus_recips).copied();
+        for at in places.chain(steps).chain(mults).chain(pairs).chain(recips).chain(others) {
+            if let Some(w) = writes.get_mut(at as usize) {
+                *w += 1;
+            }
+        }
+        f.place_free = f.place.iter().map(|p| writes.get(p[1] as usize) == Some(&1)).collect();
         f.check()?;
         Ok(f)
     }
@@ -738,6 +775,8 @@ impl Triangular {
         if f.fixed[0].is_some() {
             return;
         }
+        // the whole matrix's factors overwrite the constants placed once (Factors::placed)
+        f.placed = false;
         let n = self.gather.len();
         let a = &mut f.j[..n * n];
         a.fill(0.0);
@@ -753,8 +792,19 @@ impl Triangular {
         masked_factor(a, n, &mut f.piv, &mut f.rm, &mut f.cm);
     }
 
+    /// Every placement, or where the constants placed once are in the
+    /// factors (Factors::placed) the others (Factors::again).
+    #[inline(always)]
     fn blocks_factor(&self, values: &[f64], f: &mut Factors) -> Option<Pivots> {
-        self.factoring.run(values, &mut f.j, self.sign, !f.zeros_hold, !f.signs_hold)
+        let Factors { j, again, once, placed, zeros_hold, signs_hold, .. } = f;
+        let place = if *placed {
+            &again[..]
+        } else {
+            // every placement: the constants are in place again for the next
+            *placed = *once;
+            &self.factoring.place[..]
+        };
+        self.factoring.run(values, place, j, self.sign, !*zeros_hold, !*signs_hold)
     }
 
     /// x = Phi_q^-1 b (model rows in, coordinates out); scale, col_scale:
