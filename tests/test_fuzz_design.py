@@ -22,7 +22,7 @@ import pytest
 from hypothesis import given, strategies as st
 
 import kinem
-from kinem.errors import KinemError
+from kinem.errors import MAX_LINE, KinemError
 from kinem.tolerance import MAX_SAMPLES, tolerance
 from test_fuzz import INVALID, ODD, budget, document, get, paths, run_main
 
@@ -93,8 +93,9 @@ def arguments(command, draw):
              "0.05:0.06:100001", ":1:2", "1::2"]))), max_size=2))
         out = [x for name, v in sets for x in ("--set", f"{name}={v}")]
         return out + ["--outputs", draw(st.sampled_from(["B.x", "B.x,rocker.phi", "", "nope", ",", "t"]))]
-    sets = draw(st.lists(st.tuples(path, text), max_size=2))   # solve, info
-    return [x for name, v in sets for x in ("--set", f"{name}={v}")] + (steps if command == "solve" else [])
+    sets = draw(st.lists(st.tuples(path, text), max_size=2))   # solve, info (its listing of the parameters too)
+    out = [x for name, v in sets for x in ("--set", f"{name}={v}")]
+    return out + (steps if command == "solve" else ["--parameters"] if draw(st.booleans()) else [])
 
 
 def run(tmp_path, command, text, args):
@@ -162,7 +163,8 @@ def calm(call):
         try:
             call()
         except KinemError as e:
-            assert str(e) and "\n" not in str(e) and len(str(e)) <= 600, repr(str(e))
+            # one line of at most InputError.SHOWN problems of at most MAX_LINE characters each
+            assert str(e) and "\n" not in str(e) and len(str(e)) <= 4 * MAX_LINE, repr(str(e))
 
 
 def samples_of(draw):
