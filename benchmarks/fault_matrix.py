@@ -91,7 +91,8 @@ def fuzz(n, rng, problems):
                 why.append(f"exit {code}")
             if "Traceback" in e or "internal error" in e:
                 why.append("traceback or internal error")
-            if code in (1, 2) and (len(e.splitlines()) != 1 or not e.startswith("kinem: ")):
+            lines = [line for line in e.splitlines() if not line.startswith("kinem: warning: ")]  # warnings: own lines
+            if code in (1, 2) and (len(lines) != 1 or not lines[0].startswith("kinem: ")):
                 why.append("not one line")
             if took > LIMIT_S:
                 why.append(f"took {took:.0f} s")

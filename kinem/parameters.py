@@ -115,6 +115,8 @@ def tolerances_of(case, given=None) -> tuple:
     """The Tolerances of a case's [tolerances] section (or ``given``: {path:
     pm or {pm, sigma}}), checked: known paths, pm > 0, 0 < sigma, a length
     tolerance below the mechanism's size."""
+    if given is not None and not hasattr(given, "items"):
+        raise InputError(f"{case.source}: tolerances {given!r:.80}: expected a dict {{path: pm or {{pm, sigma}}}}")
     raw = dict(case.tolerances if given is None else given)
     if not raw:
         raise InputError(f"{case.source}: no tolerances; expected a [tolerances] section "
@@ -160,6 +162,9 @@ def apply(case: Case, values, source: str | None = None) -> Case:
     """A new Case with ``values`` ({path or named dimension: number, or its
     text}) set, validated as a case file is (a value out of its key's range
     is that key's InputError)."""
+    if not hasattr(values, "items"):
+        raise InputError(f"{source or case.source}: parameters {values!r:.80}: expected a dict {{name or design "
+                         "parameter path: value}}")
     variant = apply_many(case, [values], source)[0]
     if isinstance(variant, InputError):
         raise variant

@@ -31,7 +31,7 @@ reported as inf, flagged in ``singular`` and named in ``message``.
 import math
 import time
 import weakref
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -92,7 +92,11 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     options = model.options if options is None else options
     if isinstance(options, Options) and options.max_seconds is not None and options.started is None:
         options = replace(options, started=time.perf_counter())   # the time limit holds for the whole call
-    paths = [parameters] if isinstance(parameters, str) else list(parameters)
+    paths = [parameters] if isinstance(parameters, str) else list(parameters) if isinstance(parameters, Iterable) \
+        else None
+    if paths is None or not all(isinstance(p, str) for p in paths):
+        raise InputError(f"{case.source}: sensitivity: parameters {parameters!r:.80}: expected a parameter path "
+                         "or a list of parameter paths (kinem.parameters(case) lists them)")
     if not paths:
         raise InputError(f"{case.source}: sensitivity: no parameters; expected one or more parameter paths")
     kept = _kept(model)

@@ -15,6 +15,7 @@ input: a value that makes a radius negative) is that variant's row and not
 the others'.
 """
 import itertools
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -96,10 +97,17 @@ class Sweep:
 
 def grid(values: dict):
     """(names, values (variants, names)): every combination of the values given per name."""
+    if not isinstance(values, dict):
+        raise InputError(f"sweep: values {values!r:.80}: expected a dict {{named dimension or design parameter "
+                         "path: numbers}}")
     names = tuple(values)
     lists = []
     for n in names:
-        v = np.atleast_1d(np.asarray(values[n], dtype=float))
+        try:   # (not a text, a table, a ragged list, a number no float holds, booleans)
+            raw = np.asarray(values[n])
+            v = np.atleast_1d(raw.astype(float)) if raw.dtype != bool else np.array([np.nan])
+        except (TypeError, ValueError, OverflowError):
+            v = np.array([np.nan])
         if v.ndim != 1 or not len(v) or not np.isfinite(v).all():
             raise InputError(f"sweep: parameter {n!r}: expected one or more finite numbers")
         lists.append(v)
@@ -182,7 +190,10 @@ def _columns(model, outputs) -> tuple:
     names = _layout(model, 3)[0]
     if outputs is None:
         return tuple(names)
-    outputs = tuple(dict.fromkeys(outputs))
+    given = (outputs,) if isinstance(outputs, str) else list(outputs) if isinstance(outputs, Iterable) else None
+    if given is None or not all(isinstance(c, str) for c in given):
+        raise InputError(f"--outputs: got {outputs!r:.80}; expected trajectory column names such as B.x")
+    outputs = tuple(dict.fromkeys(given))
     for c in outputs:
         if c not in names:
             guess = suggest(c, names)
@@ -222,7 +233,8 @@ def parse_values(item: str):
             n = int(count)
             if not 1 <= n <= MAX_VARIANTS:
                 raise ValueError
-            values = np.linspace(float(start), float(stop), n)
+            with np.errstate(all="ignore"):   # ends beyond a float: refused below, without numpy's warning
+                values = np.linspace(float(start), float(stop), n)
         else:
             values = np.array([float(x) for x in text.split(",")])
     except ValueError:

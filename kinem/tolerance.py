@@ -16,6 +16,8 @@ For each chosen output column C at every instant:
 The derivatives are kinem.sensitivity's (exact). Seeded: the same seed gives
 the same samples.
 """
+import numbers
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -59,10 +61,19 @@ def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progre
     cases, ``chunk`` at a time (default CHUNK). ``chunk`` 1: one by one, no
     threads: for a forked worker process, where a thread pool cannot run."""
     case = model.case
+    for key, v, most in (("samples", samples, MAX_SAMPLES), ("seed", seed, None)):
+        if isinstance(v, bool) or not isinstance(v, numbers.Integral) or v < 0 or (most is not None and v > most):
+            raise InputError(f"{case.source}: tolerance: {key} {v!r:.80}: expected a whole number from 0"
+                             + (f" to {most:,}" if most is not None else ""))
+    given = (outputs,) if isinstance(outputs, str) else () if outputs is None else \
+        tuple(outputs) if isinstance(outputs, Iterable) else None
+    if given is None or not all(isinstance(c, str) for c in given):
+        raise InputError(f"{case.source}: tolerance: outputs {outputs!r:.80}: expected a list of the trajectory's "
+                         "column names (such as B.x)")
     tols = tolerances_of(case, tolerances)
     sens = sensitivity(model, [t.path for t in tols], outputs=("positions", "velocities", "accelerations"))
     nominal = sens.trajectory
-    outputs = tuple(outputs) if outputs else tuple(c for p in case.points for c in (f"{p.name}.x", f"{p.name}.y"))
+    outputs = given or tuple(c for p in case.points for c in (f"{p.name}.x", f"{p.name}.y"))
     unknown = [c for c in outputs if c not in nominal]
     if unknown:
         raise InputError(f"{case.source}: --outputs: unknown column {unknown[0]!r}; expected columns of the "
@@ -149,6 +160,7 @@ def _bands(lo, hi, accepted, rejected):
     return lo, hi, rejected
 
 
+MAX_SAMPLES = 1_000_000   # Monte Carlo samples of one call (10,000 of the four-bar take about 1 s)
 CHUNK = 128   # samples solved as one merged batch (kinem.batch)
 BATCH = 4096  # samples solved as one batch of variants (kinem.variants)
 

@@ -29,6 +29,7 @@ the nominal's first state, a chunk that fails halved until each failing
 variant is solved alone); ``merged`` says so.
 """
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -198,9 +199,10 @@ def _values(case, parameters, to_path):
     paths, columns = [], []
     for key, v in parameters.items():
         paths.append(to_path(case, key, case.source))
-        try:
-            a = np.asarray(v, dtype=float)
-        except (TypeError, ValueError):
+        try:   # (booleans are not numbers; nor is a number no float holds)
+            a = np.asarray(v)
+            a = a.astype(float) if a.dtype != bool else None
+        except (TypeError, ValueError, OverflowError):
             a = None
         if a is None or a.ndim != 1 or not len(a) or not np.isfinite(a).all():
             raise InputError(f"{case.source}: solve: parameter {key!r}: expected a 1-D sequence of one or more "
@@ -221,6 +223,9 @@ def _asked(model, outputs):
     (every column of them) or column names."""
     from .casefile.checks import suggest
 
+    if not isinstance(outputs, (str, Iterable)):
+        raise InputError(f"{model.case.source}: solve: outputs {outputs!r:.80}: expected stages (positions, "
+                         "velocities, accelerations) or trajectory column names such as B.x")
     outputs = (outputs,) if isinstance(outputs, str) else tuple(outputs)
     if outputs and all(o in OUTPUTS for o in outputs):
         stages = max(OUTPUTS.index(o) for o in outputs) + 1

@@ -10,6 +10,7 @@ import io
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 import tomllib
@@ -190,19 +191,28 @@ def check(tmp_path, text, must_be_invalid, command="info", options=("--steps", "
     assert not left, left  # no temporary file left behind
 
 
-def run_main(args):
-    """kinem.cli.main in-process; asserts the contract every run keeps."""
+NOTES = re.compile(r"\S+: the Monte Carlo band leaves the worst-case linear band by at most |"
+                   r"kinem: \d+ of \d+ samples not on the nominal's branch")   # kinem tolerance's own lines
+
+
+def run_main(args, notes=False):
+    """kinem.cli.main in-process; asserts the contract every run keeps
+    (``notes``: kinem tolerance's lines on standard error, NOTES, allowed)."""
     buf = io.StringIO()
     with contextlib.redirect_stderr(buf), contextlib.redirect_stdout(io.StringIO()):
         code = main(args)
     err = buf.getvalue()
     assert code in (0, 1, 2), err
     assert "Traceback" not in err and "internal error" not in err, err
+    # a warning (valid input that looks like a mistake: a fast driver) is one line of its own
+    # (docs/case-format.md); besides the warnings, one line for 1 and 2, none for 0
+    lines = [line for line in err.splitlines()
+             if not line.startswith("kinem: warning: ") and not (notes and NOTES.match(line))]
     if code in (1, 2):
-        assert len(err.splitlines()) == 1 and err.startswith("kinem: "), err
+        assert len(lines) == 1 and lines[0].startswith("kinem: ") and err.endswith("\n"), err
     else:
-        assert err == "", err
-    return code, err
+        assert not lines, err
+    return code, lines[0] if lines else ""
 
 
 OPTION_VALUES = ["3", "1", "0", "-1", "2.5", "1e8", "1e7", "inf", "-inf", "nan", "1e300", "1e-300", "x", "",

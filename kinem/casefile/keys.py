@@ -79,10 +79,14 @@ class LocalKey(Key):
     def parse(self, ck, where, v, scope):
         body = scope.table.get(self.of)
         if isinstance(v, str):
-            carries = dict(scope.bodies[body].carries) if body in scope.bodies else {}
+            known = isinstance(body, str) and body in scope.bodies   # (a bad body: key `of`'s problem, reported)
+            carries = dict(scope.bodies[body].carries) if known else {}
             if v in carries:   # a point drawn in the global frame that the body carries (kinem.casefile.drawn)
                 return carries[v]
             if ck.choice(where, self.name, v, scope.points, "point") is None:
+                return None
+            if not known:
+                ck.knock_on()
                 return None
             if scope.points[v].body != body:
                 ck.bad(where, self.name, f"point '{v}' is on body '{scope.points[v].body}', not on '{body}'",

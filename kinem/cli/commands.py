@@ -86,8 +86,12 @@ def cmd_sensitivity(a):
 
 def cmd_tolerance(a):
     from ..output import write_trajectory
-    from ..tolerance import tolerance
+    from ..tolerance import MAX_SAMPLES, tolerance
 
+    if not 0 <= a.samples <= MAX_SAMPLES:
+        raise InputError(f"--samples: got {a.samples}; expected a whole number from 0 to {MAX_SAMPLES:,}")
+    if a.seed < 0:
+        raise InputError(f"--seed: got {a.seed}; expected a whole number, 0 or more")
     fmt = file_format(a.out, a.format)
     model = load_model(a.case, a.end, a.steps)
     outputs = [c.strip() for c in a.outputs.split(",") if c.strip()] if a.outputs else None

@@ -1,0 +1,278 @@
+"""Bad input never crashes the design commands and calls either: ``kinem
+sensitivity``, ``tolerance``, ``sweep`` and ``--set`` on case files whose
+[tolerances], [parameters] and [report] sensitivity are mutated, and with odd
+argument texts, keep the command line's contract (tests/test_fuzz.run_main:
+exit 0, 1 or 2, one line, never an internal error); kinem.solve(model,
+parameters=...), kinem.sensitivity, kinem.tolerance.tolerance, kinem.sweep
+and kinem.load(parameters=...) given odd values (huge whole numbers, NaN,
+inf, booleans, texts, nested lists, unknown paths, empty lists) return or
+raise a KinemError of one line, never another exception.
+
+CI runs a small derandomised budget (tests/conftest.py); KINEM_FUZZ_EXAMPLES
+raises it, HYPOTHESIS_PROFILE=dev randomises it (docs/benchmarks.md, "Fuzz
+campaign, session 23"). The examples below the fuzz tests are the failures
+the campaign found, each fixed."""
+import json
+import math
+import tomllib
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, strategies as st
+
+import kinem
+from kinem.errors import MAX_LINE, KinemError
+from kinem.tolerance import MAX_SAMPLES, tolerance
+from test_fuzz import INVALID, ODD, budget, document, get, paths, run_main
+
+ROOT = Path(__file__).resolve().parents[1]
+FOUR_BAR = ROOT / "cases" / "four_bar.toml"                    # [tolerances], [report] sensitivity
+NAMED = ROOT / "tests" / "data" / "four_bar_named.toml"        # [parameters]
+BASES = {p: tomllib.loads(p.read_text()) for p in (FOUR_BAR, NAMED)}
+DESIGN = ("tolerances", "parameters", "report")
+PATHS = ["points.A.at.0", "points.A.at.1", "constraints.B.si.0", "constraints.crank-drive.d.poly.1", "crank",
+         "parameters.crank", "coupler", "points.A.at.9", "points.A.at.x", "constraints.#2.sj.0", "constraints.B.si",
+         "parameters.nope", "bodies.crank.q.0", "time.end", "", ".", "a..b", "points..at.0", "constraints",
+         "\x00", "x" * 600, "points.O2.at.0,points.O2.at.0"]
+TEXTS = ["0", "1", "-1", "2", "1e-4", "nan", "inf", "-inf", "1e400", "9" * 400, "x", "", " ", "true", "[1]",
+         "0x10", "1_0", "{a=1}", "5e-324", "1e308", ",", "B.x", "B.x,B.x", "positions", "nope", "\t"]
+
+
+def mutate_design(doc, choose):
+    """One mutation of a parsed case's design sections ([tolerances],
+    [parameters], [report]) or of a number that a named dimension could
+    stand for: (TOML text, whether it must be invalid)."""
+    d = json.loads(json.dumps(doc))
+    kind = choose(["delete", "odd", "invalid", "new-key", "name-a-number"])
+    if kind == "name-a-number":   # a constraint's number given as a name: of [parameters], or none
+        numbers = [p for p in paths(d) if p[0] == "constraints" and isinstance(get(d, p), float)]
+        p = choose(numbers)
+        get(d, p[:-1])[p[-1]] = choose(["crank", "coupler", "nope", "", "parameters.crank"])
+        return document(d), False
+    if kind == "new-key":
+        section = choose(["tolerances", "parameters"])
+        d.setdefault(section, {})[choose(PATHS)] = choose([ODD[k] for k in sorted(ODD)] + [1e-4, {"pm": 1e-4}])
+        return document(d), False
+    found = [p for p in paths(d) if p[0] in DESIGN]
+    p = choose(found)
+    parent, key = get(d, p[:-1]), p[-1]
+    if kind == "delete":
+        del parent[key]
+        return document(d), False
+    if kind == "invalid" and isinstance(get(d, p), (int, float)) and not isinstance(get(d, p), bool):
+        parent[key] = INVALID[choose(sorted(INVALID))]
+        return document(d), True
+    parent[key] = ODD[choose(sorted(ODD))]
+    return document(d), False
+
+
+@st.composite
+def design_mutated(draw):
+    base = draw(st.sampled_from(sorted(BASES)))
+    return mutate_design(BASES[base], lambda seq: draw(st.sampled_from(seq)))
+
+
+def arguments(command, draw):
+    """Command-line arguments after the case file, part valid, part odd."""
+    text = st.one_of(st.sampled_from(TEXTS), st.text(max_size=8))
+    path = st.one_of(st.sampled_from(PATHS), st.text(max_size=12))
+    steps = ["--steps", draw(st.sampled_from(["3", "2", "0", "x", "1e9"]))]
+    if command == "sensitivity":
+        out = ["--parameters", ",".join(draw(st.lists(path, min_size=1, max_size=3)))]
+        return out + (["--outputs", draw(text)] if draw(st.booleans()) else []) + steps
+    if command == "tolerance":
+        out = ["--samples", draw(st.sampled_from(["0", "1", "2", "-1", "x", "1.5", "9" * 30, str(MAX_SAMPLES + 1)])),
+               "--seed", draw(st.sampled_from(["0", "7", "-1", "9" * 30, "x"]))]
+        return out + (["--outputs", draw(text)] if draw(st.booleans()) else []) + steps
+    if command == "sweep":
+        sets = draw(st.lists(st.tuples(path, st.one_of(text, st.sampled_from(
+            ["0.05:0.06:2", "0.05,0.06", "inf:1:2", "1e400:1:2", "1:2:0", "1:2:x", "1e308:-1e308:3", "0.1:0.2:1e9",
+             "0.05:0.06:100001", ":1:2", "1::2"]))), max_size=2))
+        out = [x for name, v in sets for x in ("--set", f"{name}={v}")]
+        return out + ["--outputs", draw(st.sampled_from(["B.x", "B.x,rocker.phi", "", "nope", ",", "t"]))]
+    sets = draw(st.lists(st.tuples(path, text), max_size=2))   # solve, info (its listing of the parameters too)
+    out = [x for name, v in sets for x in ("--set", f"{name}={v}")]
+    return out + (steps if command == "solve" else ["--parameters"] if draw(st.booleans()) else [])
+
+
+def run(tmp_path, command, text, args):
+    case = tmp_path / "case.toml"
+    case.write_text(text)
+    out = tmp_path / "o.csv"
+    argv = [command, str(case), *args] + (["--out", str(out)] if command != "info" else [])
+    code, err = run_main(argv, notes=command == "tolerance")
+    if command == "sweep" and code == 1:   # variants that failed: the whole table, their rows saying why
+        text = out.read_text()
+        rows = text.splitlines()
+        assert text.endswith("\n") and rows[0].startswith("variant,") and rows[0].endswith(",error"), rows[0]
+        assert any(r.endswith('"') for r in rows[1:]), text[-300:]
+    elif code != 0:
+        assert not out.exists(), "an output written by a failed run"
+    left = sorted(p.name for p in tmp_path.iterdir() if p.name not in ("case.toml", "o.csv"))
+    assert not left, left
+    return code, err
+
+
+COMMANDS = ["info", "solve", "sensitivity", "tolerance", "sweep"]
+
+
+@budget(30)
+@given(m=design_mutated(), command=st.sampled_from(COMMANDS))
+def test_mutated_design_sections(tmp_path_factory, m, command):
+    """A mutated [tolerances], [parameters] or [report] under every design command (valid arguments)."""
+    text, invalid = m
+    args = {"info": [], "solve": ["--steps", "3"], "sweep": ["--set", "points.O2.at.0=0,0.001", "--outputs", "B.x"],
+            "sensitivity": ["--parameters", "points.O2.at.0", "--steps", "3"],
+            "tolerance": ["--samples", "2", "--outputs", "B.x", "--steps", "3"]}[command]
+    tmp = tmp_path_factory.mktemp("design")
+    code, err = run(tmp, command, text, args)
+    if invalid:
+        assert code == 2 and str(tmp / "case.toml") in err, err
+
+
+@budget(40)
+@given(command=st.sampled_from(COMMANDS), base=st.sampled_from(sorted(BASES)), data=st.data())
+def test_odd_arguments(tmp_path_factory, command, base, data):
+    """--set (solve, info, sweep), --parameters, --samples, --seed, --outputs, --steps: any text."""
+    run(tmp_path_factory.mktemp("args"), command, base.read_text(), arguments(command, data.draw))
+
+
+# -- the API ----------------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def models():
+    return {p: kinem.compile(kinem.load(p).with_time(steps=3)) for p in BASES}
+
+
+VALUES = st.one_of(
+    st.sampled_from([10 ** 400, -10 ** 400, 10 ** 40, math.nan, math.inf, -math.inf, True, False, "x", "0.05", "",
+                     None, [], [[]], [1, [2]], [[1.0, 2.0]], {}, {"pm": 1e-4}, {"pm": 1e-4, "sigma": math.nan},
+                     1e308, 5e-324, 0, -1, b"1", 1j, [0.05, 0.06], [10 ** 400], [True], np.array([[1.0]]),
+                     np.float64("nan"), (0.05,), "points.A.at.0"]),
+    st.floats(), st.integers(), st.text(max_size=6), st.lists(st.floats(), max_size=3))
+KEYS = st.one_of(st.sampled_from(PATHS + [3, None, True, (1,)]), st.text(max_size=10))
+
+
+def calm(call):
+    """call() returns, or raises a KinemError of one line; its warnings are not errors."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            call()
+        except KinemError as e:
+            # one line of at most InputError.SHOWN problems of at most MAX_LINE characters each
+            assert str(e) and "\n" not in str(e) and len(str(e)) <= 4 * MAX_LINE, repr(str(e))
+
+
+def samples_of(draw):
+    """A Monte Carlo sample count: a small valid one or an odd one, never a slow valid one."""
+    v = draw(st.one_of(VALUES, st.integers(-3, 3)))
+    return 2 if isinstance(v, int) and not isinstance(v, bool) and 3 < v <= MAX_SAMPLES else v
+
+
+@budget(40)
+@given(api=st.sampled_from(["solve", "sensitivity", "tolerance", "sweep", "load"]), base=st.sampled_from(sorted(BASES)),
+       key=KEYS, value=VALUES, data=st.data())
+def test_api_odd_values(models, api, base, key, value, data):
+    model = models[base]
+    extra = data.draw(st.one_of(st.none(), VALUES, st.sampled_from([["B.x"], "B.x", ("positions",)])))
+    if api == "solve":
+        if isinstance(value, list) and len(value) > 3:
+            value = value[:3]
+        calm(lambda: kinem.solve(model, parameters=data.draw(st.sampled_from([{key: value}, value])),
+                                 **({"outputs": extra} if extra is not None else {})))
+    elif api == "sensitivity":
+        calm(lambda: kinem.sensitivity(model, data.draw(st.sampled_from([[key], key, value, [key, value]])),
+                                       **({"outputs": extra} if extra is not None else {})))
+    elif api == "tolerance":
+        calm(lambda: tolerance(model, data.draw(st.sampled_from([{key: value}, value, None])),
+                               samples=samples_of(data.draw), seed=data.draw(st.one_of(VALUES, st.integers(0, 9))),
+                               outputs=extra))
+    elif api == "sweep":
+        if isinstance(value, list) and len(value) > 3:
+            value = value[:3]
+        calm(lambda: kinem.sweep(base, data.draw(st.sampled_from([{key: value}, value])), outputs=extra))
+    else:
+        calm(lambda: kinem.load(base, parameters=data.draw(st.sampled_from([{key: value}, value]))))
+
+
+# -- what the campaign found (each an internal error or another exception before its fix) ------------
+
+@pytest.mark.parametrize("args", [
+    ["tolerance", str(FOUR_BAR), "--samples", "-1"],                       # ValueError: negative dimensions
+    ["tolerance", str(FOUR_BAR), "--samples", "9" * 20],                   # ValueError: maximum dimension
+    ["tolerance", str(FOUR_BAR), "--seed", "-1"],                          # ValueError: non-negative integer
+    ["sweep", str(NAMED), "--set", "crank=inf:1:2"],                       # numpy's RuntimeWarning lines
+    ["sweep", str(NAMED), "--set", "crank=1e400:1:2"],
+    ["sweep", str(NAMED), "--set", "crank=1e308:-1e308:3"],
+])
+def test_found_command_lines(tmp_path, args):
+    """Exit 2, one line (a Python warning counts as a fault here: the command line prints it to standard error
+    as lines of its own: numpy's RuntimeWarning for a sweep's ends beyond a float)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        code, err = run_main([*args, "--out", str(tmp_path / "o.csv")])
+    assert code == 2 and err.startswith("kinem: error: --"), err
+    assert not (tmp_path / "o.csv").exists()
+
+
+def test_found_a_body_key_that_is_a_list_beside_a_point_name(tmp_path):
+    """A mutated quick_return_3 (seed 2301 of the random profile): a revolute-revolute's body key i given a
+    list, its si a point's name: TypeError (unhashable) in the point's lookup, exit 3. Now the body's one
+    problem, exit 2; an unknown body's name beside a point's name is that one problem too (no second one
+    for the point, whose body it cannot be on)."""
+    text = (ROOT / "cases" / "quick_return_3.toml").read_text()
+    case = tmp_path / "case.toml"
+    for body in ("[0.0, 1e-300]", '"nope"', "3"):
+        case.write_text(text.replace('i = "rocker"\nsi = "B"', f'i = {body}\nsi = "B"', 1))
+        assert f"i = {body}" in case.read_text()
+        code, err = run_main(["info", str(case), "--errors", "all"])
+        assert code == 2 and "key 'i': unknown body" in err and "key 'si'" not in err, err
+
+
+def test_found_a_warning_beside_exit_0(tmp_path):
+    """A driver 1e5 times faster than the output step is valid: exit 0 with one warning line (the fuzz
+    test's random profile had read it as a broken contract)."""
+    text = (ROOT / "cases" / "slider_crank.toml").read_text()
+    case = tmp_path / "case.toml"
+    case.write_text(text.replace("d = { poly = [5.76, -1.2] }", "d = { poly = [5.76, -1.2e5] }"))
+    assert "-1.2e5" in case.read_text()
+    code, err = run_main(["info", str(case)])
+    assert code == 0 and err == ""
+
+
+@pytest.mark.parametrize("call", [
+    lambda m: kinem.solve(m, parameters={"points.A.at.0": 10 ** 400}),        # OverflowError
+    lambda m: kinem.solve(m, parameters={"points.A.at.0": [True, False]}),    # booleans taken as 1.0 and 0.0
+    lambda m: kinem.solve(m, parameters={"points.A.at.0": [0.05]}, outputs=3),   # TypeError: not iterable
+    lambda m: kinem.sensitivity(m, 3),                                        # TypeError: not iterable
+    lambda m: kinem.sensitivity(m, None),
+    lambda m: kinem.sensitivity(m, [["points.A.at.0"]]),                      # TypeError: unhashable
+    lambda m: tolerance(m, 1e-4),                                             # TypeError: not iterable
+    lambda m: tolerance(m, "points.A.at.0"),                                  # ValueError: dict update
+    lambda m: tolerance(m, samples=-1),                                       # ValueError: negative dimensions
+    lambda m: tolerance(m, samples=10 ** 20),                                 # ValueError: maximum dimension
+    lambda m: tolerance(m, samples=2.5),                                      # TypeError
+    lambda m: tolerance(m, samples=None),
+    lambda m: tolerance(m, samples=2, seed=-1),                               # ValueError: non-negative
+    lambda m: tolerance(m, samples=2, seed=math.nan),                         # TypeError
+    lambda m: tolerance(m, samples=2, outputs=3),                             # TypeError: not iterable
+    lambda m: tolerance(m, samples=2, outputs=[["B.x"]]),                     # TypeError: unhashable
+    lambda m: kinem.sweep(FOUR_BAR, {"points.A.at.0": "x"}),                  # ValueError: float('x')
+    lambda m: kinem.sweep(FOUR_BAR, {"points.A.at.0": [1, [2]]}),             # ValueError: ragged
+    lambda m: kinem.sweep(FOUR_BAR, {"points.A.at.0": 10 ** 400}),            # OverflowError
+    lambda m: kinem.sweep(FOUR_BAR, {"points.A.at.0": {}}),                   # TypeError
+    lambda m: kinem.sweep(FOUR_BAR, {"points.A.at.0": [True]}),               # a boolean taken as 1.0
+    lambda m: kinem.sweep(FOUR_BAR, [0.05]),                                  # TypeError: list indices
+    lambda m: kinem.sweep(FOUR_BAR, None),                                    # TypeError: not iterable
+    lambda m: kinem.sweep(FOUR_BAR, {"points.A.at.0": [0.05]}, outputs=3),    # TypeError: not iterable
+    lambda m: kinem.sweep(FOUR_BAR, {"points.A.at.0": [0.05]}, outputs=[["B.x"]]),   # TypeError: unhashable
+    lambda m: kinem.load(FOUR_BAR, parameters=1.5),                           # TypeError: not iterable
+    lambda m: kinem.load(FOUR_BAR, parameters="points.A.at.0"),               # ValueError: dict update
+])
+def test_found_api_calls(models, call):
+    with pytest.raises(kinem.InputError) as e:
+        call(models[FOUR_BAR])
+    assert "\n" not in str(e.value)
