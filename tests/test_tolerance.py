@@ -117,3 +117,14 @@ def test_report_design_section_and_its_key():
     text = (ROOT / "cases" / "four_bar.toml").read_text().replace('"points.O4.at.0"]', '"points.O4.at.5"]')
     with pytest.raises(kinem.InputError, match="points.O4.at.5"):
         kinem.loads(text, source="fb.toml")
+
+
+def test_a_normal_tolerance_without_pm_names_pm(tmp_path):
+    """{ sigma = ... } without pm is that key's missing pm (it was read as a deeper path,
+    'points.O4.at.0.sigma', and refused as an unknown parameter)."""
+    bad = tmp_path / "bad.toml"
+    bad.write_text((ROOT / "cases" / "four_bar.toml").read_text().replace(
+        '"points.O4.at.0" = { pm = 0.0001, sigma = 0.00003 }', '"points.O4.at.0" = { sigma = 0.00003 }'))
+    r = subprocess.run([sys.executable, "-m", "kinem", "info", str(bad)], capture_output=True, text=True)
+    assert r.returncode == 2 and str(bad) in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    assert "key 'points.O4.at.0': key 'pm': missing" in r.stderr and "sigma'" not in r.stderr, r.stderr

@@ -307,7 +307,7 @@ def tolerances(ck, t, prefix=""):
     out = {}
     for k, v in t.items():
         path = f"{prefix}{k}"
-        if isinstance(v, dict) and "pm" not in v:
+        if isinstance(v, dict) and "pm" not in v and "sigma" not in v:   # (no path ends in pm or sigma)
             out.update(tolerances(ck, v, path + "."))
         elif isinstance(v, dict):
             if ck.keys(f"{where}: key '{path}'", v, ("pm", "sigma"), ("pm",)):
