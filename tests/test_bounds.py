@@ -131,21 +131,26 @@ def test_sigint_stops_a_1e7_instant_solve():
     long before the solve could have finished (measured 2-10 ms; the whole
     solve before the core polled for signals). The bound is relative, not a
     timing: half of what the solve had left by the child's own estimate (a
-    tenth of it, timed in the same process), so it holds at any load."""
-    p = subprocess.Popen([sys.executable, "-c", SOLVE_1E7], stdout=subprocess.PIPE, text=True, cwd=ROOT)
-    try:
-        word, whole = p.stdout.readline().split()
-        assert word == "ready"
-        time.sleep(0.2)   # the march has started
-        sent = time.perf_counter()
-        p.send_signal(signal.SIGINT)
-        line = p.stdout.readline().strip()
-        latency = time.perf_counter() - sent
-        assert line == "interrupted"
-        assert latency < 0.5 * (float(whole) - 0.2), (latency, whole)
-    finally:
-        p.kill()
-        p.wait()
+    tenth of it, timed in the same process), so it holds at any load. A child
+    whose solve ended before the signal came (this process not scheduled in
+    time on a loaded machine: "finished") proves nothing: another is run."""
+    for _ in range(3):
+        p = subprocess.Popen([sys.executable, "-c", SOLVE_1E7], stdout=subprocess.PIPE, text=True, cwd=ROOT)
+        try:
+            word, whole = p.stdout.readline().split()
+            assert word == "ready"
+            time.sleep(0.2)   # the march has started
+            sent = time.perf_counter()
+            p.send_signal(signal.SIGINT)
+            line = p.stdout.readline().strip()
+            latency = time.perf_counter() - sent
+        finally:
+            p.kill()
+            p.wait()
+        if line != "finished":
+            break
+    assert line == "interrupted"
+    assert latency < 0.5 * (float(whole) - 0.2), (latency, whole)
 
 
 # -- Low: the core's bindings -------------------------------------------------------------------
