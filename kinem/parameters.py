@@ -70,7 +70,7 @@ def parameters(case: Case) -> tuple[Parameter, ...]:
 def resolve(case: Case, paths) -> tuple[Parameter, ...]:
     """The parameters named by ``paths`` (in order, each once), or one
     InputError naming the case file and every bad path."""
-    paths, near = list(dict.fromkeys(paths)), {}
+    paths, near = list(dict.fromkeys(_canonical(case, p) for p in paths)), {}
     found = [_find(case, path, near) for path in paths]
     if None not in found:
         return tuple(found)
@@ -117,7 +117,13 @@ def tolerances_of(case, given=None) -> tuple:
     tolerance below the mechanism's size."""
     if given is not None and not hasattr(given, "items"):
         raise InputError(f"{case.source}: tolerances {given!r:.80}: expected a dict {{path: pm or {{pm, sigma}}}}")
-    raw = dict(case.tolerances if given is None else given)
+    raw, named = {}, {}
+    for key, v in (case.tolerances if given is None else given).items():   # a bare name of [parameters] too
+        path = to_path(case, key, f"{case.source}: [tolerances]")
+        if path in raw:
+            raise InputError(f"{case.source}: [tolerances]: '{named[path]}' and '{key}' are one parameter "
+                             f"({path}); expected it once")
+        raw[path], named[path] = v, key
     if not raw:
         raise InputError(f"{case.source}: no tolerances; expected a [tolerances] section "
                          '(e.g. "constraints.A.si.0" = 0.0001) or tolerances={path: pm}')
@@ -193,14 +199,17 @@ def apply_many(case: Case, designs, source: str | None = None, pinned: bool = Fa
     return out
 
 
+def _canonical(case, key):
+    """A bare name of the case's [parameters] as its path, parameters.NAME; any other key as given."""
+    return f"parameters.{key}" if isinstance(key, str) and "." not in key and key in case.parameters else key
+
+
 def to_path(case, key, source) -> str:
     """A design parameter path; a bare name of [parameters] is parameters.NAME."""
     if not isinstance(key, str):
         raise InputError(f"{source}: parameter {key!r}: expected a name or a design parameter path")
-    if "." in key:
-        return key
-    if key in case.parameters:
-        return f"parameters.{key}"
+    if "." in (path := _canonical(case, key)):
+        return path
     guess = suggest(key, list(case.parameters) + [p.path for p in parameters(case)])
     raise InputError(f"{source}: unknown parameter {key!r}" + (f"; did you mean '{guess}'?" if guess else
                      "; expected a name of the case's [parameters] or a design parameter path "

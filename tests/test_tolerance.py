@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import kinem
+from kinem.parameters import Tolerance, tolerances_of
 from kinem.tolerance import tolerance
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -128,3 +129,23 @@ def test_a_normal_tolerance_without_pm_names_pm(tmp_path):
     r = subprocess.run([sys.executable, "-m", "kinem", "info", str(bad)], capture_output=True, text=True)
     assert r.returncode == 2 and str(bad) in r.stderr and len(r.stderr.strip().splitlines()) == 1
     assert "key 'points.O4.at.0': key 'pm': missing" in r.stderr and "sigma'" not in r.stderr, r.stderr
+
+
+def test_a_named_dimension_by_its_bare_name():
+    """[tolerances], kinem.tolerance and kinem.sensitivity take a name of [parameters] bare, as --set and
+    sweeps do (parameters.NAME), with a did-you-mean for a misspelt one; the same parameter twice is refused."""
+    case = kinem.load(ROOT / "tests" / "data" / "four_bar_named.toml")
+    assert tolerances_of(case, {"crank": 1e-4, "parameters.rocker": 2e-4}) == (
+        Tolerance("parameters.crank", 1e-4), Tolerance("parameters.rocker", 2e-4))
+    with pytest.raises(kinem.InputError, match="unknown parameter 'crnk'; did you mean 'crank'"):
+        tolerances_of(case, {"crnk": 1e-4})
+    with pytest.raises(kinem.InputError, match=r"'crank' and 'parameters.crank' are one parameter"):
+        tolerances_of(case, {"crank": 1e-4, "parameters.crank": 1e-4})
+    # kinem.sensitivity too (docs/case-format.md, "Design parameters": one scheme everywhere)
+    from kinem.sensitivity import sensitivity
+
+    model = kinem.compile(case)
+    bare, path = sensitivity(model, ["crank"]), sensitivity(model, ["parameters.crank"])
+    assert [p.path for p in bare.parameters] == ["parameters.crank"]
+    assert bare.derivatives.columns == path.derivatives.columns
+    assert np.array_equal(bare.derivatives.data, path.derivatives.data)
