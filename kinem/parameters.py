@@ -117,13 +117,8 @@ def tolerances_of(case, given=None) -> tuple:
     tolerance below the mechanism's size."""
     if given is not None and not hasattr(given, "items"):
         raise InputError(f"{case.source}: tolerances {given!r:.80}: expected a dict {{path: pm or {{pm, sigma}}}}")
-    raw, named = {}, {}
-    for key, v in (case.tolerances if given is None else given).items():   # a bare name of [parameters] too
-        path = to_path(case, key, f"{case.source}: [tolerances]")
-        if path in raw:
-            raise InputError(f"{case.source}: [tolerances]: '{named[path]}' and '{key}' are one parameter "
-                             f"({path}); expected it once")
-        raw[path], named[path] = v, key
+    items = list((case.tolerances if given is None else given).items())   # a bare name of [parameters] too
+    raw = dict(zip(to_paths(case, [k for k, _ in items], f"{case.source}: [tolerances]"), [v for _, v in items]))
     if not raw:
         raise InputError(f"{case.source}: no tolerances; expected a [tolerances] section "
                          '(e.g. "constraints.A.si.0" = 0.0001) or tolerances={path: pm}')
@@ -214,6 +209,18 @@ def to_path(case, key, source) -> str:
     raise InputError(f"{source}: unknown parameter {key!r}" + (f"; did you mean '{guess}'?" if guess else
                      "; expected a name of the case's [parameters] or a design parameter path "
                      "(kinem info CASE --parameters lists them)"))
+
+
+def to_paths(case, keys, source) -> list:
+    """``to_path`` of each key; two keys that name one parameter (a bare name and its path) are an InputError."""
+    paths, first = [], {}
+    for key in keys:
+        path = to_path(case, key, source)
+        if path in first:
+            raise InputError(f"{source}: '{first[path]}' and '{key}' are one parameter ({path}); expected it once")
+        first[path] = key
+        paths.append(path)
+    return paths
 
 
 def _number(key, value, source):

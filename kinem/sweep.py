@@ -124,13 +124,14 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
     names (default all); ``progress``: a kinem.report.progress.Progress."""
     from .case import load_dict, read
     from .model import compile
-    from .parameters import apply_many, resolve, to_path
+    from .parameters import apply_many, resolve, to_paths
 
     source = str(case) if isinstance(case, (str, Path)) else "<dict>"
     data = case if isinstance(case, dict) else read(case)
     names, grid_values = grid(values)
     nominal = load_dict(data, source)
-    resolve(nominal, [to_path(nominal, n, source) for n in names])   # the names resolve (else one InputError for all)
+    paths = to_paths(nominal, names, source)
+    resolve(nominal, paths)   # the names resolve (else one InputError for all)
     base = compile(nominal)
     columns = _columns(base, outputs)
     cases, errors = [], [""] * len(grid_values)
@@ -155,7 +156,6 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
                 progress.step(f"variant {k + 1} loaded")
     out = np.full((len(grid_values), len(base.times), len(columns)), np.nan)
     valid = [k for k, c in enumerate(cases) if c is not None]
-    paths = [to_path(nominal, n, source) for n in names]
     if not (valid and _variants(base, paths, grid_values, valid, columns, out, errors, progress)):
         _solve(valid, cases, columns, out, errors, progress)
     return Sweep(names, grid_values, columns, np.array(base.times), out, tuple(errors))

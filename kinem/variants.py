@@ -97,14 +97,14 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
     where the model suits (False: one by one; the same figures)."""
     from .batch import solve_merged
     from .march import usable
-    from .parameters import resolve, to_path
+    from .parameters import resolve, to_paths
     from .solver import _checked_times, solve
 
     case = model.case
     if trace or q0 is not None:
         raise InputError(f"{case.source}: solve: parameters= with trace or q0; expected neither (every variant "
                          "starts from the nominal's assembly)")
-    paths, values = _values(case, parameters, to_path)
+    paths, values = _values(case, parameters, to_paths)
     listed = resolve(case, paths)
     nominal = np.array([p.value for p in listed])
     times = model.times if times is None else _checked_times(times)
@@ -191,14 +191,13 @@ def _tangents(model, listed):
     return model.tables, tangents(model, [p.path for p in listed], model.tables)
 
 
-def _values(case, parameters, to_path):
+def _values(case, parameters, to_paths):
     """(paths, values (N, P)) from {path or name: N numbers}, or InputError."""
     if not isinstance(parameters, dict) or not parameters:
         raise InputError(f"{case.source}: solve: parameters {parameters!r:.80}: expected a dict {{path: values}} "
                          "with one or more design parameter paths (kinem.parameters(case) lists them)")
-    paths, columns = [], []
+    paths, columns = to_paths(case, list(parameters), case.source), []
     for key, v in parameters.items():
-        paths.append(to_path(case, key, case.source))
         try:   # (booleans are not numbers; nor is a number no float holds)
             a = np.asarray(v)
             a = a.astype(float) if a.dtype != bool else None

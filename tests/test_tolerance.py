@@ -149,3 +149,9 @@ def test_a_named_dimension_by_its_bare_name():
     assert [p.path for p in bare.parameters] == ["parameters.crank"]
     assert bare.derivatives.columns == path.derivatives.columns
     assert np.array_equal(bare.derivatives.data, path.derivatives.data)
+    # a bare name and its path given together: one parameter twice, refused wherever values are set
+    for call in (lambda: kinem.solve(model, parameters={"crank": [0.1], "parameters.crank": [0.1]}),
+                 lambda: kinem.sweep(ROOT / "tests" / "data" / "four_bar_named.toml",
+                                     {"crank": [0.1], "parameters.crank": [0.1]})):
+        with pytest.raises(kinem.InputError, match=r"'crank' and 'parameters.crank' are one parameter"):
+            call()
