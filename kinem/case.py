@@ -59,6 +59,8 @@ def loads(text, source: str = "<string>", parameters=None) -> Case:
 
 
 def _toml(text, source) -> dict:
+    if not isinstance(text, (str, bytes)):
+        raise InputError(f"{source}: got {type(text).__name__}; expected a case file's TOML text (str or bytes)")
     if isinstance(text, bytes):
         if len(text) > MAX_FILE_BYTES:
             raise InputError(f"{source}: {len(text)} bytes; expected at most {MAX_FILE_BYTES}")

@@ -35,8 +35,8 @@ def singular_pivot(tolerance: float) -> float:
 
 def _whole(name, value, low, high):
     """value as a whole number in [low, high], else an InputError naming the option."""
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) \
-        and int(value) == value and low <= value <= high
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and low <= value <= high \
+        and math.isfinite(value) and int(value) == value   # (the range first: 10**400 has no float)
     if not ok:
         raise InputError(f"solver options: {name} {value!r:.60}; expected a whole number from {low:,} to {high:,}")
 

@@ -27,7 +27,7 @@ def _floats(name, value, expected):
     """value as a float array (InputError naming ``name`` otherwise)."""
     try:
         return np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):   # (OverflowError: a whole number no float holds)
         raise InputError(f"solve: {name} {value!r:.80}: expected {expected}") from None
 
 

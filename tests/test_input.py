@@ -354,3 +354,27 @@ def test_a_crank_speed_that_looks_like_degrees_is_warned(tmp_path):
         assert cli.main(["info", str(path)]) == 0
     (line,) = err.getvalue().splitlines()
     assert line.startswith("kinem: warning: ") and "units = { angle = \"deg\" }" in line
+
+
+@pytest.mark.parametrize("key,value", [("times", [0.0, 10 ** 400]), ("q0", [10 ** 400] * 12)])
+def test_solve_arguments_beyond_a_float_are_bad_input(key, value):
+    """kinem.solve's times and q0 holding a whole number no float holds: an InputError naming the
+    argument (it was numpy's OverflowError)."""
+    model = kinem.compile(kinem.load(CASES / "slider_crank.toml"))
+    with pytest.raises(kinem.InputError, match=f"solve: {key} "):
+        kinem.solve(model, **{key: value})
+
+
+def test_odd_api_values_are_bad_input():
+    """kinem.loads of no text, and every solver option given a number no float holds, NaN, a bool, a text
+    or a list: an InputError (loads(3) was an AttributeError, max_iterations=10**400 an OverflowError)."""
+    import dataclasses
+
+    with pytest.raises(kinem.InputError, match="expected a case file's TOML text"):
+        kinem.loads(3)
+    for f in dataclasses.fields(kinem.Options):
+        for v in (10 ** 400, -10 ** 400, float("nan"), True, "x", [1]):
+            try:
+                kinem.Options(**{f.name: v})
+            except kinem.InputError:
+                pass   # (a value an option takes, e.g. True for jacobian_reuse, is fine too)
