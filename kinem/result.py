@@ -88,7 +88,7 @@ class Trajectory:
     def __getitem__(self, name: str) -> np.ndarray:
         try:
             return self.data[:, self._index[name]]
-        except KeyError:
+        except (KeyError, TypeError):   # (TypeError: a name that is no key, a list)
             from .errors import UnknownColumn
 
             raise UnknownColumn(missing_column(name, self.columns)) from None

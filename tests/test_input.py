@@ -378,3 +378,16 @@ def test_odd_api_values_are_bad_input():
                 kinem.Options(**{f.name: v})
             except kinem.InputError:
                 pass   # (a value an option takes, e.g. True for jacobian_reuse, is fine too)
+
+
+def test_a_trajectory_column_that_is_no_name_is_unknown():
+    """traj[[1, 2]] (a list, unhashable) is the same UnknownColumn as any other missing name (it was a
+    TypeError); still a KeyError too."""
+    from kinem.errors import UnknownColumn
+
+    traj = kinem.solve(kinem.compile(kinem.load(CASES / "slider_crank.toml")), times=[0.0, 0.01]).trajectory
+    for name in ([1, 2], {}, None, 3):
+        with pytest.raises(UnknownColumn, match="no column"):
+            traj[name]
+        with pytest.raises(KeyError):
+            traj[name]
