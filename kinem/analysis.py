@@ -261,13 +261,13 @@ def gauss_newton(model, q, t, max_iterations=None, tolerance=None, budget=None):
 
 def factorize(model, data: Data) -> None:
     """Factorise Phi_q at data.q for the velocity and acceleration solves."""
-    _checked("factorize", model, data, data.t)
+    _checked("factorize", model, data, getattr(data, "t", None))   # (data checked first)
     data.factor = _factor(model, data, data.q, data.t)
 
 
 def velocity(model, data: Data) -> None:
     """qd from Phi_q qd = nu (Eq. 3.13)."""
-    _checked("velocity", model, data, data.t)
+    _checked("velocity", model, data, getattr(data, "t", None))
     if data.factor is None:
         factorize(model, data)
     data.qd = data.factor.solve(model.nu(data.t))
@@ -275,7 +275,7 @@ def velocity(model, data: Data) -> None:
 
 def acceleration(model, data: Data) -> None:
     """qdd from Phi_q qdd = gamma (Eq. 3.15); needs data.qd."""
-    _checked("acceleration", model, data, data.t, rates=True)
+    _checked("acceleration", model, data, getattr(data, "t", None), rates=True)
     if data.factor is None:
         factorize(model, data)
     data.qdd = data.factor.solve(model.gamma(data.q, data.qd, data.t))

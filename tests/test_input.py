@@ -391,3 +391,13 @@ def test_a_trajectory_column_that_is_no_name_is_unknown():
             traj[name]
         with pytest.raises(KeyError):
             traj[name]
+
+
+@pytest.mark.parametrize("data", [None, 3, "x"])
+def test_the_stages_refuse_what_is_no_data(data):
+    """kinem.factorize, velocity and acceleration given something that is no kinem.Data: the InputError
+    naming data (factorize read data.t first: an AttributeError)."""
+    model = kinem.compile(kinem.load(CASES / "slider_crank.toml"))
+    for stage in (kinem.factorize, kinem.velocity, kinem.acceleration):
+        with pytest.raises(kinem.InputError, match=f"{stage.__name__}: data "):
+            stage(model, data)
