@@ -93,7 +93,7 @@ def test_engine_settings_of_any_size(engine, key, value, steps):
     before an engine runs: compare, report, animate, export): either a step
     and substeps within the caps, or an InputError naming the setting."""
     from adapters import get
-    from adapters.base import MAX_RUN_STEPS, MAX_SUBSTEPS
+    from adapters.base import MAX_RUN_STEPS, MAX_SUBSTEPS, start
 
     model = models(steps)
     adapter = get(engine)
@@ -103,7 +103,7 @@ def test_engine_settings_of_any_size(engine, key, value, steps):
         v = value
     try:
         s = adapter.settings({key: v})
-        n = adapter.resolve(model, s)
+        n = adapter.resolve(model, s, *start(model))
     except InputError as e:
         assert "\n" not in str(e)
         assert "setting" in str(e)
