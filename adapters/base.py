@@ -18,6 +18,7 @@ implements ``version``, ``defaults``/``checks`` and ``simulate``.
 """
 import enum
 import math
+import sys
 import time
 from dataclasses import dataclass, field
 
@@ -116,23 +117,29 @@ class EngineRun:
 
 # -- settings checks: each returns None when v is acceptable, else what was expected
 
+# the largest float: a whole number beyond it (10**400 in a case's TOML) is no float
+# (math.isfinite and division raise on it); compared exactly, it is out of range
+MOST = sys.float_info.max
+MAX_COUNT = 2**31 - 1   # counts (iterations, substeps): C ints in the engines
+
+
 def positive(v):
-    ok = isinstance(v, (int, float)) and not isinstance(v, bool) and 0 < v < math.inf
+    ok = isinstance(v, (int, float)) and not isinstance(v, bool) and 0 < v <= MOST
     return None if ok else "a positive number"
 
 
 def finite(v):
-    ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    ok = isinstance(v, (int, float)) and not isinstance(v, bool) and -MOST <= v <= MOST
     return None if ok else "a finite number"
 
 
 def nonnegative(v):
-    ok = isinstance(v, (int, float)) and not isinstance(v, bool) and 0 <= v < math.inf
+    ok = isinstance(v, (int, float)) and not isinstance(v, bool) and 0 <= v <= MOST
     return None if ok else "a number >= 0"
 
 
 def count(v):
-    return None if isinstance(v, int) and not isinstance(v, bool) and v >= 1 else "a positive integer"
+    return None if isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= MAX_COUNT else "a positive integer"
 
 
 def step_or_auto(v):
@@ -220,11 +227,21 @@ class Adapter:
                 raise InputError(f"{at}{self.name} setting '{k}' = {v!r}: expected {why}")
         return s
 
-    def steps_per_interval(self, s, interval):
+    def steps_per_interval(self, s, interval, intervals=1):
         """Fills s["substeps"] (given, or the fewest with a step <= s["dt"])
-        and s["dt"] (the step used: the interval / substeps)."""
+        and s["dt"] (the step used: the interval / substeps). InputError
+        when the settings ask for more than MAX_SUBSTEPS steps per output
+        interval and more than MAX_RUN_STEPS over the run's ``intervals``
+        (a run no engine finishes: its step tables alone would not fit in
+        memory); "auto" stays within MAX_SUBSTEPS."""
+        key = "substeps" if s.get("substeps") is not None else "dt"
         if s.get("substeps") is None:
-            s["substeps"] = max(1, math.ceil(interval / s["dt"] * (1 - 1e-12)))
+            n = interval / s["dt"] * (1 - 1e-12)
+            s["substeps"] = max(1, math.ceil(n)) if n < MAX_RUN_STEPS + 1 else n
+        if s["substeps"] > MAX_SUBSTEPS and s["substeps"] * intervals > MAX_RUN_STEPS:
+            raise InputError(f"{self.name} setting '{key}' = {s[key]!r}: {s['substeps']:.3g} steps per output "
+                             f"interval of {interval:.6g} s over {intervals} intervals; expected at most "
+                             f"{MAX_RUN_STEPS:.0e} engine steps in a run (or {MAX_SUBSTEPS} per interval)")
         s["dt"] = interval / s["substeps"]
         return s["substeps"]
 
@@ -241,9 +258,7 @@ class Adapter:
         if s.get("dt") == "auto" and s.get("substeps") is None:
             s["rate_scale"] = scale = start_rate(model, q0, qd0)
             s["dt"] = min(interval, s["rate_step"] / scale) if scale > 0 else interval
-        elif s.get("dt") == "auto":
-            s["dt"] = interval / s["substeps"]
-        return self.steps_per_interval(s, interval)
+        return self.steps_per_interval(s, interval, max(len(times) - 1, 1))
 
     def step(self, model, settings=None, q0=None, qd0=None) -> float:
         """The engine step (s) that ``settings`` (defaults when None) give
@@ -406,6 +421,7 @@ REFINE_AT = 1.0        # a self-check figure above this fraction of its limit re
 REFINE_TO = 0.7        # ... to the step that brings it to this fraction (errors ~ dt^order)
 MAX_SUBSTEPS = 2000    # cost cap: engine steps per output interval
 MAX_REFINEMENTS = 3    # cost cap: reruns after the first attempt
+MAX_RUN_STEPS = 10**7  # given settings: engine steps in a run (native's most output intervals)
 RATE_SLACK = 1.5       # a run whose own rates need more than this times its steps (rate_step / its rate
                        # scale) runs again at that step, whatever its self-check says
 NEAR_SINGULAR = 1e-6   # smallest / largest singular value of the dimensionless Phi_q below which the

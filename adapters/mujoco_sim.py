@@ -35,6 +35,7 @@ not move it (engines.md: mocap bodies and per-step equality offsets lag by
 O(dt)).
 """
 import time
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
@@ -392,8 +393,8 @@ def mjcf(plan, s) -> str:
         elif kind == "weld":
             equality.append(f'<weld site1="{site(*a)}" site2="{site(*b)}"/>')
         else:   # joint: b = (joint2 or None, polycoef)
-            other = f' joint2="{b[0][0]}:{b[0][1]}"' if b[0] else ""
-            equality.append(f'<joint joint1="{a[0]}:{a[1]}"{other} polycoef="{" ".join(_num(x) for x in b[1])}"/>')
+            other = f' joint2={quoteattr(f"{b[0][0]}:{b[0][1]}")}' if b[0] else ""
+            equality.append(f'<joint joint1={quoteattr(f"{a[0]}:{a[1]}")}{other} polycoef="{" ".join(_num(x) for x in b[1])}"/>')
     children = {}
     for item in plan.bodies:
         children.setdefault(item[1], []).append(item)
@@ -401,7 +402,7 @@ def mjcf(plan, s) -> str:
     def body(name, parent, r, phi, joints, case_body):
         rp, phip = plan.pose(parent)                    # parents are case bodies or the world
         pos, rel = _rot(-phip) @ (r - rp), phi - phip
-        out = [f'<body name="{name}" pos="{_vec(pos)}" quat="{_num(np.cos(rel / 2))} 0 0 {_num(np.sin(rel / 2))}">']
+        out = [f'<body name={quoteattr(name)} pos="{_vec(pos)}" quat="{_num(np.cos(rel / 2))} 0 0 {_num(np.sin(rel / 2))}">']
         if joints is not None:
             # a helper or link weighs as little as the lightest body: it only follows
             k = plan.index[case_body] if case_body is not None else None
@@ -411,7 +412,7 @@ def mjcf(plan, s) -> str:
             for j, (kind, at, axis) in enumerate(joints):
                 arm = f' armature="{_num(s["armature"])}"' if (name, j) in armature else ""
                 ax = "0 0 1" if axis is None else _vec(axis)
-                out.append(f'<joint name="{name}:{j}" type="{kind}" pos="{_vec(at)}" axis="{ax}"{arm}/>')
+                out.append(f'<joint name={quoteattr(f"{name}:{j}")} type="{kind}" pos="{_vec(at)}" axis="{ax}"{arm}/>')
         out += [f'<site name="{n}" pos="{_vec(p)}"/>' for n, p in sites.get(name, [])]
         for item in children.get(name, []):
             out += body(*item)

@@ -116,10 +116,20 @@ def cmd_tolerance(a):
     return 0
 
 
+MAX_JOBS = 1024   # --jobs: local worker processes (each started at once: a pool, not a queue)
+
+
+def check_jobs(jobs):
+    """--jobs of report and stress: None (the core count) or 0 to MAX_JOBS."""
+    if jobs is not None and not 0 <= jobs <= MAX_JOBS:
+        raise InputError(f"--jobs: got {jobs}; expected 0 (no worker processes) to {MAX_JOBS}")
+
+
 def cmd_stress(a):
     from .. import stress
 
     engines = engine_list(a.engines)
+    check_jobs(a.jobs)
     outcomes = stress.run(engines, a.quick, a.jobs, a.scheduler)
     if a.json:
         print(json.dumps([stress.as_dict(o) for o in outcomes], indent=2, default=float))
@@ -226,8 +236,7 @@ def cmd_report(a):
     from ..report import Options, run
 
     engines = engine_list(a.engines, allow_empty=True)  # native always runs in the report
-    if a.jobs is not None and a.jobs < 0:
-        raise InputError(f"--jobs: got {a.jobs}; expected 0 (no worker processes) or more")
+    check_jobs(a.jobs)
     whole = sorted(str(p) for p in Path("cases").glob("*.toml"))
     paths = a.cases or whole
     engines = tuple(dict.fromkeys(e for e in engines if e != "native"))

@@ -166,7 +166,7 @@ def load(path, what="baseline"):
         raise InputError(f"{what} {path}: cannot read: {e}") from None
     try:
         doc = json.loads(text, parse_constant=_no_constant)
-    except ValueError as e:
+    except (ValueError, RecursionError) as e:   # RecursionError: arrays or tables nested thousands deep
         raise InputError(f"{what} {path}: not JSON ({e}); expected a results.json of kinem report") from None
     version = doc.get("schema_version") if isinstance(doc, dict) else None
     if version != SCHEMA_VERSION:
