@@ -187,3 +187,10 @@ def test_found_diff_of_deeply_nested_json(tmp_path):
     deep.write_text("[" * 100_000 + "]" * 100_000)
     code, line = run_main(["diff", str(ROOT / "reports" / "baseline.json"), str(deep)])
     assert code == 2 and "not JSON" in line
+
+
+def test_diff_of_an_empty_path_names_it(tmp_path):
+    """kinem diff '' B.json: no file named (the empty path was read as the current folder: "cannot read:
+    Is a directory: '.'"), exit 2, one line (run_main checks the line)."""
+    code, err = run_main(["diff", "", str(tmp_path / "b.json")])
+    assert code == 2 and "results '': no file named" in err, err

@@ -158,6 +158,8 @@ def dumps(doc) -> str:
 
 def load(path, what="baseline"):
     """A stored results.json, checked against the schema; InputError otherwise."""
+    if isinstance(path, str) and not path:   # (Path("") would be the current folder)
+        raise InputError(f"{what} {str(path)!r}: no file named; expected a results.json of kinem report")
     try:
         text = Path(path).read_text(encoding="utf-8")
     except FileNotFoundError:
