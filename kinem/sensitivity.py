@@ -31,12 +31,13 @@ reported as inf, flagged in ``singular`` and named in ``message``.
 import math
 import time
 import weakref
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from . import native
+from .casefile.checks import texts
 from .errors import AnalysisError, InputError, KinemError
 from .options import Options, singular_pivot
 from .parameters import frame_tangent, resolve
@@ -92,9 +93,8 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     options = model.options if options is None else options
     if isinstance(options, Options) and options.max_seconds is not None and options.started is None:
         options = replace(options, started=time.perf_counter())   # the time limit holds for the whole call
-    paths = [parameters] if isinstance(parameters, str) else list(parameters) if isinstance(parameters, Iterable) \
-        else None
-    if paths is None or not all(isinstance(p, str) for p in paths):
+    paths = texts(parameters)
+    if paths is None:
         raise InputError(f"{case.source}: sensitivity: parameters {parameters!r:.80}: expected a parameter path "
                          "or a list of parameter paths (kinem.parameters(case) lists them)")
     if not paths:
@@ -102,7 +102,7 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     kept = _kept(model)
     try:
         call = kept.calls[tuple(paths)]   # a warm call: resolved and checked before (the model does not change)
-    except (KeyError, TypeError):   # (TypeError: a path that is no string, which _resolved words)
+    except KeyError:
         listed = _resolved(model, paths)
         if model.m != model.n:
             raise KinemError(f"{case.source}: sensitivities need as many equations as coordinates "

@@ -15,12 +15,12 @@ input: a value that makes a radius negative) is that variant's row and not
 the others'.
 """
 import itertools
-from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from .casefile.checks import floats, texts
 from .errors import InputError, KinemError
 
 MAX_VARIANTS = 100_000
@@ -103,11 +103,8 @@ def grid(values: dict):
     names = tuple(values)
     lists = []
     for n in names:
-        try:   # (not a text, a table, a ragged list, a number no float holds, booleans)
-            raw = np.asarray(values[n])
-            v = np.atleast_1d(raw.astype(float)) if raw.dtype != bool else np.array([np.nan])
-        except (TypeError, ValueError, OverflowError):
-            v = np.array([np.nan])
+        v = floats(values[n])
+        v = np.array([np.nan]) if v is None else np.atleast_1d(v)
         if v.ndim != 1 or not len(v) or not np.isfinite(v).all():
             raise InputError(f"sweep: parameter {n!r}: expected one or more finite numbers")
         lists.append(v)
@@ -190,8 +187,8 @@ def _columns(model, outputs) -> tuple:
     names = _layout(model, 3)[0]
     if outputs is None:
         return tuple(names)
-    given = (outputs,) if isinstance(outputs, str) else list(outputs) if isinstance(outputs, Iterable) else None
-    if given is None or not all(isinstance(c, str) for c in given):
+    given = texts(outputs)
+    if given is None:
         raise InputError(f"--outputs: got {outputs!r:.80}; expected trajectory column names such as B.x")
     outputs = tuple(dict.fromkeys(given))
     for c in outputs:

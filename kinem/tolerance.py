@@ -17,11 +17,11 @@ The derivatives are kinem.sensitivity's (exact). Seeded: the same seed gives
 the same samples.
 """
 import numbers
-from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
 
+from .casefile.checks import texts
 from .errors import InputError
 from .parameters import resolve, tolerances_of
 from .moved import cases_of
@@ -65,9 +65,8 @@ def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progre
         if isinstance(v, bool) or not isinstance(v, numbers.Integral) or v < 0 or (most is not None and v > most):
             raise InputError(f"{case.source}: tolerance: {key} {v!r:.80}: expected a whole number from 0"
                              + (f" to {most:,}" if most is not None else ""))
-    given = (outputs,) if isinstance(outputs, str) else () if outputs is None else \
-        tuple(outputs) if isinstance(outputs, Iterable) else None
-    if given is None or not all(isinstance(c, str) for c in given):
+    given = () if outputs is None else texts(outputs)
+    if given is None:
         raise InputError(f"{case.source}: tolerance: outputs {outputs!r:.80}: expected a list of the trajectory's "
                          "column names (such as B.x)")
     tols = tolerances_of(case, tolerances)

@@ -35,6 +35,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from . import native
+from .casefile.checks import floats
 from .errors import AnalysisError, InputError
 from .options import Options
 from .result import OUTPUTS, _layout, stages_for
@@ -198,11 +199,7 @@ def _values(case, parameters, to_paths):
                          "with one or more design parameter paths (kinem.parameters(case) lists them)")
     paths, columns = to_paths(case, list(parameters), case.source), []
     for key, v in parameters.items():
-        try:   # (booleans are not numbers; nor is a number no float holds)
-            a = np.asarray(v)
-            a = a.astype(float) if a.dtype != bool else None
-        except (TypeError, ValueError, OverflowError):
-            a = None
+        a = floats(v)
         if a is None or a.ndim != 1 or not len(a) or not np.isfinite(a).all():
             raise InputError(f"{case.source}: solve: parameter {key!r}: expected a 1-D sequence of one or more "
                              "finite numbers")

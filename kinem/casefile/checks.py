@@ -232,6 +232,29 @@ def show(v) -> str:
     return r if len(r) <= 60 else r[:57] + "..."
 
 
+def texts(v) -> tuple | None:
+    """An API argument of names (columns, parameter paths) as a tuple: one
+    text is one name, an iterable its texts; None where it is neither or
+    holds something that is no text."""
+    from collections.abc import Iterable
+
+    given = (v,) if isinstance(v, str) else tuple(v) if isinstance(v, Iterable) else None
+    return given if given is not None and all(isinstance(x, str) for x in given) else None
+
+
+def floats(v):
+    """An API argument of numbers as a float array (any shape), or None where
+    it is not one: a text, a table, a ragged list, booleans (not numbers, as
+    in a case file), a whole number no float holds."""
+    import numpy as np
+
+    try:
+        a = np.asarray(v)
+        return a.astype(float) if a.dtype != bool else None
+    except (TypeError, ValueError, OverflowError):
+        return None
+
+
 def number(text):
     """A command-line number as TOML would read it: an int, a float, or the text itself (then rejected)."""
     if not isinstance(text, str):
