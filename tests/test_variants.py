@@ -2,11 +2,8 @@
 (kinem.solve(model, parameters=...), kinem.variants) against separate
 solves of each variant's own case, the affine tables against validated
 cases', and per-variant failure, input errors and limits."""
-import signal
-import subprocess
 import sys
 import textwrap
-import time
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +16,8 @@ from kinem.errors import InputError
 from kinem.moved_tables import _tables
 from kinem.parameters import apply, apply_many, parameters
 from kinem.variants import _tangents, affine
+
+from test_bounds import interrupt
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = sorted((ROOT / "cases").glob("*.toml"))
@@ -203,26 +202,6 @@ SIGINT_BATCH = textwrap.dedent("""
 """)
 
 
-def interrupt_batch(wait):
-    """One child, SIGINT `wait` seconds after it is ready: (its answer, the
-    latency from SIGINT to it, the batch's whole time)."""
-    p = subprocess.Popen([sys.executable, "-c", SIGINT_BATCH], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                         text=True, cwd=ROOT)
-    try:
-        word, whole = p.stdout.readline().split()
-        assert word == "ready"
-        time.sleep(wait)
-        sent = time.perf_counter()
-        p.send_signal(signal.SIGINT)
-        line = p.stdout.readline().split()
-        latency = time.perf_counter() - sent
-    finally:
-        p.kill()
-        err = p.communicate()[1]
-    assert line and line[0] in ("interrupted", "finished"), (line, err[-2000:])   # the child's traceback, if it died
-    return line, latency, float(whole)
-
-
 def test_sigint_stops_a_batch():
     """SIGINT while the core marches 64 variants of 1e5 instants:
     KeyboardInterrupt comes long before the batch could have finished. The
@@ -235,7 +214,7 @@ def test_sigint_stops_a_batch():
     in time: "finished"): that child proves nothing, and another is run (waits
     0.1, 0.2, 0.3, 0.1 s; the batch takes about 0.7 s on a quiet machine)."""
     for wait in (0.1, 0.2, 0.3, 0.1):
-        line, latency, whole = interrupt_batch(wait)
+        line, latency, whole = interrupt(SIGINT_BATCH, wait)
         if line == ["interrupted", "inside"]:
             break
     assert line == ["interrupted", "inside"]
