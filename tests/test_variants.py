@@ -2,7 +2,6 @@
 (kinem.solve(model, parameters=...), kinem.variants) against separate
 solves of each variant's own case, the affine tables against validated
 cases', and per-variant failure, input errors and limits."""
-import sys
 import textwrap
 from pathlib import Path
 
