@@ -5,10 +5,12 @@ rates. CASE is a case file or one of the peers' mechanisms
 Count the compiled march's instructions with
 
     valgrind --tool=callgrind --toggle-collect='_core::march::run*' \\
+        --callgrind-out-file=/tmp/callgrind.out.%p \\
         .venv/bin/python benchmarks/march_instructions.py [CASE]
-    callgrind_annotate callgrind.out.PID | head -40
+    callgrind_annotate /tmp/callgrind.out.PID | head -40
 
-(add --inclusive=yes for each function's share with its callees) and
+(the counts written to /tmp, not the tree; add --inclusive=yes for each
+function's share with its callees) and
 divide the total by 21 times the case's instants (printed last, with the
 Newton iterations, factorisations and Jacobian evaluations of one
 solve)."""
