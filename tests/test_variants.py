@@ -209,9 +209,9 @@ def test_sigint_stops_a_batch():
     holds at any load; a core that did not poll would answer only at the end
     (the core polls every 2 ms: measured latencies are milliseconds). On a
     loaded machine the signal can land before the child enters the solve
-    (it says so), or after the batch has ended (this process not scheduled
-    in time: "finished"): that child proves nothing, and another is run (waits
-    0.1, 0.2, 0.3, 0.1 s; the batch takes about 0.7 s on a quiet machine)."""
+    (it says so), or after the batch has ended ("finished"): that child
+    proves nothing, and another is run (waits 0.1, 0.2, 0.3, 0.1 s; the
+    batch takes about 0.7 s on a quiet machine)."""
     for wait in (0.1, 0.2, 0.3, 0.1):
         line, latency, whole = interrupt(SIGINT_BATCH, wait)
         if line == ["interrupted", "inside"]:
