@@ -334,7 +334,7 @@ def _fused(model, call, outputs, times, options, named):
     # the march's states and the derivatives in one block: glibc's malloc serves the next call's from
     # the heap this one frees, where two blocks could come fresh from the system at every call (in a
     # process holding other large arrays: about 50 page faults a call for the slider-crank's 501
-    # instants, a fifth of its time; docs/design.md "Cost: the call's Python part, session 21")
+    # instants, a fifth of its time; docs/sensitivity-cost.md "Cost: the call's Python part, session 21")
     size = 3 * nt * model.n
     block = np.empty(size + nt * len(core) * len(src))
     X, data = block[:size].reshape(3, nt, model.n), block[size:].reshape(nt, len(core) * len(src))
