@@ -4,7 +4,7 @@ process"). On a shared machine the same build's figure moves by up to a
 factor of 2 from one process to the next; within one process, pairs of
 calls of the two builds move together.
 
-    python benchmarks/paired.py OTHER [--what march|sensitivity] [--pairs N] [--cases A,B]
+    python benchmarks/paired.py OTHER [--what march|sensitivity|fixed] [--pairs N] [--cases A,B]
 
 A is this tree's package, B is OTHER's (a checkout whose core is built,
 for example by `python3 dev.py kinem --version` there; this tree itself
@@ -20,6 +20,9 @@ nothing is written in either tree.
   kinem.solve(model), each build's own ratio (sensitivity_bench.py's cases
   and DIMENSION, its pattern: gc, an untimed call, the timed one; the
   process's processor time); per round B's ratio / A's - 1.
+- fixed: a warm kinem.solve of 2 instants (benchmarks/common.fixed_cost's,
+  issue 31's fixed cost) on peers.py's cases, batches of 200 calls, the
+  calling thread's processor time per call; per pair B / A - 1.
 
 Prints per case each build's median, the median of the pairs' changes
 and their quartiles, and the load average. The two copies' code lies at
@@ -86,6 +89,29 @@ def march(builds, pairs, cases):
               f"{pairs} pairs, load {os.getloadavg()[0]:.2f}", flush=True)
 
 
+def fixed(builds, pairs, cases):
+    clock, batch = time.thread_time_ns, 200
+    for name in cases or ("slider_crank", "four_bar", "jansen"):
+        case = getattr(peers, name + "_case")()
+        models = []
+        for k in builds:
+            c = k.load_dict(case)
+            models.append(k.compile(c.with_time(end=c.end / c.steps, steps=1)))   # 2 instants (common.fixed_cost's)
+            k.solve(models[-1])   # warm
+        ns = ([], [])
+        for i in range(pairs):
+            for j in ((0, 1) if i % 2 == 0 else (1, 0)):
+                solve, model = builds[j].solve, models[j]
+                start = clock()
+                for _ in range(batch):
+                    solve(model)
+                ns[j].append((clock() - start) / batch)
+        a, b = (1e-3 * statistics.median(v) for v in ns)
+        changes = [y / x - 1 for x, y in zip(*ns)]
+        print(f"{name:13s} A {a:.2f} us, B {b:.2f} us a warm solve of 2 instants; B / A - 1: {quartiles(changes)}; "
+              f"{pairs} pairs of {batch} calls, load {os.getloadavg()[0]:.2f}", flush=True)
+
+
 def sensitivity(builds, pairs, cases):
     from sensitivity_bench import DIMENSION
 
@@ -117,7 +143,7 @@ def sensitivity(builds, pairs, cases):
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("other", type=Path, help="the other tree (B), built; this tree for an A/A run")
-    p.add_argument("--what", choices=("march", "sensitivity"), default="march")
+    p.add_argument("--what", choices=("march", "sensitivity", "fixed"), default="march")
     p.add_argument("--pairs", type=int, default=100)
     p.add_argument("--cases", default="", help="comma-separated (default: every case of --what)")
     a = p.parse_args()
@@ -127,7 +153,7 @@ def main():
         builds = [copy_package(HERE.parent, Path(scratch), "kinem_a"),
                   copy_package(a.other.resolve(), Path(scratch), "kinem_b")]
         print(f"A {HERE.parent}, B {a.other.resolve()}", flush=True)
-        (march if a.what == "march" else sensitivity)(builds, max(2, a.pairs), cases)
+        {"march": march, "sensitivity": sensitivity, "fixed": fixed}[a.what](builds, max(2, a.pairs), cases)
 
 
 if __name__ == "__main__":

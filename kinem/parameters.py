@@ -62,8 +62,15 @@ class Parameter:
         return {"path": self.path, "value": self.value, "unit": self.unit, "what": self.what}
 
 
-def parameters(case: Case) -> tuple[Parameter, ...]:
-    """Every design parameter of the case: named dimensions, points, then constraints in file order."""
+def parameters(case) -> tuple[Parameter, ...]:
+    """Every design parameter of the case (a Case, or the one a compiled
+    Model was made from): named dimensions, points, then constraints in
+    file order."""
+    if not isinstance(case, Case):
+        if not isinstance(getattr(case, "case", None), Case):
+            raise InputError(f"parameters: {type(case).__name__}: expected a case (kinem.load) or a model "
+                             "(kinem.compile)")
+        case = case.case
     return tuple(p for p, _ in _listing(case))
 
 

@@ -216,12 +216,19 @@ def _layout(model, stages: int):
 def trajectory(model, t, Q, QD=None, QDD=None) -> Trajectory:
     """Named columns (docs/case-format.md, "Trajectory output") from raw
     coordinates, in one compiled pass."""
-    X = [x for x in (Q, QD, QDD) if x is not None]
+    return stacked(model, t, [x for x in (Q, QD, QDD) if x is not None])
+
+
+def stacked(model, t, X) -> Trajectory:
+    """``trajectory`` of the stages Q (, QD, QDD) in X (their sequence, or
+    an array (stages, instants, n)), read when its columns are first asked
+    for. The model's own instants (read-only) are its t, not a copy."""
     names, src, index = _layout(model, len(X))
-    t = np.array(t, dtype=float)
+    if t is not model.times:
+        t = np.array(t, dtype=float)
+        t.setflags(write=False)
     if not len(t):
         return Trajectory(t, names, np.empty((0, len(names))), index)
-    t.setflags(write=False)
     # Trajectory(t, names, None, index, make=...) without its __init__'s attribute by attribute setting
     return frozen(Trajectory, {"t": t, "columns": names, "_index": index, "_data": None, "_make": lambda: native.columns(
         [np.ascontiguousarray(x, float) for x in X], src, model.point_cols, model.point_local)})

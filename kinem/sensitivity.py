@@ -41,7 +41,7 @@ from .casefile.checks import texts
 from .errors import AnalysisError, InputError, KinemError
 from .options import Options, singular_pivot
 from .parameters import frame_tangent, resolve
-from .result import OUTPUTS, Trajectory, _layout, frozen, trajectory
+from .result import OUTPUTS, Trajectory, _layout, frozen, stacked
 from .branches import pins, violation
 from .budget import Budget
 from .march import banded, usable
@@ -344,7 +344,7 @@ def _fused(model, call, outputs, times, options, named):
     settings = options.step_settings[True] + (left,)
     # made before the march, as solve's (Python's caches are cold after it); X never leaves: the
     # trajectory's columns are made from it (its _make), not views of it
-    traj, pinned = trajectory(model, times, X[0], X[1], X[2]), pins(model)
+    traj, pinned = stacked(model, times, X), pins(model)
     derivatives = Trajectory(traj.t, named[2], None, named[3], make=lambda: data)
     singular = np.zeros(nt, bool)
     end, _, least = model.plan.march_sensitivity(times, st, settings, X, figures, ints,

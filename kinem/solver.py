@@ -20,7 +20,7 @@ from .march import March, usable
 from .margins import MARGINS, margins
 from .model import Model
 from .options import Options
-from .result import OUTPUTS, SolveResult, Status, Trajectory, trajectory
+from .result import OUTPUTS, SolveResult, Status, Trajectory, stacked, trajectory
 from .tracking import Tracker
 
 def _floats(name, value, expected):
@@ -101,7 +101,6 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     times = model.times if times is None else times
     nt = len(times)
     X = np.empty((3 if need_v else 1, nt, model.n))  # Q (QD, QDD): one array for the march (kinem.march)
-    Q, QD, QDD = X[0], X[1] if need_v else None, X[2] if need_a else None
     figures, ints = np.zeros((2, nt)), np.zeros(nt + 2, np.int64)
     iters, resid, cond = ints[:nt], figures[0], figures[1]
     budget = Budget(model, options)   # the run's work and clock (kinem.budget), from now
@@ -112,7 +111,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         if usable(model, trace, nt, options) else None
     # made before the march: after a core march of many instants Python's caches are cold and the same
     # statements take twice as long (docs/benchmarks.md "Fixed cost (item 6), session 21")
-    traj, pinned = trajectory(model, times, Q, QD, QDD), q0 is None and pins(model)
+    traj, pinned = stacked(model, times, X if need_a or not need_v else X[:2]), q0 is None and pins(model)
     tracker = data = None   # made for the instants the march hands back (all of them without it)
     k = 0
     try:
@@ -122,6 +121,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
                 if k == nt:
                     break
             if tracker is None:
+                Q, QD, QDD = X[0], X[1] if need_v else None, X[2] if need_a else None
                 data = Data(q=model.q0.copy(), trace=[] if trace else None, solver=choose(model, options))
                 tracker = Tracker(model, data, need_v, need_a, options, state, budget)
             s = tracker.start(times[0], q0) if k == 0 else tracker.advance(times[k])
@@ -144,7 +144,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
         if k == 0 and not limit and (hint := contact_hint(model)):
             why = f"{why}; {hint}" if why else hint
         message = f"{what} t = {times[k]:.6g} (instant {k} of {nt - 1}): {why + '; ' if why else ''}{e}"
-    if pinned and k and (pin := violation(model, Q[0])):   # the branch the case pins (kinem.branches)
+    if pinned and k and (pin := violation(model, X[0, 0])):   # the branch the case pins (kinem.branches)
         status, message, k = Status.WRONG_BRANCH, f"assembly at t = {times[0]:.6g}: {pin[1]}", 0
     wall = time.perf_counter() - start
     n_ok = k

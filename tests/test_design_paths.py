@@ -206,3 +206,13 @@ def test_sensitivity_in_degrees():
     rad = kinem.sensitivity(kinem.compile(kinem.load(ROOT / "cases" / "slider_crank.toml")), [p])
     np.testing.assert_allclose(s.of("B.x", p), rad.of("B.x", p) * math.pi / 180, rtol=0,
                                atol=1e-9 * np.abs(fd).max())
+
+
+def test_the_parameters_of_a_model_are_its_cases_and_other_values_are_refused():
+    """kinem.parameters takes a compiled model as well as its case (it
+    raised AttributeError); anything else is one InputError naming it."""
+    case = kinem.load(ROOT / "cases" / "four_bar.toml")
+    assert kinem.parameters(kinem.compile(case)) == kinem.parameters(case)
+    for bad in (3, None, "cases/four_bar.toml"):
+        with pytest.raises(kinem.InputError, match="parameters: .*expected a case"):
+            kinem.parameters(bad)

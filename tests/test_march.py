@@ -244,3 +244,28 @@ def test_a_model_solved_again_gives_the_same_numbers_and_other_instants_their_ow
     assert only.qd is None and np.abs(only.q - first.q).max() < 1e-9  # the same branch, its own predictor
     again = kinem.solve(model)
     assert np.array_equal(again.q, first.q) and np.array_equal(again.qdd, first.qdd)
+
+
+def _bits(r):
+    """A solve's figures as raw bytes (signs of zeros and NaNs' bits included)."""
+    arrays = (r.q, r.qd, r.qdd, r.iterations, r.residual, r.conditioning)
+    return [None if a is None else np.ascontiguousarray(a).tobytes() for a in arrays] + \
+        [r.status, r.factorizations, r.jacobian_evaluations]
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "cases").glob("*.toml")), ids=lambda p: p.stem)
+def test_a_march_after_others_on_its_model_is_a_fresh_models_to_the_bit(path):
+    """Each march sets the room its plan keeps (kinem/core/src/march.rs
+    `Room`) as a fresh one: after marches over other instants, from another
+    start, of positions alone and with the sensitivities' hook, a solve's
+    figures are a freshly compiled model's to the bit."""
+    case = kinem.load(path)
+    fresh = kinem.solve(kinem.compile(case))
+    model = kinem.compile(case)
+    kinem.solve(model, times=model.times[: max(2, len(model.times) // 3)] * 0.7)
+    kinem.solve(model, q0=model.q0 + 0.3)   # assembles elsewhere, or fails
+    kinem.solve(model, outputs=("positions",))
+    names = [p.path for p in kinem.parameters(model)]
+    if names:
+        kinem.sensitivity(model, names[:2])
+    assert _bits(kinem.solve(model)) == _bits(fresh)

@@ -77,7 +77,7 @@ pub struct Layout {
 }
 
 /// A factorisation's storage: J (count, height, width), pivots, masks, work.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct Factors {
     pub j: Vec<f64>,
     pub piv: Vec<usize>,
@@ -108,6 +108,48 @@ pub struct Factors {
     /// the constants placed once are in j (a factorisation with partial
     /// pivoting overwrites them: the next one places every entry)
     pub placed: bool,
+}
+
+impl Factors {
+    /// No storage (nothing allocated): room to clone into.
+    pub fn empty() -> Self {
+        Factors {
+            j: Vec::new(),
+            piv: Vec::new(),
+            rm: Vec::new(),
+            cm: Vec::new(),
+            w: Vec::new(),
+            fixed: Vec::new(),
+            y: Vec::new(),
+            zeros_hold: false,
+            signs_hold: false,
+            again: Vec::new(),
+            once: false,
+            placed: false,
+        }
+    }
+}
+
+impl Clone for Factors {
+    fn clone(&self) -> Self {
+        let mut f = Factors::empty();
+        f.clone_from(self);
+        f
+    }
+
+    /// Field by field, in the buffers self has (crate::march::Room::set: no allocation).
+    fn clone_from(&mut self, s: &Self) {
+        let Factors { j, piv, rm, cm, w, fixed, y, zeros_hold, signs_hold, again, once, placed } = self;
+        j.clone_from(&s.j);
+        piv.clone_from(&s.piv);
+        rm.clone_from(&s.rm);
+        cm.clone_from(&s.cm);
+        w.clone_from(&s.w);
+        fixed.clone_from(&s.fixed);
+        y.clone_from(&s.y);
+        again.clone_from(&s.again);
+        (*zeros_hold, *signs_hold, *once, *placed) = (s.zeros_hold, s.signs_hold, s.once, s.placed);
+    }
 }
 
 impl Layout {

@@ -152,6 +152,125 @@ impl<'a> Native<'a> {
     }
 }
 
+/// All that a march's operations (`Native`) and its step (`Work`) own
+/// beside the model they read: their buffers, with the constants
+/// `Native::new` puts in them. A Plan keeps one as made fresh and one to
+/// march in (py/plan.rs), which each march sets from the first in place
+/// (`clone_from`: copies, no allocation, no evaluation): every march starts
+/// where a fresh one would, to the bit.
+pub struct Room {
+    f: Factors,
+    q: Vec<f64>,
+    turning: Turning,
+    phi: Vec<f64>,
+    values: Vec<f64>,
+    dq: Vec<f64>,
+    next: Vec<f64>,
+    nu: Vec<f64>,
+    b: Vec<f64>,
+    pieces: Vec<Piece>,
+    work: Work,
+}
+
+impl Room {
+    /// The room of a fresh march of kin on layout.
+    pub fn new(kin: &Kin, layout: &Layout) -> Self {
+        let mut room = Room::empty();
+        Native::new(kin, layout).leave(Work::new(kin.n, kin.smooth), &mut room);
+        room
+    }
+
+    /// No buffers (nothing allocated).
+    fn empty() -> Self {
+        Room {
+            f: Factors::empty(),
+            q: Vec::new(),
+            turning: Turning::new(0),
+            phi: Vec::new(),
+            values: Vec::new(),
+            dq: Vec::new(),
+            next: Vec::new(),
+            nu: Vec::new(),
+            b: Vec::new(),
+            pieces: Vec::new(),
+            work: Work::new(0, false),
+        }
+    }
+}
+
+impl Clone for Room {
+    fn clone(&self) -> Self {
+        let mut room = Room::empty();
+        room.clone_from(self);
+        room
+    }
+
+    /// Field by field, in the buffers self has.
+    fn clone_from(&mut self, s: &Self) {
+        let Room { f, q, turning, phi, values, dq, next, nu, b, pieces, work } = self;
+        f.clone_from(&s.f);
+        q.clone_from(&s.q);
+        turning.clone_from(&s.turning);
+        phi.clone_from(&s.phi);
+        values.clone_from(&s.values);
+        dq.clone_from(&s.dq);
+        next.clone_from(&s.next);
+        nu.clone_from(&s.nu);
+        b.clone_from(&s.b);
+        pieces.clone_from(&s.pieces);
+        work.clone_from(&s.work);
+    }
+}
+
+impl<'a> Native<'a> {
+    /// The operations of kin on layout in room's buffers, and the step's
+    /// work, both as `new` and `Work::new` make them where room is fresh
+    /// (room is left empty until `leave`).
+    pub fn enter(kin: &'a Kin, layout: &'a Layout, room: &mut Room) -> (Self, Work) {
+        let Room { f, q, turning, phi, values, dq, next, nu, b, pieces, work } = std::mem::replace(room, Room::empty());
+        let ops = Native {
+            kin,
+            layout,
+            f,
+            q,
+            turning,
+            phi,
+            values,
+            dq,
+            next,
+            nu,
+            b,
+            t: 0.0,
+            counts: [0, 0],
+            rotated: false,
+            pieces,
+        };
+        (ops, work)
+    }
+
+    /// The buffers and the step's work back into room.
+    pub fn leave(self, work: Work, room: &mut Room) {
+        let Native {
+            kin: _,
+            layout: _,
+            f,
+            q,
+            turning,
+            phi,
+            values,
+            dq,
+            next,
+            nu,
+            b,
+            t: _,
+            counts: _,
+            rotated: _,
+            pieces,
+        } = self;
+        *room = Room { f, q, turning, phi, values, dq, next, nu, b, pieces, work };
+    }
+}
+
 /// max |phi_i| / scale_i; a NaN gives NaN.
 pub fn residual(phi: &[f64], scale: &[f64]) -> f64 {
     assert!(scale.len() >= phi.len());
@@ -383,8 +502,9 @@ pub fn run(
     out: Out,
     watch: &Watch,
     caller: bool,
+    room: &mut Room,
 ) -> (usize, Why) {
-    run_hooked(kin, layout, times, k, st, s, out, watch, caller, None)
+    run_hooked(kin, layout, times, k, st, s, out, watch, caller, room, None)
 }
 
 /// At each accepted instant k, after its rates: (k, the state there, the
@@ -408,12 +528,13 @@ pub fn run_hooked(
     out: Out,
     watch: &Watch,
     caller: bool,
+    room: &mut Room,
     mut hook: Option<Hook>,
 ) -> (usize, Why) {
     let n = kin.n;
     let Out { q, qd, qdd, iterations, residual, pivot, det, counts, first } = out;
     let keep = hook.is_some() && kin.keeps_pieces();
-    run_rows(kin, layout, times, k, st, s, watch, caller, counts, keep, |k, st, o, ops| {
+    run_rows(kin, layout, times, k, st, s, watch, caller, counts, keep, room, |k, st, o, ops| {
         let r = k - first;
         q[r * n..(r + 1) * n].copy_from_slice(&st.q);
         if s.rates {
@@ -448,10 +569,10 @@ pub fn run_rows(
     caller: bool,
     counts: &mut [i64],
     keep: bool,
+    room: &mut Room,
     mut taken: impl FnMut(usize, &MarchState, &Outcome, &mut Native),
 ) -> (usize, Why) {
-    let n = kin.n;
-    let mut ops = Native::new(kin, layout);
+    let (mut ops, mut c) = Native::enter(kin, layout, room);
     if keep {
         ops.pieces = vec![Piece::default(); kin.m];
         // Kin::jac_over_keeping writes every entry of its other families (their constants again)
@@ -461,7 +582,6 @@ pub fn run_rows(
     let mut result = (times.len(), Why::Accepted);
     let (mut next, mut looks) = (Instant::now(), Looks::new());
     // ops.f holds the factorisation at the last accepted q (none before the first)
-    let mut c = Work::new(n, kin.smooth);
     if k == 0 {
         st.restart();
     }
@@ -485,6 +605,7 @@ pub fn run_rows(
     }
     counts[0] += ops.counts[0];
     counts[1] += ops.counts[1];
+    ops.leave(c, room);
     result
 }
 

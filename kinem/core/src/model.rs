@@ -443,6 +443,23 @@ pub struct Turning {
     fresh: bool,
 }
 
+impl Clone for Turning {
+    fn clone(&self) -> Self {
+        let mut t = Turning { e: Vec::new(), seen: Vec::new(), anchor: Vec::new(), fresh: true };
+        t.clone_from(self);
+        t
+    }
+
+    /// Field by field, in the buffers self has (crate::march::Room::set: no allocation).
+    fn clone_from(&mut self, s: &Self) {
+        let Turning { e, seen, anchor, fresh } = self;
+        e.clone_from(&s.e);
+        seen.clone_from(&s.seen);
+        anchor.clone_from(&s.anchor);
+        *fresh = s.fresh;
+    }
+}
+
 impl Turning {
     pub fn new(n: usize) -> Self {
         Turning { e: vec![C64::new(1.0, 0.0); n], seen: vec![f64::NAN; n], anchor: vec![Anchor::NONE; n], fresh: true }

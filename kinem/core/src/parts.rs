@@ -9,7 +9,7 @@
 use crate::accept::Why;
 use crate::families::At;
 use crate::lu::Layout;
-use crate::march::{run, MarchState, Native, Out, Settings, Step};
+use crate::march::{run, MarchState, Native, Out, Room, Settings, Step};
 use crate::model::Kin;
 use crate::newton::Ops;
 use crate::watch::Watch;
@@ -212,7 +212,7 @@ fn window_of(p: &Part, ps: &mut MarchState, times: &[f64], from: usize, s: &Sett
         counts: &mut m.counts,
         first: from,
     };
-    (m.end, m.why) = run(&p.kin, &p.layout, times, from, ps, s, o, watch, false);
+    (m.end, m.why) = run(&p.kin, &p.layout, times, from, ps, s, o, watch, false, &mut Room::new(&p.kin, &p.layout));
     m
 }
 

@@ -97,9 +97,17 @@ impl MarchState {
         }
     }
 
-    /// Back to the estimates in q: nothing accepted.
+    /// Back to the estimates in q: nothing accepted (`new`'s state, in the
+    /// buffers it has: no allocation at every march's start).
     pub fn restart(&mut self) {
-        *self = MarchState::new(&self.q);
+        let MarchState { q: _, qd, qdd, rates, t, det, h, tt, prev, before } = self;
+        for v in [qd, qdd, h] {
+            v.fill(0.0);
+        }
+        for p in prev.iter_mut() {
+            p.fill(0.0);
+        }
+        (*rates, *t, *det, *tt, *before) = (false, f64::NAN, 0, [f64::NAN; 3], f64::NAN);
     }
 
     /// Takes the state q (into which `Step::q` has settled) at t, det sign
@@ -242,12 +250,31 @@ pub struct Work {
     kept: Vec<f64>,
 }
 
+impl Clone for Work {
+    fn clone(&self) -> Self {
+        let mut w = Work::new(0, false);
+        w.clone_from(self);
+        w
+    }
+
+    /// Field by field, in the buffers self has (crate::march::Room::set: no allocation).
+    fn clone_from(&mut self, s: &Self) {
+        let Work { held, memory, qp, start, bias, biased, kept } = self;
+        qp.clone_from(&s.qp);
+        start.clone_from(&s.start);
+        biased.clone_from(&s.biased);
+        kept.clone_from(&s.kept);
+        (*held, *memory, *bias) = (s.held, s.memory, s.bias);
+    }
+}
+
 /// Whether the chord's start at the next instant adds the Hermite start's
 /// error at the last accepted one (its q minus that start, which `Work`'s
 /// `start` keeps): where the last instant was settled by the chord from
 /// Hermite's start and the next step is as long (within 1e-6). The
 /// quintic's error is of order h^6 and smooth: the biased start's is its
 /// change over a step (Jansen leg: median 2.3e-13 -> 4.7e-14 of the sizes).
+#[derive(Clone, Copy)]
 pub struct Bias {
     /// the step the last start was made over (NaN: its error is not at hand)
     h: f64,
@@ -594,6 +621,18 @@ mod tests {
     /// of 0.02): the biased start's error below a tenth of the unbiased
     /// one's (the error is smooth: its change over a step is of order h^7);
     /// unbiased where the step changed, or the model is not smooth.
+    /// A restarted state is a new one from its q, whatever it held (the
+    /// march restarts its caller's state at every start from k = 0).
+    #[test]
+    fn a_restarted_state_is_a_new_one() {
+        let q = [0.5, -1.0, 2.0];
+        let mut st = MarchState::new(&q);
+        (st.qd[1], st.qdd[2], st.h[4], st.prev[2][0]) = (3.0, -0.0, 7.0, 1.5);
+        (st.rates, st.t, st.det, st.tt, st.before) = (true, 0.25, -1, [0.0, 0.1, 0.2], 0.1);
+        st.restart();
+        assert_eq!(format!("{st:?}"), format!("{:?}", MarchState::new(&q)));
+    }
+
     #[test]
     fn a_start_carrying_the_last_error_lands_closer() {
         let f = |t: f64| [(3.0 * t).sin()];

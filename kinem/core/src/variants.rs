@@ -304,6 +304,7 @@ fn one(
         false,
         &mut counts,
         false,
+        &mut march::Room::new(&kin, b.layout),
         |k, st, o, _| {
             if k == 0 {
                 det = o.det as i8;

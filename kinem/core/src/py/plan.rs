@@ -21,6 +21,11 @@ pub(crate) struct Plan {
     /// a model of several diagonal blocks as one model per block, built at
     /// its first march (crate::parts)
     parts: std::sync::OnceLock<Result<Vec<crate::parts::Part>, String>>,
+    /// the march's room as made fresh (at the first march), and the one the
+    /// last march left: each march sets it from the fresh one in place
+    /// (`Plan::room`), no allocation, no evaluation
+    fresh: std::sync::OnceLock<march::Room>,
+    spare: std::sync::Mutex<Option<march::Room>>,
 }
 
 #[pymethods]
@@ -130,7 +135,13 @@ impl Plan {
             crate::plan::order_blocks(&kin2, &mut layout);
             Ok(layout)
         })?;
-        Ok(Plan { kin, layout: Arc::new(layout), parts: std::sync::OnceLock::new() })
+        Ok(Plan {
+            kin,
+            layout: Arc::new(layout),
+            parts: std::sync::OnceLock::new(),
+            fresh: std::sync::OnceLock::new(),
+            spare: std::sync::Mutex::new(None),
+        })
     }
 
     /// Design sensitivities (crate::sensitivity): tables, the model's
@@ -257,6 +268,8 @@ impl Plan {
         let out = outputs.out(n, stages, "march_sensitivity")?;
         let signal: std::sync::Mutex<Option<PyErr>> = std::sync::Mutex::new(None);
         let poll = || signalled(&signal);
+        let mut room = self.room();
+        let at_room = &mut room;
         let (end, why, least) = guard(py, move || {
             let mut at = crate::sensitivity::Instants::new(prepared, layout, stages)?;
             let watch = Watch::new(seconds, Some(&poll));
@@ -267,7 +280,7 @@ impl Plan {
                         let row = &mut data[k * width..(k + 1) * width];
                         ratio[k] = at.at(times[k], &x[..stages], e, pieces, f, pivot, row);
                     };
-                march::run_hooked(kin, layout, times, 0, st, &settings, out, &watch, true, Some(&mut hook))
+                march::run_hooked(kin, layout, times, 0, st, &settings, out, &watch, true, at_room, Some(&mut hook))
             };
             // the least ratio of the instants taken, NaN where one is
             let least = ratio[..end.min(ratio.len())].iter().fold(f64::INFINITY, |a, &r| {
@@ -279,6 +292,7 @@ impl Plan {
             });
             Ok((end, why, least))
         })?;
+        self.keep(room);
         if why == Why::Interrupted {
             return Err(raised(&signal));
         }
@@ -381,14 +395,20 @@ impl Plan {
         // the signal's exception, from the poll (the GIL re-acquired for it)
         let signal: std::sync::Mutex<Option<PyErr>> = std::sync::Mutex::new(None);
         let poll = || signalled(&signal);
+        let whole = layout.count < 2 || !matches!(layout.shape, Shape::Blocks { .. });
+        let mut room = if whole { Some(self.room()) } else { None };
+        let at_room = room.as_mut();
         let (end, why) = guard(py, move || {
             let watch = Watch::new(seconds, Some(&poll));
-            if layout.count < 2 || !matches!(layout.shape, Shape::Blocks { .. }) {
-                return Ok(march::run(kin, layout, times, k, st, &settings, out, &watch, true));
+            if let Some(room) = at_room {
+                return Ok(march::run(kin, layout, times, k, st, &settings, out, &watch, true, room));
             }
             let parts = parts.get_or_init(|| crate::parts::split(kin, layout)).as_ref()?;
             Ok(crate::parts::run_parts(parts, layout.sign, times, k, st, &settings, out, &watch))
         })?;
+        if let Some(room) = room {
+            self.keep(room);
+        }
         if why == Why::Interrupted {
             return Err(raised(&signal));
         }
@@ -611,6 +631,26 @@ impl<'py> MarchOutputs<'py> {
 }
 
 impl Plan {
+    /// The march's room, set as made fresh: the one the last march left
+    /// where no other march holds it, else a new one.
+    fn room(&self) -> march::Room {
+        let fresh = self.fresh.get_or_init(|| march::Room::new(&self.kin, &self.layout));
+        match self.spare.lock().ok().and_then(|mut spare| spare.take()) {
+            Some(mut room) => {
+                room.clone_from(fresh);
+                room
+            }
+            None => fresh.clone(),
+        }
+    }
+
+    /// Keeps the room a march leaves for the next one.
+    fn keep(&self, room: march::Room) {
+        if let Ok(mut spare) = self.spare.lock() {
+            *spare = Some(room);
+        }
+    }
+
     /// The separate pass (crate::sensitivity::sensitivities) from a set-up:
     /// x 1 to 3 arrays (K, n) at times; returns (data (K, P W), ratio (K)).
     #[allow(clippy::type_complexity)]
