@@ -265,3 +265,20 @@ def test_found_update_docs_writes_as_every_output(tmp_path, monkeypatch):
     link.symlink_to(real)
     assert engines.update(link) is True and link.is_symlink()
     assert engines.markdown() in real.read_text() and engines.update(link) is False
+
+
+def test_found_report_into_a_dangling_link(tmp_path, monkeypatch):
+    """kinem report --out LINK, LINK a symbolic link to nothing: every case
+    ran (27 s for one four-bar), then "--out LINK: cannot write: File
+    exists" (exit 2). Now refused before the runs, naming the link's target."""
+    from kinem.report import execute
+
+    case = tmp_path / "case.toml"
+    case.write_text(TINY)
+    link = tmp_path / "out"
+    link.symlink_to(tmp_path / "nowhere")
+    monkeypatch.setattr(execute, "execute", lambda *a, **k: pytest.fail("the cases were run"))
+    code, line = run_main(["report", str(case), "--out", str(link), "--engines", "pymunk", "--baseline", "none",
+                           "--jobs", "1"])
+    assert code == 2 and "nowhere, which does not exist" in line
+    assert link.is_symlink() and not (tmp_path / "nowhere").exists()
