@@ -33,6 +33,9 @@ def main(argv=None) -> int:
     def unraisable(u, default=sys.unraisablehook):  # our exit, swallowed in a callback: no traceback printed
         from .. import output
 
+        if isinstance(u.exc_value, KeyboardInterrupt):   # Ctrl-C landed in a callback that swallows it (cffi's
+            _interrupt_later()                          # collector of a pymunk body): raised again outside it
+            return
         if not (output.STOP["signal"] is not None and isinstance(u.exc_value, SystemExit)):
             default(u)
 
@@ -52,6 +55,18 @@ def main(argv=None) -> int:
         from .. import output
 
         output.STOP["signal"] = None
+
+
+def _interrupt_later():
+    """Ctrl-C again, from another thread 20 ms on: it lands once the
+    callback that swallowed the first has returned (raised inside the hook,
+    it would be swallowed too)."""
+    import _thread
+    import threading
+
+    timer = threading.Timer(0.02, _thread.interrupt_main)
+    timer.daemon = True
+    timer.start()
 
 
 def _main(argv) -> int:
