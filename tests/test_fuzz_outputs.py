@@ -313,3 +313,27 @@ def test_found_ctrl_c_swallowed_by_a_callback(monkeypatch):
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
         code = main(["engines"])
     assert code == 130 and err.getvalue() == "", err.getvalue()
+
+
+def test_found_report_of_a_case_that_fails_with_a_design_section(tmp_path):
+    """A case whose native run fails (it cannot assemble) and whose file
+    asks for [report] sensitivity: the report ran every case, then the
+    design section's kinem.sensitivity raised "the nominal solve failed"
+    out of the whole report (exit 1, nothing written, the good cases' page
+    lost). Now the page is written, the case's failure in it, the design
+    section said not computed: exit 1 as for any native failure."""
+    text = (ROOT / "cases" / "four_bar.toml").read_text()
+    apart = text.replace('name = "four_bar"', 'name = "apart"').replace(
+        'O4 = { body = "ground", at = [0.2, 0.0] }', 'O4 = { body = "ground", at = [20.0, 0.0] }').replace(
+        "end = 2.5\nsteps = 250", "end = 0.1\nsteps = 4")
+    assert apart.count("20.0, 0.0") == 1 and "steps = 4" in apart and "sensitivity = [" in apart
+    case, out = tmp_path / "apart.toml", tmp_path / "out"
+    case.write_text(apart)
+    err, said = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(said):
+        code = main(["report", str(case), "--engines", "", "--quick", "--baseline", "none", "--jobs", "0",
+                     "--out", str(out)])
+    assert code == 1 and err.getvalue() == "", err.getvalue()   # the report's own line is on standard output
+    assert "1 failed" in said.getvalue() and "FAILED" in said.getvalue()
+    assert "Not computed: native's run of the case failed" in (out / "index.html").read_text()
+    assert (out / "manifest.json").is_file()
