@@ -47,8 +47,10 @@ def main(argv=None) -> int:
     hook, sys.unraisablehook = sys.unraisablehook, unraisable
     try:
         standard_streams()
-        return _main(argv)
+        code = _main(argv)
+        return 130 if _cancel_interrupt() else code   # swallowed at the very end: stopped all the same
     finally:
+        _cancel_interrupt()
         sys.unraisablehook = hook
         for s, h in previous.items():
             signal.signal(s, h)
@@ -66,7 +68,21 @@ def _interrupt_later():
 
     timer = threading.Timer(0.02, _thread.interrupt_main)
     timer.daemon = True
+    _PENDING.append(timer)
     timer.start()
+
+
+_PENDING = []   # _interrupt_later's timers: cancelled when main returns first (no Ctrl-C outside it)
+
+
+def _cancel_interrupt() -> bool:
+    """Cancels the pending timers of _interrupt_later; whether one was pending."""
+    pending = False
+    while _PENDING:
+        timer = _PENDING.pop()
+        pending |= timer.is_alive() and not timer.finished.is_set()
+        timer.cancel()
+    return pending
 
 
 def _main(argv) -> int:
