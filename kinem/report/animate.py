@@ -272,9 +272,10 @@ def _stop_in(error):
 @contextmanager
 def _scratch(ext):
     """A path to render into that SIGKILL leaves nothing behind for, and its
-    folder (for messages): an unnamed file (Linux O_TMPFILE in the temporary directory) reached through
-    /proc/PID/fd/N, which the ffmpeg child process can open too; elsewhere a
-    temporary directory, removed on any error Python sees."""
+    folder (for messages): an unnamed file (Linux O_TMPFILE in the temporary
+    directory) reached through /proc/PID/fd/N, which the ffmpeg child process
+    can open too; elsewhere a temporary directory, removed on any error
+    Python sees."""
     fd, folder = None, None
     if hasattr(os, "O_TMPFILE"):
         # the temporary directory as tempfile.gettempdir chooses it, without its probe (a named file
