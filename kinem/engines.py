@@ -72,14 +72,23 @@ def cases(adapters) -> list:
 
 
 def update(path) -> bool:
-    """Rewrites the generated section of ``path``; True when it changed."""
+    """Rewrites the generated section of ``path`` (between BEGIN and END);
+    True when it changed. Written as every output is (kinem.output: whole or
+    not at all, a read-only file refused, a symbolic link written through)."""
     from pathlib import Path
 
-    p = Path(path)
-    text = p.read_text()
+    from .errors import InputError
+    from .output import write_atomic
+
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise InputError(f"{path}: cannot read: {getattr(e, 'strerror', None) or e}") from None
     head, _, rest = text.partition(BEGIN)
-    _, _, tail = rest.partition(END)
+    _, found, tail = rest.partition(END)
+    if not found:
+        raise InputError(f"{path}: no generated section; expected a line {BEGIN} and, after it, a line {END}")
     new = head + BEGIN + "\n" + markdown() + END + tail
     if new != text:
-        p.write_text(new)
+        write_atomic(path, lambda f: f.write(new.encode("utf-8")))
     return new != text

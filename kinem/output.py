@@ -152,6 +152,9 @@ class Output:
                 st = None
             if st is not None and stat.S_ISDIR(st.st_mode):
                 raise InputError(f"{self.path}: cannot write: is a directory")
+            if self.path.endswith(os.sep):   # realpath drops the '/': the file would be written without it
+                raise InputError(f"{self.path}: cannot write: a path ending in {os.sep!r} names a directory; "
+                                 "expected a file name")
             if st is not None and stat.S_ISFIFO(st.st_mode):
                 self.file = os.fdopen(_fifo_writer(self.path, real), "wb", buffering=0)   # in place
                 return

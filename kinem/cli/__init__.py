@@ -33,6 +33,9 @@ def main(argv=None) -> int:
     def unraisable(u, default=sys.unraisablehook):  # our exit, swallowed in a callback: no traceback printed
         from .. import output
 
+        if isinstance(u.exc_value, KeyboardInterrupt):   # Ctrl-C landed in a callback that swallows it (cffi's
+            _interrupt_later()                          # collector of a pymunk body): raised again outside it
+            return
         if not (output.STOP["signal"] is not None and isinstance(u.exc_value, SystemExit)):
             default(u)
 
@@ -44,14 +47,42 @@ def main(argv=None) -> int:
     hook, sys.unraisablehook = sys.unraisablehook, unraisable
     try:
         standard_streams()
-        return _main(argv)
+        code = _main(argv)
+        return 130 if _cancel_interrupt() else code   # swallowed at the very end: stopped all the same
     finally:
+        _cancel_interrupt()
         sys.unraisablehook = hook
         for s, h in previous.items():
             signal.signal(s, h)
         from .. import output
 
         output.STOP["signal"] = None
+
+
+def _interrupt_later():
+    """Ctrl-C again, from another thread 20 ms on: it lands once the
+    callback that swallowed the first has returned (raised inside the hook,
+    it would be swallowed too)."""
+    import _thread
+    import threading
+
+    timer = threading.Timer(0.02, _thread.interrupt_main)
+    timer.daemon = True
+    _PENDING.append(timer)
+    timer.start()
+
+
+_PENDING = []   # _interrupt_later's timers: cancelled when main returns first (no Ctrl-C outside it)
+
+
+def _cancel_interrupt() -> bool:
+    """Cancels the pending timers of _interrupt_later; whether one was pending."""
+    pending = False
+    while _PENDING:
+        timer = _PENDING.pop()
+        pending |= timer.is_alive() and not timer.finished.is_set()
+        timer.cancel()
+    return pending
 
 
 def _main(argv) -> int:

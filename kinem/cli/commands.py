@@ -145,7 +145,12 @@ def cmd_engines(a):
     from .. import engines
 
     if a.tune is not None:
+        if a.update_docs:
+            raise InputError("--tune and --update-docs: give at most one")
         return _tune(a)
+    if a.quick or a.json:   # options of --tune alone: refused rather than ignored
+        raise InputError(f"{'--quick' if a.quick else '--json'}: only with --tune; expected kinem engines --tune "
+                         f"[ENGINES] {'--quick' if a.quick else '--json'}")
     if a.update_docs:
         changed = engines.update(Path(__file__).resolve().parents[2] / "docs" / "engines.md")
         print("docs/engines.md " + ("updated" if changed else "already current"))
@@ -158,9 +163,9 @@ def _tune(a):
     """kinem engines --tune [ENGINES]: the sweep behind the default settings (adapters/tune.py)."""
     from adapters import names, tune
 
-    engines = [e.strip() for e in a.tune.split(",") if e.strip()] if a.tune else list(names())
+    engines = list(dict.fromkeys(e.strip() for e in a.tune.split(",") if e.strip())) if a.tune else list(names())
     unknown = [e for e in engines if e not in names()]
-    if unknown:
+    if unknown or not engines:   # ',' names no engine (--tune alone or --tune '' is every engine)
         raise InputError(f"--tune: got {a.tune!r}; expected a comma-separated list of {', '.join(names())}")
     models = tune._models(tune.QUICK_CASES if a.quick else tune.CASES, a.quick)
     results = [tune.sweep(e, quick=a.quick, repeats=1 if a.quick else 3, models=models) for e in engines]

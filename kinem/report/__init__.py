@@ -68,6 +68,9 @@ def run(o: Options) -> Outcome:
     out = Path(o.out)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {out}: not a directory")
+    if out.is_symlink() and not out.exists():   # found here, not by the mkdir after the runs ("File exists")
+        raise InputError(f"--out {out}: a symbolic link to {os.readlink(out)}, which does not exist; "
+                         "expected a directory or a new name")
     target = Path(o.baseline or out / "baseline.json")
     if o.update_baseline and not (target.parent.is_dir() or target.parent == out):
         raise InputError(f"--baseline {target}: directory {target.parent} does not exist")

@@ -7,14 +7,17 @@ FILE.svg is the report's animated SVG, standalone; FILE.gif and FILE.mp4
 draw the same scene frame by frame with matplotlib (mp4 through the ffmpeg
 binary that the imageio-ffmpeg package ships, so nothing else needs installing).
 """
+import errno
+import logging
 import os
+import subprocess
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import AnalysisError, InputError, KinemError
+from ..errors import AnalysisError, InputError, KinemError, OutputError
 from .drawing import MARK_NAMES, poses, scene, world
 from .motion import BODY_COLORS, ENGINE_COLORS, duration, svg
 from .runs import FRAMES, PATH_INSTANTS, sample
@@ -30,6 +33,8 @@ def check_output(out, what="--out"):
         raise InputError(f"{what} {out}: expected a file ending in {', '.join(FORMATS)}")
     if ext == ".mp4" and not ffmpeg():
         raise InputError(f"{what} {out}: mp4 needs ffmpeg, which is not installed; write .svg or .gif instead")
+    if str(out).endswith(os.sep) or os.path.isdir(out):   # refused before the runs, not after them (kinem.output)
+        raise InputError(f"{what} {out}: cannot write: a directory; expected a file name")
     parent = Path(out).parent
     if not parent.is_dir():
         raise InputError(f"{what} {out}: directory {parent} does not exist")
@@ -100,7 +105,10 @@ def render(model, native, ghosts, dense, out, ext=None, on_frame=None):
         data = ('<?xml version="1.0" encoding="utf-8"?>\n'
                 + svg(model, native, ghosts, standalone=True, paths_q=dense) + "\n").encode()
     else:
-        data = raster(model, native, ghosts, dense, ext, on_frame)
+        try:
+            data = raster(model, native, ghosts, dense, ext, on_frame)
+        except _ScratchError as e:   # the scratch file it is drawn into (a full temporary folder), or ffmpeg
+            raise OutputError(f"{out}: write failed: {e}") from None
     save(out, data)
 
 
@@ -196,13 +204,20 @@ def raster(model, native, ghosts, dense, ext, on_frame=None) -> bytes:
         if on_frame:
             on_frame(k)
     plt.close(fig)
-    with _scratch(ext) as path:
-        if ext == ".gif":
-            _save_gif(path, images, fps)
-        else:   # the format named: the scratch path may have no suffix
-            writer = animation.FFMpegWriter(fps=fps, extra_args=["-f", "mp4"])
-            _save_frames(writer, images, fig.dpi, path)
-        return Path(path).read_bytes()
+    with _scratch(ext) as (path, folder):
+        try:
+            if ext == ".gif":
+                _save_gif(path, images, fps)
+            else:   # the format named: the scratch path may have no suffix
+                writer = animation.FFMpegWriter(fps=fps, extra_args=["-f", "mp4"])
+                _save_frames(writer, images, fig.dpi, path)
+            return Path(path).read_bytes()
+        except OSError as e:
+            raise _ScratchError(f"{e.strerror or type(e).__name__} (its temporary file, in {folder})") from None
+
+
+class _ScratchError(Exception):
+    """The raster's scratch file could not be written (render names the output)."""
 
 
 def _save_gif(path, images, fps):
@@ -222,20 +237,46 @@ def _save_frames(writer, images, dpi, path):
     h, w = images[0].shape[:2]
     fig = plt.figure(figsize=(w / dpi, h / dpi), dpi=dpi)
     fig.figimage(images[0])
-    with writer.saving(fig, path, dpi):
-        for im in images:
-            fig.images[0].set_data(im)
-            writer.grab_frame()
-    plt.close(fig)
+    log = logging.getLogger("matplotlib.animation")   # its warning of ffmpeg's standard error: in the error instead
+    level = log.level
+    log.setLevel(logging.ERROR)
+    try:
+        with writer.saving(fig, path, dpi):
+            for im in images:
+                fig.images[0].set_data(im)
+                writer.grab_frame()
+    except subprocess.CalledProcessError as e:
+        stop = _stop_in(e)
+        if stop is not None:   # Ctrl-C (SIGTERM) to the process group stopped ffmpeg too: the writer's
+            raise stop from None   # finish found it stopped, and its error hid the interrupt
+        lines = (e.stderr or "").strip().splitlines()
+        why = lines[-1].strip() if lines else (f"died with signal {-e.returncode}" if e.returncode < 0
+                                               else f"exit status {e.returncode}")
+        raise OSError(errno.EIO, f"ffmpeg: {why}") from None
+    finally:
+        log.setLevel(level)
+        plt.close(fig)
+
+
+def _stop_in(error):
+    """The KeyboardInterrupt or SystemExit (a signal's exit) that ``error``
+    was raised while handling, if any."""
+    e = error.__context__
+    while e is not None:
+        if isinstance(e, (KeyboardInterrupt, SystemExit)):
+            return e
+        e = e.__context__
+    return None
 
 
 @contextmanager
 def _scratch(ext):
-    """A path to render into that SIGKILL leaves nothing behind for: an
-    unnamed file (Linux O_TMPFILE in the temporary directory) reached through
-    /proc/PID/fd/N, which the ffmpeg child process can open too; elsewhere a
-    temporary directory, removed on any error Python sees."""
-    fd = None
+    """A path to render into that SIGKILL leaves nothing behind for, and its
+    folder (for messages): an unnamed file (Linux O_TMPFILE in the temporary
+    directory) reached through /proc/PID/fd/N, which the ffmpeg child process
+    can open too; elsewhere a temporary directory, removed on any error
+    Python sees."""
+    fd, folder = None, None
     if hasattr(os, "O_TMPFILE"):
         # the temporary directory as tempfile.gettempdir chooses it, without its probe (a named file
         # made and removed: SIGKILL between the two would leave it); the unnamed file is the probe
@@ -248,14 +289,14 @@ def _scratch(ext):
     path = f"/proc/{os.getpid()}/fd/{fd}" if fd is not None else None
     if path is not None and os.path.exists(path):
         try:
-            yield path
+            yield path, folder
         finally:
             os.close(fd)
         return
     if fd is not None:
         os.close(fd)
     with tempfile.TemporaryDirectory() as tmp:
-        yield os.path.join(tmp, "out" + ext)
+        yield os.path.join(tmp, "out" + ext), tmp
 
 
 def _temporary_folders():

@@ -186,7 +186,11 @@ def case_section(case, model, series):
     from .design import section
 
     engines = [r["engine"] for r in case["runs"] if r["engine"] != "native" and r.get("outcome") == "ok"]
-    out += section(model, engines)   # [report] sensitivity, [tolerances]: docs/design.md
+    if any(r["engine"] == "native" and r.get("outcome") == "ok" for r in case["runs"]):
+        out += section(model, engines)   # [report] sensitivity, [tolerances]: docs/design.md
+    elif model.case.report.get("sensitivity") or model.case.tolerances:   # they start from native's solve
+        out.append("<h3>Design sensitivities and tolerance bands</h3><p>Not computed: native's run of the case "
+                   "failed (the comparison above says why).</p>")
     wp = case["work_precision"]
     if wp:
         out.append("<h3>Work-precision</h3><p>Each point is one run, labelled with its native Newton tolerance "
