@@ -295,8 +295,10 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
                 // one quiet side not zero: not quiet
                 let k = t.program.quiet[rng.below(t.program.quiet.len() as u64) as usize];
                 let p = t.scatter.iter().position(|&j| j == k as usize).unwrap();
-                b[t.gather[p]] = 1e-300;
-                assert!(!layout.solve_quiet(&mut f, &b, &mut xq), "trial {trial}: a nonzero quiet side ran quiet");
+                for v in [1e-300, -5e-324, f64::NAN, -f64::INFINITY] {
+                    b[t.gather[p]] = v;
+                    assert!(!layout.solve_quiet(&mut f, &b, &mut xq), "trial {trial}: a quiet side {v} ran quiet");
+                }
                 quiet += 1;
                 // a quiet position that a subtraction writes (from another quiet one)
                 deep += t.program.subs.iter().any(|s| t.program.quiet.contains(&s[0])) as usize;
