@@ -387,6 +387,60 @@ mod tests {
         }
     }
 
+    /// Coordinates at rest (q finite and not -0, qd and qdd +0 or -0, the
+    /// state before the same there): `predicted` over a range that holds
+    /// every other coordinate, with its buffers holding q at the rest ones,
+    /// gives the whole run's figures to the bit (tolerance 0), biased or
+    /// not; so does `gap_keep` (crate::march's `rest`).
+    #[test]
+    fn rest_coordinates_leave_the_predictors_as_they_were() {
+        let n = 12;
+        let rest = [0usize, 1, 2, 3, 4, 11];
+        let v = |k: usize| -> Vec<f64> {
+            (0..n).map(|j| ((k * 29 + j * 11) as f64 * 0.53).sin() * (1.0 + j as f64)).collect()
+        };
+        let (mut c, mut p) = ([v(1), v(2), v(3)], [v(4), v(5), v(6)]);
+        let col: Vec<f64> = v(8).iter().map(|x| 0.5 + x.abs()).collect();
+        for (i, &j) in rest.iter().enumerate() {
+            let q = [0.0, 0.3, -1.7, 1e-300, 2.5e3, -0.0 + 0.0][i];
+            (c[0][j], p[0][j]) = (q, q);
+            let z = |k: usize| if (i + k).is_multiple_of(2) { 0.0 } else { -0.0 };
+            (c[1][j], c[2][j], p[1][j], p[2][j]) = (z(0), z(1), z(2), z(3));
+        }
+        let (cs, ps) = ([&c[0][..], &c[1][..], &c[2][..]], [&p[0][..], &p[1][..], &p[2][..]]);
+        let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        for (a, h) in [(0.013, 0.0127), (1e-6, 2e-6), (3.0, 0.5)] {
+            for biased in [false, true] {
+                // the last start: the state's q at the rest coordinates (as any start from it left)
+                let mut last = v(7);
+                rest.iter().for_each(|&j| last[j] = c[0][j]);
+                let (mut qp, mut start, mut room) = (vec![0.0; n], last.clone(), vec![0.0; n]);
+                let motion = predicted(cs, ps, a, h, &col, biased, &mut qp, &mut start, &mut room);
+                let (lo, hi) = (5, 11);
+                let (mut qr, mut sr, mut rr) = (vec![f64::NAN; n], last.clone(), vec![f64::NAN; n]);
+                rest.iter().for_each(|&j| (qr[j], rr[j]) = (c[0][j], c[0][j]));
+                let (cr, pr) =
+                    ([&c[0][lo..hi], &c[1][lo..hi], &c[2][lo..hi]], [&p[0][lo..hi], &p[1][lo..hi], &p[2][lo..hi]]);
+                let m =
+                    predicted(cr, pr, a, h, &col[lo..hi], biased, &mut qr[lo..hi], &mut sr[lo..hi], &mut rr[lo..hi]);
+                assert_eq!(
+                    (bits(&qr), bits(&sr), bits(&rr)),
+                    (bits(&qp), bits(&start), bits(&room)),
+                    "{a} {h} {biased}"
+                );
+                assert_eq!(m.to_bits(), motion.to_bits());
+                // the settled q against the predictor, kept: over the range, the same figure and copy
+                let mut settled = room.clone();
+                (lo..hi).for_each(|j| settled[j] += 1e-9 * (j as f64));
+                let (mut kept, mut kr) = (vec![0.0; n], vec![f64::NAN; n]);
+                rest.iter().for_each(|&j| kr[j] = c[0][j]);
+                let g = gap_keep(&settled, &qp, &col, &mut kept);
+                let gr = gap_keep(&settled[lo..hi], &qp[lo..hi], &col[lo..hi], &mut kr[lo..hi]);
+                assert_eq!((g.to_bits(), bits(&kept)), (gr.to_bits(), bits(&kr)));
+            }
+        }
+    }
+
     #[test]
     fn the_test_rejects_each_way() {
         assert_eq!(rejected(1e-3, 0.0, 1, 1, 0.0, 0.0, true, 1e-5, 1e-12, false), Why::Accepted);

@@ -280,6 +280,25 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
                 t.run(&f.j, &b, &mut xs);
                 full.run(&f.j, &b, &mut xf);
                 assert_eq!(xs, xf, "trial {trial}: the short program differs from the full one");
+                // the solve says it ran quiet, and each quiet coordinate's x is its row's b (+0 or
+                // -0), to the bit: what the march's rest coordinates rely on (march::rest)
+                for &q in &t.program.quiet {
+                    let p = t.scatter.iter().position(|&j| j == q as usize).unwrap();
+                    b[t.gather[p]] = if rng.below(2) == 0 { 0.0 } else { -0.0 };
+                }
+                let mut xq = vec![f64::NAN; n];
+                assert!(layout.solve_quiet(&mut f, &b, &mut xq), "trial {trial}: zero quiet sides not quiet");
+                for &q in &t.program.quiet {
+                    let p = t.scatter.iter().position(|&j| j == q as usize).unwrap();
+                    assert_eq!(xq[q as usize].to_bits(), b[t.gather[p]].to_bits(), "trial {trial}: quiet x moved");
+                }
+                // one quiet side not zero: not quiet
+                let k = t.program.quiet[rng.below(t.program.quiet.len() as u64) as usize];
+                let p = t.scatter.iter().position(|&j| j == k as usize).unwrap();
+                for v in [1e-300, -5e-324, f64::NAN, -f64::INFINITY] {
+                    b[t.gather[p]] = v;
+                    assert!(!layout.solve_quiet(&mut f, &b, &mut xq), "trial {trial}: a quiet side {v} ran quiet");
+                }
                 quiet += 1;
                 // a quiet position that a subtraction writes (from another quiet one)
                 deep += t.program.subs.iter().any(|s| t.program.quiet.contains(&s[0])) as usize;

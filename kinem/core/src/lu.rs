@@ -394,12 +394,31 @@ impl Layout {
     /// out of line (`solve_other`), so the usual call has no prologue of theirs.
     #[inline]
     pub fn solve(&self, f: &mut Factors, b: &[f64], x: &mut [f64]) {
+        self.solve_quiet(f, b, x);
+    }
+
+    /// `solve`, returning whether the blocks' program ran quiet
+    /// (`Program::run_negating`): the quiet positions' right sides were all
+    /// zero, and each quiet coordinate's x is its row's b, to the bit (false
+    /// for every other layout and the fallback).
+    #[inline]
+    pub fn solve_quiet(&self, f: &mut Factors, b: &[f64], x: &mut [f64]) -> bool {
         if let Shape::Triangular(t) = &self.shape {
             if f.fixed[0].is_some() {
                 return t.run_negating(&f.j, b, x);
             }
         }
-        self.solve_other(f, b, x)
+        self.solve_other(f, b, x);
+        false
+    }
+
+    /// The quiet coordinates of the blocks' program (crate::triangular::Program:
+    /// its places are the coordinates), none for another layout.
+    pub fn quiet(&self) -> &[u32] {
+        match &self.shape {
+            Shape::Triangular(t) => &t.program.quiet,
+            _ => &[],
+        }
     }
 
     /// `solve` of the layouts other than the triangular's blocks.

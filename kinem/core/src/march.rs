@@ -113,6 +113,12 @@ pub struct Native<'a> {
     /// the pieces the factorisation's outlines were taken on (m, or empty:
     /// not kept; Kin::jac_over_keeping), for `run_hooked`'s hook
     pieces: Vec<Piece>,
+    /// the rest coordinates out of the step's loops (`Rest`): the range that
+    /// holds every other coordinate, while each solve runs quiet (None:
+    /// every loop over all n)
+    moving: Option<(usize, usize)>,
+    /// the last rates' two solves both ran quiet (Layout::solve_quiet)
+    rates_quiet: bool,
 }
 
 impl<'a> Native<'a> {
@@ -148,6 +154,8 @@ impl<'a> Native<'a> {
             counts: [0, 0],
             rotated: false,
             pieces: Vec::new(),
+            moving: None,
+            rates_quiet: false,
         }
     }
 }
@@ -408,10 +416,21 @@ impl Ops for Native<'_> {
     /// operations are odd in b, so these are the figures of q + f Phi_q^-1 (-Phi)
     /// to the bit, without negating Phi).
     fn correct(&mut self, limit: f64) -> Result<f64, Infallible> {
-        self.layout.solve(&mut self.f, &self.phi, &mut self.dq);
+        let quiet = self.layout.solve_quiet(&mut self.f, &self.phi, &mut self.dq);
         // q - dq into `next` with the size in one pass (`stepped`), taken where the limit leaves
-        // the correction whole (f = 1: q - 1 dq is q - dq to the bit), else q - f dq
-        let big = stepped(&self.q, &self.dq, &self.layout.col_scale, &mut self.next);
+        // the correction whole (f = 1: q - 1 dq is q - dq to the bit), else q - f dq; over the
+        // moving range alone where the solve ran quiet (`Rest`: dq is +-0 at every rest
+        // coordinate, whose q - dq is its q and whose |dq| / scale no maximum takes)
+        let big = match self.moving {
+            Some((lo, hi)) if quiet => {
+                let cs = &self.layout.col_scale;
+                stepped(&self.q[lo..hi], &self.dq[lo..hi], &cs[lo..hi], &mut self.next[lo..hi])
+            }
+            _ => {
+                self.moving = None;
+                stepped(&self.q, &self.dq, &self.layout.col_scale, &mut self.next)
+            }
+        };
         let f = limited(big, limit);
         if f == 1.0 {
             std::mem::swap(&mut self.q, &mut self.next);
@@ -465,10 +484,17 @@ impl Step for Native<'_> {
             kin.nu_over(*t, nu);
         }
         // gamma's room `b`: only here, its constant rows 0 from `new` (Kin::gamma_over)
+        let mut quiet = true;
         rates_from::<true, _>(kin, &at, Some(values), nu, b, qd, qdd, |rhs, x| {
-            layout.solve(f, rhs, x);
-            Ok(())
-        })
+            quiet &= layout.solve_quiet(f, rhs, x);
+            Ok::<(), Infallible>(())
+        })?;
+        // where a solve did not run quiet qd or qdd may move a rest coordinate: no `Rest` from here
+        self.rates_quiet = quiet;
+        if !quiet {
+            self.moving = None;
+        }
+        Ok(())
     }
 
     fn probe(&mut self) -> Result<f64, Infallible> {
@@ -480,6 +506,11 @@ impl Step for Native<'_> {
 
     fn col_scale(&self) -> &[f64] {
         &self.layout.col_scale
+    }
+
+    #[inline(always)]
+    fn moving(&self) -> Option<(usize, usize)> {
+        self.moving
     }
 }
 
@@ -585,6 +616,7 @@ pub fn run_rows(
     if k == 0 {
         st.restart();
     }
+    let mut tried = false;
     while k < times.len() {
         // the watch about every WATCH_SPAN (or every WATCH_EVERY instants where it reads no clock)
         if looks.due() {
@@ -600,6 +632,12 @@ pub fn run_rows(
             result = (k, o.why);
             break;
         }
+        if !tried {
+            // after the run's first accepted instant (the assembly at k = 0): the rest coordinates
+            // proved still, or every loop over all n for this run
+            tried = true;
+            ops.moving = rest(&mut ops, st, s, &mut c);
+        }
         taken(k, st, &o, &mut ops);
         k += 1;
     }
@@ -607,6 +645,67 @@ pub fn run_rows(
     counts[1] += ops.counts[1];
     ops.leave(c, room);
     result
+}
+
+/// The rest coordinates out of the step's vector loops (issue 31, round
+/// 24): the layout's quiet coordinates (crate::triangular::Program: 1x1
+/// blocks whose right side is their row's alone; the ground's, a body
+/// pinned at its origin to it, an angle tied to the ground's) once the
+/// march's state holds them still. Where a solve runs quiet
+/// (Layout::solve_quiet: every quiet right side zero) each quiet
+/// coordinate's x is its row's b, +-0: a correction leaves such a q as it
+/// is (q - +-0 is q to the bit for a finite q that is not -0) and the
+/// rates leave qd and qdd +-0 there, so that Taylor's predictor and
+/// Hermite's start (with or without the bias) give q again, to the bit
+/// (crate::step::step's `predicted`; times whose steps keep h^2 and the
+/// weights finite). So, from a state whose rest coordinates are finite,
+/// not -0, with zero rates (and the state before it the same there, if at
+/// hand), every buffer of positions the step writes holds those q at the
+/// rest coordinates, and the step's loops (the predictors, the gaps,
+/// `stepped`, the kept q) run over the range that holds the others: the
+/// same figures, to the bit. Each solve that does not run quiet (a
+/// variant that moved a pinned point, the fallback to partial pivoting)
+/// ends it for the rest of the run (`Native::moving` None: the loops over
+/// all n again, every buffer as the full loops left it). Only with rates
+/// (Lagrange's predictor moves a constant q by rounding); the scalar
+/// march's only (the lanes keep their loops).
+fn rest(ops: &mut Native, st: &mut MarchState, s: &Settings, c: &mut Work) -> Option<(usize, usize)> {
+    let layout = ops.layout;
+    let (quiet, n) = (layout.quiet(), st.q.len());
+    if !s.rates || !st.rates || !ops.rates_quiet || quiet.is_empty() || quiet.len() >= n {
+        return None;
+    }
+    let before = st.before.is_finite();
+    for &j in quiet {
+        let j = j as usize;
+        let (q, zero) = (st.q[j], |x: f64| x == 0.0);
+        let still = q.is_finite() && q.to_bits() != (-0.0f64).to_bits() && zero(st.qd[j]) && zero(st.qdd[j]);
+        let [pq, pqd, pqdd] = &st.prev;
+        if !still || (before && (pq[j].to_bits() != q.to_bits() || !zero(pqd[j]) || !zero(pqdd[j]))) {
+            return None;
+        }
+    }
+    // the range that holds every other coordinate, made even where it can be (the loops' pairs)
+    let mut at_rest = vec![false; n];
+    quiet.iter().for_each(|&j| at_rest[j as usize] = true);
+    let lo = at_rest.iter().position(|&r| !r)?;
+    let mut hi = n - at_rest.iter().rev().position(|&r| !r)?;
+    let mut lo = lo;
+    if !(hi - lo).is_multiple_of(2) {
+        if hi < n {
+            hi += 1;
+        } else {
+            lo = lo.saturating_sub(1);
+        }
+    }
+    // every buffer of positions holds the rest coordinates' q (the state's; the one before, where
+    // not at hand, is not read before it is written)
+    c.rest(quiet, &st.q);
+    for &j in quiet {
+        let j = j as usize;
+        (st.prev[0][j], ops.q[j], ops.next[j]) = (st.q[j], st.q[j], st.q[j]);
+    }
+    Some((lo, hi))
 }
 
 #[cfg(test)]
@@ -669,6 +768,30 @@ mod tests {
         // no clock read: every WATCH_EVERY instants
         l.looked(None);
         assert_eq!((l.every, l.left), (WATCH_EVERY, WATCH_EVERY - 1));
+    }
+
+    /// A correction that leaves +0 or -0 at the rest coordinates (q finite,
+    /// not -0): `stepped` over the range of the others, with `next` holding
+    /// q at the rest ones, gives the whole run's size and q - dq to the bit
+    /// (march::rest).
+    #[test]
+    fn a_correction_over_the_moving_range_equals_the_whole_one() {
+        let n = 12;
+        let rest = [0usize, 1, 2, 3, 4, 11];
+        let mut q: Vec<f64> = (0..n).map(|j| ((j * 7) as f64 * 0.61).cos()).collect();
+        let mut dq: Vec<f64> = (0..n).map(|j| ((j * 5) as f64 * 0.37).sin() * 1e-4).collect();
+        let col: Vec<f64> = (0..n).map(|j| 0.3 + j as f64).collect();
+        for (i, &j) in rest.iter().enumerate() {
+            (q[j], dq[j]) = ([0.0, 0.2, -3.0, 1e-310, 7.0, 0.5][i], if i % 2 == 0 { 0.0 } else { -0.0 });
+        }
+        let mut next = vec![0.0; n];
+        let big = stepped(&q, &dq, &col, &mut next);
+        let mut nr = vec![f64::NAN; n];
+        rest.iter().for_each(|&j| nr[j] = q[j]);
+        let (lo, hi) = (5, 11);
+        let br = stepped(&q[lo..hi], &dq[lo..hi], &col[lo..hi], &mut nr[lo..hi]);
+        assert_eq!(big.to_bits(), br.to_bits());
+        assert!(next.iter().zip(&nr).all(|(a, b)| a.to_bits() == b.to_bits()), "{next:?} {nr:?}");
     }
 
     /// `stepped` gives `size`'s figure and q - dq to the bit (tolerance 0),

@@ -231,6 +231,11 @@ pub trait Step: Ops {
     fn probe(&mut self) -> Result<f64, Self::Error>;
     /// The columns' scales (the dimensionless sizes' units).
     fn col_scale(&self) -> &[f64];
+    /// The range of coordinates the step's loops run over where the others
+    /// are proved at rest (crate::march's `rest`); None: all n.
+    fn moving(&self) -> Option<(usize, usize)> {
+        None
+    }
 }
 
 /// A step's working room across the instants of a march: the operations
@@ -434,6 +439,15 @@ pub fn signs((ratio, det): (f64, i32), st: &MarchState) -> (f64, i32, i32) {
 }
 
 impl Work {
+    /// Each of its buffers of positions holds q at the coordinates `at`
+    /// (crate::march's `rest`: those the step's loops leave out from here).
+    pub fn rest(&mut self, at: &[u32], q: &[f64]) {
+        for &j in at {
+            let j = j as usize;
+            (self.qp[j], self.start[j], self.biased[j], self.kept[j]) = (q[j], q[j], q[j], q[j]);
+        }
+    }
+
     /// No factorisation held: the first step starts with Newton; `smooth`:
     /// the model's (Kin::smooth: Hermite's start carries its last error).
     pub fn new(n: usize, smooth: bool) -> Self {
@@ -488,11 +502,25 @@ pub fn step<O: Step>(
     if hermite && taylor_from {
         // Taylor's predictor, the motion and the chord's start in one pass (accept::predicted)
         let (a, h, on) = (st.t - st.before, t - st.t, bias.at(t - st.t));
-        let (cs, ps) = ([&st.q[..], &st.qd[..], &st.qdd[..]], [&st.prev[0][..], &st.prev[1][..], &st.prev[2][..]]);
+        // the moving range alone where the others are at rest (Step::moving), and the weights and
+        // h^2 finite (h <= 2 a here): there Taylor's, Hermite's and the biased start are q again
+        let (lo, hi) = match ops.moving() {
+            Some(r) if a < 1e150 => r,
+            _ => (0, st.q.len()),
+        };
+        let (cs, ps) = (
+            [&st.q[lo..hi], &st.qd[lo..hi], &st.qdd[lo..hi]],
+            [&st.prev[0][lo..hi], &st.prev[1][lo..hi], &st.prev[2][lo..hi]],
+        );
         judge = true;
         motion = match ops.place(t) {
-            Some((q, col_scale)) => predicted(cs, ps, a, h, col_scale, on, qp, start, q),
+            Some((q, col_scale)) => {
+                let (col_scale, q) = (&col_scale[lo..hi], &mut q[lo..hi]);
+                predicted(cs, ps, a, h, col_scale, on, &mut qp[lo..hi], &mut start[lo..hi], q)
+            }
             None => {
+                let (cs, ps) =
+                    ([&st.q[..], &st.qd[..], &st.qdd[..]], [&st.prev[0][..], &st.prev[1][..], &st.prev[2][..]]);
                 let motion = predicted(cs, ps, a, h, ops.col_scale(), on, qp, start, biased);
                 ops.start(biased, t)?;
                 motion
@@ -535,8 +563,11 @@ pub fn step<O: Step>(
     let previous;
     (out.pivot, out.det, previous) = signs(ops.stats()?, st);
     ops.fetch()?;
-    // the correction from the predictor, keeping the settled q for the state (take_kept)
-    (out.corr, out.motion) = (gap_keep(ops.q(), qp, ops.col_scale(), kept), motion);
+    // the correction from the predictor, keeping the settled q for the state (take_kept); over the
+    // moving range where the others are at rest (their q the predictor's and the kept one's)
+    let (lo, hi) = ops.moving().unwrap_or((0, qp.len()));
+    let corr = gap_keep(&ops.q()[lo..hi], &qp[lo..hi], &ops.col_scale()[lo..hi], &mut kept[lo..hi]);
+    (out.corr, out.motion) = (corr, motion);
     out.why = match mode {
         Mode::Assemble if out.pivot > 0.0 && ops.q().iter().all(|v| v.is_finite()) => Why::Accepted,
         Mode::Assemble => Why::NearSingular,

@@ -152,20 +152,23 @@ impl Program {
     /// (`short` where every quiet position is zero in every lane).
     #[inline]
     pub fn run<A: Copy, W: Cell<A>>(&self, a: &[A], w: &mut [W]) {
-        self.run_as::<false, A, W>(a, w)
+        self.run_as::<false, A, W>(a, w);
     }
 
     /// `run` over f64 on factors from `Factoring::run`, which checked every
     /// pivot under `NEGATE` to be -1: those products with -1 are negations
-    /// (the same figures to the bit).
+    /// (the same figures to the bit). Returns whether it ran `short`: every
+    /// quiet position was zero on entry and is left as it was (no operation
+    /// of `short` writes one), so each holds its entry's figure, to the bit.
     #[inline]
-    pub fn run_negating(&self, a: &[f64], w: &mut [f64]) {
+    pub fn run_negating(&self, a: &[f64], w: &mut [f64]) -> bool {
         self.run_as::<true, f64, f64>(a, w)
     }
 
-    /// `run`, negating where NEG and the division's index carries `NEGATE`.
+    /// `run`, negating where NEG and the division's index carries `NEGATE`;
+    /// whether it ran `short`.
     #[inline(always)]
-    fn run_as<const NEG: bool, A: Copy, W: Cell<A>>(&self, a: &[A], w: &mut [W]) {
+    fn run_as<const NEG: bool, A: Copy, W: Cell<A>>(&self, a: &[A], w: &mut [W]) -> bool {
         assert!(a.len() >= self.values && w.len() >= self.positions);
         debug_assert!(self.check().is_ok());
         // SAFETY: Program::check (when built): every quiet position below `positions` <= w.len()
@@ -197,6 +200,7 @@ impl Program {
                 w.get_unchecked_mut(i as usize).sub_mul(*a.get_unchecked(u as usize), x);
             }
         }
+        quiet
     }
 
     /// The program for right sides that are zero but at the places
@@ -841,11 +845,12 @@ impl Triangular {
         self.program.run(a, x);
     }
 
-    /// `run` over f64 on factors from `factor` (`Program::run_negating`).
+    /// `run` over f64 on factors from `factor` (`Program::run_negating`):
+    /// whether it ran quiet (every quiet position's x is its row's b, to the bit).
     #[inline(always)]
-    pub fn run_negating(&self, a: &[f64], b: &[f64], x: &mut [f64]) {
+    pub fn run_negating(&self, a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
         self.sides_into(b, x);
-        self.program.run_negating(a, x);
+        self.program.run_negating(a, x)
     }
 
     /// Each row's right side b[i] into its coordinate x[into[i]].
