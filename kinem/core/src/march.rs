@@ -252,6 +252,8 @@ impl<'a> Native<'a> {
             counts: [0, 0],
             rotated: false,
             pieces,
+            moving: None,
+            rates_quiet: false,
         };
         (ops, work)
     }
@@ -274,6 +276,8 @@ impl<'a> Native<'a> {
             counts: _,
             rotated: _,
             pieces,
+            moving: _,
+            rates_quiet: _,
         } = self;
         *room = Room { f, q, turning, phi, values, dq, next, nu, b, pieces, work };
     }
