@@ -131,6 +131,48 @@ def _signals_held():
         raise SystemExit(128 + STOP["signal"])
 
 
+def _target(path):
+    """(the real path, its stat or None when it does not exist) of a path
+    Output may write; the errors it raises about the path itself."""
+    real = os.path.realpath(path)
+    try:
+        st = os.stat(real)
+    except FileNotFoundError:
+        st = None
+    if st is not None and stat.S_ISDIR(st.st_mode):
+        raise InputError(f"{path}: cannot write: is a directory")
+    if path.endswith(os.sep):   # realpath drops the '/': the file would be written without it
+        raise InputError(f"{path}: cannot write: a path ending in {os.sep!r} names a directory; "
+                         "expected a file name")
+    if st is not None and stat.S_ISREG(st.st_mode) and (not st.st_mode & 0o222 or not os.access(real, os.W_OK)):
+        raise OutputError(f"{path}: cannot write: the file is read-only (permission denied); "
+                          "make it writable or remove it first")
+    directory = os.path.dirname(real)
+    if st is None and not os.path.isdir(directory):
+        where = (f"{directory} (where the symbolic link points)" if os.path.islink(path)
+                 else os.path.dirname(path) or ".")
+        raise InputError(f"{path}: cannot write: directory {where} does not exist")
+    return real, st
+
+
+def check(path) -> None:
+    """Raises what ``Output(path)`` would raise about the path itself (a
+    directory, a read-only file, a missing folder, a folder this user may
+    not write), without opening or creating anything: for a command that
+    writes only after a long run (``kinem report``)."""
+    path = str(path)
+    if path == "-":
+        return
+    if not path:
+        raise InputError("'': cannot write: an empty path (an unset shell variable?); expected a file name")
+    try:
+        real, st = _target(path)
+        if (st is None or stat.S_ISREG(st.st_mode)) and not os.access(os.path.dirname(real), os.W_OK | os.X_OK):
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), os.path.dirname(real))
+    except OSError as e:
+        raise bad_path(path, e) from None
+
+
 class Output:
     """One output target; ``file`` is a binary file object. Use as a context
     manager and call ``commit()`` when the content is complete: leaving the
@@ -145,32 +187,15 @@ class Output:
         if not self.path:
             raise InputError("'': cannot write: an empty path (an unset shell variable?); expected a file name")
         try:
-            real = os.path.realpath(self.path)
-            try:
-                st = os.stat(real)
-            except FileNotFoundError:
-                st = None
-            if st is not None and stat.S_ISDIR(st.st_mode):
-                raise InputError(f"{self.path}: cannot write: is a directory")
-            if self.path.endswith(os.sep):   # realpath drops the '/': the file would be written without it
-                raise InputError(f"{self.path}: cannot write: a path ending in {os.sep!r} names a directory; "
-                                 "expected a file name")
+            real, st = _target(self.path)
             if st is not None and stat.S_ISFIFO(st.st_mode):
                 self.file = os.fdopen(_fifo_writer(self.path, real), "wb", buffering=0)   # in place
                 return
             if st is not None and not stat.S_ISREG(st.st_mode):
                 self.file = open(real, "wb", buffering=0)  # a device or socket: in place
                 return
-            if st is not None and (not st.st_mode & 0o222 or not os.access(real, os.W_OK)):
-                raise OutputError(f"{self.path}: cannot write: the file is read-only (permission denied); "
-                                  "make it writable or remove it first")
-            directory = os.path.dirname(real)
-            if not os.path.isdir(directory):
-                where = (f"{directory} (where the symbolic link points)" if os.path.islink(self.path)
-                         else os.path.dirname(self.path) or ".")
-                raise InputError(f"{self.path}: cannot write: directory {where} does not exist")
             self._real = real
-            self.file = self._temporary(directory)
+            self.file = self._temporary(os.path.dirname(real))
         except OSError as e:
             raise bad_path(self.path, e) from None
 

@@ -74,6 +74,8 @@ def run(o: Options) -> Outcome:
     target = Path(o.baseline or out / "baseline.json")
     if o.update_baseline and not (target.parent.is_dir() or target.parent == out):
         raise InputError(f"--baseline {target}: directory {target.parent} does not exist")
+    check_outputs(out, [*FILES, *(["junit.xml"] if o.junit else [])] + [MANIFEST],
+                  target if o.update_baseline else None)
     # a whole-set run: the case files given cover the baseline's cases, whatever their folder
     whole = o.whole_set if o.whole_set is not None else (
         old is not None and {c.name for _, c, _ in cases} >= {c["name"] for c in old["cases"]})
@@ -109,7 +111,7 @@ def run(o: Options) -> Outcome:
         bar.close()
     doc["duration"] = time.perf_counter() - start   # runs and plots
     files = {"results.json": results.dumps(doc), "summary.md": text.summary_md(doc),
-             "index.html": html.index_html(doc, sections, series.get("(equivalence)"))}
+             "index.html": html.index_html(doc, sections, series.get("(equivalence)"))}   # as FILES
     if o.junit:
         files["junit.xml"] = text.junit_xml(doc)
     written = write_outputs(out, files)
@@ -162,19 +164,53 @@ def _workers(w):
 
 
 MANIFEST = "manifest.json"
+FILES = ("results.json", "summary.md", "index.html")   # then junit.xml (--junit) and manifest.json
+
+
+def check_outputs(out: Path, names, baseline=None) -> None:
+    """Every file the report will write, checked before the first run as
+    kinem.output writes it (a directory, a read-only file, a link into a
+    missing folder are refused; a link, FIFO or device is written through):
+    exit 2 naming the file, the old report left whole, instead of a failed
+    write after every run. ``out`` need not exist: then the folder it will
+    be made in is checked."""
+    from ..errors import OutputError
+    from ..output import check
+
+    paths = [out / name for name in names] if out.is_dir() else []
+    if not out.is_dir():
+        made_in = next(p for p in out.absolute().parents if p.exists())
+        if not made_in.is_dir() or not os.access(made_in, os.W_OK | os.X_OK):
+            raise InputError(f"--out {out}: cannot create it: {made_in} is "
+                             f"{'not a directory' if not made_in.is_dir() else 'not writable'}")
+    if baseline is not None and baseline.parent.is_dir():   # else OUT/baseline.json, OUT made after the runs
+        paths.append(baseline)
+    for path in paths:
+        try:
+            check(path)
+        except OutputError as e:   # a read-only file: bad input here, as nothing has run
+            raise InputError(str(e)) from None
 
 
 def write_outputs(out: Path, files: dict) -> list:
     """Writes the report's files into out so that the set is consistent as a
-    whole: the old manifest.json is removed first, every file is written
-    atomically, and manifest.json (each file's name, size and SHA-256) is
-    written last. A reader checks it (``complete``): no manifest, or a file
+    whole: every file is checked (as before the runs: one may have gone bad
+    since; refused with the old report still whole), the old manifest.json
+    is removed, every file is written atomically, and manifest.json (each
+    file's name, size and SHA-256) is written last. A reader checks it (``complete``): no manifest, or a file
     that does not match it, means an interrupted or failed run."""
     import hashlib
     import json
 
+    from ..output import check
+
     try:
         out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise InputError(f"--out {out}: cannot write: {e.strerror}") from None
+    for name in [*files, MANIFEST]:   # again (it may have changed during the runs): the old report kept whole
+        check(out / name)
+    try:
         (out / MANIFEST).unlink(missing_ok=True)
     except OSError as e:
         raise InputError(f"--out {out}: cannot write: {e.strerror}") from None
