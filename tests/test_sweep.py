@@ -95,5 +95,5 @@ def test_progress_on_a_terminal(tmp_path):
     code, seen = on_a_terminal(["sweep", FOUR_BAR, "--set", "coupler=0.29:0.31:5", "--outputs", "B.x",
                                 "--out", tmp_path / "s.csv"], timeout=120)
     assert code == 0 and b"variant 5 loaded" in seen and b"5 variants solved" in seen and b"10/10" in seen
-    code, seen = on_a_terminal(["animate", FOUR_BAR, "--engines", "", "--out", tmp_path / "m.gif"], timeout=300)
+    code, seen = on_a_terminal(["animate", FOUR_BAR, "--engines", "native", "--out", tmp_path / "m.gif"], timeout=300)
     assert code == 0 and b"frame 120 of 120 drawn" in seen

@@ -119,6 +119,14 @@ def cmd_tolerance(a):
 MAX_JOBS = 1024   # --jobs: local worker processes (each started at once: a pool, not a queue)
 
 
+def check_timeout(a):
+    """--timeout of report, stress and compare bounds a run on a cluster
+    (kinem.parallel.RUN_TIMEOUT): refused without --scheduler, where it would do nothing."""
+    if a.timeout is not None and a.scheduler is None:
+        raise InputError(f"--timeout {a.timeout:g}: only with --scheduler (it bounds a run on a Dask cluster; "
+                         "local runs have no time limit); expected --scheduler ADDRESS or no --timeout")
+
+
 def check_jobs(jobs):
     """--jobs of report and stress: None (the core count) or 0 to MAX_JOBS."""
     if jobs is not None and not 0 <= jobs <= MAX_JOBS:
@@ -130,6 +138,7 @@ def cmd_stress(a):
 
     engines = engine_list(a.engines)
     check_jobs(a.jobs)
+    check_timeout(a)
     outcomes = stress.run(engines, a.quick, a.jobs, a.scheduler)
     if a.json:
         print(json.dumps([stress.as_dict(o) for o in outcomes], indent=2, default=float))
@@ -203,6 +212,7 @@ def cmd_compare(a):
     from adapters.compare import run_case, table
 
     engines = engine_list(a.engines)
+    check_timeout(a)
     model = load_model(a.case, a.end, a.steps)
     if a.sensitivity is not None:
         return _compare_sensitivity(a, model, engines)
@@ -242,6 +252,7 @@ def cmd_report(a):
 
     engines = engine_list(a.engines, allow_empty=True)  # native always runs in the report
     check_jobs(a.jobs)
+    check_timeout(a)
     whole = sorted(str(p) for p in Path("cases").glob("*.toml"))
     paths = a.cases or whole
     engines = tuple(dict.fromkeys(e for e in engines if e != "native"))
@@ -277,7 +288,7 @@ def cmd_diff(a):
 def cmd_animate(a):
     from ..report.animate import check_output, write
 
-    engines = [e for e in engine_list(a.engines, allow_empty=True) if e != "native"]
+    engines = [e for e in engine_list(a.engines) if e != "native"]   # '' refused, as compare refuses it
     check_output(a.out)
     bar = frame_bar()
     try:
