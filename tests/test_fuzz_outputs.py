@@ -97,7 +97,7 @@ def test_animate_outputs(tmp_path_factory, kind, suffix, engines_):
         assert old.read_bytes() == OLD
     assert {p.name for p in tmp.iterdir()} == before     # nothing beside the named outputs
     if kind in ("read-only", "link-to-read-only") and suffix.lower() in animate.FORMATS and engines_ not in (
-            "nope", "NATIVE"):
+            "nope", "NATIVE", "", ","):
         assert code == 1 and "read-only" in line
 
 
@@ -340,3 +340,108 @@ def test_found_report_of_a_case_that_fails_with_a_design_section(tmp_path):
     assert "1 failed" in said.getvalue() and "FAILED" in said.getvalue()
     assert "Not computed: native's run of the case failed" in (out / "index.html").read_text()
     assert (out / "manifest.json").is_file()
+
+
+# -- part 4: what part 3 found and left ------------------------------------------------------------
+
+def _old_report(out):
+    from kinem import report
+
+    report.write_outputs(out, {"results.json": "old", "summary.md": "old", "index.html": "old", "junit.xml": "old"})
+    (out / "baseline.json").write_text("old")
+    assert report.complete(out)
+
+
+@pytest.mark.parametrize("name, kind", [("results.json", "read-only"), ("summary.md", "read-only"),
+                                        ("index.html", "directory"), ("junit.xml", "directory"),
+                                        ("manifest.json", "directory"), ("results.json", "dangling-link"),
+                                        ("manifest.json", "read-only"), ("baseline.json", "read-only")])
+def test_found_report_outputs_checked_before_the_runs(tmp_path, monkeypatch, name, kind):
+    """kinem report found a read-only file or a directory among its outputs in
+    --out only when it wrote, after every run; by then the old manifest.json
+    was gone, so the old report no longer read as whole. Now every output
+    (junit.xml with --junit, the baseline with --update-baseline) is checked
+    first: exit 2, one line naming the file, nothing run, the old report kept."""
+    from kinem import report
+    from kinem.report import execute
+
+    case, out = tmp_path / "case.toml", tmp_path / "out"
+    case.write_text(TINY)
+    _old_report(out)
+    path = out / name
+    if kind == "read-only":
+        path.chmod(0o444)
+    else:
+        path.unlink()
+        if kind == "directory":
+            path.mkdir()
+        else:
+            path.symlink_to(tmp_path / "nowhere" / name)
+    monkeypatch.setattr(execute, "execute", lambda *a, **k: pytest.fail("the cases were run"))
+    code, line = run_main(["report", str(case), "--out", str(out), "--engines", "", "--baseline", "none",
+                           "--jobs", "0", "--junit", *(["--update-baseline"] if name == "baseline.json" else [])])
+    assert code == 2 and str(path) in line, line
+    assert {"read-only": "read-only", "directory": "is a directory", "dangling-link": "does not exist"}[kind] in line
+    assert report.complete(out) is (kind == "read-only")   # a directory or link: the old report lacks a file
+    assert (out / "manifest.json").is_file() is (name != "manifest.json" or kind == "read-only")
+
+
+def test_found_report_out_under_a_file(tmp_path, monkeypatch):
+    """--out a path under a regular file: every run, then "cannot write: Not
+    a directory" at the end. Now refused first."""
+    from kinem.report import execute
+
+    case = tmp_path / "case.toml"
+    case.write_text(TINY)
+    monkeypatch.setattr(execute, "execute", lambda *a, **k: pytest.fail("the cases were run"))
+    code, line = run_main(["report", str(case), "--out", str(case / "out"), "--engines", "", "--baseline", "none",
+                           "--jobs", "0"])
+    assert code == 2 and f"{case} is not a directory" in line, line
+
+
+def test_report_output_gone_bad_during_the_runs(tmp_path):
+    """A file made read-only while the cases ran is refused when the report
+    writes (exit 1, as any refused output) before the old manifest is
+    removed: the old report stays whole, no new file mixed into it; a write
+    that fails part-way leaves no manifest (test_report.py)."""
+    from kinem import report
+
+    out = tmp_path / "out"
+    _old_report(out)
+    (out / "summary.md").chmod(0o444)
+    with pytest.raises(OutputError, match="summary.md: cannot write: the file is read-only"):
+        report.write_outputs(out, {"results.json": "new", "summary.md": "new", "index.html": "new"})
+    assert report.complete(out) and (out / "results.json").read_text() == "old"
+
+
+@pytest.mark.parametrize("command", ["compare", "report", "stress"])
+def test_found_timeout_without_a_scheduler(tmp_path, monkeypatch, command):
+    """--timeout without --scheduler was accepted and did nothing (it bounds
+    a run on a Dask cluster only). Now refused: exit 2, one line, nothing run."""
+    from adapters import compare
+
+    from kinem import parallel, stress
+    from kinem.report import execute
+
+    monkeypatch.setattr(parallel, "RUN_TIMEOUT", parallel.RUN_TIMEOUT)   # --timeout sets it while parsing
+    for module, name in ((compare, "run_case"), (execute, "execute"), (stress, "run")):
+        monkeypatch.setattr(module, name, lambda *a, **k: pytest.fail("ran"))
+    case = tmp_path / "case.toml"
+    case.write_text(TINY)
+    args = {"compare": [str(case)], "report": [str(case), "--out", str(tmp_path / "out"), "--baseline", "none"],
+            "stress": ["--quick"]}[command]
+    code, line = run_main([command, *args, "--timeout", "5"])
+    assert code == 2 and "--timeout 5: only with --scheduler" in line, line
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("engines_", ["", ",", " , "])
+def test_found_animate_empty_engines_refused_as_compare(tmp_path, engines_):
+    """kinem animate --engines '' (or ',') drew native alone where kinem
+    compare refused the same value. Now both refuse it with the same line
+    (exit 2); --engines native draws native alone."""
+    case = tmp_path / "case.toml"
+    case.write_text(TINY)
+    code, line = run_main(["animate", str(case), "--out", str(tmp_path / "a.svg"), "--engines", engines_])
+    assert (code, line) == run_main(["compare", str(case), "--engines", engines_])
+    assert code == 2 and "--engines: got" in line and not (tmp_path / "a.svg").exists()
