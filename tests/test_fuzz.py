@@ -75,6 +75,8 @@ ODD = {  # replacements that may or may not be valid where they land
     "control": "a\x07b", "huge-int-text": 9 * 10**4000,
 }
 EXAMPLES = int(os.environ.get("KINEM_FUZZ_EXAMPLES", "0"))  # 0: the budgets below (CI)
+# the slider-crank over two steps of 0.01 s: the engine-facing commands' fuzz tests run it
+SHORT = (CASES / "slider_crank.toml").read_text().replace("end = 5.0", "end = 0.02").replace("steps = 500", "steps = 2")
 
 
 def budget(n):

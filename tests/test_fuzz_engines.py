@@ -22,11 +22,9 @@ from hypothesis import given, strategies as st
 
 import kinem
 from kinem.errors import InputError
-from test_fuzz import budget, run_main
+from test_fuzz import SHORT, budget, run_main
 
 ROOT = Path(__file__).resolve().parents[1]
-SHORT = (ROOT / "cases" / "slider_crank.toml").read_text().replace("end = 5.0", "end = 0.02").replace(
-    "steps = 500", "steps = 2")
 ODD_TEXTS = ['a"b', "a'b", "a\\b", "a\nb", '"""', "'''", "</mujoco>", "<!--", "-->", "a--b", "]]>", "a&b;", "&amp;",
              "${x}", "{}", "{0}", "%s", "é漢\u2028", "<script>", "\t", "x" * 300, "__import__('os').system('x')",
              "\"); import os; (\"", "'''+1+'''"]

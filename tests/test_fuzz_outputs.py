@@ -27,11 +27,9 @@ from kinem import engines
 from kinem.cli import main
 from kinem.errors import InputError, OutputError
 from kinem.report import animate
-from test_fuzz import budget, run_main
+from test_fuzz import SHORT, budget, run_main
 
 ROOT = Path(__file__).resolve().parents[1]
-TINY = (ROOT / "cases" / "slider_crank.toml").read_text().replace("end = 5.0", "end = 0.02").replace(
-    "steps = 500", "steps = 2")
 OLD = b"old content"
 KINDS = ("new", "file", "read-only", "directory", "link-to-file", "dangling-link", "link-to-directory",
          "link-to-read-only", "missing-directory", "trailing-slash")
@@ -78,7 +76,7 @@ def test_animate_outputs(tmp_path_factory, kind, suffix, engines_):
     as a link); any other exit leaves the old content and no new file."""
     tmp = tmp_path_factory.mktemp("animate")
     case = tmp / "case.toml"
-    case.write_text(TINY)
+    case.write_text(SHORT)
     out, old = _target(tmp, kind, suffix)
     before = {p.name for p in tmp.iterdir()}
     code, line = run_main(["animate", str(case), "--out", out, "--engines", engines_])
@@ -108,7 +106,7 @@ def test_found_animate_to_a_directory_refused_before_the_run(tmp_path, monkeypat
     directory was refused only after the runs and the drawing. Both are
     refused at once now (the solve is never reached)."""
     case = tmp_path / "case.toml"
-    case.write_text(TINY)
+    case.write_text(SHORT)
     out = tmp_path / f"x{suffix}"
     if kind == "directory":
         out.mkdir()
@@ -123,7 +121,7 @@ def test_found_solve_to_a_path_ending_in_a_slash(tmp_path):
     """kinem solve --out y.csv/ wrote the file y.csv (exit 0): the '/' was
     dropped by realpath. A path ending in '/' names a directory: exit 2."""
     case = tmp_path / "case.toml"
-    case.write_text(TINY)
+    case.write_text(SHORT)
     code, line = run_main(["solve", str(case), "--out", str(tmp_path / "y.csv") + "/"])
     assert code == 2 and "names a directory" in line
     assert not (tmp_path / "y.csv").exists()
@@ -143,7 +141,7 @@ def test_found_scratch_file_that_cannot_be_written(tmp_path, monkeypatch, suffix
     CalledProcessError) after matplotlib's multi-line log. Now exit 1, one
     line naming the output and the temporary folder."""
     case = tmp_path / "case.toml"
-    case.write_text(TINY)
+    case.write_text(SHORT)
     monkeypatch.setattr(animate, "_scratch", lambda ext: _scratch_in(tmp_path / "gone"))
     out = tmp_path / f"a{suffix}"
     code, line = run_main(["animate", str(case), "--out", str(out), "--engines", "native"])
@@ -154,7 +152,7 @@ def test_found_scratch_file_that_cannot_be_written(tmp_path, monkeypatch, suffix
 def test_found_gif_scratch_disk_full_is_not_standard_output(tmp_path, monkeypatch):
     """ENOSPC from the GIF's scratch file was reported as 'standard output: write failed'."""
     case = tmp_path / "case.toml"
-    case.write_text(TINY)
+    case.write_text(SHORT)
 
     def full(path, images, fps):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
@@ -193,7 +191,7 @@ def test_found_ctrl_c_stops_an_mp4_cleanly(tmp_path, sig, stop):
 def test_ctrl_c_exit_of_an_mp4(tmp_path, monkeypatch):
     """The same through the command line: exit 130, nothing on standard error, no file."""
     case = tmp_path / "case.toml"
-    case.write_text(TINY)
+    case.write_text(SHORT)
     save = animate._save_frames
 
     def interrupted(writer, images, dpi, path):
@@ -274,7 +272,7 @@ def test_found_report_into_a_dangling_link(tmp_path, monkeypatch):
     from kinem.report import execute
 
     case = tmp_path / "case.toml"
-    case.write_text(TINY)
+    case.write_text(SHORT)
     link = tmp_path / "out"
     link.symlink_to(tmp_path / "nowhere")
     monkeypatch.setattr(execute, "execute", lambda *a, **k: pytest.fail("the cases were run"))
@@ -366,7 +364,7 @@ def test_found_report_outputs_checked_before_the_runs(tmp_path, monkeypatch, nam
     from kinem.report import execute
 
     case, out = tmp_path / "case.toml", tmp_path / "out"
-    case.write_text(TINY)
+    case.write_text(SHORT)
     _old_report(out)
     path = out / name
     if kind == "read-only":
@@ -392,7 +390,7 @@ def test_found_report_out_under_a_file(tmp_path, monkeypatch):
     from kinem.report import execute
 
     case = tmp_path / "case.toml"
-    case.write_text(TINY)
+    case.write_text(SHORT)
     monkeypatch.setattr(execute, "execute", lambda *a, **k: pytest.fail("the cases were run"))
     code, line = run_main(["report", str(case), "--out", str(case / "out"), "--engines", "", "--baseline", "none",
                            "--jobs", "0"])
@@ -427,7 +425,7 @@ def test_found_timeout_without_a_scheduler(tmp_path, monkeypatch, command):
     for module, name in ((compare, "run_case"), (execute, "execute"), (stress, "run")):
         monkeypatch.setattr(module, name, lambda *a, **k: pytest.fail("ran"))
     case = tmp_path / "case.toml"
-    case.write_text(TINY)
+    case.write_text(SHORT)
     args = {"compare": [str(case)], "report": [str(case), "--out", str(tmp_path / "out"), "--baseline", "none"],
             "stress": ["--quick"]}[command]
     code, line = run_main([command, *args, "--timeout", "5"])
@@ -441,7 +439,7 @@ def test_found_animate_empty_engines_refused_as_compare(tmp_path, engines_):
     compare refused the same value. Now both refuse it with the same line
     (exit 2); --engines native draws native alone."""
     case = tmp_path / "case.toml"
-    case.write_text(TINY)
+    case.write_text(SHORT)
     code, line = run_main(["animate", str(case), "--out", str(tmp_path / "a.svg"), "--engines", engines_])
     assert (code, line) == run_main(["compare", str(case), "--engines", engines_])
     assert code == 2 and "--engines: got" in line and not (tmp_path / "a.svg").exists()

@@ -214,12 +214,7 @@ impl Layout {
                     cm: vec![0; self.n.max(1)],
                     w: vec![0.0; self.n.max(1)],
                     fixed: vec![None],
-                    y: Vec::new(),
-                    zeros_hold: false,
-                    signs_hold: false,
-                    again: Vec::new(),
-                    once: false,
-                    placed: false,
+                    ..Factors::empty()
                 };
             }
         };
@@ -231,11 +226,7 @@ impl Layout {
             w: vec![0.0; (self.count * per).max(self.n).max(self.width)],
             fixed: vec![None; self.count],
             y: vec![0.0; per.max(1)],
-            zeros_hold: false,
-            signs_hold: false,
-            again: Vec::new(),
-            once: false,
-            placed: false,
+            ..Factors::empty()
         }
     }
 
