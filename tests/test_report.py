@@ -991,3 +991,30 @@ def test_unsupported_runs_are_grouped_by_their_typed_reason(tmp_path, monkeypatc
     line = next(x for x in (tmp_path / "out" / "summary.md").read_text().splitlines() if x.startswith("- **pymunk**"))
     assert "driver: not this engine's kind of drive (test) (slider_crank, four_bar)" in line, line
     assert not any(n in line for n in names), (names, line)
+
+
+def test_a_manifest_that_is_a_link_is_written_through_not_removed(tmp_path, monkeypatch):
+    """A manifest.json that is the user's symbolic link stays a link: the
+    report empties it through the link while it writes (no whole report
+    meanwhile) and writes the new manifest through it last (it was
+    removed, and a regular file written in its place)."""
+    from kinem import report as rep
+
+    out, elsewhere = tmp_path / "r", tmp_path / "kept"
+    out.mkdir()
+    elsewhere.mkdir()
+    (elsewhere / "manifest.json").write_text("theirs")
+    (out / "manifest.json").symlink_to(elsewhere / "manifest.json")
+    seen = []
+    real = rep._write
+
+    def watching(path, body):
+        seen.append((path.name, (elsewhere / "manifest.json").read_text()))
+        return real(path, body)
+
+    monkeypatch.setattr(rep, "_write", watching)
+    rep.write_outputs(out, {"results.json": "new", "summary.md": "new", "index.html": "new"})
+    assert (out / "manifest.json").is_symlink() and rep.complete(out)
+    assert json.loads((elsewhere / "manifest.json").read_text())["files"].keys() == {"results.json", "summary.md",
+                                                                                      "index.html"}
+    assert [text for name, text in seen if name == "results.json"] == ["{}\n"]   # emptied before the files

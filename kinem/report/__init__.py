@@ -196,7 +196,8 @@ def write_outputs(out: Path, files: dict) -> list:
     """Writes the report's files into out so that the set is consistent as a
     whole: every file is checked (as before the runs: one may have gone bad
     since; refused with the old report still whole), the old manifest.json
-    is removed, every file is written atomically, and manifest.json (each
+    is removed (emptied through it where it is a symbolic link), every file
+    is written atomically, and manifest.json (each
     file's name, size and SHA-256) is written last. A reader checks it (``complete``): no manifest, or a file
     that does not match it, means an interrupted or failed run."""
     import hashlib
@@ -210,8 +211,12 @@ def write_outputs(out: Path, files: dict) -> list:
         raise InputError(f"--out {out}: cannot write: {e.strerror}") from None
     for name in [*files, MANIFEST]:   # again (it may have changed during the runs): the old report kept whole
         check(out / name)
+    manifest = out / MANIFEST
     try:
-        (out / MANIFEST).unlink(missing_ok=True)
+        if manifest.is_symlink():   # the user's link: written through (an empty manifest until the end), never removed
+            _write(manifest, "{}\n")
+        elif manifest.is_file():
+            manifest.unlink()
     except OSError as e:
         raise InputError(f"--out {out}: cannot write: {e.strerror}") from None
     data = {name: body.encode("utf-8") for name, body in files.items()}
