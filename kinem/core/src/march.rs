@@ -690,11 +690,8 @@ fn rest(ops: &mut Native, st: &mut MarchState, s: &Settings, c: &mut Work) -> Op
         }
     }
     // the range that holds every other coordinate, made even where it can be (the loops' pairs)
-    let mut at_rest = vec![false; n];
-    quiet.iter().for_each(|&j| at_rest[j as usize] = true);
-    let lo = at_rest.iter().position(|&r| !r)?;
-    let mut hi = n - at_rest.iter().rev().position(|&r| !r)?;
-    let mut lo = lo;
+    let moving = |j: &usize| !quiet.contains(&(*j as u32));
+    let (mut lo, mut hi) = ((0..n).find(moving)?, (0..n).rfind(moving)? + 1);
     if !(hi - lo).is_multiple_of(2) {
         if hi < n {
             hi += 1;
