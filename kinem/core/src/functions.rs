@@ -101,6 +101,13 @@ impl<S: Real> Functions<S> {
                 })
     }
 
+    /// Whether `eval(f, t, 2)` is +0 at every t: a constant's (its d''
+    /// `S::zero()`), a polynomial's of degree one at most (no coefficient
+    /// of d'': Horner's zero, +0).
+    pub fn accel_zero(&self, f: usize) -> bool {
+        self.value[f].is_some() || (self.kind[f] == POLY && self.poly[f][2].is_empty())
+    }
+
     /// d(t) (order 0), d'(t) (1) or d''(t) (2) of function f: a constant's
     /// and a polynomial's inline, the others out of line.
     #[inline(always)]

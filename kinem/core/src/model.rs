@@ -30,6 +30,11 @@ pub struct Kin<S = f64> {
     /// d' the same figure at every t (Functions::rate_fixed; a crank at a
     /// constant speed): crate::march::Native writes it once
     pub nu_fixed: bool,
+    /// the families `gamma_over` visits: all but the simple ones whose rows
+    /// it would write +0 at every instant (Simple::gamma_still: grounds and
+    /// cranks at a constant speed), which a room of zeros or of this
+    /// model's earlier gamma already holds
+    gamma_moving: Vec<usize>,
     /// the entries `jac_over` never writes (`over_kept`, made at its first call)
     kept: std::sync::OnceLock<Vec<bool>>,
     /// no family reads an outline and no driving function is a table's
@@ -90,6 +95,8 @@ impl<S: Real> Kin<S> {
         let timed: Vec<usize> =
             time_dependent.iter().copied().filter(|&k| !matches!(list[k], Family::Simple(_))).collect();
         let nu_fixed = timed.is_empty() && drivers.iter().all(|&(_, f)| functions.rate_fixed(f));
+        let still = |f: &Family<S>| matches!(f, Family::Simple(f) if f.gamma_still(&shared));
+        let gamma_moving: Vec<usize> = (0..list.len()).filter(|&k| !still(&list[k])).collect();
         let pieces = functions_table.ints.get("kind").is_some_and(|k| k.contains(&crate::functions::PIECES));
         let smooth = !pieces && !list.iter().any(|f| f.piecewise());
         Ok(Kin {
@@ -106,6 +113,7 @@ impl<S: Real> Kin<S> {
             drivers,
             timed,
             nu_fixed,
+            gamma_moving,
             kept: std::sync::OnceLock::new(),
             smooth,
             tables,
@@ -226,7 +234,8 @@ impl<S: Real> Kin<S> {
 
     /// `gamma_with` into out that holds this model's gamma from an earlier
     /// one, or zeros (crate::march::Native's room, written by this alone):
-    /// the constant rows (Family::gamma_over) are not written again.
+    /// the constant rows (Family::gamma_over) are not written again, nor
+    /// the families whose rows are +0 at every instant (`gamma_moving`).
     pub fn gamma_over(&self, at: &At<S>, qd: &[S], jac: Option<&[S]>, out: &mut [S]) {
         self.gamma_as::<true>(at, qd, jac, out)
     }
@@ -236,15 +245,24 @@ impl<S: Real> Kin<S> {
     fn gamma_as<const OVER: bool>(&self, at: &At<S>, qd: &[S], jac: Option<&[S]>, out: &mut [S]) {
         assert!(out.len() >= self.m && jac.is_none_or(|v| v.len() >= self.nnz));
         let s = self.shared();
+        if OVER {
+            for &k in &self.gamma_moving {
+                // SAFETY: k < families.len() (new); row_off and entry_off hold families.len() + 1
+                // ascending offsets up to m and nnz; out holds m, jac nnz (asserted above)
+                unsafe {
+                    let f = self.families.get_unchecked(k);
+                    let (r0, r1) = (*self.row_off.get_unchecked(k), *self.row_off.get_unchecked(k + 1));
+                    let (e0, e1) = (*self.entry_off.get_unchecked(k), *self.entry_off.get_unchecked(k + 1));
+                    let v = jac.map(|v| v.get_unchecked(e0..e1));
+                    f.gamma_over(at, qd, &s, v, out.get_unchecked_mut(r0..r1));
+                }
+            }
+            return;
+        }
         for ((f, r), e) in self.families.iter().zip(self.row_off.windows(2)).zip(self.entry_off.windows(2)) {
             // SAFETY: row_off ascends from 0 to m, entry_off from 0 to nnz (new); out holds m, jac nnz (asserted above)
             let v = jac.map(|v| unsafe { v.get_unchecked(e[0]..e[1]) });
-            let o = unsafe { out.get_unchecked_mut(r[0]..r[1]) };
-            if OVER {
-                f.gamma_over(at, qd, &s, v, o);
-            } else {
-                f.gamma_with(at, qd, &s, v, o);
-            }
+            f.gamma_with(at, qd, &s, v, unsafe { out.get_unchecked_mut(r[0]..r[1]) });
         }
     }
 }

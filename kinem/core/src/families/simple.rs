@@ -246,6 +246,15 @@ impl<S: Real> Simple<S> {
         &self.drivers
     }
 
+    /// Whether every row `gamma_over` writes is +0 at any t, q and qd (once
+    /// bound): no general row, and every driver's d'' +0 at every t
+    /// (Functions::accel_zero; a crank at a constant speed). Over a room
+    /// that holds this family's earlier gamma (+0 there too) or zeros it
+    /// writes nothing new (crate::model::Kin::gamma_over leaves it out).
+    pub fn gamma_still(&self, s: &Shared<S>) -> bool {
+        self.general.is_empty() && self.plain.iter().all(|p| s.functions.accel_zero(p.f))
+    }
+
     /// Eq. 4.38 and the point forms: f''(t) + (A_i s')_c w_i^2.
     pub fn gamma(&self, at: &At<S>, qd: &[S], s: &Shared<S>, out: &mut [S]) {
         self.gamma_as::<true>(at, qd, s, out)

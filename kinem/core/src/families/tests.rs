@@ -869,3 +869,53 @@ fn the_jacobian_and_gamma_over_their_constant_entries_equal_jac_and_gamma_to_the
         }
     }
 }
+
+/// A simple family of grounds and cranks at a constant speed (d'' +0 at
+/// every t: a constant, a polynomial of degree one) is still
+/// (Simple::gamma_still): `Kin::gamma_over` leaves its rows as they were
+/// (a room of NaN stays NaN), and over zeros gives gamma's figures to the
+/// bit at every t; a quadratic driver or a general row makes it move.
+#[test]
+fn grounds_and_constant_speed_cranks_are_left_out_of_gamma_over() {
+    use crate::families::At;
+    let f = table(
+        &[("kind", vec![POLY, POLY, POLY]), ("start", vec![0, 1, 3, 6])],
+        &[("data", vec![1.3, 0.4, 2.0, 0.1, 0.2, 0.3])],
+        &[],
+    );
+    let rows = |fs: Vec<i64>, point: i64| {
+        table(
+            &[
+                ("a", vec![0, 1, 2, 5]),
+                ("angle", vec![2, 2, 2, 5]),
+                ("k", vec![0, 1, 0, 0]),
+                ("point", vec![0, 0, 0, point]),
+                ("relative", vec![0, 0, 0, 0]),
+                ("f", fs),
+            ],
+            &[("mx", vec![0.0, 0.0, 0.0, point as f64]), ("my", vec![0.0; 4])],
+            &[("local", vec![c(0.0, 0.0), c(0.0, 0.0), c(0.0, 0.0), c(0.3 * point as f64, 0.1)])],
+        )
+    };
+    let (q, qd) = state(&[]);
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    for (fs, point, still) in [(vec![0, 0, 0, 1], 0, true), (vec![0, 0, 0, 2], 0, false), (vec![0, 0, 0, 1], 1, false)]
+    {
+        let k = kin_with::<f64>("simple", rows(fs, point), 0, &f, &outlines());
+        let mut e = vec![C64::new(1.0, 0.0); k.n];
+        k.rotate(&q, &mut e);
+        let mut zeros = vec![0.0; k.m];
+        for t in [0.0, -0.0, 0.37, -1.9, 1e3] {
+            let at = At { q: &q, e: &e, t };
+            let (mut gamma, mut nan) = (vec![f64::NAN; k.m], vec![f64::NAN; k.m]);
+            k.gamma_with(&at, &qd, None, &mut gamma);
+            k.gamma_over(&at, &qd, None, &mut zeros);
+            assert_eq!(bits(&zeros), bits(&gamma), "t {t}");
+            k.gamma_over(&at, &qd, None, &mut nan);
+            assert_eq!(nan.iter().all(|x| x.is_nan()), still, "t {t}");
+            if still {
+                assert!(gamma.iter().all(|x| x.to_bits() == 0), "{gamma:?}");
+            }
+        }
+    }
+}
