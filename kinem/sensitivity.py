@@ -345,7 +345,10 @@ def _fused(model, call, outputs, times, options, named):
     # made before the march, as solve's (Python's caches are cold after it); X never leaves: the
     # trajectory's columns are made from it (its _make), not views of it
     traj, pinned = stacked(model, times, X), pins(model)
-    derivatives = Trajectory(traj.t, named[2], None, named[3], make=lambda: data)
+    # (Trajectory(traj.t, names, None, places, make=...) without its __init__'s setting attribute by attribute;
+    # traj.t is read-only already: kinem.result.stacked)
+    derivatives = frozen(Trajectory, {"t": traj.t, "columns": named[2], "_index": named[3], "_data": None,
+                                      "_make": lambda: data})
     singular = np.zeros(nt, bool)
     end, _, least = model.plan.march_sensitivity(times, st, settings, X, figures, ints,
                                                  call.setup(model, 3), data, ratio)

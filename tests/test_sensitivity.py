@@ -617,6 +617,31 @@ def test_the_kept_core_setup_gives_a_fresh_ones_figures_and_fits_its_plan_alone(
         _fused(model, call, OUTPUTS, None, None, named)
 
 
+@pytest.mark.parametrize("name", ["slider_crank", "four_bar", "cam_table41", "quick_return_1"])
+def test_the_fused_pass_in_its_kept_room_gives_a_fresh_runs_figures(name):
+    """The fused pass's run of instants (crate::sensitivity::Room, kept by
+    its core set-up, SensSetup) is entered again by the next call of the
+    same parameters instead of made anew: call after call, with other
+    lists' calls and other instants between, every derivative and pivot
+    ratio is a fresh model's first call's to the bit (a parameter alone,
+    a ground's shift with its fixed row, four, all of them)."""
+    case = kinem.load(ROOT / "cases" / f"{name}.toml")
+    every = [p.path for p in parameters(case)]
+    model = kinem.compile(case)
+    lists = [every[:1], every[-1:], every[:4], every]
+    half = model.times[: len(model.times) // 2 + 1]
+    fresh = {}
+    for k, paths in enumerate(lists):
+        for times in (None, half):
+            f = sensitivity(kinem.compile(case), paths, times=times)
+            fresh[k, times is None] = (f.derivatives.data.tobytes(), f.conditioning.tobytes())
+    for _ in range(2):
+        for k, paths in list(enumerate(lists)) + list(enumerate(lists))[::-1]:
+            for times in (None, half, None):
+                s = sensitivity(model, paths, times=times)
+                assert (s.derivatives.data.tobytes(), s.conditioning.tobytes()) == fresh[k, times is None], (k, times)
+
+
 def test_the_separate_pass_keeps_its_setup_per_levels_and_gives_a_fresh_ones_figures():
     """The separate pass (outputs the fused pass does not take: positions
     alone, positions and velocities) runs from a set-up kept per model,

@@ -249,21 +249,109 @@ fn locals<const N: usize>(np: usize, local: &[C64], dlocal: &[C64]) -> Vec<Vec<C
         .collect()
 }
 
+/// What a run of instants (`Instants`) owns beside the set-up and the
+/// layout it reads: its scratch arrays, each group's reach (`Reach`, the
+/// fixed rows with it) and the columns' layout, as `Lanewise::new` made
+/// them for one set-up, layout and number of levels (`of`). A set-up keeps
+/// the room its last run left (py/plan.rs, SensSetup), and the next run on
+/// the same layout and levels enters it (`Instants::enter`) instead of
+/// making it again (about 16 k instructions and 25 allocations a call on
+/// the slider-crank). Each instant's pass writes before it reads every
+/// place of the scratch but those it leaves as `new` made them (the places
+/// a restricted solve does not reach stay zero, e^{i q}'s entries at no
+/// angle stay 1 and 0), so a run in a kept room is a run in a fresh one,
+/// to the bit, as each instant of one run is after the one before.
+pub struct Room {
+    /// the set-up's and the layout's addresses, and the levels
+    of: (usize, usize, usize),
+    lanes: Rooms,
+}
+
+enum Rooms {
+    One(LaneRoom<1>),
+    Two(LaneRoom<2>),
+    Four(LaneRoom<4>),
+    Eight(LaneRoom<8>),
+}
+
+/// `Lanewise`'s own fields (its buffers and figures made from the set-up).
+struct LaneRoom<const N: usize> {
+    np: usize,
+    levels: usize,
+    columns: (Vec<(usize, usize)>, usize),
+    w: usize,
+    turned: bool,
+    lanes0: bool,
+    flat: Vec<[f64; N]>,
+    gather: Vec<usize>,
+    triples: Vec<(usize, usize)>,
+    singles: Vec<(usize, usize)>,
+    buf: Vec<[f64; N]>,
+    q0: Vec<Lanes<N>>,
+    e0: Vec<Complex<Lanes<N>>>,
+    ql: Vec<Lanes<N>>,
+    qdl: Vec<Lanes<N>>,
+    el: Vec<Complex<Lanes<N>>>,
+    rl: Vec<Lanes<N>>,
+    jl: Vec<Lanes<N>>,
+    rhs: Vec<[f64; N]>,
+    rhs3: Vec<[f64; N]>,
+    kv: Vec<C64>,
+    kd: Vec<[f64; N]>,
+    solver: Solver<N>,
+    reach: Vec<Reach>,
+}
+
 impl<'a> Instants<'a> {
     /// A run of instants with `levels` stages (1 to 3) from the kept
     /// set-up and the march's layout (`Lanewise::new`).
     pub fn new(prepared: &'a Prepared, layout: &'a Layout, levels: usize) -> Result<Self, String> {
+        Self::enter(prepared, layout, levels, None)
+    }
+
+    /// `new`, in `room` where a run of the same set-up on the same layout
+    /// and levels left it (`leave`; a room of another run is dropped).
+    pub fn enter(
+        prepared: &'a Prepared,
+        layout: &'a Layout,
+        levels: usize,
+        room: Option<Room>,
+    ) -> Result<Self, String> {
         if levels == 0 || levels > 3 {
             return Err("sensitivity: 1 to 3 levels expected".into());
         }
         let p = prepared;
         crate::columns::check(p.kin.n, levels, &p.src, &p.pc, p.points)?;
-        Ok(match &p.groups {
-            Grouped::One(g, l) => Instants::One(Lanewise::new(p, g, l, layout, levels)),
-            Grouped::Two(g, l) => Instants::Two(Lanewise::new(p, g, l, layout, levels)),
-            Grouped::Four(g, l) => Instants::Four(Lanewise::new(p, g, l, layout, levels)),
-            Grouped::Eight(g, l) => Instants::Eight(Lanewise::new(p, g, l, layout, levels)),
+        let of = (p as *const Prepared as usize, layout as *const Layout as usize, levels);
+        let room = room.filter(|r| r.of == of).map(|r| r.lanes);
+        Ok(match (&p.groups, room) {
+            (Grouped::One(g, l), Some(Rooms::One(r))) => Instants::One(Lanewise::enter(p, g, l, layout, r)),
+            (Grouped::Two(g, l), Some(Rooms::Two(r))) => Instants::Two(Lanewise::enter(p, g, l, layout, r)),
+            (Grouped::Four(g, l), Some(Rooms::Four(r))) => Instants::Four(Lanewise::enter(p, g, l, layout, r)),
+            (Grouped::Eight(g, l), Some(Rooms::Eight(r))) => Instants::Eight(Lanewise::enter(p, g, l, layout, r)),
+            (Grouped::One(g, l), _) => Instants::One(Lanewise::new(p, g, l, layout, levels)),
+            (Grouped::Two(g, l), _) => Instants::Two(Lanewise::new(p, g, l, layout, levels)),
+            (Grouped::Four(g, l), _) => Instants::Four(Lanewise::new(p, g, l, layout, levels)),
+            (Grouped::Eight(g, l), _) => Instants::Eight(Lanewise::new(p, g, l, layout, levels)),
         })
+    }
+
+    /// The run's room, for the next run of the same set-up (`enter`).
+    pub fn leave(self, prepared: &Prepared, layout: &Layout) -> Room {
+        let lanes = match self {
+            Instants::One(a) => Rooms::One(a.leave()),
+            Instants::Two(a) => Rooms::Two(a.leave()),
+            Instants::Four(a) => Rooms::Four(a.leave()),
+            Instants::Eight(a) => Rooms::Eight(a.leave()),
+        };
+        let levels = match &lanes {
+            Rooms::One(r) => r.levels,
+            Rooms::Two(r) => r.levels,
+            Rooms::Four(r) => r.levels,
+            Rooms::Eight(r) => r.levels,
+        };
+        let of = (prepared as *const Prepared as usize, layout as *const Layout as usize, levels);
+        Room { of, lanes }
     }
 
     /// The columns per instant and parameter (P W: an instant's row of data).
@@ -764,6 +852,133 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         }
         self.flat.fill([0.0; N]);
         self.reach[g].fixed = Some(row);
+    }
+
+    /// A run in the room a run of the same set-up, layout and levels left
+    /// (`Room`): `new`'s figures, nothing made again.
+    fn enter(
+        p: &'a Prepared,
+        groups: &'a [Group<N>],
+        locs: &'a [Vec<Complex<Lanes<N>>>],
+        layout: &'a Layout,
+        room: LaneRoom<N>,
+    ) -> Self {
+        let LaneRoom {
+            np,
+            levels,
+            columns,
+            w,
+            turned,
+            lanes0,
+            flat,
+            gather,
+            triples,
+            singles,
+            buf,
+            q0,
+            e0,
+            ql,
+            qdl,
+            el,
+            rl,
+            jl,
+            rhs,
+            rhs3,
+            kv,
+            kd,
+            solver,
+            reach,
+        } = room;
+        Lanewise {
+            kin: &p.kin,
+            layout,
+            np,
+            levels,
+            groups,
+            columns: crate::columns::Columns::with(&p.pc, columns),
+            w,
+            locs,
+            turned,
+            lanes0,
+            flat,
+            gather,
+            triples,
+            singles,
+            buf,
+            q0,
+            e0,
+            ql,
+            qdl,
+            el,
+            rl,
+            jl,
+            rhs,
+            rhs3,
+            kv,
+            kd,
+            solver,
+            reach,
+        }
+    }
+
+    /// The run's own fields, for `enter`.
+    fn leave(self) -> LaneRoom<N> {
+        let Lanewise {
+            kin: _,
+            layout: _,
+            np,
+            levels,
+            groups: _,
+            columns,
+            w,
+            locs: _,
+            turned,
+            lanes0,
+            flat,
+            gather,
+            triples,
+            singles,
+            buf,
+            q0,
+            e0,
+            ql,
+            qdl,
+            el,
+            rl,
+            jl,
+            rhs,
+            rhs3,
+            kv,
+            kd,
+            solver,
+            reach,
+        } = self;
+        LaneRoom {
+            np,
+            levels,
+            columns: columns.parts(),
+            w,
+            turned,
+            lanes0,
+            flat,
+            gather,
+            triples,
+            singles,
+            buf,
+            q0,
+            e0,
+            ql,
+            qdl,
+            el,
+            rl,
+            jl,
+            rhs,
+            rhs3,
+            kv,
+            kd,
+            solver,
+            reach,
+        }
     }
 
     /// The columns per instant and parameter (P W: an instant's row of data).

@@ -212,7 +212,7 @@ impl Plan {
         columns: SensColumns<'py>,
     ) -> PyResult<SensSetup> {
         let inputs = SensInputs::of(&self.kin, tables, tangents, pattern, columns)?;
-        Ok(SensSetup(guard(py, move || inputs.prepare())?, self.layout.clone()))
+        Ok(SensSetup(guard(py, move || inputs.prepare())?, self.layout.clone(), std::sync::Mutex::new(None)))
     }
 
     /// The march (`march`, from k = 0: assembled from the estimates in
@@ -270,8 +270,9 @@ impl Plan {
         let poll = || signalled(&signal);
         let mut room = self.room();
         let at_room = &mut room;
-        let (end, why, least) = guard(py, move || {
-            let mut at = crate::sensitivity::Instants::new(prepared, layout, stages)?;
+        let spare = setup.2.lock().ok().and_then(|mut s| s.take());
+        let (end, why, least, spare) = guard(py, move || {
+            let mut at = crate::sensitivity::Instants::enter(prepared, layout, stages, spare)?;
             let watch = Watch::new(seconds, Some(&poll));
             let (end, why) = {
                 let mut hook =
@@ -282,6 +283,7 @@ impl Plan {
                     };
                 march::run_hooked(kin, layout, times, 0, st, &settings, out, &watch, true, at_room, Some(&mut hook))
             };
+            let spare = at.leave(prepared, layout);
             // the least ratio of the instants taken, NaN where one is
             let least = ratio[..end.min(ratio.len())].iter().fold(f64::INFINITY, |a, &r| {
                 if a.is_nan() || r.is_nan() {
@@ -290,9 +292,12 @@ impl Plan {
                     a.min(r)
                 }
             });
-            Ok((end, why, least))
+            Ok((end, why, least, spare))
         })?;
         self.keep(room);
+        if let Ok(mut kept) = setup.2.lock() {
+            *kept = Some(spare);
+        }
         if why == Why::Interrupted {
             return Err(raised(&signal));
         }
@@ -769,4 +774,9 @@ impl SensInputs {
 /// crate::sensitivity::Prepared) and the layout of the plan that made it:
 /// read by that plan's march_sensitivity alone.
 #[pyclass(frozen, module = "kinem._core")]
-pub struct SensSetup(crate::sensitivity::Prepared, Arc<crate::lu::Layout>);
+pub struct SensSetup(
+    crate::sensitivity::Prepared,
+    Arc<crate::lu::Layout>,
+    /// the room the last march_sensitivity's run of instants left (crate::sensitivity::Room)
+    std::sync::Mutex<Option<crate::sensitivity::Room>>,
+);
