@@ -45,7 +45,7 @@ from .result import OUTPUTS, Trajectory, _layout, frozen, stacked
 from .branches import pins, violation
 from .budget import Budget
 from .march import banded, usable
-from .solver import _checked_times, check_square, solve
+from .solver import _checked_model, _checked_times, check_square, solve
 from .tangents import tangent_parts
 
 
@@ -89,6 +89,7 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     design parameter path in ``parameters`` (a path or a list of paths).
     Raises InputError for an unknown path, AnalysisError when the nominal
     solve fails."""
+    _checked_model(model, "sensitivity")
     case = model.case
     options = model.options if options is None else options
     if isinstance(options, Options) and options.max_seconds is not None and options.started is None:

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .casefile.checks import texts
+from .casefile.checks import suggest, texts
 from .errors import InputError
 from .parameters import resolve, tolerances_of
 from .moved import cases_of
@@ -45,6 +45,11 @@ class Bands:
     excess: tuple     # (output, amount, t)
     seed: int
 
+    @property
+    def accepted(self) -> int:
+        """The samples in the Monte Carlo band (0: its columns are NaN, ``excess`` 0)."""
+        return self.samples - len(self.rejected)
+
     def __getitem__(self, name):
         return self.table[name]
 
@@ -60,23 +65,29 @@ def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progre
     its tables are affine in every toleranced parameter, else as merged
     cases, ``chunk`` at a time (default CHUNK). ``chunk`` 1: one by one, no
     threads: for a forked worker process, where a thread pool cannot run."""
+    from .solver import _checked_model
+
+    _checked_model(model, "tolerance")
     case = model.case
     for key, v, most in (("samples", samples, MAX_SAMPLES), ("seed", seed, None)):
         if isinstance(v, bool) or not isinstance(v, numbers.Integral) or v < 0 or (most is not None and v > most):
             raise InputError(f"{case.source}: tolerance: {key} {v!r:.80}: expected a whole number from 0"
                              + (f" to {most:,}" if most is not None else ""))
     given = () if outputs is None else texts(outputs)
-    if given is None:
+    if given is None or (outputs is not None and not given):   # [] or --outputs '': none, as sweep says
         raise InputError(f"{case.source}: tolerance: outputs {outputs!r:.80}: expected a list of the trajectory's "
-                         "column names (such as B.x)")
+                         "column names (such as B.x)" + ("; none given" if given is not None else ""))
+    given = tuple(dict.fromkeys(given))   # a column asked twice: its bands once
     tols = tolerances_of(case, tolerances)
     sens = sensitivity(model, [t.path for t in tols], outputs=("positions", "velocities", "accelerations"))
     nominal = sens.trajectory
     outputs = given or tuple(c for p in case.points for c in (f"{p.name}.x", f"{p.name}.y"))
     unknown = [c for c in outputs if c not in nominal]
     if unknown:
-        raise InputError(f"{case.source}: --outputs: unknown column {unknown[0]!r}; expected columns of the "
-                         f"trajectory such as {', '.join(nominal.columns[:6])}")
+        guess = suggest(unknown[0], nominal.columns)
+        raise InputError(f"{case.source}: --outputs: unknown column {unknown[0]!r}; " + (
+            f"did you mean '{guess}'?" if guess else
+            f"expected columns of the trajectory such as {', '.join(nominal.columns[:6])}"))
     pm = np.array([t.pm for t in tols])
     d = np.stack([np.stack([sens.of(c, t.path) for t in tols], axis=1) for c in outputs])   # (C, K, P)
     worst = np.abs(d) @ pm
