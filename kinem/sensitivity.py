@@ -43,7 +43,7 @@ from .options import Options, singular_pivot
 from .parameters import frame_tangent, resolve
 from .result import OUTPUTS, Trajectory, _layout, frozen, stacked
 from .branches import pins, violation
-from .budget import Budget
+from .budget import Budget, check_held
 from .march import banded, usable
 from .solver import _checked_model, _checked_times, check_square, solve
 from .tangents import tangent_parts
@@ -116,6 +116,9 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     # the fused pass's (three levels) columns and the derivatives' names made before its march, as
     # solve's trajectory is (Python's caches are cold after a long core march)
     named = call.named(model, 3)
+    K = len(model.times) if times is None else np.size(times)
+    check_held(K * len(named[2]), case.source, f"sensitivity: {K:,} instants x {len(named[0])} columns x "
+               f"{len(listed)} parameters", "fewer instants (--steps) or parameters")
     fused = _fused(model, call, outputs, times, options, named)
     if fused is None:   # the march does not take the model or every instant: solve, then the separate pass
         result = solve(model, outputs, times, options=options)

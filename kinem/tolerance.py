@@ -132,9 +132,13 @@ def _monte_carlo(model, tols, outputs, nominal, samples, seed, progress, chunk):
             lo[k] = np.minimum(lo[k], traj[c])
             hi[k] = np.maximum(hi[k], traj[c])
 
+    from .budget import MAX_HELD
+
+    most = max(1, int(MAX_HELD // (K * len(outputs))))   # samples whose outputs one batch may hold (long runs)
     if chunk > 1 and all(affine(case, t.path) for t in tols):   # the variants' batch solve (kinem.variants)
-        for start in range(0, samples, BATCH):
-            stop = min(samples, start + BATCH)
+        batch = min(BATCH, most)
+        for start in range(0, samples, batch):
+            stop = min(samples, start + batch)
             for values, traj, why in _solve_variants(model, tols, base, draws[start:stop], nominal.t, nominal_branch,
                                                      outputs):
                 if why is None:
@@ -144,6 +148,7 @@ def _monte_carlo(model, tols, outputs, nominal, samples, seed, progress, chunk):
             if progress is not None:
                 progress(stop, samples)
         return _bands(lo, hi, accepted, rejected)
+    chunk = min(chunk, most)
     for start in range(0, samples, chunk):
         batch = []
         designs = [{t.path: base[t.path] + draws[s, j] for j, t in enumerate(tols)}

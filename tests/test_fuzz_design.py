@@ -308,6 +308,8 @@ STEPS3 = ["--steps", "3"]
     (["tolerance", str(FOUR_BAR), "--samples", "2", *STEPS3, "--outputs", ""], "none given"),
     (["tolerance", str(FOUR_BAR), "--samples", "2", *STEPS3, "--outputs", ","], "none given"),
     (["tolerance", str(FOUR_BAR), "--samples", "2", *STEPS3, "--outputs", "b.x"], "did you mean 'B.x'?"),
+    # COUNT 1 between two ends: START alone, STOP dropped unseen
+    (["sweep", str(NAMED), "--set", "crank=0.1:0.12:1", "--outputs", "B.x"], "COUNT 1 takes START alone"),
     # a CSV table written under .npz
     (["sweep", str(NAMED), "--set", "crank=0.1,0.11", "--outputs", "B.x", "--out", "{tmp}/s.npz"],
      "writes a CSV table; expected a .csv file name"),
@@ -467,3 +469,46 @@ def test_found_the_place_of_a_bad_path(tmp_path, old, new, said):
     assert new in case.read_text()
     code, line = run_main(["info", str(case)])
     assert code == 2 and f"{case}: {said}" in line, line
+
+
+@pytest.mark.parametrize("args, said", [
+    (["sweep", str(NAMED), "--set", "crank=0.09:0.11:100000"], "sweep: 100,000 variants x 251 instants x 60 columns"),
+    (["sensitivity", str(FOUR_BAR), "--parameters", "points.A.at.0,points.B.at.0", "--steps", "10000000"],
+     "sensitivity: 10,000,001 instants x 60 columns x 2 parameters"),
+    (["tolerance", str(FOUR_BAR), "--samples", "10", "--steps", "2000000"], "sensitivity: 2,000,001 instants"),
+])
+def test_found_results_beyond_memory(tmp_path, args, said):
+    """A sweep, sensitivities or tolerance bands whose table cannot be held in memory (a 100,000-variant sweep
+    of every column: 11.2 GiB): numpy's MemoryError, exit 3, under a memory limit, or the machine's memory
+    taken. Now refused before the work (kinem.budget.MAX_HELD, 2e8 numbers); kinem solve streams instead."""
+    code, line = run_main([*args, "--out", str(tmp_path / "o.csv")])
+    assert code == 2 and said in line and "numbers exceeds the 2e+08" in line, line
+    assert not list(tmp_path.iterdir())
+
+
+def test_found_variants_beyond_memory(models):
+    """kinem.solve(model, parameters=) of 100,000 variants of every column: 11.2 GiB, refused before any."""
+    with pytest.raises(kinem.InputError, match=r"100,000 variants x 4 instants x 60 columns = 2\.4e\+07") as e:
+        from kinem import budget
+
+        old, budget.MAX_HELD = budget.MAX_HELD, 1e7   # the same rule at a smaller scale: nothing allocated
+        try:
+            kinem.solve(models[FOUR_BAR], parameters={"points.A.at.0": np.linspace(0.049, 0.051, 100_000)})
+        finally:
+            budget.MAX_HELD = old
+    assert "\n" not in str(e.value)
+
+
+def test_tolerance_of_a_long_run_batches_within_memory(monkeypatch):
+    """The Monte Carlo samples of a long run are solved in batches that fit the held bound: the same bands."""
+    from kinem import budget
+
+    m = kinem.compile(kinem.load(FOUR_BAR).with_time(steps=20))
+    whole = tolerance(m, samples=9, outputs=["B.x"], seed=3)
+    import importlib
+
+    monkeypatch.setattr(budget, "MAX_HELD", 21 * 4)   # 4 samples a batch: the checks of the nominal's tables off
+    for module in (budget, importlib.import_module("kinem.sensitivity")):
+        monkeypatch.setattr(module, "check_held", lambda *args: None)
+    parts = tolerance(m, samples=9, outputs=["B.x"], seed=3)
+    assert np.array_equal(whole.table.data, parts.table.data, equal_nan=True) and parts.rejected == whole.rejected
