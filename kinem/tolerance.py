@@ -44,6 +44,7 @@ class Bands:
     rejected: tuple
     excess: tuple     # (output, amount, t)
     seed: int
+    singular: str = ""   # where Phi_q is singular (kinem.sensitivity's message): the linear bands inf there; else ""
 
     @property
     def accepted(self) -> int:
@@ -103,7 +104,8 @@ def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progre
         at = int(np.nanargmax(out)) if np.isfinite(out).any() else 0
         excess.append((c, float(max(np.nan_to_num(out[at], nan=0.0), 0.0)), float(nominal.t[at])))
     table = Trajectory(np.array(nominal.t), tuple(cols), np.column_stack(data))
-    return Bands(outputs, table, samples, tuple(rejected), tuple(excess), seed)
+    return Bands(outputs, table, samples, tuple(rejected), tuple(excess), seed,
+                 sens.message if sens.singular.any() else "")
 
 
 def _monte_carlo(model, tols, outputs, nominal, samples, seed, progress, chunk):

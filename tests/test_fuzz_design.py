@@ -512,3 +512,18 @@ def test_tolerance_of_a_long_run_batches_within_memory(monkeypatch):
         monkeypatch.setattr(module, "check_held", lambda *args: None)
     parts = tolerance(m, samples=9, outputs=["B.x"], seed=3)
     assert np.array_equal(whole.table.data, parts.table.data, equal_nan=True) and parts.rejected == whole.rejected
+
+
+def test_found_a_singular_nominal_is_said(tmp_path):
+    """kinem tolerance of a case whose Phi_q is singular at an instant (the stress suite's change point):
+    its linear bands are inf there, said by nothing (kinem sensitivity warns); now the same warning line."""
+    case = tmp_path / "case.toml"
+    case.write_text((ROOT / "cases" / "stress" / "change_point.toml").read_text()
+                    + '\n[tolerances]\n"points.A.at.0" = 0.001\n')
+    buf = io.StringIO()
+    with contextlib.redirect_stderr(buf):
+        assert main(["tolerance", str(case), "--samples", "2", "--outputs", "B.x",
+                     "--out", str(tmp_path / "o.csv")]) == 0
+    assert f"kinem: warning: {case}: Phi_q singular" in buf.getvalue(), buf.getvalue()
+    assert "the linear bands with them" in buf.getvalue()
+    assert tolerance(kinem.compile(kinem.load(case)), samples=0).singular.startswith("Phi_q singular")

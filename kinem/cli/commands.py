@@ -116,6 +116,8 @@ def cmd_tolerance(a):
         progress = show
     b = tolerance(model, samples=a.samples, outputs=outputs, seed=a.seed, progress=progress)
     write_trajectory(b.table, "-" if a.out is None else a.out, fmt)
+    if b.singular:   # as kinem sensitivity warns
+        print(f"kinem: warning: {a.case}: {b.singular}, and the linear bands with them", file=sys.stderr)
     for c, amount, t in b.excess if b.accepted else ():   # no Monte Carlo band: nothing it could leave
         print(f"{c}: the Monte Carlo band leaves the worst-case linear band by at most {amount:.3g} (t = {t:.6g})",
               file=sys.stderr)
