@@ -251,4 +251,6 @@ def _pin(case, model, q):
             table["sign"] = "positive" if signs[c.name] > 0 else "negative"
         if c.name in sided:
             table["side"] = sided[c.name]
-    return load_dict(data, source=case.source)
+    from .moved import quiet
+
+    return quiet(load_dict, data, source=case.source)   # its warnings are the case's, given at its load

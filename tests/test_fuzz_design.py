@@ -527,3 +527,30 @@ def test_found_a_singular_nominal_is_said(tmp_path):
     assert f"kinem: warning: {case}: Phi_q singular" in buf.getvalue(), buf.getvalue()
     assert "the linear bands with them" in buf.getvalue()
     assert tolerance(kinem.compile(kinem.load(case)), samples=0).singular.startswith("Phi_q singular")
+
+
+@pytest.mark.parametrize("degrees", [False, True])
+def test_found_a_fast_drivers_warning_once(tmp_path, monkeypatch, degrees):
+    """kinem tolerance of a case with a fast driver (valid, warned at its loading) printed the warning a
+    second time as Python's two lines ("tolerance.py:254: KinemWarning: ..." and the source line): the
+    nominal's branch pinned is a case loaded again; in degrees, on the merged path (chunk 1: a forked
+    worker's), every sample's case is validated again (kinem.moved.cases_of) and warned too. Now once."""
+    import importlib
+
+    text = FOUR_BAR.read_text().replace("d = { poly = [0.7853981633974483, 1.5, -0.6] }",
+                                        "d = { poly = [0.7853981633974483, 300.0, 0.0] }")
+    if degrees:
+        module = importlib.import_module("kinem.tolerance")
+        real = module.tolerance
+        monkeypatch.setattr(module, "tolerance", lambda *a, **k: real(*a, **{**k, "chunk": 1}))
+        text = (text.replace('units = { length = "m" }', 'units = { length = "m", angle = "deg" }')
+                .replace("0.7853981633974483, 300.0, 0.0", "45.0, 17188.733853924696, 0.0")
+                .replace("0.785] }", "45.0] }").replace("0.27] }", "15.5] }").replace("0.76] }", "43.5] }"))
+    case = tmp_path / "case.toml"
+    case.write_text(text)
+    assert ("17188" if degrees else "300.0") in case.read_text()
+    with warnings.catch_warnings(record=True) as leaked:   # past the command line's own printing of them
+        warnings.simplefilter("always")
+        code, _ = run_main(["tolerance", str(case), "--samples", "3", "--steps", "20", "--outputs", "B.x",
+                            "--out", str(tmp_path / "o.csv")], notes=True)
+    assert code == 0 and not [str(w.message) for w in leaked if issubclass(w.category, kinem.KinemWarning)]
