@@ -9,8 +9,21 @@ rejected, or the march's pace over many instants."""
 import math
 import time
 
-from .errors import WorkLimitError
+from .errors import InputError, WorkLimitError
 from .rates import fastest_driver
+
+# Numbers a result held whole in memory may have (float64: 1.6 GB): a sweep's table, a batch of variants,
+# a trajectory's sensitivities. Beyond, numpy's MemoryError (an internal error) or the machine's memory
+# gone; kinem solve streams its trajectory instead (--max-work bounds its time).
+MAX_HELD = 2e8
+
+
+def check_held(numbers, source, what, fewer) -> None:
+    """An InputError naming ``what`` (its sizes, multiplied) and what to make ``fewer``
+    when a result of ``numbers`` numbers would be held in memory beyond MAX_HELD."""
+    if numbers > MAX_HELD:
+        raise InputError(f"{source}: {what} = {numbers:.3g} numbers exceeds the {MAX_HELD:.3g} a result held in "
+                         f"memory may have ({MAX_HELD * 8 / 1e9:.1f} GB); expected {fewer}")
 
 
 # Rejected attempts in a row after which a run is said to be stuck at an instant.

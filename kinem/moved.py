@@ -35,7 +35,7 @@ def moved_cases(case, listed):
     for k, (moved, h) in enumerate(out):
         if isinstance(moved, InputError):
             p = listed[k]
-            out[k] = (apply_many(case, [design(p, -h, turned[k])], pinned=True)[0], -h)
+            out[k] = (quiet(apply_many, case, [design(p, -h, turned[k])], pinned=True)[0], -h)
             if isinstance(out[k][0], InputError):
                 raise InputError(f"{case.source}: parameter '{p.path}': no valid case within {h:g} of its value")
     return out
@@ -48,8 +48,20 @@ def cases_of(case, designs, pinned=False) -> list:
     lookup = _lookup(case) if case.units.get("angle") != "deg" and not any(b.carries for b in case.bodies) else None
     moved = [_all_set(case, values, lookup) if lookup else None for values in designs]
     slow = [values for values, m in zip(designs, moved) if m is None]
-    built = iter(apply_many(case, slow, pinned=pinned) if slow else ())
+    built = iter(quiet(apply_many, case, slow, pinned=pinned) if slow else ())
     return [m if m is not None else next(built) for m in moved]
+
+
+def quiet(fn, *args, **kwargs):
+    """fn(...) without KinemWarnings: a moved case's (a fast driver) are its case's, given once when it was
+    loaded (they reached the command line as Python's two-line warnings: tolerance of a fast driver)."""
+    import warnings
+
+    from .errors import KinemWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", KinemWarning)
+        return fn(*args, **kwargs)
 
 
 def in_place(case, values):

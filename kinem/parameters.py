@@ -39,7 +39,7 @@ import warnings
 from dataclasses import dataclass
 
 from . import functions as fn
-from .casefile.checks import number, show, suggest
+from .casefile.checks import MAX_MAGNITUDE, number, show, suggest
 from .constraints import REGISTRY
 from .constraints.read import constraint_id
 from .errors import InputError, KinemWarning
@@ -74,9 +74,10 @@ def parameters(case) -> tuple[Parameter, ...]:
     return tuple(p for p, _ in _listing(case))
 
 
-def resolve(case: Case, paths) -> tuple[Parameter, ...]:
+def resolve(case: Case, paths, where: str | None = None) -> tuple[Parameter, ...]:
     """The parameters named by ``paths`` (in order, each once), or one
-    InputError naming the case file and every bad path."""
+    InputError naming the case file, ``where`` in it the paths are (a
+    section: "[tolerances]") and every bad path."""
     paths, near = list(dict.fromkeys(_canonical(case, p) for p in paths)), {}
     found = [_find(case, path, near) for path in paths]
     if None not in found:
@@ -87,7 +88,8 @@ def resolve(case: Case, paths) -> tuple[Parameter, ...]:
         if path in by_path:
             out.append(by_path[path])
         else:
-            problems.append(f"{case.source}: parameter {path!r}: {_why_not(case, path, by_path)}")
+            place = f"{where}: " if where else ""
+            problems.append(f"{case.source}: {place}parameter {path!r}: {_why_not(case, path, by_path)}")
     if problems:
         raise InputError(problems)
     return tuple(out)
@@ -103,7 +105,7 @@ def validated(data, source: str, stacklevel: int = 1) -> Case:
     if case.tolerances:   # their paths and sizes need the whole case
         tolerances_of(case)
     if "sensitivity" in case.report:
-        resolve(case, case.report["sensitivity"])
+        resolve(case, case.report["sensitivity"], "[report] sensitivity")
     for text in fast_drivers(case):
         warnings.warn(text, KinemWarning, stacklevel=stacklevel + 1)
     return case
@@ -129,7 +131,7 @@ def tolerances_of(case, given=None) -> tuple:
     if not raw:
         raise InputError(f"{case.source}: no tolerances; expected a [tolerances] section "
                          '(e.g. "constraints.A.si.0" = 0.0001) or tolerances={path: pm}')
-    listed = {p.path: p for p in resolve(case, raw)}
+    listed = {p.path: p for p in resolve(case, raw, "[tolerances]")}
     from .model import characteristic_length
 
     size = characteristic_length(case)
@@ -137,12 +139,20 @@ def tolerances_of(case, given=None) -> tuple:
     for path, v in raw.items():
         pm, sigma = (v.get("pm"), v.get("sigma")) if hasattr(v, "items") else (v, None)
         where = f"{case.source}: [tolerances]: key '{path}'"
-        pm, given_sigma, sigma = _real(pm), sigma, _real(sigma)
-        if pm is None or not 0 < pm < math.inf:
-            problems.append(f"{where}: got {show(v)}; expected a positive number or {{ pm = ..., sigma = ... }}")
+        unknown = [k for k in v if k not in ("pm", "sigma")] if hasattr(v, "items") else []
+        if unknown:   # a misspelt sigma would make the samples uniform unseen (the case file's check, for a dict)
+            guess = suggest(unknown[0], ("pm", "sigma")) if isinstance(unknown[0], str) else None
+            problems.append(f"{where}: key {show(unknown[0])}: unknown key; "
+                            + (f"did you mean '{guess}'?" if guess else "expected pm and sigma"))
             continue
-        if given_sigma is not None and (sigma is None or not 0 < sigma < math.inf):
-            problems.append(f"{where}: sigma {show(given_sigma)}; expected a positive number")
+        pm, given_sigma, sigma = _real(pm), sigma, _real(sigma)
+        if pm is None or not 0 < pm <= MAX_MAGNITUDE:   # a case file's numbers' bound: beyond, the bands overflow
+            problems.append(f"{where}: got {show(v)}; expected a positive number (at most {MAX_MAGNITUDE:g}) or "
+                            "{ pm = ..., sigma = ... }")
+            continue
+        if given_sigma is not None and (sigma is None or not 0 < sigma <= MAX_MAGNITUDE):
+            problems.append(f"{where}: sigma {show(given_sigma)}; expected a positive number (at most "
+                            f"{MAX_MAGNITUDE:g})")
             continue
         p = listed[path]
         if p.unit == case.length_unit and pm >= size:
@@ -187,7 +197,9 @@ def apply_many(case: Case, designs, source: str | None = None, pinned: bool = Fa
     import copy
 
     source = source or case.source
-    designs = [{to_path(case, k, source): _number(k, v, source) for k, v in dict(values).items()} for values in designs]
+    designs = [dict(values) for values in designs]   # a name and its path in one design: refused (to_paths)
+    designs = [dict(zip(to_paths(case, list(values), source), (_number(k, v, source) for k, v in values.items())))
+               for values in designs]
     resolve(case, {path for v in designs for path in v})
     data, out = case_dict(case, pinned), []
     for values in designs:
@@ -456,12 +468,15 @@ def _why_not(case, path, by_path) -> str:
     if head[0] == "bodies":
         return "body estimates, masses and inertias are read by no constraint: not design parameters"
     c = _constraint(case, head[1]) if head[0] == "constraints" and len(parts) >= 3 else None
+    if c is not None and head[1] != constraint_id(c):   # #N of a named constraint: its paths use the name
+        return (f"constraint {head[1]} is named '{c.name}': its paths begin constraints.{c.name}; did you mean "
+                f"'constraints.{c.name}.{'.'.join(parts[2:])}'?")
     if c is not None and parts[2] in c.refs:
         return f"key '{parts[2]}' names point '{c.refs[parts[2]]}': its parameters are points.{c.refs[parts[2]]}.at.0, .1"
     if c is not None and parts[2] in c.fields and not any(p.startswith(".".join(parts[:3]) + ".")
                                                           or p == ".".join(parts[:3]) for p in by_path):
         return f"key '{parts[2]}' of constraint {head[1]} does not shape the mechanism (an estimate or a choice)"
-    guess = suggest(path, by_path)
+    guess = suggest(path, list(by_path) + ([] if "." in path else list(case.parameters)))   # a bare name too
     if guess is not None:
         return f"unknown parameter; did you mean {guess!r}?"
     return "unknown parameter; expected a design parameter path (kinem info CASE --parameters lists them)"

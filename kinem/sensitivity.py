@@ -43,9 +43,9 @@ from .options import Options, singular_pivot
 from .parameters import frame_tangent, resolve
 from .result import OUTPUTS, Trajectory, _layout, frozen, stacked
 from .branches import pins, violation
-from .budget import Budget
+from .budget import Budget, check_held
 from .march import banded, usable
-from .solver import _checked_times, check_square, solve
+from .solver import _checked_model, _checked_times, check_square, solve
 from .tangents import tangent_parts
 
 
@@ -89,6 +89,7 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     design parameter path in ``parameters`` (a path or a list of paths).
     Raises InputError for an unknown path, AnalysisError when the nominal
     solve fails."""
+    _checked_model(model, "sensitivity")
     case = model.case
     options = model.options if options is None else options
     if isinstance(options, Options) and options.max_seconds is not None and options.started is None:
@@ -115,6 +116,9 @@ def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options
     # the fused pass's (three levels) columns and the derivatives' names made before its march, as
     # solve's trajectory is (Python's caches are cold after a long core march)
     named = call.named(model, 3)
+    K = len(model.times) if times is None else np.size(times)
+    check_held(K * len(named[2]), case.source, f"sensitivity: {K:,} instants x {len(named[0])} columns x "
+               f"{len(listed)} parameters", "fewer instants (--steps) or parameters")
     fused = _fused(model, call, outputs, times, options, named)
     if fused is None:   # the march does not take the model or every instant: solve, then the separate pass
         result = solve(model, outputs, times, options=options)

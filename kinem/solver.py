@@ -51,10 +51,10 @@ def _checked_times(times):
     return t
 
 
-def _checked_model(model) -> None:
-    """InputError unless model is a compiled kinem.Model."""
+def _checked_model(model, what="solve") -> None:
+    """InputError unless model is a compiled kinem.Model (``what``: the function it was given to)."""
     if not isinstance(model, Model):
-        raise InputError(f"solve: model {type(model).__name__}: expected a kinem.Model (kinem.compile(case))")
+        raise InputError(f"{what}: model {type(model).__name__}: expected a kinem.Model (kinem.compile(case))")
 
 
 def _checked_q0(model, q0):

@@ -131,6 +131,10 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
     resolve(nominal, paths)   # the names resolve (else one InputError for all)
     base = compile(nominal)
     columns = _columns(base, outputs)
+    from .budget import check_held
+
+    check_held(len(grid_values) * len(base.times) * len(columns), source, f"sweep: {len(grid_values):,} variants x "
+               f"{len(base.times):,} instants x {len(columns)} columns", "fewer variants, --outputs or --steps")
     cases, errors = [], [""] * len(grid_values)
     if progress:
         progress.total = 2 * len(grid_values)
@@ -232,6 +236,10 @@ def parse_values(item: str):
                 raise ValueError
             with np.errstate(all="ignore"):   # ends beyond a float: refused below, without numpy's warning
                 values = np.linspace(float(start), float(stop), n)
+            if n == 1 and float(start) != float(stop) and np.isfinite([float(start), float(stop)]).all():
+                # one value: START alone, STOP dropped unseen
+                raise InputError(f"--set: got {item!r}: COUNT 1 takes START alone; expected COUNT 2 or more "
+                                 "to reach STOP, or NAME=VALUE")
         else:
             values = np.array([float(x) for x in text.split(",")])
     except ValueError:

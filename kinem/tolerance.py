@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .casefile.checks import texts
+from .casefile.checks import suggest, texts
 from .errors import InputError
 from .parameters import resolve, tolerances_of
 from .moved import cases_of
@@ -44,6 +44,12 @@ class Bands:
     rejected: tuple
     excess: tuple     # (output, amount, t)
     seed: int
+    singular: str = ""   # where Phi_q is singular (kinem.sensitivity's message): the linear bands inf there; else ""
+
+    @property
+    def accepted(self) -> int:
+        """The samples in the Monte Carlo band (0: its columns are NaN, ``excess`` 0)."""
+        return self.samples - len(self.rejected)
 
     def __getitem__(self, name):
         return self.table[name]
@@ -60,23 +66,29 @@ def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progre
     its tables are affine in every toleranced parameter, else as merged
     cases, ``chunk`` at a time (default CHUNK). ``chunk`` 1: one by one, no
     threads: for a forked worker process, where a thread pool cannot run."""
+    from .solver import _checked_model
+
+    _checked_model(model, "tolerance")
     case = model.case
     for key, v, most in (("samples", samples, MAX_SAMPLES), ("seed", seed, None)):
         if isinstance(v, bool) or not isinstance(v, numbers.Integral) or v < 0 or (most is not None and v > most):
             raise InputError(f"{case.source}: tolerance: {key} {v!r:.80}: expected a whole number from 0"
                              + (f" to {most:,}" if most is not None else ""))
     given = () if outputs is None else texts(outputs)
-    if given is None:
+    if given is None or (outputs is not None and not given):   # [] or --outputs '': none, as sweep says
         raise InputError(f"{case.source}: tolerance: outputs {outputs!r:.80}: expected a list of the trajectory's "
-                         "column names (such as B.x)")
+                         "column names (such as B.x)" + ("; none given" if given is not None else ""))
+    given = tuple(dict.fromkeys(given))   # a column asked twice: its bands once
     tols = tolerances_of(case, tolerances)
     sens = sensitivity(model, [t.path for t in tols], outputs=("positions", "velocities", "accelerations"))
     nominal = sens.trajectory
     outputs = given or tuple(c for p in case.points for c in (f"{p.name}.x", f"{p.name}.y"))
     unknown = [c for c in outputs if c not in nominal]
     if unknown:
-        raise InputError(f"{case.source}: --outputs: unknown column {unknown[0]!r}; expected columns of the "
-                         f"trajectory such as {', '.join(nominal.columns[:6])}")
+        guess = suggest(unknown[0], nominal.columns)
+        raise InputError(f"{case.source}: --outputs: unknown column {unknown[0]!r}; " + (
+            f"did you mean '{guess}'?" if guess else
+            f"expected columns of the trajectory such as {', '.join(nominal.columns[:6])}"))
     pm = np.array([t.pm for t in tols])
     d = np.stack([np.stack([sens.of(c, t.path) for t in tols], axis=1) for c in outputs])   # (C, K, P)
     worst = np.abs(d) @ pm
@@ -92,7 +104,8 @@ def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progre
         at = int(np.nanargmax(out)) if np.isfinite(out).any() else 0
         excess.append((c, float(max(np.nan_to_num(out[at], nan=0.0), 0.0)), float(nominal.t[at])))
     table = Trajectory(np.array(nominal.t), tuple(cols), np.column_stack(data))
-    return Bands(outputs, table, samples, tuple(rejected), tuple(excess), seed)
+    return Bands(outputs, table, samples, tuple(rejected), tuple(excess), seed,
+                 sens.message if sens.singular.any() else "")
 
 
 def _monte_carlo(model, tols, outputs, nominal, samples, seed, progress, chunk):
@@ -121,9 +134,13 @@ def _monte_carlo(model, tols, outputs, nominal, samples, seed, progress, chunk):
             lo[k] = np.minimum(lo[k], traj[c])
             hi[k] = np.maximum(hi[k], traj[c])
 
+    from .budget import MAX_HELD
+
+    most = max(1, int(MAX_HELD // (K * len(outputs))))   # samples whose outputs one batch may hold (long runs)
     if chunk > 1 and all(affine(case, t.path) for t in tols):   # the variants' batch solve (kinem.variants)
-        for start in range(0, samples, BATCH):
-            stop = min(samples, start + BATCH)
+        batch = min(BATCH, most)
+        for start in range(0, samples, batch):
+            stop = min(samples, start + batch)
             for values, traj, why in _solve_variants(model, tols, base, draws[start:stop], nominal.t, nominal_branch,
                                                      outputs):
                 if why is None:
@@ -133,6 +150,7 @@ def _monte_carlo(model, tols, outputs, nominal, samples, seed, progress, chunk):
             if progress is not None:
                 progress(stop, samples)
         return _bands(lo, hi, accepted, rejected)
+    chunk = min(chunk, most)
     for start in range(0, samples, chunk):
         batch = []
         designs = [{t.path: base[t.path] + draws[s, j] for j, t in enumerate(tols)}
@@ -233,4 +251,6 @@ def _pin(case, model, q):
             table["sign"] = "positive" if signs[c.name] > 0 else "negative"
         if c.name in sided:
             table["side"] = sided[c.name]
-    return load_dict(data, source=case.source)
+    from .moved import quiet
+
+    return quiet(load_dict, data, source=case.source)   # its warnings are the case's, given at its load

@@ -113,6 +113,10 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
     if options.started is None:   # the time limit counts for the whole batch
         options = replace(options, started=time.perf_counter())
     columns, stages = _asked(model, outputs)
+    from .budget import check_held
+
+    check_held(len(values) * len(times) * len(columns), case.source, f"solve: {len(values):,} variants x "
+               f"{len(times):,} instants x {len(columns)} columns", "fewer variants, outputs or instants")
     stage_names = OUTPUTS[:stages]
     first = solve(model, outputs=stage_names, times=times[:1], options=replace(options, max_seconds=None))
     if not first.success:

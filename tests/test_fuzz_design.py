@@ -12,6 +12,8 @@ CI runs a small derandomised budget (tests/conftest.py); KINEM_FUZZ_EXAMPLES
 raises it, HYPOTHESIS_PROFILE=dev randomises it (docs/benchmarks.md, "Fuzz
 campaign, session 23"). The examples below the fuzz tests are the failures
 the campaign found, each fixed."""
+import contextlib
+import io
 import json
 import math
 import tomllib
@@ -23,6 +25,7 @@ import pytest
 from hypothesis import given, strategies as st
 
 import kinem
+from kinem.cli import main
 from kinem.errors import MAX_LINE, KinemError
 from kinem.tolerance import MAX_SAMPLES, tolerance
 from test_fuzz import INVALID, ODD, budget, document, get, paths, run_main
@@ -276,3 +279,278 @@ def test_found_api_calls(models, call):
     with pytest.raises(kinem.InputError) as e:
         call(models[FOUR_BAR])
     assert "\n" not in str(e.value)
+
+
+# -- session 25 (docs/benchmarks.md, "Fuzz campaign, session 25"): what a user or a bad script gives the
+# design commands beyond a crash: duplicated names, a misleading place, an output refused only after the
+# work, a tolerance table's misspelt key, bounds, and the two leftovers of session 24 -----------------------
+
+STEPS3 = ["--steps", "3"]
+
+
+@pytest.mark.parametrize("args, said", [
+    # a parameter set twice: the later value won unseen (kinem sweep refused it)
+    (["solve", str(NAMED), *STEPS3, "--set", "crank=0.1", "--set", "crank=0.12"], "'crank' given twice"),
+    (["info", str(NAMED), "--parameters", "--set", "points.A.at.0=0.1", "--set", "points.A.at.0=0.2"],
+     "'points.A.at.0' given twice"),
+    # a named dimension by its name and by its path: the later won (sweep and solve(parameters=) refused it)
+    (["solve", str(NAMED), *STEPS3, "--set", "crank=0.1", "--set", "parameters.crank=0.12"],
+     "'crank' and 'parameters.crank' are one parameter"),
+    (["info", str(NAMED), "--set", "parameters.crank=0.1", "--set", "crank=0.12"],
+     "'parameters.crank' and 'crank' are one parameter"),
+    # #N of a named constraint: "does not shape the mechanism", of a key that does
+    (["sensitivity", str(FOUR_BAR), "--parameters", "constraints.#3.sj.0", *STEPS3],
+     "constraint #3 is named 'A': its paths begin constraints.A; did you mean 'constraints.A.sj.0'?"),
+    (["solve", str(FOUR_BAR), *STEPS3, "--set", "constraints.#4.si.0=0.15"], "did you mean 'constraints.B.si.0'?"),
+    # a misspelt bare name: no did-you-mean where --set gave one
+    (["sensitivity", str(NAMED), "--parameters", "crnk", *STEPS3], "unknown parameter; did you mean 'crank'?"),
+    # --outputs '' (an unset shell variable) meant every point's x and y; sweep refused it
+    (["tolerance", str(FOUR_BAR), "--samples", "2", *STEPS3, "--outputs", ""], "none given"),
+    (["tolerance", str(FOUR_BAR), "--samples", "2", *STEPS3, "--outputs", ","], "none given"),
+    (["tolerance", str(FOUR_BAR), "--samples", "2", *STEPS3, "--outputs", "b.x"], "did you mean 'B.x'?"),
+    # COUNT 1 between two ends: START alone, STOP dropped unseen
+    (["sweep", str(NAMED), "--set", "crank=0.1:0.12:1", "--outputs", "B.x"], "COUNT 1 takes START alone"),
+    # a CSV table written under .npz
+    (["sweep", str(NAMED), "--set", "crank=0.1,0.11", "--outputs", "B.x", "--out", "{tmp}/s.npz"],
+     "writes a CSV table; expected a .csv file name"),
+    # part 4's leftovers: --timeout below the watchdog's look, or no bound; report --engines '' was native alone
+    (["compare", str(FOUR_BAR), "--scheduler", "tcp://127.0.0.1:1", "--timeout", "1e-300"], "--timeout: got 1e-300"),
+    (["compare", str(FOUR_BAR), "--scheduler", "tcp://127.0.0.1:1", "--timeout", "inf"], "--timeout: got inf"),
+    (["report", str(FOUR_BAR), "--scheduler", "tcp://127.0.0.1:1", "--timeout", "0.5"], "--timeout: got 0.5"),
+    (["stress", "--scheduler", "tcp://127.0.0.1:1", "--timeout", "1e8"], "from 1 to 1e+07"),
+    (["report", str(FOUR_BAR), "--engines", "", "--out", "{tmp}/r", "--baseline", "none"], "--engines: got ''"),
+    (["report", str(FOUR_BAR), "--engines", ",", "--out", "{tmp}/r", "--baseline", "none"], "--engines: got ','"),
+])
+def test_found_session_25_command_lines(tmp_path, monkeypatch, args, said):
+    """Each ran (exit 0, or a misleading reason) before its fix: now exit 2, one line saying why, nothing written."""
+    from kinem import parallel
+
+    monkeypatch.setattr(parallel, "RUN_TIMEOUT", parallel.RUN_TIMEOUT)   # --timeout sets it while parsing
+    code, line = run_main([a.replace("{tmp}", str(tmp_path)) for a in args])
+    assert code == 2 and said in line, line
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("command", ["sweep", "tolerance", "sensitivity"])
+@pytest.mark.parametrize("kind", ["read-only", "missing-directory", "directory", "trailing-slash", "link-to-read-only"])
+def test_found_a_bad_out_refused_before_the_work(tmp_path, monkeypatch, command, kind):
+    """kinem sweep and tolerance found a read-only (or otherwise bad) --out only when writing, after every
+    variant or sample was solved (3,000 variants: 2.8 s, 20,000 samples: 8.3 s, then exit 1); now refused
+    before the case is read, as kinem solve refuses it. The work is never reached here."""
+    import importlib
+
+    def reached(*args, **kwargs):
+        raise AssertionError("the work began before the output was checked")
+
+    monkeypatch.setattr(importlib.import_module(f"kinem.{command}"), command, reached)   # the module, not kinem's name
+    out = tmp_path / "o.csv"
+    if kind in ("read-only", "link-to-read-only"):
+        target = tmp_path / "old.csv"
+        target.write_text("old\n")
+        target.chmod(0o444)
+        if kind == "read-only":
+            out = target
+        else:
+            out.symlink_to(target)
+    elif kind == "missing-directory":
+        out = tmp_path / "nope" / "o.csv"
+    elif kind == "directory":
+        out = tmp_path
+    else:
+        out = f"{out}/"
+    args = {"sweep": ["--set", "crank=0.1,0.11"], "tolerance": ["--samples", "2"],
+            "sensitivity": ["--parameters", "crank"]}[command]
+    case = str(NAMED if command != "tolerance" else FOUR_BAR)
+    code, line = run_main([command, case, *args, "--out", str(out)])
+    assert code == (1 if "read-only" in kind else 2) and "cannot write" in line, line
+    if "read-only" in kind:
+        assert (tmp_path / "old.csv").read_text() == "old\n"
+
+
+def test_found_no_monte_carlo_band_is_not_said_to_hold(tmp_path):
+    """--samples 0 (no Monte Carlo band) and samples that all fail printed, per output, "the Monte Carlo
+    band leaves the worst-case linear band by at most 0": a band that does not exist, said to hold. Now
+    no such line; the rejected samples' line says why there is none."""
+    code, err = run_main(["tolerance", str(FOUR_BAR), "--samples", "0", *STEPS3, "--outputs", "B.x",
+                          "--out", str(tmp_path / "o.csv")])
+    assert code == 0 and err == ""
+    case = tmp_path / "case.toml"   # a driver's rate toleranced by 1e6 rad/s: no sample assembles
+    case.write_text(FOUR_BAR.read_text().replace('"points.A.at.0" = 0.0001',
+                                                 '"constraints.crank-drive.d.poly.1" = 1e6'))
+    buf = io.StringIO()
+    with contextlib.redirect_stderr(buf):
+        assert main(["tolerance", str(case), "--samples", "3", *STEPS3, "--outputs", "B.x",
+                     "--out", str(tmp_path / "o.csv")]) == 0
+    assert "leaves the worst-case" not in buf.getvalue() and "3 of 3 samples" in buf.getvalue(), buf.getvalue()
+
+
+@pytest.mark.parametrize("tolerances, said", [
+    ({"points.A.at.0": {"pm": 1e-4, "sgima": 3e-5}}, "key 'sgima': unknown key; did you mean 'sigma'?"),  # uniform, unseen
+    ({"points.A.at.0": {"pm": 1e-4, 3: 1}}, "key 3: unknown key; expected pm and sigma"),
+    ({"constraints.crank-drive.d.poly.0": 1e300}, "got 1e+300"),        # numpy's overflow warnings, bands inf
+    ({"constraints.crank-drive.d.poly.1": 1e13}, "at most 1e+12"),
+    ({"points.A.at.0": {"pm": 1e-4, "sigma": 1e300}}, "sigma 1e+300"),
+])
+def test_found_tolerance_tables(models, tolerances, said):
+    """A tolerance table given to the API: a misspelt key was ignored (the case file refuses it); a tolerance
+    beyond a case file's numbers (1e12) gave numpy's overflow warnings (a line each on the command line)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(kinem.InputError) as e:
+            tolerance(models[FOUR_BAR], tolerances, samples=2)
+    assert said in str(e.value) and "\n" not in str(e.value), str(e.value)
+
+
+def test_found_api_calls_of_session_25(models):
+    """kinem.sensitivity and tolerance given a Case (not a Model): AttributeError; a named dimension by its
+    name and by its path in kinem.load(parameters=): the later won; an output asked twice: its bands twice."""
+    case = kinem.load(FOUR_BAR)
+    for call in (lambda: kinem.sensitivity(case, ["points.A.at.0"]), lambda: tolerance(case, samples=2),
+                 lambda: kinem.sensitivity(None, ["points.A.at.0"])):
+        with pytest.raises(kinem.InputError, match="expected a kinem.Model"):
+            call()
+    with pytest.raises(kinem.InputError, match="are one parameter"):
+        kinem.load(NAMED, parameters={"crank": 0.1, "parameters.crank": 0.12})
+    b = tolerance(models[FOUR_BAR], samples=2, outputs=["B.x", "B.x"])
+    assert b.outputs == ("B.x",) and len(set(b.table.columns)) == len(b.table.columns) == 7
+    with pytest.raises(kinem.InputError, match="none given"):
+        tolerance(models[FOUR_BAR], samples=2, outputs=[])
+
+
+PMS = st.one_of(st.floats(), st.sampled_from([0.0, -0.0, 5e-324, 1e-300, 1e-4, 0.05, 0.19, 0.2, 1.0, 3.0, 1e12,
+                                              1e13, 10 ** 400, True]))
+
+
+@budget(40)
+@given(table=st.dictionaries(st.sampled_from(["points.A.at.0", "points.B.at.0", "constraints.B.si.0",
+                                              "constraints.crank-drive.d.poly.0", "constraints.crank-drive.d.poly.1",
+                                              "points.O4.at.1", "crank", "points.A.at.O"]),
+                             st.one_of(PMS, st.fixed_dictionaries({"pm": PMS}, optional={
+                                 "sigma": PMS, "sgima": PMS, "PM": PMS})), max_size=3),
+       samples=st.integers(0, 3), seed=st.integers(0, 2 ** 70))
+def test_api_tolerance_tables(models, table, samples, seed):
+    """Any tolerance table (huge, tiny, negative zero, NaN, a tolerance larger than a link, keys misspelt):
+    bands without a Python warning (each a line of its own on the command line) or one InputError; where
+    no sample is in the Monte Carlo band its columns are NaN."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        try:
+            b = tolerance(models[FOUR_BAR], table, samples=samples, seed=seed, outputs=["B.x"])
+        except kinem.InputError as e:
+            assert "\n" not in str(e) and len(str(e)) <= 4 * MAX_LINE
+            return
+    assert b.accepted == samples - len(b.rejected) >= 0
+    assert np.isnan(b["B.x.mc+"]).all() == (b.accepted == 0)
+
+
+def test_found_the_report_says_there_is_no_band(tmp_path, monkeypatch):
+    """The report's design section said "Largest excess of the Monte Carlo band over the linear one: B.x: 0"
+    where every sample was left out (no band); now it says there is none."""
+    from kinem.report import design
+
+    monkeypatch.setattr(design, "SAMPLES", 3)   # the report's 200, each left out: seconds
+    _bands = design._bands
+
+    case = tmp_path / "case.toml"
+    case.write_text(FOUR_BAR.read_text().replace('"points.A.at.0" = 0.0001', '"constraints.crank-drive.d.poly.1" = 1e6'))
+    html = _bands(kinem.compile(kinem.load(case).with_time(steps=3)), ("B.x", "B.y"))[0]
+    assert "No Monte Carlo band" in html and "Largest excess" not in html, html
+
+
+@pytest.mark.parametrize("old, new, said", [
+    ('sensitivity = ["points.A.at.0",', 'sensitivity = ["points.A.at.O",', "[report] sensitivity: parameter 'points.A.at.O'"),
+    ('"points.B.at.0" = 0.0001', '"points.B.at.O" = 0.0001', "[tolerances]: parameter 'points.B.at.O'"),
+])
+def test_found_the_place_of_a_bad_path(tmp_path, old, new, said):
+    """A bad path in [report] sensitivity or [tolerances] named the file and the path but not the section
+    (the contract: the file, the place and the key)."""
+    case = tmp_path / "case.toml"
+    case.write_text(FOUR_BAR.read_text().replace(old, new))
+    assert new in case.read_text()
+    code, line = run_main(["info", str(case)])
+    assert code == 2 and f"{case}: {said}" in line, line
+
+
+@pytest.mark.parametrize("args, said", [
+    (["sweep", str(NAMED), "--set", "crank=0.09:0.11:100000"], "sweep: 100,000 variants x 251 instants x 60 columns"),
+    (["sensitivity", str(FOUR_BAR), "--parameters", "points.A.at.0,points.B.at.0", "--steps", "10000000"],
+     "sensitivity: 10,000,001 instants x 60 columns x 2 parameters"),
+    (["tolerance", str(FOUR_BAR), "--samples", "10", "--steps", "2000000"], "sensitivity: 2,000,001 instants"),
+])
+def test_found_results_beyond_memory(tmp_path, args, said):
+    """A sweep, sensitivities or tolerance bands whose table cannot be held in memory (a 100,000-variant sweep
+    of every column: 11.2 GiB): numpy's MemoryError, exit 3, under a memory limit, or the machine's memory
+    taken. Now refused before the work (kinem.budget.MAX_HELD, 2e8 numbers); kinem solve streams instead."""
+    code, line = run_main([*args, "--out", str(tmp_path / "o.csv")])
+    assert code == 2 and said in line and "numbers exceeds the 2e+08" in line, line
+    assert not list(tmp_path.iterdir())
+
+
+def test_found_variants_beyond_memory(models):
+    """kinem.solve(model, parameters=) of 100,000 variants of every column: 11.2 GiB, refused before any."""
+    with pytest.raises(kinem.InputError, match=r"100,000 variants x 4 instants x 60 columns = 2\.4e\+07") as e:
+        from kinem import budget
+
+        old, budget.MAX_HELD = budget.MAX_HELD, 1e7   # the same rule at a smaller scale: nothing allocated
+        try:
+            kinem.solve(models[FOUR_BAR], parameters={"points.A.at.0": np.linspace(0.049, 0.051, 100_000)})
+        finally:
+            budget.MAX_HELD = old
+    assert "\n" not in str(e.value)
+
+
+def test_tolerance_of_a_long_run_batches_within_memory(monkeypatch):
+    """The Monte Carlo samples of a long run are solved in batches that fit the held bound: the same bands."""
+    from kinem import budget
+
+    m = kinem.compile(kinem.load(FOUR_BAR).with_time(steps=20))
+    whole = tolerance(m, samples=9, outputs=["B.x"], seed=3)
+    import importlib
+
+    monkeypatch.setattr(budget, "MAX_HELD", 21 * 4)   # 4 samples a batch: the checks of the nominal's tables off
+    for module in (budget, importlib.import_module("kinem.sensitivity")):
+        monkeypatch.setattr(module, "check_held", lambda *args: None)
+    parts = tolerance(m, samples=9, outputs=["B.x"], seed=3)
+    assert np.array_equal(whole.table.data, parts.table.data, equal_nan=True) and parts.rejected == whole.rejected
+
+
+def test_found_a_singular_nominal_is_said(tmp_path):
+    """kinem tolerance of a case whose Phi_q is singular at an instant (the stress suite's change point):
+    its linear bands are inf there, said by nothing (kinem sensitivity warns); now the same warning line."""
+    case = tmp_path / "case.toml"
+    case.write_text((ROOT / "cases" / "stress" / "change_point.toml").read_text()
+                    + '\n[tolerances]\n"points.A.at.0" = 0.001\n')
+    buf = io.StringIO()
+    with contextlib.redirect_stderr(buf):
+        assert main(["tolerance", str(case), "--samples", "2", "--outputs", "B.x",
+                     "--out", str(tmp_path / "o.csv")]) == 0
+    assert f"kinem: warning: {case}: Phi_q singular" in buf.getvalue(), buf.getvalue()
+    assert "the linear bands with them" in buf.getvalue()
+    assert tolerance(kinem.compile(kinem.load(case)), samples=0).singular.startswith("Phi_q singular")
+
+
+@pytest.mark.parametrize("degrees", [False, True])
+def test_found_a_fast_drivers_warning_once(tmp_path, monkeypatch, degrees):
+    """kinem tolerance of a case with a fast driver (valid, warned at its loading) printed the warning a
+    second time as Python's two lines ("tolerance.py:254: KinemWarning: ..." and the source line): the
+    nominal's branch pinned is a case loaded again; in degrees, on the merged path (chunk 1: a forked
+    worker's), every sample's case is validated again (kinem.moved.cases_of) and warned too. Now once."""
+    import importlib
+
+    text = FOUR_BAR.read_text().replace("d = { poly = [0.7853981633974483, 1.5, -0.6] }",
+                                        "d = { poly = [0.7853981633974483, 300.0, 0.0] }")
+    if degrees:
+        module = importlib.import_module("kinem.tolerance")
+        real = module.tolerance
+        monkeypatch.setattr(module, "tolerance", lambda *a, **k: real(*a, **{**k, "chunk": 1}))
+        text = (text.replace('units = { length = "m" }', 'units = { length = "m", angle = "deg" }')
+                .replace("0.7853981633974483, 300.0, 0.0", "45.0, 17188.733853924696, 0.0")
+                .replace("0.785] }", "45.0] }").replace("0.27] }", "15.5] }").replace("0.76] }", "43.5] }"))
+    case = tmp_path / "case.toml"
+    case.write_text(text)
+    assert ("17188" if degrees else "300.0") in case.read_text()
+    with warnings.catch_warnings(record=True) as leaked:   # past the command line's own printing of them
+        warnings.simplefilter("always")
+        code, _ = run_main(["tolerance", str(case), "--samples", "3", "--steps", "20", "--outputs", "B.x",
+                            "--out", str(tmp_path / "o.csv")], notes=True)
+    assert code == 0 and not [str(w.message) for w in leaked if issubclass(w.category, kinem.KinemWarning)]

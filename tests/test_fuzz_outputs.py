@@ -332,7 +332,7 @@ def test_found_report_of_a_case_that_fails_with_a_design_section(tmp_path):
     case.write_text(apart)
     err, said = io.StringIO(), io.StringIO()
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(said):
-        code = main(["report", str(case), "--engines", "", "--quick", "--baseline", "none", "--jobs", "0",
+        code = main(["report", str(case), "--engines", "native", "--quick", "--baseline", "none", "--jobs", "0",
                      "--out", str(out)])
     assert code == 1 and err.getvalue() == "", err.getvalue()   # the report's own line is on standard output
     assert "1 failed" in said.getvalue() and "FAILED" in said.getvalue()
@@ -376,7 +376,7 @@ def test_found_report_outputs_checked_before_the_runs(tmp_path, monkeypatch, nam
         else:
             path.symlink_to(tmp_path / "nowhere" / name)
     monkeypatch.setattr(execute, "execute", lambda *a, **k: pytest.fail("the cases were run"))
-    code, line = run_main(["report", str(case), "--out", str(out), "--engines", "", "--baseline", "none",
+    code, line = run_main(["report", str(case), "--out", str(out), "--engines", "native", "--baseline", "none",
                            "--jobs", "0", "--junit", *(["--update-baseline"] if name == "baseline.json" else [])])
     assert code == 2 and str(path) in line, line
     assert {"read-only": "read-only", "directory": "is a directory", "dangling-link": "does not exist"}[kind] in line
@@ -392,7 +392,7 @@ def test_found_report_out_under_a_file(tmp_path, monkeypatch):
     case = tmp_path / "case.toml"
     case.write_text(SHORT)
     monkeypatch.setattr(execute, "execute", lambda *a, **k: pytest.fail("the cases were run"))
-    code, line = run_main(["report", str(case), "--out", str(case / "out"), "--engines", "", "--baseline", "none",
+    code, line = run_main(["report", str(case), "--out", str(case / "out"), "--engines", "native", "--baseline", "none",
                            "--jobs", "0"])
     assert code == 2 and f"{case} is not a directory" in line, line
 

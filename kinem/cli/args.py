@@ -69,6 +69,8 @@ def set_values(items) -> dict:
         if not sep or not name.strip() or not value.strip():
             raise InputError(f"--set: got {item!r}; expected NAME=VALUE with NAME a named dimension of the "
                              "case's [parameters] or a design parameter path (kinem info CASE --parameters)")
+        if name.strip() in out:   # as kinem sweep refuses it: the later value would win unseen
+            raise InputError(f"--set: {name.strip()!r} given twice; expected each parameter once")
         out[name.strip()] = value.strip()
     return out
 
@@ -119,7 +121,7 @@ def engine_settings(items, dt, engines=None):
     return out
 
 
-def engine_list(text, allow_empty=False) -> list:
+def engine_list(text) -> list:
     """--engines: a comma-separated list of native and the engines (None: all)."""
     from adapters import names
 
@@ -133,6 +135,6 @@ def engine_list(text, allow_empty=False) -> list:
     guess = suggest(unknown[0], ("native",) + ENGINES) if unknown else None
     if guess is not None:
         raise InputError(f"--engines: unknown engine {unknown[0]!r}; did you mean '{guess}'?")
-    if unknown or not (engines or allow_empty):
+    if unknown or not engines:
         raise InputError(f"--engines: got {text!r}; expected a comma-separated list of native, {', '.join(ENGINES)}")
     return engines

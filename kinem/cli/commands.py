@@ -11,9 +11,14 @@ from .streams import note
 
 def cmd_sweep(a):
     """kinem sweep CASE --set NAME=START:STOP:COUNT ...: one table of every variant (kinem.sweep)."""
-    from ..output import Output
+    from ..output import Output, check
     from ..sweep import parse_values, sweep
 
+    if a.out is not None:   # a bad --out refused before the variants are solved, not after
+        check(a.out)
+        if Path(a.out).suffix.lower() == ".npz":
+            raise InputError(f"--out {a.out}: kinem sweep writes a CSV table; expected a .csv file name "
+                             "(kinem.sweep(...).data holds the arrays)")
     values = {}
     for item in a.set or ():
         name, v = parse_values(item)
@@ -71,10 +76,12 @@ def cmd_info(a):
 
 
 def cmd_sensitivity(a):
-    from ..output import write_trajectory
+    from ..output import check, write_trajectory
     from ..sensitivity import sensitivity
 
     fmt = file_format(a.out, a.format)
+    if a.out is not None:
+        check(a.out)   # before the solve
     model = load_model(a.case, a.end, a.steps)
     paths = [p.strip() for p in a.parameters.split(",") if p.strip()]
     s = sensitivity(model, paths, outputs=output_list(a.outputs))
@@ -85,7 +92,7 @@ def cmd_sensitivity(a):
 
 
 def cmd_tolerance(a):
-    from ..output import write_trajectory
+    from ..output import check, write_trajectory
     from ..tolerance import MAX_SAMPLES, tolerance
 
     if not 0 <= a.samples <= MAX_SAMPLES:
@@ -93,8 +100,10 @@ def cmd_tolerance(a):
     if a.seed < 0:
         raise InputError(f"--seed: got {a.seed}; expected a whole number, 0 or more")
     fmt = file_format(a.out, a.format)
+    if a.out is not None:
+        check(a.out)   # before the Monte Carlo samples, not after them
     model = load_model(a.case, a.end, a.steps)
-    outputs = [c.strip() for c in a.outputs.split(",") if c.strip()] if a.outputs else None
+    outputs = [c.strip() for c in a.outputs.split(",") if c.strip()] if a.outputs is not None else None
     progress = None
     if sys.stderr.isatty():
         from ..report.progress import Progress
@@ -107,7 +116,9 @@ def cmd_tolerance(a):
         progress = show
     b = tolerance(model, samples=a.samples, outputs=outputs, seed=a.seed, progress=progress)
     write_trajectory(b.table, "-" if a.out is None else a.out, fmt)
-    for c, amount, t in b.excess:
+    if b.singular:   # as kinem sensitivity warns
+        print(f"kinem: warning: {a.case}: {b.singular}, and the linear bands with them", file=sys.stderr)
+    for c, amount, t in b.excess if b.accepted else ():   # no Monte Carlo band: nothing it could leave
         print(f"{c}: the Monte Carlo band leaves the worst-case linear band by at most {amount:.3g} (t = {t:.6g})",
               file=sys.stderr)
     if b.rejected:
@@ -250,7 +261,7 @@ def _compare_sensitivity(a, model, engines):
 def cmd_report(a):
     from ..report import Options, run
 
-    engines = engine_list(a.engines, allow_empty=True)  # native always runs in the report
+    engines = engine_list(a.engines)  # '' refused as compare and animate refuse it; --engines native: native alone
     check_jobs(a.jobs)
     check_timeout(a)
     whole = sorted(str(p) for p in Path("cases").glob("*.toml"))

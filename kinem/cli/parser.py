@@ -193,14 +193,22 @@ def scheduler_option(p):
                    help="with --scheduler: stop the run after this long (default 6 h; kinem/parallel.py)")
 
 
+MIN_TIMEOUT = 1.0   # seconds: --timeout's least (kinem.parallel's watchdog looks every 0.5 s)
+
+
 class _Timeout(argparse.Action):
     """--timeout sets kinem.parallel.RUN_TIMEOUT for this command."""
 
     def __call__(self, parser, namespace, value, option_string=None):
         from .. import parallel
 
-        if not value > 0:
-            raise InputError(f"--timeout: got {value}; expected a positive number of seconds")
+        from ..options import MOST_SECONDS
+
+        # the watchdog looks every half second, so less than a second would end the run at its first look;
+        # inf (or 1e400) no bound at all, which --timeout is for (kinem/parallel.py)
+        if not MIN_TIMEOUT <= value <= MOST_SECONDS:   # NaN too
+            raise InputError(f"--timeout: got {value:g}; expected a number of seconds from {MIN_TIMEOUT:g} to "
+                             f"{MOST_SECONDS:g}")
         parallel.RUN_TIMEOUT = value
         setattr(namespace, self.dest, value)
 

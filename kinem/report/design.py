@@ -144,8 +144,10 @@ def _bands(model, outputs):
     fig.tight_layout()
     left = (f"{len(b.rejected)} of {b.samples} samples left the nominal's branch or could not assemble and are "
             "not in the band. " if b.rejected else "")
-    excess = "; ".join(f"{escape(c)}: {a:.2g} at t = {s:.3g}" for c, a, s in b.excess)
+    excess = ("Largest excess of the Monte Carlo band over the linear one: "
+              + "; ".join(f"{escape(c)}: {a:.2g} at t = {s:.3g}" for c, a, s in b.excess) if b.accepted
+              else "No Monte Carlo band: no sample is in it")   # not an excess of 0 over a band that is not there
     return ["<h3>Tolerance bands</h3><p>The case's [tolerances]: worst-case linear band (grey), root-sum-square "
             f"(dashed), Monte Carlo over {SAMPLES} seeded samples on the nominal's branch (red); {left}"
-            f"Largest excess of the Monte Carlo band over the linear one: {excess}.</p>",
+            f"{excess}.</p>",
             img(_png(fig), "tolerance bands")]
