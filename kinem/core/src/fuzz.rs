@@ -10,6 +10,7 @@ use crate::families::{At, Family, KINDS};
 use crate::lu::{Layout, Shape};
 use crate::model::Kin;
 use crate::table::Table;
+use crate::triangular::DIV;
 use num_complex::Complex64 as C64;
 
 /// xorshift64*: no crate, reproducible.
@@ -317,6 +318,13 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
                 p.divs[k - p.subs.len()][1 + rng.below(2) as usize] = far;
             }
             assert!(p.check().is_err(), "trial {trial}: a corrupted program passed its check");
+            // and its flat list alone moved out of range (or out of its order) is refused too
+            // (its own generator: the trials' stream is the one before the flat list)
+            let (mut p, mut flat_rng) = (t.program.clone(), Rng(0x0f1a_7115_7000_0000 ^ trial as u64));
+            let k = flat_rng.below(p.ops.len() as u64) as usize;
+            let at = if p.ops[k][1] == DIV { 0 } else { flat_rng.below(3) as usize };
+            p.ops[k][at] = far;
+            assert!(p.check().is_err(), "trial {trial}: a corrupted flat program passed its check");
         }
         let mut fa = t.factoring.clone();
         let far = (fa.values + rng.below(5) as usize) as u32;

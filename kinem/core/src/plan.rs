@@ -342,6 +342,7 @@ pub(crate) fn negate(t: &mut Triangular, minus: &[bool]) {
             d[2] |= NEGATE;
         }
     }
+    t.program.lay();
     for list in [&mut negated, &mut entries, &mut recips] {
         list.sort_unstable();
         list.dedup();

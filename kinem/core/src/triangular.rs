@@ -35,10 +35,16 @@ pub const NEGATE: u32 = 1 << 31;
 /// not yet run (`[i, c, u]`: w[i] -= a[u] w[c]), then the division w[r] *=
 /// a[v], a[v] being the reciprocal 1 / pivot that the factorisation keeps
 /// (`Factoring::recips`, issue 31 round 21: a product instead of a
-/// division in the solve's chain). One tight loop, no branch on the
-/// structure; the order and operands are the elimination's (each division
-/// by the pivot a product with its reciprocal), the same in every run:
-/// the scalar march, the lanes and the sensitivities' right sides.
+/// division in the solve's chain). The order and operands are the
+/// elimination's (each division by the pivot a product with its
+/// reciprocal), the same in every run: the scalar march, the lanes and the
+/// sensitivities' right sides.
+///
+/// `run` walks them as one flat list laid out once (`ops`, `Program::lay`,
+/// issue 31 round 27): each subtraction `[i, c, u]` and each division
+/// `[r, DIV, v]` in the order above, so that a run has no outer loop over
+/// the divisions and no inner loop to set up per division (a test of c per
+/// operation instead).
 ///
 /// A 1x1 block whose pivot is a constant +1 (a ground's or a driver's row,
 /// `Factoring::one_entries` checks it each factorisation) has no division: its
@@ -62,7 +68,8 @@ pub const NEGATE: u32 = 1 << 31;
 /// (and by debug assertions in `run`): every position i, c, r is below
 /// `positions`, every value index u, v below `values`, the ends ascend up
 /// to subs.len(), a value index carrying `NEGATE` below `values` without
-/// it. `run` asserts that its slices are that long.
+/// it, and `ops`, `short_ops` are the lists laid out (`lay`). `run` asserts
+/// that its slices are that long.
 #[derive(Clone, Debug, Default)]
 pub struct Program {
     pub subs: Vec<[u32; 3]>,
@@ -72,6 +79,30 @@ pub struct Program {
     pub quiet: Vec<u32>,
     /// (subs, divs) without the subtractions that read a quiet position
     pub short: (Vec<[u32; 3]>, Vec<[u32; 3]>),
+    /// (subs, divs) and `short` laid out as the flat lists `run` walks
+    /// (`Program::lay`): each subtraction `[i, c, u]` and each division
+    /// `[r, DIV, v]` in the order the program runs them
+    pub ops: Vec<[u32; 3]>,
+    pub short_ops: Vec<[u32; 3]>,
+}
+
+/// A flat operation `[r, DIV, v]` is the division w[r] *= a[v] (a
+/// subtraction's c is a position, below `NEGATE`).
+pub const DIV: u32 = u32::MAX;
+
+/// subs and divs as one list in the order they run: each division after
+/// the subtractions before its end.
+fn flat(subs: &[[u32; 3]], divs: &[[u32; 3]]) -> Vec<[u32; 3]> {
+    let mut ops = Vec::with_capacity(subs.len() + divs.len());
+    let mut from = 0;
+    for &[end, r, v] in divs {
+        let end = (end as usize).clamp(from, subs.len());
+        ops.extend_from_slice(&subs[from..end]);
+        ops.push([r, DIV, v]);
+        from = end;
+    }
+    ops.extend_from_slice(&subs[from.min(subs.len())..]);
+    ops
 }
 
 impl Program {
@@ -92,7 +123,7 @@ impl Program {
     pub fn quieten(&mut self, quiet: Vec<u32>) {
         let read = |s: &[u32; 3]| quiet.contains(&s[1]);
         if quiet.iter().any(|&q| self.subs.iter().any(|s| s[0] == q && !read(s))) || !self.subs.iter().any(read) {
-            return;
+            return self.lay();
         }
         let (mut subs, mut divs, mut from) = (Vec::new(), Vec::new(), 0);
         for &[end, r, v] in &self.divs {
@@ -105,6 +136,16 @@ impl Program {
         }
         subs.extend(self.subs[from..].iter().filter(|s| !read(s)));
         (self.quiet, self.short) = (quiet, (subs, divs));
+        self.lay();
+    }
+
+    /// Lays (subs, divs) and `short` out as the flat lists `run` walks
+    /// (`ops`, `short_ops`): to be called after any change of them
+    /// (`quieten`, `renumber` and plan::negate call it); `check` finds
+    /// lists not laid out again.
+    pub fn lay(&mut self) {
+        self.ops = flat(&self.subs, &self.divs);
+        self.short_ops = flat(&self.short.0, &self.short.1);
     }
 
     /// The program over other places: position p becomes to[p] (a
@@ -120,6 +161,7 @@ impl Program {
             at(r);
         }
         self.quiet.iter_mut().for_each(at);
+        self.lay();
     }
 
     /// The invariants `run` relies on (see `Program`), of both lists.
@@ -131,9 +173,13 @@ impl Program {
         if let Some(q) = self.quiet.iter().find(|&&q| q as usize >= p) {
             return Err(format!("program: quiet position {q} outside {p} positions"));
         }
-        for (subs, divs) in [(&self.subs, &self.divs), (&self.short.0, &self.short.1)] {
+        let lists = [(&self.subs, &self.divs, &self.ops), (&self.short.0, &self.short.1, &self.short_ops)];
+        for (subs, divs, ops) in lists {
             if let Some(s) = subs.iter().find(|s| s[0] as usize >= p || s[1] as usize >= p || s[2] as usize >= v) {
                 return Err(format!("program: subtraction {s:?} outside {p} positions, {v} values"));
+            }
+            if *ops != flat(subs, divs) {
+                return Err("program: its flat list is not its subtractions and divisions laid out".into());
             }
             let mut end = 0;
             for d in divs {
@@ -173,31 +219,22 @@ impl Program {
         debug_assert!(self.check().is_ok());
         // SAFETY: Program::check (when built): every quiet position below `positions` <= w.len()
         let quiet = !self.quiet.is_empty() && self.quiet.iter().all(|&q| unsafe { w.get_unchecked(q as usize) }.zero());
-        let (subs, divs) = if quiet { (&self.short.0, &self.short.1) } else { (&self.subs, &self.divs) };
-        let mut from = 0;
-        for &[end, r, v] in divs {
-            let end = end as usize;
-            // SAFETY: Program::check (when built): from <= end <= subs.len(), every
+        let ops = if quiet { &self.short_ops } else { &self.ops };
+        for &[i, c, u] in ops {
+            // SAFETY: Program::check (when built): ops is (subs, divs) laid out, every
             // position below `positions` <= w.len(), every value below `values` <= a.len()
+            // (w[i] read once and written once: a negation in memory would be a
+            // one-byte store, which the next full load of w[i] waits for)
             unsafe {
-                for &[i, c, u] in subs.get_unchecked(from..end) {
-                    let x = *w.get_unchecked(c as usize);
-                    w.get_unchecked_mut(i as usize).sub_mul(*a.get_unchecked(u as usize), x);
-                }
-                let y = w.get_unchecked_mut(r as usize);
-                if NEG && v & NEGATE != 0 {
+                let mut y = *w.get_unchecked(i as usize);
+                if c != DIV {
+                    y.sub_mul(*a.get_unchecked(u as usize), *w.get_unchecked(c as usize));
+                } else if NEG && u & NEGATE != 0 {
                     y.negate();
                 } else {
-                    y.mul(*a.get_unchecked((v & !NEGATE) as usize));
+                    y.mul(*a.get_unchecked((u & !NEGATE) as usize));
                 }
-            }
-            from = end;
-        }
-        // SAFETY: as above (from <= subs.len())
-        for &[i, c, u] in unsafe { subs.get_unchecked(from..) } {
-            unsafe {
-                let x = *w.get_unchecked(c as usize);
-                w.get_unchecked_mut(i as usize).sub_mul(*a.get_unchecked(u as usize), x);
+                *w.get_unchecked_mut(i as usize) = y;
             }
         }
         quiet
