@@ -21,8 +21,12 @@ TOP_KEYS = ("name", "description", "parameters", "units", "time", "solver", "bod
             "equivalent", "report", "tolerances")
 
 
-def build(data, source: str) -> Case:
-    """The Case of a dict with the case file's structure, every section checked."""
+def build(data, source: str, as_written: bool = True) -> Case:
+    """The Case of a dict with the case file's structure, every section
+    checked. ``as_written``: a name of [parameters] that no number uses is
+    refused, as an unknown key is; False for a case written again from a Case
+    (kinem.parameters.case_dict: a name set apart from its numbers' paths,
+    or used by time.dt alone, is written without its uses)."""
     ck = Checker(source)
     if not isinstance(data, dict):
         raise InputError(f"{source}: expected a table at the top level")
@@ -43,6 +47,10 @@ def build(data, source: str) -> Case:
     equivalent = sections.equivalent(ck, data["equivalent"], points) if "equivalent" in data else None
     report = sections.report(ck, data.get("report", {}), points)
     tolerances = sections.tolerances(ck, data.get("tolerances", {}))
+    if as_written and not ck.problems:   # moving it would move nothing (derivatives 0, every variant the nominal)
+        for unused in (n for n in params if n not in ck.named):
+            ck.bad("[parameters]", unused, "used by no number of the case",
+                   f"a number that names it (e.g. length = \"{unused}\") or no such entry")
     ck.raise_if_any()
     return Case(name=name, bodies=tuple(bodies.values()), points=tuple(points.values()),
                 constraints=tuple(cons), end=end or 1.0, steps=steps, description=description,

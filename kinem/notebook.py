@@ -180,8 +180,8 @@ def animate(result, path, model=None, frames=None, progress=None):
     it as a Path. ``model``: the Model it was solved from (default: the
     result's own); ``frames``: how many instants to draw (default as the
     report, 120; at most the result's); ``progress``: a bar on standard
-    error while GIF or MP4 frames are drawn (default: when standard error
-    is a terminal or the caller a Jupyter kernel)."""
+    error while GIF or MP4 frames are drawn, True or False (default None:
+    when standard error is a terminal or the caller a Jupyter kernel)."""
     from .report.animate import check_output, render
     from .report.runs import FRAMES, PATH_INSTANTS, sample
     from .result import SolveResult
@@ -197,6 +197,9 @@ def animate(result, path, model=None, frames=None, progress=None):
         raise InputError(f"animate: the result has {result.q.shape[1]} coordinates, the model {model.n}")
     if frames is not None and (isinstance(frames, bool) or not isinstance(frames, int) or frames < 2):
         raise InputError(f"animate: frames = {frames!r}: expected a whole number of at least 2")
+    if progress is not None and not isinstance(progress, (bool, np.bool_)):
+        raise InputError(f"animate: progress = {progress!r:.80}: expected True, False or None (when standard error "
+                         "is a terminal or the caller a Jupyter kernel)")
     check_output(str(path), "animate: path")
     idx = sample(len(result.q), frames or FRAMES)
     native = {"t": result.trajectory.t[idx], "q": result.q[idx]}

@@ -95,13 +95,14 @@ def resolve(case: Case, paths, where: str | None = None) -> tuple[Parameter, ...
     return tuple(out)
 
 
-def validated(data, source: str, stacklevel: int = 1) -> Case:
+def validated(data, source: str, stacklevel: int = 1, as_written: bool = True) -> Case:
     """A dict with a case file's structure as a Case (kinem.loader.build),
     with the design parameter paths it names checked ([tolerances]: paths and
     sizes; [report] sensitivity) and a warning for each fast driver
     (kinem.loader.fast_drivers): kinem.load_dict without values set.
-    ``stacklevel``: the warnings', counted from the caller."""
-    case = build(data, source)
+    ``stacklevel``: the warnings', counted from the caller; ``as_written``:
+    kinem.loader.build's (False for a case_dict's variants)."""
+    case = build(data, source, as_written)
     if case.tolerances:   # their paths and sizes need the whole case
         tolerances_of(case)
     if "sensitivity" in case.report:
@@ -207,7 +208,7 @@ def apply_many(case: Case, designs, source: str | None = None, pinned: bool = Fa
         for path, v in values.items():
             _assign(d, case, path, v)
         try:
-            out.append(validated(d, source))
+            out.append(validated(d, source, as_written=False))
         except InputError as e:
             out.append(e)
     return out

@@ -118,11 +118,16 @@ def grid(values: dict):
 def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
     """Solves ``case`` (a case file's path, or its dict) for every combination
     of ``values`` (named dimension or design parameter path -> numbers); ``outputs``: trajectory column
-    names (default all); ``progress``: a kinem.report.progress.Progress."""
+    names (default all); ``progress``: None, False or a kinem.report.progress.Progress
+    (anything else an InputError, before the case is read)."""
     from .case import load_dict, read
     from .model import compile
     from .parameters import apply_many, resolve, to_paths
 
+    bar = ("total", "done", "step", "show")   # what of a Progress is used
+    if progress is not None and progress is not False and not all(hasattr(progress, k) for k in bar):
+        raise InputError(f"sweep: progress {progress!r:.80}: expected None or a progress bar "
+                         "(kinem.report.progress.Progress: total, done, step, show)")
     source = str(case) if isinstance(case, (str, Path)) else "<dict>"
     data = case if isinstance(case, dict) else read(case)
     names, grid_values = grid(values)

@@ -65,7 +65,8 @@ def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progre
     solved as variants of the model (kinem.variants, BATCH at a time) when
     its tables are affine in every toleranced parameter, else as merged
     cases, ``chunk`` at a time (default CHUNK). ``chunk`` 1: one by one, no
-    threads: for a forked worker process, where a thread pool cannot run."""
+    threads: for a forked worker process, where a thread pool cannot run.
+    ``progress``: None or a function progress(done, total), called as samples are solved."""
     from .solver import _checked_model
 
     _checked_model(model, "tolerance")
@@ -74,6 +75,9 @@ def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progre
         if isinstance(v, bool) or not isinstance(v, numbers.Integral) or v < 0 or (most is not None and v > most):
             raise InputError(f"{case.source}: tolerance: {key} {v!r:.80}: expected a whole number from 0"
                              + (f" to {most:,}" if most is not None else ""))
+    if progress is not None and not callable(progress):   # called after the first samples: refused before them
+        raise InputError(f"{case.source}: tolerance: progress {progress!r:.80}: expected None or a function "
+                         "progress(done, total)")
     given = () if outputs is None else texts(outputs)
     if given is None or (outputs is not None and not given):   # [] or --outputs '': none, as sweep says
         raise InputError(f"{case.source}: tolerance: outputs {outputs!r:.80}: expected a list of the trajectory's "
@@ -102,7 +106,8 @@ def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progre
         data += [v, v - worst[k], v + worst[k], v - rss[k], v + rss[k], lo[k], hi[k]]
         out = np.maximum(hi[k] - (v + worst[k]), (v - worst[k]) - lo[k])
         at = int(np.nanargmax(out)) if np.isfinite(out).any() else 0
-        excess.append((c, float(max(np.nan_to_num(out[at], nan=0.0), 0.0)), float(nominal.t[at])))
+        amount = float(max(np.nan_to_num(out[at], nan=0.0), 0.0))
+        excess.append((c, amount if amount > _noise(case, nominal, c) else 0.0, float(nominal.t[at])))
     table = Trajectory(np.array(nominal.t), tuple(cols), np.column_stack(data))
     return Bands(outputs, table, samples, tuple(rejected), tuple(excess), seed,
                  sens.message if sens.singular.any() else "")
@@ -168,6 +173,22 @@ def _monte_carlo(model, tols, outputs, nominal, samples, seed, progress, chunk):
         if progress is not None:
             progress(min(samples, start + chunk), samples)
     return _bands(lo, hi, accepted, rejected)
+
+
+PAIRS = {"x": "y", "y": "x", "vx": "vy", "vy": "vx", "ax": "ay", "ay": "ax"}   # a vector's two columns
+
+
+def _noise(case, nominal, c) -> float:
+    """How far the Monte Carlo band can leave the linear one by the figures'
+    own noise: every sample and the nominal are converged to the Newton
+    tolerance (at least 64 machine epsilons), relative to the output's peak
+    over the run, or its vector's (a point's y of 0 beside an x of 700 is
+    rounded as the x is)."""
+    head, _, k = c.rpartition(".")
+    columns = [c] + [n for n in (f"{head}.{PAIRS.get(k)}",) if k in PAIRS and n in nominal.columns]
+    peak = max(float(np.max(np.abs(np.nan_to_num(nominal[n], nan=0.0, posinf=0.0, neginf=0.0)), initial=0.0))
+               for n in columns)
+    return max(case.tolerance, 64 * np.finfo(float).eps) * peak
 
 
 def _bands(lo, hi, accepted, rejected):
@@ -238,9 +259,8 @@ def _branch(model, q) -> tuple:
 def _pin(case, model, q):
     """The case with the nominal's branch pinned (kinem.branches' sign and side keys)."""
     from .branches import sides
-    from .case import load_dict
     from .info import configuration
-    from .parameters import case_dict
+    from .parameters import case_dict, validated
 
     data = case_dict(case)
     data.pop("tolerances", None)   # the samples' own: checked once, on the case
@@ -253,4 +273,4 @@ def _pin(case, model, q):
             table["side"] = sided[c.name]
     from .moved import quiet
 
-    return quiet(load_dict, data, source=case.source)   # its warnings are the case's, given at its load
+    return quiet(validated, data, case.source, as_written=False)   # its warnings are the case's, given at its load

@@ -204,6 +204,12 @@ def _values(case, parameters, to_paths):
     paths, columns = to_paths(case, list(parameters), case.source), []
     for key, v in parameters.items():
         a = floats(v)
+        if a is not None and a.ndim == 0 and np.isfinite(a):   # one value: say how to give it
+            n = next((len(b) for b in map(floats, parameters.values()) if b is not None and b.ndim == 1), 0)
+            raise InputError(f"{case.source}: solve: parameter {key!r}: got one number, {float(a)!r}; expected an "
+                             + (f"array of {n} numbers, one per variant as the others" if n else
+                                f"array of N numbers, one per variant (e.g. [{float(a)!r}])")
+                             + f"; for one value, kinem.load(path, parameters={{{key!r}: {float(a)!r}}})")
         if a is None or a.ndim != 1 or not len(a) or not np.isfinite(a).all():
             raise InputError(f"{case.source}: solve: parameter {key!r}: expected a 1-D sequence of one or more "
                              "finite numbers")

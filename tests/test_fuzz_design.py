@@ -554,3 +554,92 @@ def test_found_a_fast_drivers_warning_once(tmp_path, monkeypatch, degrees):
         code, _ = run_main(["tolerance", str(case), "--samples", "3", "--steps", "20", "--outputs", "B.x",
                             "--out", str(tmp_path / "o.csv")], notes=True)
     assert code == 0 and not [str(w.message) for w in leaked if issubclass(w.category, kinem.KinemWarning)]
+
+
+# -- session 25, part 6 (docs/benchmarks.md, "Fuzz campaign, session 25", "Part 6"): what part 5 left ------
+
+def test_found_a_named_dimension_no_number_uses(tmp_path):
+    """A [parameters] name that no number of the file uses was accepted without a word: its derivatives 0,
+    every variant of it the nominal (a name misspelt where it is meant, or left over). Now refused as an
+    unknown key is, naming it; a name detached from its one number by a value set at that number's path
+    (a variant, kinem.parameters.apply) is not the file's and stays accepted."""
+    case = tmp_path / "case.toml"
+    case.write_text(NAMED.read_text().replace("ground = 0.2 ", "ground = 0.2\nspare = 0.5 ", 1))
+    assert "spare = 0.5" in case.read_text()
+    for command in (["info", str(case)], ["sensitivity", str(case), "--parameters", "spare", *STEPS3],
+                    ["sweep", str(case), "--set", "spare=0.4,0.6", "--outputs", "B.x"]):
+        code, line = run_main([*command, "--out", str(tmp_path / "o.csv")] if command[0] != "info" else command)
+        assert code == 2 and f"{case}: [parameters]: key 'spare': used by no number of the case" in line, line
+    assert not (tmp_path / "o.csv").exists()
+    variant = kinem.load(NAMED, parameters={"points.A.at.0": 0.11})   # crank's one number, set by its path
+    assert "crank" not in variant.uses and variant.points[2].at[0] == 0.11
+    b = tolerance(kinem.compile(variant.with_time(steps=3)), {"points.B.at.0": 1e-4}, samples=2, outputs=["B.x"])
+    assert b.accepted == 2
+
+
+@pytest.mark.parametrize("call, said", [
+    (lambda m, tmp: kinem.sweep(NAMED, {"crank": [0.1]}, outputs=["B.x"], progress=3),      # AttributeError
+     "sweep: progress 3: expected None or a progress bar"),
+    (lambda m, tmp: kinem.sweep(NAMED, {"crank": [0.1]}, outputs=["B.x"], progress=True),
+     "sweep: progress True: expected None or a progress bar"),
+    (lambda m, tmp: tolerance(m, samples=2, progress=3),           # TypeError, after the first samples were solved
+     "tolerance: progress 3: expected None or a function progress(done, total)"),
+    (lambda m, tmp: kinem.animate(kinem.solve(m), tmp / "x.svg", progress="yes"),   # a text taken as True
+     "animate: progress = 'yes': expected True, False or None"),
+])
+def test_found_a_progress_of_the_wrong_type(models, tmp_path, call, said):
+    """kinem.sweep(..., progress=3): AttributeError ('int' object has no attribute 'total'); kinem.tolerance's
+    progress=3 a TypeError after the first batch; animate took any value as a flag. Now an InputError naming
+    the argument and what it expects, before any work."""
+    with pytest.raises(kinem.InputError) as e:
+        call(models[FOUR_BAR], tmp_path)
+    assert said in str(e.value) and "\n" not in str(e.value), str(e.value)
+    assert not list(tmp_path.iterdir())
+    assert kinem.sweep(NAMED, {"crank": [0.1]}, outputs=["B.x"], progress=False).data.shape[0] == 1
+
+
+def test_found_a_scalar_variant_value_says_how(models):
+    """kinem.solve(model, parameters={PATH: 0.1}): "expected a 1-D sequence of one or more finite numbers",
+    not how to do it: now an array of N numbers (of the others' length when there are others), or
+    kinem.load(..., parameters=) for one value, in one line."""
+    m = models[FOUR_BAR]
+    for given, said in (({"points.A.at.0": 0.1}, "an array of N numbers, one per variant (e.g. [0.1])"),
+                        ({"points.A.at.0": 0.1, "points.B.at.0": [0.2, 0.21]}, "an array of 2 numbers"),
+                        ({"points.A.at.0": np.float64(0.1)}, "got one number, 0.1")):
+        with pytest.raises(kinem.InputError) as e:
+            kinem.solve(m, parameters=given)
+        text = str(e.value)
+        assert said in text and "kinem.load(path, parameters={'points.A.at.0': 0.1})" in text, text
+        assert "\n" not in text
+
+
+@pytest.mark.parametrize("args, intervals", [([], 250), (["--steps", "20"], 20), (["--steps", "1000"], None),
+                                             (["--end", "0.5"], None)])
+def test_found_a_fast_drivers_warning_counts_what_is_solved(tmp_path, args, intervals):
+    """The fast-driver warning counted the case file's output intervals (250), whatever --steps said: it
+    warned of --steps 1000 (0.12 turns an interval: followed) and said 250 of --steps 20. Now it judges the
+    case with --end and --steps applied."""
+    case = tmp_path / "case.toml"
+    case.write_text(FOUR_BAR.read_text().replace("d = { poly = [0.7853981633974483, 1.5, -0.6] }",
+                                                 "d = { poly = [0.7853981633974483, 300.0, 0.0] }"))
+    assert "300.0" in case.read_text()
+    buf = io.StringIO()
+    with contextlib.redirect_stderr(buf):
+        assert main(["solve", str(case), *args, "--out", str(tmp_path / "o.csv")]) == 0
+    if intervals is None:
+        assert buf.getvalue() == ""
+    else:
+        assert buf.getvalue().count("\n") == 1 and f"119 turns in 2.5 s, {intervals} output intervals" in buf.getvalue()
+
+
+def test_found_an_excess_of_rounding_noise(models):
+    """The excess of the Monte Carlo band over the linear one reported the last bits of the samples' solves
+    (a tolerance too small to move anything: 1.4e-17 m on A.x of the four-bar, 9.1e-13 mm on A.x and 1e-25
+    on A.y, a coordinate that stays 0, of the slider-crank). Now 0 below the noise of the band's figures:
+    the Newton tolerance of their largest magnitude (a point's x and y together); a true excess stays."""
+    slider = kinem.compile(kinem.load(ROOT / "cases" / "slider_crank.toml").with_time(steps=20))
+    for m, path in ((models[FOUR_BAR], "points.A.at.0"), (slider, "constraints.O.si.0")):
+        b = tolerance(m, {path: 1e-20}, samples=4)
+        assert b.accepted == 4 and all(amount == 0 for _, amount, _ in b.excess), b.excess
+    b = tolerance(models[FOUR_BAR], {"points.A.at.0": 1e-2}, samples=20, outputs=["B.x"])
+    assert b.excess[0][1] > 1e-5, b.excess

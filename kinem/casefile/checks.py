@@ -63,6 +63,7 @@ class Checker:
         self.unknowable = set()  # what (body, point) cannot be checked: its whole section was rejected
         self.parameters = {}     # [parameters]: name -> value, used where a number is expected
         self.rejected_parameters = set()   # names of [parameters] whose value was rejected
+        self.named = set()   # names of [parameters] that a number used
         self.degrees = False   # units = { angle = "deg" }: the case's angles are converted once, as parsed
         self.unknown = {}   # (what, name) of an unknown reference -> [its problem's index, text, places]
 
@@ -132,6 +133,7 @@ class Checker:
 
     def number(self, where, key, v, positive=False, nonneg=False):
         if isinstance(v, str) and v in self.parameters:   # a named dimension: its value, nothing evaluated
+            self.named.add(v)
             v = self.parameters[v]
         if isinstance(v, str) and v in self.rejected_parameters:
             self.knock_on()
