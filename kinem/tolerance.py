@@ -25,6 +25,7 @@ from .casefile.checks import suggest, texts
 from .errors import InputError
 from .parameters import resolve, tolerances_of
 from .moved import cases_of
+from .options import Options
 from .result import Trajectory
 from .sensitivity import sensitivity
 from .variants import affine
@@ -188,7 +189,7 @@ def _noise(case, nominal, c) -> float:
     columns = [c] + [n for n in (f"{head}.{PAIRS.get(k)}",) if k in PAIRS and n in nominal.columns]
     peak = max(float(np.max(np.abs(np.nan_to_num(nominal[n], nan=0.0, posinf=0.0, neginf=0.0)), initial=0.0))
                for n in columns)
-    return max(case.tolerance, 64 * np.finfo(float).eps) * peak
+    return max(Options.of(case).tolerance, 64 * np.finfo(float).eps) * peak   # the samples' solves' options
 
 
 def _bands(lo, hi, accepted, rejected):
