@@ -443,3 +443,77 @@ def test_found_animate_empty_engines_refused_as_compare(tmp_path, engines_):
     code, line = run_main(["animate", str(case), "--out", str(tmp_path / "a.svg"), "--engines", engines_])
     assert (code, line) == run_main(["compare", str(case), "--engines", engines_])
     assert code == 2 and "--engines: got" in line and not (tmp_path / "a.svg").exists()
+
+
+# -- session 26, part 7 (docs/benchmarks.md, "Fuzz campaign, session 26") ----------------------------------
+
+NAMED = ROOT / "tests" / "data" / "four_bar_named.toml"
+FIFO_COMMANDS = {
+    "sweep": (["sweep", str(NAMED), "--set", "crank=0.1,0.11", "--outputs", "B.x"], "kinem.sweep",
+              "sweep"),
+    "tolerance": (["tolerance", str(ROOT / "cases" / "four_bar.toml"), "--samples", "2", "--steps", "3"],
+                  "kinem.tolerance", "tolerance"),
+    "sensitivity": (["sensitivity", str(NAMED), "--parameters", "crank", "--steps", "3"], "kinem.sensitivity",
+                    "sensitivity"),
+}
+
+
+@pytest.mark.parametrize("command", sorted(FIFO_COMMANDS))
+def test_found_a_fifo_without_a_reader_after_the_work(tmp_path, monkeypatch, command):
+    """An --out that is a FIFO no one reads was found only when written, after every variant or sample was
+    solved (then 10 s more). Now it is opened before the work, as the shell's > opens it (its reader waited
+    for, FIFO_WAIT at most): without one, exit 1 in one line and nothing run; never a wait without end."""
+    import importlib
+
+    from kinem import output
+
+    args, module, name = FIFO_COMMANDS[command]
+    monkeypatch.setattr(importlib.import_module(module), name, lambda *a, **k: pytest.fail("ran"))
+    monkeypatch.setattr(output, "FIFO_WAIT", 0.2)
+    fifo = tmp_path / "out.csv"
+    os.mkfifo(fifo)
+    code, line = run_main([*args, "--out", str(fifo)])
+    assert (code, line) == (1, f"kinem: error: {fifo}: write failed: the FIFO has no reader (waited 0.2 s)")
+    assert not output.HELD
+
+
+@pytest.mark.parametrize("command", sorted(FIFO_COMMANDS))
+def test_a_fifo_with_a_reader_is_written_through_after_the_work(tmp_path, command):
+    import threading
+
+    from kinem import output
+
+    args = FIFO_COMMANDS[command][0]
+    fifo = tmp_path / "out.csv"
+    os.mkfifo(fifo)
+    got = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()))
+    reader.start()
+    try:
+        code, line = run_main([*args, "--out", str(fifo)], notes=command == "tolerance")
+    finally:
+        reader.join(60)
+    assert code == 0, line
+    assert got and got[0].count(b"\n") >= 3 and not output.HELD, got
+    assert sorted(os.listdir(tmp_path)) == ["out.csv"]
+
+
+def test_a_fifo_opened_before_a_failed_call_is_closed(tmp_path):
+    """A FIFO opened before the work of a call that then fails (a bad --set after the output was checked):
+    closed when the command ends, its reader sees an empty output at once instead of waiting for the
+    process to exit."""
+    import threading
+
+    from kinem import output
+
+    fifo = tmp_path / "out.csv"
+    os.mkfifo(fifo)
+    got = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()))
+    reader.start()
+    try:
+        code, line = run_main(["sweep", str(NAMED), "--set", "crank=x", "--out", str(fifo)])
+    finally:
+        reader.join(60)
+    assert code == 2 and "--set: got 'crank=x'" in line, line
+    assert got == [b""] and not output.HELD

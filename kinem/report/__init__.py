@@ -50,12 +50,26 @@ class Written:
 
 
 def run(o: Options) -> Outcome:
+    from ..output import release
+
+    try:
+        return _run(o)
+    finally:
+        release()   # a FIFO among the outputs, opened before the runs, that a failure left unwritten
+
+
+def _run(o: Options) -> Outcome:
+    import numpy as np
+
     from . import gate, html, results, text
     from .execute import FULL, QUICK, execute
     from .progress import Progress
     from .runs import REFERENCE_TOLERANCE
 
     start = time.perf_counter()
+    if o.progress is not None and not isinstance(o.progress, (bool, np.bool_)):   # as kinem.animate's, before a run
+        raise InputError(f"report: Options(progress={o.progress!r:.80}): expected True, False or None (when "
+                         "standard error is a terminal)")
     cases = _load_cases(o.cases)
     old = None
     if o.baseline and (Path(o.baseline).exists() or not o.update_baseline):
