@@ -517,3 +517,93 @@ def test_a_fifo_opened_before_a_failed_call_is_closed(tmp_path):
         reader.join(60)
     assert code == 2 and "--set: got 'crank=x'" in line, line
     assert got == [b""] and not output.HELD
+
+
+# -- session 26, part 7, part B: kinem compare's options and the report's text ------------------------------
+
+@pytest.mark.parametrize("args, said", [
+    (["--engines", "pymunk", "--set", "pymunk.dt=0.001", "--set", "pymunk.dt=0.002"],
+     "--set: 'pymunk.dt' given twice; expected each setting once"),
+    (["--engines", "pymunk", "--set", "pymunk.dt=0.001", "--dt", "0.002"],
+     "--dt and --set pymunk.dt: give one (--dt sets every engine's dt)"),
+    (["--engines", "native", "--set", "pymunk.dt=0.001"],
+     "--set: got 'pymunk.dt=0.001', but pymunk does not run (--engines native)"),
+    (["--engines", "native", "--dt", "0.001"], "--dt: no engine runs (--engines native)"),
+    (["--engines", "native", "--sensitivity", ""], "--sensitivity: got ''; expected design parameter paths"),
+    (["--engines", "native", "--sensitivity", ","], "--sensitivity: got ','; expected design parameter paths"),
+])
+def test_found_compare_options_ignored_unseen(tmp_path, monkeypatch, args, said):
+    """kinem compare took the later of a setting given twice, ignored --dt for an engine whose dt --set gave,
+    ignored a setting or --dt of an engine that does not run, and read --sensitivity '' (an unset shell
+    variable) or ',' as the case's [report] sensitivity: each ran something else than asked, exit 0.
+    Now each is refused in one line before anything runs (--sensitivity alone still means the case's list)."""
+    import adapters.compare
+    import adapters.sensitivity
+
+    monkeypatch.setattr(adapters.compare, "run_case", lambda *a, **k: pytest.fail("ran"))
+    monkeypatch.setattr(adapters.sensitivity, "check", lambda *a, **k: pytest.fail("ran"))
+    case = tmp_path / "case.toml"
+    case.write_text(SHORT)
+    code, line = run_main(["compare", str(case), *args])
+    assert code == 2 and said in line, line
+
+
+def test_found_compare_engines_given_twice_run_twice(tmp_path, capsys):
+    """kinem compare --engines pymunk,pymunk ran pymunk twice (two rows, twice the time; the report ran it
+    once). Now each engine once, in the order first given."""
+    case = tmp_path / "case.toml"
+    case.write_text(SHORT)
+    assert main(["compare", str(case), "--engines", "native,native", "--json"]) == 0
+    import json
+
+    assert list(json.loads(capsys.readouterr().out)["engines"]) == ["native"]
+    from kinem.cli.args import engine_list
+
+    assert engine_list("pymunk, native,pymunk") == ["pymunk", "native"]
+
+
+def test_found_hidden_characters_in_the_report(tmp_path):
+    """A case's description (any TOML string: "\\u0000", "\\u0007", "\\u202e", a right-to-left override that
+    reorders what the reader sees) and its file's path (any bytes but '/') reached index.html escaped for
+    HTML but with their control characters raw (a NUL in the page), and summary.md and junit.xml take
+    messages quoting paths (a '|' ends a table cell, a newline a list item, a control character makes
+    junit.xml invalid XML). Now every report text not kinem's own shows such a character as its \\uXXXX code,
+    and summary.md escapes '|' and '<'."""
+    import xml.dom.minidom
+
+    from kinem.report import Options, run
+    from kinem.report.escaping import escape, md, xml_attr, xml_text
+
+    hostile = "<script>x</script> | a\x07b\x00c\u202ed\n- e\x1b[31m"
+    assert escape(hostile) == ("&lt;script&gt;x&lt;/script&gt; | a\\u0007b\\u0000c\\u202ed\n- e\\u001b[31m")
+    assert md(hostile) == "\\<script>x\\</script> \\| a\\u0007b\\u0000c\\u202ed - e\\u001b[31m"
+    xml.dom.minidom.parseString(f"<a b={xml_attr(hostile)}>{xml_text(hostile)}</a>")
+    case = tmp_path / "a|<b>\x1b[31m\u202e.toml"
+    case.write_text(SHORT.replace('description = "', 'description = "<script>x</script>\\u0007\\u0000\\u202e', 1))
+    assert "\\u202e" in case.read_text()
+    outcome = run(Options(cases=(str(case),), engines=(), out=str(tmp_path / "r"), quick=True, junit=True,
+                          workers=0, progress=False))
+    assert outcome.exit_code == 0, outcome.detail
+    page = (tmp_path / "r" / "index.html").read_text(encoding="utf-8")
+    for text in (page, (tmp_path / "r" / "summary.md").read_text(encoding="utf-8")):
+        assert not [c for c in text if (ord(c) < 32 and c not in "\n\t") or 0x7f <= ord(c) < 0xa0 or c == "\u202e"]
+    assert "&lt;script&gt;x&lt;/script&gt;\\u0007\\u0000\\u202e" in page and "a|&lt;b&gt;\\u001b[31m\\u202e.toml" in page
+    xml.dom.minidom.parse(str(tmp_path / "r" / "junit.xml"))
+
+
+@pytest.mark.parametrize("args, said", [
+    (["--out", ""], "--out '': an empty path (an unset shell variable?); expected a directory"),
+    (["--baseline", ""], "--baseline '': an empty path (an unset shell variable?); expected a results.json, or "
+                         "--baseline none for no gate"),
+])
+def test_found_report_empty_out_or_baseline(tmp_path, monkeypatch, args, said):
+    """kinem report --out '' (an unset shell variable) wrote the report into the working folder (Path('') is
+    '.'), over any index.html there; --baseline '' ran without a gate, exit 0, as --baseline none. Now
+    each is refused in one line before any case is read."""
+    monkeypatch.chdir(tmp_path)
+    case = tmp_path / "case.toml"
+    case.write_text(SHORT)
+    code, line = run_main(["report", str(case), "--engines", "native", "--quick", *args]
+                          + (["--out", str(tmp_path / "r")] if args[0] != "--out" else []))
+    assert code == 2 and said in line, line
+    assert sorted(os.listdir(tmp_path)) == ["case.toml"]

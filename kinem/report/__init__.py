@@ -70,6 +70,10 @@ def _run(o: Options) -> Outcome:
     if o.progress is not None and not isinstance(o.progress, (bool, np.bool_)):   # as kinem.animate's, before a run
         raise InputError(f"report: Options(progress={o.progress!r:.80}): expected True, False or None (when "
                          "standard error is a terminal)")
+    for key, v in (("--out", o.out), ("--baseline", o.baseline)):   # '' is Path('.'): the report in the working
+        if v is not None and not str(v):                             # folder, or no gate, unseen
+            raise InputError(f"{key} '': an empty path (an unset shell variable?); expected a "
+                             + ("directory" if key == "--out" else "results.json, or --baseline none for no gate"))
     cases = _load_cases(o.cases)
     old = None
     if o.baseline and (Path(o.baseline).exists() or not o.update_baseline):
