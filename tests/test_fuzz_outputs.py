@@ -607,3 +607,47 @@ def test_found_report_empty_out_or_baseline(tmp_path, monkeypatch, args, said):
                           + (["--out", str(tmp_path / "r")] if args[0] != "--out" else []))
     assert code == 2 and said in line, line
     assert sorted(os.listdir(tmp_path)) == ["case.toml"]
+
+
+@pytest.mark.parametrize("field, value, said", [
+    ("cases", "case.toml", "expected a list of case file paths"),             # its characters as paths
+    ("engines", "pymunk", "expected a list of engine names"),                # its characters: 6 failed runs
+    ("engines", ("nope",), "expected a list of engine names"),               # a failed run, exit 1
+    ("engines", None, "expected a list of engine names"),                    # TypeError
+    ("workers", "2", "expected None (the core count) or a whole number"),    # TypeError
+    ("workers", -1, "expected None (the core count) or a whole number"),     # RuntimeError: the schema, after the runs
+    ("workers", True, "expected None (the core count) or a whole number"),
+    ("quick", "no", "expected True or False"),                               # RuntimeError after the runs
+    ("junit", None, "expected True or False"),
+    ("stress", "yes", "expected True, False or None"),
+    ("out", None, "expected a path"),                                        # TypeError
+    ("baseline", 3, "expected a path or None"),                              # TypeError
+    ("scheduler", 3, "expected None or a Dask scheduler address"),
+])
+def test_found_report_options_unchecked(tmp_path, monkeypatch, field, value, said):
+    """kinem.report.run(Options(...)) checked none of its fields (the command line checks its options):
+    a text for cases or engines was read character by character, an unknown engine was a failed run, and
+    workers=-1 or quick='no' a RuntimeError (results.json against its schema) after every run. Now each
+    is an InputError naming the field, before any case is read or run."""
+    from kinem.report import Options, execute, run
+
+    monkeypatch.setattr(execute, "execute", lambda *a, **k: pytest.fail("ran"))
+    case = tmp_path / "case.toml"
+    case.write_text(SHORT)
+    given = dict(cases=(str(case),), engines=(), out=str(tmp_path / "r"), progress=False, workers=0)
+    with pytest.raises(InputError) as e:
+        run(Options(**dict(given, **{field: value})))
+    assert f"report: Options({field}={value!r}): {said}" in str(e.value) and "\n" not in str(e.value), str(e.value)
+    assert sorted(os.listdir(tmp_path)) == ["case.toml"]
+
+
+def test_report_options_native_and_engines_once(tmp_path):
+    """Options(engines=("native",)) ran native twice (two rows of one case); now native always runs once
+    and each engine once, as the command line's --engines gives them."""
+    from kinem.report import Options, run
+
+    case = tmp_path / "case.toml"
+    case.write_text(SHORT)
+    out = run(Options(cases=[case], engines=["native", "native"], out=str(tmp_path / "r"), quick=True, workers=0,
+                      progress=False))
+    assert out.exit_code == 0 and len(out.value.doc["cases"][0]["runs"]) == 1, out.detail
