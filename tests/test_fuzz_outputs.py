@@ -651,3 +651,17 @@ def test_report_options_native_and_engines_once(tmp_path):
     out = run(Options(cases=[case], engines=["native", "native"], out=str(tmp_path / "r"), quick=True, workers=0,
                       progress=False))
     assert out.exit_code == 0 and len(out.value.doc["cases"][0]["runs"]) == 1, out.detail
+
+
+def test_found_compare_too_long_for_memory(tmp_path, monkeypatch):
+    """kinem compare --steps 10000000 (a four-bar): "internal error: MemoryError: Unable to allocate 2.68 GiB"
+    under a 3 GB limit, exit 3 (native's positions, velocities and accelerations, and each engine's, are
+    held whole). Now refused before the solve by the bound sweep, sensitivity and tolerance obey
+    (kinem.budget.MAX_HELD), naming the sizes; compare --sensitivity was bounded already."""
+    import kinem.solver
+
+    monkeypatch.setattr(kinem.solver, "solve", lambda *a, **k: pytest.fail("ran"))
+    code, line = run_main(["compare", str(ROOT / "cases" / "four_bar.toml"), "--engines", "native,pymunk",
+                           "--steps", "5000000"])
+    assert code == 2 and ("compare: 5,000,001 instants x 12 coordinates x 3 (positions, velocities, accelerations)"
+                          " x 2 solution(s) = 3.6e+08 numbers exceeds") in line, line
