@@ -665,3 +665,79 @@ def test_found_compare_too_long_for_memory(tmp_path, monkeypatch):
                            "--steps", "5000000"])
     assert code == 2 and ("compare: 5,000,001 instants x 12 coordinates x 3 (positions, velocities, accelerations)"
                           " x 2 solution(s) = 3.6e+08 numbers exceeds") in line, line
+
+
+ENGINE_TEXTS = ["native", "pymunk", "native,pymunk", "native,native", "pymunk,pymunk", "", ",", "nope", "NATIVE",
+                "native,\x00", " native ", "mujoco", "exudyn"]
+SET_TEXTS = ["pymunk.dt=0.001", "pymunk.dt=nan", "pymunk.dt=Infinity", "pymunk.dt=1e400", "pymunk.dt=[1]",
+             "pymunk.iterations=true", "pymunk.iterations=1e18", "pymunk.nope=1", "nope.dt=1", "pymunk.=1", "=",
+             "pymunk.dt", "mujoco.dt=0.001", "pymunk.dt=0", "pymunk.substeps=2000000000", "pymunk.dt=\"auto\""]
+DT_TEXTS = ["0.001", "0", "-1", "nan", "inf", "1e-300", "1_0", "x", "1e400", "0x10"]
+SENSITIVITY_TEXTS = [None, "", ",", "points.A.at.0", "points.A.at.0,points.A.at.0", "nope", "bodies.crank.q.0",
+                     "crank", "\x1b[31m", "points.A.at.0,constraints.crank-drive.d.poly.1"]
+
+
+@budget(20)
+@given(st.data())
+def test_compare_options_keep_the_contract(data):
+    """kinem compare with odd --engines, --set, --dt and --sensitivity texts (alone: the case's list) on a
+    short four-bar: exit 0, 1 or 2 with one line, never an internal error."""
+    draw = data.draw
+    args = ["compare", str(ROOT / "cases" / "four_bar.toml"), "--steps", "2",
+            "--engines", draw(st.sampled_from(ENGINE_TEXTS))]
+    for item in draw(st.lists(st.sampled_from(SET_TEXTS), max_size=2)):
+        args += ["--set", item]
+    if draw(st.booleans()):
+        args += ["--dt", draw(st.sampled_from(DT_TEXTS))]
+    sens = draw(st.sampled_from(SENSITIVITY_TEXTS + ["(alone)"]))
+    if sens == "(alone)":
+        args.append("--sensitivity")
+    elif sens is not None:
+        args += ["--sensitivity", sens]
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        code = main(args)
+    lines = [line for line in err.getvalue().splitlines() if not line.startswith("kinem: warning: ")]
+    assert code in (0, 1, 2) and "Traceback" not in err.getvalue() and "internal error" not in err.getvalue(), lines
+    # 2: one line; 0 and 1 (an engine or a check outside its tolerance: the table says which) none
+    assert len(lines) == (code == 2) and all(line.startswith("kinem: ") for line in lines), (code, lines)
+
+
+class _Ran(Exception):
+    pass
+
+
+@budget(40)
+@given(st.fixed_dictionaries({}, optional={
+    "cases": st.sampled_from([None, (), "x.toml", ["nope.toml"], [3], ("CASE",)]),
+    "engines": st.sampled_from([None, (), "pymunk", ("native",), ("nope",), ["pymunk", "pymunk"], [None]]),
+    "workers": st.sampled_from([None, 0, 1, -1, 2000, "2", True, 2.0]),
+    "quick": st.sampled_from([True, False, None, "no", 1]),
+    "junit": st.sampled_from([True, False, None, "yes"]),
+    "progress": st.sampled_from([True, False, None, 3, "no"]),
+    "stress": st.sampled_from([True, False, None, "no"]),
+    "out": st.sampled_from(["", None, 3, "OUT"]),
+    "baseline": st.sampled_from([None, "", 3, "none.json"]),
+    "scheduler": st.sampled_from([None, 3, "", "tcp://127.0.0.1:1"]),
+}))
+def test_report_options_keep_the_contract(given_options):
+    """kinem.report.run(Options(...)) with fields of any type: an InputError of one line, or the runs begin
+    (replaced here by an exception of the test's own), never another exception."""
+    import tempfile
+
+    from kinem.report import Options, execute, run
+
+    with tempfile.TemporaryDirectory(prefix="fuzz-report-") as tmp, pytest.MonkeyPatch.context() as mp:
+        mp.setattr(execute, "execute", lambda *a, **k: (_ for _ in ()).throw(_Ran()))
+        case = Path(tmp) / "case.toml"
+        case.write_text(SHORT)
+        o = dict(cases=(str(case),), engines=(), out=str(Path(tmp) / "r"), progress=False, workers=0)
+        o.update({k: v for k, v in given_options.items()})
+        o = {k: (str(case) if v == "CASE" else (str(case),) if v == ("CASE",) else
+                 str(Path(tmp) / "r") if v == "OUT" else v) for k, v in o.items()}
+        try:
+            run(Options(**o))
+        except _Ran:
+            pass
+        except InputError as e:
+            assert "\n" not in str(e), str(e)
