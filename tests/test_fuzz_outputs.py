@@ -20,6 +20,7 @@ import signal
 import stat
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
@@ -648,9 +649,10 @@ def test_report_options_native_and_engines_once(tmp_path):
 
     case = tmp_path / "case.toml"
     case.write_text(SHORT)
-    out = run(Options(cases=[case], engines=["native", "native"], out=str(tmp_path / "r"), quick=True, workers=0,
-                      progress=False))
+    out = run(Options(cases=[case], engines=["native", "native"], out=str(tmp_path / "r"), quick=np.True_,
+                      workers=np.int64(0), progress=np.False_))   # numpy's scalars as Python's
     assert out.exit_code == 0 and len(out.value.doc["cases"][0]["runs"]) == 1, out.detail
+    assert out.value.doc["options"]["workers"] == 0 and out.value.doc["options"]["quick"] is True
 
 
 def test_found_compare_too_long_for_memory(tmp_path, monkeypatch):

@@ -177,7 +177,9 @@ def _checked(o: Options) -> Options:
     if o.scheduler is not None and not isinstance(o.scheduler, str):
         raise bad("scheduler", "None or a Dask scheduler address such as tcp://host:8786")
     return dataclasses.replace(o, cases=tuple(cases), engines=tuple(dict.fromkeys(e for e in o.engines if e != "native")),
-                               **{f: bool(getattr(o, f)) for f in flags})
+                               workers=None if o.workers is None else int(o.workers),   # numpy's too: results.json
+                               **{f: None if getattr(o, f) is None else bool(getattr(o, f))
+                                  for f in (*flags, "progress", "stress", "whole_set")})
 
 
 def stress_tasks(engines) -> int:
