@@ -11,7 +11,9 @@
   turns SIGTERM and SIGHUP into an exit for that). Either way the target holds
   the old content or the new, never a part.
 - a device (``/dev/null``, ``/dev/full``), a FIFO or a socket, and ``-``
-  (standard output): written in place, never replaced.
+  (standard output): written in place, never replaced. A FIFO is opened by
+  ``check`` before the work, as the shell's ``>`` opens it (its reader waited
+  for at most FIFO_WAIT, else OutputError before anything runs).
 - a symbolic link: followed; its target is written as above and the link stays.
 - a replaced file keeps its permission bits (and owner and group where the
   process may set them); it is a new file all the same, so a hard link to the
@@ -158,8 +160,10 @@ def _target(path):
 def check(path) -> None:
     """Raises what ``Output(path)`` would raise about the path itself (a
     directory, a read-only file, a missing folder, a folder this user may
-    not write), without opening or creating anything: for a command that
-    writes only after a long run (``kinem report``)."""
+    not write), without creating anything: for a command that writes only
+    after a long run (``kinem report``). A FIFO is opened (its reader waited
+    for, FIFO_WAIT at most) and held for Output(path); ``release`` closes it
+    when the call fails before writing."""
     path = str(path)
     if path == "-":
         return
@@ -169,8 +173,22 @@ def check(path) -> None:
         real, st = _target(path)
         if (st is None or stat.S_ISREG(st.st_mode)) and not os.access(os.path.dirname(real), os.W_OK | os.X_OK):
             raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), os.path.dirname(real))
+        if st is not None and stat.S_ISFIFO(st.st_mode) and real not in HELD:
+            # opened now, as the shell's > opens it before the command runs: a FIFO without a reader (within
+            # FIFO_WAIT) is refused before the work, not after it; Output(path) writes through this descriptor
+            HELD[real] = _fifo_writer(path, real)
     except OSError as e:
         raise bad_path(path, e) from None
+
+
+HELD = {}   # a FIFO's real path -> the writing descriptor check opened, for Output (release: the ones unused)
+
+
+def release() -> None:
+    """Closes the FIFOs check opened that no Output took (a call that failed
+    between them): their readers see the end of an empty output."""
+    while HELD:
+        os.close(HELD.popitem()[1])
 
 
 class Output:
@@ -188,8 +206,9 @@ class Output:
             raise InputError("'': cannot write: an empty path (an unset shell variable?); expected a file name")
         try:
             real, st = _target(self.path)
-            if st is not None and stat.S_ISFIFO(st.st_mode):
-                self.file = os.fdopen(_fifo_writer(self.path, real), "wb", buffering=0)   # in place
+            if st is not None and stat.S_ISFIFO(st.st_mode):   # in place; opened by check before the work, or now
+                fd = HELD.pop(real) if real in HELD else _fifo_writer(self.path, real)
+                self.file = os.fdopen(fd, "wb", buffering=0)
                 return
             if st is not None and not stat.S_ISREG(st.st_mode):
                 self.file = open(real, "wb", buffering=0)  # a device or socket: in place

@@ -39,7 +39,7 @@ import warnings
 from dataclasses import dataclass
 
 from . import functions as fn
-from .casefile.checks import MAX_MAGNITUDE, number, show, suggest
+from .casefile.checks import MAX_MAGNITUDE, TOML_NUMBERS, number, show, suggest
 from .constraints import REGISTRY
 from .constraints.read import constraint_id
 from .errors import InputError, KinemWarning
@@ -160,10 +160,17 @@ def tolerances_of(case, given=None) -> tuple:
             problems.append(f"{where}: +-{pm:g} {p.unit} is not smaller than the mechanism "
                             f"(its size {size:g} {p.unit}); expected a manufacturing tolerance, far below a link")
             continue
+        if p.unit in HALF_TURN and pm >= HALF_TURN[p.unit]:   # +-half a turn covers every angle: not a tolerance
+            problems.append(f"{where}: +-{pm:g} {p.unit} is not smaller than half a turn ({HALF_TURN[p.unit]:g} "
+                            f"{p.unit}); expected a manufacturing tolerance of an angle, far below a turn")
+            continue
         out.append(Tolerance(path, pm, sigma))
     if problems:
         raise InputError(problems)
     return tuple(out)
+
+
+HALF_TURN = {"rad": math.pi, "deg": 180.0}   # an angle's tolerance is below it (a length's below the mechanism)
 
 
 def _real(v) -> float | None:
@@ -247,7 +254,8 @@ def _number(key, value, source):
     """A value as TOML would read it (command-line text converted), checked to be a number."""
     value = number(value.item() if hasattr(value, "item") and hasattr(value, "dtype") else value)
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"{source}: parameter {key!r}: got {value!r}; expected a number")
+        raise InputError(f"{source}: parameter {key!r}: got {value!r}; expected a number"
+                         + (f" as a case file writes it ({TOML_NUMBERS})" if isinstance(value, str) else ""))
     return value
 
 
@@ -363,7 +371,8 @@ def _listing(case):
     cons = [q for c in case.constraints for key in REGISTRY[c.type].keys for q in _of_key(case, c, key)]
     known = {p.path: p for p in points + cons}
     for name in case.parameters:
-        yield _named(case, name, known.get), None
+        if (named := _named(case, name, known.get)) is not None:
+            yield named, None
     for p in points + cons:
         yield p, None
 
@@ -426,10 +435,15 @@ def _of_key(case, c, key) -> list:
             for sub, value, unit in _numbers(case, c, key)]
 
 
-def _named(case, name, known) -> Parameter:
-    """The named dimension ``parameters.<name>``; ``known``: path -> its Parameter or None."""
+def _named(case, name, known) -> Parameter | None:
+    """The named dimension ``parameters.<name>``; ``known``: path -> its Parameter or None. None when
+    every number that uses it is read by no constraint (a body's estimate or mass, the time span: not
+    design parameters, and so not the name)."""
     used = case.uses.get(name, ())
-    unit = next((q.unit for q in map(known, used) if q is not None), "")
+    read = [q for q in map(known, used) if q is not None]
+    if used and not read:
+        return None
+    unit = next((q.unit for q in read), "")
     what = (f"named dimension {name} of [parameters], used by {', '.join(used)}" if used
             else f"named dimension {name} of [parameters], used by no number of the case")
     return Parameter(f"parameters.{name}", float(case.parameters[name]), unit, what)
@@ -468,6 +482,9 @@ def _why_not(case, path, by_path) -> str:
                 "expected a point that a constraint names")
     if head[0] == "bodies":
         return "body estimates, masses and inertias are read by no constraint: not design parameters"
+    if head[0] == "parameters" and len(parts) == 2 and head[1] in case.parameters:
+        return (f"named dimension {head[1]} is used only by {', '.join(case.uses[head[1]])}, which no constraint "
+                "reads: not a design parameter; expected a name that a constraint's or a point's number uses")
     c = _constraint(case, head[1]) if head[0] == "constraints" and len(parts) >= 3 else None
     if c is not None and head[1] != constraint_id(c):   # #N of a named constraint: its paths use the name
         return (f"constraint {head[1]} is named '{c.name}': its paths begin constraints.{c.name}; did you mean "

@@ -88,6 +88,9 @@ def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progre
     sens = sensitivity(model, [t.path for t in tols], outputs=("positions", "velocities", "accelerations"))
     nominal = sens.trajectory
     outputs = given or tuple(c for p in case.points for c in (f"{p.name}.x", f"{p.name}.y"))
+    if not outputs:   # no named point to default to: a numpy error (exit 3) otherwise
+        raise InputError(f"{case.source}: tolerance: the case has no named points, the default outputs; expected "
+                         f"outputs (--outputs) such as {', '.join(nominal.columns[1:4])}")
     unknown = [c for c in outputs if c not in nominal]
     if unknown:
         guess = suggest(unknown[0], nominal.columns)

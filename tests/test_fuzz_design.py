@@ -643,3 +643,120 @@ def test_found_an_excess_of_rounding_noise(models):
         assert b.accepted == 4 and all(amount == 0 for _, amount, _ in b.excess), b.excess
     b = tolerance(models[FOUR_BAR], {"points.A.at.0": 1e-2}, samples=20, outputs=["B.x"])
     assert b.excess[0][1] > 1e-5, b.excess
+
+
+# -- session 26, part 7 (docs/benchmarks.md, "Fuzz campaign, session 26"): what part 6 left -----------------
+
+GEARS = ROOT / "cases" / "gear_pair.toml"
+
+
+@pytest.mark.parametrize("case, tolerances, said", [
+    (FOUR_BAR, {"constraints.crank-drive.d.poly.0": 1e6}, "+-1e+06 rad is not smaller than half a turn (3.14159 rad)"),
+    (FOUR_BAR, {"constraints.crank-drive.d.poly.0": math.pi}, "is not smaller than half a turn"),
+    (GEARS, {"constraints.mesh.phi0": {"pm": 4.0, "sigma": 0.1}}, "+-4 rad is not smaller than half a turn"),
+])
+def test_found_an_angle_tolerance_of_a_turn(case, tolerances, said):
+    """A tolerance of 1e6 rad on a driver's phase or a gear's angle was accepted (the bound was a case file
+    number's, 1e12): every angle is within +-half a turn of any other, so a tolerance of half a turn or more
+    is no manufacturing tolerance. Now refused naming the key, in the API and in the case file."""
+    m = kinem.compile(kinem.load(case).with_time(steps=3))
+    outputs = ["B.x"] if case == FOUR_BAR else ["gear2.phi"]
+    with pytest.raises(kinem.InputError) as e:
+        tolerance(m, tolerances, samples=2, outputs=outputs)
+    text = str(e.value)
+    assert said in text and f"[tolerances]: key '{next(iter(tolerances))}'" in text and "\n" not in text, text
+    path = next(iter(tolerances))
+    assert tolerance(m, {path: 0.01}, samples=2, outputs=outputs).accepted == 2   # a small one: bands as before
+
+
+def test_found_a_tolerance_of_a_case_without_points(tmp_path):
+    """kinem tolerance of a case with no named points (cases/gear_pair.toml with a [tolerances] table) and no
+    --outputs: "internal error: ValueError: need at least one array to stack", exit 3 (its default outputs,
+    every point's x and y, were none). Now one line asking for --outputs; with them, the bands."""
+    case = tmp_path / "case.toml"
+    case.write_text(GEARS.read_text() + '\n[tolerances]\n"constraints.mesh.ri" = 0.01\n')
+    code, line = run_main(["tolerance", str(case), "--samples", "2", *STEPS3])
+    assert code == 2 and "the case has no named points, the default outputs; expected outputs (--outputs)" in line
+    code, line = run_main(["tolerance", str(case), "--samples", "2", *STEPS3, "--outputs", "gear2.phi",
+                           "--out", str(tmp_path / "o.csv")], notes=True)
+    assert code == 0 and (tmp_path / "o.csv").exists(), line
+
+
+def test_found_an_angle_tolerance_of_a_turn_in_the_file(tmp_path):
+    case = tmp_path / "case.toml"
+    case.write_text(FOUR_BAR.read_text().replace('"points.A.at.0" = 0.0001 ',
+                                                 '"constraints.crank-drive.d.poly.0" = 1e6\n"points.A.at.0" = 0.0001 ', 1))
+    assert "1e6" in case.read_text()
+    code, line = run_main(["info", str(case)])
+    assert code == 2 and "[tolerances]: key 'constraints.crank-drive.d.poly.0': +-1e+06 rad is not smaller " \
+                         "than half a turn" in line, line
+    degrees = tmp_path / "deg.toml"   # in degrees: half a turn is 180
+    degrees.write_text(GEARS.read_text().replace('units = { length = "mm" }', 'units = { length = "mm", angle = "deg" }')
+                       + '\n[tolerances]\n"constraints.motor.d.poly.0" = 200.0\n')
+    code, line = run_main(["info", str(degrees)])
+    assert code == 2 and "+-200 deg is not smaller than half a turn (180 deg)" in line, line
+
+
+@pytest.mark.parametrize("value, ok", [("infinity", False), ("Infinity", False), ("NaN", False), ("1__0", False),
+                                       (".1", False), ("1.", False), ("01", False), ("\u0661", False), ("1e-1", True),
+                                       ("0.1", True), ("1_0e-2", True), ("+0.1", True)])
+def test_found_sweep_values_read_as_python_reads_them(tmp_path, value, ok):
+    """kinem sweep's --set values were read with Python's float: 'infinity', '1__0'-like texts and digits of
+    other scripts ('\u0661', Arabic-Indic one) were numbers where a case file refuses them. Now read as a case
+    file's TOML reads its numbers (1_0e-2, +0.1 and 1e-1 too), the rest refused in one line."""
+    out = tmp_path / "o.csv"
+    for text in (f"crank={value}", f"crank={value},0.1", f"crank={value}:0.11:2"):
+        code, line = run_main(["sweep", str(NAMED), "--set", text, "--outputs", "B.x", "--out", str(out)])
+        if ok:
+            assert code == 0, line
+        else:
+            assert code == 2 and "numbers as a case file writes them, TOML: 0.5" in line, line
+    code, line = run_main(["sweep", str(NAMED), "--set", "crank=0.1:0.11:2.0", "--outputs", "B.x", "--out", str(out)])
+    assert code == 2 and "COUNT a whole number" in line, line
+
+
+@pytest.mark.parametrize("value", ["infinity", ".1", "1__0", "\u0661"])
+def test_found_set_values_read_as_python_reads_them(tmp_path, value):
+    """The same of solve's and info's --set (kinem.casefile.checks.number): 'infinity' reached the key's
+    range check as inf, '.1' was 0.1, '\u0661' 1."""
+    code, line = run_main(["info", str(NAMED), "--set", f"crank={value}"])
+    assert code == 2 and "expected a number as a case file writes it (TOML: 0.5" in line, line
+
+
+def test_found_a_report_progress_of_the_wrong_type(tmp_path):
+    """kinem.report.run(Options(progress=3)) ran: Progress took any value as its flag (the other calls'
+    progress= are checked since part 6). Now refused before any case is read or run."""
+    from kinem.report import Options, run
+
+    for bad in (3, "yes", [True]):
+        with pytest.raises(kinem.InputError) as e:
+            run(Options(cases=("no such case.toml",), engines=(), out=str(tmp_path / "r"), progress=bad))
+        assert f"report: Options(progress={bad!r}): expected True, False or None" in str(e.value), str(e.value)
+    assert not list(tmp_path.iterdir())
+
+
+def test_found_a_name_used_only_by_a_mass(tmp_path):
+    """A [parameters] name used only by numbers no constraint reads (a body's mass, estimate) was a design
+    parameter: sensitivity 0, every sweep variant the nominal, a tolerance band of width 0. The issue:
+    "a parameter that no constraint reads is refused with a message naming it": the name, like the mass's
+    own path, is now refused as a design parameter (the case file itself stays valid: its mass is used)."""
+    case = tmp_path / "case.toml"
+    case.write_text(NAMED.read_text().replace("ground = 0.2 ", "ground = 0.2\nm = 2.0 ", 1)
+                    .replace("crank   = { q = [0.0, 0.0, 0.785] }", 'crank   = { q = [0.0, 0.0, 0.785], mass = "m" }'))
+    assert 'mass = "m"' in case.read_text()
+    assert run_main(["info", str(case)])[0] == 0
+    said = "named dimension m is used only by bodies.crank.mass, which no constraint reads: not a design parameter"
+    for command in (["info", str(case), "--set", "m=3"],
+                    ["sensitivity", str(case), "--parameters", "m", *STEPS3],
+                    ["sweep", str(case), "--set", "m=1,3", "--outputs", "B.x"],
+                    ["tolerance", str(case), "--samples", "2", *STEPS3]):
+        if command[0] == "tolerance":
+            case.write_text(case.read_text() + '\n[tolerances]\nm = 0.1\n')
+        out = [] if command[0] == "info" else ["--out", str(tmp_path / "o.csv")]
+        code, line = run_main([*command, *out])
+        assert code == 2 and said in line, line
+    assert not (tmp_path / "o.csv").exists()
+    from kinem.parameters import parameters
+
+    listed = [p.path for p in parameters(kinem.load(NAMED))]
+    assert "parameters.crank" in listed   # names a constraint's number reads: as before

@@ -20,6 +20,7 @@ import signal
 import stat
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
@@ -443,3 +444,302 @@ def test_found_animate_empty_engines_refused_as_compare(tmp_path, engines_):
     code, line = run_main(["animate", str(case), "--out", str(tmp_path / "a.svg"), "--engines", engines_])
     assert (code, line) == run_main(["compare", str(case), "--engines", engines_])
     assert code == 2 and "--engines: got" in line and not (tmp_path / "a.svg").exists()
+
+
+# -- session 26, part 7 (docs/benchmarks.md, "Fuzz campaign, session 26") ----------------------------------
+
+NAMED = ROOT / "tests" / "data" / "four_bar_named.toml"
+FIFO_COMMANDS = {
+    "sweep": (["sweep", str(NAMED), "--set", "crank=0.1,0.11", "--outputs", "B.x"], "kinem.sweep",
+              "sweep"),
+    "tolerance": (["tolerance", str(ROOT / "cases" / "four_bar.toml"), "--samples", "2", "--steps", "3"],
+                  "kinem.tolerance", "tolerance"),
+    "sensitivity": (["sensitivity", str(NAMED), "--parameters", "crank", "--steps", "3"], "kinem.sensitivity",
+                    "sensitivity"),
+}
+
+
+@pytest.mark.parametrize("command", sorted(FIFO_COMMANDS))
+def test_found_a_fifo_without_a_reader_after_the_work(tmp_path, monkeypatch, command):
+    """An --out that is a FIFO no one reads was found only when written, after every variant or sample was
+    solved (then 10 s more). Now it is opened before the work, as the shell's > opens it (its reader waited
+    for, FIFO_WAIT at most): without one, exit 1 in one line and nothing run; never a wait without end."""
+    import importlib
+
+    from kinem import output
+
+    args, module, name = FIFO_COMMANDS[command]
+    monkeypatch.setattr(importlib.import_module(module), name, lambda *a, **k: pytest.fail("ran"))
+    monkeypatch.setattr(output, "FIFO_WAIT", 0.2)
+    fifo = tmp_path / "out.csv"
+    os.mkfifo(fifo)
+    code, line = run_main([*args, "--out", str(fifo)])
+    assert (code, line) == (1, f"kinem: error: {fifo}: write failed: the FIFO has no reader (waited 0.2 s)")
+    assert not output.HELD
+
+
+@pytest.mark.parametrize("command", sorted(FIFO_COMMANDS))
+def test_a_fifo_with_a_reader_is_written_through_after_the_work(tmp_path, command):
+    import threading
+
+    from kinem import output
+
+    args = FIFO_COMMANDS[command][0]
+    fifo = tmp_path / "out.csv"
+    os.mkfifo(fifo)
+    got = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()))
+    reader.start()
+    try:
+        code, line = run_main([*args, "--out", str(fifo)], notes=command == "tolerance")
+    finally:
+        reader.join(60)
+    assert code == 0, line
+    assert got and got[0].count(b"\n") >= 3 and not output.HELD, got
+    assert sorted(os.listdir(tmp_path)) == ["out.csv"]
+
+
+def test_a_fifo_opened_before_a_failed_call_is_closed(tmp_path):
+    """A FIFO opened before the work of a call that then fails (a bad --set after the output was checked):
+    closed when the command ends, its reader sees an empty output at once instead of waiting for the
+    process to exit."""
+    import threading
+
+    from kinem import output
+
+    fifo = tmp_path / "out.csv"
+    os.mkfifo(fifo)
+    got = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()))
+    reader.start()
+    try:
+        code, line = run_main(["sweep", str(NAMED), "--set", "crank=x", "--out", str(fifo)])
+    finally:
+        reader.join(60)
+    assert code == 2 and "--set: got 'crank=x'" in line, line
+    assert got == [b""] and not output.HELD
+
+
+# -- session 26, part 7, part B: kinem compare's options and the report's text ------------------------------
+
+@pytest.mark.parametrize("args, said", [
+    (["--engines", "pymunk", "--set", "pymunk.dt=0.001", "--set", "pymunk.dt=0.002"],
+     "--set: 'pymunk.dt' given twice; expected each setting once"),
+    (["--engines", "pymunk", "--set", "pymunk.dt=0.001", "--dt", "0.002"],
+     "--dt and --set pymunk.dt: give one (--dt sets every engine's dt)"),
+    (["--engines", "native", "--set", "pymunk.dt=0.001"],
+     "--set: got 'pymunk.dt=0.001', but pymunk does not run (--engines native)"),
+    (["--engines", "native", "--dt", "0.001"], "--dt: no engine runs (--engines native)"),
+    (["--engines", "native", "--sensitivity", ""], "--sensitivity: got ''; expected design parameter paths"),
+    (["--engines", "native", "--sensitivity", ","], "--sensitivity: got ','; expected design parameter paths"),
+])
+def test_found_compare_options_ignored_unseen(tmp_path, monkeypatch, args, said):
+    """kinem compare took the later of a setting given twice, ignored --dt for an engine whose dt --set gave,
+    ignored a setting or --dt of an engine that does not run, and read --sensitivity '' (an unset shell
+    variable) or ',' as the case's [report] sensitivity: each ran something else than asked, exit 0.
+    Now each is refused in one line before anything runs (--sensitivity alone still means the case's list)."""
+    import adapters.compare
+    import adapters.sensitivity
+
+    monkeypatch.setattr(adapters.compare, "run_case", lambda *a, **k: pytest.fail("ran"))
+    monkeypatch.setattr(adapters.sensitivity, "check", lambda *a, **k: pytest.fail("ran"))
+    case = tmp_path / "case.toml"
+    case.write_text(SHORT)
+    code, line = run_main(["compare", str(case), *args])
+    assert code == 2 and said in line, line
+
+
+def test_found_compare_engines_given_twice_run_twice(tmp_path, capsys):
+    """kinem compare --engines pymunk,pymunk ran pymunk twice (two rows, twice the time; the report ran it
+    once). Now each engine once, in the order first given."""
+    case = tmp_path / "case.toml"
+    case.write_text(SHORT)
+    assert main(["compare", str(case), "--engines", "native,native", "--json"]) == 0
+    import json
+
+    assert list(json.loads(capsys.readouterr().out)["engines"]) == ["native"]
+    from kinem.cli.args import engine_list
+
+    assert engine_list("pymunk, native,pymunk") == ["pymunk", "native"]
+
+
+def test_found_hidden_characters_in_the_report(tmp_path):
+    """A case's description (any TOML string: "\\u0000", "\\u0007", "\\u202e", a right-to-left override that
+    reorders what the reader sees) and its file's path (any bytes but '/') reached index.html escaped for
+    HTML but with their control characters raw (a NUL in the page), and summary.md and junit.xml take
+    messages quoting paths (a '|' ends a table cell, a newline a list item, a control character makes
+    junit.xml invalid XML). Now every report text not kinem's own shows such a character as its \\uXXXX code,
+    and summary.md escapes '|' and '<'."""
+    import xml.dom.minidom
+
+    from kinem.report import Options, run
+    from kinem.report.escaping import escape, md, xml_attr, xml_text
+
+    hostile = "<script>x</script> | a\x07b\x00c\u202ed\n- e\x1b[31m"
+    assert escape(hostile) == ("&lt;script&gt;x&lt;/script&gt; | a\\u0007b\\u0000c\\u202ed\n- e\\u001b[31m")
+    assert md(hostile) == "\\<script>x\\</script> \\| a\\u0007b\\u0000c\\u202ed - e\\u001b[31m"
+    xml.dom.minidom.parseString(f"<a b={xml_attr(hostile)}>{xml_text(hostile)}</a>")
+    case = tmp_path / "a|<b>\x1b[31m\u202e.toml"
+    case.write_text(SHORT.replace('description = "', 'description = "<script>x</script>\\u0007\\u0000\\u202e', 1))
+    assert "\\u202e" in case.read_text()
+    outcome = run(Options(cases=(str(case),), engines=(), out=str(tmp_path / "r"), quick=True, junit=True,
+                          workers=0, progress=False))
+    assert outcome.exit_code == 0, outcome.detail
+    page = (tmp_path / "r" / "index.html").read_text(encoding="utf-8")
+    for text in (page, (tmp_path / "r" / "summary.md").read_text(encoding="utf-8")):
+        assert not [c for c in text if (ord(c) < 32 and c not in "\n\t") or 0x7f <= ord(c) < 0xa0 or c == "\u202e"]
+    assert "&lt;script&gt;x&lt;/script&gt;\\u0007\\u0000\\u202e" in page and "a|&lt;b&gt;\\u001b[31m\\u202e.toml" in page
+    xml.dom.minidom.parse(str(tmp_path / "r" / "junit.xml"))
+
+
+@pytest.mark.parametrize("args, said", [
+    (["--out", ""], "--out '': an empty path (an unset shell variable?); expected a directory"),
+    (["--baseline", ""], "--baseline '': an empty path (an unset shell variable?); expected a results.json, or "
+                         "--baseline none for no gate"),
+])
+def test_found_report_empty_out_or_baseline(tmp_path, monkeypatch, args, said):
+    """kinem report --out '' (an unset shell variable) wrote the report into the working folder (Path('') is
+    '.'), over any index.html there; --baseline '' ran without a gate, exit 0, as --baseline none. Now
+    each is refused in one line before any case is read."""
+    monkeypatch.chdir(tmp_path)
+    case = tmp_path / "case.toml"
+    case.write_text(SHORT)
+    code, line = run_main(["report", str(case), "--engines", "native", "--quick", *args]
+                          + (["--out", str(tmp_path / "r")] if args[0] != "--out" else []))
+    assert code == 2 and said in line, line
+    assert sorted(os.listdir(tmp_path)) == ["case.toml"]
+
+
+@pytest.mark.parametrize("field, value, said", [
+    ("cases", "case.toml", "expected a list of case file paths"),             # its characters as paths
+    ("engines", "pymunk", "expected a list of engine names"),                # its characters: 6 failed runs
+    ("engines", ("nope",), "expected a list of engine names"),               # a failed run, exit 1
+    ("engines", None, "expected a list of engine names"),                    # TypeError
+    ("workers", "2", "expected None (the core count) or a whole number"),    # TypeError
+    ("workers", -1, "expected None (the core count) or a whole number"),     # RuntimeError: the schema, after the runs
+    ("workers", True, "expected None (the core count) or a whole number"),
+    ("quick", "no", "expected True or False"),                               # RuntimeError after the runs
+    ("junit", None, "expected True or False"),
+    ("stress", "yes", "expected True, False or None"),
+    ("out", None, "expected a path"),                                        # TypeError
+    ("baseline", 3, "expected a path or None"),                              # TypeError
+    ("scheduler", 3, "expected None or a Dask scheduler address"),
+])
+def test_found_report_options_unchecked(tmp_path, monkeypatch, field, value, said):
+    """kinem.report.run(Options(...)) checked none of its fields (the command line checks its options):
+    a text for cases or engines was read character by character, an unknown engine was a failed run, and
+    workers=-1 or quick='no' a RuntimeError (results.json against its schema) after every run. Now each
+    is an InputError naming the field, before any case is read or run."""
+    from kinem.report import Options, execute, run
+
+    monkeypatch.setattr(execute, "execute", lambda *a, **k: pytest.fail("ran"))
+    case = tmp_path / "case.toml"
+    case.write_text(SHORT)
+    given = dict(cases=(str(case),), engines=(), out=str(tmp_path / "r"), progress=False, workers=0)
+    with pytest.raises(InputError) as e:
+        run(Options(**dict(given, **{field: value})))
+    assert f"report: Options({field}={value!r}): {said}" in str(e.value) and "\n" not in str(e.value), str(e.value)
+    assert sorted(os.listdir(tmp_path)) == ["case.toml"]
+
+
+def test_report_options_native_and_engines_once(tmp_path):
+    """Options(engines=("native",)) ran native twice (two rows of one case); now native always runs once
+    and each engine once, as the command line's --engines gives them."""
+    from kinem.report import Options, run
+
+    case = tmp_path / "case.toml"
+    case.write_text(SHORT)
+    out = run(Options(cases=[case], engines=["native", "native"], out=str(tmp_path / "r"), quick=np.True_,
+                      workers=np.int64(0), progress=np.False_))   # numpy's scalars as Python's
+    assert out.exit_code == 0 and len(out.value.doc["cases"][0]["runs"]) == 1, out.detail
+    assert out.value.doc["options"]["workers"] == 0 and out.value.doc["options"]["quick"] is True
+
+
+def test_found_compare_too_long_for_memory(tmp_path, monkeypatch):
+    """kinem compare --steps 10000000 (a four-bar): "internal error: MemoryError: Unable to allocate 2.68 GiB"
+    under a 3 GB limit, exit 3 (native's positions, velocities and accelerations, and each engine's, are
+    held whole). Now refused before the solve by the bound sweep, sensitivity and tolerance obey
+    (kinem.budget.MAX_HELD), naming the sizes; compare --sensitivity was bounded already."""
+    import kinem.solver
+
+    monkeypatch.setattr(kinem.solver, "solve", lambda *a, **k: pytest.fail("ran"))
+    code, line = run_main(["compare", str(ROOT / "cases" / "four_bar.toml"), "--engines", "native,pymunk",
+                           "--steps", "5000000"])
+    assert code == 2 and ("compare: 5,000,001 instants x 12 coordinates x 3 (positions, velocities, accelerations)"
+                          " x 2 solution(s) = 3.6e+08 numbers exceeds") in line, line
+
+
+ENGINE_TEXTS = ["native", "pymunk", "native,pymunk", "native,native", "pymunk,pymunk", "", ",", "nope", "NATIVE",
+                "native,\x00", " native ", "mujoco", "exudyn"]
+SET_TEXTS = ["pymunk.dt=0.001", "pymunk.dt=nan", "pymunk.dt=Infinity", "pymunk.dt=1e400", "pymunk.dt=[1]",
+             "pymunk.iterations=true", "pymunk.iterations=1e18", "pymunk.nope=1", "nope.dt=1", "pymunk.=1", "=",
+             "pymunk.dt", "mujoco.dt=0.001", "pymunk.dt=0", "pymunk.substeps=2000000000", "pymunk.dt=\"auto\""]
+DT_TEXTS = ["0.001", "0", "-1", "nan", "inf", "1e-300", "1_0", "x", "1e400", "0x10"]
+SENSITIVITY_TEXTS = [None, "", ",", "points.A.at.0", "points.A.at.0,points.A.at.0", "nope", "bodies.crank.q.0",
+                     "crank", "\x1b[31m", "points.A.at.0,constraints.crank-drive.d.poly.1"]
+
+
+@budget(20)
+@given(st.data())
+def test_compare_options_keep_the_contract(data):
+    """kinem compare with odd --engines, --set, --dt and --sensitivity texts (alone: the case's list) on a
+    short four-bar: exit 0, 1 or 2 with one line, never an internal error."""
+    draw = data.draw
+    args = ["compare", str(ROOT / "cases" / "four_bar.toml"), "--steps", "2",
+            "--engines", draw(st.sampled_from(ENGINE_TEXTS))]
+    for item in draw(st.lists(st.sampled_from(SET_TEXTS), max_size=2)):
+        args += ["--set", item]
+    if draw(st.booleans()):
+        args += ["--dt", draw(st.sampled_from(DT_TEXTS))]
+    sens = draw(st.sampled_from(SENSITIVITY_TEXTS + ["(alone)"]))
+    if sens == "(alone)":
+        args.append("--sensitivity")
+    elif sens is not None:
+        args += ["--sensitivity", sens]
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        code = main(args)
+    lines = [line for line in err.getvalue().splitlines() if not line.startswith("kinem: warning: ")]
+    assert code in (0, 1, 2) and "Traceback" not in err.getvalue() and "internal error" not in err.getvalue(), lines
+    # 2: one line; 0 and 1 (an engine or a check outside its tolerance: the table says which) none
+    assert len(lines) == (code == 2) and all(line.startswith("kinem: ") for line in lines), (code, lines)
+
+
+class _Ran(Exception):
+    pass
+
+
+@budget(40)
+@given(st.fixed_dictionaries({}, optional={
+    "cases": st.sampled_from([None, (), "x.toml", ["nope.toml"], [3], ("CASE",)]),
+    "engines": st.sampled_from([None, (), "pymunk", ("native",), ("nope",), ["pymunk", "pymunk"], [None]]),
+    "workers": st.sampled_from([None, 0, 1, -1, 2000, "2", True, 2.0]),
+    "quick": st.sampled_from([True, False, None, "no", 1]),
+    "junit": st.sampled_from([True, False, None, "yes"]),
+    "progress": st.sampled_from([True, False, None, 3, "no"]),
+    "stress": st.sampled_from([True, False, None, "no"]),
+    "out": st.sampled_from(["", None, 3, "OUT"]),
+    "baseline": st.sampled_from([None, "", 3, "none.json"]),
+    "scheduler": st.sampled_from([None, 3, "", "tcp://127.0.0.1:1"]),
+}))
+def test_report_options_keep_the_contract(given_options):
+    """kinem.report.run(Options(...)) with fields of any type: an InputError of one line, or the runs begin
+    (replaced here by an exception of the test's own), never another exception."""
+    import tempfile
+
+    from kinem.report import Options, execute, run
+
+    with tempfile.TemporaryDirectory(prefix="fuzz-report-") as tmp, pytest.MonkeyPatch.context() as mp:
+        mp.setattr(execute, "execute", lambda *a, **k: (_ for _ in ()).throw(_Ran()))
+        case = Path(tmp) / "case.toml"
+        case.write_text(SHORT)
+        o = dict(cases=(str(case),), engines=(), out=str(Path(tmp) / "r"), progress=False, workers=0)
+        o.update({k: v for k, v in given_options.items()})
+        o = {k: (str(case) if v == "CASE" else (str(case),) if v == ("CASE",) else
+                 str(Path(tmp) / "r") if v == "OUT" else v) for k, v in o.items()}
+        try:
+            run(Options(**o))
+        except _Ran:
+            pass
+        except InputError as e:
+            assert "\n" not in str(e), str(e)

@@ -10,6 +10,7 @@ unknown key that is a near miss of a missing one is reported once, as a
 import difflib
 import math
 import re
+import tomllib
 from collections.abc import Iterable
 
 from ..errors import InputError
@@ -262,10 +263,23 @@ def number(text):
     """A command-line number as TOML would read it: an int, a float, or the text itself (then rejected)."""
     if not isinstance(text, str):
         return text
-    for convert in (int, float):
-        try:
-            v = convert(text.replace("_", ""))
-        except (ValueError, OverflowError):
-            continue
-        return int(v) if isinstance(v, float) and v.is_integer() and abs(v) <= 2**53 else v
-    return text
+    v = toml_number(text)
+    if v is None:
+        return text
+    return int(v) if isinstance(v, float) and v.is_integer() and abs(v) <= 2**53 else v
+
+
+def toml_number(text: str):
+    """A text read as a case file's number is (TOML: 1_000, 1e3, 0x10, inf, nan; not 1__0, .5, 1., 01,
+    infinity, NaN or a digit of another script): its int or float as TOML gives it, else None."""
+    if not TOML_NUMBER_RE.fullmatch(text.strip()):   # one value alone: no string, table, comment or second line
+        return None
+    try:
+        v = tomllib.loads(f"v = {text.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        return None
+    return v if isinstance(v, (int, float)) and not isinstance(v, bool) else None   # not true, not a date
+
+
+TOML_NUMBER_RE = re.compile(r"[0-9a-zA-Z_.+-]+", re.ASCII)
+TOML_NUMBERS = "TOML: 0.5, -3, 1e-3, 1_000; not .5, 1., infinity or 1__0"   # for messages

@@ -57,6 +57,7 @@ def main(argv=None) -> int:
         from .. import output
 
         output.STOP["signal"] = None
+        output.release()   # a FIFO --out opened before the work of a command that failed: its reader sees the end
 
 
 def _interrupt_later():

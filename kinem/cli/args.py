@@ -115,12 +115,23 @@ def engine_settings(items, dt, engines=None):
             value = json.loads(raw)
         except ValueError:
             value = raw
+        if name in out[engine]:   # as solve's --set: the later value would win unseen
+            raise InputError(f"--set: {key!r} given twice; expected each setting once")
+        if engines is not None and engine not in engines:   # it would be ignored
+            raise InputError(f"--set: got {item!r}, but {engine} does not run (--engines {','.join(engines)}); "
+                             "expected settings of the engines that run")
         out[engine][name] = value
     if dt is not None:
         if not dt > 0:
             raise InputError(f"--dt: got {dt}; expected a positive time step")
+        if engines is not None and not any(e in ENGINES for e in engines):
+            raise InputError(f"--dt: no engine runs (--engines {','.join(engines)}); expected --engines with one "
+                             f"of {', '.join(ENGINES)}, or no --dt (native has no time step)")
+        both = [e for e in ENGINES if "dt" in out[e]]
+        if both:   # --dt would be ignored there
+            raise InputError(f"--dt and --set {both[0]}.dt: give one (--dt sets every engine's dt)")
         for e in ENGINES:
-            out[e].setdefault("dt", dt)
+            out[e]["dt"] = dt
     for e in ENGINES:
         if e in (engines or ()) or any(x.partition(".")[0] == e for x in items or ()):
             settings(e, out[e], "--set" if items else "--dt")
@@ -136,7 +147,7 @@ def engine_list(text) -> list:
         return ["native", *ENGINES]
     from ..casefile.checks import suggest
 
-    engines = [e.strip() for e in text.split(",") if e.strip()]
+    engines = list(dict.fromkeys(e.strip() for e in text.split(",") if e.strip()))   # one run each
     unknown = [e for e in engines if e not in ("native",) + ENGINES]
     guess = suggest(unknown[0], ("native",) + ENGINES) if unknown else None
     if guess is not None:

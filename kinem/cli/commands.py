@@ -243,7 +243,11 @@ def _compare_sensitivity(a, model, engines):
     from adapters.sensitivity import check, table
 
     check_case(model.case)
-    paths = [p.strip() for p in a.sensitivity.split(",") if p.strip()] or list(model.case.report.get("sensitivity", ()))
+    given = None if a.sensitivity is True else [p.strip() for p in a.sensitivity.split(",") if p.strip()]
+    if given == []:   # --sensitivity "$UNSET" or ',': not the case's list unseen
+        raise InputError(f"--sensitivity: got {a.sensitivity!r}; expected design parameter paths P[,P...], or "
+                         "--sensitivity alone for the case's [report] sensitivity")
+    paths = given if given is not None else list(model.case.report.get("sensitivity", ()))
     if not paths:
         raise InputError(f"{a.case}: --sensitivity: no parameters given and the case has no [report] sensitivity; "
                          "expected --sensitivity P[,P...]")

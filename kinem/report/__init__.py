@@ -50,12 +50,22 @@ class Written:
 
 
 def run(o: Options) -> Outcome:
+    from ..output import release
+
+    try:
+        return _run(o)
+    finally:
+        release()   # a FIFO among the outputs, opened before the runs, that a failure left unwritten
+
+
+def _run(o: Options) -> Outcome:
     from . import gate, html, results, text
     from .execute import FULL, QUICK, execute
     from .progress import Progress
     from .runs import REFERENCE_TOLERANCE
 
     start = time.perf_counter()
+    o = _checked(o)
     cases = _load_cases(o.cases)
     old = None
     if o.baseline and (Path(o.baseline).exists() or not o.update_baseline):
@@ -123,6 +133,53 @@ def run(o: Options) -> Outcome:
     if refused:
         line += f"; baseline NOT written: {refused[0]}"
     return Outcome(Report.FAILED if code else Report.OK, line, Written(doc, tuple(written)))
+
+
+MAX_JOBS = 1024   # workers: local worker processes (kinem.cli's --jobs)
+
+
+def _checked(o: Options) -> Options:
+    """``o`` checked field by field before anything is read or run, as the
+    command line checks its options (an InputError naming the field); its
+    engines each once, native left out (it always runs)."""
+    import numbers
+
+    import numpy as np
+    from adapters import names
+
+    def bad(field, expected):
+        return InputError(f"report: Options({field}={getattr(o, field)!r:.80}): expected {expected}")
+
+    path = (str, os.PathLike)
+    cases = () if o.cases is None else o.cases
+    if isinstance(cases, path) or not isinstance(cases, (list, tuple)) or not all(isinstance(c, path) for c in cases):
+        raise bad("cases", "a list of case file paths (empty or None: cases/*.toml)")
+    known = ("native", *names())
+    if isinstance(o.engines, str) or not isinstance(o.engines, (list, tuple)) \
+            or not all(isinstance(e, str) and e in known for e in o.engines):
+        raise bad("engines", f"a list of engine names, each one of {', '.join(known)} (native always runs)")
+    for field in ("out", "baseline"):
+        v = getattr(o, field)
+        if (v is not None or field == "out") and not isinstance(v, path):
+            raise bad(field, "a path" + (" or None" if field == "baseline" else ""))
+        if v is not None and not str(v):   # '' is Path('.'): the report in the working folder, or no gate, unseen
+            raise InputError(f"--{field} '': an empty path (an unset shell variable?); expected a " + (
+                "directory" if field == "out" else "results.json, or --baseline none for no gate"))
+    flags = ("update_baseline", "quick", "junit", "fail_on_slowdown", "baseline_default", "work_precision")
+    for field in (*flags, "progress", "stress", "whole_set"):
+        v = getattr(o, field)
+        if not isinstance(v, (bool, np.bool_)) and (field in flags or v is not None):
+            raise bad(field, ("True or False" if field in flags else "True, False or None") +
+                      (" (None: when standard error is a terminal)" if field == "progress" else ""))
+    if o.workers is not None and (isinstance(o.workers, bool) or not isinstance(o.workers, numbers.Integral)
+                                  or not 0 <= o.workers <= MAX_JOBS):
+        raise bad("workers", f"None (the core count) or a whole number from 0 (no worker processes) to {MAX_JOBS}")
+    if o.scheduler is not None and not isinstance(o.scheduler, str):
+        raise bad("scheduler", "None or a Dask scheduler address such as tcp://host:8786")
+    return dataclasses.replace(o, cases=tuple(cases), engines=tuple(dict.fromkeys(e for e in o.engines if e != "native")),
+                               workers=None if o.workers is None else int(o.workers),   # numpy's too: results.json
+                               **{f: None if getattr(o, f) is None else bool(getattr(o, f))
+                                  for f in (*flags, "progress", "stress", "whole_set")})
 
 
 def stress_tasks(engines) -> int:

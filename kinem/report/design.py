@@ -3,10 +3,10 @@
 sensitivities of the named points, each checked against central
 differences of native's own solves; a ``[tolerances]`` section gives the
 tolerance bands against time and along the first point's path."""
-from html import escape
 
 import numpy as np
 
+from .escaping import escape
 from .plots import _plt, _png, img
 
 SAMPLES = 200      # Monte Carlo samples of the report's bands

@@ -9,11 +9,11 @@ under "equivalence" and the gate holds it to the baseline like an error.
 A member without a closed form (adapters.references) also gets its
 native row's position error against the group.
 """
-from html import escape
 
 import numpy as np
 
 from ..outcome import Kind
+from .escaping import escape
 from .gate import verdict_of
 from .runs import Reference
 

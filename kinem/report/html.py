@@ -3,9 +3,9 @@ script, no external URL): the headline and summary matrix, what was not
 compared, the equivalent models, one section per case, the stress suite
 (when it ran) and the run's provenance."""
 import json
-from html import escape
 
 from . import plots
+from .escaping import escape
 from .runs import Reference, sample
 from .text import (SELF, cost, failed, figure, fmt, headline, judgement, limits_text, matrix, passed, provenance, rates,
                    reason, seconds, short, unsupported, unsupported_lines, verdict)

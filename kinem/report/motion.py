@@ -9,10 +9,10 @@ and a scale bar the length unit.
 Frames are time-major coordinates (frames, n) at the same instants for
 native and the engines (runs.py samples them).
 """
-from html import escape
 
 import numpy as np
 
+from .escaping import escape
 from .drawing import MARK_NAMES, poses, scene, world
 
 BODY_COLORS = ("#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22", "#d62728", "#7f7f7f")

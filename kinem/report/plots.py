@@ -2,9 +2,10 @@
 The mechanism's drawings and animation are motion.py's."""
 import base64
 import io
-from html import escape
 
 import numpy as np
+
+from .escaping import escape
 
 COLORS = {"native": "black", "pymunk": "tab:orange", "mujoco": "tab:blue", "exudyn": "tab:green"}
 TINY = 1e-16   # smaller errors (often exactly 0: the reference's own iterates) are drawn here

@@ -1,8 +1,8 @@
 """The stress suite as a section of the report (kinem.stress, quick sweep):
 its outcomes go into results.json under "stress", a table into index.html
 and one line into summary.md. Native missing its expected class fails the run."""
-from html import escape
 
+from .escaping import escape
 from .results import clean
 
 

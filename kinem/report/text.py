@@ -1,8 +1,7 @@
 """summary.md (GitHub-flavoured Markdown for a CI job summary) and junit.xml
 (one test case per case x engine); the summary matrix and headline both
 summary.md and index.html show."""
-from xml.sax.saxutils import escape, quoteattr
-
+from .escaping import md, xml_attr, xml_text
 from .gate import NO_BASELINE, UNCOMPARED, verdict_of
 
 
@@ -254,14 +253,14 @@ def provenance(doc) -> str:
 
 
 def summary_md(doc) -> str:
-    out = ["## kinem report", "", f"**{headline(doc)}**", "", provenance(doc), ""]
+    out = ["## kinem report", "", f"**{md(headline(doc))}**", "", md(provenance(doc)), ""]
     g = doc.get("gate")
     fatal = [f for f in (g or {}).get("findings", ()) if f["fatal"]]
     if g and g["not_compared"]:
-        out += ["### Not compared (in the baseline, not in this run)", ""] + [f"- {x}" for x in g["not_compared"]] + [""]
+        out += ["### Not compared (in the baseline, not in this run)", ""] + [f"- {md(x)}" for x in g["not_compared"]] + [""]
     if fatal:
         out += [f"### Regressions ({len(fatal)})", ""]
-        out += [f"- **{f['case']} / {f['engine']}** ({f['where']}): {f['message']}" for f in fatal[:30]]
+        out += [f"- **{md(f['case'])} / {md(f['engine'])}** ({md(f['where'])}): {md(f['message'])}" for f in fatal[:30]]
         out += [f"- … and {len(fatal) - 30} more (results.json)"] if len(fatal) > 30 else []
         out.append("")
     lost = {}
@@ -270,13 +269,13 @@ def summary_md(doc) -> str:
             lost.setdefault((r["engine"], r["status"]), []).append(c["name"])
     if lost:
         out += ["### Failed runs", ""]
-        out += [f"- **{e}** ({', '.join(names) if len(names) < 4 else f'{len(names)} cases'}): {short(st, 200)}"
+        out += [f"- **{md(e)}** ({md(', '.join(names)) if len(names) < 4 else f'{len(names)} cases'}): {md(short(st, 200))}"
                 for (e, st), names in lost.items()]
         out.append("")
     slow = [f for f in (g or {}).get("findings", ()) if f["kind"] == "slower" and not f["fatal"]]
     if slow:
         out += ["### Slower (not failing)", ""]
-        out += [f"- {f['case']} / {f['engine']}: {f['message']}" for f in slow] + [""]
+        out += [f"- {md(f['case'])} / {md(f['engine'])}: {md(f['message'])}" for f in slow] + [""]
     from .stress_section import line as stress_line
 
     if doc.get("stress"):
@@ -288,10 +287,10 @@ def summary_md(doc) -> str:
     engines, table, skipped = matrix(doc)
     out += ["| case | " + " | ".join(engines) + " |", "|---|" + "---:|" * len(engines)]
     for c, cells in table:
-        out.append(f"| {c['name']} | " + " | ".join(_md_cell(cells.get(e)) for e in engines) + " |")
+        out.append(f"| {md(c['name'])} | " + " | ".join(_md_cell(cells.get(e)) for e in engines) + " |")
     if skipped:
         out += ["", "Not supported (–):"]
-        out += [f"- **{e}**: {text}" for e, text in unsupported_lines(skipped).items()]
+        out += [f"- **{md(e)}**: {md(text)}" for e, text in unsupported_lines(skipped).items()]
     out += ["", "Cells: the worst error over every coordinate that moves (positions / L, bodies' angles in rad; "
             "velocities / V, angular velocities / (V/L): the worst named; engines against native at tolerance "
             "1e-13; native against the closed form or equivalence group where the case has one, or the engines' "
@@ -314,7 +313,7 @@ def _md_cell(cell) -> str:
     if g == "skip":
         return "–"
     if failed(r):
-        return f"❌ {short(r['status'], 40)}".replace("|", "\\|")
+        return md(f"❌ {short(r['status'], 40)}")
     value, what = figure(r)
     text = f"{MARK[g]} " + (what if value is None else f"{fmt(value)} ({what})") + f", {cost(r)}"
     if rates(r) and not r.get("attributed"):
@@ -326,7 +325,7 @@ def _md_cell(cell) -> str:
         text += f" ({short(sentence, 80)})"
     elif kind in ("new", "slower"):
         text += f" ({sentence})"
-    return text.replace("|", "\\|")
+    return md(text)
 
 
 def junit_xml(doc) -> str:
@@ -336,14 +335,14 @@ def junit_xml(doc) -> str:
         if fails(r, v[0]):
             n_failed += 1
             msg = r["status"] if failed(r) else v[1] if v[0] == "regressed" else judgement(r)
-            body = f"<failure message={quoteattr(msg)}/>"
+            body = f"<failure message={xml_attr(msg)}/>"
         elif r["outcome"] == "ok" and (verdict(r).fails or r.get("attributed") or figure(r)[1] == SELF):
             # a known state of the baseline, consistent with the consensus, or native checked only by itself
-            body = f"<system-out>{escape(judgement(r))}</system-out>"
+            body = f"<system-out>{xml_text(judgement(r))}</system-out>"
         elif unsupported(r):
             skips += 1
-            body = f"<skipped message={quoteattr(r['status'])}/>"
-        cases.append(f'  <testcase classname={quoteattr("kinem.report." + c["name"])} name={quoteattr(r["engine"])} '
+            body = f"<skipped message={xml_attr(r['status'])}/>"
+        cases.append(f'  <testcase classname={xml_attr("kinem.report." + c["name"])} name={xml_attr(r["engine"])} '
                      f'time="{r["wall_time"] or 0:.6f}">{body}</testcase>')
     head = (f'<testsuite name="kinem report" tests="{len(cases)}" failures="{n_failed}" skipped="{skips}" '
             f'errors="0" time="{doc["duration"]:.3f}">')
