@@ -274,11 +274,22 @@ enum Rooms {
     Eight(LaneRoom<8>),
 }
 
-/// `Lanewise`'s own fields (its buffers and figures made from the set-up).
+/// `Lanewise`'s own fields (its buffers and figures made from the set-up),
+/// held by a run as one value (`Lanewise::room`) and moved out whole by
+/// `Lanewise::leave`. `levels`: the stages (1 to 3); `turned`: every named
+/// point's body angle an angle column (its e^{i phi} is the march's e, no
+/// sine and cosine taken again); `lanes0`: whether any group has a moved
+/// family without direct kernels (its Phi_p over the lanes at q0, e0);
+/// `flat`: s, sd, sdd (n each) and the points' tangents, a row per
+/// coordinate or point value; `gather`: each column's row there;
+/// `triples`: the columns (c, its row i) whose next two columns are rows
+/// i + 1, i + 2 (a body's x, y, phi at one level), `singles` the others
+/// (N = 1's gather: three columns per copy); `kv`, `kd`: what the direct
+/// families' jac_products keep for their gamma_tangent; `reach`: per
+/// group, what its parameters reach (`Reach`).
 struct LaneRoom<const N: usize> {
     np: usize,
     levels: usize,
-    columns: (Vec<(usize, usize)>, usize),
     w: usize,
     turned: bool,
     lanes0: bool,
@@ -704,43 +715,13 @@ impl Reach {
 pub struct Lanewise<'a, const N: usize> {
     kin: &'a Kin,
     layout: &'a Layout,
-    np: usize,
-    levels: usize,
     groups: &'a [Group<N>],
+    /// the named points' columns over the set-up's pc (their layout of
+    /// `levels` stages: Columns::point_tangents)
     columns: crate::columns::Columns<'a>,
-    w: usize,
     locs: &'a [Vec<Complex<Lanes<N>>>],
-    /// every named point's body angle an angle column: its e^{i phi} is
-    /// the march's e (no sine and cosine taken again)
-    turned: bool,
-    /// whether any group has a moved family without direct kernels (its
-    /// Phi_p over the lanes at q0, e0)
-    lanes0: bool,
-    /// s, sd, sdd (n each) and the points' tangents, a row per coordinate
-    /// or point value; `gather`: each column's row there; `triples`: the
-    /// columns (c, its row i) whose next two columns are rows i + 1, i + 2
-    /// (a body's x, y, phi at one level), `singles` the others (N = 1's
-    /// gather: three columns per copy)
-    flat: Vec<[f64; N]>,
-    gather: Vec<usize>,
-    triples: Vec<(usize, usize)>,
-    singles: Vec<(usize, usize)>,
-    buf: Vec<[f64; N]>,
-    q0: Vec<Lanes<N>>,
-    e0: Vec<Complex<Lanes<N>>>,
-    ql: Vec<Lanes<N>>,
-    qdl: Vec<Lanes<N>>,
-    el: Vec<Complex<Lanes<N>>>,
-    rl: Vec<Lanes<N>>,
-    jl: Vec<Lanes<N>>,
-    rhs: Vec<[f64; N]>,
-    rhs3: Vec<[f64; N]>,
-    /// what the direct families' jac_products keep for their gamma_tangent
-    kv: Vec<C64>,
-    kd: Vec<[f64; N]>,
-    solver: Solver<N>,
-    /// per group, what its parameters reach (`Reach`)
-    reach: Vec<Reach>,
+    /// its own buffers and figures (`LaneRoom`), moved in and out whole
+    room: LaneRoom<N>,
 }
 
 impl<'a, const N: usize> Lanewise<'a, N> {
@@ -789,15 +770,10 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         let reach: Vec<Reach> = groups.iter().zip(locs).map(|(g, l)| Reach::new(p, g, l, layout, one)).collect();
         // (every reach's rows within rhs (m rows) and s (n coordinates): Solver::solve_in)
         assert!(reach.iter().all(|r| r.rows.iter().all(|&(i, c)| (i as usize) < m && (c as usize) < n)));
-        let mut at = Lanewise {
-            kin,
-            layout,
+        let room = LaneRoom {
             np,
             levels,
-            groups,
-            columns: crate::columns::Columns::new(n, levels, src, pc),
             w,
-            locs,
             turned: pc.iter().all(|&c| kin.angles.contains(&(c + 2))),
             lanes0: groups.iter().any(|g| g.moved_lanes),
             flat: vec![[0.0; N]; flat],
@@ -819,6 +795,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             solver: Solver::new(n, m, 3 * np >= 2 * n && n <= INVERSE),
             reach,
         };
+        let mut at = Self::enter(p, groups, locs, layout, room);
         for g in 0..groups.len() {
             at.fix(g);
         }
@@ -830,28 +807,28 @@ impl<'a, const N: usize> Lanewise<'a, N> {
     /// sd = sdd = 0, the points' tangents from them (the shift's x and y;
     /// zero velocities and accelerations, whatever the instant's values).
     fn fix(&mut self, g: usize) {
-        let (group, n, w, levels) = (&self.groups[g], self.kin.n, self.w, self.levels);
+        let (group, n, w, levels) = (&self.groups[g], self.kin.n, self.room.w, self.room.levels);
         let Some(shift) = &group.shift else { return };
         let locs = &self.locs[g];
         if locs.iter().any(|z| z.re.d.iter().chain(&z.im.d).any(|&x| x != 0.0)) {
             return;
         }
-        self.flat.fill([0.0; N]);
-        self.flat[..n].copy_from_slice(shift);
+        self.room.flat.fill([0.0; N]);
+        self.room.flat[..n].copy_from_slice(shift);
         let zeros = vec![0.0; n];
         let x = [&zeros[..], &zeros[..], &zeros[..]];
         let all: Vec<usize> = (0..locs.len()).collect();
-        let (tangents, points) = self.flat.split_at_mut(3 * n);
+        let (tangents, points) = self.room.flat.split_at_mut(3 * n);
         let d: [&[[f64; N]]; 3] = [&tangents[..n], &tangents[n..2 * n], &tangents[2 * n..]];
         self.columns.point_tangents(&x[..levels], &d[..levels], locs, |_| C64::new(1.0, 0.0), &all, points);
         let mut row = vec![0.0; group.count * w];
         for (lane, to) in row.chunks_mut(w).enumerate() {
-            for (o, &i) in to.iter_mut().zip(&self.gather) {
-                *o = self.flat[i][lane];
+            for (o, &i) in to.iter_mut().zip(&self.room.gather) {
+                *o = self.room.flat[i][lane];
             }
         }
-        self.flat.fill([0.0; N]);
-        self.reach[g].fixed = Some(row);
+        self.room.flat.fill([0.0; N]);
+        self.room.reach[g].fixed = Some(row);
     }
 
     /// A run in the room a run of the same set-up, layout and levels left
@@ -863,127 +840,19 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         layout: &'a Layout,
         room: LaneRoom<N>,
     ) -> Self {
-        let LaneRoom {
-            np,
-            levels,
-            columns,
-            w,
-            turned,
-            lanes0,
-            flat,
-            gather,
-            triples,
-            singles,
-            buf,
-            q0,
-            e0,
-            ql,
-            qdl,
-            el,
-            rl,
-            jl,
-            rhs,
-            rhs3,
-            kv,
-            kd,
-            solver,
-            reach,
-        } = room;
-        Lanewise {
-            kin: &p.kin,
-            layout,
-            np,
-            levels,
-            groups,
-            columns: crate::columns::Columns::with(&p.pc, columns),
-            w,
-            locs,
-            turned,
-            lanes0,
-            flat,
-            gather,
-            triples,
-            singles,
-            buf,
-            q0,
-            e0,
-            ql,
-            qdl,
-            el,
-            rl,
-            jl,
-            rhs,
-            rhs3,
-            kv,
-            kd,
-            solver,
-            reach,
-        }
+        // (the points' columns alone: no column sources, nothing allocated)
+        let columns = crate::columns::Columns::new(p.kin.n, room.levels, &[], &p.pc);
+        Lanewise { kin: &p.kin, layout, groups, columns, locs, room }
     }
 
     /// The run's own fields, for `enter`.
     fn leave(self) -> LaneRoom<N> {
-        let Lanewise {
-            kin: _,
-            layout: _,
-            np,
-            levels,
-            groups: _,
-            columns,
-            w,
-            locs: _,
-            turned,
-            lanes0,
-            flat,
-            gather,
-            triples,
-            singles,
-            buf,
-            q0,
-            e0,
-            ql,
-            qdl,
-            el,
-            rl,
-            jl,
-            rhs,
-            rhs3,
-            kv,
-            kd,
-            solver,
-            reach,
-        } = self;
-        LaneRoom {
-            np,
-            levels,
-            columns: columns.parts(),
-            w,
-            turned,
-            lanes0,
-            flat,
-            gather,
-            triples,
-            singles,
-            buf,
-            q0,
-            e0,
-            ql,
-            qdl,
-            el,
-            rl,
-            jl,
-            rhs,
-            rhs3,
-            kv,
-            kd,
-            solver,
-            reach,
-        }
+        self.room
     }
 
     /// The columns per instant and parameter (P W: an instant's row of data).
     pub fn width(&self) -> usize {
-        self.np * self.w
+        self.room.np * self.room.w
     }
 
     /// One instant: x its stages (q, qd, qdd: `levels` of n), e e^{i q} at
@@ -1008,7 +877,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         pivot: f64,
         out: &mut [f64],
     ) -> f64 {
-        let Lanewise { kin, layout, levels, w, .. } = *self;
+        let (kin, layout, levels, w) = (self.kin, self.layout, self.room.levels, self.room.w);
         assert!(pieces.is_empty() || pieces.len() >= kin.m);
         // a family's pieces, at its rows (row_off ascends to m: Kin::new)
         let pieces_of =
@@ -1016,27 +885,27 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         let n = kin.n;
         let q = x[0];
         let ratio = if pivot > 0.0 { pivot } else { layout.pivots(f).0 };
-        if self.lanes0 {
+        if self.room.lanes0 {
             for j in 0..n {
-                self.q0[j] = Lanes::<N>::c(q[j]);
+                self.room.q0[j] = Lanes::<N>::c(q[j]);
             }
             for &j in &kin.angles {
-                self.e0[j] = Complex::new(Lanes::<N>::c(e[j].re), Lanes::<N>::c(e[j].im));
+                self.room.e0[j] = Complex::new(Lanes::<N>::c(e[j].re), Lanes::<N>::c(e[j].im));
             }
         }
-        let at0 = At { q: &self.q0, e: &self.e0, t };
+        let at0 = At { q: &self.room.q0, e: &self.room.e0, t };
         let atf = At { q, e, t };
-        self.solver.prepare(layout, f);
+        self.room.solver.prepare(layout, f);
         for (g, group) in self.groups.iter().enumerate() {
             let (model, count) = (&group.model, group.count);
-            let reach = &self.reach[g];
+            let reach = &self.room.reach[g];
             if let Some(row) = &reach.fixed {
                 out[g * N * w..(g * N + count) * w].copy_from_slice(row);
                 continue;
             }
             let shared = Shared { functions: &model.functions, outlines: &model.outlines };
             // S1: -Phi_p, Phi's tangent at q' = 0, non-zero in the moved families' rows alone
-            self.rhs.fill([0.0; N]);
+            self.room.rhs.fill([0.0; N]);
             for (&k, hand) in group.moved.iter().zip(&group.hands) {
                 let rows = model.row_off[k]..model.row_off[k + 1];
                 let family = &model.families[k];
@@ -1045,54 +914,57 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                         let f = &group.direct[*i];
                         // SAFETY: every Direct's ranges within kv, kd (asserted in `new`)
                         unsafe {
-                            Kept::of(self.kv.get_unchecked_mut(f.v.clone()), self.kd.get_unchecked_mut(f.d.clone()))
+                            Kept::of(
+                                self.room.kv.get_unchecked_mut(f.v.clone()),
+                                self.room.kd.get_unchecked_mut(f.d.clone()),
+                            )
                         }
                     }
                     _ => Kept::none(),
                 };
                 let keep = Kept { pieces: if hand.is_some() { pieces_of(k) } else { &[] }, ..keep };
-                if !family.phi_tangent(&atf, &shared, &mut self.rhs[rows.clone()], keep) {
-                    family.phi(&at0, &shared, &mut self.rl[rows.clone()]);
-                    for (r, x) in self.rhs[rows.clone()].iter_mut().zip(&self.rl[rows]) {
+                if !family.phi_tangent(&atf, &shared, &mut self.room.rhs[rows.clone()], keep) {
+                    family.phi(&at0, &shared, &mut self.room.rl[rows.clone()]);
+                    for (r, x) in self.room.rhs[rows.clone()].iter_mut().zip(&self.room.rl[rows]) {
                         *r = x.d.map(|v| -v);
                     }
                 }
             }
-            self.solver.solve_in(layout, f, &self.rhs, count, &mut self.flat[..n], reach);
+            self.room.solver.solve_in(layout, f, &self.room.rhs, count, &mut self.room.flat[..n], reach);
             let lanes = !group.live.is_empty();
             if lanes {
                 // q with tangent s, and e^{i q} with its tangent (Real::sin, cos)
                 for j in 0..n {
-                    self.ql[j] = Lanes::of(q[j], self.flat[j]);
+                    self.room.ql[j] = Lanes::of(q[j], self.room.flat[j]);
                 }
                 for &j in &kin.angles {
-                    self.el[j] = turned(e[j], self.flat[j]);
+                    self.room.el[j] = turned(e[j], self.room.flat[j]);
                 }
             }
-            let at = At { q: &self.ql, e: &self.el, t };
+            let at = At { q: &self.room.ql, e: &self.room.el, t };
             if levels > 1 {
                 // S2: nu_p - D(J) qd, D(J) the Jacobian's tangent at q' = s
                 for &k in &group.live {
-                    model.families[k].jac(&at, &shared, &mut self.jl[model.entry_off[k]..model.entry_off[k + 1]]);
+                    model.families[k].jac(&at, &shared, &mut self.room.jl[model.entry_off[k]..model.entry_off[k + 1]]);
                 }
-                self.rhs.fill([0.0; N]);
+                self.room.rhs.fill([0.0; N]);
                 for &k in &group.timed {
                     let rows = model.row_off[k]..model.row_off[k + 1];
-                    model.families[k].nu(t, &shared, &mut self.rl[rows.clone()]);
-                    for (r, x) in self.rhs[rows.clone()].iter_mut().zip(&self.rl[rows]) {
+                    model.families[k].nu(t, &shared, &mut self.room.rl[rows.clone()]);
+                    for (r, x) in self.room.rhs[rows.clone()].iter_mut().zip(&self.room.rl[rows]) {
                         *r = x.d;
                     }
                 }
-                products(&group.entries, &self.jl, &x[1..], &mut self.rhs, &mut self.rhs3);
-                let (s, rhs, rhs3) = (&self.flat[..n], &mut self.rhs, &mut self.rhs3);
+                products(&group.entries, &self.room.jl, &x[1..], &mut self.room.rhs, &mut self.room.rhs3);
+                let (s, rhs, rhs3) = (&self.room.flat[..n], &mut self.room.rhs, &mut self.room.rhs3);
                 for (f, _) in group.direct.iter().zip(&reach.direct).filter(|x| *x.1) {
                     // SAFETY: every Direct's ranges within kv, kd and its rows within rhs, rhs3 (asserted in `new`)
                     // (what its phi_tangent kept, `held`, read)
                     let (r2, r3, keep) = unsafe {
                         let keep = if levels > 2 || f.held {
                             Kept {
-                                v: self.kv.get_unchecked_mut(f.v.clone()),
-                                d: self.kd.get_unchecked_mut(f.d.clone()),
+                                v: self.room.kv.get_unchecked_mut(f.v.clone()),
+                                d: self.room.kd.get_unchecked_mut(f.d.clone()),
                                 held: f.held,
                                 pieces: if f.held { &[] } else { pieces_of(f.k) },
                             }
@@ -1105,10 +977,10 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     let d = Dir { at: At { q, e, t }, qd: x[1], s, sd: &[], moved: f.moved, drives: group.drives };
                     model.families[f.k].jac_products(&d, &shared, &x[1..], r2, r3, keep);
                 }
-                self.solver.solve_in(layout, f, &self.rhs, count, &mut self.flat[n..2 * n], reach);
+                self.room.solver.solve_in(layout, f, &self.room.rhs, count, &mut self.room.flat[n..2 * n], reach);
                 if lanes {
                     for j in 0..n {
-                        self.qdl[j] = Lanes::of(x[1][j], self.flat[n + j]);
+                        self.room.qdl[j] = Lanes::of(x[1][j], self.room.flat[n + j]);
                     }
                 }
             }
@@ -1116,33 +988,34 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 // S3: D(gamma) (along q' = s, qd' = sd and the tables') - D(J) qdd
                 for &k in &group.live {
                     let rows = model.row_off[k]..model.row_off[k + 1];
-                    model.families[k].gamma(&at, &self.qdl, &shared, &mut self.rl[rows]);
+                    model.families[k].gamma(&at, &self.room.qdl, &shared, &mut self.room.rl[rows]);
                 }
                 for &k in &group.live {
                     let rows = model.row_off[k]..model.row_off[k + 1];
-                    for (r, x) in self.rhs3[rows.clone()].iter_mut().zip(&self.rl[rows]) {
+                    for (r, x) in self.room.rhs3[rows.clone()].iter_mut().zip(&self.room.rl[rows]) {
                         for l in 0..N {
                             r[l] += x.d[l];
                         }
                     }
                 }
-                let (s, sd) = (&self.flat[..n], &self.flat[n..2 * n]);
+                let (s, sd) = (&self.room.flat[..n], &self.room.flat[n..2 * n]);
                 for (f, _) in group.direct.iter().zip(&reach.direct).filter(|x| *x.1) {
                     let d = Dir { at: At { q, e, t }, qd: x[1], s, sd, moved: f.moved, drives: group.drives };
                     // SAFETY: as in (S2)
                     let (v, kd, r3) = unsafe {
-                        let (v, kd) = (self.kv.get_unchecked_mut(f.v.clone()), self.kd.get_unchecked_mut(f.d.clone()));
-                        (v, kd, self.rhs3.get_unchecked_mut(f.rows.clone()))
+                        let (v, kd) =
+                            (self.room.kv.get_unchecked_mut(f.v.clone()), self.room.kd.get_unchecked_mut(f.d.clone()));
+                        (v, kd, self.room.rhs3.get_unchecked_mut(f.rows.clone()))
                     };
                     model.families[f.k].gamma_tangent(&d, &shared, r3, Kept::of(v, kd));
                 }
-                self.solver.solve_in(layout, f, &self.rhs3, count, &mut self.flat[2 * n..3 * n], reach);
+                self.room.solver.solve_in(layout, f, &self.room.rhs3, count, &mut self.room.flat[2 * n..3 * n], reach);
             }
             // every column's tangent: a coordinate's from s, sd, sdd, a named
             // point's from x, e and them (crate::columns)
-            let (tangents, points) = self.flat.split_at_mut(3 * n);
+            let (tangents, points) = self.room.flat.split_at_mut(3 * n);
             let d: [&[[f64; N]]; 3] = [&tangents[..n], &tangents[n..2 * n], &tangents[2 * n..]];
-            if self.turned {
+            if self.room.turned {
                 self.columns.point_tangents(x, &d[..levels], &self.locs[g], |c| e[c], &reach.points, points);
             } else {
                 self.columns.point_tangents(x, &d[..levels], &self.locs[g], |c| cis(q[c]), &reach.points, points);
@@ -1152,22 +1025,22 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 // SAFETY: every gather index below flat.len() (asserted in `new`), every column c
                 // (c + 2 of a triple) below w = to.len()
                 unsafe {
-                    for &(c, i) in &self.triples {
-                        let (x, o) = (self.flat.get_unchecked(i..i + 3), to.get_unchecked_mut(c..c + 3));
+                    for &(c, i) in &self.room.triples {
+                        let (x, o) = (self.room.flat.get_unchecked(i..i + 3), to.get_unchecked_mut(c..c + 3));
                         (o[0], o[1], o[2]) = (x[0][0], x[1][0], x[2][0]);
                     }
-                    for &(c, i) in &self.singles {
-                        *to.get_unchecked_mut(c) = self.flat.get_unchecked(i)[0];
+                    for &(c, i) in &self.room.singles {
+                        *to.get_unchecked_mut(c) = self.room.flat.get_unchecked(i)[0];
                     }
                 }
             } else {
                 // gathered once, then a lane at a time (fewer index checks)
-                for (b, &i) in self.buf.iter_mut().zip(&self.gather) {
+                for (b, &i) in self.room.buf.iter_mut().zip(&self.room.gather) {
                     // SAFETY: every gather index below flat.len() (asserted in `new`)
-                    *b = unsafe { *self.flat.get_unchecked(i) };
+                    *b = unsafe { *self.room.flat.get_unchecked(i) };
                 }
                 for (lane, to) in to.chunks_mut(w).enumerate() {
-                    for (o, b) in to.iter_mut().zip(&self.buf) {
+                    for (o, b) in to.iter_mut().zip(&self.room.buf) {
                         *o = b[lane];
                     }
                 }
