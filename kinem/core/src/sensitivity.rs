@@ -30,7 +30,9 @@
 //! whose coordinates is reached are skipped. A group that shifts the whole
 //! mechanism along x or y (a ground's value) has s = that shift and
 //! sd = sdd = 0 at every instant: its row is written once.
-use crate::families::{At, Dir, Kept, Shared};
+use crate::families::line::{slides_gamma, slides_products, Slide, SlideKept};
+use crate::families::revolute::{phi_pins, pins_gamma, pins_products, PhiPin, Pin, PinKept};
+use crate::families::{At, Dir, Family, Kept, Shared};
 use crate::lu::{Factors, Layout, Shape};
 use crate::model::Kin;
 use crate::outline::Piece;
@@ -310,7 +312,10 @@ struct LaneRoom<const N: usize> {
     kv: Vec<C64>,
     kd: Vec<[f64; N]>,
     solver: Solver<N>,
-    reach: Vec<Reach>,
+    reach: Vec<Reach<N>>,
+    /// what the lists' (S2) kernels keep for their (S3) kernels (`Lists`)
+    pk: Vec<PinKept<N>>,
+    sk: Vec<SlideKept<N>>,
 }
 
 impl<'a> Instants<'a> {
@@ -409,6 +414,10 @@ struct Group<const N: usize> {
     /// per moved family, its place in `direct` where its phi_tangent
     /// keeps what its jac_products reads (Family::hands, Direct's `held`)
     hands: Vec<Option<usize>>,
+    /// (S1)'s kernels: the moved revolute families' joints in one list
+    /// (`PhiPin`), and the other moved families with their `hands`
+    phi_pins: Vec<PhiPin<N>>,
+    phi_rest: Vec<(usize, Option<usize>)>,
     /// the moved families without direct kernels (Phi_p over the lanes)
     moved_lanes: bool,
     /// the Jacobian's entries (row, column, place) of the `live` families
@@ -458,6 +467,13 @@ impl<const N: usize> Group<N> {
             .collect();
         let hands = moved.iter().map(|&k| direct.iter().position(|f| f.k == k && f.held)).collect();
         let moved_lanes = moved.iter().any(|&k| !kin.families[k].direct());
+        let (mut phi_pins, mut phi_rest) = (Vec::new(), Vec::new());
+        for (&k, &hand) in moved.iter().zip(&hands) {
+            match &model.families[k] {
+                Family::Revolute(r) => phi_pins.extend(r.phi_pins(model.row_off[k])),
+                _ => phi_rest.push((k, hand)),
+            }
+        }
         let (seeds, shift) = moving(&model, &moved, drives || outlines, group.len());
         let count = group.len();
         Ok(Group {
@@ -469,6 +485,8 @@ impl<const N: usize> Group<N> {
             direct,
             live,
             hands,
+            phi_pins,
+            phi_rest,
             moved_lanes,
             entries,
             kept: (v, d),
@@ -640,42 +658,97 @@ fn moving<const N: usize>(
 /// `program`: the solve restricted to them (Program::reached; None: every
 /// place reached, or a layout without the blocks' order), `rows` the
 /// rows copied into it (row, place), `zero` the places a full solve (the
-/// fallback's, the inverse's) leaves to be zeroed; `direct`: per direct
-/// family of the group, whether its (S2), (S3) kernels run (its rows'
-/// right sides are zero otherwise); `points`: the named points taken (on
+/// fallback's, the inverse's) leaves to be zeroed; `direct`: the direct
+/// families of the group (their places in its `direct`) whose (S2), (S3)
+/// kernels run (the others' rows' right sides are zero) and are not in
+/// `lists`; `points`: the named points taken (on
 /// a reached body, or their local coordinates moved); `fixed`: the
 /// group's whole output where its shift is known (`moving`) and no named
-/// point's local coordinates move.
-struct Reach {
+/// point's local coordinates move. `lists`: the revolute and line
+/// families' constraints whose (S2), (S3) kernels run, as one list per
+/// kind (`Lists`; their families not in `direct`), those with a row where
+/// the parameters reach (`from`: the others' right sides are zero) or all.
+struct Reach<const N: usize> {
     program: Option<Program>,
     rows: Vec<(u32, u32)>,
     zero: Vec<u32>,
-    direct: Vec<bool>,
+    direct: Vec<usize>,
     points: Vec<usize>,
     fixed: Option<Vec<f64>>,
+    lists: Lists<N>,
 }
 
-impl Reach {
-    fn new<const N: usize>(
-        p: &Prepared,
-        group: &Group<N>,
-        locs: &[Complex<Lanes<N>>],
-        layout: &Layout,
-        partial: bool,
-    ) -> Self {
+/// The revolute joints (`Pin`) and the point-on-line constraints (`Slide`)
+/// of a group whose kernels run, in one list per kind over every family
+/// of it: the first `pins_moved` joints read no table tangent, the rest
+/// do (`Pin::moving`); the first `slides_moved` constraints are of
+/// unmoved families, the rest of moved ones.
+struct Lists<const N: usize> {
+    pins: Vec<Pin<N>>,
+    pins_moved: usize,
+    slides: Vec<Slide<N>>,
+    slides_moved: usize,
+}
+
+impl<const N: usize> Lists<N> {
+    /// The lists of the group's direct families that run (`direct`, set
+    /// false for those taken here), each constraint of them with
+    /// `take(row)` true for one of its rows.
+    fn new(group: &Group<N>, direct: &mut [bool], take: impl Fn(usize) -> bool) -> Self {
+        let (mut pins, mut moving, mut slides, mut moved) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for (f, run) in group.direct.iter().zip(direct.iter_mut()).filter(|x| *x.1) {
+            let row0 = f.rows.start;
+            match &group.model.families[f.k] {
+                Family::Revolute(r) => {
+                    for p in r.pins(row0, f.moved, |c| take(row0 + 2 * c) || take(row0 + 2 * c + 1)) {
+                        if p.moving() {
+                            moving.push(p);
+                        } else {
+                            pins.push(p);
+                        }
+                    }
+                }
+                Family::Line(l) => {
+                    let per = l.per_row();
+                    let taken = l.slides(row0, |c| (0..per).any(|i| take(row0 + per * c + i)));
+                    if f.moved {
+                        moved.extend(taken);
+                    } else {
+                        slides.extend(taken);
+                    }
+                }
+                _ => continue,
+            }
+            *run = false;
+        }
+        let (pins_moved, slides_moved) = (pins.len(), slides.len());
+        pins.extend(moving);
+        slides.extend(moved);
+        Lists { pins, pins_moved, slides, slides_moved }
+    }
+}
+
+impl<const N: usize> Reach<N> {
+    fn new(p: &Prepared, group: &Group<N>, locs: &[Complex<Lanes<N>>], layout: &Layout, partial: bool) -> Self {
         let (n, m, points) = (p.kin.n, p.kin.m, p.points);
         let local = |j: usize| locs[j].re.d.iter().chain(&locs[j].im.d).any(|&x| x != 0.0);
-        let all = Reach {
-            program: None,
-            rows: Vec::new(),
-            zero: Vec::new(),
-            direct: vec![true; group.direct.len()],
-            points: (0..points).collect(),
-            fixed: None,
+        let all = || {
+            let mut direct = vec![true; group.direct.len()];
+            let lists = Lists::new(group, &mut direct, |_| true);
+            let direct = (0..direct.len()).filter(|&i| direct[i]).collect();
+            Reach {
+                program: None,
+                rows: Vec::new(),
+                zero: Vec::new(),
+                direct,
+                points: (0..points).collect(),
+                fixed: None,
+                lists,
+            }
         };
         let t = match &layout.shape {
             Shape::Triangular(t) if partial && t.into.len() == m && m == n && t.program.positions == n => t,
-            _ => return all,
+            _ => return all(),
         };
         let place = |r: usize| t.into[r] as usize;
         let mut from = vec![false; n];
@@ -690,15 +763,21 @@ impl Reach {
             from = more;
         };
         if reached.iter().all(|&r| r) {
-            return all;
+            return all();
         }
+        // (a constraint none of whose rows is in `from` has no seed and reads no reached coordinate: its
+        // kernels add zeros of either sign to its rows' +0, which stay +0, as a family's left out)
+        let mut direct: Vec<bool> = group.direct.iter().map(|f| f.rows.clone().any(|r| from[place(r)])).collect();
+        let lists = Lists::new(group, &mut direct, |r| from[place(r)]);
+        let direct = (0..direct.len()).filter(|&i| direct[i]).collect();
         Reach {
             program: Some(program),
             rows: (0..m).filter(|&r| reached[place(r)]).map(|r| (r as u32, place(r) as u32)).collect(),
             zero: (0..n).filter(|&c| !reached[c]).map(|c| c as u32).collect(),
-            direct: group.direct.iter().map(|f| f.rows.clone().any(|r| from[place(r)])).collect(),
+            direct,
             points: (0..points).filter(|&j| local(j) || (0..3).any(|i| reached[p.pc[j] + i])).collect(),
             fixed: None,
+            lists,
         }
     }
 }
@@ -767,9 +846,17 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         // (one group alone: with several, their reach is nearly every place's, and the
         // groups would share flat's rows: each its whole pass, or its fixed row)
         let one = groups.len() == 1;
-        let reach: Vec<Reach> = groups.iter().zip(locs).map(|(g, l)| Reach::new(p, g, l, layout, one)).collect();
+        let reach: Vec<Reach<N>> = groups.iter().zip(locs).map(|(g, l)| Reach::new(p, g, l, layout, one)).collect();
         // (every reach's rows within rhs (m rows) and s (n coordinates): Solver::solve_in)
         assert!(reach.iter().all(|r| r.rows.iter().all(|&(i, c)| (i as usize) < m && (c as usize) < n)));
+        // (and every list's columns within n and rows within m, rhs's and rhs3's: `at` reads them unchecked)
+        assert!(reach.iter().all(|r| {
+            let fits = |(c, row): (usize, usize)| c < n && row < m;
+            r.lists.pins.iter().all(|x| fits(x.bounds())) && r.lists.slides.iter().all(|x| fits(x.bounds()))
+        }));
+        assert!(groups.iter().all(|g| g.phi_pins.iter().all(|x| x.bounds().0 < n && x.bounds().1 < m)));
+        let pk = vec![PinKept::default(); reach.iter().map(|r| r.lists.pins.len()).max().unwrap_or(0)];
+        let sk = vec![SlideKept::default(); reach.iter().map(|r| r.lists.slides.len()).max().unwrap_or(0)];
         let room = LaneRoom {
             np,
             levels,
@@ -794,6 +881,8 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             kd: vec![[0.0; N]; groups.iter().map(|g| g.kept.1).max().unwrap_or(0)],
             solver: Solver::new(n, m, 3 * np >= 2 * n && n <= INVERSE),
             reach,
+            pk,
+            sk,
         };
         let mut at = Self::enter(p, groups, locs, layout, room);
         for g in 0..groups.len() {
@@ -884,6 +973,10 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             |k: usize| if pieces.is_empty() { &[][..] } else { &pieces[kin.row_off[k]..kin.row_off[k + 1]] };
         let n = kin.n;
         let q = x[0];
+        // (the lists' kernels read the stages and e unchecked: `Lists`)
+        assert!(
+            e.len() >= n && x.len() >= levels && (levels < 2 || x[1].len() >= n) && (levels < 3 || x[2].len() >= n)
+        );
         let ratio = if pivot > 0.0 { pivot } else { layout.pivots(f).0 };
         if self.room.lanes0 {
             for j in 0..n {
@@ -906,12 +999,12 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             let shared = Shared { functions: &model.functions, outlines: &model.outlines };
             // S1: -Phi_p, Phi's tangent at q' = 0, non-zero in the moved families' rows alone
             self.room.rhs.fill([0.0; N]);
-            for (&k, hand) in group.moved.iter().zip(&group.hands) {
+            for (k, hand) in group.phi_rest.iter().copied() {
                 let rows = model.row_off[k]..model.row_off[k + 1];
                 let family = &model.families[k];
                 let keep = match hand {
                     Some(i) if levels > 1 => {
-                        let f = &group.direct[*i];
+                        let f = &group.direct[i];
                         // SAFETY: every Direct's ranges within kv, kd (asserted in `new`)
                         unsafe {
                             Kept::of(
@@ -930,6 +1023,8 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     }
                 }
             }
+            // SAFETY: every PhiPin's columns below n (e's: asserted above) and rows below m (asserted in `new`)
+            unsafe { phi_pins(&group.phi_pins, e, &mut self.room.rhs) };
             self.room.solver.solve_in(layout, f, &self.room.rhs, count, &mut self.room.flat[..n], reach);
             let lanes = !group.live.is_empty();
             if lanes {
@@ -957,7 +1052,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 }
                 products(&group.entries, &self.room.jl, &x[1..], &mut self.room.rhs, &mut self.room.rhs3);
                 let (s, rhs, rhs3) = (&self.room.flat[..n], &mut self.room.rhs, &mut self.room.rhs3);
-                for (f, _) in group.direct.iter().zip(&reach.direct).filter(|x| *x.1) {
+                for f in reach.direct.iter().map(|&i| &group.direct[i]) {
                     // SAFETY: every Direct's ranges within kv, kd and its rows within rhs, rhs3 (asserted in `new`)
                     // (what its phi_tangent kept, `held`, read)
                     let (r2, r3, keep) = unsafe {
@@ -976,6 +1071,26 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     };
                     let d = Dir { at: At { q, e, t }, qd: x[1], s, sd: &[], moved: f.moved, drives: group.drives };
                     model.families[f.k].jac_products(&d, &shared, &x[1..], r2, r3, keep);
+                }
+                // the revolute joints and point-on-line constraints, one list each (`Lists`)
+                let (lists, qd, qdd) = (&reach.lists, x[1], if levels > 2 { x[2] } else { &[][..] });
+                let (pk, sk) = (&mut self.room.pk, &mut self.room.sk);
+                let (pins, slides) = (lists.pins.split_at(lists.pins_moved), lists.slides.split_at(lists.slides_moved));
+                // SAFETY: every list's columns below n (which q, e, s, qd and qdd hold: asserted above) and rows
+                // below m (rhs's and rhs3's), pk and sk as long as the longest lists (asserted in `new`)
+                unsafe {
+                    if levels > 2 {
+                        pins_products::<N, false, true>(pins.0, e, s, qd, qdd, rhs, rhs3, pk);
+                        pins_products::<N, true, true>(pins.1, e, s, qd, qdd, rhs, rhs3, &mut pk[pins.0.len()..]);
+                        slides_products::<N, false, true>(slides.0, q, e, s, qd, qdd, rhs, rhs3, sk);
+                        let sk = &mut sk[slides.0.len()..];
+                        slides_products::<N, true, true>(slides.1, q, e, s, qd, qdd, rhs, rhs3, sk);
+                    } else {
+                        pins_products::<N, false, false>(pins.0, e, s, qd, qdd, rhs, rhs3, pk);
+                        pins_products::<N, true, false>(pins.1, e, s, qd, qdd, rhs, rhs3, pk);
+                        slides_products::<N, false, false>(slides.0, q, e, s, qd, qdd, rhs, rhs3, sk);
+                        slides_products::<N, true, false>(slides.1, q, e, s, qd, qdd, rhs, rhs3, sk);
+                    }
                 }
                 self.room.solver.solve_in(layout, f, &self.room.rhs, count, &mut self.room.flat[n..2 * n], reach);
                 if lanes {
@@ -999,7 +1114,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     }
                 }
                 let (s, sd) = (&self.room.flat[..n], &self.room.flat[n..2 * n]);
-                for (f, _) in group.direct.iter().zip(&reach.direct).filter(|x| *x.1) {
+                for f in reach.direct.iter().map(|&i| &group.direct[i]) {
                     let d = Dir { at: At { q, e, t }, qd: x[1], s, sd, moved: f.moved, drives: group.drives };
                     // SAFETY: as in (S2)
                     let (v, kd, r3) = unsafe {
@@ -1008,6 +1123,12 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                         (v, kd, self.room.rhs3.get_unchecked_mut(f.rows.clone()))
                     };
                     model.families[f.k].gamma_tangent(&d, &shared, r3, Kept::of(v, kd));
+                }
+                let lists = &reach.lists;
+                // SAFETY: as in (S2), sd n long
+                unsafe {
+                    pins_gamma(&lists.pins, x[1], sd, &mut self.room.rhs3, &self.room.pk);
+                    slides_gamma(&lists.slides, x[1], sd, &mut self.room.rhs3, &self.room.sk);
                 }
                 self.room.solver.solve_in(layout, f, &self.room.rhs3, count, &mut self.room.flat[2 * n..3 * n], reach);
             }
@@ -1179,7 +1300,7 @@ impl<const N: usize> Solver<N> {
         rhs: &[[f64; N]],
         count: usize,
         out: &mut [[f64; N]],
-        reach: &Reach,
+        reach: &Reach<N>,
     ) {
         let Some(program) = &reach.program else { return self.solve(layout, f, rhs, count, out) };
         if let (false, Shape::Triangular(_), Some(_)) = (self.use_inverse, &layout.shape, &f.fixed[0]) {
