@@ -396,10 +396,8 @@ impl<'a> Instants<'a> {
 struct Group<const N: usize> {
     model: Kin<Lanes<N>>,
     count: usize,
-    /// the moved families (where a function's or an outline's table
-    /// moves, every family that reads it: `reads`)
-    moved: Vec<usize>,
-    /// those of them whose nu may be non-zero (none where no function
+    /// of the moved families (where a function's or an outline's table
+    /// moves, every family that reads it: `reads`), those whose nu may be non-zero (none where no function
     /// but a constant moves: a constant's derivatives are zero)
     timed: Vec<usize>,
     /// whether a function that is not a constant moves (Dir::drives)
@@ -411,11 +409,10 @@ struct Group<const N: usize> {
     /// evaluated over the lanes
     direct: Vec<Direct>,
     live: Vec<usize>,
-    /// per moved family, its place in `direct` where its phi_tangent
-    /// keeps what its jac_products reads (Family::hands, Direct's `held`)
-    hands: Vec<Option<usize>>,
     /// (S1)'s kernels: the moved revolute families' joints in one list
-    /// (`PhiPin`), and the other moved families with their `hands`
+    /// (`PhiPin`), and the other moved families, each with its place in
+    /// `direct` where its phi_tangent keeps what its jac_products reads
+    /// (Family::hands, Direct's `held`)
     phi_pins: Vec<PhiPin<N>>,
     phi_rest: Vec<(usize, Option<usize>)>,
     /// the moved families without direct kernels (Phi_p over the lanes)
@@ -465,7 +462,7 @@ impl<const N: usize> Group<N> {
                 Direct { k, rows, moved, held, v: v - vn..v, d: d - dn..d }
             })
             .collect();
-        let hands = moved.iter().map(|&k| direct.iter().position(|f| f.k == k && f.held)).collect();
+        let hands: Vec<Option<usize>> = moved.iter().map(|&k| direct.iter().position(|f| f.k == k && f.held)).collect();
         let moved_lanes = moved.iter().any(|&k| !kin.families[k].direct());
         let (mut phi_pins, mut phi_rest) = (Vec::new(), Vec::new());
         for (&k, &hand) in moved.iter().zip(&hands) {
@@ -479,12 +476,10 @@ impl<const N: usize> Group<N> {
         Ok(Group {
             model,
             count,
-            moved,
             timed,
             drives,
             direct,
             live,
-            hands,
             phi_pins,
             phi_rest,
             moved_lanes,
@@ -1411,7 +1406,8 @@ mod tests {
         let direct: Vec<(usize, bool)> = group.direct.iter().map(|f| (f.k, f.moved)).collect();
         assert_eq!((&direct[..], &group.live[..]), (&[(0, true)][..], &[1][..]));
         // the probe over both (as it serves any family over the lanes)
-        let (live, all) = probe(&group.model, &group.moved, &pattern);
+        // (the moved families: the revolute, by its si, and the distance, which reads the moved cubic)
+        let (live, all) = probe(&group.model, &[0, 1], &pattern);
         assert_eq!(live, [0, 1]);
         assert!(all.len() < pattern.len() && !all.is_empty(), "{all:?}");
         assert_eq!(group.entries.len(), 6);
