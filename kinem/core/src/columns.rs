@@ -40,16 +40,6 @@ impl<'a> Columns<'a> {
         Columns { pc, from, stages }
     }
 
-    /// What `new` made from src (its layout's own parts, for a kept room:
-    /// crate::sensitivity::Room), and `with` them again over pc.
-    pub fn parts(self) -> (Vec<(usize, usize)>, usize) {
-        (self.from, self.stages)
-    }
-
-    pub fn with(pc: &'a [usize], (from, stages): (Vec<(usize, usize)>, usize)) -> Self {
-        Columns { pc, from, stages }
-    }
-
     /// One instant's columns: x[s] its stage s (n each), pts scratch (2
     /// stages points), out its W columns.
     pub fn row<S: Real>(&self, x: &[&[S]], local: &[Complex<S>], pts: &mut [S], out: &mut [S]) {

@@ -30,7 +30,9 @@
 //! whose coordinates is reached are skipped. A group that shifts the whole
 //! mechanism along x or y (a ground's value) has s = that shift and
 //! sd = sdd = 0 at every instant: its row is written once.
-use crate::families::{At, Dir, Kept, Shared};
+use crate::families::line::{slides_gamma, slides_products, Slide, SlideKept};
+use crate::families::revolute::{phi_pins, pins_gamma, pins_products, PhiPin, Pin, PinKept};
+use crate::families::{At, Dir, Family, Kept, Shared};
 use crate::lu::{Factors, Layout, Shape};
 use crate::model::Kin;
 use crate::outline::Piece;
@@ -274,11 +276,22 @@ enum Rooms {
     Eight(LaneRoom<8>),
 }
 
-/// `Lanewise`'s own fields (its buffers and figures made from the set-up).
+/// `Lanewise`'s own fields (its buffers and figures made from the set-up),
+/// held by a run as one value (`Lanewise::room`) and moved out whole by
+/// `Lanewise::leave`. `levels`: the stages (1 to 3); `turned`: every named
+/// point's body angle an angle column (its e^{i phi} is the march's e, no
+/// sine and cosine taken again); `lanes0`: whether any group has a moved
+/// family without direct kernels (its Phi_p over the lanes at q0, e0);
+/// `flat`: s, sd, sdd (n each) and the points' tangents, a row per
+/// coordinate or point value; `gather`: each column's row there;
+/// `triples`: the columns (c, its row i) whose next two columns are rows
+/// i + 1, i + 2 (a body's x, y, phi at one level), `singles` the others
+/// (N = 1's gather: three columns per copy); `kv`, `kd`: what the direct
+/// families' jac_products keep for their gamma_tangent; `reach`: per
+/// group, what its parameters reach (`Reach`).
 struct LaneRoom<const N: usize> {
     np: usize,
     levels: usize,
-    columns: (Vec<(usize, usize)>, usize),
     w: usize,
     turned: bool,
     lanes0: bool,
@@ -299,7 +312,10 @@ struct LaneRoom<const N: usize> {
     kv: Vec<C64>,
     kd: Vec<[f64; N]>,
     solver: Solver<N>,
-    reach: Vec<Reach>,
+    reach: Vec<Reach<N>>,
+    /// what the lists' (S2) kernels keep for their (S3) kernels (`Lists`)
+    pk: Vec<PinKept<N>>,
+    sk: Vec<SlideKept<N>>,
 }
 
 impl<'a> Instants<'a> {
@@ -380,10 +396,8 @@ impl<'a> Instants<'a> {
 struct Group<const N: usize> {
     model: Kin<Lanes<N>>,
     count: usize,
-    /// the moved families (where a function's or an outline's table
-    /// moves, every family that reads it: `reads`)
-    moved: Vec<usize>,
-    /// those of them whose nu may be non-zero (none where no function
+    /// of the moved families (where a function's or an outline's table
+    /// moves, every family that reads it: `reads`), those whose nu may be non-zero (none where no function
     /// but a constant moves: a constant's derivatives are zero)
     timed: Vec<usize>,
     /// whether a function that is not a constant moves (Dir::drives)
@@ -395,9 +409,12 @@ struct Group<const N: usize> {
     /// evaluated over the lanes
     direct: Vec<Direct>,
     live: Vec<usize>,
-    /// per moved family, its place in `direct` where its phi_tangent
-    /// keeps what its jac_products reads (Family::hands, Direct's `held`)
-    hands: Vec<Option<usize>>,
+    /// (S1)'s kernels: the moved revolute families' joints in one list
+    /// (`PhiPin`), and the other moved families, each with its place in
+    /// `direct` where its phi_tangent keeps what its jac_products reads
+    /// (Family::hands, Direct's `held`)
+    phi_pins: Vec<PhiPin<N>>,
+    phi_rest: Vec<(usize, Option<usize>)>,
     /// the moved families without direct kernels (Phi_p over the lanes)
     moved_lanes: bool,
     /// the Jacobian's entries (row, column, place) of the `live` families
@@ -445,19 +462,26 @@ impl<const N: usize> Group<N> {
                 Direct { k, rows, moved, held, v: v - vn..v, d: d - dn..d }
             })
             .collect();
-        let hands = moved.iter().map(|&k| direct.iter().position(|f| f.k == k && f.held)).collect();
+        let hands: Vec<Option<usize>> = moved.iter().map(|&k| direct.iter().position(|f| f.k == k && f.held)).collect();
         let moved_lanes = moved.iter().any(|&k| !kin.families[k].direct());
+        let (mut phi_pins, mut phi_rest) = (Vec::new(), Vec::new());
+        for (&k, &hand) in moved.iter().zip(&hands) {
+            match &model.families[k] {
+                Family::Revolute(r) => phi_pins.extend(r.phi_pins(model.row_off[k])),
+                _ => phi_rest.push((k, hand)),
+            }
+        }
         let (seeds, shift) = moving(&model, &moved, drives || outlines, group.len());
         let count = group.len();
         Ok(Group {
             model,
             count,
-            moved,
             timed,
             drives,
             direct,
             live,
-            hands,
+            phi_pins,
+            phi_rest,
             moved_lanes,
             entries,
             kept: (v, d),
@@ -629,42 +653,97 @@ fn moving<const N: usize>(
 /// `program`: the solve restricted to them (Program::reached; None: every
 /// place reached, or a layout without the blocks' order), `rows` the
 /// rows copied into it (row, place), `zero` the places a full solve (the
-/// fallback's, the inverse's) leaves to be zeroed; `direct`: per direct
-/// family of the group, whether its (S2), (S3) kernels run (its rows'
-/// right sides are zero otherwise); `points`: the named points taken (on
+/// fallback's, the inverse's) leaves to be zeroed; `direct`: the direct
+/// families of the group (their places in its `direct`) whose (S2), (S3)
+/// kernels run (the others' rows' right sides are zero) and are not in
+/// `lists`; `points`: the named points taken (on
 /// a reached body, or their local coordinates moved); `fixed`: the
 /// group's whole output where its shift is known (`moving`) and no named
-/// point's local coordinates move.
-struct Reach {
+/// point's local coordinates move. `lists`: the revolute and line
+/// families' constraints whose (S2), (S3) kernels run, as one list per
+/// kind (`Lists`; their families not in `direct`), those with a row where
+/// the parameters reach (`from`: the others' right sides are zero) or all.
+struct Reach<const N: usize> {
     program: Option<Program>,
     rows: Vec<(u32, u32)>,
     zero: Vec<u32>,
-    direct: Vec<bool>,
+    direct: Vec<usize>,
     points: Vec<usize>,
     fixed: Option<Vec<f64>>,
+    lists: Lists<N>,
 }
 
-impl Reach {
-    fn new<const N: usize>(
-        p: &Prepared,
-        group: &Group<N>,
-        locs: &[Complex<Lanes<N>>],
-        layout: &Layout,
-        partial: bool,
-    ) -> Self {
+/// The revolute joints (`Pin`) and the point-on-line constraints (`Slide`)
+/// of a group whose kernels run, in one list per kind over every family
+/// of it: the first `pins_moved` joints read no table tangent, the rest
+/// do (`Pin::moving`); the first `slides_moved` constraints are of
+/// unmoved families, the rest of moved ones.
+struct Lists<const N: usize> {
+    pins: Vec<Pin<N>>,
+    pins_moved: usize,
+    slides: Vec<Slide<N>>,
+    slides_moved: usize,
+}
+
+impl<const N: usize> Lists<N> {
+    /// The lists of the group's direct families that run (`direct`, set
+    /// false for those taken here), each constraint of them with
+    /// `take(row)` true for one of its rows.
+    fn new(group: &Group<N>, direct: &mut [bool], take: impl Fn(usize) -> bool) -> Self {
+        let (mut pins, mut moving, mut slides, mut moved) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for (f, run) in group.direct.iter().zip(direct.iter_mut()).filter(|x| *x.1) {
+            let row0 = f.rows.start;
+            match &group.model.families[f.k] {
+                Family::Revolute(r) => {
+                    for p in r.pins(row0, f.moved, |c| take(row0 + 2 * c) || take(row0 + 2 * c + 1)) {
+                        if p.moving() {
+                            moving.push(p);
+                        } else {
+                            pins.push(p);
+                        }
+                    }
+                }
+                Family::Line(l) => {
+                    let per = l.per_row();
+                    let taken = l.slides(row0, |c| (0..per).any(|i| take(row0 + per * c + i)));
+                    if f.moved {
+                        moved.extend(taken);
+                    } else {
+                        slides.extend(taken);
+                    }
+                }
+                _ => continue,
+            }
+            *run = false;
+        }
+        let (pins_moved, slides_moved) = (pins.len(), slides.len());
+        pins.extend(moving);
+        slides.extend(moved);
+        Lists { pins, pins_moved, slides, slides_moved }
+    }
+}
+
+impl<const N: usize> Reach<N> {
+    fn new(p: &Prepared, group: &Group<N>, locs: &[Complex<Lanes<N>>], layout: &Layout, partial: bool) -> Self {
         let (n, m, points) = (p.kin.n, p.kin.m, p.points);
         let local = |j: usize| locs[j].re.d.iter().chain(&locs[j].im.d).any(|&x| x != 0.0);
-        let all = Reach {
-            program: None,
-            rows: Vec::new(),
-            zero: Vec::new(),
-            direct: vec![true; group.direct.len()],
-            points: (0..points).collect(),
-            fixed: None,
+        let all = || {
+            let mut direct = vec![true; group.direct.len()];
+            let lists = Lists::new(group, &mut direct, |_| true);
+            let direct = (0..direct.len()).filter(|&i| direct[i]).collect();
+            Reach {
+                program: None,
+                rows: Vec::new(),
+                zero: Vec::new(),
+                direct,
+                points: (0..points).collect(),
+                fixed: None,
+                lists,
+            }
         };
         let t = match &layout.shape {
             Shape::Triangular(t) if partial && t.into.len() == m && m == n && t.program.positions == n => t,
-            _ => return all,
+            _ => return all(),
         };
         let place = |r: usize| t.into[r] as usize;
         let mut from = vec![false; n];
@@ -679,15 +758,21 @@ impl Reach {
             from = more;
         };
         if reached.iter().all(|&r| r) {
-            return all;
+            return all();
         }
+        // (a constraint none of whose rows is in `from` has no seed and reads no reached coordinate: its
+        // kernels add zeros of either sign to its rows' +0, which stay +0, as a family's left out)
+        let mut direct: Vec<bool> = group.direct.iter().map(|f| f.rows.clone().any(|r| from[place(r)])).collect();
+        let lists = Lists::new(group, &mut direct, |r| from[place(r)]);
+        let direct = (0..direct.len()).filter(|&i| direct[i]).collect();
         Reach {
             program: Some(program),
             rows: (0..m).filter(|&r| reached[place(r)]).map(|r| (r as u32, place(r) as u32)).collect(),
             zero: (0..n).filter(|&c| !reached[c]).map(|c| c as u32).collect(),
-            direct: group.direct.iter().map(|f| f.rows.clone().any(|r| from[place(r)])).collect(),
+            direct,
             points: (0..points).filter(|&j| local(j) || (0..3).any(|i| reached[p.pc[j] + i])).collect(),
             fixed: None,
+            lists,
         }
     }
 }
@@ -704,43 +789,13 @@ impl Reach {
 pub struct Lanewise<'a, const N: usize> {
     kin: &'a Kin,
     layout: &'a Layout,
-    np: usize,
-    levels: usize,
     groups: &'a [Group<N>],
+    /// the named points' columns over the set-up's pc (their layout of
+    /// `levels` stages: Columns::point_tangents)
     columns: crate::columns::Columns<'a>,
-    w: usize,
     locs: &'a [Vec<Complex<Lanes<N>>>],
-    /// every named point's body angle an angle column: its e^{i phi} is
-    /// the march's e (no sine and cosine taken again)
-    turned: bool,
-    /// whether any group has a moved family without direct kernels (its
-    /// Phi_p over the lanes at q0, e0)
-    lanes0: bool,
-    /// s, sd, sdd (n each) and the points' tangents, a row per coordinate
-    /// or point value; `gather`: each column's row there; `triples`: the
-    /// columns (c, its row i) whose next two columns are rows i + 1, i + 2
-    /// (a body's x, y, phi at one level), `singles` the others (N = 1's
-    /// gather: three columns per copy)
-    flat: Vec<[f64; N]>,
-    gather: Vec<usize>,
-    triples: Vec<(usize, usize)>,
-    singles: Vec<(usize, usize)>,
-    buf: Vec<[f64; N]>,
-    q0: Vec<Lanes<N>>,
-    e0: Vec<Complex<Lanes<N>>>,
-    ql: Vec<Lanes<N>>,
-    qdl: Vec<Lanes<N>>,
-    el: Vec<Complex<Lanes<N>>>,
-    rl: Vec<Lanes<N>>,
-    jl: Vec<Lanes<N>>,
-    rhs: Vec<[f64; N]>,
-    rhs3: Vec<[f64; N]>,
-    /// what the direct families' jac_products keep for their gamma_tangent
-    kv: Vec<C64>,
-    kd: Vec<[f64; N]>,
-    solver: Solver<N>,
-    /// per group, what its parameters reach (`Reach`)
-    reach: Vec<Reach>,
+    /// its own buffers and figures (`LaneRoom`), moved in and out whole
+    room: LaneRoom<N>,
 }
 
 impl<'a, const N: usize> Lanewise<'a, N> {
@@ -786,18 +841,21 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         // (one group alone: with several, their reach is nearly every place's, and the
         // groups would share flat's rows: each its whole pass, or its fixed row)
         let one = groups.len() == 1;
-        let reach: Vec<Reach> = groups.iter().zip(locs).map(|(g, l)| Reach::new(p, g, l, layout, one)).collect();
+        let reach: Vec<Reach<N>> = groups.iter().zip(locs).map(|(g, l)| Reach::new(p, g, l, layout, one)).collect();
         // (every reach's rows within rhs (m rows) and s (n coordinates): Solver::solve_in)
         assert!(reach.iter().all(|r| r.rows.iter().all(|&(i, c)| (i as usize) < m && (c as usize) < n)));
-        let mut at = Lanewise {
-            kin,
-            layout,
+        // (and every list's columns within n and rows within m, rhs's and rhs3's: `at` reads them unchecked)
+        assert!(reach.iter().all(|r| {
+            let fits = |(c, row): (usize, usize)| c < n && row < m;
+            r.lists.pins.iter().all(|x| fits(x.bounds())) && r.lists.slides.iter().all(|x| fits(x.bounds()))
+        }));
+        assert!(groups.iter().all(|g| g.phi_pins.iter().all(|x| x.bounds().0 < n && x.bounds().1 < m)));
+        let pk = vec![PinKept::default(); reach.iter().map(|r| r.lists.pins.len()).max().unwrap_or(0)];
+        let sk = vec![SlideKept::default(); reach.iter().map(|r| r.lists.slides.len()).max().unwrap_or(0)];
+        let room = LaneRoom {
             np,
             levels,
-            groups,
-            columns: crate::columns::Columns::new(n, levels, src, pc),
             w,
-            locs,
             turned: pc.iter().all(|&c| kin.angles.contains(&(c + 2))),
             lanes0: groups.iter().any(|g| g.moved_lanes),
             flat: vec![[0.0; N]; flat],
@@ -818,7 +876,10 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             kd: vec![[0.0; N]; groups.iter().map(|g| g.kept.1).max().unwrap_or(0)],
             solver: Solver::new(n, m, 3 * np >= 2 * n && n <= INVERSE),
             reach,
+            pk,
+            sk,
         };
+        let mut at = Self::enter(p, groups, locs, layout, room);
         for g in 0..groups.len() {
             at.fix(g);
         }
@@ -830,28 +891,28 @@ impl<'a, const N: usize> Lanewise<'a, N> {
     /// sd = sdd = 0, the points' tangents from them (the shift's x and y;
     /// zero velocities and accelerations, whatever the instant's values).
     fn fix(&mut self, g: usize) {
-        let (group, n, w, levels) = (&self.groups[g], self.kin.n, self.w, self.levels);
+        let (group, n, w, levels) = (&self.groups[g], self.kin.n, self.room.w, self.room.levels);
         let Some(shift) = &group.shift else { return };
         let locs = &self.locs[g];
         if locs.iter().any(|z| z.re.d.iter().chain(&z.im.d).any(|&x| x != 0.0)) {
             return;
         }
-        self.flat.fill([0.0; N]);
-        self.flat[..n].copy_from_slice(shift);
+        self.room.flat.fill([0.0; N]);
+        self.room.flat[..n].copy_from_slice(shift);
         let zeros = vec![0.0; n];
         let x = [&zeros[..], &zeros[..], &zeros[..]];
         let all: Vec<usize> = (0..locs.len()).collect();
-        let (tangents, points) = self.flat.split_at_mut(3 * n);
+        let (tangents, points) = self.room.flat.split_at_mut(3 * n);
         let d: [&[[f64; N]]; 3] = [&tangents[..n], &tangents[n..2 * n], &tangents[2 * n..]];
         self.columns.point_tangents(&x[..levels], &d[..levels], locs, |_| C64::new(1.0, 0.0), &all, points);
         let mut row = vec![0.0; group.count * w];
         for (lane, to) in row.chunks_mut(w).enumerate() {
-            for (o, &i) in to.iter_mut().zip(&self.gather) {
-                *o = self.flat[i][lane];
+            for (o, &i) in to.iter_mut().zip(&self.room.gather) {
+                *o = self.room.flat[i][lane];
             }
         }
-        self.flat.fill([0.0; N]);
-        self.reach[g].fixed = Some(row);
+        self.room.flat.fill([0.0; N]);
+        self.room.reach[g].fixed = Some(row);
     }
 
     /// A run in the room a run of the same set-up, layout and levels left
@@ -863,127 +924,19 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         layout: &'a Layout,
         room: LaneRoom<N>,
     ) -> Self {
-        let LaneRoom {
-            np,
-            levels,
-            columns,
-            w,
-            turned,
-            lanes0,
-            flat,
-            gather,
-            triples,
-            singles,
-            buf,
-            q0,
-            e0,
-            ql,
-            qdl,
-            el,
-            rl,
-            jl,
-            rhs,
-            rhs3,
-            kv,
-            kd,
-            solver,
-            reach,
-        } = room;
-        Lanewise {
-            kin: &p.kin,
-            layout,
-            np,
-            levels,
-            groups,
-            columns: crate::columns::Columns::with(&p.pc, columns),
-            w,
-            locs,
-            turned,
-            lanes0,
-            flat,
-            gather,
-            triples,
-            singles,
-            buf,
-            q0,
-            e0,
-            ql,
-            qdl,
-            el,
-            rl,
-            jl,
-            rhs,
-            rhs3,
-            kv,
-            kd,
-            solver,
-            reach,
-        }
+        // (the points' columns alone: no column sources, nothing allocated)
+        let columns = crate::columns::Columns::new(p.kin.n, room.levels, &[], &p.pc);
+        Lanewise { kin: &p.kin, layout, groups, columns, locs, room }
     }
 
     /// The run's own fields, for `enter`.
     fn leave(self) -> LaneRoom<N> {
-        let Lanewise {
-            kin: _,
-            layout: _,
-            np,
-            levels,
-            groups: _,
-            columns,
-            w,
-            locs: _,
-            turned,
-            lanes0,
-            flat,
-            gather,
-            triples,
-            singles,
-            buf,
-            q0,
-            e0,
-            ql,
-            qdl,
-            el,
-            rl,
-            jl,
-            rhs,
-            rhs3,
-            kv,
-            kd,
-            solver,
-            reach,
-        } = self;
-        LaneRoom {
-            np,
-            levels,
-            columns: columns.parts(),
-            w,
-            turned,
-            lanes0,
-            flat,
-            gather,
-            triples,
-            singles,
-            buf,
-            q0,
-            e0,
-            ql,
-            qdl,
-            el,
-            rl,
-            jl,
-            rhs,
-            rhs3,
-            kv,
-            kd,
-            solver,
-            reach,
-        }
+        self.room
     }
 
     /// The columns per instant and parameter (P W: an instant's row of data).
     pub fn width(&self) -> usize {
-        self.np * self.w
+        self.room.np * self.room.w
     }
 
     /// One instant: x its stages (q, qd, qdd: `levels` of n), e e^{i q} at
@@ -1008,91 +961,100 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         pivot: f64,
         out: &mut [f64],
     ) -> f64 {
-        let Lanewise { kin, layout, levels, w, .. } = *self;
+        let (kin, layout, levels, w) = (self.kin, self.layout, self.room.levels, self.room.w);
         assert!(pieces.is_empty() || pieces.len() >= kin.m);
         // a family's pieces, at its rows (row_off ascends to m: Kin::new)
         let pieces_of =
             |k: usize| if pieces.is_empty() { &[][..] } else { &pieces[kin.row_off[k]..kin.row_off[k + 1]] };
         let n = kin.n;
         let q = x[0];
+        // (the lists' kernels read the stages and e unchecked: `Lists`)
+        assert!(
+            e.len() >= n && x.len() >= levels && (levels < 2 || x[1].len() >= n) && (levels < 3 || x[2].len() >= n)
+        );
         let ratio = if pivot > 0.0 { pivot } else { layout.pivots(f).0 };
-        if self.lanes0 {
+        if self.room.lanes0 {
             for j in 0..n {
-                self.q0[j] = Lanes::<N>::c(q[j]);
+                self.room.q0[j] = Lanes::<N>::c(q[j]);
             }
             for &j in &kin.angles {
-                self.e0[j] = Complex::new(Lanes::<N>::c(e[j].re), Lanes::<N>::c(e[j].im));
+                self.room.e0[j] = Complex::new(Lanes::<N>::c(e[j].re), Lanes::<N>::c(e[j].im));
             }
         }
-        let at0 = At { q: &self.q0, e: &self.e0, t };
+        let at0 = At { q: &self.room.q0, e: &self.room.e0, t };
         let atf = At { q, e, t };
-        self.solver.prepare(layout, f);
+        self.room.solver.prepare(layout, f);
         for (g, group) in self.groups.iter().enumerate() {
             let (model, count) = (&group.model, group.count);
-            let reach = &self.reach[g];
+            let reach = &self.room.reach[g];
             if let Some(row) = &reach.fixed {
                 out[g * N * w..(g * N + count) * w].copy_from_slice(row);
                 continue;
             }
             let shared = Shared { functions: &model.functions, outlines: &model.outlines };
             // S1: -Phi_p, Phi's tangent at q' = 0, non-zero in the moved families' rows alone
-            self.rhs.fill([0.0; N]);
-            for (&k, hand) in group.moved.iter().zip(&group.hands) {
+            self.room.rhs.fill([0.0; N]);
+            for (k, hand) in group.phi_rest.iter().copied() {
                 let rows = model.row_off[k]..model.row_off[k + 1];
                 let family = &model.families[k];
                 let keep = match hand {
                     Some(i) if levels > 1 => {
-                        let f = &group.direct[*i];
+                        let f = &group.direct[i];
                         // SAFETY: every Direct's ranges within kv, kd (asserted in `new`)
                         unsafe {
-                            Kept::of(self.kv.get_unchecked_mut(f.v.clone()), self.kd.get_unchecked_mut(f.d.clone()))
+                            Kept::of(
+                                self.room.kv.get_unchecked_mut(f.v.clone()),
+                                self.room.kd.get_unchecked_mut(f.d.clone()),
+                            )
                         }
                     }
                     _ => Kept::none(),
                 };
                 let keep = Kept { pieces: if hand.is_some() { pieces_of(k) } else { &[] }, ..keep };
-                if !family.phi_tangent(&atf, &shared, &mut self.rhs[rows.clone()], keep) {
-                    family.phi(&at0, &shared, &mut self.rl[rows.clone()]);
-                    for (r, x) in self.rhs[rows.clone()].iter_mut().zip(&self.rl[rows]) {
+                if !family.phi_tangent(&atf, &shared, &mut self.room.rhs[rows.clone()], keep) {
+                    family.phi(&at0, &shared, &mut self.room.rl[rows.clone()]);
+                    for (r, x) in self.room.rhs[rows.clone()].iter_mut().zip(&self.room.rl[rows]) {
                         *r = x.d.map(|v| -v);
                     }
                 }
             }
-            self.solver.solve_in(layout, f, &self.rhs, count, &mut self.flat[..n], reach);
+            // SAFETY: every PhiPin's columns below n (e's: asserted above) and rows below m (asserted in `new`)
+            unsafe { phi_pins(&group.phi_pins, e, &mut self.room.rhs) };
+            self.room.solver.solve_in(layout, f, &self.room.rhs, count, &mut self.room.flat[..n], reach);
             let lanes = !group.live.is_empty();
             if lanes {
                 // q with tangent s, and e^{i q} with its tangent (Real::sin, cos)
                 for j in 0..n {
-                    self.ql[j] = Lanes::of(q[j], self.flat[j]);
+                    self.room.ql[j] = Lanes::of(q[j], self.room.flat[j]);
                 }
                 for &j in &kin.angles {
-                    self.el[j] = turned(e[j], self.flat[j]);
+                    self.room.el[j] = turned(e[j], self.room.flat[j]);
                 }
             }
-            let at = At { q: &self.ql, e: &self.el, t };
+            let at = At { q: &self.room.ql, e: &self.room.el, t };
             if levels > 1 {
                 // S2: nu_p - D(J) qd, D(J) the Jacobian's tangent at q' = s
                 for &k in &group.live {
-                    model.families[k].jac(&at, &shared, &mut self.jl[model.entry_off[k]..model.entry_off[k + 1]]);
+                    model.families[k].jac(&at, &shared, &mut self.room.jl[model.entry_off[k]..model.entry_off[k + 1]]);
                 }
-                self.rhs.fill([0.0; N]);
+                self.room.rhs.fill([0.0; N]);
                 for &k in &group.timed {
                     let rows = model.row_off[k]..model.row_off[k + 1];
-                    model.families[k].nu(t, &shared, &mut self.rl[rows.clone()]);
-                    for (r, x) in self.rhs[rows.clone()].iter_mut().zip(&self.rl[rows]) {
+                    model.families[k].nu(t, &shared, &mut self.room.rl[rows.clone()]);
+                    for (r, x) in self.room.rhs[rows.clone()].iter_mut().zip(&self.room.rl[rows]) {
                         *r = x.d;
                     }
                 }
-                products(&group.entries, &self.jl, &x[1..], &mut self.rhs, &mut self.rhs3);
-                let (s, rhs, rhs3) = (&self.flat[..n], &mut self.rhs, &mut self.rhs3);
-                for (f, _) in group.direct.iter().zip(&reach.direct).filter(|x| *x.1) {
+                products(&group.entries, &self.room.jl, &x[1..], &mut self.room.rhs, &mut self.room.rhs3);
+                let (s, rhs, rhs3) = (&self.room.flat[..n], &mut self.room.rhs, &mut self.room.rhs3);
+                for f in reach.direct.iter().map(|&i| &group.direct[i]) {
                     // SAFETY: every Direct's ranges within kv, kd and its rows within rhs, rhs3 (asserted in `new`)
                     // (what its phi_tangent kept, `held`, read)
                     let (r2, r3, keep) = unsafe {
                         let keep = if levels > 2 || f.held {
                             Kept {
-                                v: self.kv.get_unchecked_mut(f.v.clone()),
-                                d: self.kd.get_unchecked_mut(f.d.clone()),
+                                v: self.room.kv.get_unchecked_mut(f.v.clone()),
+                                d: self.room.kd.get_unchecked_mut(f.d.clone()),
                                 held: f.held,
                                 pieces: if f.held { &[] } else { pieces_of(f.k) },
                             }
@@ -1105,10 +1067,30 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     let d = Dir { at: At { q, e, t }, qd: x[1], s, sd: &[], moved: f.moved, drives: group.drives };
                     model.families[f.k].jac_products(&d, &shared, &x[1..], r2, r3, keep);
                 }
-                self.solver.solve_in(layout, f, &self.rhs, count, &mut self.flat[n..2 * n], reach);
+                // the revolute joints and point-on-line constraints, one list each (`Lists`)
+                let (lists, qd, qdd) = (&reach.lists, x[1], if levels > 2 { x[2] } else { &[][..] });
+                let (pk, sk) = (&mut self.room.pk, &mut self.room.sk);
+                let (pins, slides) = (lists.pins.split_at(lists.pins_moved), lists.slides.split_at(lists.slides_moved));
+                // SAFETY: every list's columns below n (which q, e, s, qd and qdd hold: asserted above) and rows
+                // below m (rhs's and rhs3's), pk and sk as long as the longest lists (asserted in `new`)
+                unsafe {
+                    if levels > 2 {
+                        pins_products::<N, false, true>(pins.0, e, s, qd, qdd, rhs, rhs3, pk);
+                        pins_products::<N, true, true>(pins.1, e, s, qd, qdd, rhs, rhs3, &mut pk[pins.0.len()..]);
+                        slides_products::<N, false, true>(slides.0, q, e, s, qd, qdd, rhs, rhs3, sk);
+                        let sk = &mut sk[slides.0.len()..];
+                        slides_products::<N, true, true>(slides.1, q, e, s, qd, qdd, rhs, rhs3, sk);
+                    } else {
+                        pins_products::<N, false, false>(pins.0, e, s, qd, qdd, rhs, rhs3, pk);
+                        pins_products::<N, true, false>(pins.1, e, s, qd, qdd, rhs, rhs3, pk);
+                        slides_products::<N, false, false>(slides.0, q, e, s, qd, qdd, rhs, rhs3, sk);
+                        slides_products::<N, true, false>(slides.1, q, e, s, qd, qdd, rhs, rhs3, sk);
+                    }
+                }
+                self.room.solver.solve_in(layout, f, &self.room.rhs, count, &mut self.room.flat[n..2 * n], reach);
                 if lanes {
                     for j in 0..n {
-                        self.qdl[j] = Lanes::of(x[1][j], self.flat[n + j]);
+                        self.room.qdl[j] = Lanes::of(x[1][j], self.room.flat[n + j]);
                     }
                 }
             }
@@ -1116,33 +1098,40 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 // S3: D(gamma) (along q' = s, qd' = sd and the tables') - D(J) qdd
                 for &k in &group.live {
                     let rows = model.row_off[k]..model.row_off[k + 1];
-                    model.families[k].gamma(&at, &self.qdl, &shared, &mut self.rl[rows]);
+                    model.families[k].gamma(&at, &self.room.qdl, &shared, &mut self.room.rl[rows]);
                 }
                 for &k in &group.live {
                     let rows = model.row_off[k]..model.row_off[k + 1];
-                    for (r, x) in self.rhs3[rows.clone()].iter_mut().zip(&self.rl[rows]) {
+                    for (r, x) in self.room.rhs3[rows.clone()].iter_mut().zip(&self.room.rl[rows]) {
                         for l in 0..N {
                             r[l] += x.d[l];
                         }
                     }
                 }
-                let (s, sd) = (&self.flat[..n], &self.flat[n..2 * n]);
-                for (f, _) in group.direct.iter().zip(&reach.direct).filter(|x| *x.1) {
+                let (s, sd) = (&self.room.flat[..n], &self.room.flat[n..2 * n]);
+                for f in reach.direct.iter().map(|&i| &group.direct[i]) {
                     let d = Dir { at: At { q, e, t }, qd: x[1], s, sd, moved: f.moved, drives: group.drives };
                     // SAFETY: as in (S2)
                     let (v, kd, r3) = unsafe {
-                        let (v, kd) = (self.kv.get_unchecked_mut(f.v.clone()), self.kd.get_unchecked_mut(f.d.clone()));
-                        (v, kd, self.rhs3.get_unchecked_mut(f.rows.clone()))
+                        let (v, kd) =
+                            (self.room.kv.get_unchecked_mut(f.v.clone()), self.room.kd.get_unchecked_mut(f.d.clone()));
+                        (v, kd, self.room.rhs3.get_unchecked_mut(f.rows.clone()))
                     };
                     model.families[f.k].gamma_tangent(&d, &shared, r3, Kept::of(v, kd));
                 }
-                self.solver.solve_in(layout, f, &self.rhs3, count, &mut self.flat[2 * n..3 * n], reach);
+                let lists = &reach.lists;
+                // SAFETY: as in (S2), sd n long
+                unsafe {
+                    pins_gamma(&lists.pins, x[1], sd, &mut self.room.rhs3, &self.room.pk);
+                    slides_gamma(&lists.slides, x[1], sd, &mut self.room.rhs3, &self.room.sk);
+                }
+                self.room.solver.solve_in(layout, f, &self.room.rhs3, count, &mut self.room.flat[2 * n..3 * n], reach);
             }
             // every column's tangent: a coordinate's from s, sd, sdd, a named
             // point's from x, e and them (crate::columns)
-            let (tangents, points) = self.flat.split_at_mut(3 * n);
+            let (tangents, points) = self.room.flat.split_at_mut(3 * n);
             let d: [&[[f64; N]]; 3] = [&tangents[..n], &tangents[n..2 * n], &tangents[2 * n..]];
-            if self.turned {
+            if self.room.turned {
                 self.columns.point_tangents(x, &d[..levels], &self.locs[g], |c| e[c], &reach.points, points);
             } else {
                 self.columns.point_tangents(x, &d[..levels], &self.locs[g], |c| cis(q[c]), &reach.points, points);
@@ -1152,22 +1141,22 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 // SAFETY: every gather index below flat.len() (asserted in `new`), every column c
                 // (c + 2 of a triple) below w = to.len()
                 unsafe {
-                    for &(c, i) in &self.triples {
-                        let (x, o) = (self.flat.get_unchecked(i..i + 3), to.get_unchecked_mut(c..c + 3));
+                    for &(c, i) in &self.room.triples {
+                        let (x, o) = (self.room.flat.get_unchecked(i..i + 3), to.get_unchecked_mut(c..c + 3));
                         (o[0], o[1], o[2]) = (x[0][0], x[1][0], x[2][0]);
                     }
-                    for &(c, i) in &self.singles {
-                        *to.get_unchecked_mut(c) = self.flat.get_unchecked(i)[0];
+                    for &(c, i) in &self.room.singles {
+                        *to.get_unchecked_mut(c) = self.room.flat.get_unchecked(i)[0];
                     }
                 }
             } else {
                 // gathered once, then a lane at a time (fewer index checks)
-                for (b, &i) in self.buf.iter_mut().zip(&self.gather) {
+                for (b, &i) in self.room.buf.iter_mut().zip(&self.room.gather) {
                     // SAFETY: every gather index below flat.len() (asserted in `new`)
-                    *b = unsafe { *self.flat.get_unchecked(i) };
+                    *b = unsafe { *self.room.flat.get_unchecked(i) };
                 }
                 for (lane, to) in to.chunks_mut(w).enumerate() {
-                    for (o, b) in to.iter_mut().zip(&self.buf) {
+                    for (o, b) in to.iter_mut().zip(&self.room.buf) {
                         *o = b[lane];
                     }
                 }
@@ -1306,7 +1295,7 @@ impl<const N: usize> Solver<N> {
         rhs: &[[f64; N]],
         count: usize,
         out: &mut [[f64; N]],
-        reach: &Reach,
+        reach: &Reach<N>,
     ) {
         let Some(program) = &reach.program else { return self.solve(layout, f, rhs, count, out) };
         if let (false, Shape::Triangular(_), Some(_)) = (self.use_inverse, &layout.shape, &f.fixed[0]) {
@@ -1417,7 +1406,8 @@ mod tests {
         let direct: Vec<(usize, bool)> = group.direct.iter().map(|f| (f.k, f.moved)).collect();
         assert_eq!((&direct[..], &group.live[..]), (&[(0, true)][..], &[1][..]));
         // the probe over both (as it serves any family over the lanes)
-        let (live, all) = probe(&group.model, &group.moved, &pattern);
+        // (the moved families: the revolute, by its si, and the distance, which reads the moved cubic)
+        let (live, all) = probe(&group.model, &[0, 1], &pattern);
         assert_eq!(live, [0, 1]);
         assert!(all.len() < pattern.len() && !all.is_empty(), "{all:?}");
         assert_eq!(group.entries.len(), 6);

@@ -74,6 +74,11 @@ impl<S: Real> Line<S> {
         Ok(Line { aj: t.index("aj", n)?, phi0: t.real_s("phi0")?, n, ca, pa, ua, cb, ob, ai, angle, groups })
     }
 
+    /// The rows per constraint (2 for a translational joint, else 1).
+    pub fn per_row(&self) -> usize {
+        self.per()
+    }
+
     fn per(&self) -> usize {
         if self.angle {
             2
@@ -417,6 +422,161 @@ impl<const N: usize> Line<Lanes<N>> {
                         + cross(u, dbig);
                 }
             }
+        }
+    }
+}
+
+/// A point-on-line constraint in a per-set-up list (crate::sensitivity's
+/// `Reach`): its bodies' x columns (ca, cb), its u x d row among the
+/// model's, its vectors' values (pa, ua, ob) and their tangents per lane
+/// (ua, pa, ob: `Line::tangents`' table terms, read by `slides_products`'
+/// MOVED list alone: the constraints of a moved family, every one of them).
+pub struct Slide<const N: usize> {
+    a: usize,
+    b: usize,
+    row: usize,
+    pa: C64,
+    ua: C64,
+    ob: C64,
+    t: [[C64; 3]; N],
+}
+
+/// What `slides_products` keeps per constraint for `slides_gamma` (its
+/// `values` and, per lane, their `tangents`).
+#[derive(Clone, Copy)]
+pub struct SlideKept<const N: usize> {
+    v: [C64; 4],
+    d: [[C64; 4]; N],
+}
+
+impl<const N: usize> Default for SlideKept<N> {
+    fn default() -> Self {
+        SlideKept { v: [C64::new(0.0, 0.0); 4], d: [[C64::new(0.0, 0.0); 4]; N] }
+    }
+}
+
+impl<const N: usize> Slide<N> {
+    /// (the largest column read, the row written).
+    pub fn bounds(&self) -> (usize, usize) {
+        (self.a.max(self.b) + 2, self.row)
+    }
+}
+
+impl<const N: usize> Line<Lanes<N>> {
+    /// The constraints c with `take(c)` as list entries (`Slide`), the
+    /// family's first row `row0` among the model's.
+    pub fn slides(&self, row0: usize, take: impl Fn(usize) -> bool) -> Vec<Slide<N>> {
+        let value = |t: &Complex<Lanes<N>>| C64::new(t.re.v, t.im.v);
+        (0..self.ca.len())
+            .filter(|&c| take(c))
+            .map(|c| Slide {
+                a: self.ca[c],
+                b: self.cb[c],
+                row: row0 + self.per() * c,
+                pa: value(&self.pa[c]),
+                ua: value(&self.ua[c]),
+                ob: value(&self.ob[c]),
+                t: std::array::from_fn(|l| [lane(self.ua[c], l).1, lane(self.pa[c], l).1, lane(self.ob[c], l).1]),
+            })
+            .collect()
+    }
+}
+
+/// `Line::jac_products` over a list of constraints (its figures to the
+/// bit): r2 -= D(J) qd and, where L3, r3 -= D(J) qdd at each u x d row,
+/// the values and tangents kept in `kept` (one per constraint) where L3;
+/// MOVED: the tables' tangents taken (a moved family's constraints).
+///
+/// # Safety
+/// q, e, s, qd (and qdd where L3) hold every constraint's columns, r2
+/// (and r3 where L3) its row (`Slide::bounds`), kept (where L3)
+/// slides.len() entries.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub unsafe fn slides_products<const N: usize, const MOVED: bool, const L3: bool>(
+    slides: &[Slide<N>],
+    q: &[f64],
+    e: &[C64],
+    s: &[[f64; N]],
+    qd: &[f64],
+    qdd: &[f64],
+    r2: &mut [[f64; N]],
+    r3: &mut [[f64; N]],
+    kept: &mut [SlideKept<N>],
+) {
+    for (k, p) in slides.iter().enumerate() {
+        let (a, b) = (p.a, p.b);
+        let r = |c: usize| C64::new(*q.get_unchecked(c), *q.get_unchecked(c + 1));
+        let (ea, eb) = (*e.get_unchecked(a + 2), *e.get_unchecked(b + 2));
+        let (sa, sb) = (p.pa * ea, p.ob * eb);
+        let x = [p.ua * ea, r(b) + sb - r(a) - sa, sa, sb];
+        let [u, d, sa, sb] = x;
+        let kept = kept.get_unchecked_mut(k);
+        if L3 {
+            kept.v = x;
+        }
+        for l in 0..N {
+            let (pa, pb) = (s.get_unchecked(a + 2)[l], s.get_unchecked(b + 2)[l]);
+            let (mut du, mut dsa, mut dsb) = (iz(u) * pa, iz(sa) * pa, iz(sb) * pb);
+            let dd = C64::new(
+                s.get_unchecked(b)[l] - s.get_unchecked(a)[l],
+                s.get_unchecked(b + 1)[l] - s.get_unchecked(a + 1)[l],
+            );
+            if MOVED {
+                let t = &p.t[l];
+                du += t[0] * ea;
+                dsa += t[1] * ea;
+                dsb += t[2] * eb;
+            }
+            let dd = dd + dsb - dsa;
+            if L3 {
+                kept.d[l] = [du, dd, dsa, dsb];
+            }
+            let (ta, tb) = (-(dot(du, d + sa) + dot(u, dd + dsa)), dot(du, sb) + dot(u, dsb));
+            let g = |k: usize| *qd.get_unchecked(k);
+            let row = &mut r2.get_unchecked_mut(p.row)[l];
+            *row -= du.im * (g(a) - g(b)) - du.re * (g(a + 1) - g(b + 1)) + ta * g(a + 2) + tb * g(b + 2);
+            if L3 {
+                let g = |k: usize| *qdd.get_unchecked(k);
+                let row = &mut r3.get_unchecked_mut(p.row)[l];
+                *row -= du.im * (g(a) - g(b)) - du.re * (g(a + 1) - g(b + 1)) + ta * g(a + 2) + tb * g(b + 2);
+            }
+        }
+    }
+}
+
+/// `Line::gamma_tangent` over a list of constraints (its figures to the
+/// bit), from what `slides_products` kept at the instant.
+///
+/// # Safety
+/// qd, sd hold every constraint's columns, out its row (`Slide::bounds`),
+/// kept slides.len() entries.
+#[inline(always)]
+pub unsafe fn slides_gamma<const N: usize>(
+    slides: &[Slide<N>],
+    qd: &[f64],
+    sd: &[[f64; N]],
+    out: &mut [[f64; N]],
+    kept: &[SlideKept<N>],
+) {
+    for (k, p) in slides.iter().enumerate() {
+        let (a, b) = (p.a, p.b);
+        let kept = kept.get_unchecked(k);
+        let [u, d, sa, sb] = kept.v;
+        let (wa, wb) = (*qd.get_unchecked(a + 2), *qd.get_unchecked(b + 2));
+        let rd = |k: usize| C64::new(*qd.get_unchecked(k), *qd.get_unchecked(k + 1));
+        let rate = rd(b) + iz(sb) * wb - rd(a) - iz(sa) * wa;
+        let big = sb * (wb * wb) - sa * (wa * wa);
+        let (cr, dt) = (cross(u, d), dot(u, rate));
+        for l in 0..N {
+            let [du, dd, dsa, dsb] = kept.d[l];
+            let (dwa, dwb) = (sd.get_unchecked(a + 2)[l], sd.get_unchecked(b + 2)[l]);
+            let drd = |k: usize| C64::new(sd.get_unchecked(k)[l], sd.get_unchecked(k + 1)[l]);
+            let drate = drd(b) + iz(dsb * wb + sb * dwb) - drd(a) - iz(dsa * wa + sa * dwa);
+            let dbig = dsb * (wb * wb) + sb * (2.0 * wb * dwb) - dsa * (wa * wa) - sa * (2.0 * wa * dwa);
+            let (dcr, ddt) = (cross(du, d) + cross(u, dd), dot(du, rate) + dot(u, drate));
+            out.get_unchecked_mut(p.row)[l] +=
+                (2.0 * wa * dwa) * cr + wa * wa * dcr + (dwa * dt + wa * ddt) * 2.0 + cross(du, big) + cross(u, dbig);
         }
     }
 }

@@ -291,3 +291,204 @@ impl<const N: usize> Revolute<Lanes<N>> {
         }
     }
 }
+
+/// A revolute joint in a per-set-up list of joints (crate::sensitivity's
+/// `Reach`): its angle columns (ci + 2, cj + 2), its first row among the
+/// model's, its local points' values and, per point whose table carries a
+/// tangent in a moved family (`parts`' `moved && moves(t)`), that point's
+/// tangents (re, im per lane; `pins_products`' MOVED list alone reads them).
+pub struct Pin<const N: usize> {
+    i: usize,
+    j: usize,
+    row: usize,
+    si: C64,
+    sj: C64,
+    ti: Option<([f64; N], [f64; N])>,
+    tj: Option<([f64; N], [f64; N])>,
+}
+
+/// What `pins_products` keeps per joint for `pins_gamma` (`parts`' a, b
+/// and their tangents ar, ai, br, bi).
+#[derive(Clone, Copy)]
+pub struct PinKept<const N: usize> {
+    a: C64,
+    b: C64,
+    d: [[f64; N]; 4],
+}
+
+impl<const N: usize> Default for PinKept<N> {
+    fn default() -> Self {
+        PinKept { a: C64::new(0.0, 0.0), b: C64::new(0.0, 0.0), d: [[0.0; N]; 4] }
+    }
+}
+
+impl<const N: usize> Pin<N> {
+    /// Its rows' and columns' bounds: (the largest column read, the last row written).
+    pub fn bounds(&self) -> (usize, usize) {
+        (self.i.max(self.j), self.row + 1)
+    }
+
+    /// Whether it reads a point's tangents (the MOVED list's).
+    pub fn moving(&self) -> bool {
+        self.ti.is_some() || self.tj.is_some()
+    }
+}
+
+impl<const N: usize> Revolute<Lanes<N>> {
+    /// The joints c with `take(c)` as list entries (`Pin`), the family's
+    /// first row `row0` among the model's, `moved` whether its tables carry tangents.
+    pub fn pins(&self, row0: usize, moved: bool, take: impl Fn(usize) -> bool) -> Vec<Pin<N>> {
+        let tangent = |t: Complex<Lanes<N>>| (moved && moves(t)).then_some((t.re.d, t.im.d));
+        let value = |t: Complex<Lanes<N>>| C64::new(t.re.v, t.im.v);
+        (0..self.ci.len())
+            .filter(|&c| take(c))
+            .map(|c| Pin {
+                i: self.ci[c] + 2,
+                j: self.cj[c] + 2,
+                row: row0 + 2 * c,
+                si: value(self.si[c]),
+                sj: value(self.sj[c]),
+                ti: tangent(self.si[c]),
+                tj: tangent(self.sj[c]),
+            })
+            .collect()
+    }
+}
+
+/// `Revolute::jac_products` over a list of joints (its figures to the bit):
+/// r2 -= D(J) qd and, where L3, r3 -= D(J) qdd at each joint's rows, its
+/// `parts` kept in `kept` (one per joint) where L3; MOVED: the joints'
+/// points' tangents read (a list of joints whose `moving` is true).
+///
+/// # Safety
+/// e, s, qd (and qdd where L3) hold every joint's columns, r2 (and r3
+/// where L3) its rows (`Pin::bounds`), kept (where L3) pins.len() entries.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub unsafe fn pins_products<const N: usize, const MOVED: bool, const L3: bool>(
+    pins: &[Pin<N>],
+    e: &[C64],
+    s: &[[f64; N]],
+    qd: &[f64],
+    qdd: &[f64],
+    r2: &mut [[f64; N]],
+    r3: &mut [[f64; N]],
+    kept: &mut [PinKept<N>],
+) {
+    for (k, p) in pins.iter().enumerate() {
+        let one = |e: C64, sp: &[f64; N], v: C64, t: Option<([f64; N], [f64; N])>| {
+            let a = v * e;
+            let (mut re, mut im) = (sp.map(|x| -a.im * x), sp.map(|x| a.re * x));
+            if MOVED {
+                if let Some((tr, ti)) = t {
+                    for l in 0..N {
+                        re[l] += tr[l] * e.re - ti[l] * e.im;
+                        im[l] += tr[l] * e.im + ti[l] * e.re;
+                    }
+                }
+            }
+            (a, re, im)
+        };
+        let (i, j) = (p.i, p.j);
+        let (a, ar, ai) = one(*e.get_unchecked(i), s.get_unchecked(i), p.si, p.ti);
+        let (b, br, bi) = one(*e.get_unchecked(j), s.get_unchecked(j), p.sj, p.tj);
+        let (wi, wj) = (*qd.get_unchecked(i), *qd.get_unchecked(j));
+        let rows = r2.get_unchecked_mut(p.row..p.row + 2);
+        for l in 0..N {
+            rows[0][l] += ai[l] * wi - bi[l] * wj;
+            rows[1][l] -= ar[l] * wi - br[l] * wj;
+        }
+        if L3 {
+            *kept.get_unchecked_mut(k) = PinKept { a, b, d: [ar, ai, br, bi] };
+            let (wi, wj) = (*qdd.get_unchecked(i), *qdd.get_unchecked(j));
+            let rows = r3.get_unchecked_mut(p.row..p.row + 2);
+            for l in 0..N {
+                rows[0][l] += ai[l] * wi - bi[l] * wj;
+                rows[1][l] -= ar[l] * wi - br[l] * wj;
+            }
+        }
+    }
+}
+
+/// `Revolute::gamma_tangent` over a list of joints (its figures to the
+/// bit), from what `pins_products` kept at the instant: out += D(gamma)
+/// at each joint's rows.
+///
+/// # Safety
+/// qd, sd hold every joint's columns, out its rows (`Pin::bounds`), kept
+/// pins.len() entries.
+#[inline(always)]
+pub unsafe fn pins_gamma<const N: usize>(
+    pins: &[Pin<N>],
+    qd: &[f64],
+    sd: &[[f64; N]],
+    out: &mut [[f64; N]],
+    kept: &[PinKept<N>],
+) {
+    for (k, p) in pins.iter().enumerate() {
+        let PinKept { a, b, d: [ar, ai, br, bi] } = *kept.get_unchecked(k);
+        let (wi, wj) = (*qd.get_unchecked(p.i), *qd.get_unchecked(p.j));
+        let (vi, vj) = (sd.get_unchecked(p.i), sd.get_unchecked(p.j));
+        let (ww_i, ww_j) = (wi * wi, wj * wj);
+        let o = out.get_unchecked_mut(p.row..p.row + 2);
+        for l in 0..N {
+            let (dwi, dwj) = (2.0 * wi * vi[l], 2.0 * wj * vj[l]);
+            o[0][l] += (ar[l] * ww_i + a.re * dwi) - (br[l] * ww_j + b.re * dwj);
+            o[1][l] += (ai[l] * ww_i + a.im * dwi) - (bi[l] * ww_j + b.im * dwj);
+        }
+    }
+}
+
+/// A joint of a moved revolute family in a per-set-up list for (S1)
+/// (`Revolute::phi_tangent`'s figures): its angle columns, its first row
+/// and its points' tangents per lane, or none where neither moves (its
+/// rows -0).
+pub struct PhiPin<const N: usize> {
+    i: usize,
+    j: usize,
+    row: usize,
+    d: Option<[(C64, C64); N]>,
+}
+
+impl<const N: usize> PhiPin<N> {
+    /// (the largest column read, the last row written).
+    pub fn bounds(&self) -> (usize, usize) {
+        (self.i.max(self.j), self.row + 1)
+    }
+}
+
+impl<const N: usize> Revolute<Lanes<N>> {
+    /// Every joint as a `PhiPin`, the family's first row `row0`.
+    pub fn phi_pins(&self, row0: usize) -> Vec<PhiPin<N>> {
+        (0..self.ci.len())
+            .map(|c| {
+                let (si, sj) = (self.si[c], self.sj[c]);
+                let d = (moves(si) || moves(sj)).then(|| std::array::from_fn(|l| (lane(si, l).1, lane(sj, l).1)));
+                PhiPin { i: self.ci[c] + 2, j: self.cj[c] + 2, row: row0 + 2 * c, d }
+            })
+            .collect()
+    }
+}
+
+/// `Revolute::phi_tangent` over a list of joints (its figures to the bit):
+/// out = -Phi_p at each joint's rows.
+///
+/// # Safety
+/// e holds every joint's columns, out its rows (`PhiPin::bounds`).
+#[inline(always)]
+pub unsafe fn phi_pins<const N: usize>(pins: &[PhiPin<N>], e: &[C64], out: &mut [[f64; N]]) {
+    for p in pins {
+        let o = out.get_unchecked_mut(p.row..p.row + 2);
+        match &p.d {
+            None => o.fill([-0.0; N]),
+            Some(t) => {
+                let (ei, ej) = (*e.get_unchecked(p.i), *e.get_unchecked(p.j));
+                for l in 0..N {
+                    let d = t[l].0 * ei - t[l].1 * ej;
+                    o[0][l] = -d.re;
+                    o[1][l] = -d.im;
+                }
+            }
+        }
+    }
+}
