@@ -322,7 +322,7 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
             // (its own generator: the trials' stream is the one before the flat list)
             let (mut p, mut flat_rng) = (t.program.clone(), Rng(0x0f1a_7115_7000_0000 ^ trial as u64));
             let k = flat_rng.below(p.ops.len() as u64) as usize;
-            let at = if p.ops[k][1] == DIV { 0 } else { flat_rng.below(3) as usize };
+            let at = if p.ops[k][2] == DIV { 0 } else { flat_rng.below(3) as usize };
             p.ops[k][at] = far;
             assert!(p.check().is_err(), "trial {trial}: a corrupted flat program passed its check");
         }

@@ -86,22 +86,56 @@ pub struct Program {
     pub short_ops: Vec<[u32; 3]>,
 }
 
-/// A flat operation `[r, DIV, v]` is the division w[r] *= a[v] (a
-/// subtraction's c is a position, below `NEGATE`).
+/// A run's `v` where it ends without a division (no value index reaches it).
 pub const DIV: u32 = u32::MAX;
 
-/// subs and divs as one list in the order they run: each division after
-/// the subtractions before its end.
+/// subs and divs as one list in the order they run (each division after
+/// the subtractions before its end), laid out in runs on one position
+/// (issue 31 round 28): a run `[i, k, v]` is followed by its k subtractions
+/// `[c, u, last]` (w[i] -= a[u] w[c], in order, none reading w[i] itself;
+/// last = 1 on the run's last one, 0 on the others) and
+/// ends with the division w[i] *= a[v] (v = DIV: none). Consecutive
+/// operations on the same position make one run, so that w[i] is read once
+/// and written once a run, the same operations in the same order.
 fn flat(subs: &[[u32; 3]], divs: &[[u32; 3]]) -> Vec<[u32; 3]> {
-    let mut ops = Vec::with_capacity(subs.len() + divs.len());
+    let mut ops: Vec<[u32; 3]> = Vec::with_capacity(2 * (subs.len() + divs.len()));
+    // the open run's header (where it is in ops), if it can take more subtractions
+    let mut open: Option<usize> = None;
+    let sub = |ops: &mut Vec<[u32; 3]>, open: &mut Option<usize>, [i, c, u]: [u32; 3]| {
+        match *open {
+            Some(h) if ops[h][0] == i && c != i => ops[h][1] += 1,
+            _ => {
+                *open = (c != i).then_some(ops.len());
+                ops.push([i, 1, DIV]);
+            }
+        }
+        ops.push([c, u, 0]);
+    };
     let mut from = 0;
     for &[end, r, v] in divs {
         let end = (end as usize).clamp(from, subs.len());
-        ops.extend_from_slice(&subs[from..end]);
-        ops.push([r, DIV, v]);
+        for &s in &subs[from..end] {
+            sub(&mut ops, &mut open, s);
+        }
+        match open {
+            Some(h) if ops[h][0] == r => ops[h][2] = v,
+            _ => ops.push([r, 0, v]),
+        }
+        open = None;
         from = end;
     }
-    ops.extend_from_slice(&subs[from.min(subs.len())..]);
+    for &s in &subs[from.min(subs.len())..] {
+        sub(&mut ops, &mut open, s);
+    }
+    // each run's last subtraction marked (`[c, u, 1]`): the run's loop ends on it
+    let mut k = 0;
+    while k < ops.len() {
+        let count = ops[k][1] as usize;
+        if count > 0 {
+            ops[k + count][2] = 1;
+        }
+        k += 1 + count;
+    }
     ops
 }
 
@@ -219,20 +253,35 @@ impl Program {
         debug_assert!(self.check().is_ok());
         // SAFETY: Program::check (when built): every quiet position below `positions` <= w.len()
         let quiet = !self.quiet.is_empty() && self.quiet.iter().all(|&q| unsafe { w.get_unchecked(q as usize) }.zero());
-        let ops = if quiet { &self.short_ops } else { &self.ops };
-        for &[i, c, u] in ops {
-            // SAFETY: Program::check (when built): ops is (subs, divs) laid out, every
-            // position below `positions` <= w.len(), every value below `values` <= a.len()
-            // (w[i] read once and written once: a negation in memory would be a
-            // one-byte store, which the next full load of w[i] waits for)
+        let ops = if quiet { &self.short_ops[..] } else { &self.ops[..] };
+        let (mut k, end) = (0, ops.len());
+        while k < end {
+            // SAFETY: Program::check (when built): ops is (subs, divs) laid out in runs (`flat`),
+            // each run's k subtractions following it, every position below `positions` <=
+            // w.len(), every value below `values` <= a.len(), no subtraction of a run reading
+            // its position (w[i] read once and written once a run: a negation in memory would
+            // be a one-byte store, which the next full load of w[i] waits for)
             unsafe {
+                let [i, count, v] = *ops.get_unchecked(k);
                 let mut y = *w.get_unchecked(i as usize);
-                if c != DIV {
-                    y.sub_mul(*a.get_unchecked(u as usize), *w.get_unchecked(c as usize));
-                } else if NEG && u & NEGATE != 0 {
-                    y.negate();
-                } else {
-                    y.mul(*a.get_unchecked((u & !NEGATE) as usize));
+                k += 1;
+                if count != 0 {
+                    // to the run's last subtraction (its mark: no count to unroll by)
+                    loop {
+                        let [c, u, last] = *ops.get_unchecked(k);
+                        k += 1;
+                        y.sub_mul(*a.get_unchecked(u as usize), *w.get_unchecked(c as usize));
+                        if last != 0 {
+                            break;
+                        }
+                    }
+                }
+                if v != DIV {
+                    if NEG && v & NEGATE != 0 {
+                        y.negate();
+                    } else {
+                        y.mul(*a.get_unchecked((v & !NEGATE) as usize));
+                    }
                 }
                 *w.get_unchecked_mut(i as usize) = y;
             }
