@@ -342,36 +342,36 @@ impl<const N: usize> Line<Lanes<N>> {
     }
 
     /// r2 -= D(J) v[0], r3 -= D(J) v[1]: the u x d row's six entries
-    /// (Table 4.2); the angle row's are constant. The constraints' values
-    /// and tangents into `keep` where it holds them (`kept`).
+    /// (Table 4.2); the angle row's are constant. By `slides_products` over
+    /// every constraint (the sensitivity pass's own kernel); the
+    /// constraints' values and tangents into `keep` where it holds them
+    /// (`kept`).
     pub fn jac_products(&self, d: &Dir<N>, v: &[&[f64]], r2: &mut [[f64; N]], r3: &mut [[f64; N]], keep: Kept<N>) {
-        let (at, s, moved) = (&d.at, d.s, d.moved);
         let (n, per, count) = (self.n, self.per(), self.ca.len());
-        assert!(at.holds(n) && s.len() >= n && v.iter().all(|x| x.len() >= n) && r2.len() >= per * count);
-        assert!(v.len() < 2 || r3.len() >= per * count);
+        assert!(d.at.holds(n) && d.s.len() >= n && !v.is_empty() && v.iter().all(|x| x.len() >= n));
+        assert!(r2.len() >= per * count && (v.len() < 2 || r3.len() >= per * count));
         let keeps = keep.v.len() >= 4 * count && keep.d.len() >= 8 * count;
-        for c in 0..count {
-            // SAFETY: c < ca.len(), q, e, s and v hold n, keep 4 and 8 per constraint where it keeps (asserted above)
-            unsafe {
-                let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
-                let x = self.values(at, c);
-                if keeps {
-                    keep.v.get_unchecked_mut(4 * c..4 * c + 4).copy_from_slice(&x);
-                }
-                let [u, d, sa, sb] = x;
-                for l in 0..N {
-                    let [du, dd, dsa, dsb] = self.tangents(at, c, &x, Some(s), moved, l);
-                    if keeps {
-                        let k = keep.d.get_unchecked_mut(8 * c..8 * c + 8);
-                        for (m, t) in [du, dd, dsa, dsb].iter().enumerate() {
-                            (k[2 * m][l], k[2 * m + 1][l]) = (t.re, t.im);
-                        }
-                    }
-                    let (ta, tb) = (-(dot(du, d + sa) + dot(u, dd + dsa)), dot(du, sb) + dot(u, dsb));
-                    for (w, r) in v.iter().zip([&mut *r2, &mut *r3]) {
-                        let g = |k: usize| *w.get_unchecked(k);
-                        let row = &mut r.get_unchecked_mut(per * c)[l];
-                        *row -= du.im * (g(a) - g(b)) - du.re * (g(a + 1) - g(b + 1)) + ta * g(a + 2) + tb * g(b + 2);
+        let slides = self.slides(0, |_| true);
+        let mut kept = vec![SlideKept::default(); count];
+        let (q, e, s) = (d.at.q, d.at.e, d.s);
+        let mut scratch = if v.len() < 2 && keeps { vec![[0.0; N]; per * count] } else { Vec::new() };
+        let (qdd, r3): (&[f64], &mut [[f64; N]]) = if v.len() >= 2 { (v[1], r3) } else { (v[0], &mut scratch) };
+        // SAFETY: every constraint's columns below n (new), which q, e, s and v hold, its row below per count <=
+        // r2's, r3's (or the scratch's) length, kept count long (asserted above)
+        unsafe {
+            match (d.moved, v.len() >= 2 || keeps) {
+                (true, true) => slides_products::<N, true, true>(&slides, q, e, s, v[0], qdd, r2, r3, &mut kept),
+                (false, true) => slides_products::<N, false, true>(&slides, q, e, s, v[0], qdd, r2, r3, &mut kept),
+                (true, false) => slides_products::<N, true, false>(&slides, q, e, s, v[0], qdd, r2, r3, &mut kept),
+                (false, false) => slides_products::<N, false, false>(&slides, q, e, s, v[0], qdd, r2, r3, &mut kept),
+            }
+        }
+        if keeps {
+            for (c, k) in kept.iter().enumerate() {
+                keep.v[4 * c..4 * c + 4].copy_from_slice(&k.v);
+                for (l, t) in k.d.iter().enumerate() {
+                    for (m, t) in t.iter().enumerate() {
+                        (keep.d[8 * c + 2 * m][l], keep.d[8 * c + 2 * m + 1][l]) = (t.re, t.im);
                     }
                 }
             }
@@ -380,49 +380,37 @@ impl<const N: usize> Line<Lanes<N>> {
 
     /// D(gamma) of Table 4.3's u x d row: d(wa^2 u x d + 2 wa u . d' +
     /// u x (sb wb^2 - sa wa^2)), d' = rb' + i sb wb - ra' - i sa wa; the
-    /// angle row's 0. The values and tangents from `kept` where it holds
-    /// them (jac_products' at the same s).
+    /// angle row's 0. By `slides_gamma` over every constraint; the values
+    /// and tangents from `kept` where it holds them (jac_products' at the
+    /// same s), else taken here.
     pub fn gamma_tangent(&self, d: &Dir<N>, out: &mut [[f64; N]], kept: Kept<N>) {
-        let (at, qd, s, sd, moved) = (&d.at, d.qd, d.s, d.sd, d.moved);
         let (n, per, count) = (self.n, self.per(), self.ca.len());
-        assert!(at.holds(n) && qd.len() >= n && s.len() >= n && sd.len() >= n && out.len() >= per * count);
+        assert!(d.at.holds(n) && d.qd.len() >= n && d.s.len() >= n && d.sd.len() >= n && out.len() >= per * count);
+        let slides = self.slides(0, |_| true);
         let keeps = kept.v.len() >= 4 * count && kept.d.len() >= 8 * count;
-        for c in 0..count {
-            // SAFETY: c < ca.len(), q, e, qd, s and sd hold n, kept 4 and 8 per constraint where it keeps (asserted above)
+        let mut k = vec![SlideKept::default(); count];
+        if keeps {
+            for (c, k) in k.iter_mut().enumerate() {
+                k.v.copy_from_slice(&kept.v[4 * c..4 * c + 4]);
+                for (l, t) in k.d.iter_mut().enumerate() {
+                    *t = std::array::from_fn(|m| C64::new(kept.d[8 * c + 2 * m][l], kept.d[8 * c + 2 * m + 1][l]));
+                }
+            }
+        } else {
+            let (mut r2, mut r3) = (vec![[0.0; N]; per * count], vec![[0.0; N]; per * count]);
+            let (q, e, s, qd) = (d.at.q, d.at.e, d.s, d.qd);
+            // SAFETY: as jac_products' (the scratch rows per count long)
             unsafe {
-                let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
-                let x = if keeps {
-                    let k = kept.v.get_unchecked(4 * c..4 * c + 4);
-                    [k[0], k[1], k[2], k[3]]
+                if d.moved {
+                    slides_products::<N, true, true>(&slides, q, e, s, qd, qd, &mut r2, &mut r3, &mut k);
                 } else {
-                    self.values(at, c)
-                };
-                let [u, d, sa, sb] = x;
-                let (wa, wb) = (*qd.get_unchecked(a + 2), *qd.get_unchecked(b + 2));
-                let rd = |k: usize| C64::new(*qd.get_unchecked(k), *qd.get_unchecked(k + 1));
-                let rate = rd(b) + iz(sb) * wb - rd(a) - iz(sa) * wa;
-                let big = sb * (wb * wb) - sa * (wa * wa);
-                let (cr, dt) = (cross(u, d), dot(u, rate));
-                for l in 0..N {
-                    let [du, dd, dsa, dsb] = if keeps {
-                        let k = kept.d.get_unchecked(8 * c..8 * c + 8);
-                        std::array::from_fn(|m| C64::new(k[2 * m][l], k[2 * m + 1][l]))
-                    } else {
-                        self.tangents(at, c, &x, Some(s), moved, l)
-                    };
-                    let (dwa, dwb) = (sd.get_unchecked(a + 2)[l], sd.get_unchecked(b + 2)[l]);
-                    let drd = |k: usize| C64::new(sd.get_unchecked(k)[l], sd.get_unchecked(k + 1)[l]);
-                    let drate = drd(b) + iz(dsb * wb + sb * dwb) - drd(a) - iz(dsa * wa + sa * dwa);
-                    let dbig = dsb * (wb * wb) + sb * (2.0 * wb * dwb) - dsa * (wa * wa) - sa * (2.0 * wa * dwa);
-                    let (dcr, ddt) = (cross(du, d) + cross(u, dd), dot(du, rate) + dot(u, drate));
-                    out.get_unchecked_mut(per * c)[l] += (2.0 * wa * dwa) * cr
-                        + wa * wa * dcr
-                        + (dwa * dt + wa * ddt) * 2.0
-                        + cross(du, big)
-                        + cross(u, dbig);
+                    slides_products::<N, false, true>(&slides, q, e, s, qd, qd, &mut r2, &mut r3, &mut k);
                 }
             }
         }
+        // SAFETY: every constraint's columns below n, which qd and sd hold, its row below per count <= out.len(),
+        // k count long (asserted above)
+        unsafe { slides_gamma(&slides, d.qd, d.sd, out, &k) }
     }
 }
 

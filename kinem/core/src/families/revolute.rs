@@ -180,49 +180,13 @@ fn moves<const N: usize>(t: Complex<Lanes<N>>) -> bool {
 /// gamma_tangent): a = A_i s'_i, b = A_j s'_j and their tangents
 /// da = i a s_phi_i + d(s'_i) A_i (Eq. 4.44: dA s' = B s' dphi), lane by lane.
 impl<const N: usize> Revolute<Lanes<N>> {
-    /// -d/dp of Eq. 4.7 at q' = 0: -(d(s'_i) A_i - d(s'_j) A_j).
+    /// -d/dp of Eq. 4.7 at q' = 0: -(d(s'_i) A_i - d(s'_j) A_j), by
+    /// `phi_pins` over every joint (the sensitivity pass's own kernel).
     pub fn phi_tangent(&self, at: &At, out: &mut [[f64; N]]) {
         assert!(at.holds(self.n) && out.len() >= 2 * self.ci.len());
-        for (c, o) in out.chunks_exact_mut(2).enumerate().take(self.ci.len()) {
-            // SAFETY: c < ci.len() = cj, si, sj's (new), ci, cj < n - 2, e holds n (asserted above)
-            let (ei, ej, si, sj) = unsafe {
-                let (a, b) = (*self.ci.get_unchecked(c), *self.cj.get_unchecked(c));
-                (at.rot_at(a), at.rot_at(b), *self.si.get_unchecked(c), *self.sj.get_unchecked(c))
-            };
-            if !(moves(si) || moves(sj)) {
-                o.fill([-0.0; N]); // (the other joints of a moved family: -0)
-                continue;
-            }
-            for l in 0..N {
-                let d = lane(si, l).1 * ei - lane(sj, l).1 * ej;
-                o[0][l] = -d.re;
-                o[1][l] = -d.im;
-            }
-        }
-    }
-
-    /// (a, b) and their tangents (da, db: re, im per lane) of joint c.
-    ///
-    /// # Safety
-    /// c < ci.len(), `at.holds(n)`, s.len() >= n (Revolute's invariants).
-    #[inline(always)]
-    unsafe fn parts(&self, at: &At, c: usize, s: &[[f64; N]], moved: bool) -> [(C64, [f64; N], [f64; N]); 2] {
-        let (i, j) = (*self.ci.get_unchecked(c) + 2, *self.cj.get_unchecked(c) + 2);
-        let one = |e: C64, p: &[f64; N], t: Complex<Lanes<N>>| {
-            let a = C64::new(t.re.v, t.im.v) * e;
-            let (mut re, mut im) = (p.map(|x| -a.im * x), p.map(|x| a.re * x));
-            if moved && moves(t) {
-                for l in 0..N {
-                    re[l] += t.re.d[l] * e.re - t.im.d[l] * e.im;
-                    im[l] += t.re.d[l] * e.im + t.im.d[l] * e.re;
-                }
-            }
-            (a, re, im)
-        };
-        [
-            one(*at.e.get_unchecked(i), s.get_unchecked(i), *self.si.get_unchecked(c)),
-            one(*at.e.get_unchecked(j), s.get_unchecked(j), *self.sj.get_unchecked(c)),
-        ]
+        // SAFETY: every joint's columns ci + 2, cj + 2 < n (new), which e holds, its rows below 2 ci.len() <=
+        // out.len() (asserted above)
+        unsafe { phi_pins(&self.phi_pins(0), at.e, out) }
     }
 
     /// Kept's sizes: per joint a, b and their tangents (re, im of each).
@@ -231,64 +195,57 @@ impl<const N: usize> Revolute<Lanes<N>> {
     }
 
     /// r2 -= D(J) v[0], r3 -= D(J) v[1] (Eq. 4.46: the phi columns' -B s'
-    /// entries alone have a tangent); the joints' `parts` into `keep` where
-    /// it holds them (`kept`).
+    /// entries alone have a tangent), by `pins_products` over every joint
+    /// (the sensitivity pass's own kernel); a = A_i s'_i, b = A_j s'_j and
+    /// their tangents into `keep` where it holds them (`kept`).
     pub fn jac_products(&self, d: &Dir<N>, v: &[&[f64]], r2: &mut [[f64; N]], r3: &mut [[f64; N]], keep: Kept<N>) {
-        let (at, s, moved) = (&d.at, d.s, d.moved);
         let (n, count) = (self.n, self.ci.len());
-        assert!(at.holds(n) && s.len() >= n && v.iter().all(|x| x.len() >= n) && r2.len() >= 2 * count);
-        assert!(v.len() < 2 || r3.len() >= 2 * count);
+        assert!(d.at.holds(n) && d.s.len() >= n && !v.is_empty() && v.iter().all(|x| x.len() >= n));
+        assert!(r2.len() >= 2 * count && (v.len() < 2 || r3.len() >= 2 * count));
         let keeps = keep.v.len() >= 2 * count && keep.d.len() >= 4 * count;
-        for c in 0..count {
-            // SAFETY: c < ci.len() = cj, si, sj's (new), ci, cj < n - 2; e, s, v hold n, r2, r3 2 per joint,
-            // keep 2 and 4 per joint where it keeps (asserted above)
-            unsafe {
-                let (i, j) = (*self.ci.get_unchecked(c) + 2, *self.cj.get_unchecked(c) + 2);
-                let [(a, ar, ai), (b, br, bi)] = self.parts(at, c, s, moved);
-                if keeps {
-                    (*keep.v.get_unchecked_mut(2 * c), *keep.v.get_unchecked_mut(2 * c + 1)) = (a, b);
-                    let o = keep.d.get_unchecked_mut(4 * c..4 * c + 4);
-                    (o[0], o[1], o[2], o[3]) = (ar, ai, br, bi);
-                }
-                for (w, r) in v.iter().zip([&mut *r2, &mut *r3]) {
-                    let (wi, wj) = (*w.get_unchecked(i), *w.get_unchecked(j));
-                    let rows = r.get_unchecked_mut(2 * c..2 * c + 2);
-                    for l in 0..N {
-                        rows[0][l] += ai[l] * wi - bi[l] * wj;
-                        rows[1][l] -= ar[l] * wi - br[l] * wj;
-                    }
-                }
+        let pins = self.pins(0, d.moved, |_| true);
+        let mut kept = vec![PinKept::default(); count];
+        // SAFETY: every joint's columns below n (new), which e, s and v hold, its rows below 2 count <= r2's,
+        // r3's (or the scratch's) length, kept count long (asserted above)
+        unsafe {
+            if v.len() >= 2 {
+                pins_products::<N, true, true>(&pins, d.at.e, d.s, v[0], v[1], r2, r3, &mut kept);
+            } else if keeps {
+                let mut scratch = vec![[0.0; N]; 2 * count];
+                pins_products::<N, true, true>(&pins, d.at.e, d.s, v[0], v[0], r2, &mut scratch, &mut kept);
+            } else {
+                pins_products::<N, true, false>(&pins, d.at.e, d.s, v[0], &[], r2, &mut [], &mut kept);
+            }
+        }
+        if keeps {
+            for (c, k) in kept.iter().enumerate() {
+                (keep.v[2 * c], keep.v[2 * c + 1]) = (k.a, k.b);
+                keep.d[4 * c..4 * c + 4].copy_from_slice(&k.d);
             }
         }
     }
 
-    /// D(gamma) of Eq. 4.47: d(a w_i^2) - d(b w_j^2); the joints' `parts`
-    /// from `kept` where it holds them (jac_products' at the same s).
+    /// D(gamma) of Eq. 4.47: d(a w_i^2) - d(b w_j^2), by `pins_gamma` over
+    /// every joint; a, b and their tangents from `kept` where it holds them
+    /// (jac_products' at the same s), else taken here.
     pub fn gamma_tangent(&self, d: &Dir<N>, out: &mut [[f64; N]], kept: Kept<N>) {
-        let (at, qd, s, sd, moved) = (&d.at, d.qd, d.s, d.sd, d.moved);
         let (n, count) = (self.n, self.ci.len());
-        assert!(at.holds(n) && qd.len() >= n && s.len() >= n && sd.len() >= n && out.len() >= 2 * count);
+        assert!(d.at.holds(n) && d.qd.len() >= n && d.s.len() >= n && d.sd.len() >= n && out.len() >= 2 * count);
+        let pins = self.pins(0, d.moved, |_| true);
         let keeps = kept.v.len() >= 2 * count && kept.d.len() >= 4 * count;
-        for (c, o) in out.chunks_exact_mut(2).enumerate().take(count) {
-            // SAFETY: as jac_products'
-            unsafe {
-                let (i, j) = (*self.ci.get_unchecked(c) + 2, *self.cj.get_unchecked(c) + 2);
-                let [(a, ar, ai), (b, br, bi)] = if keeps {
-                    let k = kept.d.get_unchecked(4 * c..4 * c + 4);
-                    [(*kept.v.get_unchecked(2 * c), k[0], k[1]), (*kept.v.get_unchecked(2 * c + 1), k[2], k[3])]
-                } else {
-                    self.parts(at, c, s, moved)
-                };
-                let (wi, wj) = (*qd.get_unchecked(i), *qd.get_unchecked(j));
-                let (vi, vj) = (sd.get_unchecked(i), sd.get_unchecked(j));
-                let (ww_i, ww_j) = (wi * wi, wj * wj);
-                for l in 0..N {
-                    let (dwi, dwj) = (2.0 * wi * vi[l], 2.0 * wj * vj[l]);
-                    o[0][l] += (ar[l] * ww_i + a.re * dwi) - (br[l] * ww_j + b.re * dwj);
-                    o[1][l] += (ai[l] * ww_i + a.im * dwi) - (bi[l] * ww_j + b.im * dwj);
-                }
+        let mut k = vec![PinKept::default(); count];
+        if keeps {
+            for (c, k) in k.iter_mut().enumerate() {
+                *k = PinKept { a: kept.v[2 * c], b: kept.v[2 * c + 1], d: std::array::from_fn(|m| kept.d[4 * c + m]) };
             }
+        } else {
+            let (mut r2, mut r3) = (vec![[0.0; N]; 2 * count], vec![[0.0; N]; 2 * count]);
+            // SAFETY: as jac_products' (the scratch rows 2 count long)
+            unsafe { pins_products::<N, true, true>(&pins, d.at.e, d.s, d.qd, d.qd, &mut r2, &mut r3, &mut k) };
         }
+        // SAFETY: every joint's columns below n, which qd and sd hold, its rows below 2 count <= out.len(),
+        // k count long (asserted above)
+        unsafe { pins_gamma(&pins, d.qd, d.sd, out, &k) }
     }
 }
 
