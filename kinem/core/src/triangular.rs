@@ -41,10 +41,10 @@ pub const NEGATE: u32 = 1 << 31;
 /// sensitivities' right sides.
 ///
 /// `run` walks them as one flat list laid out once (`ops`, `Program::lay`,
-/// issue 31 round 27): the operations in the order above, so that a run
-/// has no outer loop over the divisions and no inner loop to set up per
-/// division (a test of c per record instead); consecutive operations on
-/// one position as one run (`flat`, rounds 28 and 29).
+/// issue 31 round 27): each subtraction `[i, c, u]` and each division
+/// `[r, DIV, v]` in the order above, so that a run has no outer loop over
+/// the divisions and no inner loop to set up per division (a test of c per
+/// operation instead).
 ///
 /// A 1x1 block whose pivot is a constant +1 (a ground's or a driver's row,
 /// `Factoring::one_entries` checks it each factorisation) has no division: its
@@ -80,8 +80,8 @@ pub struct Program {
     /// (subs, divs) without the subtractions that read a quiet position
     pub short: (Vec<[u32; 3]>, Vec<[u32; 3]>),
     /// (subs, divs) and `short` laid out as the flat lists `run` walks
-    /// (`Program::lay`, `flat`): runs on one position, a lone subtraction
-    /// as a record of its own, in the order the program runs them
+    /// (`Program::lay`): each subtraction `[i, c, u]` and each division
+    /// `[r, DIV, v]` in the order the program runs them
     pub ops: Vec<[u32; 3]>,
     pub short_ops: Vec<[u32; 3]>,
 }
@@ -89,57 +89,52 @@ pub struct Program {
 /// A run's `v` where it ends without a division (no value index reaches it).
 pub const DIV: u32 = u32::MAX;
 
-/// The mark of a lone subtraction's `c` (no position reaches it:
-/// `Program::check` keeps the positions below `NEGATE`).
-pub const LONE: u32 = NEGATE;
-
 /// subs and divs as one list in the order they run (each division after
 /// the subtractions before its end), laid out in runs on one position
-/// (issue 31 round 28): a run `[i, k, v]` followed by its k subtractions
+/// (issue 31 round 28): a run `[i, k, v]` is followed by its k subtractions
 /// `[c, u, last]` (w[i] -= a[u] w[c], in order, none reading w[i] itself;
-/// last = 1 on the run's last one, 0 on the others) ending with the
-/// division w[i] *= a[v] (v = DIV: none), k = 0 for a division alone; and
-/// a lone subtraction, with no division after it, as a record of its own
-/// `[i, c | LONE, u]` (round 29, as round 27 laid every one). Consecutive
+/// last = 1 on the run's last one, 0 on the others) and
+/// ends with the division w[i] *= a[v] (v = DIV: none). Consecutive
 /// operations on the same position make one run, so that w[i] is read once
 /// and written once a run, the same operations in the same order.
 fn flat(subs: &[[u32; 3]], divs: &[[u32; 3]]) -> Vec<[u32; 3]> {
-    // the runs of round 28: (position, its subtractions [c, u], its division or DIV)
-    let mut runs: Vec<(u32, Vec<[u32; 2]>, u32)> = Vec::new();
-    // whether the last run can take more subtractions
-    let mut open = false;
-    let sub = |runs: &mut Vec<(u32, Vec<[u32; 2]>, u32)>, open: &mut bool, [i, c, u]: [u32; 3]| match runs.last_mut() {
-        Some(run) if *open && run.0 == i && c != i => run.1.push([c, u]),
-        _ => {
-            *open = c != i;
-            runs.push((i, vec![[c, u]], DIV));
+    let mut ops: Vec<[u32; 3]> = Vec::with_capacity(2 * (subs.len() + divs.len()));
+    // the open run's header (where it is in ops), if it can take more subtractions
+    let mut open: Option<usize> = None;
+    let sub = |ops: &mut Vec<[u32; 3]>, open: &mut Option<usize>, [i, c, u]: [u32; 3]| {
+        match *open {
+            Some(h) if ops[h][0] == i && c != i => ops[h][1] += 1,
+            _ => {
+                *open = (c != i).then_some(ops.len());
+                ops.push([i, 1, DIV]);
+            }
         }
+        ops.push([c, u, 0]);
     };
     let mut from = 0;
     for &[end, r, v] in divs {
         let end = (end as usize).clamp(from, subs.len());
         for &s in &subs[from..end] {
-            sub(&mut runs, &mut open, s);
+            sub(&mut ops, &mut open, s);
         }
-        match runs.last_mut() {
-            Some(run) if open && run.0 == r => run.2 = v,
-            _ => runs.push((r, Vec::new(), v)),
+        match open {
+            Some(h) if ops[h][0] == r => ops[h][2] = v,
+            _ => ops.push([r, 0, v]),
         }
-        open = false;
+        open = None;
         from = end;
     }
     for &s in &subs[from.min(subs.len())..] {
-        sub(&mut runs, &mut open, s);
+        sub(&mut ops, &mut open, s);
     }
-    let mut ops: Vec<[u32; 3]> = Vec::with_capacity(2 * (subs.len() + divs.len()));
-    for (i, run, v) in runs {
-        match (run.len(), v) {
-            (1, DIV) => ops.push([i, run[0][0] | LONE, run[0][1]]),
-            (k, v) => {
-                ops.push([i, k as u32, v]);
-                ops.extend(run.iter().enumerate().map(|(n, &[c, u])| [c, u, (n + 1 == k) as u32]));
-            }
+    // each run's last subtraction marked (`[c, u, 1]`): the run's loop ends on it
+    let mut k = 0;
+    while k < ops.len() {
+        let count = ops[k][1] as usize;
+        if count > 0 {
+            ops[k + count][2] = 1;
         }
+        k += 1 + count;
     }
     ops
 }
@@ -261,37 +256,31 @@ impl Program {
         let ops = if quiet { &self.short_ops[..] } else { &self.ops[..] };
         let (mut k, end) = (0, ops.len());
         while k < end {
-            // SAFETY: Program::check (when built): ops is (subs, divs) laid out (`flat`): lone
-            // subtractions (c | LONE, c below `positions` < LONE), runs each followed by its
-            // subtractions up to the one marked last, every position below `positions` <=
+            // SAFETY: Program::check (when built): ops is (subs, divs) laid out in runs (`flat`),
+            // each run's k subtractions following it, every position below `positions` <=
             // w.len(), every value below `values` <= a.len(), no subtraction of a run reading
             // its position (w[i] read once and written once a run: a negation in memory would
             // be a one-byte store, which the next full load of w[i] waits for)
             unsafe {
-                let [i, c, v] = *ops.get_unchecked(k);
+                let [i, count, v] = *ops.get_unchecked(k);
                 let mut y = *w.get_unchecked(i as usize);
                 k += 1;
-                if c & LONE != 0 {
-                    // a lone subtraction [i, c | LONE, u]
-                    y.sub_mul(*a.get_unchecked(v as usize), *w.get_unchecked((c & !LONE) as usize));
-                } else {
-                    if c != 0 {
-                        // to the run's last subtraction (its mark: no count to unroll by)
-                        loop {
-                            let [c, u, last] = *ops.get_unchecked(k);
-                            k += 1;
-                            y.sub_mul(*a.get_unchecked(u as usize), *w.get_unchecked(c as usize));
-                            if last != 0 {
-                                break;
-                            }
+                if count != 0 {
+                    // to the run's last subtraction (its mark: no count to unroll by)
+                    loop {
+                        let [c, u, last] = *ops.get_unchecked(k);
+                        k += 1;
+                        y.sub_mul(*a.get_unchecked(u as usize), *w.get_unchecked(c as usize));
+                        if last != 0 {
+                            break;
                         }
                     }
-                    if v != DIV {
-                        if NEG && v & NEGATE != 0 {
-                            y.negate();
-                        } else {
-                            y.mul(*a.get_unchecked((v & !NEGATE) as usize));
-                        }
+                }
+                if v != DIV {
+                    if NEG && v & NEGATE != 0 {
+                        y.negate();
+                    } else {
+                        y.mul(*a.get_unchecked((v & !NEGATE) as usize));
                     }
                 }
                 *w.get_unchecked_mut(i as usize) = y;
