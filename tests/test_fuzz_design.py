@@ -723,6 +723,42 @@ def test_found_set_values_read_as_python_reads_them(tmp_path, value):
     assert code == 2 and "expected a number as a case file writes it (TOML: 0.5" in line, line
 
 
+@pytest.mark.parametrize("args", [["solve", str(FOUR_BAR), "--max-seconds"], ["solve", str(FOUR_BAR), "--max-work"],
+                                  ["compare", str(FOUR_BAR), "--engines", "pymunk", "--dt"],
+                                  ["compare", str(FOUR_BAR), "--scheduler", "tcp://127.0.0.1:1", "--timeout"]])
+@pytest.mark.parametrize("value", ["infinity", ".1", "1__0", "nan", "\u0661"])
+def test_found_number_options_read_as_python_reads_them(tmp_path, args, value):
+    """Left by part 7: --dt, --timeout, --max-seconds and --max-work were read with Python's float
+    ('infinity' was inf, '1__0'-like texts and '\u0661' numbers, '.1' 0.1). Now read as --end, --steps
+    and --set read theirs, a case file's TOML numbers, before anything runs (one line, exit 2)."""
+    code, line = run_main([*args, value] + (["--out", str(tmp_path / "o.csv")] if args[0] == "solve" else []))
+    assert code == 2 and f"argument {args[-1]}: got {value!r}; expected a number as a case file writes it" in line, line
+    assert not list(tmp_path.iterdir())
+
+
+def test_number_options_take_a_case_files_numbers():
+    """1_000 and 1e-3 are numbers there as in a case file (the parser's values, nothing run)."""
+    from kinem.cli.parser import toml_float
+
+    assert (toml_float("1_000"), toml_float("1e-3"), toml_float("inf"), toml_float("+2")) == (1000.0, 1e-3, math.inf, 2.0)
+
+
+def test_found_report_sensitivity_repeats_counted(tmp_path):
+    """Left by part 7: [report] sensitivity counted its paths before dropping repeats, so nine copies of one
+    path were refused as more than 8 while two copies were one. Now the distinct paths count; nine distinct
+    ones are still refused."""
+    line = '["points.A.at.0", "constraints.B.si.0", "points.O4.at.0"]'
+    text = FOUR_BAR.read_text()
+    assert text.count(line) == 1
+    case = tmp_path / "case.toml"
+    case.write_text(text.replace(line, "[" + ", ".join(['"points.A.at.0"'] * 9) + "]"))
+    assert kinem.load(case).report["sensitivity"] == ("points.A.at.0",)
+    nine = [f'"points.{p}.at.{i}"' for p in ("A", "B", "O2", "O4") for i in (0, 1)] + ['"constraints.B.si.0"']
+    case.write_text(text.replace(line, "[" + ", ".join(nine) + "]"))
+    code, said = run_main(["info", str(case)])
+    assert code == 2 and "a list of 1 to 8 design parameter paths" in said, said
+
+
 def test_found_a_report_progress_of_the_wrong_type(tmp_path):
     """kinem.report.run(Options(progress=3)) ran: Progress took any value as its flag (the other calls'
     progress= are checked since part 6). Now refused before any case is read or run."""

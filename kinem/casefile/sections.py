@@ -273,7 +273,8 @@ def report(ck, r, points):
     out = {}
     sens = r.get("sensitivity")
     if sens is not None:   # design parameter paths: checked against the whole case (kinem.case)
-        if isinstance(sens, list) and sens and len(sens) <= 8 and all(isinstance(x, str) for x in sens):
+        if isinstance(sens, list) and sens and all(isinstance(x, str) for x in sens) \
+                and len(set(sens)) <= 8:   # a path listed twice counts once, as it is kept once
             out["sensitivity"] = tuple(dict.fromkeys(sens))
         else:
             ck.bad("[report]", "sensitivity", f"got {show(sens)}", "a list of 1 to 8 design parameter paths")
