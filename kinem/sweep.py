@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .casefile.checks import TOML_NUMBERS, floats, texts, toml_number
+from .casefile.checks import TOML_NUMBERS, floats, texts, toml_float, toml_number
 from .errors import InputError, KinemError
 
 MAX_VARIANTS = 100_000
@@ -240,28 +240,17 @@ def parse_values(item: str):
             if not isinstance(n, int) or not 1 <= n <= MAX_VARIANTS:
                 raise ValueError
             with np.errstate(all="ignore"):   # ends beyond a float: refused below, without numpy's warning
-                start, stop = _float(start), _float(stop)
+                start, stop = toml_float(start), toml_float(stop)
                 values = np.linspace(start, stop, n)
             if n == 1 and start != stop and np.isfinite([start, stop]).all():
                 # one value: START alone, STOP dropped unseen
                 raise InputError(f"--set: got {item!r}: COUNT 1 takes START alone; expected COUNT 2 or more "
                                  "to reach STOP, or NAME=VALUE")
         else:
-            values = np.array([_float(x) for x in text.split(",")])
+            values = np.array([toml_float(x) for x in text.split(",")])
     except ValueError:
         raise InputError(f"--set: got {item!r}; expected {form} (COUNT a whole number from 1 to "
                          f"{MAX_VARIANTS}; numbers as a case file writes them, {TOML_NUMBERS})") from None
     if not np.isfinite(values).all():
         raise InputError(f"--set: got {item!r}; expected finite numbers")
     return name.strip(), values
-
-
-def _float(text: str) -> float:
-    """A --set value read as a case file's number is (kinem.casefile.checks.toml_number: 1e3, 1_000, 0x10;
-    not infinity, 1__0 or .5), as a float; ValueError otherwise."""
-    v = toml_number(text)
-    if v is None:
-        raise ValueError(text)
-    if isinstance(v, int) and abs(v) >= 2**1024:   # a whole number beyond a float: refused as not finite
-        return float("inf")
-    return float(v)

@@ -736,11 +736,15 @@ def test_found_number_options_read_as_python_reads_them(tmp_path, args, value):
     assert not list(tmp_path.iterdir())
 
 
-def test_number_options_take_a_case_files_numbers():
-    """1_000 and 1e-3 are numbers there as in a case file (the parser's values, nothing run)."""
-    from kinem.cli.parser import toml_float
+def test_number_options_take_a_case_files_numbers(tmp_path):
+    """1_000 and 1e-3 are numbers there as in a case file (the parser's values, nothing run); a whole
+    number beyond a float is infinity, which --max-work's range refuses (exit 2, not an OverflowError)."""
+    from kinem.cli.parser import number_option
 
-    assert (toml_float("1_000"), toml_float("1e-3"), toml_float("inf"), toml_float("+2")) == (1000.0, 1e-3, math.inf, 2.0)
+    assert [number_option(x) for x in ("1_000", "1e-3", "inf", "+2", "1" + "0" * 400)] == [1000.0, 1e-3, math.inf,
+                                                                                         2.0, math.inf]
+    code, line = run_main(["solve", str(FOUR_BAR), "--max-work", "1" + "0" * 400, "--out", str(tmp_path / "o.csv")])
+    assert code == 2 and "--max-work" in line and "internal" not in line, line
 
 
 def test_found_report_sensitivity_repeats_counted(tmp_path):

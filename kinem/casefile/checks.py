@@ -281,5 +281,17 @@ def toml_number(text: str):
     return v if isinstance(v, (int, float)) and not isinstance(v, bool) else None   # not true, not a date
 
 
+def toml_float(text: str) -> float:
+    """A text read as a case file's number is (``toml_number``: 1e3, 1_000, 0x10; not infinity, 1__0 or
+    .5), as a float; a whole number beyond a float's range as infinity (refused where only finite numbers
+    are); ValueError when it is no such number."""
+    v = toml_number(text)
+    if v is None:
+        raise ValueError(text)
+    if isinstance(v, int) and abs(v) >= 2**1024:
+        return math.inf if v > 0 else -math.inf
+    return float(v)
+
+
 TOML_NUMBER_RE = re.compile(r"[0-9a-zA-Z_.+-]+", re.ASCII)
 TOML_NUMBERS = "TOML: 0.5, -3, 1e-3, 1_000; not .5, 1., infinity or 1__0"   # for messages

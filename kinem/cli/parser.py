@@ -1,5 +1,6 @@
 """The command line's parser: every command, its options and its help."""
 import argparse
+import math
 
 from ..errors import InputError, KinemError
 from ..result import OUTPUTS
@@ -35,10 +36,10 @@ def parser():
     s.add_argument("--partial", action="store_true",
                    help="when the analysis fails, still write the instants solved, marked partial "
                         "(CSV: a last line '# partial: REASON'; NPZ: arrays partial and message)")
-    s.add_argument("--max-work", type=toml_float, metavar="N",
+    s.add_argument("--max-work", type=number_option, metavar="N",
                    help=f"refuse runs above N output instants x coordinates (default {MAX_WORK:g}); each step "
                         f"attempt beyond one per output interval counts as {SUBSTEP_WORK} instants")
-    s.add_argument("--max-seconds", type=toml_float, metavar="S",
+    s.add_argument("--max-seconds", type=number_option, metavar="S",
                    help=f"stop a run after S seconds, naming what took the time (default {MAX_SECONDS:g})")
     set_option(s)
     s.set_defaults(run=cmd_solve)
@@ -114,7 +115,7 @@ def parser():
     c = sub.add_parser("compare", help="run the case on the native solver and the engines; compare")
     c.add_argument("case", help="the case file (TOML; docs/case-format.md)")
     c.add_argument("--engines", help="comma-separated: native and engines (default: all)")
-    c.add_argument("--dt", type=toml_float, help="engine time step (overrides every engine's dt)")
+    c.add_argument("--dt", type=number_option, help="engine time step (overrides every engine's dt)")
     c.add_argument("--set", action="append", metavar="ENGINE.KEY=VALUE", help="an engine setting (repeatable)")
     scheduler_option(c)
     c.add_argument("--json", action="store_true", help="the error figures as JSON instead of the table")
@@ -185,23 +186,26 @@ def errors_option(p):
                    help="bad input: the first few problems on one line (default) or every problem, one a line")
 
 
-def toml_float(text):
-    """A number option's value read as a case file's numbers are (TOML: 0.5, 1e-3, 1_000, inf; not .5,
-    infinity, nan or 1__0), as --end, --steps and --set read theirs."""
-    from ..casefile.checks import TOML_NUMBERS, toml_number
+def number_option(text):
+    """A number option's value read as a case file's numbers are (kinem.casefile.checks.toml_float: 0.5,
+    1e-3, 1_000, inf; not .5, infinity, nan or 1__0), as --end, --steps and --set read theirs."""
+    from ..casefile.checks import TOML_NUMBERS, toml_float
 
-    v = toml_number(text)
-    if v is None or v != v:   # NaN: never a bound, a step or a time
+    try:
+        v = toml_float(text)
+    except ValueError:
+        v = math.nan
+    if math.isnan(v):   # NaN: never a bound, a step or a time
         raise argparse.ArgumentTypeError(f"got {text!r}; expected a number as a case file writes it "
                                          f"({TOML_NUMBERS})")
-    return float(v)
+    return v
 
 
 def scheduler_option(p):
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run on the workers of this Dask distributed scheduler (e.g. tcp://host:8786) "
                         "instead of local processes")
-    p.add_argument("--timeout", type=toml_float, metavar="SECONDS", action=_Timeout,
+    p.add_argument("--timeout", type=number_option, metavar="SECONDS", action=_Timeout,
                    help="with --scheduler: stop the run after this long (default 6 h; kinem/parallel.py)")
 
 
