@@ -704,7 +704,7 @@ impl<const N: usize> Lists<N> {
                     }
                 }
                 Family::Line(l) => {
-                    let per = l.per_row();
+                    let per = l.per();
                     let taken = l.slides(row0, |c| (0..per).any(|i| take(row0 + per * c + i)));
                     if f.moved {
                         moved.extend(taken);

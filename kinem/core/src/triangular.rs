@@ -41,10 +41,10 @@ pub const NEGATE: u32 = 1 << 31;
 /// sensitivities' right sides.
 ///
 /// `run` walks them as one flat list laid out once (`ops`, `Program::lay`,
-/// issue 31 round 27): each subtraction `[i, c, u]` and each division
-/// `[r, DIV, v]` in the order above, so that a run has no outer loop over
-/// the divisions and no inner loop to set up per division (a test of c per
-/// operation instead).
+/// issue 31 rounds 27 and 28): the operations in the order above, those in
+/// a row on one position as one run (`flat`), so that a run has no outer
+/// loop over the divisions, no inner loop to set up per division, and
+/// reads and writes each run's w[i] once.
 ///
 /// A 1x1 block whose pivot is a constant +1 (a ground's or a driver's row,
 /// `Factoring::one_entries` checks it each factorisation) has no division: its
@@ -80,8 +80,8 @@ pub struct Program {
     /// (subs, divs) without the subtractions that read a quiet position
     pub short: (Vec<[u32; 3]>, Vec<[u32; 3]>),
     /// (subs, divs) and `short` laid out as the flat lists `run` walks
-    /// (`Program::lay`): each subtraction `[i, c, u]` and each division
-    /// `[r, DIV, v]` in the order the program runs them
+    /// (`Program::lay`, `flat`): runs on one position in the order the
+    /// program runs them
     pub ops: Vec<[u32; 3]>,
     pub short_ops: Vec<[u32; 3]>,
 }

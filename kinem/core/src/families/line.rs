@@ -75,11 +75,7 @@ impl<S: Real> Line<S> {
     }
 
     /// The rows per constraint (2 for a translational joint, else 1).
-    pub fn per_row(&self) -> usize {
-        self.per()
-    }
-
-    fn per(&self) -> usize {
+    pub fn per(&self) -> usize {
         if self.angle {
             2
         } else {
@@ -269,7 +265,7 @@ impl<S: Real> Line<S> {
 /// and dd = dr_b + dsb - dr_a - dsa, lane by lane (the translational
 /// joint's angle row has no tangent but its phi0's).
 impl<const N: usize> Line<Lanes<N>> {
-    /// The values (u, d, sa, sb) of constraint c, as `parts`'.
+    /// The values (u, d, sa, sb) of constraint c (`slides_products`' x).
     ///
     /// # Safety
     /// c < ca.len() and `at.holds(n)` (Line's invariants).
@@ -282,39 +278,20 @@ impl<const N: usize> Line<Lanes<N>> {
         [v(self.ua.get_unchecked(c)) * ea, at.r_at(b) + sb - at.r_at(a) - sa, sa, sb]
     }
 
-    /// The tangents (du, dd, dsa, dsb) of constraint c in lane l from its
-    /// `values`, along q' = s (None: 0) and the tables (when `moved`).
+    /// The tangents (du, dd) of constraint c in lane l along the tables
+    /// alone (q' = 0: `phi_tangent`), each a sum over +0 as
+    /// `slides_products`' MOVED terms are (a -0 tangent gives +0).
     ///
     /// # Safety
-    /// As `values`', and s.len() >= n where given.
+    /// As `values`'.
     #[inline(always)]
-    unsafe fn tangents(
-        &self,
-        at: &At,
-        c: usize,
-        x: &[C64; 4],
-        s: Option<&[[f64; N]]>,
-        moved: bool,
-        l: usize,
-    ) -> [C64; 4] {
-        let (a, b) = (*self.ca.get_unchecked(c), *self.cb.get_unchecked(c));
-        let [u, _, sa, sb] = *x;
-        let [mut du, mut dd, mut dsa, mut dsb] = [C64::new(0.0, 0.0); 4];
-        if let Some(s) = s {
-            let (pa, pb) = (s.get_unchecked(a + 2)[l], s.get_unchecked(b + 2)[l]);
-            (du, dsa, dsb) = (iz(u) * pa, iz(sa) * pa, iz(sb) * pb);
-            dd = C64::new(
-                s.get_unchecked(b)[l] - s.get_unchecked(a)[l],
-                s.get_unchecked(b + 1)[l] - s.get_unchecked(a + 1)[l],
-            );
-        }
-        if moved {
-            let (ea, eb) = (at.rot_at(a), at.rot_at(b));
-            du += lane(*self.ua.get_unchecked(c), l).1 * ea;
-            dsa += lane(*self.pa.get_unchecked(c), l).1 * ea;
-            dsb += lane(*self.ob.get_unchecked(c), l).1 * eb;
-        }
-        [du, dd + dsb - dsa, dsa, dsb]
+    unsafe fn table_tangents(&self, at: &At, c: usize, l: usize) -> [C64; 2] {
+        let (ea, eb) = (at.rot_at(*self.ca.get_unchecked(c)), at.rot_at(*self.cb.get_unchecked(c)));
+        let zero = C64::new(0.0, 0.0);
+        let du = zero + lane(*self.ua.get_unchecked(c), l).1 * ea;
+        let dsa = zero + lane(*self.pa.get_unchecked(c), l).1 * ea;
+        let dsb = zero + lane(*self.ob.get_unchecked(c), l).1 * eb;
+        [du, zero + dsb - dsa]
     }
 
     /// d/dp of Eqs. 4.12, 4.16 at q' = 0 (du x d + u x dd), then -d(phi0).
@@ -326,7 +303,7 @@ impl<const N: usize> Line<Lanes<N>> {
             let x = unsafe { self.values(at, c) };
             for l in 0..N {
                 // SAFETY: as above
-                let [du, dd, _, _] = unsafe { self.tangents(at, c, &x, None, true, l) };
+                let [du, dd] = unsafe { self.table_tangents(at, c, l) };
                 out[per * c][l] = -(cross(du, x[1]) + cross(x[0], dd));
                 if self.angle {
                     out[2 * c + 1][l] = self.phi0[c].d[l]; // (-(-d(phi0)), exactly)
@@ -417,7 +394,7 @@ impl<const N: usize> Line<Lanes<N>> {
 /// A point-on-line constraint in a per-set-up list (crate::sensitivity's
 /// `Reach`): its bodies' x columns (ca, cb), its u x d row among the
 /// model's, its vectors' values (pa, ua, ob) and their tangents per lane
-/// (ua, pa, ob: `Line::tangents`' table terms, read by `slides_products`'
+/// (ua, pa, ob: the table terms, read by `slides_products`'
 /// MOVED list alone: the constraints of a moved family, every one of them).
 pub struct Slide<const N: usize> {
     a: usize,
@@ -470,8 +447,8 @@ impl<const N: usize> Line<Lanes<N>> {
     }
 }
 
-/// `Line::jac_products` over a list of constraints (its figures to the
-/// bit): r2 -= D(J) qd and, where L3, r3 -= D(J) qdd at each u x d row,
+/// D(J) over a list of constraints (`Line::jac_products` runs it over
+/// every constraint): r2 -= D(J) qd and, where L3, r3 -= D(J) qdd at each u x d row,
 /// the values and tangents kept in `kept` (one per constraint) where L3;
 /// MOVED: the tables' tangents taken (a moved family's constraints).
 ///
@@ -533,8 +510,9 @@ pub unsafe fn slides_products<const N: usize, const MOVED: bool, const L3: bool>
     }
 }
 
-/// `Line::gamma_tangent` over a list of constraints (its figures to the
-/// bit), from what `slides_products` kept at the instant.
+/// D(gamma) of the u x d row over a list of constraints
+/// (`Line::gamma_tangent` runs it over every constraint), from what
+/// `slides_products` kept at the instant.
 ///
 /// # Safety
 /// qd, sd hold every constraint's columns, out its row (`Slide::bounds`),

@@ -252,7 +252,7 @@ impl<const N: usize> Revolute<Lanes<N>> {
 /// A revolute joint in a per-set-up list of joints (crate::sensitivity's
 /// `Reach`): its angle columns (ci + 2, cj + 2), its first row among the
 /// model's, its local points' values and, per point whose table carries a
-/// tangent in a moved family (`parts`' `moved && moves(t)`), that point's
+/// tangent in a moved family (`moved && moves(t)`), that point's
 /// tangents (re, im per lane; `pins_products`' MOVED list alone reads them).
 pub struct Pin<const N: usize> {
     i: usize,
@@ -264,8 +264,8 @@ pub struct Pin<const N: usize> {
     tj: Option<([f64; N], [f64; N])>,
 }
 
-/// What `pins_products` keeps per joint for `pins_gamma` (`parts`' a, b
-/// and their tangents ar, ai, br, bi).
+/// What `pins_products` keeps per joint for `pins_gamma` (a = A_i s'_i,
+/// b = A_j s'_j and their tangents ar, ai, br, bi).
 #[derive(Clone, Copy)]
 pub struct PinKept<const N: usize> {
     a: C64,
@@ -312,9 +312,9 @@ impl<const N: usize> Revolute<Lanes<N>> {
     }
 }
 
-/// `Revolute::jac_products` over a list of joints (its figures to the bit):
-/// r2 -= D(J) qd and, where L3, r3 -= D(J) qdd at each joint's rows, its
-/// `parts` kept in `kept` (one per joint) where L3; MOVED: the joints'
+/// D(J) over a list of joints (`Revolute::jac_products` runs it over
+/// every joint): r2 -= D(J) qd and, where L3, r3 -= D(J) qdd at each
+/// joint's rows, a, b and their tangents kept in `kept` (one per joint) where L3; MOVED: the joints'
 /// points' tangents read (a list of joints whose `moving` is true).
 ///
 /// # Safety
@@ -367,8 +367,8 @@ pub unsafe fn pins_products<const N: usize, const MOVED: bool, const L3: bool>(
     }
 }
 
-/// `Revolute::gamma_tangent` over a list of joints (its figures to the
-/// bit), from what `pins_products` kept at the instant: out += D(gamma)
+/// D(gamma) over a list of joints (`Revolute::gamma_tangent` runs it over
+/// every joint), from what `pins_products` kept at the instant: out += D(gamma)
 /// at each joint's rows.
 ///
 /// # Safety
@@ -397,7 +397,7 @@ pub unsafe fn pins_gamma<const N: usize>(
 }
 
 /// A joint of a moved revolute family in a per-set-up list for (S1)
-/// (`Revolute::phi_tangent`'s figures): its angle columns, its first row
+/// (`phi_pins`): its angle columns, its first row
 /// and its points' tangents per lane, or none where neither moves (its
 /// rows -0).
 pub struct PhiPin<const N: usize> {
@@ -427,8 +427,8 @@ impl<const N: usize> Revolute<Lanes<N>> {
     }
 }
 
-/// `Revolute::phi_tangent` over a list of joints (its figures to the bit):
-/// out = -Phi_p at each joint's rows.
+/// -Phi_p over a list of joints (`Revolute::phi_tangent` runs it over
+/// every joint) at each joint's rows.
 ///
 /// # Safety
 /// e holds every joint's columns, out its rows (`PhiPin::bounds`).
