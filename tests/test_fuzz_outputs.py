@@ -478,22 +478,27 @@ def test_found_a_fifo_without_a_reader_after_the_work(tmp_path, monkeypatch, com
     assert not output.HELD
 
 
-@pytest.mark.parametrize("command", sorted(FIFO_COMMANDS))
-def test_a_fifo_with_a_reader_is_written_through_after_the_work(tmp_path, command):
+def _read_fifo_while(tmp_path, args, **run):
+    """run_main(args + --out FIFO) with a reader of the FIFO on a thread: (code, line, what it read)."""
     import threading
 
-    from kinem import output
-
-    args = FIFO_COMMANDS[command][0]
     fifo = tmp_path / "out.csv"
     os.mkfifo(fifo)
     got = []
     reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()))
     reader.start()
     try:
-        code, line = run_main([*args, "--out", str(fifo)], notes=command == "tolerance")
+        code, line = run_main([*args, "--out", str(fifo)], **run)
     finally:
         reader.join(60)
+    return code, line, got
+
+
+@pytest.mark.parametrize("command", sorted(FIFO_COMMANDS))
+def test_a_fifo_with_a_reader_is_written_through_after_the_work(tmp_path, command):
+    from kinem import output
+
+    code, line, got = _read_fifo_while(tmp_path, FIFO_COMMANDS[command][0], notes=command == "tolerance")
     assert code == 0, line
     assert got and got[0].count(b"\n") >= 3 and not output.HELD, got
     assert sorted(os.listdir(tmp_path)) == ["out.csv"]
@@ -503,19 +508,9 @@ def test_a_fifo_opened_before_a_failed_call_is_closed(tmp_path):
     """A FIFO opened before the work of a call that then fails (a bad --set after the output was checked):
     closed when the command ends, its reader sees an empty output at once instead of waiting for the
     process to exit."""
-    import threading
-
     from kinem import output
 
-    fifo = tmp_path / "out.csv"
-    os.mkfifo(fifo)
-    got = []
-    reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()))
-    reader.start()
-    try:
-        code, line = run_main(["sweep", str(NAMED), "--set", "crank=x", "--out", str(fifo)])
-    finally:
-        reader.join(60)
+    code, line, got = _read_fifo_while(tmp_path, ["sweep", str(NAMED), "--set", "crank=x"])
     assert code == 2 and "--set: got 'crank=x'" in line, line
     assert got == [b""] and not output.HELD
 
