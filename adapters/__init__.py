@@ -48,7 +48,7 @@ def case_settings(model, name: str, overrides=None) -> dict:
     [engines.NAME] table (checked, naming the file), then ``overrides``."""
     table = dict(model.case.engines.get(name, {}))
     source = getattr(model.case, "source", "") or "case"
-    get(name).settings(table, f"{source} [engines.{name}]")
+    get(name).settings(table, f"{source}: [engines.{name}]", table=True)   # the loader's form of a place
     return settings(name, {**table, **(overrides or {})})
 
 
@@ -57,4 +57,4 @@ def check_case(case):
     source = getattr(case, "source", "") or "case"
     for name in case.engines:
         if name not in REGISTRY:
-            raise _unknown(name, f"{source} [engines.{name}]")
+            raise _unknown(name, f"{source}: [engines.{name}]")

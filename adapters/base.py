@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from kinem.casefile.checks import show
 from kinem.casefile.keys import LocalKey
 from kinem.constraints import REGISTRY
 from kinem.errors import InputError
@@ -210,21 +211,25 @@ class Adapter:
                 return Reason(c.type, c.name, self.reasons.get(c.type, "no equivalent in this engine"))
         return None
 
-    def settings(self, overrides=None, where="") -> dict:
+    def settings(self, overrides=None, where="", table=False) -> dict:
         """The defaults with ``overrides`` applied, every key and value checked:
         the one place settings are validated. ``where`` names their source
-        (a case file's [engines.NAME] table, --set) in the InputError."""
+        (--set, or with ``table`` a case file's "CASE: [engines.NAME]", whose
+        problems then read as the loader's: "key 'dt': got -1; expected ...")
+        in the InputError."""
         s = dict(self.defaults())
         at = f"{where}: " if where else ""
         for k, v in (overrides or {}).items():
             if k not in s:
-                raise InputError(f"{at}{self.name} setting '{k}': unknown; expected one of {', '.join(s)}")
+                raise InputError(f"{at}key '{k}': unknown key; expected one of {', '.join(s)}" if table else
+                                 f"{at}{self.name} setting '{k}': unknown; expected one of {', '.join(s)}")
             s[k] = v
         for k, v in s.items():
             check = self.checks.get(k)
             why = check(v) if check else None
             if why:
-                raise InputError(f"{at}{self.name} setting '{k}' = {v!r}: expected {why}")
+                raise InputError(f"{at}key '{k}': got {show(v)}; expected {why}" if table else
+                                 f"{at}{self.name} setting '{k}' = {v!r}: expected {why}")
         return s
 
     def steps_per_interval(self, s, interval, intervals=1):

@@ -70,10 +70,11 @@ def columns(model) -> list:
     return out + [f"{p.name}.{k}" for p in model.case.points if p.body not in fixed for k in ("x", "y")]
 
 
-def check(model, paths, engines, overrides=None):
+def check(model, paths, engines, overrides=None, options=None):
     """(exact Sensitivity, [Check]) for every parameter path and source
     (``engines``: names, 'native' included when asked). Raises InputError
-    for an unknown path or engine setting."""
+    for an unknown path or engine setting. ``options`` (kinem.Options;
+    default the case's): native's solves, e.g. their max_seconds."""
     from kinem.model import compile
     from kinem.options import Options
     from kinem.parameters import apply, resolve
@@ -84,7 +85,7 @@ def check(model, paths, engines, overrides=None):
 
     case = model.case
     listed = resolve(case, paths)
-    exact = sensitivity(model, [p.path for p in listed], outputs=("positions",))
+    exact = sensitivity(model, [p.path for p in listed], outputs=("positions",), options=options)
     cols = [c for c in columns(model) if c in exact.trajectory]
     eps_n = Options.of(case).tolerance
     t = exact.trajectory.t
@@ -102,7 +103,7 @@ def check(model, paths, engines, overrides=None):
     for p in listed:
         h = step(model, p)
         moved = {s: compile(apply(case, {p.path: p.value + s * h})) for s in (1, -1, 2, -2)}
-        native = {s: solve(m, outputs=("positions",)) for s, m in moved.items()}
+        native = {s: solve(m, outputs=("positions",), options=options) for s, m in moved.items()}
         bad = [r.message for r in native.values() if not r.success]
         if bad:
             out.append(Check("native", p.path, Status.FAILED, f"native at p +- h: {bad[0]}", h))

@@ -70,7 +70,8 @@ class Budget:
             raise WorkLimitError(self.why(self.out_of_time(), t))
 
     def out_of_time(self) -> str:
-        return f"the time limit of {self.seconds:.3g} s (Options.max_seconds, kinem solve --max-seconds) is reached"
+        return (f"the time limit of {self.seconds:.3g} s (Options.max_seconds, --max-seconds of kinem solve and "
+                "compare) is reached")
 
     def why(self, what, t) -> str:
         """What consumed the budget, the run being at t."""

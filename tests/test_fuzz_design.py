@@ -800,3 +800,95 @@ def test_found_a_name_used_only_by_a_mass(tmp_path):
 
     listed = [p.path for p in parameters(kinem.load(NAMED))]
     assert "parameters.crank" in listed   # names a constraint's number reads: as before
+
+
+# -- session 27, part 9 (docs/benchmarks.md, "Fuzz campaign, session 27"): what part 7 left ----------------
+
+def _compare(args):
+    """kinem compare in-process: (exit code, standard output, standard error); compare prints its table
+    with exit 1 (a failed run), so tests/test_fuzz.run_main's one line does not apply."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(["compare", *args])
+    return code, out.getvalue(), err.getvalue()
+
+
+@pytest.mark.parametrize("table, said", [
+    ("dt = -1.0", "[engines.pymunk]: key 'dt': got -1.0; expected a positive number"),
+    ("steps = 3", "[engines.pymunk]: key 'steps': unknown key; expected one of dt, "),
+    ('dt = "fast"', "[engines.pymunk]: key 'dt': got 'fast'; expected"),
+    ("dt = nan", "[engines.pymunk]: key 'dt': got nan; expected a finite number"),   # the loader's own check
+])
+def test_found_two_forms_of_an_engine_tables_place(tmp_path, table, said):
+    """A case's [engines.NAME] setting the engine refused read "CASE [engines.pymunk]: pymunk setting 'dt' =
+    -1.0: expected ...", where the loader writes "CASE: [engines.pymunk]: key 'dt': got ...; expected ...":
+    two forms of one place. Now one, the loader's, whichever layer finds the problem."""
+    from test_fuzz import SHORT
+
+    case = tmp_path / "case.toml"
+    case.write_text(SHORT + f"\n[engines.pymunk]\n{table}\n")
+    for command in (["compare", str(case), "--engines", "native,pymunk"],
+                    ["export", str(case), "--engine", "pymunk", "--out", str(tmp_path / "m.py")]):
+        code, line = run_main(command)
+        assert code == 2 and f"{case}: {said}" in line, line
+    assert not (tmp_path / "m.py").exists()
+
+
+@pytest.mark.parametrize("text", ["\\u0007", "\\u0000", "\\u202e", "\\u001b[31m", "\\u200b", "\\r", "\\u0085"])
+def test_found_a_description_with_control_characters(tmp_path, text):
+    """A case's description took any TOML string: a NUL, a BEL, an escape sequence, U+202E (a right-to-left
+    override that reorders what the reader sees), shown as codes by the report, raw elsewhere (the API's
+    Case.description). Names take letters, digits, '_' and '-' alone, units.length printable characters:
+    now the description refuses control and invisible formatting characters, naming the key and the
+    character (tab and newline, prose, stay)."""
+    case = tmp_path / "case.toml"
+    case.write_text(FOUR_BAR.read_text().replace('description = "', f'description = "a b{text}', 1))
+    assert text in case.read_text()
+    code, line = run_main(["info", str(case)])
+    code_point = {"\\r": "000D"}.get(text, text[2:6].upper())
+    assert code == 2 and f"{case}: top level: key 'description': U+{code_point} at character 4; expected text " \
+                         "without control or invisible formatting characters" in line, line
+    with pytest.raises(kinem.InputError):
+        kinem.load(case)
+
+
+def test_a_description_keeps_tabs_newlines_and_other_scripts(tmp_path):
+    case = tmp_path / "case.toml"
+    case.write_text(FOUR_BAR.read_text().replace('description = "', 'description = "a\\tb\\nc\\u00a0d \\u00e9 \\u4e2d ',
+                                                 1))
+    assert kinem.load(case).description.startswith("a\tb\nc\u00a0d \u00e9 \u4e2d ")
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "inf", "1e400", "1e8"])
+def test_found_compare_max_seconds_refused_as_solves(value):
+    """kinem compare had no --max-seconds: a four-bar at 5,000,000 steps ran more than 120 s. Now the
+    option kinem solve has, read by the same reader, with the same range and message (nothing run)."""
+    code, line = run_main(["compare", str(FOUR_BAR), "--engines", "native", "--max-seconds", value])
+    assert code == 2 and f"--max-seconds: got {float(value):g}; expected a number of seconds in (0, 1e+07]" in line, line
+
+
+@pytest.mark.parametrize("given", [True, False])
+def test_found_compare_without_a_time_limit(monkeypatch, given):
+    """The same, run: a compare past its time limit (given, or the default: kinem solve's MAX_SECONDS, made
+    small here) ends native's solve and says so in its table, exit 1, within about the limit."""
+    import time
+
+    from kinem.cli import solve
+
+    if not given:
+        monkeypatch.setattr(solve, "MAX_SECONDS", 0.3)
+    start = time.perf_counter()
+    code, out, err = _compare([str(FOUR_BAR), "--engines", "native,pymunk", "--steps", "2000000",
+                               *(["--max-seconds", "0.3"] if given else [])])
+    took = time.perf_counter() - start
+    assert code == 1 and err == "", err
+    assert "the time limit of 0.3 s (Options.max_seconds, --max-seconds of kinem solve and compare)" in out, out
+    assert "pymunk   failed: no native reference" in out, out
+    assert took < 30, took
+
+
+def test_compare_sensitivity_within_a_time_limit():
+    """--max-seconds holds for compare --sensitivity's native solves too (the exact sensitivities first)."""
+    code, out, err = _compare([str(FOUR_BAR), "--engines", "native", "--steps", "400000", "--sensitivity",
+                               "points.A.at.0", "--max-seconds", "0.3"])
+    assert code == 1 and "the time limit of 0.3 s" in err and err.count("\n") == 1, (out, err)

@@ -175,7 +175,7 @@ def test_found_engines_table_beyond_memory(tmp_path):
     case = tmp_path / "case.toml"
     case.write_text(SHORT + "\n[engines.pymunk]\nsubsteps = 99999999999\n")
     code, line = run_main(["export", str(case), "--engine", "pymunk", "--out", str(tmp_path / "m.py")])
-    assert code == 2 and "'substeps' = 99999999999" in line
+    assert code == 2 and "[engines.pymunk]: key 'substeps': got 99999999999" in line
     assert not (tmp_path / "m.py").exists()
 
 

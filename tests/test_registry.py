@@ -65,9 +65,9 @@ def test_bad_dt_is_one_line_exit_2(value, expected, capsys):
 
 
 @pytest.mark.parametrize("table, expected", [
-    ("[engines.nope]\ndt = 1e-3\n", "[engines.nope]: unknown engine 'nope'; expected one of pymunk, mujoco, exudyn"),
-    ("[engines.mujoco]\ndt = -1.0\n", "[engines.mujoco]: mujoco setting 'dt' = -1.0: expected a positive number"),
-    ("[engines.pymunk]\nsteps = 3\n", "[engines.pymunk]: pymunk setting 'steps': unknown"),
+    ("[engines.nope]\ndt = 1e-3\n", ": [engines.nope]: unknown engine 'nope'; expected one of pymunk, mujoco, exudyn"),
+    ("[engines.mujoco]\ndt = -1.0\n", ": [engines.mujoco]: key 'dt': got -1.0; expected a positive number"),
+    ("[engines.pymunk]\nsteps = 3\n", ": [engines.pymunk]: key 'steps': unknown key; expected one of"),
 ])
 def test_case_file_engine_tables_are_checked_when_used(tmp_path, capsys, table, expected):
     case = short_case(tmp_path, "\n" + table)

@@ -220,14 +220,23 @@ def cmd_export(a):
 
 
 def cmd_compare(a):
+    import time
+    from dataclasses import replace
+
     from adapters.compare import run_case, table
 
+    from ..options import Options
+    from .solve import time_limit
+
+    started = time.perf_counter()
     engines = engine_list(a.engines)
     check_timeout(a)
+    seconds = time_limit(a)   # native's solves, as kinem solve's (the engines: their step bounds, Ctrl-C)
     model = load_model(a.case, a.end, a.steps)
+    options = replace(Options.of(model.case), max_seconds=seconds, started=started)
     if a.sensitivity is not None:
-        return _compare_sensitivity(a, model, engines)
-    native, rows = run_case(model, engines, engine_settings(a.set, a.dt, engines), a.scheduler)
+        return _compare_sensitivity(a, model, engines, options)
+    native, rows = run_case(model, engines, engine_settings(a.set, a.dt, engines), a.scheduler, options)
     if a.json:
         print(json.dumps({"case": model.case.name, "length": model.length, "unit": model.case.length_unit,
                           "engines": {r.engine: r.as_dict() for r in rows}}, indent=2, default=float))
@@ -236,7 +245,7 @@ def cmd_compare(a):
     return 1 if any(r.verdict.fails for r in rows) else 0   # adapters.compare.Verdict: the report's rule too
 
 
-def _compare_sensitivity(a, model, engines):
+def _compare_sensitivity(a, model, engines, options):
     """kinem compare --sensitivity: exact sensitivities against every source's
     central differences (adapters.sensitivity); exit 1 when one is outside."""
     from adapters import check_case
@@ -251,7 +260,7 @@ def _compare_sensitivity(a, model, engines):
     if not paths:
         raise InputError(f"{a.case}: --sensitivity: no parameters given and the case has no [report] sensitivity; "
                          "expected --sensitivity P[,P...]")
-    _, checks = check(model, paths, engines, engine_settings(a.set, a.dt, engines))
+    _, checks = check(model, paths, engines, engine_settings(a.set, a.dt, engines), options)
     if a.json:
         print(json.dumps({"case": model.case.name, "sensitivity": [
             {"engine": c.engine, "parameter": c.parameter, "status": c.status.value, "detail": c.detail, "h": c.h,
@@ -278,6 +287,9 @@ def cmd_report(a):
         found = Path(a.out) / "baseline.json"
         baseline = str(found) if found.is_file() else None
     elif baseline == "none":
+        if a.update_baseline:   # "write the baseline to none": two options that contradict, not a guess between them
+            raise InputError("--update-baseline with --baseline none: none is no baseline, so none to update; "
+                             "expected --update-baseline alone (OUT/baseline.json) or with --baseline FILE")
         baseline = None
     outcome = run(Options(cases=tuple(paths), engines=engines, out=a.out,
                           baseline=baseline, update_baseline=a.update_baseline, quick=a.quick, junit=a.junit,

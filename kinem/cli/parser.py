@@ -39,8 +39,7 @@ def parser():
     s.add_argument("--max-work", type=number_option, metavar="N",
                    help=f"refuse runs above N output instants x coordinates (default {MAX_WORK:g}); each step "
                         f"attempt beyond one per output interval counts as {SUBSTEP_WORK} instants")
-    s.add_argument("--max-seconds", type=number_option, metavar="S",
-                   help=f"stop a run after S seconds, naming what took the time (default {MAX_SECONDS:g})")
+    max_seconds_option(s)
     set_option(s)
     s.set_defaults(run=cmd_solve)
 
@@ -120,6 +119,7 @@ def parser():
     scheduler_option(c)
     c.add_argument("--json", action="store_true", help="the error figures as JSON instead of the table")
     time_options(c)
+    max_seconds_option(c, " (native's solves; the engines have their step bounds)")
     c.add_argument("--sensitivity", nargs="?", const=True, metavar="P[,P...]",   # True: alone, the case's
                    help="check the exact sensitivities to these parameter paths (default: the case's [report] "
                         "sensitivity) against native's and the engines' central differences")
@@ -179,6 +179,11 @@ def set_option(p):
 def time_options(p):
     p.add_argument("--end", help="end time (overrides the case; the case file's range)")
     p.add_argument("--steps", help="number of output intervals (overrides the case; the case file's range)")
+
+
+def max_seconds_option(p, what=""):
+    p.add_argument("--max-seconds", type=number_option, metavar="S",
+                   help=f"stop a run after S seconds, naming what took the time (default {MAX_SECONDS:g}){what}")
 
 
 def errors_option(p):

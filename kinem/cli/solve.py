@@ -22,6 +22,16 @@ SHOW_SUBSTEPS = 100
 
 
 
+def time_limit(a) -> float:
+    """--max-seconds of solve and compare: MAX_SECONDS by default, else within (0, MOST_SECONDS]."""
+    from ..options import MOST_SECONDS
+
+    seconds = MAX_SECONDS if a.max_seconds is None else a.max_seconds
+    if not 0 < seconds <= MOST_SECONDS:
+        raise InputError(f"--max-seconds: got {seconds:g}; expected a number of seconds in (0, {MOST_SECONDS:g}]")
+    return seconds
+
+
 def cmd_solve(a):
     from .. import stream
     from ..output import Output, TrajectoryWriter
@@ -29,7 +39,6 @@ def cmd_solve(a):
     import time
 
     from ..margins import MARGINS
-    from ..options import MOST_SECONDS
 
     started = time.perf_counter()
     fmt = file_format(a.out, a.format)
@@ -38,9 +47,7 @@ def cmd_solve(a):
     if not 1 <= limit <= MOST_WORK:   # NaN too
         raise InputError(f"--max-work: got {limit:g}; expected a number of output instants x coordinates "
                          f"from 1 to {MOST_WORK:g}")
-    seconds = MAX_SECONDS if a.max_seconds is None else a.max_seconds
-    if not 0 < seconds <= MOST_SECONDS:
-        raise InputError(f"--max-seconds: got {seconds:g}; expected a number of seconds in (0, {MOST_SECONDS:g}]")
+    seconds = time_limit(a)
     model = load_model(a.case, a.end, a.steps, a.set)
     nt = model.case.steps + 1
     if stream.work(model) > limit:
