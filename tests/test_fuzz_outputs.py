@@ -760,3 +760,64 @@ def test_found_update_baseline_with_baseline_none(tmp_path, monkeypatch, old):
                            "--update-baseline", "--baseline", "none"])
     assert code == 2 and "--update-baseline with --baseline none: none is no baseline" in line, line
     assert (out / "baseline.json").read_text() == "old" if old else not out.exists()
+
+
+# -- session 27, part 9, part B: kinem animate's options ---------------------------------------------------------
+
+def test_found_animate_fifo_and_read_only_after_the_work(tmp_path, monkeypatch):
+    """kinem animate checked its --out's name (suffix, folder) but not the file: a FIFO no one reads was
+    found after the runs (then 10 s more), a read-only file after them too, as sweep's were before part 7.
+    Now kinem.output.check first, as sweep, sensitivity and tolerance: exit 1, one line, nothing run; with
+    a reader, the FIFO is written through after the runs."""
+    import threading
+
+    from kinem import output
+    from kinem.report import animate
+
+    case = tmp_path / "case.toml"
+    case.write_text(SHORT)
+    frames = animate.frames
+    monkeypatch.setattr(animate, "frames", lambda *a, **k: pytest.fail("ran"))
+    monkeypatch.setattr(output, "FIFO_WAIT", 0.2)
+    fifo = tmp_path / "a.svg"
+    os.mkfifo(fifo)
+    code, line = run_main(["animate", str(case), "--out", str(fifo), "--engines", "native"])
+    assert (code, line) == (1, f"kinem: error: {fifo}: write failed: the FIFO has no reader (waited 0.2 s)")
+    assert not output.HELD
+    locked = tmp_path / "locked.svg"
+    locked.write_text("old")
+    locked.chmod(0o444)
+    code, line = run_main(["animate", str(case), "--out", str(locked), "--engines", "native"])
+    assert code == 1 and "read-only" in line and locked.read_text() == "old", line
+    monkeypatch.setattr(animate, "frames", frames)
+    got = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()))
+    reader.start()
+    try:
+        code, line = run_main(["animate", str(case), "--out", str(fifo), "--engines", "native"])
+    finally:
+        reader.join(60)
+    assert code == 0 and got and got[0].startswith(b"<?xml") and not output.HELD, (line, got)
+
+
+def test_found_animate_beyond_memory(tmp_path):
+    """kinem animate of a case whose [time] steps are 10,000,000: "internal error: MemoryError: Unable to
+    allocate 2.68 GiB", exit 3 under a 3 GB limit (native's solution is held whole, then each engine's).
+    Now refused before the solve, with compare's bound and words (kinem.budget.MAX_HELD), exit 2."""
+    text = (ROOT / "cases" / "four_bar.toml").read_text()
+    case = tmp_path / "case.toml"
+    case.write_text(text.replace("end = 2.5\nsteps = 250", "end = 2.5\nsteps = 10000000"))
+    assert "steps = 10000000" in case.read_text()
+    code, line = run_main(["animate", str(case), "--out", str(tmp_path / "a.svg"), "--engines", "native"])
+    assert code == 2 and "animate: 10,000,001 instants x 12 coordinates x 3 (positions, velocities, " \
+                         "accelerations) x 1 solution(s) = 3.6e+08 numbers exceeds" in line, line
+    assert not (tmp_path / "a.svg").exists()
+
+
+def test_found_animate_out_empty(tmp_path):
+    """--out '' (an unset shell variable) read "--out : expected a file ending in .svg, .gif, .mp4"; now
+    named as report's --out '' is."""
+    case = tmp_path / "case.toml"
+    case.write_text(SHORT)
+    code, line = run_main(["animate", str(case), "--out", "", "--engines", "native"])
+    assert code == 2 and "--out '': an empty path (an unset shell variable?)" in line, line

@@ -313,10 +313,12 @@ def cmd_diff(a):
 
 
 def cmd_animate(a):
+    from ..output import check
     from ..report.animate import check_output, write
 
     engines = [e for e in engine_list(a.engines) if e != "native"]   # '' refused, as compare refuses it
     check_output(a.out)
+    check(a.out)   # as sweep's --out: a read-only file, or a FIFO without a reader, before the runs
     bar = frame_bar()
     try:
         skipped = write(load_model(a.case), a.out, engines, bar)

@@ -28,6 +28,9 @@ FORMATS = (".svg", ".gif", ".mp4")
 def check_output(out, what="--out"):
     """Input errors about the output path, before anything runs, naming it
     as ``what`` (the command line's --out; the API's parameter)."""
+    if not str(out):   # an unset shell variable: named as such, as every other --out ''
+        raise InputError(f"{what} '': an empty path (an unset shell variable?); expected a file ending in "
+                         f"{', '.join(FORMATS)}")
     ext = Path(out).suffix.lower()
     if ext not in FORMATS:
         raise InputError(f"{what} {out}: expected a file ending in {', '.join(FORMATS)}")
@@ -59,8 +62,13 @@ def frames(model, engines):
     """(native frames {t, q}, engine -> q at the same instants, denser native q
     for the paths, engine -> why it is not drawn)."""
     from adapters import case_settings, get
+    from kinem.budget import check_held
     from kinem.solver import solve
 
+    K, sources = len(model.times), 1 + len(engines)   # native's and each engine's solution held whole, as compare's
+    check_held(3 * K * model.n * sources, model.case.source, f"animate: {K:,} instants x {model.n} coordinates x 3 "
+               f"(positions, velocities, accelerations) x {sources} solution(s)", "fewer instants ([time] steps) or "
+               "engines")
     r = solve(model)
     if not r.success:
         raise AnalysisError(f"{model.case.source}: {r.message}")
