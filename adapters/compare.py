@@ -387,6 +387,8 @@ def run_case(model, engines, overrides=None, scheduler=None, options=None):
     from . import check_case
 
     check_case(model.case)
+    if scheduler is not None:   # its form before native's solve; it is connected to when the engines' runs begin
+        parallel.check_address(scheduler)
     K, sources = len(model.times), 1 + sum(n != "native" for n in engines)   # native's and each engine's held whole
     check_held(3 * K * model.n * sources, model.case.source, f"compare: {K:,} instants x {model.n} coordinates x 3 "
                f"(positions, velocities, accelerations) x {sources} solution(s)", "fewer instants (--steps) or engines")

@@ -117,17 +117,9 @@ def map(fn, tasks, jobs=None, scheduler=None) -> list:
 def connect(address):
     """A dask.distributed Client of the scheduler at address, with at least one
     worker; InputError (exit 2) when there is none within CONNECT_TIMEOUT."""
-    try:
-        from distributed import Client
-    except ImportError as e:
-        raise InputError(f"--scheduler needs dask.distributed ({e}); pip install 'dask[distributed]'") from None
-    from distributed.comm.addressing import get_address_host_port
+    check_address(address)
+    from distributed import Client
 
-    try:  # a malformed address fails here (and "", which would start a local cluster)
-        get_address_host_port(address)
-    except Exception as e:  # noqa: BLE001 - ValueError, NotImplementedError, ...
-        raise InputError(f"--scheduler {address}: not a scheduler address ({e}); "
-                         "expected e.g. tcp://host:8786") from None
     _quiet()
     if address.startswith("tcp://") or "://" not in address:
         _probe(address)
@@ -145,6 +137,26 @@ def connect(address):
                          f"(waited {CONNECT_TIMEOUT:g} s)") from None
     _quiet()   # the loggers the client made
     return client
+
+
+def check_address(address):
+    """InputError (exit 2) unless address has a scheduler address's form:
+    nothing is connected to (a command checks it before its own work, then
+    connects when its runs begin)."""
+    try:
+        from distributed.comm.addressing import get_address_host_port
+    except ImportError as e:
+        raise InputError(f"--scheduler needs dask.distributed ({e}); pip install 'dask[distributed]'") from None
+    if not address:   # an unset shell variable ("" would start a local cluster)
+        raise InputError("--scheduler '': an empty address (an unset shell variable?); expected e.g. tcp://host:8786")
+    try:  # a malformed address fails here
+        port = get_address_host_port(address)[1]
+    except Exception as e:  # noqa: BLE001 - ValueError, NotImplementedError, ...
+        raise InputError(f"--scheduler {address}: not a scheduler address ({e}); "
+                         "expected e.g. tcp://host:8786") from None
+    if not 0 < port < 65536:   # else a connection attempt of CONNECT_TIMEOUT to no port at all
+        raise InputError(f"--scheduler {address}: not a scheduler address (port {port}: expected 1 to 65535); "
+                         "expected e.g. tcp://host:8786")
 
 
 def _lost(e) -> bool:

@@ -821,3 +821,36 @@ def test_found_animate_out_empty(tmp_path):
     case.write_text(SHORT)
     code, line = run_main(["animate", str(case), "--out", "", "--engines", "native"])
     assert code == 2 and "--out '': an empty path (an unset shell variable?)" in line, line
+
+
+# -- session 27, part 9, part B: compare --scheduler with hostile values ------------------------------------------
+
+@pytest.mark.parametrize("address, said", [
+    ("nope", "--scheduler nope: not a scheduler address (missing port number"),
+    ("", "--scheduler '': an empty address (an unset shell variable?); expected e.g. tcp://host:8786"),
+    ("tcp://127.0.0.1:99999", "--scheduler tcp://127.0.0.1:99999: not a scheduler address (port 99999: expected 1 "
+                              "to 65535)"),
+])
+def test_found_compare_scheduler_checked_after_the_solve(monkeypatch, address, said):
+    """compare --scheduler checked the address only when the engines' runs began, after native's solve (a
+    long case: its whole solve, then exit 2); '' read "--scheduler : not a scheduler address", and a port
+    beyond 65535 waited CONNECT_TIMEOUT (10 s) for "Timed out trying to connect". Now the address's form is
+    checked before the solve (nothing connected to yet), '' named as an unset variable, the port's range
+    checked: exit 2 at once."""
+    import kinem.solver
+
+    monkeypatch.setattr(kinem.solver, "solve", lambda *a, **k: pytest.fail("native was solved"))
+    code, line = run_main(["compare", str(ROOT / "cases" / "four_bar.toml"), "--engines", "native,pymunk",
+                           "--scheduler", address])
+    assert code == 2 and said in line, line
+
+
+def test_found_compare_sensitivity_ignored_the_scheduler(monkeypatch):
+    """compare --sensitivity --scheduler ADDRESS ran every check in this process, the address unread (any
+    text, exit 0). Now refused, as an option that would be ignored is (part 7's --dt and --set)."""
+    import adapters.sensitivity
+
+    monkeypatch.setattr(adapters.sensitivity, "check", lambda *a, **k: pytest.fail("ran"))
+    code, line = run_main(["compare", str(ROOT / "cases" / "four_bar.toml"), "--engines", "native", "--sensitivity",
+                           "--scheduler", "nope"])
+    assert code == 2 and "--scheduler with --sensitivity: the sensitivity checks run in this process" in line, line

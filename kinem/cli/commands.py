@@ -252,6 +252,9 @@ def _compare_sensitivity(a, model, engines, options):
     from adapters.sensitivity import check, table
 
     check_case(model.case)
+    if a.scheduler is not None:   # its runs are in this process: the option would be ignored
+        raise InputError("--scheduler with --sensitivity: the sensitivity checks run in this process; expected "
+                         "no --scheduler")
     given = None if a.sensitivity is True else [p.strip() for p in a.sensitivity.split(",") if p.strip()]
     if given == []:   # --sensitivity "$UNSET" or ',': not the case's list unseen
         raise InputError(f"--sensitivity: got {a.sensitivity!r}; expected design parameter paths P[,P...], or "
