@@ -892,3 +892,29 @@ def test_compare_sensitivity_within_a_time_limit():
     code, out, err = _compare([str(FOUR_BAR), "--engines", "native", "--steps", "400000", "--sensitivity",
                                "points.A.at.0", "--max-seconds", "0.3"])
     assert code == 1 and "the time limit of 0.3 s" in err and err.count("\n") == 1, (out, err)
+
+
+# -- session 27, part 9, part B: the report's design section with hostile [report] sensitivity values -----------
+
+@pytest.mark.parametrize("listed", [["crank"], ["crank", "parameters.crank"], ["parameters.crank", "crank", "coupler"]])
+def test_found_report_sensitivity_by_a_name_drew_nothing(listed):
+    """[report] sensitivity = ["crank"] (a name of [parameters], which the list accepts): the design section's
+    table had its row, but its plot matched curves by the text as written against the parameter's path
+    ("parameters.crank"): an empty panel and matplotlib's "No artists with labels found to put in legend"
+    on the report's standard error (two lines of a Python warning); ["crank", "parameters.crank"], one
+    parameter, had two panels, one empty. Now the plot takes the resolved paths: one panel a parameter,
+    each with its curves, no warning."""
+    from kinem.report import design
+
+    text = NAMED.read_text().replace("steps = 250", "steps = 10")
+    case = kinem.load_dict(tomllib.loads(text + "\n[report]\nsensitivity = [" + ", ".join(f'"{p}"' for p in listed)
+                                        + "]\n"), source="named")
+    drawn = []
+    plot = design._sensitivity_plot
+    design_plot = lambda t, paths, *a, **k: drawn.append(paths) or plot(t, paths, *a, **k)  # noqa: E731
+    with warnings.catch_warnings(), pytest.MonkeyPatch.context() as mp:
+        warnings.simplefilter("error")
+        mp.setattr(design, "_sensitivity_plot", design_plot)
+        parts = design.section(kinem.compile(case))
+    assert drawn == [list(dict.fromkeys("parameters." + p.split(".")[-1] for p in listed))], drawn
+    assert len(parts) == 2 and parts[0].count("<code>parameters.") == len(drawn[0]), parts[0][:300]

@@ -39,7 +39,8 @@ def _sensitivity(model, paths, columns, engines=()):
     case = model.case
     sens = sensitivity(model, paths)
     rows, fig_cols = [], []
-    for p in resolve(case, paths):
+    listed = resolve(case, paths)   # a name of [parameters] as its path, each parameter once
+    for p in listed:
         scale = max(abs(p.value), model.length) if p.unit == case.length_unit else max(abs(p.value), 1.0)
         h = STEP * scale
         runs = [solve(compile(apply(case, {p.path: p.value + s * h})), outputs=("positions",)).trajectory
@@ -72,7 +73,7 @@ def _sensitivity(model, paths, columns, engines=()):
             f"{'Phi_q is singular at some instants: ' + escape(sens.message) if sens.singular.any() else ''}</p>"
             f"<table><tr><th class=l>parameter</th><th>value</th>{head}<th>native differences</th>{head_e}</tr>{body}"
             "</table>")
-    return [text, _sensitivity_plot(sens.trajectory.t, paths, columns, fig_cols, checks)]
+    return [text, _sensitivity_plot(sens.trajectory.t, [p.path for p in listed], columns, fig_cols, checks)]
 
 
 def _engines(model, paths, engines) -> dict:
