@@ -918,3 +918,31 @@ def test_found_report_sensitivity_by_a_name_drew_nothing(listed):
         parts = design.section(kinem.compile(case))
     assert drawn == [list(dict.fromkeys("parameters." + p.split(".")[-1] for p in listed))], drawn
     assert len(parts) == 2 and parts[0].count("<code>parameters.") == len(drawn[0]), parts[0][:300]
+
+
+@pytest.mark.parametrize("rod, said", [("0.5", "not computed: native at p +- h: step to t = "),
+                                       ("5.0", None)])
+def test_found_report_sensitivity_past_an_assembly_limit(rod, said):
+    """A slider-crank whose rod is 0.5 mm longer than its crank, [report] sensitivity = ["constraints.B.si.0"]:
+    the design section's central differences move the rod 2h shorter than the crank, where the mechanism no
+    longer assembles: the failed solves' partial trajectories met in "ValueError: operands could not be
+    broadcast", kinem report's "internal error", exit 3, no report. Now the row says the differences were not
+    computed and why. With the rod 5 mm longer (every solve ok) the column the parameter does not move (the
+    slider's A.y, its exact derivative rounding, 2.2e-16) made "native differences" 1.0, 100 % of the
+    peak: a column's peak below 1e-9 of the row's largest is rounding, not its scale."""
+    import re
+
+    from kinem.report import design
+
+    text = (ROOT / "cases" / "slider_crank.toml").read_text().replace("steps = 500", "steps = 100")
+    text = text.replace("si = [300.0, 0.0]", f"si = [{rod}, 0.0]", 1).replace(
+        "[report]\n", '[report]\nsensitivity = ["constraints.B.si.0"]\n', 1)
+    assert f"si = [{rod}, 0.0]" in text and "sensitivity" in text
+    model = kinem.compile(kinem.load_dict(tomllib.loads(text), source="slider"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        table = re.sub("<[^>]*>", " ", design.section(model)[0])
+    if said:
+        assert said in table, table[-400:]
+    else:
+        assert float(table.split()[-1]) < 1e-3, table[-200:]

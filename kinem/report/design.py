@@ -11,6 +11,7 @@ from .plots import _plt, _png, img
 
 SAMPLES = 200      # Monte Carlo samples of the report's bands
 STEP = 5e-4        # central differences' step, of the parameter's scale (as tests/test_sensitivity.py)
+FLOOR = 1e-9       # of a row's largest peak: below it a column's peak is rounding, not its scale
 
 
 def section(model, engines=()) -> list:
@@ -43,23 +44,28 @@ def _sensitivity(model, paths, columns, engines=()):
     for p in listed:
         scale = max(abs(p.value), model.length) if p.unit == case.length_unit else max(abs(p.value), 1.0)
         h = STEP * scale
-        runs = [solve(compile(apply(case, {p.path: p.value + s * h})), outputs=("positions",)).trajectory
-                for s in (1, -1, 2, -2)]
-        worst, peaks = 0.0, []
-        for c in columns:
-            fd = (4 * (runs[0][c] - runs[1][c]) / (2 * h) - (runs[2][c] - runs[3][c]) / (4 * h)) / 3
-            exact = sens.of(c, p.path)
-            peak = float(np.max(np.abs(exact)))
-            peaks.append(peak)
-            worst = max(worst, float(np.max(np.abs(exact - fd))) / max(peak, 1e-300))
-            fig_cols.append((p.path, c, exact, fd))
-        rows.append((p, peaks, worst))
+        moved = [solve(compile(apply(case, {p.path: p.value + s * h})), outputs=("positions",))
+                 for s in (1, -1, 2, -2)]
+        failed = next((r.message for r in moved if not r.success), None)   # past an assembly limit: no differences
+        runs = [r.trajectory for r in moved]
+        exact = {c: sens.of(c, p.path) for c in columns}
+        peaks = [float(np.max(np.abs(exact[c]))) for c in columns]
+        floor = FLOOR * max(peaks, default=0.0)   # a column the parameter does not move: its peak is rounding
+        worst = 0.0
+        for c, peak in zip(columns, peaks):
+            fd = None if failed else (4 * (runs[0][c] - runs[1][c]) / (2 * h)
+                                      - (runs[2][c] - runs[3][c]) / (4 * h)) / 3
+            if fd is not None:
+                worst = max(worst, float(np.max(np.abs(exact[c] - fd))) / max(peak, floor, 1e-300))
+            fig_cols.append((p.path, c, exact[c], fd))
+        rows.append((p, peaks, f"not computed: native at p +- h: {failed}" if failed else worst))
     checks = _engines(model, paths, engines)
     unit = escape(case.length_unit)
     head = "".join(f"<th>max |d({escape(c)})/dp|</th>" for c in columns)
     body = "".join(
         f"<tr><td class=l><code>{escape(p.path)}</code></td><td>{p.value:.6g} {escape(p.unit)}</td>"
-        + "".join(f"<td>{v:.4g}</td>" for v in peaks) + f"<td>{w:.1e}</td>"
+        + "".join(f"<td>{v:.4g}</td>" for v in peaks) + (f"<td>{escape(w)}</td>" if isinstance(w, str) else
+                                                          f"<td>{w:.1e}</td>")
         + "".join(_cell(checks.get((e, p.path))) for e in engines) + "</tr>" for p, peaks, w in rows)
     head_e = "".join(f"<th>{escape(e)} differences</th>" for e in engines)
     said = ("Each engine's column: its central differences at p +- h (the step settings it chose on the nominal "
@@ -103,7 +109,8 @@ def _sensitivity_plot(t, paths, columns, curves, checks=None):
         for (p, c, exact, fd) in curves:
             if p == path:
                 line, = ax.plot(t, exact, lw=1.2, label=f"d({c})")
-                ax.plot(t[::every], fd[::every], "o", ms=3, mfc="none", color=line.get_color())
+                if fd is not None:
+                    ax.plot(t[::every], fd[::every], "o", ms=3, mfc="none", color=line.get_color())
                 for (e, q), k in (checks or {}).items():
                     if q == path and c in k.curves:
                         ax.plot(t[::every], k.curves[c][::every], "x", ms=3, color=line.get_color())
