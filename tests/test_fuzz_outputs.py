@@ -854,3 +854,67 @@ def test_found_compare_sensitivity_ignored_the_scheduler(monkeypatch):
     code, line = run_main(["compare", str(ROOT / "cases" / "four_bar.toml"), "--engines", "native", "--sensitivity",
                            "--scheduler", "nope"])
     assert code == 2 and "--scheduler with --sensitivity: the sensitivity checks run in this process" in line, line
+
+
+# -- session 27, part 9, part B: Ctrl-C during kinem report ---------------------------------------------------------
+
+REPORT_CTRL_C = """
+import sys, time
+import kinem.report as r
+from kinem.report import execute
+from kinem.cli import main
+
+phase = sys.argv[1]
+write, run = r._write, execute.execute
+def ready():
+    sys.stderr.write("READY\\n"); sys.stderr.flush(); time.sleep(30)
+def slow_write(path, body):   # the second file: the old manifest gone, one new file written
+    if path.name == "summary.md":
+        ready()
+    return write(path, body)
+def slow_execute(*a, **k):
+    ready()
+    return run(*a, **k)
+r._write, execute.execute = slow_write, slow_execute if phase == "runs" else run
+sys.exit(main(sys.argv[2:]))
+"""
+
+
+@pytest.mark.parametrize("phase", ["runs", "writing"])
+def test_ctrl_c_during_report(tmp_path, phase):
+    """Ctrl-C (SIGINT to the process group of a command started in its own session, as a terminal sends it)
+    during kinem report's runs or while it writes its files: exit 130 at once, nothing printed, no process of
+    the group left, no temporary file in --out; during the runs the old report stays whole, while writing
+    the old manifest is gone, so the mix never reads as a report (kinem.report.complete). Found sound."""
+    import subprocess
+    import sys
+    import time
+
+    from kinem import report
+
+    out = tmp_path / "out"
+    report.write_outputs(out, {"results.json": "old", "summary.md": "old", "index.html": "old"})
+    case = tmp_path / "case.toml"
+    case.write_text(SHORT)
+    p = subprocess.Popen([sys.executable, "-c", REPORT_CTRL_C, phase, "report", str(case), "--engines", "native",
+                          "--quick", "--baseline", "none", "--jobs", "0", "--out", str(out)], cwd=ROOT,
+                         start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert p.stderr.readline() == "READY\n"
+        sent = time.perf_counter()
+        os.killpg(p.pid, signal.SIGINT)
+        said, err = p.communicate(timeout=30)
+        took = time.perf_counter() - sent
+    finally:
+        if p.poll() is None:
+            os.killpg(p.pid, signal.SIGKILL)
+    assert (p.returncode, said, err) == (130, "", ""), (p.returncode, said, err)
+    assert took < 5, took
+    with pytest.raises(ProcessLookupError):
+        os.killpg(p.pid, 0)
+    names = sorted(x.name for x in out.iterdir())
+    if phase == "runs":
+        assert report.complete(out) and (out / "summary.md").read_text() == "old", names
+    else:
+        assert not report.complete(out) and names == ["index.html", "results.json", "summary.md"], names
+        assert (out / "results.json").read_text() != "old" and (out / "summary.md").read_text() == "old"
