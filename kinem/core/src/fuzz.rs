@@ -10,7 +10,7 @@ use crate::families::{At, Family, KINDS};
 use crate::lu::{Layout, Shape};
 use crate::model::Kin;
 use crate::table::Table;
-use crate::triangular::DIV;
+use crate::triangular::{Lay, DIV};
 use num_complex::Complex64 as C64;
 
 /// xorshift64*: no crate, reproducible.
@@ -190,6 +190,7 @@ fn every_pivot(t: &crate::triangular::Triangular, j: &[f64]) -> (f64, f64, usize
 fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
     let mut rng = Rng(0x2545_f491_4f6c_dd1d);
     let (mut solved, mut corrupted, mut folds, mut quiet, mut deep, mut refused, mut same) = (0, 0, 0, 0, 0, 0, 0);
+    let (mut layouts, mut marks) = (0, 0);
     for trial in 0..600 {
         let n = 2 + rng.below(19) as usize;
         let (mut layout, rows, cols) = random_layout(n, &mut rng);
@@ -261,6 +262,21 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
             let err = x.iter().zip(&x0).map(|(u, v)| (u - v).abs()).fold(0.0, f64::max);
             assert!(err < 1e-6 / ratio, "trial {trial}: error {err}, pivot ratio {ratio}");
             solved += 1;
+            if f.fixed[0].is_some() {
+                // the program laid out either way (triangular::Lay), each list alone: the same figures to the bit
+                for lays in
+                    [[Lay::Runs, Lay::Runs], [Lay::Lone, Lay::Lone], [Lay::Runs, Lay::Lone], [Lay::Lone, Lay::Runs]]
+                {
+                    let mut other = (**t).clone();
+                    other.program.lay_as(lays);
+                    other.check().unwrap();
+                    let (mut y, mut z) = (vec![f64::NAN; n], vec![f64::NAN; n]);
+                    assert_eq!(other.run_negating(&f.j, &b, &mut y), t.run_negating(&f.j, &b, &mut z));
+                    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&y), bits(&z), "trial {trial}: laid out as {lays:?}, other figures");
+                    layouts += 1;
+                }
+            }
             if let Some(got) = &f.fixed[0] {
                 // the pivots' figures read from the free pivots and the folded ones' constants
                 // are those of every pivot of J_s (Phi_q's times c_p / r_p) in position order (tolerance 0)
@@ -325,6 +341,19 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
             let at = if p.ops[k][2] == DIV { 0 } else { flat_rng.below(3) as usize };
             p.ops[k][at] = far;
             assert!(p.check().is_err(), "trial {trial}: a corrupted flat program passed its check");
+            // and a list whose mark is not its layout's
+            for list in 0..2 {
+                let mut p = t.program.clone();
+                p.lays[list] = if p.lays[list] == Lay::Runs { Lay::Lone } else { Lay::Runs };
+                let mut relaid = p.clone();
+                relaid.lay_as(p.lays);
+                let (ops, moved) = if list == 0 { (&p.ops, &relaid.ops) } else { (&p.short_ops, &relaid.short_ops) };
+                assert!(
+                    ops == moved || p.check().is_err(),
+                    "trial {trial}: a list with another's mark passed its check"
+                );
+                marks += (ops != moved) as usize;
+            }
         }
         let mut fa = t.factoring.clone();
         let far = (fa.values + rng.below(5) as usize) as u32;
@@ -337,10 +366,19 @@ fn random_block_triangular_layouts_check_and_solve_and_refuse_corruption() {
         corrupted += 1;
     }
     assert!(
-        solved >= 300 && corrupted >= 100 && folds >= 20 && quiet >= 20 && deep >= 5 && refused >= 20 && same >= 20,
+        solved >= 300
+            && corrupted >= 100
+            && folds >= 20
+            && quiet >= 20
+            && deep >= 5
+            && refused >= 20
+            && same >= 20
+            && layouts >= 1000
+            && marks >= 100,
         "{solved} solves ({folds} with folded pivots, {quiet} quiet, {deep} through quiet positions, {refused} \
-         nonzero entries taken for zero refused, {same} equal to the solves with the zeros to rounding), \
-         {corrupted} corruptions checked"
+         nonzero entries taken for zero refused, {same} equal to the solves with the zeros to rounding, \
+         {layouts} in other layouts to the bit), {corrupted} corruptions checked ({marks} lists with \
+         another's mark)"
     );
 }
 

@@ -44,7 +44,9 @@ pub const NEGATE: u32 = 1 << 31;
 /// issue 31 rounds 27 and 28): the operations in the order above, those in
 /// a row on one position as one run (`flat`), so that a run has no outer
 /// loop over the divisions, no inner loop to set up per division, and
-/// reads and writes each run's w[i] once.
+/// reads and writes each run's w[i] once; each list in the layout its
+/// shape suits, chosen once (`Lay`, round 30: a short program of lone
+/// operations with them as records of their own), which `run` tests once.
 ///
 /// A 1x1 block whose pivot is a constant +1 (a ground's or a driver's row,
 /// `Factoring::one_entries` checks it each factorisation) has no division: its
@@ -68,7 +70,8 @@ pub const NEGATE: u32 = 1 << 31;
 /// (and by debug assertions in `run`): every position i, c, r is below
 /// `positions`, every value index u, v below `values`, the ends ascend up
 /// to subs.len(), a value index carrying `NEGATE` below `values` without
-/// it, and `ops`, `short_ops` are the lists laid out (`lay`). `run` asserts
+/// it, and `ops`, `short_ops` are the lists laid out as `lays` says
+/// (`lay`). `run` asserts
 /// that its slices are that long.
 #[derive(Clone, Debug, Default)]
 pub struct Program {
@@ -84,57 +87,128 @@ pub struct Program {
     /// program runs them
     pub ops: Vec<[u32; 3]>,
     pub short_ops: Vec<[u32; 3]>,
+    /// how `ops` and `short_ops` are laid out (`Lay::choose`, each list's own)
+    pub lays: [Lay; 2],
 }
 
-/// A run's `v` where it ends without a division (no value index reaches it).
+/// A run's `v` where it ends without a division (no value index reaches
+/// it), and in the lone layout a lone division's `c` (no position reaches it).
 pub const DIV: u32 = u32::MAX;
 
-/// subs and divs as one list in the order they run (each division after
-/// the subtractions before its end), laid out in runs on one position
-/// (issue 31 round 28): a run `[i, k, v]` is followed by its k subtractions
-/// `[c, u, last]` (w[i] -= a[u] w[c], in order, none reading w[i] itself;
-/// last = 1 on the run's last one, 0 on the others) and
-/// ends with the division w[i] *= a[v] (v = DIV: none). Consecutive
-/// operations on the same position make one run, so that w[i] is read once
-/// and written once a run, the same operations in the same order.
-fn flat(subs: &[[u32; 3]], divs: &[[u32; 3]]) -> Vec<[u32; 3]> {
-    let mut ops: Vec<[u32; 3]> = Vec::with_capacity(2 * (subs.len() + divs.len()));
-    // the open run's header (where it is in ops), if it can take more subtractions
-    let mut open: Option<usize> = None;
-    let sub = |ops: &mut Vec<[u32; 3]>, open: &mut Option<usize>, [i, c, u]: [u32; 3]| {
-        match *open {
-            Some(h) if ops[h][0] == i && c != i => ops[h][1] += 1,
-            _ => {
-                *open = (c != i).then_some(ops.len());
-                ops.push([i, 1, DIV]);
-            }
+/// In the lone layout, a run's `c` (no position reaches it: `Program::check`
+/// keeps the positions below `NEGATE`).
+pub const RUN: u32 = NEGATE;
+
+/// How a flat list is laid out (issue 31 round 30), chosen once per list
+/// by `Program::lay` (`Lay::choose`) and tested once per run of the program:
+/// `Runs`, every operation in a run on its position (round 28: `[i, k, v]`
+/// and its k subtractions), or `Lone`, a lone subtraction or division as a
+/// record of its own and a run only where two or more operations share a
+/// position (round 29's first layout). The same operations in the same order.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Lay {
+    #[default]
+    Runs,
+    Lone,
+}
+
+/// subs and divs in the order they run (each division after the
+/// subtractions before its end) as runs on one position: (position, its
+/// subtractions [c, u] in order, none reading the position itself, its
+/// division's value index or DIV: none). Consecutive operations on the
+/// same position make one run.
+fn runs(subs: &[[u32; 3]], divs: &[[u32; 3]]) -> Vec<(u32, Vec<[u32; 2]>, u32)> {
+    let mut runs: Vec<(u32, Vec<[u32; 2]>, u32)> = Vec::new();
+    // whether the last run can take more subtractions
+    let mut open = false;
+    let sub = |runs: &mut Vec<(u32, Vec<[u32; 2]>, u32)>, open: &mut bool, [i, c, u]: [u32; 3]| match runs.last_mut() {
+        Some(run) if *open && run.0 == i && c != i => run.1.push([c, u]),
+        _ => {
+            *open = c != i;
+            runs.push((i, vec![[c, u]], DIV));
         }
-        ops.push([c, u, 0]);
     };
     let mut from = 0;
     for &[end, r, v] in divs {
         let end = (end as usize).clamp(from, subs.len());
         for &s in &subs[from..end] {
-            sub(&mut ops, &mut open, s);
+            sub(&mut runs, &mut open, s);
         }
-        match open {
-            Some(h) if ops[h][0] == r => ops[h][2] = v,
-            _ => ops.push([r, 0, v]),
+        match runs.last_mut() {
+            Some(run) if open && run.0 == r => run.2 = v,
+            _ => runs.push((r, Vec::new(), v)),
         }
-        open = None;
+        open = false;
         from = end;
     }
     for &s in &subs[from.min(subs.len())..] {
-        sub(&mut ops, &mut open, s);
+        sub(&mut runs, &mut open, s);
     }
-    // each run's last subtraction marked (`[c, u, 1]`): the run's loop ends on it
-    let mut k = 0;
-    while k < ops.len() {
-        let count = ops[k][1] as usize;
-        if count > 0 {
-            ops[k + count][2] = 1;
+    runs
+}
+
+/// A list's shape (issue 31 round 30): its operations, its runs of two or
+/// more operations, its lone subtractions and its lone divisions.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ListShape {
+    pub ops: usize,
+    pub runs: usize,
+    pub lone_subs: usize,
+    pub lone_divs: usize,
+}
+
+impl ListShape {
+    pub fn of(subs: &[[u32; 3]], divs: &[[u32; 3]]) -> ListShape {
+        let mut s = ListShape { ops: subs.len() + divs.len(), ..ListShape::default() };
+        for (_, run, v) in runs(subs, divs) {
+            match (run.len(), v) {
+                (0, _) => s.lone_divs += 1,
+                (1, DIV) => s.lone_subs += 1,
+                _ => s.runs += 1,
+            }
         }
-        k += 1 + count;
+        s
+    }
+}
+
+impl Lay {
+    /// The layout of a list of this shape: `Lone` where at least half of
+    /// its records would be lone operations (its lone subtractions and
+    /// divisions at least as many as its runs of two or more operations,
+    /// some of them lone subtractions), else `Runs` (issue 31 round 30: the
+    /// peers' slider-crank's quiet program 3 + 1 lone against 4 runs, the
+    /// four-bar's 2 against 4, the Jansen leg's 3 against 15).
+    pub fn choose(s: ListShape) -> Lay {
+        if s.lone_subs > 0 && s.lone_subs + s.lone_divs >= s.runs {
+            Lay::Lone
+        } else {
+            Lay::Runs
+        }
+    }
+}
+
+/// subs and divs as one flat list (`runs`), laid out as `lay` says: in
+/// `Runs` (issue 31 round 28) a run `[i, k, v]` is followed by its k
+/// subtractions `[c, u, last]` (w[i] -= a[u] w[c], in order; last = 1 on
+/// the run's last one, 0 on the others) and ends with the division w[i] *=
+/// a[v] (v = DIV: none), k = 0 for a division alone; in `Lone` (round 29's
+/// first layout) a lone subtraction is `[i, c, u]`, a lone division
+/// `[r, DIV, v]`, and a run of two or more operations `[i, RUN, v]`
+/// followed by its subtractions `[c, u, last]` as above. w[i] is read once
+/// and written once a record, the same operations in the same order.
+fn flat(subs: &[[u32; 3]], divs: &[[u32; 3]], lay: Lay) -> Vec<[u32; 3]> {
+    let mut ops: Vec<[u32; 3]> = Vec::with_capacity(2 * (subs.len() + divs.len()));
+    for (i, run, v) in runs(subs, divs) {
+        let k = run.len();
+        match (lay, k, v) {
+            (Lay::Lone, 0, v) => ops.push([i, DIV, v]),
+            (Lay::Lone, 1, DIV) => ops.push([i, run[0][0], run[0][1]]),
+            (Lay::Lone, _, v) => ops.push([i, RUN, v]),
+            (Lay::Runs, k, v) => ops.push([i, k as u32, v]),
+        }
+        if lay == Lay::Runs || k > 1 || (k == 1 && v != DIV) {
+            ops.extend(run.iter().enumerate().map(|(n, &[c, u])| [c, u, (n + 1 == k) as u32]));
+        }
     }
     ops
 }
@@ -178,8 +252,15 @@ impl Program {
     /// (`quieten`, `renumber` and plan::negate call it); `check` finds
     /// lists not laid out again.
     pub fn lay(&mut self) {
-        self.ops = flat(&self.subs, &self.divs);
-        self.short_ops = flat(&self.short.0, &self.short.1);
+        let shapes = [ListShape::of(&self.subs, &self.divs), ListShape::of(&self.short.0, &self.short.1)];
+        self.lay_as(shapes.map(Lay::choose));
+    }
+
+    /// `lay` with the layouts given (`lays`: of `ops` and `short_ops`).
+    pub fn lay_as(&mut self, lays: [Lay; 2]) {
+        self.lays = lays;
+        self.ops = flat(&self.subs, &self.divs, lays[0]);
+        self.short_ops = flat(&self.short.0, &self.short.1, lays[1]);
     }
 
     /// The program over other places: position p becomes to[p] (a
@@ -208,12 +289,12 @@ impl Program {
             return Err(format!("program: quiet position {q} outside {p} positions"));
         }
         let lists = [(&self.subs, &self.divs, &self.ops), (&self.short.0, &self.short.1, &self.short_ops)];
-        for (subs, divs, ops) in lists {
+        for ((subs, divs, ops), lay) in lists.into_iter().zip(self.lays) {
             if let Some(s) = subs.iter().find(|s| s[0] as usize >= p || s[1] as usize >= p || s[2] as usize >= v) {
                 return Err(format!("program: subtraction {s:?} outside {p} positions, {v} values"));
             }
-            if *ops != flat(subs, divs) {
-                return Err("program: its flat list is not its subtractions and divisions laid out".into());
+            if *ops != flat(subs, divs, lay) {
+                return Err("program: its flat list is not its subtractions and divisions laid out as marked".into());
             }
             let mut end = 0;
             for d in divs {
@@ -253,37 +334,12 @@ impl Program {
         debug_assert!(self.check().is_ok());
         // SAFETY: Program::check (when built): every quiet position below `positions` <= w.len()
         let quiet = !self.quiet.is_empty() && self.quiet.iter().all(|&q| unsafe { w.get_unchecked(q as usize) }.zero());
-        let ops = if quiet { &self.short_ops[..] } else { &self.ops[..] };
-        let (mut k, end) = (0, ops.len());
-        while k < end {
-            // SAFETY: Program::check (when built): ops is (subs, divs) laid out in runs (`flat`),
-            // each run's k subtractions following it, every position below `positions` <=
-            // w.len(), every value below `values` <= a.len(), no subtraction of a run reading
-            // its position (w[i] read once and written once a run: a negation in memory would
-            // be a one-byte store, which the next full load of w[i] waits for)
-            unsafe {
-                let [i, count, v] = *ops.get_unchecked(k);
-                let mut y = *w.get_unchecked(i as usize);
-                k += 1;
-                if count != 0 {
-                    // to the run's last subtraction (its mark: no count to unroll by)
-                    loop {
-                        let [c, u, last] = *ops.get_unchecked(k);
-                        k += 1;
-                        y.sub_mul(*a.get_unchecked(u as usize), *w.get_unchecked(c as usize));
-                        if last != 0 {
-                            break;
-                        }
-                    }
-                }
-                if v != DIV {
-                    if NEG && v & NEGATE != 0 {
-                        y.negate();
-                    } else {
-                        y.mul(*a.get_unchecked((v & !NEGATE) as usize));
-                    }
-                }
-                *w.get_unchecked_mut(i as usize) = y;
+        let (ops, lay) = if quiet { (&self.short_ops[..], self.lays[1]) } else { (&self.ops[..], self.lays[0]) };
+        // SAFETY: Program::check (when built): ops is (subs, divs) laid out as lay says (`flat`)
+        unsafe {
+            match lay {
+                Lay::Runs => run_runs::<NEG, A, W>(ops, a, w),
+                Lay::Lone => run_lone::<NEG, A, W>(ops, a, w),
             }
         }
         quiet
@@ -322,6 +378,83 @@ impl Program {
         take(&mut reached, &self.subs[start..], &mut p);
         p.quieten(self.quiet.iter().copied().filter(|&q| reached[q as usize]).collect());
         (reached, p)
+    }
+}
+
+/// The division ending a record: w[i] *= a[v] (v = DIV: none), a
+/// negation where NEG and v carries `NEGATE`.
+#[inline(always)]
+unsafe fn divide<const NEG: bool, A: Copy, W: Cell<A>>(y: &mut W, a: &[A], v: u32) {
+    if v != DIV {
+        if NEG && v & NEGATE != 0 {
+            y.negate();
+        } else {
+            y.mul(*a.get_unchecked((v & !NEGATE) as usize));
+        }
+    }
+}
+
+/// A run's subtractions from ops[k] to the one marked last: y -= a[u] w[c]
+/// (the mark ends the loop: no count to unroll by); the next record's index.
+#[inline(always)]
+unsafe fn subtract<A: Copy, W: Cell<A>>(y: &mut W, ops: &[[u32; 3]], mut k: usize, a: &[A], w: &[W]) -> usize {
+    loop {
+        let [c, u, last] = *ops.get_unchecked(k);
+        k += 1;
+        y.sub_mul(*a.get_unchecked(u as usize), *w.get_unchecked(c as usize));
+        if last != 0 {
+            return k;
+        }
+    }
+}
+
+/// `Program::run` over a list laid out in `Lay::Runs`.
+///
+/// # Safety
+/// ops is a program's (subs, divs) laid out in `Lay::Runs` (`flat`, as
+/// `Program::check` finds it), each run's k subtractions following it,
+/// every position below `positions` <= w.len(), every value below `values`
+/// <= a.len(), no subtraction of a run reading its position (w[i] read
+/// once and written once a run: a negation in memory would be a one-byte
+/// store, which the next full load of w[i] waits for).
+#[inline(always)]
+unsafe fn run_runs<const NEG: bool, A: Copy, W: Cell<A>>(ops: &[[u32; 3]], a: &[A], w: &mut [W]) {
+    let (mut k, end) = (0, ops.len());
+    while k < end {
+        let [i, count, v] = *ops.get_unchecked(k);
+        let mut y = *w.get_unchecked(i as usize);
+        k += 1;
+        if count != 0 {
+            k = subtract(&mut y, ops, k, a, w);
+        }
+        divide::<NEG, A, W>(&mut y, a, v);
+        *w.get_unchecked_mut(i as usize) = y;
+    }
+}
+
+/// `Program::run` over a list laid out in `Lay::Lone`.
+///
+/// # Safety
+/// As `run_runs`, the list laid out in `Lay::Lone`: lone subtractions
+/// `[i, c, u]` (c below `positions` < RUN), lone divisions `[r, DIV, v]`,
+/// runs `[i, RUN, v]` each followed by its subtractions to the one marked last.
+#[inline(always)]
+unsafe fn run_lone<const NEG: bool, A: Copy, W: Cell<A>>(ops: &[[u32; 3]], a: &[A], w: &mut [W]) {
+    let (mut k, end) = (0, ops.len());
+    while k < end {
+        let [i, c, v] = *ops.get_unchecked(k);
+        let mut y = *w.get_unchecked(i as usize);
+        k += 1;
+        if c < RUN {
+            // a lone subtraction [i, c, u]
+            y.sub_mul(*a.get_unchecked(v as usize), *w.get_unchecked(c as usize));
+        } else {
+            if c == RUN {
+                k = subtract(&mut y, ops, k, a, w);
+            }
+            divide::<NEG, A, W>(&mut y, a, v);
+        }
+        *w.get_unchecked_mut(i as usize) = y;
     }
 }
 
