@@ -240,7 +240,26 @@ impl<S: Real> Family<S> {
     }
 
     pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
-        each!(self, f => f.phi(at, s, out))
+        match self {
+            Family::Simple(f) => f.phi(at, s, out),
+            Family::Revolute(f) => f.phi(at, s, out),
+            Family::Line(f) => f.phi(at, s, out),
+            _ => self.phi_rare(at, s, out),
+        }
+    }
+
+    /// `phi` of the other kinds, out of the callers' line of code.
+    #[inline(never)]
+    fn phi_rare(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
+        match self {
+            Family::Distance(f) => f.phi(at, s, out),
+            Family::Gear(f) => f.phi(at, s, out),
+            Family::Rack(f) => f.phi(at, s, out),
+            Family::PointOnCurve(f) => f.phi(at, s, out),
+            Family::CamRoller(f) => f.phi(at, s, out),
+            Family::CamFlat(f) => f.phi(at, s, out),
+            Family::Simple(_) | Family::Revolute(_) | Family::Line(_) => unreachable!(),
+        }
     }
 
     pub fn jac(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {

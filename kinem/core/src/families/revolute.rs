@@ -51,6 +51,7 @@ impl<S: Real> Revolute<S> {
     }
 
     /// Eq. 4.7.
+    #[inline(always)]
     pub fn phi(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && out.len() >= self.rows());
         each_side!(self.phi_of(at, out));

@@ -172,6 +172,7 @@ impl<S: Real> Simple<S> {
     /// Eqs. 4.31-4.40: q_a - w q_k + point term - f(t).
     /// (The rows q_a - f(t) without the products with w = 0: the figures
     /// of the general row to the bit but for the sign of an exact zero.)
+    #[inline(always)]
     pub fn phi(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && out.len() >= self.rows.len());
         // SAFETY (the three loops): k < rows (group), out holds them; a, k, angle < n (new), q and e hold n (asserted above)
