@@ -38,7 +38,7 @@ use crate::model::Kin;
 use crate::outline::Piece;
 use crate::real::{cis, Lanes, Real};
 use crate::table::Table;
-use crate::triangular::Program;
+use crate::triangular::{Cell, Program, DIV, NEGATE};
 use num_complex::{Complex, Complex64 as C64};
 
 /// How many parameters share one evaluation of the model and of the named
@@ -650,9 +650,10 @@ fn moving<const N: usize>(
 /// from the rows whose Phi_p may be non-zero (`moving`) and the rows whose
 /// constraints read a reached coordinate (their D(J), D(gamma)), to a
 /// fixed point; the coordinates not reached have s = sd = sdd = 0 exactly.
-/// `program`: the solve restricted to them (Program::reached; None: every
-/// place reached, or a layout without the blocks' order), `rows` the
-/// rows copied into it (row, place), `zero` the places a full solve (the
+/// `program`: the solve restricted to them (Program::reached, resolved
+/// once: `Restricted`; None: every place reached, or a layout without the
+/// blocks' order), `rows` the rows reached (row, place), which its run
+/// copies or reads, `zero` the places a full solve (the
 /// fallback's, the inverse's) leaves to be zeroed; `direct`: the direct
 /// families of the group (their places in its `direct`) whose (S2), (S3)
 /// kernels run (the others' rows' right sides are zero) and are not in
@@ -664,7 +665,7 @@ fn moving<const N: usize>(
 /// kind (`Lists`; their families not in `direct`), those with a row where
 /// the parameters reach (`from`: the others' right sides are zero) or all.
 struct Reach<const N: usize> {
-    program: Option<Program>,
+    program: Option<Restricted>,
     rows: Vec<(u32, u32)>,
     zero: Vec<u32>,
     direct: Vec<usize>,
@@ -765,14 +766,87 @@ impl<const N: usize> Reach<N> {
         let mut direct: Vec<bool> = group.direct.iter().map(|f| f.rows.clone().any(|r| from[place(r)])).collect();
         let lists = Lists::new(group, &mut direct, |r| from[place(r)]);
         let direct = (0..direct.len()).filter(|&i| direct[i]).collect();
+        let rows: Vec<(u32, u32)> =
+            (0..m).filter(|&r| reached[place(r)]).map(|r| (r as u32, place(r) as u32)).collect();
         Reach {
-            program: Some(program),
-            rows: (0..m).filter(|&r| reached[place(r)]).map(|r| (r as u32, place(r) as u32)).collect(),
+            program: Some(Restricted::new(&program, &rows)),
+            rows,
             zero: (0..n).filter(|&c| !reached[c]).map(|c| c as u32).collect(),
             direct,
             points: (0..points).filter(|&j| local(j) || (0..3).any(|i| reached[p.pc[j] + i])).collect(),
             fixed: None,
             lists,
+        }
+    }
+}
+
+/// A restricted program (`Program::reached`) resolved once per set-up
+/// (issue 30 round 18): the rows reached copied to their places
+/// (`copies`, (row, place)), then its operations one after the other in
+/// the same order (`ops`, `[i, c, u]`: w[i] -= a[u] w[c], or where c is
+/// DIV w[i] *= a[u], u without NEGATE's bit: Program::run multiplies by
+/// the value under it), each reading and writing its place, with no runs
+/// to decode (the few places a parameter reaches make runs of one or two
+/// operations). `run` gives the rows' copy and `Program::run`'s figures,
+/// to the bit. Where the program has quiet positions (`quiet`: their
+/// rows), `short` is its short program resolved the same way, run where
+/// all of their rows are zero (as `Program::run` does).
+struct Restricted {
+    copies: Vec<(u32, u32)>,
+    quiet: Vec<u32>,
+    ops: Vec<[u32; 3]>,
+    short: Vec<[u32; 3]>,
+    /// the largest place + 1, row + 1 and factor index + 1 read (`run` asserts its slices that long)
+    bounds: (usize, usize, usize),
+}
+
+impl Restricted {
+    /// `program` (Program::reached) over the reached places' rows `rows`
+    /// ((row, place), every reached place's), resolved.
+    fn new(program: &Program, rows: &[(u32, u32)]) -> Self {
+        let resolve = |short: bool| -> Vec<[u32; 3]> {
+            let ops = program.operations(short);
+            ops.into_iter().map(|[i, c, u]| if c == DIV { [i, c, u & !NEGATE] } else { [i, c, u] }).collect()
+        };
+        let quiet: Vec<u32> = (program.quiet.iter())
+            .map(|&q| rows.iter().find(|x| x.1 == q).expect("a quiet place reached has its row").0)
+            .collect();
+        let (ops, short) = (resolve(false), if quiet.is_empty() { Vec::new() } else { resolve(true) });
+        let (mut places, mut rows_read, mut values) = (0, 0, 0);
+        for &(r, c) in rows {
+            (rows_read, places) = (rows_read.max(r as usize + 1), places.max(c as usize + 1));
+        }
+        for &[i, c, u] in ops.iter().chain(&short) {
+            places = places.max(i as usize + 1);
+            places = if c != DIV { places.max(c as usize + 1) } else { places };
+            values = values.max(u as usize + 1);
+        }
+        rows_read = quiet.iter().fold(rows_read, |x, &r| x.max(r as usize + 1));
+        Restricted { copies: rows.to_vec(), quiet, ops, short, bounds: (places, rows_read, values) }
+    }
+
+    /// The rows' copy and the restricted program's run (w: the places, rhs
+    /// the right side's rows, a the factors): `Program::run`'s figures
+    /// after the rows reached are copied to their places, to the bit.
+    #[inline(always)]
+    fn run<const N: usize>(&self, a: &[f64], rhs: &[[f64; N]], w: &mut [[f64; N]]) {
+        let (places, rows, values) = self.bounds;
+        assert!(w.len() >= places && rhs.len() >= rows && a.len() >= values);
+        // SAFETY: every place, row and factor index read below `bounds` (Restricted::new), asserted above
+        unsafe {
+            for &(r, c) in &self.copies {
+                *w.get_unchecked_mut(c as usize) = *rhs.get_unchecked(r as usize);
+            }
+            let quiet = !self.quiet.is_empty() && self.quiet.iter().all(|&r| rhs.get_unchecked(r as usize).zero());
+            for &[i, c, u] in if quiet { &self.short } else { &self.ops } {
+                let mut y = *w.get_unchecked(i as usize);
+                if c != DIV {
+                    y.sub_mul(*a.get_unchecked(u as usize), *w.get_unchecked(c as usize));
+                } else {
+                    y.mul(*a.get_unchecked(u as usize));
+                }
+                *w.get_unchecked_mut(i as usize) = y;
+            }
         }
     }
 }
@@ -1300,11 +1374,7 @@ impl<const N: usize> Solver<N> {
         let Some(program) = &reach.program else { return self.solve(layout, f, rhs, count, out) };
         if let (false, Shape::Triangular(_), Some(_)) = (self.use_inverse, &layout.shape, &f.fixed[0]) {
             assert!(rhs.len() >= self.b.len() && out.len() >= self.x.len());
-            for &(r, c) in &reach.rows {
-                // SAFETY: r < m <= rhs.len(), c < n <= out.len() (asserted here and in Lanewise::new)
-                unsafe { *out.get_unchecked_mut(c as usize) = *rhs.get_unchecked(r as usize) };
-            }
-            return program.run(&f.j, out);
+            return program.run(&f.j, rhs, out);
         }
         self.solve(layout, f, rhs, count, out);
         for &c in &reach.zero {
@@ -1560,5 +1630,82 @@ mod tests {
             }
         }
         assert!(solved >= 30 && partial >= 5, "{solved} solved, {partial} reaching part of the places");
+    }
+
+    /// The restricted program resolved once (`Restricted`, as `Reach`
+    /// holds it) gives the rows' copy and the generic run's figures
+    /// (Program::run) to the bit, the signs of zeros too, over one lane
+    /// and four: the slider-crank's pattern, every row alone and random
+    /// sets, right sides zero but at some reached rows (so that the quiet
+    /// places' rows are zero at some trials: `short`).
+    #[test]
+    fn the_resolved_restricted_program_is_the_generic_run_to_the_bit() {
+        let (rows, plain) = slider_layout();
+        let n = 12;
+        // the same with the ground's rows still (quiet positions: the program's `short`)
+        let cols = crate::decompose::tests::slider_crank().1;
+        let scale = (0..n).map(|i| 1.0 + 0.1 * i as f64).collect();
+        let col_scale = (0..n).map(|j| 2.0 - 0.05 * j as f64).collect();
+        let mut still = crate::plan::one_block(n, &rows, &cols, scale, col_scale);
+        let constant: Vec<bool> = rows.iter().map(|&r| r < 3).collect();
+        let ground: Vec<bool> = (0..n).map(|r| r < 3).collect();
+        assert!(crate::plan::triangulate_still(&mut still, &constant, &constant, &vec![false; rows.len()], &ground));
+        let mut next = random(11);
+        let (mut partial, mut solved, mut quiet) = (0, 0, 0);
+        for trial in 0..160 {
+            let layout = if trial % 2 == 0 { &plain } else { &still };
+            let Shape::Triangular(t) = &layout.shape else { panic!("the slider-crank's layout is block-triangular") };
+            let values: Vec<f64> = rows.iter().map(|&r| if r < 3 || r == 11 { 1.0 } else { next() }).collect();
+            let mut f = layout.factors();
+            layout.factor(&values, &mut f);
+            if f.fixed[0].is_none() {
+                continue;
+            }
+            solved += 1;
+            let set: Vec<bool> = (0..n).map(|r| if trial < n { r == trial } else { next() > 0.6 }).collect();
+            let mut from = vec![false; n];
+            (0..n).filter(|&r| set[r]).for_each(|r| from[t.into[r] as usize] = true);
+            let (reached, program) = t.program.reached(&from);
+            partial += reached.iter().any(|&r| !r) as usize;
+            let kept: Vec<(u32, u32)> =
+                (0..n).filter(|&r| reached[t.into[r] as usize]).map(|r| (r as u32, t.into[r])).collect();
+            let resolved = Restricted::new(&program, &kept);
+            // right sides: random at the set's rows, some of them zero, some -0
+            // (the ground's rows zero at half the trials: their places quiet where reached)
+            let zero = next() > 0.0;
+            let b: Vec<[f64; 4]> = (0..n)
+                .map(|r| {
+                    std::array::from_fn(|_| {
+                        if set[r] && !(zero && r < 3) && next() > -0.6 {
+                            next()
+                        } else if next() > 0.0 {
+                            -0.0
+                        } else {
+                            0.0
+                        }
+                    })
+                })
+                .collect();
+            quiet += (!resolved.quiet.is_empty() && resolved.quiet.iter().all(|&r| b[r as usize] == [0.0; 4])) as usize;
+            let (mut x, mut y) = (vec![[0.0; 4]; n], vec![[0.0; 4]; n]);
+            for &(r, c) in &kept {
+                x[c as usize] = b[r as usize];
+            }
+            program.run(&f.j, &mut x);
+            resolved.run(&f.j, &b, &mut y);
+            let bits = |v: &[[f64; 4]]| v.iter().flatten().map(|z| z.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&x), bits(&y), "trial {trial}, four lanes");
+            // one lane
+            let b1: Vec<[f64; 1]> = b.iter().map(|r| [r[0]]).collect();
+            let (mut x1, mut y1) = (vec![[0.0; 1]; n], vec![[0.0; 1]; n]);
+            for &(r, c) in &kept {
+                x1[c as usize] = b1[r as usize];
+            }
+            program.run(&f.j, &mut x1);
+            resolved.run(&f.j, &b1, &mut y1);
+            let bits1 = |v: &[[f64; 1]]| v.iter().map(|z| z[0].to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits1(&x1), bits1(&y1), "trial {trial}, one lane");
+        }
+        assert!(solved >= 80 && partial >= 10 && quiet >= 5, "{solved} solved, {partial} partial, {quiet} quiet");
     }
 }
