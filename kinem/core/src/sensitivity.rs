@@ -828,11 +828,20 @@ impl Restricted {
     /// The rows' copy and the restricted program's run (w: the places, rhs
     /// the right side's rows, a the factors): `Program::run`'s figures
     /// after the rows reached are copied to their places, to the bit.
-    #[inline(always)]
+    #[cfg(test)]
     fn run<const N: usize>(&self, a: &[f64], rhs: &[[f64; N]], w: &mut [[f64; N]]) {
         let (places, rows, values) = self.bounds;
         assert!(w.len() >= places && rhs.len() >= rows && a.len() >= values);
         // SAFETY: every place, row and factor index read below `bounds` (Restricted::new), asserted above
+        unsafe { self.run_unchecked(a, rhs, w) }
+    }
+
+    /// `run` without its checks (`Lanewise::at` makes them once an instant).
+    ///
+    /// # Safety
+    /// w, rhs and a at least as long as `bounds`.
+    #[inline(always)]
+    unsafe fn run_unchecked<const N: usize>(&self, a: &[f64], rhs: &[[f64; N]], w: &mut [[f64; N]]) {
         unsafe {
             for &(r, c) in &self.copies {
                 *w.get_unchecked_mut(c as usize) = *rhs.get_unchecked(r as usize);
@@ -918,6 +927,8 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         let reach: Vec<Reach<N>> = groups.iter().zip(locs).map(|(g, l)| Reach::new(p, g, l, layout, one)).collect();
         // (every reach's rows within rhs (m rows) and s (n coordinates): Solver::solve_in)
         assert!(reach.iter().all(|r| r.rows.iter().all(|&(i, c)| (i as usize) < m && (c as usize) < n)));
+        // (and every restricted program's places within n and rows within m: Restricted::run_unchecked)
+        assert!(reach.iter().all(|r| r.program.iter().all(|p| p.bounds.0 <= n && p.bounds.1 <= m)));
         // (and every list's columns within n and rows within m, rhs's and rhs3's: `at` reads them unchecked)
         assert!(reach.iter().all(|r| {
             let fits = |(c, row): (usize, usize)| c < n && row < m;
@@ -1058,9 +1069,13 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         let at0 = At { q: &self.room.q0, e: &self.room.e0, t };
         let atf = At { q, e, t };
         self.room.solver.prepare(layout, f);
+        // the restricted solves' checks, once an instant (Solver::solve_in: no inverse, the blocks' factors)
+        let quick =
+            !self.room.solver.use_inverse && matches!(layout.shape, Shape::Triangular(_)) && f.fixed[0].is_some();
         for (g, group) in self.groups.iter().enumerate() {
             let (model, count) = (&group.model, group.count);
             let reach = &self.room.reach[g];
+            let program = reach.program.as_ref().filter(|p| quick && f.j.len() >= p.bounds.2);
             if let Some(row) = &reach.fixed {
                 out[g * N * w..(g * N + count) * w].copy_from_slice(row);
                 continue;
@@ -1094,7 +1109,7 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             }
             // SAFETY: every PhiPin's columns below n (e's: asserted above) and rows below m (asserted in `new`)
             unsafe { phi_pins(&group.phi_pins, e, &mut self.room.rhs) };
-            self.room.solver.solve_in(layout, f, &self.room.rhs, count, &mut self.room.flat[..n], reach);
+            self.room.solver.solve_in(layout, f, &self.room.rhs, count, &mut self.room.flat[..n], reach, program);
             let lanes = !group.live.is_empty();
             if lanes {
                 // q with tangent s, and e^{i q} with its tangent (Real::sin, cos)
@@ -1161,7 +1176,15 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                         slides_products::<N, true, false>(slides.1, q, e, s, qd, qdd, rhs, rhs3, sk);
                     }
                 }
-                self.room.solver.solve_in(layout, f, &self.room.rhs, count, &mut self.room.flat[n..2 * n], reach);
+                self.room.solver.solve_in(
+                    layout,
+                    f,
+                    &self.room.rhs,
+                    count,
+                    &mut self.room.flat[n..2 * n],
+                    reach,
+                    program,
+                );
                 if lanes {
                     for j in 0..n {
                         self.room.qdl[j] = Lanes::of(x[1][j], self.room.flat[n + j]);
@@ -1199,7 +1222,15 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                     pins_gamma(&lists.pins, x[1], sd, &mut self.room.rhs3, &self.room.pk);
                     slides_gamma(&lists.slides, x[1], sd, &mut self.room.rhs3, &self.room.sk);
                 }
-                self.room.solver.solve_in(layout, f, &self.room.rhs3, count, &mut self.room.flat[2 * n..3 * n], reach);
+                self.room.solver.solve_in(
+                    layout,
+                    f,
+                    &self.room.rhs3,
+                    count,
+                    &mut self.room.flat[2 * n..3 * n],
+                    reach,
+                    program,
+                );
             }
             // every column's tangent: a coordinate's from s, sd, sdd, a named
             // point's from x, e and them (crate::columns)
@@ -1358,9 +1389,11 @@ impl<const N: usize> Solver<N> {
 
     /// `solve` where a group's parameters reach only some places (`Reach`):
     /// the rows reached copied to their places and the restricted program
-    /// run there with the blocks' factors (the other places stay zero), or
-    /// the full solve and its places not reached zeroed (they are zero but
-    /// for the fallback's or the inverse's rounding).
+    /// run there with the blocks' factors (the other places stay zero):
+    /// `quick`, the reach's program where the instant has the blocks'
+    /// factors and no inverse is used (`Lanewise::at` decides it once an
+    /// instant); or the full solve and its places not reached zeroed (they
+    /// are zero but for the fallback's or the inverse's rounding).
     #[inline(always)]
     fn solve_in(
         &mut self,
@@ -1370,11 +1403,15 @@ impl<const N: usize> Solver<N> {
         count: usize,
         out: &mut [[f64; N]],
         reach: &Reach<N>,
+        quick: Option<&Restricted>,
     ) {
-        let Some(program) = &reach.program else { return self.solve(layout, f, rhs, count, out) };
-        if let (false, Shape::Triangular(_), Some(_)) = (self.use_inverse, &layout.shape, &f.fixed[0]) {
-            assert!(rhs.len() >= self.b.len() && out.len() >= self.x.len());
-            return program.run(&f.j, rhs, out);
+        if let Some(program) = quick {
+            // SAFETY: its places below n <= out.len(), its rows below m <= rhs.len() (asserted in
+            // Lanewise::new), its factors below f.j.len() (asserted in Lanewise::at with `quick`)
+            return unsafe { program.run_unchecked(&f.j, rhs, out) };
+        }
+        if reach.program.is_none() {
+            return self.solve(layout, f, rhs, count, out);
         }
         self.solve(layout, f, rhs, count, out);
         for &c in &reach.zero {
