@@ -1395,6 +1395,7 @@ impl<const N: usize> Solver<N> {
     /// instant); or the full solve and its places not reached zeroed (they
     /// are zero but for the fallback's or the inverse's rounding).
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn solve_in(
         &mut self,
         layout: &Layout,
