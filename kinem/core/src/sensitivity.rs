@@ -935,6 +935,10 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             r.lists.pins.iter().all(|x| fits(x.bounds())) && r.lists.slides.iter().all(|x| fits(x.bounds()))
         }));
         assert!(groups.iter().all(|g| g.phi_pins.iter().all(|x| x.bounds().0 < n && x.bounds().1 < m)));
+        // (and the named points' columns, local coordinates and the points taken within bounds, their
+        // tangents' room 2 levels a point: `at` calls Columns::point_tangents_unchecked)
+        assert!(pc.len() == points && pc.iter().all(|&c| c + 2 < n) && locs.iter().all(|l| l.len() >= points));
+        assert!(reach.iter().all(|r| r.points.iter().all(|&j| j < points)) && (1..=3).contains(&levels));
         let pk = vec![PinKept::default(); reach.iter().map(|r| r.lists.pins.len()).max().unwrap_or(0)];
         let sk = vec![SlideKept::default(); reach.iter().map(|r| r.lists.slides.len()).max().unwrap_or(0)];
         let room = LaneRoom {
@@ -1054,8 +1058,14 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         let n = kin.n;
         let q = x[0];
         // (the lists' kernels read the stages and e unchecked: `Lists`)
+        // (and the points' tangents read the stages unchecked: Columns::point_tangents_unchecked)
         assert!(
-            e.len() >= n && x.len() >= levels && (levels < 2 || x[1].len() >= n) && (levels < 3 || x[2].len() >= n)
+            e.len() >= n
+                && x.len() >= levels
+                && levels >= 1
+                && q.len() >= n
+                && (levels < 2 || x[1].len() >= n)
+                && (levels < 3 || x[2].len() >= n)
         );
         let ratio = if pivot > 0.0 { pivot } else { layout.pivots(f).0 };
         if self.room.lanes0 {
@@ -1236,10 +1246,15 @@ impl<'a, const N: usize> Lanewise<'a, N> {
             // point's from x, e and them (crate::columns)
             let (tangents, points) = self.room.flat.split_at_mut(3 * n);
             let d: [&[[f64; N]]; 3] = [&tangents[..n], &tangents[n..2 * n], &tangents[2 * n..]];
-            if self.room.turned {
-                self.columns.point_tangents(x, &d[..levels], &self.locs[g], |c| e[c], &reach.points, points);
-            } else {
-                self.columns.point_tangents(x, &d[..levels], &self.locs[g], |c| cis(q[c]), &reach.points, points);
+            // SAFETY: the stages n long (asserted above, s, sd, sdd n each), the points' columns, their
+            // local coordinates, `points` and reach.points within bounds (asserted in `new`)
+            unsafe {
+                let (cols, locs, taken) = (&self.columns, &self.locs[g], &reach.points);
+                if self.room.turned {
+                    cols.point_tangents_unchecked(x, &d[..levels], locs, |c| e[c], taken, points);
+                } else {
+                    cols.point_tangents_unchecked(x, &d[..levels], locs, |c| cis(q[c]), taken, points);
+                }
             }
             let to = &mut out[g * N * w..(g * N + count) * w];
             if N == 1 {
