@@ -112,6 +112,30 @@ impl Columns<'_> {
         assert!(x.len() >= stages && d.len() >= stages && local.len() >= p && out.len() >= 2 * stages * p);
         assert!(x[..stages].iter().all(|a| a.len() >= n) && d[..stages].iter().all(|a| a.len() >= n));
         assert!(self.pc.iter().all(|&c| c + 2 < n) && only.iter().all(|&j| j < p));
+        // SAFETY: what point_tangents_unchecked reads, asserted above
+        unsafe { self.point_tangents_unchecked(x, d, local, turn, only, out) }
+    }
+
+    /// `point_tangents` without its checks (crate::sensitivity makes those
+    /// on the points, their columns and `only` once per set-up, those on
+    /// the stages once an instant).
+    ///
+    /// # Safety
+    /// What `point_tangents` asserts: x and d at least `stages` long, each
+    /// of their first `stages` at least n = x[0].len() long, every point's
+    /// column c with c + 2 < n, local at least pc.len() long, out at least
+    /// 2 stages pc.len(), every point of `only` below pc.len().
+    #[inline(always)]
+    pub unsafe fn point_tangents_unchecked<const N: usize>(
+        &self,
+        x: &[&[f64]],
+        d: &[&[[f64; N]]],
+        local: &[Complex<Lanes<N>>],
+        turn: impl Fn(usize) -> C64,
+        only: &[usize],
+        out: &mut [[f64; N]],
+    ) {
+        let stages = self.stages;
         for &j in only {
             // SAFETY: j < p = pc.len() <= local.len() (asserted above)
             let (c, s) = unsafe { (*self.pc.get_unchecked(j), *local.get_unchecked(j)) };

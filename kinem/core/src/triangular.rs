@@ -379,6 +379,22 @@ impl Program {
         p.quieten(self.quiet.iter().copied().filter(|&q| reached[q as usize]).collect());
         (reached, p)
     }
+
+    /// The operations in the order `run` runs them (`short`: the short
+    /// program's), read-only: `[i, c, u]` a subtraction w[i] -= a[u] w[c],
+    /// `[r, DIV, v]` a division w[r] *= a[v] (crate::sensitivity resolves
+    /// a restricted program from them once per set-up).
+    pub fn operations(&self, short: bool) -> Vec<[u32; 3]> {
+        let (subs, divs) = if short { (&self.short.0, &self.short.1) } else { (&self.subs, &self.divs) };
+        let (mut ops, mut from) = (Vec::with_capacity(subs.len() + divs.len()), 0);
+        for &[end, r, v] in divs {
+            ops.extend_from_slice(&subs[from..end as usize]);
+            ops.push([r, DIV, v]);
+            from = end as usize;
+        }
+        ops.extend_from_slice(&subs[from..]);
+        ops
+    }
 }
 
 /// The division ending a record: w[i] *= a[v] (v = DIV: none), a
