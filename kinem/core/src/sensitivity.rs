@@ -1644,6 +1644,29 @@ mod tests {
         assert!(fixed >= 25, "the blocks' orders taken: {fixed} of 50");
     }
 
+    /// One trial of the restricted-solve tests: the slider-crank's layout
+    /// factored at random values (None where the blocks' factors fail), a
+    /// set of rows (row `trial` alone for the first 12 trials, then random)
+    /// and the program restricted to the places they reach.
+    fn reach_trial(
+        layout: &Layout,
+        rows: &[usize],
+        trial: usize,
+        next: &mut impl FnMut() -> f64,
+    ) -> Option<(Factors, Vec<bool>, Vec<bool>, Program)> {
+        let n = 12;
+        let Shape::Triangular(t) = &layout.shape else { panic!("the slider-crank's layout is block-triangular") };
+        let values: Vec<f64> = rows.iter().map(|&r| if r < 3 || r == 11 { 1.0 } else { next() }).collect();
+        let mut f = layout.factors();
+        layout.factor(&values, &mut f);
+        f.fixed[0].as_ref()?;
+        let set: Vec<bool> = (0..n).map(|r| if trial < n { r == trial } else { next() > 0.6 }).collect();
+        let mut from = vec![false; n];
+        (0..n).filter(|&r| set[r]).for_each(|r| from[t.into[r] as usize] = true);
+        let (reached, program) = t.program.reached(&from);
+        Some((f, set, reached, program))
+    }
+
     /// A restricted solve (Program::reached, as `Reach` uses it): for right
     /// sides zero but at the rows of a random set, the reached places get
     /// the full solve's figures (but for the sign of a zero) and every
@@ -1657,17 +1680,8 @@ mod tests {
         let mut next = random(5);
         let (mut partial, mut solved) = (0, 0);
         for trial in 0..60 {
-            let values: Vec<f64> = rows.iter().map(|&r| if r < 3 || r == 11 { 1.0 } else { next() }).collect();
-            let mut f = layout.factors();
-            layout.factor(&values, &mut f);
-            if f.fixed[0].is_none() {
-                continue;
-            }
+            let Some((mut f, set, reached, program)) = reach_trial(&layout, &rows, trial, &mut next) else { continue };
             solved += 1;
-            let set: Vec<bool> = (0..n).map(|r| if trial < n { r == trial } else { next() > 0.6 }).collect();
-            let mut from = vec![false; n];
-            (0..n).filter(|&r| set[r]).for_each(|r| from[t.into[r] as usize] = true);
-            let (reached, program) = t.program.reached(&from);
             let b: Vec<f64> = (0..n).map(|r| if set[r] { next() } else { 0.0 }).collect();
             let mut full = vec![0.0; n];
             layout.solve(&mut f, &b, &mut full);
@@ -1708,17 +1722,8 @@ mod tests {
         for trial in 0..160 {
             let layout = if trial % 2 == 0 { &plain } else { &still };
             let Shape::Triangular(t) = &layout.shape else { panic!("the slider-crank's layout is block-triangular") };
-            let values: Vec<f64> = rows.iter().map(|&r| if r < 3 || r == 11 { 1.0 } else { next() }).collect();
-            let mut f = layout.factors();
-            layout.factor(&values, &mut f);
-            if f.fixed[0].is_none() {
-                continue;
-            }
+            let Some((f, set, reached, program)) = reach_trial(layout, &rows, trial, &mut next) else { continue };
             solved += 1;
-            let set: Vec<bool> = (0..n).map(|r| if trial < n { r == trial } else { next() > 0.6 }).collect();
-            let mut from = vec![false; n];
-            (0..n).filter(|&r| set[r]).for_each(|r| from[t.into[r] as usize] = true);
-            let (reached, program) = t.program.reached(&from);
             partial += reached.iter().any(|&r| !r) as usize;
             let kept: Vec<(u32, u32)> =
                 (0..n).filter(|&r| reached[t.into[r] as usize]).map(|r| (r as u32, t.into[r])).collect();
