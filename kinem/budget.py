@@ -70,8 +70,8 @@ class Budget:
             raise WorkLimitError(self.why(self.out_of_time(), t))
 
     def out_of_time(self) -> str:
-        return (f"the time limit of {self.seconds:.3g} s (Options.max_seconds, --max-seconds of kinem solve and "
-                "compare) is reached")
+        return (f"the time limit of {self.seconds:.3g} s (Options.max_seconds, --max-seconds of kinem solve, "
+                "compare and animate) is reached")
 
     def why(self, what, t) -> str:
         """What consumed the budget, the run being at t."""

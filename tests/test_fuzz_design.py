@@ -882,7 +882,7 @@ def test_found_compare_without_a_time_limit(monkeypatch, given):
                                *(["--max-seconds", "0.3"] if given else [])])
     took = time.perf_counter() - start
     assert code == 1 and err == "", err
-    assert "the time limit of 0.3 s (Options.max_seconds, --max-seconds of kinem solve and compare)" in out, out
+    assert "the time limit of 0.3 s (Options.max_seconds, --max-seconds of kinem solve, compare and animate)" in out, out
     assert "pymunk   failed: no native reference" in out, out
     assert took < 30, took
 
@@ -895,6 +895,20 @@ def test_compare_sensitivity_within_a_time_limit():
                                "points.A.at.0", "--max-seconds", "0.001"])
     assert code == 1 and "the time limit of 0.001 s" in err and err.count("\n") == 1, (out, err)
 
+
+
+@pytest.mark.parametrize("value, code", [("0.001", 1), ("0", 2), ("inf", 2), ("1__0", 2)])
+def test_found_animate_without_a_time_limit(tmp_path, value, code):
+    """kinem animate had no time bound (part 9's "left": a case file of 2,000,000 steps solved for minutes): now
+    its native solve stops after --max-seconds as solve's and compare's do (the same reader, range and message;
+    exit 1 past it, nothing written; exit 2 for a bad value, before anything runs)."""
+    case = tmp_path / "long.toml"
+    case.write_text(FOUR_BAR.read_text().replace("steps = 250", "steps = 2000000"))
+    out = tmp_path / "a.svg"
+    got, line = run_main(["animate", str(case), "--out", str(out), "--engines", "native", "--max-seconds", value])
+    assert got == code, line
+    assert ("the time limit of 0.001 s" in line) if code == 1 else ("--max-seconds" in line and "expected" in line), line
+    assert not out.exists()
 
 # -- session 27, part 9, part B: the report's design section with hostile [report] sensitivity values -----------
 

@@ -316,15 +316,24 @@ def cmd_diff(a):
 
 
 def cmd_animate(a):
+    import time
+    from dataclasses import replace
+
+    from ..options import Options
     from ..output import check
     from ..report.animate import check_output, write
+    from .solve import time_limit
 
+    started = time.perf_counter()
     engines = [e for e in engine_list(a.engines) if e != "native"]   # '' refused, as compare refuses it
     check_output(a.out)
+    seconds = time_limit(a)   # native's solve, as kinem solve's and compare's
     check(a.out)   # as sweep's --out: a read-only file, or a FIFO without a reader, before the runs
+    model = load_model(a.case)
+    options = replace(Options.of(model.case), max_seconds=seconds, started=started)
     bar = frame_bar()
     try:
-        skipped = write(load_model(a.case), a.out, engines, bar)
+        skipped = write(model, a.out, engines, bar, options)
     finally:
         if bar:
             bar.close()

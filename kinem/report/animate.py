@@ -58,9 +58,10 @@ def ffmpeg() -> bool:
     return animation.writers.is_available("ffmpeg")
 
 
-def frames(model, engines):
+def frames(model, engines, options=None):
     """(native frames {t, q}, engine -> q at the same instants, denser native q
-    for the paths, engine -> why it is not drawn)."""
+    for the paths, engine -> why it is not drawn). ``options`` (kinem.Options;
+    default the case's): native's solve, e.g. its max_seconds."""
     from adapters import case_settings, get
     from kinem.budget import check_held
     from kinem.solver import solve
@@ -69,7 +70,7 @@ def frames(model, engines):
     check_held(3 * K * model.n * sources, model.case.source, f"animate: {K:,} instants x {model.n} coordinates x 3 "
                f"(positions, velocities, accelerations) x {sources} solution(s)", "fewer instants ([time] steps) or "
                "engines")
-    r = solve(model)
+    r = solve(model, options=options)
     if not r.success:
         raise AnalysisError(f"{model.case.source}: {r.message}")
     idx = sample(len(r.q), FRAMES)
@@ -95,11 +96,12 @@ def frames(model, engines):
     return native, ghosts, r.q[sample(len(r.q), PATH_INSTANTS)], skipped
 
 
-def write(model, out, engines, on_frame=None) -> dict:
+def write(model, out, engines, on_frame=None, options=None) -> dict:
     """Writes the animation to ``out``; returns engine -> why it is not drawn.
-    ``on_frame(k, frames)`` after each GIF or MP4 frame drawn."""
+    ``on_frame(k, frames)`` after each GIF or MP4 frame drawn; ``options``:
+    native's solve (`frames`)."""
     ext = check_output(out)
-    native, ghosts, dense, skipped = frames(model, engines)
+    native, ghosts, dense, skipped = frames(model, engines, options)
     count = len(native["t"])
     render(model, native, ghosts, dense, out, ext, (lambda k: on_frame(k, count)) if on_frame else None)
     return skipped
