@@ -112,37 +112,55 @@ pub enum Lay {
     Lone,
 }
 
-/// subs and divs in the order they run (each division after the
-/// subtractions before its end) as runs on one position: (position, its
-/// subtractions [c, u] in order, none reading the position itself, its
-/// division's value index or DIV: none). Consecutive operations on the
-/// same position make one run.
+/// One operation of a program, in `in_order`'s sequence: a subtraction
+/// `[i, c, u]` (w[i] -= a[u] w[c]) or a division (r, v) (w[r] *= a[v]).
+#[derive(Clone, Copy)]
+enum Op {
+    Sub([u32; 3]),
+    Div(u32, u32),
+}
+
+/// subs and divs as one sequence in the order they run: each division
+/// after the subtractions before its end (the ends clamped to the list, so
+/// that `check` can lay out a list it has not yet found sound).
+fn in_order(subs: &[[u32; 3]], divs: &[[u32; 3]]) -> Vec<Op> {
+    let mut ops = Vec::with_capacity(subs.len() + divs.len());
+    let mut from = 0;
+    for &[end, r, v] in divs {
+        let end = (end as usize).clamp(from, subs.len());
+        ops.extend(subs[from..end].iter().map(|&s| Op::Sub(s)));
+        ops.push(Op::Div(r, v));
+        from = end;
+    }
+    ops.extend(subs[from..].iter().map(|&s| Op::Sub(s)));
+    ops
+}
+
+/// subs and divs in the order they run (`in_order`) as runs on one
+/// position: (position, its subtractions [c, u] in order, none reading the
+/// position itself, its division's value index or DIV: none). Consecutive
+/// operations on the same position make one run.
 fn runs(subs: &[[u32; 3]], divs: &[[u32; 3]]) -> Vec<(u32, Vec<[u32; 2]>, u32)> {
     let mut runs: Vec<(u32, Vec<[u32; 2]>, u32)> = Vec::new();
     // whether the last run can take more subtractions
     let mut open = false;
-    let sub = |runs: &mut Vec<(u32, Vec<[u32; 2]>, u32)>, open: &mut bool, [i, c, u]: [u32; 3]| match runs.last_mut() {
-        Some(run) if *open && run.0 == i && c != i => run.1.push([c, u]),
-        _ => {
-            *open = c != i;
-            runs.push((i, vec![[c, u]], DIV));
+    for op in in_order(subs, divs) {
+        match op {
+            Op::Sub([i, c, u]) => match runs.last_mut() {
+                Some(run) if open && run.0 == i && c != i => run.1.push([c, u]),
+                _ => {
+                    open = c != i;
+                    runs.push((i, vec![[c, u]], DIV));
+                }
+            },
+            Op::Div(r, v) => {
+                match runs.last_mut() {
+                    Some(run) if open && run.0 == r => run.2 = v,
+                    _ => runs.push((r, Vec::new(), v)),
+                }
+                open = false;
+            }
         }
-    };
-    let mut from = 0;
-    for &[end, r, v] in divs {
-        let end = (end as usize).clamp(from, subs.len());
-        for &s in &subs[from..end] {
-            sub(&mut runs, &mut open, s);
-        }
-        match runs.last_mut() {
-            Some(run) if open && run.0 == r => run.2 = v,
-            _ => runs.push((r, Vec::new(), v)),
-        }
-        open = false;
-        from = end;
-    }
-    for &s in &subs[from.min(subs.len())..] {
-        sub(&mut runs, &mut open, s);
     }
     runs
 }
@@ -359,23 +377,16 @@ impl Program {
         let mut reached = from.to_vec();
         reached.resize(self.positions, false);
         let mut p = Program { positions: self.positions, values: self.values, ..Program::default() };
-        let take = |reached: &mut [bool], subs: &[[u32; 3]], p: &mut Program| {
-            for &[i, c, u] in subs {
-                if reached[c as usize] {
+        for op in in_order(&self.subs, &self.divs) {
+            match op {
+                Op::Sub([i, c, u]) if reached[c as usize] => {
                     reached[i as usize] = true;
                     p.sub(i as usize, c as usize, u as usize);
                 }
+                Op::Div(r, v) if reached[r as usize] => p.div(r as usize, v as usize),
+                _ => {}
             }
-        };
-        let mut start = 0;
-        for &[end, r, v] in &self.divs {
-            take(&mut reached, &self.subs[start..end as usize], &mut p);
-            if reached[r as usize] {
-                p.div(r as usize, v as usize);
-            }
-            start = end as usize;
         }
-        take(&mut reached, &self.subs[start..], &mut p);
         p.quieten(self.quiet.iter().copied().filter(|&q| reached[q as usize]).collect());
         (reached, p)
     }
@@ -386,14 +397,11 @@ impl Program {
     /// a restricted program from them once per set-up).
     pub fn operations(&self, short: bool) -> Vec<[u32; 3]> {
         let (subs, divs) = if short { (&self.short.0, &self.short.1) } else { (&self.subs, &self.divs) };
-        let (mut ops, mut from) = (Vec::with_capacity(subs.len() + divs.len()), 0);
-        for &[end, r, v] in divs {
-            ops.extend_from_slice(&subs[from..end as usize]);
-            ops.push([r, DIV, v]);
-            from = end as usize;
-        }
-        ops.extend_from_slice(&subs[from..]);
-        ops
+        let op = |op| match op {
+            Op::Sub(s) => s,
+            Op::Div(r, v) => [r, DIV, v],
+        };
+        in_order(subs, divs).into_iter().map(op).collect()
     }
 }
 
