@@ -381,7 +381,7 @@ def run_case(model, engines, overrides=None, scheduler=None, options=None):
     overrides: engine name -> settings. The engines run in this process, or
     on the workers of a Dask scheduler (an address)."""
     from kinem import parallel
-    from kinem.budget import check_held
+    from kinem.budget import check_solutions
     from kinem.solver import solve
 
     from . import check_case
@@ -389,9 +389,7 @@ def run_case(model, engines, overrides=None, scheduler=None, options=None):
     check_case(model.case)
     if scheduler is not None:   # its form before native's solve; it is connected to when the engines' runs begin
         parallel.check_address(scheduler)
-    K, sources = len(model.times), 1 + sum(n != "native" for n in engines)   # native's and each engine's held whole
-    check_held(3 * K * model.n * sources, model.case.source, f"compare: {K:,} instants x {model.n} coordinates x 3 "
-               f"(positions, velocities, accelerations) x {sources} solution(s)", "fewer instants (--steps) or engines")
+    check_solutions(model, 1 + sum(n != "native" for n in engines), "compare", "fewer instants (--steps) or engines")
     native = solve(model, options=options)
     todo = [(model, native, n, (overrides or {}).get(n)) for n in engines if n != "native" and native.success]
     done = iter(parallel.map(_run_engine, todo, jobs=0, scheduler=scheduler))

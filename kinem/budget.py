@@ -26,6 +26,15 @@ def check_held(numbers, source, what, fewer) -> None:
                          f"memory may have ({MAX_HELD * 8 / 1e9:.1f} GB); expected {fewer}")
 
 
+
+def check_solutions(model, sources, command, fewer) -> None:
+    """check_held for ``sources`` whole solutions of ``model`` (positions,
+    velocities and accelerations at every instant: native's and each
+    engine's, as ``command`` holds them)."""
+    K = len(model.times)
+    check_held(3 * K * model.n * sources, model.case.source, f"{command}: {K:,} instants x {model.n} coordinates x 3 "
+               f"(positions, velocities, accelerations) x {sources} solution(s)", fewer)
+
 # Rejected attempts in a row after which a run is said to be stuck at an instant.
 STUCK = 10
 

@@ -23,7 +23,7 @@ SHOW_SUBSTEPS = 100
 
 
 def time_limit(a) -> float:
-    """--max-seconds of solve and compare: MAX_SECONDS by default, else within (0, MOST_SECONDS]."""
+    """--max-seconds of solve, compare and animate: MAX_SECONDS by default, else within (0, MOST_SECONDS]."""
     from ..options import MOST_SECONDS
 
     seconds = MAX_SECONDS if a.max_seconds is None else a.max_seconds

@@ -63,13 +63,10 @@ def frames(model, engines, options=None):
     for the paths, engine -> why it is not drawn). ``options`` (kinem.Options;
     default the case's): native's solve, e.g. its max_seconds."""
     from adapters import case_settings, get
-    from kinem.budget import check_held
+    from kinem.budget import check_solutions
     from kinem.solver import solve
 
-    K, sources = len(model.times), 1 + len(engines)   # native's and each engine's solution held whole, as compare's
-    check_held(3 * K * model.n * sources, model.case.source, f"animate: {K:,} instants x {model.n} coordinates x 3 "
-               f"(positions, velocities, accelerations) x {sources} solution(s)", "fewer instants ([time] steps) or "
-               "engines")
+    check_solutions(model, 1 + len(engines), "animate", "fewer instants ([time] steps) or engines")
     r = solve(model, options=options)
     if not r.success:
         raise AnalysisError(f"{model.case.source}: {r.message}")
