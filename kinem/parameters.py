@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 from . import functions as fn
 from .casefile.checks import MAX_MAGNITUDE, TOML_NUMBERS, number, show, suggest
+from .casefile.sections import MAX_SENSITIVITY, SENSITIVITY_EXPECTED
 from .constraints import REGISTRY
 from .constraints.read import constraint_id
 from .errors import InputError, KinemWarning
@@ -105,8 +106,11 @@ def validated(data, source: str, stacklevel: int = 1, as_written: bool = True) -
     case = build(data, source, as_written)
     if case.tolerances:   # their paths and sizes need the whole case
         tolerances_of(case)
-    if "sensitivity" in case.report:
-        resolve(case, case.report["sensitivity"], "[report] sensitivity")
+    if "sensitivity" in case.report:   # counted as parameters: 'crank' and 'parameters.crank' are one
+        listed = resolve(case, case.report["sensitivity"], "[report] sensitivity")
+        if len(listed) > MAX_SENSITIVITY:
+            raise InputError(f"{case.source}: [report]: key 'sensitivity': {len(listed)} design parameters; "
+                             f"expected {SENSITIVITY_EXPECTED}")
     for text in fast_drivers(case):
         warnings.warn(text, KinemWarning, stacklevel=stacklevel + 1)
     return case

@@ -962,3 +962,132 @@ def test_found_report_sensitivity_past_an_assembly_limit(rod, said):
         assert said in table, table[-400:]
     else:
         assert float(table.split()[-1]) < 1e-3, table[-200:]
+
+
+# -- session 28, part 10 (docs/benchmarks.md, "Fuzz campaign, session 28"): what part 9 left ----------------
+
+ENGINES = ("pymunk", "mujoco", "exudyn")
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_found_compare_engines_past_the_time_limit(monkeypatch, engine):
+    """compare --max-seconds bounded native's solves, not the engines' runs: a run of millions of steps went on
+    far past it. Now each engine's run ends at the same limit (checked between output intervals; Exudyn's
+    solver asks before each step), its row failed with the time limit's words, exit 1. Here the limit has
+    passed when the engines begin (native's solve within it)."""
+    import time
+
+    from adapters import compare
+
+    monkeypatch.setattr(compare, "time_limit", lambda options: (options.max_seconds, time.time() - 1.0), raising=False)
+    code, out, err = _compare([str(FOUR_BAR), "--engines", f"native,{engine}", "--steps", "40", "--max-seconds",
+                               "30"])
+    assert code == 1 and err == "", (out, err)
+    row = next(line for line in out.splitlines() if line.startswith(engine))
+    assert "failed: the time limit of 30 s (Options.max_seconds, --max-seconds of kinem solve, compare and animate) " \
+           "is reached at t = 0" in row, out
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_an_engine_run_stops_at_its_time_limit(engine):
+    """The same bound on a long run (a four-bar of 200,000 output instants, each engine's own settings): it
+    ends about the limit after it began, failed, its time-limit words and where it stopped; no refinement
+    or earlier attempt stands in for it; without a limit the same call is bounded by nothing but its steps."""
+    import time
+
+    from adapters import get
+    from adapters.base import Status
+
+    model = kinem.compile(kinem.load(FOUR_BAR).with_time(steps=200_000, end=2000.0))
+    start = time.time()
+    run = get(engine).run(model, limit=(0.5, start + 0.5))
+    took = time.time() - start
+    assert run.status is Status.FAILED and run.detail.startswith("the time limit of 0.5 s (Options.max_seconds") \
+        and " is reached at t = " in run.detail, run.detail
+    assert run.trajectory is None and not run.notes, run.notes
+    assert took < 20, took
+
+
+def test_compare_sensitivity_engines_past_the_time_limit(monkeypatch):
+    """compare --sensitivity's engine runs (nominal and moved) end at the limit too: their rows say so, exit 1."""
+    import time
+
+    from adapters import compare
+
+    monkeypatch.setattr(compare, "time_limit", lambda options: (options.max_seconds, time.time() - 1.0), raising=False)
+    code, out, err = _compare([str(FOUR_BAR), "--engines", "native,pymunk", "--steps", "40", "--sensitivity",
+                               "points.A.at.0", "--max-seconds", "30"])
+    assert code == 1 and err == "", (out, err)
+    assert "nominal run: the time limit of 30 s" in out, out
+
+
+EIGHT_IN_NINE = ["crank", "parameters.crank", "parameters.coupler", "parameters.rocker", "parameters.ground",
+                 "points.O2.at.0", "points.O2.at.1", "constraints.O2.sj.0", "constraints.O2.sj.1"]
+
+
+def _named_case(tmp_path, listed):
+    case = tmp_path / "case.toml"
+    case.write_text(NAMED.read_text().replace("steps = 250", "steps = 10") + "\n[report]\nsensitivity = ["
+                    + ", ".join(f'"{p}"' for p in listed) + "]\n")
+    return case
+
+
+def test_found_report_sensitivity_counted_texts(tmp_path):
+    """[report] sensitivity counted its distinct texts against its 8, not its parameters: "crank" and
+    "parameters.crank" (one parameter, one row and one panel in the report) counted twice, so eight
+    parameters written in nine texts were refused. A user means parameters: now the parameters count (the
+    texts are bounded at twice that, the two ways to write one), the message says so, the report's table
+    and plot have one row and one panel a parameter."""
+    from kinem.parameters import resolve
+    from kinem.report import design
+
+    case = _named_case(tmp_path, EIGHT_IN_NINE)
+    loaded = kinem.load(case)
+    listed = resolve(loaded, loaded.report["sensitivity"])
+    assert len(loaded.report["sensitivity"]) == 9 and len(listed) == 8, listed
+    assert run_main(["info", str(case)])[0] == 0
+    drawn = []
+    plot = design._sensitivity_plot
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(design, "_sensitivity_plot",
+                   lambda t, paths, *a, **k: drawn.append(paths) or plot(t, paths, *a, **k))
+        mp.setattr(design, "_bands", lambda *a, **k: [])
+        parts = design.section(kinem.compile(loaded))
+    assert drawn == [[p.path for p in listed]], drawn
+    assert parts[0].count("<tr><td class=l><code>") == 8
+
+
+def test_found_report_sensitivity_nine_parameters_refused(tmp_path):
+    """Nine parameters (nine texts) stay refused, now by their count, naming the key and what is expected."""
+    case = _named_case(tmp_path, EIGHT_IN_NINE[1:] + ["points.O4.at.1"])
+    code, line = run_main(["info", str(case)])
+    assert code == 2 and f"{case}: [report]: key 'sensitivity': 9 design parameters; expected a list of 1 to 8 " \
+                         "design parameter paths (or names of [parameters]), each parameter counted once" in line, line
+    many = _named_case(tmp_path, [f"points.O2.at.{i}" for i in range(17)])
+    code, line = run_main(["info", str(many)])
+    assert code == 2 and "[report]: key 'sensitivity': got [" in line and "each parameter counted once" in line, line
+
+
+@pytest.mark.parametrize("text, code", [("a\x07b", "0007"), ("\u202eab", "202E"), ("ab\x1b[31m", "001B"),
+                                        ("ab\r", "000D")])
+def test_found_a_python_built_case_with_control_characters(text, code):
+    """A kinem.Case built in Python (its constructor, or dataclasses.replace of a loaded one) took any
+    description: the loader's check (session 27) was the file's alone. Now the Case refuses it itself, in the
+    loader's words (tab and newline stay)."""
+    import dataclasses
+
+    case = kinem.load(FOUR_BAR)
+    at = text.index(text.strip("ab")[0]) + 1
+    said = f"<memory>: top level: key 'description': U+{code} at character {at}; expected text without control " \
+           "or invisible formatting characters (tab and newline allowed)"
+    with pytest.raises(kinem.InputError) as e:
+        kinem.Case(name="x", bodies=case.bodies, points=case.points, constraints=case.constraints, end=1.0,
+                   steps=10, description=text)
+    assert str(e.value) == said, str(e.value)
+    with pytest.raises(kinem.InputError) as e:
+        dataclasses.replace(case, description=text)
+    assert f"{FOUR_BAR}: top level: key 'description': U+{code}" in str(e.value), str(e.value)
+    with pytest.raises(kinem.InputError) as e:
+        dataclasses.replace(case, description=3)
+    assert "key 'description': got int; expected text" in str(e.value), str(e.value)
+    assert dataclasses.replace(case, description="a\tb\nc \u00e9").description == "a\tb\nc \u00e9"
