@@ -47,7 +47,8 @@ LIMITS = (
     ("lists", f"at most {MAX_ARRAY:,} numbers; `poly` at most 32 coefficients; `[engines.*]` lists at most 16"),
     ("bodies, points, constraints", "at most 100,000 each"),
     ("`description`", f"text of at most {MAX_TEXT:,} characters; tab and newline, but no other control or "
-                      "invisible formatting character (such as U+0007 or U+202E)"),
+                      "invisible formatting character (such as U+0007 or U+202E); a `kinem.Case` built in Python "
+                      "refuses them too"),
     ("`units.length`", f"1 to {MAX_UNIT} printable characters, shown as text (never parsed as markup)"),
     ("`[solver]`", "tolerance between 0 and 1; max_iterations 1 to 1000; block 1 to 4096"),
 )

@@ -231,7 +231,7 @@ def cmd_compare(a):
     started = time.perf_counter()
     engines = engine_list(a.engines)
     check_timeout(a)
-    seconds = time_limit(a)   # native's solves, as kinem solve's (the engines: their step bounds, Ctrl-C)
+    seconds = time_limit(a)   # native's solves, as kinem solve's, and the engines' runs (adapters.compare)
     model = load_model(a.case, a.end, a.steps)
     options = replace(Options.of(model.case), max_seconds=seconds, started=started)
     if a.sensitivity is not None:

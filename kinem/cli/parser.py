@@ -119,7 +119,7 @@ def parser():
     scheduler_option(c)
     c.add_argument("--json", action="store_true", help="the error figures as JSON instead of the table")
     time_options(c)
-    max_seconds_option(c, " (native's solves; the engines have their step bounds)")
+    max_seconds_option(c, " (native's solves and the engines' runs)")
     c.add_argument("--sensitivity", nargs="?", const=True, metavar="P[,P...]",   # True: alone, the case's
                    help="check the exact sensitivities to these parameter paths (default: the case's [report] "
                         "sensitivity) against native's and the engines' central differences")
