@@ -121,9 +121,11 @@ def cmd_tolerance(a):
     for c, amount, t in b.excess if b.accepted else ():   # no Monte Carlo band: nothing it could leave
         print(f"{c}: the Monte Carlo band leaves the worst-case linear band by at most {amount:.3g} (t = {t:.6g})",
               file=sys.stderr)
-    if b.rejected:
-        print(f"kinem: {len(b.rejected)} of {b.samples} samples not on the nominal's branch, left out; first: "
-              f"{b.rejected[0][1]}", file=sys.stderr)
+    if b.rejected:   # docs/design.md's words: a failed sample need not have left the branch
+        none = "; none is in the band: its .mc columns are NaN" if not b.accepted else ""
+        print(one_line(f"kinem: {len(b.rejected)} of {b.samples} samples left out of the Monte Carlo band (not a "
+                       f"valid case, cannot assemble, leave the nominal's branch or fail on the way){none}; first: "
+                       f"{b.rejected[0][1]}"), file=sys.stderr)
     return 0
 
 
