@@ -1147,3 +1147,52 @@ def test_report_bands_with_failed_samples(tmp_path, monkeypatch, tolerance, samp
         parts = design._bands(model, ["A.x", "A.y"])
     text = re.sub("<[^>]*>", " ", parts[0])
     assert said in text and len(parts) == 2, text
+
+
+# -- session 28, part 10, part B: sweep, tolerance and info --parameters with hostile inputs -------------------
+
+@pytest.mark.parametrize("command", [
+    ["sweep", "--set", "ground=0.19,0.21", "--set", "points.O4.at.0=0.2,0.22", "--outputs", "B.x"],
+    ["solve", "--set", "points.O4.at.0=0.2", "--set", "ground=0.19", "--steps", "3"],
+    ["info", "--set", "ground=0.19", "--set", "points.O4.at.0=0.2"],
+    ["tolerance", "--samples", "3"],
+])
+def test_found_a_name_and_a_number_it_gives_set_together(tmp_path, command):
+    """A name of [parameters] and the path of a number it gives, set together (--set ground=... --set
+    points.O4.at.0=..., or both in [tolerances]): the path's value stood and the name's was ignored there
+    unseen; a sweep's table had a ground column that moved nothing (its variants equal in pairs), and the
+    tolerance's linear bands counted the one number twice while its samples drew it once. Now refused,
+    naming both and the number (two spellings of one parameter were already refused)."""
+    case = tmp_path / "case.toml"
+    text = NAMED.read_text()
+    if command[0] == "tolerance":
+        text += '\n[tolerances]\nground = 1e-4\n"points.O4.at.0" = 2e-4\n'
+    case.write_text(text)
+    out = [] if command[0] == "info" else ["--out", str(tmp_path / "o.csv")]
+    code, line = run_main([command[0], str(case), *command[1:], *out])
+    assert code == 2 and "'ground' and 'points.O4.at.0' set one number: ground of [parameters] gives points.O4.at.0; expected one of them" \
+        in line, line
+    assert not (tmp_path / "o.csv").exists()
+    from kinem.parameters import apply
+
+    with pytest.raises(kinem.InputError, match="set one number"):
+        apply(kinem.load(NAMED), {"crank": 0.11, "points.A.at.0": 0.12})
+    assert apply(kinem.load(NAMED), {"crank": 0.11, "points.B.at.0": 0.23}).parameters["crank"] == 0.11
+
+
+def test_found_a_name_set_apart_listed_as_a_parameter(tmp_path):
+    """info --parameters --set points.O4.at.0=0.25 (the one number the name ground gives, set apart) listed
+    parameters.ground, "used by no number of the case", with no unit: setting it would move nothing (a case
+    file is refused such a name). Now a name no number uses is not a design parameter, and saying it is
+    refused with the reason."""
+    from kinem.parameters import apply, parameters
+
+    code, _ = run_main(["info", str(NAMED), "--parameters", "--set", "points.O4.at.0=0.25"])
+    assert code == 0
+    variant = apply(kinem.load(NAMED), {"points.O4.at.0": 0.25})
+    listed = [p.path for p in parameters(variant)]
+    assert "parameters.ground" not in listed and "parameters.crank" in listed, listed
+    with pytest.raises(kinem.InputError) as e:
+        kinem.sensitivity(kinem.compile(variant), ["ground"])
+    assert "parameter 'parameters.ground': named dimension ground is used by no number of the case" in str(e.value)
+    assert "parameters.ground" in [p.path for p in parameters(kinem.load(NAMED))]
