@@ -1196,3 +1196,13 @@ def test_found_a_name_set_apart_listed_as_a_parameter(tmp_path):
         kinem.sensitivity(kinem.compile(variant), ["ground"])
     assert "parameter 'parameters.ground': named dimension ground is used by no number of the case" in str(e.value)
     assert "parameters.ground" in [p.path for p in parameters(kinem.load(NAMED))]
+
+
+def test_found_info_parameters_and_blocks(tmp_path):
+    """info --parameters --blocks printed the parameters and ignored --blocks (two listings instead of the
+    summary, one chosen unseen). Now refused before the case is read, as report's --stress --no-stress."""
+    for case in (str(FOUR_BAR), str(tmp_path / "missing.toml")):
+        code, line = run_main(["info", case, "--parameters", "--blocks", "--json"])
+        assert (code, line) == (2, "kinem: error: --parameters and --blocks: give at most one (each is a listing "
+                                   "instead of the summary)"), line
+    assert run_main(["info", str(FOUR_BAR), "--blocks", "--json"])[0] == 0

@@ -52,6 +52,8 @@ def cmd_sweep(a):
 def cmd_info(a):
     from ..info import describe, info
 
+    if a.parameters and a.blocks:   # each lists instead of the summary: one would be ignored
+        raise InputError("--parameters and --blocks: give at most one (each is a listing instead of the summary)")
     if a.parameters:
         from ..info import describe_parameters
         from ..parameters import parameters
