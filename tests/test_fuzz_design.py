@@ -1021,6 +1021,23 @@ def test_compare_sensitivity_engines_past_the_time_limit(monkeypatch):
     assert "nominal run: the time limit of 30 s" in out, out
 
 
+def test_found_animate_engines_past_the_time_limit(tmp_path, monkeypatch):
+    """animate --max-seconds bounded its native solve alone: an engine's run went on past it (and a run stopped
+    would have been a ghost left out, the animation written). Now the engines' runs end at the limit as
+    compare's do, and past it animate fails: exit 1, the engine and the limit named, nothing written."""
+    import time
+
+    from adapters import compare
+
+    monkeypatch.setattr(compare, "time_limit", lambda options: (options.max_seconds, time.time() - 1.0), raising=False)
+    out = tmp_path / "a.svg"
+    code, line = run_main(["animate", str(FOUR_BAR), "--out", str(out), "--engines", "native,pymunk",
+                           "--max-seconds", "30"])
+    assert code == 1 and f"{FOUR_BAR}: pymunk: the time limit of 30 s (Options.max_seconds, --max-seconds of kinem " \
+                         "solve, compare and animate) is reached at t = 0" in line, line
+    assert not out.exists()
+
+
 EIGHT_IN_NINE = ["crank", "parameters.crank", "parameters.coupler", "parameters.rocker", "parameters.ground",
                  "points.O2.at.0", "points.O2.at.1", "constraints.O2.sj.0", "constraints.O2.sj.1"]
 

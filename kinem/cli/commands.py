@@ -331,7 +331,7 @@ def cmd_animate(a):
     started = time.perf_counter()
     engines = [e for e in engine_list(a.engines) if e != "native"]   # '' refused, as compare refuses it
     check_output(a.out)
-    seconds = time_limit(a)   # native's solve, as kinem solve's and compare's
+    seconds = time_limit(a)   # native's solve and the engines' runs, as kinem compare's
     check(a.out)   # as sweep's --out: a read-only file, or a FIFO without a reader, before the runs
     model = load_model(a.case)
     options = replace(Options.of(model.case), max_seconds=seconds, started=started)

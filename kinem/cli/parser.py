@@ -154,7 +154,7 @@ def parser():
     an.add_argument("--out", required=True, help="FILE.svg (animated SVG), FILE.gif, or FILE.mp4")
     an.add_argument("--engines", default="native,pymunk,mujoco,exudyn",
                     help="engines drawn as ghosts over the native solution")
-    max_seconds_option(an, " (native's solve; the engines have their step bounds)")
+    max_seconds_option(an, " (native's solve and the engines' runs)")
     an.set_defaults(run=cmd_animate)
 
     d = sub.add_parser("diff", help="what moved between two results.json files of kinem report (B against A, "
