@@ -1223,3 +1223,22 @@ def test_found_info_parameters_and_blocks(tmp_path):
         assert (code, line) == (2, "kinem: error: --parameters and --blocks: give at most one (each is a listing "
                                    "instead of the summary)"), line
     assert run_main(["info", str(FOUR_BAR), "--blocks", "--json"])[0] == 0
+
+
+def test_found_a_sweep_into_fast_drivers_said_nothing(tmp_path):
+    """A driver's rate swept to 2,000 rad/s over 250 output intervals: kinem solve of one such variant warns
+    (a speed in degrees read as radians?), the sweep said nothing (its variants' warnings were dropped so
+    that the case's own are given once). Now one line for all of them, the first quoted; a sweep whose
+    variants warn as the case does adds none."""
+    out = tmp_path / "o.csv"
+    buf = io.StringIO()
+    with contextlib.redirect_stderr(buf):
+        code = main(["sweep", str(FOUR_BAR), "--set", "constraints.crank-drive.d.poly.1=1:2000:5", "--outputs", "B.x",
+                     "--out", str(out)])
+    lines = buf.getvalue().splitlines()
+    assert code == 1 and len(lines) == 2, lines   # two variants fail on the way: their own line
+    assert lines[0].startswith("kinem: warning: sweep: 4 warning(s) of the variants that the case itself does not "
+                               "give; first: ") and "turns body 'crank' at up to 500.8 rad/s" in lines[0], lines
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        kinem.sweep(str(FOUR_BAR), {"constraints.crank-drive.d.poly.1": [1.4, 1.6]}, ["B.x"])
