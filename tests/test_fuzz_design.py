@@ -1187,8 +1187,9 @@ def test_found_a_name_and_a_number_it_gives_set_together(tmp_path, command):
     case.write_text(text)
     out = [] if command[0] == "info" else ["--out", str(tmp_path / "o.csv")]
     code, line = run_main([command[0], str(case), *command[1:], *out])
-    assert code == 2 and "'ground' and 'points.O4.at.0' set one number: ground of [parameters] gives points.O4.at.0; expected one of them" \
-        in line, line
+    said = ("'ground' and 'points.O4.at.0' set one number: ground of [parameters] gives points.O4.at.0; expected one "
+            "of them")
+    assert code == 2 and said in line, line
     assert not (tmp_path / "o.csv").exists()
     from kinem.parameters import apply
 
