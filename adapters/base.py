@@ -16,6 +16,7 @@ seconds in the engine's stepping calls; ``overhead``: the adapter's own Python
 around them, building and sampling included) and the typed status. An engine
 implements ``version``, ``defaults``/``checks`` and ``simulate``.
 """
+import contextvars
 import enum
 import math
 import sys
@@ -24,6 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from kinem.budget import out_of_time
 from kinem.casefile.checks import show
 from kinem.casefile.keys import LocalKey
 from kinem.constraints import REGISTRY
@@ -81,6 +83,30 @@ class Failure(Exception):
     def __init__(self, status: Status, detail: str, steps: int = 0, partial=None, wall: float = 0.0):
         super().__init__(detail)
         self.status, self.detail, self.steps, self.partial, self.wall = status, detail, steps, partial, wall
+
+
+class OutOfTime(Failure):
+    """The run's time limit (``Adapter.run``'s ``limit``) is reached: the
+    run ends, never refined nor retried, and no earlier attempt stands."""
+
+
+# The time limit of the run in this thread (Adapter.run's ``limit``): (seconds, its time.time() deadline), or None.
+_LIMIT = contextvars.ContextVar("adapters_limit", default=None)
+
+
+def in_time(t, steps=0, wall=0.0):
+    """OutOfTime at t (the steps and stepping seconds so far) when the run's
+    time limit is reached; the engines' step loops call it between output
+    intervals (kinem.budget's words: compare's native solves)."""
+    limit = _LIMIT.get()
+    if limit is not None and time.time() > limit[1]:
+        raise OutOfTime(Status.FAILED, f"{out_of_time(limit[0])} at t = {t:.6g}", steps, wall=wall)
+
+
+def deadline():
+    """The run's time limit as a time.time() instant (inf: none), for an engine that checks it on its own."""
+    limit = _LIMIT.get()
+    return math.inf if limit is None else limit[1]
 
 
 @dataclass(frozen=True, eq=False)
@@ -284,12 +310,22 @@ class Adapter:
         ``notes`` and its cost includes both attempts."""
         return None
 
-    def run(self, model, q0=None, qd0=None, settings=None) -> EngineRun:
+    def run(self, model, q0=None, qd0=None, settings=None, limit=None) -> EngineRun:
         """Simulates over model.times from (q0, qd0), by default the model's
         own assembly at the first instant (``start``). Bad settings raise
         InputError; an engine failure never raises (its status says it).
         Nothing of native's trajectory is read: the step is chosen and
-        refined from the start's and the run's own figures alone."""
+        refined from the start's and the run's own figures alone.
+        ``limit``: (seconds, the time.time() instant they end) the whole
+        run may take, refinements included (kinem compare --max-seconds);
+        past it the run fails with kinem.budget's message (``in_time``)."""
+        token = _LIMIT.set(limit)
+        try:
+            return self._run(model, q0, qd0, settings)
+        finally:
+            _LIMIT.reset(token)
+
+    def _run(self, model, q0, qd0, settings) -> EngineRun:
         began = time.perf_counter()
         s = self.settings(settings)
         times = np.asarray(model.times, float)
@@ -332,6 +368,8 @@ class Adapter:
                 wall, steps, failure = wall + w, steps + n, None
             except Failure as e:
                 wall, steps, failure = wall + e.wall, steps + e.steps, e
+            if isinstance(failure, OutOfTime):   # the whole run's bound: no earlier attempt stands, no rerun
+                break
             if failure is not None and kept is not None:   # a refined run failed: the last good one stands
                 Q, QD = kept[0], kept[1]
                 s.clear()

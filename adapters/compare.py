@@ -358,16 +358,17 @@ def tolerance_of(adapter) -> dict:
     return dict(adapter.tolerance)
 
 
-def run_engine(model, native, name, overrides=None) -> Comparison:
+def run_engine(model, native, name, overrides=None, limit=None) -> Comparison:
     """Builds, runs and compares one engine. Settings: the adapter's defaults,
-    then the case's [engines.<name>] table, then ``overrides``."""
+    then the case's [engines.<name>] table, then ``overrides``; ``limit``:
+    the run's time limit (adapters.base.Adapter.run)."""
     from . import case_settings, get
 
     adapter = get(name)
     reason = adapter.unsupported(model)
     if reason:
         return Comparison(engine=name, status=Status.UNSUPPORTED, detail=reason, version=adapter.version())
-    run = adapter.run(model, settings=case_settings(model, name, overrides))   # its own start, never native's
+    run = adapter.run(model, settings=case_settings(model, name, overrides), limit=limit)   # its own start
     return compare(model, native, run, tolerance_of(adapter))
 
 
@@ -375,9 +376,22 @@ def _run_engine(task):
     return run_engine(*task)
 
 
+def time_limit(options):
+    """The engines' runs' share of ``options.max_seconds`` (counted from
+    options.started, as native's solves): (seconds, the time.time() instant
+    it ends; the same on a Dask worker of this machine) or None."""
+    import time
+
+    if options is None or options.max_seconds is None:
+        return None
+    started = options.started if options.started is not None else time.perf_counter()
+    return options.max_seconds, time.time() + started + options.max_seconds - time.perf_counter()
+
+
 def run_case(model, engines, overrides=None, scheduler=None, options=None):
     """Native solution (solved with ``options``, kinem.Options; default the
-    case's) and one Comparison per engine ('native' included when asked).
+    case's) and one Comparison per engine ('native' included when asked);
+    the engines' runs end at options.max_seconds too (``time_limit``).
     overrides: engine name -> settings. The engines run in this process, or
     on the workers of a Dask scheduler (an address)."""
     from kinem import parallel
@@ -391,7 +405,8 @@ def run_case(model, engines, overrides=None, scheduler=None, options=None):
         parallel.check_address(scheduler)
     check_solutions(model, 1 + sum(n != "native" for n in engines), "compare", "fewer instants (--steps) or engines")
     native = solve(model, options=options)
-    todo = [(model, native, n, (overrides or {}).get(n)) for n in engines if n != "native" and native.success]
+    limit = time_limit(options)
+    todo = [(model, native, n, (overrides or {}).get(n), limit) for n in engines if n != "native" and native.success]
     done = iter(parallel.map(_run_engine, todo, jobs=0, scheduler=scheduler))
     rows = []
     for name in engines:

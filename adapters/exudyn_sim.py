@@ -31,8 +31,8 @@ from scipy.interpolate import CubicSpline
 from kinem.functions import Harmonic, Poly, Table
 from kinem.outline import Outline, OutlineSet  # noqa: F401 - Outline: the repr of the exported calls
 
-from .base import (Adapter, Failure, Reason, Status, boolean, choice, count, count_or_none, drives, fraction, grounded,
-                   mass_properties, nonnegative, positive, step_or_auto)
+from .base import (Adapter, Failure, Reason, Status, boolean, choice, count, count_or_none, deadline, drives, fraction,
+                   grounded, in_time, mass_properties, nonnegative, positive, step_or_auto)
 
 # Limits on the figures of adapters/compare.py at the default settings.
 # Positions: the index-3 Newton solve holds every constraint at each step, so
@@ -646,6 +646,14 @@ class ExudynAdapter(Adapter):
             raise Failure(Status.FAILED, f"{type(e).__name__}: {e}") from None
         finally:
             exu.config.printToConsole = saved
+        until, stopped = deadline(), []
+        if until < math.inf:   # compare --max-seconds: the solver asks before every step (one Python call a step)
+            def ask(mbs, t):
+                if time.time() <= until:
+                    return True
+                stopped.append(t)
+                return False    # Exudyn stops after this step
+            b.mbs.SetPreStepUserFunction(ask)
         exu.config.printToConsole = False
         try:
             start = time.perf_counter()     # one solver call for the whole run
@@ -659,6 +667,8 @@ class ExudynAdapter(Adapter):
             exu.config.printToConsole = saved
         solver = b.mbs.sys.get("dynamicSolver")
         steps = max(int(solver.it.currentStepIndex) - 1, 0) if solver is not None else 0
+        if stopped:
+            in_time(stopped[0], steps, wall)
         if not ok:
             detail = solver.GetErrorString().strip() if solver is not None else ""
             at = f"Exudyn solver stopped at t = {solver.it.currentTime:.6g}: " if solver is not None else ""

@@ -43,7 +43,7 @@ import numpy as np
 from kinem.functions import Poly
 
 from .base import (Adapter, Drive, Failure, Reason, Status, boolean, choice, count, count_or_none, drive_table, drives,
-                   finite, grounded, mass_properties, nonnegative, numbers, positive,
+                   finite, grounded, in_time, mass_properties, nonnegative, numbers, positive,
                    positive_or_none, step_or_auto)
 
 # Each self-check figure's order in the step (adapters.base.refine), measured on
@@ -628,6 +628,7 @@ class MujocoAdapter(Adapter):
         sample(0, 0)
         wall, n = 0.0, 0
         for k in range(1, len(times)):
+            in_time(times[k - 1], n, wall)   # compare --max-seconds, between output intervals
             if every_step:                  # driving between steps: the cheapest per-step Python
                 start = time.perf_counter()
                 for _ in range(sub):

@@ -43,7 +43,7 @@ import pymunk
 
 
 from .base import (Adapter, Failure, Reason, Status, boolean, count, count_or_auto, count_or_none, drive_table, drives,
-                   fraction, grounded, mass_properties, nonnegative, numbers, positive, step_or_auto)
+                   fraction, grounded, in_time, mass_properties, nonnegative, numbers, positive, step_or_auto)
 
 # Agreement with native at the default settings, in the figures of
 # adapters.compare (max over instants, bodies and named points). The scheme is
@@ -449,6 +449,7 @@ class PymunkAdapter(Adapter):
         read_v(QD[0])
         wall, step = 0.0, 0
         for k in range(1, len(times)):
+            in_time(times[k - 1], step, wall)   # compare --max-seconds, between output intervals
             first = n_sub - 1 if centered else n_sub
             start = perf()
             steps(first, step)

@@ -74,7 +74,7 @@ def check(model, paths, engines, overrides=None, options=None):
     """(exact Sensitivity, [Check]) for every parameter path and source
     (``engines``: names, 'native' included when asked). Raises InputError
     for an unknown path or engine setting. ``options`` (kinem.Options;
-    default the case's): native's solves, e.g. their max_seconds."""
+    default the case's): native's solves, e.g. their max_seconds, and the engines' runs."""
     from kinem.model import compile
     from kinem.options import Options
     from kinem.parameters import apply, resolve
@@ -82,8 +82,10 @@ def check(model, paths, engines, overrides=None, options=None):
     from kinem.solver import solve
 
     from . import case_settings, get
+    from .compare import time_limit
 
     case = model.case
+    bound = time_limit(options)   # the engines' runs end at options.max_seconds too
     listed = resolve(case, paths)
     exact = sensitivity(model, [p.path for p in listed], outputs=("positions",), options=options)
     cols = [c for c in columns(model) if c in exact.trajectory]
@@ -94,7 +96,7 @@ def check(model, paths, engines, overrides=None, options=None):
     for e, a in adapters.items():
         if a.unsupported(model) is None:
             s = a.settings(case_settings(model, e, (overrides or {}).get(e)))
-            run = a.run(model, settings=s)
+            run = a.run(model, settings=s, limit=bound)
             fixed = {k: run.settings[k] for k in a.defaults() if k in run.settings}
             if "substeps" in fixed:
                 fixed["substeps"] = run.settings.get("substeps") or None
@@ -144,7 +146,7 @@ def check(model, paths, engines, overrides=None, options=None):
             if nominal.status is not Status.OK:
                 out.append(Check(e, p.path, nominal.status, f"nominal run: {nominal.detail}", h))
                 continue
-            runs = {s: a.run(moved[s], settings=fixed) for s in (1, -1)}
+            runs = {s: a.run(moved[s], settings=fixed, limit=bound) for s in (1, -1)}
             failed = [r for r in runs.values() if r.status is not Status.OK]
             if failed:
                 out.append(Check(e, p.path, failed[0].status, f"at p +- h: {failed[0].detail}", h))

@@ -35,6 +35,12 @@ def check_solutions(model, sources, command, fewer) -> None:
     check_held(3 * K * model.n * sources, model.case.source, f"{command}: {K:,} instants x {model.n} coordinates x 3 "
                f"(positions, velocities, accelerations) x {sources} solution(s)", fewer)
 
+def out_of_time(seconds) -> str:
+    """The time limit's words: native's solves (Budget) and the engines' runs of compare (adapters.base)."""
+    return (f"the time limit of {seconds:.3g} s (Options.max_seconds, --max-seconds of kinem solve, "
+            "compare and animate) is reached")
+
+
 # Rejected attempts in a row after which a run is said to be stuck at an instant.
 STUCK = 10
 
@@ -79,8 +85,7 @@ class Budget:
             raise WorkLimitError(self.why(self.out_of_time(), t))
 
     def out_of_time(self) -> str:
-        return (f"the time limit of {self.seconds:.3g} s (Options.max_seconds, --max-seconds of kinem solve, "
-                "compare and animate) is reached")
+        return out_of_time(self.seconds)
 
     def why(self, what, t) -> str:
         """What consumed the budget, the run being at t."""

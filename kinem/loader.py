@@ -10,7 +10,7 @@ import numpy as np
 
 from . import functions as fn
 from .casefile import sections
-from .casefile.checks import HIDDEN, MAX_NAME, MAX_TEXT, NAME_RE, Checker
+from .casefile.checks import HIDDEN, MAX_NAME, MAX_TEXT, NAME_RE, PLAIN, Checker
 from .casefile.drawn import place
 from .constraints import REGISTRY
 from .constraints.read import constraint_id, constraints
@@ -37,8 +37,7 @@ def build(data, source: str, as_written: bool = True) -> Case:
                             expected=f"a string of at most {MAX_TEXT} characters")
     hidden = HIDDEN.search(description) if description else None
     if hidden:   # as a name's or a unit's: what is printed shows what is written (tab and newline are prose)
-        ck.bad("top level", "description", f"U+{ord(hidden.group()):04X} at character {hidden.start() + 1}",
-               "text without control or invisible formatting characters (tab and newline allowed)")
+        ck.bad("top level", "description", f"U+{ord(hidden.group()):04X} at character {hidden.start() + 1}", PLAIN)
         description = None
     params = sections.parameters(ck, data.get("parameters", {}))
     units = sections.units(ck, data.get("units", {}))

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 from . import functions as fn
 from .casefile.checks import MAX_MAGNITUDE, TOML_NUMBERS, number, show, suggest
+from .casefile.sections import MAX_SENSITIVITY, SENSITIVITY_EXPECTED
 from .constraints import REGISTRY
 from .constraints.read import constraint_id
 from .errors import InputError, KinemWarning
@@ -105,8 +106,11 @@ def validated(data, source: str, stacklevel: int = 1, as_written: bool = True) -
     case = build(data, source, as_written)
     if case.tolerances:   # their paths and sizes need the whole case
         tolerances_of(case)
-    if "sensitivity" in case.report:
-        resolve(case, case.report["sensitivity"], "[report] sensitivity")
+    if "sensitivity" in case.report:   # counted as parameters: 'crank' and 'parameters.crank' are one
+        listed = resolve(case, case.report["sensitivity"], "[report] sensitivity")
+        if len(listed) > MAX_SENSITIVITY:
+            raise InputError(f"{case.source}: [report]: key 'sensitivity': {len(listed)} design parameters; "
+                             f"expected {SENSITIVITY_EXPECTED}")
     for text in fast_drivers(case):
         warnings.warn(text, KinemWarning, stacklevel=stacklevel + 1)
     return case
@@ -239,7 +243,9 @@ def to_path(case, key, source) -> str:
 
 
 def to_paths(case, keys, source) -> list:
-    """``to_path`` of each key; two keys that name one parameter (a bare name and its path) are an InputError."""
+    """``to_path`` of each key; two keys that name one parameter (a bare name and its path), or a name of
+    [parameters] and a path of a number it gives (the path's value would stand, the name's be ignored there),
+    are an InputError."""
     paths, first = [], {}
     for key in keys:
         path = to_path(case, key, source)
@@ -247,6 +253,12 @@ def to_paths(case, keys, source) -> list:
             raise InputError(f"{source}: '{first[path]}' and '{key}' are one parameter ({path}); expected it once")
         first[path] = key
         paths.append(path)
+    for path in paths:
+        name = path[len("parameters."):] if path.startswith("parameters.") else None
+        both = [u for u in case.uses.get(name, ()) if u in first] if name is not None else []
+        if both:
+            raise InputError(f"{source}: '{first[path]}' and '{first[both[0]]}' set one number: {name} of "
+                             f"[parameters] gives {both[0]}; expected one of them")
     return paths
 
 
@@ -438,15 +450,14 @@ def _of_key(case, c, key) -> list:
 def _named(case, name, known) -> Parameter | None:
     """The named dimension ``parameters.<name>``; ``known``: path -> its Parameter or None. None when
     every number that uses it is read by no constraint (a body's estimate or mass, the time span: not
-    design parameters, and so not the name)."""
+    design parameters, and so not the name), or no number uses it (a variant whose numbers it gave are set
+    apart, --set of their paths: setting it would move nothing)."""
     used = case.uses.get(name, ())
     read = [q for q in map(known, used) if q is not None]
-    if used and not read:
+    if not read:
         return None
-    unit = next((q.unit for q in read), "")
-    what = (f"named dimension {name} of [parameters], used by {', '.join(used)}" if used
-            else f"named dimension {name} of [parameters], used by no number of the case")
-    return Parameter(f"parameters.{name}", float(case.parameters[name]), unit, what)
+    what = f"named dimension {name} of [parameters], used by {', '.join(used)}"
+    return Parameter(f"parameters.{name}", float(case.parameters[name]), read[0].unit, what)
 
 
 def _numbers(case, c, key):
@@ -482,6 +493,10 @@ def _why_not(case, path, by_path) -> str:
                 "expected a point that a constraint names")
     if head[0] == "bodies":
         return "body estimates, masses and inertias are read by no constraint: not design parameters"
+    if head[0] == "parameters" and len(parts) == 2 and head[1] in case.parameters and not case.uses.get(head[1]):
+        return (f"named dimension {head[1]} is used by no number of the case (the numbers it gave are set apart: "
+                "their paths set): not a design parameter; expected a name that a constraint's or a point's number "
+                "uses")
     if head[0] == "parameters" and len(parts) == 2 and head[1] in case.parameters:
         return (f"named dimension {head[1]} is used only by {', '.join(case.uses[head[1]])}, which no constraint "
                 "reads: not a design parameter; expected a name that a constraint's or a point's number uses")

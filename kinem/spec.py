@@ -5,7 +5,16 @@ from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Any, Mapping
 
+import re
+
 import numpy as np
+
+# Characters that hide or spoof text where shown (C0 but tab and newline, DEL, C1, soft hyphen, zero-width and
+# bidirectional controls such as U+202E): refused in a description (the loader's check, and Case's own for a Case
+# built in Python), shown as codes by the report (kinem/report/escaping.py)
+HIDDEN = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u00ad\u061c\u180e\u200b-\u200f\u2028-\u202e\u2060-\u206f\ufeff"
+                    "\ufff9-\ufffb]")
+PLAIN = "text without control or invisible formatting characters (tab and newline allowed)"
 
 
 def frozen_map(d=None) -> Mapping:
@@ -80,6 +89,18 @@ class Case:
     parameters: Mapping = field(default_factory=frozen_map)   # [parameters]: name -> the value used
     tolerances: Mapping = field(default_factory=frozen_map)  # [tolerances]: parameter path -> pm or {pm, sigma}
     uses: Mapping = field(default_factory=frozen_map)   # [parameters] name -> the paths of the numbers it gave
+
+    def __post_init__(self):
+        # the loader's check of a description (kinem.loader.build), for a Case built in Python or replaced too:
+        # what is shown (the report, a case file written again) is what it holds
+        d = self.description
+        hidden = HIDDEN.search(d) if isinstance(d, str) else None
+        if hidden or not isinstance(d, str):
+            from .errors import InputError
+
+            got = f"U+{ord(hidden.group()):04X} at character {hidden.start() + 1}" if hidden else \
+                f"got {type(d).__name__}"
+            raise InputError(f"{self.source}: top level: key 'description': {got}; expected {PLAIN}")
 
     def __repr__(self) -> str:   # a summary: the whole case is kinem.load's input, and thousands of characters
         return (f"Case({self.name!r}: {len(self.bodies)} bodies, {len(self.points)} points, "

@@ -147,11 +147,15 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
 
     from .errors import KinemWarning
 
+    from .loader import fast_drivers
+
+    own, fast = set(fast_drivers(nominal)), []   # the case's own warnings are the base's, given once
     for start in range(0, len(grid_values), LOAD_CHUNK):
         rows = grid_values[start:start + LOAD_CHUNK]
-        with warnings.catch_warnings():   # the case's own warnings are the base's, given once
-            warnings.simplefilter("ignore", KinemWarning)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", KinemWarning)
             loaded = apply_many(nominal, [dict(zip(names, row.tolist())) for row in rows])
+        fast += [str(w.message) for w in caught if issubclass(w.category, KinemWarning) and str(w.message) not in own]
         for k, variant in enumerate(loaded, start):
             if isinstance(variant, InputError):
                 cases.append(None)
@@ -160,6 +164,9 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
                 cases.append(variant)
             if progress:
                 progress.step(f"variant {k + 1} loaded")
+    if fast:   # a driver swept fast (a rate in degrees?): one line for all, not one a variant
+        warnings.warn(f"sweep: {len(fast):,} warning(s) of the variants that the case itself does not give; first: "
+                      f"{fast[0]}", KinemWarning, stacklevel=2)
     out = np.full((len(grid_values), len(base.times), len(columns)), np.nan)
     valid = [k for k, c in enumerate(cases) if c is not None]
     if not (valid and _variants(base, paths, grid_values, valid, columns, out, errors, progress)):

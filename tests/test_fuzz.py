@@ -194,7 +194,7 @@ def check(tmp_path, text, must_be_invalid, command="info", options=("--steps", "
 
 
 NOTES = re.compile(r"\S+: the Monte Carlo band leaves the worst-case linear band by at most |"
-                   r"kinem: \d+ of \d+ samples not on the nominal's branch")   # kinem tolerance's own lines
+                   r"kinem: \d+ of \d+ samples left out of the Monte Carlo band")   # kinem tolerance's own lines
 
 
 def run_main(args, notes=False):

@@ -962,3 +962,284 @@ def test_found_report_sensitivity_past_an_assembly_limit(rod, said):
         assert said in table, table[-400:]
     else:
         assert float(table.split()[-1]) < 1e-3, table[-200:]
+
+
+# -- session 28, part 10 (docs/benchmarks.md, "Fuzz campaign, session 28"): what part 9 left ----------------
+
+ENGINES = ("pymunk", "mujoco", "exudyn")
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_found_compare_engines_past_the_time_limit(monkeypatch, engine):
+    """compare --max-seconds bounded native's solves, not the engines' runs: a run of millions of steps went on
+    far past it. Now each engine's run ends at the same limit (checked between output intervals; Exudyn's
+    solver asks before each step), its row failed with the time limit's words, exit 1. Here the limit has
+    passed when the engines begin (native's solve within it)."""
+    import time
+
+    from adapters import compare
+
+    monkeypatch.setattr(compare, "time_limit", lambda options: (options.max_seconds, time.time() - 1.0), raising=False)
+    code, out, err = _compare([str(FOUR_BAR), "--engines", f"native,{engine}", "--steps", "40", "--max-seconds",
+                               "30"])
+    assert code == 1 and err == "", (out, err)
+    row = next(line for line in out.splitlines() if line.startswith(engine))
+    assert "failed: the time limit of 30 s (Options.max_seconds, --max-seconds of kinem solve, compare and animate) " \
+           "is reached at t = 0" in row, out
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_an_engine_run_stops_at_its_time_limit(engine):
+    """The same bound on a long run (a four-bar of 200,000 output instants, each engine's own settings): it
+    ends about the limit after it began, failed, its time-limit words and where it stopped; no refinement
+    or earlier attempt stands in for it; without a limit the same call is bounded by nothing but its steps."""
+    import time
+
+    from adapters import get
+    from adapters.base import Status
+
+    model = kinem.compile(kinem.load(FOUR_BAR).with_time(steps=200_000, end=2000.0))
+    start = time.time()
+    run = get(engine).run(model, limit=(0.5, start + 0.5))
+    took = time.time() - start
+    assert run.status is Status.FAILED and run.detail.startswith("the time limit of 0.5 s (Options.max_seconds") \
+        and " is reached at t = " in run.detail, run.detail
+    assert run.trajectory is None and not run.notes, run.notes
+    assert took < 20, took
+
+
+def test_compare_sensitivity_engines_past_the_time_limit(monkeypatch):
+    """compare --sensitivity's engine runs (nominal and moved) end at the limit too: their rows say so, exit 1."""
+    import time
+
+    from adapters import compare
+
+    monkeypatch.setattr(compare, "time_limit", lambda options: (options.max_seconds, time.time() - 1.0), raising=False)
+    code, out, err = _compare([str(FOUR_BAR), "--engines", "native,pymunk", "--steps", "40", "--sensitivity",
+                               "points.A.at.0", "--max-seconds", "30"])
+    assert code == 1 and err == "", (out, err)
+    assert "nominal run: the time limit of 30 s" in out, out
+
+
+def test_found_animate_engines_past_the_time_limit(tmp_path, monkeypatch):
+    """animate --max-seconds bounded its native solve alone: an engine's run went on past it (and a run stopped
+    would have been a ghost left out, the animation written). Now the engines' runs end at the limit as
+    compare's do, and past it animate fails: exit 1, the engine and the limit named, nothing written."""
+    import time
+
+    from adapters import compare
+
+    monkeypatch.setattr(compare, "time_limit", lambda options: (options.max_seconds, time.time() - 1.0), raising=False)
+    out = tmp_path / "a.svg"
+    code, line = run_main(["animate", str(FOUR_BAR), "--out", str(out), "--engines", "native,pymunk",
+                           "--max-seconds", "30"])
+    assert code == 1 and f"{FOUR_BAR}: pymunk: the time limit of 30 s (Options.max_seconds, --max-seconds of kinem " \
+                         "solve, compare and animate) is reached at t = 0" in line, line
+    assert not out.exists()
+
+
+EIGHT_IN_NINE = ["crank", "parameters.crank", "parameters.coupler", "parameters.rocker", "parameters.ground",
+                 "points.O2.at.0", "points.O2.at.1", "constraints.O2.sj.0", "constraints.O2.sj.1"]
+
+
+def _named_case(tmp_path, listed):
+    case = tmp_path / "case.toml"
+    case.write_text(NAMED.read_text().replace("steps = 250", "steps = 10") + "\n[report]\nsensitivity = ["
+                    + ", ".join(f'"{p}"' for p in listed) + "]\n")
+    return case
+
+
+def test_found_report_sensitivity_counted_texts(tmp_path):
+    """[report] sensitivity counted its distinct texts against its 8, not its parameters: "crank" and
+    "parameters.crank" (one parameter, one row and one panel in the report) counted twice, so eight
+    parameters written in nine texts were refused. A user means parameters: now the parameters count (the
+    texts are bounded at twice that, the two ways to write one), the message says so, the report's table
+    and plot have one row and one panel a parameter."""
+    from kinem.parameters import resolve
+    from kinem.report import design
+
+    case = _named_case(tmp_path, EIGHT_IN_NINE)
+    loaded = kinem.load(case)
+    listed = resolve(loaded, loaded.report["sensitivity"])
+    assert len(loaded.report["sensitivity"]) == 9 and len(listed) == 8, listed
+    assert run_main(["info", str(case)])[0] == 0
+    drawn = []
+    plot = design._sensitivity_plot
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(design, "_sensitivity_plot",
+                   lambda t, paths, *a, **k: drawn.append(paths) or plot(t, paths, *a, **k))
+        mp.setattr(design, "_bands", lambda *a, **k: [])
+        parts = design.section(kinem.compile(loaded))
+    assert drawn == [[p.path for p in listed]], drawn
+    assert parts[0].count("<tr><td class=l><code>") == 8
+
+
+def test_found_report_sensitivity_nine_parameters_refused(tmp_path):
+    """Nine parameters (nine texts) stay refused, now by their count, naming the key and what is expected."""
+    case = _named_case(tmp_path, EIGHT_IN_NINE[1:] + ["points.O4.at.1"])
+    code, line = run_main(["info", str(case)])
+    assert code == 2 and f"{case}: [report]: key 'sensitivity': 9 design parameters; expected a list of 1 to 8 " \
+                         "design parameter paths (or names of [parameters]), each parameter counted once" in line, line
+    many = _named_case(tmp_path, [f"points.O2.at.{i}" for i in range(17)])
+    code, line = run_main(["info", str(many)])
+    assert code == 2 and "[report]: key 'sensitivity': got [" in line and "each parameter counted once" in line, line
+
+
+@pytest.mark.parametrize("text, code", [("a\x07b", "0007"), ("\u202eab", "202E"), ("ab\x1b[31m", "001B"),
+                                        ("ab\r", "000D")])
+def test_found_a_python_built_case_with_control_characters(text, code):
+    """A kinem.Case built in Python (its constructor, or dataclasses.replace of a loaded one) took any
+    description: the loader's check (session 27) was the file's alone. Now the Case refuses it itself, in the
+    loader's words (tab and newline stay)."""
+    import dataclasses
+
+    case = kinem.load(FOUR_BAR)
+    at = text.index(text.strip("ab")[0]) + 1
+    said = f"<memory>: top level: key 'description': U+{code} at character {at}; expected text without control " \
+           "or invisible formatting characters (tab and newline allowed)"
+    with pytest.raises(kinem.InputError) as e:
+        kinem.Case(name="x", bodies=case.bodies, points=case.points, constraints=case.constraints, end=1.0,
+                   steps=10, description=text)
+    assert str(e.value) == said, str(e.value)
+    with pytest.raises(kinem.InputError) as e:
+        dataclasses.replace(case, description=text)
+    assert f"{FOUR_BAR}: top level: key 'description': U+{code}" in str(e.value), str(e.value)
+    with pytest.raises(kinem.InputError) as e:
+        dataclasses.replace(case, description=3)
+    assert "key 'description': got int; expected text" in str(e.value), str(e.value)
+    assert dataclasses.replace(case, description="a\tb\nc \u00e9").description == "a\tb\nc \u00e9"
+
+
+def _short_rod(tmp_path, tolerance):
+    """A slider-crank whose rod is 0.5 mm longer than its crank, with a [tolerances] table: samples whose rod is
+    shorter than the crank cannot pass its dead centre (the solve stops, singular), others are in the band."""
+    text = (ROOT / "cases" / "slider_crank.toml").read_text().replace("si = [300.0, 0.0]", "si = [0.5, 0.0]", 1)
+    case = tmp_path / "rod.toml"
+    case.write_text(text.replace("steps = 500", "steps = 50") + f"\n[tolerances]\n{tolerance}\n")
+    return case
+
+
+@pytest.mark.parametrize("samples, seed, none", [("50", "0", False), ("1", "3", True)])
+def test_found_tolerance_failed_samples_said_as_branches(tmp_path, samples, seed, none):
+    """kinem tolerance with samples that fail on the way (a rod drawn shorter than its crank: singular at the
+    dead centre) said "N of M samples not on the nominal's branch", which they never left; with every sample
+    left out the CSV's Monte Carlo columns were NaN without a word of why. Now docs/design.md's words (not a
+    valid case, cannot assemble, leave the branch or fail on the way), and with none in the band, that its
+    .mc columns are NaN; exit 0 (the linear bands are the answer), the CSV whole."""
+    case = _short_rod(tmp_path, '"constraints.B.si.0" = 1.0')
+    out = tmp_path / "o.csv"
+    args = ["tolerance", str(case), "--samples", samples, "--seed", seed, "--out", str(out)]
+    assert run_main(args, notes=True) == (0, "")   # the contract: its notes alone on standard error
+    buf = io.StringIO()
+    with contextlib.redirect_stderr(buf):
+        code = main(args)
+    err = buf.getvalue()
+    assert code == 0, err
+    said = [line for line in err.splitlines() if line.startswith("kinem: ")]
+    assert len(said) == 1 and "samples left out of the Monte Carlo band (not a valid case, cannot assemble, leave " \
+        "the nominal's branch or fail on the way)" in said[0] and "; first: SINGULAR: " in said[0], err
+    assert ("none is in the band: its .mc columns are NaN" in said[0]) == none, said
+    rows = out.read_text().splitlines()
+    head, first = rows[0].split(","), rows[1].split(",")
+    assert len(rows) == 52 and head[-1] == "A.y.mc+", rows[0]
+    mc = [float(first[k]) for k, c in enumerate(head) if ".mc" in c]
+    assert all(math.isnan(x) for x in mc) if none else all(math.isfinite(x) for x in mc), first
+
+
+@pytest.mark.parametrize("tolerance, samples, said", [
+    ('"constraints.B.si.0" = 1.0', 200, "44 of 200 samples left the nominal's branch or could not assemble"),
+    ('"constraints.A.sj.0" = 10.0', 1, "No Monte Carlo band: no sample is in it"),
+])
+def test_report_bands_with_failed_samples(tmp_path, monkeypatch, tolerance, samples, said):
+    """The report's tolerance bands where samples fail (part 9's "not covered"): counted and left out of the
+    band; with none in it, no band and no excess over it. Found sound."""
+    import re
+
+    from kinem.report import design
+
+    monkeypatch.setattr(design, "SAMPLES", samples)
+    model = kinem.compile(kinem.load(_short_rod(tmp_path, tolerance)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        parts = design._bands(model, ["A.x", "A.y"])
+    text = re.sub("<[^>]*>", " ", parts[0])
+    assert said in text and len(parts) == 2, text
+
+
+# -- session 28, part 10, part B: sweep, tolerance and info --parameters with hostile inputs -------------------
+
+@pytest.mark.parametrize("command", [
+    ["sweep", "--set", "ground=0.19,0.21", "--set", "points.O4.at.0=0.2,0.22", "--outputs", "B.x"],
+    ["solve", "--set", "points.O4.at.0=0.2", "--set", "ground=0.19", "--steps", "3"],
+    ["info", "--set", "ground=0.19", "--set", "points.O4.at.0=0.2"],
+    ["tolerance", "--samples", "3"],
+])
+def test_found_a_name_and_a_number_it_gives_set_together(tmp_path, command):
+    """A name of [parameters] and the path of a number it gives, set together (--set ground=... --set
+    points.O4.at.0=..., or both in [tolerances]): the path's value stood and the name's was ignored there
+    unseen; a sweep's table had a ground column that moved nothing (its variants equal in pairs), and the
+    tolerance's linear bands counted the one number twice while its samples drew it once. Now refused,
+    naming both and the number (two spellings of one parameter were already refused)."""
+    case = tmp_path / "case.toml"
+    text = NAMED.read_text()
+    if command[0] == "tolerance":
+        text += '\n[tolerances]\nground = 1e-4\n"points.O4.at.0" = 2e-4\n'
+    case.write_text(text)
+    out = [] if command[0] == "info" else ["--out", str(tmp_path / "o.csv")]
+    code, line = run_main([command[0], str(case), *command[1:], *out])
+    said = ("'ground' and 'points.O4.at.0' set one number: ground of [parameters] gives points.O4.at.0; expected one "
+            "of them")
+    assert code == 2 and said in line, line
+    assert not (tmp_path / "o.csv").exists()
+    from kinem.parameters import apply
+
+    with pytest.raises(kinem.InputError, match="set one number"):
+        apply(kinem.load(NAMED), {"crank": 0.11, "points.A.at.0": 0.12})
+    assert apply(kinem.load(NAMED), {"crank": 0.11, "points.B.at.0": 0.23}).parameters["crank"] == 0.11
+
+
+def test_found_a_name_set_apart_listed_as_a_parameter(tmp_path):
+    """info --parameters --set points.O4.at.0=0.25 (the one number the name ground gives, set apart) listed
+    parameters.ground, "used by no number of the case", with no unit: setting it would move nothing (a case
+    file is refused such a name). Now a name no number uses is not a design parameter, and saying it is
+    refused with the reason."""
+    from kinem.parameters import apply, parameters
+
+    code, _ = run_main(["info", str(NAMED), "--parameters", "--set", "points.O4.at.0=0.25"])
+    assert code == 0
+    variant = apply(kinem.load(NAMED), {"points.O4.at.0": 0.25})
+    listed = [p.path for p in parameters(variant)]
+    assert "parameters.ground" not in listed and "parameters.crank" in listed, listed
+    with pytest.raises(kinem.InputError) as e:
+        kinem.sensitivity(kinem.compile(variant), ["ground"])
+    assert "parameter 'parameters.ground': named dimension ground is used by no number of the case" in str(e.value)
+    assert "parameters.ground" in [p.path for p in parameters(kinem.load(NAMED))]
+
+
+def test_found_info_parameters_and_blocks(tmp_path):
+    """info --parameters --blocks printed the parameters and ignored --blocks (two listings instead of the
+    summary, one chosen unseen). Now refused before the case is read, as report's --stress --no-stress."""
+    for case in (str(FOUR_BAR), str(tmp_path / "missing.toml")):
+        code, line = run_main(["info", case, "--parameters", "--blocks", "--json"])
+        assert (code, line) == (2, "kinem: error: --parameters and --blocks: give at most one (each is a listing "
+                                   "instead of the summary)"), line
+    assert run_main(["info", str(FOUR_BAR), "--blocks", "--json"])[0] == 0
+
+
+def test_found_a_sweep_into_fast_drivers_said_nothing(tmp_path):
+    """A driver's rate swept to 2,000 rad/s over 250 output intervals: kinem solve of one such variant warns
+    (a speed in degrees read as radians?), the sweep said nothing (its variants' warnings were dropped so
+    that the case's own are given once). Now one line for all of them, the first quoted; a sweep whose
+    variants warn as the case does adds none."""
+    out = tmp_path / "o.csv"
+    buf = io.StringIO()
+    with contextlib.redirect_stderr(buf):
+        code = main(["sweep", str(FOUR_BAR), "--set", "constraints.crank-drive.d.poly.1=1:2000:5", "--outputs", "B.x",
+                     "--out", str(out)])
+    lines = buf.getvalue().splitlines()
+    assert code == 1 and len(lines) == 2, lines   # two variants fail on the way: their own line
+    assert lines[0].startswith("kinem: warning: sweep: 4 warning(s) of the variants that the case itself does not "
+                               "give; first: ") and "turns body 'crank' at up to 500.8 rad/s" in lines[0], lines
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        kinem.sweep(str(FOUR_BAR), {"constraints.crank-drive.d.poly.1": [1.4, 1.6]}, ["B.x"])

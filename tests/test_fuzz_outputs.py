@@ -918,3 +918,100 @@ def test_ctrl_c_during_report(tmp_path, phase):
     else:
         assert not report.complete(out) and names == ["index.html", "results.json", "summary.md"], names
         assert (out / "results.json").read_text() != "old" and (out / "summary.md").read_text() == "old"
+
+
+# -- session 28, part 10 (docs/benchmarks.md, "Fuzz campaign, session 28"): animate's mp4 and Ctrl-C --------------
+
+def test_mp4_without_ffmpeg(tmp_path):
+    """animate to .mp4 where no ffmpeg runs (imageio-ffmpeg's binary pointed at a missing file, none on PATH):
+    one line, exit 2, before the case is solved, nothing written, an old file kept. Found sound."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "a.mp4"
+    for old in (False, True):
+        if old:
+            out.write_bytes(OLD)
+        env = dict(os.environ, IMAGEIO_FFMPEG_EXE=str(tmp_path / "no-ffmpeg"), PATH=str(tmp_path))
+        p = subprocess.run([sys.executable, "-m", "kinem", "animate", str(ROOT / "cases" / "four_bar.toml"), "--out",
+                            str(out), "--engines", "native"], cwd=ROOT, env=env, capture_output=True, text=True,
+                           timeout=120)
+        assert (p.returncode, p.stdout) == (2, ""), p
+        assert p.stderr == f"kinem: error: --out {out}: mp4 needs ffmpeg, which is not installed; write .svg or " \
+                           ".gif instead\n", p.stderr
+        assert (out.read_bytes() == OLD) if old else not out.exists()
+        assert sorted(x.name for x in tmp_path.iterdir()) == (["a.mp4"] if old else [])
+
+
+ANIMATE_CTRL_C = """
+import sys, time
+from kinem.report import animate
+from kinem import output
+from kinem.cli import main
+
+phase = sys.argv[1]
+def ready():
+    sys.stderr.write("READY\\n"); sys.stderr.flush(); time.sleep(30)
+frames, gif, atomic = animate.frames, animate._save_gif, output.write_atomic
+def slow_frames(*a, **k):
+    ready()
+    return frames(*a, **k)
+def slow_gif(path, images, fps):   # half the frames in the scratch file, then the signal
+    gif(path, images[:len(images) // 2], fps)
+    ready()
+def slow_atomic(path, write):   # half the GIF written into the output's temporary file, then the signal
+    def half(f):
+        class Half:
+            def write(self, data):
+                f.write(data[:len(data) // 2]); f.flush(); ready()
+        write(Half())
+    return atomic(path, half)
+if phase == "solve":
+    animate.frames = slow_frames
+elif phase == "gif":
+    animate._save_gif = slow_gif
+else:
+    output.write_atomic = slow_atomic
+sys.exit(main(sys.argv[2:]))
+"""
+
+
+@pytest.mark.parametrize("phase", ["solve", "gif", "save"])
+@pytest.mark.parametrize("old", [False, True])
+def test_ctrl_c_during_animate_gif(tmp_path, phase, old):
+    """Ctrl-C (SIGINT to the process group of a command started in its own session) during kinem animate to a
+    GIF: in the solve, with half the frames in the scratch file, and with half the GIF in the output's
+    temporary file: exit 130 at once, nothing printed, no process of the group left, nothing partial left
+    beside the output and none in the temporary folder it drew in; an old file kept whole. Found sound."""
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "out" / "a.gif"
+    out.parent.mkdir()
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    if old:
+        out.write_bytes(OLD)
+    case = tmp_path / "case.toml"
+    case.write_text(SHORT)
+    env = dict(os.environ, TMPDIR=str(scratch))
+    p = subprocess.Popen([sys.executable, "-c", ANIMATE_CTRL_C, phase, "animate", str(case), "--out", str(out),
+                          "--engines", "native"], cwd=ROOT, env=env, start_new_session=True, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+    try:
+        assert p.stderr.readline() == "READY\n"
+        sent = time.perf_counter()
+        os.killpg(p.pid, signal.SIGINT)
+        said, err = p.communicate(timeout=30)
+        took = time.perf_counter() - sent
+    finally:
+        if p.poll() is None:
+            os.killpg(p.pid, signal.SIGKILL)
+    assert (p.returncode, said, err) == (130, "", ""), (p.returncode, said, err)
+    assert took < 5, took
+    with pytest.raises(ProcessLookupError):
+        os.killpg(p.pid, 0)
+    assert sorted(x.name for x in out.parent.iterdir()) == (["a.gif"] if old else []), list(out.parent.iterdir())
+    assert not old or out.read_bytes() == OLD
+    assert not list(scratch.iterdir()), list(scratch.iterdir())

@@ -14,6 +14,9 @@ import tomllib
 from collections.abc import Iterable
 
 from ..errors import InputError
+# HIDDEN: characters that hide or spoof text where shown, refused in a description by the Case itself however it
+# is built (kinem.spec), shown as codes by the report (escaping.py); PLAIN: what a description is expected to be
+from ..spec import HIDDEN, PLAIN  # noqa: F401
 
 MAX_ARRAY = 100_000
 MAX_MAGNITUDE = 1e12  # any length, angle or time beyond this is a mistake, and its squares stay finite
@@ -25,10 +28,6 @@ END_RANGE = (1e-6, 1e9)   # s: [time] end, and --end
 MIN_SPACING = 1e-9        # of a table's span: the closest two table abscissae (t, theta) may be
 NAME_RE = re.compile(r"[a-z0-9_-]{1,%d}" % MAX_NAME)                    # the case's name (fullmatch)
 IDENT_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_-]{0,%d}" % (MAX_NAME - 1))  # bodies, points, constraints
-# Characters that hide or spoof text where shown (C0 but tab and newline, DEL, C1, soft hyphen, zero-width and
-# bidirectional controls such as U+202E): refused in a description, shown as codes by the report (escaping.py)
-HIDDEN = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u00ad\u061c\u180e\u200b-\u200f\u2028-\u202e\u2060-\u206f\ufeff"
-                    "\ufff9-\ufffb]")
 IDENT_TEXT = f"a name of at most {MAX_NAME} letters, digits, '_' and '-' that starts with a letter or '_'"
 
 # The documented ranges (docs/case-format.md, "Limits", is generated from this).
@@ -48,7 +47,8 @@ LIMITS = (
     ("lists", f"at most {MAX_ARRAY:,} numbers; `poly` at most 32 coefficients; `[engines.*]` lists at most 16"),
     ("bodies, points, constraints", "at most 100,000 each"),
     ("`description`", f"text of at most {MAX_TEXT:,} characters; tab and newline, but no other control or "
-                      "invisible formatting character (such as U+0007 or U+202E)"),
+                      "invisible formatting character (such as U+0007 or U+202E); a `kinem.Case` built in Python "
+                      "refuses them too"),
     ("`units.length`", f"1 to {MAX_UNIT} printable characters, shown as text (never parsed as markup)"),
     ("`[solver]`", "tolerance between 0 and 1; max_iterations 1 to 1000; block 1 to 4096"),
 )

@@ -6,6 +6,9 @@ from ..spec import Body, Equivalence, Point, frozen_map
 from .checks import END_RANGE, MAX_STEPS, MAX_UNIT, NAME_RE, names, show
 
 MAX_ITEMS = 100_000
+MAX_SENSITIVITY = 8   # [report] sensitivity: design parameters (not texts: a name of [parameters] and its path are one)
+SENSITIVITY_EXPECTED = (f"a list of 1 to {MAX_SENSITIVITY} design parameter paths (or names of [parameters]), each "
+                        "parameter counted once")
 SOLVER_KEYS = ("tolerance", "max_iterations", "linear_solver", "jacobian_reuse", "block")
 LINEAR_SOLVERS = ("auto", "dense", "sparse")
 
@@ -273,11 +276,14 @@ def report(ck, r, points):
     out = {}
     sens = r.get("sensitivity")
     if sens is not None:   # design parameter paths: checked against the whole case (kinem.case)
+        # a path listed twice counts once, as it is kept once; a parameter may be written two ways (a name of
+        # [parameters] and its path), so its texts are bounded here and its parameters counted against the case
+        # (kinem.parameters.validated)
         if isinstance(sens, list) and sens and all(isinstance(x, str) for x in sens) \
-                and len(set(sens)) <= 8:   # a path listed twice counts once, as it is kept once
+                and len(set(sens)) <= 2 * MAX_SENSITIVITY:
             out["sensitivity"] = tuple(dict.fromkeys(sens))
         else:
-            ck.bad("[report]", "sensitivity", f"got {show(sens)}", "a list of 1 to 8 design parameter paths")
+            ck.bad("[report]", "sensitivity", f"got {show(sens)}", SENSITIVITY_EXPECTED)
     wp = r.get("work_precision")
     if wp is not None:
         if isinstance(wp, bool):

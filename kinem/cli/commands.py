@@ -52,6 +52,8 @@ def cmd_sweep(a):
 def cmd_info(a):
     from ..info import describe, info
 
+    if a.parameters and a.blocks:   # each lists instead of the summary: one would be ignored
+        raise InputError("--parameters and --blocks: give at most one (each is a listing instead of the summary)")
     if a.parameters:
         from ..info import describe_parameters
         from ..parameters import parameters
@@ -121,9 +123,11 @@ def cmd_tolerance(a):
     for c, amount, t in b.excess if b.accepted else ():   # no Monte Carlo band: nothing it could leave
         print(f"{c}: the Monte Carlo band leaves the worst-case linear band by at most {amount:.3g} (t = {t:.6g})",
               file=sys.stderr)
-    if b.rejected:
-        print(f"kinem: {len(b.rejected)} of {b.samples} samples not on the nominal's branch, left out; first: "
-              f"{b.rejected[0][1]}", file=sys.stderr)
+    if b.rejected:   # docs/design.md's words: a failed sample need not have left the branch
+        none = "; none is in the band: its .mc columns are NaN" if not b.accepted else ""
+        print(one_line(f"kinem: {len(b.rejected)} of {b.samples} samples left out of the Monte Carlo band (not a "
+                       f"valid case, cannot assemble, leave the nominal's branch or fail on the way){none}; first: "
+                       f"{b.rejected[0][1]}"), file=sys.stderr)
     return 0
 
 
@@ -231,7 +235,7 @@ def cmd_compare(a):
     started = time.perf_counter()
     engines = engine_list(a.engines)
     check_timeout(a)
-    seconds = time_limit(a)   # native's solves, as kinem solve's (the engines: their step bounds, Ctrl-C)
+    seconds = time_limit(a)   # native's solves, as kinem solve's, and the engines' runs (adapters.compare)
     model = load_model(a.case, a.end, a.steps)
     options = replace(Options.of(model.case), max_seconds=seconds, started=started)
     if a.sensitivity is not None:
@@ -327,7 +331,7 @@ def cmd_animate(a):
     started = time.perf_counter()
     engines = [e for e in engine_list(a.engines) if e != "native"]   # '' refused, as compare refuses it
     check_output(a.out)
-    seconds = time_limit(a)   # native's solve, as kinem solve's and compare's
+    seconds = time_limit(a)   # native's solve and the engines' runs, as kinem compare's
     check(a.out)   # as sweep's --out: a read-only file, or a FIFO without a reader, before the runs
     model = load_model(a.case)
     options = replace(Options.of(model.case), max_seconds=seconds, started=started)

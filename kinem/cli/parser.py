@@ -119,7 +119,7 @@ def parser():
     scheduler_option(c)
     c.add_argument("--json", action="store_true", help="the error figures as JSON instead of the table")
     time_options(c)
-    max_seconds_option(c, " (native's solves; the engines have their step bounds)")
+    max_seconds_option(c, " (native's solves and the engines' runs)")
     c.add_argument("--sensitivity", nargs="?", const=True, metavar="P[,P...]",   # True: alone, the case's
                    help="check the exact sensitivities to these parameter paths (default: the case's [report] "
                         "sensitivity) against native's and the engines' central differences")
@@ -154,7 +154,7 @@ def parser():
     an.add_argument("--out", required=True, help="FILE.svg (animated SVG), FILE.gif, or FILE.mp4")
     an.add_argument("--engines", default="native,pymunk,mujoco,exudyn",
                     help="engines drawn as ghosts over the native solution")
-    max_seconds_option(an, " (native's solve; the engines have their step bounds)")
+    max_seconds_option(an, " (native's solve and the engines' runs)")
     an.set_defaults(run=cmd_animate)
 
     d = sub.add_parser("diff", help="what moved between two results.json files of kinem report (B against A, "

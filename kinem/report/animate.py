@@ -61,8 +61,12 @@ def ffmpeg() -> bool:
 def frames(model, engines, options=None):
     """(native frames {t, q}, engine -> q at the same instants, denser native q
     for the paths, engine -> why it is not drawn). ``options`` (kinem.Options;
-    default the case's): native's solve, e.g. its max_seconds."""
+    default the case's): native's solve, e.g. its max_seconds, which ends the
+    engines' runs too (an AnalysisError past it)."""
+    import time
+
     from adapters import case_settings, get
+    from adapters.compare import time_limit
     from kinem.budget import check_solutions
     from kinem.solver import solve
 
@@ -70,6 +74,7 @@ def frames(model, engines, options=None):
     r = solve(model, options=options)
     if not r.success:
         raise AnalysisError(f"{model.case.source}: {r.message}")
+    limit = time_limit(options)   # the engines' runs end at options.max_seconds too, as compare's
     idx = sample(len(r.q), FRAMES)
     native = {"t": r.trajectory.t[idx], "q": r.q[idx]}
     ghosts, skipped = {}, {}
@@ -80,12 +85,14 @@ def frames(model, engines, options=None):
             if why:
                 skipped[name] = why
                 continue
-            run = adapter.run(model, r.q[0], r.qd[0], case_settings(model, name))
+            run = adapter.run(model, r.q[0], r.qd[0], case_settings(model, name), limit=limit)
         except KinemError:
             raise                # a bad [engines.<name>] setting: the user's input
         except Exception as e:  # noqa: BLE001 - an engine that does not import or crashes is left out, named
             skipped[name] = f"failed: {type(e).__name__}: {e}"
             continue
+        if not run.ok and limit is not None and time.time() > limit[1]:   # the time limit, not a ghost left out
+            raise AnalysisError(f"{model.case.source}: {name}: {run.detail}")
         if run.ok and len(run.q) == len(r.q):
             ghosts[name] = run.q[idx]
         else:
