@@ -35,6 +35,7 @@ def check_solutions(model, sources, command, fewer) -> None:
     check_held(3 * K * model.n * sources, model.case.source, f"{command}: {K:,} instants x {model.n} coordinates x 3 "
                f"(positions, velocities, accelerations) x {sources} solution(s)", fewer)
 
+
 def out_of_time(seconds) -> str:
     """The time limit's words: native's solves (Budget) and the engines' runs of compare (adapters.base)."""
     return (f"the time limit of {seconds:.3g} s (Options.max_seconds, --max-seconds of kinem solve, "

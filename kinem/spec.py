@@ -1,13 +1,14 @@
 """The frozen specification of a case: what a case file says, validated and
 with its defaults filled in. ``kinem.case`` makes one from TOML or a dict;
 ``kinem.model.compile`` turns one into a Model."""
+import re
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Any, Mapping
 
-import re
-
 import numpy as np
+
+from .errors import InputError
 
 # Characters that hide or spoof text where shown (C0 but tab and newline, DEL, C1, soft hyphen, zero-width and
 # bidirectional controls such as U+202E): refused in a description (the loader's check, and Case's own for a Case
@@ -96,8 +97,6 @@ class Case:
         d = self.description
         hidden = HIDDEN.search(d) if isinstance(d, str) else None
         if hidden or not isinstance(d, str):
-            from .errors import InputError
-
             got = f"U+{ord(hidden.group()):04X} at character {hidden.start() + 1}" if hidden else \
                 f"got {type(d).__name__}"
             raise InputError(f"{self.source}: top level: key 'description': {got}; expected {PLAIN}")

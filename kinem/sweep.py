@@ -146,7 +146,6 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
     import warnings
 
     from .errors import KinemWarning
-
     from .loader import fast_drivers
 
     own, fast = set(fast_drivers(nominal)), []   # the case's own warnings are the base's, given once
