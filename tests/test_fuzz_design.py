@@ -384,6 +384,28 @@ def test_found_no_monte_carlo_band_is_not_said_to_hold(tmp_path):
     assert "leaves the worst-case" not in buf.getvalue() and "3 of 3 samples" in buf.getvalue(), buf.getvalue()
 
 
+def test_found_an_excess_line_per_output_even_at_zero(tmp_path):
+    """kinem tolerance printed "the Monte Carlo band leaves the worst-case linear band by at most 0" for every
+    output, the ground points' included (session 28's part 10 left it). Now a line per output whose band is left,
+    and one line counting those that stay within."""
+    case = tmp_path / "case.toml"   # A's position by +-10 mm: the Monte Carlo band leaves the linear one at B.x
+    text = FOUR_BAR.read_text()
+    case.write_text(text[:text.index("[tolerances]")] + '[tolerances]\n"points.A.at.0" = 0.01\n')
+    for path, outputs, said in ((case, "O2.x,O2.y,B.x", ["B.x: the Monte Carlo band leaves the worst-case linear "
+                                                         "band by at most ", "kinem: the Monte Carlo band stays "
+                                                         "within the worst-case linear band for the other 2 "
+                                                         "outputs"]),
+                                (FOUR_BAR, "O2.x", ["kinem: the Monte Carlo band stays within the worst-case linear "
+                                                    "band for 1 output"])):
+        buf = io.StringIO()
+        with contextlib.redirect_stderr(buf):
+            assert main(["tolerance", str(path), "--samples", "20", "--steps", "20", "--outputs", outputs,
+                         "--out", str(tmp_path / "o.csv")]) == 0
+        lines = buf.getvalue().splitlines()
+        assert len(lines) == len(said) and all(line.startswith(s) for line, s in zip(lines, said)), lines
+        assert lines[-1] == said[-1], lines
+
+
 @pytest.mark.parametrize("tolerances, said", [
     ({"points.A.at.0": {"pm": 1e-4, "sgima": 3e-5}}, "key 'sgima': unknown key; did you mean 'sigma'?"),  # uniform, unseen
     ({"points.A.at.0": {"pm": 1e-4, 3: 1}}, "key 3: unknown key; expected pm and sigma"),

@@ -120,9 +120,14 @@ def cmd_tolerance(a):
     write_trajectory(b.table, "-" if a.out is None else a.out, fmt)
     if b.singular:   # as kinem sensitivity warns
         print(f"kinem: warning: {a.case}: {b.singular}, and the linear bands with them", file=sys.stderr)
-    for c, amount, t in b.excess if b.accepted else ():   # no Monte Carlo band: nothing it could leave
+    left = [(c, amount, t) for c, amount, t in b.excess if amount > 0] if b.accepted else []   # none: no band
+    for c, amount, t in left:   # where linearisation stops being trustworthy, output by output
         print(f"{c}: the Monte Carlo band leaves the worst-case linear band by at most {amount:.3g} (t = {t:.6g})",
               file=sys.stderr)
+    if b.accepted and len(left) < len(b.excess):   # the others in one line, not one a ground point
+        rest = len(b.excess) - len(left)
+        print(f"kinem: the Monte Carlo band stays within the worst-case linear band for {'the other ' if left else ''}"
+              f"{rest} output{'s' if rest != 1 else ''}", file=sys.stderr)
     if b.rejected:   # docs/design.md's words: a failed sample need not have left the branch
         none = "; none is in the band: its .mc columns are NaN" if not b.accepted else ""
         print(one_line(f"kinem: {len(b.rejected)} of {b.samples} samples left out of the Monte Carlo band (not a "
