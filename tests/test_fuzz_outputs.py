@@ -943,6 +943,23 @@ def test_mp4_without_ffmpeg(tmp_path):
         assert sorted(x.name for x in tmp_path.iterdir()) == (["a.mp4"] if old else [])
 
 
+def test_ffmpeg_failing_on_its_own_is_not_the_temporary_file(tmp_path, monkeypatch):
+    """An ffmpeg that fails for a reason of its own (here an encoder it lacks) was reported as the temporary
+    file's fault: "write failed: ffmpeg: Unknown encoder 'h264' (its temporary file, in /tmp)". Now its own line,
+    exit 1, nothing written (session 28, found after part 10)."""
+    fake = tmp_path / "ffmpeg"   # answers matplotlib's probe, then fails as an ffmpeg without the encoder does
+    fake.write_text("#!/bin/sh\nfor a in \"$@\"; do [ \"$a\" = -version ] && echo 'ffmpeg version 6' && exit 0; done\n"
+                    "cat > /dev/null\necho \"Unknown encoder 'h264'\" >&2\nexit 1\n")
+    fake.chmod(0o755)
+    monkeypatch.setenv("IMAGEIO_FFMPEG_EXE", str(fake))
+    case = tmp_path / "case.toml"
+    case.write_text(SHORT)
+    out = tmp_path / "a.mp4"
+    code, line = run_main(["animate", str(case), "--out", str(out), "--engines", "native"])
+    assert code == 1 and line == f"kinem: error: {out}: write failed: ffmpeg: Unknown encoder 'h264'", line
+    assert not out.exists()
+
+
 ANIMATE_CTRL_C = """
 import sys, time
 from kinem.report import animate

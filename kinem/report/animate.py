@@ -7,7 +7,6 @@ FILE.svg is the report's animated SVG, standalone; FILE.gif and FILE.mp4
 draw the same scene frame by frame with matplotlib (mp4 through the ffmpeg
 binary that the imageio-ffmpeg package ships, so nothing else needs installing).
 """
-import errno
 import logging
 import os
 import subprocess
@@ -231,7 +230,7 @@ def raster(model, native, ghosts, dense, ext, on_frame=None) -> bytes:
 
 
 class _ScratchError(Exception):
-    """The raster's scratch file could not be written (render names the output)."""
+    """The raster's scratch file could not be written, or ffmpeg failed (render names the output)."""
 
 
 def _save_gif(path, images, fps):
@@ -266,7 +265,7 @@ def _save_frames(writer, images, dpi, path):
         lines = (e.stderr or "").strip().splitlines()
         why = lines[-1].strip() if lines else (f"died with signal {-e.returncode}" if e.returncode < 0
                                                else f"exit status {e.returncode}")
-        raise OSError(errno.EIO, f"ffmpeg: {why}") from None
+        raise _ScratchError(f"ffmpeg: {why}") from None   # ffmpeg's own: not the temporary file's
     finally:
         log.setLevel(level)
         plt.close(fig)
