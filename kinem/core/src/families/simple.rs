@@ -247,6 +247,12 @@ impl<S: Real> Simple<S> {
         &self.drivers
     }
 
+    /// Whether `jac_over` writes nothing: no point or relative row (the
+    /// others' one entry is a constant 1, written by `jac`).
+    pub fn jac_still(&self) -> bool {
+        self.general.is_empty()
+    }
+
     /// Whether every row `gamma_over` writes is +0 at any t, q and qd (once
     /// bound): no general row, and every driver's d'' +0 at every t
     /// (Functions::accel_zero; a crank at a constant speed). Over a room
