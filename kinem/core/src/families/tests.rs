@@ -975,3 +975,43 @@ fn constant_entries_and_rows_are_left_out_of_jac_over_and_gamma_over() {
     kin("simple", simple_table(), 0).jac_over(&at, &mut general);
     assert!(general.iter().any(|x| !x.is_nan()), "{general:?}");
 }
+
+/// A driver of two coefficients (Functions::line) is evaluated in Phi
+/// without the functions' lookups (`line_at`): the same figures as
+/// `Functions::eval` to the bit, signed zeros among the coefficients and
+/// the times, and an infinite or NaN time; a constant, a quadratic and a
+/// one-coefficient polynomial keep `eval`.
+#[test]
+fn a_two_coefficient_driver_in_phi_equals_eval_to_the_bit() {
+    use crate::families::At;
+    let (q, _) = state(&[]);
+    let mut e = vec![C64::new(1.0, 0.0); q.len()];
+    for data in [vec![1.3, 0.4], vec![-0.0, -0.0], vec![0.0, -0.0], vec![-0.0, 2.5], vec![0.7], vec![0.1, 0.2, 0.3]] {
+        let f = table(
+            &[("kind", vec![POLY, POLY]), ("start", vec![0, 1, 1 + data.len() as i64])],
+            &[("data", [vec![0.25], data.clone()].concat())],
+            &[],
+        );
+        let rows = table(
+            &[
+                ("a", vec![0, 5]),
+                ("angle", vec![2, 5]),
+                ("k", vec![0, 0]),
+                ("point", vec![0, 0]),
+                ("relative", vec![0, 0]),
+                ("f", vec![0, 1]),
+            ],
+            &[("mx", vec![0.0; 2]), ("my", vec![0.0; 2])],
+            &[("local", vec![c(0.0, 0.0); 2])],
+        );
+        let k = kin_with::<f64>("simple", rows, 0, &f, &outlines());
+        assert_eq!(k.functions.line(1).is_some(), data.len() == 2, "{data:?}");
+        k.rotate(&q, &mut e);
+        for t in [0.0, -0.0, 0.37, -1.9, 1e3, f64::INFINITY, f64::NAN] {
+            let mut phi = vec![0.0; k.m];
+            k.phi(&At { q: &q, e: &e, t }, &mut phi);
+            let want = q[5] - k.functions.eval(1, t, 0);
+            assert_eq!(phi[1].to_bits(), want.to_bits(), "{data:?} at t {t}");
+        }
+    }
+}
