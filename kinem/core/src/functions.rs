@@ -101,6 +101,18 @@ impl<S: Real> Functions<S> {
                 })
     }
 
+    /// The two coefficients (c0, c1) of a function that is a polynomial of
+    /// degree one with both coefficients (a crank at a constant speed), not
+    /// a constant: `eval(f, t, 0)` is then (0 t + c1) t + c0, which a
+    /// caller may evaluate without the lookups (`line_at`, the same
+    /// operations: the same figures to the bit).
+    pub fn line(&self, f: usize) -> Option<[S; 2]> {
+        match (self.value[f], self.kind[f], self.poly[f][0].as_slice()) {
+            (None, POLY, &[c0, c1]) => Some([c0, c1]),
+            _ => None,
+        }
+    }
+
     /// Whether `eval(f, t, 2)` is +0 at every t: a constant's (its d''
     /// `S::zero()`), a polynomial's of degree one at most (no coefficient
     /// of d'': Horner's zero, +0).

@@ -35,6 +35,10 @@ pub struct Kin<S = f64> {
     /// cranks at a constant speed), which a room of zeros or of this
     /// model's earlier gamma already holds
     gamma_moving: Vec<usize>,
+    /// the families `jac_over` visits: all but the simple ones without a
+    /// point or relative row, whose entries are constants it never writes
+    /// (Family::jac_moves)
+    jac_moving: Vec<usize>,
     /// the entries `jac_over` never writes (`over_kept`, made at its first call)
     kept: std::sync::OnceLock<Vec<bool>>,
     /// no family reads an outline and no driving function is a table's
@@ -97,6 +101,7 @@ impl<S: Real> Kin<S> {
         let nu_fixed = timed.is_empty() && drivers.iter().all(|&(_, f)| functions.rate_fixed(f));
         let still = |f: &Family<S>| matches!(f, Family::Simple(f) if f.gamma_still(&shared));
         let gamma_moving: Vec<usize> = (0..list.len()).filter(|&k| !still(&list[k])).collect();
+        let jac_moving: Vec<usize> = (0..list.len()).filter(|&k| list[k].jac_moves()).collect();
         let pieces = functions_table.ints.get("kind").is_some_and(|k| k.contains(&crate::functions::PIECES));
         let smooth = !pieces && !list.iter().any(|f| f.piecewise());
         Ok(Kin {
@@ -114,6 +119,7 @@ impl<S: Real> Kin<S> {
             timed,
             nu_fixed,
             gamma_moving,
+            jac_moving,
             kept: std::sync::OnceLock::new(),
             smooth,
             tables,
@@ -154,13 +160,19 @@ impl<S: Real> Kin<S> {
 
     /// `jac` into out that holds this model's Jacobian from an earlier
     /// `jac` (crate::march::Native's values, written by these two alone):
-    /// the constant entries (Family::jac_over) are not written again.
+    /// the constant entries (Family::jac_over) are not written again, nor
+    /// visited the families that write none (`jac_moving`).
     pub fn jac_over(&self, at: &At<S>, out: &mut [S]) {
         assert!(out.len() >= self.nnz);
         let s = self.shared();
-        for (f, e) in self.families.iter().zip(self.entry_off.windows(2)) {
-            // SAFETY: entry_off ascends from 0 to nnz (new), out holds nnz (asserted above)
-            f.jac_over(at, &s, unsafe { out.get_unchecked_mut(e[0]..e[1]) });
+        for &k in &self.jac_moving {
+            // SAFETY: k < families.len() (new); entry_off holds families.len() + 1 ascending offsets
+            // from 0 to nnz (new), out holds nnz (asserted above)
+            unsafe {
+                let f = self.families.get_unchecked(k);
+                let (e0, e1) = (*self.entry_off.get_unchecked(k), *self.entry_off.get_unchecked(k + 1));
+                f.jac_over(at, &s, out.get_unchecked_mut(e0..e1));
+            }
         }
     }
 

@@ -17,7 +17,8 @@ use num_complex::{Complex, Complex64 as C64};
 /// pa (the line's base point on a), ua (its direction, local to a), ob
 /// (the point on b); ai, aj, phi0 the angle row's columns and constant,
 /// either all empty (revolute-translational: one row per constraint) or
-/// one per constraint (translational: two rows).
+/// one per constraint (translational: two rows); ai and aj are held in
+/// the groups' rows alone (`Row`).
 ///
 /// Invariants (checked in `new`): pa, ua, cb, ob as long as ca (and ai, aj,
 /// phi0 when `angle`); every ca, cb below n - 2, every ai, aj below n; so a
@@ -34,8 +35,6 @@ pub struct Line<S = f64> {
     ua: Vec<Complex<S>>,
     cb: Vec<usize>,
     ob: Vec<Complex<S>>,
-    ai: Vec<usize>,
-    aj: Vec<usize>,
     phi0: Vec<S>,
     angle: bool,
     /// the constraints by Sides<A, B>::GROUP
@@ -51,6 +50,11 @@ struct Row<S> {
     ua: Complex<S>,
     ob: Complex<S>,
     c: usize,
+    /// the angle row's columns and constant (a translational joint's; 0
+    /// and zero otherwise, not read)
+    ai: usize,
+    aj: usize,
+    phi0: S,
 }
 
 /// u = A_a u'_a, d = r_b + A_b s'_b - r_a - A_a s'_a, A_a s'_a, A_b s'_b.
@@ -70,8 +74,19 @@ impl<S: Real> Line<S> {
         let angle = !ai.is_empty();
         t.same_length(if angle { c } else { 0 }, &["ai", "aj", "phi0"])?;
         let (pa, ua, cb, ob) = (t.cplx_s("pa")?, t.cplx_s("ua")?, t.index("cb", n.saturating_sub(2))?, t.cplx_s("ob")?);
-        let groups = sides(&pa, &ob, |k| Row { ca: ca[k], cb: cb[k], pa: pa[k], ua: ua[k], ob: ob[k], c: k });
-        Ok(Line { aj: t.index("aj", n)?, phi0: t.real_s("phi0")?, n, ca, pa, ua, cb, ob, ai, angle, groups })
+        let (aj, phi0): (Vec<usize>, Vec<S>) = (t.index("aj", n)?, t.real_s("phi0")?);
+        let groups = sides(&pa, &ob, |k| Row {
+            ca: ca[k],
+            cb: cb[k],
+            pa: pa[k],
+            ua: ua[k],
+            ob: ob[k],
+            c: k,
+            ai: if angle { ai[k] } else { 0 },
+            aj: if angle { aj[k] } else { 0 },
+            phi0: if angle { phi0[k] } else { S::zero() },
+        });
+        Ok(Line { phi0, n, ca, pa, ua, cb, ob, angle, groups })
     }
 
     /// The rows per constraint (2 for a translational joint, else 1).
@@ -123,26 +138,22 @@ impl<S: Real> Line<S> {
     pub fn phi(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && out.len() >= self.rows());
         each_side!(self.phi_of(at, out));
-        if self.angle {
-            for (c, o) in out.chunks_exact_mut(2).take(self.ca.len()).enumerate() {
-                // SAFETY: c < ca.len() = ai, aj, phi0's; q holds n (asserted above)
-                o[1] = unsafe {
-                    let (i, j) = (*self.ai.get_unchecked(c), *self.aj.get_unchecked(c));
-                    *at.q.get_unchecked(i) - *at.q.get_unchecked(j) - *self.phi0.get_unchecked(c)
-                };
-            }
-        }
     }
 
-    /// u x d over the constraints of Sides<A, B> (`phi` asserted out's rows and n).
+    /// u x d over the constraints of Sides<A, B>, then a translational
+    /// joint's angle row in the same pass (`phi` asserted out's rows and n).
     #[inline(always)]
     fn phi_of<const A: bool, const B: bool>(&self, at: &At<S>, out: &mut [S]) {
         let per = self.per();
         for r in &self.groups[Sides::<A, B>::GROUP] {
-            // SAFETY: r.c < ca.len(); q and e hold n, out per rows per constraint (phi)
+            // SAFETY: r.c < ca.len(); q and e hold n, out per rows per constraint (phi); ai, aj < n (new)
             unsafe {
                 let p = Self::parts::<A, B>(at, r);
                 *out.get_unchecked_mut(per * r.c) = cross(p.u, p.d);
+                if self.angle {
+                    *out.get_unchecked_mut(2 * r.c + 1) =
+                        *at.q.get_unchecked(r.ai) - *at.q.get_unchecked(r.aj) - r.phi0;
+                }
             }
         }
     }

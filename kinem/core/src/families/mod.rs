@@ -268,13 +268,24 @@ impl<S: Real> Family<S> {
 
     /// `jac` where out holds the family's Jacobian from an earlier `jac`:
     /// its constant entries are not written again (simple, revolute, line;
-    /// the other kinds write every entry).
+    /// the other kinds write every entry). Whether it writes any entry at
+    /// all: `jac_moves`.
     pub fn jac_over(&self, at: &At<S>, s: &Shared<S>, out: &mut [S]) {
         match self {
             Family::Simple(f) => f.jac_over(at, s, out),
             Family::Revolute(f) => f.jac_over(at, s, out),
             Family::Line(f) => f.jac_over(at, s, out),
             _ => self.jac(at, s, out),
+        }
+    }
+
+    /// Whether `jac_over` writes any entry: all but a simple family
+    /// without a point or relative row (its entries are all 1, written by
+    /// `jac`).
+    pub fn jac_moves(&self) -> bool {
+        match self {
+            Family::Simple(f) => !f.jac_still(),
+            _ => true,
         }
     }
 
@@ -307,11 +318,12 @@ impl<S: Real> Family<S> {
 
     /// `gamma_with` where out holds the family's gamma from an earlier
     /// one (or zeros): its constant rows (0: the simple family's grounds,
-    /// the translational joints' angle rows) are not written again.
+    /// the translational joints' angle rows, the revolutes with neither
+    /// local point) are not written again.
     pub fn gamma_over(&self, at: &At<S>, qd: &[S], s: &Shared<S>, jac: Option<&[S]>, out: &mut [S]) {
         match self {
             Family::Simple(f) => f.gamma_over(at, qd, s, out),
-            Family::Revolute(f) => f.gamma(at, qd, jac, out),
+            Family::Revolute(f) => f.gamma_over(at, qd, jac, out),
             Family::Line(f) => f.gamma_over(at, qd, s, out),
             _ => self.gamma_with(at, qd, s, jac, out),
         }

@@ -86,10 +86,16 @@ impl<S: Real> Revolute<S> {
     }
 
     /// `jac` where out holds the family's Jacobian from an earlier `jac`
-    /// (its constant entries kept): the B s' entries alone are written.
+    /// (its constant entries kept): the B s' entries alone are written, and
+    /// of those only the ones that are not constant zeros (`zero_entries`:
+    /// B_i s'_i where s'_i is exactly zero, -B_j s'_j where s'_j is, which
+    /// `jac` wrote as +0 and -0 as this would); the joints with neither
+    /// local point (Sides<false, false>) are not visited.
     pub fn jac_over(&self, at: &At<S>, _: &Shared<S>, out: &mut [S]) {
         assert!(at.holds(self.n) && out.len() >= self.entries());
-        each_side!(self.jac_of::<false>(at, out));
+        self.jac_of::<true, true, false>(at, out);
+        self.jac_of::<true, false, false>(at, out);
+        self.jac_of::<false, true, false>(at, out);
     }
 
     /// The entries B_i s'_i (1, 5) where s'_i is exactly zero and -B_j s'_j
@@ -121,7 +127,13 @@ impl<S: Real> Revolute<S> {
                 if ALL {
                     o.copy_from_slice(&[one, -a.im, minus, b.im, one, a.re, minus, -b.re]);
                 } else {
-                    (o[1], o[3], o[5], o[7]) = (-a.im, b.im, a.re, -b.re);
+                    // the entries of a side whose point is zero are constants (jac_over)
+                    if I {
+                        (o[1], o[5]) = (-a.im, a.re);
+                    }
+                    if J {
+                        (o[3], o[7]) = (b.im, -b.re);
+                    }
                 }
             }
         }
@@ -141,6 +153,27 @@ impl<S: Real> Revolute<S> {
             }
             None => {
                 each_side!(self.gamma_of::<false>(at, qd, &[], out));
+            }
+        }
+    }
+
+    /// `gamma` where out holds the family's gamma from an earlier one, or
+    /// zeros (Kin::gamma_over's room): the rows of the joints with neither
+    /// local point (Sides<false, false>), +0 at every instant, are not
+    /// written again.
+    pub fn gamma_over(&self, at: &At<S>, qd: &[S], jac: Option<&[S]>, out: &mut [S]) {
+        assert!(at.holds(self.n) && qd.len() >= self.n && out.len() >= self.rows());
+        match jac {
+            Some(v) => {
+                assert!(v.len() >= self.entries());
+                self.gamma_of::<true, true, true>(at, qd, v, out);
+                self.gamma_of::<true, false, true>(at, qd, v, out);
+                self.gamma_of::<false, true, true>(at, qd, v, out);
+            }
+            None => {
+                self.gamma_of::<true, true, false>(at, qd, &[], out);
+                self.gamma_of::<true, false, false>(at, qd, &[], out);
+                self.gamma_of::<false, true, false>(at, qd, &[], out);
             }
         }
     }

@@ -43,6 +43,16 @@ struct Plain<S> {
     e: usize,
     f: usize,
     value: S,
+    /// f's two coefficients where it is a polynomial of degree one
+    /// (Functions::line, once bound): d(t) without its lookups
+    line: Option<[S; 2]>,
+}
+
+/// d(t) = (0 t + c1) t + c0 of a function of two coefficients: `Functions::eval`'s
+/// operations at order 0 (the same figures to the bit).
+#[inline(always)]
+fn line_at<S: Real>([c0, c1]: [S; 2], t: f64) -> S {
+    (S::zero() * t + c1) * t + c0
 }
 
 /// One row's columns (see `Simple`), with w = 1.0 for a relative row (else
@@ -120,7 +130,7 @@ impl<S: Real> Simple<S> {
             .collect();
         let mut s =
             Simple { n, rows, entries, drivers: Vec::new(), fixed: Vec::new(), plain: Vec::new(), general: Vec::new() };
-        s.group();
+        s.group(None);
         Ok(s)
     }
 
@@ -132,19 +142,20 @@ impl<S: Real> Simple<S> {
             row.value = if row.driven { S::zero() } else { s.functions.eval(row.f, 0.0, 0) };
         }
         self.drivers = self.rows.iter().enumerate().filter(|(_, r)| r.driven).map(|(k, r)| (k, r.f)).collect();
-        self.group();
+        self.group(Some(s));
     }
 
     /// Sorts the rows into `fixed`, `plain` and `general` (before `bind`
-    /// every function counts as a driver).
-    fn group(&mut self) {
+    /// every function counts as a driver, and none is taken as a `line`).
+    fn group(&mut self, s: Option<&Shared<S>>) {
         let (mut fixed, mut plain, mut general) = (Vec::new(), Vec::new(), Vec::new());
         let mut e = 0;
         for (k, r) in self.rows.iter().enumerate() {
             if r.point || r.relative || r.term {
                 general.push((k, e));
             } else {
-                let p = Plain { k, a: r.a, e, f: r.f, value: r.value };
+                let line = s.and_then(|s| s.functions.line(r.f)).filter(|_| r.driven);
+                let p = Plain { k, a: r.a, e, f: r.f, value: r.value, line };
                 if r.driven {
                     plain.push(p);
                 } else {
@@ -180,7 +191,11 @@ impl<S: Real> Simple<S> {
             unsafe { *out.get_unchecked_mut(p.k) = *at.q.get_unchecked(p.a) - p.value };
         }
         for p in &self.plain {
-            unsafe { *out.get_unchecked_mut(p.k) = *at.q.get_unchecked(p.a) - s.functions.eval(p.f, at.t, 0) };
+            let d = match p.line {
+                Some(c) => line_at(c, at.t),
+                None => s.functions.eval(p.f, at.t, 0),
+            };
+            unsafe { *out.get_unchecked_mut(p.k) = *at.q.get_unchecked(p.a) - d };
         }
         for &(k, _) in &self.general {
             unsafe {
@@ -245,6 +260,12 @@ impl<S: Real> Simple<S> {
     /// there nu = f'(t) (Eq. 4.37), elsewhere 0 (crate::model::Kin::nu).
     pub fn drivers(&self) -> &[(usize, usize)] {
         &self.drivers
+    }
+
+    /// Whether `jac_over` writes nothing: no point or relative row (the
+    /// others' one entry is a constant 1, written by `jac`).
+    pub fn jac_still(&self) -> bool {
+        self.general.is_empty()
     }
 
     /// Whether every row `gamma_over` writes is +0 at any t, q and qd (once

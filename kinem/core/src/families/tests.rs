@@ -919,3 +919,99 @@ fn grounds_and_constant_speed_cranks_are_left_out_of_gamma_over() {
         }
     }
 }
+
+/// `Kin::jac_over` leaves untouched what is constant: a simple family of
+/// grounds and drivers alone (Simple::jac_still: its entries are 1) is not
+/// visited, and a revolute writes neither the B s' entries of a side whose
+/// local point is zero nor the gamma rows (`gamma_over`) of a joint with
+/// neither point (rooms of NaN keep their NaN there, every other place is
+/// written); over `jac`'s values and zeros they give `jac`'s and gamma's
+/// figures to the bit (the test above).
+#[test]
+fn constant_entries_and_rows_are_left_out_of_jac_over_and_gamma_over() {
+    use crate::families::At;
+    let z = c(0.0, 0.0);
+    let (q, qd) = state(&[]);
+    let rev = table(
+        &[("ci", vec![0, 3, 0, 6]), ("cj", vec![3, 6, 6, 0])],
+        &[],
+        &[("si", vec![z, c(-0.3, 0.2), z, c(0.2, 0.0)]), ("sj", vec![c(0.0, -0.5), z, z, c(0.6, 0.6)])],
+    );
+    let k = kin("revolute", rev, 0);
+    let mut e = vec![C64::new(1.0, 0.0); k.n];
+    k.rotate(&q, &mut e);
+    let at = At { q: &q, e: &e, t: 0.4 };
+    let (mut jac, mut gamma) = (vec![f64::NAN; k.nnz], vec![f64::NAN; k.m]);
+    k.jac_over(&at, &mut jac);
+    // per joint: (s'_i zero, s'_j zero); entries 1, 5 are B_i s'_i's, 3, 7 -B_j s'_j's
+    for (p, (zi, zj)) in [(true, false), (false, true), (true, true), (false, false)].into_iter().enumerate() {
+        let o = &jac[8 * p..8 * p + 8];
+        assert!(o[0].is_nan() && o[2].is_nan() && o[4].is_nan() && o[6].is_nan(), "{o:?}");
+        assert_eq!((o[1].is_nan(), o[5].is_nan()), (zi, zi), "joint {p}: {o:?}");
+        assert_eq!((o[3].is_nan(), o[7].is_nan()), (zj, zj), "joint {p}: {o:?}");
+        let mut v = vec![0.0; k.nnz];
+        k.jac(&at, &mut v);
+        k.gamma_over(&at, &qd, Some(&v), &mut gamma);
+        let g = &gamma[2 * p..2 * p + 2];
+        assert_eq!(g.iter().all(|x| x.is_nan()), zi && zj, "joint {p}: {g:?}");
+    }
+    let grounds = table(
+        &[
+            ("a", vec![0, 1, 2, 5]),
+            ("angle", vec![2, 2, 2, 5]),
+            ("k", vec![0, 1, 0, 0]),
+            ("point", vec![0, 0, 0, 0]),
+            ("relative", vec![0, 0, 0, 0]),
+            ("f", vec![0, 0, 0, 1]),
+        ],
+        &[("mx", vec![0.0; 4]), ("my", vec![0.0; 4])],
+        &[("local", vec![z; 4])],
+    );
+    let k = kin("simple", grounds, 0);
+    let mut nan = vec![f64::NAN; k.nnz];
+    k.jac_over(&at, &mut nan);
+    assert!(nan.iter().all(|x| x.is_nan()), "{nan:?}");
+    let mut general = vec![f64::NAN; kin("simple", simple_table(), 0).nnz];
+    kin("simple", simple_table(), 0).jac_over(&at, &mut general);
+    assert!(general.iter().any(|x| !x.is_nan()), "{general:?}");
+}
+
+/// A driver of two coefficients (Functions::line) is evaluated in Phi
+/// without the functions' lookups (`line_at`): the same figures as
+/// `Functions::eval` to the bit, signed zeros among the coefficients and
+/// the times, and an infinite or NaN time; a constant, a quadratic and a
+/// one-coefficient polynomial keep `eval`.
+#[test]
+fn a_two_coefficient_driver_in_phi_equals_eval_to_the_bit() {
+    use crate::families::At;
+    let (q, _) = state(&[]);
+    let mut e = vec![C64::new(1.0, 0.0); q.len()];
+    for data in [vec![1.3, 0.4], vec![-0.0, -0.0], vec![0.0, -0.0], vec![-0.0, 2.5], vec![0.7], vec![0.1, 0.2, 0.3]] {
+        let f = table(
+            &[("kind", vec![POLY, POLY]), ("start", vec![0, 1, 1 + data.len() as i64])],
+            &[("data", [vec![0.25], data.clone()].concat())],
+            &[],
+        );
+        let rows = table(
+            &[
+                ("a", vec![0, 5]),
+                ("angle", vec![2, 5]),
+                ("k", vec![0, 0]),
+                ("point", vec![0, 0]),
+                ("relative", vec![0, 0]),
+                ("f", vec![0, 1]),
+            ],
+            &[("mx", vec![0.0; 2]), ("my", vec![0.0; 2])],
+            &[("local", vec![c(0.0, 0.0); 2])],
+        );
+        let k = kin_with::<f64>("simple", rows, 0, &f, &outlines());
+        assert_eq!(k.functions.line(1).is_some(), data.len() == 2, "{data:?}");
+        k.rotate(&q, &mut e);
+        for t in [0.0, -0.0, 0.37, -1.9, 1e3, f64::INFINITY, f64::NAN] {
+            let mut phi = vec![0.0; k.m];
+            k.phi(&At { q: &q, e: &e, t }, &mut phi);
+            let want = q[5] - k.functions.eval(1, t, 0);
+            assert_eq!(phi[1].to_bits(), want.to_bits(), "{data:?} at t {t}");
+        }
+    }
+}
