@@ -1050,11 +1050,8 @@ impl<'a, const N: usize> Lanewise<'a, N> {
         pivot: f64,
         out: &mut [f64],
     ) -> f64 {
-        let (kin, layout, levels, w) = (self.kin, self.layout, self.room.levels, self.room.w);
+        let (kin, layout, levels) = (self.kin, self.layout, self.room.levels);
         assert!(pieces.is_empty() || pieces.len() >= kin.m);
-        // a family's pieces, at its rows (row_off ascends to m: Kin::new)
-        let pieces_of =
-            |k: usize| if pieces.is_empty() { &[][..] } else { &pieces[kin.row_off[k]..kin.row_off[k + 1]] };
         let n = kin.n;
         let q = x[0];
         // (the lists' kernels read the stages and e unchecked: `Lists`)
@@ -1076,213 +1073,235 @@ impl<'a, const N: usize> Lanewise<'a, N> {
                 self.room.e0[j] = Complex::new(Lanes::<N>::c(e[j].re), Lanes::<N>::c(e[j].im));
             }
         }
-        let at0 = At { q: &self.room.q0, e: &self.room.e0, t };
-        let atf = At { q, e, t };
         self.room.solver.prepare(layout, f);
         // the restricted solves' checks, once an instant (Solver::solve_in: no inverse, the blocks' factors)
         let quick =
             !self.room.solver.use_inverse && matches!(layout.shape, Shape::Triangular(_)) && f.fixed[0].is_some();
-        for (g, group) in self.groups.iter().enumerate() {
-            let (model, count) = (&group.model, group.count);
-            let reach = &self.room.reach[g];
-            let program = reach.program.as_ref().filter(|p| quick && f.j.len() >= p.bounds.2);
-            if let Some(row) = &reach.fixed {
-                out[g * N * w..(g * N + count) * w].copy_from_slice(row);
-                continue;
-            }
-            let shared = Shared { functions: &model.functions, outlines: &model.outlines };
-            // S1: -Phi_p, Phi's tangent at q' = 0, non-zero in the moved families' rows alone
-            self.room.rhs.fill([0.0; N]);
-            for (k, hand) in group.phi_rest.iter().copied() {
-                let rows = model.row_off[k]..model.row_off[k + 1];
-                let family = &model.families[k];
-                let keep = match hand {
-                    Some(i) if levels > 1 => {
-                        let f = &group.direct[i];
-                        // SAFETY: every Direct's ranges within kv, kd (asserted in `new`)
-                        unsafe {
-                            Kept::of(
-                                self.room.kv.get_unchecked_mut(f.v.clone()),
-                                self.room.kd.get_unchecked_mut(f.d.clone()),
-                            )
-                        }
-                    }
-                    _ => Kept::none(),
-                };
-                let keep = Kept { pieces: if hand.is_some() { pieces_of(k) } else { &[] }, ..keep };
-                if !family.phi_tangent(&atf, &shared, &mut self.room.rhs[rows.clone()], keep) {
-                    family.phi(&at0, &shared, &mut self.room.rl[rows.clone()]);
-                    for (r, x) in self.room.rhs[rows.clone()].iter_mut().zip(&self.room.rl[rows]) {
-                        *r = x.d.map(|v| -v);
-                    }
-                }
-            }
-            // SAFETY: every PhiPin's columns below n (e's: asserted above) and rows below m (asserted in `new`)
-            unsafe { phi_pins(&group.phi_pins, e, &mut self.room.rhs) };
-            self.room.solver.solve_in(layout, f, &self.room.rhs, count, &mut self.room.flat[..n], reach, program);
-            let lanes = !group.live.is_empty();
-            if lanes {
-                // q with tangent s, and e^{i q} with its tangent (Real::sin, cos)
-                for j in 0..n {
-                    self.room.ql[j] = Lanes::of(q[j], self.room.flat[j]);
-                }
-                for &j in &kin.angles {
-                    self.room.el[j] = turned(e[j], self.room.flat[j]);
-                }
-            }
-            let at = At { q: &self.room.ql, e: &self.room.el, t };
-            if levels > 1 {
-                // S2: nu_p - D(J) qd, D(J) the Jacobian's tangent at q' = s
-                for &k in &group.live {
-                    model.families[k].jac(&at, &shared, &mut self.room.jl[model.entry_off[k]..model.entry_off[k + 1]]);
-                }
-                self.room.rhs.fill([0.0; N]);
-                for &k in &group.timed {
-                    let rows = model.row_off[k]..model.row_off[k + 1];
-                    model.families[k].nu(t, &shared, &mut self.room.rl[rows.clone()]);
-                    for (r, x) in self.room.rhs[rows.clone()].iter_mut().zip(&self.room.rl[rows]) {
-                        *r = x.d;
+        for g in 0..self.groups.len() {
+            // SAFETY: the stages, e and pieces as `group_at` reads them (asserted above)
+            unsafe { self.group_at(g, t, x, e, pieces, f, quick, out) };
+        }
+        ratio
+    }
+
+    /// One group's part of `at` (the body of its loop over the groups, out
+    /// of line: P = 1's single group pays no set-up of a loop's invariants,
+    /// made before the loop and kept on the stack when inlined).
+    ///
+    /// # Safety
+    /// What `at` asserts on x, e and pieces: pieces empty or m long, e and
+    /// the `levels` stages of x n long, levels at least 1.
+    #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
+    unsafe fn group_at(
+        &mut self,
+        g: usize,
+        t: f64,
+        x: &[&[f64]],
+        e: &[C64],
+        pieces: &[Piece],
+        f: &mut Factors,
+        quick: bool,
+        out: &mut [f64],
+    ) {
+        let (kin, layout, levels, w) = (self.kin, self.layout, self.room.levels, self.room.w);
+        // a family's pieces, at its rows (row_off ascends to m: Kin::new)
+        let pieces_of =
+            |k: usize| if pieces.is_empty() { &[][..] } else { &pieces[kin.row_off[k]..kin.row_off[k + 1]] };
+        let (n, q) = (kin.n, x[0]);
+        let at0 = At { q: &self.room.q0, e: &self.room.e0, t };
+        let atf = At { q, e, t };
+        let group = &self.groups[g];
+        let (model, count) = (&group.model, group.count);
+        let reach = &self.room.reach[g];
+        let program = reach.program.as_ref().filter(|p| quick && f.j.len() >= p.bounds.2);
+        if let Some(row) = &reach.fixed {
+            out[g * N * w..(g * N + count) * w].copy_from_slice(row);
+            return;
+        }
+        let shared = Shared { functions: &model.functions, outlines: &model.outlines };
+        // S1: -Phi_p, Phi's tangent at q' = 0, non-zero in the moved families' rows alone
+        self.room.rhs.fill([0.0; N]);
+        for (k, hand) in group.phi_rest.iter().copied() {
+            let rows = model.row_off[k]..model.row_off[k + 1];
+            let family = &model.families[k];
+            let keep = match hand {
+                Some(i) if levels > 1 => {
+                    let f = &group.direct[i];
+                    // SAFETY: every Direct's ranges within kv, kd (asserted in `new`)
+                    unsafe {
+                        Kept::of(
+                            self.room.kv.get_unchecked_mut(f.v.clone()),
+                            self.room.kd.get_unchecked_mut(f.d.clone()),
+                        )
                     }
                 }
-                products(&group.entries, &self.room.jl, &x[1..], &mut self.room.rhs, &mut self.room.rhs3);
-                let (s, rhs, rhs3) = (&self.room.flat[..n], &mut self.room.rhs, &mut self.room.rhs3);
-                for f in reach.direct.iter().map(|&i| &group.direct[i]) {
-                    // SAFETY: every Direct's ranges within kv, kd and its rows within rhs, rhs3 (asserted in `new`)
-                    // (what its phi_tangent kept, `held`, read)
-                    let (r2, r3, keep) = unsafe {
-                        let keep = if levels > 2 || f.held {
-                            Kept {
-                                v: self.room.kv.get_unchecked_mut(f.v.clone()),
-                                d: self.room.kd.get_unchecked_mut(f.d.clone()),
-                                held: f.held,
-                                pieces: if f.held { &[] } else { pieces_of(f.k) },
-                            }
-                        } else {
-                            Kept { pieces: pieces_of(f.k), ..Kept::none() }
-                        };
-                        let r3 = if levels > 2 { rhs3.get_unchecked_mut(f.rows.clone()) } else { &mut [][..] };
-                        (rhs.get_unchecked_mut(f.rows.clone()), r3, keep)
-                    };
-                    let d = Dir { at: At { q, e, t }, qd: x[1], s, sd: &[], moved: f.moved, drives: group.drives };
-                    model.families[f.k].jac_products(&d, &shared, &x[1..], r2, r3, keep);
-                }
-                // the revolute joints and point-on-line constraints, one list each (`Lists`)
-                let (lists, qd, qdd) = (&reach.lists, x[1], if levels > 2 { x[2] } else { &[][..] });
-                let (pk, sk) = (&mut self.room.pk, &mut self.room.sk);
-                let (pins, slides) = (lists.pins.split_at(lists.pins_moved), lists.slides.split_at(lists.slides_moved));
-                // SAFETY: every list's columns below n (which q, e, s, qd and qdd hold: asserted above) and rows
-                // below m (rhs's and rhs3's), pk and sk as long as the longest lists (asserted in `new`)
-                unsafe {
-                    if levels > 2 {
-                        pins_products::<N, false, true>(pins.0, e, s, qd, qdd, rhs, rhs3, pk);
-                        pins_products::<N, true, true>(pins.1, e, s, qd, qdd, rhs, rhs3, &mut pk[pins.0.len()..]);
-                        slides_products::<N, false, true>(slides.0, q, e, s, qd, qdd, rhs, rhs3, sk);
-                        let sk = &mut sk[slides.0.len()..];
-                        slides_products::<N, true, true>(slides.1, q, e, s, qd, qdd, rhs, rhs3, sk);
-                    } else {
-                        pins_products::<N, false, false>(pins.0, e, s, qd, qdd, rhs, rhs3, pk);
-                        pins_products::<N, true, false>(pins.1, e, s, qd, qdd, rhs, rhs3, pk);
-                        slides_products::<N, false, false>(slides.0, q, e, s, qd, qdd, rhs, rhs3, sk);
-                        slides_products::<N, true, false>(slides.1, q, e, s, qd, qdd, rhs, rhs3, sk);
-                    }
-                }
-                self.room.solver.solve_in(
-                    layout,
-                    f,
-                    &self.room.rhs,
-                    count,
-                    &mut self.room.flat[n..2 * n],
-                    reach,
-                    program,
-                );
-                if lanes {
-                    for j in 0..n {
-                        self.room.qdl[j] = Lanes::of(x[1][j], self.room.flat[n + j]);
-                    }
-                }
-            }
-            if levels > 2 {
-                // S3: D(gamma) (along q' = s, qd' = sd and the tables') - D(J) qdd
-                for &k in &group.live {
-                    let rows = model.row_off[k]..model.row_off[k + 1];
-                    model.families[k].gamma(&at, &self.room.qdl, &shared, &mut self.room.rl[rows]);
-                }
-                for &k in &group.live {
-                    let rows = model.row_off[k]..model.row_off[k + 1];
-                    for (r, x) in self.room.rhs3[rows.clone()].iter_mut().zip(&self.room.rl[rows]) {
-                        for l in 0..N {
-                            r[l] += x.d[l];
-                        }
-                    }
-                }
-                let (s, sd) = (&self.room.flat[..n], &self.room.flat[n..2 * n]);
-                for f in reach.direct.iter().map(|&i| &group.direct[i]) {
-                    let d = Dir { at: At { q, e, t }, qd: x[1], s, sd, moved: f.moved, drives: group.drives };
-                    // SAFETY: as in (S2)
-                    let (v, kd, r3) = unsafe {
-                        let (v, kd) =
-                            (self.room.kv.get_unchecked_mut(f.v.clone()), self.room.kd.get_unchecked_mut(f.d.clone()));
-                        (v, kd, self.room.rhs3.get_unchecked_mut(f.rows.clone()))
-                    };
-                    model.families[f.k].gamma_tangent(&d, &shared, r3, Kept::of(v, kd));
-                }
-                let lists = &reach.lists;
-                // SAFETY: as in (S2), sd n long
-                unsafe {
-                    pins_gamma(&lists.pins, x[1], sd, &mut self.room.rhs3, &self.room.pk);
-                    slides_gamma(&lists.slides, x[1], sd, &mut self.room.rhs3, &self.room.sk);
-                }
-                self.room.solver.solve_in(
-                    layout,
-                    f,
-                    &self.room.rhs3,
-                    count,
-                    &mut self.room.flat[2 * n..3 * n],
-                    reach,
-                    program,
-                );
-            }
-            // every column's tangent: a coordinate's from s, sd, sdd, a named
-            // point's from x, e and them (crate::columns)
-            let (tangents, points) = self.room.flat.split_at_mut(3 * n);
-            let d: [&[[f64; N]]; 3] = [&tangents[..n], &tangents[n..2 * n], &tangents[2 * n..]];
-            // SAFETY: the stages n long (asserted above, s, sd, sdd n each), the points' columns, their
-            // local coordinates, `points` and reach.points within bounds (asserted in `new`)
-            unsafe {
-                let (cols, locs, taken) = (&self.columns, &self.locs[g], &reach.points);
-                if self.room.turned {
-                    cols.point_tangents_unchecked(x, &d[..levels], locs, |c| e[c], taken, points);
-                } else {
-                    cols.point_tangents_unchecked(x, &d[..levels], locs, |c| cis(q[c]), taken, points);
-                }
-            }
-            let to = &mut out[g * N * w..(g * N + count) * w];
-            if N == 1 {
-                // SAFETY: every gather index below flat.len() (asserted in `new`), every column c
-                // (c + 2 of a triple) below w = to.len()
-                unsafe {
-                    for &(c, i) in &self.room.triples {
-                        let (x, o) = (self.room.flat.get_unchecked(i..i + 3), to.get_unchecked_mut(c..c + 3));
-                        (o[0], o[1], o[2]) = (x[0][0], x[1][0], x[2][0]);
-                    }
-                    for &(c, i) in &self.room.singles {
-                        *to.get_unchecked_mut(c) = self.room.flat.get_unchecked(i)[0];
-                    }
-                }
-            } else {
-                // gathered once, then a lane at a time (fewer index checks)
-                for (b, &i) in self.room.buf.iter_mut().zip(&self.room.gather) {
-                    // SAFETY: every gather index below flat.len() (asserted in `new`)
-                    *b = unsafe { *self.room.flat.get_unchecked(i) };
-                }
-                for (lane, to) in to.chunks_mut(w).enumerate() {
-                    for (o, b) in to.iter_mut().zip(&self.room.buf) {
-                        *o = b[lane];
-                    }
+                _ => Kept::none(),
+            };
+            let keep = Kept { pieces: if hand.is_some() { pieces_of(k) } else { &[] }, ..keep };
+            if !family.phi_tangent(&atf, &shared, &mut self.room.rhs[rows.clone()], keep) {
+                family.phi(&at0, &shared, &mut self.room.rl[rows.clone()]);
+                for (r, x) in self.room.rhs[rows.clone()].iter_mut().zip(&self.room.rl[rows]) {
+                    *r = x.d.map(|v| -v);
                 }
             }
         }
-        ratio
+        // SAFETY: every PhiPin's columns below n (e's: asserted above) and rows below m (asserted in `new`)
+        unsafe { phi_pins(&group.phi_pins, e, &mut self.room.rhs) };
+        self.room.solver.solve_in(layout, f, &self.room.rhs, count, &mut self.room.flat[..n], reach, program);
+        let lanes = !group.live.is_empty();
+        if lanes {
+            // q with tangent s, and e^{i q} with its tangent (Real::sin, cos)
+            for j in 0..n {
+                self.room.ql[j] = Lanes::of(q[j], self.room.flat[j]);
+            }
+            for &j in &kin.angles {
+                self.room.el[j] = turned(e[j], self.room.flat[j]);
+            }
+        }
+        let at = At { q: &self.room.ql, e: &self.room.el, t };
+        if levels > 1 {
+            // S2: nu_p - D(J) qd, D(J) the Jacobian's tangent at q' = s
+            for &k in &group.live {
+                model.families[k].jac(&at, &shared, &mut self.room.jl[model.entry_off[k]..model.entry_off[k + 1]]);
+            }
+            self.room.rhs.fill([0.0; N]);
+            for &k in &group.timed {
+                let rows = model.row_off[k]..model.row_off[k + 1];
+                model.families[k].nu(t, &shared, &mut self.room.rl[rows.clone()]);
+                for (r, x) in self.room.rhs[rows.clone()].iter_mut().zip(&self.room.rl[rows]) {
+                    *r = x.d;
+                }
+            }
+            products(&group.entries, &self.room.jl, &x[1..], &mut self.room.rhs, &mut self.room.rhs3);
+            let (s, rhs, rhs3) = (&self.room.flat[..n], &mut self.room.rhs, &mut self.room.rhs3);
+            for f in reach.direct.iter().map(|&i| &group.direct[i]) {
+                // SAFETY: every Direct's ranges within kv, kd and its rows within rhs, rhs3 (asserted in `new`)
+                // (what its phi_tangent kept, `held`, read)
+                let (r2, r3, keep) = unsafe {
+                    let keep = if levels > 2 || f.held {
+                        Kept {
+                            v: self.room.kv.get_unchecked_mut(f.v.clone()),
+                            d: self.room.kd.get_unchecked_mut(f.d.clone()),
+                            held: f.held,
+                            pieces: if f.held { &[] } else { pieces_of(f.k) },
+                        }
+                    } else {
+                        Kept { pieces: pieces_of(f.k), ..Kept::none() }
+                    };
+                    let r3 = if levels > 2 { rhs3.get_unchecked_mut(f.rows.clone()) } else { &mut [][..] };
+                    (rhs.get_unchecked_mut(f.rows.clone()), r3, keep)
+                };
+                let d = Dir { at: At { q, e, t }, qd: x[1], s, sd: &[], moved: f.moved, drives: group.drives };
+                model.families[f.k].jac_products(&d, &shared, &x[1..], r2, r3, keep);
+            }
+            // the revolute joints and point-on-line constraints, one list each (`Lists`)
+            let (lists, qd, qdd) = (&reach.lists, x[1], if levels > 2 { x[2] } else { &[][..] });
+            let (pk, sk) = (&mut self.room.pk, &mut self.room.sk);
+            let (pins, slides) = (lists.pins.split_at(lists.pins_moved), lists.slides.split_at(lists.slides_moved));
+            // SAFETY: every list's columns below n (which q, e, s, qd and qdd hold: asserted above) and rows
+            // below m (rhs's and rhs3's), pk and sk as long as the longest lists (asserted in `new`)
+            unsafe {
+                if levels > 2 {
+                    pins_products::<N, false, true>(pins.0, e, s, qd, qdd, rhs, rhs3, pk);
+                    pins_products::<N, true, true>(pins.1, e, s, qd, qdd, rhs, rhs3, &mut pk[pins.0.len()..]);
+                    slides_products::<N, false, true>(slides.0, q, e, s, qd, qdd, rhs, rhs3, sk);
+                    let sk = &mut sk[slides.0.len()..];
+                    slides_products::<N, true, true>(slides.1, q, e, s, qd, qdd, rhs, rhs3, sk);
+                } else {
+                    pins_products::<N, false, false>(pins.0, e, s, qd, qdd, rhs, rhs3, pk);
+                    pins_products::<N, true, false>(pins.1, e, s, qd, qdd, rhs, rhs3, pk);
+                    slides_products::<N, false, false>(slides.0, q, e, s, qd, qdd, rhs, rhs3, sk);
+                    slides_products::<N, true, false>(slides.1, q, e, s, qd, qdd, rhs, rhs3, sk);
+                }
+            }
+            self.room.solver.solve_in(layout, f, &self.room.rhs, count, &mut self.room.flat[n..2 * n], reach, program);
+            if lanes {
+                for j in 0..n {
+                    self.room.qdl[j] = Lanes::of(x[1][j], self.room.flat[n + j]);
+                }
+            }
+        }
+        if levels > 2 {
+            // S3: D(gamma) (along q' = s, qd' = sd and the tables') - D(J) qdd
+            for &k in &group.live {
+                let rows = model.row_off[k]..model.row_off[k + 1];
+                model.families[k].gamma(&at, &self.room.qdl, &shared, &mut self.room.rl[rows]);
+            }
+            for &k in &group.live {
+                let rows = model.row_off[k]..model.row_off[k + 1];
+                for (r, x) in self.room.rhs3[rows.clone()].iter_mut().zip(&self.room.rl[rows]) {
+                    for l in 0..N {
+                        r[l] += x.d[l];
+                    }
+                }
+            }
+            let (s, sd) = (&self.room.flat[..n], &self.room.flat[n..2 * n]);
+            for f in reach.direct.iter().map(|&i| &group.direct[i]) {
+                let d = Dir { at: At { q, e, t }, qd: x[1], s, sd, moved: f.moved, drives: group.drives };
+                // SAFETY: as in (S2)
+                let (v, kd, r3) = unsafe {
+                    let (v, kd) =
+                        (self.room.kv.get_unchecked_mut(f.v.clone()), self.room.kd.get_unchecked_mut(f.d.clone()));
+                    (v, kd, self.room.rhs3.get_unchecked_mut(f.rows.clone()))
+                };
+                model.families[f.k].gamma_tangent(&d, &shared, r3, Kept::of(v, kd));
+            }
+            let lists = &reach.lists;
+            // SAFETY: as in (S2), sd n long
+            unsafe {
+                pins_gamma(&lists.pins, x[1], sd, &mut self.room.rhs3, &self.room.pk);
+                slides_gamma(&lists.slides, x[1], sd, &mut self.room.rhs3, &self.room.sk);
+            }
+            self.room.solver.solve_in(
+                layout,
+                f,
+                &self.room.rhs3,
+                count,
+                &mut self.room.flat[2 * n..3 * n],
+                reach,
+                program,
+            );
+        }
+        // every column's tangent: a coordinate's from s, sd, sdd, a named
+        // point's from x, e and them (crate::columns)
+        let (tangents, points) = self.room.flat.split_at_mut(3 * n);
+        let d: [&[[f64; N]]; 3] = [&tangents[..n], &tangents[n..2 * n], &tangents[2 * n..]];
+        // SAFETY: the stages n long (asserted above, s, sd, sdd n each), the points' columns, their
+        // local coordinates, `points` and reach.points within bounds (asserted in `new`)
+        unsafe {
+            let (cols, locs, taken) = (&self.columns, &self.locs[g], &reach.points);
+            if self.room.turned {
+                cols.point_tangents_unchecked(x, &d[..levels], locs, |c| e[c], taken, points);
+            } else {
+                cols.point_tangents_unchecked(x, &d[..levels], locs, |c| cis(q[c]), taken, points);
+            }
+        }
+        let to = &mut out[g * N * w..(g * N + count) * w];
+        if N == 1 {
+            // SAFETY: every gather index below flat.len() (asserted in `new`), every column c
+            // (c + 2 of a triple) below w = to.len()
+            unsafe {
+                for &(c, i) in &self.room.triples {
+                    let (x, o) = (self.room.flat.get_unchecked(i..i + 3), to.get_unchecked_mut(c..c + 3));
+                    (o[0], o[1], o[2]) = (x[0][0], x[1][0], x[2][0]);
+                }
+                for &(c, i) in &self.room.singles {
+                    *to.get_unchecked_mut(c) = self.room.flat.get_unchecked(i)[0];
+                }
+            }
+        } else {
+            // gathered once, then a lane at a time (fewer index checks)
+            for (b, &i) in self.room.buf.iter_mut().zip(&self.room.gather) {
+                // SAFETY: every gather index below flat.len() (asserted in `new`)
+                *b = unsafe { *self.room.flat.get_unchecked(i) };
+            }
+            for (lane, to) in to.chunks_mut(w).enumerate() {
+                for (o, b) in to.iter_mut().zip(&self.room.buf) {
+                    *o = b[lane];
+                }
+            }
+        }
     }
 }
 
