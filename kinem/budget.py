@@ -26,7 +26,6 @@ def check_held(numbers, source, what, fewer) -> None:
                          f"memory may have ({MAX_HELD * 8 / 1e9:.1f} GB); expected {fewer}")
 
 
-
 def check_solutions(model, sources, command, fewer) -> None:
     """check_held for ``sources`` whole solutions of ``model`` (positions,
     velocities and accelerations at every instant: native's and each

@@ -137,14 +137,14 @@ impl Columns<'_> {
     ) {
         let stages = self.stages;
         for &j in only {
-            // SAFETY: j < p = pc.len() <= local.len() (asserted above)
+            // SAFETY: j < p = pc.len() <= local.len() (the # Safety contract)
             let (c, s) = unsafe { (*self.pc.get_unchecked(j), *local.get_unchecked(j)) };
             let e = turn(c + 2);
             let big = C64::new(s.re.v, s.im.v) * e;
-            // SAFETY: c + 2 < n, every stage and its tangents hold n (asserted above)
+            // SAFETY: c + 2 < n, every stage and its tangents hold n (the # Safety contract)
             let at = |k: usize, c: usize| unsafe { *d.get_unchecked(k).get_unchecked(c) };
             let value = |k: usize| unsafe { *x.get_unchecked(k).get_unchecked(c + 2) };
-            // SAFETY: j < p and out holds 2 stages p (asserted above)
+            // SAFETY: j < p and out holds 2 stages p (the # Safety contract)
             let mut put = |i: usize, v: [f64; N]| unsafe { *out.get_unchecked_mut(2 * stages * j + i) = v };
             // dE = i E dphi + d(s') e
             let phi = at(0, c + 2);

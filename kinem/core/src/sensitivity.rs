@@ -1442,7 +1442,7 @@ impl<const N: usize> Solver<N> {
     ) {
         if let Some(program) = quick {
             // SAFETY: its places below n <= out.len(), its rows below m <= rhs.len() (asserted in
-            // Lanewise::new), its factors below f.j.len() (asserted in Lanewise::at with `quick`)
+            // Lanewise::new), its factors below f.j.len() (Lanewise::group_at passes it only then)
             return unsafe { program.run_unchecked(&f.j, rhs, out) };
         }
         if reach.program.is_none() {
