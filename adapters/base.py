@@ -43,6 +43,7 @@ class Status(str, enum.Enum):
     FAILED = "failed"             # the engine stopped: build error, solver failure
     DIVERGED = "diverged"         # the engine ran, the solution left the mechanism
     NONFINITE = "non-finite"      # NaN or infinite coordinates
+    OUT_OF_TIME = "out of time"   # the run's time limit is reached (OutOfTime: compare and animate --max-seconds)
 
     def label(self, detail: str = "") -> str:
         if self is Status.OK:
@@ -87,7 +88,8 @@ class Failure(Exception):
 
 class OutOfTime(Failure):
     """The run's time limit (``Adapter.run``'s ``limit``) is reached: the
-    run ends, never refined nor retried, and no earlier attempt stands."""
+    run ends, never refined nor retried, and no earlier attempt stands; its
+    status is Status.OUT_OF_TIME (the cause kept, never read from a clock)."""
 
 
 # The time limit of the run in this thread (Adapter.run's ``limit``): (seconds, its time.time() deadline), or None.
@@ -100,7 +102,7 @@ def in_time(t, steps=0, wall=0.0):
     intervals (kinem.budget's words: compare's native solves)."""
     limit = _LIMIT.get()
     if limit is not None and time.time() > limit[1]:
-        raise OutOfTime(Status.FAILED, f"{out_of_time(limit[0])} at t = {t:.6g}", steps, wall=wall)
+        raise OutOfTime(Status.OUT_OF_TIME, f"{out_of_time(limit[0])} at t = {t:.6g}", steps, wall=wall)
 
 
 def deadline():

@@ -40,6 +40,7 @@ class Verdict(enum.Enum):
     CAPPED = "cannot reach the tolerance within the cost cap"
     UNSUPPORTED = "unsupported"
     FAILED = "failed"
+    OUT_OF_TIME = "out of time"   # stopped at --max-seconds (Status.OUT_OF_TIME): a failure, its cause named
     NONE = ""                     # no tolerance given
     SELF = "no independent reference"                     # native checked only against itself
     CONSISTENT = "consistent with the engines' consensus"  # outside against native, but native is the one off
@@ -47,7 +48,7 @@ class Verdict(enum.Enum):
 
     @property
     def fails(self) -> bool:
-        return self in (Verdict.OUTSIDE, Verdict.CAPPED, Verdict.FAILED, Verdict.DISAGREES)
+        return self in (Verdict.OUTSIDE, Verdict.CAPPED, Verdict.FAILED, Verdict.OUT_OF_TIME, Verdict.DISAGREES)
 
 
 @dataclass(frozen=True)
@@ -87,6 +88,8 @@ class Comparison:
     def verdict(self) -> Verdict:
         if self.status is Status.UNSUPPORTED:
             return Verdict.UNSUPPORTED
+        if self.status is Status.OUT_OF_TIME:
+            return Verdict.OUT_OF_TIME
         if self.status is not Status.OK:
             return Verdict.FAILED
         if self.engine == "native":
@@ -376,7 +379,7 @@ def _run_engine(task):
     return run_engine(*task)
 
 
-def time_limit(options):
+def engines_deadline(options):
     """The engines' runs' share of ``options.max_seconds`` (counted from
     options.started, as native's solves): (seconds, the time.time() instant
     it ends; the same on a Dask worker of this machine) or None."""
@@ -391,7 +394,7 @@ def time_limit(options):
 def run_case(model, engines, overrides=None, scheduler=None, options=None):
     """Native solution (solved with ``options``, kinem.Options; default the
     case's) and one Comparison per engine ('native' included when asked);
-    the engines' runs end at options.max_seconds too (``time_limit``).
+    the engines' runs end at options.max_seconds too (``engines_deadline``).
     overrides: engine name -> settings. The engines run in this process, or
     on the workers of a Dask scheduler (an address)."""
     from kinem import parallel
@@ -405,7 +408,7 @@ def run_case(model, engines, overrides=None, scheduler=None, options=None):
         parallel.check_address(scheduler)
     check_solutions(model, 1 + sum(n != "native" for n in engines), "compare", "fewer instants (--steps) or engines")
     native = solve(model, options=options)
-    limit = time_limit(options)
+    limit = engines_deadline(options)
     todo = [(model, native, n, (overrides or {}).get(n), limit) for n in engines if n != "native" and native.success]
     done = iter(parallel.map(_run_engine, todo, jobs=0, scheduler=scheduler))
     rows = []

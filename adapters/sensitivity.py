@@ -82,10 +82,10 @@ def check(model, paths, engines, overrides=None, options=None):
     from kinem.solver import solve
 
     from . import case_settings, get
-    from .compare import time_limit
+    from .compare import engines_deadline
 
     case = model.case
-    bound = time_limit(options)   # the engines' runs end at options.max_seconds too
+    bound = engines_deadline(options)   # the engines' runs end at options.max_seconds too
     listed = resolve(case, paths)
     exact = sensitivity(model, [p.path for p in listed], outputs=("positions",), options=options)
     cols = [c for c in columns(model) if c in exact.trajectory]

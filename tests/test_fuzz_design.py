@@ -996,7 +996,7 @@ def test_found_compare_engines_past_the_time_limit(monkeypatch, engine):
 
     from adapters import compare
 
-    monkeypatch.setattr(compare, "time_limit", lambda options: (options.max_seconds, time.time() - 1.0), raising=False)
+    monkeypatch.setattr(compare, "engines_deadline", lambda options: (options.max_seconds, time.time() - 1.0))
     code, out, err = _compare([str(FOUR_BAR), "--engines", f"native,{engine}", "--steps", "40", "--max-seconds",
                                "30"])
     assert code == 1 and err == "", (out, err)
@@ -1019,7 +1019,7 @@ def test_an_engine_run_stops_at_its_time_limit(engine):
     model = kinem.compile(kinem.load(FOUR_BAR).with_time(steps=200_000, end=2000.0))
     start = time.time()
     run = get(engine).run(model, limit=(0.5, start + 0.5))
-    assert run.status is Status.FAILED and run.detail.startswith("the time limit of 0.5 s (Options.max_seconds") \
+    assert run.status is Status.OUT_OF_TIME and run.detail.startswith("the time limit of 0.5 s (Options.max_seconds") \
         and " is reached at t = " in run.detail, run.detail
     assert run.trajectory is None and not run.notes, run.notes
 
@@ -1030,7 +1030,7 @@ def test_compare_sensitivity_engines_past_the_time_limit(monkeypatch):
 
     from adapters import compare
 
-    monkeypatch.setattr(compare, "time_limit", lambda options: (options.max_seconds, time.time() - 1.0), raising=False)
+    monkeypatch.setattr(compare, "engines_deadline", lambda options: (options.max_seconds, time.time() - 1.0))
     code, out, err = _compare([str(FOUR_BAR), "--engines", "native,pymunk", "--steps", "40", "--sensitivity",
                                "points.A.at.0", "--max-seconds", "30"])
     assert code == 1 and err == "", (out, err)
@@ -1045,7 +1045,7 @@ def test_found_animate_engines_past_the_time_limit(tmp_path, monkeypatch):
 
     from adapters import compare
 
-    monkeypatch.setattr(compare, "time_limit", lambda options: (options.max_seconds, time.time() - 1.0), raising=False)
+    monkeypatch.setattr(compare, "engines_deadline", lambda options: (options.max_seconds, time.time() - 1.0))
     out = tmp_path / "a.svg"
     code, line = run_main(["animate", str(FOUR_BAR), "--out", str(out), "--engines", "native,pymunk",
                            "--max-seconds", "30"])
@@ -1254,8 +1254,101 @@ def test_found_a_sweep_into_fast_drivers_said_nothing(tmp_path):
                      "--out", str(out)])
     lines = buf.getvalue().splitlines()
     assert code == 1 and len(lines) == 2, lines   # two variants fail on the way: their own line
-    assert lines[0].startswith("kinem: warning: sweep: 4 warning(s) of the variants that the case itself does not "
-                               "give; first: ") and "turns body 'crank' at up to 500.8 rad/s" in lines[0], lines
+    assert lines[0].startswith("kinem: warning: sweep: 4 of 5 variants warn where the case itself does not; first, "
+                               "variant 1: ") and "turns body 'crank' at up to 500.8 rad/s" in lines[0], lines
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         kinem.sweep(str(FOUR_BAR), {"constraints.crank-drive.d.poly.1": [1.4, 1.6]}, ["B.x"])
+
+
+# -- session 29, part 11 (docs/benchmarks.md, "Fuzz campaign, session 29"): what part 10 left ------------------
+
+def _engine_returning(monkeypatch, engine, status, detail):
+    """The engine's Adapter.run made to return a run of that status (its cause kept by the run alone)."""
+    from adapters import get
+    from adapters.base import EngineRun
+
+    def run(self, model, *a, **k):
+        return EngineRun(engine=engine, status=status, detail=detail, trajectory=None, q=None, qd=None)
+
+    monkeypatch.setattr(type(get(engine)), "run", run)
+
+
+def test_found_the_time_limit_told_by_the_clock(tmp_path, monkeypatch):
+    """An engine's run stopped by the time limit was told from other failures by the clock in animate (past the
+    deadline: EngineRun kept no cause), so another failure after the deadline read as the time limit, and a
+    run stopped by the limit on a clock that had not passed it (a worker's) was a ghost left out. Now the run
+    carries the limit as its own status (Status.OUT_OF_TIME), which animate reads: the time limit fails the
+    command whatever the clock says; another failure leaves the ghost out, named."""
+    import time
+
+    from adapters import compare
+    from adapters.base import Status
+
+    limit = "the time limit of 30 s (Options.max_seconds, --max-seconds of kinem solve, compare and animate) is " \
+            "reached at t = 0.5"
+    out = tmp_path / "a.svg"
+    _engine_returning(monkeypatch, "pymunk", Status.OUT_OF_TIME, limit)   # the clock far from the deadline
+    code, line = run_main(["animate", str(FOUR_BAR), "--out", str(out), "--engines", "native,pymunk",
+                           "--max-seconds", "30"])
+    assert (code, line) == (1, f"kinem: analysis failed: {FOUR_BAR}: pymunk: {limit}") and not out.exists(), line
+    _engine_returning(monkeypatch, "pymunk", Status.DIVERGED, "left the mechanism at t = 0.2")
+    monkeypatch.setattr(compare, "engines_deadline", lambda options: (options.max_seconds, time.time() - 1.0))
+    buf = io.StringIO()
+    with contextlib.redirect_stderr(buf):
+        code = main(["animate", str(FOUR_BAR), "--out", str(out), "--engines", "native,pymunk", "--max-seconds", "30"])
+    assert (code, buf.getvalue()) == (0, "pymunk: not drawn: failed: left the mechanism at t = 0.2\n") and out.exists()
+
+
+def test_out_of_time_is_a_status_and_a_verdict(monkeypatch):
+    """The same status in compare: the row's label keeps the one prefix of failures ("failed: the time limit ...")
+    and its JSON names the kind: outcome and verdict "out of time", which fails the run (exit 1); an engine's
+    run past its limit returns that status."""
+    import time
+
+    from adapters import compare, get
+    from adapters.base import Status
+    from adapters.compare import Verdict
+
+    assert Verdict.OUT_OF_TIME.fails and Status.OUT_OF_TIME.failure
+    monkeypatch.setattr(compare, "engines_deadline", lambda options: (options.max_seconds, time.time() - 1.0))
+    code, out, err = _compare([str(FOUR_BAR), "--engines", "native,pymunk", "--steps", "40", "--max-seconds", "30",
+                               "--json"])
+    row = json.loads(out)["engines"]["pymunk"]
+    assert code == 1 and err == "", err
+    assert (row["outcome"], row["verdict"]) == ("out of time", "out of time"), row
+    assert row["status"].startswith("failed: the time limit of 30 s"), row["status"]
+    model = kinem.compile(kinem.load(FOUR_BAR).with_time(steps=40))
+    run = get("pymunk").run(model, limit=(30, time.time() - 1.0))
+    assert run.status is Status.OUT_OF_TIME and run.label.startswith("failed: the time limit of 30 s"), run.label
+
+
+def test_out_of_time_is_in_the_report_schema():
+    """results.json's outcome and verdict enums hold the new members, so a run of that status is valid there."""
+    from adapters.base import Status
+    from adapters.compare import Verdict
+    from kinem.report.schema import SCHEMA
+
+    text = json.dumps(SCHEMA)
+    assert text.count('"out of time"') == 4, text.count('"out of time"')
+    assert Status("out of time") is Status.OUT_OF_TIME and Verdict("out of time") is Verdict.OUT_OF_TIME
+
+
+def test_found_the_sweep_counted_warnings_not_variants():
+    """The sweep's warning line counted warnings ("4 warning(s) of the variants"): a variant with two fast drivers
+    counted twice (caught per chunk of 64 variants, not per variant). Now it counts the variants that warn, and
+    names the first: a four-bar with a second crank (a wheel pinned to the ground), both rates swept over
+    {1.5, 2000}: 3 of 4 variants warn, one of them twice."""
+    doc = json.loads(json.dumps(BASES[FOUR_BAR]))
+    doc["bodies"]["wheel"] = {"q": [0.2, 0.0, 0.0]}
+    doc["constraints"] += [{"type": "revolute", "name": "W", "i": "ground", "si": "O4", "j": "wheel", "sj": [0.0, 0.0]},
+                           {"type": "driver", "name": "wheel-drive", "body": "wheel", "coord": "phi",
+                            "d": {"poly": [0.0, 1.0]}}]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        kinem.sweep(doc, {"constraints.crank-drive.d.poly.1": [1.5, 2000.0],
+                          "constraints.wheel-drive.d.poly.1": [1.0, 2000.0]}, ["B.x"])
+    said = [str(w.message) for w in caught if issubclass(w.category, kinem.KinemWarning)]
+    assert len(said) == 1 and said[0].startswith("sweep: 3 of 4 variants warn where the case itself does not; first, "
+                                                 "variant 1: <dict>: constraint "), said
+    assert "'wheel-drive'" in said[0], said
