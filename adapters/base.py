@@ -381,14 +381,18 @@ class Adapter:
                 state.update(estimate=kept[3], capped=True)
                 failure = None
                 break
-            again = self.retry(model, s, times, auto, failure, *((None, None) if failure else (Q, QD))) \
-                if attempt == 1 and auto else None
-            if not again and failure is None and "dt" in auto and self.order:
-                again = self.refine(model, s, times, Q, QD, state, last=attempt == 1 + MAX_REFINEMENTS,
-                                    first=not state.get("rated"))
-                state["rated"] = True
-                if again:
-                    kept = (Q, QD, dict(s), state["estimate"])
+            try:   # the checks of a run are bounded by its time limit too (in_time)
+                again = self.retry(model, s, times, auto, failure, *((None, None) if failure else (Q, QD))) \
+                    if attempt == 1 and auto else None
+                if not again and failure is None and "dt" in auto and self.order:
+                    again = self.refine(model, s, times, Q, QD, state, last=attempt == 1 + MAX_REFINEMENTS,
+                                        first=not state.get("rated"))
+                    state["rated"] = True
+                    if again:
+                        kept = (Q, QD, dict(s), state["estimate"])
+            except OutOfTime as e:
+                failure = e
+                break
             if not again:
                 break
             because, change = again
@@ -474,6 +478,9 @@ NEAR_SINGULAR = 1e-6   # smallest / largest singular value of the dimensionless 
                        # estimate was 0.4 of V and refining made Exudyn stop)
 
 
+CHECK_EVERY = 1024   # instants of an engine's own check (self_check) between looks at the run's time limit
+
+
 def self_check(model, Q, QD, times) -> dict:
     """The errors of an engine's trajectory estimated from the constraints
     alone, without native's trajectory: a kinematically driven mechanism
@@ -491,7 +498,9 @@ def self_check(model, Q, QD, times) -> dict:
     L = model.length
     dpos = dang = dvel = dw = 0.0
     vmax = wmax = 0.0
-    for q, qd, t in zip(Q, QD, times):
+    for i, (q, qd, t) in enumerate(zip(Q, QD, times)):
+        if not i % CHECK_EVERY:
+            in_time(t)   # the run's time limit holds for its own checks too (a Python loop over the instants)
         J = model.jacobian(q, t, sparse=False)
         sv = np.linalg.svd(model.assemble(model.jac_values(q, t) * model.entry_scale, False), compute_uv=False)
         if not sv[-1] > NEAR_SINGULAR * sv[0]:   # through a singular configuration: no estimate, no refinement

@@ -307,6 +307,8 @@ def attribute(model, native, rows) -> list:
     from dataclasses import replace
 
     ok = [r for r in rows if r.engine != "native" and r.ok and r.compact is not None]
+    if len(ok) < 2:   # no consensus without two engines (``consensus``): native's columns are not made for it
+        return list(rows)
     trajs = {"native": compact(model, native.trajectory), **{r.engine: r.compact for r in ok}}
     c = consensus(trajs, {r.engine: r.tolerance for r in ok}, {r.engine: asdict(r) for r in ok},
                   model.length, speed(model, native.trajectory))
@@ -322,18 +324,27 @@ def native_row(model, native, options=None) -> Comparison:
     case's closed form where it has one (adapters.references: positions,
     velocities and accelerations within references.LIMITS, the last named
     in the detail), else no figure: nothing independent checked it
-    (Verdict.SELF), never a zero against itself."""
+    (Verdict.SELF), never a zero against itself. The closed form is not
+    begun past options.max_seconds (``engines_deadline``): the row is then
+    out of time (Status.OUT_OF_TIME), its figures not computed."""
+    import time
+
+    from kinem.budget import out_of_time
     from kinem.linalg import choose
     from kinem.options import Options
 
-    from .references import LIMITS, closed_form, error
+    from .references import CLOSED_FORMS, LIMITS, closed_form, error
 
     options = Options.of(model.case) if options is None else options
     res = model.kinematic_residual(native.q, native.trajectory.t)
     steps = len(native.iterations)
     n = max(steps - 1, 1)
-    cf = closed_form(model, native) if native.success else None
+    limit = engines_deadline(options)
+    late = native.success and model.case.name in CLOSED_FORMS and limit is not None and time.time() > limit[1]
+    cf = closed_form(model, native) if native.success and not late else None
     checked, detail, within = {}, "" if native.success else native.message, native.success
+    if late:
+        detail, within = f"{out_of_time(limit[0])} before its check against the closed form", False
     if cf is not None:
         f = error(model, native.trajectory, cf)
         # the report's limits (LIMITS' keys are results.json's) on this row's own figures
@@ -345,7 +356,8 @@ def native_row(model, native, options=None) -> Comparison:
                        tolerance=limits)
         within = all(checked[k] <= limit for k, limit in limits.items())
         detail = f"against the {cf.label}; accelerations {f.acceleration_rel:.2e} of the peak"
-    return Comparison(engine="native", status=Status.OK if native.success else Status.FAILED,
+    return Comparison(engine="native", status=Status.OUT_OF_TIME if late else
+                      Status.OK if native.success else Status.FAILED,
                       detail=detail, independent=cf is not None, intervals=n,
                       constraint_residual=res, wall_time=native.wall_time, steps=steps, substeps=1,
                       time_per_step=native.wall_time / max(steps, 1), time_per_interval=native.wall_time / n,

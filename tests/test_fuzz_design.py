@@ -1352,3 +1352,51 @@ def test_found_the_sweep_counted_warnings_not_variants():
     assert len(said) == 1 and said[0].startswith("sweep: 3 of 4 variants warn where the case itself does not; first, "
                                                  "variant 1: <dict>: constraint "), said
     assert "'wheel-drive'" in said[0], said
+
+
+def test_found_compare_native_row_past_the_time_limit(monkeypatch):
+    """compare's native row checked native against the case's closed form whatever the time: at 2,000,000 steps
+    and --max-seconds 8, 13 s of it after the limit (a four-bar, load 5). Now it is not begun past the limit: the
+    row is out of time, saying so, exit 1."""
+    import time
+
+    from adapters import compare
+
+    monkeypatch.setattr(compare, "engines_deadline", lambda options: (options.max_seconds, time.time() - 1.0))
+    code, out, err = _compare([str(FOUR_BAR), "--engines", "native", "--steps", "40", "--max-seconds", "30", "--json"])
+    row = json.loads(out)["engines"]["native"]
+    assert code == 1 and err == "", err
+    assert (row["outcome"], row["verdict"], row["independent"]) == ("out of time", "out of time", False), row
+    assert row["status"] == "failed: the time limit of 30 s (Options.max_seconds, --max-seconds of kinem solve, " \
+                            "compare and animate) is reached before its check against the closed form", row
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_found_an_engines_own_checks_past_the_time_limit(monkeypatch, engine):
+    """An engine's run was bounded between its output intervals, not in the checks after an attempt (the
+    self-check of dt = "auto", a Python loop over the instants: minutes at millions of instants). Now they look
+    at the limit every CHECK_EVERY instants: here the limit is made to have passed for the checks alone."""
+    from adapters import base, get
+
+    def late(t, steps=0, wall=0.0):
+        raise base.OutOfTime(base.Status.OUT_OF_TIME, f"the time limit is reached at t = {t:.6g}", steps, wall=wall)
+
+    adapter = get(engine)   # imported first: its stepping loop keeps its own (unpatched) name
+    monkeypatch.setattr(base, "in_time", late)
+    model = kinem.compile(kinem.load(FOUR_BAR).with_time(steps=40))
+    run = adapter.run(model)
+    assert run.status is base.Status.OUT_OF_TIME and run.detail == "the time limit is reached at t = 0", run.label
+    assert run.trajectory is None
+
+
+def test_pymunk_tables_in_chunks_are_the_same_run(monkeypatch):
+    """pymunk's driving tables are made TABLE_CHUNK steps at a time between output intervals (all at once, 10^7
+    steps took 23 s past any limit): the same trajectory to the bit whatever the chunk (7 steps, or all)."""
+    from adapters import get, pymunk_sim
+
+    model = kinem.compile(kinem.load(FOUR_BAR).with_time(steps=40))
+    runs = []
+    for chunk in (7, 10**9):
+        monkeypatch.setattr(pymunk_sim, "TABLE_CHUNK", chunk)
+        runs.append(get("pymunk").run(model, settings={"substeps": 3}))
+    assert runs[0].ok and np.array_equal(runs[0].q, runs[1].q) and np.array_equal(runs[0].qd, runs[1].qd)
