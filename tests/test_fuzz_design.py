@@ -1400,3 +1400,63 @@ def test_pymunk_tables_in_chunks_are_the_same_run(monkeypatch):
         monkeypatch.setattr(pymunk_sim, "TABLE_CHUNK", chunk)
         runs.append(get("pymunk").run(model, settings={"substeps": 3}))
     assert runs[0].ok and np.array_equal(runs[0].q, runs[1].q) and np.array_equal(runs[0].qd, runs[1].qd)
+
+
+# -- session 29, part 11, part B: kinem.solve(parameters=), kinem.tolerance with odd arguments -------------------
+
+@pytest.fixture(scope="module")
+def four_bar_20():
+    return kinem.compile(kinem.load(FOUR_BAR).with_time(steps=20))
+
+
+def test_found_variants_with_a_junk_options(four_bar_20):
+    """kinem.solve(model, parameters=..., options="fast") raised AttributeError ('str' object has no attribute
+    'started'); one solve refuses it. Now the same InputError."""
+    with pytest.raises(kinem.InputError, match="^solve: options str: expected a kinem.Options$"):
+        kinem.solve(four_bar_20, parameters={"points.A.at.0": [0.05]}, options="fast")
+
+
+@pytest.mark.parametrize("values", [[0.05 + 1j], np.array([0.05, 0.06], complex)])
+def test_found_variants_of_complex_numbers(four_bar_20, values):
+    """Complex values were cast to their real part, numpy's ComplexWarning on the way (0.05+1j solved as 0.05).
+    Now no numbers, as booleans are not (kinem.casefile.checks.floats: kinem.sweep too)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(kinem.InputError, match="expected a 1-D sequence of one or more finite numbers"):
+            kinem.solve(four_bar_20, parameters={"points.A.at.0": values})
+        with pytest.raises(kinem.InputError, match="expected one or more finite numbers"):
+            kinem.sweep(str(FOUR_BAR), {"points.A.at.0": values}, ["B.x"])
+
+
+@pytest.mark.parametrize("path, value", [("points.A.at.0", 1e300), ("points.A.at.0", -1e13),
+                                         ("constraints.crank-drive.d.poly.1", 1e300),
+                                         ("constraints.crank-drive.d.poly.0", 1e300)])
+def test_found_variants_beyond_a_case_files_magnitude(four_bar_20, path, value):
+    """A variant's value beyond MAX_MAGNITUDE (1e12: what a case file, kinem.load(parameters=) and a sweep's
+    variant refuse) was solved: numpy's "overflow encountered in dot" twice, seconds of it, and a reason that
+    misled ("too few driving equations"). Now that variant is bad input, never solved, in the loader's words;
+    the others are solved as before."""
+    nominal = next(p.value for p in kinem.parameters(four_bar_20.case) if p.path == path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        r = kinem.solve(four_bar_20, parameters={path: [value, nominal]})
+    assert r.success.tolist() == [False, True] and np.isnan(r.data[0]).all(), r.messages
+    assert r.messages[0] == f"bad input: {four_bar_20.case.source}: {path} = {value:g}: expected a number of " \
+                            "magnitude at most 1e+12", r.messages
+    alone = kinem.solve(four_bar_20, parameters={path: [nominal]})
+    assert np.array_equal(r.data[1], alone.data[0])
+
+
+def test_found_variants_outputs_as_bytes(four_bar_20):
+    """outputs=b"B.x" read as the numbers 66, 46, 120: "no column 66". Now refused as outputs None is."""
+    with pytest.raises(kinem.InputError, match=r"outputs b'B.x': expected stages"):
+        kinem.solve(four_bar_20, parameters={"points.A.at.0": [0.05]}, outputs=b"B.x")
+
+
+@pytest.mark.parametrize("chunk", [0, -1, 2.5, "2", True])
+def test_found_tolerance_with_an_odd_chunk(four_bar_20, chunk):
+    """kinem.tolerance(chunk=-1) solved no sample and returned bands without a Monte Carlo one, unseen
+    (range(0, samples, -1)); chunk="2" raised TypeError. Now refused: None or a whole number from 1."""
+    with pytest.raises(kinem.InputError, match="tolerance: chunk .*: expected None or a whole number from 1"):
+        tolerance(four_bar_20, samples=5, chunk=chunk)
+    assert tolerance(four_bar_20, samples=5, chunk=10**20).accepted == 5
