@@ -1460,3 +1460,67 @@ def test_found_tolerance_with_an_odd_chunk(four_bar_20, chunk):
     with pytest.raises(kinem.InputError, match="tolerance: chunk .*: expected None or a whole number from 1"):
         tolerance(four_bar_20, samples=5, chunk=chunk)
     assert tolerance(four_bar_20, samples=5, chunk=10**20).accepted == 5
+
+
+# -- session 29, part B: compare --sensitivity and the report's design section of a small radius ---------------
+
+ROLLER = ROOT / "cases" / "cam_roller_circle.toml"
+
+
+def _small_roller(tmp_path, extra=""):
+    """cam_roller_circle with a roller of radius 0.05 mm: below 2h of the central differences (h = 1e-3 L and
+    5e-4 L, L = 50 mm), so that p - h or p - 2h is no valid case."""
+    text = ROLLER.read_text().replace("radius = 8.0", "radius = 0.05", 1).replace("steps = 200", "steps = 20")
+    assert "radius = 0.05" in text
+    case = tmp_path / "roller.toml"
+    case.write_text(text + extra)
+    return case
+
+
+def test_found_compare_sensitivity_past_a_valid_case(tmp_path):
+    """compare --sensitivity of a radius below 2h stopped the command: "kinem: error: CASE: constraint 4 ('contact',
+    cam-roller): key 'radius': got 0; expected a positive number", exit 2: the case file blamed for a value it
+    does not hold (0.05 is valid), no row of the other parameters. Now that parameter's row fails saying which
+    moved case is not valid and why (exit 1, a failed check); the other parameters are checked as ever."""
+    case = _small_roller(tmp_path)
+    code, out, err = _compare([str(case), "--engines", "native", "--sensitivity",
+                               "constraints.contact.radius,constraints.contact.outline.circle.radius"])
+    assert code == 1 and err == "", err
+    rows = [line for line in out.splitlines() if line.startswith("native")]
+    assert "failed: native at p +- h: p - h = 0 is not a valid case (" in rows[0] and "got 0; expected a positive " \
+           "number)" in rows[0], rows
+    assert "within: " in rows[1], rows
+
+
+def test_found_report_sensitivity_past_a_valid_case(tmp_path):
+    """The same in the report's design section ([report] sensitivity with the radius, a named point on the
+    follower): the whole report stopped with that error, exit 2, nothing written. Now its row says the
+    differences were not computed and why."""
+    import re
+
+    from kinem.report import design
+
+    text = _small_roller(tmp_path, '\n[report]\nsensitivity = ["constraints.contact.radius"]\n').read_text()
+    text = text.replace("[bodies]", '[points]\nF = { body = "follower", at = [0.0, 0.0] }\n\n[bodies]', 1)
+    model = kinem.compile(kinem.load_dict(tomllib.loads(text), source="roller"))
+    table = re.sub("<[^>]*>", " ", design.section(model)[0])
+    assert "not computed: native at p +- h: p - 2h = 0 is not a valid case (" in html_unescape(table), table[-400:]
+
+
+def html_unescape(text):
+    import html
+
+    return html.unescape(text)
+
+
+def test_found_report_design_section_without_points(tmp_path):
+    """A case with [report] sensitivity but no named point on a moving body (cam_roller_circle has none) got no
+    design section and no word of why. Now a paragraph says so."""
+    from kinem.report import design
+
+    text = ROLLER.read_text().replace("steps = 200", "steps = 20") + \
+        '\n[report]\nsensitivity = ["constraints.contact.radius"]\n'
+    model = kinem.compile(kinem.load_dict(tomllib.loads(text), source="roller"))
+    assert design.section(model) == ["<h3>Design sensitivities and tolerance bands</h3><p>Not drawn: they are the "
+                                     "named points' on moving bodies, and the case has none (its [points], or the "
+                                     "[report] points listed).</p>"]
