@@ -148,12 +148,13 @@ class Comparison:
     def as_dict(self) -> dict:
         """JSON-ready: ``status`` the one-string label, ``outcome`` its kind."""
         d = {k: v for k, v in asdict(self).items() if k not in ("detail", "compact")}
-        d = {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in d.items()}
         d["attributed"] = None if self.attributed is None else asdict(self.attributed)
-        return dict(d, status=self.label, outcome=self.status.value, verdict=self.verdict.value,
-                    verdict_text=self.verdict_text, steps_per_interval=self.steps_per_interval,
-                    cost_per_interval=self.cost_per_interval,
-                    exceeded=[{"figure": k, "value": x, "limit": limit} for k, x, limit in self.exceeded])
+        d = dict(d, status=self.label, outcome=self.status.value, verdict=self.verdict.value,
+                 verdict_text=self.verdict_text, steps_per_interval=self.steps_per_interval,
+                 cost_per_interval=self.cost_per_interval,
+                 exceeded=[{"figure": k, "value": x, "limit": limit} for k, x, limit in self.exceeded])
+        # a figure not computed is null, never NaN (no JSON number): a row not run has no cost either
+        return {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in d.items()}
 
 
 FIGURES = ("position_error", "position_error_rel", "angle_error", "velocity_error", "velocity_error_rel",

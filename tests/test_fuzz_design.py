@@ -1524,3 +1524,23 @@ def test_found_report_design_section_without_points(tmp_path):
     assert design.section(model) == ["<h3>Design sensitivities and tolerance bands</h3><p>Not drawn: they are the "
                                      "named points' on moving bodies, and the case has none (its [points], or the "
                                      "[report] points listed).</p>"]
+
+
+def _strict(text):
+    """JSON as RFC 8259 has it: NaN and Infinity are no numbers (jq and JavaScript's JSON.parse refuse them)."""
+    def refuse(constant):
+        raise ValueError(f"{constant} is no JSON number")
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_found_compare_json_with_nan(tmp_path):
+    """compare --json wrote "cost_per_interval": NaN for a row that did not run (a native failure: no engine
+    run), and compare --sensitivity --json wrote "error": NaN, "ratio": NaN ... for every row not computed
+    (failed, unsupported): no JSON. Now null, as the rows' other figures not computed already were."""
+    stalled = ROOT / "cases" / "stress" / "slider_dead_centre.toml"
+    code, out, err = _compare([str(stalled), "--engines", "native,pymunk", "--steps", "20", "--json"])
+    assert code == 1 and _strict(out)["engines"]["pymunk"]["cost_per_interval"] is None, out
+    code, out, err = _compare([str(_small_roller(tmp_path)), "--engines", "native,mujoco", "--json", "--sensitivity",
+                               "constraints.contact.radius,constraints.contact.outline.circle.radius"])
+    rows = _strict(out)["sensitivity"]
+    assert code == 1 and [r["ratio"] is None for r in rows] == [True, False, True], rows
