@@ -16,6 +16,7 @@ seconds in the engine's stepping calls; ``overhead``: the adapter's own Python
 around them, building and sampling included) and the typed status. An engine
 implements ``version``, ``defaults``/``checks`` and ``simulate``.
 """
+import contextlib
 import contextvars
 import enum
 import math
@@ -103,6 +104,17 @@ def in_time(t, steps=0, wall=0.0):
     limit = _LIMIT.get()
     if limit is not None and time.time() > limit[1]:
         raise OutOfTime(Status.OUT_OF_TIME, f"{out_of_time(limit[0])} at t = {t:.6g}", steps, wall=wall)
+
+
+@contextlib.contextmanager
+def limited(limit):
+    """``in_time``'s limit for what runs within: (seconds, its time.time() deadline), or None (Adapter.run's,
+    and the native row's closed form in adapters.compare)."""
+    token = _LIMIT.set(limit)
+    try:
+        yield
+    finally:
+        _LIMIT.reset(token)
 
 
 def deadline():
@@ -321,11 +333,8 @@ class Adapter:
         ``limit``: (seconds, the time.time() instant they end) the whole
         run may take, refinements included (kinem compare --max-seconds);
         past it the run fails with kinem.budget's message (``in_time``)."""
-        token = _LIMIT.set(limit)
-        try:
+        with limited(limit):
             return self._run(model, q0, qd0, settings)
-        finally:
-            _LIMIT.reset(token)
 
     def _run(self, model, q0, qd0, settings) -> EngineRun:
         began = time.perf_counter()

@@ -1371,6 +1371,33 @@ def test_found_compare_native_row_past_the_time_limit(monkeypatch):
                             "compare and animate) is reached before its check against the closed form", row
 
 
+def test_found_compare_native_closed_form_past_the_time_limit(monkeypatch):
+    """pin_in_spline_slot's closed form is a Python loop (a Brent root an instant, 1.7 ms each): compare at
+    100,000 steps with --max-seconds 5 ran 169 s of it past the limit (native's solve: 0.3 s). Now the loop looks
+    at the limit every 1,024 instants, and past it the native row is out of time, saying where it stopped."""
+    import time
+
+    from adapters import references
+    from adapters.base import OutOfTime, Status, limited
+    from kinem.solver import solve
+
+    slot = ROOT / "cases" / "pin_in_spline_slot.toml"
+    model = kinem.compile(kinem.load(slot).with_time(steps=40))
+    native = solve(model)
+    with limited((5, time.time() - 1.0)), pytest.raises(OutOfTime):
+        references.closed_form(model, native)
+    assert references.closed_form(model, native) is not None   # no limit: the same check
+
+    def late(t, steps=0, wall=0.0):
+        raise OutOfTime(Status.OUT_OF_TIME, f"the time limit is reached at t = {t:.6g}")
+
+    monkeypatch.setattr(references, "in_time", late)
+    code, out, err = _compare([str(slot), "--engines", "native", "--steps", "40", "--json"])
+    row = _strict(out)["engines"]["native"]
+    assert code == 1 and (row["outcome"], row["verdict"]) == ("out of time", "out of time"), row
+    assert row["status"] == "failed: the time limit is reached at t = 0 of its check against the closed form", row
+
+
 @pytest.mark.parametrize("engine", ENGINES)
 def test_found_an_engines_own_checks_past_the_time_limit(monkeypatch, engine):
     """An engine's run was bounded between its output intervals, not in the checks after an attempt (the
