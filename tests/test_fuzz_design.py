@@ -1554,7 +1554,7 @@ def test_found_report_design_section_without_points(tmp_path):
 
 
 def _strict(text):
-    """JSON as RFC 8259 has it: NaN and Infinity are no numbers (jq and JavaScript's JSON.parse refuse them)."""
+    """JSON as RFC 8259 has it: NaN and Infinity are no numbers (strict readers refuse them)."""
     def refuse(constant):
         raise ValueError(f"{constant} is no JSON number")
     return json.loads(text, parse_constant=refuse)
