@@ -16,6 +16,7 @@ seconds in the engine's stepping calls; ``overhead``: the adapter's own Python
 around them, building and sampling included) and the typed status. An engine
 implements ``version``, ``defaults``/``checks`` and ``simulate``.
 """
+import contextlib
 import contextvars
 import enum
 import math
@@ -43,6 +44,7 @@ class Status(str, enum.Enum):
     FAILED = "failed"             # the engine stopped: build error, solver failure
     DIVERGED = "diverged"         # the engine ran, the solution left the mechanism
     NONFINITE = "non-finite"      # NaN or infinite coordinates
+    OUT_OF_TIME = "out of time"   # the run's time limit is reached (OutOfTime: compare and animate --max-seconds)
 
     def label(self, detail: str = "") -> str:
         if self is Status.OK:
@@ -87,7 +89,8 @@ class Failure(Exception):
 
 class OutOfTime(Failure):
     """The run's time limit (``Adapter.run``'s ``limit``) is reached: the
-    run ends, never refined nor retried, and no earlier attempt stands."""
+    run ends, never refined nor retried, and no earlier attempt stands; its
+    status is Status.OUT_OF_TIME (the cause kept, never read from a clock)."""
 
 
 # The time limit of the run in this thread (Adapter.run's ``limit``): (seconds, its time.time() deadline), or None.
@@ -100,7 +103,18 @@ def in_time(t, steps=0, wall=0.0):
     intervals (kinem.budget's words: compare's native solves)."""
     limit = _LIMIT.get()
     if limit is not None and time.time() > limit[1]:
-        raise OutOfTime(Status.FAILED, f"{out_of_time(limit[0])} at t = {t:.6g}", steps, wall=wall)
+        raise OutOfTime(Status.OUT_OF_TIME, f"{out_of_time(limit[0])} at t = {t:.6g}", steps, wall=wall)
+
+
+@contextlib.contextmanager
+def limited(limit):
+    """``in_time``'s limit for what runs within: (seconds, its time.time() deadline), or None (Adapter.run's,
+    and the native row's closed form in adapters.compare)."""
+    token = _LIMIT.set(limit)
+    try:
+        yield
+    finally:
+        _LIMIT.reset(token)
 
 
 def deadline():
@@ -319,11 +333,8 @@ class Adapter:
         ``limit``: (seconds, the time.time() instant they end) the whole
         run may take, refinements included (kinem compare --max-seconds);
         past it the run fails with kinem.budget's message (``in_time``)."""
-        token = _LIMIT.set(limit)
-        try:
+        with limited(limit):
             return self._run(model, q0, qd0, settings)
-        finally:
-            _LIMIT.reset(token)
 
     def _run(self, model, q0, qd0, settings) -> EngineRun:
         began = time.perf_counter()
@@ -379,14 +390,18 @@ class Adapter:
                 state.update(estimate=kept[3], capped=True)
                 failure = None
                 break
-            again = self.retry(model, s, times, auto, failure, *((None, None) if failure else (Q, QD))) \
-                if attempt == 1 and auto else None
-            if not again and failure is None and "dt" in auto and self.order:
-                again = self.refine(model, s, times, Q, QD, state, last=attempt == 1 + MAX_REFINEMENTS,
-                                    first=not state.get("rated"))
-                state["rated"] = True
-                if again:
-                    kept = (Q, QD, dict(s), state["estimate"])
+            try:   # the checks of a run are bounded by its time limit too (in_time)
+                again = self.retry(model, s, times, auto, failure, *((None, None) if failure else (Q, QD))) \
+                    if attempt == 1 and auto else None
+                if not again and failure is None and "dt" in auto and self.order:
+                    again = self.refine(model, s, times, Q, QD, state, last=attempt == 1 + MAX_REFINEMENTS,
+                                        first=not state.get("rated"))
+                    state["rated"] = True
+                    if again:
+                        kept = (Q, QD, dict(s), state["estimate"])
+            except OutOfTime as e:
+                failure = e
+                break
             if not again:
                 break
             because, change = again
@@ -472,6 +487,9 @@ NEAR_SINGULAR = 1e-6   # smallest / largest singular value of the dimensionless 
                        # estimate was 0.4 of V and refining made Exudyn stop)
 
 
+CHECK_EVERY = 1024   # instants of an engine's own check (self_check) between looks at the run's time limit
+
+
 def self_check(model, Q, QD, times) -> dict:
     """The errors of an engine's trajectory estimated from the constraints
     alone, without native's trajectory: a kinematically driven mechanism
@@ -489,7 +507,9 @@ def self_check(model, Q, QD, times) -> dict:
     L = model.length
     dpos = dang = dvel = dw = 0.0
     vmax = wmax = 0.0
-    for q, qd, t in zip(Q, QD, times):
+    for i, (q, qd, t) in enumerate(zip(Q, QD, times)):
+        if not i % CHECK_EVERY:
+            in_time(t)   # the run's time limit holds for its own checks too (a Python loop over the instants)
         J = model.jacobian(q, t, sparse=False)
         sv = np.linalg.svd(model.assemble(model.jac_values(q, t) * model.entry_scale, False), compute_uv=False)
         if not sv[-1] > NEAR_SINGULAR * sv[0]:   # through a singular configuration: no estimate, no refinement

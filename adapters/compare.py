@@ -28,7 +28,7 @@ import numpy as np
 
 from kinem.fingerprint import compact, kind, scaled
 
-from .base import Status
+from .base import OutOfTime, Status, limited
 
 
 class Verdict(enum.Enum):
@@ -40,6 +40,7 @@ class Verdict(enum.Enum):
     CAPPED = "cannot reach the tolerance within the cost cap"
     UNSUPPORTED = "unsupported"
     FAILED = "failed"
+    OUT_OF_TIME = "out of time"   # stopped at --max-seconds (Status.OUT_OF_TIME): a failure, its cause named
     NONE = ""                     # no tolerance given
     SELF = "no independent reference"                     # native checked only against itself
     CONSISTENT = "consistent with the engines' consensus"  # outside against native, but native is the one off
@@ -47,7 +48,7 @@ class Verdict(enum.Enum):
 
     @property
     def fails(self) -> bool:
-        return self in (Verdict.OUTSIDE, Verdict.CAPPED, Verdict.FAILED, Verdict.DISAGREES)
+        return self in (Verdict.OUTSIDE, Verdict.CAPPED, Verdict.FAILED, Verdict.OUT_OF_TIME, Verdict.DISAGREES)
 
 
 @dataclass(frozen=True)
@@ -87,6 +88,8 @@ class Comparison:
     def verdict(self) -> Verdict:
         if self.status is Status.UNSUPPORTED:
             return Verdict.UNSUPPORTED
+        if self.status is Status.OUT_OF_TIME:
+            return Verdict.OUT_OF_TIME
         if self.status is not Status.OK:
             return Verdict.FAILED
         if self.engine == "native":
@@ -145,12 +148,13 @@ class Comparison:
     def as_dict(self) -> dict:
         """JSON-ready: ``status`` the one-string label, ``outcome`` its kind."""
         d = {k: v for k, v in asdict(self).items() if k not in ("detail", "compact")}
-        d = {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in d.items()}
         d["attributed"] = None if self.attributed is None else asdict(self.attributed)
-        return dict(d, status=self.label, outcome=self.status.value, verdict=self.verdict.value,
-                    verdict_text=self.verdict_text, steps_per_interval=self.steps_per_interval,
-                    cost_per_interval=self.cost_per_interval,
-                    exceeded=[{"figure": k, "value": x, "limit": limit} for k, x, limit in self.exceeded])
+        d = dict(d, status=self.label, outcome=self.status.value, verdict=self.verdict.value,
+                 verdict_text=self.verdict_text, steps_per_interval=self.steps_per_interval,
+                 cost_per_interval=self.cost_per_interval,
+                 exceeded=[{"figure": k, "value": x, "limit": limit} for k, x, limit in self.exceeded])
+        # a figure not computed is null, never NaN (no JSON number): a row not run has no cost either
+        return {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in d.items()}
 
 
 FIGURES = ("position_error", "position_error_rel", "angle_error", "velocity_error", "velocity_error_rel",
@@ -304,6 +308,8 @@ def attribute(model, native, rows) -> list:
     from dataclasses import replace
 
     ok = [r for r in rows if r.engine != "native" and r.ok and r.compact is not None]
+    if len(ok) < 2:   # no consensus without two engines (``consensus``): native's columns are not made for it
+        return list(rows)
     trajs = {"native": compact(model, native.trajectory), **{r.engine: r.compact for r in ok}}
     c = consensus(trajs, {r.engine: r.tolerance for r in ok}, {r.engine: asdict(r) for r in ok},
                   model.length, speed(model, native.trajectory))
@@ -319,18 +325,33 @@ def native_row(model, native, options=None) -> Comparison:
     case's closed form where it has one (adapters.references: positions,
     velocities and accelerations within references.LIMITS, the last named
     in the detail), else no figure: nothing independent checked it
-    (Verdict.SELF), never a zero against itself."""
+    (Verdict.SELF), never a zero against itself. The closed form is not
+    begun past options.max_seconds (``engines_deadline``): the row is then
+    out of time (Status.OUT_OF_TIME), its figures not computed."""
+    import time
+
+    from kinem.budget import out_of_time
     from kinem.linalg import choose
     from kinem.options import Options
 
-    from .references import LIMITS, closed_form, error
+    from .references import CLOSED_FORMS, LIMITS, closed_form, error
 
     options = Options.of(model.case) if options is None else options
     res = model.kinematic_residual(native.q, native.trajectory.t)
     steps = len(native.iterations)
     n = max(steps - 1, 1)
-    cf = closed_form(model, native) if native.success else None
+    limit = engines_deadline(options)
+    late = native.success and model.case.name in CLOSED_FORMS and limit is not None and time.time() > limit[1]
+    cf = None
     checked, detail, within = {}, "" if native.success else native.message, native.success
+    if late:
+        detail, within = f"{out_of_time(limit[0])} before its check against the closed form", False
+    elif native.success:
+        try:
+            with limited(limit):   # a closed form that loops over the instants looks at it (in_time)
+                cf = closed_form(model, native)
+        except OutOfTime as e:
+            late, detail, within = True, f"{e.detail} of its check against the closed form", False
     if cf is not None:
         f = error(model, native.trajectory, cf)
         # the report's limits (LIMITS' keys are results.json's) on this row's own figures
@@ -342,7 +363,8 @@ def native_row(model, native, options=None) -> Comparison:
                        tolerance=limits)
         within = all(checked[k] <= limit for k, limit in limits.items())
         detail = f"against the {cf.label}; accelerations {f.acceleration_rel:.2e} of the peak"
-    return Comparison(engine="native", status=Status.OK if native.success else Status.FAILED,
+    return Comparison(engine="native", status=Status.OUT_OF_TIME if late else
+                      Status.OK if native.success else Status.FAILED,
                       detail=detail, independent=cf is not None, intervals=n,
                       constraint_residual=res, wall_time=native.wall_time, steps=steps, substeps=1,
                       time_per_step=native.wall_time / max(steps, 1), time_per_interval=native.wall_time / n,
@@ -376,7 +398,7 @@ def _run_engine(task):
     return run_engine(*task)
 
 
-def time_limit(options):
+def engines_deadline(options):
     """The engines' runs' share of ``options.max_seconds`` (counted from
     options.started, as native's solves): (seconds, the time.time() instant
     it ends; the same on a Dask worker of this machine) or None."""
@@ -391,7 +413,7 @@ def time_limit(options):
 def run_case(model, engines, overrides=None, scheduler=None, options=None):
     """Native solution (solved with ``options``, kinem.Options; default the
     case's) and one Comparison per engine ('native' included when asked);
-    the engines' runs end at options.max_seconds too (``time_limit``).
+    the engines' runs end at options.max_seconds too (``engines_deadline``).
     overrides: engine name -> settings. The engines run in this process, or
     on the workers of a Dask scheduler (an address)."""
     from kinem import parallel
@@ -405,7 +427,7 @@ def run_case(model, engines, overrides=None, scheduler=None, options=None):
         parallel.check_address(scheduler)
     check_solutions(model, 1 + sum(n != "native" for n in engines), "compare", "fewer instants (--steps) or engines")
     native = solve(model, options=options)
-    limit = time_limit(options)
+    limit = engines_deadline(options)
     todo = [(model, native, n, (overrides or {}).get(n), limit) for n in engines if n != "native" and native.success]
     done = iter(parallel.map(_run_engine, todo, jobs=0, scheduler=scheduler))
     rows = []

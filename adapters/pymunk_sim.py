@@ -42,8 +42,9 @@ import numpy as np
 import pymunk
 
 
-from .base import (Adapter, Failure, Reason, Status, boolean, count, count_or_auto, count_or_none, drive_table, drives,
-                   fraction, grounded, in_time, mass_properties, nonnegative, numbers, positive, step_or_auto)
+from .base import (CHECK_EVERY, Adapter, Failure, Reason, Status, boolean, count, count_or_auto, count_or_none,
+                   drive_table, drives, fraction, grounded, in_time, mass_properties, nonnegative, numbers, positive,
+                   step_or_auto)
 
 # Agreement with native at the default settings, in the figures of
 # adapters.compare (max over instants, bodies and named points). The scheme is
@@ -68,6 +69,8 @@ UNCONVERGED = 1e-6  # velocity residual of the loop-closure constraints, relativ
                # run leaves <= 1e-7 (measured over 100+ random quick-returns at 25-100
                # iterations), an unconverged one 3e-7 to 0.2 with velocity errors ~4e5 x it
 TINY = 1e-12   # offset (in L) below which a point is on a line / at a centre
+TABLE_CHUNK = 65536   # engine steps whose driving tables (Python lists) are made at a time, between output
+               # intervals: never the whole run's at once (23 s for 10^7 steps), so --max-seconds bounds them
 
 STATIC, KINEMATIC = pymunk.Body.STATIC, pymunk.Body.KINEMATIC
 
@@ -419,37 +422,51 @@ class PymunkAdapter(Adapter):
                 X[3 * k: 3 * k + 3] = v.x, v.y, b.angular_velocity
 
         # Before step j: the pose that the step carries onto pose(t_{j+1}) with
-        # the velocity (pose(t_{j+2}) - pose(t_{j+1})) / dt.
-        kin = []
-        for b, *pose in mech.kinematic:
-            vel = [np.diff(a)[1:] / dt for a in pose]
-            start = [a[1:-1] - dt * v for a, v in zip(pose, vel)]
-            kin.append((b, list(zip(start[0], start[1])), start[2].tolist(),
-                        list(zip(vel[0], vel[1])), vel[2].tolist()))
-        targets = [(j, attr, v.tolist()) for j, attr, v in mech.targets]
+        # the velocity (pose(t_{j+2}) - pose(t_{j+1})) / dt; as lists for
+        # steps lo .. made - 1 (``window``), TABLE_CHUNK steps at a time.
+        kin, targets, lo, made = [], [], 0, 0   # the tables hold steps lo .. made - 1
+
+        def window(j, n):
+            """The tables of steps j .. j + n - 1 at least, made outside the stepping's timing."""
+            nonlocal kin, targets, lo, made
+            if lo <= j and j + n <= made:
+                return
+            hi = min(max(j + n, j + TABLE_CHUNK), len(tt) - 2)
+            kin, lo, made = [], j, hi
+            for b, *pose in mech.kinematic:
+                vel = [(a[j + 2:hi + 2] - a[j + 1:hi + 1]) / dt for a in pose]
+                start = [a[j + 1:hi + 1] - dt * v for a, v in zip(pose, vel)]
+                kin.append((b, list(zip(start[0], start[1])), start[2].tolist(),
+                            list(zip(vel[0], vel[1])), vel[2].tolist()))
+            targets = [(jt, attr, v[j:hi].tolist()) for jt, attr, v in mech.targets]
+
         closure = ~model.driving if model.n == Q.shape[1] else None   # no artificial coordinates
         space, centered = mech.space, s["centered_velocity"]
         perf, stepper = time.perf_counter, space.step
 
         def steps(n, j):
             """n engine steps from step number j, prescribed bodies and targets set before each."""
-            for i in range(j, j + n):
+            for i in range(j - lo, j - lo + n):
                 for b, p, a, v, w in kin:
                     b.angle, b.position, b.velocity, b.angular_velocity = a[i], p[i], v[i], w[i]
                 for jt, attr, v in targets:
                     setattr(jt, attr, v[i])
                 stepper(dt)
 
-        if not kin and not targets:        # nothing to set between steps: the tightest loop
+        if not mech.kinematic and not mech.targets:        # nothing to set between steps: the tightest loop
             def steps(n, j):  # noqa: F811
                 for _ in range(n):
                     stepper(dt)
+
+            def window(j, n):  # noqa: F811
+                pass
 
         read_q(Q[0])
         read_v(QD[0])
         wall, step = 0.0, 0
         for k in range(1, len(times)):
             in_time(times[k - 1], step, wall)   # compare --max-seconds, between output intervals
+            window(step, n_sub)
             first = n_sub - 1 if centered else n_sub
             start = perf()
             steps(first, step)
@@ -494,7 +511,9 @@ def velocity_residual(model, Q, QD, times, rows):
     if n == 0 or rate == 0.0:
         return 0.0
     worst = 0.0
-    for q, qd, t in zip(Q, QD, times):
+    for i, (q, qd, t) in enumerate(zip(Q, QD, times)):
+        if not i % CHECK_EVERY:
+            in_time(t)   # the run's time limit (Adapter.run) holds for its checks too
         r = model.jacobian(q, t, sparse=False) @ qd - model.nu(t)
         worst = max(worst, float(model.scaled_residual(r)[rows].max(initial=0.0)))
     return worst / rate

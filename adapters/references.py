@@ -22,7 +22,7 @@ import numpy as np
 from kinem import reference
 from kinem.reference import drive, turned, wrap
 
-from .base import grounded
+from .base import grounded, in_time
 
 FIT = 1e-6   # relative to L: the closed form must reproduce the t = 0 assembly this well to apply
 PARALLEL = 1e-9   # sine of the angle under which two directions count as parallel
@@ -347,7 +347,7 @@ def pin_in_slot(model, traj):
         X = reference.circle_x(Y, o.radius, np.sign((P0 - Q).real))
         label = "closed form kinem.reference.circle_x (Eq. 4.30 on a circle: x = sqrt(R^2 - y^2))"
     else:
-        X, _ = reference.pin_in_outline(Y, _outline_s(o), np.angle(P0 - Q))
+        X, _ = reference.pin_in_outline(Y, _outline_s(o), np.angle(P0 - Q), lambda k: in_time(traj.t[k]))
         label = "kinem.reference.pin_in_outline (Eq. 4.30: scipy's periodic CubicSpline of the slot, Brent's root)"
     P = (Q + X[0] + 1j * Y[0], X[1] + 1j * Y[1], X[2] + 1j * Y[2])
     zero = np.zeros_like(Y[0])

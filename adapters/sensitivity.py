@@ -24,6 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from kinem.errors import InputError
+
 from .base import Status
 
 STEP = 1e-3    # h, of the parameter's scale (max(|p|, L) for a length, max(|p|, 1) else)
@@ -82,10 +84,10 @@ def check(model, paths, engines, overrides=None, options=None):
     from kinem.solver import solve
 
     from . import case_settings, get
-    from .compare import time_limit
+    from .compare import engines_deadline
 
     case = model.case
-    bound = time_limit(options)   # the engines' runs end at options.max_seconds too
+    bound = engines_deadline(options)   # the engines' runs end at options.max_seconds too
     listed = resolve(case, paths)
     exact = sensitivity(model, [p.path for p in listed], outputs=("positions",), options=options)
     cols = [c for c in columns(model) if c in exact.trajectory]
@@ -104,7 +106,16 @@ def check(model, paths, engines, overrides=None, options=None):
     out = []
     for p in listed:
         h = step(model, p)
-        moved = {s: compile(apply(case, {p.path: p.value + s * h})) for s in (1, -1, 2, -2)}
+        moved, invalid = {}, None
+        for s in (1, -1, 2, -2):
+            try:
+                moved[s] = compile(apply(case, {p.path: p.value + s * h}))
+            except InputError as e:   # a length or radius below 2h: no differences, not the user's input
+                invalid = invalid or f"p {'+-'[s < 0]} {abs(s) if abs(s) > 1 else ''}h = {p.value + s * h:.6g} " \
+                                     f"is not a valid case ({e.summary()})"
+        if invalid:
+            out.append(Check("native", p.path, Status.FAILED, f"native at p +- h: {invalid}", h))
+            continue
         native = {s: solve(m, outputs=("positions",), options=options) for s, m in moved.items()}
         bad = [r.message for r in native.values() if not r.success]
         if bad:

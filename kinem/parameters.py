@@ -96,13 +96,14 @@ def resolve(case: Case, paths, where: str | None = None) -> tuple[Parameter, ...
     return tuple(out)
 
 
-def validated(data, source: str, stacklevel: int = 1, as_written: bool = True) -> Case:
+def validated(data, source: str, stacklevel: int = 1, as_written: bool = True, warned=None) -> Case:
     """A dict with a case file's structure as a Case (kinem.loader.build),
     with the design parameter paths it names checked ([tolerances]: paths and
     sizes; [report] sensitivity) and a warning for each fast driver
     (kinem.loader.fast_drivers): kinem.load_dict without values set.
     ``stacklevel``: the warnings', counted from the caller; ``as_written``:
-    kinem.loader.build's (False for a case_dict's variants)."""
+    kinem.loader.build's (False for a case_dict's variants); ``warned``: a
+    list that receives the warnings' texts (one tuple) instead of warnings."""
     case = build(data, source, as_written)
     if case.tolerances:   # their paths and sizes need the whole case
         tolerances_of(case)
@@ -111,7 +112,11 @@ def validated(data, source: str, stacklevel: int = 1, as_written: bool = True) -
         if len(listed) > MAX_SENSITIVITY:
             raise InputError(f"{case.source}: [report]: key 'sensitivity': {len(listed)} design parameters; "
                              f"expected {SENSITIVITY_EXPECTED}")
-    for text in fast_drivers(case):
+    texts = fast_drivers(case)
+    if warned is not None:
+        warned.append(tuple(texts))
+        return case
+    for text in texts:
         warnings.warn(text, KinemWarning, stacklevel=stacklevel + 1)
     return case
 
@@ -201,11 +206,14 @@ def apply(case: Case, values, source: str | None = None) -> Case:
     return variant
 
 
-def apply_many(case: Case, designs, source: str | None = None, pinned: bool = False) -> list:
+def apply_many(case: Case, designs, source: str | None = None, pinned: bool = False, warned=None) -> list:
     """``apply`` for many designs ({path: number} each) of one case, paths
     resolved once: per design its Case, or the InputError that refuses it.
     ``pinned``: every body keeps its frame (a drawn body too: the moved
-    drawing's local coordinates are then affine in the drawn ones)."""
+    drawing's local coordinates are then affine in the drawn ones);
+    ``warned``: a list that receives each design's warnings as a tuple of
+    texts (empty for a refused design), in the designs' order, instead of
+    warnings (kinem.sweep: which variants warned)."""
     import copy
 
     source = source or case.source
@@ -219,9 +227,11 @@ def apply_many(case: Case, designs, source: str | None = None, pinned: bool = Fa
         for path, v in values.items():
             _assign(d, case, path, v)
         try:
-            out.append(validated(d, source, as_written=False))
+            out.append(validated(d, source, as_written=False, warned=warned))
         except InputError as e:
             out.append(e)
+            if warned is not None:
+                warned.append(())
     return out
 
 

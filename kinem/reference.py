@@ -309,19 +309,22 @@ def polar_spline(theta, s, bc="periodic"):
     return lambda x: (sp(x), sp(x, 1), sp(x, 2))
 
 
-def pin_in_outline(Y, s, theta0):
+def pin_in_outline(Y, s, theta0, check=None):
     """Pin on a slot p = s(theta) e^{i theta} (Eq. 4.30) whose y is the motion
     Y: theta solves s(theta) sin(theta) = y at each instant (a bracketed
     scalar root, Brent, from the previous instant's theta; theta0 at t = 0).
     Returns the pin's x (a motion) and theta. Rates: g = s sin, h = s cos:
     theta' = y' / g', theta'' = (y'' - g'' theta'^2) / g', x' = h' theta',
-    x'' = h'' theta'^2 + h' theta''."""
+    x'' = h'' theta'^2 + h' theta''. ``check(k)``: called every 1,024
+    instants (a Python loop of ~2 ms an instant: the caller's time limit)."""
     from scipy.optimize import brentq
 
     y, vy, ay = Y
     th = np.empty_like(y)
     prev = theta0
     for k, yk in enumerate(y):
+        if check is not None and not k % 1024:
+            check(k)
         f = lambda x: s(x)[0] * np.sin(x) - yk   # noqa: E731
         step = 0.05
         while f(prev - step) * f(prev + step) > 0:

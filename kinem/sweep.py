@@ -151,10 +151,9 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
     own, fast = set(fast_drivers(nominal)), []   # the case's own warnings are the base's, given once
     for start in range(0, len(grid_values), LOAD_CHUNK):
         rows = grid_values[start:start + LOAD_CHUNK]
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", KinemWarning)
-            loaded = apply_many(nominal, [dict(zip(names, row.tolist())) for row in rows])
-        fast += [str(w.message) for w in caught if issubclass(w.category, KinemWarning) and str(w.message) not in own]
+        warned = []   # each variant's warnings: fast counts variants, not warnings
+        loaded = apply_many(nominal, [dict(zip(names, row.tolist())) for row in rows], warned=warned)
+        fast += [(k, new[0]) for k, texts in enumerate(warned, start) if (new := [w for w in texts if w not in own])]
         for k, variant in enumerate(loaded, start):
             if isinstance(variant, InputError):
                 cases.append(None)
@@ -164,8 +163,8 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
             if progress:
                 progress.step(f"variant {k + 1} loaded")
     if fast:   # a driver swept fast (a rate in degrees?): one line for all, not one a variant
-        warnings.warn(f"sweep: {len(fast):,} warning(s) of the variants that the case itself does not give; first: "
-                      f"{fast[0]}", KinemWarning, stacklevel=2)
+        warnings.warn(f"sweep: {len(fast):,} of {len(grid_values):,} variants warn where the case itself does not; "
+                      f"first, variant {fast[0][0]}: {fast[0][1]}", KinemWarning, stacklevel=2)
     out = np.full((len(grid_values), len(base.times), len(columns)), np.nan)
     valid = [k for k, c in enumerate(cases) if c is not None]
     if not (valid and _variants(base, paths, grid_values, valid, columns, out, errors, progress)):

@@ -76,6 +76,9 @@ def tolerance(model, tolerances=None, samples=1000, outputs=None, seed=0, progre
         if isinstance(v, bool) or not isinstance(v, numbers.Integral) or v < 0 or (most is not None and v > most):
             raise InputError(f"{case.source}: tolerance: {key} {v!r:.80}: expected a whole number from 0"
                              + (f" to {most:,}" if most is not None else ""))
+    if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, numbers.Integral) or chunk < 1):
+        raise InputError(f"{case.source}: tolerance: chunk {chunk!r:.80}: expected None or a whole number from 1 "
+                         "(samples solved at a time)")   # -1 solved no sample, unseen; a text raised TypeError
     if progress is not None and not callable(progress):   # called after the first samples: refused before them
         raise InputError(f"{case.source}: tolerance: progress {progress!r:.80}: expected None or a function "
                          "progress(done, total)")

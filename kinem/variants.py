@@ -110,6 +110,8 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
     nominal = np.array([p.value for p in listed])
     times = model.times if times is None else _checked_times(times)
     options = model.options if options is None else options
+    if not isinstance(options, Options):   # as one solve's (kinem.solver.solve)
+        raise InputError(f"solve: options {type(options).__name__}: expected a kinem.Options")
     if options.started is None:   # the time limit counts for the whole batch
         options = replace(options, started=time.perf_counter())
     columns, stages = _asked(model, outputs)
@@ -125,6 +127,9 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
     if not all(affine(case, p.path) for p in listed) or not usable(model, False, len(times), options):
         return _merged(model, listed, values, columns, times, q0, options)
     K, N = len(times), len(values)
+    refused = _refused(case, listed, values)   # bad input: marched as the nominal, never solved, said so below
+    marched = values.copy()
+    marched[list(refused)] = nominal
     data, start = np.empty((N, K, len(columns))), np.empty((N, model.n))
     end, why, det = np.empty(N, np.int64), np.empty(N, np.uint8), np.empty(N, np.int8)
     names, src, _ = _layout(model, stages)
@@ -139,13 +144,14 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
              np.ascontiguousarray(model.point_local, complex), dlocal)
     model.plan.variants([(kind, t) for kind, t in base[0]], base[1], base[2],
                         [([d for _, _, d in fams], f[1], o[1]) for (fams, f, o), _ in tangents],
-                        asked, np.ascontiguousarray(values - nominal), np.ascontiguousarray(times, float), q0,
+                        asked, np.ascontiguousarray(marched - nominal), np.ascontiguousarray(times, float), q0,
                         settings, (data, start, end, why, det), lanes)
     status = tuple(native.Why(int(w)) for w in why)
     d0 = _det(model, q0, times[0])
     flipped = (det != 0) & (det != d0)
     success, resolved, messages = end == K, np.zeros(N, bool), [""] * N
-    again = [k for k in np.flatnonzero(~success) if status[k] not in (native.Why.OUT_OF_TIME, native.Why.INTERRUPTED)]
+    again = [k for k in np.flatnonzero(~success) if status[k] not in (native.Why.OUT_OF_TIME, native.Why.INTERRUPTED)
+             and k not in refused]
     nominal = dict(zip(model.coordinate_names, q0))
     for k, case_k in zip(again, _cases(case, listed, values[again])):
         done, = solve_merged([case_k], columns, start=nominal, times=times, options=options)   # alone
@@ -153,7 +159,7 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
             data[k], start[k], success[k], resolved[k] = done.data, done.q, True, True
         else:
             messages[k] = done.why
-    for k, why in _refused(case, listed, values).items():
+    for k, why in refused.items():
         data[k], success[k], resolved[k], messages[k] = np.nan, False, False, why
     for k in np.flatnonzero(~success):
         messages[k] = messages[k] or f"stopped at t = {times[end[k]]:.6g} (instant {end[k]}): {status[k].message}"
@@ -164,13 +170,18 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
 def _refused(case, listed, values) -> dict:
     """{variant: why} for the variants that set a positive length or radius
     (a PositiveKey: a link's length, a gear's or a roller's radius) to zero
-    or less: bad input, as a case file with it would be."""
+    or less, or any number beyond MAX_MAGNITUDE: bad input, as a case file
+    with it would be."""
+    from .casefile.checks import MAX_MAGNITUDE
     from .casefile.keys import PositiveKey
     from .constraints import REGISTRY
     from .constraints.read import constraint_id
 
     out = {}
     for j, p in enumerate(listed):
+        for k in np.flatnonzero(np.abs(values[:, j]) > MAX_MAGNITUDE):
+            out.setdefault(int(k), f"bad input: {case.source}: {p.path} = {values[k, j]:g}: expected a number of "
+                                   f"magnitude at most {MAX_MAGNITUDE:g}")
         parts = p.path.split(".")
         c = next((c for c in case.constraints if constraint_id(c) == parts[1]), None) if len(parts) == 3 else None
         if c is None or not any(isinstance(k, PositiveKey) and k.name == parts[2] for k in REGISTRY[c.type].keys):
@@ -229,7 +240,7 @@ def _asked(model, outputs):
     (every column of them) or column names."""
     from .casefile.checks import suggest
 
-    if not isinstance(outputs, (str, Iterable)):
+    if not isinstance(outputs, (str, Iterable)) or isinstance(outputs, (bytes, bytearray)):
         raise InputError(f"{model.case.source}: solve: outputs {outputs!r:.80}: expected stages (positions, "
                          "velocities, accelerations) or trajectory column names such as B.x")
     outputs = (outputs,) if isinstance(outputs, str) else tuple(outputs)

@@ -996,7 +996,7 @@ def test_found_compare_engines_past_the_time_limit(monkeypatch, engine):
 
     from adapters import compare
 
-    monkeypatch.setattr(compare, "time_limit", lambda options: (options.max_seconds, time.time() - 1.0), raising=False)
+    monkeypatch.setattr(compare, "engines_deadline", lambda options: (options.max_seconds, time.time() - 1.0))
     code, out, err = _compare([str(FOUR_BAR), "--engines", f"native,{engine}", "--steps", "40", "--max-seconds",
                                "30"])
     assert code == 1 and err == "", (out, err)
@@ -1019,7 +1019,7 @@ def test_an_engine_run_stops_at_its_time_limit(engine):
     model = kinem.compile(kinem.load(FOUR_BAR).with_time(steps=200_000, end=2000.0))
     start = time.time()
     run = get(engine).run(model, limit=(0.5, start + 0.5))
-    assert run.status is Status.FAILED and run.detail.startswith("the time limit of 0.5 s (Options.max_seconds") \
+    assert run.status is Status.OUT_OF_TIME and run.detail.startswith("the time limit of 0.5 s (Options.max_seconds") \
         and " is reached at t = " in run.detail, run.detail
     assert run.trajectory is None and not run.notes, run.notes
 
@@ -1030,7 +1030,7 @@ def test_compare_sensitivity_engines_past_the_time_limit(monkeypatch):
 
     from adapters import compare
 
-    monkeypatch.setattr(compare, "time_limit", lambda options: (options.max_seconds, time.time() - 1.0), raising=False)
+    monkeypatch.setattr(compare, "engines_deadline", lambda options: (options.max_seconds, time.time() - 1.0))
     code, out, err = _compare([str(FOUR_BAR), "--engines", "native,pymunk", "--steps", "40", "--sensitivity",
                                "points.A.at.0", "--max-seconds", "30"])
     assert code == 1 and err == "", (out, err)
@@ -1045,7 +1045,7 @@ def test_found_animate_engines_past_the_time_limit(tmp_path, monkeypatch):
 
     from adapters import compare
 
-    monkeypatch.setattr(compare, "time_limit", lambda options: (options.max_seconds, time.time() - 1.0), raising=False)
+    monkeypatch.setattr(compare, "engines_deadline", lambda options: (options.max_seconds, time.time() - 1.0))
     out = tmp_path / "a.svg"
     code, line = run_main(["animate", str(FOUR_BAR), "--out", str(out), "--engines", "native,pymunk",
                            "--max-seconds", "30"])
@@ -1254,8 +1254,320 @@ def test_found_a_sweep_into_fast_drivers_said_nothing(tmp_path):
                      "--out", str(out)])
     lines = buf.getvalue().splitlines()
     assert code == 1 and len(lines) == 2, lines   # two variants fail on the way: their own line
-    assert lines[0].startswith("kinem: warning: sweep: 4 warning(s) of the variants that the case itself does not "
-                               "give; first: ") and "turns body 'crank' at up to 500.8 rad/s" in lines[0], lines
+    assert lines[0].startswith("kinem: warning: sweep: 4 of 5 variants warn where the case itself does not; first, "
+                               "variant 1: ") and "turns body 'crank' at up to 500.8 rad/s" in lines[0], lines
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         kinem.sweep(str(FOUR_BAR), {"constraints.crank-drive.d.poly.1": [1.4, 1.6]}, ["B.x"])
+
+
+# -- session 29, part 11 (docs/benchmarks.md, "Fuzz campaign, session 29"): what part 10 left ------------------
+
+def _engine_returning(monkeypatch, engine, status, detail):
+    """The engine's Adapter.run made to return a run of that status (its cause kept by the run alone)."""
+    from adapters import get
+    from adapters.base import EngineRun
+
+    def run(self, model, *a, **k):
+        return EngineRun(engine=engine, status=status, detail=detail, trajectory=None, q=None, qd=None)
+
+    monkeypatch.setattr(type(get(engine)), "run", run)
+
+
+def test_found_the_time_limit_told_by_the_clock(tmp_path, monkeypatch):
+    """An engine's run stopped by the time limit was told from other failures by the clock in animate (past the
+    deadline: EngineRun kept no cause), so another failure after the deadline read as the time limit, and a
+    run stopped by the limit on a clock that had not passed it (a worker's) was a ghost left out. Now the run
+    carries the limit as its own status (Status.OUT_OF_TIME), which animate reads: the time limit fails the
+    command whatever the clock says; another failure leaves the ghost out, named."""
+    import time
+
+    from adapters import compare
+    from adapters.base import Status
+
+    limit = "the time limit of 30 s (Options.max_seconds, --max-seconds of kinem solve, compare and animate) is " \
+            "reached at t = 0.5"
+    out = tmp_path / "a.svg"
+    _engine_returning(monkeypatch, "pymunk", Status.OUT_OF_TIME, limit)   # the clock far from the deadline
+    code, line = run_main(["animate", str(FOUR_BAR), "--out", str(out), "--engines", "native,pymunk",
+                           "--max-seconds", "30"])
+    assert (code, line) == (1, f"kinem: analysis failed: {FOUR_BAR}: pymunk: {limit}") and not out.exists(), line
+    _engine_returning(monkeypatch, "pymunk", Status.DIVERGED, "left the mechanism at t = 0.2")
+    monkeypatch.setattr(compare, "engines_deadline", lambda options: (options.max_seconds, time.time() - 1.0))
+    buf = io.StringIO()
+    with contextlib.redirect_stderr(buf):
+        code = main(["animate", str(FOUR_BAR), "--out", str(out), "--engines", "native,pymunk", "--max-seconds", "30"])
+    assert (code, buf.getvalue()) == (0, "pymunk: not drawn: failed: left the mechanism at t = 0.2\n") and out.exists()
+
+
+def test_out_of_time_is_a_status_and_a_verdict(monkeypatch):
+    """The same status in compare: the row's label keeps the one prefix of failures ("failed: the time limit ...")
+    and its JSON names the kind: outcome and verdict "out of time", which fails the run (exit 1); an engine's
+    run past its limit returns that status."""
+    import time
+
+    from adapters import compare, get
+    from adapters.base import Status
+    from adapters.compare import Verdict
+
+    assert Verdict.OUT_OF_TIME.fails and Status.OUT_OF_TIME.failure
+    monkeypatch.setattr(compare, "engines_deadline", lambda options: (options.max_seconds, time.time() - 1.0))
+    code, out, err = _compare([str(FOUR_BAR), "--engines", "native,pymunk", "--steps", "40", "--max-seconds", "30",
+                               "--json"])
+    row = json.loads(out)["engines"]["pymunk"]
+    assert code == 1 and err == "", err
+    assert (row["outcome"], row["verdict"]) == ("out of time", "out of time"), row
+    assert row["status"].startswith("failed: the time limit of 30 s"), row["status"]
+    model = kinem.compile(kinem.load(FOUR_BAR).with_time(steps=40))
+    run = get("pymunk").run(model, limit=(30, time.time() - 1.0))
+    assert run.status is Status.OUT_OF_TIME and run.label.startswith("failed: the time limit of 30 s"), run.label
+
+
+def test_out_of_time_is_in_the_report_schema():
+    """results.json's outcome and verdict enums hold the new members, so a run of that status is valid there."""
+    from adapters.base import Status
+    from adapters.compare import Verdict
+    from kinem.report.schema import SCHEMA
+
+    text = json.dumps(SCHEMA)
+    assert text.count('"out of time"') == 4, text.count('"out of time"')
+    assert Status("out of time") is Status.OUT_OF_TIME and Verdict("out of time") is Verdict.OUT_OF_TIME
+
+
+def test_found_the_sweep_counted_warnings_not_variants():
+    """The sweep's warning line counted warnings ("4 warning(s) of the variants"): a variant with two fast drivers
+    counted twice (caught per chunk of 64 variants, not per variant). Now it counts the variants that warn, and
+    names the first: a four-bar with a second crank (a wheel pinned to the ground), both rates swept over
+    {1.5, 2000}: 3 of 4 variants warn, one of them twice."""
+    doc = json.loads(json.dumps(BASES[FOUR_BAR]))
+    doc["bodies"]["wheel"] = {"q": [0.2, 0.0, 0.0]}
+    doc["constraints"] += [{"type": "revolute", "name": "W", "i": "ground", "si": "O4", "j": "wheel", "sj": [0.0, 0.0]},
+                           {"type": "driver", "name": "wheel-drive", "body": "wheel", "coord": "phi",
+                            "d": {"poly": [0.0, 1.0]}}]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        kinem.sweep(doc, {"constraints.crank-drive.d.poly.1": [1.5, 2000.0],
+                          "constraints.wheel-drive.d.poly.1": [1.0, 2000.0]}, ["B.x"])
+    said = [str(w.message) for w in caught if issubclass(w.category, kinem.KinemWarning)]
+    assert len(said) == 1 and said[0].startswith("sweep: 3 of 4 variants warn where the case itself does not; first, "
+                                                 "variant 1: <dict>: constraint "), said
+    assert "'wheel-drive'" in said[0], said
+
+
+def test_found_compare_native_row_past_the_time_limit(monkeypatch):
+    """compare's native row checked native against the case's closed form whatever the time: at 2,000,000 steps
+    and --max-seconds 8, 13 s of it after the limit (a four-bar, load 5). Now it is not begun past the limit: the
+    row is out of time, saying so, exit 1."""
+    import time
+
+    from adapters import compare
+
+    monkeypatch.setattr(compare, "engines_deadline", lambda options: (options.max_seconds, time.time() - 1.0))
+    code, out, err = _compare([str(FOUR_BAR), "--engines", "native", "--steps", "40", "--max-seconds", "30", "--json"])
+    row = json.loads(out)["engines"]["native"]
+    assert code == 1 and err == "", err
+    assert (row["outcome"], row["verdict"], row["independent"]) == ("out of time", "out of time", False), row
+    assert row["status"] == "failed: the time limit of 30 s (Options.max_seconds, --max-seconds of kinem solve, " \
+                            "compare and animate) is reached before its check against the closed form", row
+
+
+def test_found_compare_native_closed_form_past_the_time_limit(monkeypatch):
+    """pin_in_spline_slot's closed form is a Python loop (a Brent root an instant, 1.7 ms each): compare at
+    100,000 steps with --max-seconds 5 ran 169 s of it past the limit (native's solve: 0.3 s). Now the loop looks
+    at the limit every 1,024 instants, and past it the native row is out of time, saying where it stopped."""
+    import time
+
+    from adapters import references
+    from adapters.base import OutOfTime, Status, limited
+    from kinem.solver import solve
+
+    slot = ROOT / "cases" / "pin_in_spline_slot.toml"
+    model = kinem.compile(kinem.load(slot).with_time(steps=40))
+    native = solve(model)
+    with limited((5, time.time() - 1.0)), pytest.raises(OutOfTime):
+        references.closed_form(model, native)
+    assert references.closed_form(model, native) is not None   # no limit: the same check
+
+    def late(t, steps=0, wall=0.0):
+        raise OutOfTime(Status.OUT_OF_TIME, f"the time limit is reached at t = {t:.6g}")
+
+    monkeypatch.setattr(references, "in_time", late)
+    code, out, err = _compare([str(slot), "--engines", "native", "--steps", "40", "--json"])
+    row = _strict(out)["engines"]["native"]
+    assert code == 1 and (row["outcome"], row["verdict"]) == ("out of time", "out of time"), row
+    assert row["status"] == "failed: the time limit is reached at t = 0 of its check against the closed form", row
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_found_an_engines_own_checks_past_the_time_limit(monkeypatch, engine):
+    """An engine's run was bounded between its output intervals, not in the checks after an attempt (the
+    self-check of dt = "auto", a Python loop over the instants: minutes at millions of instants). Now they look
+    at the limit every CHECK_EVERY instants: here the limit is made to have passed for the checks alone."""
+    from adapters import base, get
+
+    def late(t, steps=0, wall=0.0):
+        raise base.OutOfTime(base.Status.OUT_OF_TIME, f"the time limit is reached at t = {t:.6g}", steps, wall=wall)
+
+    adapter = get(engine)   # imported first: its stepping loop keeps its own (unpatched) name
+    monkeypatch.setattr(base, "in_time", late)
+    model = kinem.compile(kinem.load(FOUR_BAR).with_time(steps=40))
+    run = adapter.run(model)
+    assert run.status is base.Status.OUT_OF_TIME and run.detail == "the time limit is reached at t = 0", run.label
+    assert run.trajectory is None
+
+
+def test_pymunk_tables_in_chunks_are_the_same_run(monkeypatch):
+    """pymunk's driving tables are made TABLE_CHUNK steps at a time between output intervals (all at once, 10^7
+    steps took 23 s past any limit): the same trajectory to the bit whatever the chunk (7 steps, or all)."""
+    from adapters import get, pymunk_sim
+
+    model = kinem.compile(kinem.load(FOUR_BAR).with_time(steps=40))
+    runs = []
+    for chunk in (7, 10**9):
+        monkeypatch.setattr(pymunk_sim, "TABLE_CHUNK", chunk)
+        runs.append(get("pymunk").run(model, settings={"substeps": 3}))
+    assert runs[0].ok and np.array_equal(runs[0].q, runs[1].q) and np.array_equal(runs[0].qd, runs[1].qd)
+
+
+# -- session 29, part 11, part B: kinem.solve(parameters=), kinem.tolerance with odd arguments -------------------
+
+@pytest.fixture(scope="module")
+def four_bar_20():
+    return kinem.compile(kinem.load(FOUR_BAR).with_time(steps=20))
+
+
+def test_found_variants_with_a_junk_options(four_bar_20):
+    """kinem.solve(model, parameters=..., options="fast") raised AttributeError ('str' object has no attribute
+    'started'); one solve refuses it. Now the same InputError."""
+    with pytest.raises(kinem.InputError, match="^solve: options str: expected a kinem.Options$"):
+        kinem.solve(four_bar_20, parameters={"points.A.at.0": [0.05]}, options="fast")
+
+
+@pytest.mark.parametrize("values", [[0.05 + 1j], np.array([0.05, 0.06], complex)])
+def test_found_variants_of_complex_numbers(four_bar_20, values):
+    """Complex values were cast to their real part, numpy's ComplexWarning on the way (0.05+1j solved as 0.05).
+    Now no numbers, as booleans are not (kinem.casefile.checks.floats: kinem.sweep too)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(kinem.InputError, match="expected a 1-D sequence of one or more finite numbers"):
+            kinem.solve(four_bar_20, parameters={"points.A.at.0": values})
+        with pytest.raises(kinem.InputError, match="expected one or more finite numbers"):
+            kinem.sweep(str(FOUR_BAR), {"points.A.at.0": values}, ["B.x"])
+
+
+@pytest.mark.parametrize("path, value", [("points.A.at.0", 1e300), ("points.A.at.0", -1e13),
+                                         ("constraints.crank-drive.d.poly.1", 1e300),
+                                         ("constraints.crank-drive.d.poly.0", 1e300)])
+def test_found_variants_beyond_a_case_files_magnitude(four_bar_20, path, value):
+    """A variant's value beyond MAX_MAGNITUDE (1e12: what a case file, kinem.load(parameters=) and a sweep's
+    variant refuse) was solved: numpy's "overflow encountered in dot" twice, seconds of it, and a reason that
+    misled ("too few driving equations"). Now that variant is bad input, never solved, in the loader's words;
+    the others are solved as before."""
+    nominal = next(p.value for p in kinem.parameters(four_bar_20.case) if p.path == path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        r = kinem.solve(four_bar_20, parameters={path: [value, nominal]})
+    assert r.success.tolist() == [False, True] and np.isnan(r.data[0]).all(), r.messages
+    assert r.messages[0] == f"bad input: {four_bar_20.case.source}: {path} = {value:g}: expected a number of " \
+                            "magnitude at most 1e+12", r.messages
+    alone = kinem.solve(four_bar_20, parameters={path: [nominal]})
+    assert np.array_equal(r.data[1], alone.data[0])
+
+
+def test_found_variants_outputs_as_bytes(four_bar_20):
+    """outputs=b"B.x" read as the numbers 66, 46, 120: "no column 66". Now refused as outputs None is."""
+    with pytest.raises(kinem.InputError, match=r"outputs b'B.x': expected stages"):
+        kinem.solve(four_bar_20, parameters={"points.A.at.0": [0.05]}, outputs=b"B.x")
+
+
+@pytest.mark.parametrize("chunk", [0, -1, 2.5, "2", True])
+def test_found_tolerance_with_an_odd_chunk(four_bar_20, chunk):
+    """kinem.tolerance(chunk=-1) solved no sample and returned bands without a Monte Carlo one, unseen
+    (range(0, samples, -1)); chunk="2" raised TypeError. Now refused: None or a whole number from 1."""
+    with pytest.raises(kinem.InputError, match="tolerance: chunk .*: expected None or a whole number from 1"):
+        tolerance(four_bar_20, samples=5, chunk=chunk)
+    assert tolerance(four_bar_20, samples=5, chunk=10**20).accepted == 5
+
+
+# -- session 29, part B: compare --sensitivity and the report's design section of a small radius ---------------
+
+ROLLER = ROOT / "cases" / "cam_roller_circle.toml"
+
+
+def _small_roller(tmp_path, extra=""):
+    """cam_roller_circle with a roller of radius 0.05 mm: below 2h of the central differences (h = 1e-3 L and
+    5e-4 L, L = 50 mm), so that p - h or p - 2h is no valid case."""
+    text = ROLLER.read_text().replace("radius = 8.0", "radius = 0.05", 1).replace("steps = 200", "steps = 20")
+    assert "radius = 0.05" in text
+    case = tmp_path / "roller.toml"
+    case.write_text(text + extra)
+    return case
+
+
+def test_found_compare_sensitivity_past_a_valid_case(tmp_path):
+    """compare --sensitivity of a radius below 2h stopped the command: "kinem: error: CASE: constraint 4 ('contact',
+    cam-roller): key 'radius': got 0; expected a positive number", exit 2: the case file blamed for a value it
+    does not hold (0.05 is valid), no row of the other parameters. Now that parameter's row fails saying which
+    moved case is not valid and why (exit 1, a failed check); the other parameters are checked as ever."""
+    case = _small_roller(tmp_path)
+    code, out, err = _compare([str(case), "--engines", "native", "--sensitivity",
+                               "constraints.contact.radius,constraints.contact.outline.circle.radius"])
+    assert code == 1 and err == "", err
+    rows = [line for line in out.splitlines() if line.startswith("native")]
+    assert "failed: native at p +- h: p - h = 0 is not a valid case (" in rows[0] and "got 0; expected a positive " \
+           "number)" in rows[0], rows
+    assert "within: " in rows[1], rows
+
+
+def test_found_report_sensitivity_past_a_valid_case(tmp_path):
+    """The same in the report's design section ([report] sensitivity with the radius, a named point on the
+    follower): the whole report stopped with that error, exit 2, nothing written. Now its row says the
+    differences were not computed and why."""
+    import re
+
+    from kinem.report import design
+
+    text = _small_roller(tmp_path, '\n[report]\nsensitivity = ["constraints.contact.radius"]\n').read_text()
+    text = text.replace("[bodies]", '[points]\nF = { body = "follower", at = [0.0, 0.0] }\n\n[bodies]', 1)
+    model = kinem.compile(kinem.load_dict(tomllib.loads(text), source="roller"))
+    table = re.sub("<[^>]*>", " ", design.section(model)[0])
+    assert "not computed: native at p +- h: p - 2h = 0 is not a valid case (" in html_unescape(table), table[-400:]
+
+
+def html_unescape(text):
+    import html
+
+    return html.unescape(text)
+
+
+def test_found_report_design_section_without_points(tmp_path):
+    """A case with [report] sensitivity but no named point on a moving body (cam_roller_circle has none) got no
+    design section and no word of why. Now a paragraph says so."""
+    from kinem.report import design
+
+    text = ROLLER.read_text().replace("steps = 200", "steps = 20") + \
+        '\n[report]\nsensitivity = ["constraints.contact.radius"]\n'
+    model = kinem.compile(kinem.load_dict(tomllib.loads(text), source="roller"))
+    assert design.section(model) == ["<h3>Design sensitivities and tolerance bands</h3><p>Not drawn: they are the "
+                                     "named points' on moving bodies, and the case has none (its [points], or the "
+                                     "[report] points listed).</p>"]
+
+
+def _strict(text):
+    """JSON as RFC 8259 has it: NaN and Infinity are no numbers (strict readers refuse them)."""
+    def refuse(constant):
+        raise ValueError(f"{constant} is no JSON number")
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_found_compare_json_with_nan(tmp_path):
+    """compare --json wrote "cost_per_interval": NaN for a row that did not run (a native failure: no engine
+    run), and compare --sensitivity --json wrote "error": NaN, "ratio": NaN ... for every row not computed
+    (failed, unsupported): no JSON. Now null, as the rows' other figures not computed already were."""
+    stalled = ROOT / "cases" / "stress" / "slider_dead_centre.toml"
+    code, out, err = _compare([str(stalled), "--engines", "native,pymunk", "--steps", "20", "--json"])
+    assert code == 1 and _strict(out)["engines"]["pymunk"]["cost_per_interval"] is None, out
+    code, out, err = _compare([str(_small_roller(tmp_path)), "--engines", "native,mujoco", "--json", "--sensitivity",
+                               "constraints.contact.radius,constraints.contact.outline.circle.radius"])
+    rows = _strict(out)["sensitivity"]
+    assert code == 1 and [r["ratio"] is None for r in rows] == [True, False, True], rows

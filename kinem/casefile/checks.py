@@ -254,12 +254,13 @@ def texts(v) -> tuple | None:
 def floats(v):
     """An API argument of numbers as a float array (any shape), or None where
     it is not one: a text, a table, a ragged list, booleans (not numbers, as
-    in a case file), a whole number no float holds."""
+    in a case file), complex numbers (not cast to their real part), a whole
+    number no float holds."""
     import numpy as np
 
     try:
         a = np.asarray(v)
-        return a.astype(float) if a.dtype != bool else None
+        return a.astype(float) if a.dtype != bool and a.dtype.kind != "c" else None
     except (TypeError, ValueError, OverflowError):
         return None
 

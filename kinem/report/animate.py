@@ -62,10 +62,9 @@ def frames(model, engines, options=None):
     for the paths, engine -> why it is not drawn). ``options`` (kinem.Options;
     default the case's): native's solve, e.g. its max_seconds, which ends the
     engines' runs too (an AnalysisError past it)."""
-    import time
-
     from adapters import case_settings, get
-    from adapters.compare import time_limit
+    from adapters.base import Status
+    from adapters.compare import engines_deadline
     from kinem.budget import check_solutions
     from kinem.solver import solve
 
@@ -73,7 +72,7 @@ def frames(model, engines, options=None):
     r = solve(model, options=options)
     if not r.success:
         raise AnalysisError(f"{model.case.source}: {r.message}")
-    limit = time_limit(options)   # the engines' runs end at options.max_seconds too, as compare's
+    limit = engines_deadline(options)   # the engines' runs end at options.max_seconds too, as compare's
     idx = sample(len(r.q), FRAMES)
     native = {"t": r.trajectory.t[idx], "q": r.q[idx]}
     ghosts, skipped = {}, {}
@@ -90,12 +89,12 @@ def frames(model, engines, options=None):
         except Exception as e:  # noqa: BLE001 - an engine that does not import or crashes is left out, named
             skipped[name] = f"failed: {type(e).__name__}: {e}"
             continue
-        if not run.ok and limit is not None and time.time() > limit[1]:   # the time limit, not a ghost left out
+        if run.status is Status.OUT_OF_TIME:   # the time limit, not a ghost left out
             raise AnalysisError(f"{model.case.source}: {name}: {run.detail}")
         if run.ok and len(run.q) == len(r.q):
             ghosts[name] = run.q[idx]
         else:
-            skipped[name] = run.status
+            skipped[name] = run.label   # "failed: why", as an engine that crashes
     return native, ghosts, r.q[sample(len(r.q), PATH_INSTANTS)], skipped
 
 

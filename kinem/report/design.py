@@ -24,6 +24,9 @@ def section(model, engines=()) -> list:
     body = {p.name: p.body for p in model.case.points}
     points = [p for p in model.case.report.get("points") or body if body[p] not in fixed]   # the moving ones
     columns = [f"{p}.{k}" for p in points for k in ("x", "y")]
+    if (paths or model.case.tolerances) and not columns:   # asked for, nothing to draw: said, not left out unseen
+        out.append("<h3>Design sensitivities and tolerance bands</h3><p>Not drawn: they are the named points' on "
+                   "moving bodies, and the case has none (its [points], or the [report] points listed).</p>")
     if paths and columns:
         out += _sensitivity(model, paths, columns, engines)
     if model.case.tolerances and columns:
@@ -32,6 +35,7 @@ def section(model, engines=()) -> list:
 
 
 def _sensitivity(model, paths, columns, engines=()):
+    from ..errors import InputError
     from ..model import compile
     from ..parameters import apply, resolve
     from ..sensitivity import sensitivity
@@ -44,9 +48,14 @@ def _sensitivity(model, paths, columns, engines=()):
     for p in listed:
         scale = max(abs(p.value), model.length) if p.unit == case.length_unit else max(abs(p.value), 1.0)
         h = STEP * scale
-        moved = [solve(compile(apply(case, {p.path: p.value + s * h})), outputs=("positions",))
-                 for s in (1, -1, 2, -2)]
-        failed = next((r.message for r in moved if not r.success), None)   # past an assembly limit: no differences
+        moved, failed = [], None
+        for s in (1, -1, 2, -2):
+            try:
+                moved.append(solve(compile(apply(case, {p.path: p.value + s * h})), outputs=("positions",)))
+            except InputError as e:   # a length or radius below 2h: no differences (not the case file's fault)
+                failed = failed or f"p {'+-'[s < 0]} {abs(s) if abs(s) > 1 else ''}h = {p.value + s * h:.6g} is " \
+                                   f"not a valid case ({e.summary()})"
+        failed = failed or next((r.message for r in moved if not r.success), None)   # past an assembly limit
         runs = [r.trajectory for r in moved]
         exact = {c: sens.of(c, p.path) for c in columns}
         peaks = [float(np.max(np.abs(exact[c]))) for c in columns]

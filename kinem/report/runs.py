@@ -98,6 +98,8 @@ def _verdict_of(outcome):
 
     if outcome is Status.UNSUPPORTED:
         return Verdict.UNSUPPORTED.value
+    if outcome is Status.OUT_OF_TIME:
+        return Verdict.OUT_OF_TIME.value
     return Verdict.FAILED.value if outcome.failure else Verdict.NONE.value
 
 
