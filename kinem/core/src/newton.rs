@@ -355,11 +355,6 @@ fn chord_as<O: Ops, const ASK: bool>(
 /// correction, the residual at its result and the final factorisation cost
 /// less (a correction about 1,500 instructions on the Jansen leg, a
 /// factorisation 1,140, Phi and the residual 714: docs/benchmarks.md, round 33).
-/// Four, not one: a prediction near NOISE is as likely a chord of two
-/// corrections, which costs less than the Newton start; at four the peers'
-/// four-bar takes none (its chords of three are few and apart), and six
-/// took the Jansen leg's 71 Newton starts to 63 and cost it 40 instructions
-/// an instant (round 36).
 pub const LONG: f64 = 4.0;
 
 /// Newton from the chord's start, whose scaled residual is above the
@@ -589,7 +584,7 @@ mod tests {
         assert!((s.x - 2f64.sqrt()).abs() <= 2.0 * f64::EPSILON && r.last_step < 1e-16);
         // not asked: the chord (one factorisation, at the end); of two corrections, whose first at
         // the assumed contraction predicts a third: the next one asked
-        let mut s = Sqrt2 { x: x0, slope: 2.0 * 1.4141, evaluations: 0, factorizations: 0 };
+        let mut s = Sqrt2 { x: x0, slope: 2.0 * 1.4142, evaluations: 0, factorizations: 0 };
         let mut newton = false;
         let (r, theta) = chord(&mut s, 1e-12, 0.5, 1e-2, 1e-2, &mut newton).unwrap().unwrap();
         assert!(r.converged && s.factorizations == 1 && s.evaluations == 2 && theta < 1e-4 && newton);
