@@ -278,52 +278,11 @@ pub const MARGIN: f64 = 4.0;
 /// contraction (the march's, scaled to this instant, crate::step::Contraction; infinite: none),
 /// which, times `MARGIN`, stands for this one's at the first correction; returned
 /// with the first correction's contraction measured here (NaN: none, one correction).
-///
-/// `newton`: in, whether this chord starts with Newton where its start's
-/// scaled residual is above the tolerance (`newton_start`); out, whether the
-/// next one does, decided at this chord's end (`Chord::long`), false after
-/// a chord of one correction or one that gave up. `motion`: the instant's
-/// predicted motion (dimensionless), which scales `known` to the Newton
-/// correction's own estimate.
 pub fn chord<O: Ops>(
     ops: &mut O,
     tolerance: f64,
     max_step: f64,
     known: f64,
-    motion: f64,
-    newton: &mut bool,
-) -> Result<Option<(Settled, f64)>, O::Error> {
-    if *newton {
-        return chord_newton(ops, tolerance, max_step, known, motion, newton);
-    }
-    chord_as::<O, false>(ops, tolerance, max_step, known, motion, newton)
-}
-
-/// `chord` where a Newton start is asked: out of line, so that the chord's
-/// own path (inlined in crate::step) stays as it was where none is asked.
-#[cold]
-#[inline(never)]
-fn chord_newton<O: Ops>(
-    ops: &mut O,
-    tolerance: f64,
-    max_step: f64,
-    known: f64,
-    motion: f64,
-    newton: &mut bool,
-) -> Result<Option<(Settled, f64)>, O::Error> {
-    *newton = false;
-    chord_as::<O, true>(ops, tolerance, max_step, known, motion, newton)
-}
-
-/// `chord`, with a Newton start where ASK and the start's residual is above the tolerance.
-#[inline(always)]
-fn chord_as<O: Ops, const ASK: bool>(
-    ops: &mut O,
-    tolerance: f64,
-    max_step: f64,
-    known: f64,
-    motion: f64,
-    newton: &mut bool,
 ) -> Result<Option<(Settled, f64)>, O::Error> {
     let mut c = Chord::new(known);
     for step in 0..CHORD_STEPS {
@@ -331,88 +290,16 @@ fn chord_as<O: Ops, const ASK: bool>(
         if !c.residual(step, r, tolerance) {
             return Ok(None);
         }
-        if ASK && step == 0 && r > tolerance {
-            return newton_start(ops, tolerance, max_step, known, motion, newton);
-        }
         match c.corrected(step, ops.correct(max_step)?, tolerance) {
             Verdict::Go => {}
             Verdict::Stop => return Ok(None),
             Verdict::Done(settled, measured) => {
-                if step > 0 {
-                    *newton = c.long();
-                }
                 ops.factor(true)?;
                 return Ok(Some((settled, measured)));
             }
         }
     }
     Ok(None)
-}
-
-/// How far above `NOISE` a chord's predicted second correction's estimate
-/// must be for the next instant to start with Newton (`Chord::long`): there
-/// the chord would take three corrections or more, and one Newton
-/// correction, the residual at its result and the final factorisation cost
-/// less (a correction about 1,500 instructions on the Jansen leg, a
-/// factorisation 1,140, Phi and the residual 714: docs/benchmarks.md, round 33).
-pub const LONG: f64 = 4.0;
-
-/// Newton from the chord's start, whose scaled residual is above the
-/// tolerance (the residual evaluated there is the operations'): the
-/// factorisation at the start, one correction, the residual at its result,
-/// which must meet the tolerance, and the correction's error estimate, which
-/// must be at rounding (`NOISE`), then the factorisation there (the
-/// instant's second). Newton's error after one correction is about
-/// L s^2 (s: the correction's size, L: |Phi_q^-1| times the Jacobian's
-/// change per unit motion), and the chord's contraction, `known`, is about
-/// L times the instant's `motion`: the estimate's contraction is `MARGIN`
-/// known s / motion. Returns None where either check fails (q has moved: the
-/// caller starts `settle` from its predictor); else how it settled (the last
-/// step: the estimate of the error left, the correction's size times that
-/// contraction) with no contraction measured (NaN: the held factorisation
-/// was not used), and sets `newton` for the next chord as `Chord::long`
-/// would with this correction for the chord's first.
-#[inline(always)]
-fn newton_start<O: Ops>(
-    ops: &mut O,
-    tolerance: f64,
-    max_step: f64,
-    known: f64,
-    motion: f64,
-    newton: &mut bool,
-) -> Result<Option<(Settled, f64)>, O::Error> {
-    ops.factor(true)?;
-    let size = ops.correct(max_step)?;
-    let r = ops.evaluate(1)?;
-    let Some((settled, next)) = started(size, r, tolerance, known, motion) else {
-        return Ok(None);
-    };
-    *newton = next;
-    ops.factor(true)?;
-    Ok(Some((settled, f64::NAN)))
-}
-
-/// `newton_start`'s verdict (crate::lanes takes it per lane): after the
-/// correction of size `size` from the start, the scaled residual `r` at its
-/// result; how it settled and whether the next chord starts with Newton, or
-/// None (give up).
-#[inline]
-pub fn started(size: f64, r: f64, tolerance: f64, known: f64, motion: f64) -> Option<(Settled, bool)> {
-    let theta = MARGIN * known / motion * size;
-    if !(r <= tolerance && theta < 0.5 && size * theta / (1.0 - theta) <= NOISE) {
-        return None;
-    }
-    let settled = Settled { iterations: 1, residual: r, converged: true, last_step: size * theta };
-    Some((settled, long(size, MARGIN * known)))
-}
-
-/// Whether a chord whose first correction is `first`, at the contraction
-/// `a` (the recent one times MARGIN), is expected to take three corrections
-/// or more: its second correction, about first a / MARGIN, has the estimate
-/// first a^2 / (MARGIN (1 - a)), above `LONG` NOISE.
-#[inline]
-fn long(first: f64, a: f64) -> bool {
-    a < 0.5 && first * a * a / (1.0 - a) > MARGIN * LONG * NOISE
 }
 
 /// A chord's running figures, correction by correction: `chord`'s, and
@@ -425,8 +312,6 @@ pub struct Chord {
     assumed: f64,
     /// the first correction's contraction: the second's size over the first's (NaN: not made)
     first: f64,
-    /// the first correction's size (set with `first`)
-    start: f64,
 }
 
 /// What a chord correction leaves: more to do, done (how it settled, the
@@ -446,16 +331,7 @@ impl Chord {
             residual: f64::INFINITY,
             assumed: MARGIN * known,
             first: f64::NAN,
-            start: f64::NAN,
         }
-    }
-
-    /// After a chord of two corrections or more: whether the next instant's
-    /// is expected to take three or more (`newton_start` then), by this one's
-    /// first correction and assumed contraction.
-    #[inline]
-    pub fn long(&self) -> bool {
-        long(self.start, self.assumed)
     }
 
     /// The first correction's assumed contraction where one is known (0: none).
@@ -493,13 +369,13 @@ impl Chord {
             return Verdict::Stop;
         }
         let theta = size / self.previous;
+        self.previous = size;
         if step == 1 {
             // what the next chord's first correction assumes: the first contraction, not a
             // later one (the error's direction changes: cam_roller_circle's second is often a
             // tenth of its first, so the last one underestimated the next first by 7 at the median)
-            (self.first, self.start) = (theta, self.previous);
+            self.first = theta;
         }
-        self.previous = size;
         // a correction at rounding leaves at most itself; else the estimate from the contraction,
         // at the noise (NOISE: what a fresh factorisation would leave too): at the first
         // correction the recent one times MARGIN, later the measured one times MARGIN
@@ -571,51 +447,21 @@ mod tests {
     }
 
     #[test]
-    fn a_newton_start_where_asked_and_the_start_is_above_the_tolerance() {
-        // asked, the start 1e-9 off: the factorisation there, one correction, the residual, the
-        // final factorisation; a contraction of 1e-2 at a motion of 1e-2 makes the estimate
-        // 4e-18 and asks the next one too (first 1e-9, a 4e-2: 1.7e-12 above LONG MARGIN NOISE)
-        let x0 = 2f64.sqrt() + 1e-9;
-        let mut s = Sqrt2 { x: x0, slope: 2.0 * 1.41, evaluations: 0, factorizations: 0 };
-        let mut newton = true;
-        let (r, theta) = chord(&mut s, 1e-12, 0.5, 1e-2, 1e-2, &mut newton).unwrap().unwrap();
-        assert!(r.converged && r.iterations == 1 && theta.is_nan() && newton);
-        assert!(s.factorizations == 2 && s.evaluations == 2 && r.residual <= 1e-12);
-        assert!((s.x - 2f64.sqrt()).abs() <= 2.0 * f64::EPSILON && r.last_step < 1e-16);
-        // not asked: the chord (one factorisation, at the end); of two corrections, whose first at
-        // the assumed contraction predicts a third: the next one asked
-        let mut s = Sqrt2 { x: x0, slope: 2.0 * 1.4142, evaluations: 0, factorizations: 0 };
-        let mut newton = false;
-        let (r, theta) = chord(&mut s, 1e-12, 0.5, 1e-2, 1e-2, &mut newton).unwrap().unwrap();
-        assert!(r.converged && s.factorizations == 1 && s.evaluations == 2 && theta < 1e-4 && newton);
-        // asked with the start within the tolerance: the chord
-        let mut s = Sqrt2 { x: 2f64.sqrt() + 1e-14, slope: 2.0 * 1.41, evaluations: 0, factorizations: 0 };
-        let mut newton = true;
-        let (r, _) = chord(&mut s, 1e-12, 0.5, 3e-3, 1e-2, &mut newton).unwrap().unwrap();
-        assert!(r.converged && s.factorizations == 1 && !newton);
-        // no contraction known: the correction's estimate is not proved, give up (Newton from the predictor)
-        let mut s = Sqrt2 { x: x0, slope: 2.0 * 1.41, evaluations: 0, factorizations: 0 };
-        let mut newton = true;
-        assert!(chord(&mut s, 1e-12, 0.5, f64::INFINITY, 1e-2, &mut newton).unwrap().is_none());
-        assert!(s.factorizations == 1 && !newton);
-    }
-
-    #[test]
     fn the_chord_converges_to_rounding_with_an_old_slope_and_gives_up_on_a_poor_one() {
         // the slope at 1.41 (a previous instant's): contraction about 3e-3, one factorisation at the end
         let mut s = Sqrt2 { x: 1.4143, slope: 2.0 * 1.41, evaluations: 0, factorizations: 0 };
-        let (r, theta) = chord(&mut s, 1e-12, 0.5, f64::INFINITY, 0.0, &mut false).unwrap().unwrap();
+        let (r, theta) = chord(&mut s, 1e-12, 0.5, f64::INFINITY).unwrap().unwrap();
         assert!(r.converged && s.factorizations == 1);
         assert!((s.x - 2f64.sqrt()).abs() <= 2.0 * f64::EPSILON);
         assert_eq!(s.slope, 2.0 * s.x);
         assert!(theta > 1e-4 && theta < 1e-2);
         // a recent contraction at hand: one correction when it makes the estimate rounding
         let mut s = Sqrt2 { x: 2f64.sqrt() + 1e-14, slope: 2.0 * 1.41, evaluations: 0, factorizations: 0 };
-        let (_, theta) = chord(&mut s, 1e-12, 0.5, 3e-3, 0.0, &mut false).unwrap().unwrap();
+        let (_, theta) = chord(&mut s, 1e-12, 0.5, 3e-3).unwrap().unwrap();
         assert!(theta.is_nan() && s.evaluations == 1 && (s.x - 2f64.sqrt()).abs() <= 4.0 * f64::EPSILON);
         // the slope at 1.0: contraction about 0.3, no convergence claimed
         let mut s = Sqrt2 { x: 1.4, slope: 2.0, evaluations: 0, factorizations: 0 };
-        assert!(chord(&mut s, 1e-12, 0.5, f64::INFINITY, 0.0, &mut false).unwrap().is_none() && s.factorizations == 0);
+        assert!(chord(&mut s, 1e-12, 0.5, f64::INFINITY).unwrap().is_none() && s.factorizations == 0);
     }
 
     /// The chord's verdicts on given sizes (tolerance 1e-12, residual met):

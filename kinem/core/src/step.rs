@@ -245,8 +245,6 @@ pub trait Step: Ops {
 pub struct Work {
     pub held: bool,
     memory: Contraction,
-    /// the next chord starts with Newton where its start is above the tolerance (newton::chord's `newton`)
-    newton: bool,
     qp: Vec<f64>,
     start: Vec<f64>,
     /// whether the next start adds the last one's error
@@ -266,12 +264,12 @@ impl Clone for Work {
 
     /// Field by field, in the buffers self has (crate::march::Room::set: no allocation).
     fn clone_from(&mut self, s: &Self) {
-        let Work { held, memory, newton, qp, start, bias, biased, kept } = self;
+        let Work { held, memory, qp, start, bias, biased, kept } = self;
         qp.clone_from(&s.qp);
         start.clone_from(&s.start);
         biased.clone_from(&s.biased);
         kept.clone_from(&s.kept);
-        (*held, *memory, *newton, *bias) = (s.held, s.memory, s.newton, s.bias);
+        (*held, *memory, *bias) = (s.held, s.memory, s.bias);
     }
 }
 
@@ -456,7 +454,6 @@ impl Work {
         Work {
             held: false,
             memory: Contraction::none(),
-            newton: false,
             qp: vec![0.0; n],
             start: vec![0.0; n],
             bias: Bias::new(smooth),
@@ -546,8 +543,7 @@ pub fn step<O: Step>(
         motion = gap(qp, &st.q, ops.col_scale());
         ops.start(qp, t)?;
     }
-    let chorded =
-        if c.held { chord(ops, s.tolerance, s.max_step, c.memory.known(motion), motion, &mut c.newton)? } else { None };
+    let chorded = if c.held { chord(ops, s.tolerance, s.max_step, c.memory.known(motion))? } else { None };
     c.held = false;
     let settled = match chorded {
         Some((settled, measured)) => {
