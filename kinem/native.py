@@ -17,6 +17,7 @@ class Why(IntEnum):
     NOT_CONVERGED = 4
     INTERRUPTED = 5
     OUT_OF_TIME = 6
+    BAD_INPUT = 7   # a variant refused before the march (kinem.variants), never the march's own verdict
 
     @property
     def message(self) -> str:
@@ -46,6 +47,7 @@ _MESSAGES = {
     Why.NOT_CONVERGED: "Newton-Raphson did not converge",
     Why.INTERRUPTED: "interrupted by a signal",
     Why.OUT_OF_TIME: "the time limit is reached",
+    Why.BAD_INPUT: "bad input (refused before the march)",
 }
 
 NEAR_SINGULAR, DET_FLIP, JUMP, NOT_CONVERGED = Why.NEAR_SINGULAR, Why.DET_FLIP, Why.JUMP, Why.NOT_CONVERGED

@@ -48,7 +48,7 @@ CHUNK = 128   # variants solved as one merged case on the merged path
 class Variants:
     """The variants' solutions: ``data`` (variants, instants, columns), NaN
     from a variant's first instant not solved on; per variant ``success``,
-    ``status`` (kinem.native.Why: the march's verdict), ``failed_at`` (the
+    ``status`` (kinem.native.Why: the march's verdict; BAD_INPUT: refused before it), ``failed_at`` (the
     first instant the march did not take; len(t): none), ``resolved`` (solved
     alone after the march stopped), ``flipped`` (det sign at the first
     instant not the nominal's), ``start`` (its state at the first instant)
@@ -124,10 +124,10 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
     if not first.success:
         raise AnalysisError(f"{case.source}: variants: the nominal does not assemble: {first.message}")
     q0 = np.ascontiguousarray(first.q[0])
+    refused = _refused(case, listed, values)   # bad input: never solved, said so below (lanes: marched as the nominal)
     if not all(affine(case, p.path) for p in listed) or not usable(model, False, len(times), options):
-        return _merged(model, listed, values, columns, times, q0, options)
+        return _merged(model, listed, values, columns, times, q0, options, refused)
     K, N = len(times), len(values)
-    refused = _refused(case, listed, values)   # bad input: marched as the nominal, never solved, said so below
     marched = values.copy()
     marched[list(refused)] = nominal
     data, start = np.empty((N, K, len(columns))), np.empty((N, model.n))
@@ -146,7 +146,7 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
                         [([d for _, _, d in fams], f[1], o[1]) for (fams, f, o), _ in tangents],
                         asked, np.ascontiguousarray(marched - nominal), np.ascontiguousarray(times, float), q0,
                         settings, (data, start, end, why, det), lanes)
-    status = tuple(native.Why(int(w)) for w in why)
+    status = [native.Why(int(w)) for w in why]
     d0 = _det(model, q0, times[0])
     flipped = (det != 0) & (det != d0)
     success, resolved, messages = end == K, np.zeros(N, bool), [""] * N
@@ -161,10 +161,11 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
             messages[k] = done.why
     for k, why in refused.items():
         data[k], success[k], resolved[k], messages[k] = np.nan, False, False, why
+        status[k] = native.Why.BAD_INPUT
     for k in np.flatnonzero(~success):
         messages[k] = messages[k] or f"stopped at t = {times[end[k]]:.6g} (instant {end[k]}): {status[k].message}"
-    return Variants(tuple(p.path for p in listed), values, np.array(times, float), columns, data, success, status,
-                    end, resolved, flipped, start, tuple(messages), False)
+    return Variants(tuple(p.path for p in listed), values, np.array(times, float), columns, data, success,
+                    tuple(status), end, resolved, flipped, start, tuple(messages), False)
 
 
 def _refused(case, listed, values) -> dict:
@@ -267,9 +268,10 @@ def _cases(case, listed, values):
     return cases_of(case, [{p.path: float(v) for p, v in zip(listed, row)} for row in values])
 
 
-def _merged(model, listed, values, columns, times, q0, options) -> Variants:
+def _merged(model, listed, values, columns, times, q0, options, refused) -> Variants:
     """The variants solved as merged cases (kinem.batch.solve_merged), CHUNK
-    at a time, each from the nominal's first state q0."""
+    at a time, each from the nominal's first state q0; those ``refused``
+    ({variant: why}: bad input) never solved."""
     from .batch import solve_merged
     from .model import compile
 
@@ -277,18 +279,21 @@ def _merged(model, listed, values, columns, times, q0, options) -> Variants:
     data, start = np.full((N, K, len(columns)), np.nan), np.full((N, model.n), np.nan)
     success, messages = np.zeros(N, bool), [""] * N
     cases = _cases(model.case, listed, values)
+    for k, why in refused.items():
+        cases[k] = InputError(why)
     nominal = dict(zip(model.coordinate_names, q0))
     for first in range(0, N, CHUNK):
         chunk = range(first, min(N, first + CHUNK))
         for k, done in zip(chunk, solve_merged([cases[k] for k in chunk], columns, start=nominal, times=times,
                                                options=options)):
-            messages[k] = done.why
+            messages[k] = refused.get(k) or done.why
             if done.data is not None:
                 data[k], start[k], success[k] = done.data, done.q, True
     d0 = _det(model, q0, times[0])
     flipped = np.array([bool(success[k] and d0 and _det(compile(cases[k]), start[k], times[0]) != d0)
                         for k in range(N)], bool)
-    status = tuple(native.Why.ACCEPTED if ok else native.Why.NOT_CONVERGED for ok in success)
+    status = tuple(native.Why.ACCEPTED if ok else native.Why.BAD_INPUT if isinstance(c, InputError)
+                   else native.Why.NOT_CONVERGED for ok, c in zip(success, cases))
     return Variants(tuple(p.path for p in listed), values, np.array(times, float), columns, data, success, status,
                     np.where(success, K, 0), np.zeros(N, bool), flipped, start, tuple(messages), True)
 

@@ -191,3 +191,23 @@ def test_engine_docs_are_generated_and_current():
 
     text = (ROOT / "docs" / "engines.md").read_text()
     assert engines.BEGIN + "\n" + engines.markdown() + engines.END in text, "run: kinem engines --update-docs"
+
+
+def test_stress_and_tune_json_write_null_for_a_figure_not_computed(monkeypatch, capsys):
+    """`kinem stress --json` and `engines --tune --json` wrote NaN (no JSON number: strict readers refuse
+    it) for a figure not computed; now null, as compare --json writes, numpy's numbers as floats."""
+    from kinem.cli.commands import strict_json
+
+    text = strict_json([{"error": float("nan"), "residual": float("inf"), "wall_time": np.float64(0.25),
+                         "steps": np.int64(3), "q": np.array([1.0, 2.0])}])
+    strict = json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in {text}"))
+    assert strict == [{"error": None, "residual": None, "wall_time": 0.25, "steps": 3, "q": [1.0, 2.0]}]
+    from kinem import stress
+    from kinem.cli import main
+
+    row = stress.Row("g", "s", "native", float("nan"), float("nan"), 0.1, ())
+    monkeypatch.setattr(stress, "run", lambda *a, **k: [stress.Outcome(stress.Class.SINGULAR, "", row)])
+    monkeypatch.setattr(stress, "misses", lambda *a, **k: [])
+    assert main(["stress", "--json", "--engines", "native"]) == 0
+    out = capsys.readouterr().out
+    assert json.loads(out, parse_constant=lambda c: pytest.fail(c))[0]["error"] is None

@@ -1468,6 +1468,7 @@ def test_found_variants_beyond_a_case_files_magnitude(four_bar_20, path, value):
         warnings.simplefilter("error")
         r = kinem.solve(four_bar_20, parameters={path: [value, nominal]})
     assert r.success.tolist() == [False, True] and np.isnan(r.data[0]).all(), r.messages
+    assert r.status[0] is kinem.native.Why.BAD_INPUT, r.status
     assert r.messages[0] == f"bad input: {four_bar_20.case.source}: {path} = {value:g}: expected a number of " \
                             "magnitude at most 1e+12", r.messages
     alone = kinem.solve(four_bar_20, parameters={path: [nominal]})

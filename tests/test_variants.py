@@ -261,6 +261,22 @@ def test_a_radius_of_zero_or_less_is_bad_input_for_that_variant():
     assert "bad input" in r.messages[1] and "positive" in r.messages[1] and np.isnan(r.data[1]).all()
 
 
+@pytest.mark.parametrize("merged", [False, True])
+def test_a_refused_variant_says_bad_input_in_its_status(merged):
+    """A variant refused before the march has the status BAD_INPUT (with its
+    message), on the lanes and on the merged path alike. It used to read
+    ACCEPTED on the lanes (marched as the nominal), and the merged path
+    solved it (a pitch radius of -1: its numbers set in place, unchecked)."""
+    case = kinem.load(ROOT / "cases" / "gear_pair.toml")
+    r0 = next(p.value for p in parameters(case) if p.path == "constraints.mesh.ri")
+    options = kinem.Options(jacobian_reuse=True) if merged else None   # the march does not take it: merged
+    r = kinem.solve(kinem.compile(case), parameters={"constraints.mesh.ri": [r0, -1.0]}, times=TIMES,
+                    options=options)
+    assert r.merged is merged and r.success.tolist() == [True, False]
+    assert r.status == (native.Why.ACCEPTED, native.Why.BAD_INPUT), r.status
+    assert r.status[1].message.startswith("bad input") and r.messages[1].startswith("bad input")
+
+
 @settings(max_examples=8, deadline=None)
 @given(st.lists(st.floats(-20.0, 20.0), min_size=1, max_size=3), st.floats(-5.0, 5.0))
 def test_any_rod_and_offset_equals_its_own_solve(rods, offset):

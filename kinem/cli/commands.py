@@ -148,6 +148,14 @@ def check_timeout(a):
                          "local runs have no time limit); expected --scheduler ADDRESS or no --timeout")
 
 
+def strict_json(value) -> str:
+    """value as indented JSON that every reader takes: a figure not computed (NaN, infinite) is null, never
+    NaN (no JSON number); numpy's numbers as floats (orjson: its own rules for both)."""
+    import orjson
+
+    return orjson.dumps(value, option=orjson.OPT_INDENT_2 | orjson.OPT_SERIALIZE_NUMPY, default=float).decode()
+
+
 def check_jobs(jobs):
     """--jobs of report and stress: None (the core count) or 0 to MAX_JOBS."""
     if jobs is not None and not 0 <= jobs <= MAX_JOBS:
@@ -162,7 +170,7 @@ def cmd_stress(a):
     check_timeout(a)
     outcomes = stress.run(engines, a.quick, a.jobs, a.scheduler)
     if a.json:
-        print(json.dumps([stress.as_dict(o) for o in outcomes], indent=2, default=float))
+        print(strict_json([stress.as_dict(o) for o in outcomes]))
     else:
         print(stress.table(outcomes, engines))
     misses = stress.misses(outcomes, a.quick)
@@ -200,7 +208,7 @@ def _tune(a):
     models = tune._models(tune.QUICK_CASES if a.quick else tune.CASES, a.quick)
     results = [tune.sweep(e, quick=a.quick, repeats=1 if a.quick else 3, models=models) for e in engines]
     if a.json:
-        print(json.dumps(results, indent=2, default=float))
+        print(strict_json(results))
     else:
         print("\n\n".join(tune.text(r) for r in results))
     return 0

@@ -52,6 +52,9 @@ codes! {
         Interrupted = 5 => "INTERRUPTED",
         /// the march reached its time limit (Options.max_seconds)
         OutOfTime = 6 => "OUT_OF_TIME",
+        /// a variant refused before the march (kinem.variants: a length not
+        /// positive, a number beyond the magnitude limit); never the march's own
+        BadInput = 7 => "BAD_INPUT",
     }
 }
 
