@@ -333,6 +333,7 @@ def native_row(model, native, options=None) -> Comparison:
     from kinem.budget import out_of_time
     from kinem.linalg import choose
     from kinem.options import Options
+    from kinem.result import Status as SolveStatus
 
     from .references import CLOSED_FORMS, LIMITS, closed_form, error
 
@@ -363,6 +364,7 @@ def native_row(model, native, options=None) -> Comparison:
                        tolerance=limits)
         within = all(checked[k] <= limit for k, limit in limits.items())
         detail = f"against the {cf.label}; accelerations {f.acceleration_rel:.2e} of the peak"
+    late = late or native.status is SolveStatus.OUT_OF_TIME   # native's own solve stopped by the limit
     return Comparison(engine="native", status=Status.OUT_OF_TIME if late else
                       Status.OK if native.success else Status.FAILED,
                       detail=detail, independent=cf is not None, intervals=n,

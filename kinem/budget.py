@@ -9,7 +9,7 @@ rejected, or the march's pace over many instants."""
 import math
 import time
 
-from .errors import InputError, WorkLimitError
+from .errors import InputError, OutOfTimeError, WorkLimitError
 from .rates import fastest_driver
 
 # Numbers a result held whole in memory may have (float64: 1.6 GB): a sweep's table, a batch of variants,
@@ -82,7 +82,7 @@ class Budget:
     def check(self, t):
         """WorkLimitError when the time is up (at t)."""
         if time.perf_counter() > self.deadline:
-            raise WorkLimitError(self.why(self.out_of_time(), t))
+            raise OutOfTimeError(self.why(self.out_of_time(), t))
 
     def out_of_time(self) -> str:
         return out_of_time(self.seconds)

@@ -92,6 +92,11 @@ class WorkLimitError(AnalysisError):
         self.instant = instant
 
 
+class OutOfTimeError(WorkLimitError):
+    """The run's time limit (Options.max_seconds, ``--max-seconds``) is
+    reached: a SolveResult's status OUT_OF_TIME."""
+
+
 class CoreError(KinemError):
     """A fault inside the compiled core (kinem._core): a panic or an
     inconsistent table. Not a verdict on the analysis (never reported as a

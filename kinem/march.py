@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 from . import native
-from .errors import WorkLimitError
+from .errors import OutOfTimeError
 from .model import BLOCK_LIMIT
 from .options import Options
 
@@ -66,6 +66,6 @@ class March:
                                    self.X, self.figures, self.ints)
         if why == OUT_OF_TIME:
             t = float(self.times[min(end, len(self.times) - 1)])
-            raise WorkLimitError(self.budget.march_out_of_time(t, end - k, len(self.times) - k,
+            raise OutOfTimeError(self.budget.march_out_of_time(t, end - k, len(self.times) - k,
                                                                time.perf_counter() - started), instant=end)
         return end

@@ -28,6 +28,7 @@ class Status(IntEnum):
     NOT_CONVERGED = 1
     SINGULAR = 2
     WRONG_BRANCH = 3     # assembled on a branch the case's pins exclude (kinem.branches)
+    OUT_OF_TIME = 4      # the run's time limit reached (Options.max_seconds): kinem.errors.OutOfTimeError
 
     def __str__(self) -> str:   # printed by name (JSON and comparisons keep the number)
         return self.name

@@ -14,7 +14,7 @@ from .analysis import Data
 from .budget import Budget
 from .branches import pins, violation
 from .diagnose import contact_hint, explain_assembly
-from .errors import AnalysisError, InputError, SingularError, WorkLimitError
+from .errors import AnalysisError, InputError, OutOfTimeError, SingularError, WorkLimitError
 from .linalg import choose
 from .march import March, usable
 from .margins import MARGINS, margins
@@ -136,7 +136,8 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     except AnalysisError as e:
         if getattr(e, "instant", None) is not None:   # the march's instants before it are solved
             k = e.instant
-        status = Status.SINGULAR if isinstance(e, SingularError) else Status.NOT_CONVERGED
+        status = Status.SINGULAR if isinstance(e, SingularError) else \
+            Status.OUT_OF_TIME if isinstance(e, OutOfTimeError) else Status.NOT_CONVERGED
         limit = isinstance(e, WorkLimitError)
         what = "stopped at" if limit else "assembly at" if k == 0 else "step to"
         # the root cause, in the user's terms (a limit names its own)

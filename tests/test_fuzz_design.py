@@ -1572,3 +1572,19 @@ def test_found_compare_json_with_nan(tmp_path):
                                "constraints.contact.radius,constraints.contact.outline.circle.radius"])
     rows = _strict(out)["sensitivity"]
     assert code == 1 and [r["ratio"] is None for r in rows] == [True, False, True], rows
+
+
+def test_found_native_row_stopped_by_the_limit_is_out_of_time():
+    """Native's own solve stopped by the time limit kept compare's native row 'failed' (its SolveResult said
+    NOT_CONVERGED, the cause only in its words). Now the result's status is OUT_OF_TIME and so is the row's."""
+    import numpy as np
+
+    from adapters.base import Status
+    from adapters.compare import native_row
+
+    model = kinem.compile(kinem.load(FOUR_BAR))
+    times = np.linspace(0.0, 50.0, 2_000_001)
+    native = kinem.solve(model, times=times, options=kinem.Options(max_seconds=0.2))
+    assert not native.success and native.status is kinem.Status.OUT_OF_TIME, native.message
+    row = native_row(model, native, kinem.Options(max_seconds=0.2))
+    assert row.status is Status.OUT_OF_TIME and row.verdict.fails, row
