@@ -1588,3 +1588,18 @@ def test_found_native_row_stopped_by_the_limit_is_out_of_time():
     assert not native.success and native.status is kinem.Status.OUT_OF_TIME, native.message
     row = native_row(model, native, kinem.Options(max_seconds=0.2))
     assert row.status is Status.OUT_OF_TIME and row.verdict.fails, row
+
+
+def test_found_masked_values_refused_not_solved(four_bar_20):
+    """A numpy masked array's mask was dropped (np.asarray): the masked values, whatever lay under them, were
+    solved as variants by kinem.solve(parameters=) and kinem.sweep. Now a masked value is refused as a value
+    that is not a finite number; a masked array with nothing masked is its numbers."""
+    import numpy as np
+
+    masked = np.ma.masked_array([0.05, 1e6], mask=[False, True])
+    with pytest.raises(kinem.InputError, match="'points.A.at.0': expected a 1-D sequence of one or more finite"):
+        kinem.solve(four_bar_20, parameters={"points.A.at.0": masked})
+    with pytest.raises(kinem.InputError, match="points.A.at.0"):
+        kinem.sweep(str(FOUR_BAR), {"points.A.at.0": masked}, ["B.x"])
+    plain = kinem.solve(four_bar_20, parameters={"points.A.at.0": np.ma.masked_array([0.05], mask=[False])})
+    assert plain.success.all()

@@ -255,9 +255,12 @@ def floats(v):
     """An API argument of numbers as a float array (any shape), or None where
     it is not one: a text, a table, a ragged list, booleans (not numbers, as
     in a case file), complex numbers (not cast to their real part), a whole
-    number no float holds."""
+    number no float holds, a masked array with a masked value (missing, not
+    a number: np.asarray would drop the mask and keep what lies under it)."""
     import numpy as np
 
+    if np.ma.is_masked(v):
+        return None
     try:
         a = np.asarray(v)
         return a.astype(float) if a.dtype != bool and a.dtype.kind != "c" else None
