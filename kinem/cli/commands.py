@@ -1,7 +1,6 @@
 """The commands other than solve: each one reads its arguments, calls the
 API and prints or writes the answer; exit 0, or 1 for a failed verdict."""
 import json
-import math
 import sys
 from pathlib import Path
 
@@ -256,8 +255,8 @@ def cmd_compare(a):
         return _compare_sensitivity(a, model, engines, options)
     native, rows = run_case(model, engines, engine_settings(a.set, a.dt, engines), a.scheduler, options)
     if a.json:
-        print(json.dumps({"case": model.case.name, "length": model.length, "unit": model.case.length_unit,
-                          "engines": {r.engine: r.as_dict() for r in rows}}, indent=2, default=float, allow_nan=False))
+        print(strict_json({"case": model.case.name, "length": model.length, "unit": model.case.length_unit,
+                           "engines": {r.engine: r.as_dict() for r in rows}}))
     else:
         print(table(model.case.name, model.length, model.case.length_unit, rows))
     return 1 if any(r.verdict.fails for r in rows) else 0   # adapters.compare.Verdict: the report's rule too
@@ -282,14 +281,11 @@ def _compare_sensitivity(a, model, engines, options):
         raise InputError(f"{a.case}: --sensitivity: no parameters given and the case has no [report] sensitivity; "
                          "expected --sensitivity P[,P...]")
     _, checks = check(model, paths, engines, engine_settings(a.set, a.dt, engines), options)
-    if a.json:   # a figure not computed is null, never NaN (no JSON number; compare's rows alike)
-        def num(x):
-            return float(x) if x is not None and math.isfinite(x) else None
-
-        print(json.dumps({"case": model.case.name, "sensitivity": [
-            {"engine": c.engine, "parameter": c.parameter, "status": c.status.value, "detail": c.detail, "h": num(c.h),
-             "figure": c.figure, "error": num(c.error), "limit": num(c.limit), "at": num(c.at), "ratio": num(c.ratio),
-             "within": c.within} for c in checks]}, indent=2, allow_nan=False))
+    if a.json:   # a figure not computed is null, never NaN (strict_json; compare's rows alike)
+        print(strict_json({"case": model.case.name, "sensitivity": [
+            {"engine": c.engine, "parameter": c.parameter, "status": c.status.value, "detail": c.detail, "h": c.h,
+             "figure": c.figure, "error": c.error, "limit": c.limit, "at": c.at, "ratio": c.ratio,
+             "within": c.within} for c in checks]}))
     else:
         print(table(model.case.name, checks))
     return 1 if any(c.within is False for c in checks) else 0
