@@ -88,9 +88,10 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     want_margins = False
     if not (type(outputs) is tuple and outputs == OUTPUTS):   # all of them (the default) needs no check
         outputs = (outputs,) if isinstance(outputs, str) else outputs
-        if not isinstance(outputs, (tuple, list)) or \
-                not all(isinstance(o, str) and o in OUTPUTS + (MARGINS,) for o in outputs):
-            raise InputError(f"solve: outputs {outputs!r:.80}: expected a sequence of {', '.join(OUTPUTS + (MARGINS,))}")
+        if not isinstance(outputs, (tuple, list)) or not outputs or \
+                not all(isinstance(o, str) and o in OUTPUTS + (MARGINS,) for o in outputs):   # none: not read as all
+            raise InputError(f"solve: outputs {outputs!r:.80}: expected a sequence of one or more of "
+                             f"{', '.join(OUTPUTS + (MARGINS,))}")
         want_margins = MARGINS in outputs
         outputs = tuple(o for o in OUTPUTS if o in outputs)
         if "positions" not in outputs:

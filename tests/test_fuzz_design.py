@@ -1603,3 +1603,14 @@ def test_found_masked_values_refused_not_solved(four_bar_20):
         kinem.sweep(str(FOUR_BAR), {"points.A.at.0": masked}, ["B.x"])
     plain = kinem.solve(four_bar_20, parameters={"points.A.at.0": np.ma.masked_array([0.05], mask=[False])})
     assert plain.success.all()
+
+
+@pytest.mark.parametrize("call", ["solve", "sensitivity", "variants"])
+def test_found_empty_outputs_refused_alike(four_bar_20, call):
+    """outputs=[] was read as positions by kinem.solve and kinem.sensitivity, and refused ("none given") by
+    kinem.solve(parameters=): one call, two meanings. Now refused by all three, as --outputs '' is."""
+    args = {"solve": lambda: kinem.solve(four_bar_20, outputs=[]),
+            "sensitivity": lambda: kinem.sensitivity(four_bar_20, ["points.A.at.0"], outputs=[]),
+            "variants": lambda: kinem.solve(four_bar_20, parameters={"points.A.at.0": [0.05]}, outputs=[])}
+    with pytest.raises(kinem.InputError, match="outputs"):
+        args[call]()
