@@ -80,7 +80,7 @@ class Budget:
         self.check(t)
 
     def check(self, t):
-        """WorkLimitError when the time is up (at t)."""
+        """OutOfTimeError (a WorkLimitError) when the time is up (at t)."""
         if time.perf_counter() > self.deadline:
             raise OutOfTimeError(self.why(self.out_of_time(), t))
 

@@ -89,7 +89,7 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     if not (type(outputs) is tuple and outputs == OUTPUTS):   # all of them (the default) needs no check
         outputs = (outputs,) if isinstance(outputs, str) else outputs
         if not isinstance(outputs, (tuple, list)) or not outputs or \
-                not all(isinstance(o, str) and o in OUTPUTS + (MARGINS,) for o in outputs):   # none: not read as all
+                not all(isinstance(o, str) and o in OUTPUTS + (MARGINS,) for o in outputs):   # none: refused, not read as positions
             raise InputError(f"solve: outputs {outputs!r:.80}: expected a sequence of one or more of "
                              f"{', '.join(OUTPUTS + (MARGINS,))}")
         want_margins = MARGINS in outputs
