@@ -88,8 +88,9 @@ def solve(model, outputs=OUTPUTS, times=None, trace=False, options: Options | No
     want_margins = False
     if not (type(outputs) is tuple and outputs == OUTPUTS):   # all of them (the default) needs no check
         outputs = (outputs,) if isinstance(outputs, str) else outputs
+        # none given is refused, not read as positions
         if not isinstance(outputs, (tuple, list)) or not outputs or \
-                not all(isinstance(o, str) and o in OUTPUTS + (MARGINS,) for o in outputs):   # none: refused, not read as positions
+                not all(isinstance(o, str) and o in OUTPUTS + (MARGINS,) for o in outputs):
             raise InputError(f"solve: outputs {outputs!r:.80}: expected a sequence of one or more of "
                              f"{', '.join(OUTPUTS + (MARGINS,))}")
         want_margins = MARGINS in outputs
