@@ -4,7 +4,7 @@ process"). On a shared machine the same build's figure moves by up to a
 factor of 2 from one process to the next; within one process, pairs of
 calls of the two builds move together.
 
-    python benchmarks/paired.py OTHER [--what march|sensitivity|fixed] [--pairs N] [--cases A,B]
+    python benchmarks/paired.py OTHER [--what march|cases|sensitivity|fixed] [--pairs N] [--cases A,B]
 
 A is this tree's package, B is OTHER's (a checkout whose core is built,
 for example by `python3 dev.py kinem --version` there; this tree itself
@@ -16,6 +16,11 @@ nothing is written in either tree.
 - march: a warm kinem.solve per instant on benchmarks/peers.py's cases over
   5,000 instants (march_time.py's), the calling thread's processor time;
   per pair B / A - 1.
+- cases: a warm kinem.solve of cases/NAME.toml at its own instants and
+  settings (--cases, default the six cases with rates whose chords run
+  long: the cams' roller, the slots, the quick returns), batches of
+  CASE_BATCH calls, the calling thread's processor time per call; per pair
+  B / A - 1.
 - sensitivity: kinem.sensitivity(model, [a moving link's dimension]) over
   kinem.solve(model), each build's own ratio (sensitivity_bench.py's cases
   and DIMENSION, its pattern: gc, an untimed call, the timed one; the
@@ -89,6 +94,31 @@ def march(builds, pairs, cases):
               f"{pairs} pairs, load {os.getloadavg()[0]:.2f}", flush=True)
 
 
+CASE_BATCH = 10
+LONG_CHORDS = ("cam_roller_circle", "pin_in_slot", "pin_in_spline_slot", "quick_return_1", "quick_return_2",
+               "quick_return_3")
+
+
+def case_files(builds, pairs, cases):
+    clock, root = time.thread_time_ns, HERE.parent
+    for name in cases or LONG_CHORDS:
+        models = [k.compile(k.load(str(root / "cases" / f"{name}.toml"))) for k in builds]
+        for k, m in zip(builds, models):
+            k.solve(m)   # warm
+        ns = ([], [])
+        for i in range(pairs):
+            for j in ((0, 1) if i % 2 == 0 else (1, 0)):
+                solve, model = builds[j].solve, models[j]
+                start = clock()
+                for _ in range(CASE_BATCH):
+                    solve(model)
+                ns[j].append((clock() - start) / CASE_BATCH)
+        a, b = (1e-3 * statistics.median(v) for v in ns)
+        changes = [y / x - 1 for x, y in zip(*ns)]
+        print(f"{name:18s} A {a:.1f} us, B {b:.1f} us a warm solve; B / A - 1: {quartiles(changes)}; "
+              f"{pairs} pairs of {CASE_BATCH} calls, load {os.getloadavg()[0]:.2f}", flush=True)
+
+
 def fixed(builds, pairs, cases):
     clock, batch = time.thread_time_ns, 200
     for name in cases or ("slider_crank", "four_bar", "jansen"):
@@ -143,7 +173,7 @@ def sensitivity(builds, pairs, cases):
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("other", type=Path, help="the other tree (B), built; this tree for an A/A run")
-    p.add_argument("--what", choices=("march", "sensitivity", "fixed"), default="march")
+    p.add_argument("--what", choices=("march", "cases", "sensitivity", "fixed"), default="march")
     p.add_argument("--pairs", type=int, default=100)
     p.add_argument("--cases", default="", help="comma-separated (default: every case of --what)")
     a = p.parse_args()
@@ -153,7 +183,7 @@ def main():
         builds = [copy_package(HERE.parent, Path(scratch), "kinem_a"),
                   copy_package(a.other.resolve(), Path(scratch), "kinem_b")]
         print(f"A {HERE.parent}, B {a.other.resolve()}", flush=True)
-        {"march": march, "sensitivity": sensitivity, "fixed": fixed}[a.what](builds, max(2, a.pairs), cases)
+        {"march": march, "cases": case_files, "sensitivity": sensitivity, "fixed": fixed}[a.what](builds, max(2, a.pairs), cases)
 
 
 if __name__ == "__main__":
