@@ -502,16 +502,10 @@ impl Turning {
     }
 
     /// e = e^{i q} (Kin::rotate_changed: Fresh after a start, else Turn).
-    /// The rotation is chosen outside the loop over the angles, a copy of
-    /// the loop for each (the compiler's own unswitching of it is lost where
-    /// the function that inlines it grows: crate::step's with the Newton start).
     #[inline(always)]
     pub fn to(&mut self, kin: &Kin, q: &[f64]) {
-        if self.fresh {
-            kin.rotate_changed(q, &mut self.e, &mut self.seen, &mut self.anchor, Rotation::Fresh);
-        } else {
-            kin.rotate_changed(q, &mut self.e, &mut self.seen, &mut self.anchor, Rotation::Turn);
-        }
+        let how = if self.fresh { Rotation::Fresh } else { Rotation::Turn };
+        kin.rotate_changed(q, &mut self.e, &mut self.seen, &mut self.anchor, how);
         self.fresh = false;
     }
 }

@@ -410,19 +410,6 @@ fn long(first: f64, a: f64) -> bool {
     a < 0.5 && first * a * a / (1.0 - a) > MARGIN * LONG * NOISE
 }
 
-/// The first contraction `theta` as `Chord::corrected` keeps it: negative where `long`
-/// (the first correction `first` at the contraction `a`). Out of line, so that the chord
-/// inlined in crate::step::step keeps its registers (a chord of two corrections or more).
-#[cold]
-#[inline(never)]
-fn signed(theta: f64, first: f64, a: f64) -> f64 {
-    if long(first, a) {
-        -theta
-    } else {
-        theta
-    }
-}
-
 /// A chord's running figures, correction by correction: `chord`'s, and
 /// each lane's in crate::lanes, whose lanes correct in lockstep.
 #[derive(Clone, Copy)]
@@ -497,7 +484,7 @@ impl Chord {
             // tenth of its first, so the last one underestimated the next first by 7 at the median);
             // its sign says whether the next chord starts with Newton (`long`, by the first
             // correction's size and the contraction it assumed), so that no more is carried
-            self.first = signed(theta, self.previous, self.assumed);
+            self.first = if long(self.previous, self.assumed) { -theta } else { theta };
         }
         self.previous = size;
         // a correction at rounding leaves at most itself; else the estimate from the contraction,
