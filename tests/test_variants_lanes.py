@@ -3,7 +3,6 @@ variants a group) give each variant the figures of the variants marched one
 by one (lanes=False; tests/test_variants.py checks those against each
 variant's own solve): every case in cases/, a lane that stops mid-march, a
 count of variants that is not a multiple of the lane width."""
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -88,24 +87,3 @@ def test_any_count_of_variants(count):
     same(r, solve_variants(model, values, outputs=["B.x", "B.y"], lanes=False))
     if count > 1:
         assert np.ptp(r.data[:, -1, 0]) > 1e-7
-
-
-def test_lanes_take_the_newton_start_as_the_march_alone():
-    """The Jansen leg's fast phase (about its instants 177 to 278 of 500,
-    where the chord's start is above the tolerance): the march starts its
-    chords there with Newton (newton::chord's Newton start, round 36 of
-    docs/benchmarks.md), each lane as the march alone, to the bit: nine
-    variants of a link's length over the whole march."""
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    import peers
-    case = kinem.load_dict(peers.jansen_case())
-    model = kinem.compile(case)
-    alone = kinem.solve(model)
-    assert alone.success and alone.factorizations > len(model.times) + 20   # Newton starts taken
-    path = next(p for p in parameters(case) if affine(case, p.path)).path
-    value = next(p.value for p in parameters(case) if p.path == path)
-    values = {path: value + np.linspace(-1e-4, 1e-4, 9) * max(abs(value), 1.0)}
-    lanes = solve_variants(model, values, lanes=True)
-    one = solve_variants(model, values, lanes=False)
-    assert lanes.success.all() and one.success.all()
-    np.testing.assert_array_equal(lanes.data, one.data)

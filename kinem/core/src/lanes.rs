@@ -107,9 +107,6 @@ enum Chord {
     /// no chord at this instant (no factorisation held): Newton
     Off,
     On(newton::Chord),
-    /// Newton from the start (newton::chord's `newton_start`): the factorisation at the start
-    /// (the lane's own), one correction of this size; its verdict at the next Phi
-    Started(f64),
     Done(Settled, f64),
     /// it gave up: Newton from the predictor
     Failed,
@@ -126,10 +123,6 @@ struct Lane {
     st: MarchState,
     held: bool,
     memory: Contraction,
-    /// its next chord starts with Newton where its start is above the tolerance (newton::chord's
-    /// `newton`), and whether this instant's does
-    long: bool,
-    ask: bool,
     qp: Vec<f64>,
     /// the predicted motion at this instant (dimensionless)
     motion: f64,
@@ -166,8 +159,6 @@ struct Room {
     qd: Vec<W>,
     rhs: Vec<W>,
     one: Vec<f64>,
-    /// one lane's Jacobian values at its chord's start (a Newton start)
-    jac: Vec<f64>,
     b: Vec<f64>,
     dq: Vec<f64>,
 }
@@ -219,8 +210,6 @@ pub fn march(
             st: MarchState::new(q0),
             held: false,
             memory: Contraction::none(),
-            long: false,
-            ask: false,
             motion: 0.0,
             qp: vec![0.0; n],
             start: vec![0.0; n],
@@ -247,7 +236,6 @@ pub fn march(
         qd: vec![W::zero(); n],
         rhs: vec![W::zero(); m],
         one: vec![0.0; m.max(wide.nnz)],
-        jac: vec![0.0; wide.nnz],
         b: vec![0.0; m],
         dq: vec![0.0; n],
     };
@@ -296,13 +284,12 @@ pub fn march(
                 }
                 r.fresh[l] = true;
                 x.chord = Chord::On(newton::Chord::new(x.memory.known(x.motion)));
-                x.ask = std::mem::take(&mut x.long);
             }
             x.held = false;
         }
         // the chord (newton::chord) in lockstep: one Phi over the lanes a correction
         for step in 0..CHORD_STEPS {
-            if !lanes.iter().any(|x| matches!(x.chord, Chord::On(..) | Chord::Started(..))) {
+            if !lanes.iter().any(|x| matches!(x.chord, Chord::On { .. })) {
                 break;
             }
             r.rotate(wide);
@@ -310,45 +297,11 @@ pub fn march(
             if let Some(u) = lu.as_mut().filter(|u| u.fixed.iter().any(|&f| f)) {
                 u.solve(&r.phi, &mut dq);
             }
-            // the Jacobian at the starts where a lane may start with Newton (its own factorisation)
-            let asked = step == 0 && lanes.iter().any(|x| x.ask && matches!(x.chord, Chord::On(..)));
-            if asked {
-                wide.jac(&At { q: &r.q, e: &r.e, t }, &mut r.values);
-            }
             for (l, x) in lanes.iter_mut().enumerate() {
-                if let Chord::Started(big) = x.chord {
-                    // the residual at the Newton correction's result: the verdict (newton::started)
-                    Room::lane(&r.phi, l, &mut r.one[..m]);
-                    let rr = residual(&r.one[..m], scale);
-                    let known = x.memory.known(x.motion);
-                    x.chord = match newton::started(big, rr, s.tolerance, known, x.motion) {
-                        Some((settled, long)) => {
-                            x.long = long;
-                            Chord::Done(settled, f64::NAN)
-                        }
-                        None => Chord::Failed,
-                    };
-                    continue;
-                }
                 let Chord::On(c) = &mut x.chord else { continue };
                 Room::lane(&r.phi, l, &mut r.one[..m]);
-                let rr = residual(&r.one[..m], scale);
-                if !c.residual(step, rr, s.tolerance) {
+                if !c.residual(step, residual(&r.one[..m], scale), s.tolerance) {
                     x.chord = Chord::Failed;
-                    continue;
-                }
-                if x.ask && step == 0 && rr > s.tolerance {
-                    // Newton from the start: the lane's factorisation there, one correction
-                    // (march::Native's factor and correct)
-                    Room::lane(&r.values, l, &mut r.jac);
-                    layout.factor(&r.jac, &mut x.f);
-                    layout.solve(&mut x.f, &r.one[..m], &mut r.dq);
-                    let big = size(&r.dq, col_scale);
-                    let f = limited(big, s.max_step);
-                    for j in 0..n {
-                        r.q[j].0[l] -= f * r.dq[j];
-                    }
-                    x.chord = Chord::Started(big);
                     continue;
                 }
                 // correct(max_step) as march::Native's (q - f Phi_q^-1 Phi)
@@ -364,11 +317,7 @@ pub fn march(
                 }
                 match c.corrected(step, big, s.tolerance) {
                     Verdict::Go => {}
-                    Verdict::Done(settled, measured) => {
-                        // the next chord's Newton start, decided at the second correction (its sign)
-                        x.long = step > 0 && measured.is_sign_negative();
-                        x.chord = Chord::Done(settled, measured);
-                    }
+                    Verdict::Done(settled, measured) => x.chord = Chord::Done(settled, measured),
                     Verdict::Stop => x.chord = Chord::Failed,
                 }
             }

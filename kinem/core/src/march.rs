@@ -9,9 +9,7 @@ use crate::lu::{Factors, Layout};
 use crate::model::{Kin, Turning};
 use crate::newton::Ops;
 use crate::outline::Piece;
-pub use crate::step::{
-    rates_from, rates_with, step, step_newton, MarchState, Mode, Outcome, Settings, Step, Work, SINGULAR,
-};
+pub use crate::step::{rates_from, rates_with, step, MarchState, Mode, Outcome, Settings, Step, Work, SINGULAR};
 use crate::watch::Watch;
 use num_complex::Complex64 as C64;
 use std::convert::Infallible;
@@ -633,12 +631,7 @@ pub fn run_rows(
             }
             looks.looked(now);
         }
-        // a Newton start asked (the Jansen leg's fast phase): `step`'s own copy, out of line
-        let Ok(o) = if c.newton() {
-            step_newton(&mut ops, st, times[k], s, Mode::Track, &mut c)
-        } else {
-            step(&mut ops, st, times[k], s, Mode::Track, &mut c)
-        };
+        let Ok(o) = step(&mut ops, st, times[k], s, Mode::Track, &mut c);
         if o.why != Why::Accepted {
             result = (k, o.why);
             break;

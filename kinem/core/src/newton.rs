@@ -277,55 +277,18 @@ pub const MARGIN: f64 = 4.0;
 /// in `settle`); the last step is the last correction. `known`: a recent
 /// contraction (the march's, scaled to this instant, crate::step::Contraction; infinite: none),
 /// which, times `MARGIN`, stands for this one's at the first correction; returned
-/// with the first correction's contraction measured here (NaN: none, one correction),
-/// negative where the next chord is to start with Newton (`Chord::corrected`,
-/// decided at the second correction: crate::step::Contraction::chorded reads it).
+/// with the first correction's contraction measured here (NaN: none, one correction).
 pub fn chord<O: Ops>(
     ops: &mut O,
     tolerance: f64,
     max_step: f64,
     known: f64,
 ) -> Result<Option<(Settled, f64)>, O::Error> {
-    chord_as::<O, false>(ops, tolerance, max_step, known, f64::NAN, &mut false)
-}
-
-/// `chord` with a Newton start where the start's scaled residual is above
-/// the tolerance (`newton_start`), which sets `newton` for the next chord
-/// (else `newton` is left as it is: the caller clears it before).
-/// crate::step calls it out of line, only where its contraction memory
-/// asks it, so that the chord's own path (inlined there) stays as it was.
-/// `motion`: the instant's predicted motion (dimensionless), which scales
-/// `known` to the Newton correction's own estimate.
-#[inline(always)]
-pub fn chord_newton<O: Ops>(
-    ops: &mut O,
-    tolerance: f64,
-    max_step: f64,
-    known: f64,
-    motion: f64,
-    newton: &mut bool,
-) -> Result<Option<(Settled, f64)>, O::Error> {
-    chord_as::<O, true>(ops, tolerance, max_step, known, motion, newton)
-}
-
-/// `chord`, with a Newton start where ASK and the start's residual is above the tolerance.
-#[inline(always)]
-fn chord_as<O: Ops, const ASK: bool>(
-    ops: &mut O,
-    tolerance: f64,
-    max_step: f64,
-    known: f64,
-    motion: f64,
-    newton: &mut bool,
-) -> Result<Option<(Settled, f64)>, O::Error> {
     let mut c = Chord::new(known);
     for step in 0..CHORD_STEPS {
         let r = ops.evaluate(c.iteration(step, tolerance))?;
         if !c.residual(step, r, tolerance) {
             return Ok(None);
-        }
-        if ASK && step == 0 && r > tolerance {
-            return newton_start(ops, tolerance, max_step, known, motion, newton);
         }
         match c.corrected(step, ops.correct(max_step)?, tolerance) {
             Verdict::Go => {}
@@ -339,77 +302,6 @@ fn chord_as<O: Ops, const ASK: bool>(
     Ok(None)
 }
 
-/// How far above `NOISE` a chord's predicted second correction's estimate
-/// must be for the next instant to start with Newton (`long`): there
-/// the chord would take three corrections or more, and one Newton
-/// correction, the residual at its result and the final factorisation cost
-/// less (a correction about 1,500 instructions on the Jansen leg, a
-/// factorisation 1,140, Phi and the residual 714: docs/benchmarks.md, round 33).
-/// Four, not one: a prediction near NOISE is as likely a chord of two
-/// corrections, which costs less than the Newton start; at four the peers'
-/// four-bar takes none (its chords of three are few and apart), and six
-/// took the Jansen leg's 71 Newton starts to 63 and cost it 40 instructions
-/// an instant (round 36).
-pub const LONG: f64 = 4.0;
-
-/// Newton from the chord's start, whose scaled residual is above the
-/// tolerance (the residual evaluated there is the operations'): the
-/// factorisation at the start, one correction, the residual at its result,
-/// which must meet the tolerance, and the correction's error estimate, which
-/// must be at rounding (`NOISE`), then the factorisation there (the
-/// instant's second). Newton's error after one correction is about
-/// L s^2 (s: the correction's size, L: |Phi_q^-1| times the Jacobian's
-/// change per unit motion), and the chord's contraction, `known`, is about
-/// L times the instant's `motion`: the estimate's contraction is `MARGIN`
-/// known s / motion. Returns None where either check fails (q has moved: the
-/// caller starts `settle` from its predictor); else how it settled (the last
-/// step: the estimate of the error left, the correction's size times that
-/// contraction) with no contraction measured (NaN: the held factorisation
-/// was not used), and sets `newton` for the next chord as `long` would
-/// with this correction for the chord's first.
-#[inline(always)]
-fn newton_start<O: Ops>(
-    ops: &mut O,
-    tolerance: f64,
-    max_step: f64,
-    known: f64,
-    motion: f64,
-    newton: &mut bool,
-) -> Result<Option<(Settled, f64)>, O::Error> {
-    ops.factor(true)?;
-    let size = ops.correct(max_step)?;
-    let r = ops.evaluate(1)?;
-    let Some((settled, next)) = started(size, r, tolerance, known, motion) else {
-        return Ok(None);
-    };
-    *newton = next;
-    ops.factor(true)?;
-    Ok(Some((settled, f64::NAN)))
-}
-
-/// `newton_start`'s verdict (crate::lanes takes it per lane): after the
-/// correction of size `size` from the start, the scaled residual `r` at its
-/// result; how it settled and whether the next chord starts with Newton, or
-/// None (give up).
-#[inline]
-pub fn started(size: f64, r: f64, tolerance: f64, known: f64, motion: f64) -> Option<(Settled, bool)> {
-    let theta = MARGIN * known / motion * size;
-    if !(r <= tolerance && theta < 0.5 && size * theta / (1.0 - theta) <= NOISE) {
-        return None;
-    }
-    let settled = Settled { iterations: 1, residual: r, converged: true, last_step: size * theta };
-    Some((settled, long(size, MARGIN * known)))
-}
-
-/// Whether a chord whose first correction is `first`, at the contraction
-/// `a` (the recent one times MARGIN), is expected to take three corrections
-/// or more: its second correction, about first a / MARGIN, has the estimate
-/// first a^2 / (MARGIN (1 - a)), above `LONG` NOISE.
-#[inline]
-fn long(first: f64, a: f64) -> bool {
-    a < 0.5 && first * a * a / (1.0 - a) > MARGIN * LONG * NOISE
-}
-
 /// A chord's running figures, correction by correction: `chord`'s, and
 /// each lane's in crate::lanes, whose lanes correct in lockstep.
 #[derive(Clone, Copy)]
@@ -418,8 +310,7 @@ pub struct Chord {
     iterations: usize,
     residual: f64,
     assumed: f64,
-    /// the first correction's contraction: the second's size over the first's (NaN: not
-    /// made), negative where the next chord is to start with Newton (`long`)
+    /// the first correction's contraction: the second's size over the first's (NaN: not made)
     first: f64,
 }
 
@@ -478,15 +369,13 @@ impl Chord {
             return Verdict::Stop;
         }
         let theta = size / self.previous;
+        self.previous = size;
         if step == 1 {
             // what the next chord's first correction assumes: the first contraction, not a
             // later one (the error's direction changes: cam_roller_circle's second is often a
-            // tenth of its first, so the last one underestimated the next first by 7 at the median);
-            // its sign says whether the next chord starts with Newton (`long`, by the first
-            // correction's size and the contraction it assumed), so that no more is carried
-            self.first = if long(self.previous, self.assumed) { -theta } else { theta };
+            // tenth of its first, so the last one underestimated the next first by 7 at the median)
+            self.first = theta;
         }
-        self.previous = size;
         // a correction at rounding leaves at most itself; else the estimate from the contraction,
         // at the noise (NOISE: what a fresh factorisation would leave too): at the first
         // correction the recent one times MARGIN, later the measured one times MARGIN
@@ -555,36 +444,6 @@ mod tests {
         assert!((s.x - 2f64.sqrt()).abs() <= 2.0 * f64::EPSILON);
         // the last factorisation is at the corrected x
         assert_eq!(s.slope, 2.0 * s.x);
-    }
-
-    #[test]
-    fn a_newton_start_where_asked_and_the_start_is_above_the_tolerance() {
-        // asked, the start 1e-9 off: the factorisation there, one correction, the residual, the
-        // final factorisation; a contraction of 1e-2 at a motion of 1e-2 makes the estimate
-        // 4e-18 and asks the next one too (first 1e-9, a 4e-2: 1.7e-12 above LONG MARGIN NOISE)
-        let x0 = 2f64.sqrt() + 1e-9;
-        let mut s = Sqrt2 { x: x0, slope: 2.0 * 1.41, evaluations: 0, factorizations: 0 };
-        let mut newton = false;
-        let (r, theta) = chord_newton(&mut s, 1e-12, 0.5, 1e-2, 1e-2, &mut newton).unwrap().unwrap();
-        assert!(r.converged && r.iterations == 1 && theta.is_nan() && newton);
-        assert!(s.factorizations == 2 && s.evaluations == 2 && r.residual <= 1e-12);
-        assert!((s.x - 2f64.sqrt()).abs() <= 2.0 * f64::EPSILON && r.last_step < 1e-16);
-        // not asked: the chord (one factorisation, at the end); of two corrections, whose first at
-        // the assumed contraction predicts a third: the next one asked (the measured contraction negative)
-        let mut s = Sqrt2 { x: x0, slope: 2.0 * 1.4141, evaluations: 0, factorizations: 0 };
-        let (r, theta) = chord(&mut s, 1e-12, 0.5, 1e-2).unwrap().unwrap();
-        assert!(r.converged && s.factorizations == 1 && s.evaluations == 2);
-        assert!(theta < 0.0 && -theta < 1e-4);
-        // asked with the start within the tolerance: the chord, the flag left as it was
-        let mut s = Sqrt2 { x: 2f64.sqrt() + 1e-14, slope: 2.0 * 1.41, evaluations: 0, factorizations: 0 };
-        let mut newton = false;
-        let (r, _) = chord_newton(&mut s, 1e-12, 0.5, 3e-3, 1e-2, &mut newton).unwrap().unwrap();
-        assert!(r.converged && s.factorizations == 1 && !newton);
-        // no contraction known: the correction's estimate is not proved, give up (Newton from the predictor)
-        let mut s = Sqrt2 { x: x0, slope: 2.0 * 1.41, evaluations: 0, factorizations: 0 };
-        let mut newton = false;
-        assert!(chord_newton(&mut s, 1e-12, 0.5, f64::INFINITY, 1e-2, &mut newton).unwrap().is_none());
-        assert!(s.factorizations == 1 && !newton);
     }
 
     #[test]

@@ -15,7 +15,7 @@
 use crate::accept::{codes, gap, gap_keep, hermite, lagrange, predicted, rejected, taylor, Why};
 use crate::families::At;
 use crate::model::Kin;
-use crate::newton::{chord, chord_newton, settle, Ops, Settled, RECENT};
+use crate::newton::{chord, settle, Ops, Settled, RECENT};
 
 /// A pivot ratio below this is a singular factorisation: pivot ratio 0 and
 /// det sign 0 (kinem.linalg.PIVOT_RATIO, the other solvers' bound: about 1e3
@@ -331,14 +331,11 @@ pub struct Contraction {
     age: u32,
     /// the pivot ratio of the factorisation held now
     held: f64,
-    /// the next chord starts with Newton where its start is above the tolerance
-    /// (newton::chord_newton), decided at the last chord's end (newton::Chord::corrected)
-    pub newton: bool,
 }
 
 impl Contraction {
     pub fn none() -> Self {
-        Contraction { theta: f64::INFINITY, motion: 0.0, pivot: 0.0, age: RECENT + 1, held: 0.0, newton: false }
+        Contraction { theta: f64::INFINITY, motion: 0.0, pivot: 0.0, age: RECENT + 1, held: 0.0 }
     }
 
     /// The contraction the next chord may assume at an instant of predicted
@@ -354,18 +351,14 @@ impl Contraction {
     }
 
     /// After a chord that settled at an instant of predicted motion
-    /// `motion`, with the first correction's contraction it measured (NaN:
-    /// none; negative: the next chord starts with Newton, newton::chord's).
-    /// After a chord of one correction (or a Newton start) `newton` is left
-    /// as it is.
+    /// `motion`, with the first correction's contraction it measured (NaN: none).
     #[inline]
     pub fn chorded(&mut self, measured: f64, motion: f64) {
         if measured.is_nan() {
             self.age += 1;
         } else {
             let kept = if self.age <= RECENT && self.theta < f64::INFINITY { 0.5 * self.theta } else { 0.0 };
-            self.newton = measured.is_sign_negative();
-            (self.theta, self.motion, self.pivot, self.age) = (measured.abs().max(kept), motion, self.held, 0);
+            (self.theta, self.motion, self.pivot, self.age) = (measured.max(kept), motion, self.held, 0);
         }
     }
 
@@ -446,12 +439,6 @@ pub fn signs((ratio, det): (f64, i32), st: &MarchState) -> (f64, i32, i32) {
 }
 
 impl Work {
-    /// Whether the next instant's chord is asked to start with Newton (`step_newton`).
-    #[inline]
-    pub fn newton(&self) -> bool {
-        self.memory.newton
-    }
-
     /// Each of its buffers of positions holds q at the coordinates `at`
     /// (crate::march's `rest`: those the step's loops leave out from here).
     pub fn rest(&mut self, at: &[u32], q: &[f64]) {
@@ -478,39 +465,7 @@ impl Work {
 
 /// One instant t from the accepted state `st` (or, with none, the assembly
 /// from its estimates) by `mode`; the state moves to it when accepted.
-/// It makes no Newton start (`step_newton` does, where `c` asks it): the
-/// chord is as it was before the Newton start.
 pub fn step<O: Step>(
-    ops: &mut O,
-    st: &mut MarchState,
-    t: f64,
-    s: &Settings,
-    mode: Mode,
-    c: &mut Work,
-) -> Result<Outcome, O::Error> {
-    step_as::<O, false>(ops, st, t, s, mode, c)
-}
-
-/// `step` where `c` asks a Newton start (`Work::newton`; newton::chord_newton):
-/// a copy of its own, which crate::march's loop calls where the flag is set
-/// (out of line and cold), so that `step`'s code, where no Newton start is
-/// asked, stays as it was.
-#[cold]
-#[inline(never)]
-pub fn step_newton<O: Step>(
-    ops: &mut O,
-    st: &mut MarchState,
-    t: f64,
-    s: &Settings,
-    mode: Mode,
-    c: &mut Work,
-) -> Result<Outcome, O::Error> {
-    step_as::<O, true>(ops, st, t, s, mode, c)
-}
-
-/// `step`, with a Newton start where ASK (`step_newton`).
-#[inline(always)]
-fn step_as<O: Step, const ASK: bool>(
     ops: &mut O,
     st: &mut MarchState,
     t: f64,
@@ -588,16 +543,7 @@ fn step_as<O: Step, const ASK: bool>(
         motion = gap(qp, &st.q, ops.col_scale());
         ops.start(qp, t)?;
     }
-    let chorded = if !c.held {
-        None
-    } else if ASK {
-        // a Newton start asked: the flag cleared, set again by the chord's end
-        c.memory.newton = false;
-        let known = c.memory.known(motion);
-        chord_newton(ops, s.tolerance, s.max_step, known, motion, &mut c.memory.newton)?
-    } else {
-        chord(ops, s.tolerance, s.max_step, c.memory.known(motion))?
-    };
+    let chorded = if c.held { chord(ops, s.tolerance, s.max_step, c.memory.known(motion))? } else { None };
     c.held = false;
     let settled = match chorded {
         Some((settled, measured)) => {
