@@ -692,8 +692,7 @@ impl<const N: usize> Lists<N> {
     /// `take(row)` true for one of its rows.
     /// `quiet(c)`: column c's place is one no restricted solve reaches
     /// (its s, sd +0 at every instant: a joint's side there is left out,
-    /// `Pin::lone`, and an unmoved point-on-line constraint's b side,
-    /// `Slide::lone`).
+    /// `Pin::lone`).
     fn new(group: &Group<N>, direct: &mut [bool], take: impl Fn(usize) -> bool, quiet: impl Fn(usize) -> bool) -> Self {
         let (mut pins, mut moving, mut slides, mut moved) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for (f, run) in group.direct.iter().zip(direct.iter_mut()).filter(|x| *x.1) {
@@ -715,7 +714,7 @@ impl<const N: usize> Lists<N> {
                     if f.moved {
                         moved.extend(taken);
                     } else {
-                        slides.extend(taken.into_iter().map(|x| x.lone(&quiet)));
+                        slides.extend(taken);
                     }
                 }
                 _ => continue,

@@ -415,7 +415,6 @@ pub struct Slide<const N: usize> {
     ua: C64,
     ob: C64,
     t: [[C64; 3]; N],
-    lone: bool,
 }
 
 /// What `slides_products` keeps per constraint for `slides_gamma` (its
@@ -437,21 +436,6 @@ impl<const N: usize> Slide<N> {
     pub fn bounds(&self) -> (usize, usize) {
         (self.a.max(self.b) + 2, self.row)
     }
-
-    /// The constraint with b's side left out where `quiet` holds for each
-    /// of b's three columns (its s and sd +0 at every instant: a place the
-    /// restricted solves do not reach), for a constraint of an unmoved
-    /// family (`slides_products`' list without MOVED: ob has no tangent).
-    /// b's terms are then zeros of a sign each instant fixes (dsb =
-    /// i sb (+0), lane for lane the same) or differences from +0 (s_b -
-    /// s_a = +0 - s_a, never -0, so + dsb leaves it): the kernels keep the
-    /// operations whose zeros can reach a row's figure, in their order,
-    /// and drop those that cannot (`slides_products`, `slides_gamma`), so
-    /// the rows take the same figures to the bit.
-    pub fn lone(self, quiet: impl Fn(usize) -> bool) -> Self {
-        let lone = (0..3).all(|i| quiet(self.b + i));
-        Slide { lone, ..self }
-    }
 }
 
 impl<const N: usize> Line<Lanes<N>> {
@@ -469,7 +453,6 @@ impl<const N: usize> Line<Lanes<N>> {
                 ua: value(&self.ua[c]),
                 ob: value(&self.ob[c]),
                 t: std::array::from_fn(|l| [lane(self.ua[c], l).1, lane(self.pa[c], l).1, lane(self.ob[c], l).1]),
-                lone: false,
             })
             .collect()
     }
@@ -507,31 +490,6 @@ pub unsafe fn slides_products<const N: usize, const MOVED: bool, const L3: bool>
         let kept = kept.get_unchecked_mut(k);
         if L3 {
             kept.v = x;
-        }
-        if !MOVED && p.lone {
-            // b's side quiet (Slide::lone): s_b = +0, pb = +0 in every lane, so dsb = i sb (+0) and
-            // u . dsb are the same zeros in each lane; dd's s_b - s_a is +0 - s_a (never -0: + dsb
-            // leaves it); the rest as below, operation by operation
-            let dsb = iz(sb) * 0.0;
-            let zb = dot(u, dsb);
-            for l in 0..N {
-                let pa = s.get_unchecked(a + 2)[l];
-                let (du, dsa) = (iz(u) * pa, iz(sa) * pa);
-                let dd = C64::new(0.0 - s.get_unchecked(a)[l], 0.0 - s.get_unchecked(a + 1)[l]) - dsa;
-                if L3 {
-                    kept.d[l][..3].copy_from_slice(&[du, dd, dsa]); // (dsb: slides_gamma's own)
-                }
-                let (ta, tb) = (-(dot(du, d + sa) + dot(u, dd + dsa)), dot(du, sb) + zb);
-                let g = |k: usize| *qd.get_unchecked(k);
-                let row = &mut r2.get_unchecked_mut(p.row)[l];
-                *row -= du.im * (g(a) - g(b)) - du.re * (g(a + 1) - g(b + 1)) + ta * g(a + 2) + tb * g(b + 2);
-                if L3 {
-                    let g = |k: usize| *qdd.get_unchecked(k);
-                    let row = &mut r3.get_unchecked_mut(p.row)[l];
-                    *row -= du.im * (g(a) - g(b)) - du.re * (g(a + 1) - g(b + 1)) + ta * g(a + 2) + tb * g(b + 2);
-                }
-            }
-            continue;
         }
         for l in 0..N {
             let (pa, pb) = (s.get_unchecked(a + 2)[l], s.get_unchecked(b + 2)[l]);
@@ -587,24 +545,6 @@ pub unsafe fn slides_gamma<const N: usize>(
         let rate = rd(b) + iz(sb) * wb - rd(a) - iz(sa) * wa;
         let big = sb * (wb * wb) - sa * (wa * wa);
         let (cr, dt) = (cross(u, d), dot(u, rate));
-        if p.lone {
-            // b's side quiet (Slide::lone): sd_b = +0 and dsb the same zeros in every lane, so
-            // rd'_b + i (dsb wb + sb dwb) is +0 + a zero, +0; dsb wb^2 + sb 2 wb dwb the same
-            // zeros in every lane; the rest as below, operation by operation
-            let dsb = iz(sb) * 0.0;
-            let zbig = dsb * (wb * wb) + sb * (2.0 * wb * 0.0);
-            for l in 0..N {
-                let [du, dd, dsa, _] = kept.d[l];
-                let dwa = sd.get_unchecked(a + 2)[l];
-                let drate = C64::new(0.0 - sd.get_unchecked(a)[l], 0.0 - sd.get_unchecked(a + 1)[l])
-                    - iz(dsa * wa + sa * dwa);
-                let dbig = zbig - dsa * (wa * wa) - sa * (2.0 * wa * dwa);
-                let (dcr, ddt) = (cross(du, d) + cross(u, dd), dot(du, rate) + dot(u, drate));
-                out.get_unchecked_mut(p.row)[l] +=
-                    (2.0 * wa * dwa) * cr + wa * wa * dcr + (dwa * dt + wa * ddt) * 2.0 + cross(du, big) + cross(u, dbig);
-            }
-            continue;
-        }
         for l in 0..N {
             let [du, dd, dsa, dsb] = kept.d[l];
             let (dwa, dwb) = (sd.get_unchecked(a + 2)[l], sd.get_unchecked(b + 2)[l]);
