@@ -146,13 +146,56 @@ fn place<S: Real>(center: Complex<S>, rot: Complex<S>, e: Complex<S>, [s, s1, s2
 }
 
 impl<const N: usize> Outlines<Lanes<N>> {
+    /// The piece `curve` takes outline o on at theta (a value: no
+    /// tangent), and theta's offset from its start: `radius_in`'s search,
+    /// on the values its Lanes carry.
+    #[inline(always)]
+    pub fn piece(&self, o: usize, theta: f64) -> Piece {
+        let mut x = theta - self.t0[o];
+        let span = self.span[o];
+        if self.periodic[o] {
+            x = x.rem_euclid(span);
+        }
+        let key = x.clamp(0.0, span);
+        let (a, b) = (self.first[o], self.last[o]);
+        let i = (a + self.starts[a..=b].partition_point(|&s| s <= key)).saturating_sub(1).clamp(a, b);
+        Piece { i, h: x - self.starts[i] }
+    }
+
     /// `curve` at the piece the analysis took at the same theta (its value
-    /// pass's, handed over: crate::march), over the lanes at q' = 0 (theta,
-    /// e and rot lifted: no tangent): the same operations as `curve`'s
-    /// after its piece was found, the same figures.
+    /// pass's, handed over: crate::march), at q' = 0 (theta, e and rot
+    /// without tangent): the values as `curve`'s (the same operations in
+    /// f64), and in each lane the tangent along the tables alone, which is
+    /// linear in the coefficients' and the centre's tangents: with ds the
+    /// cubic of the coefficients' tangents at h (`cubic`'s operations),
+    ///     d(a) = rot d(Q) + re ds,  d(g) = re (ds' + i ds),
+    ///     d(h) = re ((ds'' - ds) + i 2 ds'),   re = rot e,
+    /// the operations Lanes takes for them less its products by a lifted
+    /// value's zero tangent (the same figures but for the sign of an exact
+    /// zero). k's tangent is not taken (+0): no kernel reads it
+    /// (crate::families::curve keeps a, g, h's tangents and k's value).
     #[inline(always)]
     pub fn handed(&self, o: usize, p: Piece, e: C64, rot: C64) -> Curve<Lanes<N>> {
-        let lift = |z: C64| Complex::new(Lanes::c(z.re), Lanes::c(z.im));
-        place(self.center[o], lift(rot), lift(e), cubic(&self.coef[4 * p.i..4 * p.i + 4], Lanes::c(p.h)))
+        let c = &self.coef[4 * p.i..4 * p.i + 4];
+        let center = self.center[o];
+        let v = place(C64::new(center.re.v, center.im.v), rot, e, cubic(&[c[0].v, c[1].v, c[2].v, c[3].v], p.h));
+        let re = rot * e;
+        let h = p.h;
+        let mut d = [[[0.0; N]; 2]; 3];
+        for l in 0..N {
+            let (d0, d1, d2, d3) = (c[0].d[l], c[1].d[l], c[2].d[l], c[3].d[l]);
+            let s0 = ((d0 * h + d1) * h + d2) * h + d3;
+            let s1 = (d0 * 3.0 * h + d1 * 2.0) * h + d2;
+            let s2 = d0 * 6.0 * h + d1 * 2.0;
+            let rq = rot * C64::new(center.re.d[l], center.im.d[l]);
+            let a = C64::new(rq.re + re.re * s0, rq.im + re.im * s0);
+            let g = re * C64::new(s1, s0);
+            let hh = re * C64::new(s2 - s0, s1 * 2.0);
+            for (k, z) in [a, g, hh].into_iter().enumerate() {
+                (d[k][0][l], d[k][1][l]) = (z.re, z.im);
+            }
+        }
+        let z = |x: C64, [re, im]: [[f64; N]; 2]| Complex::new(Lanes::of(x.re, re), Lanes::of(x.im, im));
+        Curve { a: z(v.a, d[0]), g: z(v.g, d[1]), h: z(v.h, d[2]), k: z(v.k, [[0.0; N]; 2]) }
     }
 }

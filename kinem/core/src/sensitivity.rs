@@ -690,13 +690,17 @@ impl<const N: usize> Lists<N> {
     /// The lists of the group's direct families that run (`direct`, set
     /// false for those taken here), each constraint of them with
     /// `take(row)` true for one of its rows.
-    fn new(group: &Group<N>, direct: &mut [bool], take: impl Fn(usize) -> bool) -> Self {
+    /// `quiet(c)`: column c's place is one no restricted solve reaches
+    /// (its s, sd +0 at every instant: a joint's side there is left out,
+    /// `Pin::lone`).
+    fn new(group: &Group<N>, direct: &mut [bool], take: impl Fn(usize) -> bool, quiet: impl Fn(usize) -> bool) -> Self {
         let (mut pins, mut moving, mut slides, mut moved) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for (f, run) in group.direct.iter().zip(direct.iter_mut()).filter(|x| *x.1) {
             let row0 = f.rows.start;
             match &group.model.families[f.k] {
                 Family::Revolute(r) => {
                     for p in r.pins(row0, f.moved, |c| take(row0 + 2 * c) || take(row0 + 2 * c + 1)) {
+                        let p = p.lone(&quiet);
                         if p.moving() {
                             moving.push(p);
                         } else {
@@ -730,7 +734,7 @@ impl<const N: usize> Reach<N> {
         let local = |j: usize| locs[j].re.d.iter().chain(&locs[j].im.d).any(|&x| x != 0.0);
         let all = || {
             let mut direct = vec![true; group.direct.len()];
-            let lists = Lists::new(group, &mut direct, |_| true);
+            let lists = Lists::new(group, &mut direct, |_| true, |_| false);
             let direct = (0..direct.len()).filter(|&i| direct[i]).collect();
             Reach {
                 program: None,
@@ -764,7 +768,7 @@ impl<const N: usize> Reach<N> {
         // (a constraint none of whose rows is in `from` has no seed and reads no reached coordinate: its
         // kernels add zeros of either sign to its rows' +0, which stay +0, as a family's left out)
         let mut direct: Vec<bool> = group.direct.iter().map(|f| f.rows.clone().any(|r| from[place(r)])).collect();
-        let lists = Lists::new(group, &mut direct, |r| from[place(r)]);
+        let lists = Lists::new(group, &mut direct, |r| from[place(r)], |c| !reached[c]);
         let direct = (0..direct.len()).filter(|&i| direct[i]).collect();
         let rows: Vec<(u32, u32)> =
             (0..m).filter(|&r| reached[place(r)]).map(|r| (r as u32, place(r) as u32)).collect();

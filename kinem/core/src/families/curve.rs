@@ -245,9 +245,10 @@ unsafe fn store<const N: usize>(p: &Curve<Lanes<N>>, c: usize, keep: &mut Kept<N
 ///     Dh = i h s_phic + k s_th + d(h),   Db = i b s_phib + A_b d(s'_b),
 /// with b = A_b s'_b and d(.) the tables' tangents.
 impl<const N: usize> PointOnCurve<Lanes<N>> {
-    /// The outline's place at constraint c with the tables' tangents alone;
-    /// at the piece the analysis took (`pieces`, two per constraint: the
-    /// march's, Outlines::handed) where pieces holds them, else found again.
+    /// The outline's place at constraint c with the tables' tangents alone
+    /// (Outlines::handed); at the piece the analysis took (`pieces`, two
+    /// per constraint: the march's) where pieces holds them, else found
+    /// again (Outlines::piece).
     ///
     /// # Safety
     /// c < cb.len() and `at.holds(n)` (PointOnCurve's invariants); pieces
@@ -256,11 +257,9 @@ impl<const N: usize> PointOnCurve<Lanes<N>> {
     unsafe fn fixed(&self, at: &At, s: &Shared<Lanes<N>>, c: usize, pieces: &[Piece]) -> Curve<Lanes<N>> {
         let (o, cc, ct) =
             (*self.curve.o.get_unchecked(c), *self.curve.cc.get_unchecked(c), *self.curve.ct.get_unchecked(c));
-        if !pieces.is_empty() {
-            return s.outlines.handed(o, *pieces.get_unchecked(2 * c), *at.e.get_unchecked(ct), at.rot_at(cc));
-        }
-        let lift = |z: C64| Complex::new(Lanes::c(z.re), Lanes::c(z.im));
-        s.outlines.curve(o, Lanes::c(*at.q.get_unchecked(ct)), lift(*at.e.get_unchecked(ct)), lift(at.rot_at(cc)))
+        let piece =
+            if pieces.is_empty() { s.outlines.piece(o, *at.q.get_unchecked(ct)) } else { *pieces.get_unchecked(2 * c) };
+        s.outlines.handed(o, piece, *at.e.get_unchecked(ct), at.rot_at(cc))
     }
 
     /// Constraint c at the analysis: its columns, the outline's place with

@@ -288,6 +288,9 @@ impl<const N: usize> Revolute<Lanes<N>> {
 /// model's, its local points' values and, per point whose table carries a
 /// tangent in a moved family (`moved && moves(t)`), that point's
 /// tangents (re, im per lane; `pins_products`' MOVED list alone reads them).
+/// `lone`: j's angle is a place no restricted solve reaches (s_j = sd_j =
+/// +0 at every instant) and sj carries no tangent: j's terms, products of
+/// those zeros, are left out (`Pin::lone`).
 pub struct Pin<const N: usize> {
     i: usize,
     j: usize,
@@ -296,6 +299,7 @@ pub struct Pin<const N: usize> {
     sj: C64,
     ti: Option<([f64; N], [f64; N])>,
     tj: Option<([f64; N], [f64; N])>,
+    lone: bool,
 }
 
 /// What `pins_products` keeps per joint for `pins_gamma` (a = A_i s'_i,
@@ -323,6 +327,16 @@ impl<const N: usize> Pin<N> {
     pub fn moving(&self) -> bool {
         self.ti.is_some() || self.tj.is_some()
     }
+
+    /// The joint with j's terms left out where `quiet(j's angle column)`
+    /// (its s and sd +0 at every instant: a place the restricted solves do
+    /// not reach) and sj has no tangent. Those terms are +-0 (b s_j, b sd_j
+    /// and their products), so the rows take the same figures but for the
+    /// sign of an exact zero (a sum that is itself zero).
+    pub fn lone(self, quiet: impl Fn(usize) -> bool) -> Self {
+        let lone = self.tj.is_none() && quiet(self.j);
+        Pin { lone, ..self }
+    }
 }
 
 impl<const N: usize> Revolute<Lanes<N>> {
@@ -341,6 +355,7 @@ impl<const N: usize> Revolute<Lanes<N>> {
                 sj: value(self.sj[c]),
                 ti: tangent(self.si[c]),
                 tj: tangent(self.sj[c]),
+                lone: false,
             })
             .collect()
     }
@@ -382,6 +397,26 @@ pub unsafe fn pins_products<const N: usize, const MOVED: bool, const L3: bool>(
         };
         let (i, j) = (p.i, p.j);
         let (a, ar, ai) = one(*e.get_unchecked(i), s.get_unchecked(i), p.si, p.ti);
+        if p.lone {
+            // j's terms +-0 (Pin::lone)
+            let wi = *qd.get_unchecked(i);
+            let rows = r2.get_unchecked_mut(p.row..p.row + 2);
+            for l in 0..N {
+                rows[0][l] += ai[l] * wi;
+                rows[1][l] -= ar[l] * wi;
+            }
+            if L3 {
+                let b = C64::new(0.0, 0.0);
+                *kept.get_unchecked_mut(k) = PinKept { a, b, d: [ar, ai, [0.0; N], [0.0; N]] };
+                let wi = *qdd.get_unchecked(i);
+                let rows = r3.get_unchecked_mut(p.row..p.row + 2);
+                for l in 0..N {
+                    rows[0][l] += ai[l] * wi;
+                    rows[1][l] -= ar[l] * wi;
+                }
+            }
+            continue;
+        }
         let (b, br, bi) = one(*e.get_unchecked(j), s.get_unchecked(j), p.sj, p.tj);
         let (wi, wj) = (*qd.get_unchecked(i), *qd.get_unchecked(j));
         let rows = r2.get_unchecked_mut(p.row..p.row + 2);
@@ -417,6 +452,19 @@ pub unsafe fn pins_gamma<const N: usize>(
     kept: &[PinKept<N>],
 ) {
     for (k, p) in pins.iter().enumerate() {
+        if p.lone {
+            // j's terms +-0 (Pin::lone)
+            let PinKept { a, d: [ar, ai, ..], .. } = *kept.get_unchecked(k);
+            let (wi, vi) = (*qd.get_unchecked(p.i), sd.get_unchecked(p.i));
+            let ww_i = wi * wi;
+            let o = out.get_unchecked_mut(p.row..p.row + 2);
+            for l in 0..N {
+                let dwi = 2.0 * wi * vi[l];
+                o[0][l] += ar[l] * ww_i + a.re * dwi;
+                o[1][l] += ai[l] * ww_i + a.im * dwi;
+            }
+            continue;
+        }
         let PinKept { a, b, d: [ar, ai, br, bi] } = *kept.get_unchecked(k);
         let (wi, wj) = (*qd.get_unchecked(p.i), *qd.get_unchecked(p.j));
         let (vi, vj) = (sd.get_unchecked(p.i), sd.get_unchecked(p.j));
