@@ -1614,3 +1614,58 @@ def test_found_empty_outputs_refused_alike(four_bar_20, call):
             "variants": lambda: kinem.solve(four_bar_20, parameters={"points.A.at.0": [0.05]}, outputs=[])}
     with pytest.raises(kinem.InputError, match="outputs"):
         args[call]()
+
+
+# -- session 30, part 12 (docs/benchmarks.md, "Fuzz campaign, session 30"): what part 11 left -----------------
+
+def _warned(call):
+    """(the value of call(), the texts of the KinemWarnings it gave)."""
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        out = call()
+    return out, [str(w.message) for w in got if issubclass(w.category, kinem.KinemWarning)]
+
+
+def _degrees_named(tmp_path):
+    """cases/four_bar.toml in degrees, its crank's rate a named dimension."""
+    text = FOUR_BAR.read_text().replace('units = { length = "m" }', 'units = { length = "m", angle = "deg" }')
+    for rad, deg in (("0.785]", "45.0]"), ("0.27]", "15.47]"), ("0.76]", "43.54]")):
+        text = text.replace(rad, deg)
+    text = text.replace("d = { poly = [0.7853981633974483, 1.5, -0.6] }", 'd = { poly = [45.0, "rate", -34.38] }')
+    text = text.replace("[time]", "[parameters]\nrate = 85.94\n\n[time]")
+    path = tmp_path / "degrees.toml"
+    path.write_text(text)
+    return path
+
+
+def test_found_variants_of_a_fast_driver_said_nothing(tmp_path):
+    """kinem.solve(model, parameters=...) of a driver's rate up to 2,000 rad/s said nothing where kinem.sweep of
+    the same values warns (a speed in degrees read as radians?): its variants are formed in the core, no case
+    built. Now the driver's functions are evaluated from the values (no case built) and one line counts the
+    variants, as the sweep's; the first quoted is the sweep's own text, in degrees and by a named dimension
+    too. A variant refused as bad input, or of the nominal's rate, and a parameter not of a driver, add none."""
+    model = kinem.compile(kinem.load(FOUR_BAR))
+    rates = list(np.linspace(1.0, 2000.0, 5))
+    sweep, said = _warned(lambda: kinem.sweep(str(FOUR_BAR), {"constraints.crank-drive.d.poly.1": rates}, ["B.x"]))
+    got, told = _warned(lambda: kinem.solve(model, parameters={"constraints.crank-drive.d.poly.1": rates},
+                                            outputs=["B.x"]))
+    assert len(said) == 1 and len(told) == 1, (said, told)
+    assert told[0].startswith("solve: 4 of 5 variants warn where the case itself does not; first, variant 1: ")
+    assert told[0].split("first, ")[1] == said[0].split("first, ")[1], (told, said)
+    assert (np.isnan(got.data) == np.isnan(sweep.data)).all()
+    _, told = _warned(lambda: kinem.solve(model, parameters={"constraints.crank-drive.d.poly.1": [1.5, 1.4],
+                                                             "points.A.at.0": [0.05, 0.04]}, outputs=["B.x"]))
+    assert told == []
+    _, told = _warned(lambda: kinem.solve(model, parameters={"points.A.at.0": [0.05, 0.04]}, outputs=["B.x"]))
+    assert told == []
+    refused, told = _warned(lambda: kinem.solve(model, parameters={"constraints.crank-drive.d.poly.1": [2000.0] * 2,
+                                                                   "points.A.at.0": [0.05, 1e300]}, outputs=["B.x"]))
+    assert refused.status[1] is kinem.native.Why.BAD_INPUT and len(told) == 1, told
+    assert told[0].startswith("solve: 1 of 2 variants warn where the case itself does not; first, variant 0: "), told
+    path = _degrees_named(tmp_path)
+    degrees = kinem.compile(kinem.load(path))
+    sweep, said = _warned(lambda: kinem.sweep(str(path), {"rate": [85.94, 30000.0, 85.94]}, ["B.x"]))
+    _, told = _warned(lambda: kinem.solve(degrees, parameters={"rate": [85.94, 30000.0, 85.94]}, outputs=["B.x"]))
+    assert len(said) == 1 and told == ["solve: 1 of 3 variants warn where the case itself does not; first, "
+                                       + said[0].split("first, ")[1]], (told, said)
+    assert "at up to 523.6 rad/s" in told[0], told
