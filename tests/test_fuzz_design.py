@@ -1669,3 +1669,57 @@ def test_found_variants_of_a_fast_driver_said_nothing(tmp_path):
     assert len(said) == 1 and told == ["solve: 1 of 3 variants warn where the case itself does not; first, "
                                        + said[0].split("first, ")[1]], (told, said)
     assert "at up to 523.6 rad/s" in told[0], told
+
+
+CLOSED = [p for p in sorted((ROOT / "cases").glob("*.toml")) if p.stem != "pin_in_spline_slot"]
+
+
+@pytest.mark.parametrize("path", CLOSED, ids=lambda p: p.stem)
+def test_closed_forms_in_chunks_are_the_same_arrays(monkeypatch, path):
+    """A closed form is evaluated CHUNK instants at a time (the time limit looked at between chunks), each chunk
+    with the first instant, whose dimensions and d(0) it reads: the same arrays to the bit as one pass, whatever
+    the chunk (7 instants, or all). (pin_in_spline_slot's loops over its instants and looks itself.)"""
+    from adapters import references
+
+    model = kinem.compile(kinem.load(path).with_time(steps=60))
+    native = kinem.solve(model)
+    forms = []
+    for chunk in (10**12, 7, 60):
+        monkeypatch.setattr(references, "CHUNK", chunk)
+        forms.append(references.closed_form(model, native))
+    assert forms[0] is not None
+    whole = [np.asarray(x) for x in references._flat(forms[0])]
+    for cf in forms[1:]:
+        assert cf.label == forms[0].label and list(cf.points) == list(forms[0].points)
+        assert list(cf.bodies) == list(forms[0].bodies)
+        parts = [np.asarray(x) for x in references._flat(cf)]
+        assert all(a.shape == b.shape and a.tobytes() == b.tobytes() for a, b in zip(whole, parts))
+
+
+def test_found_a_closed_form_of_one_pass_past_the_time_limit(monkeypatch):
+    """A closed form evaluated in one numpy pass over all the instants (the four-bar's: 17 s at 5,000,000, the
+    most compare holds, load 4.2) ran to its end past --max-seconds. Now it looks at the limit between chunks of
+    CHUNK instants: past it, compare's native row is out of time, saying where the check stopped."""
+    import time
+
+    from adapters import references
+    from adapters.base import OutOfTime, Status, limited
+
+    monkeypatch.setattr(references, "CHUNK", 16)
+    model = kinem.compile(kinem.load(FOUR_BAR).with_time(steps=40))
+    native = kinem.solve(model)
+    with limited((5, time.time() - 1.0)), pytest.raises(OutOfTime, match=r"reached at t = 0\.9375$"):
+        references.closed_form(model, native)
+    assert references.closed_form(model, native) is not None   # no limit: the same check
+    calls = []
+
+    def late(t, steps=0, wall=0.0):   # the limit reached after the first chunk
+        calls.append(t)
+        if len(calls) > 1:
+            raise OutOfTime(Status.OUT_OF_TIME, f"the time limit is reached at t = {t:.6g}")
+
+    monkeypatch.setattr(references, "in_time", late)
+    code, out, err = _compare([str(FOUR_BAR), "--engines", "native", "--steps", "40", "--json"])
+    row = _strict(out)["engines"]["native"]
+    assert code == 1 and (row["outcome"], row["verdict"]) == ("out of time", "out of time"), row
+    assert row["status"] == "failed: the time limit is reached at t = 1.9375 of its check against the closed form", row
