@@ -1723,3 +1723,32 @@ def test_found_a_closed_form_of_one_pass_past_the_time_limit(monkeypatch):
     row = _strict(out)["engines"]["native"]
     assert code == 1 and (row["outcome"], row["verdict"]) == ("out of time", "out of time"), row
     assert row["status"] == "failed: the time limit is reached at t = 1.9375 of its check against the closed form", row
+
+
+def test_found_pymunk_pose_arrays_of_the_whole_run_before_its_first_check(monkeypatch):
+    """pymunk's prescribed poses and joint targets were numpy arrays over every step of the run, made with the
+    mechanism before the first interval's check of --max-seconds (8 to 16 s at 10^7 steps, load 4.5). Now they
+    are made a window of TABLE_CHUNK steps at a time, with the tables, when the stepping reaches them: no
+    driving function is evaluated over more than a window, and a run past its limit evaluates none beyond the
+    first. (The same runs to the bit: test_pymunk_tables_in_chunks_are_the_same_run, and below.)"""
+    import time
+
+    from adapters import get, pymunk_sim
+
+    lengths = []
+    real = pymunk_sim._values
+
+    def values(f, t):
+        lengths.append(len(t))
+        return real(f, t)
+
+    model = kinem.compile(kinem.load(FOUR_BAR).with_time(steps=40))
+    whole = get("pymunk").run(model, settings={"substeps": 10})
+    monkeypatch.setattr(pymunk_sim, "_values", values)
+    monkeypatch.setattr(pymunk_sim, "TABLE_CHUNK", 16)
+    run = get("pymunk").run(model, settings={"substeps": 10})
+    assert run.ok and np.array_equal(run.q, whole.q) and np.array_equal(run.qd, whole.qd)
+    assert lengths and max(lengths) <= 16 + 1 < 402, lengths   # 402 step instants in the run
+    lengths.clear()
+    late = get("pymunk").run(model, settings={"substeps": 10}, limit=(5, time.time() - 1.0))
+    assert late.status is pymunk_sim.Status.OUT_OF_TIME and max(lengths, default=0) <= 1, (late.label, lengths)
