@@ -1752,3 +1752,91 @@ def test_found_pymunk_pose_arrays_of_the_whole_run_before_its_first_check(monkey
     lengths.clear()
     late = get("pymunk").run(model, settings={"substeps": 10}, limit=(5, time.time() - 1.0))
     assert late.status is pymunk_sim.Status.OUT_OF_TIME and max(lengths, default=0) <= 1, (late.label, lengths)
+
+
+# -- session 30, part B: case files as editors write them, numbers past Python's digits, odd baselines --------
+
+def test_found_a_case_file_with_a_byte_order_mark(tmp_path):
+    """A case file saved with a UTF-8 byte order mark (Windows editors write one) was refused as "TOML syntax
+    error: Invalid statement (at line 1, column 1)", naming nothing that is wrong. Now one leading mark is read
+    past (Python's utf-8-sig); two are refused as ever; CRLF line ends and tabs were sound."""
+    text = FOUR_BAR.read_text()
+    path = tmp_path / "bom.toml"
+    for body in (text, text.replace("\n", "\r\n"), text.replace(" = ", "\t=\t")):
+        path.write_bytes(b"\xef\xbb\xbf" + body.encode())
+        assert kinem.load(path) == kinem.load(FOUR_BAR).__class__(**{**vars(kinem.load(FOUR_BAR)),
+                                                                     "source": str(path)})
+        assert run_main(["info", str(path)])[0] == 0
+    assert kinem.loads("\ufeff" + text).name == "four_bar"
+    path.write_bytes(b"\xef\xbb\xbf" * 2 + text.encode())
+    code, line = run_main(["info", str(path)])
+    assert code == 2 and "TOML syntax error" in line and str(path) in line, line
+
+
+@pytest.mark.parametrize("value, shown", [("1979-05-27", "1979-05-27 (a TOML date)"),
+                                          ("07:32:00", "07:32:00 (a TOML time)"),
+                                          ("1979-05-27T07:32:00Z", "1979-05-27T07:32:00+00:00 (a TOML date-time)")])
+def test_found_toml_dates_shown_as_python(tmp_path, value, shown):
+    """A TOML date, time or date-time where a number is expected was quoted as Python writes it: "got
+    datetime.date(1979, 5, 27)". Now as the file writes it, saying what TOML read."""
+    path = tmp_path / "date.toml"
+    path.write_text(FOUR_BAR.read_text().replace("end = 2.5", f"end = {value}"))
+    code, line = run_main(["info", str(path)])
+    assert (code, line) == (2, f"kinem: error: {path}: [time]: key 'end': got {shown}; expected a number"), line
+
+
+def test_found_whole_numbers_past_pythons_digits(tmp_path):
+    """A whole number of more than 4,300 digits (Python converts none to text: sys.get_int_max_str_digits) was an
+    internal error, exit 3, where a case file gives it in hexadecimal (0xfff...: TOML reads it, the message
+    could not quote it), as --set of a named dimension (--set crank=999...: the text was read as TOML) or as
+    kinem.load(parameters=) (a ValueError). Now bad input that counts its digits; a decimal one in a case file
+    (TOML's reader refuses it) names its line."""
+    huge = "f" * 5000
+    path = tmp_path / "hex.toml"
+    path.write_text(FOUR_BAR.read_text().replace("steps = 250", f"steps = 0x{huge}"))
+    code, line = run_main(["info", str(path)])
+    assert (code, line) == (2, f"kinem: error: {path}: [time]: key 'steps': got a whole number of about 6,021 "
+                               "digits; expected a whole number from 1 to 10000000"), line
+    path.write_text(FOUR_BAR.read_text().replace("O2 = { body = \"ground\", at = [0.0, 0.0] }",
+                                                 f"O2 = {{ body = \"ground\", at = [0x{huge}, 0.0] }}"))
+    code, line = run_main(["info", str(path)])
+    assert code == 2 and "point 'O2': key 'at': got a whole number of about 6,021 digits" in line, line
+    path.write_text(FOUR_BAR.read_text().replace("steps = 250", "steps = " + "9" * 5000))
+    code, line = run_main(["info", str(path)])
+    assert code == 2 and line.startswith(f"kinem: error: {path}: line 7: "), line
+    for value in ("9" * 5000, "-" + "9" * 5000, "0x" + huge):
+        code, line = run_main(["info", str(NAMED), "--set", f"crank={value}"])
+        assert code == 2 and "key 'crank': got a whole number of about" in line, line
+    with pytest.raises(kinem.InputError, match="a whole number of about 5,000 digits"):
+        kinem.load(NAMED, parameters={"crank": 10 ** 4999})
+
+
+def test_found_a_baseline_that_never_ends(tmp_path, monkeypatch):
+    """kinem report --baseline and kinem diff read a results.json whole (Path.read_text): /dev/zero grew until
+    memory ran out (exit 3, MemoryError, under a 3 GB limit), a FIFO without a writer waited for ever. Now at
+    most MAX_BYTES are read, a FIFO's writer waited for as a case file's (FIFO_WAIT), a directory and a file that
+    is not UTF-8 said so in kinem's words; a byte order mark is read past."""
+    import os
+
+    from kinem import output
+    from kinem.report import results
+
+    monkeypatch.setattr(results, "MAX_BYTES", 1000)
+    monkeypatch.setattr(output, "FIFO_WAIT", 0.2)
+    fifo = tmp_path / "fifo.json"
+    os.mkfifo(fifo)
+    (tmp_path / "dir.json").mkdir()
+    (tmp_path / "latin1.json").write_bytes('{"a": "é"}'.encode("latin-1"))
+    cases = {"/dev/zero": "results /dev/zero: more than 1000 bytes; expected a results.json of kinem report",
+             str(fifo): f"{fifo}: cannot read: a FIFO with no writer (waited 0.2 s)",
+             str(tmp_path / "dir.json"): f"results {tmp_path / 'dir.json'}: cannot read: is a directory; expected a "
+                                         "results.json of kinem report",
+             str(tmp_path / "latin1.json"): f"results {tmp_path / 'latin1.json'}: cannot read: not UTF-8 text "
+                                            "(byte 7); expected a results.json of kinem report"}
+    for path, said in cases.items():
+        code, line = run_main(["diff", path, path])
+        assert (code, line) == (2, f"kinem: error: {said}"), line
+    monkeypatch.setattr(results, "MAX_BYTES", 256 * 2**20)
+    bom = tmp_path / "bom.json"
+    bom.write_bytes(b"\xef\xbb\xbf" + (ROOT / "reports" / "baseline.json").read_bytes())
+    assert results.load(bom) == results.load(ROOT / "reports" / "baseline.json")
