@@ -1840,3 +1840,20 @@ def test_found_a_baseline_that_never_ends(tmp_path, monkeypatch):
     bom = tmp_path / "bom.json"
     bom.write_bytes(b"\xef\xbb\xbf" + (ROOT / "reports" / "baseline.json").read_bytes())
     assert results.load(bom) == results.load(ROOT / "reports" / "baseline.json")
+
+
+@pytest.mark.parametrize("option", ["--samples", "--seed"])
+def test_found_whole_options_read_as_python_reads_them(option):
+    """tolerance --samples and --seed (and --jobs of report and stress) were read by Python's int: '٣' (a digit
+    of another script) was 3 where --steps refuses it, '1e3' was refused ("invalid int value") where --steps
+    reads 1000, and 5,000 nines an internal error's neighbour (refused for Python's digit limit, no word of
+    why). Now as --steps reads its: a case file's number that is whole, past 3,000 digits refused saying so."""
+    for text in ("٣", "2.5", "nan", "", "x"):
+        code, line = run_main(["tolerance", str(FOUR_BAR), option, text])
+        assert code == 2 and f"argument {option}: got {text!r}; expected a whole number as a case file writes it" \
+            in line, line
+    code, line = run_main(["tolerance", str(FOUR_BAR), option, "9" * 5000])
+    assert code == 2 and "got a whole number of about 5,000 digits; expected one of at most 3,000" in line, line
+    from kinem.cli.parser import whole_option
+
+    assert [whole_option(t) for t in ("1e3", "0x10", "1_0", " 5", "-3")] == [1000, 16, 10, 5, -3]
