@@ -32,7 +32,7 @@ IDENT_TEXT = f"a name of at most {MAX_NAME} letters, digits, '_' and '-' that st
 
 # The documented ranges (docs/case-format.md, "Limits", is generated from this).
 LIMITS = (
-    ("file", "at most 16 MiB of UTF-8 TOML (read with a hard cap: a device or pipe is not read past it)"),
+    ("file", "at most 16 MiB of UTF-8 TOML (read with a hard cap: a device or pipe is not read past it; one leading byte order mark is read past)"),
     ("case name", f"1 to {MAX_NAME} characters of a-z, 0-9, `_` and `-`"),
     ("body, point and constraint names", f"1 to {MAX_NAME} characters of letters, digits, `_` and `-`, "
                                          "starting with a letter or `_` (the whole name: no trailing newline)"),
