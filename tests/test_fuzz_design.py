@@ -1809,6 +1809,9 @@ def test_found_whole_numbers_past_pythons_digits(tmp_path):
         assert code == 2 and "key 'crank': got a whole number of about" in line, line
     with pytest.raises(kinem.InputError, match="a whole number of about 5,000 digits"):
         kinem.load(NAMED, parameters={"crank": 10 ** 4999})
+    for option in ("--steps", "--end"):
+        code, line = run_main(["solve", str(FOUR_BAR), option, "9" * 5000])
+        assert code == 2 and f"{option}: got a whole number of about 5,000 digits" in line, line
 
 
 def test_found_a_baseline_that_never_ends(tmp_path, monkeypatch):
