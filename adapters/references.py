@@ -68,7 +68,7 @@ def closed_form(model, ref):
         return None
     traj = ref.trajectory
     try:
-        cf = make(model, traj) if make is pin_in_slot or len(traj) <= CHUNK else _chunked(make, model, traj)
+        cf = make(model, traj) if _loops(model, make) or len(traj) <= CHUNK else _chunked(make, model, traj)
     except (KeyError, ValueError, StopIteration, ZeroDivisionError):   # another geometry than the closed form's
         return None
     moving = set(model.body_names) - grounded(model)
@@ -78,6 +78,12 @@ def closed_form(model, ref):
     fits = start.position <= FIT * model.length
     finite = all(np.isfinite(x).all() for m in _motions(cf) for x in m)
     return cf if fits and finite else None
+
+
+def _loops(model, make) -> bool:
+    """Whether the closed form loops over the instants (a pin in a spline slot: each root from the previous
+    instant's; it looks at the limit itself), not evaluated in chunks."""
+    return make is pin_in_slot and _one(model, "point-follower")["outline"].kind != "circle"
 
 
 class _Window:
@@ -98,9 +104,9 @@ def _chunked(make, model, traj) -> ClosedForm:
     (in_time) looked at between chunks: each chunk is the first instant (the
     closed form's dimensions, its assembly and d(0) come from it) and the
     chunk's, the first dropped but in the first chunk. Every closed form but
-    pin_in_slot's (its spline roots each start from the previous instant's,
-    and look at the limit themselves) is elementwise in the instants: the
-    same arrays to the bit as one pass."""
+    that of a pin in a spline slot (``_loops``: its roots each start from the
+    previous instant's, and it looks at the limit itself) is elementwise in
+    the instants: the same arrays to the bit as one pass."""
     parts = []
     for lo in range(0, len(traj), CHUNK):
         hi = min(len(traj), lo + CHUNK)
