@@ -80,14 +80,87 @@ def _values(f, t):
     return drive_table([f], t, 0)[:, 0]
 
 
+class _Along:
+    """A quantity over the step instants, made for a range of them when read
+    (``make(lo, hi)``: its values at tt[lo:hi]), never for the whole run at
+    once: a[lo:hi], a[k], a.after(n) (a[n:]), np.asarray(a) (all of it, for
+    an exported script). What it is made of is elementwise in the instants
+    (the core's d(t), numpy's arithmetic): the same numbers to the bit in a
+    window as all at once. (10^7 steps made at once took 8 to 16 s, load
+    4.5, before the first interval's check of --max-seconds.)"""
+
+    def __init__(self, make, n, shift=0):
+        self.make, self.n, self.shift = make, n, shift
+
+    def __len__(self):
+        return self.n - self.shift
+
+    def __getitem__(self, k):
+        if isinstance(k, slice):
+            lo, hi, step = k.indices(len(self))
+            if step != 1:
+                raise ValueError("a prescribed quantity is read in contiguous windows")
+            return self.make(lo + self.shift, max(lo, hi) + self.shift)
+        k = range(len(self))[k]
+        return self.make(k + self.shift, k + self.shift + 1)[0]
+
+    def __array__(self, dtype=None, copy=None):
+        return np.asarray(self[:], dtype)
+
+    def after(self, n):
+        """The quantity from step n on (a[n:])."""
+        return _Along(self.make, self.n, self.shift + n)
+
+
+class _Instants:
+    """The step instants t_j = j dt, j < n, made for a window when read
+    (tt[lo:hi]): np.arange(n) * dt's numbers, to the bit, never all at once
+    (80 MB and about a second at 10^7 steps)."""
+
+    def __init__(self, n, dt):
+        self.n, self.dt = n, dt
+
+    def __len__(self):
+        return self.n
+
+    def __getitem__(self, k):
+        lo, hi, step = k.indices(self.n)
+        if step != 1:
+            raise ValueError("the step instants are read in contiguous windows")
+        return np.arange(lo, max(lo, hi)) * self.dt
+
+
+def _along(tt, f):
+    """_Along of f(instants) -> array over the step instants tt."""
+    return _Along(lambda lo, hi: f(tt[lo:hi]), len(tt))
+
+
+def _pose(n, make):
+    """(x, y, phi) as _Alongs of one ``make(lo, hi)`` -> (x, y, phi) arrays, the last two windows kept (a
+    window reads each coordinate at two overlapping ranges)."""
+    kept = {}
+
+    def part(i):
+        def window(lo, hi):
+            if (lo, hi) not in kept:
+                if len(kept) >= 2:
+                    kept.pop(next(iter(kept)))
+                kept[(lo, hi)] = make(lo, hi)
+            return kept[(lo, hi)][i]
+        return _Along(window, n)
+
+    return part(0), part(1), part(2)
+
+
 def _prescribed(model, tt):
     """Bodies whose pose is a function of time: an absolute angle driver and a
     revolute joint to a grounded or already prescribed body. Returns
-    {body: (x, y, phi) over tt} and the names of the drivers they consume."""
-    poses = {}
+    {body: (x, y, phi) over tt, each an _Along} and the names of the drivers
+    they consume."""
+    poses, n = {}, len(tt)
     for c in model.case.constraints:
         if c.type == "ground":
-            poses[c["body"]] = tuple(np.full(len(tt), float(v)) for v in c["value"])
+            poses[c["body"]] = tuple(_Along(lambda lo, hi, v=float(v): np.full(hi - lo, v), n) for v in c["value"])
     fixed = set(poses)
     driven = {d.body: d for d in drives(model) if d.coord == "phi" and d.relative_to is None}
     pins = [c for c in model.case.constraints if c.type == "revolute"]
@@ -101,11 +174,14 @@ def _prescribed(model, tt):
                 ends = {c["i"]: c["si"], c["j"]: c["sj"]}
                 other = c["j"] if c["i"] == name else c["i"] if c["j"] == name else None
                 if other in poses:
-                    ox, oy, ophi = poses[other]
-                    phi = _values(d.f, tt)
-                    pin = ox + 1j * oy + complex(*ends[other]) * np.exp(1j * ophi)
-                    r = pin - complex(*ends[name]) * np.exp(1j * phi)
-                    poses[name] = (r.real, r.imag, phi)
+                    def make(lo, hi, other=poses[other], f=d.f, a=complex(*ends[other]), b=complex(*ends[name])):
+                        ox, oy, ophi = (x[lo:hi] for x in other)
+                        phi = _values(f, tt[lo:hi])
+                        pin = ox + 1j * oy + a * np.exp(1j * ophi)
+                        r = pin - b * np.exp(1j * phi)
+                        return r.real, r.imag, phi
+
+                    poses[name] = _pose(n, make)
                     used.add(d.name)
                     changed = True
                     break
@@ -122,8 +198,8 @@ class _Mechanism:
         self.space.iterations = int(s["iterations"])
         self.space.gravity = (0.0, 0.0)
         self.space.damping = 1.0                 # none
-        self.kinematic = []                      # (body, x, y, phi over tt)
-        self.targets = []                        # (joint, attribute, value over tt)
+        self.kinematic = []                      # (body, x, y, phi over tt: _Alongs)
+        self.targets = []                        # (joint, attribute, value over tt: an _Along)
         self.grooves = []                        # (name, body a, point, axis, body b, anchor)
         self.ground = self.place(pymunk.Body(body_type=STATIC), (0, 0, 0), (0, 0, 0))
 
@@ -225,9 +301,9 @@ class _Mechanism:
     def distance_driver(self, c):
         j = self.add(pymunk.PinJoint(self.body[c["i"]], self.body[c["j"]], tuple(c["si"]), tuple(c["sj"])),
                      error_bias=0.0)
-        d = _values(c["d"], self.tt)
+        d = _along(self.tt, lambda t: _values(c["d"], t))
         j.distance = float(d[0])
-        self.targets.append((j, "distance", d[2:]))
+        self.targets.append((j, "distance", d.after(2)))
 
     def translational(self, c):
         bi, bj = self.body[c["i"]], self.body[c["j"]]
@@ -261,12 +337,12 @@ class _Mechanism:
 
     def driver(self, d):
         b = self.body[d.body]
-        v = _values(d.f, self.tt)
-        zero = np.zeros_like(v)
+        v = _along(self.tt, lambda t: _values(d.f, t))
+        zero = _along(self.tt, np.zeros_like)
         if d.relative_to is not None:            # phi_b - phi_k = d(t)
             j = self.lock(self.body[d.relative_to], b, float(v[0]), error_bias=0.0)
             if j is not None:
-                self.targets.append((j, "phase", v[2:]))
+                self.targets.append((j, "phase", v.after(2)))
         elif d.coord == "phi":
             self.lock(self.moving_helper(zero, zero, v), b, 0.0)
         else:                                    # a groove across the axis, moving along it
@@ -397,7 +473,7 @@ class PymunkAdapter(Adapter):
 
     def simulate(self, model, q0, qd0, s, times):
         n_sub, dt = s["substeps"], s["dt"]
-        tt = np.arange(n_sub * (len(times) - 1) + 2) * dt       # step instants t_0 .. t_{N+1}
+        tt = _Instants(n_sub * (len(times) - 1) + 2, dt)         # step instants t_0 .. t_{N+1}
         try:
             mech = _Mechanism(model, q0, qd0, s, tt)
         except (ValueError, ArithmeticError) as e:

@@ -24,6 +24,7 @@ from kinem.reference import drive, turned, wrap
 
 from .base import grounded, in_time
 
+CHUNK = 65536   # instants of a closed form evaluated at a time (the time limit looked at between them)
 FIT = 1e-6   # relative to L: the closed form must reproduce the t = 0 assembly this well to apply
 PARALLEL = 1e-9   # sine of the angle under which two directions count as parallel
 # Native against its closed form (docs/report.md "Independent references for native"). The closed
@@ -67,7 +68,7 @@ def closed_form(model, ref):
         return None
     traj = ref.trajectory
     try:
-        cf = make(model, traj)
+        cf = make(model, traj) if _loops(model, make) or len(traj) <= CHUNK else _chunked(make, model, traj)
     except (KeyError, ValueError, StopIteration, ZeroDivisionError):   # another geometry than the closed form's
         return None
     moving = set(model.body_names) - grounded(model)
@@ -77,6 +78,71 @@ def closed_form(model, ref):
     fits = start.position <= FIT * model.length
     finite = all(np.isfinite(x).all() for m in _motions(cf) for x in m)
     return cf if fits and finite else None
+
+
+def _loops(model, make) -> bool:
+    """Whether the closed form loops over the instants (a pin in a spline slot: each root from the previous
+    instant's; it looks at the limit itself), not evaluated in chunks."""
+    return make is pin_in_slot and _one(model, "point-follower")["outline"].kind != "circle"
+
+
+class _Window:
+    """The instants ``rows`` of a trajectory (its first among them), as a closed form reads one: t and columns."""
+
+    def __init__(self, traj, rows):
+        self.traj, self.rows, self.t = traj, rows, traj.t[rows]
+
+    def __getitem__(self, name):
+        return self.traj[name][self.rows]
+
+    def __len__(self):
+        return len(self.rows)
+
+
+def _chunked(make, model, traj) -> ClosedForm:
+    """make(model, traj) evaluated CHUNK instants at a time, the time limit
+    (in_time) looked at between chunks: each chunk is the first instant (the
+    closed form's dimensions, its assembly and d(0) come from it) and the
+    chunk's, the first dropped but in the first chunk. Every closed form but
+    that of a pin in a spline slot (``_loops``: its roots each start from the
+    previous instant's, and it looks at the limit itself) is elementwise in
+    the instants: the same arrays to the bit as one pass."""
+    parts = []
+    for lo in range(0, len(traj), CHUNK):
+        hi = min(len(traj), lo + CHUNK)
+        rows = np.arange(lo, hi) if lo == 0 else np.concatenate([[0], np.arange(lo, hi)])
+        part = make(model, _Window(traj, rows))
+        parts.append(part if lo == 0 else _tail(part))
+        if hi < len(traj):
+            in_time(traj.t[hi - 1])
+    first = parts[0]
+    join = [np.concatenate(xs) for xs in zip(*(_flat(p, n) for p, n in zip(parts, _lengths(len(traj)))))]
+    return _unflat(first, iter(join))
+
+
+def _lengths(n):
+    """The instants of each chunk's part (the first instant dropped but in the first)."""
+    return [min(n, lo + CHUNK) - lo for lo in range(0, n, CHUNK)]
+
+
+def _flat(cf, n=None) -> list:
+    """Every array of a ClosedForm, in one order (``_unflat``'s); a constant as ``n`` instants of it."""
+    out = [x for m in cf.points.values() for x in m]
+    for origin, angle in cf.bodies.values():
+        out += list(origin) + list(angle)
+    return [np.full(n, x) if n is not None and np.ndim(x) == 0 else x for x in out]
+
+
+def _unflat(cf, arrays) -> ClosedForm:
+    points = {name: tuple(next(arrays) for _ in m) for name, m in cf.points.items()}
+    bodies = {name: (tuple(next(arrays) for _ in origin), tuple(next(arrays) for _ in angle))
+              for name, (origin, angle) in cf.bodies.items()}
+    return ClosedForm(cf.label, points, bodies)
+
+
+def _tail(cf) -> ClosedForm:
+    """cf without its first instant (a later chunk's copy of instant 0)."""
+    return _unflat(cf, iter([x[1:] if np.ndim(x) else x for x in _flat(cf)]))
 
 
 def error(model, traj, cf) -> Figures:

@@ -68,14 +68,18 @@ def _toml(text, source) -> dict:
             text = text.decode("utf-8")
         except UnicodeDecodeError as e:
             raise InputError(f"{source}: not UTF-8 text (byte {e.start}); expected a TOML case file") from None
-    try:
-        return tomllib.loads(text)
+    try:   # one leading byte order mark (U+FEFF) is an editor's, not the TOML's: as Python's "utf-8-sig" reads it
+        return tomllib.loads(text.removeprefix("\ufeff"))
     except tomllib.TOMLDecodeError as e:
         raise InputError(f"{source}: TOML syntax error: {e}") from None
     except RecursionError:
         raise InputError(f"{source}: TOML nested too deeply; expected a case file") from None
     except ValueError as e:  # an integer of more digits than Python converts (sys.get_int_max_str_digits)
-        raise InputError(f"{source}: {str(e).split(':')[0]}; expected numbers of magnitude at most "
+        import re
+
+        long = re.search(r"[0-9][0-9_]{4000,}", text)   # the place: tomllib's ValueError gives none
+        where = f" line {text.count(chr(10), 0, long.start()) + 1}:" if long else ""
+        raise InputError(f"{source}:{where} {str(e).split(':')[0]}; expected numbers of magnitude at most "
                          f"{MAX_MAGNITUDE:g}") from None
 
 

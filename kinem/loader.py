@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from . import functions as fn
+from . import functions as fn, native
 from .casefile import sections
 from .casefile.checks import HIDDEN, MAX_NAME, MAX_TEXT, NAME_RE, PLAIN, Checker
 from .casefile.drawn import place
@@ -119,9 +119,121 @@ def fast_drivers(case) -> list:
         f = fn.FunctionSet([c["d"]])
         speed = float(np.abs(f(t, 1)).max())
         turns = float(abs(f(case.end)[0] - f(0.0)[0])) / (2 * math.pi)
-        if (speed > 2 * math.pi * FAST_TURNS and turns >= 1) or (turns > MANY_TURNS and turns / case.steps > COARSE):
-            out.append(f"{case.source}: {c.where}: turns body '{c['body']}' at up to {speed:.4g} rad/s "
-                       f"({speed / (2 * math.pi):.3g} turns a second, {turns:.3g} turns in {case.end:g} s, {case.steps} output intervals); if its "
-                       f"d(t) is in degrees, that is {math.radians(speed):.4g} rad/s: convert it, or set "
-                       "units = { angle = \"deg\" } for the case's angles")
+        text = _fast(case, c, speed, turns)
+        if text is not None:
+            out.append(text)
     return out
+
+
+def _fast(case, c, speed, turns) -> str | None:
+    """fast_drivers' warning of driver c turning at up to ``speed`` rad/s, ``turns`` turns over [0, end]; None
+    when it is not fast."""
+    if not ((speed > 2 * math.pi * FAST_TURNS and turns >= 1) or (turns > MANY_TURNS and turns / case.steps > COARSE)):
+        return None
+    return (f"{case.source}: {c.where}: turns body '{c['body']}' at up to {speed:.4g} rad/s "
+            f"({speed / (2 * math.pi):.3g} turns a second, {turns:.3g} turns in {case.end:g} s, {case.steps} output intervals); if its "
+            f"d(t) is in degrees, that is {math.radians(speed):.4g} rad/s: convert it, or set "
+            "units = { angle = \"deg\" } for the case's angles")
+
+
+FAST_CHUNK = 4096   # variants' driving functions evaluated at a time (1,001 instants each: 33 MB an order)
+
+
+def fast_variants(case, changed: dict, count: int):
+    """fast_drivers for ``count`` variants of ``case`` whose drivers' numbers
+    are ``changed`` ({a driver's index (1-based, its place in the file):
+    {sub-path of its d (poly.1, harmonic.omega, table.value.2, table.t.0):
+    (count,) values in radians}}), from the values alone (no case built):
+    (whether each variant warns where the case itself does not, a bool
+    array; (variant, its first such warning) for the first of them, or
+    None). A driver's functions are evaluated as fast_drivers' are (the
+    core's, at the same 1,001 instants), FAST_CHUNK variants at a time, and
+    only where they may warn: a poly's or a harmonic's speed and turns are
+    bounded from its numbers first (a variant below both thresholds is not
+    evaluated); a variant whose numbers are the nominal's is the nominal."""
+    own, new, first = set(fast_drivers(case)), np.zeros(count, bool), None
+    t = np.linspace(0.0, case.end, 1001)
+    ends = np.array([0.0, case.end])
+    for c in case.constraints:
+        subs = changed.get(c.index)
+        if c.type != "driver" or c.get("coord") != "phi" or not subs:
+            continue
+        kind, data = _function_data(c["d"], subs, count)
+        maybe = (data != _function_data(c["d"], {}, 1)[1]).any(axis=1) & _may_warn(case, kind, data)
+        mine = any(w.startswith(f"{case.source}: {c.where}: ") for w in own)   # the case's own driver warns
+        ks = np.flatnonzero(maybe)
+        for lo in range(0, len(ks), FAST_CHUNK):
+            chunk = ks[lo:lo + FAST_CHUNK]
+            table = _table_of(kind, data[chunk])
+            speed = np.abs(native.functions(table, t, 1)).max(axis=0)
+            at = native.functions(table, ends, 0)
+            turns = np.abs(at[1] - at[0]) / (2 * math.pi)
+            fast = ((speed > 2 * math.pi * FAST_TURNS) & (turns >= 1)) | ((turns > MANY_TURNS)
+                                                                          & (turns / case.steps > COARSE))
+            for j in np.flatnonzero(fast).tolist():   # a text only where it may be the case's own, or first
+                k = int(chunk[j])
+                if mine or first is None or k < first[0]:
+                    text = _fast(case, c, float(speed[j]), float(turns[j]))
+                    if text in own:
+                        continue
+                    if first is None or k < first[0]:   # an earlier driver's, for the same variant, stands
+                        first = (k, text)
+                new[k] = True
+    return new, first
+
+
+def _may_warn(case, kind, data) -> np.ndarray:
+    """Per row of ``data`` (kind's numbers: _function_data) whether fast_drivers may warn of that function:
+    False where bounds of its speed (max |d'| over [0, end]) and turns (|d(end) - d(0)| / 2 pi) from its
+    numbers lie below both thresholds (a table's: not bounded, True)."""
+    end = case.end
+    if kind == fn.POLY:
+        k = np.arange(data.shape[1])
+        mag = np.abs(data[:, 1:])
+        speed = (mag * k[1:] * end ** (k[1:] - 1.0)).sum(axis=1)
+        turns = (mag * end ** k[1:]).sum(axis=1) / (2 * math.pi)
+    elif kind == fn.HARMONIC:
+        speed = np.abs(data[:, 0] * data[:, 1])
+        turns = 2 * np.abs(data[:, 0]) / (2 * math.pi)
+    else:
+        return np.ones(len(data), bool)
+    speed, turns = speed * (1 + 1e-9) + 1e-300, turns * (1 + 1e-9) + 1e-300   # above their evaluation's rounding
+    quick = (speed > 2 * math.pi * FAST_TURNS) & (turns >= 1)
+    slow = (turns > MANY_TURNS) & (turns / case.steps > COARSE)
+    return quick | slow
+
+
+def _function_data(f, subs, count):
+    """(kind, (count, ...) the parameters of ``count`` copies of function f with ``subs`` set): a poly's
+    coefficients, a harmonic's amplitude, omega, phase and offset, a table's times then values."""
+    if isinstance(f, fn.Poly):
+        kind, names, base = fn.POLY, [f"poly.{k}" for k in range(len(f.coeffs))], list(f.coeffs)
+    elif isinstance(f, fn.Harmonic):
+        kind, names = fn.HARMONIC, [f"harmonic.{k}" for k in ("amplitude", "omega", "phase", "offset")]
+        base = [f.amplitude, f.omega, f.phase, f.offset]
+    else:
+        kind = fn.PIECES
+        names = [f"table.t.{k}" for k in range(len(f.t))] + [f"table.value.{k}" for k in range(len(f.value))]
+        base = list(f.t) + list(f.value)
+    data = np.tile(np.array(base, float), (count, 1))
+    for sub, v in subs.items():
+        data[:, names.index("poly.0" if sub == "" else sub)] = v   # "": a constant d(t) given by a name
+    return kind, data
+
+
+def _table_of(kind, data) -> dict:
+    """The core's function table (kinem.functions.FunctionTable.arrays) of one function a row of ``data``."""
+    n = len(data)
+    if kind == fn.PIECES:   # a table's not-a-knot spline, each row's own
+        m = data.shape[1] // 2
+        rows = []
+        for row in data:   # times a named dimension moved out of order: that variant is refused, not warned
+            try:
+                x, c = fn.spline_pieces(fn.Table(tuple(row[:m]), tuple(row[m:])))
+            except ValueError:
+                x, c = np.array([0.0, 1.0]), np.zeros((4, 1))
+            rows.append(np.concatenate([[len(x) - 1.0], x, c.T.ravel()]))
+        data = np.array(rows)
+    width = data.shape[1]
+    return {"kind": np.full(n, kind, np.int64), "start": np.arange(0, (n + 1) * width, width, dtype=np.int64),
+            "data": np.ascontiguousarray(data).ravel()}

@@ -38,6 +38,8 @@ import math
 import warnings
 from dataclasses import dataclass
 
+import numpy as np
+
 from . import functions as fn
 from .casefile.checks import MAX_MAGNITUDE, TOML_NUMBERS, number, show, suggest
 from .casefile.sections import MAX_SENSITIVITY, SENSITIVITY_EXPECTED
@@ -119,6 +121,41 @@ def validated(data, source: str, stacklevel: int = 1, as_written: bool = True, w
     for text in texts:
         warnings.warn(text, KinemWarning, stacklevel=stacklevel + 1)
     return case
+
+
+def fast_variants(case, listed, values, skip=()):
+    """Of the variants (rows of ``values``, one column per Parameter of
+    ``listed``), those whose drivers turn fast (kinem.loader.fast_drivers)
+    where the case itself does not: (a bool array, (variant, its first such
+    warning's text) of the first of them, or None); evaluated from the
+    values (kinem.loader.fast_variants), no variant's case built. Only a
+    driver's own numbers (constraints.<driver>.d.*, or a named dimension one
+    of them uses) change how fast it turns: without them, nothing to
+    evaluate. ``skip``: variants not looked at (refused as bad input)."""
+    from .loader import fast_variants as evaluate
+
+    changed = {}
+    degrees = case.units.get("angle") == "deg"
+    for j, p in enumerate(listed):
+        parts = p.path.split(".")
+        uses = case.uses.get(parts[1], ()) if parts[0] == "parameters" else (p.path,)
+        for use in uses:
+            head = use.split(".")
+            c = _constraint(case, head[1]) if head[0] == "constraints" and head[2:3] == ["d"] else None
+            if c is None or c.type != "driver" or c.get("coord") != "phi":
+                continue
+            sub = ".".join(head[3:])
+            changed.setdefault(c.index, {})[sub] = values[:, j] * (DEGREE if degrees and not sub.startswith("table.t.")
+                                                                    else 1.0)
+    new = np.zeros(len(values), bool)
+    if not changed:
+        return new, None
+    keep = np.ones(len(values), bool)
+    keep[list(skip)] = False
+    ks = np.flatnonzero(keep)
+    found, first = evaluate(case, {c: {s: v[ks] for s, v in subs.items()} for c, subs in changed.items()}, len(ks))
+    new[ks] = found
+    return new, None if first is None else (int(ks[first[0]]), first[1])
 
 
 @dataclass(frozen=True)

@@ -90,12 +90,16 @@ class Variants:
 
 
 def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options: Options | None = None,
-                   trace=False, q0=None, lanes=True) -> Variants:
+                   trace=False, q0=None, lanes=True, warn=False) -> Variants:
     """The variants {path or [parameters] name: N values} of ``model``
     solved together; ``outputs``: stages (as ``solve``'s) or column names.
     A trace and q0 are refused (every variant starts from the nominal's
     assembly). ``lanes``: the core marches 8 variants at a time as lanes
-    where the model suits (False: one by one; the same figures)."""
+    where the model suits (False: one by one; the same figures). ``warn``:
+    one KinemWarning (kinem.solve's, to its caller) counting the variants
+    whose driver turns fast where the case's does not, as kinem.sweep's
+    (kinem.parameters.fast_variants; the sweep and tolerance bands warn, or
+    not, of their own)."""
     from .batch import solve_merged
     from .march import usable
     from .parameters import resolve, to_paths
@@ -125,6 +129,8 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
         raise AnalysisError(f"{case.source}: variants: the nominal does not assemble: {first.message}")
     q0 = np.ascontiguousarray(first.q[0])
     refused = _refused(case, listed, values)   # bad input: never solved, said so below (lanes: marched as the nominal)
+    if warn:
+        _warn_fast(case, listed, values, refused)
     if not all(affine(case, p.path) for p in listed) or not usable(model, False, len(times), options):
         return _merged(model, listed, values, columns, times, q0, options, refused)
     K, N = len(times), len(values)
@@ -166,6 +172,20 @@ def solve_variants(model, parameters: dict, outputs=OUTPUTS, times=None, options
         messages[k] = messages[k] or f"stopped at t = {times[end[k]]:.6g} (instant {end[k]}): {status[k].message}"
     return Variants(tuple(p.path for p in listed), values, np.array(times, float), columns, data, success,
                     tuple(status), end, resolved, flipped, start, tuple(messages), False)
+
+
+def _warn_fast(case, listed, values, refused):
+    """kinem.sweep's line for the variants whose drivers turn fast where the case's own do not (a rate in
+    degrees?): one for all, the first quoted (numbered as ``data``'s first axis), to kinem.solve's caller."""
+    import warnings
+
+    from .errors import KinemWarning
+    from .parameters import fast_variants
+
+    new, first = fast_variants(case, listed, values, refused)
+    if first is not None:
+        warnings.warn(f"solve: {int(new.sum()):,} of {len(values):,} variants warn where the case itself does not; "
+                      f"first, variant {first[0]}: {first[1]}", KinemWarning, stacklevel=4)
 
 
 def _refused(case, listed, values) -> dict:

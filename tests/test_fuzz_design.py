@@ -1614,3 +1614,249 @@ def test_found_empty_outputs_refused_alike(four_bar_20, call):
             "variants": lambda: kinem.solve(four_bar_20, parameters={"points.A.at.0": [0.05]}, outputs=[])}
     with pytest.raises(kinem.InputError, match="outputs"):
         args[call]()
+
+
+# -- session 30, part 12 (docs/benchmarks.md, "Fuzz campaign, session 30"): what part 11 left -----------------
+
+def _warned(call):
+    """(the value of call(), the texts of the KinemWarnings it gave)."""
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        out = call()
+    return out, [str(w.message) for w in got if issubclass(w.category, kinem.KinemWarning)]
+
+
+def _degrees_named(tmp_path):
+    """cases/four_bar.toml in degrees, its crank's rate a named dimension."""
+    text = FOUR_BAR.read_text().replace('units = { length = "m" }', 'units = { length = "m", angle = "deg" }')
+    for rad, deg in (("0.785]", "45.0]"), ("0.27]", "15.47]"), ("0.76]", "43.54]")):
+        text = text.replace(rad, deg)
+    text = text.replace("d = { poly = [0.7853981633974483, 1.5, -0.6] }", 'd = { poly = [45.0, "rate", -34.38] }')
+    text = text.replace("[time]", "[parameters]\nrate = 85.94\n\n[time]")
+    path = tmp_path / "degrees.toml"
+    path.write_text(text)
+    return path
+
+
+def test_found_variants_of_a_fast_driver_said_nothing(tmp_path):
+    """kinem.solve(model, parameters=...) of a driver's rate up to 2,000 rad/s said nothing where kinem.sweep of
+    the same values warns (a speed in degrees read as radians?): its variants are formed in the core, no case
+    built. Now the driver's functions are evaluated from the values (no case built) and one line counts the
+    variants, as the sweep's; the first quoted is the sweep's own text, in degrees and by a named dimension
+    too. A variant refused as bad input, or of the nominal's rate, and a parameter not of a driver, add none."""
+    model = kinem.compile(kinem.load(FOUR_BAR))
+    rates = list(np.linspace(1.0, 2000.0, 5))
+    sweep, said = _warned(lambda: kinem.sweep(str(FOUR_BAR), {"constraints.crank-drive.d.poly.1": rates}, ["B.x"]))
+    got, told = _warned(lambda: kinem.solve(model, parameters={"constraints.crank-drive.d.poly.1": rates},
+                                            outputs=["B.x"]))
+    assert len(said) == 1 and len(told) == 1, (said, told)
+    assert told[0].startswith("solve: 4 of 5 variants warn where the case itself does not; first, variant 1: ")
+    assert told[0].split("first, ")[1] == said[0].split("first, ")[1], (told, said)
+    assert (np.isnan(got.data) == np.isnan(sweep.data)).all()
+    _, told = _warned(lambda: kinem.solve(model, parameters={"constraints.crank-drive.d.poly.1": [1.5, 1.4],
+                                                             "points.A.at.0": [0.05, 0.04]}, outputs=["B.x"]))
+    assert told == []
+    _, told = _warned(lambda: kinem.solve(model, parameters={"points.A.at.0": [0.05, 0.04]}, outputs=["B.x"]))
+    assert told == []
+    refused, told = _warned(lambda: kinem.solve(model, parameters={"constraints.crank-drive.d.poly.1": [2000.0] * 2,
+                                                                   "points.A.at.0": [0.05, 1e300]}, outputs=["B.x"]))
+    assert refused.status[1] is kinem.native.Why.BAD_INPUT and len(told) == 1, told
+    assert told[0].startswith("solve: 1 of 2 variants warn where the case itself does not; first, variant 0: "), told
+    path = _degrees_named(tmp_path)
+    degrees = kinem.compile(kinem.load(path))
+    sweep, said = _warned(lambda: kinem.sweep(str(path), {"rate": [85.94, 30000.0, 85.94]}, ["B.x"]))
+    _, told = _warned(lambda: kinem.solve(degrees, parameters={"rate": [85.94, 30000.0, 85.94]}, outputs=["B.x"]))
+    assert len(said) == 1 and told == ["solve: 1 of 3 variants warn where the case itself does not; first, "
+                                       + said[0].split("first, ")[1]], (told, said)
+    assert "at up to 523.6 rad/s" in told[0], told
+
+
+CLOSED = [p for p in sorted((ROOT / "cases").glob("*.toml")) if p.stem != "pin_in_spline_slot"]
+
+
+@pytest.mark.parametrize("path", CLOSED, ids=lambda p: p.stem)
+def test_closed_forms_in_chunks_are_the_same_arrays(monkeypatch, path):
+    """A closed form is evaluated CHUNK instants at a time (the time limit looked at between chunks), each chunk
+    with the first instant, whose dimensions and d(0) it reads: the same arrays to the bit as one pass, whatever
+    the chunk (7 instants, or all). (pin_in_spline_slot's loops over its instants and looks itself.)"""
+    from adapters import references
+
+    model = kinem.compile(kinem.load(path).with_time(steps=60))
+    native = kinem.solve(model)
+    forms = []
+    for chunk in (10**12, 7, 60):
+        monkeypatch.setattr(references, "CHUNK", chunk)
+        forms.append(references.closed_form(model, native))
+    assert forms[0] is not None
+    whole = [np.asarray(x) for x in references._flat(forms[0])]
+    for cf in forms[1:]:
+        assert cf.label == forms[0].label and list(cf.points) == list(forms[0].points)
+        assert list(cf.bodies) == list(forms[0].bodies)
+        parts = [np.asarray(x) for x in references._flat(cf)]
+        assert all(a.shape == b.shape and a.tobytes() == b.tobytes() for a, b in zip(whole, parts))
+
+
+def test_found_a_closed_form_of_one_pass_past_the_time_limit(monkeypatch):
+    """A closed form evaluated in one numpy pass over all the instants (the four-bar's: 17 s at 5,000,000, the
+    most compare holds, load 4.2) ran to its end past --max-seconds. Now it looks at the limit between chunks of
+    CHUNK instants: past it, compare's native row is out of time, saying where the check stopped."""
+    import time
+
+    from adapters import references
+    from adapters.base import OutOfTime, Status, limited
+
+    monkeypatch.setattr(references, "CHUNK", 16)
+    model = kinem.compile(kinem.load(FOUR_BAR).with_time(steps=40))
+    native = kinem.solve(model)
+    with limited((5, time.time() - 1.0)), pytest.raises(OutOfTime, match=r"reached at t = 0\.9375$"):
+        references.closed_form(model, native)
+    assert references.closed_form(model, native) is not None   # no limit: the same check
+    calls = []
+
+    def late(t, steps=0, wall=0.0):   # the limit reached after the first chunk
+        calls.append(t)
+        if len(calls) > 1:
+            raise OutOfTime(Status.OUT_OF_TIME, f"the time limit is reached at t = {t:.6g}")
+
+    monkeypatch.setattr(references, "in_time", late)
+    code, out, err = _compare([str(FOUR_BAR), "--engines", "native", "--steps", "40", "--json"])
+    row = _strict(out)["engines"]["native"]
+    assert code == 1 and (row["outcome"], row["verdict"]) == ("out of time", "out of time"), row
+    assert row["status"] == "failed: the time limit is reached at t = 1.9375 of its check against the closed form", row
+
+
+def test_found_pymunk_pose_arrays_of_the_whole_run_before_its_first_check(monkeypatch):
+    """pymunk's prescribed poses and joint targets were numpy arrays over every step of the run, made with the
+    mechanism before the first interval's check of --max-seconds (8 to 16 s at 10^7 steps, load 4.5). Now they
+    are made a window of TABLE_CHUNK steps at a time, with the tables, when the stepping reaches them: no
+    driving function is evaluated over more than a window, and a run past its limit evaluates none beyond the
+    first. (The same runs to the bit: test_pymunk_tables_in_chunks_are_the_same_run, and below.)"""
+    import time
+
+    from adapters import get, pymunk_sim
+
+    lengths = []
+    real = pymunk_sim._values
+
+    def values(f, t):
+        lengths.append(len(t))
+        return real(f, t)
+
+    model = kinem.compile(kinem.load(FOUR_BAR).with_time(steps=40))
+    whole = get("pymunk").run(model, settings={"substeps": 10})
+    monkeypatch.setattr(pymunk_sim, "_values", values)
+    monkeypatch.setattr(pymunk_sim, "TABLE_CHUNK", 16)
+    run = get("pymunk").run(model, settings={"substeps": 10})
+    assert run.ok and np.array_equal(run.q, whole.q) and np.array_equal(run.qd, whole.qd)
+    assert lengths and max(lengths) <= 16 + 1 < 402, lengths   # 402 step instants in the run
+    lengths.clear()
+    late = get("pymunk").run(model, settings={"substeps": 10}, limit=(5, time.time() - 1.0))
+    assert late.status is pymunk_sim.Status.OUT_OF_TIME and max(lengths, default=0) <= 1, (late.label, lengths)
+
+
+# -- session 30, part B: case files as editors write them, numbers past Python's digits, odd baselines --------
+
+def test_found_a_case_file_with_a_byte_order_mark(tmp_path):
+    """A case file saved with a UTF-8 byte order mark (Windows editors write one) was refused as "TOML syntax
+    error: Invalid statement (at line 1, column 1)", naming nothing that is wrong. Now one leading mark is read
+    past (Python's utf-8-sig); two are refused as ever; CRLF line ends and tabs were sound."""
+    text = FOUR_BAR.read_text()
+    path = tmp_path / "bom.toml"
+    for body in (text, text.replace("\n", "\r\n"), text.replace(" = ", "\t=\t")):
+        path.write_bytes(b"\xef\xbb\xbf" + body.encode())
+        assert kinem.load(path) == kinem.load(FOUR_BAR).__class__(**{**vars(kinem.load(FOUR_BAR)),
+                                                                     "source": str(path)})
+        assert run_main(["info", str(path)])[0] == 0
+    assert kinem.loads("\ufeff" + text).name == "four_bar"
+    path.write_bytes(b"\xef\xbb\xbf" * 2 + text.encode())
+    code, line = run_main(["info", str(path)])
+    assert code == 2 and "TOML syntax error" in line and str(path) in line, line
+
+
+@pytest.mark.parametrize("value, shown", [("1979-05-27", "1979-05-27 (a TOML date)"),
+                                          ("07:32:00", "07:32:00 (a TOML time)"),
+                                          ("1979-05-27T07:32:00Z", "1979-05-27T07:32:00+00:00 (a TOML date-time)")])
+def test_found_toml_dates_shown_as_python(tmp_path, value, shown):
+    """A TOML date, time or date-time where a number is expected was quoted as Python writes it: "got
+    datetime.date(1979, 5, 27)". Now as the file writes it, saying what TOML read."""
+    path = tmp_path / "date.toml"
+    path.write_text(FOUR_BAR.read_text().replace("end = 2.5", f"end = {value}"))
+    code, line = run_main(["info", str(path)])
+    assert (code, line) == (2, f"kinem: error: {path}: [time]: key 'end': got {shown}; expected a number"), line
+
+
+def test_found_whole_numbers_past_pythons_digits(tmp_path):
+    """A whole number of more than 4,300 digits (Python converts none to text: sys.get_int_max_str_digits) was an
+    internal error, exit 3, where a case file gives it in hexadecimal (0xfff...: TOML reads it, the message
+    could not quote it), as --set of a named dimension (--set crank=999...: the text was read as TOML) or as
+    kinem.load(parameters=) (a ValueError). Now bad input that counts its digits; a decimal one in a case file
+    (TOML's reader refuses it) names its line."""
+    huge = "f" * 5000
+    path = tmp_path / "hex.toml"
+    path.write_text(FOUR_BAR.read_text().replace("steps = 250", f"steps = 0x{huge}"))
+    code, line = run_main(["info", str(path)])
+    assert (code, line) == (2, f"kinem: error: {path}: [time]: key 'steps': got a whole number of about 6,021 "
+                               "digits; expected a whole number from 1 to 10000000"), line
+    path.write_text(FOUR_BAR.read_text().replace("O2 = { body = \"ground\", at = [0.0, 0.0] }",
+                                                 f"O2 = {{ body = \"ground\", at = [0x{huge}, 0.0] }}"))
+    code, line = run_main(["info", str(path)])
+    assert code == 2 and "point 'O2': key 'at': got a whole number of about 6,021 digits" in line, line
+    path.write_text(FOUR_BAR.read_text().replace("steps = 250", "steps = " + "9" * 5000))
+    code, line = run_main(["info", str(path)])
+    assert code == 2 and line.startswith(f"kinem: error: {path}: line 7: "), line
+    for value in ("9" * 5000, "-" + "9" * 5000, "0x" + huge):
+        code, line = run_main(["info", str(NAMED), "--set", f"crank={value}"])
+        assert code == 2 and "key 'crank': got a whole number of about" in line, line
+    with pytest.raises(kinem.InputError, match="a whole number of about 5,000 digits"):
+        kinem.load(NAMED, parameters={"crank": 10 ** 4999})
+    for option in ("--steps", "--end"):
+        code, line = run_main(["solve", str(FOUR_BAR), option, "9" * 5000])
+        assert code == 2 and f"{option}: got a whole number of about 5,000 digits" in line, line
+
+
+def test_found_a_baseline_that_never_ends(tmp_path, monkeypatch):
+    """kinem report --baseline and kinem diff read a results.json whole (Path.read_text): /dev/zero grew until
+    memory ran out (exit 3, MemoryError, under a 3 GB limit), a FIFO without a writer waited for ever. Now at
+    most MAX_BYTES are read, a FIFO's writer waited for as a case file's (FIFO_WAIT), a directory and a file that
+    is not UTF-8 said so in kinem's words; a byte order mark is read past."""
+    import os
+
+    from kinem import output
+    from kinem.report import results
+
+    monkeypatch.setattr(results, "MAX_BYTES", 1000)
+    monkeypatch.setattr(output, "FIFO_WAIT", 0.2)
+    fifo = tmp_path / "fifo.json"
+    os.mkfifo(fifo)
+    (tmp_path / "dir.json").mkdir()
+    (tmp_path / "latin1.json").write_bytes('{"a": "é"}'.encode("latin-1"))
+    cases = {"/dev/zero": "results /dev/zero: more than 1000 bytes; expected a results.json of kinem report",
+             str(fifo): f"{fifo}: cannot read: a FIFO with no writer (waited 0.2 s)",
+             str(tmp_path / "dir.json"): f"results {tmp_path / 'dir.json'}: cannot read: is a directory; expected a "
+                                         "results.json of kinem report",
+             str(tmp_path / "latin1.json"): f"results {tmp_path / 'latin1.json'}: cannot read: not UTF-8 text "
+                                            "(byte 7); expected a results.json of kinem report"}
+    for path, said in cases.items():
+        code, line = run_main(["diff", path, path])
+        assert (code, line) == (2, f"kinem: error: {said}"), line
+    monkeypatch.setattr(results, "MAX_BYTES", 256 * 2**20)
+    bom = tmp_path / "bom.json"
+    bom.write_bytes(b"\xef\xbb\xbf" + (ROOT / "reports" / "baseline.json").read_bytes())
+    assert results.load(bom) == results.load(ROOT / "reports" / "baseline.json")
+
+
+@pytest.mark.parametrize("option", ["--samples", "--seed"])
+def test_found_whole_options_read_as_python_reads_them(option):
+    """tolerance --samples and --seed (and --jobs of report and stress) were read by Python's int: '٣' (a digit
+    of another script) was 3 where --steps refuses it, '1e3' was refused ("invalid int value") where --steps
+    reads 1000, and 5,000 nines an internal error's neighbour (refused for Python's digit limit, no word of
+    why). Now as --steps reads its: a case file's number that is whole, past 3,000 digits refused saying so."""
+    for text in ("٣", "2.5", "nan", "", "x"):
+        code, line = run_main(["tolerance", str(FOUR_BAR), option, text])
+        assert code == 2 and f"argument {option}: got {text!r}; expected a whole number as a case file writes it" \
+            in line, line
+    code, line = run_main(["tolerance", str(FOUR_BAR), option, "9" * 5000])
+    assert code == 2 and "got a whole number of about 5,000 digits; expected one of at most 3,000" in line, line
+    from kinem.cli.parser import whole_option
+
+    assert [whole_option(t) for t in ("1e3", "0x10", "1_0", " 5", "-3")] == [1000, 16, 10, 5, -3]

@@ -32,7 +32,7 @@ IDENT_TEXT = f"a name of at most {MAX_NAME} letters, digits, '_' and '-' that st
 
 # The documented ranges (docs/case-format.md, "Limits", is generated from this).
 LIMITS = (
-    ("file", "at most 16 MiB of UTF-8 TOML (read with a hard cap: a device or pipe is not read past it)"),
+    ("file", "at most 16 MiB of UTF-8 TOML (read with a hard cap: a device or pipe is not read past it; one leading byte order mark is read past)"),
     ("case name", f"1 to {MAX_NAME} characters of a-z, 0-9, `_` and `-`"),
     ("body, point and constraint names", f"1 to {MAX_NAME} characters of letters, digits, `_` and `-`, "
                                          "starting with a letter or `_` (the whole name: no trailing newline)"),
@@ -154,7 +154,7 @@ class Checker:
                          "a number" + (f" or a name of [parameters] ({names(self.parameters)})" if named else ""))
             return None
         if isinstance(v, int) and abs(v) > MAX_MAGNITUDE:  # before float(): 10**400 has none
-            self.bad(where, key, f"got a whole number of {len(str(abs(v)))} digits",
+            self.bad(where, key, f"got a whole number of {digits(v)} digits",
                      f"a number of magnitude at most {MAX_MAGNITUDE:g}")
             return None
         v = float(v)
@@ -237,8 +237,27 @@ def names(d) -> str:
 
 
 def show(v) -> str:
-    r = repr(v)
+    """A value of a case file as a problem quotes it: Python's repr, but a TOML date or time as the file writes it
+    (not "datetime.date(1979, 5, 27)")."""
+    import datetime
+
+    if isinstance(v, (datetime.date, datetime.time)):   # datetime.datetime is a date
+        kind = "date-time" if isinstance(v, datetime.datetime) else "date" if isinstance(v, datetime.date) else "time"
+        r = f"{v.isoformat()} (a TOML {kind})"
+    elif isinstance(v, int) and abs(v).bit_length() > 10_000:   # its repr raises ValueError past 4,300 digits
+        r = f"a whole number of {digits(v)} digits"
+    else:
+        r = repr(v)
     return r if len(r) <= 60 else r[:57] + "..."
+
+
+def digits(v: int) -> str:
+    """How many decimal digits the whole number v has, in words: exact up to some 3,000 digits, else "about N"
+    (Python converts no longer one to text: sys.get_int_max_str_digits)."""
+    n = abs(v).bit_length()
+    if n <= 10_000:
+        return f"{len(str(abs(v)))}"
+    return f"about {int(n * math.log10(2)) + 1:,}"
 
 
 def texts(v) -> tuple | None:
@@ -287,6 +306,9 @@ def toml_number(text: str):
         v = tomllib.loads(f"v = {text.strip()}")["v"]
     except tomllib.TOMLDecodeError:
         return None
+    except ValueError:   # a whole number of more digits than Python converts (sys.get_int_max_str_digits)
+        count = sum(c.isdigit() for c in text)
+        return (-1 if text.strip().startswith("-") else 1) * 10 ** (count - 1)   # as many digits: refused as such
     return v if isinstance(v, (int, float)) and not isinstance(v, bool) else None   # not true, not a date
 
 

@@ -79,9 +79,9 @@ def parser():
 
     tl = sub.add_parser("tolerance", help="tolerance bands: linear worst case, root-sum-square, Monte Carlo")
     tl.add_argument("case", help="the case file, with a [tolerances] section")
-    tl.add_argument("--samples", type=int, default=1000, help="Monte Carlo samples (default 1000)")
+    tl.add_argument("--samples", type=whole_option, default=1000, help="Monte Carlo samples (default 1000)")
     tl.add_argument("--outputs", help="comma-separated output columns (default: every named point's x and y)")
-    tl.add_argument("--seed", type=int, default=0, help="the samples' seed (default 0)")
+    tl.add_argument("--seed", type=whole_option, default=0, help="the samples' seed (default 0)")
     tl.add_argument("--out", help="output file (default: CSV to standard output)")
     tl.add_argument("--format", choices=("csv", "npz"), help="csv (default) or npz (needs --out)")
     time_options(tl)
@@ -90,7 +90,7 @@ def parser():
     st = sub.add_parser("stress", help="the stress suite on native and the engines, each outcome classified")
     st.add_argument("--engines", help="comma-separated: native and engines (default: all)")
     st.add_argument("--quick", action="store_true", help="fewer sweep points and a 100-turn long run")
-    st.add_argument("--jobs", type=int, help="worker processes (default: the core count; 0 or 1: none)")
+    st.add_argument("--jobs", type=whole_option, help="worker processes (default: the core count; 0 or 1: none)")
     scheduler_option(st)
     st.add_argument("--json", action="store_true", help="every outcome as JSON instead of the table")
     st.set_defaults(run=cmd_stress)
@@ -139,7 +139,7 @@ def parser():
     r.add_argument("--quick", action="store_true", help="shorter work-precision sweeps, one native timing")
     r.add_argument("--junit", action="store_true", help="also write OUT/junit.xml")
     r.add_argument("--fail-on-slowdown", action="store_true", help="a flagged wall-time slowdown fails the run")
-    r.add_argument("--jobs", type=int, help="worker processes (default: CPU count; 0 or 1: none)")
+    r.add_argument("--jobs", type=whole_option, help="worker processes (default: CPU count; 0 or 1: none)")
     r.add_argument("--stress", action="store_true",
                    help="also run kinem's own stress suite as a section (never by default)")
     r.add_argument("--no-stress", action="store_true", help="no stress suite (the default; kept for old scripts)")
@@ -204,6 +204,24 @@ def number_option(text):
     if math.isnan(v):   # NaN: never a bound, a step or a time
         raise argparse.ArgumentTypeError(f"got {text!r}; expected a number as a case file writes it "
                                          f"({TOML_NUMBERS})")
+    return v
+
+
+def whole_option(text):
+    """A whole-number option's value (--samples, --seed, --jobs) read as --steps reads its: a case file's
+    number that is whole (10, 1_000, 1e3, 0x10; not 2.5, a digit of another script such as '٣' (Python's
+    int takes it), nan or 10**400's digits)."""
+    from ..casefile.checks import TOML_NUMBERS, digits, toml_number
+
+    v = toml_number(text)
+    if isinstance(v, float) and v.is_integer():
+        v = int(v)
+    if not isinstance(v, int):
+        raise argparse.ArgumentTypeError(f"got {text!r}; expected a whole number as a case file writes it "
+                                         f"({TOML_NUMBERS})")
+    if abs(v).bit_length() > 10_000:   # past Python's digits, toml_number keeps only their count
+        raise argparse.ArgumentTypeError(f"got a whole number of {digits(v)} digits; expected one of at most "
+                                         "3,000")
     return v
 
 

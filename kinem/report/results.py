@@ -156,16 +156,37 @@ def dumps(doc) -> str:
     return json.dumps(doc, indent=1, allow_nan=False) + "\n"
 
 
+MAX_BYTES = 256 * 2**20   # a results.json read (the 14 cases' baseline: 0.6 MB)
+
+
 def load(path, what="baseline"):
     """A stored results.json, checked against the schema; InputError otherwise."""
     if isinstance(path, str) and not path:   # (Path("") would be the current folder)
         raise InputError(f"{what} {str(path)!r}: no file named; expected a results.json of kinem report")
-    try:
-        text = Path(path).read_text(encoding="utf-8")
+    import stat
+
+    from ..output import read_fifo
+
+    try:   # at most MAX_BYTES (/dev/zero ends); a FIFO's writer waited for a bounded time (never for ever)
+        if stat.S_ISFIFO(os.stat(path).st_mode):
+            raw = read_fifo(path, MAX_BYTES + 1)
+        else:
+            with open(path, "rb") as f:
+                raw = f.read(MAX_BYTES + 1)
     except FileNotFoundError:
         raise InputError(f"{what} {path}: no such file (create one with --update-baseline)") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise InputError(f"{what} {path}: cannot read: {e}") from None
+    except IsADirectoryError:
+        raise InputError(f"{what} {path}: cannot read: is a directory; expected a results.json of kinem report") \
+            from None
+    except OSError as e:
+        raise InputError(f"{what} {path}: cannot read: {e.strerror or e}") from None
+    if len(raw) > MAX_BYTES:
+        raise InputError(f"{what} {path}: more than {MAX_BYTES} bytes; expected a results.json of kinem report")
+    try:   # a byte order mark (an editor's) is not JSON's: read past, as the case files' is
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise InputError(f"{what} {path}: cannot read: not UTF-8 text (byte {e.start}); expected a results.json "
+                         "of kinem report") from None
     try:
         doc = json.loads(text, parse_constant=_no_constant)
     except (ValueError, RecursionError) as e:   # RecursionError: arrays or tables nested thousands deep
