@@ -99,28 +99,34 @@ LONG_CHORDS = ("cam_roller_circle", "pin_in_slot", "pin_in_spline_slot", "quick_
                "quick_return_3")
 
 
+def alternating(builds, models, pairs, batch):
+    """Each build's warm solves of its model, ``batch`` calls at a time, the builds alternating (A first in even
+    pairs, B first in odd ones), on the thread's processor time: (A's median us a call, B's, B / A - 1 a pair)."""
+    clock, ns = time.thread_time_ns, ([], [])
+    for i in range(pairs):
+        for j in ((0, 1) if i % 2 == 0 else (1, 0)):
+            solve, model = builds[j].solve, models[j]
+            start = clock()
+            for _ in range(batch):
+                solve(model)
+            ns[j].append((clock() - start) / batch)
+    a, b = (1e-3 * statistics.median(v) for v in ns)
+    return a, b, [y / x - 1 for x, y in zip(*ns)]
+
+
 def case_files(builds, pairs, cases):
-    clock, root = time.thread_time_ns, HERE.parent
+    root = HERE.parent
     for name in cases or LONG_CHORDS:
         models = [k.compile(k.load(str(root / "cases" / f"{name}.toml"))) for k in builds]
         for k, m in zip(builds, models):
             k.solve(m)   # warm
-        ns = ([], [])
-        for i in range(pairs):
-            for j in ((0, 1) if i % 2 == 0 else (1, 0)):
-                solve, model = builds[j].solve, models[j]
-                start = clock()
-                for _ in range(CASE_BATCH):
-                    solve(model)
-                ns[j].append((clock() - start) / CASE_BATCH)
-        a, b = (1e-3 * statistics.median(v) for v in ns)
-        changes = [y / x - 1 for x, y in zip(*ns)]
+        a, b, changes = alternating(builds, models, pairs, CASE_BATCH)
         print(f"{name:18s} A {a:.1f} us, B {b:.1f} us a warm solve; B / A - 1: {quartiles(changes)}; "
               f"{pairs} pairs of {CASE_BATCH} calls, load {os.getloadavg()[0]:.2f}", flush=True)
 
 
 def fixed(builds, pairs, cases):
-    clock, batch = time.thread_time_ns, 200
+    batch = 200
     for name in cases or ("slider_crank", "four_bar", "jansen"):
         case = getattr(peers, name + "_case")()
         models = []
@@ -128,16 +134,7 @@ def fixed(builds, pairs, cases):
             c = k.load_dict(case)
             models.append(k.compile(c.with_time(end=c.end / c.steps, steps=1)))   # 2 instants (common.fixed_cost's)
             k.solve(models[-1])   # warm
-        ns = ([], [])
-        for i in range(pairs):
-            for j in ((0, 1) if i % 2 == 0 else (1, 0)):
-                solve, model = builds[j].solve, models[j]
-                start = clock()
-                for _ in range(batch):
-                    solve(model)
-                ns[j].append((clock() - start) / batch)
-        a, b = (1e-3 * statistics.median(v) for v in ns)
-        changes = [y / x - 1 for x, y in zip(*ns)]
+        a, b, changes = alternating(builds, models, pairs, batch)
         print(f"{name:13s} A {a:.2f} us, B {b:.2f} us a warm solve of 2 instants; B / A - 1: {quartiles(changes)}; "
               f"{pairs} pairs of {batch} calls, load {os.getloadavg()[0]:.2f}", flush=True)
 
