@@ -123,11 +123,22 @@ class FunctionTable:
                 kinds.append(HARMONIC)
                 parts.append(np.array([f.amplitude, f.omega, f.phase, f.offset], float))
             elif isinstance(f, Table):
-                x, c = spline_pieces(f)
                 kinds.append(PIECES)
-                parts.append(np.concatenate([[len(x) - 1.0], x, c.T.ravel()]))
+                parts.append(pieces(f))
             else:
                 raise TypeError("unknown function kind")
-        start = np.concatenate([[0], np.cumsum([len(p) for p in parts], dtype=np.int64)]).astype(np.int64)
-        return {"kind": np.array(kinds, dtype=np.int64), "start": start,
-                "data": np.concatenate(parts) if parts else np.zeros(0)}
+        return table_arrays(kinds, parts)
+
+
+def pieces(f: Table) -> np.ndarray:
+    """A table's parameters as the core reads them: k, the k + 1 breakpoints, the 4 k coefficients piece by piece
+    (its not-a-knot spline, spline_pieces)."""
+    x, c = spline_pieces(f)
+    return np.concatenate([[len(x) - 1.0], x, c.T.ravel()])
+
+
+def table_arrays(kinds, parts) -> dict:
+    """The core's function table {kind, start, data} of functions of ``kinds`` with parameters ``parts``."""
+    start = np.concatenate([[0], np.cumsum([len(p) for p in parts], dtype=np.int64)]).astype(np.int64)
+    return {"kind": np.array(kinds, dtype=np.int64), "start": start,
+            "data": np.concatenate(parts) if len(parts) else np.zeros(0)}

@@ -222,18 +222,13 @@ def _function_data(f, subs, count):
 
 
 def _table_of(kind, data) -> dict:
-    """The core's function table (kinem.functions.FunctionTable.arrays) of one function a row of ``data``."""
-    n = len(data)
-    if kind == fn.PIECES:   # a table's not-a-knot spline, each row's own
-        m = data.shape[1] // 2
-        rows = []
-        for row in data:   # times a named dimension moved out of order: that variant is refused, not warned
-            try:
-                x, c = fn.spline_pieces(fn.Table(tuple(row[:m]), tuple(row[m:])))
-            except ValueError:
-                x, c = np.array([0.0, 1.0]), np.zeros((4, 1))
-            rows.append(np.concatenate([[len(x) - 1.0], x, c.T.ravel()]))
-        data = np.array(rows)
-    width = data.shape[1]
-    return {"kind": np.full(n, kind, np.int64), "start": np.arange(0, (n + 1) * width, width, dtype=np.int64),
-            "data": np.ascontiguousarray(data).ravel()}
+    """The core's function table (kinem.functions.table_arrays) of one function a row of ``data``."""
+    if kind != fn.PIECES:
+        return fn.table_arrays([kind] * len(data), data)
+    m, rows = data.shape[1] // 2, []
+    for row in data:   # a table's not-a-knot spline, each row's own
+        try:
+            rows.append(fn.pieces(fn.Table(tuple(row[:m]), tuple(row[m:]))))
+        except ValueError:   # times a named dimension moved out of order: that variant is refused, not warned
+            rows.append(fn.pieces(fn.Table((0.0, 1.0), (0.0, 0.0))))
+    return fn.table_arrays([kind] * len(rows), rows)
