@@ -199,6 +199,9 @@ def count_or_none(v):
     return None if v is None or count(v) is None else "a positive integer or none"
 
 
+WHOLE = (count, count_or_auto, count_or_none)   # the checks of counts: a whole float given for one is read as an int
+
+
 def boolean(v):
     return None if isinstance(v, bool) else "true or false"
 
@@ -266,6 +269,8 @@ class Adapter:
             s[k] = v
         for k, v in s.items():
             check = self.checks.get(k)
+            if check in WHOLE and isinstance(v, float) and v.is_integer() and abs(v) <= MAX_COUNT:
+                s[k] = v = int(v)   # a count written 1e3 (--set's JSON, a case file's TOML): as --steps reads it
             why = check(v) if check else None
             if why:
                 raise InputError(f"{at}key '{k}': got {show(v)}; expected {why}" if table else

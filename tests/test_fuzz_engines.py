@@ -130,6 +130,31 @@ def test_diff_of_odd_json(tmp_path_factory, text, first):
     assert code == 2 and "odd.json" in line
 
 
+@pytest.mark.parametrize("engine, key", [("pymunk", "iterations"), ("pymunk", "substeps"), ("mujoco", "iterations"),
+                                         ("exudyn", "newton_max_iterations")])
+def test_found_a_count_written_1e3_is_read_as_steps_reads_it(engine, key):
+    """--set pymunk.iterations=1e3 (JSON's float) was refused where --steps 1e3 is read as 1,000 (session 30's
+    fuzz campaign, left): a whole float given for a count is that count, as an int; 2.5 and 1e30 stay refused."""
+    from adapters import settings
+
+    s = settings(engine, {key: 1e3}, "--set")
+    assert s[key] == 1000 and type(s[key]) is int
+    for bad in (2.5, 1e30, -1e3):
+        with pytest.raises(InputError, match=f"setting '{key}' = "):
+            settings(engine, {key: bad}, "--set")
+
+
+@pytest.mark.parametrize("text, kind", [("[1, 2]", "array"), ('"x"', "string"), ("null", "null"),
+                                        ("true", "boolean"), ("3.5", "number")])
+def test_found_baseline_not_an_object_names_its_kind(tmp_path, text, kind):
+    """A baseline that is JSON but not an object was refused as "schema_version None" (session 30's fuzz
+    campaign, left): now it says what it is and that an object is expected."""
+    odd = tmp_path / "odd.json"
+    odd.write_text(text)
+    code, line = run_main(["diff", str(odd), str(ROOT / "reports" / "baseline.json")])
+    assert code == 2 and f"odd.json: a JSON {kind}; expected a results.json of kinem report (a JSON object)" in line
+
+
 @pytest.mark.parametrize("args", [
     ["stress", "--jobs", "99999999999", "--engines", "native", "--quick"],
     ["stress", "--jobs", "-1", "--engines", "native", "--quick"],

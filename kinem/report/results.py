@@ -191,7 +191,10 @@ def load(path, what="baseline"):
         doc = json.loads(text, parse_constant=_no_constant)
     except (ValueError, RecursionError) as e:   # RecursionError: arrays or tables nested thousands deep
         raise InputError(f"{what} {path}: not JSON ({e}); expected a results.json of kinem report") from None
-    version = doc.get("schema_version") if isinstance(doc, dict) else None
+    if not isinstance(doc, dict):   # a JSON array, number or text: no schema_version to name
+        raise InputError(f"{what} {path}: a JSON {_kind(doc)}; expected a results.json of kinem report (a JSON "
+                         "object)")
+    version = doc.get("schema_version")
     if version != SCHEMA_VERSION:
         raise InputError(f"{what} {path}: schema_version {version!r}; expected {SCHEMA_VERSION} "
                          "(rewrite it with --update-baseline)")
@@ -199,6 +202,12 @@ def load(path, what="baseline"):
     if bad:
         raise InputError(f"{what} {path}: {bad[0]}" + (f" (+{len(bad) - 1} more)" if len(bad) > 1 else ""))
     return doc
+
+
+def _kind(doc) -> str:
+    """JSON's name for the kind of a parsed value that is not an object."""
+    return "array" if isinstance(doc, list) else "string" if isinstance(doc, str) else "null" if doc is None else \
+        "boolean" if isinstance(doc, bool) else "number"
 
 
 # The deterministic cost counts of each kind of run; an edited baseline with
