@@ -1009,8 +1009,9 @@ def test_found_compare_engines_past_the_time_limit(monkeypatch, engine):
 def test_an_engine_run_stops_at_its_time_limit(engine):
     """The same bound on a long run (a four-bar of 200,000 output instants, each engine's own settings): it
     ends failed, with its time-limit words and where it stopped (the limit's words: no timing asserted); no
-    refinement or earlier attempt stands in for it; without a limit the same call is bounded by nothing but its
-    steps."""
+    refinement or earlier attempt stands in for it (an earlier attempt that failed before the limit, pymunk's
+    first on a quick machine since its tables are made window by window, is only told of in a note); without a
+    limit the same call is bounded by nothing but its steps."""
     import time
 
     from adapters import get
@@ -1021,7 +1022,7 @@ def test_an_engine_run_stops_at_its_time_limit(engine):
     run = get(engine).run(model, limit=(0.5, start + 0.5))
     assert run.status is Status.OUT_OF_TIME and run.detail.startswith("the time limit of 0.5 s (Options.max_seconds") \
         and " is reached at t = " in run.detail, run.detail
-    assert run.trajectory is None and not run.notes, run.notes
+    assert run.trajectory is None and all("attempt" in note for note in run.notes), run.notes
 
 
 def test_compare_sensitivity_engines_past_the_time_limit(monkeypatch):
