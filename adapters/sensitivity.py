@@ -24,8 +24,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from kinem.errors import InputError
-
 from .base import Status
 
 STEP = 1e-3    # h, of the parameter's scale (max(|p|, L) for a length, max(|p|, 1) else)
@@ -60,11 +58,6 @@ class Check:
         return f"{word}: {self.figure} off by {self.error:.2e}, limit {self.limit:.2e} at t = {self.at:.4g}"
 
 
-def step(model, p) -> float:
-    scale = max(abs(p.value), model.length) if p.unit == model.case.length_unit else max(abs(p.value), 1.0)
-    return STEP * scale
-
-
 def columns(model) -> list:
     """The position columns checked: moving bodies' x, y, angle; named points' x, y."""
     fixed = {c["body"] for c in model.case.constraints if c.type == "ground"}
@@ -77,10 +70,9 @@ def check(model, paths, engines, overrides=None, options=None):
     (``engines``: names, 'native' included when asked). Raises InputError
     for an unknown path or engine setting. ``options`` (kinem.Options;
     default the case's): native's solves, e.g. their max_seconds, and the engines' runs."""
-    from kinem.model import compile
     from kinem.options import Options
-    from kinem.parameters import apply, resolve
-    from kinem.sensitivity import name, sensitivity
+    from kinem.parameters import resolve
+    from kinem.sensitivity import differenced, name, sensitivity
     from kinem.solver import solve
 
     from . import case_settings, get
@@ -105,14 +97,7 @@ def check(model, paths, engines, overrides=None, options=None):
             chosen[e] = (run, fixed)
     out = []
     for p in listed:
-        h = step(model, p)
-        moved, invalid = {}, None
-        for s in (1, -1, 2, -2):
-            try:
-                moved[s] = compile(apply(case, {p.path: p.value + s * h}))
-            except InputError as e:   # a length or radius below 2h: no differences, not the user's input
-                invalid = invalid or f"p {'+-'[s < 0]} {abs(s) if abs(s) > 1 else ''}h = {p.value + s * h:.6g} " \
-                                     f"is not a valid case ({e.summary()})"
+        h, moved, invalid = differenced(model, p, STEP)
         if invalid:
             out.append(Check("native", p.path, Status.FAILED, f"native at p +- h: {invalid}", h))
             continue

@@ -84,6 +84,29 @@ def name(column: str, parameter: str) -> str:
     return f"d({column})/d({parameter})"
 
 
+def differenced(model, p, step: float) -> tuple:
+    """The moved models that central differences check p's exact
+    sensitivity with (kinem compare --sensitivity, the report's design
+    section): (h, {s: model's case at p + s h, compiled, for s = 1, -1, 2,
+    -2}, None), h = step times p's scale (max(|p|, L) for a length, max(|p|,
+    1) else); or (h, None, what is not a valid case) where a moved value is
+    refused (a length or radius below 2h: no differences, not the user's
+    input). p: a kinem.parameters.Parameter of model's case."""
+    from .model import compile
+    from .parameters import apply
+
+    scale = max(abs(p.value), model.length) if p.unit == model.case.length_unit else max(abs(p.value), 1.0)
+    h = step * scale
+    moved = {}
+    for s in (1, -1, 2, -2):
+        try:
+            moved[s] = compile(apply(model.case, {p.path: p.value + s * h}))
+        except InputError as e:
+            return h, None, f"p {'+-'[s < 0]} {abs(s) if abs(s) > 1 else ''}h = {p.value + s * h:.6g} is not a " \
+                            f"valid case ({e.summary()})"
+    return h, moved, None
+
+
 def sensitivity(model, parameters, outputs=OUTPUTS, times=None, options: Options | None = None) -> Sensitivity:
     """Exact d/dp of every output column at every output instant, for each
     design parameter path in ``parameters`` (a path or a list of paths).

@@ -35,10 +35,8 @@ def section(model, engines=()) -> list:
 
 
 def _sensitivity(model, paths, columns, engines=()):
-    from ..errors import InputError
-    from ..model import compile
-    from ..parameters import apply, resolve
-    from ..sensitivity import sensitivity
+    from ..parameters import resolve
+    from ..sensitivity import differenced, sensitivity
     from ..solver import solve
 
     case = model.case
@@ -46,15 +44,8 @@ def _sensitivity(model, paths, columns, engines=()):
     rows, fig_cols = [], []
     listed = resolve(case, paths)   # a name of [parameters] as its path, each parameter once
     for p in listed:
-        scale = max(abs(p.value), model.length) if p.unit == case.length_unit else max(abs(p.value), 1.0)
-        h = STEP * scale
-        moved, failed = [], None
-        for s in (1, -1, 2, -2):
-            try:
-                moved.append(solve(compile(apply(case, {p.path: p.value + s * h})), outputs=("positions",)))
-            except InputError as e:   # a length or radius below 2h: no differences (not the case file's fault)
-                failed = failed or f"p {'+-'[s < 0]} {abs(s) if abs(s) > 1 else ''}h = {p.value + s * h:.6g} is " \
-                                   f"not a valid case ({e.summary()})"
+        h, models, failed = differenced(model, p, STEP)
+        moved = [solve(m, outputs=("positions",)) for m in (models or {}).values()]
         failed = failed or next((r.message for r in moved if not r.success), None)   # past an assembly limit
         runs = [r.trajectory for r in moved]
         exact = {c: sens.of(c, p.path) for c in columns}
