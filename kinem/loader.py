@@ -125,10 +125,16 @@ def fast_drivers(case) -> list:
     return out
 
 
+def _is_fast(speed, turns, steps):
+    """Whether a driver turning at up to ``speed`` rad/s, ``turns`` turns over the output span of ``steps``
+    intervals, is fast (fast_drivers' rule); numbers or arrays of them, elementwise."""
+    return ((speed > 2 * math.pi * FAST_TURNS) & (turns >= 1)) | ((turns > MANY_TURNS) & (turns / steps > COARSE))
+
+
 def _fast(case, c, speed, turns) -> str | None:
     """fast_drivers' warning of driver c turning at up to ``speed`` rad/s, ``turns`` turns over [0, end]; None
     when it is not fast."""
-    if not ((speed > 2 * math.pi * FAST_TURNS and turns >= 1) or (turns > MANY_TURNS and turns / case.steps > COARSE)):
+    if not _is_fast(speed, turns, case.steps):
         return None
     return (f"{case.source}: {c.where}: turns body '{c['body']}' at up to {speed:.4g} rad/s "
             f"({speed / (2 * math.pi):.3g} turns a second, {turns:.3g} turns in {case.end:g} s, {case.steps} output intervals); if its "
@@ -168,8 +174,7 @@ def fast_variants(case, changed: dict, count: int):
             speed = np.abs(native.functions(table, t, 1)).max(axis=0)
             at = native.functions(table, ends, 0)
             turns = np.abs(at[1] - at[0]) / (2 * math.pi)
-            fast = ((speed > 2 * math.pi * FAST_TURNS) & (turns >= 1)) | ((turns > MANY_TURNS)
-                                                                          & (turns / case.steps > COARSE))
+            fast = _is_fast(speed, turns, case.steps)
             for j in np.flatnonzero(fast).tolist():   # a text only where it may be the case's own, or first
                 k = int(chunk[j])
                 if mine or first is None or k < first[0]:
@@ -198,9 +203,7 @@ def _may_warn(case, kind, data) -> np.ndarray:
     else:
         return np.ones(len(data), bool)
     speed, turns = speed * (1 + 1e-9) + 1e-300, turns * (1 + 1e-9) + 1e-300   # above their evaluation's rounding
-    quick = (speed > 2 * math.pi * FAST_TURNS) & (turns >= 1)
-    slow = (turns > MANY_TURNS) & (turns / case.steps > COARSE)
-    return quick | slow
+    return _is_fast(speed, turns, case.steps)
 
 
 def _function_data(f, subs, count):
