@@ -123,6 +123,13 @@ def validated(data, source: str, stacklevel: int = 1, as_written: bool = True, w
     return case
 
 
+def fast_line(who: str, count: int, total: int, first) -> str:
+    """The one warning line for the variants whose drivers turn fast where the case's own do not (kinem.sweep's,
+    kinem.solve's of variants): ``count`` of ``total``, ``first`` (variant, its first such warning's text)."""
+    return (f"{who}: {count:,} of {total:,} variants warn where the case itself does not; first, variant "
+            f"{first[0]}: {first[1]}")
+
+
 def fast_variants(case, listed, values, skip=()):
     """Of the variants (rows of ``values``, one column per Parameter of
     ``listed``), those whose drivers turn fast (kinem.loader.fast_drivers)

@@ -147,6 +147,7 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
 
     from .errors import KinemWarning
     from .loader import fast_drivers
+    from .parameters import fast_line
 
     own, fast = set(fast_drivers(nominal)), []   # the case's own warnings are the base's, given once
     for start in range(0, len(grid_values), LOAD_CHUNK):
@@ -163,8 +164,7 @@ def sweep(case, values: dict, outputs=None, progress=None) -> Sweep:
             if progress:
                 progress.step(f"variant {k + 1} loaded")
     if fast:   # a driver swept fast (a rate in degrees?): one line for all, not one a variant
-        warnings.warn(f"sweep: {len(fast):,} of {len(grid_values):,} variants warn where the case itself does not; "
-                      f"first, variant {fast[0][0]}: {fast[0][1]}", KinemWarning, stacklevel=2)
+        warnings.warn(fast_line("sweep", len(fast), len(grid_values), fast[0]), KinemWarning, stacklevel=2)
     out = np.full((len(grid_values), len(base.times), len(columns)), np.nan)
     valid = [k for k, c in enumerate(cases) if c is not None]
     if not (valid and _variants(base, paths, grid_values, valid, columns, out, errors, progress)):

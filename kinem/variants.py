@@ -180,12 +180,11 @@ def _warn_fast(case, listed, values, refused):
     import warnings
 
     from .errors import KinemWarning
-    from .parameters import fast_variants
+    from .parameters import fast_line, fast_variants
 
     new, first = fast_variants(case, listed, values, refused)
     if first is not None:
-        warnings.warn(f"solve: {int(new.sum()):,} of {len(values):,} variants warn where the case itself does not; "
-                      f"first, variant {first[0]}: {first[1]}", KinemWarning, stacklevel=4)
+        warnings.warn(fast_line("solve", int(new.sum()), len(values), first), KinemWarning, stacklevel=4)
 
 
 def _refused(case, listed, values) -> dict:
