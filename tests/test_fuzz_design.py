@@ -1392,11 +1392,21 @@ def test_found_compare_native_closed_form_past_the_time_limit(monkeypatch):
     def late(t, steps=0, wall=0.0):
         raise OutOfTime(Status.OUT_OF_TIME, f"the time limit is reached at t = {t:.6g}")
 
+    _native_row_stopped(monkeypatch, slot, late, "0")
+
+
+def _native_row_stopped(monkeypatch, case, late, at: str):
+    """compare --engines native of ``case`` (40 steps, --json) with the closed forms' look at the time limit
+    (adapters.references.in_time) replaced by ``late``: exit 1, the native row out of time, its check against the
+    closed form stopped at t = ``at``."""
+    from adapters import references
+
     monkeypatch.setattr(references, "in_time", late)
-    code, out, err = _compare([str(slot), "--engines", "native", "--steps", "40", "--json"])
+    code, out, err = _compare([str(case), "--engines", "native", "--steps", "40", "--json"])
     row = _strict(out)["engines"]["native"]
     assert code == 1 and (row["outcome"], row["verdict"]) == ("out of time", "out of time"), row
-    assert row["status"] == "failed: the time limit is reached at t = 0 of its check against the closed form", row
+    assert row["status"] == f"failed: the time limit is reached at t = {at} of its check against the closed form", \
+        row
 
 
 @pytest.mark.parametrize("engine", ENGINES)
@@ -1719,11 +1729,7 @@ def test_found_a_closed_form_of_one_pass_past_the_time_limit(monkeypatch):
         if len(calls) > 1:
             raise OutOfTime(Status.OUT_OF_TIME, f"the time limit is reached at t = {t:.6g}")
 
-    monkeypatch.setattr(references, "in_time", late)
-    code, out, err = _compare([str(FOUR_BAR), "--engines", "native", "--steps", "40", "--json"])
-    row = _strict(out)["engines"]["native"]
-    assert code == 1 and (row["outcome"], row["verdict"]) == ("out of time", "out of time"), row
-    assert row["status"] == "failed: the time limit is reached at t = 1.9375 of its check against the closed form", row
+    _native_row_stopped(monkeypatch, FOUR_BAR, late, "1.9375")
 
 
 def test_found_pymunk_pose_arrays_of_the_whole_run_before_its_first_check(monkeypatch):
